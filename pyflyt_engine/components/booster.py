@@ -1,0 +1,300 @@
+"""Fueled booster: ignition latch, throttle-limited duty cycle, fuel burn, tank mass.
+
+Model (paper, "Fueled Boosters"), vectorised over ``n`` boosters.  Per physics step of
+length ``dt``, for booster ``i``:
+
+1. Ignition latch.  A booster that is not reignitable cannot be put out::
+
+       I[t+1] = (not reignitable and I[t]) or ignition[t]
+
+2. Duty cycle ``lambda`` in [0, 1].  While the booster is lit and has fuel it follows a
+   first-order lag toward its target (coefficient from
+   :func:`pyflyt_engine.components.lag.lag_coefficient`), times zero-mean multiplicative
+   noise ``(1 + noise_ratio * eta)`` with ``eta ~ N(0, 1)`` drawn independently per
+   booster by the caller; it is clipped to [0, 1] and is exactly 0 when unlit or when
+   the tank is empty::
+
+       lambda[t+1] = I[t+1] * 1{fuel[t] > 0}
+                     * clip((lambda[t] + k * (target - lambda[t])) * (1 + noise_ratio * eta), 0, 1)
+       k = lag_coefficient(dt, tau)
+
+3. Thrust along the booster's thrust axis ``T = lambda[t+1] * max_thrust`` (N), so an
+   empty or unlit booster gives no thrust.  Boosters produce no reaction torque about
+   their own axis.
+
+4. Fuel burn ``fuel[t+1] = max(fuel[t] - lambda[t+1] * max_fuel_rate * dt, 0)`` (kg).
+
+5. Tank mass properties: mass = remaining fuel; diagonal inertia about the tank's own
+   centre scales linearly, ``J = fuel / total_fuel * J_full``.
+
+Deviations from the paper's equation, on purpose:
+
+* **Throttle mapping.**  The paper writes the duty target as ``beta * (1 - lambda_min)``
+  with ``lambda_min = min_thrust / max_thrust``.  Taken literally that target never
+  exceeds ``1 - lambda_min``, so ``max_thrust`` is unreachable, and a lit booster at
+  ``beta = 0`` gives zero thrust, so ``min_thrust`` has no effect.  We use the affine map
+  ``target = lambda_min + beta * (1 - lambda_min)`` with ``beta = clip(throttle, 0, 1)``,
+  so a lit booster's steady thrust spans exactly ``[min_thrust, max_thrust]``: the
+  throttleability range the parameters describe (e.g. Falcon 9 Merlin: 39-100 %).
+* **Noise.**  The paper's factor is ``(1 + sigma * lambda[t] * eta)``; we use
+  ``(1 + noise_ratio * eta)``, a relative fluctuation of the duty cycle that is
+  zero-mean and independent per booster (the reference package instead drew one
+  shared, biased N(4, 1) scalar).  Noise samples are passed in, never drawn here.
+* **Lag.**  The exact zero-order-hold coefficient replaces the Euler ``1 / (tau r_p)``;
+  see :mod:`pyflyt_engine.components.lag`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pyflyt_engine.components.lag import lag_coefficient
+
+_UNIT_TOL = 1e-6
+
+
+def _as_vector(name: str, value, n: int, dtype=np.float64) -> np.ndarray:
+    """Return ``value`` as a read-only (n,) array, broadcasting a scalar."""
+    arr = np.asarray(value, dtype=dtype)
+    if arr.ndim == 0:
+        arr = np.full(n, arr, dtype=dtype)
+    if arr.shape != (n,):
+        raise ValueError(
+            f"{name} has shape {arr.shape}, expected ({n},) to match positions "
+            f"(one value per booster) or a scalar; give one value per booster."
+        )
+    arr = arr.copy()
+    arr.setflags(write=False)
+    return arr
+
+
+def _as_vec3(name: str, value, n: int) -> np.ndarray:
+    """Return ``value`` as a read-only (n, 3) float array, broadcasting a single (3,)."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape == (3,):
+        arr = np.broadcast_to(arr, (n, 3))
+    if arr.shape != (n, 3):
+        raise ValueError(
+            f"{name} has shape {arr.shape}, expected ({n}, 3) to match positions "
+            f"(one 3-vector per booster); give one row per booster."
+        )
+    arr = np.array(arr, dtype=np.float64)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class BoosterParams:
+    """Parameters of ``n`` fueled boosters (all arrays, one entry/row per booster).
+
+    Scalars are broadcast to ``n`` (taken from ``positions``); a single 3-vector is
+    broadcast to ``(n, 3)``.  Arrays are stored as read-only float64 (bool for
+    ``reignitable``).  Equality is identity (``eq=False``): arrays have no truth value.
+    """
+
+    positions: np.ndarray
+    """(n, 3) m, body frame (X forward, Y left, Z up): point where thrust is applied."""
+    thrust_axes: np.ndarray
+    """(n, 3) unit vectors, body frame: direction of the thrust force on the vehicle."""
+    fuel_tank_positions: np.ndarray
+    """(n, 3) m, body frame: centre of each fuel tank (may differ from the booster)."""
+    total_fuel: np.ndarray
+    """(n,) kg, fuel mass of a full tank (paper m_b,max); > 0."""
+    max_fuel_rate: np.ndarray
+    """(n,) kg/s, fuel mass flow at duty 1 (paper k_fr); > 0."""
+    inertia_full: np.ndarray
+    """(n, 3) kg m^2, diagonal (Jxx, Jyy, Jzz) of the full tank about its own centre; >= 0."""
+    min_thrust: np.ndarray
+    """(n,) N, steady thrust of a lit booster at throttle 0; 0 <= min_thrust <= max_thrust."""
+    max_thrust: np.ndarray
+    """(n,) N, steady thrust at throttle 1 (duty 1); > 0."""
+    reignitable: np.ndarray
+    """(n,) bool: True if the booster can be put out and relit (paper I_b)."""
+    tau: np.ndarray
+    """(n,) s, time constant of the duty-cycle lag (paper tau_b); >= 0 (0 = no lag)."""
+    noise_ratio: np.ndarray
+    """(n,) dimensionless, std of the multiplicative duty noise (paper sigma_b); >= 0."""
+
+    def __post_init__(self) -> None:
+        positions = np.asarray(self.positions, dtype=np.float64)
+        if positions.ndim != 2 or positions.shape[1] != 3 or positions.shape[0] < 1:
+            raise ValueError(
+                f"positions has shape {positions.shape}, expected (n, 3) with n >= 1; "
+                f"give one body-frame point (m) per booster."
+            )
+        n = positions.shape[0]
+        object.__setattr__(self, "positions", _as_vec3("positions", positions, n))
+        for name in ("thrust_axes", "fuel_tank_positions", "inertia_full"):
+            object.__setattr__(self, name, _as_vec3(name, getattr(self, name), n))
+        for name in ("total_fuel", "max_fuel_rate", "min_thrust", "max_thrust", "tau", "noise_ratio"):
+            object.__setattr__(self, name, _as_vector(name, getattr(self, name), n))
+        object.__setattr__(self, "reignitable", _as_vector("reignitable", self.reignitable, n, dtype=bool))
+
+        for name in ("positions", "thrust_axes", "fuel_tank_positions", "inertia_full",
+                     "total_fuel", "max_fuel_rate", "min_thrust", "max_thrust", "tau", "noise_ratio"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ValueError(f"{name} contains non-finite values; give finite numbers.")
+
+        norms = np.linalg.norm(self.thrust_axes, axis=1)
+        if np.any(np.abs(norms - 1.0) > _UNIT_TOL):
+            raise ValueError(
+                f"thrust_axes must be unit vectors (norms {norms.tolist()}); "
+                f"normalise each thrust axis to length 1."
+            )
+        if np.any(self.total_fuel <= 0.0):
+            raise ValueError("total_fuel must be > 0 kg for every booster; give the full-tank fuel mass.")
+        if np.any(self.max_fuel_rate <= 0.0):
+            raise ValueError("max_fuel_rate must be > 0 kg/s for every booster; give the fuel flow at full duty.")
+        if np.any(self.max_thrust <= 0.0):
+            raise ValueError("max_thrust must be > 0 N for every booster; give the thrust at full throttle.")
+        if np.any(self.min_thrust < 0.0):
+            raise ValueError("min_thrust must be >= 0 N; use 0 for a booster that throttles to zero.")
+        if np.any(self.min_thrust > self.max_thrust):
+            raise ValueError("min_thrust must be <= max_thrust; lower min_thrust or raise max_thrust.")
+        if np.any(self.inertia_full < 0.0):
+            raise ValueError("inertia_full must be >= 0 kg m^2; give the diagonal of the full-tank inertia.")
+        if np.any(self.tau < 0.0):
+            raise ValueError("tau must be >= 0 s; use 0 for no lag.")
+        if np.any(self.noise_ratio < 0.0):
+            raise ValueError("noise_ratio must be >= 0 (a standard deviation); use 0 for no noise.")
+
+    @property
+    def n(self) -> int:
+        """Number of boosters."""
+        return int(self.positions.shape[0])
+
+    @property
+    def min_duty(self) -> np.ndarray:
+        """(n,) dimensionless, paper's lambda_min = min_thrust / max_thrust."""
+        return self.min_thrust / self.max_thrust
+
+
+@dataclass(frozen=True, eq=False)
+class BoosterState:
+    """State of ``n`` boosters at one physics step."""
+
+    ignited: np.ndarray
+    """(n,) bool, lit indicator I_lambda (latched for non-reignitable boosters)."""
+    duty: np.ndarray
+    """(n,) dimensionless in [0, 1], duty cycle lambda; thrust = duty * max_thrust."""
+    fuel: np.ndarray
+    """(n,) kg, fuel remaining in each tank, in [0, total_fuel]."""
+
+    def __post_init__(self) -> None:
+        ignited = np.array(self.ignited, dtype=bool, ndmin=1)
+        duty = np.array(self.duty, dtype=np.float64, ndmin=1)
+        fuel = np.array(self.fuel, dtype=np.float64, ndmin=1)
+        if not (ignited.shape == duty.shape == fuel.shape and ignited.ndim == 1):
+            raise ValueError(
+                f"ignited, duty and fuel must all have shape (n,), got "
+                f"{ignited.shape}, {duty.shape}, {fuel.shape}; give one value per booster."
+            )
+        for name, arr in (("ignited", ignited), ("duty", duty), ("fuel", fuel)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+
+def initial_booster_state(
+    params: BoosterParams, fuel_fraction: float | np.ndarray = 1.0, ignited: bool | np.ndarray = False
+) -> BoosterState:
+    """State with duty 0 and ``fuel_fraction`` (scalar or (n,), in [0, 1]) of a full tank."""
+    fraction = np.broadcast_to(np.asarray(fuel_fraction, dtype=np.float64), (params.n,))
+    if np.any(fraction < 0.0) or np.any(fraction > 1.0):
+        raise ValueError("fuel_fraction must be in [0, 1]; it is the fraction of total_fuel in the tank.")
+    return BoosterState(
+        ignited=np.broadcast_to(np.asarray(ignited, dtype=bool), (params.n,)),
+        duty=np.zeros(params.n),
+        fuel=fraction * params.total_fuel,
+    )
+
+
+def booster_step(
+    params: BoosterParams,
+    state: BoosterState,
+    ignition: bool | np.ndarray,
+    throttle: float | np.ndarray,
+    dt: float,
+    noise: np.ndarray,
+) -> tuple[BoosterState, np.ndarray]:
+    """Advance ``n`` boosters by one physics step.
+
+    Args:
+        params: booster parameters.
+        state: state at step t.
+        ignition: (n,) bool (or scalar) ignition command iota_t.
+        throttle: (n,) (or scalar) normalised throttle beta; clipped to [0, 1].
+        dt: physics step in s (> 0).
+        noise: (n,) standard-normal samples eta, one independent draw per booster,
+            from the caller's seeded generator (zeros for a noiseless step).
+
+    Returns:
+        ``(new_state, thrust)``: state at t+1 and (n,) thrust in N along each thrust axis.
+    """
+    n = params.n
+    if dt <= 0.0:
+        raise ValueError(f"dt must be > 0 s, got {dt}.")
+    noise = np.asarray(noise, dtype=np.float64)
+    if noise.shape != (n,):
+        raise ValueError(f"noise has shape {noise.shape}, expected ({n},): one standard-normal sample per booster.")
+    ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,))
+    beta = np.clip(np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)), 0.0, 1.0)
+
+    ignited = (~params.reignitable & state.ignited) | ignition
+    burning = ignited & (state.fuel > 0.0)
+
+    min_duty = params.min_duty
+    target = min_duty + beta * (1.0 - min_duty)
+    lagged = state.duty + lag_coefficient(dt, params.tau) * (target - state.duty)
+    noisy = lagged * (1.0 + params.noise_ratio * noise)
+    duty = np.where(burning, np.clip(noisy, 0.0, 1.0), 0.0)
+
+    fuel = np.maximum(state.fuel - duty * params.max_fuel_rate * dt, 0.0)
+    thrust = duty * params.max_thrust
+    return BoosterState(ignited=ignited, duty=duty, fuel=fuel), thrust
+
+
+def booster_loads(
+    params: BoosterParams, thrust: np.ndarray, thrust_axes: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Net force and torque of all boosters in the body frame, about the body origin.
+
+    Args:
+        params: booster parameters (positions used as lever arms).
+        thrust: (n,) N, thrust magnitudes from :func:`booster_step`.
+        thrust_axes: optional (n, 3) unit vectors overriding ``params.thrust_axes``,
+            e.g. axes vectored by a gimbal (:func:`pyflyt_engine.components.gimbal.rotate_axes`).
+
+    Returns:
+        ``(force, torque)``: (3,) N and (3,) N m.  ``force = sum_i T_i a_i`` and
+        ``torque = sum_i p_i x (T_i a_i)``; no reaction torque about the thrust axes.
+    """
+    axes = params.thrust_axes if thrust_axes is None else np.asarray(thrust_axes, dtype=np.float64)
+    if axes.shape != (params.n, 3):
+        raise ValueError(f"thrust_axes has shape {axes.shape}, expected ({params.n}, 3).")
+    thrust = np.asarray(thrust, dtype=np.float64)
+    if thrust.shape != (params.n,):
+        raise ValueError(f"thrust has shape {thrust.shape}, expected ({params.n},).")
+    forces = thrust[:, None] * axes
+    return forces.sum(axis=0), np.cross(params.positions, forces).sum(axis=0)
+
+
+def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mass and diagonal inertia of each fuel tank for the remaining fuel.
+
+    Args:
+        params: booster parameters.
+        fuel: (n,) kg remaining (e.g. ``state.fuel``).
+
+    Returns:
+        ``(mass, inertia)``: (n,) kg equal to ``fuel``, and (n, 3) kg m^2 diagonal
+        inertia about each tank's own centre (at ``params.fuel_tank_positions``),
+        ``fuel / total_fuel * inertia_full`` (paper: linear in remaining fuel).
+    """
+    fuel = np.asarray(fuel, dtype=np.float64)
+    if fuel.shape != (params.n,):
+        raise ValueError(f"fuel has shape {fuel.shape}, expected ({params.n},).")
+    mass = fuel.copy()
+    inertia = (fuel / params.total_fuel)[:, None] * params.inertia_full
+    return mass, inertia

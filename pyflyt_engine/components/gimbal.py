@@ -1,0 +1,193 @@
+"""Electric two-axis gimbal: lagged servo angles and the rotation they produce.
+
+Model (paper, "Electric Gimbals"), vectorised over ``n`` gimbals.  Gimbal ``i`` has two
+servo axes ``c_a`` and ``c_b`` (unit vectors in the body frame, X forward, Y left, Z up;
+not necessarily orthogonal), maximum angles ``k_a``, ``k_b`` and a time constant ``tau``.
+
+* Angles ``eps = [eps_a, eps_b]`` (rad) follow a first-order lag toward
+  ``clip(command, -1, 1) * max_angle`` with coefficient
+  :func:`pyflyt_engine.components.lag.lag_coefficient` (exact zero-order hold instead of
+  the paper's Euler ``1 / (tau r_p)``).
+* Each axis gives a Rodrigues rotation in the numerically stable form of the paper::
+
+      R_j = I + sin(eps_j) W_j + 2 sin^2(eps_j / 2) W_j^2,   j in {a, b}
+
+  with ``W_j`` the skew (cross-product) matrix of ``c_j``, so ``W_j v = c_j x v``;
+  ``W_j`` and ``W_j^2`` depend only on the axes and are precomputed.
+* The gimbal rotation is ``R = R_a @ R_b`` (paper): a vector is first rotated about
+  ``c_b``, then about ``c_a``, both axes fixed in the body frame.
+
+Typical use is thrust vectoring: :func:`rotate_axes` turns each booster's or motor's
+nominal thrust axis into the vectored one passed to the propulsion loads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pyflyt_engine.components.lag import lag_coefficient
+
+_UNIT_TOL = 1e-6
+
+
+def skew(u: np.ndarray) -> np.ndarray:
+    """(..., 3) vectors -> (..., 3, 3) skew matrices W with ``W @ v == u x v`` (paper's W)."""
+    u = np.asarray(u, dtype=np.float64)
+    ux, uy, uz = u[..., 0], u[..., 1], u[..., 2]
+    zero = np.zeros_like(ux)
+    return np.stack(
+        [
+            np.stack([zero, -uz, uy], axis=-1),
+            np.stack([uz, zero, -ux], axis=-1),
+            np.stack([-uy, ux, zero], axis=-1),
+        ],
+        axis=-2,
+    )
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    arr = np.array(arr, dtype=np.float64)
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class GimbalParams:
+    """Parameters of ``n`` two-axis gimbals (one entry/row per gimbal).
+
+    Scalars are broadcast to ``n`` (taken from ``axis_a``); a single 3-vector is
+    broadcast to ``(n, 3)``.  Arrays are stored read-only.  Equality is identity
+    (``eq=False``): arrays have no truth value.
+    """
+
+    axis_a: np.ndarray
+    """(n, 3) unit vectors, body frame: first servo axis c_a (applied last, R = R_a R_b)."""
+    axis_b: np.ndarray
+    """(n, 3) unit vectors, body frame: second servo axis c_b."""
+    max_angle_a: np.ndarray
+    """(n,) rad, angle about c_a at command +1 (paper k_g-a); >= 0."""
+    max_angle_b: np.ndarray
+    """(n,) rad, angle about c_b at command +1 (paper k_g-b); >= 0."""
+    tau: np.ndarray
+    """(n,) s, servo time constant (paper tau_g); >= 0 (0 = no lag)."""
+
+    W_a: np.ndarray = field(init=False, repr=False)
+    """(n, 3, 3) derived: skew matrix of axis_a (paper W_a)."""
+    W_a2: np.ndarray = field(init=False, repr=False)
+    """(n, 3, 3) derived: W_a @ W_a."""
+    W_b: np.ndarray = field(init=False, repr=False)
+    """(n, 3, 3) derived: skew matrix of axis_b (paper W_b)."""
+    W_b2: np.ndarray = field(init=False, repr=False)
+    """(n, 3, 3) derived: W_b @ W_b."""
+
+    def __post_init__(self) -> None:
+        axis_a = np.asarray(self.axis_a, dtype=np.float64)
+        if axis_a.ndim == 1:
+            axis_a = axis_a[None, :]
+        if axis_a.ndim != 2 or axis_a.shape[1] != 3:
+            raise ValueError(f"axis_a has shape {axis_a.shape}, expected (n, 3); give one unit vector per gimbal.")
+        n = axis_a.shape[0]
+        axes = {"axis_a": axis_a, "axis_b": np.asarray(self.axis_b, dtype=np.float64)}
+        if axes["axis_b"].shape == (3,):
+            axes["axis_b"] = np.broadcast_to(axes["axis_b"], (n, 3))
+        for name, arr in axes.items():
+            if arr.shape != (n, 3):
+                raise ValueError(
+                    f"{name} has shape {arr.shape}, expected ({n}, 3) to match axis_a; give one unit vector per gimbal."
+                )
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} contains non-finite values; give finite unit vectors.")
+            norms = np.linalg.norm(arr, axis=1)
+            if np.any(np.abs(norms - 1.0) > _UNIT_TOL):
+                raise ValueError(
+                    f"{name} must be unit vectors (norms {norms.tolist()}); normalise each axis to length 1."
+                )
+            object.__setattr__(self, name, _readonly(arr))
+
+        for name in ("max_angle_a", "max_angle_b", "tau"):
+            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            if arr.ndim == 0:
+                arr = np.full(n, arr)
+            if arr.shape != (n,):
+                raise ValueError(f"{name} has shape {arr.shape}, expected ({n},) or a scalar; give one value per gimbal.")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} contains non-finite values; give finite numbers.")
+            if np.any(arr < 0.0):
+                unit = "s" if name == "tau" else "rad"
+                raise ValueError(f"{name} must be >= 0 {unit}; give a non-negative value.")
+            object.__setattr__(self, name, _readonly(arr))
+
+        W_a = skew(self.axis_a)
+        W_b = skew(self.axis_b)
+        object.__setattr__(self, "W_a", _readonly(W_a))
+        object.__setattr__(self, "W_a2", _readonly(W_a @ W_a))
+        object.__setattr__(self, "W_b", _readonly(W_b))
+        object.__setattr__(self, "W_b2", _readonly(W_b @ W_b))
+
+    @property
+    def n(self) -> int:
+        """Number of gimbals."""
+        return int(self.axis_a.shape[0])
+
+    @property
+    def max_angles(self) -> np.ndarray:
+        """(n, 2) rad, ``[max_angle_a, max_angle_b]`` per gimbal."""
+        return np.stack([self.max_angle_a, self.max_angle_b], axis=1)
+
+
+def _check_angles(params: GimbalParams, name: str, value) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (params.n, 2):
+        raise ValueError(f"{name} has shape {arr.shape}, expected ({params.n}, 2): [a, b] per gimbal.")
+    return arr
+
+
+def gimbal_step(params: GimbalParams, angles: np.ndarray, command: np.ndarray, dt: float) -> np.ndarray:
+    """Advance the servo angles by one physics step.
+
+    Args:
+        params: gimbal parameters.
+        angles: (n, 2) rad, current angles [eps_a, eps_b].
+        command: (n, 2) normalised setpoints [xi_a, xi_b]; clipped to [-1, 1].
+        dt: physics step in s (> 0).
+
+    Returns:
+        (n, 2) rad, angles after one step toward ``command * max_angle``.
+    """
+    if dt <= 0.0:
+        raise ValueError(f"dt must be > 0 s, got {dt}.")
+    angles = _check_angles(params, "angles", angles)
+    command = np.clip(_check_angles(params, "command", command), -1.0, 1.0)
+    target = command * params.max_angles
+    coeff = np.asarray(lag_coefficient(dt, params.tau))[:, None]
+    return angles + coeff * (target - angles)
+
+
+def gimbal_rotation(params: GimbalParams, angles: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices ``R = R_a @ R_b`` for the given (n, 2) angles in rad."""
+    angles = _check_angles(params, "angles", angles)
+    eye = np.eye(3)
+    sin = np.sin(angles)[:, :, None, None]
+    vers = (2.0 * np.sin(0.5 * angles) ** 2)[:, :, None, None]
+    R_a = eye + sin[:, 0] * params.W_a + vers[:, 0] * params.W_a2
+    R_b = eye + sin[:, 1] * params.W_b + vers[:, 1] * params.W_b2
+    return R_a @ R_b
+
+
+def rotate_axes(params: GimbalParams, angles: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """Rotate one (n, 3) body-frame axis per gimbal by that gimbal's rotation.
+
+    Args:
+        params: gimbal parameters.
+        angles: (n, 2) rad, gimbal angles.
+        axes: (n, 3) vectors in the body frame (e.g. nominal thrust axes).
+
+    Returns:
+        (n, 3) rotated vectors ``R_i @ axes_i`` (unit length preserved).
+    """
+    axes = np.asarray(axes, dtype=np.float64)
+    if axes.shape != (params.n, 3):
+        raise ValueError(f"axes has shape {axes.shape}, expected ({params.n}, 3).")
+    return np.einsum("nij,nj->ni", gimbal_rotation(params, angles), axes)
