@@ -1,0 +1,66 @@
+"""Body drag: quadratic per body axis plus linear rotational damping.
+
+    F_i = -1/2 rho C_d,i A_i v_i |v_i|     (i = body x, y, z; v in the body frame)
+    T_i = -c omega_i |omega_i|              (omega the body angular velocity)
+
+The rotational term is quadratic like the translational one, as in the reference model
+files that give c (which apply it as -c omega^2 with the sign lost; ours opposes the
+rotation in both directions).
+
+PyBullet's own velocity damping is switched off for vehicles (see
+:mod:`pyflyt_engine.vehicle`), so this is the only drag they feel.  Unlike the reference
+package, the damping applies whether or not the vehicle touches anything.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pyflyt_engine.constants import AIR_DENSITY
+
+
+@dataclass(frozen=True)
+class DragParams:
+    """Attributes:
+    coefficients: drag coefficient per body axis (x, y, z).
+    areas: reference area per body axis [m^2].
+    angular_damping: rotational drag coefficient c [N m s^2].
+    """
+
+    coefficients: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    areas: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_damping: float = 0.0
+
+    @property
+    def factors(self) -> tuple[float, float, float]:
+        """1/2 rho C_d A per axis [kg/m]."""
+        return tuple(0.5 * AIR_DENSITY * c * a for c, a in zip(self.coefficients, self.areas))  # type: ignore[return-value]
+
+    @property
+    def active(self) -> bool:
+        """Whether any drag term is non-zero."""
+        return any(self.factors) or self.angular_damping > 0
+
+
+def drag_wrench(
+    factors: tuple[float, float, float],
+    angular_damping: float,
+    velocity_body: tuple[float, float, float],
+    angular_velocity_body: tuple[float, float, float],
+) -> tuple[float, float, float, float, float, float]:
+    """Body-frame drag force [N] and damping torque [N m] as (Fx, Fy, Fz, Tx, Ty, Tz).
+
+    ``factors`` is :attr:`DragParams.factors`; velocities are the body's velocity through
+    the air, in the body frame [m/s] and [rad/s].
+    """
+    kx, ky, kz = factors
+    vx, vy, vz = velocity_body
+    wx, wy, wz = angular_velocity_body
+    return (
+        -kx * vx * abs(vx),
+        -ky * vy * abs(vy),
+        -kz * vz * abs(vz),
+        -angular_damping * wx * abs(wx),
+        -angular_damping * wy * abs(wy),
+        -angular_damping * wz * abs(wz),
+    )

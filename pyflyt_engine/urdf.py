@@ -1,0 +1,96 @@
+"""URDF generation from a vehicle spec.
+
+Every airframe is one rigid link whose origin is the centre of mass: the inertial
+block carries the spec's mass and inertia, and each shape becomes a ``<visual>`` and/or
+``<collision>`` element.  The generated text is cached on disk by content hash, so
+spawning the same airframe twice parses it once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+from pyflyt_engine.spec import ShapeSpec, UAVSpec, inertia_tensor
+
+
+def _fmt(values: tuple[float, ...] | list[float]) -> str:
+    return " ".join(f"{float(v):.9g}" for v in values)
+
+
+def _geometry(shape: ShapeSpec, base_dir: Path) -> str:
+    if shape.type == "box":
+        return f'<box size="{_fmt(shape.size)}"/>'  # type: ignore[arg-type]
+    if shape.type == "cylinder":
+        return f'<cylinder radius="{shape.radius:.9g}" length="{shape.length:.9g}"/>'
+    if shape.type == "sphere":
+        return f'<sphere radius="{shape.radius:.9g}"/>'
+    mesh = Path(shape.mesh)  # type: ignore[arg-type]
+    if not mesh.is_absolute():
+        mesh = (base_dir / mesh).resolve()
+    return f"<mesh filename={quoteattr(str(mesh))} scale=\"{_fmt(shape.scale)}\"/>"
+
+
+def generate_urdf(spec: UAVSpec) -> str:
+    """URDF text for ``spec`` (one link named ``body``)."""
+    base_dir = Path(spec.source).parent if spec.source and spec.source != "<dict>" else Path.cwd()
+    inertia = inertia_tensor(spec.body.inertia)
+    lines = [
+        '<?xml version="1.0"?>',
+        f"<robot name={quoteattr(spec.name)}>",
+        '  <link name="body">',
+        "    <inertial>",
+        '      <origin xyz="0 0 0" rpy="0 0 0"/>',
+        f'      <mass value="{spec.body.mass:.9g}"/>',
+        f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="{inertia[0, 1]:.9g}" ixz="{inertia[0, 2]:.9g}" '
+        f'iyy="{inertia[1, 1]:.9g}" iyz="{inertia[1, 2]:.9g}" izz="{inertia[2, 2]:.9g}"/>',
+        "    </inertial>",
+    ]
+    for i, shape in enumerate(spec.body.shapes):
+        origin = f'<origin xyz="{_fmt(shape.position)}" rpy="{_fmt(shape.rpy)}"/>'
+        geometry = _geometry(shape, base_dir)
+        if shape.visual:
+            lines += [
+                f'    <visual name="shape_{i}">',
+                f"      {origin}",
+                f"      <geometry>{geometry}</geometry>",
+                f'      <material name="shape_{i}_color"><color rgba="{_fmt(shape.color)}"/></material>',
+                "    </visual>",
+            ]
+        if shape.collision:
+            lines += [
+                f'    <collision name="shape_{i}">',
+                f"      {origin}",
+                f"      <geometry>{geometry}</geometry>",
+                "    </collision>",
+            ]
+    lines += ["  </link>", "</robot>", ""]
+    return "\n".join(lines)
+
+
+def _cache_dir() -> Path:
+    path = Path(os.environ.get("PYFLYT_CACHE_DIR", Path(tempfile.gettempdir()) / f"pyflyt_urdf_{os.getuid()}"))
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def urdf_path(spec: UAVSpec) -> Path:
+    """Path of a URDF file for ``spec``: the user's own, or a generated one (cached)."""
+    if spec.body.urdf is not None:
+        path = Path(spec.body.urdf)
+        if not path.is_absolute() and spec.source:
+            path = Path(spec.source).parent / path
+        return path
+    text = generate_urdf(spec)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = _cache_dir() / f"{spec.name}_{digest}.urdf"
+    if not path.exists():
+        # write-then-rename so concurrent processes never read a half-written file
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    return path

@@ -1,0 +1,336 @@
+"""The World (the paper's Aviary): physics client, scheduler, vehicles and collisions.
+
+Loop rates (paper, "Looprates"): physics 240 Hz, control 120 Hz, agent 30 Hz by
+default.  One call to :meth:`World.step` is one agent step: ``physics_hz / agent_hz``
+physics steps, with the flight controllers running on every
+``physics_hz / control_hz``-th of them (counted globally, so the schedule does not
+depend on where agent steps fall).  Every ratio must be an integer.
+
+Each physics step, in order: on control ticks every vehicle reads its state and runs
+its controller (between ticks, vehicles whose loads depend on velocity, e.g. through
+drag, read their velocity only); every vehicle advances its actuators and applies its
+net wrench; PyBullet steps.  Contacts are read at the end of every control period (and
+of every agent step): a touch shorter than one control period (8 ms at 120 Hz) can go
+unrecorded, while resting and crash contacts, which PyBullet keeps in its contact
+manifolds for as long as the bodies touch, are always seen.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pybullet as p
+
+from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.state import KinematicState
+from pyflyt_engine.vehicle import Vehicle
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    """Where and what to spawn.
+
+    Attributes:
+        uav: shipped airframe name, path to a YAML spec, or a loaded :class:`UAVSpec`.
+        position: spawn position (x, y, z) [m], ground frame.
+        orientation: spawn attitude (roll, pitch, yaw) [rad].
+        mode: initial flight mode (name or PyFlyt integer); default from the spec.
+    """
+
+    uav: str | Path | UAVSpec = "quadx_cf2x"
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mode: str | int | None = None
+
+
+def _ratio(numerator: float, denominator: float, what: str) -> int:
+    ratio = numerator / denominator
+    if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+        raise ConfigError(
+            f"{what} must divide evenly: got {numerator:g} / {denominator:g} = {ratio:g}; "
+            "choose rates whose ratio is a whole number (e.g. physics 240, control 120, agent 30)"
+        )
+    return int(round(ratio))
+
+
+@dataclass
+class _Contacts:
+    body_ids: list[int] = field(default_factory=list)
+    index: dict[int, int] = field(default_factory=dict)
+    matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=bool))
+
+    def add(self, body_id: int) -> None:
+        self.index[body_id] = len(self.body_ids)
+        self.body_ids.append(body_id)
+        grown = np.zeros((len(self.body_ids),) * 2, dtype=bool)
+        grown[: len(self.matrix), : len(self.matrix)] = self.matrix
+        self.matrix = grown
+
+
+class World:
+    """A physics world holding any number of vehicles of any airframes.
+
+    Args:
+        vehicles: vehicles to spawn now (:class:`VehicleConfig` or dicts of its fields).
+        physics_hz: physics rate [Hz].
+        control_hz: flight controller rate [Hz].
+        agent_hz: rate of :meth:`step` [Hz].
+        seed: seeds :attr:`np_random` and every actuator noise stream (None: random).
+        render: open PyBullet's GUI instead of the headless DIRECT backend.
+        ground: add a ground plane at z = 0.
+        drag: apply the airframes' body drag.
+        gravity: gravitational acceleration [m/s^2].
+
+    Example::
+
+        world = World([VehicleConfig("quadx_cf2x", (0, 0, 1), mode="position_yaw")], seed=0)
+        world.set_setpoint(0, [0, 0, 0, 1])     # x, y, yaw, z
+        for _ in range(300):
+            world.step()
+        print(world.state(0).lin_pos)
+    """
+
+    def __init__(
+        self,
+        vehicles: Iterable[VehicleConfig | dict] = (),
+        *,
+        physics_hz: float = 240.0,
+        control_hz: float = 120.0,
+        agent_hz: float = 30.0,
+        seed: int | None = None,
+        render: bool = False,
+        ground: bool = True,
+        drag: bool = True,
+        gravity: float = GRAVITY,
+    ) -> None:
+        self.physics_hz = float(physics_hz)
+        self.control_hz = float(control_hz)
+        self.agent_hz = float(agent_hz)
+        for name, value in (("physics_hz", physics_hz), ("control_hz", control_hz), ("agent_hz", agent_hz)):
+            if not value > 0:
+                raise ConfigError(f"{name} must be > 0 Hz, got {value}")
+        self.physics_per_control = _ratio(self.physics_hz, self.control_hz, "physics_hz / control_hz")
+        self.physics_per_agent = _ratio(self.physics_hz, self.agent_hz, "physics_hz / agent_hz")
+        self.physics_dt = 1.0 / self.physics_hz
+        self.drag = drag
+
+        self.client = p.connect(p.GUI if render else p.DIRECT)
+        if self.client < 0:
+            raise RuntimeError("could not connect to PyBullet (GUI needs a display; use render=False)")
+        p.setGravity(0.0, 0.0, -gravity, physicsClientId=self.client)
+        p.setTimeStep(self.physics_dt, physicsClientId=self.client)
+
+        self._contacts = _Contacts()
+        self.ground_id: int | None = None
+        if ground:
+            shape = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=self.client)
+            self.ground_id = p.createMultiBody(0.0, shape, physicsClientId=self.client)
+            self._contacts.add(self.ground_id)
+
+        self.vehicles: list[Vehicle] = []
+        self._seed(seed)
+        self.physics_steps = 0
+        self._snapshot: int | None = None
+        for config in vehicles:
+            if isinstance(config, dict):
+                config = VehicleConfig(**config)
+            self.add_vehicle(config.uav, config.position, config.orientation, config.mode)
+
+    # ------------------------------------------------------------ building
+
+    def _seed(self, seed: int | None) -> None:
+        self.seed = seed
+        self._seed_sequence = np.random.SeedSequence(seed)
+        self.np_random = np.random.default_rng(self._seed_sequence.spawn(1)[0])
+        self._vehicle_seeds = self._seed_sequence.spawn(1)[0]
+
+    def _vehicle_rng(self, index: int) -> np.random.Generator:
+        # one independent stream per vehicle slot, the same for a given seed and index
+        return np.random.default_rng(np.random.SeedSequence(self._vehicle_seeds.entropy, spawn_key=(1, index)))
+
+    def add_vehicle(
+        self,
+        uav: str | Path | UAVSpec = "quadx_cf2x",
+        position: Sequence[float] = (0.0, 0.0, 0.0),
+        orientation: Sequence[float] = (0.0, 0.0, 0.0),
+        mode: str | int | None = None,
+    ) -> int:
+        """Spawn a vehicle; returns its index in :attr:`vehicles`."""
+        spec = uav if isinstance(uav, UAVSpec) else load_uav_spec(uav)
+        index = len(self.vehicles)
+        vehicle = Vehicle(
+            self.client,
+            spec,
+            position,
+            orientation,
+            physics_dt=self.physics_dt,
+            control_dt=self.physics_dt * self.physics_per_control,
+            rng=self._vehicle_rng(index),
+            mode=mode,
+            drag=self.drag,
+        )
+        self.vehicles.append(vehicle)
+        self._contacts.add(vehicle.body_id)
+        self._snapshot = None
+        return index
+
+    def add_body(self, body_id: int) -> int:
+        """Track collisions of a body created directly with PyBullet (obstacles, pads)."""
+        self._contacts.add(body_id)
+        self._snapshot = None
+        return self._contacts.index[body_id]
+
+    # ------------------------------------------------------------ commanding
+
+    def _vehicle(self, index: int) -> Vehicle:
+        try:
+            return self.vehicles[index]
+        except IndexError:
+            raise ConfigError(f"no vehicle {index}: the world has {len(self.vehicles)}") from None
+
+    def set_mode(self, index: int, mode: str | int) -> None:
+        """Set the flight mode of vehicle ``index``."""
+        self._vehicle(index).set_mode(mode)
+
+    def set_setpoint(self, index: int, setpoint: Sequence[float] | np.ndarray) -> None:
+        """Set the setpoint of vehicle ``index`` (layout: its mode's ``setpoint``)."""
+        self._vehicle(index).set_setpoint(setpoint)
+
+    def set_all_setpoints(self, setpoints: np.ndarray | Sequence[Sequence[float]]) -> None:
+        """One setpoint row per vehicle."""
+        if len(setpoints) != len(self.vehicles):
+            raise ConfigError(f"got {len(setpoints)} setpoints for {len(self.vehicles)} vehicles")
+        for vehicle, setpoint in zip(self.vehicles, setpoints):
+            vehicle.set_setpoint(setpoint)
+
+    def set_armed(self, index: int, armed: bool = True) -> None:
+        """Arm or disarm vehicle ``index`` (disarmed: actuators commanded to zero)."""
+        self._vehicle(index).armed = bool(armed)
+
+    # --------------------------------------------------------------- stepping
+
+    def step(self) -> None:
+        """Advance one agent step (``physics_hz / agent_hz`` physics steps)."""
+        cid = self.client
+        vehicles = self.vehicles
+        contacts = self._contacts
+        contacts.matrix[:] = False
+        index = contacts.index
+        matrix = contacts.matrix
+        per_control = self.physics_per_control
+        last = self.physics_per_agent - 1
+        for substep in range(self.physics_per_agent):
+            control_tick = self.physics_steps % per_control == 0
+            for vehicle in vehicles:
+                if control_tick:
+                    vehicle.read_state()
+                    vehicle.control_step()
+                elif vehicle.needs_velocity:
+                    vehicle.read_velocity()
+                vehicle.apply_loads()
+            p.stepSimulation(physicsClientId=cid)
+            self.physics_steps += 1
+            # contacts are sampled at the end of every control period and of the agent step
+            if self.physics_steps % per_control == 0 or substep == last:
+                for contact in p.getContactPoints(physicsClientId=cid):
+                    a = index.get(contact[1])
+                    b = index.get(contact[2])
+                    if a is not None and b is not None:
+                        matrix[a, b] = matrix[b, a] = True
+        for vehicle in vehicles:
+            vehicle.read_state()
+
+    # --------------------------------------------------------------- read-outs
+
+    def state(self, index: int) -> KinematicState:
+        """The latest :class:`KinematicState` of vehicle ``index``."""
+        return self._vehicle(index).state
+
+    def aux_state(self, index: int) -> np.ndarray:
+        """Auxiliary state (actuator read-outs) of vehicle ``index``."""
+        return self._vehicle(index).aux_state
+
+    @property
+    def elapsed(self) -> float:
+        """Simulated time since creation or the last reset [s]."""
+        return self.physics_steps * self.physics_dt
+
+    @property
+    def contact_array(self) -> np.ndarray:
+        """Symmetric boolean matrix of bodies that touched during the last :meth:`step`.
+
+        Rows/columns follow :attr:`contact_bodies` (the ground first, if present, then
+        bodies in the order they were added).
+        """
+        return self._contacts.matrix.copy()
+
+    @property
+    def contact_bodies(self) -> list[int]:
+        """PyBullet body ids indexing :attr:`contact_array`."""
+        return list(self._contacts.body_ids)
+
+    def collided(self, index: int) -> bool:
+        """Whether vehicle ``index`` touched anything (ground included) in the last step."""
+        row = self._contacts.index[self._vehicle(index).body_id]
+        return bool(self._contacts.matrix[row].any())
+
+    def collided_with_ground(self, index: int) -> bool:
+        """Whether vehicle ``index`` touched the ground in the last step."""
+        if self.ground_id is None:
+            return False
+        row = self._contacts.index[self._vehicle(index).body_id]
+        return bool(self._contacts.matrix[row, self._contacts.index[self.ground_id]])
+
+    def collided_with(self, index: int, other: int) -> bool:
+        """Whether vehicles ``index`` and ``other`` touched each other in the last step."""
+        a = self._contacts.index[self._vehicle(index).body_id]
+        b = self._contacts.index[self._vehicle(other).body_id]
+        return bool(self._contacts.matrix[a, b])
+
+    # ---------------------------------------------------------------- resets
+
+    def reset(self, seed: int | None = None) -> None:
+        """Return every body to its spawn state without rebuilding the world.
+
+        Restores the PyBullet state saved after the last body was added, puts every
+        vehicle at rest at its spawn pose with idle actuators and cleared controllers,
+        and, when ``seed`` is given, reseeds :attr:`np_random` and the actuator noise.
+        """
+        if self._snapshot is None:
+            for vehicle in self.vehicles:
+                vehicle.reset()
+            self._snapshot = p.saveState(physicsClientId=self.client)
+        else:
+            p.restoreState(self._snapshot, physicsClientId=self.client)
+        if seed is not None:
+            self._seed(seed)
+        for index, vehicle in enumerate(self.vehicles):
+            if seed is not None:
+                vehicle.reseed(self._vehicle_rng(index))
+            vehicle.reset()
+            vehicle.armed = True
+        self._contacts.matrix[:] = False
+        self.physics_steps = 0
+
+    def close(self) -> None:
+        """Disconnect from PyBullet (idempotent)."""
+        if self.client is not None and self.client >= 0 and p.isConnected(self.client):
+            p.disconnect(self.client)
+        self.client = -1
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
