@@ -1,0 +1,1 @@
+"""One module per CLI command: parse the composed config, call the library, print."""
