@@ -1,0 +1,96 @@
+"""Physics steps per second of a hovering QuadX in the World versus bare PyBullet.
+
+The floor is PyBullet doing the same physical work with no engine around it: the same
+body (the generated cf2x URDF), one state read (pose and velocity), four motor forces
+and one yaw torque applied, one ``stepSimulation`` per physics step.  The World runs
+the full stack: state read-out, the cascaded controller at 120 Hz, motor lag and noise,
+drag, contact tracking.  Both run in this process, alternately, and the best of
+``--repeats`` timings of each is kept, so load on the machine hits both alike.
+
+    python experiments/speed_world.py [--steps 24000] [--repeats 5] [--mode position_yaw]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+import pybullet as p
+
+from pyflyt_engine.spec import load_uav_spec
+from pyflyt_engine.urdf import urdf_path
+from pyflyt_engine.world import VehicleConfig, World
+
+
+def bare_pybullet(steps: int, uav: str) -> float:
+    """Seconds per physics step of the floor."""
+    spec = load_uav_spec(uav)
+    cid = p.connect(p.DIRECT)
+    p.setGravity(0, 0, -9.81, physicsClientId=cid)
+    p.setTimeStep(1 / 240, physicsClientId=cid)
+    p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
+    body = p.loadURDF(str(urdf_path(spec)), [0, 0, 1], flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+    weight = spec.body.mass * 9.81 / 4
+    motors = [tuple(m) for m in spec.motors.positions]
+    start = time.perf_counter()
+    for _ in range(steps):
+        p.getBasePositionAndOrientation(body, physicsClientId=cid)
+        p.getBaseVelocity(body, physicsClientId=cid)
+        for position in motors:
+            p.applyExternalForce(body, -1, (0.0, 0.0, weight), position, p.LINK_FRAME, physicsClientId=cid)
+        p.applyExternalTorque(body, -1, (0.0, 0.0, 0.0), p.LINK_FRAME, physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
+    elapsed = time.perf_counter() - start
+    p.disconnect(cid)
+    return elapsed / steps
+
+
+def world_hover(steps: int, uav: str, mode: str) -> float:
+    """Seconds per physics step of the World hovering one vehicle."""
+    world = World([VehicleConfig(uav, (0.0, 0.0, 1.0), mode=mode)], seed=0)
+    vehicle = world.vehicles[0]
+    if mode == "position_yaw":
+        world.set_setpoint(0, [0.0, 0.0, 0.0, 1.0])
+    elif mode == "motors":
+        world.set_setpoint(0, [vehicle.hover_throttle()] * vehicle.motors.count)
+    elif mode == "rates_thrust":
+        world.set_setpoint(0, [0.0, 0.0, 0.0, vehicle.hover_throttle() ** 2])
+    agent_steps = max(1, steps // world.physics_per_agent)
+    for _ in range(30):  # warm up
+        world.step()
+    start = time.perf_counter()
+    for _ in range(agent_steps):
+        world.step()
+    elapsed = time.perf_counter() - start
+    world.close()
+    return elapsed / (agent_steps * world.physics_per_agent)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--steps", type=int, default=24000, help="physics steps per timing")
+    parser.add_argument("--repeats", type=int, default=5, help="timings of each; the best is kept")
+    parser.add_argument("--uav", default="quadx_cf2x")
+    parser.add_argument("--mode", default=None, help="flight mode (default: motors, rates_thrust and position_yaw)")
+    args = parser.parse_args()
+    modes = [args.mode] if args.mode else ["motors", "rates_thrust", "position_yaw"]
+
+    floor, world = [], {m: [] for m in modes}
+    for _ in range(args.repeats):
+        floor.append(bare_pybullet(args.steps, args.uav))
+        for mode in modes:
+            world[mode].append(world_hover(args.steps, args.uav, mode))
+    best_floor = min(floor)
+    print(f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
+          f"pybullet {p.getAPIVersion()}, numpy {np.__version__}")
+    print(f"{'case':<28}{'us/step':>10}{'steps/s':>12}{'x floor':>10}")
+    print(f"{'bare pybullet (floor)':<28}{best_floor * 1e6:>10.2f}{1 / best_floor:>12.0f}{1.0:>10.2f}")
+    for mode in modes:
+        best = min(world[mode])
+        print(f"{'world hover, ' + mode:<28}{best * 1e6:>10.2f}{1 / best:>12.0f}{best / best_floor:>10.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,57 @@
+"""`pyflyt fly` and `pyflyt modes` from the command line; errors exit 2 without tracebacks."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from typer.testing import CliRunner
+
+from pyflyt_cli.main import app
+
+runner = CliRunner()
+
+
+def test_fly_defaults_hover_one_metre_and_prints_summary():
+    result = runner.invoke(app, ["fly", "duration=4", "rows=3"])
+    assert result.exit_code == 0, result.output
+    assert "quadx_cf2x in mode position_yaw" in result.output
+    final = re.search(r"final position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", result.output)
+    x, y, z = map(float, final.groups())
+    assert abs(z - 1.0) < 0.05 and abs(x) < 0.05 and abs(y) < 0.05
+
+
+def test_fly_with_named_setpoint_and_other_airframe():
+    result = runner.invoke(app, ["fly", "uav=quadx_f450", "mode=7", "setpoint={x:1,z:2}", "duration=5", "rows=2"])
+    assert result.exit_code == 0, result.output
+    final = re.search(r"final position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", result.output)
+    x, y, z = map(float, final.groups())
+    assert abs(x - 1.0) < 0.05 and abs(z - 2.0) < 0.05
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["uav=quadx_f45"], "Did you mean 'quadx_f450'"),
+        (["durration=3"], "unknown key 'durration'"),
+        (["mode=bogus"], "unknown flight mode 'bogus'"),
+        (["setpoint=[1,2]"], "needs 4 values"),
+        (["physics_hz=250"], "must divide evenly"),
+        (["uav.body.mass=-1"], "body.mass"),
+        (["seed"], "not an override"),
+        (["duration=0"], "duration must be > 0"),
+        (["setpoint=[1,2"], "malformed override"),
+    ],
+)
+def test_fly_bad_input_exits_2_with_message(args, message):
+    result = runner.invoke(app, ["fly", *args])
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert "Traceback" not in result.output
+
+
+def test_modes_lists_names_and_pyflyt_numbers():
+    result = runner.invoke(app, ["modes"])
+    assert result.exit_code == 0
+    assert re.search(r"position_yaw\s+7\s+\[x, y, yaw, z\]", result.output)
+    assert re.search(r"motors\s+-1", result.output)

@@ -1,0 +1,37 @@
+"""Shared fixtures: small worlds and spec variants built from the shipped airframes."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import yaml
+
+from pyflyt_engine.paths import uav_dir
+from pyflyt_engine.spec import UAVSpec, parse_uav_spec
+
+
+def spec_dict(name: str = "quadx_cf2x") -> dict:
+    """The raw YAML mapping of a shipped airframe (a fresh copy)."""
+    return copy.deepcopy(yaml.safe_load((uav_dir() / f"{name}.yaml").read_text()))
+
+
+def spec_variant(name: str = "quadx_cf2x", **changes: object) -> UAVSpec:
+    """A shipped airframe with dotted-path changes, e.g. ``**{"motors.noise_ratio": 0.0}``."""
+    data = spec_dict(name)
+    for path, value in changes.items():
+        node = data
+        *parents, leaf = path.split(".")
+        for key in parents:
+            node = node.setdefault(key, {})
+        node[leaf] = value
+    return parse_uav_spec(data, source=f"{name} (test variant)")
+
+
+@pytest.fixture
+def quiet_cf2x() -> UAVSpec:
+    """The cf2x with motor noise and drag removed: for analytic oracles."""
+    return spec_variant(
+        "quadx_cf2x",
+        **{"motors.noise_ratio": 0.0, "drag.coefficients": [0.0, 0.0, 0.0], "drag.angular_damping": 0.0},
+    )

@@ -1,0 +1,106 @@
+"""Vehicle specs: shipped airframes load; bad specs fail with the field and the fix."""
+
+from __future__ import annotations
+
+import pytest
+
+from pyflyt_engine.spec import available_uavs, load_uav_spec, parse_uav_spec
+from pyflyt_engine.errors import SpecError
+from tests.conftest import spec_dict
+
+
+def test_shipped_quadx_airframes_load_with_paper_figures():
+    cf2x = load_uav_spec("quadx_cf2x")
+    assert cf2x.body.mass == pytest.approx(0.027)
+    thrust = 4 * cf2x.motors.kf * cf2x.motors.max_rpm**2
+    # paper: modified to an 8:1 thrust-to-weight ratio
+    assert thrust / (cf2x.body.mass * 9.81) == pytest.approx(8.0, rel=1e-3)
+    f450 = load_uav_spec("quadx_f450")
+    assert f450.body.mass == pytest.approx(1.0)
+    assert 4 * f450.motors.kf * f450.motors.max_rpm**2 == pytest.approx(40.0, rel=1e-3)
+    assert {"quadx_cf2x", "quadx_f450"} <= set(available_uavs())
+
+
+def _error(data: dict) -> str:
+    with pytest.raises(SpecError) as info:
+        parse_uav_spec(data, source="bad.yaml")
+    return str(info.value)
+
+
+def test_negative_and_zero_mass_are_rejected_with_field_and_fix():
+    for mass in (-0.1, 0.0):
+        data = spec_dict()
+        data["body"]["mass"] = mass
+        message = _error(data)
+        assert "bad.yaml" in message and "body.mass" in message and "positive number of kilograms" in message
+
+
+def test_inertia_not_positive_definite_is_rejected():
+    data = spec_dict()
+    data["body"]["inertia"] = [1e-5, -1e-5, 2e-5]
+    message = _error(data)
+    assert "body.inertia" in message and "not positive definite" in message
+    data["body"]["inertia"] = [1e-5, 1e-5, 2e-5, 5e-5, 0.0, 0.0]  # large product of inertia
+    assert "not positive definite" in _error(data)
+
+
+def test_inertia_violating_triangle_inequality_is_rejected():
+    data = spec_dict()
+    data["body"]["inertia"] = [1e-5, 1e-5, 5e-5]
+    assert "triangle inequality" in _error(data)
+
+
+def test_motor_lists_of_different_lengths_are_rejected():
+    data = spec_dict()
+    data["motors"]["spin"] = [1, 1, -1]
+    message = _error(data)
+    assert "motors" in message and "'spin' has 3 entries but 'positions' has 4" in message
+    data = spec_dict()
+    data["motors"]["tau"] = [0.01, 0.01]
+    assert "'tau' has 2 entries" in _error(data)
+
+
+def test_unknown_key_is_rejected_with_suggestion():
+    data = spec_dict()
+    data["body"]["mas"] = 1.0
+    message = _error(data)
+    assert "body.mas" in message and "unknown key" in message and "did you mean 'mass'" in message
+    data = spec_dict()
+    data["motor"] = {}
+    assert "unknown key 'motor'" in _error(data) and "did you mean 'motors'" in _error(data)
+
+
+def test_non_unit_thrust_axis_and_bad_types_are_rejected():
+    data = spec_dict()
+    data["motors"]["thrust_axes"] = [[0, 0, 2]] * 4
+    assert "unit vectors" in _error(data)
+    data = spec_dict()
+    data["motors"]["kf"] = "lots"
+    assert "motors.kf" in _error(data)
+
+
+def test_multirotor_control_without_motors_is_rejected():
+    data = spec_dict()
+    del data["motors"]
+    assert "needs a 'motors' section" in _error(data)
+
+
+def test_yaml_tags_cannot_run_code(tmp_path):
+    marker = tmp_path / "ran"
+    path = tmp_path / "evil.yaml"
+    path.write_text(f"name: !!python/object/apply:os.system ['touch {marker}']\nbody: {{mass: 1, inertia: [1, 1, 1]}}\n")
+    with pytest.raises(SpecError, match="not valid YAML"):
+        load_uav_spec(path)
+    assert not marker.exists()
+
+
+def test_unknown_airframe_name_suggests_the_closest():
+    with pytest.raises(SpecError, match="Did you mean 'quadx_cf2x'"):
+        load_uav_spec("quadx_cf2")
+
+
+def test_truncated_file_is_a_clear_error(tmp_path):
+    path = tmp_path / "cut.yaml"
+    path.write_text("name: cut\nbody:\n  mass: 1.0\n  inertia: [1, 1,")
+    with pytest.raises(SpecError, match="not valid YAML"):
+        load_uav_spec(path)
