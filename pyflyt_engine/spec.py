@@ -50,6 +50,9 @@ class ShapeSpec(_Spec):
     color: Color = Field((0.5, 0.5, 0.5, 1.0), description="RGBA in [0, 1]")
     collision: bool = Field(True, description="part of the collision geometry")
     visual: bool = Field(True, description="drawn")
+    mass: float | None = Field(
+        None, ge=0, description="mass of this part [kg], uniform density; used when body.mass/inertia are left out"
+    )
 
     @model_validator(mode="after")
     def _dimensions(self) -> ShapeSpec:
@@ -67,12 +70,23 @@ class ShapeSpec(_Spec):
 
 
 class BodySpec(_Spec):
-    """Rigid-body properties of the airframe, about its centre of mass (the body origin)."""
+    """Rigid-body properties of the airframe.
 
-    mass: float = Field(description="total mass [kg], > 0")
-    inertia: list[float] = Field(
+    Either give ``mass`` and ``inertia`` (about the centre of mass), or give shapes a
+    ``mass`` each and leave them out: they are then computed from the parts as uniform
+    solids (parallel-axis theorem).  Positions anywhere in the spec may be measured from
+    any reference point: the body origin is moved to the centre of mass when the vehicle
+    is built (see :meth:`UAVSpec.center_of_mass`).
+    """
+
+    mass: float | None = Field(None, description="total mass [kg], > 0 (default: sum of the parts' masses)")
+    inertia: list[float] | None = Field(
+        None,
         description="inertia about the centre of mass in the body frame [kg m^2]: "
-        "[Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"
+        "[Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] (default: computed from the parts)",
+    )
+    center_of_mass: Vec3 | None = Field(
+        None, description="centre of mass in the spec's coordinates [m] (default: from the parts, else the origin)"
     )
     shapes: list[ShapeSpec] = Field(default_factory=list, description="collision/visual primitives")
     urdf: str | None = Field(
@@ -81,32 +95,76 @@ class BodySpec(_Spec):
 
     @field_validator("mass")
     @classmethod
-    def _mass(cls, value: float) -> float:
-        if not value > 0:
+    def _mass(cls, value: float | None) -> float | None:
+        if value is not None and not value > 0:
             raise ValueError(f"mass must be a positive number of kilograms, got {value}")
         return value
 
     @field_validator("inertia")
     @classmethod
-    def _inertia(cls, value: list[float]) -> list[float]:
+    def _inertia(cls, value: list[float] | None) -> list[float] | None:
+        if value is None:
+            return value
         if len(value) not in (3, 6):
             raise ValueError(
                 f"inertia needs 3 values [Ixx, Iyy, Izz] or 6 [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], got {len(value)}"
             )
-        tensor = inertia_tensor(value)
-        eig = np.linalg.eigvalsh(tensor)
-        if eig.min() <= 0:
-            raise ValueError(
-                f"inertia tensor is not positive definite (principal moments {eig.round(9).tolist()}); "
-                "every principal moment must be > 0 kg m^2"
-            )
-        a, b, c = (float(x) for x in sorted(eig))
-        if a + b < c * (1 - 1e-9):
-            raise ValueError(
-                f"principal moments {[round(a, 12), round(b, 12), round(c, 12)]} violate the triangle inequality (I1 + I2 >= I3) "
-                "that every real rigid body satisfies; check the units and the values"
-            )
+        _check_inertia(inertia_tensor(value))
         return value
+
+    @model_validator(mode="after")
+    def _mass_source(self) -> BodySpec:
+        part_mass = sum(s.mass or 0.0 for s in self.shapes)
+        if (self.mass is None or self.inertia is None) and part_mass <= 0:
+            missing = " and ".join(n for n in ("mass", "inertia") if getattr(self, n) is None)
+            raise ValueError(f"body.{missing} missing: give it, or give the shapes a 'mass' each to compute it")
+        if self.mass is not None and part_mass > 0 and abs(part_mass - self.mass) > 1e-6 * self.mass:
+            raise ValueError(
+                f"body.mass {self.mass} kg disagrees with the sum of the shapes' masses {part_mass:.6g} kg: "
+                "remove one of them or make them agree"
+            )
+        if self.urdf is None and not any(s.collision for s in self.shapes):
+            raise ValueError("body.shapes has no collision shape: add one (collision: true) or give a urdf")
+        return self
+
+
+def _check_inertia(tensor: np.ndarray) -> None:
+    eig = np.linalg.eigvalsh(tensor)
+    if eig.min() <= 0:
+        raise ValueError(
+            f"inertia tensor is not positive definite (principal moments {eig.round(9).tolist()}); "
+            "every principal moment must be > 0 kg m^2"
+        )
+    a, b, c = (float(x) for x in sorted(eig))
+    if a + b < c * (1 - 1e-9):
+        raise ValueError(
+            f"principal moments {[round(a, 12), round(b, 12), round(c, 12)]} violate the triangle inequality "
+            "(I1 + I2 >= I3) that every real rigid body satisfies; check the units and the values"
+        )
+
+
+def _rpy_matrix(rpy: Vec3) -> np.ndarray:
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    return rz @ ry @ rx
+
+
+def shape_inertia(shape: ShapeSpec) -> np.ndarray:
+    """Inertia [kg m^2] of a uniform solid shape about its own centre, in its own axes."""
+    m = shape.mass or 0.0
+    if shape.type == "box":
+        x, y, z = shape.size  # type: ignore[misc]
+        return np.diag([m * (y * y + z * z), m * (x * x + z * z), m * (x * x + y * y)]) / 12.0
+    if shape.type == "cylinder":
+        r, h = shape.radius, shape.length
+        side = m * (3 * r * r + h * h) / 12.0  # type: ignore[operator]
+        return np.diag([side, side, m * r * r / 2.0])  # type: ignore[operator]
+    if shape.type == "sphere":
+        return np.eye(3) * 0.4 * m * shape.radius**2  # type: ignore[operator]
+    raise ValueError("a mesh shape cannot carry a mass: give body.mass and body.inertia instead")
 
 
 class DragSpec(_Spec):
@@ -147,20 +205,25 @@ class MotorsSpec(_Spec):
     kf: ScalarOrList = Field(description="thrust coefficient [N / RPM^2]")
     kt: ScalarOrList = Field(description="reaction torque coefficient [N m / RPM^2]")
     noise_ratio: ScalarOrList = Field(0.0, description="std of the multiplicative throttle noise")
+    mix: list[dict[str, float] | None] | None = Field(
+        None,
+        description="per motor: channel weights driving it directly (e.g. {thrust: 1.0} for a pusher), "
+        "or null for motors flown by the multirotor controller",
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> MotorsSpec:
         n = len(self.positions)
         if n == 0:
             raise ValueError("motors.positions is empty: list one [x, y, z] per motor")
-        lists = {"spin": self.spin, "thrust_axes": self.thrust_axes}
+        lists = {"spin": self.spin, "thrust_axes": self.thrust_axes, "mix": self.mix}
         for name in ("tau", "max_rpm", "kf", "kt", "noise_ratio"):
             value = getattr(self, name)
             if isinstance(value, list):
                 lists[name] = value
         for name, value in lists.items():
             if value is not None and len(value) != n:
-                scalar_ok = "" if name in ("spin", "thrust_axes") else " (or a single number for all)"
+                scalar_ok = "" if name in ("spin", "thrust_axes", "mix") else " (or a single number for all)"
                 raise ValueError(
                     f"'{name}' has {len(value)} entries but 'positions' has {n}: "
                     f"give one {name} entry per motor{scalar_ok}"
@@ -193,6 +256,147 @@ class MotorsSpec(_Spec):
                 return np.tile([0.0, 0.0, 1.0], (n, 1))
             return np.asarray(self.thrust_axes, dtype=float)
         return np.broadcast_to(np.asarray(getattr(self, name), dtype=float), (n,)).copy()
+
+
+# --------------------------------------------------------------- other actuators
+
+
+def _unit(name: str, value: Vec3) -> Vec3:
+    norm = float(np.linalg.norm(value))
+    if abs(norm - 1.0) > 1e-6:
+        raise ValueError(f"'{name}' must be a unit vector, got {list(value)} (norm {norm:.6g}): normalise it")
+    return value
+
+
+class SurfaceSpec(_Spec):
+    """A (flapped) lifting surface: Khan & Nahon performance profile (see docs/uav_authoring.md)."""
+
+    name: str = Field(description="identifier, unique within the vehicle")
+    position: Vec3 = Field(description="aerodynamic centre in the spec's coordinates [m]")
+    chord_axis: Vec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
+    normal_axis: Vec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
+    chord: float = Field(gt=0, description="chord [m]")
+    span: float = Field(gt=0, description="span [m]")
+    flap_to_chord: float = Field(0.0, ge=0, le=1, description="movable fraction of the chord")
+    alpha_0_deg: float = Field(0.0, description="zero-lift angle of attack, undeflected [deg]")
+    stall_pos_deg: float = Field(15.0, description="positive stall angle, undeflected [deg]")
+    stall_neg_deg: float = Field(-15.0, description="negative stall angle, undeflected [deg]")
+    cd_0: float = Field(0.01, ge=0, description="zero-lift drag coefficient")
+    cl_alpha_2d: float = Field(6.283, gt=0, description="2-D lift slope [1/rad] (thin aerofoil: 2 pi)")
+    eta: float = Field(0.65, ge=0, description="flap viscosity correction factor")
+    max_deflection_deg: float = Field(0.0, ge=0, description="flap deflection limit [deg] (0: no flap)")
+    tau: float = Field(0.05, ge=0, description="flap time constant [s]")
+    mix: dict[str, float] = Field(default_factory=dict, description="channel weights driving the flap command")
+    visual: bool = Field(True, description="draw the surface as a thin plate")
+    color: Color = Field((0.85, 0.85, 0.85, 1.0), description="RGBA of the drawn plate")
+
+    @model_validator(mode="after")
+    def _geometry(self) -> SurfaceSpec:
+        _unit("chord_axis", self.chord_axis)
+        _unit("normal_axis", self.normal_axis)
+        if abs(float(np.dot(self.chord_axis, self.normal_axis))) > 1e-6:
+            raise ValueError("chord_axis and normal_axis must be perpendicular")
+        if not self.stall_neg_deg < self.alpha_0_deg < self.stall_pos_deg:
+            raise ValueError(
+                f"need stall_neg_deg < alpha_0_deg < stall_pos_deg, got {self.stall_neg_deg} / "
+                f"{self.alpha_0_deg} / {self.stall_pos_deg}"
+            )
+        if self.mix and self.max_deflection_deg == 0:
+            raise ValueError("a surface with 'mix' needs max_deflection_deg > 0 (it has no movable flap)")
+        return self
+
+
+class BoostersSpec(_Spec):
+    """Fueled boosters (columnar like motors: one entry per booster, scalars apply to all)."""
+
+    positions: list[Vec3] = Field(description="thrust point of each booster [m]")
+    thrust_axes: list[Vec3] | None = Field(None, description="unit thrust directions (default +z)")
+    fuel_tank_positions: list[Vec3] | None = Field(None, description="tank centres [m] (default: the thrust point)")
+    total_fuel: ScalarOrList = Field(description="fuel mass when full [kg]")
+    max_fuel_rate: ScalarOrList = Field(description="fuel mass flow at full duty [kg/s]")
+    inertia_full: list[Vec3] | None = Field(None, description="tank inertia diagonal at full fuel [kg m^2]")
+    min_thrust: ScalarOrList = Field(0.0, description="thrust at minimum throttle when lit [N]")
+    max_thrust: ScalarOrList = Field(description="thrust at full throttle [N]")
+    reignitable: bool | list[bool] = Field(True, description="whether the booster can be put out and relit")
+    tau: ScalarOrList = Field(0.01, description="time constant of the duty cycle [s]")
+    noise_ratio: ScalarOrList = Field(0.0, description="std of the multiplicative duty noise")
+    initial_fuel: float = Field(1.0, ge=0, le=1, description="fuel fraction at spawn")
+    ignition_channel: str | list[str] = Field("ignition", description="channel(s) that light the boosters (> 0.5)")
+    throttle_channel: str | list[str] = Field("throttle", description="channel(s) setting throttle in [0, 1]")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BoostersSpec:
+        n = len(self.positions)
+        if n == 0:
+            raise ValueError("boosters.positions is empty: list one [x, y, z] per booster")
+        for name in ("thrust_axes", "fuel_tank_positions", "inertia_full", "total_fuel", "max_fuel_rate",
+                     "min_thrust", "max_thrust", "reignitable", "tau", "noise_ratio", "ignition_channel",
+                     "throttle_channel"):
+            value = getattr(self, name)
+            if isinstance(value, list) and len(value) != n:
+                raise ValueError(f"'{name}' has {len(value)} entries but 'positions' has {n}: give one per booster")
+        for axis in self.thrust_axes or []:
+            _unit("thrust_axes", axis)
+        return self
+
+    def per_booster(self, name: str) -> list:
+        """Field ``name`` as one entry per booster."""
+        value = getattr(self, name)
+        return list(value) if isinstance(value, list) else [value] * len(self.positions)
+
+
+class GimbalSpec(_Spec):
+    """A two-axis gimbal vectoring the thrust of one motor or booster."""
+
+    name: str = Field(description="identifier")
+    target: str = Field(description="'booster:<index>' or 'motor:<index>' whose thrust axis it rotates")
+    axis_a: Vec3 = Field(description="first rotation axis, unit vector in the body frame")
+    axis_b: Vec3 = Field(description="second rotation axis, unit vector in the body frame")
+    max_angle_a_deg: float = Field(ge=0, description="deflection limit about axis a [deg]")
+    max_angle_b_deg: float = Field(ge=0, description="deflection limit about axis b [deg]")
+    tau: float = Field(0.01, ge=0, description="actuator time constant [s]")
+    channels: tuple[str, str] = Field(("gimbal_a", "gimbal_b"), description="channels commanding axes a and b in [-1, 1]")
+
+    @model_validator(mode="after")
+    def _axes(self) -> GimbalSpec:
+        _unit("axis_a", self.axis_a)
+        _unit("axis_b", self.axis_b)
+        kind, _, index = self.target.partition(":")
+        if kind not in ("booster", "motor") or not index.isdigit():
+            raise ValueError(f"target must look like 'booster:0' or 'motor:2', got '{self.target}'")
+        return self
+
+    @property
+    def target_kind(self) -> str:
+        return self.target.partition(":")[0]
+
+    @property
+    def target_index(self) -> int:
+        return int(self.target.partition(":")[2])
+
+
+class CameraSpec(_Spec):
+    """An onboard camera (see :class:`pyflyt_engine.components.camera.CameraParams`)."""
+
+    name: str = Field(description="identifier")
+    position: Vec3 = Field((0.0, 0.0, 0.0), description="camera origin in the spec's coordinates [m]")
+    orientation_deg: Vec3 = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw relative to the body [deg]")
+    fov: float = Field(90.0, gt=0, lt=180, description="vertical field of view [deg]")
+    width: int = Field(128, ge=1, description="pixels")
+    height: int = Field(128, ge=1, description="pixels")
+    near: float = Field(0.1, gt=0, description="near clip distance [m]")
+    far: float = Field(100.0, gt=0, description="far clip distance [m]")
+    horizon_lock: bool = Field(False, description="follow body yaw only (gimbal-stabilised)")
+    capture_hz: float = Field(30.0, gt=0, description="image refresh rate [Hz]")
+    outputs: list[Literal["rgba", "depth", "segmentation"]] = Field(
+        default_factory=lambda: ["rgba", "depth", "segmentation"], min_length=1, description="images to compute"
+    )
+
+    @model_validator(mode="after")
+    def _clip(self) -> CameraSpec:
+        if not self.near < self.far:
+            raise ValueError(f"need near < far, got near {self.near} and far {self.far}")
+        return self
 
 
 # ------------------------------------------------------------------------ control
@@ -242,36 +446,146 @@ class MultirotorControlSpec(_Spec):
     attitude: AttitudeGains = AttitudeGains()
     velocity: VelocityGains = VelocityGains()
     position: PositionGains = PositionGains()
+    mixer_motors: list[int] | None = Field(
+        None, description="indices of the motors the controller flies (default: every motor without 'mix')"
+    )
+
+
+class AxisGains(_Spec):
+    """One autopilot loop: channel = kp e + ki int(e) - kd * rate."""
+
+    kp: float = 0.0
+    ki: float = 0.0
+    kd: float = 0.0
+    integral_limit: float = Field(0.5, ge=0, description="clamp on ki * int(e) (channel units)")
+
+
+class FixedwingControlSpec(_Spec):
+    """Fixed-wing control: raw channels (the paper's action) or an attitude/airspeed autopilot.
+
+    Modes: ``channels`` (setpoint = the channel values in declaration order) and
+    ``attitude_airspeed`` (setpoint = [roll rad, pitch rad, yaw rate rad/s, airspeed m/s]).
+    The autopilot writes the channels named by ``roll_channel`` ... ``thrust_channel``.
+    """
+
+    type: Literal["fixedwing"] = "fixedwing"
+    mode: str = Field("channels", description="mode at spawn: channels or attitude_airspeed")
+    roll: AxisGains = AxisGains(kp=1.0, kd=0.2)
+    pitch: AxisGains = AxisGains(kp=1.5, kd=0.3, ki=0.3)
+    yaw: AxisGains = AxisGains(kp=0.5)
+    airspeed: AxisGains = AxisGains(kp=0.2, ki=0.05)
+    cruise_thrust: float = Field(0.5, ge=0, le=1, description="thrust feed-forward of the airspeed loop")
+    roll_channel: str = "roll"
+    pitch_channel: str = "pitch"
+    yaw_channel: str = "yaw"
+    thrust_channel: str = "thrust"
 
 
 class NoControlSpec(_Spec):
-    """No onboard controller: the setpoint drives the actuators directly."""
+    """No onboard controller: the setpoint is the channel vector (mode ``channels``)."""
 
     type: Literal["none"] = "none"
 
 
-ControlSpec = Annotated[Union[MultirotorControlSpec, NoControlSpec], Field(discriminator="type")]
+ControlSpec = Annotated[
+    Union[MultirotorControlSpec, FixedwingControlSpec, NoControlSpec], Field(discriminator="type")
+]
 
 
 # ------------------------------------------------------------------------ vehicle
 
 
 class UAVSpec(_Spec):
-    """A complete vehicle: body, drag, actuators and controller."""
+    """A complete vehicle: body, drag, actuators, sensors and controller."""
 
     name: str = Field(description="identifier, usually the file name without .yaml")
     description: str = Field("", description="free text")
     body: BodySpec
     drag: DragSpec = DragSpec()
+    channels: dict[str, tuple[float, float]] = Field(
+        default_factory=dict,
+        description="named control inputs and their [min, max] range, in setpoint order (e.g. roll: [-1, 1])",
+    )
     motors: MotorsSpec | None = None
+    surfaces: list[SurfaceSpec] = Field(default_factory=list)
+    boosters: BoostersSpec | None = None
+    gimbals: list[GimbalSpec] = Field(default_factory=list)
+    cameras: list[CameraSpec] = Field(default_factory=list)
     control: ControlSpec = Field(default_factory=NoControlSpec)
     source: str | None = Field(None, exclude=True, description="file the spec was loaded from")
 
     @model_validator(mode="after")
-    def _controllable(self) -> UAVSpec:
-        if isinstance(self.control, MultirotorControlSpec) and self.motors is None:
-            raise ValueError("control.type 'multirotor' needs a 'motors' section")
+    def _cross_checks(self) -> UAVSpec:
+        for name, (low, high) in self.channels.items():
+            if not low < high:
+                raise ValueError(f"channels.{name}: range [{low}, {high}] is empty; give [min, max] with min < max")
+        used: list[tuple[str, str]] = []
+        for i, mix in enumerate((self.motors.mix or []) if self.motors else []):
+            used += [(f"motors.mix[{i}]", c) for c in (mix or {})]
+        used += [(f"surfaces.{s.name}.mix", c) for s in self.surfaces for c in s.mix]
+        if self.boosters is not None:
+            used += [("boosters.ignition_channel", c) for c in self.boosters.per_booster("ignition_channel")]
+            used += [("boosters.throttle_channel", c) for c in self.boosters.per_booster("throttle_channel")]
+        used += [(f"gimbals.{g.name}.channels", c) for g in self.gimbals for c in g.channels]
+        if isinstance(self.control, FixedwingControlSpec):
+            c = self.control
+            used += [("control", n) for n in (c.roll_channel, c.pitch_channel, c.yaw_channel, c.thrust_channel)]
+        for where, channel in used:
+            if channel not in self.channels:
+                declared = ", ".join(self.channels) or "none"
+                raise ValueError(f"{where} uses channel '{channel}', which is not declared in 'channels' (declared: {declared})")
+        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras)):
+            names = [i.name for i in items]
+            if len(set(names)) != len(names):
+                raise ValueError(f"{kind}: names must be unique, got {names}")
+        for gimbal in self.gimbals:
+            pool = self.boosters.positions if gimbal.target_kind == "booster" and self.boosters else (
+                self.motors.positions if gimbal.target_kind == "motor" and self.motors else [])
+            if gimbal.target_index >= len(pool):
+                raise ValueError(f"gimbals.{gimbal.name}: target '{gimbal.target}' does not exist ({len(pool)} {gimbal.target_kind}s)")
+        if isinstance(self.control, MultirotorControlSpec):
+            if self.motors is None:
+                raise ValueError("control.type 'multirotor' needs a 'motors' section")
+            n = len(self.motors.positions)
+            for index in self.control.mixer_motors or []:
+                if not 0 <= index < n:
+                    raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
+        if self.body.inertia is None or self.body.mass is None:
+            _check_inertia(self.inertia_matrix())
         return self
+
+    # ------------------------------------------------------- mass properties
+
+    def total_mass(self) -> float:
+        """Dry mass of the airframe [kg] (booster fuel is added by the vehicle)."""
+        if self.body.mass is not None:
+            return self.body.mass
+        return float(sum(s.mass or 0.0 for s in self.body.shapes))
+
+    def center_of_mass(self) -> np.ndarray:
+        """Centre of mass in the spec's coordinates [m]; the vehicle's body origin."""
+        if self.body.center_of_mass is not None:
+            return np.asarray(self.body.center_of_mass, dtype=float)
+        parts = [s for s in self.body.shapes if s.mass]
+        if not parts:
+            return np.zeros(3)
+        masses = np.array([s.mass for s in parts])
+        positions = np.array([s.position for s in parts], dtype=float)
+        return masses @ positions / masses.sum()
+
+    def inertia_matrix(self) -> np.ndarray:
+        """3 x 3 inertia about the centre of mass, body axes [kg m^2]."""
+        if self.body.inertia is not None:
+            return inertia_tensor(self.body.inertia)
+        com = self.center_of_mass()
+        total = np.zeros((3, 3))
+        for shape in self.body.shapes:
+            if not shape.mass:
+                continue
+            rot = _rpy_matrix(shape.rpy)
+            r = np.asarray(shape.position, dtype=float) - com
+            total += rot @ shape_inertia(shape) @ rot.T + shape.mass * (r @ r * np.eye(3) - np.outer(r, r))
+        return total
 
 
 def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
@@ -310,7 +624,7 @@ def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
         field = model.model_fields.get(part)
         if field is None:
             # discriminated unions appear in loc as their tag, e.g. ('control', 'multirotor', ...)
-            candidates = [MultirotorControlSpec, NoControlSpec]
+            candidates = [MultirotorControlSpec, FixedwingControlSpec, NoControlSpec]
             model = next((c for c in candidates if c.model_fields["type"].default == part), None)
             continue
         annotation = field.annotation
@@ -330,7 +644,7 @@ def _first_model(annotation: Any) -> Any:
 
 def _describe(error: dict[str, Any]) -> str:
     loc = tuple(error["loc"])
-    where = ".".join(str(p) for p in loc if p not in ("multirotor", "none")) or "(top level)"
+    where = ".".join(str(p) for p in loc if p not in ("multirotor", "fixedwing", "none")) or "(top level)"
     kind = error["type"]
     if kind == "extra_forbidden":
         model = _model_at(loc)

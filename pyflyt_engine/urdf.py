@@ -9,12 +9,15 @@ spawning the same airframe twice parses it once.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from pyflyt_engine.spec import ShapeSpec, UAVSpec, inertia_tensor
+import numpy as np
+
+from pyflyt_engine.spec import ShapeSpec, SurfaceSpec, UAVSpec
 
 
 def _fmt(values: tuple[float, ...] | list[float]) -> str:
@@ -34,23 +37,45 @@ def _geometry(shape: ShapeSpec, base_dir: Path) -> str:
     return f"<mesh filename={quoteattr(str(mesh))} scale=\"{_fmt(shape.scale)}\"/>"
 
 
+def _surface_plate(surface: SurfaceSpec) -> ShapeSpec:
+    """A thin visual plate for a lifting surface: chord along x, span along y, then rotated
+    so that x is the chord axis and z the normal axis."""
+    c = np.asarray(surface.chord_axis, dtype=float)
+    n = np.asarray(surface.normal_axis, dtype=float)
+    matrix = np.column_stack([c, np.cross(n, c), n])
+    pitch = -math.asin(max(-1.0, min(1.0, matrix[2, 0])))
+    roll = math.atan2(matrix[2, 1], matrix[2, 2])
+    yaw = math.atan2(matrix[1, 0], matrix[0, 0])
+    return ShapeSpec(
+        type="box",
+        size=(surface.chord, surface.span, max(0.004, 0.02 * surface.chord)),
+        position=surface.position,
+        rpy=(roll, pitch, yaw),
+        color=surface.color,
+        collision=False,
+    )
+
+
 def generate_urdf(spec: UAVSpec) -> str:
     """URDF text for ``spec`` (one link named ``body``)."""
-    base_dir = Path(spec.source).parent if spec.source and spec.source != "<dict>" else Path.cwd()
-    inertia = inertia_tensor(spec.body.inertia)
+    base_dir = Path(spec.source).parent if spec.source and Path(spec.source).exists() else Path.cwd()
+    inertia = spec.inertia_matrix()
+    com = spec.center_of_mass()
     lines = [
         '<?xml version="1.0"?>',
         f"<robot name={quoteattr(spec.name)}>",
         '  <link name="body">',
         "    <inertial>",
         '      <origin xyz="0 0 0" rpy="0 0 0"/>',
-        f'      <mass value="{spec.body.mass:.9g}"/>',
+        f'      <mass value="{spec.total_mass():.9g}"/>',
         f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="{inertia[0, 1]:.9g}" ixz="{inertia[0, 2]:.9g}" '
         f'iyy="{inertia[1, 1]:.9g}" iyz="{inertia[1, 2]:.9g}" izz="{inertia[2, 2]:.9g}"/>',
         "    </inertial>",
     ]
-    for i, shape in enumerate(spec.body.shapes):
-        origin = f'<origin xyz="{_fmt(shape.position)}" rpy="{_fmt(shape.rpy)}"/>'
+    shapes = list(spec.body.shapes) + [_surface_plate(s) for s in spec.surfaces if s.visual]
+    for i, shape in enumerate(shapes):
+        position = np.asarray(shape.position, dtype=float) - com
+        origin = f'<origin xyz="{_fmt(position)}" rpy="{_fmt(shape.rpy)}"/>'
         geometry = _geometry(shape, base_dir)
         if shape.visual:
             lines += [

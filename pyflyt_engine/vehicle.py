@@ -1,22 +1,42 @@
 """A vehicle in the world: its spec, its PyBullet body, its components and controller.
 
 This module is the adapter between the pure component models and PyBullet.  Per
-physics step a vehicle makes exactly four PyBullet calls: two state reads, and one net
-force plus one net torque on its centre of mass (the body origin), both in the body
-frame.  Summing the component loads into one wrench is exact for a rigid body: a force
-F applied at a point r is the force F at the centre of mass plus the torque r x F.
+physics step a vehicle reads its velocity when its loads depend on it (drag, lifting
+surfaces), advances every actuator, sums every component load into one net force and
+one net torque about its centre of mass (the body origin), and applies them in the body
+frame: two PyBullet calls whatever the number of components.  Summing is exact for a
+rigid body: a force F at a point r is F at the centre of mass plus the torque r x F.
+
+Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
+
+* multirotor modes (:mod:`pyflyt_engine.control.modes`): the mode's four values,
+  followed by one value per declared channel (for actuators outside the multirotor
+  mixer, e.g. a quadplane's pusher and control surfaces);
+* ``channels``: one value per declared channel (the spec's ``channels`` section), which
+  drive motors, flaps, boosters and gimbals through their ``mix`` weights;
+* ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed].
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 import pybullet as p
 
+from pyflyt_engine.assembly import Assembly, assemble
+from pyflyt_engine.components.booster import (
+    booster_loads,
+    booster_step,
+    initial_booster_state,
+    tank_mass_properties,
+)
+from pyflyt_engine.components.camera import capture
 from pyflyt_engine.components.drag import DragParams, drag_wrench
+from pyflyt_engine.components.gimbal import gimbal_step, rotate_axes
+from pyflyt_engine.components.lifting_surface import flap_step, surface_loads
 from pyflyt_engine.components.motor import (
     MotorParams,
     clip_command,
@@ -25,12 +45,14 @@ from pyflyt_engine.components.motor import (
     motor_wrench_matrix,
     noise_factors,
 )
+from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
 from pyflyt_engine.control.modes import FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
-from pyflyt_engine.spec import MultirotorControlSpec, UAVSpec, inertia_tensor
+from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.urdf import urdf_path
 
@@ -51,21 +73,23 @@ class _CustomMode:
     base: FlightMode
 
 
-def motor_params_from_spec(spec: UAVSpec) -> MotorParams | None:
-    """The :class:`MotorParams` of a spec's ``motors`` section (None without motors)."""
-    m = spec.motors
-    if m is None:
-        return None
+def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
+    idx = list(indices)
     return MotorParams(
-        positions=np.asarray(m.positions, dtype=float),
-        thrust_axes=m.to_array("thrust_axes"),
-        spin=m.to_array("spin"),
-        tau=m.to_array("tau"),
-        max_rpm=m.to_array("max_rpm"),
-        kf=m.to_array("kf"),
-        kt=m.to_array("kt"),
-        noise_ratio=m.to_array("noise_ratio"),
+        positions=motors.positions[idx],
+        thrust_axes=motors.thrust_axes[idx],
+        spin=motors.spin[idx],
+        tau=motors.tau[idx],
+        max_rpm=motors.max_rpm[idx],
+        kf=motors.kf[idx],
+        kt=motors.kt[idx],
+        noise_ratio=motors.noise_ratio[idx],
     )
+
+
+def motor_params_from_spec(spec: UAVSpec) -> MotorParams | None:
+    """The :class:`MotorParams` of a spec's ``motors`` (centre-of-mass frame; None without)."""
+    return assemble(spec).motors
 
 
 class Vehicle:
@@ -76,9 +100,11 @@ class Vehicle:
 
     Attributes:
         spec: the validated airframe spec.
+        parts: its components in the centre-of-mass frame (:class:`Assembly`).
         body_id: the PyBullet body id.
         state: the latest :class:`KinematicState`.
-        setpoint: current setpoint of the active flight mode.
+        mode: the active :class:`FlightMode`; setpoint: its current setpoint.
+        channels: the current channel vector (names: ``parts.channels``).
         armed: when False, every actuator is commanded to zero.
     """
 
@@ -95,6 +121,8 @@ class Vehicle:
         drag: bool = True,
     ) -> None:
         self.spec = spec
+        self.parts: Assembly = assemble(spec)
+        parts = self.parts
         self._client = client
         self.physics_dt = physics_dt
         self.control_dt = control_dt
@@ -111,85 +139,135 @@ class Vehicle:
             flags=p.URDF_USE_INERTIA_FROM_FILE,
             physicsClientId=client,
         )
-        inertia = inertia_tensor(spec.body.inertia)
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
-        if spec.body.urdf is not None:
-            p.changeDynamics(
-                self.body_id, -1, mass=spec.body.mass, localInertiaDiagonal=np.diag(inertia).tolist(), physicsClientId=client
-            )
+        self._dry_inertia = np.diag(parts.inertia).copy()
 
-        # --- motors
-        self.motors = motor_params_from_spec(spec)
-        if self.motors is not None:
-            n = self.motors.count
-            self._motor_wrench = motor_wrench_matrix(self.motors)
-            self._motor_lag = motor_lag(self.motors, physics_dt)
-            self._motor_has_noise = bool(np.any(self.motors.noise_ratio > 0))
+        # --- motors: fixed-axis ones through a precomputed wrench map
+        motors = parts.motors
+        self.motors = motors
+        n = motors.count if motors is not None else 0
+        self._gimballed_motors = sorted({i for kind, i in parts.gimbal_targets if kind == "motor"})
+        if motors is not None:
+            wrench = motor_wrench_matrix(motors)
+            wrench[:, self._gimballed_motors] = 0.0
+            self._motor_wrench = wrench
+            self._motor_lag = motor_lag(motors, physics_dt)
+            self._motor_has_noise = bool(np.any(motors.noise_ratio > 0))
         else:
-            n = 0
             self._motor_wrench = np.zeros((6, 0))
             self._motor_has_noise = False
         self.motor_throttle = np.zeros(n)
         self.motor_command = np.zeros(n)
         self._noise = np.zeros((0, n))
         self._noise_index = 0
+        self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
+
+        # --- lifting surfaces, boosters, gimbals, cameras
+        self.surface_deflection = np.zeros(len(parts.surfaces))
+        self.surface_command = np.zeros(len(parts.surfaces))
+        self.booster_state = initial_booster_state(parts.boosters, fuel_fraction=spec.boosters.initial_fuel) if parts.boosters else None
+        self.booster_ignition = np.zeros(parts.boosters.n, dtype=bool) if parts.boosters else None
+        self.booster_throttle = np.zeros(parts.boosters.n) if parts.boosters else None
+        self.gimbal_angles = np.zeros((parts.gimbals.n, 2)) if parts.gimbals else None
+        self.gimbal_command = np.zeros((parts.gimbals.n, 2)) if parts.gimbals else None
+        self._camera_cache: dict[int, tuple[float, dict[str, np.ndarray]]] = {}
 
         # --- drag
         drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
         self._drag_on = drag and drag_params.active
-        self._velocity_body = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self._drag_factors = drag_params.factors
         self._angular_damping = drag_params.angular_damping
+        self._velocity_body = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.needs_velocity = self._drag_on or bool(parts.surfaces)
+        """Whether the loads need fresh velocities every physics step (drag, surfaces)."""
 
         # --- control
+        self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
         self.controller: MultirotorController | None = None
+        self.autopilot: FixedwingAutopilot | None = None
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec):
-            assert self.motors is not None  # guaranteed by the spec validator
-            self.mixer = Mixer(self.motors)
+            assert motors is not None  # guaranteed by the spec validator
+            self.mixer = Mixer(_subset(motors, parts.mixer_motors))
             self.controller = MultirotorController(
-                spec.control, spec.body.mass, np.diag(inertia), self.mixer, control_dt
+                spec.control, parts.mass, np.diag(parts.inertia), self.mixer, control_dt
             )
-        self.mode = self.controller.mode if self.controller else None
-        self.setpoint = np.zeros(4 if self.controller else n)
+            self._modes: dict[str, FlightMode] = {}
+            self.mode = self.controller.mode
+        else:
+            self._modes = dict(FIXEDWING_MODES) if isinstance(spec.control, FixedwingControlSpec) else {"channels": FIXEDWING_MODES["channels"]}
+            if isinstance(spec.control, FixedwingControlSpec):
+                self.autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt)
+            self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
+        self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
         if mode is not None:
             self.set_mode(mode)
+        self._update_mass()
         self.state = self.read_state()
 
     # ------------------------------------------------------------ commanding
 
+    def _resolve(self, mode: str | int) -> FlightMode:
+        if self.controller is not None:
+            return resolve_mode(mode, {k: v.mode for k, v in self._custom_modes.items()})
+        name = str(mode)
+        if name not in self._modes:
+            raise ConfigError(f"unknown mode '{mode}' for vehicle '{self.spec.name}': available {', '.join(self._modes)}")
+        return self._modes[name]
+
+    def _setpoint_size(self, mode: FlightMode) -> int:
+        if mode.name == "channels":
+            return len(self.parts.channels)
+        if mode.name == "motors":
+            return len(self.parts.mixer_motors) + len(self.parts.channels)
+        extra = len(self.parts.channels) if self.controller is not None else 0
+        return len(mode.setpoint) + extra
+
+    @property
+    def setpoint_layout(self) -> tuple[str, ...]:
+        """Names of the setpoint entries in the current mode."""
+        if self.mode.name == "channels":
+            return self.parts.channels
+        if self.mode.name == "motors":
+            return tuple(f"m{i + 1}" for i in self.parts.mixer_motors) + self.parts.channels
+        extra = self.parts.channels if self.controller is not None else ()
+        return tuple(self.mode.setpoint) + extra
+
     def set_mode(self, mode: str | int) -> None:
         """Select a flight mode by name, alias, PyFlyt integer or registered custom name."""
-        if self.controller is None:
-            raise ConfigError(f"vehicle '{self.spec.name}' has no flight controller, so it has no flight modes")
-        resolved = resolve_mode(mode, {k: v.mode for k, v in self._custom_modes.items()})
-        base = self._custom_modes[resolved.name].base if resolved.name in self._custom_modes else resolved
-        self.controller.set_mode(base)
-        if resolved is not self.mode:
-            size = self.motors.count if resolved.name == "motors" else len(resolved.setpoint)  # type: ignore[union-attr]
-            self.setpoint = np.zeros(size)
+        resolved = self._resolve(mode)
+        if self.controller is not None:
+            base = self._custom_modes[resolved.name].base if resolved.name in self._custom_modes else resolved
+            self.controller.set_mode(base)
+            custom = self._custom_modes.get(resolved.name)
+            if custom is not None and hasattr(custom.controller, "reset"):
+                custom.controller.reset()  # type: ignore[attr-defined]
+        elif self.autopilot is not None and resolved is not self.mode:
+            self.autopilot.reset()
+        if resolved is not self.mode or self.setpoint.size != self._setpoint_size(resolved):
+            self.setpoint = np.zeros(self._setpoint_size(resolved))
         self.mode = resolved
-        if resolved.name in self._custom_modes and hasattr(self._custom_modes[resolved.name].controller, "reset"):
-            self._custom_modes[resolved.name].controller.reset()  # type: ignore[attr-defined]
 
     def set_setpoint(self, setpoint: Sequence[float] | np.ndarray) -> None:
-        """Set the setpoint of the current mode (layout: ``vehicle.mode.setpoint``)."""
+        """Set the setpoint of the current mode (layout: :attr:`setpoint_layout`)."""
         value = np.asarray(setpoint, dtype=np.float64).reshape(-1)
         if value.shape != self.setpoint.shape:
-            layout = ", ".join(self.mode.setpoint) if self.mode else "one value per motor"
+            layout = ", ".join(self.setpoint_layout)
             raise ConfigError(
-                f"setpoint for mode '{self.mode.name if self.mode else 'direct'}' needs {self.setpoint.size} values "
-                f"({layout}), got {value.size}"
+                f"setpoint for mode '{self.mode.name}' needs {self.setpoint.size} values ({layout}), got {value.size}"
             )
         if not np.all(np.isfinite(value)):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
 
     def register_controller(
-        self, name: str, controller: Controller | Callable[[KinematicState, np.ndarray], Sequence[float]],
-        base_mode: str | int, setpoint: Sequence[str] = ("a", "b", "c", "d"),
+        self,
+        name: str,
+        controller: Controller | Callable[[KinematicState, np.ndarray], Sequence[float]],
+        base_mode: str | int,
+        setpoint: Sequence[str] = ("a", "b", "c", "d"),
     ) -> None:
         """Add a flight mode ``name`` run by ``controller`` on top of ``base_mode``.
 
@@ -198,7 +276,7 @@ class Vehicle:
         new mode's setpoint entries (its length is the setpoint size).
         """
         if self.controller is None:
-            raise ConfigError(f"vehicle '{self.spec.name}' has no flight controller to extend")
+            raise ConfigError(f"vehicle '{self.spec.name}' has no multirotor controller to extend")
         base = resolve_mode(base_mode)
         mode = FlightMode(name, None, tuple(setpoint), f"custom controller over {base.name}")
         self._custom_modes[name] = _CustomMode(mode, controller, base)
@@ -229,7 +307,7 @@ class Vehicle:
         return self.state
 
     def read_velocity(self) -> None:
-        """Refresh only the body-frame velocities (what drag needs between control ticks)."""
+        """Refresh only the body-frame velocities (what the loads need between control ticks)."""
         cid = self._client
         quat = p.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)[1]
         (lx, ly, lz), (ax, ay, az) = p.getBaseVelocity(self.body_id, physicsClientId=cid)
@@ -239,28 +317,54 @@ class Vehicle:
             (r[0] * ax + r[3] * ay + r[6] * az, r[1] * ax + r[4] * ay + r[7] * az, r[2] * ax + r[5] * ay + r[8] * az),
         )
 
-    @property
-    def needs_velocity(self) -> bool:
-        """Whether the actuators/aerodynamics need fresh velocities every physics step."""
-        return self._drag_on
-
     def control_step(self) -> None:
-        """Run the flight controller once (at the control rate)."""
+        """Run the flight controller once (at the control rate) and route its outputs."""
+        parts = self.parts
         if not self.armed:
             self.motor_command = np.zeros_like(self.motor_throttle)
+            self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
+            if self.booster_ignition is not None:
+                self.booster_ignition[:] = False
+            self._route_channels(mixer_throttles=None)
             return
-        if self.controller is None:
-            self.motor_command = clip_command(self.setpoint)
-            return
-        state, setpoint = self.state, self.setpoint
-        custom = self._custom_modes.get(self.mode.name) if self._custom_modes else None  # type: ignore[union-attr]
-        if custom is not None:
-            setpoint = np.asarray(custom.controller(state, setpoint), dtype=np.float64)
-        self.motor_command = clip_command(np.asarray(self.controller(state, setpoint.tolist())))
+        name = self.mode.name
+        setpoint = self.setpoint
+        if self.controller is not None:
+            k = len(setpoint) - len(parts.channels)
+            self.channels = np.clip(setpoint[k:], parts.channel_low, parts.channel_high)
+            head = setpoint[:k]
+            custom = self._custom_modes.get(name) if self._custom_modes else None
+            if custom is not None:
+                head = np.asarray(custom.controller(self.state, head), dtype=np.float64)
+            throttles = self.controller(self.state, head.tolist())
+            self._route_channels(mixer_throttles=throttles)
+        else:
+            if name == "channels":
+                self.channels = np.clip(setpoint, parts.channel_low, parts.channel_high)
+            else:  # fixed-wing autopilot
+                self.channels = self.autopilot(self.state, setpoint.tolist())  # type: ignore[misc]
+            self._route_channels(mixer_throttles=None)
+
+    def _route_channels(self, mixer_throttles: Sequence[float] | None) -> None:
+        """Turn the channel vector (and the mixer's throttles) into actuator commands."""
+        parts = self.parts
+        c = self.channels
+        if self.motors is not None:
+            command = parts.motor_mix @ c if len(c) else np.zeros(self.motors.count)
+            if mixer_throttles is not None and parts.mixer_motors:
+                command[list(parts.mixer_motors)] = mixer_throttles
+            self.motor_command = clip_command(command)
+        if parts.surfaces:
+            self.surface_command = np.clip(parts.surface_mix @ c, -1.0, 1.0)
+        if parts.boosters is not None:
+            self.booster_ignition = c[parts.ignition_index] > 0.5
+            self.booster_throttle = np.clip(c[parts.throttle_index], 0.0, 1.0)
+        if parts.gimbals is not None:
+            self.gimbal_command = np.clip(c[parts.gimbal_channels], -1.0, 1.0)
 
     def apply_loads(self) -> None:
         """Advance the actuators one physics step and apply the net wrench to the body."""
-        wrench = None
+        parts = self.parts
         if self.motors is not None:
             if self._motor_has_noise:
                 if self._noise_index >= len(self._noise):
@@ -273,10 +377,14 @@ class Vehicle:
                 noise = 1.0
             throttle = motor_step(self.motors, self.motor_throttle, self.motor_command, self._motor_lag, noise)
             self.motor_throttle = throttle
-            wrench = self._motor_wrench @ (throttle * np.abs(throttle))
-        if wrench is None:
-            wrench = np.zeros(6)
-        fx, fy, fz, tx, ty, tz = wrench.tolist()
+            fx, fy, fz, tx, ty, tz = (self._motor_wrench @ (throttle * np.abs(throttle))).tolist()
+        else:
+            fx = fy = fz = tx = ty = tz = 0.0
+        extra = None
+        if parts.gimbals is not None or parts.surfaces or parts.boosters is not None:
+            extra = self._component_loads()
+            fx, fy, fz = fx + extra[0], fy + extra[1], fz + extra[2]
+            tx, ty, tz = tx + extra[3], ty + extra[4], tz + extra[5]
         if self._drag_on:
             dfx, dfy, dfz, dtx, dty, dtz = drag_wrench(self._drag_factors, self._angular_damping, *self._velocity_body)
             fx += dfx
@@ -289,6 +397,91 @@ class Vehicle:
         p.applyExternalForce(self.body_id, -1, (fx, fy, fz), (0.0, 0.0, 0.0), p.LINK_FRAME, physicsClientId=cid)
         p.applyExternalTorque(self.body_id, -1, (tx, ty, tz), p.LINK_FRAME, physicsClientId=cid)
 
+    def _component_loads(self) -> list[float]:
+        """Net wrench of gimballed motors, lifting surfaces and boosters (body frame)."""
+        parts, dt = self.parts, self.physics_dt
+        total = np.zeros(6)
+        axes_override: dict[tuple[str, int], np.ndarray] = {}
+        if parts.gimbals is not None:
+            self.gimbal_angles = gimbal_step(parts.gimbals, self.gimbal_angles, self.gimbal_command, dt)
+            for g, (kind, index) in enumerate(parts.gimbal_targets):
+                base = (self.motors.thrust_axes if kind == "motor" else parts.boosters.thrust_axes)[index]  # type: ignore[union-attr]
+                rotated = rotate_axes(parts.gimbals, self.gimbal_angles, np.tile(base, (parts.gimbals.n, 1)))[g]
+                axes_override[(kind, index)] = rotated
+        for index in self._gimballed_motors:
+            m = self.motors
+            x = self.motor_throttle[index]
+            thrust = m.max_thrust[index] * x * abs(x)  # type: ignore[union-attr]
+            axis = axes_override[("motor", index)]
+            force = axis * thrust
+            reaction = -m.spin[index] * m.max_torque[index] * x * abs(x) * axis  # type: ignore[union-attr]
+            total[:3] += force
+            total[3:] += np.cross(m.positions[index], force) + reaction  # type: ignore[union-attr]
+        if parts.surfaces:
+            velocity, rates = self._velocity_body
+            for i, surface in enumerate(parts.surfaces):
+                self.surface_deflection[i] = flap_step(surface, self.surface_deflection[i], self.surface_command[i], dt)
+                force, torque = surface_loads(surface, self.surface_deflection[i], velocity, rates)
+                total[:3] += force
+                total[3:] += torque
+        if parts.boosters is not None:
+            b = parts.boosters
+            noise = self._rng.standard_normal(b.n) if np.any(b.noise_ratio > 0) else np.zeros(b.n)
+            self.booster_state, thrust = booster_step(b, self.booster_state, self.booster_ignition, self.booster_throttle, dt, noise)
+            axes = b.thrust_axes
+            if axes_override:
+                axes = axes.copy()
+                for (kind, index), axis in axes_override.items():
+                    if kind == "booster":
+                        axes[index] = axis
+            force, torque = booster_loads(b, thrust, thrust_axes=axes)
+            total[:3] += force
+            total[3:] += torque
+        return total.tolist()
+
+    def _update_mass(self) -> None:
+        """Set the body's mass and inertia to the dry airframe plus remaining fuel.
+
+        The fuel tanks' offset from the centre of mass enters the inertia through the
+        parallel-axis theorem (diagonal terms); the shift of the centre of mass as fuel
+        burns is not modelled.
+        """
+        if self.parts.boosters is None:
+            return
+        b = self.parts.boosters
+        fuel_mass, tank_inertia = tank_mass_properties(b, self.booster_state.fuel)  # type: ignore[union-attr]
+        r = b.fuel_tank_positions
+        parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
+        inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
+        mass = self.parts.mass + float(fuel_mass.sum())
+        p.changeDynamics(self.body_id, -1, mass=mass, localInertiaDiagonal=inertia.tolist(), physicsClientId=self._client)
+        self.mass = mass
+
+    def update_mass(self) -> None:
+        """Refresh mass properties that change in flight (fuel); the world calls this at the control rate."""
+        if self.parts.boosters is not None:
+            self._update_mass()
+
+    # --------------------------------------------------------------- cameras
+
+    def capture(self, camera: int = 0, time: float | None = None) -> dict[str, np.ndarray]:
+        """Images of camera ``camera`` (see :func:`pyflyt_engine.components.camera.capture`).
+
+        With ``time`` (the world's simulated time), the image is re-rendered only when
+        ``1 / capture_hz`` has passed since the last one; otherwise the cached one is
+        returned.
+        """
+        cameras = self.parts.cameras
+        if not 0 <= camera < len(cameras):
+            raise ConfigError(f"vehicle '{self.spec.name}' has {len(cameras)} camera(s); no camera {camera}")
+        params = cameras[camera]
+        cached = self._camera_cache.get(camera)
+        if time is not None and cached is not None and time - cached[0] < 1.0 / params.capture_hz - 1e-9:
+            return cached[1]
+        images = capture(self._client, params, self.state.lin_pos, self.state.quaternion)
+        self._camera_cache[camera] = (time if time is not None else float("nan"), images)
+        return images
+
     # --------------------------------------------------------------- resets
 
     def reset(self, position: Sequence[float] | None = None, orientation: Sequence[float] | None = None) -> None:
@@ -296,16 +489,29 @@ class Vehicle:
         position = self.spawn_position if position is None else position
         orientation = self.spawn_orientation if orientation is None else orientation
         cid = self._client
-        p.resetBasePositionAndOrientation(
-            self.body_id, list(position), euler_to_quaternion(*orientation), physicsClientId=cid
-        )
+        p.resetBasePositionAndOrientation(self.body_id, list(position), euler_to_quaternion(*orientation), physicsClientId=cid)
         p.resetBaseVelocity(self.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        parts = self.parts
         self.motor_throttle = np.zeros_like(self.motor_throttle)
         self.motor_command = np.zeros_like(self.motor_throttle)
         self.setpoint[:] = 0.0
-        self._noise_index = len(self._noise)  # discard buffered noise: redraw from the reseeded stream
+        self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
+        self.surface_deflection[:] = 0.0
+        self.surface_command[:] = 0.0
+        if parts.boosters is not None:
+            self.booster_state = initial_booster_state(parts.boosters, fuel_fraction=self.spec.boosters.initial_fuel)  # type: ignore[union-attr]
+            self.booster_ignition[:] = False  # type: ignore[index]
+            self.booster_throttle[:] = 0.0  # type: ignore[index]
+            self._update_mass()
+        if parts.gimbals is not None:
+            self.gimbal_angles[:] = 0.0  # type: ignore[index]
+            self.gimbal_command[:] = 0.0  # type: ignore[index]
+        self._camera_cache.clear()
+        self._noise_index = len(self._noise)  # discard buffered noise: redraw from the stream
         if self.controller is not None:
             self.controller.reset()
+        if self.autopilot is not None:
+            self.autopilot.reset()
         self.read_state()
 
     def reseed(self, rng: np.random.Generator) -> None:
@@ -318,18 +524,25 @@ class Vehicle:
 
     @property
     def aux_state(self) -> np.ndarray:
-        """Auxiliary state: the motor throttles, normalised to [-1, 1]."""
-        return self.motor_throttle.copy()
+        """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
+        normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
+        ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        parts = [self.motor_throttle]
+        if self.parts.surfaces:
+            limits = np.array([s.max_deflection or 1.0 for s in self.parts.surfaces])
+            parts.append(self.surface_deflection / limits)
+        if self.booster_state is not None:
+            b = self.parts.boosters
+            parts.append(np.stack([self.booster_state.fuel / b.total_fuel, self.booster_state.duty,  # type: ignore[union-attr]
+                                   self.booster_state.ignited.astype(float)], axis=1).ravel())
+        if self.gimbal_angles is not None:
+            parts.append((self.gimbal_angles / np.maximum(self.parts.gimbals.max_angles, 1e-12)).ravel())  # type: ignore[union-attr]
+        return np.concatenate(parts) if len(parts) > 1 else parts[0].copy()
 
     def hover_throttle(self) -> float:
-        """Analytic throttle at which the motors' vertical thrust equals the weight (level)."""
-        if self.motors is None:
-            raise ConfigError(f"vehicle '{self.spec.name}' has no motors")
-        from pyflyt_engine.constants import GRAVITY
-
-        lift = float(self.motors.thrust_axes[:, 2] @ self.motors.max_thrust)
-        return float(np.sqrt(self.spec.body.mass * GRAVITY / lift))
-
-    def describe(self) -> dict[str, Any]:
-        """A short summary used by the CLI."""
-        return {"name": self.spec.name, "mass": self.spec.body.mass, "mode": self.mode.name if self.mode else None}
+        """Analytic throttle at which the mixer motors' vertical thrust equals the weight (level)."""
+        if self.motors is None or not self.parts.mixer_motors:
+            raise ConfigError(f"vehicle '{self.spec.name}' has no multirotor motors")
+        idx = list(self.parts.mixer_motors)
+        lift = float(self.motors.thrust_axes[idx, 2] @ self.motors.max_thrust[idx])
+        return float(np.sqrt(self.parts.mass * GRAVITY / lift))

@@ -230,6 +230,7 @@ class World:
                 if control_tick:
                     vehicle.read_state()
                     vehicle.control_step()
+                    vehicle.update_mass()
                 elif vehicle.needs_velocity:
                     vehicle.read_velocity()
                 vehicle.apply_loads()
@@ -250,6 +251,10 @@ class World:
     def state(self, index: int) -> KinematicState:
         """The latest :class:`KinematicState` of vehicle ``index``."""
         return self._vehicle(index).state
+
+    def capture(self, index: int, camera: int = 0) -> dict[str, np.ndarray]:
+        """Images of camera ``camera`` of vehicle ``index``, refreshed at its capture rate."""
+        return self._vehicle(index).capture(camera, time=self.elapsed)
 
     def aux_state(self, index: int) -> np.ndarray:
         """Auxiliary state (actuator read-outs) of vehicle ``index``."""
