@@ -1,8 +1,9 @@
 """UAV components: frozen parameter dataclasses plus pure update functions.
 
-Nothing in this package talks to PyBullet.  Each module holds one component model:
-its parameters (units and frames documented on the fields), its state, and pure
-functions ``(params, state, command, dt, noise) -> (new state, loads in body frame)``.
-The vehicle adapter (:mod:`pyflyt_engine.vehicle`) is the only place that applies the
-resulting loads to the physics engine.
+Each module holds one component model: its parameters (units and frames documented on
+the fields), its state, and pure functions ``(params, state, command, dt, noise) ->
+(new state, loads in body frame)`` that never touch PyBullet.  The vehicle adapter
+(:mod:`pyflyt_engine.vehicle`) is the only place that applies loads to the physics
+engine; the one other PyBullet call in this package is the camera's renderer,
+:func:`pyflyt_engine.components.camera.capture`, kept beside the camera maths.
 """
