@@ -51,14 +51,14 @@ def setpoint_vector(layout: Sequence[str], setpoint: Sequence[float] | Mapping[s
 
 def hover_setpoint(vehicle: Vehicle, altitude: float) -> list[float]:
     """A setpoint that holds ``vehicle`` at ``altitude`` [m] in its current mode."""
-    mode = vehicle.mode.name if vehicle.mode else "motors"
+    mode = vehicle.mode.name
     if mode == "motors":
-        return [vehicle.hover_throttle()] * len(vehicle.motor_throttle)
+        return [vehicle.hover_throttle()] * len(vehicle.setpoint_layout)
     if mode == "rates_thrust":
         return [0.0, 0.0, 0.0, vehicle.hover_throttle() ** 2]
     x, y, _ = vehicle.state.lin_pos
     values = {"x": x, "y": y, "z": altitude}
-    return [values.get(name, 0.0) for name in vehicle.mode.setpoint]  # type: ignore[union-attr]
+    return [values.get(name, 0.0) for name in vehicle.setpoint_layout]
 
 
 def fly(
@@ -85,9 +85,7 @@ def fly(
     with World(seed=seed, physics_hz=physics_hz, control_hz=control_hz, agent_hz=agent_hz, render=render) as world:
         world.add_vehicle(uav, position, orientation, mode=mode)
         vehicle = world.vehicles[0]
-        layout = vehicle.mode.setpoint if vehicle.mode else ()
-        if vehicle.mode is not None and vehicle.mode.name == "motors":
-            layout = tuple(f"m{i + 1}" for i in range(len(vehicle.motor_throttle)))
+        layout = vehicle.setpoint_layout
         if setpoint is None:
             world.set_setpoint(0, hover_setpoint(vehicle, float(position[2]) + 1.0))
         else:
@@ -106,6 +104,6 @@ def fly(
             velocity=np.array([r[3] for r in rows]),
             throttle=np.array([r[4] for r in rows]),
             collided=np.array([r[5] for r in rows]),
-            mode=vehicle.mode.name if vehicle.mode else "direct",
+            mode=vehicle.mode.name,
             setpoint=vehicle.setpoint.copy(),
         )

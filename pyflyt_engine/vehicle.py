@@ -41,7 +41,7 @@ from pyflyt_engine.components.motor import (
     MotorParams,
     clip_command,
     motor_lag,
-    motor_step,
+    motor_step_wrench,
     motor_wrench_matrix,
     noise_factors,
 )
@@ -58,6 +58,10 @@ from pyflyt_engine.urdf import urdf_path
 
 #: Standard normals drawn per refill of a vehicle's noise buffer (per actuator).
 _NOISE_BLOCK = 1024
+_ORIGIN = (0.0, 0.0, 0.0)
+_LINK_FRAME = p.LINK_FRAME
+# Hot-path PyBullet calls pass the client id positionally: keyword parsing in the
+# binding costs a few tenths of a microsecond per call, at the physics rate.
 
 
 class Controller(Protocol):
@@ -152,14 +156,19 @@ class Vehicle:
             wrench = motor_wrench_matrix(motors)
             wrench[:, self._gimballed_motors] = 0.0
             self._motor_wrench = wrench
-            self._motor_lag = motor_lag(motors, physics_dt)
+            self._motor_lag = motor_lag(motors, physics_dt).tolist()
             self._motor_has_noise = bool(np.any(motors.noise_ratio > 0))
         else:
             self._motor_wrench = np.zeros((6, 0))
+            self._motor_lag = []
             self._motor_has_noise = False
-        self.motor_throttle = np.zeros(n)
-        self.motor_command = np.zeros(n)
-        self._noise = np.zeros((0, n))
+        # Motor state lives in Python lists, stepped by motor_step_wrench: with a handful
+        # of motors, float arithmetic beats NumPy's per-call overhead at the physics rate.
+        self._wrench_columns = [tuple(col) for col in self._motor_wrench.T.tolist()]
+        self._no_noise = [1.0] * n
+        self._throttle = [0.0] * n
+        self._command = [0.0] * n
+        self._noise: list[list[float]] = []
         self._noise_index = 0
         self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
 
@@ -201,6 +210,11 @@ class Vehicle:
                 self.autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt)
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
+        self._plain_multirotor = (
+            self.controller is not None and not parts.channels and len(parts.mixer_motors) == n
+            and list(parts.mixer_motors) == list(range(n))
+        )
+        self._has_components = parts.gimbals is not None or bool(parts.surfaces) or parts.boosters is not None
         self.armed = True
         if mode is not None:
             self.set_mode(mode)
@@ -286,9 +300,9 @@ class Vehicle:
     def read_state(self) -> KinematicState:
         """Read the body's pose and velocity from PyBullet into :attr:`state`."""
         cid = self._client
-        pos, quat = p.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)
-        lin, ang = p.getBaseVelocity(self.body_id, physicsClientId=cid)
-        r = p.getMatrixFromQuaternion(quat, physicsClientId=cid)  # body-to-ground, row-major
+        pos, quat = p.getBasePositionAndOrientation(self.body_id, cid)
+        lin, ang = p.getBaseVelocity(self.body_id, cid)
+        r = p.getMatrixFromQuaternion(quat, cid)  # body-to-ground, row-major
         lx, ly, lz = lin
         ax, ay, az = ang
         # body frame = R^T ground frame
@@ -297,7 +311,7 @@ class Vehicle:
         self._velocity_body = (lin_vel, ang_vel)
         self.state = KinematicState(
             ang_vel=ang_vel,
-            ang_pos=p.getEulerFromQuaternion(quat, physicsClientId=cid),
+            ang_pos=p.getEulerFromQuaternion(quat, cid),
             lin_vel=lin_vel,
             lin_pos=pos,
             quaternion=quat,
@@ -309,9 +323,9 @@ class Vehicle:
     def read_velocity(self) -> None:
         """Refresh only the body-frame velocities (what the loads need between control ticks)."""
         cid = self._client
-        quat = p.getBasePositionAndOrientation(self.body_id, physicsClientId=cid)[1]
-        (lx, ly, lz), (ax, ay, az) = p.getBaseVelocity(self.body_id, physicsClientId=cid)
-        r = p.getMatrixFromQuaternion(quat, physicsClientId=cid)
+        quat = p.getBasePositionAndOrientation(self.body_id, cid)[1]
+        (lx, ly, lz), (ax, ay, az) = p.getBaseVelocity(self.body_id, cid)
+        r = p.getMatrixFromQuaternion(quat, cid)
         self._velocity_body = (
             (r[0] * lx + r[3] * ly + r[6] * lz, r[1] * lx + r[4] * ly + r[7] * lz, r[2] * lx + r[5] * ly + r[8] * lz),
             (r[0] * ax + r[3] * ay + r[6] * az, r[1] * ax + r[4] * ay + r[7] * az, r[2] * ax + r[5] * ay + r[8] * az),
@@ -321,7 +335,7 @@ class Vehicle:
         """Run the flight controller once (at the control rate) and route its outputs."""
         parts = self.parts
         if not self.armed:
-            self.motor_command = np.zeros_like(self.motor_throttle)
+            self._command = [0.0] * len(self._command)
             self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
             if self.booster_ignition is not None:
                 self.booster_ignition[:] = False
@@ -329,6 +343,11 @@ class Vehicle:
             return
         name = self.mode.name
         setpoint = self.setpoint
+        if self._plain_multirotor and not self._custom_modes:
+            # fast path: every motor flown by the mixer, no channels
+            throttles = self.controller(self.state, setpoint.tolist())  # type: ignore[misc]
+            self._command = [1.0 if t > 1.0 else -1.0 if t < -1.0 else float(t) for t in throttles]
+            return
         if self.controller is not None:
             k = len(setpoint) - len(parts.channels)
             self.channels = np.clip(setpoint[k:], parts.channel_low, parts.channel_high)
@@ -353,7 +372,7 @@ class Vehicle:
             command = parts.motor_mix @ c if len(c) else np.zeros(self.motors.count)
             if mixer_throttles is not None and parts.mixer_motors:
                 command[list(parts.mixer_motors)] = mixer_throttles
-            self.motor_command = clip_command(command)
+            self._command = clip_command(command).tolist()
         if parts.surfaces:
             self.surface_command = np.clip(parts.surface_mix @ c, -1.0, 1.0)
         if parts.boosters is not None:
@@ -364,38 +383,32 @@ class Vehicle:
 
     def apply_loads(self) -> None:
         """Advance the actuators one physics step and apply the net wrench to the body."""
-        parts = self.parts
         if self.motors is not None:
             if self._motor_has_noise:
                 if self._noise_index >= len(self._noise):
                     eta = self._rng.standard_normal((_NOISE_BLOCK, self.motors.count))
-                    self._noise = noise_factors(self.motors, eta)
+                    self._noise = noise_factors(self.motors, eta).tolist()
                     self._noise_index = 0
                 noise = self._noise[self._noise_index]
                 self._noise_index += 1
             else:
-                noise = 1.0
-            throttle = motor_step(self.motors, self.motor_throttle, self.motor_command, self._motor_lag, noise)
-            self.motor_throttle = throttle
-            fx, fy, fz, tx, ty, tz = (self._motor_wrench @ (throttle * np.abs(throttle))).tolist()
+                noise = self._no_noise
+            self._throttle, (fx, fy, fz, tx, ty, tz) = motor_step_wrench(
+                self._throttle, self._command, self._motor_lag, noise, self._wrench_columns
+            )
         else:
             fx = fy = fz = tx = ty = tz = 0.0
-        extra = None
-        if parts.gimbals is not None or parts.surfaces or parts.boosters is not None:
+        if self._has_components:
             extra = self._component_loads()
             fx, fy, fz = fx + extra[0], fy + extra[1], fz + extra[2]
             tx, ty, tz = tx + extra[3], ty + extra[4], tz + extra[5]
         if self._drag_on:
-            dfx, dfy, dfz, dtx, dty, dtz = drag_wrench(self._drag_factors, self._angular_damping, *self._velocity_body)
-            fx += dfx
-            fy += dfy
-            fz += dfz
-            tx += dtx
-            ty += dty
-            tz += dtz
+            drag = drag_wrench(self._drag_factors, self._angular_damping, *self._velocity_body)
+            fx, fy, fz = fx + drag[0], fy + drag[1], fz + drag[2]
+            tx, ty, tz = tx + drag[3], ty + drag[4], tz + drag[5]
         cid = self._client
-        p.applyExternalForce(self.body_id, -1, (fx, fy, fz), (0.0, 0.0, 0.0), p.LINK_FRAME, physicsClientId=cid)
-        p.applyExternalTorque(self.body_id, -1, (tx, ty, tz), p.LINK_FRAME, physicsClientId=cid)
+        p.applyExternalForce(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
+        p.applyExternalTorque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
 
     def _component_loads(self) -> list[float]:
         """Net wrench of gimballed motors, lifting surfaces and boosters (body frame)."""
@@ -410,7 +423,7 @@ class Vehicle:
                 axes_override[(kind, index)] = rotated
         for index in self._gimballed_motors:
             m = self.motors
-            x = self.motor_throttle[index]
+            x = self._throttle[index]
             thrust = m.max_thrust[index] * x * abs(x)  # type: ignore[union-attr]
             axis = axes_override[("motor", index)]
             force = axis * thrust
@@ -492,8 +505,8 @@ class Vehicle:
         p.resetBasePositionAndOrientation(self.body_id, list(position), euler_to_quaternion(*orientation), physicsClientId=cid)
         p.resetBaseVelocity(self.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
         parts = self.parts
-        self.motor_throttle = np.zeros_like(self.motor_throttle)
-        self.motor_command = np.zeros_like(self.motor_throttle)
+        self._throttle = [0.0] * len(self._throttle)
+        self._command = [0.0] * len(self._command)
         self.setpoint[:] = 0.0
         self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
         self.surface_deflection[:] = 0.0
@@ -517,10 +530,20 @@ class Vehicle:
     def reseed(self, rng: np.random.Generator) -> None:
         """Use a new noise stream (on a seeded world reset)."""
         self._rng = rng
-        self._noise = np.zeros((0, len(self.motor_throttle)))
+        self._noise = []
         self._noise_index = 0
 
     # -------------------------------------------------------------- read-outs
+
+    @property
+    def motor_throttle(self) -> np.ndarray:
+        """(n,) current normalised motor throttles (a copy)."""
+        return np.array(self._throttle)
+
+    @property
+    def motor_command(self) -> np.ndarray:
+        """(n,) throttles the motors are commanded toward, in [-1, 1] (a copy)."""
+        return np.array(self._command)
 
     @property
     def aux_state(self) -> np.ndarray:

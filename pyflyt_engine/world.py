@@ -230,15 +230,16 @@ class World:
                 if control_tick:
                     vehicle.read_state()
                     vehicle.control_step()
-                    vehicle.update_mass()
+                    if vehicle.booster_state is not None:
+                        vehicle.update_mass()
                 elif vehicle.needs_velocity:
                     vehicle.read_velocity()
                 vehicle.apply_loads()
-            p.stepSimulation(physicsClientId=cid)
+            p.stepSimulation(cid)
             self.physics_steps += 1
             # contacts are sampled at the end of every control period and of the agent step
             if self.physics_steps % per_control == 0 or substep == last:
-                for contact in p.getContactPoints(physicsClientId=cid):
+                for contact in p.getContactPoints(-1, -1, -2, -2, cid):
                     a = index.get(contact[1])
                     b = index.get(contact[2])
                     if a is not None and b is not None:

@@ -120,6 +120,39 @@ def noise_factors(params: MotorParams, eta: np.ndarray) -> np.ndarray:
     return 1.0 + params.noise_ratio * eta
 
 
+def motor_step_wrench(
+    throttle: list[float],
+    command: list[float],
+    lag: list[float],
+    noise_factor: list[float],
+    wrench_columns: list[tuple[float, float, float, float, float, float]],
+) -> tuple[list[float], tuple[float, float, float, float, float, float]]:
+    """:func:`motor_step` and the wrench of :func:`motor_wrench_matrix`, on Python floats.
+
+    The same arithmetic as the NumPy functions, element by element: for the handful of
+    motors of one vehicle, stepped at the physics rate, plain floats avoid NumPy's
+    per-call overhead (a test checks both forms agree to rounding).
+
+    Args:
+        throttle, command, lag, noise_factor: per-motor lists (see :func:`motor_step`).
+        wrench_columns: per-motor columns of :func:`motor_wrench_matrix` as 6-tuples.
+
+    Returns:
+        (new throttle list, body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m).
+    """
+    new = [(x + a * (c - x)) * z for x, c, a, z in zip(throttle, command, lag, noise_factor)]
+    fx = fy = fz = tx = ty = tz = 0.0
+    for (wx, wy, wz, wl, wm, wn), x in zip(wrench_columns, new):
+        f = x * abs(x)
+        fx += wx * f
+        fy += wy * f
+        fz += wz * f
+        tx += wl * f
+        ty += wm * f
+        tz += wn * f
+    return new, (fx, fy, fz, tx, ty, tz)
+
+
 def motor_outputs(params: MotorParams, throttle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Thrust [N] and reaction-torque magnitude [N m] of every motor at ``throttle``."""
     omega = throttle * params.max_rpm

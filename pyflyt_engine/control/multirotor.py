@@ -56,8 +56,23 @@ class MultirotorController:
         self.mixer = mixer
         self.dt = dt
         self._rate = gains.rate
+        rate = gains.rate
+        # integrator limits on int(e), from the limit on ki * int(e); no integration when ki = 0
+        self._rate_gains = (
+            tuple(rate.kp),
+            tuple(rate.ki),
+            tuple(rate.kd),
+            tuple(lim / k if k > 0 else 0.0 for lim, k in zip(rate.integral_limit, rate.ki)),
+        )
         self._att = gains.attitude
         self._vel = gains.velocity
+        vel = gains.velocity
+        self._vel_gains = (
+            tuple(vel.kp),
+            tuple(vel.ki),
+            tuple(lim / k if k > 0 else 0.0 for lim, k in zip(vel.integral_limit, vel.ki)),
+            vel.integral_window,
+        )
         self._pos = gains.position
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.reset()
@@ -78,26 +93,24 @@ class MultirotorController:
 
     def _rate_loop(self, state: KinematicState, p_sp: float, q_sp: float, r_sp: float) -> tuple[float, float, float]:
         """Body torques [N m] that drive the body rates to the setpoint."""
-        g, dt = self._rate, self.dt
-        rates = state.ang_vel
-        prev = self._prev_rate or rates
+        dt = self.dt
+        kp, ki, kd, limit = self._rate_gains
+        wx, wy, wz = rates = state.ang_vel
+        px, py, pz = self._prev_rate or rates
         self._prev_rate = rates
-        integral = self._rate_integral
-        torques = []
-        for i, (sp, w, w_prev) in enumerate(zip((p_sp, q_sp, r_sp), rates, prev)):
-            err = sp - w
-            if g.ki[i] > 0:
-                limit = g.integral_limit[i] / g.ki[i]
-                integral[i] = _clip(integral[i] + err * dt, limit)
-            accel = g.kp[i] * err + g.ki[i] * integral[i] - g.kd[i] * (w - w_prev) / dt
-            torques.append(accel * self.inertia[i])
-        # gyroscopic feed-forward omega x (J omega)
+        ix, iy, iz = self._rate_integral
+        ex, ey, ez = p_sp - wx, q_sp - wy, r_sp - wz
+        ix, iy, iz = _clip(ix + ex * dt, limit[0]), _clip(iy + ey * dt, limit[1]), _clip(iz + ez * dt, limit[2])
+        self._rate_integral = [ix, iy, iz]
         jx, jy, jz = self.inertia
-        wx, wy, wz = rates
+        ax = kp[0] * ex + ki[0] * ix - kd[0] * (wx - px) / dt
+        ay = kp[1] * ey + ki[1] * iy - kd[1] * (wy - py) / dt
+        az = kp[2] * ez + ki[2] * iz - kd[2] * (wz - pz) / dt
+        # torque = J alpha plus the gyroscopic feed-forward omega x (J omega)
         return (
-            torques[0] + (jz - jy) * wy * wz,
-            torques[1] + (jx - jz) * wz * wx,
-            torques[2] + (jy - jx) * wx * wy,
+            jx * ax + (jz - jy) * wy * wz,
+            jy * ay + (jx - jz) * wz * wx,
+            jz * az + (jy - jx) * wx * wy,
         )
 
     def _attitude_loop(self, state: KinematicState, roll: float, pitch: float, yaw: float | None, yaw_rate: float) -> tuple[float, float, float]:
@@ -109,19 +122,20 @@ class MultirotorController:
         r = yaw_rate if yaw is None else kp[2] * wrap_angle(yaw - cur[2])
         return p, q, _clip(r, lim[2])
 
-    def _velocity_loop(self, state: KinematicState, vx: float, vy: float, vz: float | None) -> tuple[float, float, float]:
-        """Ground-frame acceleration command [m/s^2]; vz=None leaves z out (returns 0)."""
-        g, dt = self._vel, self.dt
+    def _velocity_loop(self, state: KinematicState, vx: float | None, vy: float | None, vz: float | None) -> tuple[float, float, float]:
+        """Ground-frame acceleration command [m/s^2]; a None setpoint leaves that axis at 0."""
+        dt = self.dt
+        kp, ki, limit, window = self._vel_gains
         cur = state.lin_vel_ground
-        out = []
+        integral = self._vel_integral
+        out = [0.0, 0.0, 0.0]
         for i, sp in enumerate((vx, vy, vz)):
             if sp is None:
-                out.append(0.0)
                 continue
             err = sp - cur[i]
-            if g.ki[i] > 0 and -g.integral_window < err < g.integral_window:
-                self._vel_integral[i] = _clip(self._vel_integral[i] + err * dt, g.integral_limit[i] / g.ki[i])
-            out.append(g.kp[i] * err + g.ki[i] * self._vel_integral[i])
+            if -window < err < window:  # integrate near the setpoint only (anti-windup)
+                integral[i] = _clip(integral[i] + err * dt, limit[i])
+            out[i] = kp[i] * err + ki[i] * integral[i]
         return out[0], out[1], out[2]
 
     def _tilt_for(self, state: KinematicState, ax: float, ay: float, az: float) -> tuple[float, float]:

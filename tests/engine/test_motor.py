@@ -127,3 +127,20 @@ def test_lag_coefficient_limits():
     assert lag_coefficient(DT, 1e6) == pytest.approx(DT / 1e6, rel=1e-6)
     # Euler's coefficient 1/(tau r_p) for tau >> dt
     assert lag_coefficient(DT, 1.0) == pytest.approx(DT, rel=0.01)
+
+
+def test_float_path_matches_numpy_functions():
+    """The per-element form used at the physics rate equals motor_step + the wrench matrix."""
+    from pyflyt_engine.components.motor import motor_step_wrench
+
+    params = _params(n=6)
+    rng = np.random.default_rng(1)
+    throttle = rng.uniform(-1, 1, 6)
+    command = rng.uniform(-1, 1, 6)
+    noise = noise_factors(params, rng.standard_normal(6))
+    lag = motor_lag(params, DT)
+    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
+    new, wrench = motor_step_wrench(throttle.tolist(), command.tolist(), lag.tolist(), noise.tolist(), columns)
+    expected = motor_step(params, throttle, command, lag, noise)
+    np.testing.assert_allclose(new, expected, rtol=1e-14)
+    np.testing.assert_allclose(wrench, motor_wrench_matrix(params) @ (expected * np.abs(expected)), rtol=1e-12, atol=1e-18)
