@@ -1,0 +1,57 @@
+"""``pyflyt envs``: the registered environments, their spaces, rewards and defaults."""
+
+from __future__ import annotations
+
+import warnings
+
+from gymnasium import spaces
+
+
+def describe_space(space: spaces.Space) -> str:
+    """A one-line summary of a Gymnasium space."""
+    if isinstance(space, spaces.Box):
+        return f"Box{space.shape}"
+    if isinstance(space, spaces.Sequence):
+        return f"Sequence({describe_space(space.feature_space)})"
+    if isinstance(space, spaces.Dict):
+        return "Dict(" + ", ".join(f"{k}: {describe_space(v)}" for k, v in space.spaces.items()) + ")"
+    return repr(space)
+
+
+def list_envs() -> str:
+    """A table of every registered environment (builds each once, headless, to read its spaces)."""
+    from pyflyt_engine.envs import ENVS, make_env
+    from pyflyt_engine.envs.config import load_reward_preset
+    from pyflyt_engine.envs.rewards import CONDITIONS, TERMS
+
+    lines = []
+    for env_id, entry in ENVS.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            env = make_env(entry.config)
+        try:
+            cfg = env.config
+            action = cfg.action
+            bounds = ", ".join(f"{n} [{lo:g}, {hi:g}]" for n, lo, hi in zip(action.names, action.low, action.high))
+            presets = ", ".join(f"{kind}={name}" for kind, name in cfg.reward_presets.items())
+            task_defaults = {
+                k: v for k, v in cfg.task.model_dump().items() if k not in ("name", "start_orientation", "start_orientation_noise")
+            }
+            lines += [
+                f"{env_id}  (config: {entry.config}, class: {type(env).__name__})",
+                f"  {cfg.description}",
+                f"  observation: {describe_space(env.observation_space)}  [{cfg.angle_representation}]",
+                f"  action:      Box({len(action.names)},) -> mode {action.mode}: {bounds}",
+                f"  rewards:     {presets} (default: {cfg.reward})",
+                f"               dense: {load_reward_preset(cfg.reward_presets['dense']).description}",
+                f"  defaults:    uav={cfg.uav}, rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
+                f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m",
+                f"  task:        {cfg.task.name}: " + ", ".join(f"{k}={v}" for k, v in task_defaults.items()),
+                "",
+            ]
+        finally:
+            env.close()
+    lines.append("reward terms: " + ", ".join(TERMS))
+    lines.append("conditions:   " + ", ".join(CONDITIONS) + " (each also as not_<name>)")
+    lines.append("make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine")
+    return "\n".join(lines)

@@ -1,0 +1,107 @@
+"""Gymnasium environments (paper, "Gymnasium Environments").
+
+Importing this package (which ``import pyflyt_engine`` does) registers the ids in
+:data:`ENVS` with Gymnasium, by entry-point *string*, so registering imports neither
+PyBullet nor the env modules::
+
+    import gymnasium, pyflyt_engine
+    env = gymnasium.make("PyFlyt/QuadX-Hover-v0", sparse_reward=True)
+
+Layout: :mod:`.env` (the generic loop, :class:`UAVEnv`), :mod:`.quadx` (the registered
+QuadX classes, whose docstrings are their manuals), :mod:`.tasks` (spawn, targets,
+observations, completion), :mod:`.rewards` (named terms and conditions),
+:mod:`.waypoints` (waypoint logic shared by every waypoint task), :mod:`.config`
+(typed YAML configs), :mod:`.wrappers` (``FlattenWaypointEnv``), :mod:`.render`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from gymnasium.envs.registration import register, registry
+
+if TYPE_CHECKING:
+    from pyflyt_engine.envs.config import EnvConfig
+    from pyflyt_engine.envs.env import UAVEnv
+
+
+@dataclass(frozen=True)
+class EnvEntry:
+    """A registered environment: its class (as an import string) and its shipped config."""
+
+    entry_point: str
+    config: str
+
+
+#: Gymnasium id -> registration.  Behaviour changes get a new version id.
+ENVS: dict[str, EnvEntry] = {
+    "PyFlyt/QuadX-Hover-v0": EnvEntry("pyflyt_engine.envs.quadx:QuadXHoverEnv", "quadx_hover"),
+    "PyFlyt/QuadX-Waypoints-v0": EnvEntry("pyflyt_engine.envs.quadx:QuadXWaypointsEnv", "quadx_waypoints"),
+}
+
+
+def register_envs() -> None:
+    """Register every id of :data:`ENVS` with Gymnasium (idempotent)."""
+    for env_id, entry in ENVS.items():
+        if env_id not in registry:
+            register(id=env_id, entry_point=entry.entry_point)
+
+
+def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: Any) -> UAVEnv:
+    """Build the environment an env config describes (no Gymnasium wrappers).
+
+    Uses the registered class when the config's ``id`` is in :data:`ENVS` (so the
+    instance carries that env's manual), else :class:`UAVEnv`.  ``overrides`` as for
+    :class:`UAVEnv` (``sparse_reward=True``, ``num_targets=3``, ...).
+    """
+    import importlib
+
+    from pyflyt_engine.envs.config import load_env_config
+    from pyflyt_engine.envs.env import UAVEnv
+
+    cfg = load_env_config(config)
+    cls: type[UAVEnv] = UAVEnv
+    if cfg.id in ENVS:
+        module, _, name = ENVS[cfg.id].entry_point.partition(":")
+        cls = getattr(importlib.import_module(module), name)
+    return cls(cfg, **overrides)
+
+
+def __getattr__(name: str) -> Any:
+    # lazy exports: the env classes import PyBullet, registration must not
+    lazy = {
+        "UAVEnv": "pyflyt_engine.envs.env",
+        "QuadXHoverEnv": "pyflyt_engine.envs.quadx",
+        "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
+        "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
+        "EnvConfig": "pyflyt_engine.envs.config",
+        "RewardPreset": "pyflyt_engine.envs.config",
+        "load_env_config": "pyflyt_engine.envs.config",
+        "load_reward_preset": "pyflyt_engine.envs.config",
+    }
+    if name in lazy:
+        import importlib
+
+        return getattr(importlib.import_module(lazy[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+register_envs()
+
+__all__ = [
+    "ENVS",
+    "EnvConfig",
+    "EnvEntry",
+    "FlattenWaypointEnv",
+    "QuadXHoverEnv",
+    "QuadXWaypointsEnv",
+    "RewardPreset",
+    "UAVEnv",
+    "load_env_config",
+    "load_reward_preset",
+    "make_env",
+    "register_envs",
+]

@@ -1,0 +1,318 @@
+"""Typed environment and reward configs (``conf/env/*.yaml``, ``conf/reward/*.yaml``).
+
+Files are read with ``yaml.safe_load`` and validated by the pydantic models below
+(``extra="forbid"``: a misspelt key is an error naming the valid keys).  Every field is
+documented where it is declared.  Loading never imports or runs code named in a file:
+tasks, reward terms and conditions are looked up by name in plain registries.
+
+* :func:`load_env_config` — a shipped name (``quadx_hover``), a path, or a mapping.
+* :func:`load_reward_preset` — a shipped name (``quadx_hover_dense``), a path, or a mapping.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal, Union
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, field_validator, model_validator
+
+from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs.tasks import TaskOptions, get_task
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.paths import conf_dir
+
+
+class _Config(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+# ---------------------------------------------------------------------- reward
+
+
+class TermConfig(_Config):
+    """One entry of a reward preset: ``weight * term(ctx, **params)`` when every condition holds."""
+
+    term: str | None = Field(None, description="registered term name (default: the entry's key); see `pyflyt envs`")
+    weight: float = Field(1.0, description="multiplies the term's value")
+    when: Union[str, list[str]] = Field(
+        "always", description="condition name or list of names that must all hold; prefix not_ negates"
+    )
+    params: dict[str, Union[float, list[float]]] = Field(default_factory=dict, description="keyword parameters of the term")
+
+    @field_validator("weight")
+    @classmethod
+    def _finite(cls, value: float) -> float:
+        if not math.isfinite(value):
+            raise ValueError(f"weight must be a finite number, got {value}")
+        return value
+
+
+class RewardPreset(_Config):
+    """A reward: the weighted sum of its ``terms`` (in declaration order)."""
+
+    description: str = Field("", description="free text, shown by `pyflyt envs`")
+    terms: dict[str, TermConfig] = Field(description="entry name -> term; entry names key info['reward_terms']")
+    name: str = Field("inline", description="preset name (the file name without .yaml)")
+
+    @field_validator("terms")
+    @classmethod
+    def _known(cls, terms: dict[str, TermConfig]) -> dict[str, TermConfig]:
+        if not terms:
+            raise ValueError("a reward preset needs at least one term")
+        # names and parameters are checked here, task signals when the env is built
+        rewards.compile_reward("", terms)
+        return terms
+
+    def compile(self, provides: frozenset[str] | None = None, task_name: str = "?") -> rewards.RewardFunction:
+        """The :class:`~pyflyt_engine.envs.rewards.RewardFunction` of this preset."""
+        return rewards.compile_reward(self.name, self.terms, provides, task_name)
+
+
+# ------------------------------------------------------------------------- env
+
+
+class ActionConfig(_Config):
+    """The action space: a Box whose vector is sent as the setpoint of one flight mode."""
+
+    mode: str = Field(description="vehicle flight mode receiving the action as its setpoint (see `pyflyt modes`)")
+    names: list[str] = Field(description="name of each action entry (the mode's setpoint layout)")
+    units: list[str] | None = Field(None, description="unit of each entry, for documentation")
+    low: list[float] = Field(description="lower bound of each entry; actions are clipped to [low, high]")
+    high: list[float] = Field(description="upper bound of each entry")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ActionConfig:
+        n = len(self.names)
+        for key in ("low", "high") + (("units",) if self.units is not None else ()):
+            if len(getattr(self, key)) != n:
+                raise ValueError(f"'{key}' has {len(getattr(self, key))} entries but 'names' has {n}")
+        for name, lo, hi in zip(self.names, self.low, self.high):
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                raise ValueError(f"action '{name}': need finite low < high, got [{lo}, {hi}]")
+        return self
+
+
+class RenderConfig(_Config):
+    """The ``rgb_array`` chase camera."""
+
+    resolution: tuple[int, int] = Field((480, 480), description="image (height, width) [px]")
+    camera_distance: float = Field(0.6, gt=0, description="camera distance behind the vehicle [m]")
+    camera_height: float = Field(0.25, description="camera height above the vehicle [m]")
+    fov: float = Field(60.0, gt=0, lt=180, description="vertical field of view [deg]")
+
+
+class EnvConfig(_Config):
+    """An environment: vehicle, loop rates, episode limits, action, task and reward."""
+
+    id: str | None = Field(None, description="Gymnasium id this config is registered under, if any")
+    description: str = Field("", description="one line shown by `pyflyt envs`")
+    uav: str = Field("quadx_cf2x", description="shipped airframe name (conf/uav) or path to a UAV YAML")
+    physics_hz: float = Field(240.0, gt=0, description="physics rate [Hz] (paper: 240)")
+    control_hz: float = Field(120.0, gt=0, description="flight controller rate [Hz] (paper: 120)")
+    agent_hz: float = Field(30.0, gt=0, description="agent step rate [Hz] (paper: 30); physics_hz / agent_hz must be whole")
+    max_duration_seconds: float = Field(10.0, gt=0, description="simulated episode length before truncation [s]")
+    flight_dome_size: float = Field(
+        5.0, gt=0, description="radius [m] of the sphere about the origin the vehicle must stay inside"
+    )
+    angle_representation: Literal["euler", "quaternion"] = Field(
+        "quaternion", description="attitude in the observation: Euler (roll, pitch, yaw) or quaternion (x, y, z, w)"
+    )
+    drag: bool = Field(True, description="apply the airframe's body drag")
+    reward: Union[str, dict[str, Any]] = Field(
+        "dense",
+        description="'dense' or 'sparse' (see reward_presets), a preset name in conf/reward, "
+        "a path to a preset YAML, or an inline preset mapping",
+    )
+    reward_presets: dict[Literal["dense", "sparse"], str] = Field(
+        description="the presets that reward 'dense' / 'sparse' (and sparse_reward=True) select"
+    )
+    action: ActionConfig
+    task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
+    render: RenderConfig = Field(default_factory=RenderConfig)
+    source: str | None = Field(None, exclude=True, description="file the config was loaded from")
+
+    @property
+    def max_steps(self) -> int:
+        """Agent steps per episode before truncation."""
+        return max(1, int(round(self.max_duration_seconds * self.agent_hz)))
+
+    def reward_preset_name(self) -> str | dict[str, Any]:
+        """The preset that :attr:`reward` selects (name, path or inline mapping)."""
+        if isinstance(self.reward, str) and self.reward in self.reward_presets:
+            return self.reward_presets[self.reward]  # type: ignore[index]
+        return self.reward
+
+    def with_overrides(self, **overrides: Any) -> EnvConfig:
+        """A copy with top-level fields or task options replaced (validated again).
+
+        Task options may be given by their own name (``num_targets=3``) or inside
+        ``task={...}``; unknown names raise :class:`ConfigError` listing the valid ones.
+        """
+        if not overrides:
+            return self
+        data = self.model_dump(exclude={"source"})
+        task = dict(data["task"])
+        task_fields = set(type(self.task).model_fields) - {"name"}
+        for key, value in overrides.items():
+            if key == "task" and isinstance(value, Mapping):
+                task.update(value)
+            elif key in type(self).model_fields and key not in ("source", "task"):
+                data[key] = value
+            elif key in task_fields:
+                task[key] = value
+            else:
+                valid = sorted((set(type(self).model_fields) - {"source"}) | task_fields)
+                close = difflib.get_close_matches(key, valid, n=1)
+                hint = f" Did you mean '{close[0]}'?" if close else ""
+                raise ConfigError(f"unknown environment argument '{key}'.{hint} Valid: {', '.join(valid)}")
+        data["task"] = task
+        return parse_env_config(data, source=f"{self.source or 'config'} with overrides {sorted(overrides)}")
+
+
+# ---------------------------------------------------------------------- errors
+
+
+def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    model: Any = root
+    for part in loc[:-1]:
+        if isinstance(part, int) or model is None:
+            continue
+        field = model.model_fields.get(part)
+        if field is None:  # a mapping key, e.g. terms.<entry>: stay on the value's model
+            continue
+        model = _first_model(field.annotation)
+    return model
+
+
+def _first_model(annotation: Any) -> Any:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()):
+        found = _first_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _describe(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "") -> str:
+    loc = tuple(error["loc"])
+    where = prefix + (".".join(str(p) for p in loc) or "(top level)")
+    if error["type"] == "extra_forbidden":
+        model = _model_at(root, loc)
+        allowed = sorted(k for k in (model.model_fields if model else {}) if k != "source")
+        key = str(loc[-1])
+        close = difflib.get_close_matches(key, allowed, n=1)
+        hint = f" Did you mean '{close[0]}'?" if close else ""
+        return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
+    message = error["msg"].removeprefix("Value error, ")
+    value = error.get("input")
+    shown = "" if error["type"] == "missing" or isinstance(value, dict) else f" (got {value!r})"
+    return f"{where}: {message}{shown}"
+
+
+def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "") -> tuple[Any, list[str]]:
+    """(validated model or None, one line per problem)."""
+    try:
+        return model.model_validate(data), []
+    except ValidationError as exc:
+        return None, [_describe(model, e, prefix) for e in exc.errors()]
+
+
+def _validate(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
+    result, problems = _problems(model, data, prefix)
+    if problems:
+        raise ConfigError(f"{source}: invalid {what}:\n" + "\n".join(f"  - {p}" for p in problems))
+    return result
+
+
+# ---------------------------------------------------------------------- loading
+
+
+def _read_yaml(path: Path) -> Any:
+    try:
+        return yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the file: {exc}") from None
+
+
+def _resolve(name_or_path: str | Path, group: str) -> Path:
+    candidate = Path(name_or_path)
+    if candidate.suffix in (".yaml", ".yml") or candidate.exists():
+        if not candidate.is_file():
+            raise ConfigError(f"{candidate}: no such {group} file; check the path")
+        return candidate
+    shipped = conf_dir() / group / f"{name_or_path}.yaml"
+    if shipped.is_file():
+        return shipped
+    choices = available(group)
+    close = difflib.get_close_matches(str(name_or_path), choices, n=1)
+    hint = f" Did you mean '{close[0]}'?" if close else ""
+    raise ConfigError(f"unknown {group} config '{name_or_path}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path")
+
+
+def available(group: str) -> list[str]:
+    """Names of the shipped configs of a group (``env`` or ``reward``)."""
+    return sorted(p.stem for p in (conf_dir() / group).glob("*.yaml"))
+
+
+def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
+    """Validate a mapping as an :class:`EnvConfig` (task options by the task's own model)."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: an env config must be a mapping of keys to values, got {type(data).__name__}")
+    data = {k: v for k, v in data.items() if k != "source"}
+    task = data.get("task")
+    if not isinstance(task, Mapping) or "name" not in task:
+        from pyflyt_engine.envs.tasks import TASKS
+
+        raise ConfigError(f"{source}: 'task' must be a mapping with a 'name' (one of: {', '.join(TASKS)})")
+    try:
+        task_cls = get_task(task["name"])
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: task.name: {exc}") from None
+    options, task_problems = _problems(task_cls.Options, task, prefix="task.")
+    placeholder = options if options is not None else TaskOptions.model_construct(name=task["name"])
+    config, problems = _problems(EnvConfig, {**data, "task": placeholder})
+    problems += task_problems
+    if problems:
+        raise ConfigError(f"{source}: invalid env config:\n" + "\n".join(f"  - {p}" for p in problems))
+    return config.model_copy(update={"source": source})
+
+
+def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvConfig:
+    """An :class:`EnvConfig` from a shipped name (``conf/env``), a YAML path or a mapping."""
+    if isinstance(config, EnvConfig):
+        return config
+    if isinstance(config, Mapping):
+        return parse_env_config(config)
+    path = _resolve(config, "env")
+    return parse_env_config(_read_yaml(path), source=str(path))
+
+
+def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline") -> RewardPreset:
+    """Validate a mapping as a :class:`RewardPreset`."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: a reward preset must be a mapping with 'terms', got {type(data).__name__}")
+    data = dict(data)
+    data.setdefault("name", name)
+    try:
+        return _validate(RewardPreset, data, "reward preset", source)
+    except ConfigError:
+        raise
+    except Exception as exc:  # pragma: no cover - defensive
+        raise ConfigError(f"{source}: invalid reward preset: {exc}") from None
+
+
+def load_reward_preset(preset: str | Path | Mapping[str, Any] | RewardPreset) -> RewardPreset:
+    """A :class:`RewardPreset` from a shipped name (``conf/reward``), a YAML path or a mapping."""
+    if isinstance(preset, RewardPreset):
+        return preset
+    if isinstance(preset, Mapping):
+        return parse_reward_preset(preset)
+    path = _resolve(preset, "reward")
+    return parse_reward_preset(_read_yaml(path), source=str(path), name=path.stem)

@@ -1,0 +1,244 @@
+"""The generic environment: one vehicle in a :class:`World`, a task, a reward preset.
+
+The loop lives here and nowhere else; the vehicle is the model (named state read-outs,
+a flight mode that takes the action as its setpoint), the task decides spawn, targets,
+extra observations and completion, and the reward is the weighted sum of the preset's
+named terms (see :mod:`pyflyt_engine.envs.rewards`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, load_reward_preset
+from pyflyt_engine.envs.rewards import RewardFunction, StepContext
+from pyflyt_engine.envs.tasks import Task, get_task
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.state import KinematicState
+from pyflyt_engine.world import VehicleConfig, World
+
+
+class UAVEnv(gymnasium.Env):
+    """A single-vehicle UAV task as a Gymnasium environment, built from an env config.
+
+    Prefer the registered ids (``gymnasium.make("PyFlyt/QuadX-Hover-v0")``), whose
+    classes document their spaces and rewards; this class runs any env config, e.g. one
+    written by a user: ``UAVEnv("my_env.yaml")``.
+
+    Observation: the task's, built on the shared attitude vector (paper, "Observation
+    Spaces")::
+
+        [ang_vel (3, body, rad/s), attitude (3 Euler rad | 4 quaternion xyzw, ground),
+         lin_vel (3, body, m/s), lin_pos (3, ground ENU, m), previous action (A), aux (n)]
+
+    where aux is the vehicle's auxiliary state (motor throttles for a multirotor).
+
+    Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
+    of the vehicle's flight mode ``config.action.mode``.
+
+    Episode end: *terminated* on a crash — any contact of the vehicle (ground included;
+    unless the task sets ``crash_on_contact = False``), leaving the flight dome
+    (``|lin_pos| > flight_dome_size``) or a failure the task declares — or when the task
+    completes; *truncated* after ``max_duration_seconds`` of simulated time (the env
+    counts its own steps, so no ``TimeLimit`` wrapper is needed or registered).
+
+    Info: ``collision``, ``out_of_bounds``, ``env_complete`` (task completed),
+    ``success`` (completed, or reached the time limit uncrashed for survival tasks),
+    ``reward_terms`` (the weighted per-entry breakdown, summing to the reward; after
+    ``step`` only) plus the task's entries.
+
+    Args:
+        config: env config name (``conf/env``), YAML path, mapping or :class:`EnvConfig`;
+            default: the class's ``config_name``.
+        sparse_reward: shortcut for ``reward="sparse"`` / ``reward="dense"``.
+        render_mode: None, ``"rgb_array"`` (headless chase camera, (H, W, 3) uint8) or
+            ``"human"`` (PyBullet GUI; needs a display).
+        **overrides: any top-level config field (``agent_hz=60``, ``reward="my.yaml"``,
+            ``flight_dome_size=4``) or task option (``num_targets=3``).
+
+    Resets restore the PyBullet state saved at the first reset (no rebuild) and are
+    deterministic under a seed; ``reset(seed=None)`` continues the current RNG streams.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+    #: env config loaded when none is given (subclasses for registered ids set it)
+    config_name: ClassVar[str | None] = None
+
+    def __init__(
+        self,
+        config: str | Path | Mapping[str, Any] | EnvConfig | None = None,
+        *,
+        sparse_reward: bool | None = None,
+        render_mode: str | None = None,
+        **overrides: Any,
+    ) -> None:
+        if config is None:
+            if self.config_name is None:
+                raise ConfigError(f"{type(self).__name__} needs an env config (a name in conf/env, a path or a mapping)")
+            config = self.config_name
+        if sparse_reward is not None:
+            if "reward" in overrides:
+                raise ConfigError("give either sparse_reward or reward, not both")
+            overrides["reward"] = "sparse" if sparse_reward else "dense"
+        cfg = load_env_config(config).with_overrides(**overrides)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None")
+        self.config: EnvConfig = cfg
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
+
+        # task and reward first: a bad config fails before PyBullet starts
+        task_cls = get_task(cfg.task.name)
+        self.task: Task = task_cls(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
+        self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
+        self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, task_cls.name)
+
+        self.world = World(
+            [VehicleConfig(cfg.uav, cfg.task.start_position, cfg.task.start_orientation, mode=cfg.action.mode)],
+            physics_hz=cfg.physics_hz,
+            control_hz=cfg.control_hz,
+            agent_hz=cfg.agent_hz,
+            render=render_mode == "human",
+            drag=cfg.drag,
+        )
+        self.vehicle = self.world.vehicles[0]
+        self.task.setup(self.world)
+        if self.vehicle.setpoint.size != len(cfg.action.names):
+            self.world.close()
+            raise ConfigError(
+                f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
+                f"'{cfg.action.mode}' of '{cfg.uav}' takes {self.vehicle.setpoint.size}"
+            )
+
+        self._low = np.array(cfg.action.low, dtype=np.float64)
+        self._high = np.array(cfg.action.high, dtype=np.float64)
+        self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
+        self._quaternion = cfg.angle_representation == "quaternion"
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + self.world.aux_state(0).size
+        self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        self.observation_space = self.task.observation_space(self.attitude_space)
+
+        self._dome2 = cfg.flight_dome_size**2
+        self._max_steps = cfg.max_steps
+        self._action = np.zeros_like(self._low)
+        self._steps = 0
+        self._markers = None
+        if render_mode is not None:
+            from pyflyt_engine.envs.render import Markers
+
+            self._markers = Markers(self.world.client, *self.task.marker_style())
+
+    # ----------------------------------------------------------------- gymnasium
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        """Start an episode; ``options`` is accepted and unused."""
+        super().reset(seed=seed)
+        self.world.reset(seed)
+        spawn = self.task.spawn(self.np_random)
+        self.vehicle.reset(spawn.position, spawn.orientation)
+        state = self.vehicle.state
+        self.task.reset(state, self.np_random)
+        self._action = np.zeros_like(self._low)
+        self._steps = 0
+        if self._markers is not None:
+            self._markers.show(self.task.markers())
+        info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        info.update(self.task.info())
+        return self._observe(state), info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """Apply ``action`` for one agent step (``physics_hz / agent_hz`` physics steps)."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self._low.shape:
+            raise ValueError(f"action must have {self._low.size} values ({', '.join(self.config.action.names)}), got {a.size}")
+        a = np.minimum(np.maximum(a, self._low), self._high)
+        self.vehicle.set_setpoint(a)
+        self._action = a.copy()
+        self.world.step()
+
+        state = self.vehicle.state
+        world = self.world
+        collision = world.collided(0)
+        x, y, z = state.lin_pos
+        out_of_bounds = x * x + y * y + z * z > self._dome2
+        signals = self.task.update(state)
+        crashed = out_of_bounds or signals.failed or (collision and self.task.crash_on_contact)
+        ctx = StepContext(
+            state,
+            a,
+            collision,
+            world.collided_with_ground(0) if collision else False,
+            out_of_bounds,
+            crashed,
+            signals.complete,
+            signals.target_distance,
+            signals.target_distance_rate,
+            signals.waypoint_reached,
+            signals.extras,
+        )
+        reward, terms = self.reward_function(ctx)
+        self._steps += 1
+
+        terminated = crashed or signals.complete
+        truncated = not terminated and self._steps >= self._max_steps
+        success = (signals.complete and not crashed) or (truncated and self.task.succeeds_at_time_limit)
+        if self._markers is not None and signals.waypoint_reached:
+            self._markers.show(self.task.markers())
+        info = {
+            "collision": collision,
+            "out_of_bounds": out_of_bounds,
+            "env_complete": signals.complete,
+            "success": success,
+            "reward_terms": terms,
+        }
+        info.update(self.task.info())
+        return self._observe(state), reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: an (H, W, 3) uint8 chase-camera image; ``human``: follow in the GUI."""
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called with render_mode=None; pass render_mode='rgb_array' or 'human'")
+            return None
+        from pyflyt_engine.envs import render as _render
+
+        r = self.config.render
+        if self.render_mode == "rgb_array":
+            return _render.chase_camera(
+                self.world.client, self.vehicle.state, r.resolution, r.camera_distance, r.camera_height, r.fov
+            )
+        _render.follow_in_gui(self.world.client, self.vehicle.state, r.camera_distance)
+        return None
+
+    def close(self) -> None:
+        """Disconnect the PyBullet client (idempotent)."""
+        if getattr(self, "world", None) is not None:
+            self.world.close()
+
+    # ------------------------------------------------------------------ helpers
+
+    def _observe(self, state: KinematicState) -> Any:
+        angles = state.quaternion if self._quaternion else state.ang_pos
+        attitude = np.concatenate(
+            (
+                np.array((*state.ang_vel, *angles, *state.lin_vel, *state.lin_pos), dtype=np.float64),
+                self._action,
+                self.vehicle.aux_state,
+            )
+        )
+        return self.task.observe(attitude, state)
+
+    @property
+    def state(self) -> KinematicState:
+        """The vehicle's current :class:`KinematicState`."""
+        return self.vehicle.state
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Agent steps since the last reset."""
+        return self._steps

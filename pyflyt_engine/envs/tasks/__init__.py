@@ -1,0 +1,51 @@
+"""Task registry: task name (``task.name`` in an env YAML) -> :class:`Task` subclass.
+
+Built-in tasks are listed here; add your own from Python with :func:`register_task`
+(config files name tasks, they never import code).
+"""
+
+from __future__ import annotations
+
+import difflib
+
+from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
+from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
+from pyflyt_engine.errors import ConfigError
+
+TASKS: dict[str, type[Task]] = {
+    HoverTask.name: HoverTask,
+    WaypointsTask.name: WaypointsTask,
+}
+
+
+def register_task(task: type[Task]) -> None:
+    """Make ``task`` available to env configs as ``task: {name: <task.name>, ...}``."""
+    if not (isinstance(task, type) and issubclass(task, Task)):
+        raise TypeError(f"register_task needs a Task subclass, got {task!r}")
+    TASKS[task.name] = task
+
+
+def get_task(name: str) -> type[Task]:
+    """The task class registered as ``name``. Raises ConfigError listing the valid ones."""
+    try:
+        return TASKS[name]
+    except KeyError:
+        close = difflib.get_close_matches(str(name), list(TASKS), n=1)
+        hint = f" Did you mean '{close[0]}'?" if close else ""
+        raise ConfigError(f"unknown task '{name}'.{hint} Valid: {', '.join(TASKS)}") from None
+
+
+__all__ = [
+    "TASKS",
+    "HoverOptions",
+    "HoverTask",
+    "Spawn",
+    "Task",
+    "TaskOptions",
+    "TaskSignals",
+    "WaypointsOptions",
+    "WaypointsTask",
+    "get_task",
+    "register_task",
+]

@@ -1,0 +1,153 @@
+"""The task interface: what a task decides, and the hooks an environment calls.
+
+A task owns the episode's *meaning*: where the vehicle starts, what it observes beyond
+the shared attitude vector, the signals its rewards read, and when it is complete.  Apart
+from :meth:`Task.setup` (scenery) it never talks to PyBullet: it sees
+:class:`~pyflyt_engine.state.KinematicState` values and the environment's seeded RNG.  The environment (:class:`~pyflyt_engine.envs.env.UAVEnv`)
+runs the loop, detects crashes and dome exits, and evaluates the reward preset.
+
+Once, when the environment is built: ``setup(world)`` (add scenery).  Per episode the
+environment calls, in order::
+
+    spawn(rng) -> Spawn            # initial pose of the vehicle
+    reset(state, rng)              # after the vehicle is placed: sample targets, ...
+    observe(attitude, state)       # the first observation
+    then per agent step:
+    update(state) -> TaskSignals   # advance the task, report reward signals
+    observe(attitude, state)
+    info()                         # task entries for the step's info dict
+
+Every hook has a do-nothing default; a task overrides what it needs.  A new task is a
+module defining a :class:`Task` subclass with its :class:`TaskOptions` model, one line in
+:data:`pyflyt_engine.envs.tasks.TASKS`, and an env YAML naming it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from pydantic import BaseModel, ConfigDict, Field
+
+from pyflyt_engine.state import KinematicState
+
+if TYPE_CHECKING:
+    from pyflyt_engine.world import World
+
+Vec3 = tuple[float, float, float]
+
+
+class TaskOptions(BaseModel):
+    """Options common to every task; each task subclasses this with its own fields."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+    name: str = Field(description="task name (a key of pyflyt_engine.envs.tasks.TASKS)")
+    start_position: Vec3 = Field((0.0, 0.0, 1.0), description="mean spawn position (x, y, z) [m], ground frame")
+    start_position_noise: float = Field(
+        0.1, ge=0, description="each spawn coordinate is offset by U(-noise, noise) [m]"
+    )
+    start_orientation: Vec3 = Field((0.0, 0.0, 0.0), description="mean spawn attitude (roll, pitch, yaw) [rad]")
+    start_orientation_noise: float = Field(
+        0.1, ge=0, description="each spawn Euler angle is offset by U(-noise, noise) [rad]"
+    )
+
+
+@dataclass(frozen=True)
+class Spawn:
+    """Initial pose of the vehicle (at rest)."""
+
+    position: Vec3
+    orientation: Vec3
+
+
+@dataclass(frozen=True, slots=True)
+class TaskSignals:
+    """Task quantities for one agent step (see :class:`~pyflyt_engine.envs.rewards.StepContext`)."""
+
+    target_distance: float | None = None
+    target_distance_rate: float | None = None
+    waypoint_reached: bool = False
+    #: the task is finished: terminate with success (unless the step also crashed)
+    complete: bool = False
+    #: the task declares failure (e.g. a fatal landing): terminate as a crash
+    failed: bool = False
+    extras: dict[str, float] = field(default_factory=dict)
+
+
+class Task:
+    """Base task: spawns at ``start_position`` with uniform noise, observes the attitude.
+
+    Class attributes:
+        name: the registry key.
+        Options: the pydantic model of the task's options (``task:`` in the env YAML).
+        provides: names of the reward signals :meth:`update` fills in (checked against
+            the reward preset's terms and conditions when the env is built).
+        succeeds_at_time_limit: an episode that reaches the time limit without a crash
+            counts as a success (survival tasks such as hover).
+        crash_on_contact: any contact of the vehicle ends the episode as a crash; a task
+            where touching something is part of the job (landing on a pad) sets False and
+            reports outcomes through :attr:`TaskSignals.failed` / ``complete``.
+    """
+
+    name: ClassVar[str] = "base"
+    Options: ClassVar[type[TaskOptions]] = TaskOptions
+    provides: ClassVar[frozenset[str]] = frozenset()
+    succeeds_at_time_limit: ClassVar[bool] = False
+    crash_on_contact: ClassVar[bool] = True
+
+    def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
+        self.options = options
+        self.flight_dome_size = float(flight_dome_size)
+        self.agent_dt = 1.0 / float(agent_hz)
+
+    def setup(self, world: World) -> None:
+        """Once, after the world is built and before its first reset snapshot.
+
+        The one hook that may change the world: add scenery (a landing pad, obstacles)
+        with PyBullet and :meth:`World.add_body` so its contacts are tracked, and keep
+        the ids to read contacts in :meth:`update`.  Bodies must not be added later:
+        resets restore the state saved after this hook.
+        """
+
+    def spawn(self, rng: np.random.Generator) -> Spawn:
+        """Initial pose: the mean pose plus uniform noise (draws 6 numbers from ``rng``)."""
+        o = self.options
+        dp = rng.uniform(-o.start_position_noise, o.start_position_noise, 3) if o.start_position_noise else np.zeros(3)
+        da = (
+            rng.uniform(-o.start_orientation_noise, o.start_orientation_noise, 3)
+            if o.start_orientation_noise
+            else np.zeros(3)
+        )
+        position = tuple(float(v) for v in np.add(o.start_position, dp))
+        orientation = tuple(float(v) for v in np.add(o.start_orientation, da))
+        return Spawn(position, orientation)  # type: ignore[arg-type]
+
+    def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
+        """Start an episode with the vehicle placed in ``state``."""
+
+    def observation_space(self, attitude: spaces.Box) -> spaces.Space:
+        """The env's observation space, given the shared attitude Box."""
+        return attitude
+
+    def observe(self, attitude: np.ndarray, state: KinematicState) -> Any:
+        """The observation, given the shared attitude vector."""
+        return attitude
+
+    def update(self, state: KinematicState) -> TaskSignals:
+        """Advance one agent step with the vehicle now in ``state``."""
+        return TaskSignals()
+
+    def info(self) -> dict[str, Any]:
+        """Task entries of the info dict."""
+        return {}
+
+    def markers(self) -> np.ndarray:
+        """Ground-frame points to draw when rendering, ``(n, 3)`` (none by default)."""
+        return np.zeros((0, 3))
+
+    def marker_style(self) -> tuple[int, float]:
+        """(most markers ever drawn at once, sphere radius [m]), for the renderer."""
+        return len(self.markers()), 0.05
