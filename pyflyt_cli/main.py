@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Optional
 
 import typer
@@ -62,6 +63,59 @@ def modes() -> None:
         layout = "one throttle per motor" if mode.name == "motors" else ", ".join(mode.setpoint)
         typer.echo(f"{mode.name:<22}{pid:>7}  [{layout}]  {mode.description}")
     typer.echo("aliases: " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
+
+
+@app.command(help="List the Gymnasium environments: spaces, reward presets and defaults.")
+@user_errors
+def envs() -> None:
+    from pyflyt_cli.commands.envs import list_envs
+
+    typer.echo(list_envs())
+
+
+uav_app = typer.Typer(
+    help="Check and inspect airframe (UAV) YAML files: shipped names (quadx_cf2x) or paths.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+app.add_typer(uav_app, name="uav")
+
+
+@uav_app.command(
+    "validate",
+    help="Load, validate and build (offline) each airframe; print 'ok: ...' or what to fix. "
+    "Exits 2 if any file is invalid.\n\n  pyflyt uav validate quadx_cf2x my_hexacopter.yaml",
+)
+def uav_validate(files: list[str] = typer.Argument(..., help="YAML files or shipped names")) -> None:
+    from pyflyt_cli.commands.uav import run_validate
+
+    if run_validate(files):
+        raise typer.Exit(code=2)
+
+
+@uav_app.command(
+    "show",
+    help="Print mass, centre of mass, inertia, thrust-to-weight, components, channels and "
+    "controller; optionally render a picture (offscreen) and the surfaces' C_L/C_D/C_M curves.\n\n"
+    "  pyflyt uav show quadx_f450 --png f450.png --size 800x600",
+)
+@user_errors
+def uav_show(
+    file: str = typer.Argument(..., help="YAML file or shipped name"),
+    png: Optional[Path] = typer.Option(None, "--png", help="write a 3/4-view picture to this .png file"),
+    size: str = typer.Option("640x480", "--size", help="picture size WIDTHxHEIGHT in pixels"),
+    curves: Optional[Path] = typer.Option(None, "--curves", help="plot every lifting surface's coefficients to this .png"),
+) -> None:
+    from pyflyt_cli.commands.uav import run_show
+
+    run_show(file, png=png, size=size, curves=curves)
+
+
+@uav_app.command("schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning).")
+def uav_schema() -> None:
+    from pyflyt_cli.commands.uav_schema import schema_markdown
+
+    typer.echo(schema_markdown(), nl=False)
 
 
 def main() -> None:  # pragma: no cover - console entry
