@@ -17,7 +17,7 @@ from pyflyt_engine.components.camera import CameraParams
 from pyflyt_engine.components.gimbal import GimbalParams
 from pyflyt_engine.components.lifting_surface import LiftingSurfaceParams
 from pyflyt_engine.components.motor import MotorParams
-from pyflyt_engine.spec import MultirotorControlSpec, UAVSpec
+from pyflyt_engine.spec import UAVSpec
 
 
 @dataclass(frozen=True)
@@ -87,9 +87,7 @@ def assemble(spec: UAVSpec) -> Assembly:
         )
         mixes = list(m.mix) if m.mix is not None else [None] * motors.count
         motor_mix = _mix_matrix(mixes, channels)
-        if isinstance(spec.control, MultirotorControlSpec):
-            chosen = spec.control.mixer_motors
-            mixer_motors = tuple(chosen) if chosen is not None else tuple(i for i, mix in enumerate(mixes) if not mix)
+        mixer_motors = spec.mixer_motor_indices()
 
     surfaces = tuple(
         LiftingSurfaceParams(

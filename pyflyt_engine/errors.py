@@ -11,3 +11,7 @@ class SpecError(PyFlytError, ValueError):
 
 class ConfigError(PyFlytError, ValueError):
     """A configuration value is invalid (loop rates, flight modes, setpoints, ...)."""
+
+
+class TelemetryError(PyFlytError, ValueError):
+    """An MCAP telemetry file cannot be written or read: the message names the file and the problem."""

@@ -18,7 +18,7 @@ from typing import Annotated, Any, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
@@ -290,6 +290,16 @@ class SurfaceSpec(_Spec):
     visual: bool = Field(True, description="draw the surface as a thin plate")
     color: Color = Field((0.85, 0.85, 0.85, 1.0), description="RGBA of the drawn plate")
 
+    @field_validator("chord", "span", mode="before")
+    @classmethod
+    def _positive_size(cls, value: Any, info: ValidationInfo) -> Any:
+        if isinstance(value, (int, float)) and not value > 0:
+            raise ValueError(
+                f"{info.field_name} must be > 0 m, got {value}: a lifting surface needs a positive area "
+                "(chord x span); give its real size or remove the surface"
+            )
+        return value
+
     @model_validator(mode="after")
     def _geometry(self) -> SurfaceSpec:
         _unit("chord_axis", self.chord_axis)
@@ -391,6 +401,16 @@ class CameraSpec(_Spec):
     outputs: list[Literal["rgba", "depth", "segmentation"]] = Field(
         default_factory=lambda: ["rgba", "depth", "segmentation"], min_length=1, description="images to compute"
     )
+
+    @field_validator("width", "height", mode="before")
+    @classmethod
+    def _resolution(cls, value: Any, info: ValidationInfo) -> Any:
+        if isinstance(value, (int, float)) and value < 1:
+            raise ValueError(
+                f"camera {info.field_name} must be at least 1 pixel, got {value}: an image needs a "
+                "non-zero resolution; give e.g. 128"
+            )
+        return value
 
     @model_validator(mode="after")
     def _clip(self) -> CameraSpec:
@@ -552,7 +572,40 @@ class UAVSpec(_Spec):
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
         if self.body.inertia is None or self.body.mass is None:
             _check_inertia(self.inertia_matrix())
+        if isinstance(self.control, MultirotorControlSpec):
+            self._check_controllable()
         return self
+
+    def mixer_motor_indices(self) -> tuple[int, ...]:
+        """Indices of the motors a multirotor controller flies: ``control.mixer_motors``,
+        else every motor without a ``mix`` (empty without multirotor control)."""
+        if not isinstance(self.control, MultirotorControlSpec) or self.motors is None:
+            return ()
+        if self.control.mixer_motors is not None:
+            return tuple(self.control.mixer_motors)
+        mixes = self.motors.mix or [None] * len(self.motors.positions)
+        return tuple(i for i, mix in enumerate(mixes) if not mix)
+
+    def _check_controllable(self) -> None:
+        """The mixer motors must reach collective thrust, roll, pitch and yaw independently."""
+        from pyflyt_engine.control.mixer import allocation_matrix, allocation_rank  # noqa: PLC0415 (import cycle)
+
+        assert self.motors is not None  # checked above
+        idx = list(self.mixer_motor_indices())
+        m = self.motors
+        positions = np.asarray(m.positions, dtype=float)[idx] - self.center_of_mass()
+        axes, spin, kf, kt = (m.to_array(name)[idx] for name in ("thrust_axes", "spin", "kf", "kt"))
+        allocation = allocation_matrix(positions, axes, spin, kf, kt)
+        rank = allocation_rank(allocation)
+        if rank < 4:
+            raise ValueError(
+                f"the multirotor motors {idx} cannot control the vehicle: their allocation matrix "
+                f"(collective thrust, roll, pitch, yaw torque per motor) has rank {rank} < 4. "
+                "Thrust, roll, pitch and yaw must be independently reachable: the motors need positions "
+                "not all on one line through the centre of mass, and spin directions that are not all the "
+                "same (or tilted thrust axes); check motors.positions, motors.spin, motors.thrust_axes "
+                "and control.mixer_motors"
+            )
 
     # ------------------------------------------------------- mass properties
 

@@ -57,7 +57,16 @@ def _surface_plate(surface: SurfaceSpec) -> ShapeSpec:
 
 
 def generate_urdf(spec: UAVSpec) -> str:
-    """URDF text for ``spec`` (one link named ``body``)."""
+    """URDF text for ``spec`` (one link named ``body``).
+
+    The inertia written is the diagonal of the spec's inertia tensor about the centre of
+    mass, in the spec's body axes.  PyBullet simulates a link on the principal axes of
+    its inertia: with products of inertia in the file, the simulated body frame (whose
+    pose the engine reads and in which it applies every load) would be rotated away
+    from the airframe's geometry (by about 1.2 degrees for the shipped fixed-wing).
+    Products of inertia are therefore dropped; ``pyflyt uav show`` prints the full
+    tensor so their size can be checked.
+    """
     base_dir = Path(spec.source).parent if spec.source and Path(spec.source).exists() else Path.cwd()
     inertia = spec.inertia_matrix()
     com = spec.center_of_mass()
@@ -68,8 +77,10 @@ def generate_urdf(spec: UAVSpec) -> str:
         "    <inertial>",
         '      <origin xyz="0 0 0" rpy="0 0 0"/>',
         f'      <mass value="{spec.total_mass():.9g}"/>',
-        f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="{inertia[0, 1]:.9g}" ixz="{inertia[0, 2]:.9g}" '
-        f'iyy="{inertia[1, 1]:.9g}" iyz="{inertia[1, 2]:.9g}" izz="{inertia[2, 2]:.9g}"/>',
+        # diagonal only: PyBullet puts a link's inertia on its principal axes and would
+        # otherwise rotate the body frame away from the spec's axes (see generate_urdf)
+        f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="0" ixz="0" '
+        f'iyy="{inertia[1, 1]:.9g}" iyz="0" izz="{inertia[2, 2]:.9g}"/>',
         "    </inertial>",
     ]
     shapes = list(spec.body.shapes) + [_surface_plate(s) for s in spec.surfaces if s.visual]

@@ -19,6 +19,7 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -272,7 +273,7 @@ class Vehicle:
             raise ConfigError(
                 f"setpoint for mode '{self.mode.name}' needs {self.setpoint.size} values ({layout}), got {value.size}"
             )
-        if not np.all(np.isfinite(value)):
+        if not math.isfinite(value.sum()):  # any inf or nan makes the sum non-finite
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
 
@@ -457,9 +458,10 @@ class Vehicle:
 
         The fuel tanks' offset from the centre of mass enters the inertia through the
         parallel-axis theorem (diagonal terms); the shift of the centre of mass as fuel
-        burns is not modelled.
+        burns is not modelled.  Without boosters the mass is the dry mass.
         """
         if self.parts.boosters is None:
+            self.mass = self.parts.mass
             return
         b = self.parts.boosters
         fuel_mass, tank_inertia = tank_mass_properties(b, self.booster_state.fuel)  # type: ignore[union-attr]
@@ -497,13 +499,31 @@ class Vehicle:
 
     # --------------------------------------------------------------- resets
 
-    def reset(self, position: Sequence[float] | None = None, orientation: Sequence[float] | None = None) -> None:
-        """Put the vehicle at rest at a pose (default: its spawn pose), actuators idle."""
+    def reset(
+        self,
+        position: Sequence[float] | None = None,
+        orientation: Sequence[float] | None = None,
+        lin_vel: Sequence[float] | None = None,
+        ang_vel: Sequence[float] | None = None,
+    ) -> None:
+        """Put the vehicle at a pose (default: its spawn pose) with idle actuators.
+
+        Args:
+            position: (x, y, z) [m], ground frame.
+            orientation: (roll, pitch, yaw) [rad].
+            lin_vel: initial linear velocity (u, v, w) [m/s] in the BODY frame (default rest),
+                e.g. (20, 0, 0) to spawn a fixed-wing at cruise speed.
+            ang_vel: initial angular velocity (p, q, r) [rad/s] in the body frame.
+        """
         position = self.spawn_position if position is None else position
         orientation = self.spawn_orientation if orientation is None else orientation
         cid = self._client
-        p.resetBasePositionAndOrientation(self.body_id, list(position), euler_to_quaternion(*orientation), physicsClientId=cid)
-        p.resetBaseVelocity(self.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        quat = euler_to_quaternion(*orientation)
+        p.resetBasePositionAndOrientation(self.body_id, list(position), quat, physicsClientId=cid)
+        rotation = np.array(p.getMatrixFromQuaternion(quat, physicsClientId=cid)).reshape(3, 3)  # body to ground
+        lin = rotation @ np.asarray(lin_vel if lin_vel is not None else (0.0, 0.0, 0.0), dtype=float)
+        ang = rotation @ np.asarray(ang_vel if ang_vel is not None else (0.0, 0.0, 0.0), dtype=float)
+        p.resetBaseVelocity(self.body_id, lin.tolist(), ang.tolist(), physicsClientId=cid)
         parts = self.parts
         self._throttle = [0.0] * len(self._throttle)
         self._command = [0.0] * len(self._command)
@@ -532,6 +552,12 @@ class Vehicle:
         self._rng = rng
         self._noise = []
         self._noise_index = 0
+
+    @property
+    def rng_state(self) -> dict:
+        """Position of this vehicle's noise stream: its numpy bit-generator state (a
+        JSON-serialisable dict); restore it with ``reseed`` (see :meth:`World.set_rng_state`)."""
+        return self._rng.bit_generator.state
 
     # -------------------------------------------------------------- read-outs
 

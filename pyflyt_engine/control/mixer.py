@@ -20,15 +20,42 @@ from pyflyt_engine.components.motor import MotorParams
 from pyflyt_engine.errors import ConfigError
 
 
+def allocation_matrix(
+    positions: np.ndarray, thrust_axes: np.ndarray, spin: np.ndarray, kf: np.ndarray, kt: np.ndarray
+) -> np.ndarray:
+    """The 4 x n allocation matrix ``A`` of the module docstring.
+
+    Args:
+        positions: (n, 3) motor positions relative to the centre of mass, body frame [m].
+        thrust_axes: (n, 3) unit thrust directions, body frame.
+        spin: (n,) +1 counter-clockwise / -1 clockwise about the thrust axis.
+        kf, kt: (n,) thrust [N/RPM^2] and torque [N m/RPM^2] coefficients.
+
+    Returns:
+        Rows [collective thrust along body z, roll, pitch, yaw torque] per newton of
+        each motor's thrust.
+    """
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    axes = np.asarray(thrust_axes, dtype=float).reshape(-1, 3)
+    kappa = np.asarray(kt, dtype=float) / np.asarray(kf, dtype=float)
+    torque = np.cross(positions, axes) - (np.asarray(spin, dtype=float) * kappa)[:, None] * axes
+    return np.vstack([axes[:, 2], torque.T])
+
+
+def allocation_rank(allocation: np.ndarray) -> int:
+    """Numerical rank of an allocation matrix: 4 when thrust, roll, pitch and yaw are independently reachable."""
+    if allocation.size == 0:
+        return 0
+    return int(np.linalg.matrix_rank(allocation, tol=1e-9 * max(1.0, float(np.abs(allocation).max()))))
+
+
 class Mixer:
     """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles."""
 
     def __init__(self, motors: MotorParams) -> None:
-        axes, positions = motors.thrust_axes, motors.positions
-        kappa = motors.kt / motors.kf
-        torque = np.cross(positions, axes) - (motors.spin * kappa)[:, None] * axes
-        self.allocation = np.vstack([axes[:, 2], torque.T])
-        rank = np.linalg.matrix_rank(self.allocation, tol=1e-9 * max(1.0, np.abs(self.allocation).max()))
+        axes = motors.thrust_axes
+        self.allocation = allocation_matrix(motors.positions, axes, motors.spin, motors.kf, motors.kt)
+        rank = allocation_rank(self.allocation)
         if rank < 4:
             raise ConfigError(
                 f"the motors cannot control this vehicle: their allocation matrix has rank {rank} < 4 "
@@ -44,13 +71,22 @@ class Mixer:
     def throttles(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
         """Throttle per motor (in [0, 1]) that best produces the requested wrench.
 
-        Torques have priority: when a motor would exceed full thrust, the collective
-        thrust is scaled down until every motor fits, so the vehicle keeps attitude
-        authority at full throttle.  Thrusts below zero are clipped to zero.
+        When the request does not fit in the motors' range, it is given up in order of
+        importance: first the yaw torque is scaled down until every motor is within
+        [0, full thrust], then the collective thrust (so roll and pitch, which keep the
+        vehicle upright, have the last word).  What still does not fit is clipped.
         """
         rows, fmax = self._inverse_rows, self.max_thrust
+        base = [r[0] * thrust + r[1] * tx + r[2] * ty for r in rows]
+        yaw = [r[3] * tz for r in rows]
+        yaw_scale = 1.0
+        for b, y, fm in zip(base, yaw, fmax):
+            if y > 0.0 and b + y > fm:
+                yaw_scale = min(yaw_scale, max(0.0, (fm - b) / y))
+            elif y < 0.0 and b + y < 0.0:
+                yaw_scale = min(yaw_scale, max(0.0, -b / y))
         from_thrust = [r[0] * thrust for r in rows]
-        from_torque = [r[1] * tx + r[2] * ty + r[3] * tz for r in rows]
+        from_torque = [b - ft + yaw_scale * y for b, ft, y in zip(base, from_thrust, yaw)]
         scale = 1.0
         for ft, fq, fm in zip(from_thrust, from_torque, fmax):
             if ft + fq > fm and ft > 0.0:

@@ -176,3 +176,15 @@ def test_setpoint_of_wrong_size_is_rejected():
     with pytest.raises(ConfigError, match="no vehicle 3"):
         world.set_setpoint(3, [0, 0, 0, 1])
     world.close()
+
+
+def test_reset_with_body_frame_velocity(quiet_cf2x):
+    world = World([VehicleConfig(quiet_cf2x, (0.0, 0.0, 5.0))], seed=0, gravity=0.0, drag=False)
+    vehicle = world.vehicles[0]
+    vehicle.reset((0.0, 0.0, 5.0), (0.0, 0.0, np.pi / 2), lin_vel=(2.0, 0.0, 0.0), ang_vel=(0.0, 0.0, 0.5))
+    state = vehicle.state
+    np.testing.assert_allclose(state.lin_vel, (2.0, 0.0, 0.0), atol=1e-9)
+    # body forward is ground north (+y) at yaw 90 degrees
+    np.testing.assert_allclose(state.lin_vel_ground, (0.0, 2.0, 0.0), atol=1e-9)
+    np.testing.assert_allclose(state.ang_vel, (0.0, 0.0, 0.5), atol=1e-9)
+    world.close()

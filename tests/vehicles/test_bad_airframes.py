@@ -1,0 +1,79 @@
+"""Broken airframe files fail at load with a SpecError naming the file, the field and the fix."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from pyflyt_engine.errors import SpecError
+from pyflyt_engine.spec import load_uav_spec, parse_uav_spec
+from pyflyt_engine.world import World
+from tests.conftest import spec_dict
+
+
+def error_of(data: dict, source: str = "bad.yaml") -> str:
+    with pytest.raises(SpecError) as info:
+        parse_uav_spec(data, source=source)
+    return str(info.value)
+
+
+@pytest.mark.parametrize("field", ["chord", "span"])
+def test_surface_with_zero_area_is_rejected(field):
+    data = spec_dict("fixedwing")
+    data["surfaces"][3][field] = 0.0  # horizontal tail
+    message = error_of(data)
+    assert "bad.yaml" in message and f"surfaces.3.{field}" in message
+    assert f"{field} must be > 0 m, got 0.0" in message and "positive area (chord x span)" in message
+
+
+def test_gimbal_axis_not_unit_length_is_rejected():
+    data = spec_dict("rocket")
+    data["gimbals"][0]["axis_b"] = [0.0, 2.0, 0.0]
+    message = error_of(data)
+    assert "gimbals.0" in message and "'axis_b' must be a unit vector" in message and "normalise it" in message
+
+
+@pytest.mark.parametrize("field", ["width", "height"])
+def test_camera_with_zero_resolution_is_rejected(field):
+    data = spec_dict("quadx_cf2x")
+    data["cameras"] = [{"name": "front", field: 0}]
+    message = error_of(data)
+    assert f"cameras.0.{field}" in message and f"camera {field} must be at least 1 pixel, got 0" in message
+
+
+def uncontrollable(change) -> dict:
+    data = spec_dict("quadx_cf2x")
+    change(data["motors"])
+    return data
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        lambda m: m.update(spin=[1, 1, 1, 1]),  # every propeller the same way: no yaw torque
+        lambda m: m.update(positions=[[x, 0.0, 0.0] for x in (0.028, -0.028, 0.05, -0.05)]),  # one line: no roll
+        lambda m: m.update(thrust_axes=[[1.0, 0.0, 0.0]] * 4),  # all pushing forward: no lift
+    ],
+    ids=["same_spin", "motors_on_one_line", "no_vertical_thrust"],
+)
+def test_multirotor_whose_motors_cannot_control_it_fails_at_load(change):
+    message = error_of(uncontrollable(change))
+    assert "cannot control the vehicle" in message and "< 4" in message
+    assert "motors.positions" in message and "motors.spin" in message  # where to look
+
+
+def test_uncontrollable_multirotor_file_fails_before_any_physics(tmp_path):
+    path = tmp_path / "flat_quad.yaml"
+    path.write_text(yaml.safe_dump(uncontrollable(lambda m: m.update(spin=[-1, -1, -1, -1]))))
+    with pytest.raises(SpecError, match="flat_quad.yaml.*\n.*cannot control the vehicle"):
+        load_uav_spec(path)
+    with pytest.raises(SpecError, match="cannot control the vehicle"):
+        World([{"uav": str(path)}])
+
+
+def test_controllability_only_counts_the_mixer_motors():
+    """The quadplane's pusher is not in its mixer: taking a lift motor out breaks it."""
+    data = spec_dict("quadplane")
+    parse_uav_spec(data)  # four lift motors: fine
+    data["control"]["mixer_motors"] = [0, 1, 2]
+    assert "the multirotor motors [0, 1, 2] cannot control the vehicle" in error_of(data)
