@@ -323,6 +323,33 @@ class World:
         self._contacts.matrix[:] = False
         self.physics_steps = 0
 
+    def rng_state(self) -> dict:
+        """Positions of every random stream: :attr:`np_random` and each vehicle's noise.
+
+        A JSON-serialisable dict; with :meth:`set_rng_state` it lets a recording re-run an
+        episode that began with an unseeded ``reset()`` (the streams continue from where
+        the previous episode left them).
+        """
+        return {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+
+    def set_rng_state(self, state: dict) -> None:
+        """Put every random stream where :meth:`rng_state` found it (same number of vehicles)."""
+
+        def generator(bit_state: dict) -> np.random.Generator:
+            kind = bit_state.get("bit_generator")
+            if kind not in ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64"):
+                raise ConfigError(f"unknown numpy bit generator {kind!r} in rng state")
+            bits = getattr(np.random, kind)()
+            bits.state = bit_state
+            return np.random.Generator(bits)
+
+        vehicles = state["vehicles"]
+        if len(vehicles) != len(self.vehicles):
+            raise ConfigError(f"rng state has {len(vehicles)} vehicle streams, the world has {len(self.vehicles)} vehicles")
+        self.np_random = generator(state["world"])
+        for vehicle, bit_state in zip(self.vehicles, vehicles):
+            vehicle.reseed(generator(bit_state))
+
     def close(self) -> None:
         """Disconnect from PyBullet (idempotent)."""
         if self.client is not None and self.client >= 0 and p.isConnected(self.client):

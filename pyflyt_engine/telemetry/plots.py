@@ -1,0 +1,196 @@
+"""Pictures of a recorded episode: :func:`plot_episode` (PNG/PDF/SVG) and :func:`render_video` (MP4/GIF)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.telemetry.episode import Episode
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+
+def _waypoints(episode: Episode) -> np.ndarray:
+    """Every marker point the ``/scene`` channel showed at the reset (e.g. all waypoints)."""
+    for m in episode.contents.messages:
+        if m.topic != "/scene" or not isinstance(m.data, dict):
+            continue
+        for entity in m.data.get("entities", []):
+            if entity.get("id") == "waypoints":
+                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
+                return np.array([[p["x"], p["y"], p["z"]] for p in pts]).reshape(-1, 3)
+    return np.zeros((0, 3))
+
+
+def plot_episode(episode: Episode, out: str | Path) -> Path:
+    """3-D path, altitude, attitude and actions against time, in one figure file."""
+    out = Path(out)
+    if out.suffix.lower() not in PLOT_SUFFIXES:
+        raise TelemetryError(f"--plot file must end in one of {', '.join(PLOT_SUFFIXES)}, got {out.name}")
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(13, 9))
+    ax3d = fig.add_subplot(2, 2, 1, projection="3d")
+    ax_alt = fig.add_subplot(2, 2, 2)
+    ax_att = fig.add_subplot(2, 2, 3)
+    ax_act = fig.add_subplot(2, 2, 4)
+    for track in episode.vehicles:
+        pos = track.states["lin_pos"]
+        ax3d.plot(pos[:, 0], pos[:, 1], pos[:, 2], label=track.name)
+        if len(pos):
+            ax3d.scatter(*pos[0], marker="o", color="green")
+            ax3d.scatter(*pos[-1], marker="x", color="red")
+        ax_alt.plot(track.time, pos[:, 2], label=f"{track.name} z")
+        att = np.degrees(track.states["ang_pos"])
+        for j, name in enumerate(("roll", "pitch", "yaw")):
+            ax_att.plot(track.time, att[:, j], label=name if len(episode.vehicles) == 1 else f"{track.name} {name}")
+    wps = _waypoints(episode)
+    if len(wps):
+        ax3d.scatter(wps[:, 0], wps[:, 1], wps[:, 2], marker="*", s=80, color="tab:green", label="waypoints")
+    ax3d.set_xlabel("x [m]")
+    ax3d.set_ylabel("y [m]")
+    ax3d.set_zlabel("z [m]")
+    ax3d.set_title("path (ground frame, ENU)")
+    ax3d.legend(loc="upper left", fontsize="small")
+    ax_alt.set_xlabel("time [s]")
+    ax_alt.set_ylabel("altitude z [m]")
+    ax_alt.set_title("altitude")
+    ax_alt.grid(True, alpha=0.3)
+    ax_att.set_xlabel("time [s]")
+    ax_att.set_ylabel("angle [deg]")
+    ax_att.set_title("attitude (Euler)")
+    ax_att.legend(fontsize="small")
+    ax_att.grid(True, alpha=0.3)
+    for j, name in enumerate(episode.action_names):
+        if episode.length:
+            ax_act.step(episode.action_time, episode.actions[:, j], where="post", label=name)
+    ax_act.set_xlabel("time [s]")
+    ax_act.set_ylabel("applied action")
+    ax_act.set_title("actions")
+    ax_act.legend(fontsize="small")
+    ax_act.grid(True, alpha=0.3)
+    end = episode.end or {}
+    title = f"{episode.path.name}: return {np.nansum(episode.rewards):.4g}, {episode.length} steps"
+    if end:
+        title += f", end: {end.get('reason')}"
+    if episode.truncated:
+        title += " (file truncated)"
+    fig.suptitle(title)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def render_video(
+    episode: Episode, out: str | Path, size: tuple[int, int] | None = None, fps: float | None = None
+) -> Path:
+    """Render the recorded flight offscreen with a chase camera to ``.mp4`` or ``.gif``.
+
+    Kinematic playback: the vehicles are posed at their recorded states in the rebuilt
+    world (no physics), so truncated files and other versions render too.  ``size`` is
+    (width, height) in pixels (default: the env config's render resolution); ``fps``
+    defaults to the agent rate.
+    """
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix not in VIDEO_SUFFIXES:
+        raise TelemetryError(f"--video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
+    import imageio.v2 as imageio
+    import pybullet as p
+
+    from pyflyt_engine.envs.render import Markers, chase_camera
+    from pyflyt_engine.state import KinematicState
+    from pyflyt_engine.telemetry.replay import rebuild_env
+
+    render = episode.config.get("render", {}) or {}
+    if size is None:
+        h, w = render.get("resolution", (480, 480))
+        size = (int(w), int(h))
+    width, height = size
+    fps = float(fps or episode.agent_hz)
+    env = rebuild_env(episode)
+    try:
+        client = env.world.client
+        marker_frames = _marker_frames(episode)
+        most = max((len(points) for _, points in marker_frames), default=0)
+        radius = _marker_radius(episode)
+        markers = Markers(client, most, radius) if most else None
+        track0 = episode.vehicles[0]
+        frames: list[np.ndarray] = []
+        marker_index = -1
+        for step in range(len(track0.time)):
+            t = track0.time[step]
+            for i, track in enumerate(episode.vehicles):
+                if step < len(track.time):
+                    body = env.world.vehicles[i].body_id
+                    p.resetBasePositionAndOrientation(
+                        body,
+                        track.states["lin_pos"][step].tolist(),
+                        track.states["quaternion"][step].tolist(),
+                        physicsClientId=client,
+                    )
+            if markers is not None:
+                current = max((k for k, (mt, _) in enumerate(marker_frames) if mt <= t + 1e-9), default=-1)
+                if current != marker_index and current >= 0:
+                    markers.show(marker_frames[current][1])
+                    marker_index = current
+            s = {k: tuple(track0.states[k][step]) for k in track0.states}
+            state = KinematicState(**s)
+            frames.append(
+                chase_camera(
+                    client,
+                    state,
+                    (height, width),
+                    float(render.get("camera_distance", 0.6)),
+                    float(render.get("camera_height", 0.25)),
+                    float(render.get("fov", 60.0)),
+                )
+            )
+    finally:
+        env.close()
+    if not frames:
+        raise TelemetryError(f"{episode.path}: no recorded states to render")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".gif":
+        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
+    else:
+        try:
+            writer = imageio.get_writer(
+                out, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=1, pixelformat="yuv420p"
+            )
+        except Exception as exc:  # noqa: BLE001 - imageio-ffmpeg missing or broken
+            raise TelemetryError(f"cannot write {out.name}: MP4 needs imageio-ffmpeg ({exc}); try a .gif") from None
+        with writer:
+            for frame in frames:
+                writer.append_data(frame)
+    return out
+
+
+def _marker_frames(episode: Episode) -> list[tuple[float, np.ndarray]]:
+    out = []
+    for m in episode.contents.messages:
+        if m.topic != "/scene" or not isinstance(m.data, dict):
+            continue
+        for entity in m.data.get("entities", []):
+            if entity.get("id") == "waypoints":
+                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
+                out.append((m.log_time * 1e-9, np.array([[q["x"], q["y"], q["z"]] for q in pts]).reshape(-1, 3)))
+    return out
+
+
+def _marker_radius(episode: Episode) -> float:
+    for m in episode.contents.messages:
+        if m.topic == "/scene" and isinstance(m.data, dict):
+            for entity in m.data.get("entities", []):
+                if entity.get("id") == "waypoints":
+                    for sphere in entity.get("spheres", []):
+                        return float(sphere["size"]["x"]) / 2
+    return 0.05

@@ -1,0 +1,102 @@
+"""A recording process killed mid-episode (SIGKILL), interrupted (SIGINT) or crashing
+leaves a readable file: cut at its last complete chunk, or finished by the exit hooks."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+
+from pyflyt_engine.telemetry import load_episode, read_mcap, read_metrics
+from pyflyt_engine.telemetry.replay import verify
+
+ROOT = Path(__file__).resolve().parents[2]
+
+WRITER = textwrap.dedent(
+    """
+    import sys, time, warnings
+    warnings.simplefilter("ignore")
+    import gymnasium, pyflyt_engine
+    from pyflyt_engine.telemetry import RecordEpisode, MetricsWriter
+    from tests.telemetry.conftest import hover_action
+
+    folder, steps, ending = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+    env = RecordEpisode(gymnasium.make("PyFlyt/QuadX-Hover-v0", flight_dome_size=100.0, max_duration_seconds=60.0), folder)
+    metrics = MetricsWriter(folder + "/metrics.mcap")
+    env.reset(seed=4)
+    for k in range(steps):
+        env.step(hover_action(env.unwrapped.state))
+        metrics.log("/train/progress", k, {"k": k})
+    metrics.flush()
+    print("ready", flush=True)
+    if ending == "raise":
+        raise RuntimeError("boom")
+    time.sleep(120)
+    """
+)
+
+
+def _start(tmp_path: Path, steps: int, ending: str) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", WRITER, str(tmp_path), str(steps), ending],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert line.strip() == "ready", proc.stderr.read() if proc.stderr else line
+    return proc
+
+
+def test_sigkill_mid_episode_leaves_the_flight_up_to_the_last_chunk(tmp_path):
+    steps = 100  # 3.33 s at 30 Hz: chunks closed at 1, 2 and 3 s of flight
+    proc = _start(tmp_path, steps, "sleep")
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    path = tmp_path / "ep_0000.mcap"
+    with open(path, "rb") as f, pytest.raises(McapError):  # the official reader needs the footer/summary
+        make_reader(f, validate_crcs=True).get_summary()
+    with pytest.warns(UserWarning, match="truncated"):
+        contents = read_mcap(path)
+    assert contents.truncated and "no footer" in contents.truncation
+    episode = load_episode(path, warn=False)
+    # lost at most one simulated second (30 steps), more is kept if the flusher ran
+    assert steps - 30 <= episode.length <= steps
+    assert episode.end is None
+    # what was recovered still re-simulates exactly
+    assert verify(episode, tolerance=0.0).ok
+    # and the metrics file was flushed explicitly before the kill
+    curves = read_metrics(tmp_path)
+    assert len(curves["/train/progress"]) == steps and curves.truncated
+
+
+@pytest.mark.parametrize("ending", ["sigint", "raise"])
+def test_interrupt_or_exception_still_finishes_the_file(tmp_path, ending):
+    proc = _start(tmp_path, 20, "raise" if ending == "raise" else "sleep")
+    if ending == "sigint":
+        time.sleep(0.2)
+        proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0
+    assert ("KeyboardInterrupt" if ending == "sigint" else "boom") in err
+    path = tmp_path / "ep_0000.mcap"
+    with open(path, "rb") as f:  # complete: summary, footer, valid CRCs
+        reader = make_reader(f, validate_crcs=True)
+        count = sum(1 for _ in reader.iter_messages())
+        assert reader.get_summary().statistics.message_count == count
+    episode = load_episode(path)
+    assert not episode.truncated and episode.length == 20
+    curves = read_metrics(tmp_path)
+    assert curves.truncated == [] and len(curves["/train/progress"]) == 20
