@@ -29,15 +29,17 @@ import pybullet as p
 
 from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.components.booster import (
-    booster_loads,
-    booster_step,
+    BoosterState,
+    booster_constants,
+    booster_step_scalar,
     initial_booster_state,
     tank_mass_properties,
 )
 from pyflyt_engine.components.camera import capture
 from pyflyt_engine.components.drag import DragParams, drag_wrench
-from pyflyt_engine.components.gimbal import gimbal_step, rotate_axes
-from pyflyt_engine.components.lifting_surface import flap_step, surface_loads
+from pyflyt_engine.components.gimbal import gimbal_constants, gimbal_step_scalar, rotate_vector_scalar
+from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.lifting_surface import surface_wrench
 from pyflyt_engine.components.motor import (
     MotorParams,
     clip_command,
@@ -174,13 +176,47 @@ class Vehicle:
         self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
 
         # --- lifting surfaces, boosters, gimbals, cameras
-        self.surface_deflection = np.zeros(len(parts.surfaces))
-        self.surface_command = np.zeros(len(parts.surfaces))
-        self.booster_state = initial_booster_state(parts.boosters, fuel_fraction=spec.boosters.initial_fuel) if parts.boosters else None
-        self.booster_ignition = np.zeros(parts.boosters.n, dtype=bool) if parts.boosters else None
-        self.booster_throttle = np.zeros(parts.boosters.n) if parts.boosters else None
-        self.gimbal_angles = np.zeros((parts.gimbals.n, 2)) if parts.gimbals else None
-        self.gimbal_command = np.zeros((parts.gimbals.n, 2)) if parts.gimbals else None
+        # As for the motors, their state lives in Python lists stepped on plain floats by
+        # the components' scalar functions, with the step-independent quantities derived
+        # once here; the public read-outs (surface_deflection, booster_state,
+        # gimbal_angles, ...) are built from the lists when asked for.
+        surfaces = parts.surfaces
+        self._surface_constants = [surface.constants for surface in surfaces]
+        self._flap_lag = [float(lag_coefficient(physics_dt, surface.tau)) for surface in surfaces]
+        self._flap_scale = [surface.max_deflection or 1.0 for surface in surfaces]  # aux-state normalisation
+        self._deflection = [0.0] * len(surfaces)
+        self._surface_command = [0.0] * len(surfaces)
+        b = parts.boosters
+        self._booster_constants = booster_constants(b, physics_dt) if b is not None else []
+        self._booster_noise_on = b is not None and bool(np.any(b.noise_ratio > 0))
+        self._booster_noise: list[list[float]] = []
+        self._booster_noise_index = 0
+        self._booster_zero_noise = [0.0] * len(self._booster_constants)
+        self._booster_lists(initial_booster_state(b, fuel_fraction=spec.boosters.initial_fuel) if b is not None else None)
+        self._booster_ignition = [False] * len(self._booster_constants)
+        self._booster_throttle = [0.0] * len(self._booster_constants)
+        self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
+        gimbals = parts.gimbals
+        self._gimbal_constants = gimbal_constants(gimbals, physics_dt) if gimbals is not None else []
+        self._gimbal_angles = [(0.0, 0.0)] * len(self._gimbal_constants)
+        self._gimbal_command = [(0.0, 0.0)] * len(self._gimbal_constants)
+        self._gimbal_scale = (
+            [(max(a, 1e-12), max(b_, 1e-12)) for a, b_ in gimbals.max_angles.tolist()] if gimbals is not None else []
+        )
+        self._gimbal_bases = [
+            tuple(float(v) for v in (self.motors.thrust_axes if kind == "motor" else b.thrust_axes)[index])  # type: ignore[union-attr]
+            for kind, index in parts.gimbal_targets
+        ]
+        self._booster_axes = [tuple(axis) for axis in b.thrust_axes.tolist()] if b is not None else []
+        self._booster_positions = [tuple(pos) for pos in b.positions.tolist()] if b is not None else []
+        self._gimballed_motor_terms = {
+            i: (
+                float(self.motors.max_thrust[i]),  # type: ignore[union-attr]
+                float(-self.motors.spin[i] * self.motors.max_torque[i]),  # type: ignore[union-attr]
+                tuple(float(v) for v in self.motors.positions[i]),  # type: ignore[union-attr]
+            )
+            for i in self._gimballed_motors
+        }
         self._camera_cache: dict[int, tuple[float, dict[str, np.ndarray]]] = {}
 
         # --- drag
@@ -338,8 +374,7 @@ class Vehicle:
         if not self.armed:
             self._command = [0.0] * len(self._command)
             self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
-            if self.booster_ignition is not None:
-                self.booster_ignition[:] = False
+            self._booster_ignition = [False] * len(self._booster_ignition)
             self._route_channels(mixer_throttles=None)
             return
         name = self.mode.name
@@ -375,12 +410,12 @@ class Vehicle:
                 command[list(parts.mixer_motors)] = mixer_throttles
             self._command = clip_command(command).tolist()
         if parts.surfaces:
-            self.surface_command = np.clip(parts.surface_mix @ c, -1.0, 1.0)
+            self._surface_command = np.clip(parts.surface_mix @ c, -1.0, 1.0).tolist()
         if parts.boosters is not None:
-            self.booster_ignition = c[parts.ignition_index] > 0.5
-            self.booster_throttle = np.clip(c[parts.throttle_index], 0.0, 1.0)
+            self._booster_ignition = (c[parts.ignition_index] > 0.5).tolist()
+            self._booster_throttle = np.clip(c[parts.throttle_index], 0.0, 1.0).tolist()
         if parts.gimbals is not None:
-            self.gimbal_command = np.clip(c[parts.gimbal_channels], -1.0, 1.0)
+            self._gimbal_command = [tuple(row) for row in np.clip(c[parts.gimbal_channels], -1.0, 1.0).tolist()]
 
     def apply_loads(self) -> None:
         """Advance the actuators one physics step and apply the net wrench to the body."""
@@ -411,47 +446,72 @@ class Vehicle:
         p.applyExternalForce(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         p.applyExternalTorque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
 
-    def _component_loads(self) -> list[float]:
-        """Net wrench of gimballed motors, lifting surfaces and boosters (body frame)."""
-        parts, dt = self.parts, self.physics_dt
-        total = np.zeros(6)
-        axes_override: dict[tuple[str, int], np.ndarray] = {}
-        if parts.gimbals is not None:
-            self.gimbal_angles = gimbal_step(parts.gimbals, self.gimbal_angles, self.gimbal_command, dt)
-            for g, (kind, index) in enumerate(parts.gimbal_targets):
-                base = (self.motors.thrust_axes if kind == "motor" else parts.boosters.thrust_axes)[index]  # type: ignore[union-attr]
-                rotated = rotate_axes(parts.gimbals, self.gimbal_angles, np.tile(base, (parts.gimbals.n, 1)))[g]
-                axes_override[(kind, index)] = rotated
+    def _component_loads(self) -> tuple[float, float, float, float, float, float]:
+        """Net wrench of gimballed motors, lifting surfaces and boosters (body frame).
+
+        One physics step of every such actuator, on plain floats (see the components'
+        ``*_scalar`` / ``surface_wrench`` functions); loads are summed in the order
+        gimballed motors, surfaces, boosters.
+        """
+        fx = fy = fz = tx = ty = tz = 0.0
+        rotated: dict[tuple[str, int], tuple[float, float, float]] = {}
+        if self._gimbal_constants:
+            angles, command = self._gimbal_angles, self._gimbal_command
+            for g, (k, target, base) in enumerate(zip(self._gimbal_constants, self.parts.gimbal_targets, self._gimbal_bases)):
+                eps_a, eps_b = gimbal_step_scalar(k, *angles[g], *command[g])
+                angles[g] = (eps_a, eps_b)
+                rotated[target] = rotate_vector_scalar(k, eps_a, eps_b, base)
         for index in self._gimballed_motors:
-            m = self.motors
+            max_thrust, reaction_gain, (px, py, pz) = self._gimballed_motor_terms[index]
             x = self._throttle[index]
-            thrust = m.max_thrust[index] * x * abs(x)  # type: ignore[union-attr]
-            axis = axes_override[("motor", index)]
-            force = axis * thrust
-            reaction = -m.spin[index] * m.max_torque[index] * x * abs(x) * axis  # type: ignore[union-attr]
-            total[:3] += force
-            total[3:] += np.cross(m.positions[index], force) + reaction  # type: ignore[union-attr]
-        if parts.surfaces:
-            velocity, rates = self._velocity_body
-            for i, surface in enumerate(parts.surfaces):
-                self.surface_deflection[i] = flap_step(surface, self.surface_deflection[i], self.surface_command[i], dt)
-                force, torque = surface_loads(surface, self.surface_deflection[i], velocity, rates)
-                total[:3] += force
-                total[3:] += torque
-        if parts.boosters is not None:
-            b = parts.boosters
-            noise = self._rng.standard_normal(b.n) if np.any(b.noise_ratio > 0) else np.zeros(b.n)
-            self.booster_state, thrust = booster_step(b, self.booster_state, self.booster_ignition, self.booster_throttle, dt, noise)
-            axes = b.thrust_axes
-            if axes_override:
-                axes = axes.copy()
-                for (kind, index), axis in axes_override.items():
-                    if kind == "booster":
-                        axes[index] = axis
-            force, torque = booster_loads(b, thrust, thrust_axes=axes)
-            total[:3] += force
-            total[3:] += torque
-        return total.tolist()
+            thrust = max_thrust * x * abs(x)
+            ax, ay, az = rotated[("motor", index)]
+            ffx, ffy, ffz = ax * thrust, ay * thrust, az * thrust
+            reaction = reaction_gain * x * abs(x)
+            fx, fy, fz = fx + ffx, fy + ffy, fz + ffz
+            tx += py * ffz - pz * ffy + reaction * ax
+            ty += pz * ffx - px * ffz + reaction * ay
+            tz += px * ffy - py * ffx + reaction * az
+        if self._surface_constants:
+            (vx, vy, vz), (wx, wy, wz) = self._velocity_body
+            deflection, command, lag = self._deflection, self._surface_command, self._flap_lag
+            for i, k in enumerate(self._surface_constants):
+                # flap_step: first-order lag toward clip(command) * max_deflection
+                d = deflection[i]
+                d = d + lag[i] * (min(max(command[i], -1.0), 1.0) * k.max_deflection - d)
+                deflection[i] = d
+                sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz)
+                fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
+                tx, ty, tz = tx + stx, ty + sty, tz + stz
+        if self._booster_constants:
+            if self._booster_noise_on:
+                if self._booster_noise_index >= len(self._booster_noise):
+                    self._booster_noise = self._rng.standard_normal((_NOISE_BLOCK, len(self._booster_constants))).tolist()
+                    self._booster_noise_index = 0
+                noise = self._booster_noise[self._booster_noise_index]
+                self._booster_noise_index += 1
+            else:
+                noise = self._booster_zero_noise
+            bfx = bfy = bfz = btx = bty = btz = 0.0
+            for i, k in enumerate(self._booster_constants):
+                ignited, duty, fuel, thrust = booster_step_scalar(
+                    k, self._b_ignited[i], self._b_duty[i], self._b_fuel[i],
+                    self._booster_ignition[i], self._booster_throttle[i], noise[i],
+                )  # fmt: skip
+                self._b_ignited[i], self._b_duty[i], self._b_fuel[i] = ignited, duty, fuel
+                ax, ay, az = rotated.get(("booster", i), self._booster_axes[i])
+                px, py, pz = self._booster_positions[i]
+                ffx, ffy, ffz = thrust * ax, thrust * ay, thrust * az
+                if i == 0:  # booster_loads: the boosters' sum first, then added to the total
+                    bfx, bfy, bfz = ffx, ffy, ffz
+                    btx, bty, btz = py * ffz - pz * ffy, pz * ffx - px * ffz, px * ffy - py * ffx
+                else:
+                    bfx, bfy, bfz = bfx + ffx, bfy + ffy, bfz + ffz
+                    btx, bty, btz = btx + (py * ffz - pz * ffy), bty + (pz * ffx - px * ffz), btz + (px * ffy - py * ffx)
+            self._booster_cache = None
+            fx, fy, fz = fx + bfx, fy + bfy, fz + bfz
+            tx, ty, tz = tx + btx, ty + bty, tz + btz
+        return fx, fy, fz, tx, ty, tz
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
@@ -463,8 +523,12 @@ class Vehicle:
         if self.parts.boosters is None:
             self.mass = self.parts.mass
             return
+        fuel = tuple(self._b_fuel)
+        if fuel == self._mass_fuel:  # no fuel burnt since the last update: nothing changes
+            return
+        self._mass_fuel = fuel
         b = self.parts.boosters
-        fuel_mass, tank_inertia = tank_mass_properties(b, self.booster_state.fuel)  # type: ignore[union-attr]
+        fuel_mass, tank_inertia = tank_mass_properties(b, np.array(fuel))
         r = b.fuel_tank_positions
         parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
         inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
@@ -529,18 +593,18 @@ class Vehicle:
         self._command = [0.0] * len(self._command)
         self.setpoint[:] = 0.0
         self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
-        self.surface_deflection[:] = 0.0
-        self.surface_command[:] = 0.0
+        self._deflection = [0.0] * len(self._deflection)
+        self._surface_command = [0.0] * len(self._surface_command)
         if parts.boosters is not None:
             self.booster_state = initial_booster_state(parts.boosters, fuel_fraction=self.spec.boosters.initial_fuel)  # type: ignore[union-attr]
-            self.booster_ignition[:] = False  # type: ignore[index]
-            self.booster_throttle[:] = 0.0  # type: ignore[index]
+            self._booster_ignition = [False] * len(self._booster_ignition)
+            self._booster_throttle = [0.0] * len(self._booster_throttle)
             self._update_mass()
-        if parts.gimbals is not None:
-            self.gimbal_angles[:] = 0.0  # type: ignore[index]
-            self.gimbal_command[:] = 0.0  # type: ignore[index]
+        self._gimbal_angles = [(0.0, 0.0)] * len(self._gimbal_angles)
+        self._gimbal_command = [(0.0, 0.0)] * len(self._gimbal_command)
         self._camera_cache.clear()
         self._noise_index = len(self._noise)  # discard buffered noise: redraw from the stream
+        self._booster_noise_index = len(self._booster_noise)
         if self.controller is not None:
             self.controller.reset()
         if self.autopilot is not None:
@@ -552,6 +616,8 @@ class Vehicle:
         self._rng = rng
         self._noise = []
         self._noise_index = 0
+        self._booster_noise = []
+        self._booster_noise_index = 0
 
     @property
     def rng_state(self) -> dict:
@@ -576,17 +642,65 @@ class Vehicle:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
         ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
-        parts = [self.motor_throttle]
-        if self.parts.surfaces:
-            limits = np.array([s.max_deflection or 1.0 for s in self.parts.surfaces])
-            parts.append(self.surface_deflection / limits)
-        if self.booster_state is not None:
-            b = self.parts.boosters
-            parts.append(np.stack([self.booster_state.fuel / b.total_fuel, self.booster_state.duty,  # type: ignore[union-attr]
-                                   self.booster_state.ignited.astype(float)], axis=1).ravel())
-        if self.gimbal_angles is not None:
-            parts.append((self.gimbal_angles / np.maximum(self.parts.gimbals.max_angles, 1e-12)).ravel())  # type: ignore[union-attr]
-        return np.concatenate(parts) if len(parts) > 1 else parts[0].copy()
+        values = list(self._throttle)
+        values += [d / scale for d, scale in zip(self._deflection, self._flap_scale)]
+        if self._booster_constants:
+            for fuel, total, duty, ignited in zip(self._b_fuel, self._b_total_fuel, self._b_duty, self._b_ignited):
+                values += (fuel / total, duty, 1.0 if ignited else 0.0)
+        for (eps_a, eps_b), (max_a, max_b) in zip(self._gimbal_angles, self._gimbal_scale):
+            values += (eps_a / max_a, eps_b / max_b)
+        return np.array(values, dtype=np.float64)
+
+    @property
+    def surface_deflection(self) -> np.ndarray:
+        """(n_surfaces,) current flap deflections [rad] (a copy)."""
+        return np.array(self._deflection, dtype=np.float64)
+
+    @property
+    def surface_command(self) -> np.ndarray:
+        """(n_surfaces,) normalised flap commands in [-1, 1] (a copy)."""
+        return np.array(self._surface_command, dtype=np.float64)
+
+    @property
+    def booster_state(self) -> BoosterState | None:
+        """The boosters' :class:`BoosterState` (None without boosters); assign one to set it."""
+        if not self._booster_constants:
+            return None
+        if self._booster_cache is None:
+            self._booster_cache = BoosterState(ignited=self._b_ignited, duty=self._b_duty, fuel=self._b_fuel)
+        return self._booster_cache
+
+    @booster_state.setter
+    def booster_state(self, state: BoosterState) -> None:
+        self._booster_lists(state)
+
+    def _booster_lists(self, state: BoosterState | None) -> None:
+        b = self.parts.boosters
+        self._b_total_fuel = b.total_fuel.tolist() if b is not None else []
+        self._b_ignited = state.ignited.tolist() if state is not None else []
+        self._b_duty = state.duty.tolist() if state is not None else []
+        self._b_fuel = state.fuel.tolist() if state is not None else []
+        self._booster_cache = state
+
+    @property
+    def booster_ignition(self) -> np.ndarray | None:
+        """(n_boosters,) ignition commands (a copy; None without boosters)."""
+        return np.array(self._booster_ignition, dtype=bool) if self._booster_constants else None
+
+    @property
+    def booster_throttle(self) -> np.ndarray | None:
+        """(n_boosters,) throttle commands in [0, 1] (a copy; None without boosters)."""
+        return np.array(self._booster_throttle, dtype=np.float64) if self._booster_constants else None
+
+    @property
+    def gimbal_angles(self) -> np.ndarray | None:
+        """(n_gimbals, 2) current gimbal angles [rad] (a copy; None without gimbals)."""
+        return np.array(self._gimbal_angles, dtype=np.float64).reshape(-1, 2) if self._gimbal_constants else None
+
+    @property
+    def gimbal_command(self) -> np.ndarray | None:
+        """(n_gimbals, 2) normalised gimbal commands in [-1, 1] (a copy; None without gimbals)."""
+        return np.array(self._gimbal_command, dtype=np.float64).reshape(-1, 2) if self._gimbal_constants else None
 
     def hover_throttle(self) -> float:
         """Analytic throttle at which the mixer motors' vertical thrust equals the weight (level)."""

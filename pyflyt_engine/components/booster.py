@@ -47,6 +47,7 @@ Deviations from the paper's equation, on purpose:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -210,6 +211,63 @@ def initial_booster_state(
     )
 
 
+class BoosterConstants(NamedTuple):
+    """One booster's parameters for a fixed physics step, as plain floats (see
+    :func:`booster_constants`): what :func:`booster_step_scalar` needs."""
+
+    reignitable: bool
+    min_duty: float  #: lambda_min = min_thrust / max_thrust
+    lag: float  #: lag_coefficient(dt, tau)
+    noise_ratio: float
+    max_fuel_rate: float  #: [kg/s]
+    max_thrust: float  #: [N]
+    dt: float  #: physics step [s]
+
+
+def booster_constants(params: BoosterParams, dt: float) -> list[BoosterConstants]:
+    """One :class:`BoosterConstants` per booster, for steps of length ``dt`` [s] (> 0)."""
+    if dt <= 0.0:
+        raise ValueError(f"dt must be > 0 s, got {dt}.")
+    min_duty = params.min_duty.tolist()
+    return [
+        BoosterConstants(
+            bool(params.reignitable[i]),
+            min_duty[i],
+            float(lag_coefficient(dt, float(params.tau[i]))),
+            float(params.noise_ratio[i]),
+            float(params.max_fuel_rate[i]),
+            float(params.max_thrust[i]),
+            float(dt),
+        )
+        for i in range(params.n)
+    ]
+
+
+def booster_step_scalar(
+    k: BoosterConstants, ignited: bool, duty: float, fuel: float, ignition: bool, throttle: float, eta: float
+) -> tuple[bool, float, float, float]:
+    """One booster, one physics step: the model of the module docstring on plain floats.
+
+    Args:
+        k: the booster's constants.
+        ignited, duty, fuel: its state at step t (lit, duty cycle, fuel [kg]).
+        ignition: ignition command; throttle: normalised throttle (clipped to [0, 1]).
+        eta: a standard-normal sample for the duty noise.
+
+    Returns:
+        ``(ignited, duty, fuel, thrust)`` at t+1, thrust in N along the thrust axis.
+    """
+    beta = min(max(throttle, 0.0), 1.0)
+    ignited = (not k.reignitable and ignited) or ignition
+    min_duty = k.min_duty
+    target = min_duty + beta * (1.0 - min_duty)
+    lagged = duty + k.lag * (target - duty)
+    noisy = lagged * (1.0 + k.noise_ratio * eta)
+    duty = min(max(noisy, 0.0), 1.0) if ignited and fuel > 0.0 else 0.0
+    fuel = max(fuel - duty * k.max_fuel_rate * k.dt, 0.0)
+    return ignited, duty, fuel, duty * k.max_thrust
+
+
 def booster_step(
     params: BoosterParams,
     state: BoosterState,
@@ -238,20 +296,16 @@ def booster_step(
     noise = np.asarray(noise, dtype=np.float64)
     if noise.shape != (n,):
         raise ValueError(f"noise has shape {noise.shape}, expected ({n},): one standard-normal sample per booster.")
-    ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,))
-    beta = np.clip(np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)), 0.0, 1.0)
-
-    ignited = (~params.reignitable & state.ignited) | ignition
-    burning = ignited & (state.fuel > 0.0)
-
-    min_duty = params.min_duty
-    target = min_duty + beta * (1.0 - min_duty)
-    lagged = state.duty + lag_coefficient(dt, params.tau) * (target - state.duty)
-    noisy = lagged * (1.0 + params.noise_ratio * noise)
-    duty = np.where(burning, np.clip(noisy, 0.0, 1.0), 0.0)
-
-    fuel = np.maximum(state.fuel - duty * params.max_fuel_rate * dt, 0.0)
-    thrust = duty * params.max_thrust
+    ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,)).tolist()
+    throttle = np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)).tolist()
+    steps = [
+        booster_step_scalar(k, *args)
+        for k, args in zip(
+            booster_constants(params, dt),
+            zip(state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist(), ignition, throttle, noise.tolist()),
+        )
+    ]
+    ignited, duty, fuel, thrust = (np.array(column) for column in zip(*steps))
     return BoosterState(ignited=ignited, duty=duty, fuel=fuel), thrust
 
 

@@ -23,7 +23,9 @@ nominal thrust axis into the vectored one passed to the propulsion loads.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -191,3 +193,57 @@ def rotate_axes(params: GimbalParams, angles: np.ndarray, axes: np.ndarray) -> n
     if axes.shape != (params.n, 3):
         raise ValueError(f"axes has shape {axes.shape}, expected ({params.n}, 3).")
     return np.einsum("nij,nj->ni", gimbal_rotation(params, angles), axes)
+
+
+class GimbalConstants(NamedTuple):
+    """One gimbal's parameters for a fixed physics step, as plain floats (see
+    :func:`gimbal_constants`): what :func:`gimbal_step_scalar` and
+    :func:`rotate_vector_scalar` need."""
+
+    lag: float  #: lag_coefficient(dt, tau)
+    max_angle_a: float  #: [rad]
+    max_angle_b: float  #: [rad]
+    W_a: tuple[float, ...]  #: skew matrix of c_a, row-major (9)
+    W_a2: tuple[float, ...]  #: W_a @ W_a, row-major
+    W_b: tuple[float, ...]
+    W_b2: tuple[float, ...]
+
+
+def gimbal_constants(params: GimbalParams, dt: float) -> list[GimbalConstants]:
+    """One :class:`GimbalConstants` per gimbal, for steps of length ``dt`` [s] (> 0)."""
+    if dt <= 0.0:
+        raise ValueError(f"dt must be > 0 s, got {dt}.")
+    return [
+        GimbalConstants(
+            float(lag_coefficient(dt, float(params.tau[i]))),
+            float(params.max_angle_a[i]),
+            float(params.max_angle_b[i]),
+            *(tuple(getattr(params, name)[i].ravel().tolist()) for name in ("W_a", "W_a2", "W_b", "W_b2")),
+        )
+        for i in range(params.n)
+    ]
+
+
+def gimbal_step_scalar(k: GimbalConstants, eps_a: float, eps_b: float, xi_a: float, xi_b: float) -> tuple[float, float]:
+    """:func:`gimbal_step` for one gimbal on plain floats: angles [rad] after one step
+    toward ``clip(xi, -1, 1) * max_angle``."""
+    target_a = min(max(xi_a, -1.0), 1.0) * k.max_angle_a
+    target_b = min(max(xi_b, -1.0), 1.0) * k.max_angle_b
+    return eps_a + k.lag * (target_a - eps_a), eps_b + k.lag * (target_b - eps_b)
+
+
+def _rodrigues(W: tuple[float, ...], W2: tuple[float, ...], eps: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """(I + sin(eps) W + 2 sin^2(eps / 2) W^2) v."""
+    sin = math.sin(eps)
+    vers = 2.0 * math.sin(0.5 * eps) ** 2
+    return (
+        x + sin * (W[0] * x + W[1] * y + W[2] * z) + vers * (W2[0] * x + W2[1] * y + W2[2] * z),
+        y + sin * (W[3] * x + W[4] * y + W[5] * z) + vers * (W2[3] * x + W2[4] * y + W2[5] * z),
+        z + sin * (W[6] * x + W[7] * y + W[8] * z) + vers * (W2[6] * x + W2[7] * y + W2[8] * z),
+    )
+
+
+def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tuple[float, float, float]) -> tuple[float, float, float]:
+    """``R_a R_b v`` for one gimbal at angles (eps_a, eps_b) [rad], as :func:`rotate_axes`
+    (equal up to rounding: the product is applied to the vector, not formed)."""
+    return _rodrigues(k.W_a, k.W_a2, eps_a, *_rodrigues(k.W_b, k.W_b2, eps_b, *v))

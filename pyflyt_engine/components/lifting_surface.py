@@ -48,7 +48,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -71,6 +73,40 @@ _CT_STALL = 0.5  # post-stall tangential force as a fraction of C_D0
 _HALF_PI = 0.5 * math.pi
 _TWO_OVER_PI = 2.0 / math.pi
 _AXIS_TOL = 1e-6  # tolerance on axis norms and on chord . normal
+
+
+class SurfaceConstants(NamedTuple):
+    """Plain-float quantities of a :class:`LiftingSurfaceParams` that do not depend on the
+    flow, derived once (``params.constants``) for the per-physics-step path.  Every field
+    is computed with the same expression, in the same order, as where the equations use
+    it, so the fast path is bit-for-bit the model of the module docstring.  The hot
+    functions unpack it by position (slices): keep the field order."""
+
+    px: float  #: aerodynamic centre, body frame [m]
+    py: float
+    pz: float
+    cx: float  #: chord axis c
+    cy: float
+    cz: float
+    nx: float  #: normal axis n
+    ny: float
+    nz: float
+    sx: float  #: span axis s = c x n
+    sy: float
+    sz: float
+    area: float  #: S = c b [m^2]
+    chord: float  #: c [m]
+    aspect_ratio: float  #: AR
+    cl_alpha: float  #: C_La [1/rad]
+    pi_ar: float  #: pi AR
+    delta_cl_per_rad: float  #: C_La tau_f eta: dC_L per radian of flap [1/rad]
+    flap_to_chord: float  #: c_f / c
+    cl_max_pos_base: float  #: C_La (a_s+,base - a_0,base)
+    cl_max_neg_base: float  #: C_La (a_s-,base - a_0,base)
+    alpha_0_base: float  #: [rad]
+    cd_0: float  #: C_D0
+    cn_ar: float  #: 0.41 (1 - exp(-17 / AR)), the post-stall aspect-ratio reduction
+    max_deflection: float  #: [rad]
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,6 +246,28 @@ class LiftingSurfaceParams:
         """s = chord_axis x normal_axis, shape (3,): the axis of positive (nose-up) C_M."""
         return np.cross(self.chord_axis, self.normal_axis)
 
+    @cached_property
+    def constants(self) -> SurfaceConstants:
+        """The flow-independent quantities as plain floats (computed once, then cached)."""
+        px, py, pz = self.position.tolist()
+        cx, cy, cz = self.chord_axis.tolist()
+        nx, ny, nz = self.normal_axis.tolist()
+        ar = self.aspect_ratio
+        cl_alpha = self.cl_alpha
+        return SurfaceConstants(
+            px, py, pz, cx, cy, cz, nx, ny, nz,
+            cy * nz - cz * ny, cz * nx - cx * nz, cx * ny - cy * nx,
+            self.area, self.chord, ar, cl_alpha, math.pi * ar,
+            cl_alpha * self.flap_effectiveness * self.eta,
+            self.flap_to_chord,
+            cl_alpha * (self.stall_pos_base - self.alpha_0_base),
+            cl_alpha * (self.stall_neg_base - self.alpha_0_base),
+            self.alpha_0_base,
+            self.cd_0,
+            _CN_AR_GAIN * (1.0 - math.exp(-_CN_AR_SCALE / ar)),
+            self.max_deflection,
+        )  # fmt: skip
+
 
 def flap_shifted_angles(params: LiftingSurfaceParams, deflection: float) -> tuple[float, float, float]:
     """Zero-lift and stall angles with the flap at ``deflection`` [rad].
@@ -218,20 +276,28 @@ def flap_shifted_angles(params: LiftingSurfaceParams, deflection: float) -> tupl
         ``(alpha_0, stall_pos, stall_neg)`` [rad].  Positive deflection lowers all three
         (alpha_0 by tau_f eta delta, the stall angles by (1 - c_f/c) tau_f eta delta).
     """
-    cl_alpha = params.cl_alpha
-    delta_cl = cl_alpha * params.flap_effectiveness * params.eta * deflection
-    delta_cl_max = params.flap_to_chord * delta_cl
-    cl_max_pos = cl_alpha * (params.stall_pos_base - params.alpha_0_base) + delta_cl_max
-    cl_max_neg = cl_alpha * (params.stall_neg_base - params.alpha_0_base) + delta_cl_max
-    alpha_0 = params.alpha_0_base - delta_cl / cl_alpha
+    return _shifted_angles(params.constants, deflection)
+
+
+def _shifted_angles(k: SurfaceConstants, deflection: float) -> tuple[float, float, float]:
+    cl_alpha, _, delta_cl_per_rad, flap_to_chord, cl_max_pos_base, cl_max_neg_base, alpha_0_base = k[15:22]
+    delta_cl = delta_cl_per_rad * deflection
+    delta_cl_max = flap_to_chord * delta_cl
+    cl_max_pos = cl_max_pos_base + delta_cl_max
+    cl_max_neg = cl_max_neg_base + delta_cl_max
+    alpha_0 = alpha_0_base - delta_cl / cl_alpha
     return alpha_0, alpha_0 + cl_max_pos / cl_alpha, alpha_0 + cl_max_neg / cl_alpha
 
 
 def _coefficients_scalar(params: LiftingSurfaceParams, alpha: float, deflection: float) -> tuple[float, float, float]:
     """Scalar (math-module) version of :func:`surface_coefficients`, for the 240 Hz path."""
-    ar = params.aspect_ratio
-    cl_alpha = params.cl_alpha
-    alpha_0, stall_pos, stall_neg = flap_shifted_angles(params, deflection)
+    return _coefficients(params.constants, alpha, deflection)
+
+
+def _coefficients(k: SurfaceConstants, alpha: float, deflection: float) -> tuple[float, float, float]:
+    cl_alpha, pi_ar = k[15:17]
+    cd_0, cn_ar = k[22:24]
+    alpha_0, stall_pos, stall_neg = _shifted_angles(k, deflection)
     alpha = math.remainder(alpha, 2.0 * math.pi)  # wrap into [-pi, pi]
     reverse = abs(alpha) > _HALF_PI
     if reverse:
@@ -239,22 +305,22 @@ def _coefficients_scalar(params: LiftingSurfaceParams, alpha: float, deflection:
 
     if stall_neg < alpha < stall_pos:
         cl = cl_alpha * (alpha - alpha_0)
-        alpha_eff = alpha - alpha_0 - cl / (math.pi * ar)
+        alpha_eff = alpha - alpha_0 - cl / pi_ar
         cos_e, sin_e = math.cos(alpha_eff), math.sin(alpha_eff)
-        ct = params.cd_0 * cos_e
+        ct = cd_0 * cos_e
         cn = (cl + ct * sin_e) / cos_e
         lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * alpha_eff)
     else:
         if alpha >= stall_pos:
-            alpha_i = cl_alpha * (stall_pos - alpha_0) / (math.pi * ar) * (_HALF_PI - alpha) / (_HALF_PI - stall_pos)
+            alpha_i = cl_alpha * (stall_pos - alpha_0) / pi_ar * (_HALF_PI - alpha) / (_HALF_PI - stall_pos)
         else:
-            alpha_i = cl_alpha * (stall_neg - alpha_0) / (math.pi * ar) * (_HALF_PI + alpha) / (_HALF_PI + stall_neg)
+            alpha_i = cl_alpha * (stall_neg - alpha_0) / pi_ar * (_HALF_PI + alpha) / (_HALF_PI + stall_neg)
         alpha_eff = alpha - alpha_0 - alpha_i
         cos_e, sin_e = math.cos(alpha_eff), math.sin(alpha_eff)
         cd_90 = _CD90_QUAD * deflection * deflection + _CD90_LIN * deflection + _CD90_ZERO
-        shape = 1.0 / (_CN_BASE + _CN_SIN * abs(sin_e)) - _CN_AR_GAIN * (1.0 - math.exp(-_CN_AR_SCALE / ar))
+        shape = 1.0 / (_CN_BASE + _CN_SIN * abs(sin_e)) - cn_ar
         cn = cd_90 * sin_e * shape
-        ct = _CT_STALL * params.cd_0 * cos_e
+        ct = _CT_STALL * cd_0 * cos_e
         cl = cn * cos_e - ct * sin_e
         lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * abs(alpha_eff))
     cd = cn * sin_e + ct * cos_e
@@ -443,43 +509,74 @@ def surface_loads(
         ``(force, torque)``, each shape (3,), body frame: force [N] and torque about the
         body origin [N m] (``position x force + M s``).  Zero airspeed gives zeros.
     """
-    px, py, pz = params.position.tolist()
     vx, vy, vz = _floats3(velocity_body)
-    wx, wy, wz = _floats3(angular_velocity_body)
+    if wind_body is not None:
+        # the wind enters after the rotation term, as v + omega x r - wind
+        wx, wy, wz = _floats3(angular_velocity_body)
+        k = params.constants
+        vx += wy * k.pz - wz * k.py
+        vy += wz * k.px - wx * k.pz
+        vz += wx * k.py - wy * k.px
+        gx, gy, gz = _floats3(wind_body)
+        fx, fy, fz, tx, ty, tz = surface_wrench(
+            k, deflection, vx - gx, vy - gy, vz - gz, 0.0, 0.0, 0.0, air_density
+        )
+    else:
+        fx, fy, fz, tx, ty, tz = surface_wrench(
+            params.constants, deflection, vx, vy, vz, *_floats3(angular_velocity_body), air_density
+        )
+    return np.array((fx, fy, fz)), np.array((tx, ty, tz))
+
+
+def surface_wrench(
+    k: SurfaceConstants,
+    deflection: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    air_density: float = AIR_DENSITY,
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`surface_loads` on plain floats, for the per-physics-step path.
+
+    Args:
+        k: the surface's :attr:`LiftingSurfaceParams.constants`.
+        deflection: actual flap deflection [rad].
+        vx, vy, vz: body linear velocity, body frame [m/s] (minus the wind, if any).
+        wx, wy, wz: body angular velocity, body frame [rad/s].
+        air_density: rho [kg/m^3].
+
+    Returns:
+        ``(fx, fy, fz, tx, ty, tz)``: force [N] and torque about the body origin [N m],
+        body frame (zeros at zero airspeed).
+    """
+    px, py, pz, cx, cy, cz, nx, ny, nz, sx, sy, sz, area, chord = k[:14]
     vx += wy * pz - wz * py
     vy += wz * px - wx * pz
     vz += wx * py - wy * px
-    if wind_body is not None:
-        gx, gy, gz = _floats3(wind_body)
-        vx -= gx
-        vy -= gy
-        vz -= gz
-
-    cx, cy, cz = params.chord_axis.tolist()
-    nx, ny, nz = params.normal_axis.tolist()
     u = vx * cx + vy * cy + vz * cz
     w = vx * nx + vy * ny + vz * nz
     speed_sq = u * u + w * w
     if speed_sq == 0.0:
-        return np.zeros(3), np.zeros(3)
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
-    cl, cd, cm = _coefficients_scalar(params, math.atan2(-w, u), deflection)
-    q_area = 0.5 * air_density * speed_sq * params.area
+    cl, cd, cm = _coefficients(k, math.atan2(-w, u), deflection)
+    q_area = 0.5 * air_density * speed_sq * area
     # Lift along (-w c + u n) / V, drag along -(u c + w n) / V: components along c and n.
-    k = q_area / math.sqrt(speed_sq)
-    f_c = -k * (cl * w + cd * u)
-    f_n = k * (cl * u - cd * w)
+    scale = q_area / math.sqrt(speed_sq)
+    f_c = -scale * (cl * w + cd * u)
+    f_n = scale * (cl * u - cd * w)
     fx = f_c * cx + f_n * nx
     fy = f_c * cy + f_n * ny
     fz = f_c * cz + f_n * nz
-    moment = cm * q_area * params.chord
-    sx, sy, sz = cy * nz - cz * ny, cz * nx - cx * nz, cx * ny - cy * nx
-    force = np.array((fx, fy, fz))
-    torque = np.array(
-        (
-            py * fz - pz * fy + moment * sx,
-            pz * fx - px * fz + moment * sy,
-            px * fy - py * fx + moment * sz,
-        )
+    moment = cm * q_area * chord
+    return (
+        fx,
+        fy,
+        fz,
+        py * fz - pz * fy + moment * sx,
+        pz * fx - px * fz + moment * sy,
+        px * fy - py * fx + moment * sz,
     )
-    return force, torque

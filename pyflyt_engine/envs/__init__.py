@@ -7,11 +7,12 @@ PyBullet nor the env modules::
     import gymnasium, pyflyt_engine
     env = gymnasium.make("PyFlyt/QuadX-Hover-v0", sparse_reward=True)
 
-Layout: :mod:`.env` (the generic loop, :class:`UAVEnv`), :mod:`.quadx` (the registered
-QuadX classes, whose docstrings are their manuals), :mod:`.tasks` (spawn, targets,
-observations, completion), :mod:`.rewards` (named terms and conditions),
-:mod:`.waypoints` (waypoint logic shared by every waypoint task), :mod:`.config`
-(typed YAML configs), :mod:`.wrappers` (``FlattenWaypointEnv``), :mod:`.render`.
+Layout: :mod:`.env` (the generic loop, :class:`UAVEnv`); :mod:`.quadx`, :mod:`.fixedwing`,
+:mod:`.rocket` (the registered classes, whose docstrings are their manuals); :mod:`.tasks`
+(spawn, targets, observations, completion); :mod:`.rewards` (named terms and
+conditions); :mod:`.waypoints` (waypoint logic shared by every waypoint task);
+:mod:`.config` (typed YAML configs); :mod:`.wrappers` (``FlattenWaypointEnv``);
+:mod:`.render`.
 """
 
 from __future__ import annotations
@@ -40,6 +41,10 @@ class EnvEntry:
 ENVS: dict[str, EnvEntry] = {
     "PyFlyt/QuadX-Hover-v0": EnvEntry("pyflyt_engine.envs.quadx:QuadXHoverEnv", "quadx_hover"),
     "PyFlyt/QuadX-Waypoints-v0": EnvEntry("pyflyt_engine.envs.quadx:QuadXWaypointsEnv", "quadx_waypoints"),
+    "PyFlyt/Fixedwing-Waypoints-v0": EnvEntry(
+        "pyflyt_engine.envs.fixedwing:FixedwingWaypointsEnv", "fixedwing_waypoints"
+    ),
+    "PyFlyt/Rocket-Landing-v0": EnvEntry("pyflyt_engine.envs.rocket:RocketLandingEnv", "rocket_landing"),
 }
 
 
@@ -76,6 +81,8 @@ def __getattr__(name: str) -> Any:
         "UAVEnv": "pyflyt_engine.envs.env",
         "QuadXHoverEnv": "pyflyt_engine.envs.quadx",
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
+        "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
+        "RocketLandingEnv": "pyflyt_engine.envs.rocket",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
         "EnvConfig": "pyflyt_engine.envs.config",
         "RewardPreset": "pyflyt_engine.envs.config",
@@ -95,10 +102,12 @@ __all__ = [
     "ENVS",
     "EnvConfig",
     "EnvEntry",
+    "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
     "QuadXHoverEnv",
     "QuadXWaypointsEnv",
     "RewardPreset",
+    "RocketLandingEnv",
     "UAVEnv",
     "load_env_config",
     "load_reward_preset",

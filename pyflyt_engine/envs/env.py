@@ -20,6 +20,7 @@ from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, 
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -100,7 +101,14 @@ class UAVEnv(gymnasium.Env):
         self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, task_cls.name)
 
         self.world = World(
-            [VehicleConfig(cfg.uav, cfg.task.start_position, cfg.task.start_orientation, mode=cfg.action.mode)],
+            [
+                VehicleConfig(
+                    self.task.vehicle_spec(load_uav_spec(cfg.uav)),
+                    cfg.task.start_position,
+                    cfg.task.start_orientation,
+                    mode=cfg.action.mode,
+                )
+            ],
             physics_hz=cfg.physics_hz,
             control_hz=cfg.control_hz,
             agent_hz=cfg.agent_hz,
@@ -141,7 +149,7 @@ class UAVEnv(gymnasium.Env):
         super().reset(seed=seed)
         self.world.reset(seed)
         spawn = self.task.spawn(self.np_random)
-        self.vehicle.reset(spawn.position, spawn.orientation)
+        self.vehicle.reset(spawn.position, spawn.orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
         state = self.vehicle.state
         self.task.reset(state, self.np_random)
         self._action = np.zeros_like(self._low)
@@ -242,3 +250,9 @@ class UAVEnv(gymnasium.Env):
     def elapsed_steps(self) -> int:
         """Agent steps since the last reset."""
         return self._steps
+
+    @property
+    def last_action(self) -> np.ndarray:
+        """The action the vehicle received at the last step, after clipping to the bounds
+        (zeros after a reset), a copy: what a recording must re-apply to re-run the episode."""
+        return self._action.copy()

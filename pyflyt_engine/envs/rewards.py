@@ -59,7 +59,8 @@ class StepContext:
         target_distance_rate: d(delta)/dt over the agent step [m/s], negative while
             approaching; measured to the same target at both ends of the step.
         waypoint_reached: a waypoint was reached during the step.
-        extras: further task-specific signals by name (for tasks added later).
+        extras: further task-specific signals by name (the landing task's ``pad_contact``,
+            ``safe_landing``, ``fatal_landing`` as 0/1 and ``touchdown_speed`` [m/s]).
     """
 
     state: KinematicState
@@ -135,6 +136,12 @@ def target_distance_rate(ctx: StepContext) -> float:
     return ctx.target_distance_rate  # type: ignore[return-value]
 
 
+def speed_per_squared_target_distance(ctx: StepContext) -> float:
+    """||v|| / delta^2: speed over the squared distance to the target [1/(m s)] (Rocket-Landing's r_v)."""
+    u, v, w = ctx.state.lin_vel
+    return math.sqrt(u * u + v * v + w * w) / (ctx.target_distance * ctx.target_distance)  # type: ignore[operator]
+
+
 def speed(ctx: StepContext) -> float:
     """||v||: linear speed of the centre of mass [m/s]."""
     u, v, w = ctx.state.lin_vel
@@ -165,6 +172,7 @@ TERMS: dict[str, RewardTerm] = {
     "target_distance": RewardTerm(target_distance, "m", ("target_distance",)),
     "inverse_target_distance": RewardTerm(inverse_target_distance, "1/m", ("target_distance",)),
     "target_distance_rate": RewardTerm(target_distance_rate, "m/s", ("target_distance_rate",)),
+    "speed_per_squared_target_distance": RewardTerm(speed_per_squared_target_distance, "1/(m s)", ("target_distance",)),
     "speed": RewardTerm(speed, "m/s"),
     "angular_speed": RewardTerm(angular_speed, "rad/s"),
     "altitude": RewardTerm(altitude, "m"),
@@ -215,6 +223,21 @@ def task_complete(ctx: StepContext) -> bool:
     return ctx.task_complete
 
 
+def pad_contact(ctx: StepContext) -> bool:
+    """The vehicle touched the landing pad during the step (landing task)."""
+    return ctx.extras.get("pad_contact", 0.0) > 0.5
+
+
+def safe_landing(ctx: StepContext) -> bool:
+    """A safe landing was completed this step: gentle touchdown on the pad, then an upright halt (landing task)."""
+    return ctx.extras.get("safe_landing", 0.0) > 0.5
+
+
+def fatal_landing(ctx: StepContext) -> bool:
+    """A fatal landing happened this step: pad touchdown too fast, or tipped over on the pad (landing task)."""
+    return ctx.extras.get("fatal_landing", 0.0) > 0.5
+
+
 #: Every condition a preset may name (each also as ``not_<name>``).
 CONDITIONS: dict[str, Condition] = {
     "always": Condition(always),
@@ -225,6 +248,9 @@ CONDITIONS: dict[str, Condition] = {
     "waypoint_reached": Condition(waypoint_reached, ("waypoints",)),
     "approaching": Condition(approaching, ("target_distance_rate",)),
     "task_complete": Condition(task_complete),
+    "pad_contact": Condition(pad_contact, ("landing",)),
+    "safe_landing": Condition(safe_landing, ("landing",)),
+    "fatal_landing": Condition(fatal_landing, ("landing",)),
 }
 
 

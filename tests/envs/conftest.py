@@ -1,16 +1,71 @@
-"""Fixtures for the environment tests: envs that are always closed."""
+"""Fixtures for the environment tests: envs that are always closed, and per-env facts.
+
+Every registered id needs an :class:`EnvProfile` in :data:`PROFILES` (a test checks
+this), so adding an environment means stating its documented layout and spawn here.
+"""
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import gymnasium
+import numpy as np
 import pytest
 
 import pyflyt_engine  # noqa: F401  (registers the ids)
 from pyflyt_engine.envs import ENVS
 
 ENV_IDS = list(ENVS)
+
+
+@dataclass(frozen=True)
+class EnvProfile:
+    """What the env's manual documents, restated independently for the tests.
+
+    Attributes:
+        aux: size of the vehicle's auxiliary state in the attitude vector.
+        extra: entries after the aux state (the landing task's pad contact flag).
+        spawn_centre: mean spawn position [m].
+        spawn_halfwidth: half-width of the uniform spawn noise per axis [m].
+        neutral: an action that keeps the vehicle roughly as it is for a step.
+        policy: random actions that keep the vehicle flying for a while.
+    """
+
+    aux: int
+    extra: int
+    spawn_centre: tuple[float, float, float]
+    spawn_halfwidth: tuple[float, float, float]
+    neutral: tuple[float, ...]
+    policy: Callable[[np.random.Generator], np.ndarray]
+
+
+def _quadx_policy(rng: np.random.Generator) -> np.ndarray:
+    return np.array([*rng.uniform(-0.5, 0.5, 3), rng.uniform(0.1, 0.16)])
+
+
+def _fixedwing_policy(rng: np.random.Generator) -> np.ndarray:
+    return np.array([*rng.uniform(-0.3, 0.3, 3), rng.uniform(0.3, 0.7)])
+
+
+def _rocket_policy(rng: np.random.Generator) -> np.ndarray:
+    return np.array([*rng.uniform(-1, 1, 3), rng.uniform(0, 1), rng.uniform(0, 1), *rng.uniform(-1, 1, 2)])
+
+
+PROFILES: dict[str, EnvProfile] = {
+    "PyFlyt/QuadX-Hover-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
+    "PyFlyt/QuadX-Waypoints-v0": EnvProfile(
+        4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy
+    ),
+    # motor throttle + 5 surfaces (main wing, ailerons, tails); spawn 20 x QuadX's
+    "PyFlyt/Fixedwing-Waypoints-v0": EnvProfile(
+        6, 0, (0.0, 0.0, 20.0), (2.0, 2.0, 2.0), (0.0, 0.0, 0.0, 0.45), _fixedwing_policy
+    ),
+    # 4 fins + booster (fuel, duty, ignition) + 2 gimbal angles; then the pad contact flag;
+    # dropped from 450 m, +-20 m sideways
+    "PyFlyt/Rocket-Landing-v0": EnvProfile(9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 7, _rocket_policy),
+}
 
 
 @pytest.fixture

@@ -18,7 +18,7 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 from pyflyt_engine.envs.wrappers import FlattenWaypointEnv
-from tests.envs.conftest import ENV_IDS
+from tests.envs.conftest import ENV_IDS, PROFILES
 
 
 def _positions(env, obs):
@@ -45,8 +45,10 @@ def test_gymnasium_env_checker(env_id, sparse, angles):
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_stable_baselines3_env_checker(env_id, make):
-    env = make(env_id)
+@pytest.mark.parametrize("sparse", [False, True])
+@pytest.mark.parametrize("angles", ["euler", "quaternion"])
+def test_stable_baselines3_env_checker(env_id, sparse, angles, make):
+    env = make(env_id, sparse_reward=sparse, angle_representation=angles)
     if isinstance(env.observation_space, spaces.Dict):
         env = FlattenWaypointEnv(env, context_length=3)
     with warnings.catch_warnings():
@@ -55,32 +57,43 @@ def test_stable_baselines3_env_checker(env_id, make):
         sb3_check_env(env, warn=True)
 
 
+def test_every_registered_env_has_a_profile():
+    assert set(PROFILES) == set(ENV_IDS)
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_observations_in_space_with_documented_layout(env_id, make):
+    profile = PROFILES[env_id]
     env = make(env_id, angle_representation="quaternion")
+    n_act = env.action_space.shape[0]
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
     assert {"collision", "out_of_bounds", "env_complete", "success"} <= set(info)
     attitude = obs["attitude"] if isinstance(obs, dict) else obs
-    assert attitude.shape == (21,)  # 3 + 4 + 3 + 3 + previous action 4 + motor throttles 4
+    # 3 + 4 + 3 + 3 + previous action + aux state (+ task extras): QuadX 21
+    assert attitude.shape == (13 + n_act + profile.aux + profile.extra,)
     state = env.state
     np.testing.assert_array_equal(attitude[0:3], state.ang_vel)
     np.testing.assert_array_equal(attitude[3:7], state.quaternion)
     np.testing.assert_array_equal(attitude[7:10], state.lin_vel)
     np.testing.assert_array_equal(attitude[10:13], state.lin_pos)
-    np.testing.assert_array_equal(attitude[13:17], 0.0)  # no previous action yet
-    action = np.array([0.1, -0.2, 0.3, 0.2])
+    np.testing.assert_array_equal(attitude[13 : 13 + n_act], 0.0)  # no previous action yet
+    low, high = env.action_space.low, env.action_space.high
+    action = low + (high - low) * np.linspace(0.3, 0.7, n_act)  # inside the box
     for _ in range(3):
         obs, reward, terminated, truncated, info = env.step(action)
         assert env.observation_space.contains(obs)
         assert isinstance(reward, float)
     attitude = obs["attitude"] if isinstance(obs, dict) else obs
-    np.testing.assert_allclose(attitude[13:17], action)
-    np.testing.assert_allclose(attitude[17:21], env.vehicle.motor_throttle)
+    np.testing.assert_allclose(attitude[13 : 13 + n_act], action)
+    aux = attitude[13 + n_act : 13 + n_act + profile.aux]
+    np.testing.assert_allclose(aux, env.vehicle.aux_state)
+    if env_id.startswith("PyFlyt/QuadX"):
+        np.testing.assert_allclose(aux, env.vehicle.motor_throttle)
     euler = make(env_id, angle_representation="euler")
     obs, _ = euler.reset(seed=3)
     attitude = obs["attitude"] if isinstance(obs, dict) else obs
-    assert attitude.shape == (20,)
+    assert attitude.shape == (12 + n_act + profile.aux + profile.extra,)
     np.testing.assert_array_equal(attitude[3:6], euler.state.ang_pos)
 
 
@@ -88,11 +101,17 @@ def test_observations_in_space_with_documented_layout(env_id, make):
 def test_actions_outside_the_box_are_clipped(env_id, make):
     env = make(env_id)
     env.reset(seed=0)
-    obs, *_ = env.step(np.array([10.0, -10.0, 0.0, 5.0]))
+    low, high = env.action_space.low, env.action_space.high
+    n_act = low.size
+    wild = np.where(np.arange(n_act) % 2 == 0, high + 10.0, low - 10.0)
+    wild[-1] = 0.5 * (low[-1] + high[-1])  # one entry inside: left alone
+    obs, *_ = env.step(wild)
     attitude = obs["attitude"] if isinstance(obs, dict) else obs
-    np.testing.assert_allclose(attitude[13:17], [np.pi, -np.pi, 0.0, 1.0])
-    with pytest.raises(ValueError, match="4 values"):
-        env.step(np.zeros(3))
+    np.testing.assert_allclose(attitude[13 : 13 + n_act], np.clip(wild, low, high))
+    if env_id.startswith("PyFlyt/QuadX"):
+        np.testing.assert_allclose(attitude[13:17], [np.pi, -np.pi, np.pi, 0.5])
+    with pytest.raises(ValueError, match=f"{n_act} values"):
+        env.step(np.zeros(n_act - 1))
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -130,9 +149,10 @@ def test_resets_are_randomised_and_reproducible(env_id, make):
         obs, _ = env.reset(seed=seed)
         starts.append(_positions(env, obs).copy())
     assert not np.allclose(starts[0], starts[1]) and not np.allclose(starts[1], starts[2])
-    # spawn within the documented noise: (0, 0, 1) +- 0.1 m per axis
+    # spawn within the documented noise (QuadX: (0, 0, 1) +- 0.1 m per axis)
+    profile = PROFILES[env_id]
     for start in starts:
-        assert np.all(np.abs(start - [0.0, 0.0, 1.0]) <= 0.1 + 1e-9)
+        assert np.all(np.abs(start - profile.spawn_centre) <= np.add(profile.spawn_halfwidth, 1e-9))
     again, _ = env.reset(seed=0)
     np.testing.assert_array_equal(_positions(env, again), starts[0])
     # seed=None continues the stream: a new start, not a replay of seed 0
@@ -142,12 +162,14 @@ def test_resets_are_randomised_and_reproducible(env_id, make):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_same_seed_same_trajectory_in_one_process(env_id, make):
+    policy = PROFILES[env_id].policy
+
     def rollout(env, seed):
         obs, _ = env.reset(seed=seed)
         rng = np.random.default_rng(42)
         out = [_positions(env, obs).copy()]
         for _ in range(40):
-            action = np.array([*rng.uniform(-0.5, 0.5, 3), rng.uniform(0.1, 0.16)])
+            action = policy(rng)
             obs, reward, terminated, truncated, _ = env.step(action)
             out.append(np.append(_positions(env, obs), reward))
             if terminated or truncated:

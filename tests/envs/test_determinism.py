@@ -22,11 +22,16 @@ warnings.simplefilter("ignore")
 env_id, seed = sys.argv[1], int(sys.argv[2])
 env = gymnasium.make(env_id)
 rng = np.random.default_rng(123)  # fixed action sequence, independent of the env seed
-actions = [np.array([*rng.uniform(-0.5, 0.5, 3), rng.uniform(0.08, 0.2)]) for _ in range(60)]
+if env_id.startswith("PyFlyt/QuadX"):
+    actions = [np.array([*rng.uniform(-0.5, 0.5, 3), rng.uniform(0.08, 0.2)]) for _ in range(60)]
+else:  # anywhere in the box (the rocket's booster is lit about half the time: its noise is drawn)
+    low, high = env.action_space.low, env.action_space.high
+    actions = [rng.uniform(low, high) for _ in range(60)]
 obs, info = env.reset(seed=seed)
 flat = lambda o: np.concatenate([np.ravel(v) for v in o.values()]) if isinstance(o, dict) else o
 rows = [flat(obs)]
 start = env.unwrapped.state.lin_pos
+start_velocity = env.unwrapped.state.lin_vel_ground + env.unwrapped.state.ang_vel
 for action in actions:
     obs, reward, terminated, truncated, info = env.step(action)
     rows.append(np.append(flat(obs), reward))
@@ -34,11 +39,12 @@ for action in actions:
         obs, info = env.reset()  # seed=None: continues the seeded stream
         rows.append(flat(obs))
 targets = getattr(env.unwrapped.task, "targets", np.zeros(0))
-print(hashlib.sha256(np.concatenate(rows).tobytes()).hexdigest(), np.round(start, 6).tolist(), np.round(targets, 6).ravel().tolist())
+print(hashlib.sha256(np.concatenate(rows).tobytes()).hexdigest(), np.round(start, 6).tolist(),
+      np.round(targets, 6).ravel().tolist(), np.round(start_velocity, 6).tolist())
 """
 
 
-def _run(env_id: str, seed: int) -> tuple[str, str, str]:
+def _run(env_id: str, seed: int) -> tuple[str, str, str, str]:
     result = subprocess.run(
         [sys.executable, "-c", SCRIPT, env_id, str(seed)],
         capture_output=True,
@@ -48,8 +54,8 @@ def _run(env_id: str, seed: int) -> tuple[str, str, str]:
         check=True,
     )
     digest, rest = result.stdout.strip().splitlines()[-1].split(" ", 1)
-    start, targets = rest.split("] [")
-    return digest, start, targets
+    start, targets, velocity = rest.split("] [")
+    return digest, start, targets, velocity
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -61,3 +67,7 @@ def test_same_seed_is_identical_across_processes_and_seeds_differ(env_id):
     assert first[1] != other[1]  # different initial conditions
     if "Waypoints" in env_id:
         assert first[2] != other[2]  # different waypoints
+    if "Rocket" in env_id:
+        # the random initial velocity is really applied (the reference PyFlyt never did)
+        assert first[3] != other[3]
+        assert max(abs(float(v)) for v in first[3].strip("[]").split(",")) > 0.0

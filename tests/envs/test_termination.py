@@ -6,10 +6,11 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from tests.envs.conftest import ENV_IDS
+from tests.envs.conftest import ENV_IDS, PROFILES
 
 HOVER = "PyFlyt/QuadX-Hover-v0"
 WAYPOINTS = "PyFlyt/QuadX-Waypoints-v0"
+QUADX_IDS = [i for i in ENV_IDS if i.startswith("PyFlyt/QuadX")]  # the Fixedwing and Rocket: own test files
 
 
 def _teleport(env, position, velocity=(0.0, 0.0, 0.0)):
@@ -18,7 +19,7 @@ def _teleport(env, position, velocity=(0.0, 0.0, 0.0)):
     p.resetBaseVelocity(body, list(velocity), [0.0, 0.0, 0.0], physicsClientId=cid)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", QUADX_IDS)
 @pytest.mark.parametrize("sparse", [False, True])
 def test_zero_thrust_falls_and_crashes_into_the_ground(make, env_id, sparse):
     env = make(env_id, sparse_reward=sparse)
@@ -37,21 +38,26 @@ def test_zero_thrust_falls_and_crashes_into_the_ground(make, env_id, sparse):
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_leaving_the_flight_dome_terminates(make, env_id):
-    env = make(env_id)
+@pytest.mark.parametrize("sparse", [False, True])
+def test_leaving_the_flight_dome_terminates(make, env_id, sparse):
+    env = make(env_id, sparse_reward=sparse)
+    neutral = np.array(PROFILES[env_id].neutral)
     env.reset(seed=0)
     dome = env.config.flight_dome_size
-    obs, reward, terminated, truncated, info = env.step(np.array([0, 0, 0, 0.125]))
+    obs, reward, terminated, truncated, info = env.step(neutral)
     assert not terminated and not info["out_of_bounds"]
     _teleport(env, (0.0, 0.0, dome + 0.5))
-    obs, reward, terminated, truncated, info = env.step(np.array([0, 0, 0, 0.125]))
+    obs, reward, terminated, truncated, info = env.step(neutral)
     assert terminated and not truncated
     assert info["out_of_bounds"] and not info["collision"] and not info["success"]
-    assert reward == -100.0
+    terms = info["reward_terms"]
+    assert -100.0 in terms.values() and list(terms.values()).count(-100.0) == 1
+    if env_id.startswith("PyFlyt/QuadX") or sparse or "Waypoints" in env_id:
+        assert reward == -100.0  # the dome penalty alone (the rocket's dense reward adds r_d + r_v)
     # just inside the dome is fine
     env.reset(seed=0)
-    _teleport(env, (dome - 0.3, 0.0, 0.5))
-    obs, reward, terminated, truncated, info = env.step(np.array([0, 0, 0, 0.125]))
+    _teleport(env, (0.94 * dome, 0.0, 0.3 * dome))
+    obs, reward, terminated, truncated, info = env.step(neutral)
     assert not terminated and not info["out_of_bounds"]
 
 

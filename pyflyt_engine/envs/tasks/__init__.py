@@ -10,12 +10,14 @@ import difflib
 
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
+from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
 from pyflyt_engine.errors import ConfigError
 
 TASKS: dict[str, type[Task]] = {
     HoverTask.name: HoverTask,
     WaypointsTask.name: WaypointsTask,
+    LandingTask.name: LandingTask,
 }
 
 
@@ -40,6 +42,8 @@ __all__ = [
     "TASKS",
     "HoverOptions",
     "HoverTask",
+    "LandingOptions",
+    "LandingTask",
     "Spawn",
     "Task",
     "TaskOptions",

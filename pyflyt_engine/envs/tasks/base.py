@@ -6,10 +6,11 @@ from :meth:`Task.setup` (scenery) it never talks to PyBullet: it sees
 :class:`~pyflyt_engine.state.KinematicState` values and the environment's seeded RNG.  The environment (:class:`~pyflyt_engine.envs.env.UAVEnv`)
 runs the loop, detects crashes and dome exits, and evaluates the reward preset.
 
-Once, when the environment is built: ``setup(world)`` (add scenery).  Per episode the
-environment calls, in order::
+Once, when the environment is built: ``vehicle_spec(spec)`` (the airframe variant the
+task flies, before the world exists), then ``setup(world)`` (add scenery).  Per episode
+the environment calls, in order::
 
-    spawn(rng) -> Spawn            # initial pose of the vehicle
+    spawn(rng) -> Spawn            # initial pose and body-frame velocities of the vehicle
     reset(state, rng)              # after the vehicle is placed: sample targets, ...
     observe(attitude, state)       # the first observation
     then per agent step:
@@ -34,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
+    from pyflyt_engine.spec import UAVSpec
     from pyflyt_engine.world import World
 
 Vec3 = tuple[float, float, float]
@@ -53,14 +55,24 @@ class TaskOptions(BaseModel):
     start_orientation_noise: float = Field(
         0.1, ge=0, description="each spawn Euler angle is offset by U(-noise, noise) [rad]"
     )
+    start_lin_vel: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description="spawn linear velocity (u, v, w) [m/s], BODY frame (e.g. [14, 0, 0]: a fixed-wing at cruise)",
+    )
 
 
 @dataclass(frozen=True)
 class Spawn:
-    """Initial pose of the vehicle (at rest)."""
+    """Initial state of the vehicle: pose, and velocities in the body frame (default rest)."""
 
     position: Vec3
+    """(x, y, z) [m], ground frame."""
     orientation: Vec3
+    """(roll, pitch, yaw) [rad]."""
+    lin_vel: Vec3 = (0.0, 0.0, 0.0)
+    """(u, v, w) [m/s], body frame."""
+    ang_vel: Vec3 = (0.0, 0.0, 0.0)
+    """(p, q, r) [rad/s], body frame."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,8 +124,18 @@ class Task:
         resets restore the state saved after this hook.
         """
 
+    def vehicle_spec(self, spec: UAVSpec) -> UAVSpec:
+        """The airframe as this task flies it, before the world is built (default: unchanged).
+
+        A task that needs a variant of the shipped airframe returns a modified copy here,
+        e.g. the landing task's booster starts with 1 % fuel.  Called once, so resets
+        stay as fast as without it.
+        """
+        return spec
+
     def spawn(self, rng: np.random.Generator) -> Spawn:
-        """Initial pose: the mean pose plus uniform noise (draws 6 numbers from ``rng``)."""
+        """Initial state: the mean pose plus uniform noise (draws 6 numbers from ``rng``),
+        moving at ``start_lin_vel`` (body frame), not rotating."""
         o = self.options
         dp = rng.uniform(-o.start_position_noise, o.start_position_noise, 3) if o.start_position_noise else np.zeros(3)
         da = (
@@ -123,7 +145,7 @@ class Task:
         )
         position = tuple(float(v) for v in np.add(o.start_position, dp))
         orientation = tuple(float(v) for v in np.add(o.start_orientation, da))
-        return Spawn(position, orientation)  # type: ignore[arg-type]
+        return Spawn(position, orientation, lin_vel=tuple(o.start_lin_vel))  # type: ignore[arg-type]
 
     def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
         """Start an episode with the vehicle placed in ``state``."""
