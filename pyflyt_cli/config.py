@@ -26,8 +26,12 @@ def _group_choices(group: str) -> list[str]:
     return sorted(p.stem for p in path.glob("*.yaml")) if path.is_dir() else []
 
 
-def compose(config_name: str, overrides: Sequence[str]) -> DictConfig:
-    """Compose ``conf/<config_name>.yaml`` with Hydra overrides (``key=value`` ...)."""
+def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: bool = False) -> DictConfig:
+    """Compose ``conf/<config_name>.yaml`` with Hydra overrides (``key=value`` ...).
+
+    With ``return_hydra_config`` the result also holds ``hydra`` (e.g. the chosen option of
+    each config group in ``hydra.runtime.choices``).
+    """
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
     from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
@@ -35,14 +39,20 @@ def compose(config_name: str, overrides: Sequence[str]) -> DictConfig:
 
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
-            return hydra_compose(config_name=config_name, overrides=list(overrides))
+            return hydra_compose(
+                config_name=config_name, overrides=list(overrides), return_hydra_config=return_hydra_config
+            )
     except OverrideParseException as exc:
         raise CLIError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450") from None
     except MissingConfigException as exc:
         raise CLIError(_missing_message(exc)) from None
     except ConfigCompositionException as exc:
         cause = exc.__cause__ or exc
-        raise CLIError(_composition_message(str(cause), config_name)) from None
+        message = _composition_message(str(cause), config_name)
+        outer = str(exc).splitlines()[0] if str(exc) else ""
+        if outer.startswith("Error merging override") and not message.startswith("unknown key"):
+            message = f"cannot apply override {outer.removeprefix('Error merging override').strip()}: {message}"
+        raise CLIError(message) from None
     except OmegaConfBaseException as exc:
         raise CLIError(f"invalid configuration: {exc}") from None
 
@@ -62,6 +72,8 @@ def _composition_message(text: str, config_name: str) -> str:
     first = text.splitlines()[0]
     if "not in struct" in text or "Could not override" in text or "Could not append" in text:
         key = first.split("'")[1] if "'" in first else first
+        full = [line.split("full_key:", 1)[1].strip() for line in text.splitlines() if "full_key:" in line]
+        key = full[0] if full and full[0] else key
         return f"unknown key '{key}' for `{config_name}`: check the spelling, or add a new key with +{key}=value"
     return first
 

@@ -73,6 +73,95 @@ def envs() -> None:
     typer.echo(list_envs())
 
 
+def _train_help() -> str:
+    from pyflyt_cli.commands.train import train_help
+
+    return train_help()
+
+
+@app.command(help=_train_help(), context_settings={"allow_extra_args": False})
+@user_errors
+def train(
+    overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/train.yaml"),
+    multirun: bool = typer.Option(False, "--multirun", "-m", help="one run per combination of swept values (seed=0,1,2)"),
+    show_cfg: bool = typer.Option(False, "--cfg", help="print the composed, validated configuration and exit"),
+) -> None:
+    from pyflyt_cli.commands.train import run_train
+
+    code = run_train(overrides or [], multirun=multirun, show_config=show_cfg)
+    if code:
+        raise typer.Exit(code=code)
+
+
+@app.command(
+    "eval",
+    help="Evaluate a trained run: N episodes, a returns table, each episode to <run>/episodes/*.mcap.\n\n"
+    "Overrides of conf/eval.yaml: episodes=10 seed=<run seed + 1000> deterministic=true "
+    "model=auto|best|final|latest record=true video=out.gif\n\n"
+    "  pyflyt eval runs/quadx_hover/ppo/<time>-seed0 episodes=20 video=hover.gif",
+)
+@user_errors
+def eval_(
+    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train"),
+    overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/eval.yaml"),
+) -> None:
+    from pyflyt_cli.commands.eval import run_eval
+
+    run_eval(run_dir, overrides or [])
+
+
+@app.command(
+    help="Summarise a recorded episode (.mcap); optionally re-simulate it, render a video, plot it.\n\n"
+    "Prints vehicles, duration, return, success and per-term reward totals.  --verify rebuilds the env "
+    "from the file's metadata, re-applies the recorded actions and reports the largest state deviation "
+    "(exit 1 if above --tolerance).  Bad files exit 2 with a message.\n\n"
+    "  pyflyt replay runs/demo/episodes/ep_0000.mcap --verify --video out.mp4 --plot out.png",
+)
+@user_errors
+def replay(
+    file: Path = typer.Argument(..., help="episode recording (.mcap) written by RecordEpisode / pyflyt eval"),
+    verify: bool = typer.Option(False, "--verify", help="re-simulate from the recorded metadata and actions; compare states"),
+    tolerance: float = typer.Option(1e-6, "--tolerance", help="largest state deviation --verify accepts [SI units]"),
+    video: Optional[Path] = typer.Option(None, "--video", help="render the flight with a chase camera to this .mp4 or .gif"),
+    size: Optional[str] = typer.Option(None, "--size", help="video size WIDTHxHEIGHT (default: the env's render resolution)"),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="draw 3-D path, altitude, attitude and actions to this .png/.pdf/.svg"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary (and verify result) as JSON"),
+) -> None:
+    from pyflyt_cli.commands.replay import run_replay
+
+    code = run_replay(file, verify=verify, tolerance=tolerance, video=video, size=size, plot=plot, as_json=as_json)
+    if code:
+        raise typer.Exit(code=code)
+
+
+@app.command(
+    help="Measure speed and memory on this machine: env steps/s, resets, real-time factor and peak memory of "
+    "every env; worlds of 1, 8 and 64 QuadX; a 128x128 camera capture; the bare-PyBullet floor; optionally "
+    "vector envs (--vector) and the reference PyFlyt side by side (--reference-python).  Every case runs in a "
+    "fresh process; figures are medians of --repeats runs.\n\n"
+    "  pyflyt speed --reference-python ~/ref-venv/bin/python --markdown",
+)
+@user_errors
+def speed(
+    repeats: int = typer.Option(5, "--repeats", min=1, help="runs per figure; the median is printed"),
+    quick: bool = typer.Option(False, "--quick", help="tiny counts: check that everything runs (figures unreliable)"),
+    reference_python: Optional[str] = typer.Option(
+        None, "--reference-python", help="interpreter of a virtual env with PyFlyt 0.29 installed, for side-by-side figures"
+    ),
+    vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3)"),
+    markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
+    env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all)"),
+    vehicles: Optional[str] = typer.Option(None, "--vehicles", help="world sizes, comma-separated (default 1,8,64)"),
+    json_path: Optional[Path] = typer.Option(None, "--json", help="also write the full results to this JSON file"),
+) -> None:
+    from pyflyt_cli.commands.speed import speed_command
+
+    counts = [int(v) for v in vehicles.split(",") if v.strip()] if vehicles else None
+    typer.echo(speed_command(repeats=repeats, quick=quick, reference_python=reference_python, vector=vector,
+                             markdown=markdown, envs=env, vehicles=counts, json_path=json_path,
+                             progress=lambda message: typer.echo(message, err=True)))
+
+
 uav_app = typer.Typer(
     help="Check and inspect airframe (UAV) YAML files: shipped names (quadx_cf2x) or paths.",
     no_args_is_help=True,

@@ -1,0 +1,248 @@
+"""``pyflyt train``: compose ``conf/train.yaml`` with Hydra, validate, call :func:`train`.
+
+The only Hydra-aware part of training.  Hydra is used through its compose API, so it
+never changes the working directory and writes no ``outputs/`` folder; everything a run
+produces goes to its run directory.  ``-m`` expands sweeps (``seed=0,1,2``,
+``algo=ppo,sac``, ``seed=range(5)``) with Hydra's own basic sweeper rules and runs the
+jobs one after another; every job's config is composed and validated before the first
+one starts.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from pyflyt_cli.config import CLIError, compose, parse_overrides
+from pyflyt_engine.paths import conf_dir
+
+#: config groups a user picks from, in the order --help lists them
+USER_GROUPS = ("env", "algo", "uav", "reward", "experiment")
+#: overrides accepted together with resume=<run>
+RESUME_KEYS = ("train.total_timesteps", "train.progress_bar")
+#: exit code of a run stopped by Ctrl-C / SIGTERM (its checkpoint saved): 128 + SIGINT
+INTERRUPTED = 130
+
+
+def _choices(group: str) -> list[str]:
+    folder = conf_dir() / group
+    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
+
+
+def train_help() -> str:
+    """``pyflyt train --help``: usage, the config groups and their choices, the main keys."""
+    import textwrap
+
+    try:
+        rows = []
+        for g in USER_GROUPS:
+            text = ", ".join(_choices(g)) or "(none)"
+            rows.append(textwrap.fill(text, 62, initial_indent=f"  {g + '=':<12}", subsequent_indent=" " * 14))
+        groups = "\n".join(rows)
+    except FileNotFoundError:  # pragma: no cover - broken install
+        groups = "  (configuration directory not found)"
+    return (
+        "Train an agent: Hydra-style key=value overrides of conf/train.yaml.\n\n"
+        "Examples:\n"
+        "  pyflyt train                      # PPO on quadx_hover, short budget\n"
+        "  pyflyt train env=quadx_waypoints algo=sac seed=3\n"
+        "  pyflyt train env.reward=sparse algo.learning_rate=1e-3\n"
+        "  pyflyt train -m seed=0,1,2        # one run per seed\n"
+        "  pyflyt train resume=<run dir>     # continue an interrupted run\n"
+        "  pyflyt train init_from=<run dir>  # start from a run's policy\n\n"
+        "Config groups (group=choice):\n"
+        f"{groups}\n\n"
+        "Main keys: seed, train.total_timesteps, train.n_envs,\n"
+        "train.eval_freq, train.eval_episodes, train.checkpoint_freq,\n"
+        "train.output_dir, train.tensorboard, train.progress_bar,\n"
+        "algo.<hyper-parameter>, env.<option>, resume, init_from.\n"
+        "--cfg prints the full composed config.  Reference: docs/cli.md.\n\n"
+        "Runs go to <train.output_dir>/<env>/<algo>/<time>-seed<k>.\n"
+        f"Ctrl-C saves a checkpoint and exits with code {INTERRUPTED};\n"
+        "user errors exit with code 2."
+    )
+
+
+# ------------------------------------------------------------------- compose
+
+
+def _sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
+    from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    try:
+        parsed = OverridesParser.create().parse_overrides(overrides)
+    except HydraException as exc:
+        raise CLIError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or algo=sac") from None
+    sweeps = [o.input_line for o in parsed if o.is_sweep_override()]
+    if not multirun:
+        if sweeps:
+            raise CLIError(
+                f"{sweeps[0]} is a sweep: add -m (--multirun) to start one run per value, "
+                "or quote the value to use it as a string"
+            )
+        return [overrides]
+    batches = BasicSweeper.split_arguments(parsed, None)
+    return [list(job) for batch in batches for job in batch]
+
+
+def compose_train_config(overrides: list[str]) -> dict[str, Any]:
+    """The composed ``conf/train.yaml`` as a plain dict ready for :func:`parse_train_config`."""
+    from omegaconf import OmegaConf, open_dict
+
+    from pyflyt_cli.config import to_container
+
+    try:
+        cfg = compose("train", overrides, return_hydra_config=True)
+    except CLIError as exc:
+        raise CLIError(_suggest_key(str(exc), overrides)) from None
+    choices = dict(cfg.hydra.runtime.choices)
+    with open_dict(cfg):
+        del cfg["hydra"]
+    missing = sorted(OmegaConf.missing_keys(cfg))
+    if missing:
+        origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
+        raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
+    data = to_container(cfg)
+    data.pop("resume", None)
+    env_name = choices.get("env")
+    if not isinstance(data.get("env"), dict):
+        raise CLIError("no environment selected: pass env=<name> (" + ", ".join(_choices("env")) + ")")
+    env = dict(data["env"])
+    uav_choice = choices.get("uav")
+    uav = data.pop("uav", None)
+    if uav_choice:
+        shipped = OmegaConf.to_container(OmegaConf.load(conf_dir() / "uav" / f"{uav_choice}.yaml"), resolve=True)
+        if uav != shipped:
+            raise CLIError(
+                f"uav.* keys cannot be overridden in training (uav={uav_choice} names a shipped airframe); "
+                "write your airframe to a file and pass env.uav=path/to/airframe.yaml"
+            )
+        env["uav"] = uav_choice
+    reward_choice = choices.get("reward")
+    reward = data.pop("reward", None)
+    if reward_choice:
+        env["reward"] = {**(reward or {}), "name": reward_choice}
+    data["env"] = env
+    data["env_name"] = env_name
+    data["experiment"] = choices.get("experiment")
+    return data
+
+
+def _suggest_key(message: str, overrides: list[str]) -> str:
+    """Add "Did you mean ...?" to an unknown-key message, from the keys beside the misspelt one."""
+    import difflib
+
+    from omegaconf import DictConfig
+
+    if not message.startswith("unknown key '"):
+        return message
+    key = message.split("'")[1]
+    parent, _, leaf = key.rpartition(".")
+    rest = [o for o in overrides if o.lstrip("+~").partition("=")[0] != key]
+    try:
+        node: Any = compose("train", rest)
+        for part in parent.split(".") if parent else []:
+            node = node[part]
+    except (CLIError, KeyError, TypeError):
+        return message
+    if not isinstance(node, DictConfig):
+        return message
+    keys = [str(k) for k in node]
+    close = difflib.get_close_matches(leaf, keys, n=1)
+    hint = f" Did you mean '{(parent + '.' if parent else '') + close[0]}'?" if close else ""
+    return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}. Check the spelling", 1)
+
+
+def load_train_config(overrides: list[str]) -> Any:
+    """Compose and validate: the :class:`TrainConfig` ``pyflyt train <overrides>`` would run."""
+    from pyflyt_cli.training.schema import parse_train_config
+
+    data = compose_train_config(list(overrides))
+    return parse_train_config(data, source="pyflyt train " + " ".join(overrides) if overrides else "pyflyt train")
+
+
+# ----------------------------------------------------------------------- run
+
+
+def _resume_args(overrides: list[str]) -> tuple[str, dict[str, Any]]:
+    run = None
+    extra: dict[str, Any] = {}
+    for item in overrides:
+        key, _, value = item.partition("=")
+        if key == "resume":
+            run = value
+        elif key in RESUME_KEYS:
+            extra[key] = value
+        else:
+            raise CLIError(
+                f"'{item}' cannot be combined with resume=: a resumed run keeps its saved configuration "
+                f"(only {', '.join(k + '=' for k in RESUME_KEYS)} may be given)"
+            )
+    if not run:
+        raise CLIError("resume= needs a run directory: pyflyt train resume=runs/<env>/<algo>/<time>-seed<k>")
+    total = extra.get("train.total_timesteps")
+    bar = extra.get("train.progress_bar")
+    try:
+        parsed_total = int(float(total)) if total is not None else None
+    except ValueError:
+        raise CLIError(f"train.total_timesteps must be a number, got {total!r}") from None
+    parsed_bar = None if bar in (None, "null") else bar.lower() in ("true", "1", "yes")
+    return run, {"total_timesteps": parsed_total, "progress_bar": parsed_bar}
+
+
+def _echo(message: str) -> None:
+    typer.echo(message, err=True)
+
+
+def run_train(overrides: list[str], multirun: bool = False, show_config: bool = False) -> int:
+    """``pyflyt train``: returns the exit code (0 done, 130 interrupted)."""
+    import yaml
+
+    from pyflyt_cli.training.loop import resume, train
+    from pyflyt_cli.training.rundir import config_dict
+
+    overrides = parse_overrides(overrides)
+    if any(o.startswith("resume=") for o in overrides):
+        if multirun:
+            raise CLIError("resume= continues one run: do not combine it with -m")
+        run, kwargs = _resume_args(overrides)
+        try:
+            result = resume(run, log=_echo, **kwargs)
+        except KeyboardInterrupt:
+            _echo("aborted (no checkpoint saved by this abort)")
+            return INTERRUPTED
+        return INTERRUPTED if result.interrupted else 0
+
+    jobs = _sweep_jobs(overrides, multirun)
+    configs = [load_train_config(job) for job in jobs]  # every job validated before the first runs
+    if show_config:
+        for job, cfg in zip(jobs, configs):
+            if len(jobs) > 1:
+                typer.echo(f"# job: {' '.join(job)}")
+            typer.echo(yaml.safe_dump(config_dict(cfg), sort_keys=False, default_flow_style=None, width=100))
+        return 0
+    results = []
+    for i, (job, cfg) in enumerate(zip(jobs, configs)):
+        if len(jobs) > 1:
+            _echo(f"[{i + 1}/{len(jobs)}] {' '.join(job)}")
+        try:
+            result = train(cfg, overrides=job, log=_echo)
+        except KeyboardInterrupt:
+            _echo("aborted (no checkpoint saved by this abort)")
+            return INTERRUPTED
+        results.append((job, result))
+        if result.interrupted:
+            if i + 1 < len(jobs):
+                _echo(f"multirun stopped: {len(jobs) - i - 1} job(s) not started")
+            return INTERRUPTED
+    if len(results) > 1:
+        _echo("\nmultirun summary:")
+        for job, result in results:
+            e = result.last_eval
+            score = f"return {e['mean_return']:.2f} ± {e['std_return']:.2f}" if e else "no evaluation"
+            _echo(f"  {' '.join(job) or '(defaults)'}: {score}  {Path(result.run_dir)}")
+    return 0

@@ -1,0 +1,118 @@
+"""Environments as an agent sees them: flattened observations, actions in [-1, 1].
+
+Every registered environment (any env config) goes through the same wrappers, in
+training, in evaluation and in ``pyflyt eval``, so a saved policy always meets the
+observation and action layout it was trained on:
+
+1. the pyflyt env, built from its :class:`~pyflyt_engine.envs.config.EnvConfig`;
+2. optionally :class:`~pyflyt_engine.telemetry.RecordEpisode` (innermost: it records the
+   actions the vehicle receives, in the env's own units);
+3. a ``Dict`` observation becomes one ``Box``: waypoint envs by
+   :class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`, any other ``Dict`` by
+   Gymnasium's ``FlattenObservation``;
+   observations are cast to float32 (the networks' type; halves replay buffers);
+4. a bounded ``Box`` action space is rescaled to ``[-1, 1]`` (what SB3's squashed and
+   clipped Gaussian policies assume; the paper's units stay in the env);
+5. SB3's ``Monitor`` (episode return, length and ``success``) for training envs.
+"""
+
+from __future__ import annotations
+
+import signal
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from pyflyt_engine.envs.config import EnvConfig
+
+
+class Float32Observation(gymnasium.ObservationWrapper):
+    """Cast a ``Box`` observation to float32: what the networks use; halves replay buffers."""
+
+    def __init__(self, env: gymnasium.Env) -> None:
+        super().__init__(env)
+        space = env.observation_space
+        self.observation_space = spaces.Box(
+            np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32), dtype=np.float32
+        )
+
+    def observation(self, observation: np.ndarray) -> np.ndarray:
+        return np.asarray(observation, dtype=np.float32)
+
+
+def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
+    """Flatten a ``Dict`` observation to a ``Box`` and rescale a bounded ``Box`` action to [-1, 1]."""
+    obs_space = env.observation_space
+    if isinstance(obs_space, spaces.Dict):
+        if isinstance(obs_space.spaces.get("target_deltas"), spaces.Sequence):
+            from pyflyt_engine.envs.wrappers import FlattenWaypointEnv
+
+            env = FlattenWaypointEnv(env)
+        else:
+            env = gymnasium.wrappers.FlattenObservation(env)
+    if isinstance(env.observation_space, spaces.Box) and env.observation_space.dtype != np.float32:
+        env = Float32Observation(env)
+    act_space = env.action_space
+    bounded = (
+        isinstance(act_space, spaces.Box) and np.all(np.isfinite(act_space.low)) and np.all(np.isfinite(act_space.high))
+    )
+    if bounded and not (np.allclose(act_space.low, -1.0) and np.allclose(act_space.high, 1.0)):
+        env = gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)
+    return env
+
+
+@dataclass(frozen=True)
+class EnvFactory:
+    """A picklable ``() -> env`` for vectorised training and evaluation environments.
+
+    Attributes:
+        config: the environment.
+        monitor: add SB3's ``Monitor`` (episode statistics in ``info["episode"]``).
+        in_subprocess: the factory runs in a ``SubprocVecEnv`` worker: ignore SIGINT and
+            SIGTERM there, so Ctrl-C reaches only the trainer, which stops the run cleanly
+            and closes the workers itself.
+        render_mode: ``None`` or ``"rgb_array"``.
+        record_dir: record every episode to MCAP files in this directory.
+    """
+
+    config: EnvConfig
+    monitor: bool = True
+    in_subprocess: bool = False
+    render_mode: str | None = None
+    record_dir: str | None = None
+
+    def __call__(self) -> gymnasium.Env:
+        if self.in_subprocess:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        from pyflyt_engine.envs import make_env
+
+        env: gymnasium.Env = make_env(self.config, render_mode=self.render_mode)
+        if self.record_dir is not None:
+            from pyflyt_engine.telemetry import RecordEpisode
+
+            env = RecordEpisode(env, Path(self.record_dir), prefix="ep")
+        env = wrap_for_agent(env)
+        if self.monitor:
+            from stable_baselines3.common.monitor import Monitor
+
+            env = Monitor(env, info_keywords=("success",))
+        return env
+
+
+def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
+    """``n_envs`` training environments: a ``SubprocVecEnv`` when ``n_envs > 1`` (``kind="auto"``).
+
+    Seeds are set by the algorithm (``seed + i`` for env ``i``, at the first reset).
+    """
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
+    factories = [EnvFactory(config, in_subprocess=subproc) for _ in range(n_envs)]
+    if subproc:
+        return SubprocVecEnv(factories)
+    return DummyVecEnv(factories)

@@ -1,0 +1,177 @@
+"""``pyflyt eval``: run a trained policy, record its episodes, summarise, optionally film it."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pyflyt_cli.training import registry, rundir
+from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, Episode, policy_predict, run_episodes, summarize
+from pyflyt_cli.training.schema import EvalOptions, parse_eval_options
+from pyflyt_engine.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    """The outcome of :func:`evaluate_run`."""
+
+    run_dir: Path
+    model: Path
+    #: which model: best, final or latest (checkpoint)
+    which: str
+    seed: int
+    deterministic: bool
+    episodes: list[Episode]
+    summary: dict[str, float]
+    #: the episode recordings (MCAP), empty if not recorded
+    recordings: list[Path]
+    video: Path | None
+
+    def table(self) -> str:
+        """The printed report: one row per episode, then mean ± std."""
+        s = self.summary
+        lines = [
+            f"run:    {self.run_dir}",
+            (
+                f"model:  {self.model.name} ({self.which}), {'deterministic' if self.deterministic else 'stochastic'} "
+                f"actions, seeds {self.seed}..{self.seed + len(self.episodes) - 1}"
+            ),
+            "",
+            f"{'episode':>7}  {'seed':>6}  {'return':>10}  {'length':>6}  success",
+        ]
+        for i, e in enumerate(self.episodes):
+            lines.append(f"{i:>7}  {e.seed:>6}  {e.ret:>10.2f}  {e.length:>6}  {'yes' if e.success else 'no'}")
+        lines += [
+            "",
+            f"return        {s['mean_return']:.2f} ± {s['std_return']:.2f}  (mean ± std over {len(self.episodes)} episodes)",
+            f"success rate  {100 * s['success_rate']:.0f} %",
+            f"length        {s['mean_length']:.1f} steps",
+        ]
+        if self.recordings:
+            lines.append(f"episodes:     {self.recordings[0].parent}/ ({len(self.recordings)} MCAP files)")
+        if self.video is not None:
+            lines.append(f"video:        {self.video}")
+        return "\n".join(lines)
+
+
+def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] | None = None) -> EvalReport:
+    """Evaluate a run's model for ``options.episodes`` episodes (see :class:`EvalOptions`).
+
+    Writes ``<run_dir>/episodes/ep_<NNNN>.mcap`` (``record``), ``<run_dir>/eval.json`` and,
+    with ``video``, an animation of the first ``video_episodes`` episodes.
+    """
+    opts = parse_eval_options(options or {})
+    path = rundir.check_run_dir(run_dir)
+    cfg = rundir.load_run_config(path)
+    model_path, vecnorm_path, which = rundir.find_model(path, opts.model)
+    video = Path(opts.video).expanduser().resolve() if opts.video else None
+    if video is not None:
+        _check_video_writer(video)
+
+    import torch
+
+    from pyflyt_cli.training.envs import EnvFactory
+
+    torch.set_num_threads(cfg.train.torch_threads)
+    cls = registry.resolve(registry.ALGOS, cfg.algo.name, "algorithm")
+    model = cls.load(model_path, device=cfg.train.device)
+    normalize = _obs_normalizer(vecnorm_path, cfg) if vecnorm_path is not None else None
+    seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
+    episodes_dir = path / rundir.EPISODES
+    env = EnvFactory(
+        cfg.env,
+        monitor=False,
+        render_mode="rgb_array" if video is not None else None,
+        record_dir=str(episodes_dir) if opts.record else None,
+    )()
+    frames: list[np.ndarray] = []
+
+    def grab(e: Any, episode: int) -> None:
+        if episode < opts.video_episodes:
+            frames.append(e.render())
+
+    try:
+        model.set_random_seed(seed)
+        episodes = run_episodes(
+            policy_predict(model),
+            env,
+            opts.episodes,
+            seed,
+            opts.deterministic,
+            normalize_obs=normalize,
+            on_step=grab if video is not None else None,
+            on_reset=grab if video is not None else None,
+        )
+    finally:
+        recordings = list(_recorder_paths(env))
+        env.close()
+    summary = summarize(episodes)
+    if video is not None:
+        _write_video(video, frames, opts.fps or round(cfg.env.agent_hz))
+    report = EvalReport(path, model_path, which, seed, opts.deterministic, episodes, summary, recordings, video)
+    rundir.atomic_write(
+        path / "eval.json",
+        json.dumps(
+            {
+                "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "model": model_path.name,
+                "which": which,
+                "seed": seed,
+                "deterministic": opts.deterministic,
+                **summary,
+                "episodes": [
+                    {"seed": e.seed, "return": e.ret, "length": e.length, "success": e.success} for e in episodes
+                ],
+                "recordings": [p.name for p in recordings],
+            },
+            indent=2,
+        )
+        + "\n",
+    )
+    return report
+
+
+def _recorder_paths(env: Any) -> list[Path]:
+    e = env
+    while e is not None:
+        if hasattr(e, "paths") and hasattr(e, "prefix"):
+            return [Path(p) for p in e.paths]
+        e = getattr(e, "env", None)
+    return []
+
+
+def _obs_normalizer(vecnorm_path: Path, cfg: Any) -> Any:
+    import pickle
+
+    with open(vecnorm_path, "rb") as fh:
+        stats = pickle.load(fh)  # written by this package's own training run
+    if not getattr(stats, "norm_obs", False):
+        return None
+    stats.training = False
+    return stats.normalize_obs
+
+
+def _check_video_writer(video: Path) -> None:
+    if importlib.util.find_spec("imageio") is None:
+        raise ConfigError(f"video={video}: writing videos needs imageio: pip install imageio")
+    if video.suffix.lower() == ".mp4" and importlib.util.find_spec("imageio_ffmpeg") is None:
+        raise ConfigError(f"video={video}: MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); or write a .gif")
+    if not video.parent.is_dir():
+        raise ConfigError(f"video={video}: the folder {video.parent} does not exist")
+
+
+def _write_video(video: Path, frames: list[np.ndarray], fps: int) -> None:
+    import imageio.v2 as imageio
+
+    frames = [np.asarray(f)[..., :3] for f in frames if f is not None]
+    if video.suffix.lower() == ".gif":
+        imageio.mimsave(video, frames, duration=1000.0 / fps, loop=0)
+    else:
+        imageio.mimsave(video, frames, fps=fps)

@@ -1,0 +1,352 @@
+"""The run directory: one training run, everything needed to evaluate, resume or audit it.
+
+::
+
+    runs/<env>/<algo>/<YYYYmmdd-HHMMSS>-seed<k>[-<n>]/
+        config.yaml          resolved, validated configuration (reload with load_run_config)
+        run.yaml             seed, command line, start time, host, package versions, resumes
+        state.json           progress: status, steps, last checkpoint, best evaluation
+        run.lock             the id of the process training it, while it trains
+        metrics.mcap         /train/episode, /eval, /train/progress (metrics-<n>.mcap after a resume)
+        model.zip            final policy (+ vecnormalize.pkl with observation normalisation)
+        best_model.zip       best evaluation so far (+ best_vecnormalize.pkl)
+        checkpoints/         model_<steps>_steps.zip, replay_buffer_<steps>_steps.pkl, vecnormalize_<steps>_steps.pkl
+        episodes/            ep_<NNNN>.mcap written by `pyflyt eval`
+        eval.json            the last `pyflyt eval` summary
+        airframe.yaml        copy of a user airframe file, if the env named one by path
+
+Directories are created with ``mkdir(exist_ok=False)``: two runs started in the same
+second get ``...-seed0`` and ``...-seed0-1``, never the same directory.  Files are written
+to a temporary name and renamed into place, so a killed run never leaves half a file
+under a final name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import re
+import shutil
+import socket
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pyflyt_cli.training.schema import TrainConfig, parse_train_config
+from pyflyt_engine.errors import ConfigError
+
+CONFIG_FILE = "config.yaml"
+RUN_FILE = "run.yaml"
+STATE_FILE = "state.json"
+FINAL_MODEL = "model.zip"
+BEST_MODEL = "best_model.zip"
+FINAL_VECNORM = "vecnormalize.pkl"
+BEST_VECNORM = "best_vecnormalize.pkl"
+CHECKPOINTS = "checkpoints"
+EPISODES = "episodes"
+AIRFRAME_COPY = "airframe.yaml"
+
+_CHECKPOINT = re.compile(r"^model_(\d+)_steps\.zip$")
+_PACKAGES = (
+    "pyflyt-toolkit",
+    "stable-baselines3",
+    "torch",
+    "gymnasium",
+    "numpy",
+    "pybullet",
+    "hydra-core",
+    "pydantic",
+    "mcap",
+)
+
+
+class RunDirError(ConfigError):
+    """A run directory is missing, incomplete or not a run directory."""
+
+
+# ----------------------------------------------------------------------- create
+
+
+def create_run_dir(output_dir: str | Path, env_name: str, algo: str, seed: int, when: float | None = None) -> Path:
+    """Create ``<output_dir>/<env>/<algo>/<YYYYmmdd-HHMMSS>-seed<k>`` (``-1``, ``-2`` ... if taken), atomically."""
+    parent = Path(output_dir) / env_name / algo
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RunDirError(f"cannot create the output directory {parent}: {exc}") from None
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(time.time() if when is None else when))
+    base = f"{stamp}-seed{seed}"
+    for n in range(10_000):
+        path = parent / (base if n == 0 else f"{base}-{n}")
+        try:
+            path.mkdir(exist_ok=False)
+        except FileExistsError:
+            continue
+        return path.resolve()
+    raise RunDirError(f"cannot find a free run directory name under {parent}")  # pragma: no cover
+
+
+def atomic_write(path: Path, text: str | bytes) -> None:
+    """Write ``path`` through a temporary file and a rename."""
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    if isinstance(text, bytes):
+        tmp.write_bytes(text)
+    else:
+        tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_yaml(path: Path, data: Any, header: str = "") -> None:
+    atomic_write(path, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100))
+
+
+def package_versions() -> dict[str, str]:
+    """Installed versions of the packages a run depends on, plus Python's."""
+    from importlib import metadata
+
+    versions = {"python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    if versions["pyflyt-toolkit"] == "not installed":  # running from a source checkout
+        from pyflyt_engine import __version__
+
+        versions["pyflyt-toolkit"] = f"{__version__} (source checkout)"
+    return versions
+
+
+def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str] | None) -> dict[str, Any]:
+    """What ``run.yaml`` holds at creation."""
+    return {
+        "seed": cfg.seed,
+        "env": cfg.env_name,
+        "env_id": cfg.env.id,
+        "algo": cfg.algo.name,
+        "experiment": cfg.experiment,
+        "init_from": cfg.init_from,
+        "command": command if command is not None else list(sys.argv),
+        "overrides": list(overrides or []),
+        "cwd": os.getcwd(),
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "host": socket.gethostname(),
+        "platform": platform.platform(),
+        "versions": package_versions(),
+        "resumes": [],
+    }
+
+
+def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
+    """``cfg`` with files the env names by path made part of the run directory.
+
+    A reward preset given as a path is inlined; an airframe given as a path is copied to
+    ``airframe.yaml`` (reloaded relative to the run directory by :func:`load_run_config`).
+    """
+    from pyflyt_engine.envs.config import load_reward_preset
+
+    env = cfg.env
+    update: dict[str, Any] = {}
+    reward = env.reward_preset_name()
+    if isinstance(reward, str) and (reward.endswith((".yaml", ".yml")) or Path(reward).is_file()):
+        preset = load_reward_preset(reward)
+        update["reward"] = preset.model_dump()
+    if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
+        shutil.copyfile(env.uav, run_dir / AIRFRAME_COPY)
+        update["uav"] = str(run_dir / AIRFRAME_COPY)
+    if not update:
+        return cfg
+    data = cfg.model_dump(mode="json")
+    data["env"] = {**data["env"], **update}
+    return parse_train_config(data)
+
+
+def config_dict(cfg: TrainConfig) -> dict[str, Any]:
+    """``cfg`` as plain data, in a readable key order (``algo.name`` first)."""
+    data = cfg.model_dump(mode="json")
+    data["algo"] = {"name": data["algo"].pop("name"), **data["algo"]}
+    return data
+
+
+def save_config(cfg: TrainConfig, run_dir: Path) -> None:
+    """Write ``config.yaml`` (the resolved, validated config); files inside the run are named relative to it."""
+    header = (
+        "# Resolved configuration of this run (validated by pyflyt_cli.training.schema.TrainConfig).\n"
+        "# Resume: pyflyt train resume=<this directory>    Evaluate: pyflyt eval <this directory>\n"
+    )
+    data = config_dict(cfg)
+    uav = Path(data["env"]["uav"])
+    if uav.is_absolute() and uav.parent == run_dir:
+        data["env"]["uav"] = uav.name
+    write_yaml(run_dir / CONFIG_FILE, data, header)
+
+
+# ------------------------------------------------------------------------- read
+
+
+def check_run_dir(run_dir: str | Path) -> Path:
+    """``run_dir`` as a resolved path; :class:`RunDirError` unless it holds a run's ``config.yaml``."""
+    path = Path(run_dir).expanduser()
+    if not path.exists():
+        raise RunDirError(f"run directory {path} does not exist")
+    if not path.is_dir():
+        raise RunDirError(
+            f"{path} is not a directory (expected a run directory such as runs/quadx_hover/ppo/<time>-seed0)"
+        )
+    if not (path / CONFIG_FILE).is_file():
+        raise RunDirError(f"{path} is not a run directory: it has no {CONFIG_FILE}")
+    return path.resolve()
+
+
+def load_run_config(run_dir: str | Path) -> TrainConfig:
+    """The :class:`TrainConfig` a run was started with."""
+    path = check_run_dir(run_dir)
+    try:
+        data = yaml.safe_load((path / CONFIG_FILE).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise RunDirError(f"{path / CONFIG_FILE}: cannot read it: {exc}") from None
+    if isinstance(data, dict) and isinstance(data.get("env"), dict):
+        uav = data["env"].get("uav")
+        if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
+            data["env"]["uav"] = str(path / uav)
+    return parse_train_config(data, source=str(path / CONFIG_FILE))
+
+
+LOCK_FILE = "run.lock"
+
+
+@contextlib.contextmanager
+def run_lock(run_dir: Path) -> Iterator[None]:
+    """Hold ``run.lock`` (this process's id) while training; refuse if a live process holds it.
+
+    A lock left by a killed process (its id no longer running) is taken over.
+    """
+    path = run_dir / LOCK_FILE
+    for _ in range(2):
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            try:
+                pid = int(path.read_text().strip() or 0)
+            except (OSError, ValueError):
+                pid = 0
+            if pid and pid != os.getpid() and _alive(pid):
+                raise RunDirError(
+                    f"{run_dir} is being trained by process {pid}; wait for it, stop it (Ctrl-C), "
+                    f"or delete {path} if that process is not training"
+                ) from None
+            path.unlink(missing_ok=True)  # stale: its process is gone
+            continue
+        with os.fdopen(fd, "w") as fh:
+            fh.write(f"{os.getpid()}\n")
+        break
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def read_yaml(path: Path) -> dict[str, Any]:
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def read_state(run_dir: Path) -> dict[str, Any]:
+    try:
+        return json.loads((run_dir / STATE_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def write_state(run_dir: Path, state: dict[str, Any]) -> None:
+    atomic_write(run_dir / STATE_FILE, json.dumps(state, indent=2) + "\n")
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The files of one checkpoint."""
+
+    step: int
+    model: Path
+    replay_buffer: Path | None
+    vecnormalize: Path | None
+
+
+def checkpoint_paths(run_dir: Path, step: int) -> Checkpoint:
+    folder = run_dir / CHECKPOINTS
+    return Checkpoint(
+        step,
+        folder / f"model_{step}_steps.zip",
+        folder / f"replay_buffer_{step}_steps.pkl",
+        folder / f"vecnormalize_{step}_steps.pkl",
+    )
+
+
+def checkpoints(run_dir: Path) -> list[Checkpoint]:
+    """Complete checkpoints (a model file exists), oldest first; missing extras are None."""
+    folder = run_dir / CHECKPOINTS
+    found = []
+    if folder.is_dir():
+        for p in folder.iterdir():
+            m = _CHECKPOINT.match(p.name)
+            if m:
+                c = checkpoint_paths(run_dir, int(m[1]))
+                found.append(
+                    Checkpoint(
+                        c.step,
+                        c.model,
+                        c.replay_buffer if c.replay_buffer and c.replay_buffer.is_file() else None,
+                        c.vecnormalize if c.vecnormalize and c.vecnormalize.is_file() else None,
+                    )
+                )
+    return sorted(found, key=lambda c: c.step)
+
+
+def find_model(run_dir: Path, which: str = "auto") -> tuple[Path, Path | None, str]:
+    """(model file, its VecNormalize statistics or None, which one) of a run.
+
+    ``which``: ``best``, ``final``, ``latest`` (newest checkpoint) or ``auto`` (best, else
+    final, else latest).
+    """
+    candidates: dict[str, tuple[Path, Path]] = {
+        "best": (run_dir / BEST_MODEL, run_dir / BEST_VECNORM),
+        "final": (run_dir / FINAL_MODEL, run_dir / FINAL_VECNORM),
+    }
+    found = checkpoints(run_dir)
+    if found:
+        c = found[-1]
+        candidates["latest"] = (c.model, c.vecnormalize or run_dir / "-")
+    order = ["best", "final", "latest"] if which == "auto" else [which]
+    for name in order:
+        if name in candidates and candidates[name][0].is_file():
+            model, vecnorm = candidates[name]
+            return model, (vecnorm if vecnorm.is_file() else None), name
+    have = [n for n, (m, _) in candidates.items() if m.is_file()]
+    raise RunDirError(
+        f"{run_dir}: no {'model' if which == 'auto' else which + ' model'} to load"
+        + (
+            f" (available: {', '.join(have)})"
+            if have
+            else " (the run saved none yet: it stopped before its first checkpoint)"
+        )
+    )

@@ -1,0 +1,405 @@
+"""Typed schema of a training run (``conf/train.yaml`` after composition) and of ``pyflyt eval``.
+
+:func:`parse_train_config` validates a plain mapping — what Hydra composed, or what a
+test or script writes by hand — into a frozen :class:`TrainConfig`.  Unknown keys, wrong
+types and out-of-range values fail here, before any environment or network is built,
+with one line per problem naming the key.  ``_target_`` keys are checked against the
+registries first (:func:`pyflyt_cli.training.registry.check_targets`).
+
+Every field is documented where it is declared; ``pyflyt train --help`` and
+``docs/cli.md`` show the same.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, field_validator, model_validator
+
+from pyflyt_cli.training import registry
+from pyflyt_engine.envs.config import EnvConfig, _describe, parse_env_config
+from pyflyt_engine.errors import ConfigError
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+# ---------------------------------------------------------------------- algorithm
+
+
+class PolicyConfig(_Strict):
+    """``algo.policy_kwargs``: the network (passed to the SB3 policy)."""
+
+    net_arch: list[int] | dict[Literal["pi", "vf", "qf"], list[int]] | None = Field(
+        None, description="hidden layer sizes, shared list or per head {pi: [...], vf|qf: [...]}; null: SB3's default"
+    )
+    activation_fn: Literal["tanh", "relu", "elu", "leaky_relu", "gelu", "silu"] | None = Field(
+        None, description="hidden activation by name; null: SB3's default (tanh for PPO/A2C, relu otherwise)"
+    )
+    log_std_init: float | None = Field(None, description="initial log standard deviation of the Gaussian policy")
+    ortho_init: bool | None = Field(None, description="orthogonal initialisation (PPO/A2C)")
+    n_critics: int | None = Field(None, ge=1, description="number of Q networks (SAC/TD3/DDPG)")
+
+    @field_validator("activation_fn", mode="before")
+    @classmethod
+    def _by_target(cls, value: Any) -> Any:
+        # {_target_: torch.nn.ReLU} arrives here as {name: relu} (registry.check_targets)
+        if isinstance(value, Mapping) and set(value) == {"name"}:
+            return value["name"]
+        return value
+
+    def kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for SB3's ``policy_kwargs`` (unset entries left out)."""
+        out: dict[str, Any] = {}
+        for key, value in self.model_dump(exclude_none=True).items():
+            out[key] = registry.resolve(registry.ACTIVATIONS, value, "activation") if key == "activation_fn" else value
+        return out
+
+
+class NormalizeConfig(_Strict):
+    """``algo.normalize``: running mean/std normalisation (SB3 ``VecNormalize``), saved with every model."""
+
+    observation: bool = Field(False, description="normalise observations by their running mean and std")
+    reward: bool = Field(False, description="scale rewards by the running std of the discounted return")
+    clip_obs: float = Field(10.0, gt=0, description="clip normalised observations to [-clip_obs, clip_obs]")
+
+    @property
+    def enabled(self) -> bool:
+        return self.observation or self.reward
+
+
+class ActionNoiseConfig(_Strict):
+    """``algo.action_noise``: exploration noise added to deterministic off-policy actions (TD3/DDPG)."""
+
+    type: Literal["normal", "ornstein_uhlenbeck"] = Field("normal", description="noise process")
+    sigma: float = Field(0.1, gt=0, description="standard deviation, in the [-1, 1] rescaled action units")
+
+
+class _AlgoBase(_Strict):
+    policy: str = Field("MlpPolicy", description="SB3 policy name (observations are flattened to one Box)")
+    learning_rate: float = Field(3e-4, gt=0, description="optimiser step size")
+    lr_schedule: Literal["constant", "linear"] = Field(
+        "constant", description="'linear': decay learning_rate to 0 over train.total_timesteps (zoo's lin_<lr>)"
+    )
+    gamma: float = Field(0.99, gt=0, le=1, description="discount factor")
+    normalize: NormalizeConfig = Field(default_factory=NormalizeConfig)
+    policy_kwargs: PolicyConfig = Field(default_factory=PolicyConfig)
+
+    _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
+        {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
+    )
+
+    @field_validator("policy")
+    @classmethod
+    def _known_policy(cls, value: str) -> str:
+        if value not in registry.POLICIES:
+            raise ValueError(registry.unknown("policy", value, registry.POLICIES))
+        return value
+
+    @property
+    def off_policy(self) -> bool:
+        return self.name in registry.OFF_POLICY  # type: ignore[attr-defined]
+
+    def constructor_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of the SB3 algorithm's constructor set by this config."""
+        kwargs = {k: v for k, v in self.model_dump().items() if k not in self._NOT_KWARGS}
+        if self.lr_schedule == "linear":
+            from stable_baselines3.common.utils import LinearSchedule
+
+            kwargs["learning_rate"] = LinearSchedule(self.learning_rate, 0.0, 1.0)
+        kwargs["policy_kwargs"] = self.policy_kwargs.kwargs()
+        return kwargs
+
+
+class _OnPolicy(_AlgoBase):
+    n_steps: int = Field(2048, ge=1, description="steps per environment per rollout (rollout = n_steps x n_envs)")
+    gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE bias/variance trade-off")
+    ent_coef: float = Field(0.0, ge=0, description="entropy bonus coefficient")
+    vf_coef: float = Field(0.5, ge=0, description="value loss coefficient")
+    max_grad_norm: float = Field(0.5, gt=0, description="gradient clipping norm")
+    use_sde: bool = Field(False, description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
+    normalize_advantage: bool = Field(True, description="normalise advantages per batch")
+
+
+class PPOConfig(_OnPolicy):
+    """Proximal Policy Optimization (Schulman et al. 2017); SB3 ``PPO``."""
+
+    name: Literal["ppo"] = "ppo"
+    batch_size: int = Field(64, ge=2, description="minibatch size")
+    n_epochs: int = Field(10, ge=1, description="passes over each rollout")
+    clip_range: float = Field(0.2, gt=0, description="policy ratio clip")
+    clip_range_vf: float | None = Field(None, gt=0, description="value clip (null: none)")
+    target_kl: float | None = Field(None, gt=0, description="stop the epochs early beyond this KL (null: never)")
+
+
+class A2CConfig(_OnPolicy):
+    """Advantage Actor-Critic (Mnih et al. 2016); SB3 ``A2C``."""
+
+    name: Literal["a2c"] = "a2c"
+    n_steps: int = Field(5, ge=1, description="steps per environment per update")
+    gae_lambda: float = Field(1.0, ge=0, le=1, description="GAE bias/variance trade-off")
+    learning_rate: float = Field(7e-4, gt=0, description="optimiser step size")
+    rms_prop_eps: float = Field(1e-5, gt=0, description="RMSprop epsilon")
+    use_rms_prop: bool = Field(True, description="RMSprop (true) or Adam (false)")
+    normalize_advantage: bool = Field(False, description="normalise advantages per batch")
+
+
+class _OffPolicy(_AlgoBase):
+    buffer_size: int = Field(1_000_000, ge=1, description="replay buffer capacity [transitions]")
+    learning_starts: int = Field(100, ge=0, description="environment steps collected before the first update")
+    batch_size: int = Field(256, ge=1, description="minibatch size")
+    tau: float = Field(0.005, gt=0, le=1, description="target network soft update coefficient")
+    train_freq: int = Field(1, ge=1, description="update the model every train_freq steps (per environment)")
+    gradient_steps: int = Field(1, ge=-1, description="gradient steps per update (-1: as many as steps collected)")
+    action_noise: ActionNoiseConfig | None = Field(None, description="exploration noise (null: none)")
+
+    def constructor_kwargs(self) -> dict[str, Any]:
+        kwargs = super().constructor_kwargs()
+        kwargs["optimize_memory_usage"] = False
+        return kwargs
+
+
+class SACConfig(_OffPolicy):
+    """Soft Actor-Critic (Haarnoja et al. 2018), the paper's algorithm; SB3 ``SAC``."""
+
+    name: Literal["sac"] = "sac"
+    ent_coef: float | str = Field("auto", description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
+    target_update_interval: int = Field(1, ge=1, description="target network update interval [gradient steps]")
+    target_entropy: float | Literal["auto"] = Field("auto", description="entropy target ('auto': -dim(action))")
+    use_sde: bool = Field(False, description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps")
+
+    @field_validator("ent_coef")
+    @classmethod
+    def _ent_coef(cls, value: float | str) -> float | str:
+        if isinstance(value, str):
+            if value != "auto" and not value.startswith("auto_"):
+                raise ValueError(f"ent_coef must be a number, 'auto' or 'auto_<initial value>', got {value!r}")
+            if value.startswith("auto_"):
+                try:
+                    float(value[5:])
+                except ValueError:
+                    raise ValueError(f"ent_coef {value!r}: the part after auto_ must be a number") from None
+        elif value < 0:
+            raise ValueError("ent_coef must be >= 0")
+        return value
+
+
+class TD3Config(_OffPolicy):
+    """Twin Delayed DDPG (Fujimoto et al. 2018); SB3 ``TD3``."""
+
+    name: Literal["td3"] = "td3"
+    learning_rate: float = Field(1e-3, gt=0, description="optimiser step size")
+    policy_delay: int = Field(2, ge=1, description="actor update every policy_delay critic updates")
+    target_policy_noise: float = Field(0.2, ge=0, description="target policy smoothing noise std")
+    target_noise_clip: float = Field(0.5, ge=0, description="target policy smoothing noise clip")
+
+
+class DDPGConfig(_OffPolicy):
+    """Deep Deterministic Policy Gradient (Lillicrap et al. 2016); SB3 ``DDPG``."""
+
+    name: Literal["ddpg"] = "ddpg"
+    learning_rate: float = Field(1e-3, gt=0, description="optimiser step size")
+
+
+AlgoConfig = Annotated[PPOConfig | A2CConfig | SACConfig | TD3Config | DDPGConfig, Field(discriminator="name")]
+
+
+# ------------------------------------------------------------------------- train
+
+
+class TrainOptions(_Strict):
+    """``train``: budget, parallelism, evaluation, checkpoints and outputs of a run."""
+
+    total_timesteps: int = Field(100_000, ge=1, description="environment steps to train for (summed over n_envs)")
+    n_envs: int = Field(1, ge=1, description="parallel environments (SubprocVecEnv when > 1, unless vec_env=dummy)")
+    vec_env: Literal["auto", "dummy", "subproc"] = Field(
+        "auto", description="auto: subprocesses when n_envs > 1; dummy: all in this process"
+    )
+    eval_freq: int = Field(10_000, ge=0, description="evaluate every this many environment steps (0: never)")
+    eval_episodes: int = Field(5, ge=1, description="episodes per evaluation")
+    eval_deterministic: bool = Field(True, description="evaluate the policy's mean action")
+    checkpoint_freq: int = Field(
+        25_000, ge=0, description="checkpoint every this many environment steps (0: only on interrupt)"
+    )
+    keep_checkpoints: int = Field(
+        0, ge=0, description="keep the newest k model checkpoints (0: all); one replay buffer is kept"
+    )
+    save_replay_buffer: bool = Field(
+        True, description="save the replay buffer with checkpoints (off-policy), for exact resume"
+    )
+    progress_bar: bool | None = Field(None, description="tqdm bar with steps/s and ETA; null: only on a terminal")
+    tensorboard: bool = Field(False, description="also write TensorBoard logs to <run>/tensorboard (needs tensorboard)")
+    output_dir: str = Field("runs", description="root of run directories: <output_dir>/<env>/<algo>/<time>-seed<k>")
+    device: Literal["cpu", "cuda", "auto"] = Field("cpu", description="torch device")
+    torch_threads: int = Field(
+        1, ge=1, description="torch intra-op threads (1: reproducible and fastest for small MLPs)"
+    )
+    verbose: int = Field(0, ge=0, le=2, description="SB3 verbosity (0: silent)")
+
+
+class CallbackConfig(_Strict):
+    """``callbacks[]``: an SB3 callback by registered name, run after every evaluation."""
+
+    name: Literal["stop_on_reward", "stop_on_no_improvement"] = Field(
+        description="stop_on_reward: stop once the mean eval return reaches reward_threshold; "
+        "stop_on_no_improvement: stop after max_no_improvement_evals evaluations without a new best"
+    )
+    reward_threshold: float | None = Field(None, description="stop_on_reward: mean evaluation return to reach")
+    max_no_improvement_evals: int | None = Field(
+        None, ge=1, description="stop_on_no_improvement: patience [evaluations]"
+    )
+    min_evals: int = Field(0, ge=0, description="stop_on_no_improvement: evaluations before counting")
+
+    @model_validator(mode="after")
+    def _params(self) -> CallbackConfig:
+        if self.name == "stop_on_reward" and self.reward_threshold is None:
+            raise ValueError("stop_on_reward needs reward_threshold")
+        if self.name == "stop_on_no_improvement" and self.max_no_improvement_evals is None:
+            raise ValueError("stop_on_no_improvement needs max_no_improvement_evals")
+        return self
+
+    def build(self) -> Any:
+        cls = registry.resolve(registry.CALLBACKS, self.name, "callback")
+        if self.name == "stop_on_reward":
+            return cls(reward_threshold=self.reward_threshold, verbose=0)
+        return cls(max_no_improvement_evals=self.max_no_improvement_evals, min_evals=self.min_evals, verbose=0)
+
+
+class TrainConfig(_Strict):
+    """One training run: environment, algorithm, seed, options."""
+
+    seed: int = Field(0, ge=0, description="seeds everything: env resets, motor noise, network init, action sampling")
+    env_name: str = Field(description="env config name, used in the run directory (runs/<env_name>/...)")
+    env: SerializeAsAny[EnvConfig] = Field(description="the environment (conf/env, validated by EnvConfig)")
+    algo: AlgoConfig = Field(description="algorithm and hyper-parameters (conf/algo, tuned by conf/hparams)")
+    train: TrainOptions = Field(default_factory=TrainOptions)
+    callbacks: list[CallbackConfig] = Field(
+        default_factory=list, description="extra callbacks run after each evaluation"
+    )
+    init_from: str | None = Field(None, description="run directory whose policy weights start this run (bootstrap)")
+    experiment: str | None = Field(None, description="name of the experiment file applied, for the record")
+
+    @field_validator("env", mode="before")
+    @classmethod
+    def _env(cls, value: Any) -> Any:
+        if isinstance(value, EnvConfig):
+            return value
+        return parse_env_config(value, source="env")
+
+    @field_validator("env_name")
+    @classmethod
+    def _slug(cls, value: str) -> str:
+        if not value or any(c in value for c in "/\\") or value in (".", ".."):
+            raise ValueError(f"env_name must be a plain name usable as a directory, got {value!r}")
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> TrainConfig:
+        algo, opts = self.algo, self.train
+        if isinstance(algo, PPOConfig):
+            rollout = algo.n_steps * opts.n_envs
+            if rollout < 2:
+                raise ValueError("algo.n_steps x train.n_envs must be at least 2 for PPO")
+            if algo.batch_size > rollout:
+                raise ValueError(
+                    f"algo.batch_size ({algo.batch_size}) exceeds the rollout size n_steps x n_envs = {rollout}; "
+                    "lower algo.batch_size or raise algo.n_steps"
+                )
+        return self
+
+
+def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "train config") -> TrainConfig:
+    """Validate a plain mapping into a :class:`TrainConfig` (raises :class:`ConfigError`).
+
+    ``_target_`` keys are checked against the registries before anything else; an env
+    config that fails its own schema reports its problems under ``env.``.
+    """
+    if isinstance(data, TrainConfig):
+        return data
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: a training config must be a mapping, got {type(data).__name__}")
+    data = registry.check_targets(data)
+    algo = data.get("algo")
+    if isinstance(algo, Mapping) and algo.get("name") not in registry.ALGOS:
+        raise ConfigError(f"{source}: algo.name: " + registry.unknown("algorithm", algo.get("name"), registry.ALGOS))
+    try:
+        cfg = TrainConfig.model_validate(data)
+    except ValidationError as exc:
+        problems = []
+        for error in exc.errors():
+            loc = tuple(error["loc"])
+            if loc and loc[0] == "env" and error["type"] == "value_error":
+                # the env's own validator already produced a full message
+                message = str(error["msg"]).removeprefix("Value error, ")
+                problems.append(message)
+                continue
+            if len(loc) > 1 and loc[0] == "algo" and loc[1] in registry.ALGOS:
+                problems.append(_describe(_algo_model(loc[1]), {**error, "loc": loc[2:]}, prefix="algo."))
+                continue
+            problems.append(_describe(TrainConfig, error))
+        raise ConfigError(f"{source}: invalid configuration:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+    check_env_references(cfg.env)
+    return cfg
+
+
+def check_env_references(env: EnvConfig) -> None:
+    """Load what the env config names — the reward preset and the airframe — so a wrong name fails now."""
+    from pyflyt_engine.envs.config import load_reward_preset
+    from pyflyt_engine.envs.tasks import get_task
+    from pyflyt_engine.errors import PyFlytError
+    from pyflyt_engine.spec import load_uav_spec
+
+    try:
+        task = get_task(env.task.name)
+        load_reward_preset(env.reward_preset_name()).compile(task.provides, task.name)
+    except PyFlytError as exc:
+        raise ConfigError(f"env.reward: {exc}") from None
+    try:
+        load_uav_spec(env.uav)
+    except PyFlytError as exc:
+        raise ConfigError(f"env.uav: {exc}") from None
+
+
+def _algo_model(name: str) -> type[BaseModel]:
+    return {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}[name]
+
+
+# -------------------------------------------------------------------------- eval
+
+
+class EvalOptions(_Strict):
+    """``pyflyt eval <run_dir> [key=value ...]`` (``conf/eval.yaml``)."""
+
+    episodes: int = Field(10, ge=1, description="episodes to run")
+    seed: int | None = Field(None, ge=0, description="episode i is reset with seed + i (null: the run's seed + 1000)")
+    deterministic: bool = Field(True, description="use the policy's mean action (false: sample)")
+    model: Literal["auto", "best", "final", "latest"] = Field(
+        "auto",
+        description="best: best_model.zip; final: model.zip; latest: newest checkpoint; auto: best, else final, else latest",
+    )
+    record: bool = Field(True, description="write each episode to <run_dir>/episodes/ as MCAP")
+    video: str | None = Field(None, description="write rgb_array frames of the episodes to this .gif or .mp4")
+    video_episodes: int = Field(1, ge=1, description="episodes included in the video")
+    fps: int | None = Field(None, ge=1, description="video frame rate (null: the env's agent rate)")
+
+    @field_validator("video")
+    @classmethod
+    def _video(cls, value: str | None) -> str | None:
+        if value is not None and not value.lower().endswith((".gif", ".mp4")):
+            raise ValueError(f"video must end in .gif or .mp4, got {value!r}")
+        return value
+
+
+def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
+    """Validate ``pyflyt eval`` options (raises :class:`ConfigError`)."""
+    if isinstance(data, EvalOptions):
+        return data
+    try:
+        return EvalOptions.model_validate(dict(data))
+    except ValidationError as exc:
+        problems = [_describe(EvalOptions, e) for e in exc.errors()]
+        raise ConfigError("invalid eval options:\n" + "\n".join(f"  - {p}" for p in problems)) from None

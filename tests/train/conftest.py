@@ -1,0 +1,76 @@
+"""Helpers for the training tests: tiny budgets, composed configs, subprocess CLI runs."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: a PPO run that finishes in a few seconds: 2 rollouts of 256 steps, evaluation and
+#: checkpoints at every rollout, 2 short evaluation episodes
+TINY_PPO = [
+    "env=quadx_hover",
+    "algo=ppo",
+    "train.total_timesteps=512",
+    "train.n_envs=1",
+    "algo.n_steps=256",
+    "algo.batch_size=64",
+    "algo.n_epochs=2",
+    "train.eval_freq=256",
+    "train.eval_episodes=2",
+    "train.checkpoint_freq=256",
+    "train.progress_bar=false",
+]
+
+#: a SAC run with a small replay buffer, learning from step 100
+TINY_SAC = [
+    "env=quadx_hover",
+    "algo=sac",
+    "train.total_timesteps=400",
+    "train.n_envs=1",
+    "algo.buffer_size=2000",
+    "algo.learning_starts=100",
+    "algo.batch_size=32",
+    "algo.policy_kwargs.net_arch=[32,32]",
+    "train.eval_freq=200",
+    "train.eval_episodes=2",
+    "train.checkpoint_freq=200",
+    "train.progress_bar=false",
+]
+
+
+def load(overrides: list[str], output_dir: Path):
+    """The validated TrainConfig `pyflyt train <overrides>` would run, writing under output_dir."""
+    from pyflyt_cli.commands.train import load_train_config
+
+    return load_train_config([*overrides, f"train.output_dir={output_dir}"])
+
+
+def cli_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env
+
+
+def pyflyt(args: list[str], cwd: Path, timeout: float = 300, **kwargs) -> subprocess.CompletedProcess:
+    """Run ``python -m pyflyt_cli.main <args>`` from the checkout."""
+    return subprocess.run(  # noqa: PLW1510 - the caller checks returncode
+        [sys.executable, "-m", "pyflyt_cli.main", *args],
+        cwd=cwd,
+        env=cli_env(),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        **kwargs,
+    )
+
+
+@pytest.fixture
+def runs(tmp_path: Path) -> Path:
+    path = tmp_path / "runs"
+    return path

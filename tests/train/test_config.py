@@ -1,0 +1,289 @@
+"""`pyflyt train` configuration: composition, overrides, schema validation, refusals.
+
+Nothing here trains: every test composes and validates only (or runs `--cfg`).
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from pyflyt_cli.commands.train import load_train_config
+from pyflyt_cli.config import CLIError
+from pyflyt_cli.main import app
+from pyflyt_cli.training import registry
+from pyflyt_cli.training.rundir import create_run_dir
+from pyflyt_cli.training.schema import PPOConfig, SACConfig, parse_train_config
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.paths import conf_dir
+
+from .conftest import ROOT, pyflyt
+
+ENVS = sorted(p.stem for p in (conf_dir() / "env").glob("*.yaml"))
+ALGOS = sorted(p.stem for p in (conf_dir() / "algo").glob("*.yaml"))
+EXPERIMENTS = sorted(p.stem for p in (conf_dir() / "experiment").glob("*.yaml"))
+
+
+def test_defaults_are_a_short_ppo_run_on_hover():
+    cfg = load_train_config([])
+    assert cfg.env_name == "quadx_hover" and cfg.env.id == "PyFlyt/QuadX-Hover-v0"
+    assert isinstance(cfg.algo, PPOConfig)
+    # the per-env tuning (conf/hparams/quadx_hover_ppo.yaml) is applied on top of algo/ppo.yaml
+    assert cfg.algo.normalize.observation and cfg.algo.policy_kwargs.net_arch is not None
+    assert 0 < cfg.train.total_timesteps <= 300_000 and cfg.seed == 0
+
+
+def test_nested_overrides_reach_env_and_algo():
+    cfg = load_train_config(["env.reward=sparse", "algo.learning_rate=1e-3", "seed=7", "train.total_timesteps=2e5"])
+    assert cfg.env.reward == "sparse" and cfg.env.reward_preset_name() == "quadx_hover_sparse"
+    assert cfg.algo.learning_rate == pytest.approx(1e-3)
+    assert cfg.seed == 7 and cfg.train.total_timesteps == 200_000
+
+
+def test_uav_and_reward_groups_override_the_env():
+    cfg = load_train_config(["uav=quadx_f450", "reward=quadx_hover_sparse"])
+    assert cfg.env.uav == "quadx_f450"
+    assert isinstance(cfg.env.reward, dict) and cfg.env.reward["name"] == "quadx_hover_sparse"
+    assert set(cfg.env.reward["terms"]) == {"crash", "time_penalty"}
+
+
+@pytest.mark.parametrize("env", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_every_env_and_algo_composes_and_validates(env, algo):
+    cfg = load_train_config([f"env={env}", f"algo={algo}"])
+    assert cfg.env_name == env and cfg.algo.name == algo
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+def test_experiment_files_are_override_only_and_compose(experiment):
+    text = (conf_dir() / "experiment" / f"{experiment}.yaml").read_text()
+    assert text.lstrip().startswith("# @package _global_") or "\n# @package _global_" in text
+    cfg = load_train_config([f"experiment={experiment}"])
+    assert cfg.experiment == experiment
+
+
+def test_hparams_follow_the_chosen_env_and_algo():
+    """conf/hparams/<env>_<algo>.yaml is picked from the final choices (incl. an experiment's)."""
+    for path in (conf_dir() / "hparams").glob("*.yaml"):
+        env, algo = next((e, path.stem[len(e) + 1 :]) for e in ENVS if path.stem.startswith(e + "_"))
+        assert algo in ALGOS, path
+        load_train_config([f"env={env}", f"algo={algo}"])
+
+
+@pytest.mark.parametrize(
+    ("overrides", "expected"),
+    [
+        (["env=quadx_hovr"], ["unknown env 'quadx_hovr'", "Did you mean 'quadx_hover'?", "quadx_waypoints"]),
+        (["algo=sacc"], ["unknown algo 'sacc'", "Did you mean 'sac'?", "ppo", "td3"]),
+        (["uav=quadx_f45"], ["unknown uav 'quadx_f45'", "Did you mean 'quadx_f450'?"]),
+        (["train.total_timestep=5"], ["unknown key 'train.total_timestep'", "Did you mean 'train.total_timesteps'?"]),
+        (["algo.n_stepz=5"], ["unknown key 'algo.n_stepz'", "Did you mean 'algo.n_steps'?"]),
+        (["train.total_timesteps=abc"], ["train.total_timesteps", "valid integer", "'abc'"]),
+        (["seed=-1"], ["seed", "greater than or equal to 0"]),
+        (["algo.gamma=1.5"], ["algo.gamma", "less than or equal to 1"]),
+        (["algo=sac", "algo.ent_coef=lots"], ["algo.ent_coef", "'auto'"]),
+        (["algo.policy_kwargs.activation_fn=sigmoid"], ["algo.policy_kwargs.activation_fn", "'tanh'"]),
+        (["algo.batch_size=100000"], ["algo.batch_size", "rollout size"]),
+        (["env.reward=nope"], ["env.reward", "unknown reward config 'nope'"]),
+        (["env.uav=quadx_f45"], ["env.uav", "Did you mean 'quadx_f450'?"]),
+        (["seed=0,1"], ["seed=0,1 is a sweep", "-m"]),
+        (["algo.learning_rate=="], ["malformed override"]),
+        (["seed"], ["'seed' is not an override"]),
+        (["uav=quadx_f450", "uav.body.mass=2"], ["uav.* keys cannot be overridden"]),
+    ],
+)
+def test_bad_configs_fail_with_a_message_naming_the_problem(overrides, expected):
+    with pytest.raises((CLIError, ConfigError)) as info:
+        from pyflyt_cli.commands.train import run_train
+
+        run_train(overrides, show_config=True)
+    message = str(info.value)
+    for part in expected:
+        assert part in message, message
+
+
+def test_cli_errors_exit_2_without_traceback(tmp_path):
+    result = pyflyt(["train", "algo=sacc", f"train.output_dir={tmp_path}"], cwd=tmp_path, timeout=120)
+    assert result.returncode == 2
+    assert "unknown algo 'sacc'. Did you mean 'sac'?" in result.stderr and "Traceback" not in result.stderr
+    assert not any(tmp_path.iterdir()), "nothing may be created for a refused config"
+
+
+# ------------------------------------------------------------------ hostile
+
+
+def _hostile_data(tmp_path: Path, where: str) -> tuple[dict, Path]:
+    marker = tmp_path / "pwned"
+    data = load_train_config([f"train.output_dir={tmp_path / 'runs'}"]).model_dump(mode="json")
+    payload = {"_target_": "os.system", "_args_": [f"touch {marker}"]}
+    if where == "top":
+        data.update(payload)
+    elif where == "algo":
+        data["algo"].update(payload)
+    elif where == "callback":
+        data["callbacks"] = [payload]
+    elif where == "activation":
+        data["algo"]["policy_kwargs"]["activation_fn"] = payload
+    return data, marker
+
+
+@pytest.mark.parametrize("where", ["top", "algo", "callback", "activation"])
+def test_target_outside_the_registries_is_refused_before_anything_runs(tmp_path, where):
+    from pyflyt_cli.training import train
+
+    data, marker = _hostile_data(tmp_path, where)
+    with pytest.raises(ConfigError, match="refusing to instantiate 'os.system'"):
+        train(data)
+    assert not marker.exists()
+    assert not (tmp_path / "runs").exists()
+
+
+def test_hostile_override_on_the_command_line_is_refused(tmp_path):
+    marker = tmp_path / "pwned"
+    result = pyflyt(
+        ["train", "+algo._target_=os.system", f"+algo._args_=[touch {marker}]", f"train.output_dir={tmp_path}/runs"],
+        cwd=tmp_path,
+        timeout=120,
+    )
+    assert result.returncode == 2, result.stderr
+    assert "refusing to instantiate 'os.system'" in result.stderr and "Traceback" not in result.stderr
+    assert not marker.exists() and not (tmp_path / "runs").exists()
+
+
+def test_targets_naming_registered_objects_are_accepted():
+    data = load_train_config(["algo=sac"]).model_dump(mode="json")
+    del data["algo"]["name"]
+    data["algo"]["_target_"] = "stable_baselines3.SAC"
+    data["algo"]["policy_kwargs"]["activation_fn"] = {"_target_": "torch.nn.ReLU"}
+    cfg = parse_train_config(data)
+    assert isinstance(cfg.algo, SACConfig) and cfg.algo.policy_kwargs.activation_fn == "relu"
+    with pytest.raises(ConfigError, match="Hydra instantiation key '_partial_'"):
+        parse_train_config({**data, "algo": {**data["algo"], "_partial_": True}})
+
+
+def test_unknown_keys_and_wrong_types_in_a_plain_dict():
+    data = load_train_config([]).model_dump(mode="json")
+    with pytest.raises(
+        ConfigError, match=r"train\.total_timestep: unknown key 'total_timestep'\. Did you mean 'total_timesteps'"
+    ):
+        parse_train_config({**data, "train": {**data["train"], "total_timestep": 5}})
+    with pytest.raises(ConfigError, match=r"algo\.n_epochs: Input should be a valid integer"):
+        parse_train_config({**data, "algo": {**data["algo"], "n_epochs": "many"}})
+    with pytest.raises(ConfigError, match="unknown algorithm 'dqn'"):
+        parse_train_config({**data, "algo": {"name": "dqn"}})
+
+
+def test_registry_resolves_only_its_names():
+    assert registry.resolve(registry.ALGOS, "ppo", "algorithm").__name__ == "PPO"
+    with pytest.raises(ConfigError, match="unknown algorithm 'system'"):
+        registry.resolve(registry.ALGOS, "system", "algorithm")
+
+
+# --------------------------------------------------------------- CLI surface
+
+
+def test_help_lists_groups_and_choices():
+    result = CliRunner().invoke(app, ["train", "--help"], terminal_width=200)
+    assert result.exit_code == 0
+    out = result.output
+    for group in ("env=", "algo=", "uav=", "reward=", "experiment="):
+        assert group in out
+    for choice in ENVS + ALGOS + ["quadx_f450", "quadx_hover_sparse"]:
+        assert choice in out, choice
+    assert "--multirun" in out and "resume=" in out
+
+
+def test_multirun_expands_sweeps(tmp_path):
+    result = CliRunner().invoke(app, ["train", "-m", "seed=0,1,2", "algo=ppo,sac", "--cfg"])
+    assert result.exit_code == 0, result.output
+    assert result.output.count("# job:") == 6
+    assert "# job: seed=2 algo=sac" in result.output
+
+
+def test_cfg_prints_the_validated_config():
+    result = CliRunner().invoke(app, ["train", "algo=td3", "--cfg"])
+    assert result.exit_code == 0, result.output
+    assert "name: td3" in result.output and "env_name: quadx_hover" in result.output
+
+
+def test_hydra_leaves_the_working_directory_alone(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    CliRunner().invoke(app, ["train", "--cfg"])
+    load_train_config(["seed=3"])
+    assert Path.cwd() == tmp_path and not any(tmp_path.iterdir())
+
+
+def test_resume_rejects_other_overrides_and_missing_dirs(tmp_path):
+    from pyflyt_cli.commands.train import run_train
+
+    with pytest.raises(CLIError, match="cannot be combined with resume="):
+        run_train([f"resume={tmp_path}", "algo=sac"])
+    with pytest.raises(ConfigError, match="does not exist"):
+        run_train([f"resume={tmp_path / 'nope'}"])
+    with pytest.raises(ConfigError, match="not a run directory"):
+        run_train([f"resume={tmp_path}"])
+
+
+def test_init_from_a_missing_run_is_refused_before_creating_anything(tmp_path):
+    from pyflyt_cli.training import train
+
+    cfg = load_train_config([f"init_from={tmp_path / 'nope'}", f"train.output_dir={tmp_path / 'runs'}"])
+    with pytest.raises(ConfigError, match="init_from: run directory .* does not exist"):
+        train(cfg)
+    assert not (tmp_path / "runs").exists()
+
+
+def test_an_env_that_cannot_be_built_fails_before_the_run_starts(tmp_path):
+    from pyflyt_cli.training import train
+
+    cfg = load_train_config(["uav=fixedwing", "train.n_envs=2", f"train.output_dir={tmp_path / 'runs'}"])
+    with pytest.raises(ConfigError, match="env: cannot build the environment"):
+        train(cfg)
+    assert not (tmp_path / "runs").exists()
+
+
+def test_tensorboard_without_the_package_says_how_to_install(tmp_path, monkeypatch):
+    import importlib.util
+
+    from pyflyt_cli.training import train
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "tensorboard" else real(name, *a))
+    cfg = load_train_config(["train.tensorboard=true", f"train.output_dir={tmp_path / 'runs'}"])
+    with pytest.raises(ConfigError, match="pip install tensorboard"):
+        train(cfg)
+
+
+# ------------------------------------------------------------- run directories
+
+
+def test_run_directories_never_collide(tmp_path):
+    when = 1_700_000_000.0
+    first = create_run_dir(tmp_path, "quadx_hover", "ppo", 0, when)
+    second = create_run_dir(tmp_path, "quadx_hover", "ppo", 0, when)
+    assert first.name.endswith("-seed0") and second.name == first.name + "-1"
+    assert first.parent == tmp_path.resolve() / "quadx_hover" / "ppo"
+
+    made: list[Path] = []
+    barrier = threading.Barrier(8)
+
+    def make() -> None:
+        barrier.wait()
+        made.append(create_run_dir(tmp_path, "quadx_hover", "ppo", 1, when))
+
+    threads = [threading.Thread(target=make) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(set(made)) == 8 and all(p.is_dir() for p in made)
+
+
+def test_conf_is_packaged_with_train_configs():
+    text = (ROOT / "pyproject.toml").read_text()
+    assert '"conf" = "pyflyt_engine/conf"' in text
+    for name in ("train.yaml", "eval.yaml", "algo/ppo.yaml", "algo/sac.yaml", "algo/td3.yaml"):
+        assert (conf_dir() / name).is_file(), name

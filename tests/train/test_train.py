@@ -1,0 +1,279 @@
+"""Training and evaluation as plain functions, with tiny budgets (seconds each)."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pyflyt_cli.training import evaluate_run, resume, train
+from pyflyt_cli.training.rundir import load_run_config, read_state
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.telemetry import read_metrics
+
+from .conftest import TINY_PPO, TINY_SAC, load
+
+
+def _metrics(run_dir: Path) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a truncated file would warn
+        return read_metrics(run_dir)
+
+
+def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path):
+    result = train(load(TINY_PPO, tmp_path / "runs"), command=["pyflyt", "train"], overrides=TINY_PPO)
+    run = result.run_dir
+    assert run.parent == (tmp_path / "runs" / "quadx_hover" / "ppo").resolve()
+    assert run.name.endswith("-seed0") and not result.interrupted
+    assert result.num_timesteps == 512 and result.steps_per_second > 0
+
+    for name in ("config.yaml", "run.yaml", "state.json", "model.zip", "best_model.zip", "metrics.mcap"):
+        assert (run / name).is_file(), name
+    assert (run / "vecnormalize.pkl").is_file()  # the hover tuning normalises observations
+    assert sorted(p.name for p in (run / "checkpoints").glob("model_*")) == [
+        "model_256_steps.zip",
+        "model_512_steps.zip",
+    ]
+
+    record = yaml.safe_load((run / "run.yaml").read_text())
+    assert record["seed"] == 0 and record["command"] == ["pyflyt", "train"] and record["overrides"] == TINY_PPO
+    assert {"python", "stable-baselines3", "torch", "gymnasium", "pyflyt-toolkit"} <= set(record["versions"])
+    state = read_state(run)
+    assert state["status"] == "complete" and state["num_timesteps"] == 512 and state["checkpoint"] == 512
+    assert load_run_config(run) == load_run_config(run)  # config.yaml reloads and validates
+
+    metrics = _metrics(run)
+    episodes = metrics["/train/episode"]
+    assert episodes and {"step", "wall_time", "return", "length", "success"} <= set(episodes[0])
+    assert [e["step"] for e in episodes] == sorted(e["step"] for e in episodes)
+    evals = metrics["/eval"]
+    assert [e["step"] for e in evals] == [256, 512]
+    assert {"mean_return", "std_return", "success_rate", "mean_length"} <= set(evals[0])
+    assert result.last_eval == {k: evals[-1][k] for k in result.last_eval}
+
+
+def test_eval_of_a_run_records_episodes_and_summarises(tmp_path):
+    run = train(load(TINY_PPO, tmp_path / "runs")).run_dir
+    report = evaluate_run(run, {"episodes": 3, "seed": 5, "model": "final"})
+    assert [e.seed for e in report.episodes] == [5, 6, 7] and report.which == "final"
+    assert len(report.recordings) == 3 and all(p.parent == run / "episodes" for p in report.recordings)
+    assert all(p.stat().st_size > 0 for p in report.recordings)
+    assert report.summary["mean_return"] == pytest.approx(np.mean([e.ret for e in report.episodes]))
+    table = report.table()
+    assert "± " in table and "success rate" in table and "length" in table
+    saved = json.loads((run / "eval.json").read_text())
+    assert saved["seed"] == 5 and len(saved["episodes"]) == 3
+    again = evaluate_run(run, {"episodes": 3, "seed": 5, "model": "final", "record": False})
+    assert [e.ret for e in again.episodes] == [e.ret for e in report.episodes]
+    assert len(list((run / "episodes").glob("*.mcap"))) == 3  # record=false writes none; none overwritten
+
+
+def test_eval_writes_a_gif(tmp_path):
+    pytest.importorskip("imageio")
+    run = train(load(TINY_PPO, tmp_path / "runs")).run_dir
+    gif = tmp_path / "flight.gif"
+    report = evaluate_run(run, {"episodes": 1, "video": str(gif), "record": False})
+    assert report.video == gif and gif.stat().st_size > 1000
+    import imageio.v2 as imageio
+
+    frames = imageio.mimread(gif)
+    assert len(frames) == report.episodes[0].length + 1  # the reset frame, then one per step
+
+
+def test_eval_errors(tmp_path):
+    with pytest.raises(ConfigError, match="does not exist"):
+        evaluate_run(tmp_path / "missing")
+    with pytest.raises(ConfigError, match="not a run directory"):
+        evaluate_run(tmp_path)
+    with pytest.raises(ConfigError, match="video must end in .gif or .mp4"):
+        evaluate_run(tmp_path, {"video": "out.avi"})
+
+
+def _eval_returns(run_dir: Path) -> list[float]:
+    return [e["mean_return"] for e in _metrics(run_dir)["/eval"]]
+
+
+def test_same_seed_gives_identical_evaluations(tmp_path):
+    first = train(load(TINY_PPO, tmp_path / "a"))
+    second = train(load(TINY_PPO, tmp_path / "b"))
+    other = train(load([*TINY_PPO, "seed=1"], tmp_path / "c"))
+    assert _eval_returns(first.run_dir) == _eval_returns(second.run_dir)
+    assert [e["return"] for e in _metrics(first.run_dir)["/train/episode"]] == [
+        e["return"] for e in _metrics(second.run_dir)["/train/episode"]
+    ]
+    assert _eval_returns(first.run_dir) != _eval_returns(other.run_dir)
+    a = evaluate_run(first.run_dir, {"episodes": 2, "record": False})
+    b = evaluate_run(second.run_dir, {"episodes": 2, "record": False})
+    assert [e.ret for e in a.episodes] == [e.ret for e in b.episodes]
+
+
+def test_off_policy_run_checkpoints_its_replay_buffer_and_extends(tmp_path):
+    result = train(load(TINY_SAC, tmp_path / "runs"))
+    run = result.run_dir
+    assert result.num_timesteps == 400
+    buffers = sorted(p.name for p in (run / "checkpoints").glob("replay_buffer_*"))
+    assert buffers == ["replay_buffer_400_steps.pkl"]  # only the newest buffer is kept
+    with pytest.raises(ConfigError, match="is complete"):
+        resume(run)
+    more = resume(run, total_timesteps=600)
+    assert more.num_timesteps == 600 and read_state(run)["status"] == "complete"
+    steps = [e["step"] for e in _metrics(run)["/eval"]]
+    assert steps == [200, 400, 600]
+    from stable_baselines3 import SAC
+
+    model = SAC.load(run / "model.zip")
+    model.load_replay_buffer(run / "checkpoints" / "replay_buffer_600_steps.pkl")
+    assert model.num_timesteps == 600 and model.replay_buffer.size() >= 590
+
+
+@pytest.mark.parametrize("algo", ["td3", "a2c", "ddpg"])
+def test_other_algorithms_train(tmp_path, algo):
+    overrides = [
+        f"algo={algo}",
+        "train.total_timesteps=300",
+        "train.eval_freq=300",
+        "train.eval_episodes=1",
+        "train.checkpoint_freq=0",
+        "train.progress_bar=false",
+    ]
+    if algo in ("td3", "ddpg"):
+        overrides += ["algo.buffer_size=1000", "algo.learning_starts=100", "algo.batch_size=32"]
+    result = train(load(overrides, tmp_path / "runs"))
+    assert result.num_timesteps >= 300 and (result.run_dir / "model.zip").is_file()
+
+
+def test_parallel_environments(tmp_path):
+    overrides = [*TINY_PPO, "train.n_envs=2", "algo.n_steps=128"]
+    result = train(load(overrides, tmp_path / "runs"))
+    assert result.num_timesteps == 512
+    evals = _metrics(result.run_dir)["/eval"]
+    assert [e["step"] for e in evals] == [256, 512]
+
+
+def test_init_from_copies_the_policy(tmp_path):
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    source = train(load(TINY_PPO, tmp_path / "runs")).run_dir
+    src_params = PPO.load(source / "best_model.zip").policy.state_dict()
+
+    seen = {}
+
+    class Capture(BaseCallback):
+        def _on_training_start(self) -> None:
+            seen.update({k: v.clone() for k, v in self.model.policy.state_dict().items()})
+
+        def _on_step(self) -> bool:
+            return True
+
+    overrides = [*TINY_PPO, f"init_from={source}", "env.reward=sparse", "seed=3"]
+    result = train(load(overrides, tmp_path / "runs"), callbacks=[Capture()])
+    assert all(torch.equal(seen[k], v) for k, v in src_params.items())
+    record = yaml.safe_load((result.run_dir / "run.yaml").read_text())
+    assert record["init_from"]["run"] == str(source)
+
+    with pytest.raises(ConfigError, match="trained ppo, this one sac"):
+        train(load([*TINY_SAC, f"init_from={source}"], tmp_path / "runs"))
+    with pytest.raises(ConfigError, match="does not fit"):
+        train(load([*TINY_PPO, f"init_from={source}", "algo.policy_kwargs.net_arch=[8,8]"], tmp_path / "runs"))
+
+
+def test_airframe_and_reward_files_are_kept_in_the_run(tmp_path):
+    airframe = tmp_path / "my_quad.yaml"
+    airframe.write_text((conf_dir() / "uav" / "quadx_cf2x.yaml").read_text())
+    reward = tmp_path / "my_reward.yaml"
+    reward.write_text("description: stay alive\nterms:\n  alive: {term: constant, weight: 1.0, when: not_crash}\n")
+    overrides = [
+        *TINY_PPO,
+        f"env.uav={airframe}",
+        f"env.reward={reward}",
+        "train.eval_freq=0",
+        "train.total_timesteps=256",
+    ]
+    run = train(load(overrides, tmp_path / "runs")).run_dir
+    airframe.unlink()
+    reward.unlink()
+    cfg = load_run_config(run)
+    assert Path(cfg.env.uav) == run / "airframe.yaml" and cfg.env.reward["terms"]["alive"]["weight"] == 1.0
+    report = evaluate_run(run, {"episodes": 1, "record": False})
+    episode = report.episodes[0]  # +1 per step survived (the crash step pays 0)
+    assert episode.ret == pytest.approx(episode.length - (0 if episode.success else 1))
+
+
+def test_callbacks_from_config_stop_training(tmp_path):
+    overrides = [
+        *TINY_PPO,
+        "train.total_timesteps=5000",
+        "callbacks=[{name:stop_on_reward,reward_threshold:-1000}]",
+    ]
+    result = train(load(overrides, tmp_path / "runs"))
+    assert result.num_timesteps == 256  # stopped after the first evaluation
+
+
+def test_tensorboard_logs_when_asked(tmp_path):
+    pytest.importorskip("tensorboard")
+    overrides = [*TINY_PPO, "train.tensorboard=true", "train.total_timesteps=256", "train.eval_freq=0"]
+    run = train(load(overrides, tmp_path / "runs")).run_dir
+    assert list((run / "tensorboard").rglob("events.out.tfevents.*"))
+
+
+def test_multirun_from_the_command_line(tmp_path):
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    args = [
+        "train",
+        "-m",
+        "seed=0,1",
+        *TINY_PPO,
+        "train.total_timesteps=256",
+        "train.eval_freq=0",
+        f"train.output_dir={tmp_path}",
+    ]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    runs = sorted((tmp_path / "quadx_hover" / "ppo").iterdir())
+    assert [r.name.split("-seed")[1] for r in runs] == ["0", "1"]
+    assert "multirun summary" in result.output
+
+
+def test_a_run_being_trained_cannot_be_resumed_twice(tmp_path):
+    import os
+
+    run = train(load([*TINY_PPO, "train.total_timesteps=256", "train.eval_freq=0"], tmp_path / "runs")).run_dir
+    assert not (run / "run.lock").exists()
+    (run / "run.lock").write_text(f"{os.getppid()}\n")  # a live process holds it
+    with pytest.raises(ConfigError, match="is being trained by process"):
+        resume(run, total_timesteps=512)
+    (run / "run.lock").write_text("999999999\n")  # stale: no such process
+    assert resume(run, total_timesteps=512).num_timesteps == 512
+    assert not (run / "run.lock").exists()
+
+
+@pytest.mark.parametrize("env", sorted(p.stem for p in conf_dir().glob("env/*.yaml")))
+def test_every_env_config_trains_and_evaluates(tmp_path, env):
+    overrides = [
+        f"env={env}",
+        "algo=ppo",
+        "train.n_envs=1",
+        "algo.n_steps=128",
+        "algo.batch_size=64",
+        "algo.n_epochs=1",
+    ]
+    overrides += [
+        "train.total_timesteps=128",
+        "train.eval_freq=0",
+        "train.checkpoint_freq=0",
+        "train.progress_bar=false",
+    ]
+    run = train(load(overrides, tmp_path / "runs")).run_dir
+    assert run.parent.parent.name == env
+    report = evaluate_run(run, {"episodes": 1, "record": True})
+    assert report.episodes[0].length > 0 and len(report.recordings) == 1
