@@ -302,10 +302,11 @@ class _Run:
         from stable_baselines3.common.save_util import load_from_zip_file
 
         run, path, vecnorm, algo = init
-        if algo != self.cfg.algo.name:
+        accepted = {self.cfg.algo.name} | registry.INIT_FROM.get(self.cfg.algo.name, frozenset())
+        if algo not in accepted:
             raise ConfigError(
                 f"init_from={run}: that run trained {algo}, this one {self.cfg.algo.name}; "
-                "policy weights can only be copied between runs of the same algorithm"
+                f"{self.cfg.algo.name} can start from the policy weights of: {', '.join(sorted(accepted))}"
             )
         _, params, _ = load_from_zip_file(path, device=self.cfg.train.device)
         try:
@@ -314,7 +315,7 @@ class _Run:
             first = str(exc).splitlines()[0]
             raise ConfigError(
                 f"init_from={run}: its policy does not fit this run's (same env observation/action sizes and "
-                f"algo.policy_kwargs.net_arch needed): {first}"
+                f"algo.policy_kwargs.net_arch and algo.use_sde needed): {first}"
             ) from None
         target = model.get_vec_normalize_env()
         if target is not None and vecnorm is not None:

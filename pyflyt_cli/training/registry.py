@@ -25,10 +25,17 @@ ALGOS: dict[str, str] = {
     "sac": "stable_baselines3:SAC",
     "td3": "stable_baselines3:TD3",
     "ddpg": "stable_baselines3:DDPG",
+    # not in SB3: ours, on SB3's SAC policy (pyflyt_cli/training/awac.py)
+    "awac": "pyflyt_cli.training.awac:AWAC",
 }
 
 #: algorithms that learn from a replay buffer (checkpoints also save the buffer)
-OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg"})
+OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac"})
+
+#: ``init_from``: algorithm -> algorithms whose policy weights it can start from (besides
+#: itself).  AWAC uses SAC's policy class unchanged, so it bootstraps from a SAC run as in
+#: Nair et al. (2020).
+INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"})}
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
 POLICIES: frozenset[str] = frozenset({"MlpPolicy"})

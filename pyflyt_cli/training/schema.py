@@ -205,7 +205,48 @@ class DDPGConfig(_OffPolicy):
     learning_rate: float = Field(1e-3, gt=0, description="optimiser step size")
 
 
-AlgoConfig = Annotated[PPOConfig | A2CConfig | SACConfig | TD3Config | DDPGConfig, Field(discriminator="name")]
+class AWACConfig(_OffPolicy):
+    """Advantage-Weighted Actor-Critic (Nair et al. 2020, arXiv:2006.09359); ours, on SB3's SAC policy.
+
+    See :mod:`pyflyt_cli.training.awac` for the losses; ``init_from`` may name a SAC run.
+    """
+
+    name: Literal["awac"] = "awac"
+    batch_size: int = Field(1024, ge=1, description="minibatch size (the paper's 1024)")
+    beta: float = Field(1.0, gt=0, description="temperature lambda of the advantage weights exp(A/lambda)")
+    max_weight: float = Field(20.0, gt=0, description="clip of the advantage weights exp(A/lambda)")
+    n_value_samples: int = Field(1, ge=1, description="policy samples per state averaged into V(s)")
+    ent_coef: float = Field(0.0, ge=0, description="alpha of a soft (SAC-style) TD backup; 0: plain TD, the paper's")
+    target_update_interval: int = Field(1, ge=1, description="target network update interval [gradient steps]")
+    use_sde: bool = Field(False, description="generalised state-dependent exploration (as the SAC run to start from)")
+    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps")
+    offline_buffer: str | None = Field(
+        None, description="replay buffer file (.pkl, SB3 save_replay_buffer) to pretrain on and keep filling"
+    )
+    offline_steps: int = Field(0, ge=0, description="gradient steps on offline_buffer before any online step")
+
+    @field_validator("offline_buffer")
+    @classmethod
+    def _buffer_file(cls, value: str | None) -> str | None:
+        if value is None:
+            return None
+        from pathlib import Path
+
+        path = Path(value).expanduser()
+        if not path.is_file():
+            raise ValueError(f"offline_buffer: no such file {value!r} (a replay buffer saved by SB3)")
+        return str(path.resolve())
+
+    @model_validator(mode="after")
+    def _offline(self) -> AWACConfig:
+        if self.offline_steps > 0 and self.offline_buffer is None:
+            raise ValueError("offline_steps > 0 needs offline_buffer (a replay buffer file to pretrain on)")
+        return self
+
+
+AlgoConfig = Annotated[
+    PPOConfig | A2CConfig | SACConfig | TD3Config | DDPGConfig | AWACConfig, Field(discriminator="name")
+]
 
 
 # ------------------------------------------------------------------------- train
@@ -365,7 +406,8 @@ def check_env_references(env: EnvConfig) -> None:
 
 
 def _algo_model(name: str) -> type[BaseModel]:
-    return {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}[name]
+    models = {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}
+    return {**models, "awac": AWACConfig}[name]
 
 
 # -------------------------------------------------------------------------- eval

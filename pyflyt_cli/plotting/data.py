@@ -1,0 +1,203 @@
+"""A benchmark directory as arrays: eval curves per (env, algo), aligned, normalised.
+
+Layout read (what ``pyflyt train`` writes under ``train.output_dir``)::
+
+    <benchmark>/[runs/]<env>/<algo>/<run>/metrics.mcap     # "/eval" records: {step, mean_return, ...}
+    <benchmark>/normalisation.yaml                        # optional: {<env>: {random: R, reference: S, source: ...}}
+
+A run directory is any directory at that depth holding ``metrics.mcap``; env, algo and
+seed come from the file's metadata when present, else from the path.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pyflyt_engine.errors import ConfigError, PyFlytError
+
+NORMALISATION_FILE = "normalisation.yaml"
+_SEED = re.compile(r"seed(\d+)$")
+
+
+@dataclass(frozen=True)
+class RunCurve:
+    """One run's evaluation curve: ``returns[i]`` is the mean eval return at env step ``steps[i]``."""
+
+    env: str
+    algo: str
+    seed: int | None
+    run_dir: Path
+    steps: np.ndarray  # (n_evals,) int, increasing
+    returns: np.ndarray  # (n_evals,) float, mean return over the evaluation episodes
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    """Per env: score = (return − random) / (reference − random); 0 = random policy, 1 = reference."""
+
+    random: float
+    reference: float
+    source: str
+
+    def __call__(self, returns: np.ndarray) -> np.ndarray:
+        return (np.asarray(returns, dtype=float) - self.random) / (self.reference - self.random)
+
+
+@dataclass
+class Benchmark:
+    """Aligned, normalised scores of a benchmark directory."""
+
+    root: Path
+    runs: list[RunCurve]
+    envs: list[str]  # sorted
+    algos: list[str]  # sorted
+    #: env -> common step grid (every run of that env was evaluated up to its last point)
+    grids: dict[str, np.ndarray]
+    #: algo -> (n_runs, n_envs, n_points) normalised scores on each env's grid (n_points: the shortest grid)
+    curves: dict[str, np.ndarray]
+    #: algo -> (n_runs, n_envs) normalised final scores (last grid point)
+    final: dict[str, np.ndarray]
+    normalisation: dict[str, Normalisation]
+    #: (env, algo) -> seeds used; runs beyond the smallest count per algo are left out (rliable needs equal counts)
+    seeds: dict[tuple[str, str], list[int | None]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+def _run_dirs(root: Path) -> list[Path]:
+    base = root / "runs" if (root / "runs").is_dir() else root
+    return sorted({p.parent for p in base.glob("*/*/*/metrics.mcap")})
+
+
+def read_run(run_dir: Path) -> RunCurve | None:
+    """The ``/eval`` curve of one run directory (None if it has no evaluation records)."""
+    from pyflyt_engine.telemetry.metrics import read_metrics, read_metrics_metadata
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a truncated segment still gives its complete records
+        records = read_metrics(run_dir).get("/eval", [])
+        meta = read_metrics_metadata(run_dir)[0]
+    pairs = sorted({int(r["step"]): float(r["mean_return"]) for r in records if "mean_return" in r}.items())
+    pairs = [(s, r) for s, r in pairs if np.isfinite(r)]
+    if not pairs:
+        return None
+    seed = meta.get("seed")
+    if seed is None:
+        m = _SEED.search(run_dir.name)
+        seed = m.group(1) if m else None
+    return RunCurve(
+        env=meta.get("env") or run_dir.parent.parent.name,
+        algo=meta.get("algo") or run_dir.parent.name,
+        seed=None if seed is None else int(seed),
+        run_dir=run_dir,
+        steps=np.array([s for s, _ in pairs], dtype=np.int64),
+        returns=np.array([r for _, r in pairs], dtype=float),
+    )
+
+
+def read_normalisation(root: Path) -> dict[str, Normalisation]:
+    """``normalisation.yaml`` of a benchmark (``{}`` if absent)."""
+    import yaml
+
+    path = root / NORMALISATION_FILE
+    if not path.is_file():
+        return {}
+    data = yaml.safe_load(path.read_text()) or {}
+    out = {}
+    for env, entry in data.items():
+        try:
+            norm = Normalisation(float(entry["random"]), float(entry["reference"]), str(entry.get("source", path.name)))
+        except (TypeError, KeyError, ValueError):
+            raise ConfigError(
+                f"{path}: {env}: needs numbers 'random' and 'reference' (and optionally 'source')"
+            ) from None
+        if norm.reference == norm.random:
+            raise ConfigError(f"{path}: {env}: reference and random scores are equal ({norm.random})")
+        out[str(env)] = norm
+    return out
+
+
+def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | None = None) -> Benchmark:
+    """Read every run under ``root``, align and normalise (raises :class:`ConfigError` with the fix).
+
+    * Alignment: per env, the grid is every eval step (of any run) up to the *earliest*
+      last evaluation among that env's runs; each curve is linearly interpolated on it.
+      Envs with grids of different lengths are compared point by point on the shortest.
+    * Normalisation: ``normalisation`` or ``<root>/normalisation.yaml``; an env without an
+      entry falls back to the lowest and highest eval return seen in the benchmark for it
+      (recorded as such in the report).
+    * Equal run counts: rliable needs the same number of runs of an algorithm on every
+      env; extra runs (highest seeds) are left out and noted.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise ConfigError(f"benchmark directory {root} does not exist")
+    dirs = _run_dirs(root)
+    if not dirs:
+        raise ConfigError(
+            f"no runs in {root}: expected <env>/<algo>/<run>/metrics.mcap (or runs/<env>/<algo>/<run>/...) "
+            "as written by pyflyt train train.output_dir=<benchmark>"
+        )
+    runs, empty = [], []
+    for d in dirs:
+        try:
+            curve = read_run(d)
+        except PyFlytError as exc:
+            raise ConfigError(f"{d}: unreadable metrics: {exc}") from None
+        (runs if curve is not None else empty).append(curve or d)
+    if not runs:
+        raise ConfigError(
+            f"none of the {len(dirs)} runs in {root} has evaluation metrics (/eval records); "
+            "train with train.eval_freq > 0"
+        )
+    notes = [f"left out (no evaluation records): {d}" for d in empty]
+    envs = sorted({r.env for r in runs})
+    algos = sorted({r.algo for r in runs})
+    for env in envs:
+        missing = [a for a in algos if not any(r.env == env and r.algo == a for r in runs)]
+        if missing:
+            raise ConfigError(f"{root}: env {env} has no runs of {', '.join(missing)}; every algorithm needs every env")
+
+    norms = dict(read_normalisation(root) if normalisation is None else normalisation)
+    for env in envs:
+        if env not in norms:
+            values = np.concatenate([r.returns for r in runs if r.env == env])
+            lo, hi = float(values.min()), float(values.max())
+            if hi == lo:
+                hi = lo + 1.0
+            norms[env] = Normalisation(lo, hi, "observed min/max eval return (no normalisation.yaml entry)")
+            notes.append(f"{env}: no random/reference scores given; normalised by the observed min and max")
+
+    grids: dict[str, np.ndarray] = {}
+    for env in envs:
+        mine = [r for r in runs if r.env == env]
+        end = min(int(r.steps[-1]) for r in mine)
+        grid = np.unique(np.concatenate([r.steps[r.steps <= end] for r in mine]))
+        grids[env] = grid
+    n_points = min(len(g) for g in grids.values())
+
+    counts = {a: min(sum(1 for r in runs if r.env == e and r.algo == a) for e in envs) for a in algos}
+    curves, final, seeds = {}, {}, {}
+    for algo in algos:
+        per_env = []
+        for env in envs:
+            mine = sorted(
+                (r for r in runs if r.env == env and r.algo == algo),
+                key=lambda r: (r.seed is None, r.seed, str(r.run_dir)),
+            )
+            if len(mine) > counts[algo]:
+                notes.append(f"{env}/{algo}: {len(mine) - counts[algo]} extra run(s) left out (equal counts per env)")
+            mine = mine[: counts[algo]]
+            seeds[(env, algo)] = [r.seed for r in mine]
+            grid = grids[env][-n_points:] if len(grids[env]) > n_points else grids[env]
+            per_env.append([norms[env](np.interp(grid, r.steps, r.returns)) for r in mine])
+        curves[algo] = np.transpose(np.array(per_env), (1, 0, 2))  # (runs, envs, points)
+        final[algo] = curves[algo][:, :, -1]
+    if any(len(g) > n_points for g in grids.values()):
+        notes.append(f"grids differ in length between envs: curves use the last {n_points} points of each")
+        grids = {e: g[-n_points:] for e, g in grids.items()}
+    return Benchmark(root, runs, envs, algos, grids, curves, final, norms, seeds, notes)

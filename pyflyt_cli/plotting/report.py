@@ -1,0 +1,271 @@
+"""`pyflyt plot`: figures (PNG and SVG) and a Markdown report of a benchmark directory.
+
+    from pyflyt_cli.plotting import plot_benchmark
+    report = plot_benchmark("benchmarks/paper_rl", reps=2000, seed=0)   # -> <dir>/report/report.md
+
+Same directory, ``reps`` and ``seed`` -> byte-identical ``report.md`` and ``report.json``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pyflyt_cli.plotting import stats
+from pyflyt_cli.plotting.data import Benchmark, load_benchmark
+from pyflyt_engine.errors import ConfigError
+
+FIGURES = ("learning_curves", "aggregates", "performance_profiles", "probability_of_improvement")
+
+
+@dataclass(frozen=True)
+class Report:
+    """What :func:`plot_benchmark` wrote."""
+
+    out_dir: Path
+    markdown: Path
+    json: Path
+    figures: list[Path]
+    benchmark: Benchmark
+    numbers: dict[str, Any]
+
+
+def compute(bench: Benchmark, reps: int, seed: int) -> dict[str, Any]:
+    """Every number of the report (each statistic bootstrapped from its own ``RandomState(seed)``)."""
+    taus = np.linspace(0.0, max(1.0, float(max(s.max() for s in bench.final.values()))), 51)
+    return {
+        "aggregates": stats.aggregates(bench.final, reps, seed),
+        "curves": stats.iqm_curves(bench.curves, reps, seed),
+        "per_env_curves": {
+            env: stats.iqm_curves({a: c[:, [i], :] for a, c in bench.curves.items()}, reps, seed)
+            for i, env in enumerate(bench.envs)
+        },
+        "taus": taus,
+        "profiles": stats.performance_profiles(bench.final, taus, reps, seed),
+        "improvement": stats.probability_of_improvement(bench.final, reps, seed),
+    }
+
+
+def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int = 2000, seed: int = 0) -> Report:
+    """Load ``root``, compute the rliable statistics, write figures, ``report.md`` and ``report.json``.
+
+    Args:
+        root: benchmark directory (``[runs/]<env>/<algo>/<run>/metrics.mcap``).
+        out: output directory (default ``<root>/report``).
+        reps: stratified-bootstrap replicates per statistic.
+        seed: seed of every bootstrap.
+    """
+    if reps < 10:
+        raise ConfigError(f"--reps must be at least 10, got {reps}")
+    bench = load_benchmark(root)
+    out_dir = Path(out) if out is not None else Path(root) / "report"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    numbers = compute(bench, reps, seed)
+    figures = _figures(bench, numbers, out_dir)
+    md = out_dir / "report.md"
+    md.write_text(_markdown(bench, numbers, reps, seed, figures, out_dir))
+    js = out_dir / "report.json"
+    js.write_text(json.dumps(_json(bench, numbers, reps, seed), indent=2, sort_keys=True) + "\n")
+    return Report(out_dir, md, js, figures, bench, numbers)
+
+
+# -------------------------------------------------------------------- figures
+
+
+def _save(fig: Any, out_dir: Path, name: str) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    paths = [out_dir / f"{name}.png", out_dir / f"{name}.svg"]
+    fig.savefig(paths[0], dpi=150, bbox_inches="tight", metadata={"Software": None})
+    fig.savefig(paths[1], bbox_inches="tight", metadata={"Date": None, "Creator": None})
+    plt.close(fig)
+    return paths
+
+
+def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    paths: list[Path] = []
+    colors = {a: plt.get_cmap("tab10")(i % 10) for i, a in enumerate(bench.algos)}
+    with plt.rc_context({"svg.hashsalt": "pyflyt", "font.size": 9}):
+        # learning curves: one panel per env, plus the IQM over all envs if there are several
+        panels = [(env, numbers["per_env_curves"][env], bench.grids[env]) for env in bench.envs]
+        if len(bench.envs) > 1:
+            panels.append(("all envs", numbers["curves"], np.arange(len(next(iter(bench.grids.values()))))))
+        fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.2), squeeze=False)
+        for ax, (title, est, x) in zip(axes[0], panels):
+            for algo in bench.algos:
+                e = est[algo]
+                ax.plot(x, e.value, color=colors[algo], label=algo)
+                ax.fill_between(x, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
+            ax.set_title(title)
+            ax.set_xlabel("environment steps" if title != "all envs" else "evaluation index")
+            ax.set_ylabel("IQM normalised score")
+            ax.grid(alpha=0.3)
+        axes[0][0].legend(loc="best")
+        paths += _save(fig, out_dir, "learning_curves")
+
+        # aggregate metrics with intervals
+        fig, axes = plt.subplots(1, 4, figsize=(12, 0.5 + 0.45 * len(bench.algos)), squeeze=False)
+        for ax, name in zip(axes[0], stats.AGGREGATES):
+            for i, algo in enumerate(bench.algos):
+                e = numbers["aggregates"][algo][name]
+                ax.barh(i, float(e.high - e.low), left=float(e.low), height=0.6, color=colors[algo], alpha=0.6)
+                ax.plot([float(e.value)] * 2, [i - 0.3, i + 0.3], color="k", linewidth=1.5)
+            ax.set_yticks(range(len(bench.algos)), bench.algos if name == "median" else [""] * len(bench.algos))
+            ax.set_title({"iqm": "IQM", "optimality_gap": "optimality gap"}.get(name, name))
+            ax.set_xlabel("normalised score")
+            ax.grid(axis="x", alpha=0.3)
+        paths += _save(fig, out_dir, "aggregates")
+
+        # performance profiles
+        fig, ax = plt.subplots(figsize=(5, 3.2))
+        taus = numbers["taus"]
+        for algo in bench.algos:
+            e = numbers["profiles"][algo]
+            ax.plot(taus, e.value, color=colors[algo], label=algo)
+            ax.fill_between(taus, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
+        ax.set_xlabel(r"normalised score $\tau$")
+        ax.set_ylabel(r"fraction of runs with score $> \tau$")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best")
+        paths += _save(fig, out_dir, "performance_profiles")
+
+        # probability of improvement
+        pairs = sorted(numbers["improvement"])
+        fig, ax = plt.subplots(figsize=(5, 0.6 + 0.4 * max(1, len(pairs))))
+        for i, (x, y) in enumerate(pairs):
+            e = numbers["improvement"][(x, y)]
+            ax.barh(i, float(e.high - e.low), left=float(e.low), height=0.6, color=colors[x], alpha=0.6)
+            ax.plot([float(e.value)] * 2, [i - 0.3, i + 0.3], color="k", linewidth=1.5)
+        ax.set_yticks(range(len(pairs)), [f"P({x} > {y})" for x, y in pairs])
+        ax.axvline(0.5, color="grey", linestyle="--", linewidth=1)
+        ax.set_xlim(0, 1)
+        ax.set_xlabel("probability of improvement")
+        paths += _save(fig, out_dir, "probability_of_improvement")
+    return paths
+
+
+# --------------------------------------------------------------------- report
+
+
+def _f(x: Any) -> str:
+    return f"{float(x):.3f}"
+
+
+def _ci(e: stats.Estimate) -> str:
+    return f"{_f(e.value)} [{_f(e.low)}, {_f(e.high)}]"
+
+
+def _markdown(
+    bench: Benchmark, numbers: dict[str, Any], reps: int, seed: int, figures: list[Path], out_dir: Path
+) -> str:
+    lines = [
+        f"# Benchmark report: {bench.root.name}",
+        "",
+        f"Runs read from `{bench.root}`. Scores are normalised per env: 0 = random policy, 1 = reference "
+        f"(table below). Intervals are {int(stats.CONFIDENCE * 100)} % percentile intervals of {reps} "
+        f"stratified-bootstrap replicates (rliable), bootstrap seed {seed}: rerunning with the same data, "
+        "`--reps` and `--seed` gives this report again. How to read it: docs/benchmarks.md.",
+        "",
+        "## Normalisation",
+        "",
+        "| env | random score | reference score | source |",
+        "|---|---:|---:|---|",
+    ]
+    lines += [
+        f"| {e} | {_f(n.random)} | {_f(n.reference)} | {n.source} |" for e, n in sorted(bench.normalisation.items())
+    ]
+    lines += ["", "## Runs", "", "| env | algo | runs | seeds | last step on the grid |", "|---|---|---:|---|---:|"]
+    for env in bench.envs:
+        for algo in bench.algos:
+            seeds = bench.seeds[(env, algo)]
+            lines.append(
+                f"| {env} | {algo} | {len(seeds)} | {', '.join('?' if s is None else str(s) for s in seeds)} "
+                f"| {int(bench.grids[env][-1])} |"
+            )
+    lines += [
+        "",
+        "## Aggregate metrics (final normalised score)",
+        "",
+        "Point estimate [95 % CI]. Median, IQM and mean: higher is better; optimality gap: lower is better.",
+        "",
+        "| algo | median | IQM | mean | optimality gap |",
+        "|---|---|---|---|---|",
+    ]
+    for algo in bench.algos:
+        a = numbers["aggregates"][algo]
+        lines.append(f"| {algo} | " + " | ".join(_ci(a[n]) for n in stats.AGGREGATES) + " |")
+    lines += [
+        "",
+        "## IQM learning curves",
+        "",
+        "IQM normalised score [95 % CI] at the end and middle of each env's grid.",
+        "",
+    ]
+    lines += ["| env | step | " + " | ".join(bench.algos) + " |", "|---|---:|" + "---|" * len(bench.algos)]
+    for env in bench.envs:
+        grid = bench.grids[env]
+        for idx in sorted({len(grid) // 2, len(grid) - 1}):
+            cells = [
+                _ci(stats.Estimate(e.value[idx], e.low[idx], e.high[idx]))
+                for e in (numbers["per_env_curves"][env][a] for a in bench.algos)
+            ]
+            lines.append(f"| {env} | {int(grid[idx])} | " + " | ".join(cells) + " |")
+    lines += ["", "## Probability of improvement", ""]
+    if numbers["improvement"]:
+        lines += ["P(X > Y): the probability that a run of X scores higher than a run of Y on a random env.", ""]
+        lines += ["| X | Y | P(X > Y) [95 % CI] |", "|---|---|---|"]
+        lines += [f"| {x} | {y} | {_ci(e)} |" for (x, y), e in sorted(numbers["improvement"].items())]
+    else:
+        lines.append("One algorithm only: nothing to compare.")
+    lines += ["", "## Performance profiles", "", "Fraction of runs with final normalised score > τ [95 % CI].", ""]
+    taus = numbers["taus"]
+    picks = sorted({0, len(taus) // 4, len(taus) // 2, 3 * len(taus) // 4, len(taus) - 1})
+    lines += ["| τ | " + " | ".join(bench.algos) + " |", "|---:|" + "---|" * len(bench.algos)]
+    for i in picks:
+        cells = [
+            _ci(stats.Estimate(p.value[i], p.low[i], p.high[i])) for p in (numbers["profiles"][a] for a in bench.algos)
+        ]
+        lines.append(f"| {_f(taus[i])} | " + " | ".join(cells) + " |")
+    lines += ["", "## Figures", ""]
+    for name in FIGURES:
+        lines.append(f"![{name}]({name}.png) ([SVG]({name}.svg))")
+    if bench.notes:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in bench.notes]
+    return "\n".join(lines) + "\n"
+
+
+def _json(bench: Benchmark, numbers: dict[str, Any], reps: int, seed: int) -> dict[str, Any]:
+    def est(e: stats.Estimate) -> dict[str, Any]:
+        return {
+            "value": np.asarray(e.value).tolist(),
+            "low": np.asarray(e.low).tolist(),
+            "high": np.asarray(e.high).tolist(),
+        }
+
+    return {
+        "reps": reps,
+        "seed": seed,
+        "confidence": stats.CONFIDENCE,
+        "envs": bench.envs,
+        "algos": bench.algos,
+        "normalisation": {e: vars(n) for e, n in bench.normalisation.items()},
+        "grids": {e: g.tolist() for e, g in bench.grids.items()},
+        "aggregates": {a: {n: est(e) for n, e in m.items()} for a, m in numbers["aggregates"].items()},
+        "iqm_curves": {env: {a: est(e) for a, e in c.items()} for env, c in numbers["per_env_curves"].items()},
+        "iqm_curve_all_envs": {a: est(e) for a, e in numbers["curves"].items()},
+        "performance_profiles": {
+            "taus": numbers["taus"].tolist(),
+            **{a: est(e) for a, e in numbers["profiles"].items()},
+        },
+        "probability_of_improvement": {f"{x} > {y}": est(e) for (x, y), e in numbers["improvement"].items()},
+        "notes": bench.notes,
+    }
