@@ -9,74 +9,42 @@ time seeded resets separately.  The median of ``--repeats`` timings is kept.
 
     python experiments/compare_reference.py --reference-python /path/to/ref-venv/bin/python
 
-Pairs compared (ours -> reference id):
+Pairs compared (ours -> reference id: its newest version of the same name):
     PyFlyt/QuadX-Hover-v0           -> PyFlyt/QuadX-Hover-v4
     PyFlyt/QuadX-Waypoints-v0       -> PyFlyt/QuadX-Waypoints-v4
     PyFlyt/Fixedwing-Waypoints-v0   -> PyFlyt/Fixedwing-Waypoints-v3
     PyFlyt/Rocket-Landing-v0        -> PyFlyt/Rocket-Landing-v4
+
+``pyflyt speed --reference-python ...`` runs the same protocol and adds worlds, camera,
+memory and vector envs.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import statistics
-import subprocess
 import sys
-import textwrap
 
-PAIRS = [
-    ("PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Hover-v4"),
-    ("PyFlyt/QuadX-Waypoints-v0", "PyFlyt/QuadX-Waypoints-v4"),
-    ("PyFlyt/Fixedwing-Waypoints-v0", "PyFlyt/Fixedwing-Waypoints-v3"),
-    ("PyFlyt/Rocket-Landing-v0", "PyFlyt/Rocket-Landing-v4"),
-]
+from pyflyt_cli.commands.speed import SpeedError, run_probe
+from pyflyt_engine.envs import ENVS
 
-# Runs in either interpreter: prints {"step_s": ..., "reset_s": ...} as JSON.
-PROBE = textwrap.dedent(
-    """
-    import json, statistics, sys, time, warnings
-    warnings.filterwarnings("ignore")
-    import gymnasium
-    env_id, module, steps, resets = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
-    __import__(module)
-    kwargs = {"agent_hz": 30} if module == "PyFlyt.gym_envs" else {}
-    env = gymnasium.make(env_id, **kwargs)
-    env.reset(seed=0)
-    env.action_space.seed(0)
-    actions = [env.action_space.sample() for _ in range(steps + 200)]
-    for a in actions[:200]:
-        _, _, term, trunc, _ = env.step(a)
-        if term or trunc:
-            env.reset()
-    start = time.perf_counter()
-    for a in actions[200:]:
-        _, _, term, trunc, _ = env.step(a)
-        if term or trunc:
-            env.reset()
-    step_s = (time.perf_counter() - start) / steps
-    times = []
-    for seed in range(resets):
-        t0 = time.perf_counter()
-        env.reset(seed=seed + 1)
-        times.append(time.perf_counter() - t0)
-    env.close()
-    print(json.dumps({"step_s": step_s, "reset_s": statistics.median(times)}))
-    """
-)
+# The protocol (gymnasium.make, agent 30 Hz, warm-up, random actions with resets at
+# episode ends, seeded resets timed apart) is speed_probe.measure_env, shared with
+# ``pyflyt speed``; the reference id is the reference's newest version of the same name.
 
 
-def probe(python: str, env_id: str, module: str, steps: int, resets: int) -> dict | None:
-    """Run the probe in ``python``; None when the env is unavailable there."""
-    result = subprocess.run(
-        [python, "-c", PROBE, env_id, module, str(steps), str(resets)], capture_output=True, text=True
-    )
-    if result.returncode != 0:
-        print(f"  ({env_id} unavailable in {python}: {result.stderr.strip().splitlines()[-1:]})", file=sys.stderr)
+def probe(python: str | None, env_id: str, steps: int, resets: int) -> dict | None:
+    """One measurement in a fresh process (``python`` None: ours); None when the env is unavailable."""
+    case = {"probe": "env", "env_id": env_id, "steps": steps, "resets": resets, "warmup": 200}
+    if python is not None:
+        case["side"] = "reference"
+    try:
+        return run_probe(case, python=python)
+    except SpeedError as exc:
+        print(f"  ({env_id} unavailable in {python or sys.executable}: {str(exc).splitlines()[-1]})", file=sys.stderr)
         return None
-    return json.loads(result.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
@@ -90,15 +58,15 @@ def main() -> None:
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}")
     header = f"{'env':<32}{'ours steps/s':>14}{'ref steps/s':>13}{'ratio':>8}{'ours reset ms':>15}{'ref reset ms':>14}{'ratio':>8}"
     print(header)
-    for ours_id, ref_id in PAIRS:
+    for ours_id in ENVS:
         ours, ref = [], []
         for _ in range(args.repeats):
-            o = probe(sys.executable, ours_id, "pyflyt_engine", args.steps, args.resets)
+            o = probe(None, ours_id, args.steps, args.resets)
             if o is None:
                 break
             ours.append(o)
             if args.reference_python:
-                r = probe(args.reference_python, ref_id, "PyFlyt.gym_envs", args.steps, args.resets)
+                r = probe(args.reference_python, ours_id, args.steps, args.resets)
                 if r is not None:
                     ref.append(r)
         if not ours:

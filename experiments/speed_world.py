@@ -19,33 +19,8 @@ import time
 import numpy as np
 import pybullet as p
 
-from pyflyt_engine.spec import load_uav_spec
-from pyflyt_engine.urdf import urdf_path
+from pyflyt_cli.commands.speed_probe import bare_pybullet  # the floor, shared with `pyflyt speed`
 from pyflyt_engine.world import VehicleConfig, World
-
-
-def bare_pybullet(steps: int, uav: str) -> float:
-    """Seconds per physics step of the floor."""
-    spec = load_uav_spec(uav)
-    cid = p.connect(p.DIRECT)
-    p.setGravity(0, 0, -9.81, physicsClientId=cid)
-    p.setTimeStep(1 / 240, physicsClientId=cid)
-    p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
-    body = p.loadURDF(str(urdf_path(spec)), [0, 0, 1], flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
-    weight = spec.body.mass * 9.81 / 4
-    motors = [tuple(m) for m in spec.motors.positions]
-    frame = p.LINK_FRAME
-    start = time.perf_counter()
-    for _ in range(steps):  # positional client ids: the binding's fastest calling form
-        p.getBasePositionAndOrientation(body, cid)
-        p.getBaseVelocity(body, cid)
-        for position in motors:
-            p.applyExternalForce(body, -1, (0.0, 0.0, weight), position, frame, cid)
-        p.applyExternalTorque(body, -1, (0.0, 0.0, 0.0), frame, cid)
-        p.stepSimulation(cid)
-    elapsed = time.perf_counter() - start
-    p.disconnect(cid)
-    return elapsed / steps
 
 
 def world_hover(steps: int, uav: str, mode: str) -> float:

@@ -162,6 +162,29 @@ def speed(
                              progress=lambda message: typer.echo(message, err=True)))
 
 
+@app.command(
+    help="Report a benchmark directory with rliable: IQM learning curves with 95 % stratified-bootstrap "
+    "bands, median / IQM / mean / optimality gap with intervals, performance profiles and probability of "
+    "improvement, as PNG and SVG figures plus report.md and report.json.  Reads "
+    "<dir>/[runs/]<env>/<algo>/<run>/metrics.mcap; scores are normalised with <dir>/normalisation.yaml "
+    "(random and reference score per env) when present.  Same data, --reps and --seed: same report.\n\n"
+    "  pyflyt plot benchmarks/paper_rl --out figures --reps 5000",
+)
+@user_errors
+def plot(
+    benchmark_dir: Path = typer.Argument(..., help="benchmark directory (runs of several algorithms and seeds)"),
+    out: Optional[Path] = typer.Option(None, "--out", help="output directory (default: <benchmark_dir>/report)"),
+    reps: int = typer.Option(2000, "--reps", help="stratified-bootstrap replicates per statistic"),
+    seed: int = typer.Option(0, "--seed", help="seed of the bootstrap (the report is reproducible)"),
+) -> None:
+    from pyflyt_cli.plotting import plot_benchmark
+
+    report = plot_benchmark(benchmark_dir, out, reps=reps, seed=seed)
+    typer.echo(f"report: {report.markdown}")
+    for path in report.figures:
+        typer.echo(f"figure: {path}")
+
+
 uav_app = typer.Typer(
     help="Check and inspect airframe (UAV) YAML files: shipped names (quadx_cf2x) or paths.",
     no_args_is_help=True,

@@ -60,16 +60,44 @@ def _ratio(numerator: float, denominator: float, what: str) -> int:
 
 @dataclass
 class _Contacts:
+    """Tracked bodies and the pairs of them that touched during the last step.
+
+    Kept sparse -- the set of touching row pairs ``(a, b)`` with ``a <= b`` and the set of
+    rows that touched anything -- so clearing, recording and querying cost O(contacts),
+    not O(bodies^2); the dense matrix is built only when asked for (:meth:`matrix`).
+    """
+
     body_ids: list[int] = field(default_factory=list)
     index: dict[int, int] = field(default_factory=dict)
-    matrix: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=bool))
+    pairs: set[tuple[int, int]] = field(default_factory=set)
+    rows: set[int] = field(default_factory=set)
 
     def add(self, body_id: int) -> None:
         self.index[body_id] = len(self.body_ids)
         self.body_ids.append(body_id)
-        grown = np.zeros((len(self.body_ids),) * 2, dtype=bool)
-        grown[: len(self.matrix), : len(self.matrix)] = self.matrix
-        self.matrix = grown
+
+    def clear(self) -> None:
+        self.pairs.clear()
+        self.rows.clear()
+
+    def record(self, contacts: Sequence[tuple]) -> None:
+        """Add the touching pairs among PyBullet contact points (tracked bodies only)."""
+        index, pairs, rows = self.index, self.pairs, self.rows
+        for contact in contacts:
+            a = index.get(contact[1])
+            b = index.get(contact[2])
+            if a is not None and b is not None:
+                pairs.add((a, b) if a <= b else (b, a))
+                rows.add(a)
+                rows.add(b)
+
+    def matrix(self) -> np.ndarray:
+        """Symmetric boolean matrix over :attr:`body_ids` of the touching pairs."""
+        n = len(self.body_ids)
+        matrix = np.zeros((n, n), dtype=bool)
+        for a, b in self.pairs:
+            matrix[a, b] = matrix[b, a] = True
+        return matrix
 
 
 class World:
@@ -176,14 +204,21 @@ class World:
         )
         self.vehicles.append(vehicle)
         self._contacts.add(vehicle.body_id)
-        self._snapshot = None
+        self._drop_snapshot()
         return index
 
     def add_body(self, body_id: int) -> int:
         """Track collisions of a body created directly with PyBullet (obstacles, pads)."""
         self._contacts.add(body_id)
-        self._snapshot = None
+        self._drop_snapshot()
         return self._contacts.index[body_id]
+
+    def _drop_snapshot(self) -> None:
+        # the saved state no longer covers every body: free it (PyBullet keeps every
+        # saved state until removed), the next reset saves a new one
+        if self._snapshot is not None:
+            p.removeState(self._snapshot, physicsClientId=self.client)
+            self._snapshot = None
 
     # ------------------------------------------------------------ commanding
 
@@ -218,32 +253,34 @@ class World:
         """Advance one agent step (``physics_hz / agent_hz`` physics steps)."""
         cid = self.client
         vehicles = self.vehicles
+        # Vehicles never read each other's state within a physics step, so each phase can
+        # run over all of them in turn; the per-vehicle work is the same as interleaved.
+        velocity_readers = [v.read_velocity for v in vehicles if v.needs_velocity]
+        mass_updaters = [v.update_mass for v in vehicles if v.parts.boosters is not None]
+        appliers = [v.apply_loads for v in vehicles]
         contacts = self._contacts
-        contacts.matrix[:] = False
-        index = contacts.index
-        matrix = contacts.matrix
+        contacts.clear()
+        record = contacts.record
+        step_simulation, contact_points = p.stepSimulation, p.getContactPoints
         per_control = self.physics_per_control
         last = self.physics_per_agent - 1
         for substep in range(self.physics_per_agent):
-            control_tick = self.physics_steps % per_control == 0
-            for vehicle in vehicles:
-                if control_tick:
+            if self.physics_steps % per_control == 0:  # control tick
+                for vehicle in vehicles:
                     vehicle.read_state()
                     vehicle.control_step()
-                    if vehicle.booster_state is not None:
-                        vehicle.update_mass()
-                elif vehicle.needs_velocity:
-                    vehicle.read_velocity()
-                vehicle.apply_loads()
-            p.stepSimulation(cid)
+                for update_mass in mass_updaters:  # fuel burnt: new mass and inertia
+                    update_mass()
+            else:
+                for read_velocity in velocity_readers:
+                    read_velocity()
+            for apply_loads in appliers:
+                apply_loads()
+            step_simulation(cid)
             self.physics_steps += 1
             # contacts are sampled at the end of every control period and of the agent step
             if self.physics_steps % per_control == 0 or substep == last:
-                for contact in p.getContactPoints(-1, -1, -2, -2, cid):
-                    a = index.get(contact[1])
-                    b = index.get(contact[2])
-                    if a is not None and b is not None:
-                        matrix[a, b] = matrix[b, a] = True
+                record(contact_points(-1, -1, -2, -2, cid))
         for vehicle in vehicles:
             vehicle.read_state()
 
@@ -273,7 +310,7 @@ class World:
         Rows/columns follow :attr:`contact_bodies` (the ground first, if present, then
         bodies in the order they were added).
         """
-        return self._contacts.matrix.copy()
+        return self._contacts.matrix()
 
     @property
     def contact_bodies(self) -> list[int]:
@@ -282,21 +319,21 @@ class World:
 
     def collided(self, index: int) -> bool:
         """Whether vehicle ``index`` touched anything (ground included) in the last step."""
-        row = self._contacts.index[self._vehicle(index).body_id]
-        return bool(self._contacts.matrix[row].any())
+        return self._contacts.index[self._vehicle(index).body_id] in self._contacts.rows
 
     def collided_with_ground(self, index: int) -> bool:
         """Whether vehicle ``index`` touched the ground in the last step."""
         if self.ground_id is None:
             return False
-        row = self._contacts.index[self._vehicle(index).body_id]
-        return bool(self._contacts.matrix[row, self._contacts.index[self.ground_id]])
+        return self._touched(self._vehicle(index).body_id, self.ground_id)
 
     def collided_with(self, index: int, other: int) -> bool:
         """Whether vehicles ``index`` and ``other`` touched each other in the last step."""
-        a = self._contacts.index[self._vehicle(index).body_id]
-        b = self._contacts.index[self._vehicle(other).body_id]
-        return bool(self._contacts.matrix[a, b])
+        return self._touched(self._vehicle(index).body_id, self._vehicle(other).body_id)
+
+    def _touched(self, body_a: int, body_b: int) -> bool:
+        a, b = self._contacts.index[body_a], self._contacts.index[body_b]
+        return ((a, b) if a <= b else (b, a)) in self._contacts.pairs
 
     # ---------------------------------------------------------------- resets
 
@@ -320,7 +357,7 @@ class World:
                 vehicle.reseed(self._vehicle_rng(index))
             vehicle.reset()
             vehicle.armed = True
-        self._contacts.matrix[:] = False
+        self._contacts.clear()
         self.physics_steps = 0
 
     def rng_state(self) -> dict:
