@@ -681,15 +681,16 @@ def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
             model = next((c for c in candidates if c.model_fields["type"].default == part), None)
             continue
         annotation = field.annotation
-        model = _first_model(annotation)
+        model = first_model(annotation)
     return model
 
 
-def _first_model(annotation: Any) -> Any:
+def first_model(annotation: Any) -> Any:
+    """The first pydantic model class in a type annotation (through unions, lists, ...)."""
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
     for arg in getattr(annotation, "__args__", ()):
-        found = _first_model(arg)
+        found = first_model(arg)
         if found is not None:
             return found
     return None

@@ -24,6 +24,7 @@ from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.spec import first_model
 
 
 class _Config(BaseModel):
@@ -184,18 +185,8 @@ def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | 
         field = model.model_fields.get(part)
         if field is None:  # a mapping key, e.g. terms.<entry>: stay on the value's model
             continue
-        model = _first_model(field.annotation)
+        model = first_model(field.annotation)
     return model
-
-
-def _first_model(annotation: Any) -> Any:
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in getattr(annotation, "__args__", ()):
-        found = _first_model(arg)
-        if found is not None:
-            return found
-    return None
 
 
 def _describe(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "") -> str:
