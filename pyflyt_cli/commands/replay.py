@@ -10,54 +10,12 @@ Nothing here writes over its input: outputs must be new files or files of the sa
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import typer
 
 from pyflyt_cli.config import CLIError
-
-_MAGIC = {
-    ".png": (b"\x89PNG",),
-    ".gif": (b"GIF8",),
-    ".pdf": (b"%PDF",),
-    ".svg": (b"<?xml", b"<svg"),
-    ".mp4": (),  # checked below: 'ftyp' at offset 4
-}
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """``"640x480"`` -> (640, 480), each side 16 ... 4096 pixels."""
-    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not match:
-        raise CLIError(f"--size '{text}': write WIDTHxHEIGHT in pixels, e.g. 640x480")
-    width, height = int(match.group(1)), int(match.group(2))
-    if not (16 <= width <= 4096 and 16 <= height <= 4096):
-        raise CLIError(f"--size {width}x{height}: each side must be between 16 and 4096 pixels")
-    return width, height
-
-
-def check_output(path: Path, option: str, suffixes: tuple[str, ...], source: Path) -> Path:
-    """Refuse an output that has the wrong suffix, is the input, or would replace another kind of file."""
-    suffix = path.suffix.lower()
-    if suffix not in suffixes:
-        raise CLIError(f"{option} {path}: give a file name ending in {' or '.join(suffixes)}")
-    if path.is_dir():
-        raise CLIError(f"{option} {path}: is a directory; give a file name ending in {' or '.join(suffixes)}")
-    if path.exists():
-        if path.resolve() == source.resolve():
-            raise CLIError(f"{option} {path}: that is the input recording; refusing to overwrite it")
-        head = path.read_bytes()[:16]
-        same_kind = head[4:8] == b"ftyp" if suffix == ".mp4" else any(head.startswith(m) for m in _MAGIC[suffix])
-        if not same_kind:
-            raise CLIError(
-                f"{option} {path}: the file exists and is not a {suffix[1:].upper()} file; refusing to overwrite it "
-                "(choose another name or delete it)"
-            )
-    if not path.parent.is_dir():
-        raise CLIError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
-    return path
-
+from pyflyt_cli.outputs import check_output, parse_size
 
 def run_replay(
     file: Path,
@@ -78,9 +36,9 @@ def run_replay(
         raise CLIError(f"--tolerance must be >= 0, got {tolerance}")
     # check every output before any work (and before reading a large file)
     if video is not None:
-        check_output(video, "--video", VIDEO_SUFFIXES, file)
+        check_output(video, "--video", VIDEO_SUFFIXES, [file], "the input recording")
     if plot is not None:
-        check_output(plot, "--plot", PLOT_SUFFIXES, file)
+        check_output(plot, "--plot", PLOT_SUFFIXES, [file], "the input recording")
     if video is not None and plot is not None and video.resolve() == plot.resolve():
         raise CLIError("--video and --plot name the same file")
     dims = parse_size(size) if size is not None else None

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import secrets
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,7 @@ import numpy as np
 import typer
 
 from pyflyt_cli.config import CLIError
+from pyflyt_cli.outputs import check_output, parse_size
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import PyFlytError, SpecError
 from pyflyt_engine.spec import (
@@ -39,8 +39,6 @@ from pyflyt_engine.spec import (
     resolve_uav_path,
 )
 
-_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-_MAX_PIXELS = 4096  # per image side: TinyRenderer is a CPU rasteriser
 
 # --------------------------------------------------------------------- validate
 
@@ -401,42 +399,6 @@ def channel_users(spec: UAVSpec, channel: str) -> list[str]:
 # ------------------------------------------------------------------ show: images
 
 
-def parse_size(text: str) -> tuple[int, int]:
-    """``"640x480"`` -> (640, 480), each side 16 ... 4096 pixels."""
-    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not match:
-        raise CLIError(f"--size '{text}': write WIDTHxHEIGHT in pixels, e.g. 640x480")
-    width, height = int(match.group(1)), int(match.group(2))
-    if not (16 <= width <= _MAX_PIXELS and 16 <= height <= _MAX_PIXELS):
-        raise CLIError(f"--size {width}x{height}: each side must be between 16 and {_MAX_PIXELS} pixels")
-    return width, height
-
-
-def check_output(path: Path, option: str, protected: list[Path]) -> Path:
-    """Refuse output paths that are not ``.png``, would replace a non-PNG file or an input.
-
-    Raises:
-        CLIError: naming the option, the path and what to do instead.
-    """
-    if path.suffix.lower() != ".png":
-        raise CLIError(f"{option} {path}: the picture is a PNG; give a file name ending in .png")
-    if path.is_dir():
-        raise CLIError(f"{option} {path}: is a directory; give a file name ending in .png")
-    if path.exists():
-        resolved = path.resolve()
-        if any(resolved == p.resolve() for p in protected):
-            raise CLIError(f"{option} {path}: that is an input file; refusing to overwrite it")
-        with path.open("rb") as handle:
-            if handle.read(len(_PNG_MAGIC)) != _PNG_MAGIC:
-                raise CLIError(
-                    f"{option} {path}: the file exists and is not a PNG image; refusing to overwrite it "
-                    "(choose another name or delete it)"
-                )
-    if not path.parent.is_dir():
-        raise CLIError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
-    return path
-
-
 def _atomic_write(path: Path, write) -> Path:
     """Call ``write(tmp_path)`` then move the result over ``path`` (no half-written files).
 
@@ -683,7 +645,7 @@ def run_show(name_or_path: str, png: Path | None = None, size: str = "640x480", 
     outputs = [(png, "--png"), (curves, "--curves")]
     for target, option in outputs:
         if target is not None:
-            check_output(target, option, [path])
+            check_output(target, option, (".png",), [path])
     if png is not None and curves is not None and png.resolve() == curves.resolve():
         raise CLIError(f"--png and --curves name the same file {png}; give two different files")
     spec = load_uav_spec(path)

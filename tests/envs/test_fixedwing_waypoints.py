@@ -13,8 +13,10 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from tests.envs.test_rewards import WaypointOracle
+
 FIXEDWING = "PyFlyt/Fixedwing-Waypoints-v0"
-C_A, C_B, REACH, DOME, AGENT_HZ = 1.0, 3.0, 2.0, 100.0, 30.0
+C_A, C_B, REACH, DOME = 1.0, 3.0, 2.0, 100.0
 
 
 def _place(env, position, rpy=(0.0, 0.0, 0.0), lin_vel=(0.0, 0.0, 0.0), ang_vel=(0.0, 0.0, 0.0)):
@@ -24,44 +26,9 @@ def _place(env, position, rpy=(0.0, 0.0, 0.0), lin_vel=(0.0, 0.0, 0.0), ang_vel=
     p.resetBaseVelocity(body, list(lin_vel), list(ang_vel), physicsClientId=cid)
 
 
-def _segment_distance(a, b, c):
-    ab, ac = b - a, c - a
-    t = 0.0 if ab @ ab == 0 else float(np.clip((ac @ ab) / (ab @ ab), 0.0, 1.0))
-    return float(np.linalg.norm(ac - t * ab))
-
-
-class FixedwingWaypointOracle:
-    """Paper, QuadX-Waypoints with the Fixedwing's d = 2, c_a = 1, c_b = 3."""
-
-    def __init__(self, targets, position, sparse):
-        self.targets, self.position, self.sparse = targets, np.array(position), sparse
-        self.index = 0
-        self.branches = set()
-
-    def __call__(self, obs, info):
-        position = obs["attitude"][10:13]  # quaternion observation: lin_pos 10:13
-        out_of_bounds = np.linalg.norm(position) > DOME
-        assert out_of_bounds == info["out_of_bounds"]
-        target = self.targets[self.index]
-        delta = np.linalg.norm(position - target)
-        delta_dot = (delta - np.linalg.norm(self.position - target)) * AGENT_HZ
-        reached = _segment_distance(self.position, position, target) < REACH
-        self.position = position.copy()
-        if reached:
-            self.index += 1
-        if info["collision"] or out_of_bounds:
-            branch, reward = "crash", -100.0
-        elif reached:
-            branch, reward = "reached", 100.0
-        elif self.sparse:
-            branch, reward = "nothing", 0.0
-        elif delta_dot < 0:
-            branch, reward = "approaching", C_A / delta - C_B * delta_dot
-        else:
-            branch, reward = "receding", C_A / delta
-        self.branches.add(branch)
-        assert info["num_targets_reached"] == self.index
-        return reward
+def FixedwingWaypointOracle(targets, position, sparse):
+    """The paper's waypoint reward with the Fixedwing's d = 2, c_a = 1, c_b = 3."""
+    return WaypointOracle(targets, position, sparse, dome=DOME, c_a=C_A, c_b=C_B, reach=REACH)
 
 
 def _policy(rng):

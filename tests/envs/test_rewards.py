@@ -112,10 +112,15 @@ def _segment_distance(a, b, c):
 
 
 class WaypointOracle:
-    """Paper, QuadX-Waypoints, with c_a = 0.1, c_b = 3, d = 0.2 (see the env docstring)."""
+    """The paper's waypoint reward, written out independently of the env.
 
-    def __init__(self, targets, position, sparse, dome=5.0):
+    Defaults are QuadX-Waypoints' c_a = 0.1, c_b = 3, d = 0.2 m, dome 5 m (see the env
+    docstring); Fixedwing-Waypoints uses the same formula with its own constants.
+    """
+
+    def __init__(self, targets, position, sparse, dome=5.0, c_a=0.1, c_b=3.0, reach=0.2):
         self.targets, self.position, self.sparse, self.dome = targets, np.array(position), sparse, dome
+        self.c_a, self.c_b, self.reach = c_a, c_b, reach
         self.index = 0
         self.branches = set()
 
@@ -126,7 +131,7 @@ class WaypointOracle:
         target = self.targets[self.index]
         delta = np.linalg.norm(position - target)
         delta_dot = (delta - np.linalg.norm(self.position - target)) * AGENT_HZ
-        reached = _segment_distance(self.position, position, target) < 0.2
+        reached = _segment_distance(self.position, position, target) < self.reach
         self.position = position.copy()
         if reached:
             self.index += 1
@@ -137,9 +142,9 @@ class WaypointOracle:
         elif self.sparse:
             branch, reward = "nothing", 0.0
         elif delta_dot < 0:
-            branch, reward = "approaching", 0.1 / delta - 3.0 * delta_dot
+            branch, reward = "approaching", self.c_a / delta - self.c_b * delta_dot
         else:
-            branch, reward = "receding", 0.1 / delta
+            branch, reward = "receding", self.c_a / delta
         self.branches.add(branch)
         assert info["num_targets_reached"] == self.index
         return reward

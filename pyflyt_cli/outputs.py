@@ -1,0 +1,79 @@
+"""Output files of CLI commands (pictures, plots, videos): checks before anything is written.
+
+A command never writes over its input or over a file of another kind: an existing
+output is replaced only when its first bytes say it is the same kind of file.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+from pyflyt_cli.config import CLIError
+
+#: largest image side [pixels]: the offscreen renderer is a CPU rasteriser
+MAX_PIXELS = 4096
+
+#: suffix -> (what it is, leading bytes a file of that kind starts with)
+_KINDS: dict[str, tuple[str, tuple[bytes, ...]]] = {
+    ".png": ("PNG image", (b"\x89PNG\r\n\x1a\n",)),
+    ".gif": ("GIF image", (b"GIF8",)),
+    ".pdf": ("PDF file", (b"%PDF",)),
+    ".svg": ("SVG file", (b"<?xml", b"<svg")),
+    ".mp4": ("MP4 video", ()),  # 'ftyp' at offset 4, checked below
+}
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"640x480"`` -> (640, 480), each side 16 ... :data:`MAX_PIXELS` pixels."""
+    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not match:
+        raise CLIError(f"--size '{text}': write WIDTHxHEIGHT in pixels, e.g. 640x480")
+    width, height = int(match.group(1)), int(match.group(2))
+    if not (16 <= width <= MAX_PIXELS and 16 <= height <= MAX_PIXELS):
+        raise CLIError(f"--size {width}x{height}: each side must be between 16 and {MAX_PIXELS} pixels")
+    return width, height
+
+
+def _same_kind(path: Path, suffix: str) -> bool:
+    with path.open("rb") as handle:
+        head = handle.read(16)
+    if suffix == ".mp4":
+        return head[4:8] == b"ftyp"
+    return any(head.startswith(magic) for magic in _KINDS[suffix][1])
+
+
+def check_output(
+    path: Path, option: str, suffixes: Sequence[str], protected: Sequence[Path] = (), input_name: str = "an input file"
+) -> Path:
+    """Refuse an output path with the wrong suffix, that is an input, or would replace another kind of file.
+
+    Args:
+        path: the output the user asked for.
+        option: the command-line option it came from (named in messages).
+        suffixes: accepted file endings (keys of the known kinds: .png .gif .pdf .svg .mp4).
+        protected: input files that must never be overwritten.
+        input_name: how messages call those inputs (e.g. "the input recording").
+
+    Raises:
+        CLIError: naming the option, the path and what to do instead.
+    """
+    endings = " or ".join(suffixes)
+    suffix = path.suffix.lower()
+    if suffix not in suffixes:
+        raise CLIError(f"{option} {path}: give a file name ending in {endings}")
+    if path.is_dir():
+        raise CLIError(f"{option} {path}: is a directory; give a file name ending in {endings}")
+    if path.exists():
+        resolved = path.resolve()
+        if any(resolved == p.resolve() for p in protected):
+            raise CLIError(f"{option} {path}: that is {input_name}; refusing to overwrite it")
+        if not _same_kind(path, suffix):
+            raise CLIError(
+                f"{option} {path}: the file exists and is not a {_KINDS[suffix][0]}; refusing to overwrite it "
+                "(choose another name or delete it)"
+            )
+    if not path.parent.is_dir():
+        raise CLIError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
+    return path
