@@ -7,10 +7,14 @@ Layout read (what ``pyflyt train`` writes under ``train.output_dir``)::
 
 A run directory is any directory at that depth holding ``metrics.mcap``; env, algo and
 seed come from the file's metadata when present, else from the path.
+
+The grid of (env, algo) may be partial — e.g. SAC on the dense-reward tasks and AWAC on
+the sparse ones: every algorithm's arrays then cover only its own envs (``algo_envs``).
 """
 
 from __future__ import annotations
 
+import math
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -56,16 +60,29 @@ class Benchmark:
     runs: list[RunCurve]
     envs: list[str]  # sorted
     algos: list[str]  # sorted
+    #: algo -> sorted envs it has runs on (every env in a full grid)
+    algo_envs: dict[str, list[str]]
     #: env -> common step grid (every run of that env was evaluated up to its last point)
     grids: dict[str, np.ndarray]
-    #: algo -> (n_runs, n_envs, n_points) normalised scores on each env's grid (n_points: the shortest grid)
+    #: algo -> (n_runs, len(algo_envs[algo]), n_points) normalised scores on each env's grid
+    #: (n_points: the shortest grid), envs in the order of ``algo_envs[algo]``
     curves: dict[str, np.ndarray]
-    #: algo -> (n_runs, n_envs) normalised final scores (last grid point)
+    #: algo -> (n_runs, len(algo_envs[algo])) normalised final scores (last grid point)
     final: dict[str, np.ndarray]
     normalisation: dict[str, Normalisation]
-    #: (env, algo) -> seeds used; runs beyond the smallest count per algo are left out (rliable needs equal counts)
+    #: (env, algo) -> seeds used, for the pairs that have runs; runs beyond the smallest count per algo
+    #: are left out (rliable needs equal counts)
     seeds: dict[tuple[str, str], list[int | None]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def full_grid(self) -> bool:
+        """Every algorithm has runs on every env."""
+        return all(self.algo_envs[a] == self.envs for a in self.algos)
+
+    def shared_envs(self, x: str, y: str) -> list[str]:
+        """Sorted envs both ``x`` and ``y`` have runs on."""
+        return sorted(set(self.algo_envs[x]) & set(self.algo_envs[y]))
 
 
 def _run_dirs(root: Path) -> list[Path]:
@@ -110,10 +127,16 @@ def read_normalisation(root: Path) -> dict[str, Normalisation]:
     out = {}
     for env, entry in data.items():
         try:
-            norm = Normalisation(float(entry["random"]), float(entry["reference"]), str(entry.get("source", path.name)))
+            reference = entry["reference"]
+            norm = Normalisation(
+                float(entry["random"]),
+                math.nan if reference is None else float(reference),
+                str(entry.get("source", path.name)),
+            )
         except (TypeError, KeyError, ValueError):
             raise ConfigError(
-                f"{path}: {env}: needs numbers 'random' and 'reference' (and optionally 'source')"
+                f"{path}: {env}: needs numbers 'random' and 'reference' (reference may be null: the best "
+                "evaluation in the benchmark) and optionally 'source'"
             ) from None
         if norm.reference == norm.random:
             raise ConfigError(f"{path}: {env}: reference and random scores are equal ({norm.random})")
@@ -131,7 +154,10 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
       entry falls back to the lowest and highest eval return seen in the benchmark for it
       (recorded as such in the report).
     * Equal run counts: rliable needs the same number of runs of an algorithm on every
-      env; extra runs (highest seeds) are left out and noted.
+      env it ran on; extra runs (highest seeds) are left out and noted.
+    * Partial grids: an algorithm need not run on every env; its arrays cover the envs
+      in ``algo_envs[algo]``, and a note says that aggregates of algorithms with
+      different env sets are not comparable.
     """
     root = Path(root)
     if not root.is_dir():
@@ -157,13 +183,25 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
     notes = [f"left out (no evaluation records): {d}" for d in empty]
     envs = sorted({r.env for r in runs})
     algos = sorted({r.algo for r in runs})
-    for env in envs:
-        missing = [a for a in algos if not any(r.env == env and r.algo == a for r in runs)]
-        if missing:
-            raise ConfigError(f"{root}: env {env} has no runs of {', '.join(missing)}; every algorithm needs every env")
+    algo_envs = {a: sorted({r.env for r in runs if r.algo == a}) for a in algos}
+    if any(algo_envs[a] != envs for a in algos):
+        notes.append(
+            "partial grid: "
+            + "; ".join(f"{a} ran on {', '.join(algo_envs[a])}" for a in algos)
+            + ". Aggregates, performance profiles and all-env curves are per algorithm over its own envs, "
+            "so aggregates of algorithms with different env sets are not comparable; compare them per env, "
+            "or by the probability of improvement on their shared envs"
+        )
 
     norms = dict(read_normalisation(root) if normalisation is None else normalisation)
     for env in envs:
+        if env in norms and math.isnan(norms[env].reference):  # reference: null -> the best evaluation seen
+            best = float(max(r.returns.max() for r in runs if r.env == env))
+            given = norms[env]
+            if best <= given.random:
+                best = given.random + 1.0
+            norms[env] = Normalisation(given.random, best, f"{given.source}; reference: best evaluation in the benchmark")
+            notes.append(f"{env}: no reference score given; 1 is the best mean evaluation return in this benchmark")
         if env not in norms:
             values = np.concatenate([r.returns for r in runs if r.env == env])
             lo, hi = float(values.min()), float(values.max())
@@ -180,11 +218,11 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
         grids[env] = grid
     n_points = min(len(g) for g in grids.values())
 
-    counts = {a: min(sum(1 for r in runs if r.env == e and r.algo == a) for e in envs) for a in algos}
+    counts = {a: min(sum(1 for r in runs if r.env == e and r.algo == a) for e in algo_envs[a]) for a in algos}
     curves, final, seeds = {}, {}, {}
     for algo in algos:
         per_env = []
-        for env in envs:
+        for env in algo_envs[algo]:
             mine = sorted(
                 (r for r in runs if r.env == env and r.algo == algo),
                 key=lambda r: (r.seed is None, r.seed, str(r.run_dir)),
@@ -200,4 +238,4 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
     if any(len(g) > n_points for g in grids.values()):
         notes.append(f"grids differ in length between envs: curves use the last {n_points} points of each")
         grids = {e: g[-n_points:] for e, g in grids.items()}
-    return Benchmark(root, runs, envs, algos, grids, curves, final, norms, seeds, notes)
+    return Benchmark(root, runs, envs, algos, algo_envs, grids, curves, final, norms, seeds, notes)

@@ -4,6 +4,10 @@
     report = plot_benchmark("benchmarks/paper_rl", reps=2000, seed=0)   # -> <dir>/report/report.md
 
 Same directory, ``reps`` and ``seed`` -> byte-identical ``report.md`` and ``report.json``.
+
+A partial grid (not every algorithm on every env) is reported per env for the pairs that
+exist; aggregates and profiles are over each algorithm's own envs, and the probability of
+improvement of two algorithms is over the envs they share (pairs sharing none are skipped).
 """
 
 from __future__ import annotations
@@ -35,19 +39,54 @@ class Report:
 
 
 def compute(bench: Benchmark, reps: int, seed: int) -> dict[str, Any]:
-    """Every number of the report (each statistic bootstrapped from its own ``RandomState(seed)``)."""
+    """Every number of the report (each statistic bootstrapped from its own ``RandomState(seed)``).
+
+    Aggregates, profiles and the all-env curves are per algorithm over its own envs; the
+    probability of improvement of X over Y is over the envs both ran on (``improvement_envs``),
+    for the ordered pairs that share at least one.
+    """
     taus = np.linspace(0.0, max(1.0, float(max(s.max() for s in bench.final.values()))), 51)
+
+    def columns(algo: str, envs: list[str]) -> list[int]:
+        return [bench.algo_envs[algo].index(e) for e in envs]
+
+    shared = {
+        (x, y): bench.shared_envs(x, y) for x in bench.algos for y in bench.algos if x != y and bench.shared_envs(x, y)
+    }
+    pairs = {
+        (x, y): (bench.final[x][:, columns(x, envs)], bench.final[y][:, columns(y, envs)])
+        for (x, y), envs in shared.items()
+    }
     return {
         "aggregates": stats.aggregates(bench.final, reps, seed),
         "curves": stats.iqm_curves(bench.curves, reps, seed),
         "per_env_curves": {
-            env: stats.iqm_curves({a: c[:, [i], :] for a, c in bench.curves.items()}, reps, seed)
-            for i, env in enumerate(bench.envs)
+            env: stats.iqm_curves(
+                {a: c[:, columns(a, [env]), :] for a, c in bench.curves.items() if env in bench.algo_envs[a]},
+                reps,
+                seed,
+            )
+            for env in bench.envs
         },
         "taus": taus,
         "profiles": stats.performance_profiles(bench.final, taus, reps, seed),
-        "improvement": stats.probability_of_improvement(bench.final, reps, seed),
+        "improvement": stats.probability_of_improvement_pairs(pairs, reps, seed),
+        "improvement_envs": shared,
+        "notes": bench.notes + _partial_grid_notes(bench, shared),
     }
+
+
+def _partial_grid_notes(bench: Benchmark, shared: dict[tuple[str, str], list[str]]) -> list[str]:
+    """What a partial grid leaves out of the report (nothing for a full grid)."""
+    if bench.full_grid:
+        return []
+    notes = []
+    if len(bench.envs) > 1:
+        notes.append("learning curves: no all-envs panel, as the algorithms ran on different envs")
+    alone = [f"{x} vs {y}" for x in bench.algos for y in bench.algos if x < y and (x, y) not in shared]
+    if alone:
+        notes.append(f"probability of improvement: no shared env, not compared: {', '.join(alone)}")
+    return notes
 
 
 def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int = 2000, seed: int = 0) -> Report:
@@ -86,6 +125,10 @@ def _save(fig: Any, out_dir: Path, name: str) -> list[Path]:
     return paths
 
 
+def _count(items: list[str], noun: str) -> str:
+    return f"{len(items)} {noun}{'s' if len(items) != 1 else ''}"
+
+
 def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[Path]:
     import matplotlib
 
@@ -94,14 +137,20 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
 
     paths: list[Path] = []
     colors = {a: plt.get_cmap("tab10")(i % 10) for i, a in enumerate(bench.algos)}
+    full = bench.full_grid
+
+    def label(algo: str) -> str:  # a partial grid's aggregates are over each algorithm's own envs
+        return algo if full else f"{algo} ({_count(bench.algo_envs[algo], 'env')})"
+
     with plt.rc_context({"svg.hashsalt": "pyflyt", "font.size": 9}):
-        # learning curves: one panel per env, plus the IQM over all envs if there are several
+        # learning curves: one panel per env (the algos that ran on it), plus the IQM over all
+        # envs if there are several and every algo ran on every env
         panels = [(env, numbers["per_env_curves"][env], bench.grids[env]) for env in bench.envs]
-        if len(bench.envs) > 1:
+        if len(bench.envs) > 1 and full:
             panels.append(("all envs", numbers["curves"], np.arange(len(next(iter(bench.grids.values()))))))
         fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.2), squeeze=False)
         for ax, (title, est, x) in zip(axes[0], panels):
-            for algo in bench.algos:
+            for algo in (a for a in bench.algos if a in est):
                 e = est[algo]
                 ax.plot(x, e.value, color=colors[algo], label=algo)
                 ax.fill_between(x, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
@@ -109,7 +158,10 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
             ax.set_xlabel("environment steps" if title != "all envs" else "evaluation index")
             ax.set_ylabel("IQM normalised score")
             ax.grid(alpha=0.3)
-        axes[0][0].legend(loc="best")
+            if not full:
+                ax.legend(loc="best")
+        if full:
+            axes[0][0].legend(loc="best")
         paths += _save(fig, out_dir, "learning_curves")
 
         # aggregate metrics with intervals
@@ -119,7 +171,8 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
                 e = numbers["aggregates"][algo][name]
                 ax.barh(i, float(e.high - e.low), left=float(e.low), height=0.6, color=colors[algo], alpha=0.6)
                 ax.plot([float(e.value)] * 2, [i - 0.3, i + 0.3], color="k", linewidth=1.5)
-            ax.set_yticks(range(len(bench.algos)), bench.algos if name == "median" else [""] * len(bench.algos))
+            ticks = [label(a) for a in bench.algos] if name == "median" else [""] * len(bench.algos)
+            ax.set_yticks(range(len(bench.algos)), ticks)
             ax.set_title({"iqm": "IQM", "optimality_gap": "optimality gap"}.get(name, name))
             ax.set_xlabel("normalised score")
             ax.grid(axis="x", alpha=0.3)
@@ -130,7 +183,7 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
         taus = numbers["taus"]
         for algo in bench.algos:
             e = numbers["profiles"][algo]
-            ax.plot(taus, e.value, color=colors[algo], label=algo)
+            ax.plot(taus, e.value, color=colors[algo], label=label(algo))
             ax.fill_between(taus, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
         ax.set_xlabel(r"normalised score $\tau$")
         ax.set_ylabel(r"fraction of runs with score $> \tau$")
@@ -145,7 +198,9 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
             e = numbers["improvement"][(x, y)]
             ax.barh(i, float(e.high - e.low), left=float(e.low), height=0.6, color=colors[x], alpha=0.6)
             ax.plot([float(e.value)] * 2, [i - 0.3, i + 0.3], color="k", linewidth=1.5)
-        ax.set_yticks(range(len(pairs)), [f"P({x} > {y})" for x, y in pairs])
+        envs = numbers["improvement_envs"]
+        names = [f"P({x} > {y})" + ("" if full else f" on {_count(envs[(x, y)], 'shared env')}") for x, y in pairs]
+        ax.set_yticks(range(len(pairs)), names)
         ax.axvline(0.5, color="grey", linestyle="--", linewidth=1)
         ax.set_xlim(0, 1)
         ax.set_xlabel("probability of improvement")
@@ -170,10 +225,12 @@ def _markdown(
     lines = [
         f"# Benchmark report: {bench.root.name}",
         "",
-        f"Runs read from `{bench.root}`. Scores are normalised per env: 0 = random policy, 1 = reference "
-        f"(table below). Intervals are {int(stats.CONFIDENCE * 100)} % percentile intervals of {reps} "
-        f"stratified-bootstrap replicates (rliable), bootstrap seed {seed}: rerunning with the same data, "
-        "`--reps` and `--seed` gives this report again. How to read it: docs/benchmarks.md.",
+        (
+            f"Runs read from `{bench.root}`. Scores are normalised per env: 0 = random policy, 1 = reference "
+            f"(table below). Intervals are {int(stats.CONFIDENCE * 100)} % percentile intervals of {reps} "
+            f"stratified-bootstrap replicates (rliable), bootstrap seed {seed}: rerunning with the same data, "
+            "`--reps` and `--seed` gives this report again. How to read it: docs/benchmarks.md."
+        ),
         "",
         "## Normalisation",
         "",
@@ -185,7 +242,7 @@ def _markdown(
     ]
     lines += ["", "## Runs", "", "| env | algo | runs | seeds | last step on the grid |", "|---|---|---:|---|---:|"]
     for env in bench.envs:
-        for algo in bench.algos:
+        for algo in (a for a in bench.algos if (env, a) in bench.seeds):
             seeds = bench.seeds[(env, algo)]
             lines.append(
                 f"| {env} | {algo} | {len(seeds)} | {', '.join('?' if s is None else str(s) for s in seeds)} "
@@ -197,12 +254,17 @@ def _markdown(
         "",
         "Point estimate [95 % CI]. Median, IQM and mean: higher is better; optimality gap: lower is better.",
         "",
-        "| algo | median | IQM | mean | optimality gap |",
-        "|---|---|---|---|---|",
     ]
+    full = bench.full_grid
+    if full:
+        lines += ["| algo | median | IQM | mean | optimality gap |", "|---|---|---|---|---|"]
+    else:
+        lines[-2] += " Each algorithm is aggregated over its own envs: rows with different envs are not comparable."
+        lines += ["| algo | envs | median | IQM | mean | optimality gap |", "|---|---|---|---|---|---|"]
     for algo in bench.algos:
         a = numbers["aggregates"][algo]
-        lines.append(f"| {algo} | " + " | ".join(_ci(a[n]) for n in stats.AGGREGATES) + " |")
+        envs = "" if full else f" {', '.join(bench.algo_envs[algo])} |"
+        lines.append(f"| {algo} |{envs} " + " | ".join(_ci(a[n]) for n in stats.AGGREGATES) + " |")
     lines += [
         "",
         "## IQM learning curves",
@@ -215,15 +277,30 @@ def _markdown(
         grid = bench.grids[env]
         for idx in sorted({len(grid) // 2, len(grid) - 1}):
             cells = [
-                _ci(stats.Estimate(e.value[idx], e.low[idx], e.high[idx]))
-                for e in (numbers["per_env_curves"][env][a] for a in bench.algos)
+                "—" if e is None else _ci(stats.Estimate(e.value[idx], e.low[idx], e.high[idx]))
+                for e in (numbers["per_env_curves"][env].get(a) for a in bench.algos)
             ]
             lines.append(f"| {env} | {int(grid[idx])} | " + " | ".join(cells) + " |")
     lines += ["", "## Probability of improvement", ""]
-    if numbers["improvement"]:
+    if numbers["improvement"] and full:
         lines += ["P(X > Y): the probability that a run of X scores higher than a run of Y on a random env.", ""]
         lines += ["| X | Y | P(X > Y) [95 % CI] |", "|---|---|---|"]
         lines += [f"| {x} | {y} | {_ci(e)} |" for (x, y), e in sorted(numbers["improvement"].items())]
+    elif numbers["improvement"]:
+        lines += [
+            (
+                "P(X > Y): the probability that a run of X scores higher than a run of Y on a random env of "
+                "those both ran on (shared envs); pairs sharing no env are not compared."
+            ),
+            "",
+        ]
+        lines += ["| X | Y | shared envs | P(X > Y) [95 % CI] |", "|---|---|---|---|"]
+        lines += [
+            f"| {x} | {y} | {', '.join(numbers['improvement_envs'][(x, y)])} | {_ci(e)} |"
+            for (x, y), e in sorted(numbers["improvement"].items())
+        ]
+    elif len(bench.algos) > 1:
+        lines.append("No two algorithms ran on a common env: nothing to compare.")
     else:
         lines.append("One algorithm only: nothing to compare.")
     lines += ["", "## Performance profiles", "", "Fraction of runs with final normalised score > τ [95 % CI].", ""]
@@ -238,8 +315,8 @@ def _markdown(
     lines += ["", "## Figures", ""]
     for name in FIGURES:
         lines.append(f"![{name}]({name}.png) ([SVG]({name}.svg))")
-    if bench.notes:
-        lines += ["", "## Notes", ""] + [f"- {n}" for n in bench.notes]
+    if numbers["notes"]:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in numbers["notes"]]
     return "\n".join(lines) + "\n"
 
 
@@ -257,6 +334,7 @@ def _json(bench: Benchmark, numbers: dict[str, Any], reps: int, seed: int) -> di
         "confidence": stats.CONFIDENCE,
         "envs": bench.envs,
         "algos": bench.algos,
+        "algo_envs": bench.algo_envs,
         "normalisation": {e: vars(n) for e, n in bench.normalisation.items()},
         "grids": {e: g.tolist() for e, g in bench.grids.items()},
         "aggregates": {a: {n: est(e) for n, e in m.items()} for a, m in numbers["aggregates"].items()},
@@ -267,5 +345,5 @@ def _json(bench: Benchmark, numbers: dict[str, Any], reps: int, seed: int) -> di
             **{a: est(e) for a, e in numbers["profiles"].items()},
         },
         "probability_of_improvement": {f"{x} > {y}": est(e) for (x, y), e in numbers["improvement"].items()},
-        "notes": bench.notes,
+        "notes": numbers["notes"],
     }

@@ -116,11 +116,24 @@ def probability_of_improvement(
 ) -> dict[tuple[str, str], Estimate]:
     """P(X > Y) for every ordered pair of algorithms X ≠ Y: the probability that a run of X
     beats a run of Y on a random task (Mann-Whitney U / n_x n_y, averaged over tasks), with 95 % CI."""
+    algos = sorted(scores)
+    return probability_of_improvement_pairs(
+        {(x, y): (scores[x], scores[y]) for x in algos for y in algos if x != y}, reps, seed
+    )
+
+
+def probability_of_improvement_pairs(
+    pairs: Mapping[tuple[str, str], tuple[np.ndarray, np.ndarray]], reps: int = 2000, seed: int = 0
+) -> dict[tuple[str, str], Estimate]:
+    """P(X > Y) for given pairs ``(x, y) -> (scores of x, scores of y)``, bootstrapped in the
+    order given; X and Y must have the same tasks, in the same column order (their run
+    counts may differ) — e.g. two algorithms' final scores on the envs they share."""
     from rliable import metrics
 
-    algos = sorted(scores)
-    pairs = {(x, y): [scores[x], scores[y]] for x in algos for y in algos if x != y}
     if not pairs:
         return {}
-    out = _intervals(pairs, metrics.probability_of_improvement, reps, seed)
+    for (x, y), (sx, sy) in pairs.items():
+        if np.shape(sx)[1:] != np.shape(sy)[1:]:
+            raise ValueError(f"P({x} > {y}): task counts differ ({np.shape(sx)} vs {np.shape(sy)})")
+    out = _intervals({k: [v[0], v[1]] for k, v in pairs.items()}, metrics.probability_of_improvement, reps, seed)
     return {k: Estimate(e.value.reshape(()), e.low.reshape(()), e.high.reshape(())) for k, e in out.items()}

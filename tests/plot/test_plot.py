@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -127,6 +128,106 @@ def test_plot_end_to_end_writes_figures_and_a_reproducible_report(bench, tmp_pat
     assert again.json.read_text() == report.json.read_text()
     other = plot_benchmark(bench, tmp_path / "other", reps=REPS, seed=6)
     assert other.json.read_text() != report.json.read_text()  # the seed is what makes it reproducible
+
+
+def _partial_bench(root: Path, grid: dict[str, list[str]], runs: dict[str, int]) -> Path:
+    """``algo -> envs`` it ran on, ``runs[algo]`` seeds each; 5 evals climbing to a per-algo level."""
+    rng = np.random.default_rng(1)
+    for i, (algo, envs) in enumerate(sorted(grid.items())):
+        for env in envs:
+            for seed in range(runs[algo]):
+                returns = (60.0 + 5.0 * i) * np.linspace(0.1, 1.0, 5) + rng.normal(0, 4, 5)
+                _write_run(root / "runs" / env / algo / f"seed{seed}", env, algo, seed, np.arange(1, 6) * 1000, returns)
+    envs = sorted({e for es in grid.values() for e in es})
+    (root / "normalisation.yaml").write_text(
+        yaml.safe_dump({e: {"random": 0.0, "reference": 100.0, "source": "test fixture"} for e in envs})
+    )
+    return root
+
+
+#: the paper's study: SAC on the dense-reward tasks, AWAC on the sparse-reward ones
+PAPER_GRID = {
+    "sac": ["quadx_waypoints", "fixedwing_waypoints"],
+    "awac": ["quadx_waypoints_sparse", "fixedwing_waypoints_sparse"],
+}
+
+
+def test_a_partial_grid_with_disjoint_envs_is_loaded_and_plotted(tmp_path):
+    root = _partial_bench(tmp_path / "paper", PAPER_GRID, {"sac": 3, "awac": 4})
+    b = load_benchmark(root)
+    assert b.algos == ["awac", "sac"] and len(b.envs) == 4 and not b.full_grid
+    assert b.algo_envs == {
+        "awac": ["fixedwing_waypoints_sparse", "quadx_waypoints_sparse"],
+        "sac": ["fixedwing_waypoints", "quadx_waypoints"],
+    }
+    assert b.curves["awac"].shape == (4, 2, 5) and b.final["sac"].shape == (3, 2)
+    assert set(b.seeds) == {(e, a) for a, es in PAPER_GRID.items() for e in es}
+    assert b.shared_envs("sac", "awac") == []
+    assert any("not comparable" in n for n in b.notes)
+
+    report = plot_benchmark(root, tmp_path / "out", reps=REPS, seed=2)
+    for name in ("learning_curves", "aggregates", "performance_profiles", "probability_of_improvement"):
+        for ext in ("png", "svg"):
+            path = tmp_path / "out" / f"{name}.{ext}"
+            assert path.is_file() and path.stat().st_size > 1000, path
+    assert report.numbers["improvement"] == {}
+    assert set(report.numbers["per_env_curves"]["quadx_waypoints"]) == {"sac"}
+    text = report.markdown.read_text()
+    assert "| algo | envs | median | IQM | mean | optimality gap |" in text
+    iqm = report.numbers["aggregates"]["sac"]["iqm"]
+    assert f"| sac | fixedwing_waypoints, quadx_waypoints | {float(iqm.value):.3f}" in text
+    assert "| quadx_waypoints | sac | 3 |" in text and "| quadx_waypoints | awac |" not in text  # runs table
+    assert "| quadx_waypoints_sparse | 5000 | " in text and " — |" in text  # per-env IQM: awac only
+    assert "No two algorithms ran on a common env" in text
+    notes = text.split("## Notes")[1]
+    assert "not comparable" in notes and "no all-envs panel" in notes and "not compared: awac vs sac" in notes
+    data = json.loads(report.json.read_text())
+    assert data["algo_envs"] == b.algo_envs and data["probability_of_improvement"] == {}
+    assert {"aggregates", "iqm_curves", "iqm_curve_all_envs", "performance_profiles", "notes"} <= set(data)
+    again = plot_benchmark(root, tmp_path / "again", reps=REPS, seed=2)
+    assert again.markdown.read_text() == text and again.json.read_text() == report.json.read_text()
+
+
+@pytest.mark.filterwarnings("ignore::FutureWarning")  # arch deprecates rliable's random_state
+def test_a_shared_env_is_compared_by_probability_of_improvement_on_it_alone(tmp_path):
+    from rliable import library as rly
+    from rliable import metrics
+
+    grid = {
+        "sac": ["fixedwing_waypoints", "quadx_waypoints"],
+        "awac": ["quadx_waypoints", "quadx_waypoints_sparse"],
+    }
+    root = _partial_bench(tmp_path / "shared", grid, {"sac": 3, "awac": 5})
+    b = load_benchmark(root)
+    assert b.shared_envs("sac", "awac") == ["quadx_waypoints"]
+    report = plot_benchmark(root, tmp_path / "out", reps=REPS, seed=4)
+    assert all((tmp_path / "out" / f"{name}.png").is_file() for name in ("learning_curves", "aggregates"))
+    assert report.numbers["improvement_envs"] == {
+        ("awac", "sac"): ["quadx_waypoints"],
+        ("sac", "awac"): ["quadx_waypoints"],
+    }
+
+    # the shared env is column 0 of awac's scores and column 1 of sac's; runs differ (5 vs 3)
+    awac, sac = b.final["awac"][:, [0]], b.final["sac"][:, [1]]
+    np.random.seed(4)
+    points, intervals = rly.get_interval_estimates(
+        {("awac", "sac"): [awac, sac], ("sac", "awac"): [sac, awac]},
+        metrics.probability_of_improvement,
+        reps=REPS,
+        random_state=np.random.RandomState(4),
+    )
+    poi = report.numbers["improvement"]
+    assert set(poi) == {("awac", "sac"), ("sac", "awac")}
+    for pair in poi:
+        assert float(poi[pair].value) == pytest.approx(float(points[pair]))
+        assert float(poi[pair].low) == pytest.approx(float(np.ravel(intervals[pair])[0]))
+        assert float(poi[pair].high) == pytest.approx(float(np.ravel(intervals[pair])[1]))
+        assert poi[pair].low < poi[pair].high  # a real interval, not a degenerate 0 or 1
+    assert float(poi[("awac", "sac")].value) == pytest.approx(metrics.probability_of_improvement(awac, sac))
+    text = report.markdown.read_text()
+    assert f"| awac | sac | quadx_waypoints | {float(poi[('awac', 'sac')].value):.3f}" in text
+    assert "| X | Y | shared envs | P(X > Y) [95 % CI] |" in text
+    assert "not comparable" in text.split("## Notes")[1]
 
 
 def test_plot_errors_name_the_problem(tmp_path):
