@@ -89,8 +89,12 @@ def _sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
     return [list(job) for batch in batches for job in batch]
 
 
-def compose_train_config(overrides: list[str]) -> dict[str, Any]:
-    """The composed ``conf/train.yaml`` as a plain dict ready for :func:`parse_train_config`."""
+def compose_train_config(overrides: list[str], benchmark: bool = False) -> dict[str, Any]:
+    """The composed ``conf/train.yaml`` as a plain dict ready for :func:`parse_train_config`.
+
+    An experiment may declare a ``benchmark:`` section (a grid of runs for ``pyflyt
+    benchmark``); with ``benchmark`` it is kept in the result, otherwise it is refused.
+    """
     from omegaconf import OmegaConf, open_dict
 
     from pyflyt_cli.config import to_container
@@ -108,6 +112,13 @@ def compose_train_config(overrides: list[str]) -> dict[str, Any]:
         raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
     data = to_container(cfg)
     data.pop("resume", None)
+    section = data.pop("benchmark", None)
+    if section is not None and not benchmark:
+        name = choices.get("experiment")
+        raise CLIError(
+            f"experiment={name} declares a benchmark (a grid of envs x algorithms x seeds): run it with "
+            f"pyflyt benchmark experiment={name}"
+        )
     env_name = choices.get("env")
     if not isinstance(data.get("env"), dict):
         raise CLIError("no environment selected: pass env=<name> (" + ", ".join(_choices("env")) + ")")
@@ -129,6 +140,8 @@ def compose_train_config(overrides: list[str]) -> dict[str, Any]:
     data["env"] = env
     data["env_name"] = env_name
     data["experiment"] = choices.get("experiment")
+    if benchmark and section is not None:
+        data["benchmark"] = section
     return data
 
 

@@ -67,6 +67,7 @@ def train(
     overrides: list[str] | None = None,
     log: Log = _silent,
     progress_bar: bool | None = None,
+    run_dir: str | Path | None = None,
 ) -> RunResult:
     """Train a new run; returns when done or interrupted (Ctrl-C, SIGTERM).
 
@@ -76,12 +77,18 @@ def train(
         command, overrides: recorded in ``run.yaml`` (default: ``sys.argv``).
         log: receives one-line status messages (run directory, summary).
         progress_bar: override ``train.progress_bar``.
+        run_dir: train in exactly this directory, which must not exist yet (``pyflyt
+            benchmark`` names its runs ``<task>/<algo>/seed<k>``); default: a new
+            ``<train.output_dir>/<env_name>/<algo>/<time>-seed<k>``.
     """
     cfg = parse_train_config(config)
     _check_environment(cfg)
     init = _init_source(cfg.init_from) if cfg.init_from else None
     _probe_env(cfg)
-    run_dir = rundir.create_run_dir(cfg.train.output_dir, cfg.env_name, cfg.algo.name, cfg.seed)
+    if run_dir is None:
+        run_dir = rundir.create_run_dir(cfg.train.output_dir, cfg.env_name, cfg.algo.name, cfg.seed)
+    else:
+        run_dir = rundir.create_named_run_dir(run_dir)
     try:
         cfg = rundir.portable_config(cfg, run_dir)
     except Exception:
@@ -187,14 +194,30 @@ def _probe_env(cfg: TrainConfig) -> None:
     env.close()
 
 
-def _init_source(run: str) -> tuple[Path, Path, Path | None, str]:
-    """(run dir, model file, VecNormalize file, algo name) of an ``init_from`` run."""
+def _init_source(source: str) -> tuple[Path, Path, Path | None, str]:
+    """(run dir, model file, VecNormalize file, algo name) of ``init_from``.
+
+    ``init_from`` is a run directory (its best model, else final, else newest checkpoint)
+    or one model file of a run: ``model.zip``, ``best_model.zip`` or
+    ``checkpoints/model_<steps>_steps.zip`` (a partially trained policy).
+    """
+    given = Path(source).expanduser()
+    model: Path | None = None
+    if given.suffix == ".zip":
+        if not given.is_file():
+            raise ConfigError(f"init_from: model file {given} does not exist")
+        model = given.resolve()
+        run = model.parent.parent if model.parent.name == rundir.CHECKPOINTS else model.parent
+    else:
+        run = given
     try:
         path = rundir.check_run_dir(run)
     except ConfigError as exc:
         raise ConfigError(f"init_from: {exc}") from None
     source_cfg = rundir.read_yaml(path / rundir.CONFIG_FILE)
     algo = str((source_cfg.get("algo") or {}).get("name", "?"))
+    if model is not None:
+        return path, model, rundir.vecnormalize_of(model), algo
     try:
         model, vecnorm, _ = rundir.find_model(path, "auto")
     except ConfigError as exc:
@@ -493,33 +516,36 @@ class _Run:
                 interrupted = stop.requested
             elapsed = time.perf_counter() - started
 
-            if interrupted:
-                # the partial rollout since the last update is not in the weights: count only what is
-                model.num_timesteps = stopper.rollout_start_step
-                if self.evaluation is not None:  # an evaluation past that point is logged again after the resume
-                    self.evaluation.next_eval = (model.num_timesteps // opts.eval_freq + 1) * opts.eval_freq
-                self.save_checkpoint(model)
-                self._write_state("interrupted", int(model.num_timesteps))
-                self.log(
-                    f"interrupted at step {model.num_timesteps}: checkpoint saved; continue with "
-                    f"pyflyt train resume={self.run_dir}"
-                )
-            else:
-                if self.evaluation is not None and self.evaluation.last_step != model.num_timesteps:
-                    self.evaluation.evaluate()
-                save_model_files(model, self.run_dir / rundir.FINAL_MODEL, self.run_dir / rundir.FINAL_VECNORM)
-                self.save_checkpoint(
-                    model
-                )  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues from here
-                self.writer.log(
-                    "/train/progress",
-                    int(model.num_timesteps),
-                    {
-                        "elapsed": elapsed,
-                        "steps_per_second": (model.num_timesteps - start_step) / elapsed if elapsed > 0 else 0.0,
-                    },
-                )
-                self._write_state("complete", int(model.num_timesteps))
+            # signals stay handled while saving: a SIGTERM now (a second one, e.g. from a dying
+            # launcher) must not kill the process halfway through writing the checkpoint
+            with _signals(stop, self.log):
+                if interrupted:
+                    # the partial rollout since the last update is not in the weights: count only what is
+                    model.num_timesteps = stopper.rollout_start_step
+                    if self.evaluation is not None:  # an evaluation past that point is logged again after the resume
+                        self.evaluation.next_eval = (model.num_timesteps // opts.eval_freq + 1) * opts.eval_freq
+                    self.save_checkpoint(model)
+                    self._write_state("interrupted", int(model.num_timesteps))
+                    self.log(
+                        f"interrupted at step {model.num_timesteps}: checkpoint saved; continue with "
+                        f"pyflyt train resume={self.run_dir}"
+                    )
+                else:
+                    if self.evaluation is not None and self.evaluation.last_step != model.num_timesteps:
+                        self.evaluation.evaluate()
+                    save_model_files(model, self.run_dir / rundir.FINAL_MODEL, self.run_dir / rundir.FINAL_VECNORM)
+                    self.save_checkpoint(
+                        model
+                    )  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues from here
+                    self.writer.log(
+                        "/train/progress",
+                        int(model.num_timesteps),
+                        {
+                            "elapsed": elapsed,
+                            "steps_per_second": (model.num_timesteps - start_step) / elapsed if elapsed > 0 else 0.0,
+                        },
+                    )
+                    self._write_state("complete", int(model.num_timesteps))
             trained = max(0, int(model.num_timesteps) - start_step)
             ev = self.evaluation
             result = RunResult(

@@ -93,6 +93,21 @@ def create_run_dir(output_dir: str | Path, env_name: str, algo: str, seed: int, 
     raise RunDirError(f"cannot find a free run directory name under {parent}")  # pragma: no cover
 
 
+def create_named_run_dir(path: str | Path) -> Path:
+    """Create exactly ``path`` (and its parents) for a new run; it must not exist yet."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.mkdir(exist_ok=False)
+    except FileExistsError:
+        raise RunDirError(
+            f"{path} already exists: resume it (pyflyt train resume={path}) or choose another directory"
+        ) from None
+    except OSError as exc:
+        raise RunDirError(f"cannot create the run directory {path}: {exc}") from None
+    return path.resolve()
+
+
 def atomic_write(path: Path, text: str | bytes) -> None:
     """Write ``path`` through a temporary file and a rename."""
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
@@ -320,6 +335,19 @@ def checkpoints(run_dir: Path) -> list[Checkpoint]:
                     )
                 )
     return sorted(found, key=lambda c: c.step)
+
+
+def vecnormalize_of(model: Path) -> Path | None:
+    """The VecNormalize statistics saved with a model file of a run (None if there are none)."""
+    name = model.name
+    m = _CHECKPOINT.match(name)
+    if m:
+        candidate = model.parent / f"vecnormalize_{m[1]}_steps.pkl"
+    elif name == BEST_MODEL:
+        candidate = model.parent / BEST_VECNORM
+    else:
+        candidate = model.parent / FINAL_VECNORM
+    return candidate if candidate.is_file() else None
 
 
 def find_model(run_dir: Path, which: str = "auto") -> tuple[Path, Path | None, str]:

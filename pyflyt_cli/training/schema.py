@@ -321,7 +321,11 @@ class TrainConfig(_Strict):
     callbacks: list[CallbackConfig] = Field(
         default_factory=list, description="extra callbacks run after each evaluation"
     )
-    init_from: str | None = Field(None, description="run directory whose policy weights start this run (bootstrap)")
+    init_from: str | None = Field(
+        None,
+        description="run directory, or one of its model files (e.g. checkpoints/model_<steps>_steps.zip), "
+        "whose policy weights start this run (bootstrap)",
+    )
     experiment: str | None = Field(None, description="name of the experiment file applied, for the record")
 
     @field_validator("env", mode="before")

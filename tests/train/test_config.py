@@ -61,6 +61,10 @@ def test_every_env_and_algo_composes_and_validates(env, algo):
 def test_experiment_files_are_override_only_and_compose(experiment):
     text = (conf_dir() / "experiment" / f"{experiment}.yaml").read_text()
     assert text.lstrip().startswith("# @package _global_") or "\n# @package _global_" in text
+    if "\nbenchmark:" in text:  # a grid for pyflyt benchmark (tests/benchmark); pyflyt train refuses it
+        with pytest.raises(CLIError, match=f"pyflyt benchmark experiment={experiment}"):
+            load_train_config([f"experiment={experiment}"])
+        return
     cfg = load_train_config([f"experiment={experiment}"])
     assert cfg.experiment == experiment
 
