@@ -163,6 +163,31 @@ def speed(
 
 
 @app.command(
+    help="Run an experiment's benchmark grid (tasks x algorithms x seeds), resumably, and summarise it.\n\n"
+    "Every run is `pyflyt train` in <benchmark>/runs/<task>/<algo>/seed<k>, in its own process with its log "
+    "in <benchmark>/logs/.  Rerunning the same command skips complete runs and resumes interrupted ones; a "
+    "failed run is reported and the others carry on.  seeds=N and jobs=J are short for benchmark.seeds and "
+    "benchmark.jobs; other key=value overrides apply to every run (train.total_timesteps=...).  "
+    "hydra/launcher=ray|submitit_slurm|... runs them through a Hydra launcher instead of local processes.  "
+    "Exit 0: all complete; 1: a run failed; 130: interrupted.\n\n"
+    "  pyflyt benchmark experiment=paper_rl seeds=5 jobs=2\n\n"
+    "  pyflyt benchmark experiment=paper_rl hydra/launcher=ray\n\n"
+    "  pyflyt plot benchmarks/paper_rl",
+    context_settings={"allow_extra_args": False},
+)
+@user_errors
+def benchmark(
+    overrides: Optional[list[str]] = typer.Argument(None, help="experiment=<name> and key=value overrides"),
+    dry_run: bool = typer.Option(False, "--dry-run", help="validate and list the runs and their state; train nothing"),
+) -> None:
+    from pyflyt_cli.commands.benchmark import run_benchmark
+
+    code = run_benchmark(overrides or [], dry_run=dry_run)
+    if code:
+        raise typer.Exit(code=code)
+
+
+@app.command(
     help="Report a benchmark directory with rliable: IQM learning curves with 95 % stratified-bootstrap "
     "bands, median / IQM / mean / optimality gap with intervals, performance profiles and probability of "
     "improvement, as PNG and SVG figures plus report.md and report.json.  Reads "

@@ -1,0 +1,365 @@
+"""A benchmark experiment as a plan: every run it declares, composed and validated up front.
+
+A benchmark experiment is an experiment file (``conf/experiment/<name>.yaml``) with a
+``benchmark:`` section::
+
+    benchmark:
+      seeds: 3                       # seeds 0..2 (or a list: [0, 4, 7])
+      jobs: 2                        # runs at a time on this machine
+      groups:                        # each group: envs x algos x seeds
+        - envs: [quadx_waypoints, fixedwing_waypoints]
+          algos: [sac]
+          overrides: [train.total_timesteps=20000]
+        - envs: [quadx_waypoints]
+          algos: [awac]
+          task: "{env}_sparse"       # the name its runs are filed and plotted under
+          overrides: [env.reward=sparse]
+          init_from: {task: "{env}", algo: sac, checkpoint: 10000}
+      reference:                     # normalisation: the score that counts as 1
+        quadx_waypoints: {score: 500, source: "5 waypoints x 100"}
+
+Each run is ``pyflyt train experiment=<name> env=<env> algo=<algo> <group overrides>
+<command-line overrides> seed=<k>``, trained in ``<benchmark>/runs/<task>/<algo>/seed<k>``.
+The plan (every run's validated configuration) is written to ``<benchmark>/plan.json``;
+the workers read their configuration from it, so a run never depends on the directory
+or the config files it was launched from.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from pyflyt_cli.config import CLIError
+from pyflyt_engine.errors import ConfigError
+
+PLAN_FILE = "plan.json"
+RUNS_DIR = "runs"
+LOGS_DIR = "logs"
+NORMALISATION_FILE = "normalisation.yaml"  # read by pyflyt plot (pyflyt_cli.plotting.data)
+
+#: CLI shorthands of ``pyflyt benchmark`` (``seeds=10`` is ``benchmark.seeds=10``)
+SHORTHANDS = {"seeds": "benchmark.seeds", "jobs": "benchmark.jobs"}
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class InitFromSpec(_Strict):
+    """Start each run from a policy of another group's run with the same env and seed."""
+
+    task: str = Field("{env}", description="task of the source runs ({env} is this run's env)")
+    algo: str = Field(description="algorithm of the source runs")
+    checkpoint: int | Literal["final", "best"] = Field(
+        "final", description="which policy: a checkpoint step (partially trained), 'final' or 'best'"
+    )
+
+
+class GroupSpec(_Strict):
+    """``envs x algos x seeds`` runs sharing the same overrides."""
+
+    envs: list[str] = Field(min_length=1, description="env configs (conf/env/<name>.yaml)")
+    algos: list[str] = Field(min_length=1, description="algorithm configs (conf/algo/<name>.yaml)")
+    task: str = Field("{env}", description="name the runs are filed and plotted under; {env} is replaced")
+    overrides: list[str] = Field(default_factory=list, description="pyflyt train overrides of this group's runs")
+    init_from: InitFromSpec | None = Field(None, description="bootstrap from another group's runs")
+
+
+class ReferenceSpec(_Strict):
+    score: float = Field(description="the return that counts as normalised score 1")
+    source: str = Field(description="where the number comes from")
+
+
+class BenchmarkSpec(_Strict):
+    """The ``benchmark:`` section of an experiment file."""
+
+    description: str = ""
+    name: str | None = Field(None, description="benchmark directory name (default: the experiment's name)")
+    output_dir: str = Field("benchmarks", description="the benchmark directory is <output_dir>/<name>")
+    seeds: int | list[int] = Field(3, description="number of seeds (0..N-1) or the list of seeds")
+    jobs: int = Field(1, ge=1, description="runs trained at a time on this machine (local launcher)")
+    groups: list[GroupSpec] = Field(min_length=1)
+    reference: dict[str, ReferenceSpec] = Field(default_factory=dict, description="per task: the score of 1")
+    random_episodes: int = Field(10, ge=1, description="episodes of a uniformly random policy per task (score 0)")
+    # free-form settings the groups interpolate (e.g. budgets per preset)
+    preset: str | None = None
+    presets: dict[str, dict[str, Any]] = Field(default_factory=dict)
+
+    @field_validator("seeds")
+    @classmethod
+    def _seeds(cls, value: int | list[int]) -> int | list[int]:
+        if isinstance(value, int):
+            if value < 1:
+                raise ValueError("seeds must be at least 1")
+        elif not value or len(set(value)) != len(value) or min(value) < 0:
+            raise ValueError("a seed list must be non-empty, without repeats, of seeds >= 0")
+        return value
+
+    def seed_list(self) -> list[int]:
+        return list(range(self.seeds)) if isinstance(self.seeds, int) else list(self.seeds)
+
+
+@dataclass
+class Job:
+    """One run of the benchmark."""
+
+    task: str
+    env: str
+    algo: str
+    seed: int
+    #: the ``pyflyt train`` overrides it was composed from (for the record and the log)
+    overrides: list[str]
+    #: its validated configuration (TrainConfig as JSON data)
+    config: dict[str, Any]
+    #: run directory, relative to the benchmark directory
+    run_dir: str
+    #: job id whose policy starts this run, and that policy's file relative to the benchmark directory
+    depends_on: str | None = None
+    init_model: str | None = None
+
+    @property
+    def id(self) -> str:
+        return f"{self.task}/{self.algo}/seed{self.seed}"
+
+    @property
+    def total_timesteps(self) -> int:
+        return int(self.config["train"]["total_timesteps"])
+
+
+@dataclass
+class Plan:
+    root: Path
+    experiment: str
+    spec: dict[str, Any]
+    jobs: list[Job]
+    command: list[str] = field(default_factory=list)
+
+    def job(self, job_id: str) -> Job:
+        for job in self.jobs:
+            if job.id == job_id:
+                return job
+        raise ConfigError(f"{self.root / PLAN_FILE}: no run {job_id!r} in this benchmark")
+
+    def run_dir(self, job: Job) -> Path:
+        return self.root / job.run_dir
+
+    def log_file(self, job: Job) -> Path:
+        return self.root / LOGS_DIR / (job.id.replace("/", "__") + ".log")
+
+    def write(self) -> Path:
+        from pyflyt_cli.training.rundir import atomic_write
+
+        self.root.mkdir(parents=True, exist_ok=True)
+        data = {
+            "experiment": self.experiment,
+            "command": self.command,
+            "benchmark": self.spec,
+            "jobs": [{"id": j.id, **asdict(j)} for j in self.jobs],
+        }
+        path = self.root / PLAN_FILE
+        atomic_write(path, json.dumps(data, indent=1) + "\n")
+        return path
+
+
+def read_plan(root: str | Path) -> Plan:
+    """The plan written by ``pyflyt benchmark`` in ``root`` (a worker's view of it)."""
+    root = Path(root)
+    path = root / PLAN_FILE
+    try:
+        data = json.loads(path.read_text())
+        jobs = [Job(**{k: v for k, v in j.items() if k != "id"}) for j in data["jobs"]]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ConfigError(
+            f"{path}: not a readable benchmark plan ({exc}); rerun pyflyt benchmark to rewrite it"
+        ) from None
+    return Plan(root.resolve(), data["experiment"], data["benchmark"], jobs, data.get("command", []))
+
+
+# ---------------------------------------------------------------------- compose
+
+
+def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], list[str]]:
+    """(benchmark.* overrides, hydra launcher overrides, overrides for every run)."""
+    bench, hydra, runs = [], [], []
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        bare = key.lstrip("+~")
+        if bare in SHORTHANDS:
+            bench.append(f"++{SHORTHANDS[bare]}{sep}{value}")
+        elif bare == "benchmark" or bare.startswith("benchmark."):
+            # ++: set the key whether or not the experiment file wrote it (output_dir, name ...)
+            bench.append(item if key.startswith(("+", "~")) else f"++{item}")
+        elif bare.startswith(("hydra/", "hydra.")):
+            hydra.append(item)
+        elif bare in ("experiment", "seed", "resume", "env", "algo"):
+            what = {
+                "experiment": "the benchmark is chosen once: pyflyt benchmark experiment=<name>",
+                "seed": "seeds come from the benchmark: use seeds=N (seeds 0..N-1) or 'benchmark.seeds=[0,5,7]'",
+                "resume": "a benchmark resumes its interrupted runs by itself: rerun the same command",
+                "env": "envs come from the benchmark's groups: edit benchmark.groups in the experiment file",
+                "algo": "algorithms come from the benchmark's groups: edit benchmark.groups in the experiment file",
+            }[bare]
+            raise CLIError(f"'{item}' cannot be given to pyflyt benchmark: {what}")
+        else:
+            runs.append(item)
+    return bench, hydra, runs
+
+
+def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Sequence[str]) -> BenchmarkSpec:
+    """The validated ``benchmark:`` section of ``experiment`` with the overrides applied."""
+    from pyflyt_cli.commands.train import compose_train_config
+
+    data = compose_train_config([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
+    section = data.get("benchmark")
+    if not isinstance(section, dict):
+        raise CLIError(
+            f"experiment={experiment} declares no benchmark (no 'benchmark:' section): train it with "
+            f"pyflyt train experiment={experiment} -m seed=0,1,2, or see docs/benchmarks.md to declare a grid"
+        )
+    try:
+        return BenchmarkSpec.model_validate(section)
+    except ValidationError as exc:
+        raise CLIError(f"experiment={experiment}: invalid benchmark section:\n{_describe(exc)}") from None
+
+
+def _describe(exc: ValidationError) -> str:
+    lines = []
+    for err in exc.errors():
+        loc = ".".join(str(p) for p in err["loc"])
+        lines.append(f"  benchmark.{loc}: {err['msg']}")
+    return "\n".join(lines)
+
+
+def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
+    """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides."""
+    from pyflyt_cli.commands.train import compose_train_config
+    from pyflyt_cli.training import registry
+    from pyflyt_cli.training.schema import parse_train_config
+
+    bench_over, hydra_over, run_over = split_overrides(overrides)
+    spec = load_spec(experiment, bench_over, run_over)
+    name = spec.name or Path(experiment).stem
+    if not name or any(c in name for c in "/\\") or name in (".", ".."):
+        raise CLIError(f"benchmark.name must be a plain directory name, got {name!r}")
+    root = (Path(spec.output_dir).expanduser() / name).resolve()
+
+    jobs: dict[str, Job] = {}
+    for g, group in enumerate(spec.groups):
+        for env in group.envs:
+            task = _task_name(group.task, env, f"benchmark.groups[{g}].task")
+            for algo in group.algos:
+                base = [
+                    f"experiment={experiment}",
+                    f"env={env}",
+                    f"algo={algo}",
+                    *group.overrides,
+                    *bench_over,
+                    *run_over,
+                ]
+                try:  # composed once per (group, env, algo): no config interpolates the seed
+                    composed = compose_train_config(base, benchmark=True)
+                except CLIError as exc:
+                    raise CLIError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
+                composed.pop("benchmark", None)
+                for seed in spec.seed_list():
+                    data = copy.deepcopy(composed)
+                    data["seed"] = seed
+                    data["env_name"] = task
+                    data["train"]["output_dir"] = str(root / RUNS_DIR)
+                    data["train"]["progress_bar"] = False
+                    job = Job(
+                        task, env, algo, seed, [*base, f"seed={seed}"], {}, f"{RUNS_DIR}/{task}/{algo}/seed{seed}"
+                    )
+                    if group.init_from is not None:
+                        src = group.init_from
+                        src_task = _task_name(src.task, env, f"benchmark.groups[{g}].init_from.task")
+                        job.depends_on = f"{src_task}/{src.algo}/seed{seed}"
+                        job.init_model = _model_file(f"{RUNS_DIR}/{src_task}/{src.algo}/seed{seed}", src.checkpoint)
+                        data["init_from"] = str(root / job.init_model)
+                        accepted = {algo} | set(registry.INIT_FROM.get(algo, frozenset()))
+                        if src.algo not in accepted:
+                            raise CLIError(
+                                f"benchmark.groups[{g}].init_from: {algo} cannot start from {src.algo} policies "
+                                f"(it can from: {', '.join(sorted(accepted))})"
+                            )
+                    try:
+                        cfg = parse_train_config(data, source=f"benchmark run {job.id}")
+                    except ConfigError as exc:
+                        raise CLIError(str(exc)) from None
+                    job.config = cfg.model_dump(mode="json")
+                    if job.id in jobs:
+                        raise CLIError(
+                            f"run {job.id} is declared twice: give the groups different tasks "
+                            '(task: "{env}_sparse") or algorithms'
+                        )
+                    jobs[job.id] = job
+    _check_dependencies(jobs)
+    plan = Plan(root, experiment, spec.model_dump(mode="json"), list(jobs.values()), list(command))
+    return plan, hydra_over
+
+
+def _task_name(pattern: str, env: str, where: str) -> str:
+    try:
+        task = pattern.format(env=env)
+    except (KeyError, IndexError, ValueError):
+        raise CLIError(f"{where}: {pattern!r} may only use {{env}}") from None
+    if not task or any(c in task for c in "/\\") or task in (".", ".."):
+        raise CLIError(f"{where}: {task!r} is not a plain directory name")
+    return task
+
+
+def _model_file(run_dir: str, checkpoint: int | str) -> str:
+    from pyflyt_cli.training import rundir
+
+    if checkpoint == "final":
+        return f"{run_dir}/{rundir.FINAL_MODEL}"
+    if checkpoint == "best":
+        return f"{run_dir}/{rundir.BEST_MODEL}"
+    return f"{run_dir}/{rundir.CHECKPOINTS}/model_{int(checkpoint)}_steps.zip"
+
+
+def _check_dependencies(jobs: dict[str, Job]) -> None:
+    for job in jobs.values():
+        if job.depends_on is None:
+            continue
+        source = jobs.get(job.depends_on)
+        if source is None:
+            raise CLIError(
+                f"run {job.id} starts from {job.depends_on}, which the benchmark does not declare: "
+                "check init_from's task and algo"
+            )
+        if source.depends_on is not None:
+            raise CLIError(
+                f"run {job.id} starts from {source.id}, which itself starts from another run: one level only"
+            )
+        name = Path(job.init_model or "").name
+        if name.startswith("model_") and name.endswith("_steps.zip"):
+            step = int(name[len("model_") : -len("_steps.zip")])
+            opts = source.config["train"]
+            freq, total = int(opts["checkpoint_freq"]), int(opts["total_timesteps"])
+            if freq <= 0 or step % freq or step > total or step <= 0:
+                raise CLIError(
+                    f"run {job.id} starts from checkpoint {step} of {source.id}, which checkpoints every "
+                    f"{freq} steps up to {total}: choose a multiple of train.checkpoint_freq"
+                )
+            if int(opts.get("n_envs", 1)) > 1 and step % int(opts["n_envs"]):
+                raise CLIError(f"checkpoint {step} of {source.id} is not a multiple of its train.n_envs")
+            if int(opts.get("keep_checkpoints", 0)) > 0:
+                raise CLIError(
+                    f"{source.id} keeps only its newest {opts['keep_checkpoints']} checkpoints, so checkpoint "
+                    f"{step} would be deleted before {job.id} starts: set train.keep_checkpoints=0 for it"
+                )
+
+
+def levels(jobs: Sequence[Job]) -> list[list[Job]]:
+    """Jobs in waves: runs without a source first, then the runs that start from them."""
+    first = [j for j in jobs if j.depends_on is None]
+    second = [j for j in jobs if j.depends_on is not None]
+    return [w for w in (first, second) if w]

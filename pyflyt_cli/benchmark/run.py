@@ -1,0 +1,219 @@
+"""Running a plan: which runs are done, the local launcher, and the end-of-sweep summary.
+
+Every run is trained by its own worker process (:mod:`pyflyt_cli.benchmark.worker`)
+whose output goes to ``<benchmark>/logs/<task>__<algo>__seed<k>.log``, so a crash or a
+failed run never takes the others down.  The local launcher keeps ``jobs`` workers busy
+on this machine; :mod:`pyflyt_cli.benchmark.launch` hands the same workers to a Hydra
+launcher (Ray, Slurm) instead.  Whether a run is complete is read from its run
+directory (``state.json``), the single source of truth, so any launcher, an
+interrupted sweep or a rerun agree on it.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from pyflyt_cli.benchmark.plan import Job, Plan
+from pyflyt_cli.benchmark.worker import INTERRUPTED, PARENT_ENV
+
+Echo = Callable[[str], None]
+
+#: run states, as the summary names them
+COMPLETE, NEW, PARTIAL, BUSY = "complete", "new", "partial", "busy"
+
+
+def run_state(plan: Plan, job: Job) -> str:
+    """``complete``, ``new`` (no run directory yet), ``partial`` (interrupted or budget grown) or ``busy``."""
+    from pyflyt_cli.training import rundir
+
+    path = plan.run_dir(job)
+    if not (path / rundir.CONFIG_FILE).is_file():
+        return NEW
+    state = rundir.read_state(path)
+    if state.get("status") == "complete" and int(state.get("total_timesteps") or 0) >= job.total_timesteps:
+        return COMPLETE
+    lock = path / rundir.LOCK_FILE
+    try:
+        pid = int(lock.read_text().strip() or 0)
+    except (OSError, ValueError):
+        pid = 0
+    if pid and pid != os.getpid() and rundir._alive(pid):
+        return BUSY
+    return PARTIAL
+
+
+def worker_command(plan: Plan, job: Job) -> list[str]:
+    return [sys.executable, "-m", "pyflyt_cli.benchmark.worker", str(plan.root), job.id]
+
+
+def open_log(plan: Plan, job: Job) -> tuple[Path, object]:
+    path = plan.log_file(job)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path, open(path, "ab")
+
+
+def run_job(root: str | Path, job_id: str) -> int:
+    """Train one run in a worker process (blocking), its output appended to its log; the exit code.
+
+    What a Hydra launcher executes for each run (on a Ray worker, in a Slurm job ...).
+    """
+    from pyflyt_cli.benchmark.plan import read_plan
+
+    plan = read_plan(root)
+    job = plan.job(job_id)
+    _, log = open_log(plan, job)
+    with log:  # type: ignore[attr-defined]
+        return subprocess.call(worker_command(plan, job), stdout=log, stderr=subprocess.STDOUT)
+
+
+@dataclass
+class Outcome:
+    """What happened to one run in this invocation."""
+
+    job: Job
+    status: str  # skipped (complete before), complete, failed, interrupted, blocked, busy
+    seconds: float = 0.0
+    code: int | None = None
+    detail: str = ""
+
+
+def _last_lines(path: Path, n: int = 3) -> str:
+    try:
+        lines = [line for line in path.read_text(errors="replace").splitlines() if line.strip()]
+    except OSError:
+        return ""
+    return " | ".join(lines[-n:])
+
+
+def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcome:
+    """Classify a finished worker from its exit code and its run directory."""
+    if code == 0 and run_state(plan, job) == COMPLETE:
+        return Outcome(job, "complete", seconds, code)
+    if code == INTERRUPTED or (code is not None and code < 0):
+        return Outcome(job, "interrupted", seconds, code, "checkpoint saved; rerun to resume")
+    log = plan.log_file(job)
+    return Outcome(job, "failed", seconds, code, f"{_last_lines(log)}  (log: {log})")
+
+
+def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> list[Outcome]:
+    """Train ``jobs`` in at most ``parallel`` worker processes at a time, sources before their dependents.
+
+    Ctrl-C or SIGTERM stops every worker cleanly (each saves a checkpoint); killing this
+    process outright makes the workers do the same (Linux), so a rerun resumes them.
+    """
+    pending = list(jobs)
+    planned = {j.id for j in jobs}
+    running: dict[str, tuple[Job, subprocess.Popen, float, object]] = {}
+    outcomes: dict[str, Outcome] = {}
+    failed: set[str] = set()
+    total = len(jobs)
+    env = {**os.environ, PARENT_ENV: str(os.getpid())}
+
+    def start(job: Job) -> None:
+        path, log = open_log(plan, job)
+        proc = subprocess.Popen(worker_command(plan, job), stdout=log, stderr=subprocess.STDOUT, env=env)
+        running[job.id] = (job, proc, time.monotonic(), log)
+        echo(f"[{len(outcomes) + len(running)}/{total}] started  {job.id}  (log: {path})")
+
+    def source_ready(job: Job) -> bool | None:
+        """True: can start; False: wait; None: its source failed or cannot complete."""
+        if job.depends_on is None:
+            return True
+        if job.depends_on in failed:
+            return None
+        if job.depends_on in planned and job.depends_on not in outcomes:
+            return False
+        return run_state(plan, plan.job(job.depends_on)) == COMPLETE or None
+
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    try:
+        while pending or running:
+            for job in list(pending):
+                if len(running) >= parallel:
+                    break
+                ready = source_ready(job)
+                if ready is None:
+                    pending.remove(job)
+                    outcomes[job.id] = Outcome(
+                        job, "blocked", detail=f"its source run {job.depends_on} is not complete"
+                    )
+                    failed.add(job.id)
+                    echo(f"blocked  {job.id}: {outcomes[job.id].detail}")
+                elif ready:
+                    pending.remove(job)
+                    start(job)
+            if not running:
+                continue
+            time.sleep(0.2)
+            for job_id, (job, proc, t0, log) in list(running.items()):
+                code = proc.poll()
+                if code is None:
+                    continue
+                log.close()  # type: ignore[attr-defined]
+                del running[job_id]
+                out = outcome_of(plan, job, code, time.monotonic() - t0)
+                outcomes[job_id] = out
+                if out.status != "complete":
+                    failed.add(job_id)
+                echo(
+                    f"[{len(outcomes)}/{total}] {out.status:<8} {job_id}  {_duration(out.seconds)}"
+                    + (f"  {out.detail}" if out.status != "complete" else "")
+                )
+    except KeyboardInterrupt:
+        echo(f"stopping {len(running)} run(s): each saves a checkpoint (rerun the same command to resume)")
+        for _, proc, _, _ in running.values():
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        for job_id, (job, proc, t0, log) in running.items():
+            code = proc.wait()
+            log.close()  # type: ignore[attr-defined]
+            outcomes[job_id] = outcome_of(
+                plan, job, code if code != 0 or run_state(plan, job) == COMPLETE else INTERRUPTED, time.monotonic() - t0
+            )
+        for job in pending:
+            outcomes[job.id] = Outcome(job, "not started")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    return [outcomes[j.id] for j in jobs if j.id in outcomes]
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _duration(seconds: float) -> str:
+    m, s = divmod(round(seconds), 60)
+    h, m = divmod(m, 60)
+    return f"{h}h{m:02d}m{s:02d}s" if h else f"{m}m{s:02d}s"
+
+
+def summary(plan: Plan, outcomes: Sequence[Outcome], skipped: Sequence[Job], elapsed: float) -> str:
+    """The end-of-sweep report: what ran, what was skipped, what failed (also written to summary.md)."""
+    counts: dict[str, int] = {}
+    for o in outcomes:
+        counts[o.status] = counts.get(o.status, 0) + 1
+    head = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+    lines = [
+        f"# Benchmark {plan.root.name}: {len(plan.jobs)} runs",
+        "",
+        f"This invocation ({_duration(elapsed)}): {len(skipped)} skipped (complete before)"
+        + (f", {head}" if head else "")
+        + ".",
+        "",
+        "| run | status | time | detail |",
+        "|---|---|---:|---|",
+    ]
+    lines += [f"| {j.id} | skipped (complete) | | |" for j in skipped]
+    lines += [
+        f"| {o.job.id} | {o.status}{'' if o.code in (None, 0) else f' (exit {o.code})'} | "
+        f"{_duration(o.seconds) if o.seconds else ''} | {o.detail} |"
+        for o in outcomes
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,174 @@
+"""The benchmark plan: what an experiment's grid expands to, and every way to get it wrong.
+
+Hydra composition only (no training): fast.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pyflyt_cli.benchmark.plan import build_plan, levels, read_plan, split_overrides
+from pyflyt_cli.benchmark.run import COMPLETE, NEW, PARTIAL, run_state
+from pyflyt_cli.benchmark.worker import config_differences
+from pyflyt_cli.config import CLIError
+
+P = "benchmark.presets.laptop"
+
+
+def test_smoke_grid_expands_to_envs_x_algos_x_seeds(tmp_path: Path) -> None:
+    plan, hydra = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=3"])
+    assert hydra == []
+    assert plan.root == (tmp_path / "smoke_benchmark").resolve()
+    assert [j.id for j in plan.jobs] == [
+        f"{env}/ppo/seed{k}" for env in ("quadx_hover", "quadx_waypoints") for k in range(3)
+    ]
+    job = plan.jobs[4]
+    assert job.config["seed"] == 1 and job.config["env_name"] == "quadx_waypoints"
+    assert job.config["env"]["id"] == "PyFlyt/QuadX-Waypoints-v0"
+    assert job.config["train"]["output_dir"] == str(plan.root / "runs")
+    assert job.config["train"]["total_timesteps"] == 256  # from the experiment file
+    assert plan.run_dir(job) == plan.root / "runs" / "quadx_waypoints" / "ppo" / "seed1"
+    assert plan.log_file(job).name == "quadx_waypoints__ppo__seed1.log"
+
+
+def test_overrides_reach_every_run_and_seed_lists(tmp_path: Path) -> None:
+    plan, _ = build_plan(
+        "smoke_benchmark",
+        [f"benchmark.output_dir={tmp_path}", "benchmark.seeds=[4,9]", "jobs=3", "train.total_timesteps=512"],
+    )
+    assert sorted({j.seed for j in plan.jobs}) == [4, 9]
+    assert plan.spec["jobs"] == 3
+    assert {j.total_timesteps for j in plan.jobs} == {512}
+
+
+def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> None:
+    plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}"])
+    assert plan.root.name == "paper_rl_laptop"
+    assert len(plan.jobs) == 12
+    first, second = levels(plan.jobs)
+    assert {j.algo for j in first} == {"sac"} and {j.algo for j in second} == {"awac"}
+    awac = plan.job("quadx_waypoints_sparse/awac/seed2")
+    assert awac.depends_on == "quadx_waypoints/sac/seed2"
+    step = plan.spec["presets"]["laptop"]["partial_step"]
+    assert awac.config["init_from"] == str(
+        plan.root / f"runs/quadx_waypoints/sac/seed2/checkpoints/model_{step}_steps.zip"
+    )
+    assert awac.config["env"]["reward"] == "sparse"
+    assert plan.job("quadx_waypoints/sac/seed2").config["env"]["reward"] == "dense"
+    sac = plan.job("quadx_waypoints/sac/seed2")
+    # the policy shapes agree, so the weights load
+    assert awac.config["algo"]["policy_kwargs"]["net_arch"] == sac.config["algo"]["policy_kwargs"]["net_arch"]
+    assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
+    big, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "benchmark.preset=paper"])
+    assert big.root.name == "paper_rl_paper" and len(big.jobs) == 200
+    assert big.job("fixedwing_waypoints/sac/seed49").total_timesteps == 1_000_000
+
+
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        (["seed=3"], "seeds come from the benchmark"),
+        (["env=quadx_hover"], "envs come from the benchmark"),
+        (["resume=x"], "resumes its interrupted runs by itself"),
+        (["seeds=0"], "seeds must be at least 1"),
+        (["benchmark.jobs=0"], "benchmark.jobs"),
+        (["benchmark.groups.0.algos=[ppo,nope]"], "unknown algo 'nope'"),
+        (["benchmark.colour=red"], "benchmark.colour"),
+        (["train.total_timestep=5"], "Did you mean 'train.total_timesteps'"),
+    ],
+)
+def test_bad_benchmark_overrides_name_the_problem(tmp_path: Path, overrides: list[str], message: str) -> None:
+    with pytest.raises(CLIError, match=None) as err:
+        build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", *overrides])
+    assert message in str(err.value)
+
+
+def test_experiment_without_benchmark_section_is_refused() -> None:
+    with pytest.raises(CLIError, match="declares no benchmark"):
+        build_plan("hover_ppo", [])
+
+
+def test_train_refuses_a_benchmark_experiment() -> None:
+    from pyflyt_cli.commands.train import load_train_config
+
+    with pytest.raises(CLIError, match="pyflyt benchmark experiment=smoke_benchmark"):
+        load_train_config(["experiment=smoke_benchmark"])
+
+
+def test_init_from_checkpoint_must_exist_in_the_source_run(tmp_path: Path) -> None:
+    base = [f"benchmark.output_dir={tmp_path}"]
+    with pytest.raises(CLIError, match="multiple of train.checkpoint_freq"):
+        build_plan("paper_rl", [*base, f"{P}.partial_step=1234"])
+    with pytest.raises(CLIError, match="keep_checkpoints"):
+        build_plan("paper_rl", [*base, "train.keep_checkpoints=2"])
+    with pytest.raises(CLIError, match="cannot start from"):
+        build_plan("paper_rl", [*base, "benchmark.groups.1.init_from.algo=ppo"])
+    with pytest.raises(CLIError, match="does not declare"):
+        build_plan("paper_rl", [*base, "benchmark.groups.1.init_from.task=elsewhere"])
+
+
+def test_split_overrides() -> None:
+    bench, hydra, runs = split_overrides(
+        [
+            "seeds=5",
+            "jobs=2",
+            "benchmark.name=x",
+            "hydra/launcher=ray",
+            "+hydra.launcher.ray.init.num_cpus=2",
+            "algo.gamma=0.9",
+        ]
+    )
+    assert bench == ["++benchmark.seeds=5", "++benchmark.jobs=2", "++benchmark.name=x"]
+    assert hydra == ["hydra/launcher=ray", "+hydra.launcher.ray.init.num_cpus=2"]
+    assert runs == ["algo.gamma=0.9"]
+
+
+def test_unknown_or_missing_launcher_plugin_is_named() -> None:
+    from pyflyt_cli.benchmark.launch import launcher_name
+
+    assert launcher_name([]) is None
+    with pytest.raises(CLIError, match="unknown launcher hydra/launcher=rai"):
+        launcher_name(["hydra/launcher=rai"])
+    with pytest.raises(CLIError, match="choose one with hydra/launcher="):
+        launcher_name(["hydra.launcher.partition=gpu"])
+
+
+def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
+    plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
+    plan.write()
+    again = read_plan(plan.root)
+    assert [j.id for j in again.jobs] == [j.id for j in plan.jobs]
+    assert again.jobs[0].config == plan.jobs[0].config
+    job = plan.jobs[0]
+    assert run_state(plan, job) == NEW
+    run = plan.run_dir(job)
+    run.mkdir(parents=True)
+    (run / "config.yaml").write_text("{}")
+    (run / "state.json").write_text(json.dumps({"status": "interrupted", "total_timesteps": 256}))
+    assert run_state(plan, job) == PARTIAL
+    (run / "state.json").write_text(json.dumps({"status": "complete", "total_timesteps": 256}))
+    assert run_state(plan, job) == COMPLETE
+    # a larger budget in the plan makes a complete run partial again (it is extended)
+    bigger, _ = build_plan(
+        "smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1", "train.total_timesteps=512"]
+    )
+    assert run_state(bigger, bigger.jobs[0]) == PARTIAL
+
+
+def test_truncated_plan_file_is_reported(tmp_path: Path) -> None:
+    from pyflyt_engine.errors import ConfigError
+
+    (tmp_path / "plan.json").write_text('{"experiment": "x", "jobs": [')
+    with pytest.raises(ConfigError, match="not a readable benchmark plan"):
+        read_plan(tmp_path)
+
+
+def test_config_differences_ignore_budget_only(tmp_path: Path) -> None:
+    planned = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 10, "output_dir": "a"}}
+    saved = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 5, "output_dir": "b"}}
+    assert config_differences(planned, saved, tmp_path) == []
+    saved["algo"]["gamma"] = 0.9
+    assert config_differences(planned, saved, tmp_path) == ["algo.gamma"]

@@ -1,0 +1,201 @@
+"""`pyflyt benchmark` end to end: a tiny sweep runs, a rerun skips it, a killed sweep
+resumes without redoing finished runs, a failed run is reported while the others carry
+on, and the result is plotted.  Each run is a real `pyflyt train` (PPO, a few hundred
+steps) in its own worker process.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.train.conftest import cli_env, pyflyt
+
+SMOKE = ["experiment=smoke_benchmark", "jobs=2"]
+
+
+def states(root: Path) -> dict[str, dict]:
+    return {
+        str(p.parent.relative_to(root / "runs")): json.loads(p.read_text())
+        for p in sorted((root / "runs").glob("*/*/*/state.json"))
+    }
+
+
+def mtimes(root: Path) -> dict[str, int]:
+    return {str(p.relative_to(root)): p.stat().st_mtime_ns for p in sorted((root / "runs").rglob("*")) if p.is_file()}
+
+
+def test_tiny_sweep_runs_reruns_as_skips_and_plots(tmp_path: Path) -> None:
+    args = ["benchmark", *SMOKE, f"benchmark.output_dir={tmp_path}"]
+    first = pyflyt(args, tmp_path)
+    assert first.returncode == 0, first.stderr[-3000:]
+    root = tmp_path / "smoke_benchmark"
+    done = states(root)
+    assert sorted(done) == [f"{e}/ppo/seed{k}" for e in ("quadx_hover", "quadx_waypoints") for k in range(3)]
+    assert all(s["status"] == "complete" and s["num_timesteps"] >= 256 for s in done.values())
+    assert "0 skipped (complete before), 6 complete" in first.stderr
+    assert (root / "summary.md").read_text().count("| complete |") == 6
+    for log in (root / "logs").glob("*.log"):
+        assert "run directory:" in log.read_text()
+    norm = (root / "normalisation.yaml").read_text()
+    assert "quadx_hover:" in norm and "quadx_waypoints:" in norm  # random-policy scores recorded
+    before = mtimes(root)
+
+    again = pyflyt(args, tmp_path)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "6 complete (skipped), 0 to resume, 0 to start" in again.stderr
+    assert "started" not in again.stderr
+    assert mtimes(root) == before  # nothing retrained, nothing rewritten
+
+    from pyflyt_cli.plotting import plot_benchmark
+
+    report = plot_benchmark(root, reps=100, seed=0)
+    assert report.benchmark.envs == ["quadx_hover", "quadx_waypoints"]
+    assert report.benchmark.algos == ["ppo"]
+    assert report.benchmark.seeds[("quadx_hover", "ppo")] == [0, 1, 2]
+    text = report.markdown.read_text()
+    assert "a perfect hover" in text  # the reference score and its source
+    assert "quadx_waypoints: no reference score given" in text
+    assert all(p.is_file() for p in report.figures)
+
+
+def _wait(predicate, timeout: float, what: str) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers follow a killed launcher on Linux")
+def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> None:
+    args = [
+        "benchmark",
+        "experiment=smoke_benchmark",
+        "jobs=1",
+        "seeds=2",
+        f"benchmark.output_dir={tmp_path}",
+        "train.total_timesteps=1536",
+        "train.checkpoint_freq=128",
+        "train.eval_freq=512",
+    ]
+    root = tmp_path / "smoke_benchmark"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyflyt_cli.main", *args],
+        cwd=tmp_path,
+        env=cli_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        second = root / "runs" / "quadx_hover" / "ppo" / "seed1"
+        _wait(
+            lambda: (
+                (root / "runs").is_dir()
+                and any(s["status"] == "complete" for s in states(root).values())
+                and any((second / "checkpoints").glob("model_*_steps.zip"))
+            ),
+            240,
+            "one complete run and a checkpoint",
+        )
+        lock = second / "run.lock"
+        worker = int(lock.read_text())
+        proc.kill()  # SIGKILL: no chance to clean up; its worker gets SIGTERM and saves a checkpoint
+        proc.wait()
+        _wait(lambda: not _alive(worker), 60, "the orphaned worker to stop")
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    finished = {k for k, s in states(root).items() if s["status"] == "complete"}
+    assert finished == {"quadx_hover/ppo/seed0"}
+    assert states(root)["quadx_hover/ppo/seed1"]["status"] == "interrupted"
+    kept = {k: v for k, v in mtimes(root).items() if k.startswith("runs/quadx_hover/ppo/seed0/")}
+
+    rerun = pyflyt(args, tmp_path)
+    assert rerun.returncode == 0, rerun.stderr[-3000:]
+    assert "1 complete (skipped), 1 to resume, 2 to start" in rerun.stderr
+    final = states(root)
+    assert len(final) == 4 and all(s["status"] == "complete" and s["num_timesteps"] >= 1536 for s in final.values())
+    assert {k: v for k, v in mtimes(root).items() if k in kept} == kept  # the finished run was not touched
+    resumed = (second / "run.yaml").read_text()
+    assert "from_step:" in resumed and "from_step: 0" not in resumed  # continued from its checkpoint
+
+
+def test_a_failed_run_is_reported_and_the_others_carry_on(tmp_path: Path) -> None:
+    root = tmp_path / "smoke_benchmark"
+    squatter = root / "runs" / "quadx_waypoints" / "ppo" / "seed0"
+    squatter.mkdir(parents=True)
+    (squatter / "notes.txt").write_text("not a run: must survive")
+    result = pyflyt(["benchmark", *SMOKE, "seeds=2", f"benchmark.output_dir={tmp_path}"], tmp_path)
+    assert result.returncode == 1
+    assert "failed   quadx_waypoints/ppo/seed0" in result.stderr
+    assert "exists without a config.yaml" in result.stderr  # the reason, from the run's log
+    assert "quadx_waypoints__ppo__seed0.log" in result.stderr
+    assert (squatter / "notes.txt").read_text() == "not a run: must survive"
+    done = states(root)
+    assert {k for k, s in done.items() if s["status"] == "complete"} == {
+        "quadx_hover/ppo/seed0",
+        "quadx_hover/ppo/seed1",
+        "quadx_waypoints/ppo/seed1",
+    }
+    summary = (root / "summary.md").read_text()
+    assert "| quadx_waypoints/ppo/seed0 | failed (exit 2) |" in summary
+
+
+def test_budget_grown_in_the_plan_extends_complete_runs(tmp_path: Path) -> None:
+    args = ["benchmark", "experiment=smoke_benchmark", "seeds=1", f"benchmark.output_dir={tmp_path}"]
+    assert pyflyt(args, tmp_path).returncode == 0
+    root = tmp_path / "smoke_benchmark"
+    longer = pyflyt([*args, "train.total_timesteps=384"], tmp_path)
+    assert longer.returncode == 0, longer.stderr[-3000:]
+    assert "0 complete (skipped), 2 to resume" in longer.stderr
+    assert all(s["num_timesteps"] >= 384 and s["status"] == "complete" for s in states(root).values())
+    refused = pyflyt([*args, "train.total_timesteps=384", "algo.learning_rate=0.1"], tmp_path)
+    assert refused.returncode == 0  # complete for that budget: skipped, never compared
+    changed = pyflyt([*args, "train.total_timesteps=512", "algo.learning_rate=0.1"], tmp_path)
+    assert changed.returncode == 1
+    assert "trained with another configuration (algo.learning_rate" in changed.stderr
+
+
+def test_bad_cli_input_exits_2_with_a_message(tmp_path: Path) -> None:
+    missing = pyflyt(["benchmark"], tmp_path)
+    assert missing.returncode == 2 and "experiment=<name>" in missing.stderr
+    unknown = pyflyt(["benchmark", "experiment=paper_rll"], tmp_path)
+    assert unknown.returncode == 2 and "Did you mean 'paper_rl'" in unknown.stderr
+    assert not (tmp_path / "benchmarks").exists()
+
+
+@pytest.mark.slow
+def test_ray_launcher_runs_the_sweep(tmp_path: Path) -> None:
+    pytest.importorskip("hydra_plugins.hydra_ray_launcher")
+    args = [
+        "benchmark",
+        "experiment=smoke_benchmark",
+        "seeds=2",
+        f"benchmark.output_dir={tmp_path}",
+        "hydra/launcher=ray",
+        "+hydra.launcher.ray.init.num_cpus=2",
+    ]
+    result = pyflyt(args, tmp_path, timeout=900)
+    assert result.returncode == 0, result.stderr[-3000:]
+    root = tmp_path / "smoke_benchmark"
+    assert len(states(root)) == 4 and all(s["status"] == "complete" for s in states(root).values())
+    assert "Ray Launcher is launching 4 jobs" in result.stderr + result.stdout
+    again = pyflyt(args, tmp_path, timeout=900)
+    assert again.returncode == 0 and "4 complete (skipped)" in again.stderr
