@@ -172,3 +172,21 @@ def test_config_differences_ignore_budget_only(tmp_path: Path) -> None:
     assert config_differences(planned, saved, tmp_path) == []
     saved["algo"]["gamma"] = 0.9
     assert config_differences(planned, saved, tmp_path) == ["algo.gamma"]
+
+
+def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path: Path) -> None:
+    from pyflyt_cli.benchmark.worker import resolve_init_model
+
+    plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
+    job = plan.job("quadx_waypoints_sparse/awac/seed0")
+    step = plan.spec["presets"]["laptop"]["partial_step"]
+    folder = plan.run_dir(plan.job("quadx_waypoints/sac/seed0")) / "checkpoints"
+    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"  # not trained yet: as planned
+    folder.mkdir(parents=True)
+    (folder.parent / "config.yaml").write_text("{}")
+    for s in (step - 2496, step + 4, step + 2504):  # SAC with train_freq 8 checkpoints at rollout ends
+        (folder / f"model_{s}_steps.zip").write_bytes(b"")
+    assert resolve_init_model(plan, job) == folder / f"model_{step + 4}_steps.zip"
+    (folder / f"model_{step}_steps.zip").write_bytes(b"")
+    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"
+    assert resolve_init_model(plan, plan.job("quadx_waypoints/sac/seed0")) is None
