@@ -37,6 +37,7 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
     from omegaconf.errors import OmegaConfBaseException
 
+    overrides = _experiment_files(overrides)
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
             return hydra_compose(
@@ -55,6 +56,37 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
         raise CLIError(message) from None
     except OmegaConfBaseException as exc:
         raise CLIError(f"invalid configuration: {exc}") from None
+
+
+def _experiment_files(overrides: Sequence[str]) -> list[str]:
+    """``experiment=path/to/study.yaml``: an experiment file outside ``conf/`` (e.g. in ``experiments/``).
+
+    Hydra finds group options on its search path only, so the file is offered to it as
+    ``experiment/<stem>.yaml`` of a private directory added to ``hydra.searchpath``.  It
+    is read as YAML data like any config; its name must not shadow a shipped experiment.
+    """
+    import atexit
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    out = []
+    for item in overrides:
+        key, _, value = item.partition("=")
+        if key.lstrip("+") != "experiment" or not value.endswith((".yaml", ".yml")):
+            out.append(item)
+            continue
+        path = Path(value).expanduser()
+        if not path.is_file():
+            raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {', '.join(_group_choices('experiment'))})")
+        if path.stem in _group_choices("experiment"):
+            raise CLIError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
+        folder = Path(tempfile.mkdtemp(prefix="pyflyt-experiment-"))
+        atexit.register(shutil.rmtree, folder, True)
+        (folder / "experiment").mkdir()
+        shutil.copyfile(path, folder / "experiment" / f"{path.stem}.yaml")
+        out += [f"{key}={path.stem}", f"hydra.searchpath=[file://{folder}]"]
+    return out
 
 
 def _missing_message(exc: Exception) -> str:

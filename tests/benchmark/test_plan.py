@@ -190,3 +190,20 @@ def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path:
     (folder / f"model_{step}_steps.zip").write_bytes(b"")
     assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"
     assert resolve_init_model(plan, plan.job("quadx_waypoints/sac/seed0")) is None
+
+
+def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> None:
+    from pyflyt_engine.paths import conf_dir
+
+    study = tmp_path / "experiments" / "my_sweep.yaml"
+    study.parent.mkdir()
+    text = (conf_dir() / "experiment" / "smoke_benchmark.yaml").read_text().replace("seeds: 3", "seeds: 2")
+    study.write_text(text)
+    plan, _ = build_plan(str(study), [f"benchmark.output_dir={tmp_path}"])
+    assert plan.root.name == "my_sweep" and len(plan.jobs) == 4
+    with pytest.raises(CLIError, match="does not exist"):
+        build_plan(str(tmp_path / "nope.yaml"), [])
+    shadow = tmp_path / "paper_rl.yaml"
+    shadow.write_text(text)
+    with pytest.raises(CLIError, match="is a shipped experiment's; rename the file"):
+        build_plan(str(shadow), [])
