@@ -84,12 +84,16 @@ class Outcome:
     detail: str = ""
 
 
-def _last_lines(path: Path, n: int = 3) -> str:
+def failure_reason(path: Path) -> str:
+    """The line of a run's log that says why it failed: its ``error:`` line, else the exception, else the last line."""
     try:
-        lines = [line for line in path.read_text(errors="replace").splitlines() if line.strip()]
+        lines = [line.strip() for line in path.read_text(errors="replace").splitlines() if line.strip()]
     except OSError:
-        return ""
-    return " | ".join(lines[-n:])
+        return "no log"
+    for line in reversed(lines):
+        if line.startswith("error:"):
+            return line
+    return lines[-1] if lines else "empty log"
 
 
 def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcome:
@@ -99,7 +103,7 @@ def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcom
     if code == INTERRUPTED or (code is not None and code < 0):
         return Outcome(job, "interrupted", seconds, code, "checkpoint saved; rerun to resume")
     log = plan.log_file(job)
-    return Outcome(job, "failed", seconds, code, f"{_last_lines(log)}  (log: {log})")
+    return Outcome(job, "failed", seconds, code, f"{failure_reason(log)}  (log: {log})")
 
 
 def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> list[Outcome]:
