@@ -65,7 +65,8 @@ class Benchmark:
     #: env -> common step grid (every run of that env was evaluated up to its last point)
     grids: dict[str, np.ndarray]
     #: algo -> (n_runs, len(algo_envs[algo]), n_points) normalised scores on each env's grid
-    #: (n_points: the shortest grid), envs in the order of ``algo_envs[algo]``
+    #: (n_points: the shortest grid among the envs linked to its envs by common algorithms),
+    #: envs in the order of ``algo_envs[algo]``
     curves: dict[str, np.ndarray]
     #: algo -> (n_runs, len(algo_envs[algo])) normalised final scores (last grid point)
     final: dict[str, np.ndarray]
@@ -216,7 +217,14 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
         end = min(int(r.steps[-1]) for r in mine)
         grid = np.unique(np.concatenate([r.steps[r.steps <= end] for r in mine]))
         grids[env] = grid
-    n_points = min(len(g) for g in grids.values())
+    # envs linked by a common algorithm are compared point by point: each such group of
+    # envs uses the length of its shortest grid (a full grid is one group)
+    group = {env: {env} for env in envs}
+    for algo in algos:
+        linked = set().union(*(group[e] for e in algo_envs[algo]))
+        for env in linked:
+            group[env] = linked
+    n_of = {env: min(len(grids[e]) for e in group[env]) for env in envs}
 
     counts = {a: min(sum(1 for r in runs if r.env == e and r.algo == a) for e in algo_envs[a]) for a in algos}
     curves, final, seeds = {}, {}, {}
@@ -231,11 +239,15 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
                 notes.append(f"{env}/{algo}: {len(mine) - counts[algo]} extra run(s) left out (equal counts per env)")
             mine = mine[: counts[algo]]
             seeds[(env, algo)] = [r.seed for r in mine]
-            grid = grids[env][-n_points:] if len(grids[env]) > n_points else grids[env]
+            grid = grids[env][-n_of[env] :]
             per_env.append([norms[env](np.interp(grid, r.steps, r.returns)) for r in mine])
         curves[algo] = np.transpose(np.array(per_env), (1, 0, 2))  # (runs, envs, points)
         final[algo] = curves[algo][:, :, -1]
-    if any(len(g) > n_points for g in grids.values()):
-        notes.append(f"grids differ in length between envs: curves use the last {n_points} points of each")
-        grids = {e: g[-n_points:] for e, g in grids.items()}
+    for env in envs:
+        if len(grids[env]) > n_of[env]:
+            notes.append(
+                f"{env}: its grid is longer than that of the envs it is compared with: curves use its last "
+                f"{n_of[env]} points"
+            )
+    grids = {e: g[-n_of[e] :] for e, g in grids.items()}
     return Benchmark(root, runs, envs, algos, algo_envs, grids, curves, final, norms, seeds, notes)
