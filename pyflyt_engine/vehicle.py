@@ -6,6 +6,9 @@ surfaces), advances every actuator, sums every component load into one net force
 one net torque about its centre of mass (the body origin), and applies them in the body
 frame: two PyBullet calls whatever the number of components.  Summing is exact for a
 rigid body: a force F at a point r is F at the centre of mass plus the torque r x F.
+For an airframe with fixed motors and drag only, that whole physics step is compiled
+into one function when the vehicle is built (:mod:`pyflyt_engine.fused`; same
+arithmetic).
 
 Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 
@@ -20,7 +23,7 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -55,6 +58,7 @@ from pyflyt_engine.control.modes import FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
+from pyflyt_engine.fused import StepFunctions, compile_physics_step
 from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.urdf import urdf_path
@@ -63,6 +67,10 @@ from pyflyt_engine.urdf import urdf_path
 _NOISE_BLOCK = 1024
 _ORIGIN = (0.0, 0.0, 0.0)
 _LINK_FRAME = p.LINK_FRAME
+_get_pose, _get_velocity = p.getBasePositionAndOrientation, p.getBaseVelocity
+_get_matrix, _get_euler = p.getMatrixFromQuaternion, p.getEulerFromQuaternion
+_apply_force, _apply_torque = p.applyExternalForce, p.applyExternalTorque
+_new_state = tuple.__new__  # builds a KinematicState from its fields in order, without keyword parsing
 # Hot-path PyBullet calls pass the client id positionally: keyword parsing in the
 # binding costs a few tenths of a microsecond per call, at the physics rate.
 
@@ -103,7 +111,8 @@ class Vehicle:
     """One UAV in a :class:`~pyflyt_engine.world.World`.
 
     Create vehicles through :meth:`World.add_vehicle`; the world calls
-    :meth:`read_state`, :meth:`control_step` and :meth:`apply_loads` on its schedule.
+    :meth:`read_state`, :meth:`control_step` and the :attr:`step_functions` (the
+    functions behind :meth:`apply_loads` and :meth:`substep`) on its schedule.
 
     Attributes:
         spec: the validated airframe spec.
@@ -171,8 +180,8 @@ class Vehicle:
         self._no_noise = [1.0] * n
         self._throttle = [0.0] * n
         self._command = [0.0] * n
-        self._noise: list[list[float]] = []
-        self._noise_index = 0
+        # per-motor noise factors, drawn _NOISE_BLOCK physics steps at a time (_refill_noise)
+        self._noise_rows: Iterator[list[float]] = iter(())
         self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
 
         # --- lifting surfaces, boosters, gimbals, cameras
@@ -251,12 +260,30 @@ class Vehicle:
             self.controller is not None and not parts.channels and len(parts.mixer_motors) == n
             and list(parts.mixer_motors) == list(range(n))
         )
+        self._plain_control = self._plain_multirotor  # and no custom mode registered (control_step)
+        self._motors_mode = self.mode.name == "motors"
         self._has_components = parts.gimbals is not None or bool(parts.surfaces) or parts.boosters is not None
+        # Fixed motors and drag only: the per-physics-step work compiled into one function
+        # (pyflyt_engine.fused); everything else runs apply_loads' general path.
+        self._fused: StepFunctions | None = None
+        if motors is not None and not self._has_components:
+            nk = [-k for k in self._drag_factors] + [-self._angular_damping] * 3
+            try:
+                self._fused = compile_physics_step(
+                    self, client, self.body_id, self._motor_lag, self._wrench_columns, self._motor_has_noise,
+                    nk if self._drag_on else None,
+                )  # fmt: skip
+            except ValueError:  # a non-finite constant: leave it to the general path
+                self._fused = None
+        self.step_functions: StepFunctions = self._fused or (self._apply_loads, self.substep)
+        """``(apply_loads, substep)`` as the world calls them: the net wrench at a control
+        tick (after :meth:`read_state`), and a whole physics step between ticks."""
         self.armed = True
         if mode is not None:
             self.set_mode(mode)
         self._update_mass()
-        self.state = self.read_state()
+        self._state_stale = False
+        self.read_state()
 
     # ------------------------------------------------------------ commanding
 
@@ -300,6 +327,7 @@ class Vehicle:
         if resolved is not self.mode or self.setpoint.size != self._setpoint_size(resolved):
             self.setpoint = np.zeros(self._setpoint_size(resolved))
         self.mode = resolved
+        self._motors_mode = resolved.name == "motors"
 
     def set_setpoint(self, setpoint: Sequence[float] | np.ndarray) -> None:
         """Set the setpoint of the current mode (layout: :attr:`setpoint_layout`)."""
@@ -331,45 +359,67 @@ class Vehicle:
         base = resolve_mode(base_mode)
         mode = FlightMode(name, None, tuple(setpoint), f"custom controller over {base.name}")
         self._custom_modes[name] = _CustomMode(mode, controller, base)
+        self._plain_control = False
 
     # -------------------------------------------------------------- stepping
 
     def read_state(self) -> KinematicState:
         """Read the body's pose and velocity from PyBullet into :attr:`state`."""
         cid = self._client
-        pos, quat = p.getBasePositionAndOrientation(self.body_id, cid)
-        lin, ang = p.getBaseVelocity(self.body_id, cid)
-        r = p.getMatrixFromQuaternion(quat, cid)  # body-to-ground, row-major
+        body = self.body_id
+        pos, quat = _get_pose(body, cid)
+        lin, ang = _get_velocity(body, cid)
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)  # body-to-ground, row-major
         lx, ly, lz = lin
         ax, ay, az = ang
         # body frame = R^T ground frame
-        ang_vel = (r[0] * ax + r[3] * ay + r[6] * az, r[1] * ax + r[4] * ay + r[7] * az, r[2] * ax + r[5] * ay + r[8] * az)
-        lin_vel = (r[0] * lx + r[3] * ly + r[6] * lz, r[1] * lx + r[4] * ly + r[7] * lz, r[2] * lx + r[5] * ly + r[8] * lz)
+        ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
+        lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
         self._velocity_body = (lin_vel, ang_vel)
-        self.state = KinematicState(
-            ang_vel=ang_vel,
-            ang_pos=p.getEulerFromQuaternion(quat, cid),
-            lin_vel=lin_vel,
-            lin_pos=pos,
-            quaternion=quat,
-            lin_vel_ground=lin,
-            ang_vel_ground=ang,
+        # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
+        self._state = state = _new_state(
+            KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)
         )
-        return self.state
+        self._state_stale = False
+        return state
+
+    @property
+    def state(self) -> KinematicState:
+        """The latest :class:`KinematicState`.
+
+        Read at every control tick, and after a :meth:`World.step` on first access (the
+        world marks it stale with :meth:`state_changed` rather than reading every
+        vehicle whether or not anyone looks).
+        """
+        if self._state_stale:
+            return self.read_state()
+        return self._state
+
+    def state_changed(self) -> None:
+        """The body may have moved since :meth:`read_state`: read it again when :attr:`state` is next asked for."""
+        self._state_stale = True
 
     def read_velocity(self) -> None:
         """Refresh only the body-frame velocities (what the loads need between control ticks)."""
         cid = self._client
-        quat = p.getBasePositionAndOrientation(self.body_id, cid)[1]
-        (lx, ly, lz), (ax, ay, az) = p.getBaseVelocity(self.body_id, cid)
-        r = p.getMatrixFromQuaternion(quat, cid)
+        quat = _get_pose(self.body_id, cid)[1]
+        (lx, ly, lz), (ax, ay, az) = _get_velocity(self.body_id, cid)
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)
         self._velocity_body = (
-            (r[0] * lx + r[3] * ly + r[6] * lz, r[1] * lx + r[4] * ly + r[7] * lz, r[2] * lx + r[5] * ly + r[8] * lz),
-            (r[0] * ax + r[3] * ay + r[6] * az, r[1] * ax + r[4] * ay + r[7] * az, r[2] * ax + r[5] * ay + r[8] * az),
+            (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
+            (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),
         )
 
     def control_step(self) -> None:
         """Run the flight controller once (at the control rate) and route its outputs."""
+        if self._plain_control and self.armed:
+            # every motor flown by the mixer, no channels, no custom mode
+            if self._motors_mode:  # the setpoint is the command, limited to [-1, 1]
+                sp = self.setpoint.tolist()
+                self._command = [1.0 if t > 1.0 else -1.0 if t < -1.0 else t for t in sp]  # noqa: FURB136
+            else:  # the mixer's throttles are in [0, 1] already
+                self._command = self.controller.law(self.state, self.setpoint.tolist())  # type: ignore[union-attr]
+            return
         parts = self.parts
         if not self.armed:
             self._command = [0.0] * len(self._command)
@@ -379,11 +429,6 @@ class Vehicle:
             return
         name = self.mode.name
         setpoint = self.setpoint
-        if self._plain_multirotor and not self._custom_modes:
-            # fast path: every motor flown by the mixer, no channels
-            throttles = self.controller(self.state, setpoint.tolist())  # type: ignore[misc]
-            self._command = [1.0 if t > 1.0 else -1.0 if t < -1.0 else float(t) for t in throttles]
-            return
         if self.controller is not None:
             k = len(setpoint) - len(parts.channels)
             self.channels = np.clip(setpoint[k:], parts.channel_low, parts.channel_high)
@@ -419,16 +464,28 @@ class Vehicle:
 
     def apply_loads(self) -> None:
         """Advance the actuators one physics step and apply the net wrench to the body."""
+        self.step_functions[0]()
+
+    def substep(self) -> None:
+        """One physics step's work between control ticks: read the velocity when the
+        loads depend on it, then :meth:`apply_loads`."""
+        if self._fused is not None:
+            self._fused[1]()
+            return
+        if self.needs_velocity:
+            self.read_velocity()
+        self._apply_loads()
+
+    def _refill_noise(self) -> list[float]:
+        """Draw the next block of per-motor noise factors; returns its first row."""
+        eta = self._rng.standard_normal((_NOISE_BLOCK, self.motors.count))  # type: ignore[union-attr]
+        self._noise_rows = rows = iter(noise_factors(self.motors, eta).tolist())  # type: ignore[arg-type]
+        return next(rows)
+
+    def _apply_loads(self) -> None:
+        """:meth:`apply_loads` for every airframe (the fused form covers fixed motors and drag only)."""
         if self.motors is not None:
-            if self._motor_has_noise:
-                if self._noise_index >= len(self._noise):
-                    eta = self._rng.standard_normal((_NOISE_BLOCK, self.motors.count))
-                    self._noise = noise_factors(self.motors, eta).tolist()
-                    self._noise_index = 0
-                noise = self._noise[self._noise_index]
-                self._noise_index += 1
-            else:
-                noise = self._no_noise
+            noise = (next(self._noise_rows, None) or self._refill_noise()) if self._motor_has_noise else self._no_noise
             self._throttle, (fx, fy, fz, tx, ty, tz) = motor_step_wrench(
                 self._throttle, self._command, self._motor_lag, noise, self._wrench_columns
             )
@@ -443,8 +500,8 @@ class Vehicle:
             fx, fy, fz = fx + drag[0], fy + drag[1], fz + drag[2]
             tx, ty, tz = tx + drag[3], ty + drag[4], tz + drag[5]
         cid = self._client
-        p.applyExternalForce(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
-        p.applyExternalTorque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
+        _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
+        _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
 
     def _component_loads(self) -> tuple[float, float, float, float, float, float]:
         """Net wrench of gimballed motors, lifting surfaces and boosters (body frame).
@@ -603,7 +660,7 @@ class Vehicle:
         self._gimbal_angles = [(0.0, 0.0)] * len(self._gimbal_angles)
         self._gimbal_command = [(0.0, 0.0)] * len(self._gimbal_command)
         self._camera_cache.clear()
-        self._noise_index = len(self._noise)  # discard buffered noise: redraw from the stream
+        self._noise_rows = iter(())  # discard buffered noise: redraw from the stream
         self._booster_noise_index = len(self._booster_noise)
         if self.controller is not None:
             self.controller.reset()
@@ -614,8 +671,7 @@ class Vehicle:
     def reseed(self, rng: np.random.Generator) -> None:
         """Use a new noise stream (on a seeded world reset)."""
         self._rng = rng
-        self._noise = []
-        self._noise_index = 0
+        self._noise_rows = iter(())
         self._booster_noise = []
         self._booster_noise_index = 0
 

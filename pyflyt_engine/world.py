@@ -12,7 +12,8 @@ drag, read their velocity only); every vehicle advances its actuators and applie
 net wrench; PyBullet steps.  Contacts are read at the end of every control period (and
 of every agent step): a touch shorter than one control period (8 ms at 120 Hz) can go
 unrecorded, while resting and crash contacts, which PyBullet keeps in its contact
-manifolds for as long as the bodies touch, are always seen.
+manifolds for as long as the bodies touch, are always seen.  After the agent step each
+vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state`).
 """
 
 from __future__ import annotations
@@ -164,6 +165,7 @@ class World:
         self._seed(seed)
         self.physics_steps = 0
         self._snapshot: int | None = None
+        self._schedules: dict[tuple[int, int, int], tuple[tuple[bool, bool], ...]] = {}
         for config in vehicles:
             if isinstance(config, dict):
                 config = VehicleConfig(**config)
@@ -255,34 +257,47 @@ class World:
         vehicles = self.vehicles
         # Vehicles never read each other's state within a physics step, so each phase can
         # run over all of them in turn; the per-vehicle work is the same as interleaved.
-        velocity_readers = [v.read_velocity for v in vehicles if v.needs_velocity]
+        # Each vehicle's step_functions: (net wrench after a full read-out at a control
+        # tick, the whole physics step between ticks: velocity read-out and wrench).
         mass_updaters = [v.update_mass for v in vehicles if v.parts.boosters is not None]
-        appliers = [v.apply_loads for v in vehicles]
+        appliers = [v.step_functions[0] for v in vehicles]
+        substeps = [v.step_functions[1] for v in vehicles]
         contacts = self._contacts
         contacts.clear()
         record = contacts.record
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
-        per_control = self.physics_per_control
-        last = self.physics_per_agent - 1
-        for substep in range(self.physics_per_agent):
-            if self.physics_steps % per_control == 0:  # control tick
+        for tick, sample in self._schedule(self.physics_steps):
+            if tick:  # control tick
                 for vehicle in vehicles:
                     vehicle.read_state()
                     vehicle.control_step()
                 for update_mass in mass_updaters:  # fuel burnt: new mass and inertia
                     update_mass()
+                for apply_loads in appliers:
+                    apply_loads()
             else:
-                for read_velocity in velocity_readers:
-                    read_velocity()
-            for apply_loads in appliers:
-                apply_loads()
+                for substep in substeps:
+                    substep()
             step_simulation(cid)
             self.physics_steps += 1
-            # contacts are sampled at the end of every control period and of the agent step
-            if self.physics_steps % per_control == 0 or substep == last:
+            if sample:  # the end of a control period or of the agent step
                 record(contact_points(-1, -1, -2, -2, cid))
-        for vehicle in vehicles:
-            vehicle.read_state()
+        for vehicle in vehicles:  # read again when asked for (Vehicle.state)
+            vehicle.state_changed()
+
+    def _schedule(self, start: int) -> tuple[tuple[bool, bool], ...]:
+        """Per physics step of an agent step starting at physics step ``start``: whether
+        it is a control tick, and whether contacts are sampled after it."""
+        per_control, count = self.physics_per_control, self.physics_per_agent
+        key = (start % per_control, per_control, count)
+        schedule = self._schedules.get(key)
+        if schedule is None:
+            schedule = tuple(
+                ((start + i) % per_control == 0, (start + i + 1) % per_control == 0 or i == count - 1)
+                for i in range(count)
+            )
+            self._schedules[key] = schedule
+        return schedule
 
     # --------------------------------------------------------------- read-outs
 

@@ -10,9 +10,13 @@ The mixer is its pseudo-inverse, so any airframe whose motors can produce all fo
 outputs independently (quad, hexa, octo, Y6, ...) needs no hand-written mixing table.
 """
 
+# Limits are written as conditional expressions, not min()/max(): cheaper at the control
+# rate, and they keep min/max's exact results (NaN and signed zeros included).
+# ruff: noqa: FURB136, PLR1730
+
 from __future__ import annotations
 
-import math
+from math import sqrt
 
 import numpy as np
 
@@ -67,6 +71,8 @@ class Mixer:
         self.max_thrust = motors.max_thrust.tolist()
         #: Collective thrust along body z with every motor at full throttle [N].
         self.max_collective = float(axes[:, 2] @ motors.max_thrust)
+        # per motor: its row of the pseudo-inverse and its full thrust, as plain floats
+        self._rows = tuple((r[0], r[1], r[2], r[3], fm) for r, fm in zip(self._inverse_rows, self.max_thrust))
 
     def throttles(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
         """Throttle per motor (in [0, 1]) that best produces the requested wrench.
@@ -75,24 +81,67 @@ class Mixer:
         importance: first the yaw torque is scaled down until every motor is within
         [0, full thrust], then the collective thrust (so roll and pitch, which keep the
         vehicle upright, have the last word).  What still does not fit is clipped.
+
+        Per motor ``i`` (row ``r`` of the pseudo-inverse, full thrust ``fm``)::
+
+            from_thrust = r[0] thrust
+            base        = from_thrust + r[1] tx + r[2] ty
+            yaw         = r[3] tz
+            from_torque = base - from_thrust + yaw_scale * yaw
+            f           = scale * from_thrust + from_torque
+
+        and the throttle is ``sqrt(f / fm)`` clipped to [0, 1].  In the common case nothing
+        needs giving up (``yaw_scale = scale = 1``) and one pass does it all; otherwise
+        :meth:`_throttles_limited` runs the stages in turn.  Plain float arithmetic either
+        way (this runs at the control rate for every vehicle).
         """
-        rows, fmax = self._inverse_rows, self.max_thrust
-        base = [r[0] * thrust + r[1] * tx + r[2] * ty for r in rows]
-        yaw = [r[3] * tz for r in rows]
-        yaw_scale = 1.0
-        for b, y, fm in zip(base, yaw, fmax):
-            if y > 0.0 and b + y > fm:
-                yaw_scale = min(yaw_scale, max(0.0, (fm - b) / y))
-            elif y < 0.0 and b + y < 0.0:
-                yaw_scale = min(yaw_scale, max(0.0, -b / y))
-        from_thrust = [r[0] * thrust for r in rows]
-        from_torque = [b - ft + yaw_scale * y for b, ft, y in zip(base, from_thrust, yaw)]
-        scale = 1.0
-        for ft, fq, fm in zip(from_thrust, from_torque, fmax):
-            if ft + fq > fm and ft > 0.0:
-                scale = min(scale, max(0.0, (fm - fq) / ft))
         out = []
-        for ft, fq, fm in zip(from_thrust, from_torque, fmax):
+        append = out.append
+        for r0, r1, r2, r3, fm in self._rows:
+            ft = r0 * thrust
+            b = ft + r1 * tx + r2 * ty
+            y = r3 * tz
+            if (y > 0.0 and b + y > fm) or (y < 0.0 and b + y < 0.0):
+                return self._throttles_limited(thrust, tx, ty, tz)
+            f = ft + (b - ft + y)  # scale * ft + from_torque, both scales 1
+            if f > fm and ft > 0.0:
+                return self._throttles_limited(thrust, tx, ty, tz)
+            append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))
+        return out
+
+    def _throttles_limited(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
+        """:meth:`throttles` when the yaw torque or the collective thrust must be scaled down."""
+        terms = []
+        append = terms.append
+        yaw_scale = 1.0
+        for r0, r1, r2, r3, fm in self._rows:
+            ft = r0 * thrust
+            b = ft + r1 * tx + r2 * ty
+            y = r3 * tz
+            if y > 0.0:
+                if b + y > fm:
+                    s = (fm - b) / y
+                    s = s if s > 0.0 else 0.0  # max(0.0, s)
+                    if s < yaw_scale:
+                        yaw_scale = s
+            elif y < 0.0 and b + y < 0.0:
+                s = -b / y
+                s = s if s > 0.0 else 0.0
+                if s < yaw_scale:
+                    yaw_scale = s
+            append((ft, b - ft, y, fm))
+        scale = 1.0
+        torques = []
+        for ft, bt, y, fm in terms:
+            fq = bt + yaw_scale * y
+            torques.append(fq)
+            if ft + fq > fm and ft > 0.0:
+                s = (fm - fq) / ft
+                s = s if s > 0.0 else 0.0
+                if s < scale:
+                    scale = s
+        out = []
+        for (ft, _, _, fm), fq in zip(terms, torques):
             f = scale * ft + fq
-            out.append(0.0 if f <= 0.0 else 1.0 if f >= fm else math.sqrt(f / fm))
+            out.append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))
         return out
