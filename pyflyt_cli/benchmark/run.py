@@ -101,7 +101,15 @@ def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcom
     if code == 0 and run_state(plan, job) == COMPLETE:
         return Outcome(job, "complete", seconds, code)
     if code == INTERRUPTED or (code is not None and code < 0):
-        return Outcome(job, "interrupted", seconds, code, "checkpoint saved; rerun to resume")
+        from pyflyt_cli.training import rundir
+
+        step = rundir.read_state(plan.run_dir(job)).get("checkpoint")
+        detail = (
+            f"checkpoint at step {step}; rerun to resume"
+            if step is not None
+            else "stopped before its first checkpoint; rerun to start it again"
+        )
+        return Outcome(job, "interrupted", seconds, code, detail)
     log = plan.log_file(job)
     return Outcome(job, "failed", seconds, code, f"{failure_reason(log)}  (log: {log})")
 
