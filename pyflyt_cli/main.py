@@ -172,7 +172,7 @@ def speed(
     "Exit 0: all complete; 1: a run failed; 130: interrupted.\n\n"
     "  pyflyt benchmark experiment=paper_rl seeds=5 jobs=2\n\n"
     "  pyflyt benchmark experiment=paper_rl hydra/launcher=ray\n\n"
-    "  pyflyt plot benchmarks/paper_rl",
+    "  pyflyt plot benchmarks/paper_rl_laptop",
     context_settings={"allow_extra_args": False},
 )
 @user_errors
@@ -193,7 +193,7 @@ def benchmark(
     "improvement, as PNG and SVG figures plus report.md and report.json.  Reads "
     "<dir>/[runs/]<env>/<algo>/<run>/metrics.mcap; scores are normalised with <dir>/normalisation.yaml "
     "(random and reference score per env) when present.  Same data, --reps and --seed: same report.\n\n"
-    "  pyflyt plot benchmarks/paper_rl --out figures --reps 5000",
+    "  pyflyt plot benchmarks/paper_rl_laptop --out figures --reps 5000",
 )
 @user_errors
 def plot(

@@ -232,8 +232,11 @@ def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Se
 def _describe(exc: ValidationError) -> str:
     lines = []
     for err in exc.errors():
-        loc = ".".join(str(p) for p in err["loc"])
-        lines.append(f"  benchmark.{loc}: {err['msg']}")
+        # a union (seeds: int | list[int]) reports each member: name the field once
+        loc = ".".join(str(p) for p in err["loc"] if p not in ("int", "list[int]"))
+        line = f"  benchmark.{loc}: {err['msg']} (got {err.get('input')!r})"
+        if line not in lines:
+            lines.append(line)
     return "\n".join(lines)
 
 
