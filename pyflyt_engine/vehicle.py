@@ -181,7 +181,7 @@ class Vehicle:
         self._throttle = [0.0] * n
         self._command = [0.0] * n
         # per-motor noise factors, drawn _NOISE_BLOCK physics steps at a time (_refill_noise)
-        self._noise_rows: Iterator[list[float]] = iter(())
+        self._noise_rows: Iterator[tuple[float, ...]] = iter(())
         self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
 
         # --- lifting surfaces, boosters, gimbals, cameras
@@ -198,7 +198,7 @@ class Vehicle:
         b = parts.boosters
         self._booster_constants = booster_constants(b, physics_dt) if b is not None else []
         self._booster_noise_on = b is not None and bool(np.any(b.noise_ratio > 0))
-        self._booster_noise: list[list[float]] = []
+        self._booster_noise: list[tuple[float, ...]] = []
         self._booster_noise_index = 0
         self._booster_zero_noise = [0.0] * len(self._booster_constants)
         self._booster_lists(initial_booster_state(b, fuel_fraction=spec.boosters.initial_fuel) if b is not None else None)
@@ -476,10 +476,13 @@ class Vehicle:
             self.read_velocity()
         self._apply_loads()
 
-    def _refill_noise(self) -> list[float]:
+    def _refill_noise(self) -> tuple[float, ...]:
         """Draw the next block of per-motor noise factors; returns its first row."""
         eta = self._rng.standard_normal((_NOISE_BLOCK, self.motors.count))  # type: ignore[union-attr]
-        self._noise_rows = rows = iter(noise_factors(self.motors, eta).tolist())  # type: ignore[arg-type]
+        # rows zipped from the columns on demand: a block is a few lists, not one list per
+        # row (thousands of container objects living long enough to reach the garbage
+        # collector's oldest generation and trigger full collections of the process)
+        self._noise_rows = rows = zip(*noise_factors(self.motors, eta).T.tolist())  # type: ignore[arg-type]
         return next(rows)
 
     def _apply_loads(self) -> None:
@@ -543,7 +546,8 @@ class Vehicle:
         if self._booster_constants:
             if self._booster_noise_on:
                 if self._booster_noise_index >= len(self._booster_noise):
-                    self._booster_noise = self._rng.standard_normal((_NOISE_BLOCK, len(self._booster_constants))).tolist()
+                    block = self._rng.standard_normal((_NOISE_BLOCK, len(self._booster_constants)))
+                    self._booster_noise = list(zip(*block.T.tolist()))  # tuples: untracked by the GC (_refill_noise)
                     self._booster_noise_index = 0
                 noise = self._booster_noise[self._booster_noise_index]
                 self._booster_noise_index += 1
