@@ -52,7 +52,8 @@ class UAVEnv(gymnasium.Env):
     Info: ``collision``, ``out_of_bounds``, ``env_complete`` (task completed),
     ``success`` (completed, or reached the time limit uncrashed for survival tasks),
     ``reward_terms`` (the weighted per-entry breakdown, summing to the reward; after
-    ``step`` only) plus the task's entries.
+    ``step`` only; left out with ``info_reward_terms=False``) plus the task's entries.
+    The breakdown of the last step is also :attr:`last_reward_terms`.
 
     Args:
         config: env config name (``conf/env``), YAML path, mapping or :class:`EnvConfig`;
@@ -60,6 +61,9 @@ class UAVEnv(gymnasium.Env):
         sparse_reward: shortcut for ``reward="sparse"`` / ``reward="dense"``.
         render_mode: None, ``"rgb_array"`` (headless chase camera, (H, W, 3) uint8) or
             ``"human"`` (PyBullet GUI; needs a display).
+        info_reward_terms: put the reward breakdown into every step's ``info`` as
+            ``reward_terms`` (default); False leaves it out: each info entry is pickled
+            and merged by subprocess vector envs at every step.
         **overrides: any top-level config field (``agent_hz=60``, ``reward="my.yaml"``,
             ``flight_dome_size=4``) or task option (``num_targets=3``).
 
@@ -77,6 +81,7 @@ class UAVEnv(gymnasium.Env):
         *,
         sparse_reward: bool | None = None,
         render_mode: str | None = None,
+        info_reward_terms: bool = True,
         **overrides: Any,
     ) -> None:
         if config is None:
@@ -136,6 +141,9 @@ class UAVEnv(gymnasium.Env):
         self._max_steps = cfg.max_steps
         self._action = np.zeros_like(self._low)
         self._steps = 0
+        #: put ``reward_terms`` into every step's info (see the class docstring)
+        self.info_reward_terms = bool(info_reward_terms)
+        self._reward_terms: dict[str, float] = {}
         self._markers = None
         if render_mode is not None:
             from pyflyt_engine.envs.render import Markers
@@ -154,6 +162,7 @@ class UAVEnv(gymnasium.Env):
         self.task.reset(state, self.np_random)
         self._action = np.zeros_like(self._low)
         self._steps = 0
+        self._reward_terms = {}
         if self._markers is not None:
             self._markers.show(self.task.markers())
         info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
@@ -191,6 +200,7 @@ class UAVEnv(gymnasium.Env):
             signals.extras,
         )
         reward, terms = self.reward_function(ctx)
+        self._reward_terms = terms
         self._steps += 1
 
         terminated = crashed or signals.complete
@@ -203,8 +213,9 @@ class UAVEnv(gymnasium.Env):
             "out_of_bounds": out_of_bounds,
             "env_complete": signals.complete,
             "success": success,
-            "reward_terms": terms,
         }
+        if self.info_reward_terms:
+            info["reward_terms"] = terms
         info.update(self.task.info())
         return self._observe(state), reward, terminated, truncated, info
 
@@ -250,6 +261,13 @@ class UAVEnv(gymnasium.Env):
     def elapsed_steps(self) -> int:
         """Agent steps since the last reset."""
         return self._steps
+
+    @property
+    def last_reward_terms(self) -> dict[str, float]:
+        """The reward breakdown of the last step: entry name -> weighted value, summing to
+        the reward (empty after a reset), a copy; also ``info["reward_terms"]`` unless
+        ``info_reward_terms=False``."""
+        return dict(self._reward_terms)
 
     @property
     def last_action(self) -> np.ndarray:

@@ -134,7 +134,7 @@ class RecordEpisode(gymnasium.Wrapper):
     ) -> None:
         super().__init__(env)
         base = env.unwrapped
-        for attr in ("world", "config", "task", "vehicle", "reward_preset", "last_action"):
+        for attr in ("world", "config", "task", "vehicle", "reward_preset", "last_action", "last_reward_terms"):
             if not hasattr(base, attr):
                 raise TelemetryError(
                     f"RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.UAVEnv); "
@@ -454,7 +454,7 @@ class RecordEpisode(gymnasium.Wrapper):
         self._write_frames(ns)
         common["reward"] = reward
         common["return"] = self._return
-        common["terms"] = info.get("reward_terms") or {}
+        common["terms"] = base.last_reward_terms  # also when info carries no reward_terms (info_reward_terms=False)
         f.write(self._ch_reward, ns, common)
         self._write_markers(ns, force=False)
         self._last_info = info

@@ -19,6 +19,7 @@ from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.config import load_reward_preset
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
+from tests.envs.conftest import PROFILES
 
 HOVER = "PyFlyt/QuadX-Hover-v0"
 WAYPOINTS = "PyFlyt/QuadX-Waypoints-v0"
@@ -286,3 +287,33 @@ def test_sparse_reward_selects_the_sparse_preset(make):
     assert make(HOVER, reward="quadx_hover_sparse").reward_preset.name == "quadx_hover_sparse"
     with pytest.raises(ConfigError, match="either sparse_reward or reward"):
         make(HOVER, sparse_reward=True, reward="dense")
+
+
+@pytest.mark.parametrize("env_id", list(PROFILES))
+def test_reward_terms_can_be_left_out_of_info(make, env_id):
+    """The breakdown is in ``info`` by default; ``info_reward_terms=False`` (lighter steps
+    in vector envs) leaves it out, ``last_reward_terms`` still has it, nothing else differs."""
+    lean, full = make(env_id, info_reward_terms=False), make(env_id)
+    assert not lean.info_reward_terms and full.info_reward_terms
+    rng = np.random.default_rng(1)
+    policy = PROFILES[env_id].policy
+    for env in (lean, full):
+        env.reset(seed=3)
+        assert env.last_reward_terms == {}
+    for _ in range(20):
+        action = policy(rng)
+        obs_l, reward_l, term_l, trunc_l, info_l = lean.step(action)
+        obs_f, reward_f, term_f, trunc_f, info_f = full.step(action)
+        assert "reward_terms" not in info_l
+        assert info_f["reward_terms"] == full.last_reward_terms == lean.last_reward_terms
+        assert list(lean.last_reward_terms) == list(lean.reward_preset.terms)
+        _check_breakdown(reward_l, {"reward_terms": lean.last_reward_terms})
+        assert reward_l == reward_f and (term_l, trunc_l) == (term_f, trunc_f)
+        assert {k: v for k, v in info_f.items() if k != "reward_terms"} == info_l
+        for key in obs_l if isinstance(obs_l, dict) else [None]:
+            np.testing.assert_array_equal(obs_l if key is None else obs_l[key], obs_f if key is None else obs_f[key])
+        if term_l or trunc_l:
+            break
+    # a copy: changing it changes nothing in the env
+    lean.last_reward_terms.clear()
+    assert lean.last_reward_terms
