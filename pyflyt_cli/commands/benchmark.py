@@ -29,6 +29,7 @@ def run_benchmark(overrides: list[str], dry_run: bool = False) -> int:
     from pyflyt_cli.benchmark.normalise import update_normalisation
     from pyflyt_cli.benchmark.plan import build_plan, levels
     from pyflyt_cli.benchmark.run import BUSY, COMPLETE, Outcome, run_local, run_state, summary
+    from pyflyt_cli.training.rundir import atomic_write
 
     overrides = parse_overrides(overrides)
     experiments = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]
@@ -66,7 +67,7 @@ def run_benchmark(overrides: list[str], dry_run: bool = False) -> int:
         outcomes = run_hydra(plan, todo, hydra_overrides, _echo)
     outcomes += [Outcome(j, "busy", detail="being trained by another process") for j in busy]
     text = summary(plan, outcomes, skipped, time.monotonic() - started)
-    (plan.root / "summary.md").write_text(text)
+    atomic_write(plan.root / "summary.md", text)
     _echo("\n" + text.rstrip())
     _echo(f"\nreport: pyflyt plot {plan.root}")
     statuses = {o.status for o in outcomes}
