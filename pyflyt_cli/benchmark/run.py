@@ -162,6 +162,10 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
                     pending.remove(job)
                     start(job)
             if not running:
+                for job in pending:  # nothing runs and nothing could start: never spin
+                    outcomes[job.id] = Outcome(job, "blocked", detail=f"its source run {job.depends_on} never ran")
+                    failed.add(job.id)
+                pending.clear()
                 continue
             time.sleep(0.2)
             for job_id, (job, proc, t0, log) in list(running.items()):
