@@ -15,14 +15,8 @@ VIDEO_SUFFIXES = (".mp4", ".gif")
 
 def _waypoints(episode: Episode) -> np.ndarray:
     """Every marker point the ``/scene`` channel showed at the reset (e.g. all waypoints)."""
-    for m in episode.contents.messages:
-        if m.topic != "/scene" or not isinstance(m.data, dict):
-            continue
-        for entity in m.data.get("entities", []):
-            if entity.get("id") == "waypoints":
-                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
-                return np.array([[p["x"], p["y"], p["z"]] for p in pts]).reshape(-1, 3)
-    return np.zeros((0, 3))
+    frames = _marker_frames(episode)
+    return frames[0][1] if frames else np.zeros((0, 3))
 
 
 def plot_episode(episode: Episode, out: str | Path) -> Path:

@@ -74,3 +74,20 @@ def pyflyt(args: list[str], cwd: Path, timeout: float = 300, **kwargs) -> subpro
 def runs(tmp_path: Path) -> Path:
     path = tmp_path / "runs"
     return path
+
+
+def initial_policy_probe() -> tuple[object, dict]:
+    """An SB3 callback and the dict it fills with the policy's weights when training starts
+    (after ``init_from`` has loaded them, before the first update)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    seen: dict = {}
+
+    class Capture(BaseCallback):
+        def _on_training_start(self) -> None:
+            seen.update({k: v.clone() for k, v in self.model.policy.state_dict().items()})
+
+        def _on_step(self) -> bool:
+            return True
+
+    return Capture(), seen

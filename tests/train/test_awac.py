@@ -17,7 +17,7 @@ from pyflyt_cli.training import train
 from pyflyt_cli.training.awac import AWAC, advantage_weights
 from pyflyt_engine.errors import ConfigError
 
-from .conftest import TINY_SAC, load
+from .conftest import TINY_SAC, initial_policy_probe, load
 
 SMALL = {"net_arch": [16, 16]}
 
@@ -161,25 +161,17 @@ def test_awac_config_is_checked_at_load(tmp_path):
 
 def test_init_from_a_sac_run_loads_its_policy(tmp_path):
     from stable_baselines3 import SAC
-    from stable_baselines3.common.callbacks import BaseCallback
 
     sac_run = [*TINY_SAC[:2], "train.total_timesteps=150", *TINY_SAC[3:]]
     source = train(load(sac_run, tmp_path / "runs")).run_dir
     src = SAC.load(source / "model.zip", device="cpu").policy.state_dict()
-    seen = {}
-
-    class Capture(BaseCallback):
-        def _on_training_start(self) -> None:
-            seen.update({k: v.clone() for k, v in self.model.policy.state_dict().items()})
-
-        def _on_step(self) -> bool:
-            return True
+    probe, seen = initial_policy_probe()
 
     # the shipped quadx_hover SAC tuning explores with gSDE: AWAC must too, for the shapes to match
     assert load(sac_run, tmp_path).algo.use_sde
     sde = ["algo.use_sde=true", "algo.policy_kwargs.log_std_init=-3"]
     overrides = [*TINY_AWAC, *sde, "train.total_timesteps=50", "train.eval_freq=0", f"init_from={source}"]
-    result = train(load(overrides, tmp_path / "runs"), callbacks=[Capture()])
+    result = train(load(overrides, tmp_path / "runs"), callbacks=[probe])
     assert set(seen) == set(src)
     assert all(torch.equal(seen[k], v) for k, v in src.items())
     assert yaml.safe_load((result.run_dir / "run.yaml").read_text())["init_from"]["run"] == str(source)

@@ -16,7 +16,7 @@ from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.telemetry import read_metrics
 
-from .conftest import TINY_PPO, TINY_SAC, load
+from .conftest import TINY_PPO, TINY_SAC, initial_policy_probe, load
 
 
 def _metrics(run_dir: Path) -> dict:
@@ -158,22 +158,14 @@ def test_parallel_environments(tmp_path):
 def test_init_from_copies_the_policy(tmp_path):
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import BaseCallback
 
     source = train(load(TINY_PPO, tmp_path / "runs")).run_dir
     src_params = PPO.load(source / "best_model.zip").policy.state_dict()
 
-    seen = {}
-
-    class Capture(BaseCallback):
-        def _on_training_start(self) -> None:
-            seen.update({k: v.clone() for k, v in self.model.policy.state_dict().items()})
-
-        def _on_step(self) -> bool:
-            return True
+    probe, seen = initial_policy_probe()
 
     overrides = [*TINY_PPO, f"init_from={source}", "env.reward=sparse", "seed=3"]
-    result = train(load(overrides, tmp_path / "runs"), callbacks=[Capture()])
+    result = train(load(overrides, tmp_path / "runs"), callbacks=[probe])
     assert all(torch.equal(seen[k], v) for k, v in src_params.items())
     record = yaml.safe_load((result.run_dir / "run.yaml").read_text())
     assert record["init_from"]["run"] == str(source)
