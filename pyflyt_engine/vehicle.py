@@ -63,8 +63,14 @@ from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVS
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.urdf import urdf_path
 
-#: Standard normals drawn per refill of a vehicle's noise buffer (per actuator).
+#: Standard normals drawn per refill of a vehicle's noise buffer (per actuator): the
+#: first refill after a reset draws _FIRST_NOISE_BLOCK rows and each next one twice as
+#: many, up to _NOISE_BLOCK. A Generator's normals come out the same however the stream
+#: is cut into blocks, so the schedule changes the cost of a refill, not the noise; the
+#: short first blocks keep a reset from paying for 1 024 rows that a short episode (a
+#: crashing QuadX: ~100 physics steps) never uses.
 _NOISE_BLOCK = 1024
+_FIRST_NOISE_BLOCK = 16
 _ORIGIN = (0.0, 0.0, 0.0)
 _LINK_FRAME = p.LINK_FRAME
 _get_pose, _get_velocity = p.getBasePositionAndOrientation, p.getBaseVelocity
@@ -180,8 +186,9 @@ class Vehicle:
         self._no_noise = [1.0] * n
         self._throttle = [0.0] * n
         self._command = [0.0] * n
-        # per-motor noise factors, drawn _NOISE_BLOCK physics steps at a time (_refill_noise)
+        # per-motor noise factors, drawn in blocks of physics steps (_refill_noise)
         self._noise_rows: Iterator[tuple[float, ...]] = iter(())
+        self._noise_block = _FIRST_NOISE_BLOCK
         self._channel_motors = [i for i in range(n) if i not in parts.mixer_motors]
 
         # --- lifting surfaces, boosters, gimbals, cameras
@@ -200,6 +207,7 @@ class Vehicle:
         self._booster_noise_on = b is not None and bool(np.any(b.noise_ratio > 0))
         self._booster_noise: list[tuple[float, ...]] = []
         self._booster_noise_index = 0
+        self._booster_block = _FIRST_NOISE_BLOCK
         self._booster_zero_noise = [0.0] * len(self._booster_constants)
         self._booster_lists(initial_booster_state(b, fuel_fraction=spec.boosters.initial_fuel) if b is not None else None)
         self._booster_ignition = [False] * len(self._booster_constants)
@@ -478,12 +486,13 @@ class Vehicle:
 
     def _refill_noise(self) -> tuple[float, ...]:
         """Draw the next block of per-motor noise factors; returns its first row."""
-        eta = self._rng.standard_normal((_NOISE_BLOCK, self.motors.count))  # type: ignore[union-attr]
+        rows, self._noise_block = self._noise_block, min(2 * self._noise_block, _NOISE_BLOCK)
+        eta = self._rng.standard_normal((rows, self.motors.count))  # type: ignore[union-attr]
         # rows zipped from the columns on demand: a block is a few lists, not one list per
         # row (thousands of container objects living long enough to reach the garbage
         # collector's oldest generation and trigger full collections of the process)
-        self._noise_rows = rows = zip(*noise_factors(self.motors, eta).T.tolist())  # type: ignore[arg-type]
-        return next(rows)
+        self._noise_rows = it = zip(*noise_factors(self.motors, eta).T.tolist())  # type: ignore[arg-type]
+        return next(it)
 
     def _apply_loads(self) -> None:
         """:meth:`apply_loads` for every airframe (the fused form covers fixed motors and drag only)."""
@@ -546,7 +555,8 @@ class Vehicle:
         if self._booster_constants:
             if self._booster_noise_on:
                 if self._booster_noise_index >= len(self._booster_noise):
-                    block = self._rng.standard_normal((_NOISE_BLOCK, len(self._booster_constants)))
+                    rows, self._booster_block = self._booster_block, min(2 * self._booster_block, _NOISE_BLOCK)
+                    block = self._rng.standard_normal((rows, len(self._booster_constants)))
                     self._booster_noise = list(zip(*block.T.tolist()))  # tuples: untracked by the GC (_refill_noise)
                     self._booster_noise_index = 0
                 noise = self._booster_noise[self._booster_noise_index]
@@ -666,6 +676,7 @@ class Vehicle:
         self._camera_cache.clear()
         self._noise_rows = iter(())  # discard buffered noise: redraw from the stream
         self._booster_noise_index = len(self._booster_noise)
+        self._noise_block = self._booster_block = _FIRST_NOISE_BLOCK
         if self.controller is not None:
             self.controller.reset()
         if self.autopilot is not None:
@@ -678,6 +689,7 @@ class Vehicle:
         self._noise_rows = iter(())
         self._booster_noise = []
         self._booster_noise_index = 0
+        self._noise_block = self._booster_block = _FIRST_NOISE_BLOCK
 
     @property
     def rng_state(self) -> dict:

@@ -58,3 +58,41 @@ def test_same_seed_twice_in_one_process():
 
     assert trajectory(5) == trajectory(5)
     assert trajectory(5) != trajectory(6)
+
+
+def test_actuator_noise_does_not_depend_on_how_the_stream_is_cut_into_blocks(monkeypatch):
+    """Noise is drawn in blocks that grow after every reset (16, 32, ... 1 024 rows): an
+    episode from a given noise-stream position must fly the trajectory that drawing
+    1 024 rows (or one row) at a time gives, across several refills.  (A reset discards
+    the unused rest of a block, so where the next unseeded episode starts in the stream
+    does depend on the block sizes; with a seed it does not.)"""
+    import pyflyt_engine.vehicle as vehicle_module
+
+    def trajectory():
+        # noisy motors (cf2x, f450) and a noisy booster (rocket), 8 physics steps per world step
+        world = World(
+            [VehicleConfig("quadx_cf2x", (0, 0, 1), mode="position_yaw"),
+             VehicleConfig("quadx_f450", (3, 0, 1), mode="position_yaw"),
+             VehicleConfig("rocket", (10, 0, 1))],
+            seed=3,
+        )
+        world.set_setpoint(0, [0.5, 0.2, 1.5, 0.3])
+        world.set_setpoint(1, [3.5, 0.0, 1.2, 0.0])
+        rows = []
+        for episode_steps, seed in ((300, 5), (5, 6), (40, 7), (200, 8)):  # 300 x 8 > 2 048
+            for _ in range(episode_steps):
+                world.step()
+                rows.extend(world.state(i).as_array().ravel() for i in range(3))
+            world.reset(seed=seed)
+        world.close()
+        return np.concatenate(rows)
+
+    growing = trajectory()
+    monkeypatch.setattr(vehicle_module, "_FIRST_NOISE_BLOCK", vehicle_module._NOISE_BLOCK)
+    fixed = trajectory()
+    monkeypatch.setattr(vehicle_module, "_FIRST_NOISE_BLOCK", 1)
+    from_one_row = trajectory()
+    assert growing.tobytes() == fixed.tobytes() == from_one_row.tobytes()
+    # and the noise is there: without it the trajectory differs
+    monkeypatch.setattr(vehicle_module.Vehicle, "_refill_noise", lambda self: (1.0,) * self.motors.count)
+    assert trajectory().tobytes() != growing.tobytes()
