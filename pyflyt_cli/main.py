@@ -148,7 +148,8 @@ def speed(
     reference_python: Optional[str] = typer.Option(
         None, "--reference-python", help="interpreter of a virtual env with PyFlyt 0.29 installed, for side-by-side figures"
     ),
-    vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3)"),
+    vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
+                                "same step cost, and the machine's own 1 vs 2 process scaling"),
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
     env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all)"),
     vehicles: Optional[str] = typer.Option(None, "--vehicles", help="world sizes, comma-separated (default 1,8,64)"),

@@ -18,7 +18,10 @@ Sections:
   alone) and the reference's QuadX camera.
 * **vector** (``vector=True``) -- env steps/s of 1 and 2 subprocess workers
   (``gymnasium.make_vec(..., vectorization_mode="async")`` and SB3 ``SubprocVecEnv``)
-  and the scaling between them.
+  and the scaling between them; beside it, the scaling of a stand-in env of the same
+  in-process step cost through the same vector env, and the machine's own 1 -> 2
+  process scaling of pure CPU work, both measured in the same repeats (what is left
+  of a shortfall after them is the env's).
 
 The reference PyFlyt package pins numpy < 2, so it lives in its own interpreter; pass
 that interpreter as ``reference_python`` to add its figures and the ratios.  Without
@@ -42,6 +45,8 @@ from pyflyt_cli.commands import speed_probe
 from pyflyt_engine.errors import PyFlytError
 
 PROBE_PATH = Path(speed_probe.__file__)
+#: Subprocess vector envs measured by ``vector=True``.
+VECTOR_BACKENDS = ("gymnasium", "sb3")
 _PACKAGE_ROOT = str(Path(speed_probe.__file__).resolve().parents[2])
 
 
@@ -63,6 +68,7 @@ class SpeedSettings:
         camera_captures: captures per camera timing (5 timings per run).
         vector: also measure subprocess vector envs with 1 and 2 workers.
         vector_steps: vector steps timed per run.
+        parallel_seconds: CPU work per process of the machine-scaling measurement.
         reference_python: interpreter with the reference PyFlyt installed (None: skip it).
     """
 
@@ -76,6 +82,7 @@ class SpeedSettings:
     camera_captures: int = 50
     vector: bool = False
     vector_steps: int = 1000
+    parallel_seconds: float = 0.5
     reference_python: str | None = None
 
     @classmethod
@@ -89,6 +96,7 @@ class SpeedSettings:
             "world_seconds": {1: 0.1, 8: 0.1, 64: 0.05},
             "camera_captures": 2,
             "vector_steps": 20,
+            "parallel_seconds": 0.02,
         }
         values.update(overrides)
         return cls(**values)
@@ -179,12 +187,19 @@ def run_speed(settings: SpeedSettings = SpeedSettings(), progress: Callable[[str
     cases.append(("camera", "rgba", {**camera, "channels": ["rgba"]}, False))
     cases.append(("camera", "depth", {**camera, "channels": ["depth"]}, False))
     if settings.vector:
+        # each 1-worker case right before its 2-worker case, so each repeat gives a pair
+        # measured under the same load; the machine's own scaling in the same repeat
+        for processes in (1, 2):
+            cases.append(("parallel", processes, {"probe": "parallel", "processes": processes,
+                                                  "seconds": settings.parallel_seconds}, False))
         for env_id in env_ids:
-            for backend in ("gymnasium", "sb3"):
-                for workers in (1, 2):
-                    case = {"probe": "vector", "env_id": env_id, "workers": workers, "backend": backend,
-                            "steps": settings.vector_steps, "warmup": max(5, settings.vector_steps // 10)}
-                    cases.append(("vector", (env_id, backend, workers), case, False))
+            for backend in VECTOR_BACKENDS:
+                for stand_in in (False, True):
+                    for workers in (1, 2):
+                        case = {"probe": "vector", "env_id": env_id, "workers": workers, "backend": backend,
+                                "steps": settings.vector_steps, "warmup": max(5, settings.vector_steps // 10),
+                                "stand_in": stand_in}
+                        cases.append(("vector", (env_id, backend, stand_in, workers), case, False))
 
     ours: dict[tuple[str, Any], list[dict]] = {}
     theirs: dict[tuple[str, Any], list[dict]] = {}
@@ -219,21 +234,39 @@ def run_speed(settings: SpeedSettings = SpeedSettings(), progress: Callable[[str
         "worlds": [{"n": n, **pair("worlds", n), "floor": _median(ours[("floors", n)])} for n in settings.vehicles],
         "camera": {key: pair("camera", key) for key in ("all", "rgba", "depth")},
         "vector": None,
+        "parallel": None,
     }
     if settings.vector:
-        report["vector"] = [
-            {
-                "id": env_id,
-                "backend": backend,
-                "steps_per_s": {str(w): _median(ours[("vector", (env_id, backend, w))])["steps_per_s"] for w in (1, 2)},
-                "cpu_per_step_s": {
-                    str(w): _median(ours[("vector", (env_id, backend, w))]).get("cpu_per_step_s") for w in (1, 2)
-                },
-            }
-            for env_id in env_ids
-            for backend in ("gymnasium", "sb3")
-        ]
+        report["parallel"] = _scaling([r["work_per_s"] for r in ours[("parallel", 1)]],
+                                      [r["work_per_s"] for r in ours[("parallel", 2)]])
+        report["vector"] = []
+        for env_id in env_ids:
+            for backend in VECTOR_BACKENDS:
+                runs = {(stand_in, w): ours[("vector", (env_id, backend, stand_in, w))]
+                        for stand_in in (False, True) for w in (1, 2)}
+                report["vector"].append({
+                    "id": env_id,
+                    "backend": backend,
+                    "steps_per_s": {str(w): _median(runs[(False, w)])["steps_per_s"] for w in (1, 2)},
+                    "cpu_per_step_s": {str(w): _median(runs[(False, w)]).get("cpu_per_step_s") for w in (1, 2)},
+                    "scaling": _scaling([r["steps_per_s"] for r in runs[(False, 1)]],
+                                        [r["steps_per_s"] for r in runs[(False, 2)]]),
+                    "stand_in": {
+                        "env_step_cpu_s": _median(runs[(True, 1)] + runs[(True, 2)])["env_step_cpu_s"],
+                        "steps_per_s": {str(w): _median(runs[(True, w)])["steps_per_s"] for w in (1, 2)},
+                        "scaling": _scaling([r["steps_per_s"] for r in runs[(True, 1)]],
+                                            [r["steps_per_s"] for r in runs[(True, 2)]]),
+                    },
+                })
     return report
+
+
+def _scaling(one: list[float], two: list[float]) -> dict:
+    """1 -> 2 scaling from runs paired by repeat: the median, lowest and highest of the
+    per-repeat ratios (a pair shares the load of its moment; medians of the two sides
+    taken apart would mix moments)."""
+    ratios = [b / a for a, b in zip(one, two)]
+    return {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios), "ratios": ratios}
 
 
 # ------------------------------------------------------------------- printing
@@ -258,6 +291,10 @@ def _num(value: float | None, digits: int = 0) -> str:
 
 def _ratio(value: float | None) -> str:
     return "-" if value is None else f"{value:.2f}x" if value < 10 else f"{value:.0f}x"
+
+
+def _spread(scaling: dict) -> str:
+    return f"{scaling['median']:.2f}x ({scaling['min']:.2f}-{scaling['max']:.2f})"
 
 
 def _get(row: dict, side: str, key: str) -> float | None:
@@ -372,16 +409,25 @@ def format_report(report: dict, markdown: bool = False) -> str:
     if report.get("vector"):
         out.append("")
         title(f"Vector envs: env steps/s summed over subprocess workers ({settings['vector_steps']} vector steps); "
-              "CPU = CPU time of the main process and the workers per env step")
+              f"scaling = 2 workers / 1 worker, median (lowest-highest) of {settings['repeats']} pairs; stand-in = "
+              "the same vector env stepping pure CPU work of the env's in-process step cost (empty info, no "
+              "episode ends); CPU = CPU time of the main process and the workers per env step")
         rows = []
         for row in report["vector"]:
             one, two = row["steps_per_s"]["1"], row["steps_per_s"]["2"]
             cpu = row.get("cpu_per_step_s") or {}
             backend = "gymnasium async" if row["backend"] == "gymnasium" else "SB3 SubprocVecEnv"
             cpu_cells = [_num(cpu[w] * 1e6) if cpu.get(w) else "-" for w in ("1", "2")]
-            rows.append([row["id"], backend, _num(one), _num(two), f"{two / one:.2f}x", *cpu_cells])
-        out += _table(["env", "vector env", "1 worker", "2 workers", "scaling", "CPU us/step 1", "CPU us/step 2"],
-                      rows, markdown)
+            stand_in = row["stand_in"]
+            rows.append([row["id"], backend, _num(one), _num(two), _spread(row["scaling"]),
+                         _num(stand_in["env_step_cpu_s"] * 1e6), _spread(stand_in["scaling"]), *cpu_cells])
+        out += _table(["env", "vector env", "1 worker", "2 workers", "scaling", "step CPU us", "stand-in scaling",
+                       "CPU us/step 1", "CPU us/step 2"], rows, markdown)
+        parallel = report.get("parallel")
+        if parallel:
+            out.append("")
+            out.append(f"machine: 2 processes of pure CPU work (no pipes) do {_spread(parallel)} the work of 1 "
+                       f"({settings.get('parallel_seconds', 0.5):g} s each, {settings['repeats']} pairs)")
     return "\n".join(out) + "\n"
 
 

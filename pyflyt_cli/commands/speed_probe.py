@@ -32,7 +32,11 @@ Protocols (identical on both sides):
   ``repeats`` timings of ``captures`` captures (wall and CPU time).
 * **vector** -- ``workers`` copies of an env in subprocesses (``gymnasium.make_vec``
   async, or SB3 ``SubprocVecEnv``), ``steps`` vector steps of random actions after a
-  warm-up; throughput in env steps per second summed over workers.
+  warm-up; throughput in env steps per second summed over workers.  With
+  ``stand_in`` the workers step a stand-in of the same in-process cost instead (pure
+  CPU work, empty ``info``, no episode ends).
+* **parallel** -- ``processes`` processes of pure CPU work started together: the
+  machine's own 1 -> 2 process scaling, next to which the vector figures are read.
 """
 
 from __future__ import annotations
@@ -338,26 +342,53 @@ def _make_flat_env(env_id: str):
     return FlattenWaypointEnv(env) if _has_dynamic_shape(env.observation_space) else env
 
 
-def measure_vector(env_id: str, workers: int = 2, steps: int = 500, backend: str = "gymnasium", warmup: int = 50) -> dict:
-    """Env steps per second (summed over workers) of a subprocess vector env (our side)."""
+def measure_vector(
+    env_id: str,
+    workers: int = 2,
+    steps: int = 500,
+    backend: str = "gymnasium",
+    warmup: int = 50,
+    stand_in: bool = False,
+) -> dict:
+    """Env steps per second (summed over workers) of a subprocess vector env (our side).
+
+    ``stand_in`` replaces the env in the workers by :func:`_make_stand_in`: an env with
+    the same spaces whose step is pure CPU work costing what the env's step costs in
+    this process (measured here first, resets included), with an empty ``info`` and no
+    episode ends -- what the vector env and the machine give an env of that cost, so the
+    env's own share of any shortfall is the difference.  (For the waypoint envs, whose
+    observation has a variable size, the stand-in takes the spaces of the env wrapped in
+    ``FlattenWaypointEnv``, and Gymnasium's workers then use shared memory.)
+    """
     _quiet()
+    import functools
+
     import gymnasium
 
     import pyflyt_engine  # noqa: F401
 
+    env_step_cpu_s = None
+    factory = _flat_env_factory(env_id)
+    if stand_in:
+        env_step_cpu_s, observation_space, action_space = _in_process_step_cpu(env_id, steps=max(steps, 300))
+        iterations = max(0, round(env_step_cpu_s * _spin_rate()))
+        factory = functools.partial(_make_stand_in, observation_space, action_space, iterations)
     if backend == "sb3":
         from stable_baselines3.common.vec_env import SubprocVecEnv
 
-        envs = SubprocVecEnv([_flat_env_factory(env_id) for _ in range(workers)])
+        envs = SubprocVecEnv([factory for _ in range(workers)])
         envs.seed(0)
         envs.reset()
         envs.action_space.seed(0)
         sample = lambda: [envs.action_space.sample() for _ in range(workers)]  # noqa: E731
     else:
-        probe = gymnasium.make(env_id)
-        shared = not _has_dynamic_shape(probe.observation_space)
-        probe.close()
-        envs = gymnasium.make_vec(env_id, workers, vectorization_mode="async", vector_kwargs={"shared_memory": shared})
+        if stand_in:
+            envs = gymnasium.vector.AsyncVectorEnv([factory for _ in range(workers)])
+        else:
+            probe = gymnasium.make(env_id)
+            shared = not _has_dynamic_shape(probe.observation_space)
+            probe.close()
+            envs = gymnasium.make_vec(env_id, workers, vectorization_mode="async", vector_kwargs={"shared_memory": shared})
         envs.reset(seed=0)
         envs.action_space.seed(0)
         sample = envs.action_space.sample
@@ -374,11 +405,125 @@ def measure_vector(env_id: str, workers: int = 2, steps: int = 500, backend: str
     return {
         "workers": workers,
         "backend": backend,
+        "stand_in": stand_in,
         "steps_per_s": steps * workers / wall,
         # CPU of this process and the workers per env step: with it unchanged from 1 to 2
         # workers, throughput scales with the free cores whatever else runs on the machine
         "cpu_per_step_s": cpu / (steps * workers) if pids else None,
+        "env_step_cpu_s": env_step_cpu_s,
     }
+
+
+def _spin(iterations: int) -> float:
+    """Pure-Python CPU work (no memory traffic, no system calls): ``iterations`` additions."""
+    total = 0.0
+    for i in range(iterations):
+        total += i * 0.5
+    return total
+
+
+def _spin_rate(seconds: float = 0.05) -> float:
+    """Iterations of :func:`_spin` per CPU second in this process (the fastest of 3 timings)."""
+    iterations = 20_000
+    while True:  # grow the count until one timing lasts long enough to trust
+        start = time.process_time()
+        _spin(iterations)
+        if time.process_time() - start >= seconds / 4:
+            break
+        iterations *= 4
+    best = 0.0
+    for _ in range(3):
+        start = time.process_time()
+        _spin(iterations)
+        best = max(best, iterations / max(time.process_time() - start, 1e-9))
+    return best
+
+
+def _in_process_step_cpu(env_id: str, steps: int = 500, warmup: int = 100):
+    """CPU time of one step of the (flattened) env in this process [s], resets at
+    episode ends included, and its observation and action spaces."""
+    env = _make_flat_env(env_id)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(warmup + steps)]
+    start = 0.0
+    for i, action in enumerate(actions):
+        if i == warmup:
+            start = time.process_time()
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    cost = (time.process_time() - start) / steps
+    spaces = env.observation_space, env.action_space
+    env.close()
+    return cost, *spaces
+
+
+def _make_stand_in(observation_space, action_space, iterations: int):
+    """An env with these spaces whose step is ``iterations`` of :func:`_spin`: zero
+    observations, reward 0, empty ``info``, no episode end (see :func:`measure_vector`)."""
+    import gymnasium
+
+    class StandIn(gymnasium.Env):
+        def __init__(self):
+            self.observation_space, self.action_space = observation_space, action_space
+            self._template = observation_space.sample()
+
+        def reset(self, *, seed=None, options=None):
+            super().reset(seed=seed)
+            return _zeros_like(self._template), {}
+
+        def step(self, action):
+            _spin(iterations)
+            return _zeros_like(self._template), 0.0, False, False, {}  # new arrays, as a real env returns
+
+    return StandIn()
+
+
+def _zeros_like(value):
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {key: _zeros_like(v) for key, v in value.items()}
+    if isinstance(value, tuple):
+        return tuple(_zeros_like(v) for v in value)
+    return np.zeros_like(value)
+
+
+def measure_parallel(processes: int = 2, seconds: float = 0.5) -> dict:
+    """The machine's own scaling: ``processes`` processes each doing ``seconds`` of
+    :func:`_spin` work (calibrated alone), started together; work per wall second.
+
+    The 2-process figure over the 1-process one is what two cores give pure CPU work
+    right now, with no pipes and no shared data: the ceiling of any vector env's
+    scaling measured next to it (virtual machines often give less than 2).
+    """
+    import multiprocessing
+
+    iterations = max(1, round(_spin_rate() * seconds))
+    context = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
+    go, done = context.Event(), context.Queue()
+    ready = context.Queue()
+    children = [context.Process(target=_spin_child, args=(iterations, go, ready, done)) for _ in range(processes)]
+    for child in children:
+        child.start()
+    for _ in children:
+        ready.get()
+    start = time.perf_counter()
+    go.set()
+    for _ in children:
+        done.get()
+    wall = time.perf_counter() - start
+    for child in children:
+        child.join()
+    return {"processes": processes, "work_per_s": processes * iterations / wall / (iterations / seconds)}
+
+
+def _spin_child(iterations: int, go, ready, done) -> None:
+    ready.put(True)
+    go.wait()
+    _spin(iterations)
+    done.put(True)
 
 
 def _cpu_seconds(pids: list[int]) -> float:
@@ -432,6 +577,7 @@ PROBES = {
     "floor": measure_floor,
     "camera": measure_camera,
     "vector": measure_vector,
+    "parallel": measure_parallel,
     "machine": machine,
 }
 
