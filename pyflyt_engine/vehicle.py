@@ -66,9 +66,12 @@ from pyflyt_engine.urdf import urdf_path
 #: Standard normals drawn per refill of a vehicle's noise buffer (per actuator): the
 #: first refill after a reset draws _FIRST_NOISE_BLOCK rows and each next one twice as
 #: many, up to _NOISE_BLOCK. A Generator's normals come out the same however the stream
-#: is cut into blocks, so the schedule changes the cost of a refill, not the noise; the
-#: short first blocks keep a reset from paying for 1 024 rows that a short episode (a
-#: crashing QuadX: ~100 physics steps) never uses.
+#: is cut into blocks, so within an episode the schedule changes the cost of a refill,
+#: not the noise (a reset discards the rest of a block, so where the next unseeded
+#: episode starts in the stream does depend on it; and a vehicle with both noisy motors
+#: and noisy boosters interleaves their blocks). The short first blocks keep a reset
+#: from paying for 1 024 rows that a short episode (a crashing QuadX: ~100 physics
+#: steps) never uses.
 _NOISE_BLOCK = 1024
 _FIRST_NOISE_BLOCK = 16
 _ORIGIN = (0.0, 0.0, 0.0)

@@ -495,8 +495,9 @@ def measure_parallel(processes: int = 2, seconds: float = 0.5) -> dict:
     :func:`_spin` work (calibrated alone), started together; work per wall second.
 
     The 2-process figure over the 1-process one is what two cores give pure CPU work
-    right now, with no pipes and no shared data: the ceiling of any vector env's
-    scaling measured next to it (virtual machines often give less than 2).
+    right now, with no pipes and no shared data (a shared virtual machine often gives
+    less than 2). It is context for the vector figures measured next to it, not a
+    bound: a vector env spends much of a step waiting on pipes rather than computing.
     """
     import multiprocessing
 
