@@ -368,11 +368,12 @@ def measure_vector(
     import pyflyt_engine  # noqa: F401
 
     env_step_cpu_s = None
-    factory = _flat_env_factory(env_id)
     if stand_in:
         env_step_cpu_s, observation_space, action_space = _in_process_step_cpu(env_id, steps=max(steps, 300))
         iterations = max(0, round(env_step_cpu_s * _spin_rate()))
         factory = functools.partial(_make_stand_in, observation_space, action_space, iterations)
+    else:
+        factory = _flat_env_factory(env_id)
     if backend == "sb3":
         from stable_baselines3.common.vec_env import SubprocVecEnv
 
@@ -517,7 +518,8 @@ def measure_parallel(processes: int = 2, seconds: float = 0.5) -> dict:
     wall = time.perf_counter() - start
     for child in children:
         child.join()
-    return {"processes": processes, "work_per_s": processes * iterations / wall / (iterations / seconds)}
+    # work done per wall second, in units of one process's calibrated work per second
+    return {"processes": processes, "work_per_s": processes * seconds / wall}
 
 
 def _spin_child(iterations: int, go, ready, done) -> None:

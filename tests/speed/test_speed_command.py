@@ -59,7 +59,7 @@ def test_full_quick_speed_run_prints_the_table():
     assert "64" in result.stdout and "2 workers" in result.stdout
 
 
-def test_vector_section_pairs_runs_by_repeat_and_measures_stand_in_and_machine(tmp_path):
+def test_vector_section_pairs_runs_by_repeat_and_measures_stand_in_and_machine():
     report = run_speed(SpeedSettings.quick(envs=("PyFlyt/QuadX-Hover-v0",), vehicles=(1,), vector=True))
     assert [(row["id"], row["backend"]) for row in report["vector"]] == [
         ("PyFlyt/QuadX-Hover-v0", "gymnasium"), ("PyFlyt/QuadX-Hover-v0", "sb3")
