@@ -4,7 +4,7 @@
 
     runs/<env>/<algo>/<YYYYmmdd-HHMMSS>-seed<k>[-<n>]/
         config.yaml          resolved, validated configuration (reload with load_run_config)
-        run.yaml             seed, command line, start time, host, package versions, resumes
+        run.yaml             seed, config digest, command line, start time, host, package versions, resumes
         state.json           progress: status, steps, last checkpoint, best evaluation
         run.lock             the id of the process training it, while it trains
         metrics.mcap         /train/episode, /eval, /train/progress (metrics-<n>.mcap after a resume)
@@ -24,6 +24,7 @@ under a final name.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import platform
@@ -148,6 +149,7 @@ def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str]
         "algo": cfg.algo.name,
         "experiment": cfg.experiment,
         "init_from": cfg.init_from,
+        "config_digest": config_digest(cfg),
         "command": command if command is not None else list(sys.argv),
         "overrides": list(overrides or []),
         "cwd": os.getcwd(),
@@ -188,6 +190,51 @@ def config_dict(cfg: TrainConfig) -> dict[str, Any]:
     data = cfg.model_dump(mode="json")
     data["algo"] = {"name": data["algo"].pop("name"), **data["algo"]}
     return data
+
+
+#: keys that do not change what a run computes: where it is written and how it reports.
+#: Everything else is part of a run's identity (:func:`config_digest`).
+NON_IDENTITY_KEYS = frozenset(
+    {"train.output_dir", "train.progress_bar", "train.verbose", "train.tensorboard", "experiment"}
+)
+
+
+def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
+    """The flattened settings that define what a run computes (``key.path -> value``).
+
+    Keys of :data:`NON_IDENTITY_KEYS` are left out.  An airframe named by path
+    (``env.uav``, e.g. the ``airframe.yaml`` a run keeps of it) is identified by the
+    SHA-256 of its file's bytes, not its path, so a copy of the same file is the same run.
+    """
+    data = cfg.model_dump(mode="json") if isinstance(cfg, TrainConfig) else json.loads(json.dumps(cfg))
+    flat: dict[str, Any] = {}
+
+    def walk(node: Any, prefix: str) -> None:
+        if isinstance(node, dict) and node:
+            for key, value in node.items():
+                walk(value, f"{prefix}{key}.")
+        else:
+            flat[prefix[:-1]] = node
+
+    walk(data, "")
+    for key in NON_IDENTITY_KEYS:
+        flat.pop(key, None)
+    uav = flat.get("env.uav")
+    if isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav):
+        path = Path(uav)
+        if not path.is_absolute() and run_dir is not None:
+            path = run_dir / path
+        try:
+            flat["env.uav"] = "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError:
+            pass  # a missing file keeps its name: it then differs from any readable one
+    return flat
+
+
+def config_digest(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> str:
+    """SHA-256 (hex) of a run's :func:`identity`: equal digests, equal settings."""
+    text = json.dumps(identity(cfg, run_dir), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def save_config(cfg: TrainConfig, run_dir: Path) -> None:
