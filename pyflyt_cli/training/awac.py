@@ -85,8 +85,11 @@ class AWAC(OffPolicyAlgorithm):
         target_update_interval: gradient steps between target-critic updates.
         use_sde, sde_sample_freq: generalised state-dependent exploration, as SAC's (needed
             to start from a SAC run trained with gSDE: the policies must have the same shape).
-        offline_buffer: path of a saved replay buffer to pretrain on and keep filling.
+        offline_buffer: a replay buffer to pretrain on and keep filling: a ``.npz`` written
+            with a pyflyt checkpoint (``checkpoints/replay_buffer_<N>_steps.npz``), or an
+            SB3 ``.pkl`` (``save_replay_buffer``) only with ``trust_pickle``.
         offline_steps: gradient steps on ``offline_buffer`` before the first online step.
+        trust_pickle: allow a pickled ``offline_buffer`` (unpickling can run any code it names).
     """
 
     policy_aliases: ClassVar[dict[str, type[BasePolicy]]] = {
@@ -121,6 +124,7 @@ class AWAC(OffPolicyAlgorithm):
         sde_sample_freq: int = -1,
         offline_buffer: str | pathlib.Path | None = None,
         offline_steps: int = 0,
+        trust_pickle: bool = False,
         stats_window_size: int = 100,
         tensorboard_log: str | None = None,
         policy_kwargs: dict[str, Any] | None = None,
@@ -174,6 +178,7 @@ class AWAC(OffPolicyAlgorithm):
         self.target_update_interval = int(target_update_interval)
         self.offline_buffer = None if offline_buffer is None else str(offline_buffer)
         self.offline_steps = int(offline_steps)
+        self.trust_pickle = bool(trust_pickle)
         #: gradient steps already taken on the offline buffer (saved: a resume does not redo them)
         self.offline_steps_done = 0
         if _init_setup_model:
@@ -189,7 +194,7 @@ class AWAC(OffPolicyAlgorithm):
         self.batch_norm_stats = get_parameters_by_name(self.critic, ["running_"])
         self.batch_norm_stats_target = get_parameters_by_name(self.critic_target, ["running_"])
         if self.offline_buffer is not None:
-            self.load_replay_buffer(self.offline_buffer)
+            self.load_offline_buffer(self.offline_buffer)
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "actor", "critic", "critic_target"]
@@ -312,8 +317,25 @@ class AWAC(OffPolicyAlgorithm):
             progress_bar=progress_bar,
         )
 
+    #: attributes a checkpoint carries across a resume besides SB3's counters
+    resume_attributes: ClassVar[tuple[str, ...]] = ("offline_steps_done",)
+
+    def load_offline_buffer(self, path: str | pathlib.Path) -> None:
+        """Fill the replay buffer from ``path``: a pyflyt ``.npz`` (data only), or a pickle with ``trust_pickle``."""
+        path = pathlib.Path(path)
+        if path.suffix == ".npz":
+            from pyflyt_cli.training.artifacts import load_replay_buffer
+
+            load_replay_buffer(path, self.replay_buffer, exact=False)
+            return
+        if not self.trust_pickle:
+            from pyflyt_cli.training.artifacts import PICKLE_RISK, ArtifactError
+
+            raise ArtifactError(f"offline_buffer {path}: {PICKLE_RISK}")
+        self.load_replay_buffer(path)
+
     def load_replay_buffer(self, path: str | pathlib.Path | io.BufferedIOBase, truncate_last_traj: bool = True) -> None:
-        """SB3's loader, with a clear error when the buffer does not match this env's spaces."""
+        """SB3's (pickle) loader, with a clear error when the buffer does not match this env's spaces."""
         super().load_replay_buffer(path, truncate_last_traj)
         buffer = self.replay_buffer
         if buffer is not None and (

@@ -1,60 +1,80 @@
 """The cross-cutting parts of a training run, as Stable-Baselines3 callbacks.
 
-* :class:`StopOnRequest` — Ctrl-C / SIGTERM end ``learn()`` at the next step boundary.
+* :class:`RunCallbacks` — the run's callbacks; ends ``learn()`` right after the
+  checkpoint a stop request (Ctrl-C / SIGTERM) asked for.
+* :class:`ResumeStreams` — after a resume, puts the random streams back at the first
+  rollout start (where they were captured).
 * :class:`EpisodeMetrics` — every finished training episode → ``/train/episode``.
 * :class:`PeriodicEvaluation` — every ``eval_freq`` steps: N episodes on a separate env →
-  ``/eval``, ``best_model.zip``; runs child callbacks (stop on reward ...) after each.
-* :class:`Checkpointer` — every ``checkpoint_freq`` steps, at a rollout boundary: model,
-  replay buffer, normalisation statistics, then ``state.json``.
+  ``/eval``, ``best_model.pt``; runs child callbacks (stop on reward ...) after each.
+* :class:`Checkpointer` — every ``checkpoint_freq`` steps and on a stop request, at a
+  rollout start: a checkpoint (see :mod:`pyflyt_cli.training.continuity`).
 * :class:`ProgressBar` — tqdm with steps/s and ETA.
 
-Checkpoints are taken at the start of a rollout (right after the previous update), where
-the step counter, the weights, the optimiser and the replay buffer agree: a run resumed
-from one ends at the same step count as a run never interrupted.
+Checkpoints are taken at the start of a rollout (right after the previous update, before
+the next action is chosen), where everything the continuation depends on can be
+captured: a run resumed from one continues exactly as the uninterrupted run did.
 """
 
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback, EventCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EventCallback
 
 from pyflyt_cli.training import rundir
+from pyflyt_cli.training.artifacts import save_policy
 from pyflyt_cli.training.evaluation import policy_predict, run_episodes, summarize
 
 
 class StopRequest:
-    """A flag set by a signal handler; checked by :class:`StopOnRequest` at every step."""
+    """A flag set by a signal handler; the next rollout start saves a checkpoint and ends the run."""
 
     def __init__(self) -> None:
         self.requested = False
         self.signal_name = ""
+        #: the step of the checkpoint saved for the request, once saved
+        self.saved_at: int | None = None
 
     def request(self, name: str) -> None:
         self.requested = True
         self.signal_name = name
 
 
-class StopOnRequest(BaseCallback):
-    """End ``learn()`` cleanly once a stop is requested; remembers where the rollout started."""
+class RunCallbacks(CallbackList):
+    """A run's callbacks; once the checkpoint a stop request asked for is saved, ``learn()`` ends
+    at the next step and no callback runs again (nothing is logged past the checkpoint)."""
 
-    def __init__(self, stop: StopRequest) -> None:
-        super().__init__()
+    def __init__(self, callbacks: list[BaseCallback], stop: StopRequest) -> None:
+        super().__init__(callbacks)
         self.stop = stop
-        self.rollout_start_step = 0
-
-    def _on_training_start(self) -> None:
-        self.rollout_start_step = self.model.num_timesteps
-
-    def _on_rollout_start(self) -> None:
-        self.rollout_start_step = self.model.num_timesteps
 
     def _on_step(self) -> bool:
-        return not self.stop.requested
+        if self.stop.saved_at is not None:
+            return False
+        return super()._on_step()
+
+
+class ResumeStreams(BaseCallback):
+    """After a resume: put the random streams, action noise and gSDE noise back at the first
+    rollout start, where the checkpoint captured them (first in the callback list)."""
+
+    def __init__(self, state: dict[str, Any], tensors: dict[str, Any]) -> None:
+        super().__init__()
+        self.pending: tuple[dict[str, Any], dict[str, Any]] | None = (state, tensors)
+
+    def _on_rollout_start(self) -> None:
+        if self.pending is not None:
+            from pyflyt_cli.training.continuity import restore_streams
+
+            restore_streams(self.model, *self.pending)
+            self.pending = None
+
+    def _on_step(self) -> bool:
+        return True
 
 
 class EpisodeMetrics(BaseCallback):
@@ -77,34 +97,22 @@ class EpisodeMetrics(BaseCallback):
         return True
 
 
-def save_model_files(model: Any, model_path: Path, vecnorm_path: Path | None, buffer_path: Path | None = None) -> None:
-    """Save the model (and VecNormalize statistics, replay buffer) through temporary names."""
-    tmp = model_path.with_name(f".tmp{os.getpid()}.{model_path.name}")
-    model.save(tmp)
-    os.replace(tmp, model_path)
-    env = model.get_vec_normalize_env()
-    if vecnorm_path is not None and env is not None:
-        tmp = vecnorm_path.with_name(f".tmp{os.getpid()}.{vecnorm_path.name}")
-        env.save(tmp)
-        os.replace(tmp, vecnorm_path)
-    if buffer_path is not None:
-        tmp = buffer_path.with_name(f".tmp{os.getpid()}.{buffer_path.name}")
-        model.save_replay_buffer(tmp)
-        os.replace(tmp, buffer_path)
-
-
 class PeriodicEvaluation(EventCallback):
-    """Evaluate every ``eval_freq`` environment steps; keep the best model.
+    """Evaluate at the first rollout start at or after every ``eval_freq`` steps; keep the best model.
 
+    At a rollout start the update from the data collected so far is done, so the ``/eval``
+    record at step N describes the weights trained on the first N steps (and the record
+    at the end of the run, :meth:`evaluate` called by the loop, the final model).
     Attributes ``best_mean_reward`` and ``last_mean_reward`` follow SB3's ``EvalCallback``,
     so SB3's ``StopTrainingOnRewardThreshold`` and ``StopTrainingOnNoModelImprovement`` work
-    as child callbacks.
+    as child callbacks (their verdict ends ``learn()`` at the next step).
     """
 
     def __init__(
         self,
         env: Any,
         run_dir: Path,
+        algo: str,
         writer: Any,
         eval_freq: int,
         episodes: int,
@@ -122,6 +130,7 @@ class PeriodicEvaluation(EventCallback):
         self.total = total
         self.env = env
         self.run_dir = run_dir
+        self.algo = algo
         self.writer = writer
         self.eval_freq = eval_freq
         self.episodes = episodes
@@ -133,6 +142,9 @@ class PeriodicEvaluation(EventCallback):
         self.last_mean_reward = -np.inf
         self.last: dict[str, float] | None = None
         self.last_step: int | None = None
+        #: the model's update count at the last evaluation (the weights it evaluated)
+        self.last_updates: int | None = None
+        self._continue = True
         self._started = time.perf_counter()
         self._start_steps = 0
 
@@ -141,12 +153,19 @@ class PeriodicEvaluation(EventCallback):
         self._started = time.perf_counter()
         self._start_steps = self.model.num_timesteps
 
-    def _on_step(self) -> bool:
+    def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
             while self.next_eval <= self.num_timesteps:
                 self.next_eval += self.eval_freq
-            return self.evaluate()
-        return True
+            self._continue = self.evaluate()
+
+    def _on_step(self) -> bool:
+        return self._continue
+
+    @property
+    def current(self) -> bool:
+        """Whether the last evaluation saw the model's current weights (no update since)."""
+        return self.last_updates is not None and self.last_updates == self.model._n_updates
 
     def evaluate(self) -> bool:
         """Run the evaluation now; returns False if a child callback asks to stop."""
@@ -169,7 +188,7 @@ class PeriodicEvaluation(EventCallback):
             step,
             {"elapsed": elapsed, "steps_per_second": trained / elapsed if elapsed > 0 else 0.0},
         )
-        self.last, self.last_step = summary, step
+        self.last, self.last_step, self.last_updates = summary, step, int(self.model._n_updates)
         self.last_mean_reward = summary["mean_return"]
         if self.log is not None:
             of = f"/{self.total}" if self.total else ""
@@ -181,26 +200,68 @@ class PeriodicEvaluation(EventCallback):
         if summary["mean_return"] > self.best_mean_reward:
             self.best_mean_reward = summary["mean_return"]
             self.best_step = step
-            save_model_files(self.model, self.run_dir / rundir.BEST_MODEL, self.run_dir / rundir.BEST_VECNORM)
+            save_policy(self.run_dir / rundir.BEST_MODEL, self.model, self.algo, step)
         if self.callback is not None:
             return self.callback.on_step()
         return True
 
+    #: the counters of SB3's after-evaluation callbacks that a resume carries on
+    _CHILD_STATE = ("no_improvement_evals", "last_best_mean_reward")
+
+    def state_dict(self) -> dict[str, Any]:
+        """What a checkpoint keeps of the evaluation schedule and results (plain data)."""
+        children = self.callback.callbacks if isinstance(self.callback, CallbackList) else [self.callback]
+        return {
+            "next_eval": self.next_eval,
+            "best_mean_reward": None if not np.isfinite(self.best_mean_reward) else float(self.best_mean_reward),
+            "best_step": self.best_step,
+            "last": self.last,
+            "last_step": self.last_step,
+            "last_updates": self.last_updates,
+            "last_mean_reward": None if not np.isfinite(self.last_mean_reward) else float(self.last_mean_reward),
+            "children": [
+                {k: float(getattr(c, k)) if k == "last_best_mean_reward" else getattr(c, k)
+                 for k in self._CHILD_STATE if hasattr(c, k)}
+                for c in children if c is not None
+            ],
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`state_dict`."""
+        self.next_eval = int(state["next_eval"])
+        self.best_mean_reward = -np.inf if state["best_mean_reward"] is None else float(state["best_mean_reward"])
+        self.best_step = state["best_step"]
+        self.last = state["last"]
+        self.last_step = state["last_step"]
+        self.last_updates = state["last_updates"]
+        self.last_mean_reward = -np.inf if state["last_mean_reward"] is None else float(state["last_mean_reward"])
+        children = self.callback.callbacks if isinstance(self.callback, CallbackList) else [self.callback]
+        for child, saved in zip([c for c in children if c is not None], state["children"]):
+            for key, value in saved.items():
+                setattr(child, key, value)
+
 
 class Checkpointer(BaseCallback):
-    """Save a checkpoint at the first rollout start at or after every ``checkpoint_freq`` steps."""
+    """Save a checkpoint at the first rollout start at or after every ``checkpoint_freq`` steps,
+    and at the first rollout start after a stop request (then ``learn()`` ends)."""
 
-    def __init__(self, run: Any, freq: int, next_checkpoint: int) -> None:
+    def __init__(self, run: Any, freq: int, next_checkpoint: int, stop: StopRequest) -> None:
         super().__init__()
         self.run = run
         self.freq = freq
         self.next_checkpoint = next_checkpoint
+        self.stop = stop
 
     def _on_rollout_start(self) -> None:
-        if self.freq > 0 and self.model.num_timesteps >= self.next_checkpoint:
-            while self.next_checkpoint <= self.model.num_timesteps:
+        step = self.model.num_timesteps
+        due = self.freq > 0 and step >= self.next_checkpoint
+        if due:
+            while self.next_checkpoint <= step:
                 self.next_checkpoint += self.freq
+        if due or self.stop.requested:
             self.run.save_checkpoint(self.model)
+            if self.stop.requested:
+                self.stop.saved_at = step
 
     def _on_step(self) -> bool:
         return True

@@ -13,7 +13,9 @@ observation and action layout it was trained on:
    observations are cast to float32 (the networks' type; halves replay buffers);
 4. a bounded ``Box`` action space is rescaled to ``[-1, 1]`` (what SB3's squashed and
    clipped Gaussian policies assume; the paper's units stay in the env);
-5. SB3's ``Monitor`` (episode return, length and ``success``) for training envs.
+5. SB3's ``Monitor`` (episode return, length and ``success``) for training envs;
+6. :class:`ResumableEpisode` (outermost, training envs): remembers how the episode in
+   progress started and the actions since, so a checkpoint can rebuild it exactly.
 """
 
 from __future__ import annotations
@@ -65,6 +67,66 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
     return env
 
 
+def _rng_state(env: gymnasium.Env) -> dict[str, Any]:
+    base = env.unwrapped
+    state: dict[str, Any] = {"env": base.np_random.bit_generator.state}
+    world = getattr(base, "world", None)
+    if world is not None:
+        state["world"] = world.rng_state()
+    return state
+
+
+def _set_rng_state(env: gymnasium.Env, state: dict[str, Any]) -> None:
+    base = env.unwrapped
+    base.np_random.bit_generator.state = state["env"]
+    if "world" in state:
+        base.world.set_rng_state(state["world"])
+
+
+class ResumableEpisode(gymnasium.Wrapper):
+    """Remember how the episode in progress started and every action since.
+
+    :meth:`episode_state` is that record (plain data and one array); :meth:`restore_episode`
+    rebuilds the episode from it in a fresh env of the same configuration, bit for bit:
+    the simulation is deterministic, so the same start (the seed, or the random streams of
+    an unseeded reset) and the same actions give the same physics, controller, task and
+    wrapper state (``Monitor``'s running return included).  Checkpoints store it for every
+    training env (:mod:`pyflyt_cli.training.continuity`).
+
+    Cost per step: one copy of the action (a few floats).
+    """
+
+    def __init__(self, env: gymnasium.Env) -> None:
+        super().__init__(env)
+        self._start: dict[str, Any] = {"seed": None, "options": None, "rng": None}
+        self._actions: list[np.ndarray] = []
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        self._start = {"seed": seed, "options": options, "rng": None if seed is not None else _rng_state(self.env)}
+        self._actions = []
+        return self.env.reset(seed=seed, options=options)
+
+    def step(self, action: Any) -> tuple[Any, Any, bool, bool, dict[str, Any]]:
+        self._actions.append(np.array(action, copy=True))
+        return self.env.step(action)
+
+    def episode_state(self) -> dict[str, Any]:
+        """``{"seed", "options", "rng", "actions"}`` of the episode in progress (actions: (steps, ...) array)."""
+        shape = self.action_space.shape or ()
+        actions = np.stack(self._actions) if self._actions else np.zeros((0, *shape), self.action_space.dtype)
+        return {**self._start, "actions": actions}
+
+    def restore_episode(self, state: dict[str, Any]) -> Any:
+        """Rebuild the episode :meth:`episode_state` described; returns its current observation."""
+        self.env.reset(seed=0)  # every later reset takes the same (restore-snapshot) path
+        if state["seed"] is None:
+            _set_rng_state(self.env, state["rng"])
+        obs, _ = self.reset(seed=state["seed"], options=state["options"])
+        for action in state["actions"]:
+            obs, *_ = self.step(action)
+        return obs
+
+
 @dataclass(frozen=True)
 class EnvFactory:
     """A picklable ``() -> env`` for vectorised training and evaluation environments.
@@ -77,6 +139,8 @@ class EnvFactory:
             and closes the workers itself.
         render_mode: ``None`` or ``"rgb_array"``.
         record_dir: record every episode to MCAP files in this directory.
+        resumable: wrap in :class:`ResumableEpisode` (training envs, whose episodes in
+            progress are saved with checkpoints).
     """
 
     config: EnvConfig
@@ -84,6 +148,7 @@ class EnvFactory:
     in_subprocess: bool = False
     render_mode: str | None = None
     record_dir: str | None = None
+    resumable: bool = False
 
     def __call__(self) -> gymnasium.Env:
         if self.in_subprocess:
@@ -101,6 +166,8 @@ class EnvFactory:
             from stable_baselines3.common.monitor import Monitor
 
             env = Monitor(env, info_keywords=("success",))
+        if self.resumable:
+            env = ResumableEpisode(env)
         return env
 
 
@@ -112,7 +179,7 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
-    factories = [EnvFactory(config, in_subprocess=subproc) for _ in range(n_envs)]
+    factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
     if subproc:
         return SubprocVecEnv(factories)
     return DummyVecEnv(factories)

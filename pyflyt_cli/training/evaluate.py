@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from pyflyt_cli.training import registry, rundir
+from pyflyt_cli.training import rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, Episode, policy_predict, run_episodes, summarize
 from pyflyt_cli.training.schema import EvalOptions, parse_eval_options
 from pyflyt_engine.errors import ConfigError
@@ -68,9 +68,10 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
     with ``video``, an animation of the first ``video_episodes`` episodes.
     """
     opts = parse_eval_options(options or {})
+    trust = bool(getattr(opts, "trust_pickle", False))
     path = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(path)
-    model_path, vecnorm_path, which = rundir.find_model(path, opts.model)
+    model_path, which = rundir.find_model(path, opts.model, legacy=trust)
     video = Path(opts.video).expanduser().resolve() if opts.video else None
     if video is not None:
         _check_video_writer(video)
@@ -78,11 +79,9 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
     import torch
 
     from pyflyt_cli.training.envs import EnvFactory
+    from pyflyt_cli.training.models import load_policy
 
     torch.set_num_threads(cfg.train.torch_threads)
-    cls = registry.resolve(registry.ALGOS, cfg.algo.name, "algorithm")
-    model = cls.load(model_path, device=cfg.train.device)
-    normalize = _obs_normalizer(vecnorm_path, cfg) if vecnorm_path is not None else None
     seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
     episodes_dir = path / rundir.EPISODES
     env = EnvFactory(
@@ -91,6 +90,11 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
         render_mode="rgb_array" if video is not None else None,
         record_dir=str(episodes_dir) if opts.record else None,
     )()
+    try:  # the model is read before the first episode is recorded: a bad file leaves nothing behind
+        model, normalize = load_policy(model_path, cfg, env, trust_pickle=trust)
+    except BaseException:
+        env.close()
+        raise
     frames: list[np.ndarray] = []
 
     def grab(e: Any, episode: int) -> None:
@@ -145,17 +149,6 @@ def _recorder_paths(env: Any) -> list[Path]:
             return [Path(p) for p in e.paths]
         e = getattr(e, "env", None)
     return []
-
-
-def _obs_normalizer(vecnorm_path: Path, cfg: Any) -> Any:
-    import pickle
-
-    with open(vecnorm_path, "rb") as fh:
-        stats = pickle.load(fh)  # written by this package's own training run
-    if not getattr(stats, "norm_obs", False):
-        return None
-    stats.training = False
-    return stats.normalize_obs
 
 
 def _check_video_writer(video: Path) -> None:

@@ -1,11 +1,15 @@
 """Train, resume and bootstrap runs: plain functions on a plain :class:`TrainConfig`.
 
     from pyflyt_cli.training import train, resume
-    result = train({"env_name": "quadx_hover", "env": ..., "algo": {"name": "ppo"}, ...})
+    result = train(config)                          # a TrainConfig (or its mapping)
     result = resume(result.run_dir)                 # after an interruption
 
 No Hydra here: the CLI (``pyflyt_cli/commands/train.py``) composes ``conf/train.yaml``
 and calls :func:`train`; tests and scripts call it directly.
+
+A run interrupted (Ctrl-C, SIGTERM: a checkpoint is saved at the next rollout start;
+SIGKILL: the newest checkpoint counts) and resumed continues exactly as if it had never
+stopped: same evaluations, same final weights (see ``docs/reproducibility.md``).
 """
 
 from __future__ import annotations
@@ -16,7 +20,6 @@ import math
 import os
 import shutil
 import signal
-import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -24,10 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from pyflyt_cli.training import registry, rundir
+from pyflyt_cli.training import artifacts, continuity, registry, rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET
+from pyflyt_cli.training.models import PolicySource, build_model, read_policy
 from pyflyt_cli.training.schema import TrainConfig, parse_train_config
 from pyflyt_engine.errors import ConfigError, PyFlytError
 
@@ -39,7 +41,7 @@ class RunResult:
     """What a call to :func:`train` or :func:`resume` did."""
 
     run_dir: Path
-    #: environment steps of the model at the end (the step counter saved with it)
+    #: environment steps of the model at the end (of its newest checkpoint if interrupted)
     num_timesteps: int
     #: True if stopped by a signal (a checkpoint was saved; continue with :func:`resume`)
     interrupted: bool
@@ -83,7 +85,7 @@ def train(
     """
     cfg = parse_train_config(config)
     _check_environment(cfg)
-    init = _init_source(cfg.init_from) if cfg.init_from else None
+    init = _init_source(cfg) if cfg.init_from else None
     _probe_env(cfg)
     if run_dir is None:
         run_dir = rundir.create_run_dir(cfg.train.output_dir, cfg.env_name, cfg.algo.name, cfg.seed)
@@ -91,15 +93,18 @@ def train(
         run_dir = rundir.create_named_run_dir(run_dir)
     try:
         cfg = rundir.portable_config(cfg, run_dir)
+        rundir.save_config(cfg, run_dir)
+        record = rundir.run_record(cfg, command, overrides)
+        if init is not None:
+            record["init_from"] = {"run": str(init.run), "model": str(init.path), "algo": init.algo}
+        rundir.write_yaml(run_dir / rundir.RUN_FILE, record)
+        rundir.write_state(run_dir, {"status": "starting", "num_timesteps": 0, "checkpoint": None})
+    except OSError as exc:
+        shutil.rmtree(run_dir, ignore_errors=True)  # nothing trained: no partial run left behind
+        raise ConfigError(f"cannot write the run directory {run_dir}: {exc.strerror or exc}") from None
     except Exception:
         shutil.rmtree(run_dir, ignore_errors=True)
         raise
-    rundir.save_config(cfg, run_dir)
-    record = rundir.run_record(cfg, command, overrides)
-    if init is not None:
-        record["init_from"] = {"run": str(init[0]), "model": str(init[1])}
-    rundir.write_yaml(run_dir / rundir.RUN_FILE, record)
-    rundir.write_state(run_dir, {"status": "starting", "num_timesteps": 0, "checkpoint": None})
     log(f"run directory: {run_dir}")
     with rundir.run_lock(run_dir):
         return _Run(cfg, run_dir, log, progress_bar).execute(callbacks, init=init)
@@ -115,10 +120,12 @@ def resume(
 ) -> RunResult:
     """Continue an interrupted run from its newest checkpoint, in the same directory.
 
-    The step counter, weights, optimiser state, replay buffer (off-policy) and
-    normalisation statistics come from the checkpoint; metrics recorded after it are
-    dropped and logging continues in the next metrics segment.  ``total_timesteps``
-    extends (or sets) the budget.  A run killed before its first checkpoint starts over.
+    Everything the continuation depends on comes from the checkpoint (weights,
+    optimisers, replay buffer, normaliser, random streams, the envs' episodes in progress:
+    :mod:`pyflyt_cli.training.continuity`), so the run ends exactly as an uninterrupted
+    one.  Metrics logged after the checkpoint are superseded by the new segment.
+    ``total_timesteps`` extends (or sets) the budget.  A run killed before its first
+    checkpoint starts over.
     """
     path = rundir.check_run_dir(run_dir)
     with rundir.run_lock(path):
@@ -136,13 +143,8 @@ def _resume(
     _check_environment(cfg)
     _probe_env(cfg)
     state = rundir.read_state(path)
-    found = rundir.checkpoints(path)
-    checkpoint = None
-    if state.get("checkpoint") is not None:
-        checkpoint = next((c for c in found if c.step == state["checkpoint"]), None)
-    if checkpoint is None and found:
-        checkpoint = found[-1]
-    done = int(state.get("num_timesteps", 0))
+    checkpoint = _resume_point(path, cfg, log)
+    done = checkpoint.step if checkpoint is not None else 0
     if state.get("status") == "complete" and done >= cfg.train.total_timesteps:
         raise ConfigError(
             f"{path} is complete ({done} of train.total_timesteps={cfg.train.total_timesteps} steps); "
@@ -152,17 +154,12 @@ def _resume(
         rundir.save_config(cfg, path)
     record = rundir.read_yaml(path / rundir.RUN_FILE)
     record.setdefault("resumes", []).append(
-        {
-            "at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "from_step": checkpoint.step if checkpoint else 0,
-            "pid": os.getpid(),
-        }
+        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid()}
     )
     rundir.write_yaml(path / rundir.RUN_FILE, record)
     log(f"resuming {path} from " + (f"step {checkpoint.step}" if checkpoint else "the start (no checkpoint was saved)"))
-    init = _init_source(cfg.init_from) if cfg.init_from and checkpoint is None else None
-    run = _Run(cfg, path, log, progress_bar)
-    return run.execute(callbacks, checkpoint=checkpoint, state=state if checkpoint else {}, init=init)
+    init = _init_source(cfg) if cfg.init_from and checkpoint is None else None
+    return _Run(cfg, path, log, progress_bar).execute(callbacks, checkpoint=checkpoint, init=init)
 
 
 # ------------------------------------------------------------------- internals
@@ -194,39 +191,74 @@ def _probe_env(cfg: TrainConfig) -> None:
     env.close()
 
 
-def _init_source(source: str) -> tuple[Path, Path, Path | None, str]:
-    """(run dir, model file, VecNormalize file, algo name) of ``init_from``.
+def _init_source(cfg: TrainConfig) -> PolicySource:
+    """The policy ``init_from`` names, read now (so a wrong file fails before training).
 
     ``init_from`` is a run directory (its best model, else final, else newest checkpoint)
-    or one model file of a run: ``model.zip``, ``best_model.zip`` or
-    ``checkpoints/model_<steps>_steps.zip`` (a partially trained policy).
+    or one policy file of a run: ``model.pt``, ``best_model.pt`` or
+    ``checkpoints/model_<steps>_steps.pt`` (a partially trained policy).  SB3 ``.zip``
+    files of older versions only with ``trust_pickle``.
     """
-    given = Path(source).expanduser()
-    model: Path | None = None
-    if given.suffix == ".zip":
+    trust = bool(getattr(cfg, "trust_pickle", False))
+    given = Path(str(cfg.init_from)).expanduser()
+    if given.suffix in (".pt", ".zip"):
         if not given.is_file():
             raise ConfigError(f"init_from: model file {given} does not exist")
         model = given.resolve()
-        run = model.parent.parent if model.parent.name == rundir.CHECKPOINTS else model.parent
     else:
-        run = given
+        try:
+            model, _ = rundir.find_model(rundir.check_run_dir(given), "auto", legacy=trust)
+        except ConfigError as exc:
+            raise ConfigError(f"init_from: {exc}") from None
+    hint = str((rundir.read_yaml(rundir.run_of(model) / rundir.CONFIG_FILE).get("algo") or {}).get("name", "?"))
     try:
-        path = rundir.check_run_dir(run)
+        source = read_policy(model, trust_pickle=trust, algo_hint=hint)
     except ConfigError as exc:
         raise ConfigError(f"init_from: {exc}") from None
-    source_cfg = rundir.read_yaml(path / rundir.CONFIG_FILE)
-    algo = str((source_cfg.get("algo") or {}).get("name", "?"))
-    if model is not None:
-        return path, model, rundir.vecnormalize_of(model), algo
-    try:
-        model, vecnorm, _ = rundir.find_model(path, "auto")
-    except ConfigError as exc:
-        raise ConfigError(f"init_from: {exc}") from None
-    return path, model, vecnorm, algo
+    accepted = {cfg.algo.name} | registry.INIT_FROM.get(cfg.algo.name, frozenset())
+    if source.algo not in accepted:
+        raise ConfigError(
+            f"init_from={cfg.init_from}: that policy was trained by {source.algo}, this run uses {cfg.algo.name}; "
+            f"{cfg.algo.name} can start from the policy weights of: {', '.join(sorted(accepted))}"
+        )
+    return source
+
+
+def _resume_point(path: Path, cfg: TrainConfig, log: Log) -> rundir.Checkpoint | None:
+    """The newest complete checkpoint, after clearing what a kill left of an unfinished one.
+
+    A checkpoint file is written last, so it exists only once the checkpoint is complete;
+    temporary files and a replay buffer newer than every checkpoint file are the parts of
+    a commit that was cut short, and are removed.
+    """
+    folder = path / rundir.CHECKPOINTS
+    found = rundir.checkpoints(path)
+    if folder.is_dir():
+        newest = found[-1].step if found else -1
+        for leftover in sorted(folder.iterdir()):
+            m = rundir.BUFFER_PATTERN.match(leftover.name)
+            unfinished = leftover.name.startswith(".") and ".tmp" in leftover.name
+            if unfinished or (m is not None and int(m[1]) > newest):
+                leftover.unlink(missing_ok=True)
+                log(f"removed {leftover.name}: part of a checkpoint that was cut short")
+    if not found:
+        if any(c.legacy for c in rundir.checkpoints(path, legacy=True)):
+            raise ConfigError(
+                f"{path}: its checkpoints were saved by an older version in a pickled format, which cannot be "
+                "resumed; evaluate it with pyflyt eval <run> trust_pickle=true, or train it again"
+            )
+        return None
+    newest_checkpoint = found[-1]
+    if cfg.algo.off_policy and newest_checkpoint.replay_buffer is None:
+        log(
+            f"warning: checkpoint {newest_checkpoint.step} has no replay buffer (train.save_replay_buffer=false): "
+            "the resumed run starts with an empty buffer and will not match an uninterrupted run"
+        )
+    return newest_checkpoint
 
 
 @contextlib.contextmanager
-def _signals(stop: Any, log: Log) -> Iterator[None]:
+def _signals(stop: Any, log: Log, message: str) -> Iterator[None]:
     """SIGINT/SIGTERM request a clean stop; a second SIGINT aborts at once."""
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -237,9 +269,7 @@ def _signals(stop: Any, log: Log) -> Iterator[None]:
         if stop.requested and signum == signal.SIGINT:
             raise KeyboardInterrupt
         stop.request(name)
-        log(
-            f"\n{name} received: stopping at the next step and saving a checkpoint (Ctrl-C again to abort without saving)"
-        )
+        log(f"\n{name} received: {message} (Ctrl-C again to abort without saving)")
 
     previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -249,40 +279,8 @@ def _signals(stop: Any, log: Log) -> Iterator[None]:
             signal.signal(s, h)
 
 
-def _consolidate_metrics(run_dir: Path, up_to: int) -> None:
-    """Rewrite the run's metrics as one ``metrics.mcap`` holding the records at steps <= ``up_to``."""
-    import warnings
-
-    from pyflyt_engine.telemetry.metrics import MetricsWriter, read_metrics, read_metrics_metadata, segment_paths
-
-    segments = segment_paths(run_dir)
-    if not segments:
-        return
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            records = read_metrics(run_dir)
-            metadata = read_metrics_metadata(run_dir)[0]
-        except (PyFlytError, OSError, ValueError, KeyError):  # unreadable: keep nothing rather than fail the resume
-            records, metadata = {}, {}
-    rows = sorted(
-        ((rec["wall_time"], topic, rec) for topic, recs in records.items() for rec in recs if rec["step"] <= up_to),
-        key=lambda r: r[0],
-    )
-    with tempfile.TemporaryDirectory(dir=run_dir, prefix=".metrics-") as tmp:
-        target = Path(tmp) / "metrics.mcap"
-        with MetricsWriter(target, metadata=metadata) as writer:
-            for wall, topic, rec in rows:
-                values = {k: v for k, v in rec.items() if k not in ("step", "wall_time")}
-                writer.log(topic, int(rec["step"]), values, wall_time=wall)
-        os.replace(target, run_dir / "metrics.mcap")
-    for seg in segments:
-        if seg.name != "metrics.mcap":
-            seg.unlink(missing_ok=True)
-
-
 class _Run:
-    """One execution of learn() for a run directory (new or resumed)."""
+    """One execution of ``learn()`` for a run directory (new or resumed), in named steps."""
 
     def __init__(self, cfg: TrainConfig, run_dir: Path, log: Log, progress_bar: bool | None) -> None:
         self.cfg = cfg
@@ -291,90 +289,226 @@ class _Run:
         self.progress_bar = progress_bar if progress_bar is not None else cfg.train.progress_bar
         self.state: dict[str, Any] = {}
         self.evaluation: Any = None
+        self.checkpointer: Any = None
+        self.writer: Any = None
+
+    def execute(
+        self,
+        extra_callbacks: Sequence[Any],
+        *,
+        checkpoint: rundir.Checkpoint | None = None,
+        init: PolicySource | None = None,
+    ) -> RunResult:
+        from pyflyt_cli.training.callbacks import StopRequest
+
+        try:
+            with contextlib.ExitStack() as cleanup:  # closes writer, envs and workers even if a close fails
+                model = self._build(cleanup)
+                restored = self._restore(model, checkpoint) if checkpoint is not None else None
+                if init is not None:
+                    self._bootstrap(model, init)
+                start_step = int(model.num_timesteps)
+                self._open_metrics(cleanup, checkpoint)
+                stop = StopRequest()
+                callbacks = self._callbacks(cleanup, stop, restored, extra_callbacks)
+                self._write_state("running", start_step, checkpoint=checkpoint.step if checkpoint else None)
+                elapsed = self._learn(model, callbacks, stop)
+                return self._finish(model, stop, start_step, elapsed)
+        except artifacts.ArtifactError as exc:  # a file could not be written (full disk, read-only ...)
+            with contextlib.suppress(OSError, PyFlytError):
+                self._write_state("failed", int(self.state.get("num_timesteps") or 0))
+            raise ConfigError(
+                f"{exc}\nthe run stopped; its newest complete checkpoint is intact: fix the cause, then "
+                f"pyflyt train resume={self.run_dir}"
+            ) from None
 
     # ------------------------------------------------------------ the model
 
-    def _build(self, vec: Any, checkpoint: rundir.Checkpoint | None) -> Any:
-        cfg, algo = self.cfg, self.cfg.algo
-        cls = registry.resolve(registry.ALGOS, algo.name, "algorithm")
-        tensorboard = str(self.run_dir / "tensorboard") if cfg.train.tensorboard else None
-        if checkpoint is not None:
-            model = cls.load(checkpoint.model, env=vec, device=cfg.train.device, tensorboard_log=tensorboard)
-            if algo.off_policy and checkpoint.replay_buffer is not None:
-                model.load_replay_buffer(checkpoint.replay_buffer)
-            # fresh, reproducible random streams for the rest of the run
-            model.set_random_seed(cfg.seed + model.num_timesteps)
-            return model
-        kwargs = algo.constructor_kwargs()
-        noise = getattr(algo, "action_noise", None)
-        if noise is not None:
-            noise_cls = registry.resolve(registry.ACTION_NOISES, noise.type, "action noise")
-            n = int(np.prod(vec.action_space.shape))
-            kwargs["action_noise"] = noise_cls(mean=np.zeros(n), sigma=noise.sigma * np.ones(n))
-        return cls(
-            algo.policy,
-            vec,
-            seed=cfg.seed,
-            device=cfg.train.device,
-            verbose=cfg.train.verbose,
-            tensorboard_log=tensorboard,
-            **kwargs,
-        )
+    def _build(self, cleanup: contextlib.ExitStack) -> Any:
+        """Training envs (with the normaliser) and a new model from the configuration."""
+        import torch
+        from stable_baselines3.common.utils import set_random_seed
+        from stable_baselines3.common.vec_env import VecNormalize
 
-    def _bootstrap(self, model: Any, vec: Any, init: tuple[Path, Path, Path | None, str]) -> None:
-        from stable_baselines3.common.save_util import load_from_zip_file
+        from pyflyt_cli.training.envs import make_vec_env
 
-        run, path, vecnorm, algo = init
-        accepted = {self.cfg.algo.name} | registry.INIT_FROM.get(self.cfg.algo.name, frozenset())
-        if algo not in accepted:
-            raise ConfigError(
-                f"init_from={run}: that run trained {algo}, this one {self.cfg.algo.name}; "
-                f"{self.cfg.algo.name} can start from the policy weights of: {', '.join(sorted(accepted))}"
+        cfg, opts = self.cfg, self.cfg.train
+        torch.set_num_threads(opts.torch_threads)
+        set_random_seed(cfg.seed)
+        vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env)
+        cleanup.callback(vec.close)
+        norm = cfg.algo.normalize
+        if norm.enabled:
+            vec = VecNormalize(
+                vec, norm_obs=norm.observation, norm_reward=norm.reward, clip_obs=norm.clip_obs, gamma=cfg.algo.gamma
             )
-        _, params, _ = load_from_zip_file(path, device=self.cfg.train.device)
-        try:
-            model.policy.load_state_dict(params["policy"])
-        except (RuntimeError, KeyError) as exc:
-            first = str(exc).splitlines()[0]
-            raise ConfigError(
-                f"init_from={run}: its policy does not fit this run's (same env observation/action sizes and "
-                f"algo.policy_kwargs.net_arch and algo.use_sde needed): {first}"
-            ) from None
-        target = model.get_vec_normalize_env()
-        if target is not None and vecnorm is not None:
-            from stable_baselines3.common.vec_env import VecNormalize
+        tensorboard = str(self.run_dir / "tensorboard") if opts.tensorboard else None
+        return build_model(cfg, vec, tensorboard_log=tensorboard)
 
-            source = VecNormalize.load(str(vecnorm), vec.venv if hasattr(vec, "venv") else vec)
-            target.obs_rms = source.obs_rms
-            target.ret_rms = source.ret_rms
-        self.log(f"policy initialised from {path}")
+    def _restore(self, model: Any, checkpoint: rundir.Checkpoint) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Everything from the checkpoint; the envs' episodes in progress re-simulated and checked."""
+        data = artifacts.read_payload(checkpoint.model, kinds=(artifacts.CHECKPOINT_FORMAT,))
+        state, tensors = artifacts.load_checkpoint_into(model, data, checkpoint.model)
+        normalizer = model.get_vec_normalize_env()
+        if normalizer is not None and data["normalizer"] is not None:
+            artifacts.restore_normalizer(normalizer, data["normalizer"])
+        if checkpoint.replay_buffer is not None and getattr(model, "replay_buffer", None) is not None:
+            artifacts.load_replay_buffer(checkpoint.replay_buffer, model.replay_buffer, exact=True)
+        continuity.restore_model(model, state, tensors)
+        problem = continuity.restore_envs(model, state, tensors)
+        if problem is not None:
+            self.log(f"warning: {problem}; the resumed run will not match an uninterrupted one")
+        return state, tensors
+
+    def _bootstrap(self, model: Any, init: PolicySource) -> None:
+        """Start from another run's policy weights (and its normaliser statistics)."""
+        artifacts.load_policy_into(model, {"policy": init.policy}, init.path)
+        target = model.get_vec_normalize_env()
+        if target is not None and init.normalizer is not None:
+            artifacts.restore_normalizer(target, init.normalizer, returns=False)
+        self.log(f"policy initialised from {init.path}")
+
+    # -------------------------------------------------------------- metrics
+
+    def _open_metrics(self, cleanup: contextlib.ExitStack, checkpoint: rundir.Checkpoint | None) -> None:
+        """A new metrics segment; after a resume it supersedes what was logged past the checkpoint."""
+        from pyflyt_engine.telemetry.metrics import MetricsWriter, segment_paths, set_aside_unreadable
+
+        cfg = self.cfg
+        metadata = {"env": cfg.env_name, "env_id": str(cfg.env.id), "algo": cfg.algo.name, "seed": str(cfg.seed)}
+        path = self.run_dir / "metrics.mcap"
+        if segment_paths(self.run_dir):
+            for old, new, reason in set_aside_unreadable(self.run_dir):
+                self.log(f"warning: {old.name} is unreadable ({reason}): kept as {new.name}")
+            since = checkpoint.step if checkpoint is not None else 0
+            self.writer = MetricsWriter(path, metadata=metadata, append=True, resumed_from=since)
+        else:
+            self.writer = MetricsWriter(path, metadata=metadata)
+        cleanup.callback(self.writer.close)
+
+    # ------------------------------------------------------------ callbacks
+
+    def _callbacks(
+        self,
+        cleanup: contextlib.ExitStack,
+        stop: Any,
+        restored: tuple[dict[str, Any], dict[str, Any]] | None,
+        extra: Sequence[Any],
+    ) -> Any:
+        from stable_baselines3.common.callbacks import CallbackList
+
+        from pyflyt_cli.training.callbacks import (
+            Checkpointer,
+            EpisodeMetrics,
+            PeriodicEvaluation,
+            ProgressBar,
+            ResumeStreams,
+            RunCallbacks,
+        )
+        from pyflyt_cli.training.envs import EnvFactory
+
+        cfg, opts = self.cfg, self.cfg.train
+        saved = restored[0].get("callbacks", {}) if restored is not None else {}
+        callbacks: list[Any] = [ResumeStreams(*restored)] if restored is not None else []
+        episodes = EpisodeMetrics(self.writer)
+        callbacks.append(episodes)
+        show_bar = self.progress_bar if self.progress_bar is not None else _is_terminal()
+        if opts.eval_freq > 0:
+            eval_env = EnvFactory(cfg.env, monitor=False)()
+            cleanup.callback(eval_env.close)
+            children = [c.build() for c in cfg.callbacks]
+            child = CallbackList(children) if len(children) > 1 else (children[0] if children else None)
+            self.evaluation = PeriodicEvaluation(
+                eval_env,
+                self.run_dir,
+                cfg.algo.name,
+                self.writer,
+                opts.eval_freq,
+                opts.eval_episodes,
+                cfg.seed + EVAL_SEED_OFFSET,
+                opts.eval_deterministic,
+                next_eval=opts.eval_freq,
+                callback_after_eval=child,
+                log=None if show_bar else self.log,  # without a bar, one line per evaluation
+                total=opts.total_timesteps,
+            )
+            if "evaluation" in saved:
+                self.evaluation.load_state_dict(saved["evaluation"])
+            callbacks.append(self.evaluation)
+        elif cfg.callbacks:
+            raise ConfigError("callbacks run after evaluations: set train.eval_freq > 0 to use them")
+        next_checkpoint = int(saved.get("next_checkpoint") or opts.checkpoint_freq or 0)
+        self.checkpointer = Checkpointer(self, opts.checkpoint_freq, next_checkpoint, stop)
+        callbacks.append(self.checkpointer)
+        if show_bar:
+            callbacks.append(ProgressBar(_expected_end(cfg), episodes))
+        callbacks.extend(extra)
+        return RunCallbacks(callbacks, stop)
+
+    def _callback_state(self) -> dict[str, Any]:
+        state: dict[str, Any] = {"next_checkpoint": self.checkpointer.next_checkpoint if self.checkpointer else None}
+        if self.evaluation is not None:
+            state["evaluation"] = self.evaluation.state_dict()
+        return state
+
+    # ---------------------------------------------------------------- learn
+
+    def _learn(self, model: Any, callbacks: Any, stop: Any) -> float:
+        """``learn()`` for the rest of the budget; returns its wall-clock time."""
+        remaining = self.cfg.train.total_timesteps - int(model.num_timesteps)
+        started = time.perf_counter()
+        with _signals(stop, self.log, "saving a checkpoint at the end of this rollout, then stopping"):
+            if remaining > 0:
+                try:
+                    model.learn(
+                        remaining, callback=callbacks, reset_num_timesteps=False, tb_log_name="run", progress_bar=False
+                    )
+                except (EOFError, BrokenPipeError, ConnectionResetError):
+                    if not stop.requested:  # a worker died for another reason
+                        raise
+        return time.perf_counter() - started
 
     # ----------------------------------------------------------- checkpoints
 
     def save_checkpoint(self, model: Any) -> None:
-        step = int(model.num_timesteps)
-        c = rundir.checkpoint_paths(self.run_dir, step)
-        c.model.parent.mkdir(exist_ok=True)
-        buffer = c.replay_buffer if self.cfg.algo.off_policy and self.cfg.train.save_replay_buffer else None
-        from pyflyt_cli.training.callbacks import save_model_files
+        """Commit a checkpoint, in an order a kill at any point survives.
 
-        save_model_files(model, c.model, c.vecnormalize if self.cfg.algo.normalize.enabled else None, buffer)
-        self._prune(step)
+        1. metrics logged so far are flushed to disk;
+        2. the replay buffer (off-policy) is written, then
+        3. the checkpoint file (written last: its existence marks the checkpoint complete);
+        4. ``state.json`` names it;
+        5. older replay buffers (and checkpoints beyond ``train.keep_checkpoints``) are removed.
+        Every file goes through a temporary name and a rename (:func:`.artifacts.write_atomically`).
+        """
+        step = int(model.num_timesteps)
+        paths = rundir.checkpoint_paths(self.run_dir, step)
+        state, tensors = continuity.capture(model)
+        state["callbacks"] = self._callback_state()
+        state["config_digest"] = rundir.config_digest(self.cfg, self.run_dir)
+        try:
+            paths.model.parent.mkdir(exist_ok=True)
+        except OSError as exc:
+            raise artifacts.ArtifactError(f"cannot create {paths.model.parent}: {exc.strerror or exc}") from None
         if self.writer is not None:
             self.writer.flush()
+        artifacts.fault_point("metrics flushed")
+        if self.cfg.algo.off_policy and self.cfg.train.save_replay_buffer:
+            artifacts.save_replay_buffer(paths.replay_buffer, model.replay_buffer)
+        artifacts.save_checkpoint_file(paths.model, model, self.cfg.algo.name, step, state, tensors)
         self._write_state("running", step, checkpoint=step)
+        artifacts.fault_point("state written")
+        self._prune(step)
 
     def _prune(self, newest: int) -> None:
         found = rundir.checkpoints(self.run_dir)
         for c in found:
             if c.step != newest and c.replay_buffer is not None:
-                c.replay_buffer.unlink(missing_ok=True)  # one replay buffer is enough to resume
+                c.replay_buffer.unlink(missing_ok=True)  # the newest buffer is the one a resume needs
+                artifacts.fault_point(f"pruned {c.replay_buffer.name}")
         keep = self.cfg.train.keep_checkpoints
         if keep > 0:
             for c in found[:-keep]:
-                for p in (c.model, c.vecnormalize, c.replay_buffer):
-                    if p is not None:
-                        p.unlink(missing_ok=True)
+                c.model.unlink(missing_ok=True)
 
     def _write_state(self, status: str, step: int, checkpoint: int | None = None) -> None:
         if checkpoint is not None:
@@ -385,188 +519,57 @@ class _Run:
                 "status": status,
                 "num_timesteps": step,
                 "total_timesteps": self.cfg.train.total_timesteps,
-                "next_eval": ev.next_eval if ev is not None else None,
+                "config_digest": rundir.config_digest(self.cfg, self.run_dir),
                 "best_mean_return": None
                 if ev is None or not math.isfinite(ev.best_mean_reward)
                 else ev.best_mean_reward,
                 "best_step": ev.best_step if ev is not None else None,
-                "next_checkpoint": self.checkpointer.next_checkpoint if self.checkpointer is not None else None,
                 "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             }
         )
-        rundir.write_state(self.run_dir, self.state)
-
-    # --------------------------------------------------------------- execute
-
-    def execute(
-        self,
-        extra_callbacks: Sequence[Any],
-        *,
-        checkpoint: rundir.Checkpoint | None = None,
-        state: Mapping[str, Any] | None = None,
-        init: tuple[Path, Path, Path | None, str] | None = None,
-    ) -> RunResult:
-        import torch
-        from stable_baselines3.common.callbacks import CallbackList
-        from stable_baselines3.common.utils import set_random_seed
-        from stable_baselines3.common.vec_env import VecNormalize
-
-        from pyflyt_cli.training.callbacks import (
-            Checkpointer,
-            EpisodeMetrics,
-            PeriodicEvaluation,
-            ProgressBar,
-            StopOnRequest,
-            StopRequest,
-            save_model_files,
-        )
-        from pyflyt_cli.training.envs import EnvFactory, make_vec_env
-        from pyflyt_engine.telemetry.metrics import MetricsWriter
-
-        cfg, opts = self.cfg, self.cfg.train
-        state = dict(state or {})
-        self.state = {k: v for k, v in state.items() if k in ("checkpoint",)}
-        self.writer = None
-        self.checkpointer = None
-        torch.set_num_threads(opts.torch_threads)
-        set_random_seed(cfg.seed)
-
-        vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env)
-        eval_env = None
         try:
-            norm = cfg.algo.normalize
-            if norm.enabled:
-                if checkpoint is not None and checkpoint.vecnormalize is not None:
-                    vec = VecNormalize.load(str(checkpoint.vecnormalize), vec)
-                else:
-                    vec = VecNormalize(
-                        vec,
-                        norm_obs=norm.observation,
-                        norm_reward=norm.reward,
-                        clip_obs=norm.clip_obs,
-                        gamma=cfg.algo.gamma,
-                    )
-            model = self._build(vec, checkpoint)
-            if init is not None:
-                self._bootstrap(model, vec, init)
-            start_step = int(model.num_timesteps)
+            rundir.write_state(self.run_dir, self.state)
+        except OSError as exc:
+            raise artifacts.ArtifactError(
+                f"cannot write {self.run_dir / rundir.STATE_FILE}: {exc.strerror or exc}"
+            ) from None
 
-            # metrics: drop what was logged after the checkpoint, continue in a new segment
-            if checkpoint is not None:
-                _consolidate_metrics(self.run_dir, start_step)
+    # --------------------------------------------------------------- finish
+
+    def _finish(self, model: Any, stop: Any, start_step: int, elapsed: float) -> RunResult:
+        """Record how the run ended: interrupted at its checkpoint, or complete (final policy saved)."""
+        # signals stay handled while saving: a SIGTERM now (a second one, e.g. from a dying
+        # launcher) must not kill the process halfway through writing the final files
+        with _signals(stop, self.log, "finishing the files first"):
+            interrupted = stop.saved_at is not None or (stop.requested and model.num_timesteps < self.cfg.train.total_timesteps)
+            if interrupted:
+                step = stop.saved_at if stop.saved_at is not None else int(self.state.get("checkpoint") or 0)
+                self._write_state("interrupted", step)
+                self.log(f"interrupted at step {step}: checkpoint saved; continue with pyflyt train resume={self.run_dir}")
             else:
-                for seg in self.run_dir.glob("metrics*.mcap"):
-                    seg.unlink()  # a run restarted from scratch
-            metadata = {"env": cfg.env_name, "env_id": str(cfg.env.id), "algo": cfg.algo.name, "seed": str(cfg.seed)}
-            self.writer = MetricsWriter(self.run_dir / "metrics.mcap", metadata=metadata, append=True)
-
-            show_bar = self.progress_bar if self.progress_bar is not None else _is_terminal()
-            stop = StopRequest()
-            stopper = StopOnRequest(stop)
-            episodes = EpisodeMetrics(self.writer)
-            callbacks: list[Any] = [stopper, episodes]
-            if opts.eval_freq > 0:
-                eval_env = EnvFactory(cfg.env, monitor=False)()
-                children = [c.build() for c in cfg.callbacks]
-                child = CallbackList(children) if len(children) > 1 else (children[0] if children else None)
-                best = state.get("best_mean_return")
-                self.evaluation = PeriodicEvaluation(
-                    eval_env,
-                    self.run_dir,
-                    self.writer,
-                    opts.eval_freq,
-                    opts.eval_episodes,
-                    cfg.seed + EVAL_SEED_OFFSET,
-                    opts.eval_deterministic,
-                    next_eval=int(state.get("next_eval") or opts.eval_freq),
-                    best_mean_reward=-np.inf if best is None else float(best),
-                    best_step=state.get("best_step"),
-                    callback_after_eval=child,
-                    log=None if show_bar else self.log,  # without a bar, one line per evaluation
-                    total=opts.total_timesteps,
-                )
-                callbacks.append(self.evaluation)
-            elif cfg.callbacks:
-                raise ConfigError("callbacks run after evaluations: set train.eval_freq > 0 to use them")
-            self.checkpointer = Checkpointer(
-                self, opts.checkpoint_freq, int(state.get("next_checkpoint") or opts.checkpoint_freq or 0)
-            )
-            callbacks.append(self.checkpointer)
-            if show_bar:
-                callbacks.append(ProgressBar(_expected_end(cfg), episodes))
-            callbacks.extend(extra_callbacks)
-
-            self._write_state("running", start_step)
-            remaining = opts.total_timesteps - start_step
-            started = time.perf_counter()
-            interrupted = False
-            with _signals(stop, self.log):
-                if remaining > 0:
-                    try:
-                        model.learn(
-                            remaining,
-                            callback=CallbackList(callbacks),
-                            reset_num_timesteps=False,
-                            tb_log_name="run",
-                            progress_bar=False,
-                        )
-                    except (EOFError, BrokenPipeError, ConnectionResetError):
-                        if not stop.requested:  # a worker died for another reason
-                            raise
-                interrupted = stop.requested
-            elapsed = time.perf_counter() - started
-
-            # signals stay handled while saving: a SIGTERM now (a second one, e.g. from a dying
-            # launcher) must not kill the process halfway through writing the checkpoint
-            with _signals(stop, self.log):
-                if interrupted:
-                    # the partial rollout since the last update is not in the weights: count only what is
-                    model.num_timesteps = stopper.rollout_start_step
-                    if self.evaluation is not None:  # an evaluation past that point is logged again after the resume
-                        self.evaluation.next_eval = (model.num_timesteps // opts.eval_freq + 1) * opts.eval_freq
-                    self.save_checkpoint(model)
-                    self._write_state("interrupted", int(model.num_timesteps))
-                    self.log(
-                        f"interrupted at step {model.num_timesteps}: checkpoint saved; continue with "
-                        f"pyflyt train resume={self.run_dir}"
-                    )
-                else:
-                    if self.evaluation is not None and self.evaluation.last_step != model.num_timesteps:
-                        self.evaluation.evaluate()
-                    save_model_files(model, self.run_dir / rundir.FINAL_MODEL, self.run_dir / rundir.FINAL_VECNORM)
-                    self.save_checkpoint(
-                        model
-                    )  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues from here
-                    self.writer.log(
-                        "/train/progress",
-                        int(model.num_timesteps),
-                        {
-                            "elapsed": elapsed,
-                            "steps_per_second": (model.num_timesteps - start_step) / elapsed if elapsed > 0 else 0.0,
-                        },
-                    )
-                    self._write_state("complete", int(model.num_timesteps))
-            trained = max(0, int(model.num_timesteps) - start_step)
-            ev = self.evaluation
-            result = RunResult(
-                run_dir=self.run_dir,
-                num_timesteps=int(model.num_timesteps),
-                interrupted=interrupted,
-                steps_per_second=trained / elapsed if elapsed > 0 else 0.0,
-                elapsed=elapsed,
-                last_eval=ev.last if ev is not None else None,
-                last_eval_step=ev.last_step if ev is not None else None,
-                best_mean_return=None if ev is None or not math.isfinite(ev.best_mean_reward) else ev.best_mean_reward,
-            )
-            if not interrupted:
-                self.log(_summary(result))
-            return result
-        finally:
-            if self.writer is not None:
-                self.writer.close()
-            if eval_env is not None:
-                eval_env.close()
-            vec.close()
+                step = int(model.num_timesteps)
+                if self.evaluation is not None and not self.evaluation.current:
+                    self.evaluation.evaluate()  # the final weights
+                artifacts.save_policy(self.run_dir / rundir.FINAL_MODEL, model, self.cfg.algo.name, step)
+                self.save_checkpoint(model)  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
+                trained_rate = (step - start_step) / elapsed if elapsed > 0 else 0.0
+                self.writer.log("/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate})
+                self._write_state("complete", step)
+        ev = self.evaluation
+        trained = max(0, step - start_step)
+        result = RunResult(
+            run_dir=self.run_dir,
+            num_timesteps=step,
+            interrupted=interrupted,
+            steps_per_second=trained / elapsed if elapsed > 0 else 0.0,
+            elapsed=elapsed,
+            last_eval=ev.last if ev is not None else None,
+            last_eval_step=ev.last_step if ev is not None else None,
+            best_mean_return=None if ev is None or not math.isfinite(ev.best_mean_reward) else ev.best_mean_reward,
+        )
+        if not interrupted:
+            self.log(_summary(result))
+        return result
 
 
 def _expected_end(cfg: TrainConfig) -> int:

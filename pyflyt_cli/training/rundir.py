@@ -8,9 +8,10 @@
         state.json           progress: status, steps, last checkpoint, best evaluation
         run.lock             the id of the process training it, while it trains
         metrics.mcap         /train/episode, /eval, /train/progress (metrics-<n>.mcap after a resume)
-        model.zip            final policy (+ vecnormalize.pkl with observation normalisation)
-        best_model.zip       best evaluation so far (+ best_vecnormalize.pkl)
-        checkpoints/         model_<steps>_steps.zip, replay_buffer_<steps>_steps.pkl, vecnormalize_<steps>_steps.pkl
+        model.pt             final policy and normaliser statistics (tensors only; artifacts.py)
+        best_model.pt        best evaluation so far
+        checkpoints/         model_<steps>_steps.pt (everything a resume needs but the buffer),
+                             replay_buffer_<steps>_steps.npz (off-policy; the newest one is kept)
         episodes/            ep_<NNNN>.mcap written by `pyflyt eval`
         eval.json            the last `pyflyt eval` summary
         airframe.yaml        copy of a user airframe file, if the env named one by path
@@ -46,15 +47,18 @@ from pyflyt_engine.errors import ConfigError
 CONFIG_FILE = "config.yaml"
 RUN_FILE = "run.yaml"
 STATE_FILE = "state.json"
-FINAL_MODEL = "model.zip"
-BEST_MODEL = "best_model.zip"
-FINAL_VECNORM = "vecnormalize.pkl"
-BEST_VECNORM = "best_vecnormalize.pkl"
+FINAL_MODEL = "model.pt"
+BEST_MODEL = "best_model.pt"
+#: the pickled SB3 files of older versions (read only with trust_pickle)
+LEGACY_FINAL_MODEL = "model.zip"
+LEGACY_BEST_MODEL = "best_model.zip"
 CHECKPOINTS = "checkpoints"
 EPISODES = "episodes"
 AIRFRAME_COPY = "airframe.yaml"
 
-_CHECKPOINT = re.compile(r"^model_(\d+)_steps\.zip$")
+_CHECKPOINT = re.compile(r"^model_(\d+)_steps\.(pt|zip)$")
+#: a checkpoint's replay buffer file
+BUFFER_PATTERN = re.compile(r"^replay_buffer_(\d+)_steps\.npz$")
 _PACKAGES = (
     "pyflyt-toolkit",
     "stable-baselines3",
@@ -346,77 +350,94 @@ def write_state(run_dir: Path, state: dict[str, Any]) -> None:
 
 @dataclass(frozen=True)
 class Checkpoint:
-    """The files of one checkpoint."""
+    """The files of one checkpoint.
+
+    ``model`` is the checkpoint file (policy, optimisers, every random stream, the envs'
+    episodes in progress: see :mod:`pyflyt_cli.training.continuity`); it is written last,
+    so its existence marks the checkpoint complete.  ``replay_buffer`` is None if the
+    checkpoint has none (on-policy algorithms, ``train.save_replay_buffer=false``, or an
+    older checkpoint whose buffer was pruned).  ``legacy``: an SB3 ``.zip`` written by an
+    older version (pickled; loaded only with ``trust_pickle``; never resumed from).
+    """
 
     step: int
     model: Path
     replay_buffer: Path | None
-    vecnormalize: Path | None
+    legacy: bool = False
 
 
 def checkpoint_paths(run_dir: Path, step: int) -> Checkpoint:
+    """Where the files of the checkpoint at ``step`` go."""
     folder = run_dir / CHECKPOINTS
-    return Checkpoint(
-        step,
-        folder / f"model_{step}_steps.zip",
-        folder / f"replay_buffer_{step}_steps.pkl",
-        folder / f"vecnormalize_{step}_steps.pkl",
-    )
+    return Checkpoint(step, folder / f"model_{step}_steps.pt", folder / f"replay_buffer_{step}_steps.npz")
 
 
-def checkpoints(run_dir: Path) -> list[Checkpoint]:
-    """Complete checkpoints (a model file exists), oldest first; missing extras are None."""
+def checkpoints(run_dir: Path, *, legacy: bool = False) -> list[Checkpoint]:
+    """Complete checkpoints (the checkpoint file exists), oldest first; a missing buffer is None.
+
+    ``legacy``: also list SB3 ``model_<N>_steps.zip`` checkpoints of older versions (where
+    no ``.pt`` checkpoint of the same step exists).
+    """
     folder = run_dir / CHECKPOINTS
-    found = []
+    found: dict[int, Checkpoint] = {}
     if folder.is_dir():
         for p in folder.iterdir():
             m = _CHECKPOINT.match(p.name)
-            if m:
-                c = checkpoint_paths(run_dir, int(m[1]))
-                found.append(
-                    Checkpoint(
-                        c.step,
-                        c.model,
-                        c.replay_buffer if c.replay_buffer and c.replay_buffer.is_file() else None,
-                        c.vecnormalize if c.vecnormalize and c.vecnormalize.is_file() else None,
-                    )
-                )
-    return sorted(found, key=lambda c: c.step)
+            if not m:
+                continue
+            step, suffix = int(m[1]), m[2]
+            if suffix == "pt":
+                c = checkpoint_paths(run_dir, step)
+                buffer = c.replay_buffer if c.replay_buffer is not None and c.replay_buffer.is_file() else None
+                found[step] = Checkpoint(step, c.model, buffer)
+            elif legacy and step not in found:
+                buffer = folder / f"replay_buffer_{step}_steps.pkl"
+                found[step] = Checkpoint(step, p, buffer if buffer.is_file() else None, legacy=True)
+    return [found[k] for k in sorted(found)]
 
 
-def vecnormalize_of(model: Path) -> Path | None:
-    """The VecNormalize statistics saved with a model file of a run (None if there are none)."""
-    name = model.name
-    m = _CHECKPOINT.match(name)
+def run_of(model: Path) -> Path:
+    """The run directory a policy file belongs to (a checkpoint's: its folder's parent)."""
+    return model.parent.parent if model.parent.name == CHECKPOINTS else model.parent
+
+
+def legacy_normalizer(model: Path) -> Path | None:
+    """The pickled VecNormalize statistics saved beside a legacy ``.zip`` model, if any."""
+    m = _CHECKPOINT.match(model.name)
     if m:
         candidate = model.parent / f"vecnormalize_{m[1]}_steps.pkl"
-    elif name == BEST_MODEL:
-        candidate = model.parent / BEST_VECNORM
+    elif model.name == LEGACY_BEST_MODEL:
+        candidate = model.parent / "best_vecnormalize.pkl"
     else:
-        candidate = model.parent / FINAL_VECNORM
+        candidate = model.parent / "vecnormalize.pkl"
     return candidate if candidate.is_file() else None
 
 
-def find_model(run_dir: Path, which: str = "auto") -> tuple[Path, Path | None, str]:
-    """(model file, its VecNormalize statistics or None, which one) of a run.
+def find_model(run_dir: Path, which: str = "auto", *, legacy: bool = False) -> tuple[Path, str]:
+    """(policy file, which one) of a run.
 
     ``which``: ``best``, ``final``, ``latest`` (newest checkpoint) or ``auto`` (best, else
-    final, else latest).
+    final, else latest).  ``legacy``: also accept the pickled SB3 ``.zip`` files of older
+    versions; without it, a run holding only those is refused with the reason.
     """
-    candidates: dict[str, tuple[Path, Path]] = {
-        "best": (run_dir / BEST_MODEL, run_dir / BEST_VECNORM),
-        "final": (run_dir / FINAL_MODEL, run_dir / FINAL_VECNORM),
-    }
-    found = checkpoints(run_dir)
+    candidates: dict[str, Path] = {}
+    for name, current, old in (("best", BEST_MODEL, LEGACY_BEST_MODEL), ("final", FINAL_MODEL, LEGACY_FINAL_MODEL)):
+        path = run_dir / current
+        candidates[name] = path if path.is_file() or not legacy else run_dir / old
+    found = checkpoints(run_dir, legacy=legacy)
     if found:
-        c = found[-1]
-        candidates["latest"] = (c.model, c.vecnormalize or run_dir / "-")
+        candidates["latest"] = found[-1].model
     order = ["best", "final", "latest"] if which == "auto" else [which]
     for name in order:
-        if name in candidates and candidates[name][0].is_file():
-            model, vecnorm = candidates[name]
-            return model, (vecnorm if vecnorm.is_file() else None), name
-    have = [n for n, (m, _) in candidates.items() if m.is_file()]
+        if name in candidates and candidates[name].is_file():
+            return candidates[name], name
+    pickled = [p.name for p in (run_dir / LEGACY_BEST_MODEL, run_dir / LEGACY_FINAL_MODEL) if p.is_file()]
+    pickled += [c.model.name for c in checkpoints(run_dir, legacy=True) if c.legacy][-1:]
+    if pickled and not legacy:
+        from pyflyt_cli.training.artifacts import PICKLE_RISK
+
+        raise RunDirError(f"{run_dir}: its models ({', '.join(pickled)}) were saved by an older version: {PICKLE_RISK}")
+    have = [n for n, m in candidates.items() if m.is_file()]
     raise RunDirError(
         f"{run_dir}: no {'model' if which == 'auto' else which + ' model'} to load"
         + (

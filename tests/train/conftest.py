@@ -43,6 +43,21 @@ TINY_SAC = [
     "train.progress_bar=false",
 ]
 
+#: an AWAC run on quadx_hover that updates from step 100 and evaluates twice
+TINY_AWAC = [
+    "env=quadx_hover",
+    "algo=awac",
+    "train.total_timesteps=300",
+    "algo.buffer_size=2000",
+    "algo.learning_starts=100",
+    "algo.batch_size=32",
+    "algo.policy_kwargs.net_arch=[32,32]",
+    "train.eval_freq=150",
+    "train.eval_episodes=1",
+    "train.checkpoint_freq=150",
+    "train.progress_bar=false",
+]
+
 
 def load(overrides: list[str], output_dir: Path):
     """The validated TrainConfig `pyflyt train <overrides>` would run, writing under output_dir."""

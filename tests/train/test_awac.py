@@ -14,27 +14,15 @@ import torch
 import yaml
 
 from pyflyt_cli.training import train
+from pyflyt_cli.training.artifacts import save_replay_buffer
 from pyflyt_cli.training.awac import AWAC, advantage_weights
+from pyflyt_cli.training.models import read_policy
 from pyflyt_engine.errors import ConfigError
 
-from .conftest import TINY_SAC, initial_policy_probe, load
+from .conftest import TINY_AWAC, TINY_SAC, initial_policy_probe, load
 
 SMALL = {"net_arch": [16, 16]}
 
-#: an AWAC run on quadx_hover that updates from step 100 and evaluates twice
-TINY_AWAC = [
-    "env=quadx_hover",
-    "algo=awac",
-    "train.total_timesteps=300",
-    "algo.buffer_size=2000",
-    "algo.learning_starts=100",
-    "algo.batch_size=32",
-    "algo.policy_kwargs.net_arch=[32,32]",
-    "train.eval_freq=150",
-    "train.eval_episodes=1",
-    "train.checkpoint_freq=150",
-    "train.progress_bar=false",
-]
 
 
 @pytest.fixture(autouse=True)
@@ -121,14 +109,25 @@ def test_save_and_load_round_trip(tmp_path):
 
 def test_offline_pretraining_on_a_saved_buffer(tmp_path):
     source = _pendulum(learning_starts=1000).learn(200)  # collects only
-    source.save_replay_buffer(tmp_path / "buffer.pkl")
-    model = _pendulum(offline_buffer=tmp_path / "buffer.pkl", offline_steps=15, learning_starts=0)
+    save_replay_buffer(tmp_path / "buffer.npz", source.replay_buffer)
+    model = _pendulum(offline_buffer=tmp_path / "buffer.npz", offline_steps=15, learning_starts=0)
     assert model.replay_buffer.size() == 200
+    size = 200
+    for name in ("observations", "actions", "rewards", "dones"):
+        assert np.array_equal(getattr(model.replay_buffer, name)[:size], getattr(source.replay_buffer, name)[:size])
     before = {k: v.clone() for k, v in model.actor.state_dict().items()}
     assert model.pretrain() == 15 and model._n_updates == 15 and model.offline_steps_done == 15
     assert any(not torch.equal(v, model.actor.state_dict()[k]) for k, v in before.items())
     model.learn(10)  # the offline phase is not repeated; online data joins the same buffer
     assert model.offline_steps_done == 15 and model.replay_buffer.size() == 210
+
+
+def test_a_pickled_offline_buffer_loads_only_when_trusted(tmp_path):
+    source = _pendulum(learning_starts=1000).learn(50)
+    source.save_replay_buffer(tmp_path / "buffer.pkl")
+    with pytest.raises(ConfigError, match="trust_pickle=true"):
+        _pendulum(offline_buffer=tmp_path / "buffer.pkl")
+    assert _pendulum(offline_buffer=tmp_path / "buffer.pkl", trust_pickle=True).replay_buffer.size() == 50
 
 
 def test_bad_arguments_are_refused():
@@ -142,10 +141,9 @@ def test_awac_through_train_on_quadx_hover(tmp_path):
     result = train(load(TINY_AWAC, tmp_path / "runs"))
     run = result.run_dir
     assert run.parent.name == "awac" and result.num_timesteps == 300 and not result.interrupted
-    assert (run / "model.zip").is_file() and (run / "metrics.mcap").is_file()
-    assert list((run / "checkpoints").glob("replay_buffer_*")), "off-policy: the buffer is checkpointed"
+    assert (run / "metrics.mcap").is_file() and read_policy(run / "model.pt").algo == "awac"
+    assert list((run / "checkpoints").glob("replay_buffer_*.npz")), "off-policy: the buffer is checkpointed"
     assert result.last_eval is not None and math.isfinite(result.last_eval["mean_return"])
-    assert AWAC.load(run / "model.zip", device="cpu").batch_size == 32
 
 
 def test_awac_config_is_checked_at_load(tmp_path):
@@ -160,11 +158,9 @@ def test_awac_config_is_checked_at_load(tmp_path):
 
 
 def test_init_from_a_sac_run_loads_its_policy(tmp_path):
-    from stable_baselines3 import SAC
-
     sac_run = [*TINY_SAC[:2], "train.total_timesteps=150", *TINY_SAC[3:]]
     source = train(load(sac_run, tmp_path / "runs")).run_dir
-    src = SAC.load(source / "model.zip", device="cpu").policy.state_dict()
+    src = read_policy(source / "model.pt").policy
     probe, seen = initial_policy_probe()
 
     # the shipped quadx_hover SAC tuning explores with gSDE: AWAC must too, for the shapes to match

@@ -72,9 +72,9 @@ def test_train_and_eval_from_the_wheel_in_an_empty_directory(installed, tmp_path
     runs = list((work / "runs" / "quadx_hover" / "ppo").iterdir())
     assert len(runs) == 1
     run = runs[0]
-    for name in ("config.yaml", "run.yaml", "state.json", "model.zip", "best_model.zip", "metrics.mcap"):
+    for name in ("config.yaml", "run.yaml", "state.json", "model.pt", "best_model.pt", "metrics.mcap"):
         assert (run / name).is_file(), name
-    assert (run / "checkpoints" / "model_1024_steps.zip").is_file()
+    assert (run / "checkpoints" / "model_1024_steps.pt").is_file()
     assert json.loads((run / "state.json").read_text())["status"] == "complete"
     assert sorted(p.name for p in work.iterdir()) == ["runs"]  # no outputs/ or .hydra from Hydra
     # the installed package, not the checkout, ran

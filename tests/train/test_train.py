@@ -11,6 +11,7 @@ import pytest
 import yaml
 
 from pyflyt_cli.training import evaluate_run, resume, train
+from pyflyt_cli.training.models import read_policy
 from pyflyt_cli.training.rundir import load_run_config, read_state
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
@@ -32,12 +33,15 @@ def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path):
     assert run.name.endswith("-seed0") and not result.interrupted
     assert result.num_timesteps == 512 and result.steps_per_second > 0
 
-    for name in ("config.yaml", "run.yaml", "state.json", "model.zip", "best_model.zip", "metrics.mcap"):
+    for name in ("config.yaml", "run.yaml", "state.json", "model.pt", "best_model.pt", "metrics.mcap"):
         assert (run / name).is_file(), name
-    assert (run / "vecnormalize.pkl").is_file()  # the hover tuning normalises observations
+    assert not list(run.rglob("*.pkl")) and not list(run.rglob("*.zip"))  # nothing pickled
+    final = read_policy(run / "model.pt")
+    assert final.algo == "ppo" and final.step == 512
+    assert final.normalizer is not None and final.normalizer["norm_obs"]  # the hover tuning normalises observations
     assert sorted(p.name for p in (run / "checkpoints").glob("model_*")) == [
-        "model_256_steps.zip",
-        "model_512_steps.zip",
+        "model_256_steps.pt",
+        "model_512_steps.pt",
     ]
 
     record = yaml.safe_load((run / "run.yaml").read_text())
@@ -117,18 +121,16 @@ def test_off_policy_run_checkpoints_its_replay_buffer_and_extends(tmp_path):
     run = result.run_dir
     assert result.num_timesteps == 400
     buffers = sorted(p.name for p in (run / "checkpoints").glob("replay_buffer_*"))
-    assert buffers == ["replay_buffer_400_steps.pkl"]  # only the newest buffer is kept
+    assert buffers == ["replay_buffer_400_steps.npz"]  # only the newest buffer is kept
     with pytest.raises(ConfigError, match="is complete"):
         resume(run)
     more = resume(run, total_timesteps=600)
     assert more.num_timesteps == 600 and read_state(run)["status"] == "complete"
     steps = [e["step"] for e in _metrics(run)["/eval"]]
     assert steps == [200, 400, 600]
-    from stable_baselines3 import SAC
-
-    model = SAC.load(run / "model.zip")
-    model.load_replay_buffer(run / "checkpoints" / "replay_buffer_600_steps.pkl")
-    assert model.num_timesteps == 600 and model.replay_buffer.size() >= 590
+    assert read_policy(run / "model.pt").step == 600
+    with np.load(run / "checkpoints" / "replay_buffer_600_steps.npz", allow_pickle=False) as buffer:
+        assert int(buffer["pos"]) == 600 and buffer["observations"].shape[0] == 600
 
 
 @pytest.mark.parametrize("algo", ["td3", "a2c", "ddpg"])
@@ -144,7 +146,7 @@ def test_other_algorithms_train(tmp_path, algo):
     if algo in ("td3", "ddpg"):
         overrides += ["algo.buffer_size=1000", "algo.learning_starts=100", "algo.batch_size=32"]
     result = train(load(overrides, tmp_path / "runs"))
-    assert result.num_timesteps >= 300 and (result.run_dir / "model.zip").is_file()
+    assert result.num_timesteps >= 300 and read_policy(result.run_dir / "model.pt").algo == algo
 
 
 def test_parallel_environments(tmp_path):
@@ -157,10 +159,9 @@ def test_parallel_environments(tmp_path):
 
 def test_init_from_copies_the_policy(tmp_path):
     import torch
-    from stable_baselines3 import PPO
 
     source = train(load(TINY_PPO, tmp_path / "runs")).run_dir
-    src_params = PPO.load(source / "best_model.zip").policy.state_dict()
+    src_params = read_policy(source / "best_model.pt").policy
 
     probe, seen = initial_policy_probe()
 
@@ -170,7 +171,7 @@ def test_init_from_copies_the_policy(tmp_path):
     record = yaml.safe_load((result.run_dir / "run.yaml").read_text())
     assert record["init_from"]["run"] == str(source)
 
-    with pytest.raises(ConfigError, match="trained ppo, this one sac"):
+    with pytest.raises(ConfigError, match="trained by ppo, this run uses sac"):
         train(load([*TINY_SAC, f"init_from={source}"], tmp_path / "runs"))
     with pytest.raises(ConfigError, match="does not fit"):
         train(load([*TINY_PPO, f"init_from={source}", "algo.policy_kwargs.net_arch=[8,8]"], tmp_path / "runs"))
