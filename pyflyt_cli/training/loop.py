@@ -257,6 +257,23 @@ def _resume_point(path: Path, cfg: TrainConfig, log: Log) -> rundir.Checkpoint |
     return newest_checkpoint
 
 
+def _closing(close: Callable[[], Any], what: str) -> Callable[..., bool]:
+    """An ``ExitStack.push`` callback closing ``what``: when an error is already on its way out
+    a failing close does not hide it; otherwise a failed write becomes one clear error."""
+
+    def exit_(exc_type: Any, exc: Any, tb: Any) -> bool:
+        try:
+            close()
+        except Exception as err:
+            if exc_type is None:
+                if isinstance(err, OSError):
+                    raise artifacts.ArtifactError(f"cannot finish {what}: {err.strerror or err}") from None
+                raise
+        return False
+
+    return exit_
+
+
 @contextlib.contextmanager
 def _signals(stop: Any, log: Log, message: str) -> Iterator[None]:
     """SIGINT/SIGTERM request a clean stop; a second SIGINT aborts at once."""
@@ -317,10 +334,9 @@ class _Run:
         except artifacts.ArtifactError as exc:  # a file could not be written (full disk, read-only ...)
             with contextlib.suppress(OSError, PyFlytError):
                 self._write_state("failed", int(self.state.get("num_timesteps") or 0))
-            raise ConfigError(
-                f"{exc}\nthe run stopped; its newest complete checkpoint is intact: fix the cause, then "
-                f"pyflyt train resume={self.run_dir}"
-            ) from None
+            saved = self.state.get("checkpoint")
+            where = f"its checkpoint at step {saved} is intact" if saved else "it saved no checkpoint yet (a resume starts over)"
+            raise ConfigError(f"{exc}\nthe run stopped; {where}: fix the cause, then pyflyt train resume={self.run_dir}") from None
 
     # ------------------------------------------------------------ the model
 
@@ -336,7 +352,7 @@ class _Run:
         torch.set_num_threads(opts.torch_threads)
         set_random_seed(cfg.seed)
         vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env)
-        cleanup.callback(vec.close)
+        cleanup.push(_closing(vec.close, "the training environments"))
         norm = cfg.algo.normalize
         if norm.enabled:
             vec = VecNormalize(
@@ -384,7 +400,7 @@ class _Run:
             self.writer = MetricsWriter(path, metadata=metadata, append=True, resumed_from=since)
         else:
             self.writer = MetricsWriter(path, metadata=metadata)
-        cleanup.callback(self.writer.close)
+        cleanup.push(_closing(self.writer.close, f"the metrics file {self.writer.path}"))
 
     # ------------------------------------------------------------ callbacks
 
@@ -415,7 +431,7 @@ class _Run:
         show_bar = self.progress_bar if self.progress_bar is not None else _is_terminal()
         if opts.eval_freq > 0:
             eval_env = EnvFactory(cfg.env, monitor=False)()
-            cleanup.callback(eval_env.close)
+            cleanup.push(_closing(eval_env.close, "the evaluation environment"))
             children = [c.build() for c in cfg.callbacks]
             child = CallbackList(children) if len(children) > 1 else (children[0] if children else None)
             self.evaluation = PeriodicEvaluation(
