@@ -13,12 +13,22 @@ documented where it is declared; ``docs/uav_authoring.md`` walks through a full 
 from __future__ import annotations
 
 import difflib
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
@@ -27,6 +37,24 @@ Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float, float]
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegativeFloat = Annotated[float, Field(ge=0)]
+
+#: the form of every name read from a file (airframe, surface, gimbal, camera): such names
+#: end up in generated files, recordings and messages, so they may never carry a path
+IDENTIFIER_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
+
+
+def check_identifier(value: str) -> str:
+    """``value`` if it is a plain identifier (:data:`IDENTIFIER_PATTERN`), else ValueError saying how to fix it."""
+    if not IDENTIFIER_PATTERN.fullmatch(value):
+        raise ValueError(
+            f"must be a plain identifier, got {value!r}: use 1 to 64 letters, digits, '_' or '-', starting "
+            "with a letter or '_' (no '/', '.' or spaces), e.g. 'my_hexacopter'"
+        )
+    return value
+
+
+#: a name read from a file: see :func:`check_identifier`
+Identifier = Annotated[str, AfterValidator(check_identifier)]
 
 
 class _Spec(BaseModel):
@@ -271,7 +299,7 @@ def _unit(name: str, value: Vec3) -> Vec3:
 class SurfaceSpec(_Spec):
     """A (flapped) lifting surface: Khan & Nahon performance profile (see docs/uav_authoring.md)."""
 
-    name: str = Field(description="identifier, unique within the vehicle")
+    name: Identifier = Field(description="identifier, unique within the vehicle (letters, digits, '_', '-')")
     position: Vec3 = Field(description="aerodynamic centre in the spec's coordinates [m]")
     chord_axis: Vec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
     normal_axis: Vec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
@@ -358,7 +386,7 @@ class BoostersSpec(_Spec):
 class GimbalSpec(_Spec):
     """A two-axis gimbal vectoring the thrust of one motor or booster."""
 
-    name: str = Field(description="identifier")
+    name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     target: str = Field(description="'booster:<index>' or 'motor:<index>' whose thrust axis it rotates")
     axis_a: Vec3 = Field(description="first rotation axis, unit vector in the body frame")
     axis_b: Vec3 = Field(description="second rotation axis, unit vector in the body frame")
@@ -388,7 +416,7 @@ class GimbalSpec(_Spec):
 class CameraSpec(_Spec):
     """An onboard camera (see :class:`pyflyt_engine.components.camera.CameraParams`)."""
 
-    name: str = Field(description="identifier")
+    name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="camera origin in the spec's coordinates [m]")
     orientation_deg: Vec3 = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw relative to the body [deg]")
     fov: float = Field(90.0, gt=0, lt=180, description="vertical field of view [deg]")
@@ -518,7 +546,9 @@ ControlSpec = Annotated[
 class UAVSpec(_Spec):
     """A complete vehicle: body, drag, actuators, sensors and controller."""
 
-    name: str = Field(description="identifier, usually the file name without .yaml")
+    name: Identifier = Field(
+        description="identifier, usually the file name without .yaml (letters, digits, '_', '-'; no path)"
+    )
     description: str = Field("", description="free text")
     body: BodySpec
     drag: DragSpec = DragSpec()

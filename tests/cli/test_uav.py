@@ -133,6 +133,7 @@ BAD_FILES = {
         yaml.safe_dump({**PLANE, "surfaces": [{**PLANE["surfaces"][0], "normal_axis": [1, 0, 0]}]}),
         ["surfaces.0", "perpendicular"],
     ),
+    "path_as_name": (_cf2x_with(name="../../evil"), ["name: must be a plain identifier, got '../../evil'"]),
 }
 
 

@@ -77,3 +77,36 @@ def test_controllability_only_counts_the_mixer_motors():
     parse_uav_spec(data)  # four lift motors: fine
     data["control"]["mixer_motors"] = [0, 1, 2]
     assert "the multirotor motors [0, 1, 2] cannot control the vehicle" in error_of(data)
+
+
+# ------------------------------------------------------------------ names from files
+
+
+@pytest.mark.parametrize("name", ["../../evil", "/etc/evil", "a/b", "..", "evil.yaml", "two words", "", "x" * 65])
+@pytest.mark.parametrize(
+    "key, where",
+    [
+        ("name", lambda d: d),
+        ("surfaces.0.name", lambda d: d["surfaces"][0]),
+        ("gimbals.0.name", lambda d: d["gimbals"][0]),
+        ("cameras.0.name", lambda d: d["cameras"][0]),
+    ],
+    ids=["airframe", "surface", "gimbal", "camera"],
+)
+def test_a_name_that_is_not_a_plain_identifier_is_rejected(name, key, where):
+    """Names from a file can end up in file names: a path in one must never load."""
+    data = spec_dict("fixedwing" if "surfaces" in key else "rocket" if "gimbals" in key else "quadx_cf2x")
+    if key.startswith("cameras"):
+        data["cameras"] = [{"name": "front"}]
+    where(data)["name"] = name
+    message = error_of(data)
+    assert f"{key}: must be a plain identifier, got {name!r}" in message
+    assert "letters, digits, '_' or '-'" in message
+
+
+def test_plain_identifiers_are_accepted():
+    for name in ("hexacopter_250", "My-Quad2", "_x"):
+        data = spec_dict("quadx_cf2x")
+        data["name"] = name
+        data["cameras"] = [{"name": f"{name}_cam"}]
+        assert parse_uav_spec(data).name == name
