@@ -20,7 +20,7 @@ from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, 
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.spec import load_uav_spec
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -64,6 +64,8 @@ class UAVEnv(gymnasium.Env):
         info_reward_terms: put the reward breakdown into every step's ``info`` as
             ``reward_terms`` (default); False leaves it out: each info entry is pickled
             and merged by subprocess vector envs at every step.
+        airframe: a loaded :class:`~pyflyt_engine.spec.UAVSpec` to fly instead of loading
+            ``config.uav`` (e.g. the airframe a recording carries); kept as :attr:`airframe`.
         **overrides: any top-level config field (``agent_hz=60``, ``reward="my.yaml"``,
             ``flight_dome_size=4``) or task option (``num_targets=3``).
 
@@ -82,6 +84,7 @@ class UAVEnv(gymnasium.Env):
         sparse_reward: bool | None = None,
         render_mode: str | None = None,
         info_reward_terms: bool = True,
+        airframe: UAVSpec | None = None,
         **overrides: Any,
     ) -> None:
         if config is None:
@@ -104,11 +107,13 @@ class UAVEnv(gymnasium.Env):
         self.task: Task = task_cls(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
         self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
         self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, task_cls.name)
+        #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
+        self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
         self.world = World(
             [
                 VehicleConfig(
-                    self.task.vehicle_spec(load_uav_spec(cfg.uav)),
+                    self.task.vehicle_spec(self.airframe),
                     cfg.task.start_position,
                     cfg.task.start_orientation,
                     mode=cfg.action.mode,
@@ -126,7 +131,7 @@ class UAVEnv(gymnasium.Env):
             self.world.close()
             raise ConfigError(
                 f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
-                f"'{cfg.action.mode}' of '{cfg.uav}' takes {self.vehicle.setpoint.size}"
+                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size}"
             )
 
         self._low = np.array(cfg.action.low, dtype=np.float64)
