@@ -13,6 +13,7 @@ documented where it is declared; ``docs/uav_authoring.md`` walks through a full 
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
@@ -22,6 +23,7 @@ import yaml
 from pydantic import (
     AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     ValidationError,
@@ -53,12 +55,27 @@ def check_identifier(value: str) -> str:
     return value
 
 
+def check_finite(value: Any) -> Any:
+    """``value`` unless it is, or is a list/tuple holding, a non-finite float (ValueError).
+
+    For union-typed fields (a number or a list of numbers), where the schema's own
+    finiteness check would report every alternative of the union separately.
+    """
+    items = value if isinstance(value, (list, tuple)) else [value]
+    for item in items:
+        if isinstance(item, float) and not math.isfinite(item):
+            raise ValueError(f"must be a finite number, got {value!r}; give a real number (not .inf or .nan)")
+    return value
+
+
 #: a name read from a file: see :func:`check_identifier`
 Identifier = Annotated[str, AfterValidator(check_identifier)]
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # allow_inf_nan=False: every float, also inside tuples, lists and mappings, must be
+    # finite (YAML's .inf and .nan would otherwise reach the physics as silent NaN)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------- body
@@ -215,7 +232,7 @@ class DragSpec(_Spec):
 # ------------------------------------------------------------------------- motors
 
 
-ScalarOrList = Union[float, list[float]]
+ScalarOrList = Annotated[Union[float, list[float]], BeforeValidator(check_finite)]
 
 
 class MotorsSpec(_Spec):
@@ -680,7 +697,8 @@ def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
 
 # ------------------------------------------------------------------------ loading
 
-_FIX_HINTS = {
+#: validation error type -> how to fix it (appended to messages)
+FIX_HINTS = {
     "extra_forbidden": "remove it or check its spelling",
     "missing": "add it",
     "float_parsing": "give a number",
@@ -693,8 +711,11 @@ _FIX_HINTS = {
     "too_short": "give the expected number of values",
     "too_long": "give the expected number of values",
     "greater_than": "give a larger value",
+    "greater_than_equal": "give a larger value",
     "less_than": "give a smaller value",
+    "less_than_equal": "give a smaller value",
     "union_tag_invalid": "use one of the allowed values",
+    "finite_number": "give a real number (not .inf or .nan)",
 }
 
 
@@ -739,7 +760,7 @@ def _describe(error: dict[str, Any]) -> str:
         hint = f"did you mean '{close[0]}'? " if close else ""
         return f"{where}: unknown key '{key}'. {hint}Allowed keys here: {', '.join(allowed)}"
     message = error["msg"].removeprefix("Value error, ")
-    hint = _FIX_HINTS.get(kind)
+    hint = FIX_HINTS.get(kind)
     value = error.get("input")
     shown = "" if kind == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
     return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")

@@ -15,20 +15,30 @@ import difflib
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
-from pyflyt_engine.spec import first_model
+from pyflyt_engine.spec import FIX_HINTS, check_finite, first_model
 
 
 class _Config(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # every float finite, also inside tuples, lists and mappings (no .inf / .nan from YAML)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 # ---------------------------------------------------------------------- reward
@@ -42,14 +52,9 @@ class TermConfig(_Config):
     when: Union[str, list[str]] = Field(
         "always", description="condition name or list of names that must all hold; prefix not_ negates"
     )
-    params: dict[str, Union[float, list[float]]] = Field(default_factory=dict, description="keyword parameters of the term")
-
-    @field_validator("weight")
-    @classmethod
-    def _finite(cls, value: float) -> float:
-        if not math.isfinite(value):
-            raise ValueError(f"weight must be a finite number, got {value}")
-        return value
+    params: dict[str, Annotated[Union[float, list[float]], BeforeValidator(check_finite)]] = Field(
+        default_factory=dict, description="keyword parameters of the term"
+    )
 
 
 class RewardPreset(_Config):
@@ -201,8 +206,9 @@ def _describe(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "")
         return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
     message = error["msg"].removeprefix("Value error, ")
     value = error.get("input")
-    shown = "" if error["type"] == "missing" or isinstance(value, dict) else f" (got {value!r})"
-    return f"{where}: {message}{shown}"
+    shown = "" if error["type"] == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
+    hint = FIX_HINTS.get(error["type"])
+    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
 
 
 def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "") -> tuple[Any, list[str]]:

@@ -134,6 +134,10 @@ BAD_FILES = {
         ["surfaces.0", "perpendicular"],
     ),
     "path_as_name": (_cf2x_with(name="../../evil"), ["name: must be a plain identifier, got '../../evil'"]),
+    "infinite_mass": (_cf2x_with(**{"body.mass": float("inf")}), ["body.mass", "finite number", "got inf"]),
+    "nan_drag": (_cf2x_with(**{"drag.coefficients": [float("nan"), 1.0, 1.0]}), ["drag.coefficients.0", "got nan"]),
+    "nan_gain": (_cf2x_with(**{"control.rate.ki": [1.0, float("nan"), 1.0]}), ["control.rate.ki.1", "finite"]),
+    "infinite_rpm": (_cf2x_with(**{"motors.max_rpm": float("inf")}), ["motors.max_rpm", "finite number, got inf"]),
 }
 
 
