@@ -219,7 +219,8 @@ def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "")
         return None, [_describe(model, e, prefix) for e in exc.errors()]
 
 
-def _validate(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
+def validate_model(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
+    """``data`` validated as ``model``; ConfigError listing every problem (key, value, fix) otherwise."""
     result, problems = _problems(model, data, prefix)
     if problems:
         raise ConfigError(f"{source}: invalid {what}:\n" + "\n".join(f"  - {p}" for p in problems))
@@ -298,7 +299,7 @@ def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline")
     data = dict(data)
     data.setdefault("name", name)
     try:
-        return _validate(RewardPreset, data, "reward preset", source)
+        return validate_model(RewardPreset, data, "reward preset", source)
     except ConfigError:
         raise
     except Exception as exc:  # pragma: no cover - defensive
