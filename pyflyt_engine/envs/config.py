@@ -230,7 +230,8 @@ def validate_model(model: type[BaseModel], data: Mapping[str, Any], what: str, s
 # ---------------------------------------------------------------------- loading
 
 
-def _read_yaml(path: Path) -> Any:
+def read_yaml(path: Path) -> Any:
+    """The data of a YAML file (``yaml.safe_load``: no tags, no code); ConfigError naming the file otherwise."""
     try:
         return yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:
@@ -289,7 +290,7 @@ def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvCo
     if isinstance(config, Mapping):
         return parse_env_config(config)
     path = _resolve(config, "env")
-    return parse_env_config(_read_yaml(path), source=str(path))
+    return parse_env_config(read_yaml(path), source=str(path))
 
 
 def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline") -> RewardPreset:
@@ -313,4 +314,4 @@ def load_reward_preset(preset: str | Path | Mapping[str, Any] | RewardPreset) ->
     if isinstance(preset, Mapping):
         return parse_reward_preset(preset)
     path = _resolve(preset, "reward")
-    return parse_reward_preset(_read_yaml(path), source=str(path), name=path.stem)
+    return parse_reward_preset(read_yaml(path), source=str(path), name=path.stem)
