@@ -146,6 +146,7 @@ def _limited(limit: int):
 
 @pytest.mark.parametrize("option, name, reason", [
     ("--plot", "plot.png", "File too large"),
+    ("--video", "video.mp4", "the video encoder (ffmpeg) stopped before the video was complete"),
 ])  # fmt: skip
 def test_replay_output_past_a_file_size_limit_leaves_nothing_and_a_retry_succeeds(recording, tmp_path, option, name,
                                                                                   reason):
@@ -170,6 +171,22 @@ def test_replay_output_past_a_file_size_limit_leaves_nothing_and_a_retry_succeed
     result = invoke(*args)
     assert result.exit_code == 0, result.output
     assert out.stat().st_size > 8_000
+
+
+def test_a_cut_off_mp4_is_recognised(tmp_path):
+    import imageio.v2 as imageio
+
+    from pyflyt_engine.telemetry.plots import _check_mp4
+
+    good = tmp_path / "good.mp4"
+    frames = [np.full((48, 64, 3), 10 * i, dtype=np.uint8) for i in range(20)]
+    imageio.mimsave(good, frames, format="FFMPEG", fps=10, macro_block_size=1)
+    _check_mp4(good)
+    data = good.read_bytes()
+    for cut in (8, len(data) // 2, len(data) - 1):
+        (tmp_path / "cut.mp4").write_bytes(data[:cut])
+        with pytest.raises(OSError, match="stopped before the video was complete"):
+            _check_mp4(tmp_path / "cut.mp4")
 
 
 # ------------------------------------------------------------------ pyflyt plot
