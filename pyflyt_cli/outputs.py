@@ -1,13 +1,20 @@
-"""Output files of CLI commands (pictures, plots, videos): checks before anything is written.
+"""Output files of CLI commands (pictures, plots, videos, reports): checks, then safe writes.
 
 A command never writes over its input or over a file of another kind: an existing
-output is replaced only when its first bytes say it is the same kind of file.
+output is replaced only when its first bytes say it is the same kind of file
+(:func:`check_output`).  Every output is written through :func:`atomic_output`: to a
+temporary file beside it, renamed into place only once complete, so a failed write (a
+full disk, a read-only directory, a file-size limit) leaves the old file or nothing,
+never a partial one, and is reported as one message naming the path and the reason.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
 import re
-from collections.abc import Sequence
+import secrets
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from pyflyt_cli.config import CLIError
@@ -76,4 +83,53 @@ def check_output(
             )
     if not path.parent.is_dir():
         raise CLIError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
+    return path
+
+
+def _reason(exc: OSError) -> str:
+    """The operating system's reason for ``exc`` in a few words (e.g. 'No space left on device')."""
+    if exc.strerror:
+        return exc.strerror
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+@contextlib.contextmanager
+def atomic_output(path: Path, option: str | None = None) -> Iterator[Path]:
+    """Write ``path`` all at once: yields a temporary path to write to, renamed over ``path`` on success.
+
+    The temporary file sits in the same directory (so the rename is atomic) and keeps
+    ``path``'s suffix (writers choose the format by it); the writer creates it, so it gets
+    the usual permissions.  If the block fails, the temporary file is removed and ``path``
+    is left as it was.  Example::
+
+        with atomic_output(out, "--plot") as tmp:
+            fig.savefig(tmp)
+
+    Raises:
+        CLIError: the write or the rename failed with an OSError (full disk, read-only
+            directory, file too large ...): one message naming the option, ``path`` and
+            the reason.  Other exceptions propagate unchanged (after the clean-up).
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as exc:
+        where = f"{option} {path}" if option else str(path)
+        raise CLIError(f"{where}: cannot write the file: {_reason(exc)}; the file was not changed") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def make_output_dir(path: Path, option: str | None = None) -> Path:
+    """Create the directory ``path`` (and its parents) for outputs; CLIError naming it and the reason."""
+    where = f"{option} {path}" if option else str(path)
+    if path.exists() and not path.is_dir():
+        raise CLIError(f"{where}: is a file, not a directory; give a directory for the outputs")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CLIError(f"{where}: cannot create the output directory: {_reason(exc)}") from None
     return path

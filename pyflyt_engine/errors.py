@@ -15,3 +15,8 @@ class ConfigError(PyFlytError, ValueError):
 
 class TelemetryError(PyFlytError, ValueError):
     """An MCAP telemetry file cannot be written or read: the message names the file and the problem."""
+
+
+class SimulationError(PyFlytError):
+    """The simulation produced a non-finite observation or reward (the physics blew up):
+    the message names the episode step, the vehicle's state and the action."""

@@ -13,12 +13,24 @@ documented where it is declared; ``docs/uav_authoring.md`` walks through a full 
 from __future__ import annotations
 
 import difflib
+import math
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
@@ -28,9 +40,42 @@ Color = tuple[float, float, float, float]
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegativeFloat = Annotated[float, Field(ge=0)]
 
+#: the form of every name read from a file (airframe, surface, gimbal, camera): such names
+#: end up in generated files, recordings and messages, so they may never carry a path
+IDENTIFIER_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
+
+
+def check_identifier(value: str) -> str:
+    """``value`` if it is a plain identifier (:data:`IDENTIFIER_PATTERN`), else ValueError saying how to fix it."""
+    if not IDENTIFIER_PATTERN.fullmatch(value):
+        raise ValueError(
+            f"must be a plain identifier, got {value!r}: use 1 to 64 letters, digits, '_' or '-', starting "
+            "with a letter or '_' (no '/', '.' or spaces), e.g. 'my_hexacopter'"
+        )
+    return value
+
+
+def check_finite(value: Any) -> Any:
+    """``value`` unless it is, or is a list/tuple holding, a non-finite float (ValueError).
+
+    For union-typed fields (a number or a list of numbers), where the schema's own
+    finiteness check would report every alternative of the union separately.
+    """
+    items = value if isinstance(value, (list, tuple)) else [value]
+    for item in items:
+        if isinstance(item, float) and not math.isfinite(item):
+            raise ValueError(f"must be a finite number, got {value!r}; give a real number (not .inf or .nan)")
+    return value
+
+
+#: a name read from a file: see :func:`check_identifier`
+Identifier = Annotated[str, AfterValidator(check_identifier)]
+
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # allow_inf_nan=False: every float, also inside tuples, lists and mappings, must be
+    # finite (YAML's .inf and .nan would otherwise reach the physics as silent NaN)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 # --------------------------------------------------------------------------- body
@@ -187,7 +232,7 @@ class DragSpec(_Spec):
 # ------------------------------------------------------------------------- motors
 
 
-ScalarOrList = Union[float, list[float]]
+ScalarOrList = Annotated[Union[float, list[float]], BeforeValidator(check_finite)]
 
 
 class MotorsSpec(_Spec):
@@ -271,7 +316,7 @@ def _unit(name: str, value: Vec3) -> Vec3:
 class SurfaceSpec(_Spec):
     """A (flapped) lifting surface: Khan & Nahon performance profile (see docs/uav_authoring.md)."""
 
-    name: str = Field(description="identifier, unique within the vehicle")
+    name: Identifier = Field(description="identifier, unique within the vehicle (letters, digits, '_', '-')")
     position: Vec3 = Field(description="aerodynamic centre in the spec's coordinates [m]")
     chord_axis: Vec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
     normal_axis: Vec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
@@ -358,7 +403,7 @@ class BoostersSpec(_Spec):
 class GimbalSpec(_Spec):
     """A two-axis gimbal vectoring the thrust of one motor or booster."""
 
-    name: str = Field(description="identifier")
+    name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     target: str = Field(description="'booster:<index>' or 'motor:<index>' whose thrust axis it rotates")
     axis_a: Vec3 = Field(description="first rotation axis, unit vector in the body frame")
     axis_b: Vec3 = Field(description="second rotation axis, unit vector in the body frame")
@@ -388,7 +433,7 @@ class GimbalSpec(_Spec):
 class CameraSpec(_Spec):
     """An onboard camera (see :class:`pyflyt_engine.components.camera.CameraParams`)."""
 
-    name: str = Field(description="identifier")
+    name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     position: Vec3 = Field((0.0, 0.0, 0.0), description="camera origin in the spec's coordinates [m]")
     orientation_deg: Vec3 = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw relative to the body [deg]")
     fov: float = Field(90.0, gt=0, lt=180, description="vertical field of view [deg]")
@@ -518,7 +563,9 @@ ControlSpec = Annotated[
 class UAVSpec(_Spec):
     """A complete vehicle: body, drag, actuators, sensors and controller."""
 
-    name: str = Field(description="identifier, usually the file name without .yaml")
+    name: Identifier = Field(
+        description="identifier, usually the file name without .yaml (letters, digits, '_', '-'; no path)"
+    )
     description: str = Field("", description="free text")
     body: BodySpec
     drag: DragSpec = DragSpec()
@@ -650,7 +697,8 @@ def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
 
 # ------------------------------------------------------------------------ loading
 
-_FIX_HINTS = {
+#: validation error type -> how to fix it (appended to messages)
+FIX_HINTS = {
     "extra_forbidden": "remove it or check its spelling",
     "missing": "add it",
     "float_parsing": "give a number",
@@ -663,8 +711,11 @@ _FIX_HINTS = {
     "too_short": "give the expected number of values",
     "too_long": "give the expected number of values",
     "greater_than": "give a larger value",
+    "greater_than_equal": "give a larger value",
     "less_than": "give a smaller value",
+    "less_than_equal": "give a smaller value",
     "union_tag_invalid": "use one of the allowed values",
+    "finite_number": "give a real number (not .inf or .nan)",
 }
 
 
@@ -709,7 +760,7 @@ def _describe(error: dict[str, Any]) -> str:
         hint = f"did you mean '{close[0]}'? " if close else ""
         return f"{where}: unknown key '{key}'. {hint}Allowed keys here: {', '.join(allowed)}"
     message = error["msg"].removeprefix("Value error, ")
-    hint = _FIX_HINTS.get(kind)
+    hint = FIX_HINTS.get(kind)
     value = error.get("input")
     shown = "" if kind == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
     return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")

@@ -2,8 +2,9 @@
 
 Every airframe is one rigid link whose origin is the centre of mass: the inertial
 block carries the spec's mass and inertia, and each shape becomes a ``<visual>`` and/or
-``<collision>`` element.  The generated text is cached on disk by content hash, so
-spawning the same airframe twice parses it once.
+``<collision>`` element.  The generated text is cached on disk by content hash in a
+directory private to the user (:func:`cache_dir`), and a cached file is used only after
+checking that it holds exactly that text (:func:`urdf_path`).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import stat
 import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -107,26 +109,101 @@ def generate_urdf(spec: UAVSpec) -> str:
     return "\n".join(lines)
 
 
-def _cache_dir() -> Path:
-    path = Path(os.environ.get("PYFLYT_CACHE_DIR", Path(tempfile.gettempdir()) / f"pyflyt_urdf_{os.getuid()}"))
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+#: the per-process fallback cache (see :func:`cache_dir`), made at most once
+_private_dir: Path | None = None
+
+
+def _unsafe_reason(path: Path) -> str | None:
+    """Why ``path`` cannot hold the cache (None if it is a private directory of ours).
+
+    The cache is trusted: its files are loaded without a second thought by PyBullet.  So it
+    must be a real directory (not a symbolic link), owned by the current user, that no one
+    else can write to (no group or other write permission).
+    """
+    try:
+        info = path.lstat()
+    except OSError as exc:
+        return f"cannot inspect it ({exc.strerror or exc})"
+    if not stat.S_ISDIR(info.st_mode):
+        return "it is not a directory (or is a symbolic link)"
+    if info.st_uid != os.getuid():
+        return f"it belongs to user id {info.st_uid}, not to the current user ({os.getuid()})"
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"others may write to it (mode {stat.S_IMODE(info.st_mode):o})"
+    return None
+
+
+def cache_dir() -> Path:
+    """The directory generated URDF files are cached in, created private (mode 0o700).
+
+    ``$PYFLYT_CACHE_DIR``, else ``<temp dir>/pyflyt_urdf_<uid>``.  A directory that is not
+    ours alone (:func:`_unsafe_reason`; e.g. made by another user in a shared temp
+    directory) is never used: the cache falls back to a private directory of this
+    process, removed at exit, with a warning naming the refused directory.
+    """
+    global _private_dir
+    if _private_dir is not None:
+        return _private_dir
+    default = Path(tempfile.gettempdir()) / f"pyflyt_urdf_{os.getuid()}"
+    path = Path(os.environ.get("PYFLYT_CACHE_DIR") or default)
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    except OSError as exc:
+        reason: str | None = f"cannot create it ({exc.strerror or exc})"
+    else:
+        reason = _unsafe_reason(path)
+    if reason is None:
+        return path
+    import atexit
+    import shutil
+    import warnings
+
+    _private_dir = Path(tempfile.mkdtemp(prefix="pyflyt_urdf_"))  # mode 0o700
+    atexit.register(shutil.rmtree, _private_dir, True)
+    warnings.warn(
+        f"URDF cache {path}: not used because {reason}; using {_private_dir} for this process instead "
+        "(set PYFLYT_CACHE_DIR to a directory only you can write to)",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+    return _private_dir
+
+
+def _holds(path: Path, data: bytes) -> bool:
+    """Whether ``path`` is a regular file (not a link) whose content is exactly ``data``."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    except OSError:
+        return False
+    with os.fdopen(fd, "rb") as handle:
+        if not stat.S_ISREG(os.fstat(handle.fileno()).st_mode):
+            return False
+        return handle.read(len(data) + 1) == data
 
 
 def urdf_path(spec: UAVSpec) -> Path:
-    """Path of a URDF file for ``spec``: the user's own, or a generated one (cached)."""
+    """Path of a URDF file for ``spec``: the user's own, or a generated one (cached).
+
+    A generated file is named by the digest of its text alone (never by a name from the
+    spec), and a cached file is used only if its content is exactly the generated text;
+    otherwise (tampered, truncated, replaced by a link) it is written again.
+    """
     if spec.body.urdf is not None:
         path = Path(spec.body.urdf)
         if not path.is_absolute() and spec.source:
             path = Path(spec.source).parent / path
         return path
-    text = generate_urdf(spec)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = _cache_dir() / f"{spec.name}_{digest}.urdf"
-    if not path.exists():
+    data = generate_urdf(spec).encode()
+    directory = cache_dir()
+    path = directory / f"{hashlib.sha256(data).hexdigest()[:32]}.urdf"
+    if not _holds(path, data):
         # write-then-rename so concurrent processes never read a half-written file
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
+        fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(data)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
     return path

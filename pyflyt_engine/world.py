@@ -18,6 +18,7 @@ vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -57,6 +58,17 @@ def _ratio(numerator: float, denominator: float, what: str) -> int:
             "choose rates whose ratio is a whole number (e.g. physics 240, control 120, agent 30)"
         )
     return int(round(ratio))
+
+
+def _finite_vector(values: Sequence[float], name: str, unit: str) -> tuple[float, float, float]:
+    """``values`` as 3 finite floats; ConfigError naming ``name`` otherwise."""
+    try:
+        vector = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise ConfigError(f"spawn {name} must be 3 numbers {unit}, got {values!r}") from None
+    if len(vector) != 3 or not all(math.isfinite(v) for v in vector):
+        raise ConfigError(f"spawn {name} must be 3 finite numbers {unit}, got {list(vector)}")
+    return vector  # type: ignore[return-value]
 
 
 @dataclass
@@ -141,8 +153,10 @@ class World:
         self.control_hz = float(control_hz)
         self.agent_hz = float(agent_hz)
         for name, value in (("physics_hz", physics_hz), ("control_hz", control_hz), ("agent_hz", agent_hz)):
-            if not value > 0:
-                raise ConfigError(f"{name} must be > 0 Hz, got {value}")
+            if not 0 < value < math.inf:
+                raise ConfigError(f"{name} must be a finite number > 0 Hz, got {value}")
+        if not math.isfinite(gravity):
+            raise ConfigError(f"gravity must be a finite acceleration [m/s^2], got {gravity}; the default is {GRAVITY}")
         self.physics_per_control = _ratio(self.physics_hz, self.control_hz, "physics_hz / control_hz")
         self.physics_per_agent = _ratio(self.physics_hz, self.agent_hz, "physics_hz / agent_hz")
         self.physics_dt = 1.0 / self.physics_hz
@@ -190,7 +204,13 @@ class World:
         orientation: Sequence[float] = (0.0, 0.0, 0.0),
         mode: str | int | None = None,
     ) -> int:
-        """Spawn a vehicle; returns its index in :attr:`vehicles`."""
+        """Spawn a vehicle; returns its index in :attr:`vehicles`.
+
+        Raises:
+            ConfigError: ``position`` or ``orientation`` is not 3 finite numbers.
+        """
+        position = _finite_vector(position, "position", "[m]")
+        orientation = _finite_vector(orientation, "orientation", "(roll, pitch, yaw) [rad]")
         spec = uav if isinstance(uav, UAVSpec) else load_uav_spec(uav)
         index = len(self.vehicles)
         vehicle = Vehicle(

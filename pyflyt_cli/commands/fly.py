@@ -1,35 +1,77 @@
-"""``pyflyt fly``: a scripted flight from the command line."""
+"""``pyflyt fly``: a scripted flight from the command line.
+
+``conf/fly.yaml`` plus the command's overrides are validated by :class:`FlyOptions`
+before anything flies, so a bad value (``duration=abc``, ``seed=-1``, ``position=[nan,0,0]``)
+is one message naming the key, not a traceback.
+"""
 
 from __future__ import annotations
 
 import math
+from typing import Annotated, Any, Optional
 
 import numpy as np
 import typer
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from pyflyt_cli.config import compose, parse_overrides, to_container
+from pyflyt_engine.envs.config import validate_model
 from pyflyt_engine.flight import Trajectory, fly
 from pyflyt_engine.spec import parse_uav_spec
 
+Vec3 = tuple[float, float, float]
+
+
+def _mode(value: Any) -> Any:
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise ValueError(f"give a flight mode name or PyFlyt integer -1 ... 7 (see `pyflyt modes`), got {value!r}")
+    return value
+
+
+def _setpoint(value: Any) -> Any:
+    if value is None:
+        return value
+    numbers = list(value.values()) if isinstance(value, dict) else value
+    if isinstance(numbers, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
+        if all(math.isfinite(v) for v in numbers):
+            return value
+        raise ValueError(f"every value must be a finite number, got {value!r}")
+    raise ValueError(
+        f"give a list of numbers in the mode's layout (setpoint=[0,0,0,1]) or a mapping by name "
+        f"(setpoint={{z:1}}), got {value!r}"
+    )
+
+
+class FlyOptions(BaseModel):
+    """The keys of ``conf/fly.yaml`` (see the comments there); every number finite."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    uav: dict[str, Any] = Field(description="the airframe (conf/uav group), validated as a UAV spec")
+    mode: Annotated[Any, BeforeValidator(_mode)] = Field(description="flight mode: a name or a PyFlyt integer -1 ... 7")
+    setpoint: Annotated[Any, BeforeValidator(_setpoint)] = Field(
+        description="setpoint in the mode's layout, a mapping by name, or null (hover 1 m above the spawn point)"
+    )
+    duration: float = Field(gt=0, description="simulated seconds")
+    position: Vec3 = Field(description="spawn position [x, y, z] [m]")
+    orientation: Vec3 = Field(description="spawn attitude [roll, pitch, yaw] [rad]")
+    seed: Optional[int] = Field(ge=0, description="seed of the actuator noise (null: random)")
+    physics_hz: float = Field(gt=0, description="physics rate [Hz]")
+    control_hz: float = Field(gt=0, description="controller rate [Hz]")
+    agent_hz: float = Field(gt=0, description="rate of the printed trajectory samples [Hz]")
+    rows: int = Field(ge=1, description="rows of the printed trajectory table")
+    render: bool = Field(description="open the PyBullet GUI (needs a display)")
+
 
 def run_fly(overrides: list[str]) -> Trajectory:
-    """Compose ``conf/fly.yaml`` with ``overrides``, fly, print the summary."""
-    cfg = to_container(compose("fly", parse_overrides(overrides)))
-    spec = parse_uav_spec(cfg["uav"], source=f"uav={cfg['uav'].get('name', '?')}")
-    traj = fly(
-        spec,
-        cfg["mode"],
-        cfg["setpoint"],
-        float(cfg["duration"]),
-        position=cfg["position"],
-        orientation=cfg["orientation"],
-        seed=cfg["seed"],
-        physics_hz=cfg["physics_hz"],
-        control_hz=cfg["control_hz"],
-        agent_hz=cfg["agent_hz"],
-        render=bool(cfg["render"]),
+    """Compose ``conf/fly.yaml`` with ``overrides``, validate, fly, print the summary."""
+    options: FlyOptions = validate_model(
+        FlyOptions, to_container(compose("fly", parse_overrides(overrides))), "fly options", "pyflyt fly"
     )
-    print_summary(spec.name, traj, int(cfg["rows"]))
+    spec = parse_uav_spec(options.uav, source=f"uav={options.uav.get('name', '?')}")
+    # every other option is an argument of fly() of the same name
+    traj = fly(spec, **{key: value for key, value in options if key not in ("uav", "rows")})
+    print_summary(spec.name, traj, options.rows)
     return traj
 
 

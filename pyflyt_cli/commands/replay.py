@@ -4,7 +4,9 @@ The CLI in :mod:`pyflyt_cli.main` only parses arguments; :func:`run_replay` does
 and returns the exit code (0 ok, 1 ``--verify`` found a deviation above the tolerance);
 user errors raise :class:`~pyflyt_engine.errors.PyFlytError` (exit 2, one message).
 
-Nothing here writes over its input: outputs must be new files or files of the same kind.
+Nothing here writes over its input: outputs must be new files or files of the same kind,
+and they are the only files written (each all at once, see
+:func:`~pyflyt_cli.outputs.atomic_output`); nothing read from the recording names a file.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ from pathlib import Path
 import typer
 
 from pyflyt_cli.config import CLIError
-from pyflyt_cli.outputs import check_output, parse_size
+from pyflyt_cli.outputs import atomic_output, check_output, parse_size
+
 
 def run_replay(
     file: Path,
@@ -91,14 +94,16 @@ def run_replay(
     if plot is not None:
         from pyflyt_engine.telemetry.plots import plot_episode
 
-        plot_episode(episode, plot)
+        with atomic_output(plot, "--plot") as tmp:
+            plot_episode(episode, tmp)
         report["plot"] = str(plot)
         if not as_json:
             typer.echo(f"plot      {plot}")
     if video is not None:
         from pyflyt_engine.telemetry.plots import render_video
 
-        render_video(episode, video, size=dims)
+        with atomic_output(video, "--video") as tmp:
+            render_video(episode, tmp, size=dims)
         report["video"] = str(video)
         if not as_json:
             typer.echo(f"video     {video}")

@@ -454,6 +454,9 @@ def speed_command(
     settings = SpeedSettings.quick(**overrides) if quick else SpeedSettings(repeats=repeats, **overrides)
     report = run_speed(settings, progress=progress)
     if json_path is not None:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(report, indent=2))
+        from pyflyt_cli.outputs import atomic_output, make_output_dir
+
+        make_output_dir(json_path.parent, "--json")
+        with atomic_output(json_path, "--json") as tmp:
+            tmp.write_text(json.dumps(report, indent=2))
     return format_report(report, markdown=markdown)

@@ -19,8 +19,6 @@ Nothing here writes over its input: output images must be new files or existing 
 from __future__ import annotations
 
 import math
-import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,7 +26,7 @@ import numpy as np
 import typer
 
 from pyflyt_cli.config import CLIError
-from pyflyt_cli.outputs import check_output, parse_size
+from pyflyt_cli.outputs import atomic_output, check_output, parse_size
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import PyFlytError, SpecError
 from pyflyt_engine.spec import (
@@ -399,22 +397,6 @@ def channel_users(spec: UAVSpec, channel: str) -> list[str]:
 # ------------------------------------------------------------------ show: images
 
 
-def _atomic_write(path: Path, write) -> Path:
-    """Call ``write(tmp_path)`` then move the result over ``path`` (no half-written files).
-
-    The temporary file is created by ``write`` itself, so it gets the usual permissions
-    (umask), unlike a ``tempfile.mkstemp`` file (0600).
-    """
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.png")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
-
-
 def _rpy_matrix(rpy) -> np.ndarray:
     """Rotation Rz(yaw) Ry(pitch) Rx(roll) (URDF convention)."""
     r, p_, y = rpy
@@ -583,7 +565,9 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
     finally:
         p.disconnect(client)
     image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
-    return _atomic_write(path, lambda tmp: Image.fromarray(image, "RGB").save(tmp, format="PNG"))
+    with atomic_output(path, "--png") as tmp:
+        Image.fromarray(image, "RGB").save(tmp, format="PNG")
+    return path
 
 
 def plot_surface_curves(spec: UAVSpec, path: Path) -> Path:
@@ -632,7 +616,9 @@ def plot_surface_curves(spec: UAVSpec, path: Path) -> Path:
         ax.set_xticks(np.arange(-180, 181, 60))
     fig.suptitle(f"{spec.name}: lifting-surface coefficients (Khan & Nahon)")
     fig.tight_layout()
-    return _atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=80, format="png"))
+    with atomic_output(path, "--curves") as tmp:
+        fig.savefig(tmp, dpi=80, format="png")
+    return path
 
 
 def run_show(name_or_path: str, png: Path | None = None, size: str = "640x480", curves: Path | None = None) -> UAVSpec:

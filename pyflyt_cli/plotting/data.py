@@ -19,8 +19,10 @@ import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from pyflyt_engine.errors import ConfigError, PyFlytError
 
@@ -117,30 +119,54 @@ def read_run(run_dir: Path) -> RunCurve | None:
     )
 
 
+class _NormalisationEntry(BaseModel):
+    """One env of ``normalisation.yaml``; every score finite."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    random: float = Field(description="mean return of a uniformly random policy (score 0)")
+    reference: Optional[float] = Field(description="return that scores 1 (null: the best evaluation in the benchmark)")
+    source: Optional[str] = Field(None, description="where the scores come from")
+
+
 def read_normalisation(root: Path) -> dict[str, Normalisation]:
-    """``normalisation.yaml`` of a benchmark (``{}`` if absent)."""
-    import yaml
+    """``normalisation.yaml`` of a benchmark (``{}`` if absent).
+
+    Raises:
+        ConfigError: the file cannot be read, is not YAML, is not a mapping of env names to
+            ``{random, reference, source}``, or holds a score that is not a finite number.
+    """
+    from pyflyt_engine.envs.config import read_yaml, validate_model
 
     path = root / NORMALISATION_FILE
     if not path.is_file():
         return {}
-    data = yaml.safe_load(path.read_text()) or {}
+    data = read_yaml(path)
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{path}: must be a mapping of env names to {{random: R, reference: S, source: ...}}, "
+            f"got {type(data).__name__}"
+        )
     out = {}
     for env, entry in data.items():
-        try:
-            reference = entry["reference"]
-            norm = Normalisation(
-                float(entry["random"]),
-                math.nan if reference is None else float(reference),
-                str(entry.get("source", path.name)),
-            )
-        except (TypeError, KeyError, ValueError):
+        if not isinstance(entry, dict):
             raise ConfigError(
-                f"{path}: {env}: needs numbers 'random' and 'reference' (reference may be null: the best "
-                "evaluation in the benchmark) and optionally 'source'"
-            ) from None
+                f"{path}: {env}: needs a mapping {{random: R, reference: S, source: ...}} with numbers 'random' and "
+                f"'reference' (reference may be null: the best evaluation in the benchmark), got {entry!r}"
+            )
+        checked = validate_model(_NormalisationEntry, entry, "normalisation entry", str(path), prefix=f"{env}.")
+        norm = Normalisation(
+            checked.random,
+            math.nan if checked.reference is None else checked.reference,
+            checked.source if checked.source is not None else path.name,
+        )
         if norm.reference == norm.random:
-            raise ConfigError(f"{path}: {env}: reference and random scores are equal ({norm.random})")
+            raise ConfigError(
+                f"{path}: {env}: reference and random scores are equal ({norm.random}); "
+                "give a reference score above the random one"
+            )
         out[str(env)] = norm
     return out
 

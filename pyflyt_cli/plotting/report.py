@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from pyflyt_cli.outputs import atomic_output, make_output_dir
 from pyflyt_cli.plotting import stats
 from pyflyt_cli.plotting.data import Benchmark, load_benchmark
 from pyflyt_engine.errors import ConfigError
@@ -101,14 +102,18 @@ def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int
     if reps < 10:
         raise ConfigError(f"--reps must be at least 10, got {reps}")
     bench = load_benchmark(root)
-    out_dir = Path(out) if out is not None else Path(root) / "report"
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if out is None:
+        out_dir = make_output_dir(Path(root) / "report")
+    else:
+        out_dir = make_output_dir(Path(out), "--out")
     numbers = compute(bench, reps, seed)
     figures = _figures(bench, numbers, out_dir)
     md = out_dir / "report.md"
-    md.write_text(_markdown(bench, numbers, reps, seed, figures, out_dir))
+    with atomic_output(md) as tmp:
+        tmp.write_text(_markdown(bench, numbers, reps, seed, figures, out_dir))
     js = out_dir / "report.json"
-    js.write_text(json.dumps(_json(bench, numbers, reps, seed), indent=2, sort_keys=True) + "\n")
+    with atomic_output(js) as tmp:
+        tmp.write_text(json.dumps(_json(bench, numbers, reps, seed), indent=2, sort_keys=True) + "\n")
     return Report(out_dir, md, js, figures, bench, numbers)
 
 
@@ -119,9 +124,13 @@ def _save(fig: Any, out_dir: Path, name: str) -> list[Path]:
     import matplotlib.pyplot as plt
 
     paths = [out_dir / f"{name}.png", out_dir / f"{name}.svg"]
-    fig.savefig(paths[0], dpi=150, bbox_inches="tight", metadata={"Software": None})
-    fig.savefig(paths[1], bbox_inches="tight", metadata={"Date": None, "Creator": None})
-    plt.close(fig)
+    try:
+        with atomic_output(paths[0]) as tmp:
+            fig.savefig(tmp, dpi=150, bbox_inches="tight", metadata={"Software": None})
+        with atomic_output(paths[1]) as tmp:
+            fig.savefig(tmp, bbox_inches="tight", metadata={"Date": None, "Creator": None})
+    finally:
+        plt.close(fig)
     return paths
 
 

@@ -15,20 +15,30 @@ import difflib
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
-from pyflyt_engine.spec import first_model
+from pyflyt_engine.spec import FIX_HINTS, check_finite, first_model
 
 
 class _Config(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # every float finite, also inside tuples, lists and mappings (no .inf / .nan from YAML)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 # ---------------------------------------------------------------------- reward
@@ -42,14 +52,9 @@ class TermConfig(_Config):
     when: Union[str, list[str]] = Field(
         "always", description="condition name or list of names that must all hold; prefix not_ negates"
     )
-    params: dict[str, Union[float, list[float]]] = Field(default_factory=dict, description="keyword parameters of the term")
-
-    @field_validator("weight")
-    @classmethod
-    def _finite(cls, value: float) -> float:
-        if not math.isfinite(value):
-            raise ValueError(f"weight must be a finite number, got {value}")
-        return value
+    params: dict[str, Annotated[Union[float, list[float]], BeforeValidator(check_finite)]] = Field(
+        default_factory=dict, description="keyword parameters of the term"
+    )
 
 
 class RewardPreset(_Config):
@@ -201,8 +206,9 @@ def _describe(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "")
         return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
     message = error["msg"].removeprefix("Value error, ")
     value = error.get("input")
-    shown = "" if error["type"] == "missing" or isinstance(value, dict) else f" (got {value!r})"
-    return f"{where}: {message}{shown}"
+    shown = "" if error["type"] == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
+    hint = FIX_HINTS.get(error["type"])
+    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
 
 
 def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "") -> tuple[Any, list[str]]:
@@ -213,7 +219,8 @@ def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "")
         return None, [_describe(model, e, prefix) for e in exc.errors()]
 
 
-def _validate(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
+def validate_model(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
+    """``data`` validated as ``model``; ConfigError listing every problem (key, value, fix) otherwise."""
     result, problems = _problems(model, data, prefix)
     if problems:
         raise ConfigError(f"{source}: invalid {what}:\n" + "\n".join(f"  - {p}" for p in problems))
@@ -223,7 +230,8 @@ def _validate(model: type[BaseModel], data: Mapping[str, Any], what: str, source
 # ---------------------------------------------------------------------- loading
 
 
-def _read_yaml(path: Path) -> Any:
+def read_yaml(path: Path) -> Any:
+    """The data of a YAML file (``yaml.safe_load``: no tags, no code); ConfigError naming the file otherwise."""
     try:
         return yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:
@@ -282,7 +290,7 @@ def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvCo
     if isinstance(config, Mapping):
         return parse_env_config(config)
     path = _resolve(config, "env")
-    return parse_env_config(_read_yaml(path), source=str(path))
+    return parse_env_config(read_yaml(path), source=str(path))
 
 
 def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline") -> RewardPreset:
@@ -292,7 +300,7 @@ def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline")
     data = dict(data)
     data.setdefault("name", name)
     try:
-        return _validate(RewardPreset, data, "reward preset", source)
+        return validate_model(RewardPreset, data, "reward preset", source)
     except ConfigError:
         raise
     except Exception as exc:  # pragma: no cover - defensive
@@ -306,4 +314,4 @@ def load_reward_preset(preset: str | Path | Mapping[str, Any] | RewardPreset) ->
     if isinstance(preset, Mapping):
         return parse_reward_preset(preset)
     path = _resolve(preset, "reward")
-    return parse_reward_preset(_read_yaml(path), source=str(path), name=path.stem)
+    return parse_reward_preset(read_yaml(path), source=str(path), name=path.stem)

@@ -8,6 +8,8 @@ named terms (see :mod:`pyflyt_engine.envs.rewards`).
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
@@ -19,8 +21,8 @@ from gymnasium import spaces
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, load_reward_preset
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
-from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.spec import load_uav_spec
+from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -55,6 +57,10 @@ class UAVEnv(gymnasium.Env):
     ``step`` only; left out with ``info_reward_terms=False``) plus the task's entries.
     The breakdown of the last step is also :attr:`last_reward_terms`.
 
+    Never NaN: an observation or reward that is not finite (the physics blew up, e.g. on
+    an airframe with absurd parameters) raises :class:`~pyflyt_engine.errors.SimulationError`
+    naming the step, the vehicle's state and the action, instead of reaching the learner.
+
     Args:
         config: env config name (``conf/env``), YAML path, mapping or :class:`EnvConfig`;
             default: the class's ``config_name``.
@@ -64,6 +70,8 @@ class UAVEnv(gymnasium.Env):
         info_reward_terms: put the reward breakdown into every step's ``info`` as
             ``reward_terms`` (default); False leaves it out: each info entry is pickled
             and merged by subprocess vector envs at every step.
+        airframe: a loaded :class:`~pyflyt_engine.spec.UAVSpec` to fly instead of loading
+            ``config.uav`` (e.g. the airframe a recording carries); kept as :attr:`airframe`.
         **overrides: any top-level config field (``agent_hz=60``, ``reward="my.yaml"``,
             ``flight_dome_size=4``) or task option (``num_targets=3``).
 
@@ -82,6 +90,7 @@ class UAVEnv(gymnasium.Env):
         sparse_reward: bool | None = None,
         render_mode: str | None = None,
         info_reward_terms: bool = True,
+        airframe: UAVSpec | None = None,
         **overrides: Any,
     ) -> None:
         if config is None:
@@ -104,11 +113,13 @@ class UAVEnv(gymnasium.Env):
         self.task: Task = task_cls(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
         self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
         self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, task_cls.name)
+        #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
+        self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
         self.world = World(
             [
                 VehicleConfig(
-                    self.task.vehicle_spec(load_uav_spec(cfg.uav)),
+                    self.task.vehicle_spec(self.airframe),
                     cfg.task.start_position,
                     cfg.task.start_orientation,
                     mode=cfg.action.mode,
@@ -126,7 +137,7 @@ class UAVEnv(gymnasium.Env):
             self.world.close()
             raise ConfigError(
                 f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
-                f"'{cfg.action.mode}' of '{cfg.uav}' takes {self.vehicle.setpoint.size}"
+                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size}"
             )
 
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -167,7 +178,10 @@ class UAVEnv(gymnasium.Env):
             self._markers.show(self.task.markers())
         info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         info.update(self.task.info())
-        return self._observe(state), info
+        observation = self._observe(state)
+        if not _all_finite(0.0, observation):
+            self._diverged(observation, 0.0, state)
+        return observation, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one agent step (``physics_hz / agent_hz`` physics steps)."""
@@ -217,7 +231,10 @@ class UAVEnv(gymnasium.Env):
         if self.info_reward_terms:
             info["reward_terms"] = terms
         info.update(self.task.info())
-        return self._observe(state), reward, terminated, truncated, info
+        observation = self._observe(state)
+        if not _all_finite(reward, observation):
+            self._diverged(observation, reward, state)
+        return observation, reward, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
         """``rgb_array``: an (H, W, 3) uint8 chase-camera image; ``human``: follow in the GUI."""
@@ -252,6 +269,26 @@ class UAVEnv(gymnasium.Env):
         )
         return self.task.observe(attitude, state)
 
+    def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
+        """Raise :class:`SimulationError` describing a non-finite observation or reward."""
+        parts = observation.items() if isinstance(observation, Mapping) else [("observation", observation)]
+        bad = [
+            f"{name}[{', '.join(map(str, np.flatnonzero(~np.isfinite(np.asarray(value, dtype=np.float64)))))}]"
+            for name, value in parts
+            if not np.isfinite(np.asarray(value, dtype=np.float64)).all()
+        ]
+        if not math.isfinite(reward):
+            bad.append(f"reward ({reward})")
+        where = self.config.id or self.config.source or "the environment"
+        raise SimulationError(
+            f"{where}: the simulation diverged at step {self._steps} of the episode: not finite: {', '.join(bad)}. "
+            f"Vehicle '{self.vehicle.spec.name}': position {_rounded(state.lin_pos)} m, attitude "
+            f"{_rounded(state.ang_pos)} rad, body velocity {_rounded(state.lin_vel)} m/s, body rates "
+            f"{_rounded(state.ang_vel)} rad/s, aux {_rounded(self.vehicle.aux_state)}; last action "
+            f"{_rounded(self._action)}. Check the airframe's parameters (mass, inertia, motor, drag and surface "
+            "coefficients) and anything that moved the vehicle from outside the environment"
+        )
+
     @property
     def state(self) -> KinematicState:
         """The vehicle's current :class:`KinematicState`."""
@@ -274,3 +311,29 @@ class UAVEnv(gymnasium.Env):
         """The action the vehicle received at the last step, after clipping to the bounds
         (zeros after a reset), a copy: what a recording must re-apply to re-run the episode."""
         return self._action.copy()
+
+
+@functools.lru_cache(maxsize=16)
+def _zeros(size: int) -> np.ndarray:
+    zeros = np.zeros(size)
+    zeros.flags.writeable = False
+    return zeros
+
+
+def _all_finite(reward: float, observation: Any) -> bool:
+    """Whether ``reward`` and every number in ``observation`` (an array or a mapping of arrays) are finite.
+
+    One dot product with zeros per array: it is 0 unless an entry is NaN or infinite
+    (0 * inf is NaN), so a finite observation can never be mistaken for a bad one.
+    """
+    if isinstance(observation, np.ndarray) and observation.ndim == 1:  # a flat Box: the common case
+        return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
+    total = reward
+    for value in observation.values() if isinstance(observation, Mapping) else (observation,):
+        flat = np.ravel(np.asarray(value, dtype=np.float64))
+        total += flat.dot(_zeros(flat.size))
+    return math.isfinite(total)
+
+
+def _rounded(values: Any) -> list[float]:
+    return [round(float(v), 4) for v in values]

@@ -165,6 +165,8 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
     rng_state = _json(path, episode_info, "rng_state")
     if not isinstance(config, dict) or not isinstance(uav_specs, list) or not uav_specs:
         raise TelemetryError(f"{path}: metadata 'config'/'uav_specs' have the wrong shape")
+    if not isinstance(reward_preset, dict):  # a name or path would make a replay read another file
+        raise TelemetryError(f"{path}: metadata 'reward_preset' is not a mapping of reward terms")
     airframe_spec = _json(path, env_info, "airframe_spec") if "airframe_spec" in env_info else uav_specs[0]
     if not isinstance(airframe_spec, dict):
         raise TelemetryError(f"{path}: metadata 'airframe_spec' has the wrong shape")

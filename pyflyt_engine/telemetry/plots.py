@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 import numpy as np
@@ -165,7 +166,40 @@ def render_video(
         with writer:
             for frame in frames:
                 writer.append_data(frame)
+        _check_mp4(out)
     return out
+
+
+def _check_mp4(path: Path) -> None:
+    """Raise OSError unless ``path`` is a complete MP4: its top-level boxes fill the file
+    exactly and include the index (``moov``).
+
+    The encoder runs in an ffmpeg process whose failure (a full disk, a file-size limit)
+    imageio does not report: without this check a cut-off video would pass for a good one.
+    """
+    size = path.stat().st_size
+    kinds = []
+    with path.open("rb") as handle:
+        offset = 0
+        while offset < size:
+            handle.seek(offset)
+            header = handle.read(16)
+            if len(header) < 8:
+                break
+            length, kind = int.from_bytes(header[:4], "big"), header[4:8]
+            if length == 1 and len(header) == 16:  # 64-bit box size
+                length = int.from_bytes(header[8:16], "big")
+            elif length == 0:  # the last box, to the end of the file
+                length = size - offset
+            if length < 8:
+                break
+            kinds.append(kind)
+            offset += length
+    if offset != size or b"moov" not in kinds:
+        raise OSError(
+            errno.EIO,
+            "the video encoder (ffmpeg) stopped before the video was complete (a full disk or a file-size limit?)",
+        )
 
 
 def _marker_frames(episode: Episode) -> list[tuple[float, np.ndarray]]:

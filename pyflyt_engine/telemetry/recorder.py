@@ -134,7 +134,8 @@ class RecordEpisode(gymnasium.Wrapper):
     ) -> None:
         super().__init__(env)
         base = env.unwrapped
-        for attr in ("world", "config", "task", "vehicle", "reward_preset", "last_action", "last_reward_terms"):
+        needed = ("world", "config", "task", "vehicle", "airframe", "reward_preset", "last_action", "last_reward_terms")
+        for attr in needed:
             if not hasattr(base, attr):
                 raise TelemetryError(
                     f"RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.UAVEnv); "
@@ -195,12 +196,8 @@ class RecordEpisode(gymnasium.Wrapper):
             base = self._base
             world = base.world
             specs = [v.spec.model_dump(mode="json") for v in world.vehicles]
-            try:  # the airframe the config names, before any task adjusts it (e.g. initial fuel)
-                from pyflyt_engine.spec import load_uav_spec
-
-                airframe = json.dumps(load_uav_spec(base.config.uav).model_dump(mode="json"))
-            except Exception:  # noqa: BLE001 - a file gone since the env was built: the built spec stands in
-                airframe = json.dumps(specs[0])
+            # the airframe flown, before any task adjusts it (e.g. initial fuel)
+            airframe = json.dumps(base.airframe.model_dump(mode="json"))
             env_spec = getattr(self.env, "spec", None)
             self._static_metadata = {
                 FILE_INFO: {"kind": "episode", "format": FORMAT_VERSION, "log_time": "simulation time since reset"},

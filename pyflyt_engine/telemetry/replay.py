@@ -10,9 +10,7 @@
 from __future__ import annotations
 
 import json
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -71,8 +69,9 @@ def format_summary(summary: dict[str, Any]) -> str:
 def rebuild_env(episode: Episode, **overrides: Any) -> Any:
     """The recorded episode's environment, built from the file's metadata alone.
 
-    The recorded reward preset is inlined, and the recorded airframe spec is used when the
-    airframe named in the config has changed or is missing (written to a temporary YAML).
+    The recorded reward preset is inlined, and the recorded airframe spec is flown when the
+    airframe named in the config has changed or is missing.  Nothing is written: the
+    recorded spec is validated like any airframe file and handed to the env as it is.
     ``overrides`` go to the env constructor (e.g. ``render_mode``).
     """
     from pyflyt_engine.envs import make_env
@@ -81,26 +80,23 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
     config = json.loads(json.dumps(episode.config))
     config["reward"] = episode.reward_preset
     recorded_spec = episode.airframe_spec
-    try:
-        current = load_uav_spec(config.get("uav", "")).model_dump(mode="json")
-    except PyFlytError:
-        current = None
-    # order matters (channels, surfaces ...): compare the JSON texts, not the dicts
-    if json.dumps(current) != json.dumps(recorded_spec):
+    airframe = None
+    named = config.get("uav")
+    if isinstance(named, str) and named:
         try:
-            parse_uav_spec(recorded_spec, source=f"{episode.path} (recorded airframe)")
+            airframe = load_uav_spec(named)
+        except PyFlytError:
+            pass
+    # order matters (channels, surfaces ...): compare the JSON texts, not the dicts
+    if airframe is None or json.dumps(airframe.model_dump(mode="json")) != json.dumps(recorded_spec):
+        try:
+            airframe = parse_uav_spec(recorded_spec, source=f"{episode.path} (recorded airframe)")
         except PyFlytError as exc:
             raise TelemetryError(
                 f"{episode.path}: the recorded airframe spec is invalid for this version: {exc}"
             ) from None
-        import yaml
-
-        folder = Path(tempfile.mkdtemp(prefix="pyflyt_replay_"))
-        spec_path = folder / f"{recorded_spec.get('name', 'uav')}.yaml"
-        spec_path.write_text(yaml.safe_dump(recorded_spec, sort_keys=False))
-        config["uav"] = str(spec_path)
     try:
-        return make_env(config, **overrides)
+        return make_env(config, airframe=airframe, **overrides)
     except PyFlytError as exc:
         raise TelemetryError(
             f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}"

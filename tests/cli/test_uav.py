@@ -133,6 +133,11 @@ BAD_FILES = {
         yaml.safe_dump({**PLANE, "surfaces": [{**PLANE["surfaces"][0], "normal_axis": [1, 0, 0]}]}),
         ["surfaces.0", "perpendicular"],
     ),
+    "path_as_name": (_cf2x_with(name="../../evil"), ["name: must be a plain identifier, got '../../evil'"]),
+    "infinite_mass": (_cf2x_with(**{"body.mass": float("inf")}), ["body.mass", "finite number", "got inf"]),
+    "nan_drag": (_cf2x_with(**{"drag.coefficients": [float("nan"), 1.0, 1.0]}), ["drag.coefficients.0", "got nan"]),
+    "nan_gain": (_cf2x_with(**{"control.rate.ki": [1.0, float("nan"), 1.0]}), ["control.rate.ki.1", "finite"]),
+    "infinite_rpm": (_cf2x_with(**{"motors.max_rpm": float("inf")}), ["motors.max_rpm", "finite number, got inf"]),
 }
 
 
@@ -168,6 +173,27 @@ def test_validate_missing_file_unknown_name_and_directory(tmp_path, monkeypatch,
     for fragment in fragments:
         assert fragment in result.output
     assert "Traceback" not in result.output
+
+
+def test_validate_writes_nothing_outside_the_urdf_cache(tmp_path, monkeypatch):
+    """An airframe's name never becomes a path: a generated URDF is named by its digest
+    and lands in the cache only; a name holding a path is refused before anything is built."""
+    cache = tmp_path / "cache" / "deep" / "er"
+    monkeypatch.setenv("PYFLYT_CACHE_DIR", str(cache))
+    monkeypatch.setattr("pyflyt_engine.urdf._private_dir", None, raising=False)
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    good = specs / "good.yaml"
+    good.write_text(_cf2x_with(name="my_quad"))
+    evil = specs / "evil.yaml"
+    evil.write_text(_cf2x_with(name="../../evil"))
+
+    result = invoke("validate", good, evil)
+    assert result.exit_code == 2, result.output
+    assert f"ok: {good}" in result.output and "must be a plain identifier, got '../../evil'" in result.output
+    written = sorted(p for p in tmp_path.rglob("*") if p.is_file() and p.parent != specs)
+    assert [p.parent for p in written] == [cache], written  # one URDF, in the cache
+    assert re.fullmatch(r"[0-9a-f]{32}\.urdf", written[0].name)  # named by its digest, not by 'name'
 
 
 def test_validate_never_runs_yaml_python_tags(tmp_path):

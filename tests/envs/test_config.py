@@ -80,6 +80,59 @@ def test_bad_values_are_rejected_with_the_field():
         UAVEnv(data)
 
 
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    "env, path, value",
+    [
+        ("quadx_hover", "task.hover_point", [NAN, 0.0, 1.0]),
+        ("quadx_hover", "task.start_position", [0.0, INF, 1.0]),
+        ("quadx_hover", "task.start_orientation_noise", NAN),
+        ("quadx_hover", "flight_dome_size", INF),
+        ("quadx_hover", "max_duration_seconds", INF),
+        ("quadx_hover", "physics_hz", NAN),
+        ("quadx_hover", "render.camera_height", NAN),
+        ("quadx_hover", "action.high", [1.0, 1.0, 1.0, INF]),
+        ("quadx_waypoints", "task.goal_reach_distance", INF),
+        ("rocket_landing", "task.pad_radius", NAN),
+        ("rocket_landing", "task.start_lin_vel", [0.0, 0.0, -INF]),
+    ],
+)
+def test_non_finite_env_values_are_rejected_naming_the_key(env, path, value):
+    data = _raw(env)
+    node = data
+    *parents, leaf = path.split(".")
+    for key in parents:
+        node = node[key]
+    node[leaf] = value
+    message = _env_error(data)
+    assert "bad_env.yaml" in message and path in message, message
+    assert "finite" in message, message
+
+
+def test_non_finite_env_overrides_are_rejected():
+    with pytest.raises(ConfigError, match=r"task.hover_point.0: Input should be a finite number \(got nan\)"):
+        make_env("quadx_hover", hover_point=[NAN, 0.0, 1.0])
+    with pytest.raises(ConfigError, match="agent_hz"):
+        gymnasium.make("PyFlyt/QuadX-Hover-v0", agent_hz=INF)
+
+
+@pytest.mark.parametrize(
+    "terms, key",
+    [
+        ({"a": {"term": "constant", "weight": NAN}}, "terms.a.weight"),
+        ({"a": {"term": "constant", "weight": -INF}}, "terms.a.weight"),
+        ({"a": {"term": "distance_to_point", "params": {"point": [0.0, NAN, 1.0]}}}, "terms.a.params.point"),
+        ({"a": {"term": "distance_to_point", "params": {"point": INF}}}, "terms.a.params.point"),
+    ],
+)
+def test_non_finite_reward_weights_and_parameters_are_rejected(terms, key):
+    message = _reward_error({"terms": terms})
+    assert key in message and "finite number" in message, message
+    assert message.count(key) == 1, message  # one line per problem
+
+
 def test_unknown_python_argument_is_rejected():
     with pytest.raises(ConfigError, match="unknown environment argument 'num_target'.*Did you mean 'num_targets'"):
         gymnasium.make("PyFlyt/QuadX-Waypoints-v0", num_target=3)

@@ -265,3 +265,33 @@ def test_pyflyt_plot_cli(bench, tmp_path):
         timeout=120,
     )
     assert bad.returncode == 2 and "does not exist" in bad.stderr and "Traceback" not in bad.stderr
+
+
+BAD_NORMALISATION = {
+    "malformed_yaml": ("quadx_hover: {random: 0, reference: 1\n", ["not valid YAML", "line"]),
+    "a_list": ("- quadx_hover\n- 1\n", ["must be a mapping of env names", "got list"]),
+    "entry_a_number": ("quadx_hover: 3\n", ["quadx_hover: needs a mapping", "got 3"]),
+    "nan_random": ("quadx_hover: {random: .nan, reference: 100}\n", ["quadx_hover.random", "finite number"]),
+    "inf_reference": ("quadx_hover: {random: 0, reference: .inf}\n", ["quadx_hover.reference", "finite number"]),
+    "text_score": ("quadx_hover: {random: low, reference: 100}\n", ["quadx_hover.random", "valid number", "'low'"]),
+    "missing_random": ("quadx_hover: {reference: 100}\n", ["quadx_hover.random", "Field required"]),
+    "misspelt_key": ("quadx_hover: {random: 0, referense: 100}\n", ["quadx_hover.referense", "unknown key"]),
+    "equal_scores": ("quadx_hover: {random: 5, reference: 5}\n", ["reference and random scores are equal"]),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_NORMALISATION))
+def test_a_bad_normalisation_file_is_one_message_and_exit_2(bench, case):
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    text, fragments = BAD_NORMALISATION[case]
+    (bench / "normalisation.yaml").write_text(text)
+    result = CliRunner().invoke(app, ["plot", str(bench), "--reps", "20"])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith("error: ") and "Traceback" not in result.output
+    assert str(bench / "normalisation.yaml") in result.output
+    for fragment in fragments:
+        assert fragment in result.output, result.output
+    assert not (bench / "report").exists()

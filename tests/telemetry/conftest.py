@@ -75,19 +75,25 @@ def iter_official(path: Path):
         yield from reader.iter_messages(log_time_order=False)
 
 
-def rewrite_mcap(src: Path, dst: Path, transform: Callable[[str, dict], dict | None]) -> None:
-    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``."""
+def rewrite_mcap(
+    src: Path,
+    dst: Path,
+    transform: Callable[[str, dict], dict | None],
+    metadata: Callable[[str, dict[str, str]], dict[str, str]] | None = None,
+) -> None:
+    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``
+    and every metadata record through ``metadata(name, record)``."""
     with open(src, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
-        metadata = list(reader.iter_metadata())
+        records = list(reader.iter_metadata())
         attachments = list(reader.iter_attachments())
         messages = list(reader.iter_messages(log_time_order=False))
     with open(dst, "xb") as out:
         writer = Writer(out)
         writer.start()
-        for m in metadata:
-            writer.add_metadata(m.name, m.metadata)
+        for m in records:
+            writer.add_metadata(m.name, metadata(m.name, dict(m.metadata)) if metadata else m.metadata)
         for a in attachments:
             writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
         schema_ids = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}

@@ -294,3 +294,67 @@ def test_verify_uses_the_recorded_airframe_when_its_file_changed_or_is_gone(tmp_
     assert verify(episode, tolerance=0.0).max_deviation == 0.0
     airframe.unlink()  # gone
     assert verify(episode, tolerance=0.0).max_deviation == 0.0
+
+
+# ---------------------------------------------------------------- what a recording decides
+
+
+def _with_airframe(src, dst, **changes):
+    """A copy of recording ``src`` whose recorded airframe spec has ``changes``."""
+    from pyflyt_engine.telemetry.recorder import ENV_INFO
+
+    def metadata(name, record):
+        if name == ENV_INFO:
+            spec = json.loads(record["airframe_spec"])
+            spec.update(changes)
+            record["airframe_spec"] = json.dumps(spec)
+        return record
+
+    rewrite_mcap(src, dst, lambda topic, data: None, metadata)
+    return dst
+
+
+@pytest.fixture
+def private_temp(tmp_path, monkeypatch):
+    """The system temp directory as an empty folder of tmp_path (URDFs cached elsewhere)."""
+    import tempfile
+
+    temp = tmp_path / "temp" / "t"
+    temp.mkdir(parents=True)
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.setenv("PYFLYT_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "temp"
+
+
+def test_a_path_in_the_recorded_airframe_name_is_refused(recorded, tmp_path, private_temp):
+    evil = _with_airframe(recorded["PyFlyt/QuadX-Hover-v0"], tmp_path / "evil.mcap", name="../../evil")
+    _bad(replay(evil, "--verify"), "recorded airframe spec is invalid", "name: must be a plain identifier")
+    _bad(replay(evil, "--video", tmp_path / "v.gif"), "name: must be a plain identifier")
+    assert not [p for p in private_temp.rglob("*") if p.is_file()]
+    assert not list(tmp_path.rglob("evil.yaml")) and not (tmp_path / "v.gif").exists()
+
+
+def test_replay_writes_only_where_the_user_points(recorded, tmp_path, private_temp):
+    """A recorded airframe that differs from the shipped one is flown from memory: no file
+    is written for it, in the temp directory or anywhere else."""
+    renamed = _with_airframe(recorded["PyFlyt/QuadX-Hover-v0"], tmp_path / "renamed.mcap", name="renamed_quad")
+    gif, png = tmp_path / "out" / "v.gif", tmp_path / "out" / "p.png"
+    gif.parent.mkdir()
+    result = replay(renamed, "--verify", "--tolerance", "0", "--video", gif, "--size", "32x24", "--plot", png)
+    assert result.exit_code == 0, result.output
+    assert "verify    OK" in result.output
+    written = {p for p in tmp_path.rglob("*") if p.is_file()} - {renamed}
+    assert {p for p in written if "cache" not in p.parts} == {gif, png}
+
+
+def test_a_recorded_reward_preset_must_be_inline(recorded, tmp_path):
+    from pyflyt_engine.telemetry.recorder import ENV_INFO
+
+    def metadata(name, record):
+        if name == ENV_INFO:
+            record["reward_preset"] = json.dumps("/etc/some/reward.yaml")
+        return record
+
+    path = tmp_path / "named_reward.mcap"
+    rewrite_mcap(recorded["PyFlyt/QuadX-Hover-v0"], path, lambda topic, data: None, metadata)
+    _bad(replay(path, "--verify"), "metadata 'reward_preset' is not a mapping")

@@ -44,7 +44,8 @@ Vec3 = tuple[float, float, float]
 class TaskOptions(BaseModel):
     """Options common to every task; each task subclasses this with its own fields."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # every float finite, also inside tuples (no .inf / .nan from YAML)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
     name: str = Field(description="task name (a key of pyflyt_engine.envs.tasks.TASKS)")
     start_position: Vec3 = Field((0.0, 0.0, 1.0), description="mean spawn position (x, y, z) [m], ground frame")
