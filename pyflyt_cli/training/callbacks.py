@@ -31,17 +31,23 @@ from pyflyt_cli.training.evaluation import policy_predict, run_episodes, summari
 
 
 class StopRequest:
-    """A flag set by a signal handler; the next rollout start saves a checkpoint and ends the run."""
+    """A request to end the run: the next rollout start saves a checkpoint, then ``learn()`` ends.
+
+    ``final``: the run is complete there (an after-evaluation callback such as
+    ``stop_on_reward`` decided it); otherwise (a signal) it is interrupted, to be resumed.
+    """
 
     def __init__(self) -> None:
         self.requested = False
-        self.signal_name = ""
+        self.final = False
+        self.reason = ""
         #: the step of the checkpoint saved for the request, once saved
         self.saved_at: int | None = None
 
-    def request(self, name: str) -> None:
+    def request(self, reason: str, *, final: bool = False) -> None:
         self.requested = True
-        self.signal_name = name
+        self.final = self.final or final
+        self.reason = self.reason or reason
 
 
 class RunCallbacks(CallbackList):
@@ -105,7 +111,7 @@ class PeriodicEvaluation(EventCallback):
     at the end of the run, :meth:`evaluate` called by the loop, the final model).
     Attributes ``best_mean_reward`` and ``last_mean_reward`` follow SB3's ``EvalCallback``,
     so SB3's ``StopTrainingOnRewardThreshold`` and ``StopTrainingOnNoModelImprovement`` work
-    as child callbacks (their verdict ends ``learn()`` at the next step).
+    as child callbacks: their verdict ends the run at this rollout start (through ``stop``).
     """
 
     def __init__(
@@ -124,8 +130,10 @@ class PeriodicEvaluation(EventCallback):
         callback_after_eval: BaseCallback | None = None,
         log: Any = None,
         total: int | None = None,
+        stop: StopRequest | None = None,
     ) -> None:
         super().__init__(callback_after_eval, verbose=0)
+        self.stop = stop
         self.log = log
         self.total = total
         self.env = env
@@ -144,7 +152,6 @@ class PeriodicEvaluation(EventCallback):
         self.last_step: int | None = None
         #: the model's update count at the last evaluation (the weights it evaluated)
         self.last_updates: int | None = None
-        self._continue = True
         self._started = time.perf_counter()
         self._start_steps = 0
 
@@ -155,12 +162,11 @@ class PeriodicEvaluation(EventCallback):
 
     def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
-            while self.next_eval <= self.num_timesteps:
-                self.next_eval += self.eval_freq
-            self._continue = self.evaluate()
+            if not self.evaluate() and self.stop is not None:  # a child callback ends the run here
+                self.stop.request("an after-evaluation callback", final=True)
 
     def _on_step(self) -> bool:
-        return self._continue
+        return True
 
     @property
     def current(self) -> bool:
@@ -168,8 +174,13 @@ class PeriodicEvaluation(EventCallback):
         return self.last_updates is not None and self.last_updates == self.model._n_updates
 
     def evaluate(self) -> bool:
-        """Run the evaluation now; returns False if a child callback asks to stop."""
+        """Run the evaluation now; returns False if a child callback asks to stop.
+
+        The next scheduled evaluation is the first multiple of ``eval_freq`` after this step.
+        """
         step = self.model.num_timesteps
+        while self.eval_freq > 0 and self.next_eval <= step:
+            self.next_eval += self.eval_freq
         vec = self.model.get_vec_normalize_env()
         episodes = run_episodes(
             policy_predict(self.model),
@@ -243,7 +254,8 @@ class PeriodicEvaluation(EventCallback):
 
 class Checkpointer(BaseCallback):
     """Save a checkpoint at the first rollout start at or after every ``checkpoint_freq`` steps,
-    and at the first rollout start after a stop request (then ``learn()`` ends)."""
+    and at the first rollout start after a stop request (then ``learn()`` ends; it runs after
+    the evaluation in the same rollout start, whose verdict may be the request)."""
 
     def __init__(self, run: Any, freq: int, next_checkpoint: int, stop: StopRequest) -> None:
         super().__init__()

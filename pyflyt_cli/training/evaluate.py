@@ -118,7 +118,11 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
         env.close()
     summary = summarize(episodes)
     if video is not None:
-        _write_video(video, frames, opts.fps or round(cfg.env.agent_hz))
+        from pyflyt_cli.outputs import atomic_output
+        from pyflyt_engine.telemetry.plots import write_video
+
+        with atomic_output(video, "video=") as tmp:
+            write_video(tmp, [f for f in frames if f is not None], opts.fps or round(cfg.env.agent_hz))
     report = EvalReport(path, model_path, which, seed, opts.deterministic, episodes, summary, recordings, video)
     rundir.atomic_write(
         path / "eval.json",
@@ -156,15 +160,7 @@ def _check_video_writer(video: Path) -> None:
         raise ConfigError(f"video={video}: writing videos needs imageio: pip install imageio")
     if video.suffix.lower() == ".mp4" and importlib.util.find_spec("imageio_ffmpeg") is None:
         raise ConfigError(f"video={video}: MP4 needs imageio-ffmpeg (pip install imageio-ffmpeg); or write a .gif")
-    if not video.parent.is_dir():
-        raise ConfigError(f"video={video}: the folder {video.parent} does not exist")
+    from pyflyt_cli.outputs import check_output
+    from pyflyt_engine.telemetry.plots import VIDEO_SUFFIXES
 
-
-def _write_video(video: Path, frames: list[np.ndarray], fps: int) -> None:
-    import imageio.v2 as imageio
-
-    frames = [np.asarray(f)[..., :3] for f in frames if f is not None]
-    if video.suffix.lower() == ".gif":
-        imageio.mimsave(video, frames, duration=1000.0 / fps, loop=0)
-    else:
-        imageio.mimsave(video, frames, fps=fps)
+    check_output(video, "video=", VIDEO_SUFFIXES)

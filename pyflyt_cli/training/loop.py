@@ -99,11 +99,8 @@ def train(
             record["init_from"] = {"run": str(init.run), "model": str(init.path), "algo": init.algo}
         rundir.write_yaml(run_dir / rundir.RUN_FILE, record)
         rundir.write_state(run_dir, {"status": "starting", "num_timesteps": 0, "checkpoint": None})
-    except OSError as exc:
-        shutil.rmtree(run_dir, ignore_errors=True)  # nothing trained: no partial run left behind
-        raise ConfigError(f"cannot write the run directory {run_dir}: {exc.strerror or exc}") from None
     except Exception:
-        shutil.rmtree(run_dir, ignore_errors=True)
+        shutil.rmtree(run_dir, ignore_errors=True)  # nothing trained: no partial run left behind
         raise
     log(f"run directory: {run_dir}")
     with rundir.run_lock(run_dir):
@@ -332,7 +329,7 @@ class _Run:
                 elapsed = self._learn(model, callbacks, stop)
                 return self._finish(model, stop, start_step, elapsed)
         except artifacts.ArtifactError as exc:  # a file could not be written (full disk, read-only ...)
-            with contextlib.suppress(OSError, PyFlytError):
+            with contextlib.suppress(PyFlytError):
                 self._write_state("failed", int(self.state.get("num_timesteps") or 0))
             saved = self.state.get("checkpoint")
             where = f"its checkpoint at step {saved} is intact" if saved else "it saved no checkpoint yet (a resume starts over)"
@@ -447,6 +444,7 @@ class _Run:
                 callback_after_eval=child,
                 log=None if show_bar else self.log,  # without a bar, one line per evaluation
                 total=opts.total_timesteps,
+                stop=stop,
             )
             if "evaluation" in saved:
                 self.evaluation.load_state_dict(saved["evaluation"])
@@ -543,12 +541,7 @@ class _Run:
                 "updated": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             }
         )
-        try:
-            rundir.write_state(self.run_dir, self.state)
-        except OSError as exc:
-            raise artifacts.ArtifactError(
-                f"cannot write {self.run_dir / rundir.STATE_FILE}: {exc.strerror or exc}"
-            ) from None
+        rundir.write_state(self.run_dir, self.state)
 
     # --------------------------------------------------------------- finish
 
@@ -557,17 +550,21 @@ class _Run:
         # signals stay handled while saving: a SIGTERM now (a second one, e.g. from a dying
         # launcher) must not kill the process halfway through writing the final files
         with _signals(stop, self.log, "finishing the files first"):
-            interrupted = stop.saved_at is not None or (stop.requested and model.num_timesteps < self.cfg.train.total_timesteps)
+            interrupted = not stop.final and (
+                stop.saved_at is not None or (stop.requested and model.num_timesteps < self.cfg.train.total_timesteps)
+            )
             if interrupted:
                 step = stop.saved_at if stop.saved_at is not None else int(self.state.get("checkpoint") or 0)
                 self._write_state("interrupted", step)
                 self.log(f"interrupted at step {step}: checkpoint saved; continue with pyflyt train resume={self.run_dir}")
             else:
-                step = int(model.num_timesteps)
+                # ended by the budget, or by a callback at a rollout start (where its checkpoint was saved)
+                step = stop.saved_at if stop.final and stop.saved_at is not None else int(model.num_timesteps)
                 if self.evaluation is not None and not self.evaluation.current:
                     self.evaluation.evaluate()  # the final weights
                 artifacts.save_policy(self.run_dir / rundir.FINAL_MODEL, model, self.cfg.algo.name, step)
-                self.save_checkpoint(model)  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
+                if stop.saved_at != step:
+                    self.save_checkpoint(model)  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
                 trained_rate = (step - start_step) / elapsed if elapsed > 0 else 0.0
                 self.writer.log("/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate})
                 self._write_state("complete", step)

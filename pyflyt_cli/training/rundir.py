@@ -30,7 +30,6 @@ import json
 import os
 import platform
 import re
-import shutil
 import socket
 import sys
 import time
@@ -114,13 +113,20 @@ def create_named_run_dir(path: str | Path) -> Path:
 
 
 def atomic_write(path: Path, text: str | bytes) -> None:
-    """Write ``path`` through a temporary file and a rename."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    if isinstance(text, bytes):
-        tmp.write_bytes(text)
-    else:
-        tmp.write_text(text)
-    os.replace(tmp, path)
+    """Write ``path`` through a temporary file and a rename (:func:`.artifacts.write_atomically`).
+
+    Raises:
+        ArtifactError: the file could not be written (full disk, read-only directory).
+    """
+    from pyflyt_cli.training.artifacts import write_atomically
+
+    def write(tmp: Path) -> None:
+        if isinstance(text, bytes):
+            tmp.write_bytes(text)
+        else:
+            tmp.write_text(text)
+
+    write_atomically(path, write)
 
 
 def write_yaml(path: Path, data: Any, header: str = "") -> None:
@@ -180,7 +186,7 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
         preset = load_reward_preset(reward)
         update["reward"] = preset.model_dump()
     if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
-        shutil.copyfile(env.uav, run_dir / AIRFRAME_COPY)
+        atomic_write(run_dir / AIRFRAME_COPY, Path(env.uav).read_bytes())
         update["uav"] = str(run_dir / AIRFRAME_COPY)
     if not update:
         return cfg

@@ -98,7 +98,6 @@ def render_video(
     suffix = out.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise TelemetryError(f"--video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
-    import imageio.v2 as imageio
     import pybullet as p
 
     from pyflyt_engine.envs.render import Markers, chase_camera
@@ -154,20 +153,34 @@ def render_video(
     if not frames:
         raise TelemetryError(f"{episode.path}: no recorded states to render")
     out.parent.mkdir(parents=True, exist_ok=True)
-    if suffix == ".gif":
-        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
-    else:
-        try:
-            writer = imageio.get_writer(
-                out, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=1, pixelformat="yuv420p"
-            )
-        except Exception as exc:  # noqa: BLE001 - imageio-ffmpeg missing or broken
-            raise TelemetryError(f"cannot write {out.name}: MP4 needs imageio-ffmpeg ({exc}); try a .gif") from None
-        with writer:
-            for frame in frames:
-                writer.append_data(frame)
-        _check_mp4(out)
+    write_video(out, frames, fps)
     return out
+
+
+def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
+    """Write RGB(A) frames to ``out`` (``.gif`` or ``.mp4``, by its suffix) at ``fps``.
+
+    Raises:
+        TelemetryError: MP4 without a working imageio-ffmpeg.
+        OSError: the file could not be written completely (an MP4 is checked: ffmpeg's
+            own failures are not reported by imageio).
+    """
+    import imageio.v2 as imageio
+
+    frames = [np.asarray(f)[..., :3] for f in frames]
+    if Path(out).suffix.lower() == ".gif":
+        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
+        return
+    try:
+        writer = imageio.get_writer(
+            out, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=1, pixelformat="yuv420p"
+        )
+    except Exception as exc:  # noqa: BLE001 - imageio-ffmpeg missing or broken
+        raise TelemetryError(f"cannot write {Path(out).name}: MP4 needs imageio-ffmpeg ({exc}); try a .gif") from None
+    with writer:
+        for frame in frames:
+            writer.append_data(frame)
+    _check_mp4(Path(out))
 
 
 def _check_mp4(path: Path) -> None:

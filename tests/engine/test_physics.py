@@ -8,7 +8,6 @@ import pytest
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.world import VehicleConfig, World
-from tests.conftest import spec_variant
 
 
 def test_hover_throttle_gives_thrust_equal_to_weight(quiet_cf2x):

@@ -12,7 +12,6 @@ import multiprocessing
 import resource
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -52,7 +51,7 @@ def test_a_failing_close_does_not_hide_the_error_nor_leave_workers_running(tmp_p
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(artifacts, "_fsync", full)  # every checkpoint and policy file
+    monkeypatch.setattr(artifacts, "_save_torch", lambda data: full)  # every checkpoint and policy file
     monkeypatch.setattr(MetricsWriter, "close", full)  # and the metrics file
     with pytest.raises(ConfigError, match="No space left on device") as info:
         train(load([*TINY_PPO, "train.n_envs=2", "algo.n_steps=128"], tmp_path))
