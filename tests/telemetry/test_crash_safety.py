@@ -124,3 +124,51 @@ def test_interrupt_or_exception_still_finishes_the_file(tmp_path, ending):
     curves = read_metrics(tmp_path)
     assert curves.truncated == [] and len(curves["/train/progress"]) == 20
 
+
+def test_ctrl_c_inside_the_writer_waits_for_the_record_to_be_whole(tmp_path, monkeypatch):
+    """Ctrl-C landing at any point of the mcap writer's work: the interrupt comes out of the
+    call after the records are whole, and the file is then finished complete."""
+    from mcap.data_stream import RecordBuilder
+
+    from pyflyt_engine.telemetry._io import McapFileWriter
+
+    write = RecordBuilder.write
+    calls = {"n": 0, "at": -1}
+
+    def write_and_maybe_interrupt(self, data):
+        calls["n"] += 1
+        if calls["n"] == calls["at"]:
+            signal.raise_signal(signal.SIGINT)  # its Python handler runs at the next bytecode
+        return write(self, data)
+
+    monkeypatch.setattr(RecordBuilder, "write", write_and_maybe_interrupt)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        at, interrupted = 1, 0
+        while True:
+            path = tmp_path / f"f{at}.mcap"
+            f = McapFileWriter(path)
+            cid = f.channel("/t", "pyflyt.Test", {"type": "object"})
+            calls.update(n=0, at=at)
+            try:
+                for k in range(3):
+                    f.write(cid, k, {"k": k})
+                    f.flush()
+                f.metadata("m", {"a": "b"})
+            except KeyboardInterrupt:
+                interrupted += 1
+            try:
+                f.close()  # also reached by Ctrl-C: the exit hook
+            except KeyboardInterrupt:
+                interrupted += 1
+            with open(path, "rb") as stream:  # complete, CRCs valid, every queued message kept
+                reader = make_reader(stream, validate_crcs=True)
+                stats = reader.get_summary().statistics
+                assert stats.message_count == sum(1 for _ in reader.iter_messages())
+            assert not read_mcap(path).truncated
+            if calls["n"] < at:  # the signal came after the last record: every point was tried
+                break
+            at += 1
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert interrupted == at - 1 > 20  # every interrupt reached the caller, none was lost
