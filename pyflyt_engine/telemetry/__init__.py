@@ -14,9 +14,15 @@ from typing import Any
 
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.telemetry.metrics import MetricsWriter, read_metrics
-from pyflyt_engine.telemetry.reader import McapContents, TruncatedRecordingWarning, read_mcap
+from pyflyt_engine.telemetry.reader import (
+    CorruptRecordingWarning,
+    McapContents,
+    TruncatedRecordingWarning,
+    read_mcap,
+)
 
 __all__ = [
+    "CorruptRecordingWarning",
     "Episode",
     "McapContents",
     "MetricsWriter",
