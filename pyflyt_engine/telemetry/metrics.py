@@ -409,6 +409,8 @@ def set_aside_unreadable(path: str | os.PathLike[str]) -> list[tuple[Path, Path,
     Each segment :func:`read_metrics` would skip as unreadable becomes ``<name>.unreadable``
     (``<name>.unreadable-1``, ... if that exists: nothing is overwritten) and is no longer part
     of the series.  Segments that are truncated or partly damaged are readable and stay.
+    Call it before creating the next writer, never while another process writes the series
+    (the segment it has just created is empty until its first flush).
 
     Returns:
         ``(old path, new path, why it is unreadable)`` for each segment set aside, in order.

@@ -85,6 +85,7 @@ _RESYNC_OPCODES = (
 )
 _RESYNC = re.compile(b"(?=[" + b"".join(re.escape(bytes([op])) for op in _RESYNC_OPCODES) + rb"][\s\S]{5}\x00\x00\x00)")
 _FOOTER_SIZE = 1 + 8 + 20
+_SUMMARY_DAMAGED = "the summary section (the index after the data) is damaged; the data was read without it"
 
 
 class TruncatedRecordingWarning(UserWarning):
@@ -231,30 +232,36 @@ def _resync(data: bytes, start: int) -> int | None:
     return None
 
 
+def _footer(data: bytes) -> tuple[int, Footer] | None:
+    """(offset, record) of the footer if ``data`` ends with an intact one."""
+    at = len(data) - len(MAGIC) - _FOOTER_SIZE
+    if at < len(MAGIC) or data[-len(MAGIC) :] != MAGIC or data[at] != Opcode.FOOTER:
+        return None
+    try:
+        return at, _parse(data, at, exact=True)[1]
+    except _Damage:
+        return None
+
+
 def _summary(data: bytes) -> tuple[list[Any], str]:
     """Schema, channel and statistics records of the summary section, if the file has an intact one."""
-    footer_at = len(data) - len(MAGIC) - _FOOTER_SIZE
-    if footer_at < len(MAGIC) or data[-len(MAGIC) :] != MAGIC or data[footer_at] != Opcode.FOOTER:
+    found = _footer(data)
+    if found is None or not found[1].summary_start:
         return [], ""
-    try:
-        _, footer, _ = _parse(data, footer_at, exact=True)
-    except _Damage:
-        return [], "the footer is damaged"
+    footer_at, footer = found
     start = footer.summary_start
-    if not start:
-        return [], ""
     if not len(MAGIC) <= start <= footer_at:
-        return [], "the footer is damaged"
+        return [], _SUMMARY_DAMAGED
     if footer.summary_crc and footer.summary_crc != zlib.crc32(data[start : footer_at + 1 + 8 + 16]):
-        return [], "the summary section is damaged (CRC mismatch); read without it"
+        return [], _SUMMARY_DAMAGED
     records, pos = [], start
     try:
         while pos < footer_at:
             opcode, record, pos = _parse(data, pos, exact=False)
             if opcode in (Opcode.SCHEMA, Opcode.CHANNEL, Opcode.STATISTICS):
                 records.append(record)
-    except _Damage as exc:
-        return [], f"the summary section is damaged ({exc}); read without it"
+    except _Damage:
+        return [], _SUMMARY_DAMAGED
     return records, ""
 
 
@@ -315,10 +322,16 @@ def _scan(out: McapContents, data: bytes, decode: bool, skip_damage: bool) -> No
     pos = len(MAGIC)
     after_lost_chunk = False  # the message indexes that follow a lost chunk count its messages
     footer_seen = data_end_seen = False
+    damage_before = len(out.damage)
     while len(data) - pos >= 9:  # fewer bytes left: a record cut in its opcode or length (truncation)
         try:
             opcode, record, end = _parse(data, pos, exact=False)
         except _Damage as exc:
+            if data_end_seen and skip_damage:  # every message is read: only the summary is hit
+                if _SUMMARY_DAMAGED not in out.damage:
+                    out.damage.append(_SUMMARY_DAMAGED)
+                footer_seen = _footer(data) is not None
+                break
             resume = _resync(data, pos + 1) if skip_damage else None
             if resume is None and exc.past_end:
                 break  # the last record was cut by the end of the file: truncation
@@ -353,7 +366,7 @@ def _scan(out: McapContents, data: bytes, decode: bool, skip_damage: bool) -> No
             data_end_seen = True
             after_lost_chunk = False
             crc = record.data_section_crc
-            if crc and not out.damage and crc != zlib.crc32(data[:pos]):
+            if crc and len(out.damage) == damage_before and crc != zlib.crc32(data[:pos]):
                 problem = "the data section CRC does not match: a byte outside the chunks changed"
                 if not skip_damage:
                     raise TelemetryError(f"{out.path} is corrupt: {problem}")
