@@ -24,6 +24,7 @@ import re
 import struct
 import warnings
 import zlib
+from collections import Counter
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -323,6 +324,7 @@ def _scan(out: McapContents, data: bytes, decode: bool, skip_damage: bool) -> No
     after_lost_chunk = False  # the message indexes that follow a lost chunk count its messages
     footer_seen = data_end_seen = False
     damage_before = len(out.damage)
+    unreadable_messages: Counter[str] = Counter()
     while len(data) - pos >= 9:  # fewer bytes left: a record cut in its opcode or length (truncation)
         try:
             opcode, record, end = _parse(data, pos, exact=False)
@@ -355,7 +357,7 @@ def _scan(out: McapContents, data: bytes, decode: bool, skip_damage: bool) -> No
                 continue
             after_lost_chunk = False
             for item in inner:
-                _take_or_lose(out, item, decode, skip_damage)
+                _take_or_lose(out, item, decode, skip_damage, unreadable_messages)
         elif opcode == Opcode.MESSAGE_INDEX:
             if after_lost_chunk and out.lost_messages is not None:
                 out.lost_messages += len(record.records)
@@ -372,21 +374,27 @@ def _scan(out: McapContents, data: bytes, decode: bool, skip_damage: bool) -> No
                     raise TelemetryError(f"{out.path} is corrupt: {problem}")
                 out.damage.append(problem)
         elif not data_end_seen and record is not None:  # the summary section repeats the data section's records
-            _take_or_lose(out, record, decode, skip_damage)
+            _take_or_lose(out, record, decode, skip_damage, unreadable_messages)
         pos = end
+    out.damage.extend(f"{count} {reason}" for reason, count in unreadable_messages.items())
     if not footer_seen:
         out.truncated = True
         where = "before its summary" if data_end_seen else "after its last complete chunk"
         out.truncation = f"file ends {where} (no footer): its writer did not finish it, e.g. it was killed"
 
 
-def _take_or_lose(out: McapContents, record: Any, decode: bool, skip_damage: bool) -> None:
+def _take_or_lose(out: McapContents, record: Any, decode: bool, skip_damage: bool, lost: Counter[str]) -> None:
+    """:func:`_take`, or with ``skip_damage`` count a message that cannot be read in ``lost`` (by reason)."""
     try:
         _take(out, record, decode)
-    except TelemetryError as exc:
+    except TelemetryError:
         if not skip_damage:
             raise
-        out.damage.append(str(exc).removeprefix(f"{out.path}").lstrip(": "))
+        channel = out.channels.get(record.channel_id)
+        if channel is None:
+            lost[f"messages on channel {record.channel_id}, whose definition was lost"] += 1
+        else:
+            lost[f"messages on {channel.topic} that are not valid JSON"] += 1
         if out.lost_messages is not None:
             out.lost_messages += 1
 

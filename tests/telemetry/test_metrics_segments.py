@@ -138,7 +138,16 @@ def test_a_flipped_byte_in_a_chunk_loses_that_chunk_only(tmp_path, chunk, lost):
     assert curves.unreadable == []
 
 
-def test_a_damaged_chunk_in_a_truncated_segment(tmp_path):
+@pytest.mark.parametrize(
+    ("chunk", "kept", "loss"),
+    [
+        (1, [1, 2, 3, 4, 5, 11, 12, 13, 14, 15], "lost 6 messages in 1 chunk"),
+        # no summary repeats the channel definitions: the later messages cannot be attributed
+        (0, [], "lost 18 messages in 1 chunk (the chunk at byte"),
+    ],
+    ids=["a middle chunk", "the chunk defining the channels"],
+)
+def test_a_damaged_chunk_in_a_truncated_segment(tmp_path, chunk, kept, loss):
     run = tmp_path / "run"
     m = MetricsWriter(run)
     for step in range(1, 16):
@@ -150,13 +159,16 @@ def test_a_damaged_chunk_in_a_truncated_segment(tmp_path):
     cut = tmp_path / "cut"
     cut.mkdir()
     (cut / "metrics.mcap").write_bytes(killed)
-    start, length = chunk_spans(run / "metrics.mcap")[1]
+    start, length = chunk_spans(run / "metrics.mcap")[chunk]
     flip_byte(cut / "metrics.mcap", start + length - 20)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         curves = read_metrics(cut)
-    assert _steps(curves) == [1, 2, 3, 4, 5, 11, 12, 13, 14, 15]
-    assert curves.truncated == [cut / "metrics.mcap"] and "lost 6 messages in 1 chunk" in curves.damaged[0][1]
+    assert _steps(curves) == kept
+    assert curves.truncated == [cut / "metrics.mcap"] and loss in curves.damaged[0][1]
+    if not kept:
+        # one line per channel, not per message
+        assert "10 messages on channel 1, whose definition was lost; 2 messages on channel 2" in curves.damaged[0][1]
     assert {w.category for w in caught} == {TruncatedRecordingWarning, CorruptRecordingWarning}
 
 
