@@ -14,7 +14,7 @@ import pytest
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from pyflyt_engine.telemetry import load_episode, read_mcap, read_metrics
+from pyflyt_engine.telemetry import TruncatedRecordingWarning, load_episode, read_mcap, read_metrics
 from pyflyt_engine.telemetry.replay import verify
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -101,7 +101,8 @@ def test_sigkill_mid_episode_leaves_the_flight_up_to_the_last_chunk(tmp_path):
     # what was recovered still re-simulates exactly
     assert verify(episode, tolerance=0.0).ok
     # and the metrics file was flushed explicitly before the kill
-    curves = read_metrics(tmp_path)
+    with pytest.warns(TruncatedRecordingWarning):
+        curves = read_metrics(tmp_path)
     assert len(curves["/train/progress"]) == steps and curves.truncated
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pyflyt_engine.errors import PyFlytError, TelemetryError
-from pyflyt_engine.telemetry import MetricsWriter, TruncatedRecordingWarning, read_metrics
+from pyflyt_engine.telemetry import CorruptRecordingWarning, MetricsWriter, TruncatedRecordingWarning, read_metrics
 from pyflyt_engine.telemetry.metrics import read_metrics_metadata, segment_paths
 from tests.telemetry.conftest import iter_official
 
@@ -105,8 +105,9 @@ def test_bad_files(tmp_path):
     with pytest.raises(TelemetryError, match="no metrics file"):
         read_metrics(tmp_path)
     (tmp_path / "metrics.mcap").write_text("nope")
-    with pytest.raises(TelemetryError, match="not an MCAP file"):
-        read_metrics(tmp_path)
+    with pytest.warns(CorruptRecordingWarning, match="skipped"):
+        with pytest.raises(TelemetryError, match="no readable metrics.*not an MCAP file"):
+            read_metrics(tmp_path)
 
 
 def test_truncated_segment_is_read_and_reported(tmp_path):
@@ -147,5 +148,5 @@ def test_background_flush_bounds_the_loss(tmp_path):
 
 def test_episode_file_is_not_a_metrics_file(recorded, tmp_path):
     path = next(iter(recorded.values()))
-    with pytest.raises(TelemetryError, match="not a metrics file"):
+    with pytest.warns(CorruptRecordingWarning), pytest.raises(TelemetryError, match="not a metrics file"):
         read_metrics(path)
