@@ -1,6 +1,7 @@
 """Telemetry in MCAP: training metrics, episode recordings, and the reader behind ``pyflyt replay``.
 
-* :class:`MetricsWriter` / :func:`read_metrics` — training and evaluation curves (``metrics.mcap``).
+* :class:`MetricsWriter` / :func:`read_metrics` / :func:`set_aside_unreadable` — training and
+  evaluation curves (``metrics.mcap`` and its append-only segments).
 * :class:`RecordEpisode` — a Gymnasium wrapper writing one ``.mcap`` file per episode.
 * :func:`load_episode` — an episode recording as arrays; :func:`read_mcap` — any MCAP file.
 * :mod:`.replay` (summary, rebuild, verify) and :mod:`.plots` (figure, video) back ``pyflyt replay``.
@@ -13,12 +14,19 @@ from __future__ import annotations
 from typing import Any
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.telemetry.metrics import MetricsWriter, read_metrics
-from pyflyt_engine.telemetry.reader import McapContents, TruncatedRecordingWarning, read_mcap
+from pyflyt_engine.telemetry.metrics import MetricsResult, MetricsWriter, read_metrics, set_aside_unreadable
+from pyflyt_engine.telemetry.reader import (
+    CorruptRecordingWarning,
+    McapContents,
+    TruncatedRecordingWarning,
+    read_mcap,
+)
 
 __all__ = [
+    "CorruptRecordingWarning",
     "Episode",
     "McapContents",
+    "MetricsResult",
     "MetricsWriter",
     "RecordEpisode",
     "TelemetryError",
@@ -26,6 +34,7 @@ __all__ = [
     "load_episode",
     "read_mcap",
     "read_metrics",
+    "set_aside_unreadable",
 ]
 
 

@@ -8,6 +8,12 @@ Guarantees (see ``docs/mcap.md``, "Crash safety"):
   called by the owners' context managers, and by a ``weakref.finalize`` hook that also runs at
   interpreter exit (normal exit, unhandled exception, Ctrl-C).  A forked child never
   finishes its parent's file.
+* **Never left half-way through a record**: Python runs signal handlers in the main thread
+  between two bytecodes, so a handler that raises (``KeyboardInterrupt`` on Ctrl-C) could stop
+  the ``mcap`` writer in the middle of a record and the file finished afterwards would be
+  corrupt.  :meth:`McapFileWriter.write` therefore only queues the message; the ``mcap`` writer
+  runs in short sections (:func:`signals_held`) during which SIGINT/SIGTERM handlers wait and
+  run right after.
 * **Small loss on a hard kill** (SIGKILL, power cut of the process): messages are grouped in
   chunks that are closed and flushed to the OS when the owner asks (:meth:`flush`, e.g. every
   simulated second), when a chunk reaches ``chunk_size`` bytes, and by a background thread
@@ -17,18 +23,26 @@ Guarantees (see ``docs/mcap.md``, "Crash safety"):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import signal
 import threading
 import time
 import weakref
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
 from pyflyt_engine.errors import TelemetryError
+
+try:  # the C module behind `signal`, without its enum conversions (~50x faster per call)
+    import _signal as _sig
+except ImportError:  # pragma: no cover - other Python implementations
+    _sig = signal  # type: ignore[no-redef]
 
 #: Default upper bound on one chunk's uncompressed size (bytes).
 DEFAULT_CHUNK_SIZE = 256 * 1024
@@ -98,6 +112,52 @@ def _schema_text(schema: dict[str, Any]) -> str:
     return text
 
 
+#: signals whose Python handlers wait while the mcap writer is between two records
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class _Hold:
+    """The handler installed by :func:`signals_held`: notes a signal, or passes it on once the section ended."""
+
+    def __init__(self) -> None:
+        self.active = True
+        self.replaced: dict[int, Any] = {}
+        self.fired: list[int] = []
+
+    def __call__(self, signum: int, frame: Any) -> None:
+        if self.active:
+            self.fired.append(signum)
+        else:  # left installed by an exception during the restore: behave as the handler it replaced
+            self.replaced[signum](signum, frame)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Run the block with the Python handlers of :data:`HELD_SIGNALS` held; those that fired run after it.
+
+    Only the main thread runs signal handlers, so elsewhere this does nothing.  Signals left at
+    the default or ignored disposition are not touched (a default SIGTERM still ends the
+    process at once, like a kill).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    hold = _Hold()
+    try:
+        for sig in HELD_SIGNALS:
+            handler = _sig.getsignal(sig)
+            if callable(handler):
+                hold.replaced[sig] = handler  # before installing: an exception in between loses nothing
+                _sig.signal(sig, hold)
+        yield
+    finally:
+        hold.active = False
+        for sig, handler in hold.replaced.items():
+            _sig.signal(sig, handler)
+        for sig in hold.fired:
+            hold.replaced[sig](sig, None)
+
+
 class _Flusher:
     """One daemon thread per process that flushes writers whose buffered data got old."""
 
@@ -130,6 +190,35 @@ class _Flusher:
 _FLUSHER = _Flusher()
 
 
+class _OpenFile:
+    """An open file and its ``mcap`` writer: all the exit hook needs (it must not hold the McapFileWriter)."""
+
+    def __init__(self, writer: Writer, stream: Any) -> None:
+        self.writer = writer
+        self.stream = stream
+        self.lock = threading.RLock()
+        self.pid = os.getpid()
+        #: messages queued by ``write``: (channel id, log time, payload, sequence)
+        self.queued: list[tuple[int, int, bytes, int]] = []
+        self.queued_bytes = 0
+
+    def commit(self) -> None:
+        """Give the queued messages to the ``mcap`` writer (call with the lock and signals held)."""
+        queued, self.queued, self.queued_bytes = self.queued, [], 0
+        for channel_id, log_time, data, sequence in queued:
+            self.writer.add_message(channel_id, log_time, data, log_time, sequence)
+
+    def finish(self) -> None:
+        if os.getpid() != self.pid:  # a forked child must not finish (and corrupt) its parent's file
+            return
+        with signals_held(), self.lock:
+            try:
+                self.commit()
+                self.writer.finish()
+            finally:
+                self.stream.close()
+
+
 class McapFileWriter:
     """An MCAP file of JSON messages on JSON-schema channels, written crash-safely.
 
@@ -151,24 +240,25 @@ class McapFileWriter:
         self.path = Path(path)
         if self.path.is_dir():
             raise TelemetryError(f"{self.path} is a directory, not an .mcap file to create")
+        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+        if compression not in comp:
+            raise TelemetryError(f"compression must be one of {sorted(comp)}, got {compression!r}")
         self.path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            self._stream = open(self.path, "xb")  # O_EXCL: never write over a file
+            stream = open(self.path, "xb")  # O_EXCL: never write over a file
         except FileExistsError:
             raise TelemetryError(
                 f"{self.path} already exists; refusing to overwrite it (choose another name)"
             ) from None
         except OSError as exc:
             raise TelemetryError(f"cannot create {self.path}: {exc.strerror}") from None
-        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
-        if compression not in comp:
-            raise TelemetryError(f"compression must be one of {sorted(comp)}, got {compression!r}")
-        self._writer = Writer(self._stream, chunk_size=chunk_size, compression=comp[compression], enable_data_crcs=True)
+        writer = Writer(stream, chunk_size=chunk_size, compression=comp[compression], enable_data_crcs=True)
+        self._file = _OpenFile(writer, stream)
+        self._lock = self._file.lock
         # The mcap package closes chunks by size only; its (name-mangled) chunk finaliser lets
         # us also close them by time.  Without it (other mcap versions) size is the only policy.
-        self._finalize_chunk = getattr(self._writer, "_Writer__finalize_chunk", None)
-        self._writer.start(profile="", library="pyflyt_engine")
-        self._lock = threading.RLock()
+        self._finalize_chunk = getattr(writer, "_Writer__finalize_chunk", None)
+        self._chunk_size = chunk_size
         self._schemas: dict[tuple[str, str], int] = {}
         self._channels: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
@@ -176,9 +266,9 @@ class McapFileWriter:
         self._dirty_since: float | None = None
         self._closed = False
         self._pid = os.getpid()
-        self._finalizer = weakref.finalize(
-            self, McapFileWriter._finish, self._writer, self._stream, self._lock, self._pid
-        )
+        self._finalizer = weakref.finalize(self, _OpenFile.finish, self._file)
+        with signals_held(), self._lock:
+            writer.start(profile="", library="pyflyt_engine")
         _FLUSHER.add(self)
 
     # ------------------------------------------------------------------ channels
@@ -186,17 +276,20 @@ class McapFileWriter:
         self, topic: str, schema_name: str, schema: dict[str, Any], metadata: dict[str, str] | None = None
     ) -> int:
         """Register (once) a JSON channel on ``topic`` with a JSON schema; return its id."""
-        with self._lock:
+        cid = self._channels.get(topic)
+        if cid is not None:
+            return cid
+        with signals_held(), self._lock:
             if topic in self._channels:
                 return self._channels[topic]
             self._check_open()
             text = _schema_text(schema)
             key = (schema_name, text)
             if key not in self._schemas:
-                self._schemas[key] = self._writer.register_schema(schema_name, "jsonschema", text.encode())
-            cid = self._writer.register_channel(topic, "json", self._schemas[key], metadata or {})
-            self._channels[topic] = cid
+                self._schemas[key] = self._file.writer.register_schema(schema_name, "jsonschema", text.encode())
+            cid = self._file.writer.register_channel(topic, "json", self._schemas[key], metadata or {})
             self._sequence[cid] = 0
+            self._channels[topic] = cid
             return cid
 
     def has_channel(self, topic: str) -> bool:
@@ -208,39 +301,52 @@ class McapFileWriter:
         self.write_raw(channel_id, log_time_ns, encode_json(message))
 
     def write_raw(self, channel_id: int, log_time_ns: int, data: bytes) -> None:
+        """Queue one message; it reaches the file at the next flush (or once a chunk's worth is queued)."""
+        file = self._file
         with self._lock:
             self._check_open()
             seq = self._sequence[channel_id]
             self._sequence[channel_id] = seq + 1
-            self._writer.add_message(channel_id, log_time_ns, data, log_time_ns, seq)
+            file.queued.append((channel_id, log_time_ns, data, seq))
+            file.queued_bytes += len(data)
             if self._dirty_since is None:
                 self._dirty_since = time.monotonic()
+            full = file.queued_bytes >= self._chunk_size
+        if full:
+            self.flush()
 
     def metadata(self, name: str, data: dict[str, str], *, flush: bool = True) -> None:
         """Write a metadata record (handed to the OS now unless ``flush=False``)."""
         bad = [k for k, v in data.items() if not isinstance(k, str) or not isinstance(v, str)]
         if bad:
             raise TelemetryError(f"metadata {name!r}: keys and values must be strings; bad entries: {bad}")
-        with self._lock:
+        with signals_held(), self._lock:
             self._check_open()
-            self._writer.add_metadata(name, dict(data))
+            self._file.writer.add_metadata(name, dict(data))
             if flush:
-                self._stream.flush()
+                self._file.stream.flush()
 
     def attachment(self, name: str, media_type: str, data: bytes, log_time_ns: int = 0) -> None:
         """Write an attachment (reaches the OS at the next :meth:`flush`)."""
-        with self._lock:
+        with signals_held(), self._lock:
             self._check_open()
-            self._writer.add_attachment(time.time_ns(), log_time_ns, name, media_type, data)
+            self._file.writer.add_attachment(time.time_ns(), log_time_ns, name, media_type, data)
 
-    def flush(self) -> None:
-        """Close the current chunk (if it holds messages) and hand the bytes to the OS."""
-        with self._lock:
+    def flush(self, *, sync: bool = False) -> None:
+        """Close the current chunk (if it holds messages) and hand the bytes to the OS.
+
+        Args:
+            sync: also ask the OS to write them to the disk (``fsync``) before returning.
+        """
+        with signals_held(), self._lock:
             if self.closed:
                 return
+            self._file.commit()
             if self._finalize_chunk is not None:
                 self._finalize_chunk()
-            self._stream.flush()
+            self._file.stream.flush()
+            if sync:
+                os.fsync(self._file.stream.fileno())
             self._dirty_since = None
 
     def _flush_if_stale(self) -> None:
@@ -264,16 +370,6 @@ class McapFileWriter:
                 return
             self._closed = True
         self._finalizer()
-
-    @staticmethod
-    def _finish(writer: Writer, stream: Any, lock: threading.RLock, pid: int) -> None:
-        if os.getpid() != pid:  # a forked child must not finish (and corrupt) its parent's file
-            return
-        with lock:
-            try:
-                writer.finish()
-            finally:
-                stream.close()
 
     def _check_open(self) -> None:
         if self.closed:

@@ -6,9 +6,18 @@ A run's metrics live in ``<run>/metrics.mcap``.  Each topic (``/train/episode``,
 
 * **Log time** of every message is its ``wall_time`` (Unix time, ns); the x-axis a user plots
   against is usually ``step`` (the environment step count), which is in the payload.
-* **Resuming** never reopens a finished file: ``MetricsWriter(path, append=True)`` writes the
-  next *segment* ``metrics-1.mcap``, ``metrics-2.mcap`` ... next to ``metrics.mcap``, and
-  :func:`read_metrics` concatenates the segments in order.
+* **Append-only segments**: nothing is ever rewritten.  Resuming writes the next *segment*
+  ``metrics-1.mcap``, ``metrics-2.mcap`` ... next to ``metrics.mcap``
+  (``MetricsWriter(path, append=True, resumed_from=N)``), whose *marker* ``resumed_from=N``
+  says it continues the run from its checkpoint at step ``N``: :func:`read_metrics`
+  concatenates the segments in order and drops, at each marker, the earlier records at steps
+  ``> N`` (the continuation logs them again), so an interrupted and resumed run reads exactly
+  like an uninterrupted one.  Creating a segment is the only step of a resume, and a kill at
+  any instant of it leaves the series reading as before or as after it.
+* **Damage is skipped, never fatal**: an unreadable segment (empty, not MCAP, no readable
+  metadata) is left out, a damaged chunk is stepped over, and both are reported; only a
+  series with nothing readable raises.  :func:`set_aside_unreadable` renames unreadable
+  segments out of the series (it never deletes).
 * Non-finite floats are stored as JSON ``null`` and read back as ``nan``.
 * Crash safety is that of every telemetry file (``docs/mcap.md``): at most ~1 s of logging is
   lost if the process is killed, and the reader reports the truncation.
@@ -27,6 +36,7 @@ import os
 import re
 import time
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,13 +44,22 @@ import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.telemetry._io import DEFAULT_FLUSH_INTERVAL, McapFileWriter, to_ns
-from pyflyt_engine.telemetry.reader import TruncatedRecordingWarning, read_mcap
+from pyflyt_engine.telemetry.reader import (
+    CorruptRecordingWarning,
+    McapContents,
+    TruncatedRecordingWarning,
+    read_mcap,
+)
 
 METRICS_FILE = "metrics.mcap"
 #: metadata record naming the file kind and its segment index
 FILE_INFO = "pyflyt"
 #: metadata record holding the caller's ``metadata`` dict
 RUN_INFO = "run"
+#: key of the ``FILE_INFO`` record: the checkpoint step a resumed segment continues from
+RESUMED_FROM = "resumed_from"
+#: suffix given to a segment set aside by :func:`set_aside_unreadable`
+UNREADABLE_SUFFIX = ".unreadable"
 SCHEMA_NAME = "pyflyt.Metrics"
 _RESERVED = ("step", "wall_time")
 _SEGMENT = re.compile(r"^(?P<base>.+?)(?:-(?P<n>\d+))?\.mcap$")
@@ -49,10 +68,18 @@ _SEGMENT = re.compile(r"^(?P<base>.+?)(?:-(?P<n>\d+))?\.mcap$")
 class MetricsResult(dict):
     """``topic -> records`` as returned by :func:`read_metrics`, plus where the records came from."""
 
-    #: the segment files read, in order
+    #: the segment files read, in order (unreadable ones are not among them)
     segments: list[Path]
+    #: the ``metadata`` given to each of their writers, in the same order
+    metadata: list[dict[str, str]]
     #: the segments that were cut short (their writer was killed); empty if all are complete
     truncated: list[Path]
+    #: segments with damaged parts that were skipped, and what was lost with them
+    damaged: list[tuple[Path, str]]
+    #: segments left out because nothing in them could be read, and why
+    unreadable: list[tuple[Path, str]]
+    #: records dropped because a later segment's marker says the run was resumed before them
+    superseded: int
 
 
 def _json_type(value: Any) -> str:
@@ -111,6 +138,9 @@ class MetricsWriter:
         metadata: string key/values stored once in the file (e.g. algorithm, seed, config hash).
         append: if the file already exists, write the next segment (``metrics-<n>.mcap``)
             instead of failing; use it when resuming a run.
+        resumed_from: the step of the checkpoint this segment continues the run from (0 for
+            a run restarted from scratch): readers drop the records of earlier segments at
+            steps above it.  The marker is on disk when the constructor returns.
         flush_interval: longest wall time (s) a logged record waits in memory before it is
             written to the OS (bounded loss if the process is killed).
 
@@ -118,7 +148,8 @@ class MetricsWriter:
     interpreter exit.  Thread-safe.
 
     Raises:
-        TelemetryError: the file exists and ``append`` is False, or it cannot be created.
+        TelemetryError: the file exists and ``append`` is False, it cannot be created, or
+            ``resumed_from`` is not a non-negative integer.
     """
 
     def __init__(
@@ -127,8 +158,13 @@ class MetricsWriter:
         metadata: dict[str, str] | None = None,
         *,
         append: bool = False,
+        resumed_from: int | None = None,
         flush_interval: float = DEFAULT_FLUSH_INTERVAL,
     ) -> None:
+        if resumed_from is not None and not (
+            isinstance(resumed_from, (int, np.integer)) and not isinstance(resumed_from, bool) and resumed_from >= 0
+        ):
+            raise TelemetryError(f"resumed_from must be a step count (an integer >= 0) or None, got {resumed_from!r}")
         path = Path(path)
         if path.is_dir():
             path = path / METRICS_FILE
@@ -149,11 +185,17 @@ class MetricsWriter:
         self._file = McapFileWriter(self.path, flush_interval=flush_interval, chunk_size=64 * 1024)
         from pyflyt_engine import __version__
 
-        self._file.metadata(
-            FILE_INFO,
-            {"kind": "metrics", "segment": str(index), "pyflyt_engine": __version__, "log_time": "wall_time"},
-        )
-        self._file.metadata(RUN_INFO, {str(k): str(v) for k, v in (metadata or {}).items()})
+        info = {"kind": "metrics", "segment": str(index), "pyflyt_engine": __version__, "log_time": "wall_time"}
+        if resumed_from is not None:
+            info[RESUMED_FROM] = str(int(resumed_from))
+        self.resumed_from = None if resumed_from is None else int(resumed_from)
+        try:  # the marker reaches the disk with the file's first bytes, before anything is logged
+            self._file.metadata(FILE_INFO, info, flush=False)
+            self._file.metadata(RUN_INFO, {str(k): str(v) for k, v in (metadata or {}).items()}, flush=False)
+            self._file.flush(sync=True)
+        except BaseException:
+            self._file.close()
+            raise
         self._types: dict[str, dict[str, str]] = {}
 
     def log(
@@ -225,6 +267,41 @@ class MetricsWriter:
         self.close()
 
 
+def _without_path(message: str, path: Path) -> str:
+    """A reader's error about ``path`` as a reason: "<path> is not an MCAP file" -> "not an MCAP file"."""
+    return message.removeprefix(str(path)).lstrip(": ").removeprefix("is ")
+
+
+def _read_segment(path: Path) -> tuple[McapContents | None, int | None, str]:
+    """(contents, resumed_from marker, "") of a readable metrics segment; (None, None, why) otherwise."""
+    try:
+        contents = read_mcap(path, warn=False, skip_damage=True)
+    except TelemetryError as exc:
+        return None, None, _without_path(str(exc), path)
+    info = contents.metadata.get(FILE_INFO, {})
+    if info.get("kind") != "metrics":
+        kind = info.get("kind")
+        what = f"a pyflyt {kind} file" if kind else "no readable metadata record of MetricsWriter"
+        return None, None, f"not a metrics file ({what})"
+    marker = info.get(RESUMED_FROM)
+    if marker is None:
+        return contents, None, ""
+    if not marker.isdigit():
+        return None, None, f"its {RESUMED_FROM} marker is damaged ({marker!r})"
+    return contents, int(marker), ""
+
+
+def _series_paths(path: str | os.PathLike[str]) -> list[Path]:
+    segments = segment_paths(path)
+    if segments:
+        return segments
+    p = Path(path)
+    if p.is_file():
+        return [p]
+    where = p if p.is_dir() else p.parent
+    raise TelemetryError(f"no metrics file at {p} (expected {where / METRICS_FILE})")
+
+
 def read_metrics(path: str | os.PathLike[str]) -> MetricsResult:
     """Read a run's metrics: ``topic -> [record, ...]`` over all segments, in log order.
 
@@ -233,45 +310,134 @@ def read_metrics(path: str | os.PathLike[str]) -> MetricsResult:
             (all segments of the series are read either way).
 
     Each record holds ``step``, ``wall_time`` and the logged values (``null`` read as ``nan``).
-    A segment cut short (killed writer) is read up to its last complete chunk, listed in
-    ``result.truncated`` and reported with a :class:`TruncatedRecordingWarning`.
+    Segments are concatenated in order; a segment whose marker is ``resumed_from=N`` first
+    drops the records of the segments before it at steps ``> N`` (counted in
+    ``result.superseded``).  Nothing readable is left out, and everything left out is reported
+    (see :class:`MetricsResult`):
+
+    * a segment cut short (killed writer) is read up to its last complete chunk, listed in
+      ``result.truncated`` and warned about (:class:`TruncatedRecordingWarning`);
+    * a damaged chunk or record is skipped and the rest of its segment read; the segment and
+      what was lost are listed in ``result.damaged`` (:class:`CorruptRecordingWarning`);
+    * a segment with nothing readable (empty, not MCAP, not a metrics file) is skipped and
+      listed in ``result.unreadable`` with the reason (:class:`CorruptRecordingWarning`).
 
     Raises:
-        TelemetryError: no metrics file there, not an MCAP file, corrupt, or not a metrics file.
+        TelemetryError: no metrics file there, or no segment of it is readable.
     """
-    segments = segment_paths(path)
-    if not segments:
-        p = Path(path)
-        if p.is_file():
-            segments = [p]
-        else:
-            where = p if p.is_dir() else p.parent
-            raise TelemetryError(f"no metrics file at {p} (expected {where / METRICS_FILE})")
     result = MetricsResult()
-    result.segments = segments
-    result.truncated = []
-    for seg in segments:
-        contents = read_mcap(seg, warn=False)
-        info = contents.metadata.get(FILE_INFO, {})
-        if info.get("kind") != "metrics":
-            kind = info.get("kind")
-            what = f"a pyflyt {kind} file" if kind else "not written by MetricsWriter"
-            raise TelemetryError(f"{seg} is not a metrics file ({what})")
-        if contents.truncated:
-            result.truncated.append(seg)
-            warnings.warn(
-                f"{seg}: truncated ({contents.truncation}); read up to its last complete chunk",
-                TruncatedRecordingWarning,
-                stacklevel=2,
-            )
-        for msg in contents.messages:
-            if not isinstance(msg.data, dict):
-                raise TelemetryError(f"{seg}: a message on {msg.topic} is not a JSON object")
-            rec = {k: (math.nan if v is None else v) for k, v in msg.data.items()}
-            result.setdefault(msg.topic, []).append(rec)
+    result.segments, result.metadata, result.truncated, result.damaged, result.unreadable = [], [], [], [], []
+    result.superseded = 0
+    for seg, contents, marker in _readable_segments(path, result.unreadable):
+        result.segments.append(seg)
+        result.metadata.append(contents.metadata.get(RUN_INFO, {}))
+        if marker is not None:
+            for topic, records in result.items():
+                kept = [r for r in records if r["step"] <= marker]
+                result.superseded += len(records) - len(kept)
+                result[topic] = kept
+        _add_records(result, seg, contents)
+    for seg, problem in result.unreadable:
+        warnings.warn(f"{seg}: skipped, unreadable: {problem}", CorruptRecordingWarning, stacklevel=2)
+    if not result.segments:
+        raise _nothing_readable(path, result.unreadable)
     return result
 
 
+def _add_records(result: MetricsResult, seg: Path, contents: McapContents) -> None:
+    """Append a segment's records to ``result`` and report what it lacks (truncation, damage)."""
+    if contents.truncated:
+        result.truncated.append(seg)
+        warnings.warn(
+            f"{seg}: truncated ({contents.truncation}); read up to its last complete chunk",
+            TruncatedRecordingWarning,
+            stacklevel=3,
+        )
+    malformed = 0
+    for msg in contents.messages:
+        if not isinstance(msg.data, dict) or not isinstance(msg.data.get("step"), int):
+            malformed += 1  # not a record MetricsWriter writes: skipped like damage
+            continue
+        rec = {k: (math.nan if v is None else v) for k, v in msg.data.items()}
+        result.setdefault(msg.topic, []).append(rec)
+    loss = contents.loss()
+    if malformed:
+        loss = "; ".join(filter(None, [loss, f"{malformed} messages that are not metrics records skipped"]))
+    if loss:
+        result.damaged.append((seg, loss))
+        warnings.warn(f"{seg}: damaged, {loss}", CorruptRecordingWarning, stacklevel=3)
+
+
+def _readable_segments(
+    path: str | os.PathLike[str], unreadable: list[tuple[Path, str]]
+) -> Iterator[tuple[Path, McapContents, int | None]]:
+    """(path, contents, marker) of each readable segment of the series; the others go to ``unreadable``."""
+    for seg in _series_paths(path):
+        contents, marker, problem = _read_segment(seg)
+        if contents is None:
+            unreadable.append((seg, problem))
+        else:
+            yield seg, contents, marker
+
+
+def _nothing_readable(path: str | os.PathLike[str], unreadable: list[tuple[Path, str]]) -> TelemetryError:
+    why = "; ".join(f"{p.name}: {problem}" for p, problem in unreadable)
+    return TelemetryError(f"no readable metrics at {Path(path)}: {why}")
+
+
 def read_metrics_metadata(path: str | os.PathLike[str]) -> list[dict[str, str]]:
-    """The ``metadata`` dict given to each segment's writer, in segment order."""
-    return [read_mcap(p, warn=False).metadata.get(RUN_INFO, {}) for p in segment_paths(path) or [Path(path)]]
+    """The ``metadata`` given to each readable segment's writer, in segment order.
+
+    Unreadable segments are left out (as by :func:`read_metrics`, without a warning).
+
+    Raises:
+        TelemetryError: no metrics file there, or no segment of it is readable.
+    """
+    unreadable: list[tuple[Path, str]] = []
+    found = [contents.metadata.get(RUN_INFO, {}) for _, contents, _ in _readable_segments(path, unreadable)]
+    if not found:
+        raise _nothing_readable(path, unreadable)
+    return found
+
+
+def set_aside_unreadable(path: str | os.PathLike[str]) -> list[tuple[Path, Path, str]]:
+    """Rename every unreadable segment of a run's metrics out of the series; never deletes a file.
+
+    Args:
+        path: a run directory, ``metrics.mcap`` or any segment of the series.
+
+    Each segment :func:`read_metrics` would skip as unreadable becomes ``<name>.unreadable``
+    (``<name>.unreadable-1``, ... if that exists: nothing is overwritten) and is no longer part
+    of the series.  Segments that are truncated or partly damaged are readable and stay.
+    Call it before creating the next writer, never while another process writes the series
+    (the segment it has just created is empty until its first flush).
+
+    Returns:
+        ``(old path, new path, why it is unreadable)`` for each segment set aside, in order.
+    """
+    moved = []
+    for seg in segment_paths(path):
+        contents, _, problem = _read_segment(seg)
+        if contents is None:
+            moved.append((seg, _rename_aside(seg), problem))
+    return moved
+
+
+def _rename_aside(path: Path) -> Path:
+    """Give ``path`` the first free name ``<name>.unreadable[-k]`` without replacing any file."""
+    k = 0
+    while True:
+        target = path.with_name(path.name + UNREADABLE_SUFFIX + (f"-{k}" if k else ""))
+        k += 1
+        try:
+            os.link(path, target)  # fails if the target exists: never overwrites
+        except FileExistsError:
+            if not os.path.samefile(path, target):  # (the same file: linked by a call cut short)
+                continue
+        except OSError:  # no hard links on this file system
+            if target.exists():
+                continue
+            os.rename(path, target)
+            return target
+        os.unlink(path)  # the data stays under the new name
+        return target

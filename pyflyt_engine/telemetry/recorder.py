@@ -235,9 +235,15 @@ class RecordEpisode(gymnasium.Wrapper):
         while True:
             path = self.directory / f"{self.prefix}_{self._next_index:04d}.mcap"
             self._next_index += 1
-            if not path.exists():
-                break
-        f = McapFileWriter(path, chunk_size=DEFAULT_CHUNK_SIZE)
+            if path.exists():
+                continue
+            try:
+                f = McapFileWriter(path, chunk_size=DEFAULT_CHUNK_SIZE)
+            except TelemetryError:
+                if path.exists():  # created meanwhile (another recorder): never written over, take the next
+                    continue
+                raise
+            break
         self._file = f
         self.paths.append(path)
         for name, data in self._file_metadata().items():

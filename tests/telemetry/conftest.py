@@ -75,6 +75,20 @@ def iter_official(path: Path):
         yield from reader.iter_messages(log_time_order=False)
 
 
+def chunk_spans(path: Path) -> list[tuple[int, int]]:
+    """(start offset, length) of each chunk record of a complete file, from its summary."""
+    with open(path, "rb") as f:
+        indexes = make_reader(f).get_summary().chunk_indexes
+    return [(c.chunk_start_offset, c.chunk_length) for c in indexes]
+
+
+def flip_byte(path: Path, offset: int) -> None:
+    """Damage ``path`` in place: change one bit of the byte at ``offset``."""
+    data = bytearray(path.read_bytes())
+    data[offset] ^= 0x10
+    path.write_bytes(bytes(data))
+
+
 def rewrite_mcap(
     src: Path,
     dst: Path,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-import threading
+import time
 import warnings
 
 import jsonschema
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pyflyt_engine.errors import PyFlytError, TelemetryError
-from pyflyt_engine.telemetry import MetricsWriter, TruncatedRecordingWarning, read_metrics
+from pyflyt_engine.telemetry import CorruptRecordingWarning, MetricsWriter, TruncatedRecordingWarning, read_metrics
 from pyflyt_engine.telemetry.metrics import read_metrics_metadata, segment_paths
 from tests.telemetry.conftest import iter_official
 
@@ -105,8 +105,9 @@ def test_bad_files(tmp_path):
     with pytest.raises(TelemetryError, match="no metrics file"):
         read_metrics(tmp_path)
     (tmp_path / "metrics.mcap").write_text("nope")
-    with pytest.raises(TelemetryError, match="not an MCAP file"):
-        read_metrics(tmp_path)
+    with pytest.warns(CorruptRecordingWarning, match="skipped"):
+        with pytest.raises(TelemetryError, match="no readable metrics.*not an MCAP file"):
+            read_metrics(tmp_path)
 
 
 def test_truncated_segment_is_read_and_reported(tmp_path):
@@ -136,17 +137,16 @@ def test_background_flush_bounds_the_loss(tmp_path):
     m = MetricsWriter(path, flush_interval=0.2)
     m.log("/eval", 1, {"mean_return": 1.0})
     size = path.stat().st_size
-    done = threading.Event()
-    for _ in range(50):  # the flusher wakes every 0.2 s
-        if path.stat().st_size > size:
-            done.set()
-            break
-        threading.Event().wait(0.05)
+    # the flusher wakes every 0.2 s; the deadline only bounds a failure (a loaded machine is slow)
+    deadline = time.monotonic() + 60
+    while path.stat().st_size == size and time.monotonic() < deadline:
+        time.sleep(0.02)
+    grown = path.stat().st_size > size
     m.close()
-    assert done.is_set(), "the logged record never reached the file"
+    assert grown, "the logged record never reached the file"
 
 
 def test_episode_file_is_not_a_metrics_file(recorded, tmp_path):
     path = next(iter(recorded.values()))
-    with pytest.raises(TelemetryError, match="not a metrics file"):
+    with pytest.warns(CorruptRecordingWarning), pytest.raises(TelemetryError, match="not a metrics file"):
         read_metrics(path)

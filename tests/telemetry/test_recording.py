@@ -143,6 +143,23 @@ def test_never_overwrites_existing_files(tmp_path):
     assert (tmp_path / "ep_0003.mcap").read_bytes() == b"precious too"
 
 
+def test_a_file_created_meanwhile_by_another_process_is_skipped_not_overwritten(tmp_path, monkeypatch):
+    from pyflyt_engine.telemetry import recorder
+
+    env = RecordEpisode(make_env("PyFlyt/QuadX-Hover-v0"), tmp_path)  # numbering starts at 0 here
+
+    def racing_writer(path, **kwargs):  # another recorder takes ep_0000 between the check and the creation
+        if path.name == "ep_0000.mcap":
+            path.write_bytes(b"the other recording")
+        return McapFileWriter(path, **kwargs)
+
+    monkeypatch.setattr(recorder, "McapFileWriter", racing_writer)
+    env.reset(seed=0)
+    env.close()
+    assert env.paths == [tmp_path / "ep_0001.mcap"] and load_episode(env.paths[0]).length == 0
+    assert (tmp_path / "ep_0000.mcap").read_bytes() == b"the other recording"
+
+
 def test_chunks_hold_about_one_simulated_second(tmp_path):
     env = RecordEpisode(make_env("PyFlyt/QuadX-Hover-v0", flight_dome_size=100.0), tmp_path)
     env.reset(seed=0)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -13,9 +14,10 @@ from PIL import Image
 from typer.testing import CliRunner
 
 from pyflyt_cli.main import app
-from pyflyt_engine.telemetry import MetricsWriter, load_episode
+from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.telemetry import CorruptRecordingWarning, MetricsWriter, load_episode, read_mcap
 from pyflyt_engine.telemetry.replay import summarize, verify
-from tests.telemetry.conftest import ENV_IDS, record, rewrite_mcap
+from tests.telemetry.conftest import ENV_IDS, chunk_spans, flip_byte, record, rewrite_mcap
 
 runner = CliRunner()
 
@@ -160,6 +162,22 @@ def test_corrupt_chunk_is_reported(recorded, tmp_path):
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     _bad(replay(bad), "corrupt")
+
+
+def test_a_damaged_chunk_is_skipped_on_request_and_the_loss_counted(recorded, tmp_path):
+    path = recorded["PyFlyt/QuadX-Hover-v0"]
+    whole = read_mcap(path)
+    bad = tmp_path / "bad.mcap"
+    shutil.copy(path, bad)
+    start, length = chunk_spans(bad)[0]
+    flip_byte(bad, start + length // 2)
+    with pytest.raises(TelemetryError, match="corrupt"):
+        read_mcap(bad)  # an episode with a hole cannot be re-simulated: an error unless asked
+    with pytest.warns(CorruptRecordingWarning, match="in 1 chunk"):
+        contents = read_mcap(bad, skip_damage=True)
+    assert contents.lost_chunks == 1 and len(contents.damage) == 1
+    assert len(contents.messages) + contents.lost_messages == len(whole.messages) > len(contents.messages)
+    assert contents.metadata == whole.metadata and contents.channels == whole.channels
 
 
 def test_missing_metadata(tmp_path):
