@@ -291,3 +291,60 @@ def test_conf_is_packaged_with_train_configs():
     assert '"conf" = "pyflyt_engine/conf"' in text
     for name in ("train.yaml", "eval.yaml", "algo/ppo.yaml", "algo/sac.yaml", "algo/td3.yaml"):
         assert (conf_dir() / name).is_file(), name
+
+
+# ------------------------------------------------------------ experiment files
+
+
+def _tagged_experiment(path: Path, marker: Path) -> Path:
+    path.write_text(f'# @package _global_\nseed: !!python/object/apply:os.system ["touch {marker}"]\n')
+    return path
+
+
+def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path):
+    marker = tmp_path / "ran"
+    study = _tagged_experiment(tmp_path / "tagged_study.yaml", marker)
+    for command in (["train", "--cfg"], ["benchmark", "--dry-run"]):
+        result = pyflyt([*command, f"experiment={study}"], cwd=tmp_path, timeout=120)
+        assert result.returncode == 2, result.stderr
+        assert f"{study}, line 2: the YAML tag !!python/object/apply:os.system is not allowed" in result.stderr
+        assert "Traceback" not in result.stderr
+    assert not marker.exists(), "code from the file ran"
+
+
+def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_path, monkeypatch):
+    import shutil
+
+    import pyflyt_cli.commands.train as train_command
+    import pyflyt_cli.config as config
+
+    conf = tmp_path / "conf"
+    shutil.copytree(conf_dir(), conf)
+    marker = tmp_path / "ran"
+    shipped = _tagged_experiment(conf / "experiment" / "tagged.yaml", marker)
+    monkeypatch.setattr(config, "conf_dir", lambda: conf)
+    monkeypatch.setattr(train_command, "conf_dir", lambda: conf)
+    with pytest.raises(CLIError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
+        load_train_config(["experiment=tagged"])
+    assert not marker.exists(), "code from the file ran"
+
+
+@pytest.mark.parametrize(
+    ("content", "expected"),
+    [
+        (b"\x00\xff\xfe binary", "not a text file"),
+        (b"train: [1, 2\n", "line 2: not valid YAML"),
+    ],
+)
+def test_an_unreadable_experiment_file_is_named(tmp_path, content, expected):
+    study = tmp_path / "study.yaml"
+    study.write_bytes(content)
+    with pytest.raises(CLIError, match=None) as info:
+        load_train_config([f"experiment={study}"])
+    assert str(info.value).startswith(str(study)) and expected in str(info.value)
+
+
+@pytest.mark.parametrize(("override", "expected"), [("algo=null", "takes a name"), ("uav=null", "write ~uav")])
+def test_a_config_group_set_to_null_is_explained(override, expected):
+    with pytest.raises(CLIError, match=expected):
+        load_train_config([override])
