@@ -246,7 +246,10 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
     from pyflyt_cli.training import registry
     from pyflyt_cli.training.schema import parse_train_config
 
+    from pyflyt_cli.benchmark.launch import check_launcher_overrides
+
     bench_over, hydra_over, run_over = split_overrides(overrides)
+    check_launcher_overrides(hydra_over)  # before anything is composed, written or run
     spec = load_spec(experiment, bench_over, run_over)
     name = spec.name or Path(experiment).stem
     if not name or any(c in name for c in "/\\") or name in (".", ".."):

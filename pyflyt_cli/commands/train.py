@@ -99,6 +99,12 @@ def compose_train_config(overrides: list[str], benchmark: bool = False) -> dict[
 
     from pyflyt_cli.config import to_container
 
+    for item in overrides:
+        if item.lstrip("+~").startswith(("hydra.", "hydra/")):
+            raise CLIError(
+                f"'{item}': pyflyt train takes no Hydra settings (Hydra only composes conf/train.yaml here); "
+                "give config keys (key=value), and launcher settings to pyflyt benchmark"
+            )
     try:
         cfg = compose("train", overrides, return_hydra_config=True)
     except CLIError as exc:

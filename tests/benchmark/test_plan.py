@@ -207,3 +207,31 @@ def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> 
     shadow.write_text(text)
     with pytest.raises(CLIError, match="is a shipped experiment's; rename the file"):
         build_plan(str(shadow), [])
+
+
+@pytest.mark.parametrize(
+    "override",
+    [
+        "+hydra.callbacks.x._target_=builtins.open",
+        "hydra/job_logging=disabled",
+        "hydra/hydra_logging=disabled",
+        "hydra.searchpath=[file:///tmp]",
+        "hydra.launcher._target_=os.system",
+        "+hydra.launcher.ray._args_=[x]",
+        "+hydra.launcher.setup={_target_: os.system}",
+        "+hydra.launcher.setup=[{_partial_: true}]",
+        "hydra.launcher.partition=${oc.env:HOME}",
+        "~hydra.launcher.partition",
+        "hydra.launcher.partition=a,b",
+    ],
+)
+def test_only_the_launcher_and_its_plain_settings_reach_hydra(tmp_path: Path, override: str) -> None:
+    with pytest.raises(CLIError, match="The only Hydra settings accepted are the launcher, hydra/launcher="):
+        build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "hydra/launcher=basic", override])
+    assert not any(tmp_path.iterdir())
+
+
+def test_launcher_settings_are_passed_on(tmp_path: Path) -> None:
+    ok = ["hydra/launcher=basic", "+hydra.launcher.ray.init.num_cpus=2", "hydra.launcher.setup=[a,b]"]
+    _, hydra = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", *ok])
+    assert hydra == ok

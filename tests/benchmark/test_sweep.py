@@ -199,3 +199,14 @@ def test_ray_launcher_runs_the_sweep(tmp_path: Path) -> None:
     assert "Ray Launcher is launching 4 jobs" in result.stderr + result.stdout
     again = pyflyt(args, tmp_path, timeout=900)
     assert again.returncode == 0 and "4 complete (skipped)" in again.stderr
+
+
+def test_a_hydra_callback_payload_is_refused_before_anything_runs(tmp_path: Path) -> None:
+    marker = tmp_path / "payload-ran"
+    payload = ["+hydra.callbacks.x._target_=builtins.open", f"+hydra.callbacks.x._args_=[{marker},w]"]
+    args = ["benchmark", *SMOKE, "seeds=1", f"benchmark.output_dir={tmp_path}", "hydra/launcher=basic", *payload]
+    result = pyflyt(args, tmp_path)
+    assert result.returncode == 2, result.stderr[-3000:]
+    assert "cannot be given to pyflyt benchmark" in result.stderr and "hydra.launcher.<key>=<value>" in result.stderr
+    assert not marker.exists(), "the callback was instantiated"
+    assert not (tmp_path / "smoke_benchmark").exists(), "nothing may be written"

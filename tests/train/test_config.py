@@ -97,6 +97,8 @@ def test_hparams_follow_the_chosen_env_and_algo():
         (["algo.learning_rate=="], ["malformed override"]),
         (["seed"], ["'seed' is not an override"]),
         (["uav=quadx_f450", "uav.body.mass=2"], ["uav.* keys cannot be overridden"]),
+        (["hydra.searchpath=[file:///tmp]"], ["pyflyt train takes no Hydra settings"]),
+        (["+hydra.callbacks.x._target_=os.getcwd"], ["pyflyt train takes no Hydra settings"]),
     ],
 )
 def test_bad_configs_fail_with_a_message_naming_the_problem(overrides, expected):
