@@ -11,22 +11,65 @@ interrupted sweep or a rerun agree on it.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shlex
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from pyflyt_cli.benchmark.plan import Job, Plan
 from pyflyt_cli.benchmark.worker import INTERRUPTED, PARENT_ENV
+from pyflyt_cli.config import CLIError
 
 Echo = Callable[[str], None]
 
 #: run states, as the summary names them
 COMPLETE, NEW, PARTIAL, BUSY = "complete", "new", "partial", "busy"
+
+
+#: held (``flock``) by the pyflyt benchmark process working on the directory; holds its pid and command
+LOCK_FILE = "benchmark.lock"
+
+
+@contextlib.contextmanager
+def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
+    """Hold ``<root>/benchmark.lock`` while this process works on the benchmark directory.
+
+    An OS lock (``flock``) on the file: the kernel releases it when the process ends,
+    however it ends, so a killed benchmark never leaves a stale lock.  A second process
+    finds it held and gets a :class:`CLIError` naming the holder, before it touches
+    anything.  (Without ``fcntl``, on Windows, nothing is locked.)
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    root.mkdir(parents=True, exist_ok=True)
+    path = root / LOCK_FILE
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 4096).decode(errors="replace").strip() or "another process"
+            pid, _, cmd = holder.partition(" ")
+            raise CLIError(
+                f"benchmark directory {root} is in use by process {pid}"
+                + (f" ({cmd})" if cmd else "")
+                + ": wait for it to finish or stop it (Ctrl-C), or give this benchmark another directory "
+                "(benchmark.name=<name> or benchmark.output_dir=<dir>)"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()} {shlex.join(command)}\n".encode())
+        yield
+    finally:
+        os.close(fd)  # releases the lock; the file stays (removing it would race with the next holder)
 
 
 def run_state(plan: Plan, job: Job) -> str:

@@ -11,10 +11,14 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import TYPE_CHECKING
 
 import typer
 
 from pyflyt_cli.config import CLIError, parse_overrides
+
+if TYPE_CHECKING:
+    from pyflyt_cli.benchmark.plan import Plan
 
 FAILED = 1
 INTERRUPTED = 130
@@ -25,11 +29,9 @@ def _echo(message: str) -> None:
 
 
 def run_benchmark(overrides: list[str], dry_run: bool = False) -> int:
-    from pyflyt_cli.benchmark.launch import launcher_name, run_hydra
-    from pyflyt_cli.benchmark.normalise import update_normalisation
-    from pyflyt_cli.benchmark.plan import build_plan, levels
-    from pyflyt_cli.benchmark.run import BUSY, COMPLETE, Outcome, run_local, run_state, summary
-    from pyflyt_cli.training.rundir import atomic_write
+    from pyflyt_cli.benchmark.launch import launcher_name
+    from pyflyt_cli.benchmark.plan import build_plan
+    from pyflyt_cli.benchmark.run import hold_benchmark
 
     overrides = parse_overrides(overrides)
     experiments = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]
@@ -39,8 +41,20 @@ def run_benchmark(overrides: list[str], dry_run: bool = False) -> int:
     rest = [o for o in overrides if o.partition("=")[0] != "experiment"]
     plan, hydra_overrides = build_plan(experiment, rest, command=["pyflyt", "benchmark", *overrides])
     launcher = launcher_name(hydra_overrides)
-    parallel = int(plan.spec["jobs"])
+    if dry_run:
+        return _run(plan, launcher, hydra_overrides, dry_run=True)
+    with hold_benchmark(plan.root, plan.command):  # a second benchmark on this directory stops here
+        return _run(plan, launcher, hydra_overrides, dry_run=False)
 
+
+def _run(plan: Plan, launcher: str | None, hydra_overrides: list[str], dry_run: bool) -> int:
+    from pyflyt_cli.benchmark.launch import run_hydra
+    from pyflyt_cli.benchmark.normalise import update_normalisation
+    from pyflyt_cli.benchmark.plan import levels
+    from pyflyt_cli.benchmark.run import BUSY, COMPLETE, Outcome, run_local, run_state, summary
+    from pyflyt_cli.training.rundir import atomic_write
+
+    parallel = int(plan.spec["jobs"])
     states = {j.id: run_state(plan, j) for j in plan.jobs}
     skipped = [j for j in plan.jobs if states[j.id] == COMPLETE]
     busy = [j for j in plan.jobs if states[j.id] == BUSY]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -210,3 +211,64 @@ def test_a_hydra_callback_payload_is_refused_before_anything_runs(tmp_path: Path
     assert "cannot be given to pyflyt benchmark" in result.stderr and "hydra.launcher.<key>=<value>" in result.stderr
     assert not marker.exists(), "the callback was instantiated"
     assert not (tmp_path / "smoke_benchmark").exists(), "nothing may be written"
+
+
+def _start(args: list[str], cwd: Path, ready: str) -> tuple[subprocess.Popen, list[str]]:
+    """Start ``pyflyt <args>`` and read its stderr until a line containing ``ready``."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyflyt_cli.main", *args],
+        cwd=cwd,
+        env=cli_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    seen: list[str] = []
+    for line in proc.stderr:  # type: ignore[union-attr]
+        seen.append(line)
+        if ready in line:
+            return proc, seen
+    proc.wait()
+    raise AssertionError(f"exited ({proc.returncode}) before printing {ready!r}:\n{''.join(seen)}")
+
+
+def test_a_second_benchmark_on_the_same_directory_is_refused_untouched(tmp_path: Path) -> None:
+    args = ["benchmark", *SMOKE, "seeds=1", "jobs=1", f"benchmark.output_dir={tmp_path}", "train.total_timesteps=10000000"]
+    first, _ = _start(args, tmp_path, "started")
+    try:
+        root = tmp_path / "smoke_benchmark"
+        plan = (root / "plan.json").read_bytes(), (root / "plan.json").stat().st_mtime_ns
+        second = pyflyt(args, tmp_path)
+        assert second.returncode == 2, second.stderr[-3000:]
+        assert f"benchmark directory {root} is in use by process {first.pid} (pyflyt benchmark" in second.stderr
+        assert "benchmark.name=" in second.stderr and "Traceback" not in second.stderr
+        assert ((root / "plan.json").read_bytes(), (root / "plan.json").stat().st_mtime_ns) == plan
+        assert not (root / "summary.md").exists()
+    finally:
+        first.send_signal(signal.SIGTERM)  # each worker saves a checkpoint
+        rest = first.communicate()[1]
+    assert first.returncode == 130, rest[-3000:]
+    assert "failed" not in rest
+
+
+def test_the_benchmark_lock_dies_with_its_process(tmp_path: Path) -> None:
+    from pyflyt_cli.benchmark.run import hold_benchmark
+    from pyflyt_cli.config import CLIError
+
+    code = (
+        "import sys, time\nfrom pathlib import Path\nfrom pyflyt_cli.benchmark.run import hold_benchmark\n"
+        "with hold_benchmark(Path(sys.argv[1]), ['holder']):\n    print('held', flush=True)\n    time.sleep(3600)\n"
+    )
+    holder = subprocess.Popen(
+        [sys.executable, "-c", code, str(tmp_path)], env=cli_env(), stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout.readline().strip() == "held"  # type: ignore[union-attr]
+        with pytest.raises(CLIError, match=f"in use by process {holder.pid} \\(holder\\)"):
+            with hold_benchmark(tmp_path, ["second"]):
+                pass
+    finally:
+        holder.kill()  # SIGKILL: no clean-up code runs
+        holder.wait()
+    with hold_benchmark(tmp_path, ["third"]):  # the kernel released the lock with the process
+        assert (tmp_path / "benchmark.lock").read_text().startswith(f"{os.getpid()} third")
