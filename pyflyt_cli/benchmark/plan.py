@@ -214,9 +214,9 @@ def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], lis
 
 def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Sequence[str]) -> BenchmarkSpec:
     """The validated ``benchmark:`` section of ``experiment`` with the overrides applied."""
-    from pyflyt_cli.commands.train import compose_train_config
+    from pyflyt_cli.training.compose import compose_train_data
 
-    data = compose_train_config([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
+    data, _ = compose_train_data([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
     section = data.get("benchmark")
     if not isinstance(section, dict):
         raise CLIError(
@@ -242,8 +242,8 @@ def _describe(exc: ValidationError) -> str:
 
 def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
     """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides."""
-    from pyflyt_cli.commands.train import compose_train_config
     from pyflyt_cli.training import registry
+    from pyflyt_cli.training.compose import compose_train_data
     from pyflyt_cli.training.schema import parse_train_config
 
     from pyflyt_cli.benchmark.launch import check_launcher_overrides
@@ -270,7 +270,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
                     *run_over,
                 ]
                 try:  # composed once per (group, env, algo): no config interpolates the seed
-                    composed = compose_train_config(base, benchmark=True)
+                    composed, _ = compose_train_data(base, benchmark=True)
                 except CLIError as exc:
                     raise CLIError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
                 composed.pop("benchmark", None)

@@ -317,15 +317,13 @@ def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path)
 def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_path, monkeypatch):
     import shutil
 
-    import pyflyt_cli.commands.train as train_command
     import pyflyt_cli.config as config
 
     conf = tmp_path / "conf"
     shutil.copytree(conf_dir(), conf)
     marker = tmp_path / "ran"
     shipped = _tagged_experiment(conf / "experiment" / "tagged.yaml", marker)
-    monkeypatch.setattr(config, "conf_dir", lambda: conf)
-    monkeypatch.setattr(train_command, "conf_dir", lambda: conf)
+    monkeypatch.setattr(config, "conf_dir", lambda: conf)  # where Hydra looks
     with pytest.raises(CLIError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
         load_train_config(["experiment=tagged"])
     assert not marker.exists(), "code from the file ran"
@@ -350,3 +348,89 @@ def test_an_unreadable_experiment_file_is_named(tmp_path, content, expected):
 def test_a_config_group_set_to_null_is_explained(override, expected):
     with pytest.raises(CLIError, match=expected):
         load_train_config([override])
+
+
+# ------------------------------------------------------- one source of defaults
+
+
+def _schema_models():
+    from pydantic import BaseModel
+
+    from pyflyt_cli.training import schema
+
+    return [m for m in vars(schema).values() if isinstance(m, type) and issubclass(m, BaseModel) and m.__module__ == schema.__name__]
+
+
+def test_the_schema_writes_no_default_values():
+    """conf/ holds every default; a schema field is required, or optional with None meaning "not set"."""
+    restated = [
+        f"{model.__name__}.{name} = {field.get_default(call_default_factory=True)!r}"
+        for model in _schema_models()
+        for name, field in model.model_fields.items()
+        if not field.is_required() and field.get_default(call_default_factory=True) is not None
+    ]
+    assert restated == []
+
+
+@pytest.mark.parametrize("env", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_python_and_the_cli_compose_the_same_configuration(env, algo):
+    import yaml
+
+    from pyflyt_cli.training import compose_config
+    from pyflyt_cli.training.rundir import config_dict
+
+    result = CliRunner().invoke(app, ["train", f"env={env}", f"algo={algo}", "--cfg"])
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(result.output) == config_dict(compose_config(env=env, algo=algo))
+
+
+def test_the_algorithm_defaults_are_those_of_conf():
+    import yaml
+
+    from pyflyt_cli.training import compose_config
+
+    shipped = yaml.safe_load((conf_dir() / "algo" / "sac.yaml").read_text())
+    # env=rocket_landing has no SAC tuning in conf/hparams: every value is conf/algo/sac.yaml's
+    cfg = compose_config(env="rocket_landing", algo="sac")
+    assert cfg.algo.learning_starts == shipped["learning_starts"] == 10_000
+    assert cfg.trust_pickle is False
+
+
+def test_a_hand_written_config_missing_keys_is_refused_not_completed():
+    data = load_train_config(["algo=sac"]).model_dump(mode="json")
+    del data["algo"]["learning_starts"]
+    with pytest.raises(ConfigError, match=r"algo\.learning_starts: .*required(.|\n)*compose_config\(env=") as info:
+        parse_train_config(data)
+    assert "learning_starts" in str(info.value)
+
+
+def test_eval_options_take_conf_eval_yaml_for_keys_left_out():
+    import yaml
+
+    from pyflyt_cli.training.schema import EvalOptions, parse_eval_options
+
+    shipped = yaml.safe_load((conf_dir() / "eval.yaml").read_text())
+    assert set(shipped) == set(EvalOptions.model_fields)
+    options = parse_eval_options({"episodes": 3})
+    assert options.episodes == 3 and options.trust_pickle is False
+    assert options.model_dump() == {**shipped, "episodes": 3}
+
+
+def test_a_run_recorded_before_trust_pickle_existed_reads_as_not_trusting():
+    data = load_train_config([]).model_dump(mode="json")
+    del data["trust_pickle"]
+    assert parse_train_config(data).trust_pickle is False
+
+
+def test_awac_offline_buffer_npz_or_trusted_pickle(tmp_path):
+    for name in ("buffer.npz", "buffer.pkl", "buffer.txt"):
+        (tmp_path / name).write_bytes(b"")
+    npz, pkl = tmp_path / "buffer.npz", tmp_path / "buffer.pkl"
+    assert load_train_config(["algo=awac", f"algo.offline_buffer={npz}"]).algo.offline_buffer == str(npz)
+    with pytest.raises(ConfigError, match=r"is a pickle \(\.pkl\): unpickling can run arbitrary code.*trust_pickle=true"):
+        load_train_config(["algo=awac", f"algo.offline_buffer={pkl}"])
+    trusted = load_train_config(["algo=awac", f"algo.offline_buffer={pkl}", "trust_pickle=true"])
+    assert trusted.algo.offline_buffer == str(pkl) and trusted.trust_pickle
+    with pytest.raises(ConfigError, match="is not a replay buffer file"):
+        load_train_config(["algo=awac", f"algo.offline_buffer={tmp_path / 'buffer.txt'}"])
