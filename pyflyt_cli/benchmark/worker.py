@@ -58,38 +58,33 @@ def config_differences(planned: dict[str, Any], saved: dict[str, Any], run_dir: 
     return diffs
 
 
-def resolve_init_model(plan: Plan, job: Job) -> Path | None:
-    """The policy file ``job`` starts from, or None if it starts from scratch.
+def planned_config(plan: Plan, job: Job, resolve: bool) -> Any:
+    """The validated configuration ``job`` trains with; ``resolve``: its ``<run>@<step>`` source made a file.
 
-    Checkpoints are saved at the first rollout boundary at or after each multiple of
-    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with SAC's ``train_freq: 8``): a
-    planned ``model_<N>_steps.zip`` is the source's first checkpoint at step N or later.
+    Without ``resolve`` an unresolvable source (not trained that far yet) is left as planned.
     """
-    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.compose import resolve_init_from
+    from pyflyt_cli.training.schema import parse_train_config
 
-    if job.init_model is None:
-        return None
-    nominal = plan.root / job.init_model
-    if nominal.is_file() or nominal.parent.name != rundir.CHECKPOINTS:
-        return nominal
-    wanted = int(nominal.name[len("model_") : -len("_steps.zip")])
-    later = [c.model for c in rundir.checkpoints(nominal.parent.parent) if c.step >= wanted]
-    return later[0] if later else nominal
+    cfg = parse_train_config(job.config, source=f"{plan.root / 'plan.json'}: {job.id}")
+    try:
+        return resolve_init_from(cfg)
+    except ConfigError:
+        if resolve:
+            raise
+        return cfg
 
 
 def bring_to_completion(plan: Plan, job: Job) -> int:
     """Train, resume, extend or skip ``job``; returns the exit code."""
     from pyflyt_cli.training import rundir
     from pyflyt_cli.training.loop import resume, train
-    from pyflyt_cli.training.schema import parse_train_config
 
     run_dir = plan.run_dir(job)
-    init_model = resolve_init_model(plan, job)
-    planned = dict(job.config, init_from=str(init_model) if init_model is not None else job.config.get("init_from"))
-    cfg = parse_train_config(planned, source=f"{plan.root / 'plan.json'}: {job.id}")
     _log(f"== {job.id}  {time.strftime('%Y-%m-%d %H:%M:%S')}  pid {os.getpid()}")
     _log("   pyflyt train " + " ".join(job.overrides))
     if (run_dir / rundir.CONFIG_FILE).is_file():
+        planned = planned_config(plan, job, resolve=False).model_dump(mode="json")
         saved = rundir.load_run_config(run_dir)
         diffs = config_differences(planned, saved.model_dump(mode="json"), run_dir)
         if diffs:
@@ -115,11 +110,10 @@ def bring_to_completion(plan: Plan, job: Job) -> int:
                     "move it away to train this run"
                 )
             shutil.rmtree(run_dir)  # killed while being created: nothing trained yet
-        if init_model is not None and not init_model.is_file():
-            raise ConfigError(
-                f"{job.id} starts from {job.init_model}, which does not exist: run {job.depends_on} "
-                "first (pyflyt benchmark runs it before this one), and keep its checkpoints"
-            )
+        try:
+            cfg = planned_config(plan, job, resolve=True)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (pyflyt benchmark trains {job.depends_on} before {job.id})") from None
         result = train(cfg, run_dir=run_dir, log=_log, command=list(plan.command), overrides=list(job.overrides))
     return INTERRUPTED if result.interrupted else 0
 

@@ -9,6 +9,7 @@ trains the rest locally or through a Hydra launcher, and ends with a summary (al
 
 from __future__ import annotations
 
+import shlex
 import sys
 import time
 from typing import TYPE_CHECKING
@@ -65,9 +66,10 @@ def _run(plan: Plan, launcher: str | None, hydra_overrides: list[str], dry_run: 
         f"{sum(states[j.id] == 'new' for j in todo)} to start"
         + (f", {len(busy)} being trained by another process" if busy else "")
     )
-    if dry_run:
-        for j in plan.jobs:
-            _echo(f"  {states[j.id]:<9} {j.id}  pyflyt train {' '.join(j.overrides)}")
+    if dry_run:  # stdout: a script of one pyflyt train line per run, sources first
+        for j in [j for wave in levels(plan.jobs) for j in wave]:
+            typer.echo(f"# {states[j.id]:<9} {j.id}")
+            typer.echo(shlex.join(["pyflyt", "train", *j.overrides]))
         return 0
     plan.write()
     started = time.monotonic()

@@ -44,16 +44,18 @@ def train_help() -> str:
         "  pyflyt train env.reward=sparse algo.learning_rate=1e-3\n"
         "  pyflyt train -m seed=0,1,2        # one run per seed\n"
         "  pyflyt train resume=<run dir>     # continue an interrupted run\n"
-        "  pyflyt train init_from=<run dir>  # start from a run's policy\n\n"
+        "  pyflyt train init_from=<run dir>  # start from a run's policy\n"
+        "  pyflyt train init_from=<run dir>@<step>  # its first checkpoint at/after step\n\n"
         "Config groups (group=choice):\n"
         f"{groups}\n\n"
-        "Main keys: seed, train.total_timesteps, train.n_envs,\n"
+        "Main keys: seed, env_name, run_dir, train.total_timesteps, train.n_envs,\n"
         "train.eval_freq, train.eval_episodes, train.checkpoint_freq,\n"
         "train.output_dir, train.tensorboard, train.progress_bar,\n"
         "algo.<hyper-parameter>, env.<option>, resume, init_from,\n"
         "trust_pickle (load legacy pickled files you made yourself).\n"
         "--cfg prints the full composed config.  Reference: docs/cli.md.\n\n"
-        "Runs go to <train.output_dir>/<env>/<algo>/<time>-seed<k>.\n"
+        "Runs go to <train.output_dir>/<env_name>/<algo>/<time>-seed<k>,\n"
+        "or exactly to run_dir=<dir>.\n"
         f"Ctrl-C saves a checkpoint and exits with code {INTERRUPTED};\n"
         "user errors exit with code 2."
     )
@@ -127,6 +129,7 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
     """``pyflyt train``: returns the exit code (0 done, 130 interrupted)."""
     import yaml
 
+    from pyflyt_cli.training.compose import compose_run, resolve_init_from
     from pyflyt_cli.training.loop import resume, train
     from pyflyt_cli.training.rundir import config_dict
 
@@ -143,19 +146,22 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
         return INTERRUPTED if result.interrupted else 0
 
     jobs = _sweep_jobs(overrides, multirun)
-    configs = [load_train_config(job) for job in jobs]  # every job validated before the first runs
+    composed = [compose_run(job) for job in jobs]  # every job validated before the first runs
+    if len(jobs) > 1 and any(run_dir is not None for _, run_dir in composed):
+        raise CLIError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
     if show_config:
-        for job, cfg in zip(jobs, configs):
+        for job, (cfg, _) in zip(jobs, composed):
             if len(jobs) > 1:
                 typer.echo(f"# job: {' '.join(job)}")
             typer.echo(yaml.safe_dump(config_dict(cfg), sort_keys=False, default_flow_style=None, width=100))
         return 0
+    runs = [(resolve_init_from(cfg), run_dir) for cfg, run_dir in composed]  # <run>@<step>: a checkpoint file
     results = []
-    for i, (job, cfg) in enumerate(zip(jobs, configs)):
+    for i, (job, (cfg, run_dir)) in enumerate(zip(jobs, runs)):
         if len(jobs) > 1:
             _echo(f"[{i + 1}/{len(jobs)}] {' '.join(job)}")
         try:
-            result = train(cfg, overrides=job, log=_echo)
+            result = train(cfg, overrides=job, log=_echo, run_dir=run_dir)
         except KeyboardInterrupt:
             _echo("aborted (no checkpoint saved by this abort)")
             return INTERRUPTED

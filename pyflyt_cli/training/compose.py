@@ -15,14 +15,16 @@ nothing.  This is the only Hydra-aware module of :mod:`pyflyt_cli.training`.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from pyflyt_cli.config import CLIError, _group_choices, compose, to_container
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config
+from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 
 #: top-level keys of ``conf/train.yaml`` that tell ``pyflyt train`` what to do, not what to train
-COMMAND_KEYS = ("resume",)
+COMMAND_KEYS = ("resume", "run_dir")
 
 
 def compose_config(env: str | None = None, algo: str | None = None, overrides: Sequence[str] = ()) -> TrainConfig:
@@ -38,12 +40,55 @@ def compose_config(env: str | None = None, algo: str | None = None, overrides: S
     with a message naming the problem.
     """
     given = [*([f"env={env}"] if env else []), *([f"algo={algo}"] if algo else []), *overrides]
-    data, command = compose_train_data(given)
+    cfg, command = _compose(given)
     for key, value in command.items():
         if value is not None:
-            raise CLIError(f"{key}={value} is an instruction to pyflyt train, not part of a configuration")
-    source = "pyflyt train " + " ".join(given) if given else "pyflyt train"
-    return parse_train_config(data, source=source)
+            raise CLIError(
+                f"{key}={value} tells pyflyt train what to do, it is not part of a configuration "
+                "(from Python: train(cfg, run_dir=...), resume(run_dir))"
+            )
+    return cfg
+
+
+def compose_run(overrides: Sequence[str]) -> tuple[TrainConfig, Path | None]:
+    """``pyflyt train <overrides>`` (no ``resume=``): the validated config and the ``run_dir=`` it names (or None)."""
+    cfg, command = _compose(overrides)
+    run_dir = command["run_dir"]
+    return cfg, None if run_dir is None else Path(str(run_dir)).expanduser()
+
+
+def _compose(overrides: Sequence[str]) -> tuple[TrainConfig, dict[str, Any]]:
+    data, command = compose_train_data(overrides)
+    source = "pyflyt train " + " ".join(overrides) if overrides else "pyflyt train"
+    return parse_train_config(data, source=source), command
+
+
+def resolve_init_from(cfg: TrainConfig) -> TrainConfig:
+    """``cfg`` with ``init_from=<run dir>@<step>`` replaced by that run's first checkpoint at or after ``step``.
+
+    Checkpoints are saved at the first rollout boundary at or after each multiple of
+    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with ``train_freq: 8``), so a
+    step names "the policy after about that many steps".  What ``pyflyt train`` and
+    ``pyflyt benchmark`` do just before training; any other ``init_from`` is kept.
+    """
+    from pyflyt_cli.training import rundir
+
+    source, step = split_init_from(cfg.init_from)
+    if step is None:
+        return cfg
+    run = Path(source).expanduser()
+    found = rundir.checkpoints(run)
+    later = [c for c in found if c.step >= step]
+    if not later:
+        have = ", ".join(str(c.step) for c in found) or "none yet"
+        raise ConfigError(
+            f"init_from={cfg.init_from}: {run} has no checkpoint at or after step {step} (its checkpoints: "
+            f"{have}); train that run further (pyflyt train resume={run} train.total_timesteps=<more>) "
+            "or choose an earlier step"
+        )
+    data = cfg.model_dump(mode="json")
+    data["init_from"] = str(later[0].model)
+    return parse_train_config(data, source=f"init_from={cfg.init_from}")
 
 
 def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -75,11 +120,12 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     data = to_container(cfg)
     command = {key: data.pop(key, None) for key in COMMAND_KEYS}
     section = data.pop("benchmark", None)
-    if section is not None and not benchmark:
+    if section is not None and not benchmark and command["run_dir"] is None:
+        # one run of a benchmark names its run directory (the lines pyflyt benchmark --dry-run prints)
         name = choices.get("experiment")
         raise CLIError(
             f"experiment={name} declares a benchmark (a grid of envs x algorithms x seeds): run it with "
-            f"pyflyt benchmark experiment={name}"
+            f"pyflyt benchmark experiment={name} (--dry-run prints one pyflyt train line per run)"
         )
     env_name = choices.get("env")
     if not isinstance(data.get("env"), dict):
@@ -100,7 +146,7 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     if reward_choice:
         env["reward"] = {**(reward or {}), "name": reward_choice}
     data["env"] = env
-    data["env_name"] = env_name
+    data["env_name"] = data.get("env_name") or env_name
     data["experiment"] = choices.get("experiment")
     if benchmark and section is not None:
         data["benchmark"] = section

@@ -313,14 +313,17 @@ class TrainConfig(_Strict):
     """One training run: environment, algorithm, seed, options."""
 
     seed: int = Field(ge=0, description="seeds everything: env resets, motor noise, network init, action sampling")
-    env_name: str = Field(description="env config name, used in the run directory (runs/<env_name>/...)")
+    env_name: str = Field(
+        description="the name the run is filed and plotted under (runs/<env_name>/...): the env config's, "
+        "or a benchmark's task"
+    )
     env: SerializeAsAny[EnvConfig] = Field(description="the environment (conf/env, validated by EnvConfig)")
     algo: AlgoConfig = Field(description="algorithm and hyper-parameters (conf/algo, tuned by conf/hparams)")
     train: TrainOptions = Field(description="budget, parallelism, evaluation, checkpoints and outputs")
     callbacks: list[CallbackConfig] = Field(description="extra callbacks run after each evaluation")
     init_from: str | None = Field(
-        description="run directory, or one of its model files (e.g. checkpoints/model_<steps>_steps.zip), "
-        "whose policy weights start this run (bootstrap); null: from scratch",
+        description="run directory, one of its model files, or <run dir>@<step> (its first checkpoint at or "
+        "after that step), whose policy weights start this run (bootstrap); null: from scratch",
     )
     trust_pickle: bool = Field(
         description="load legacy pickled files (SB3 .zip models, .pkl replay buffers/normalisers) named by "
@@ -335,6 +338,14 @@ class TrainConfig(_Strict):
         if isinstance(value, EnvConfig):
             return value
         return parse_env_config(value, source="env")
+
+    @field_validator("init_from")
+    @classmethod
+    def _init_from(cls, value: str | None) -> str | None:
+        if value is not None and not value.strip():
+            raise ValueError("init_from is empty: give a run directory, a model file or <run dir>@<step> (null: none)")
+        split_init_from(value)
+        return value
 
     @field_validator("env_name")
     @classmethod
@@ -363,6 +374,16 @@ class TrainConfig(_Strict):
                     "lower algo.batch_size or raise algo.n_steps"
                 )
         return self
+
+
+def split_init_from(value: str | None) -> tuple[str | None, int | None]:
+    """``init_from`` as (source, checkpoint step): ``"<run dir>@<step>"`` -> (run dir, step); else (value, None)."""
+    if value is None or "@" not in value.replace("\\", "/").rsplit("/", 1)[-1]:
+        return value, None
+    source, _, step = value.rpartition("@")
+    if not source or not step.isdigit():
+        raise ValueError(f"init_from={value!r}: write <run dir>@<step>, the step a whole number (e.g. runs/a/sac/seed0@7500)")
+    return source, int(step)
 
 
 def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "train config") -> TrainConfig:

@@ -53,9 +53,8 @@ def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> Non
     awac = plan.job("quadx_waypoints_sparse/awac/seed2")
     assert awac.depends_on == "quadx_waypoints/sac/seed2"
     step = plan.spec["presets"]["laptop"]["partial_step"]
-    assert awac.config["init_from"] == str(
-        plan.root / f"runs/quadx_waypoints/sac/seed2/checkpoints/model_{step}_steps.zip"
-    )
+    # the source run's first checkpoint at or after that step, resolved when the run starts
+    assert awac.config["init_from"] == f"{plan.root}/runs/quadx_waypoints/sac/seed2@{step}"
     assert awac.config["env"]["reward"] == "sparse"
     assert plan.job("quadx_waypoints/sac/seed2").config["env"]["reward"] == "dense"
     sac = plan.job("quadx_waypoints/sac/seed2")
@@ -175,21 +174,25 @@ def test_config_differences_ignore_budget_only(tmp_path: Path) -> None:
 
 
 def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path: Path) -> None:
-    from pyflyt_cli.benchmark.worker import resolve_init_model
+    from pyflyt_cli.benchmark.worker import planned_config
+    from pyflyt_cli.training import rundir
+    from pyflyt_engine.errors import ConfigError
 
     plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
     job = plan.job("quadx_waypoints_sparse/awac/seed0")
     step = plan.spec["presets"]["laptop"]["partial_step"]
-    folder = plan.run_dir(plan.job("quadx_waypoints/sac/seed0")) / "checkpoints"
-    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"  # not trained yet: as planned
-    folder.mkdir(parents=True)
-    (folder.parent / "config.yaml").write_text("{}")
+    source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
+    assert planned_config(plan, job, resolve=False).init_from == f"{source}@{step}"  # not trained yet: as planned
+    with pytest.raises(ConfigError, match=f"has no checkpoint at or after step {step}"):
+        planned_config(plan, job, resolve=True)
+    (source / rundir.CHECKPOINTS).mkdir(parents=True)
+    (source / rundir.CONFIG_FILE).write_text("{}")
     for s in (step - 2496, step + 4, step + 2504):  # SAC with train_freq 8 checkpoints at rollout ends
-        (folder / f"model_{s}_steps.zip").write_bytes(b"")
-    assert resolve_init_model(plan, job) == folder / f"model_{step + 4}_steps.zip"
-    (folder / f"model_{step}_steps.zip").write_bytes(b"")
-    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"
-    assert resolve_init_model(plan, plan.job("quadx_waypoints/sac/seed0")) is None
+        rundir.checkpoint_paths(source, s).model.write_bytes(b"")
+    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step + 4).model)
+    rundir.checkpoint_paths(source, step).model.write_bytes(b"")
+    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step).model)
+    assert planned_config(plan, plan.job("quadx_waypoints/sac/seed0"), resolve=True).init_from is None
 
 
 def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> None:
@@ -235,3 +238,40 @@ def test_launcher_settings_are_passed_on(tmp_path: Path) -> None:
     ok = ["hydra/launcher=basic", "+hydra.launcher.ray.init.num_cpus=2", "hydra.launcher.setup=[a,b]"]
     _, hydra = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", *ok])
     assert hydra == ok
+
+
+def dry_run_lines(stdout: str) -> dict[str, list[str]]:
+    """``pyflyt benchmark --dry-run``'s script: run id -> the arguments of its ``pyflyt train`` line."""
+    import shlex
+
+    lines, run = {}, None
+    for line in stdout.splitlines():
+        if line.startswith("# "):
+            run = line.split()[-1]
+        elif line.startswith("pyflyt train "):
+            lines[run] = shlex.split(line)[2:]
+    return lines
+
+
+def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
+    """Each printed `pyflyt train` line, composed as pyflyt train composes it, is its run: same digest, same directory."""
+    from tests.train.conftest import pyflyt
+
+    out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
+    quoted = str(out).replace("'", "\\'")
+    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=9000"]
+    result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    plan, _ = build_plan("paper_rl", args)
+    lines = dry_run_lines(result.stdout)
+    assert sorted(lines) == sorted(j.id for j in plan.jobs)
+    assert list(lines).index("quadx_waypoints/sac/seed1") < list(lines).index("quadx_waypoints_sparse/awac/seed1")
+    from pyflyt_cli.training.compose import compose_run
+    from pyflyt_cli.training.rundir import config_digest
+
+    for job in plan.jobs:
+        cfg, run_dir = compose_run(lines[job.id])
+        assert run_dir == plan.run_dir(job)
+        assert cfg.env_name == job.task and cfg.seed == job.seed
+        assert config_digest(cfg) == config_digest(job.config), job.id
+    assert not out.exists()

@@ -272,3 +272,58 @@ def test_the_benchmark_lock_dies_with_its_process(tmp_path: Path) -> None:
         holder.wait()
     with hold_benchmark(tmp_path, ["third"]):  # the kernel released the lock with the process
         assert (tmp_path / "benchmark.lock").read_text().startswith(f"{os.getpid()} third")
+
+
+BOOTSTRAP = """# @package _global_
+benchmark:
+  seeds: 1
+  random_episodes: 1
+  groups:
+    - envs: [quadx_waypoints]
+      algos: [sac]
+    - envs: [quadx_waypoints]
+      algos: [awac]
+      task: "{env}_sparse"
+      overrides: [env.reward=sparse]
+      init_from: {task: "{env}", algo: sac, checkpoint: 100}
+train: {total_timesteps: 160, eval_freq: 0, checkpoint_freq: 100}
+algo: {learning_starts: 40, batch_size: 16, buffer_size: 1000, policy_kwargs: {net_arch: [16, 16]}}
+"""
+
+
+def test_the_dry_run_lines_train_the_runs_the_benchmark_plans(tmp_path: Path) -> None:
+    """Run as printed, the lines train each run in its planned directory; the benchmark then finds them complete."""
+    import shlex
+
+    import yaml
+
+    from pyflyt_cli.benchmark.plan import build_plan
+    from pyflyt_cli.training import rundir
+
+    from tests.benchmark.test_plan import dry_run_lines
+
+    study = tmp_path / "tiny_bootstrap.yaml"
+    study.write_text(BOOTSTRAP)
+    args = [f"experiment={study}", f"benchmark.output_dir={tmp_path}"]
+    dry = pyflyt(["benchmark", *args, "--dry-run"], tmp_path)
+    assert dry.returncode == 0, dry.stderr
+    lines = dry_run_lines(dry.stdout)
+    assert list(lines) == ["quadx_waypoints/sac/seed0", "quadx_waypoints_sparse/awac/seed0"]  # sources first
+    plan, _ = build_plan(str(study), args[1:])
+    from pyflyt_cli.benchmark.worker import planned_config
+
+    for run_id, line in lines.items():
+        trained = pyflyt(["train", *line], tmp_path)
+        assert trained.returncode == 0, f"{shlex.join(line)}\n{trained.stderr[-3000:]}"
+        job = plan.job(run_id)
+        record = yaml.safe_load((plan.run_dir(job) / rundir.RUN_FILE).read_text())
+        assert record["config_digest"] == rundir.config_digest(planned_config(plan, job, resolve=True))
+    source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
+    first_after_100 = next(c for c in rundir.checkpoints(source) if c.step >= 100)
+    assert first_after_100.step == 104  # SAC's rollouts are train_freq 8 steps long
+    started = rundir.load_run_config(plan.run_dir(plan.job("quadx_waypoints_sparse/awac/seed0")))
+    assert started.init_from == str(first_after_100.model)
+
+    bench = pyflyt(["benchmark", *args], tmp_path)
+    assert bench.returncode == 0, bench.stderr[-3000:]
+    assert "2 complete (skipped), 0 to resume, 0 to start" in bench.stderr
