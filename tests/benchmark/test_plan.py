@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from pyflyt_cli.benchmark.plan import build_plan, levels, read_plan, split_overrides
-from pyflyt_cli.benchmark.run import COMPLETE, NEW, PARTIAL, run_state
-from pyflyt_cli.benchmark.worker import config_differences
+from pyflyt_cli.benchmark.run import CHANGED, COMPLETE, NEW, PARTIAL, run_state
+from pyflyt_cli.benchmark.worker import run_differences
 from pyflyt_cli.config import CLIError
 
 P = "benchmark.presets.laptop"
@@ -135,6 +135,24 @@ def test_unknown_or_missing_launcher_plugin_is_named() -> None:
         launcher_name(["hydra.launcher.partition=gpu"])
 
 
+def _save_run(plan, job, **changes) -> Path:
+    """``job``'s run directory holding its planned config.yaml with ``changes`` (``"algo.gamma": 0.9``)."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.schema import parse_train_config
+
+    data = json.loads(json.dumps(job.config))
+    for path, value in changes.items():
+        *parents, leaf = path.split(".")
+        node = data
+        for key in parents:
+            node = node[key]
+        node[leaf] = value
+    run = plan.run_dir(job)
+    run.mkdir(parents=True, exist_ok=True)
+    rundir.save_config(parse_train_config(data), run)
+    return run
+
+
 def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
     plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
     plan.write()
@@ -143,9 +161,7 @@ def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
     assert again.jobs[0].config == plan.jobs[0].config
     job = plan.jobs[0]
     assert run_state(plan, job) == NEW
-    run = plan.run_dir(job)
-    run.mkdir(parents=True)
-    (run / "config.yaml").write_text("{}")
+    run = _save_run(plan, job)
     (run / "state.json").write_text(json.dumps({"status": "interrupted", "total_timesteps": 256}))
     assert run_state(plan, job) == PARTIAL
     (run / "state.json").write_text(json.dumps({"status": "complete", "total_timesteps": 256}))
@@ -155,6 +171,11 @@ def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
         "smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1", "train.total_timesteps=512"]
     )
     assert run_state(bigger, bigger.jobs[0]) == PARTIAL
+    # other settings: never reused, complete or not
+    other, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1", "algo.gamma=0.9"])
+    assert run_state(other, other.jobs[0]) == CHANGED
+    (run / "config.yaml").write_text("{}")
+    assert run_state(plan, job) == CHANGED
 
 
 def test_truncated_plan_file_is_reported(tmp_path: Path) -> None:
@@ -165,12 +186,20 @@ def test_truncated_plan_file_is_reported(tmp_path: Path) -> None:
         read_plan(tmp_path)
 
 
-def test_config_differences_ignore_budget_only(tmp_path: Path) -> None:
-    planned = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 10, "output_dir": "a"}}
-    saved = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 5, "output_dir": "b"}}
-    assert config_differences(planned, saved, tmp_path) == []
-    saved["algo"]["gamma"] = 0.9
-    assert config_differences(planned, saved, tmp_path) == ["algo.gamma"]
+def test_run_differences_name_each_setting_saved_and_planned(tmp_path: Path) -> None:
+    plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
+    job = plan.jobs[0]
+    assert run_differences(plan, job) == []  # no run directory yet
+    _save_run(plan, job, **{"train.output_dir": "elsewhere", "train.progress_bar": True})
+    assert run_differences(plan, job) == []  # where it was written and how it reported are not settings
+    _save_run(plan, job, **{"train.total_timesteps": 128})
+    assert run_differences(plan, job) == []  # the plan's budget grew: an extension
+    _save_run(plan, job, **{"train.total_timesteps": 512, "algo.gamma": 0.9, "algo.policy_kwargs.net_arch": [8]})
+    assert [str(d) for d in run_differences(plan, job)] == [
+        "algo.gamma: 0.9 -> 0.99",
+        "algo.policy_kwargs.net_arch: [8] -> [64, 64]",
+        "train.total_timesteps: 512 -> 256",
+    ]
 
 
 def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path: Path) -> None:

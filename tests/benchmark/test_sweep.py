@@ -167,11 +167,64 @@ def test_budget_grown_in_the_plan_extends_complete_runs(tmp_path: Path) -> None:
     assert longer.returncode == 0, longer.stderr[-3000:]
     assert "0 complete (skipped), 2 to resume" in longer.stderr
     assert all(s["num_timesteps"] >= 384 and s["status"] == "complete" for s in states(root).values())
-    refused = pyflyt([*args, "train.total_timesteps=384", "algo.learning_rate=0.1"], tmp_path)
-    assert refused.returncode == 0  # complete for that budget: skipped, never compared
-    changed = pyflyt([*args, "train.total_timesteps=512", "algo.learning_rate=0.1"], tmp_path)
-    assert changed.returncode == 1
-    assert "trained with another configuration (algo.learning_rate" in changed.stderr
+    shorter = pyflyt(args, tmp_path)  # a run is extended, never shortened: 384 steps are not a 256-step run
+    assert shorter.returncode == 2
+    assert "quadx_hover/ppo/seed0  train.total_timesteps: 384 -> 256" in shorter.stderr
+
+
+def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_path: Path) -> None:
+    from pyflyt_cli.plotting.data import load_benchmark
+
+    args = ["benchmark", "experiment=smoke_benchmark", "seeds=1", f"benchmark.output_dir={tmp_path}"]
+    assert pyflyt(args, tmp_path).returncode == 0
+    root = tmp_path / "smoke_benchmark"
+    before = mtimes(root)
+    changed = [*args, "algo.learning_rate=1e-3", "algo.n_epochs=2"]
+    refused = pyflyt(changed, tmp_path)
+    assert refused.returncode == 2, refused.stderr[-3000:]
+    for run in ("quadx_hover/ppo/seed0", "quadx_waypoints/ppo/seed0"):  # one line per run and key: saved -> planned
+        assert f"  {run}  algo.learning_rate: 0.0003 -> 0.001\n" in refused.stderr
+        assert f"  {run}  algo.n_epochs: 1 -> 2\n" in refused.stderr
+    assert "benchmark.name=" in refused.stderr and "--restart-changed" in refused.stderr
+    assert "started" not in refused.stderr and mtimes(root) == before  # nothing trained, nothing rewritten
+    dry = pyflyt([*changed, "--dry-run"], tmp_path)
+    assert dry.returncode == 2 and "# changed   quadx_hover/ppo/seed0" in dry.stdout
+
+    restarted = pyflyt([*changed, "--restart-changed"], tmp_path)
+    assert restarted.returncode == 0, restarted.stderr[-3000:]
+    assert "2 to restart (settings changed)" in restarted.stderr
+    (replaced,) = (root / "replaced").iterdir()
+    old = replaced / "quadx_hover" / "ppo" / "seed0"
+    assert {k.removeprefix("runs/"): v for k, v in before.items()} == {
+        str(p.relative_to(replaced)): p.stat().st_mtime_ns for p in replaced.rglob("*") if p.is_file() and "logs" not in p.parts
+    }  # the old runs, untouched, beside their logs
+    assert (replaced / "logs" / "quadx_hover__ppo__seed0.log").is_file()
+    assert "learning_rate: 0.0003" in (old / "config.yaml").read_text()
+    assert "learning_rate: 0.001" in (root / "runs" / "quadx_hover" / "ppo" / "seed0" / "config.yaml").read_text()
+    assert all(s["status"] == "complete" for s in states(root).values())
+    assert {r.run_dir.parent.parent.parent for r in load_benchmark(root).runs} == {root / "runs"}  # plots new runs only
+    again = pyflyt(changed, tmp_path)
+    assert again.returncode == 0 and "2 complete (skipped)" in again.stderr
+
+
+def test_runs_that_start_from_a_restarted_run_restart_too(tmp_path: Path) -> None:
+    study = tmp_path / "tiny_bootstrap.yaml"
+    study.write_text(BOOTSTRAP)
+    args = ["benchmark", f"experiment={study}", f"benchmark.output_dir={tmp_path}"]
+    first = pyflyt(args, tmp_path)
+    assert first.returncode == 0, first.stderr[-3000:]
+    source_only = [*args, "benchmark.groups.0.overrides=['algo.tau=0.01']"]
+    refused = pyflyt(source_only, tmp_path)
+    assert refused.returncode == 2, refused.stderr[-3000:]
+    assert "  quadx_waypoints/sac/seed0  algo.tau: 0.02 -> 0.01\n" in refused.stderr
+    assert "  quadx_waypoints_sparse/awac/seed0  it starts from quadx_waypoints/sac/seed0, which restarts" in refused.stderr
+    restarted = pyflyt([*source_only, "--restart-changed"], tmp_path)
+    assert restarted.returncode == 0, restarted.stderr[-3000:]
+    (replaced,) = (tmp_path / "tiny_bootstrap" / "replaced").iterdir()
+    assert sorted(str(p.relative_to(replaced)) for p in replaced.glob("*/*/seed0")) == [
+        "quadx_waypoints/sac/seed0",
+        "quadx_waypoints_sparse/awac/seed0",
+    ]
 
 
 def test_bad_cli_input_exits_2_with_a_message(tmp_path: Path) -> None:
