@@ -191,6 +191,20 @@ def read_plan(root: str | Path) -> Plan:
 # ---------------------------------------------------------------------- compose
 
 
+#: pyflyt train keys a benchmark sets for each run, and what to give instead
+_SET_BY_THE_PLAN = {
+    "experiment": "the benchmark is chosen once: pyflyt benchmark experiment=<name>",
+    "seed": "seeds come from the benchmark: use seeds=N (seeds 0..N-1) or 'benchmark.seeds=[0,5,7]'",
+    "resume": "a benchmark resumes its interrupted runs by itself: rerun the same command",
+    "env": "envs come from the benchmark's groups: edit benchmark.groups in the experiment file",
+    "algo": "algorithms come from the benchmark's groups: edit benchmark.groups in the experiment file",
+    "env_name": "runs are filed under their group's task: edit benchmark.groups[i].task in the experiment file",
+    "run_dir": "runs go to <benchmark>/runs/<task>/<algo>/seed<k>: choose benchmark.output_dir or benchmark.name",
+    "train.output_dir": "runs go to <benchmark>/runs/: choose benchmark.output_dir or benchmark.name",
+    "init_from": "a group starts from another group's runs by its init_from: edit benchmark.groups[i].init_from",
+}
+
+
 def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], list[str]]:
     """(benchmark.* overrides, hydra launcher overrides, overrides for every run)."""
     bench, hydra, runs = [], [], []
@@ -204,14 +218,8 @@ def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], lis
             bench.append(item if key.startswith(("+", "~")) else f"++{item}")
         elif bare.startswith(("hydra/", "hydra.")):
             hydra.append(item)
-        elif bare in ("experiment", "seed", "resume", "env", "algo"):
-            what = {
-                "experiment": "the benchmark is chosen once: pyflyt benchmark experiment=<name>",
-                "seed": "seeds come from the benchmark: use seeds=N (seeds 0..N-1) or 'benchmark.seeds=[0,5,7]'",
-                "resume": "a benchmark resumes its interrupted runs by itself: rerun the same command",
-                "env": "envs come from the benchmark's groups: edit benchmark.groups in the experiment file",
-                "algo": "algorithms come from the benchmark's groups: edit benchmark.groups in the experiment file",
-            }[bare]
+        elif bare in _SET_BY_THE_PLAN:
+            what = _SET_BY_THE_PLAN[bare]
             raise CLIError(f"'{item}' cannot be given to pyflyt benchmark: {what}")
         else:
             runs.append(item)
@@ -262,6 +270,10 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
 
     jobs: dict[str, Job] = {}
     for g, group in enumerate(spec.groups):
+        for item in group.overrides:
+            key = item.partition("=")[0].lstrip("+~")
+            if key in _SET_BY_THE_PLAN:
+                raise CLIError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
         for env in group.envs:
             task = _task_name(group.task, env, f"benchmark.groups[{g}].task")
             for algo in group.algos:

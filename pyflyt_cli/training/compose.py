@@ -76,7 +76,10 @@ def resolve_init_from(cfg: TrainConfig) -> TrainConfig:
     source, step = split_init_from(cfg.init_from)
     if step is None:
         return cfg
-    run = Path(source).expanduser()
+    try:
+        run = rundir.check_run_dir(Path(source))
+    except ConfigError as exc:
+        raise ConfigError(f"init_from={cfg.init_from}: {exc}") from None
     found = rundir.checkpoints(run)
     later = [c for c in found if c.step >= step]
     if not later:

@@ -382,7 +382,7 @@ def split_init_from(value: str | None) -> tuple[str | None, int | None]:
         return value, None
     source, _, step = value.rpartition("@")
     if not source or not step.isdigit():
-        raise ValueError(f"init_from={value!r}: write <run dir>@<step>, the step a whole number (e.g. runs/a/sac/seed0@7500)")
+        raise ValueError("write <run dir>@<step> with a whole number of steps (e.g. runs/a/sac/seed0@7500)")
     return source, int(step)
 
 

@@ -77,6 +77,11 @@ def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> Non
         (["benchmark.groups.0.algos=[ppo,nope]"], "unknown algo 'nope'"),
         (["benchmark.colour=red"], "benchmark.colour"),
         (["train.total_timestep=5"], "Did you mean 'train.total_timesteps'"),
+        (["run_dir=/tmp/x"], "runs go to <benchmark>/runs/<task>/<algo>/seed<k>"),
+        (["env_name=x"], "filed under their group's task"),
+        (["train.output_dir=x"], "choose benchmark.output_dir"),
+        (["init_from=/tmp/x"], "benchmark.groups[i].init_from"),
+        (["benchmark.groups.0.overrides=['seed=3']"], "benchmark.groups[0].overrides: 'seed=3' cannot be given"),
     ],
 )
 def test_bad_benchmark_overrides_name_the_problem(tmp_path: Path, overrides: list[str], message: str) -> None:
@@ -304,3 +309,11 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
         assert cfg.env_name == job.task and cfg.seed == job.seed
         assert config_digest(cfg) == config_digest(job.config), job.id
     assert not out.exists()
+
+
+def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Path) -> None:
+    from pyflyt_cli.commands.benchmark import run_benchmark
+
+    (tmp_path / "a file").write_text("")
+    with pytest.raises(CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"):
+        run_benchmark(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])

@@ -434,3 +434,13 @@ def test_awac_offline_buffer_npz_or_trusted_pickle(tmp_path):
     assert trusted.algo.offline_buffer == str(pkl) and trusted.trust_pickle
     with pytest.raises(ConfigError, match="is not a replay buffer file"):
         load_train_config(["algo=awac", f"algo.offline_buffer={tmp_path / 'buffer.txt'}"])
+
+
+def test_init_from_a_step_of_a_missing_run_names_the_run(tmp_path):
+    from pyflyt_cli.commands.train import run_train
+
+    with pytest.raises(ConfigError, match=r"init_from=.*@5: run directory .*nope does not exist"):
+        run_train([f"init_from={tmp_path / 'nope'}@5", f"train.output_dir={tmp_path / 'runs'}"])
+    with pytest.raises(ConfigError, match=r"write <run dir>@<step> with a whole number of steps"):
+        run_train([f"init_from={tmp_path}@five"], show_config=True)
+    assert not (tmp_path / "runs").exists()
