@@ -256,9 +256,8 @@ def _describe(exc: ValidationError) -> str:
 
 def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
     """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides."""
-    from pyflyt_cli.training import registry
-
     from pyflyt_cli.benchmark.launch import check_launcher_overrides
+    from pyflyt_cli.training import registry
 
     bench_over, hydra_over, run_over = split_overrides(overrides)
     check_launcher_overrides(hydra_over)  # before anything is composed, written or run
@@ -364,7 +363,12 @@ def _compose_lines(lines: list[list[str]]) -> list[dict[str, Any]]:
 
 
 #: the overrides that differ between the runs of one (group, env, algo): set on composed data
-_PER_RUN = {"seed": ("seed",), "env_name": ("env_name",), "init_from": ("init_from",), "train.output_dir": ("train", "output_dir")}
+_PER_RUN = {
+    "seed": ("seed",),
+    "env_name": ("env_name",),
+    "init_from": ("init_from",),
+    "train.output_dir": ("train", "output_dir"),
+}
 
 
 def _with_run_values(data: dict[str, Any], line: list[str]) -> dict[str, Any]:

@@ -267,9 +267,15 @@ class TrainOptions(_Strict):
     eval_freq: int = Field(ge=0, description="evaluate every this many environment steps (0: never)")
     eval_episodes: int = Field(ge=1, description="episodes per evaluation")
     eval_deterministic: bool = Field(description="evaluate the policy's mean action")
-    checkpoint_freq: int = Field(ge=0, description="checkpoint every this many environment steps (0: only on interrupt)")
-    keep_checkpoints: int = Field(ge=0, description="keep the newest k model checkpoints (0: all); one replay buffer is kept")
-    save_replay_buffer: bool = Field(description="save the replay buffer with checkpoints (off-policy), for exact resume")
+    checkpoint_freq: int = Field(
+        ge=0, description="checkpoint every this many environment steps (0: only on interrupt)"
+    )
+    keep_checkpoints: int = Field(
+        ge=0, description="keep the newest k model checkpoints (0: all); one replay buffer is kept"
+    )
+    save_replay_buffer: bool = Field(
+        description="save the replay buffer with checkpoints (off-policy), for exact resume"
+    )
     progress_bar: bool | None = Field(description="tqdm bar with steps/s and ETA; null: only on a terminal")
     tensorboard: bool = Field(description="also write TensorBoard logs to <run>/tensorboard (needs tensorboard)")
     output_dir: str = Field(description="root of run directories: <output_dir>/<env>/<algo>/<time>-seed<k>")
@@ -357,13 +363,12 @@ class TrainConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> TrainConfig:
         algo, opts = self.algo, self.train
-        if isinstance(algo, AWACConfig) and algo.offline_buffer and algo.offline_buffer.endswith(".pkl"):
-            if not self.trust_pickle:
-                raise ValueError(
-                    f"algo.offline_buffer {algo.offline_buffer} is a pickle (.pkl): unpickling can run arbitrary "
-                    "code. Give a .npz replay buffer (a run's checkpoints/), or set trust_pickle=true if you made "
-                    "that file yourself"
-                )
+        buffer = algo.offline_buffer if isinstance(algo, AWACConfig) else None
+        if buffer is not None and buffer.endswith(".pkl") and not self.trust_pickle:
+            raise ValueError(
+                f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
+                "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
+            )
         if isinstance(algo, PPOConfig):
             rollout = algo.n_steps * opts.n_envs
             if rollout < 2:

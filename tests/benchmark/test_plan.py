@@ -315,5 +315,7 @@ def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Pat
     from pyflyt_cli.commands.benchmark import run_benchmark
 
     (tmp_path / "a file").write_text("")
-    with pytest.raises(CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"):
+    with pytest.raises(
+        CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
+    ):
         run_benchmark(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])

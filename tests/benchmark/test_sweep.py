@@ -66,6 +66,18 @@ def test_tiny_sweep_runs_reruns_as_skips_and_plots(tmp_path: Path) -> None:
     assert all(p.is_file() for p in report.figures)
 
 
+def _spawn(args: list[str], cwd: Path) -> subprocess.Popen:
+    """``pyflyt <args>`` in the background, its stderr readable as text."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "pyflyt_cli.main", *args],
+        cwd=cwd,
+        env=cli_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
 def _wait(predicate, timeout: float, what: str) -> None:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -96,14 +108,7 @@ def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> N
         "train.eval_freq=512",
     ]
     root = tmp_path / "smoke_benchmark"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pyflyt_cli.main", *args],
-        cwd=tmp_path,
-        env=cli_env(),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = _spawn(args, tmp_path)
     try:
         second = root / "runs" / "quadx_hover" / "ppo" / "seed1"
         _wait(
@@ -196,7 +201,9 @@ def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_
     (replaced,) = (root / "replaced").iterdir()
     old = replaced / "quadx_hover" / "ppo" / "seed0"
     assert {k.removeprefix("runs/"): v for k, v in before.items()} == {
-        str(p.relative_to(replaced)): p.stat().st_mtime_ns for p in replaced.rglob("*") if p.is_file() and "logs" not in p.parts
+        str(p.relative_to(replaced)): p.stat().st_mtime_ns
+        for p in replaced.rglob("*")
+        if p.is_file() and "logs" not in p.parts
     }  # the old runs, untouched, beside their logs
     assert (replaced / "logs" / "quadx_hover__ppo__seed0.log").is_file()
     assert "learning_rate: 0.0003" in (old / "config.yaml").read_text()
@@ -217,7 +224,10 @@ def test_runs_that_start_from_a_restarted_run_restart_too(tmp_path: Path) -> Non
     refused = pyflyt(source_only, tmp_path)
     assert refused.returncode == 2, refused.stderr[-3000:]
     assert "  quadx_waypoints/sac/seed0  algo.tau: 0.02 -> 0.01\n" in refused.stderr
-    assert "  quadx_waypoints_sparse/awac/seed0  it starts from quadx_waypoints/sac/seed0, which restarts" in refused.stderr
+    assert (
+        "  quadx_waypoints_sparse/awac/seed0  it starts from quadx_waypoints/sac/seed0, which restarts"
+        in refused.stderr
+    )
     restarted = pyflyt([*source_only, "--restart-changed"], tmp_path)
     assert restarted.returncode == 0, restarted.stderr[-3000:]
     (replaced,) = (tmp_path / "tiny_bootstrap" / "replaced").iterdir()
@@ -266,28 +276,28 @@ def test_a_hydra_callback_payload_is_refused_before_anything_runs(tmp_path: Path
     assert not (tmp_path / "smoke_benchmark").exists(), "nothing may be written"
 
 
-def _start(args: list[str], cwd: Path, ready: str) -> tuple[subprocess.Popen, list[str]]:
+def _start(args: list[str], cwd: Path, ready: str) -> subprocess.Popen:
     """Start ``pyflyt <args>`` and read its stderr until a line containing ``ready``."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pyflyt_cli.main", *args],
-        cwd=cwd,
-        env=cli_env(),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = _spawn(args, cwd)
     seen: list[str] = []
     for line in proc.stderr:  # type: ignore[union-attr]
         seen.append(line)
         if ready in line:
-            return proc, seen
+            return proc
     proc.wait()
     raise AssertionError(f"exited ({proc.returncode}) before printing {ready!r}:\n{''.join(seen)}")
 
 
 def test_a_second_benchmark_on_the_same_directory_is_refused_untouched(tmp_path: Path) -> None:
-    args = ["benchmark", *SMOKE, "seeds=1", "jobs=1", f"benchmark.output_dir={tmp_path}", "train.total_timesteps=10000000"]
-    first, _ = _start(args, tmp_path, "started")
+    args = [
+        "benchmark",
+        *SMOKE,
+        "seeds=1",
+        "jobs=1",
+        f"benchmark.output_dir={tmp_path}",
+        "train.total_timesteps=10000000",
+    ]
+    first = _start(args, tmp_path, "started")
     try:
         root = tmp_path / "smoke_benchmark"
         plan = (root / "plan.json").read_bytes(), (root / "plan.json").stat().st_mtime_ns
@@ -317,9 +327,11 @@ def test_the_benchmark_lock_dies_with_its_process(tmp_path: Path) -> None:
     )
     try:
         assert holder.stdout.readline().strip() == "held"  # type: ignore[union-attr]
-        with pytest.raises(CLIError, match=f"in use by process {holder.pid} \\(holder\\)"):
-            with hold_benchmark(tmp_path, ["second"]):
-                pass
+        with (
+            pytest.raises(CLIError, match=f"in use by process {holder.pid} \\(holder\\)"),
+            hold_benchmark(tmp_path, ["second"]),
+        ):
+            pass
     finally:
         holder.kill()  # SIGKILL: no clean-up code runs
         holder.wait()
@@ -352,7 +364,6 @@ def test_the_dry_run_lines_train_the_runs_the_benchmark_plans(tmp_path: Path) ->
 
     from pyflyt_cli.benchmark.plan import build_plan
     from pyflyt_cli.training import rundir
-
     from tests.benchmark.test_plan import dry_run_lines
 
     study = tmp_path / "tiny_bootstrap.yaml"

@@ -317,7 +317,7 @@ def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path)
 def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_path, monkeypatch):
     import shutil
 
-    import pyflyt_cli.config as config
+    from pyflyt_cli import config
 
     conf = tmp_path / "conf"
     shutil.copytree(conf_dir(), conf)
@@ -358,7 +358,11 @@ def _schema_models():
 
     from pyflyt_cli.training import schema
 
-    return [m for m in vars(schema).values() if isinstance(m, type) and issubclass(m, BaseModel) and m.__module__ == schema.__name__]
+    return [
+        m
+        for m in vars(schema).values()
+        if isinstance(m, type) and issubclass(m, BaseModel) and m.__module__ == schema.__name__
+    ]
 
 
 def test_the_schema_writes_no_default_values():
@@ -428,7 +432,9 @@ def test_awac_offline_buffer_npz_or_trusted_pickle(tmp_path):
         (tmp_path / name).write_bytes(b"")
     npz, pkl = tmp_path / "buffer.npz", tmp_path / "buffer.pkl"
     assert load_train_config(["algo=awac", f"algo.offline_buffer={npz}"]).algo.offline_buffer == str(npz)
-    with pytest.raises(ConfigError, match=r"is a pickle \(\.pkl\): unpickling can run arbitrary code.*trust_pickle=true"):
+    with pytest.raises(
+        ConfigError, match=r"is a pickle \(\.pkl\): unpickling can run arbitrary code.*trust_pickle=true"
+    ):
         load_train_config(["algo=awac", f"algo.offline_buffer={pkl}"])
     trusted = load_train_config(["algo=awac", f"algo.offline_buffer={pkl}", "trust_pickle=true"])
     assert trusted.algo.offline_buffer == str(pkl) and trusted.trust_pickle
