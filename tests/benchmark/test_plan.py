@@ -217,10 +217,12 @@ def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path:
     step = plan.spec["presets"]["laptop"]["partial_step"]
     source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
     assert planned_config(plan, job, resolve=False).init_from == f"{source}@{step}"  # not trained yet: as planned
-    with pytest.raises(ConfigError, match=f"has no checkpoint at or after step {step}"):
+    with pytest.raises(ConfigError, match=f"@{step}: run directory {source} does not exist"):
         planned_config(plan, job, resolve=True)
     (source / rundir.CHECKPOINTS).mkdir(parents=True)
     (source / rundir.CONFIG_FILE).write_text("{}")
+    with pytest.raises(ConfigError, match=f"has no checkpoint at or after step {step} \\(its checkpoints: none yet\\)"):
+        planned_config(plan, job, resolve=True)
     for s in (step - 2496, step + 4, step + 2504):  # SAC with train_freq 8 checkpoints at rollout ends
         rundir.checkpoint_paths(source, s).model.write_bytes(b"")
     assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step + 4).model)
