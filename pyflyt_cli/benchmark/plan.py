@@ -345,6 +345,7 @@ def _compose_lines(lines: list[list[str]]) -> list[dict[str, Any]]:
     interpolates a per-run value (otherwise every line is composed whole).
     """
     from pyflyt_cli.training.compose import compose_run
+    from pyflyt_cli.training.schema import parse_train_config
 
     def composed(line: list[str]) -> dict[str, Any]:
         try:
@@ -353,13 +354,11 @@ def _compose_lines(lines: list[list[str]]) -> list[dict[str, Any]]:
             raise ConfigError(str(exc)) from None
         return cfg.model_dump(mode="json")
 
-    from pyflyt_cli.training.schema import parse_train_config
-
     first = composed(lines[0])
-    derived = [first] + [_with_run_values(first, line) for line in lines[1:]]
-    if len(lines) > 1 and composed(lines[1]) != derived[1]:
+    derived = [_with_run_values(first, line) for line in lines[1:]]
+    if derived and composed(lines[1]) != derived[0]:
         return [first] + [composed(line) for line in lines[1:]]
-    return [parse_train_config(data).model_dump(mode="json") for data in derived]
+    return [first] + [parse_train_config(data).model_dump(mode="json") for data in derived]
 
 
 #: the overrides that differ between the runs of one (group, env, algo): set on composed data

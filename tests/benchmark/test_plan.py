@@ -321,3 +321,13 @@ def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Pat
         CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
     ):
         run_benchmark(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
+
+
+def test_a_setting_that_interpolates_the_seed_is_composed_per_run(tmp_path: Path) -> None:
+    from pyflyt_engine.paths import conf_dir
+
+    study = tmp_path / "seeded_study.yaml"
+    text = (conf_dir() / "experiment" / "smoke_benchmark.yaml").read_text()
+    study.write_text(text.replace("  eval_episodes: 1\n", "  eval_episodes: ${oc.select:seed}\n"))
+    plan, _ = build_plan(str(study), [f"benchmark.output_dir={tmp_path}", "benchmark.seeds=[1,2,3]"])
+    assert [j.config["train"]["eval_episodes"] for j in plan.jobs] == [1, 2, 3, 1, 2, 3]
