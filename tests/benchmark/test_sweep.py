@@ -97,6 +97,8 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers follow a killed launcher on Linux")
 def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> None:
+    from pyflyt_cli.training import rundir
+
     args = [
         "benchmark",
         "experiment=smoke_benchmark",
@@ -115,7 +117,7 @@ def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> N
             lambda: (
                 (root / "runs").is_dir()
                 and any(s["status"] == "complete" for s in states(root).values())
-                and any((second / "checkpoints").glob("model_*_steps.zip"))
+                and bool(rundir.checkpoints(second))
             ),
             240,
             "one complete run and a checkpoint",
