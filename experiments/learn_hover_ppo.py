@@ -29,8 +29,7 @@ from pathlib import Path
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-from pyflyt_cli.commands.train import load_train_config
-from pyflyt_cli.training import train
+from pyflyt_cli.training import compose_config, train
 from pyflyt_cli.training.envs import EnvFactory
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_hover_ppo.md"
@@ -108,15 +107,13 @@ class HoverProbe(BaseCallback):
 
 def run(seed: int, budget: int | None, every: int, episodes: int, output: Path) -> dict:
     overrides = [
-        "env=quadx_hover",
-        "algo=ppo",
         f"seed={seed}",
         f"train.output_dir={output}",
         "train.progress_bar=false",
     ]
     if budget is not None:
         overrides.append(f"train.total_timesteps={budget}")
-    cfg = load_train_config(overrides)
+    cfg = compose_config(env="quadx_hover", algo="ppo", overrides=overrides)
     probe = HoverProbe(cfg, every, episodes)
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe])
@@ -149,7 +146,7 @@ def main() -> None:
             print(f"seed {seed}:", flush=True)
             rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp)))
 
-    cfg = load_train_config([])
+    cfg = compose_config()
     lines = [
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {platform.machine()}, {platform.python_version()}, "

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
+import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from pyflyt_engine.errors import PyFlytError
@@ -37,12 +39,19 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
     from omegaconf.errors import OmegaConfBaseException
 
-    overrides = _experiment_files(overrides)
+    _check_group_choices(overrides)
+    overrides, copies = _experiment_files(overrides)
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
             return hydra_compose(
                 config_name=config_name, overrides=list(overrides), return_hydra_config=return_hydra_config
             )
+    except yaml.YAMLError as exc:  # a config file of conf/ (experiment files given by path are read first)
+        mark = getattr(exc, "problem_mark", None)
+        name = getattr(mark, "name", None) or "a config file"
+        raise CLIError(yaml_problem(exc, copies.get(name, name))) from None
+    except UnicodeDecodeError as exc:
+        raise CLIError(f"a config file under {conf_dir()} is not UTF-8 text ({exc}); reinstall the package") from None
     except OverrideParseException as exc:
         raise CLIError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450") from None
     except MissingConfigException as exc:
@@ -58,35 +67,82 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
         raise CLIError(f"invalid configuration: {exc}") from None
 
 
-def _experiment_files(overrides: Sequence[str]) -> list[str]:
+def _check_group_choices(overrides: Sequence[str]) -> None:
+    """``algo=null``: a config group is left out with ``~group``, never set to null."""
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        group = key.lstrip("+")
+        if sep and value.strip().lower() == "null" and (conf_dir() / group).is_dir():
+            choices = ", ".join(_group_choices(group))
+            raise CLIError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
+
+
+def _experiment_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
     """``experiment=path/to/study.yaml``: an experiment file outside ``conf/`` (e.g. in ``experiments/``).
 
     Hydra finds group options on its search path only, so the file is offered to it as
     ``experiment/<stem>.yaml`` of a private directory added to ``hydra.searchpath``.  It
-    is read as YAML data like any config; its name must not shadow a shipped experiment.
+    is read first as plain YAML data (``yaml.safe_load``: a ``!!python/...`` tag is
+    refused, never run) so a problem is reported against the file given; its name must
+    not shadow a shipped experiment.  Returns the overrides and {copy: file given}.
     """
     import atexit
     import shutil
     import tempfile
-    from pathlib import Path
 
-    out = []
+    out: list[str] = []
+    copies: dict[str, str] = {}
     for item in overrides:
         key, _, value = item.partition("=")
-        if key.lstrip("+") != "experiment" or not value.endswith((".yaml", ".yml")):
+        if key.lstrip("+") != "experiment" or not (value.endswith((".yaml", ".yml")) or "/" in value):
             out.append(item)
             continue
         path = Path(value).expanduser()
+        shipped = ", ".join(_group_choices("experiment"))
+        if not value.endswith((".yaml", ".yml")):
+            raise CLIError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
         if not path.is_file():
-            raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {', '.join(_group_choices('experiment'))})")
+            raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
         if path.stem in _group_choices("experiment"):
             raise CLIError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
+        read_yaml_data(path)
         folder = Path(tempfile.mkdtemp(prefix="pyflyt-experiment-"))
         atexit.register(shutil.rmtree, folder, True)
         (folder / "experiment").mkdir()
-        shutil.copyfile(path, folder / "experiment" / f"{path.stem}.yaml")
+        copy = folder / "experiment" / f"{path.stem}.yaml"
+        shutil.copyfile(path, copy)
+        copies[str(copy)] = str(path)
         out += [f"{key}={path.stem}", f"hydra.searchpath=[file://{folder}]"]
-    return out
+    return out, copies
+
+
+def read_yaml_data(path: Path) -> Any:
+    """The plain data of a YAML file (``yaml.safe_load``); :class:`CLIError` naming the file otherwise."""
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise CLIError(f"{path}: cannot read the file: {exc}") from None
+    except UnicodeDecodeError:
+        raise CLIError(f"{path}: not a text file (not UTF-8): give a YAML file") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise CLIError(yaml_problem(exc, str(path))) from None
+
+
+def yaml_problem(exc: yaml.YAMLError, path: str) -> str:
+    """What is wrong with a YAML file, with its line; a Python tag is named as such."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f"{path}, line {mark.line + 1}" if mark is not None else path
+    problem = str(getattr(exc, "problem", None) or exc).splitlines()[0]
+    if isinstance(exc, yaml.constructor.ConstructorError) and "tag" in problem:
+        tag = problem.split("'")[1] if problem.count("'") >= 2 else problem
+        tag = tag.replace("tag:yaml.org,2002:", "!!")
+        return (
+            f"{where}: the YAML tag {tag} is not allowed: config files are plain data (mappings, lists, "
+            "numbers, strings) and nothing in them is ever run; remove the tag"
+        )
+    return f"{where}: not valid YAML: {problem}"
 
 
 def _missing_message(exc: Exception) -> str:

@@ -165,12 +165,15 @@ def speed(
 
 @app.command(
     help="Run an experiment's benchmark grid (tasks x algorithms x seeds), resumably, and summarise it.\n\n"
-    "Every run is `pyflyt train` in <benchmark>/runs/<task>/<algo>/seed<k>, in its own process with its log "
-    "in <benchmark>/logs/.  Rerunning the same command skips complete runs and resumes interrupted ones; a "
-    "failed run is reported and the others carry on.  seeds=N and jobs=J are short for benchmark.seeds and "
-    "benchmark.jobs; other key=value overrides apply to every run (train.total_timesteps=...).  "
-    "hydra/launcher=ray|submitit_slurm|... runs them through a Hydra launcher instead of local processes.  "
-    "Exit 0: all complete; 1: a run failed; 130: interrupted.\n\n"
+    "Every run is one `pyflyt train` line (--dry-run prints them) trained in "
+    "<benchmark>/runs/<task>/<algo>/seed<k>, in its own process with its log in <benchmark>/logs/.  Rerunning "
+    "the same command skips complete runs, resumes interrupted ones and extends runs whose budget grew; a run "
+    "trained with other settings is refused before anything trains (--restart-changed moves it aside and "
+    "trains it afresh).  A failed run is reported and the others carry on.  seeds=N and jobs=J are short for "
+    "benchmark.seeds and benchmark.jobs; other key=value overrides apply to every run "
+    "(train.total_timesteps=...).  hydra/launcher=ray|submitit_slurm|... and hydra.launcher.<key>=<value> run "
+    "them through a Hydra launcher instead of local processes.  "
+    "Exit 0: all complete; 1: a run failed; 130: interrupted; 2: a user error, nothing trained.\n\n"
     "  pyflyt benchmark experiment=paper_rl seeds=5 jobs=2\n\n"
     "  pyflyt benchmark experiment=paper_rl hydra/launcher=ray\n\n"
     "  pyflyt plot benchmarks/paper_rl_laptop",
@@ -179,11 +182,19 @@ def speed(
 @user_errors
 def benchmark(
     overrides: Optional[list[str]] = typer.Argument(None, help="experiment=<name> and key=value overrides"),
-    dry_run: bool = typer.Option(False, "--dry-run", help="validate and list the runs and their state; train nothing"),
+    dry_run: bool = typer.Option(
+        False, "--dry-run", help="validate; print each run's state and pyflyt train line; train nothing"
+    ),
+    restart_changed: bool = typer.Option(
+        False,
+        "--restart-changed",
+        help="train runs whose saved settings differ from the plan afresh (and the runs that start from them); "
+        "their old directories move to <benchmark>/replaced/<time>/",
+    ),
 ) -> None:
     from pyflyt_cli.commands.benchmark import run_benchmark
 
-    code = run_benchmark(overrides or [], dry_run=dry_run)
+    code = run_benchmark(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
     if code:
         raise typer.Exit(code=code)
 

@@ -18,17 +18,24 @@ A benchmark experiment is an experiment file (``conf/experiment/<name>.yaml``) w
       reference:                     # normalisation: the score that counts as 1
         quadx_waypoints: {score: 500, source: "5 waypoints x 100"}
 
-Each run is ``pyflyt train experiment=<name> env=<env> algo=<algo> <group overrides>
-<command-line overrides> seed=<k>``, trained in ``<benchmark>/runs/<task>/<algo>/seed<k>``.
-The plan (every run's validated configuration) is written to ``<benchmark>/plan.json``;
-the workers read their configuration from it, so a run never depends on the directory
-or the config files it was launched from.
+Each run is exactly one ``pyflyt train`` command line (:attr:`Job.overrides`, what
+``pyflyt benchmark --dry-run`` prints)::
+
+    pyflyt train experiment=<name> env=<env> algo=<algo> <group overrides> <command-line overrides>
+        seed=<k> env_name=<task> run_dir=<benchmark>/runs/<task>/<algo>/seed<k>
+        train.output_dir=<benchmark>/runs [init_from=<source run>@<step> | <source run>/<model file>]
+
+and its configuration is composed from exactly that line.  The plan (every run's
+validated configuration) is written to ``<benchmark>/plan.json``; the workers read their
+configuration from it, so a run never depends on the directory or the config files it
+was launched from.
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -114,15 +121,14 @@ class Job:
     env: str
     algo: str
     seed: int
-    #: the ``pyflyt train`` overrides it was composed from (for the record and the log)
+    #: the ``pyflyt train`` overrides it is composed from: run as a command line, they train this run
     overrides: list[str]
     #: its validated configuration (TrainConfig as JSON data)
     config: dict[str, Any]
     #: run directory, relative to the benchmark directory
     run_dir: str
-    #: job id whose policy starts this run, and that policy's file relative to the benchmark directory
+    #: id of the run whose policy starts this run (its ``init_from``)
     depends_on: str | None = None
-    init_model: str | None = None
 
     @property
     def id(self) -> str:
@@ -185,6 +191,20 @@ def read_plan(root: str | Path) -> Plan:
 # ---------------------------------------------------------------------- compose
 
 
+#: pyflyt train keys a benchmark sets for each run, and what to give instead
+_SET_BY_THE_PLAN = {
+    "experiment": "the benchmark is chosen once: pyflyt benchmark experiment=<name>",
+    "seed": "seeds come from the benchmark: use seeds=N (seeds 0..N-1) or 'benchmark.seeds=[0,5,7]'",
+    "resume": "a benchmark resumes its interrupted runs by itself: rerun the same command",
+    "env": "envs come from the benchmark's groups: edit benchmark.groups in the experiment file",
+    "algo": "algorithms come from the benchmark's groups: edit benchmark.groups in the experiment file",
+    "env_name": "runs are filed under their group's task: edit benchmark.groups[i].task in the experiment file",
+    "run_dir": "runs go to <benchmark>/runs/<task>/<algo>/seed<k>: choose benchmark.output_dir or benchmark.name",
+    "train.output_dir": "runs go to <benchmark>/runs/: choose benchmark.output_dir or benchmark.name",
+    "init_from": "a group starts from another group's runs by its init_from: edit benchmark.groups[i].init_from",
+}
+
+
 def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], list[str]]:
     """(benchmark.* overrides, hydra launcher overrides, overrides for every run)."""
     bench, hydra, runs = [], [], []
@@ -198,14 +218,8 @@ def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], lis
             bench.append(item if key.startswith(("+", "~")) else f"++{item}")
         elif bare.startswith(("hydra/", "hydra.")):
             hydra.append(item)
-        elif bare in ("experiment", "seed", "resume", "env", "algo"):
-            what = {
-                "experiment": "the benchmark is chosen once: pyflyt benchmark experiment=<name>",
-                "seed": "seeds come from the benchmark: use seeds=N (seeds 0..N-1) or 'benchmark.seeds=[0,5,7]'",
-                "resume": "a benchmark resumes its interrupted runs by itself: rerun the same command",
-                "env": "envs come from the benchmark's groups: edit benchmark.groups in the experiment file",
-                "algo": "algorithms come from the benchmark's groups: edit benchmark.groups in the experiment file",
-            }[bare]
+        elif bare in _SET_BY_THE_PLAN:
+            what = _SET_BY_THE_PLAN[bare]
             raise CLIError(f"'{item}' cannot be given to pyflyt benchmark: {what}")
         else:
             runs.append(item)
@@ -214,9 +228,9 @@ def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], lis
 
 def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Sequence[str]) -> BenchmarkSpec:
     """The validated ``benchmark:`` section of ``experiment`` with the overrides applied."""
-    from pyflyt_cli.commands.train import compose_train_config
+    from pyflyt_cli.training.compose import compose_train_data
 
-    data = compose_train_config([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
+    data, _ = compose_train_data([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
     section = data.get("benchmark")
     if not isinstance(section, dict):
         raise CLIError(
@@ -242,11 +256,11 @@ def _describe(exc: ValidationError) -> str:
 
 def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
     """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides."""
-    from pyflyt_cli.commands.train import compose_train_config
+    from pyflyt_cli.benchmark.launch import check_launcher_overrides
     from pyflyt_cli.training import registry
-    from pyflyt_cli.training.schema import parse_train_config
 
     bench_over, hydra_over, run_over = split_overrides(overrides)
+    check_launcher_overrides(hydra_over)  # before anything is composed, written or run
     spec = load_spec(experiment, bench_over, run_over)
     name = spec.name or Path(experiment).stem
     if not name or any(c in name for c in "/\\") or name in (".", ".."):
@@ -255,6 +269,10 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
 
     jobs: dict[str, Job] = {}
     for g, group in enumerate(spec.groups):
+        for item in group.overrides:
+            key = item.partition("=")[0].lstrip("+~")
+            if key in _SET_BY_THE_PLAN:
+                raise CLIError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
         for env in group.envs:
             task = _task_name(group.task, env, f"benchmark.groups[{g}].task")
             for algo in group.algos:
@@ -266,42 +284,41 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
                     *bench_over,
                     *run_over,
                 ]
-                try:  # composed once per (group, env, algo): no config interpolates the seed
-                    composed = compose_train_config(base, benchmark=True)
-                except CLIError as exc:
-                    raise CLIError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
-                composed.pop("benchmark", None)
+                group_jobs: list[Job] = []
                 for seed in spec.seed_list():
-                    data = copy.deepcopy(composed)
-                    data["seed"] = seed
-                    data["env_name"] = task
-                    data["train"]["output_dir"] = str(root / RUNS_DIR)
-                    data["train"]["progress_bar"] = False
-                    job = Job(
-                        task, env, algo, seed, [*base, f"seed={seed}"], {}, f"{RUNS_DIR}/{task}/{algo}/seed{seed}"
-                    )
+                    run_dir = f"{RUNS_DIR}/{task}/{algo}/seed{seed}"
+                    line = [
+                        *base,
+                        f"seed={seed}",
+                        override("env_name", task),
+                        override("run_dir", str(root / run_dir)),
+                        override("train.output_dir", str(root / RUNS_DIR)),
+                    ]
+                    job = Job(task, env, algo, seed, line, {}, run_dir)
                     if group.init_from is not None:
                         src = group.init_from
                         src_task = _task_name(src.task, env, f"benchmark.groups[{g}].init_from.task")
-                        job.depends_on = f"{src_task}/{src.algo}/seed{seed}"
-                        job.init_model = _model_file(f"{RUNS_DIR}/{src_task}/{src.algo}/seed{seed}", src.checkpoint)
-                        data["init_from"] = str(root / job.init_model)
                         accepted = {algo} | set(registry.INIT_FROM.get(algo, frozenset()))
                         if src.algo not in accepted:
                             raise CLIError(
                                 f"benchmark.groups[{g}].init_from: {algo} cannot start from {src.algo} policies "
                                 f"(it can from: {', '.join(sorted(accepted))})"
                             )
-                    try:
-                        cfg = parse_train_config(data, source=f"benchmark run {job.id}")
-                    except ConfigError as exc:
-                        raise CLIError(str(exc)) from None
-                    job.config = cfg.model_dump(mode="json")
+                        job.depends_on = f"{src_task}/{src.algo}/seed{seed}"
+                        source_dir = root / RUNS_DIR / src_task / src.algo / f"seed{seed}"
+                        line.append(override("init_from", _init_spec(source_dir, src.checkpoint)))
+                    group_jobs.append(job)
+                try:
+                    configs = _compose_lines([job.overrides for job in group_jobs])
+                except ConfigError as exc:
+                    raise CLIError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
+                for job, data in zip(group_jobs, configs):
                     if job.id in jobs:
                         raise CLIError(
                             f"run {job.id} is declared twice: give the groups different tasks "
                             '(task: "{env}_sparse") or algorithms'
                         )
+                    job.config = data
                     jobs[job.id] = job
     _check_dependencies(jobs)
     plan = Plan(root, experiment, spec.model_dump(mode="json"), list(jobs.values()), list(command))
@@ -318,17 +335,84 @@ def _task_name(pattern: str, env: str, where: str) -> str:
     return task
 
 
-def _model_file(run_dir: str, checkpoint: int | str) -> str:
+def _compose_lines(lines: list[list[str]]) -> list[dict[str, Any]]:
+    """The validated configuration (JSON data) of each ``pyflyt train`` line.
+
+    The lines differ only in their last, per-run overrides (seed, run directory, source
+    run).  Composing costs about a second, so the first line is composed whole and the
+    others are that result with their own per-run values set; the second line is also
+    composed whole and must agree, which shows that nothing in the configuration
+    interpolates a per-run value (otherwise every line is composed whole).
+    """
+    from pyflyt_cli.training.compose import compose_run
+    from pyflyt_cli.training.schema import parse_train_config
+
+    def composed(line: list[str]) -> dict[str, Any]:
+        try:
+            cfg, _ = compose_run(line)
+        except CLIError as exc:
+            raise ConfigError(str(exc)) from None
+        return cfg.model_dump(mode="json")
+
+    first = composed(lines[0])
+    derived = [_with_run_values(first, line) for line in lines[1:]]
+    if derived and composed(lines[1]) != derived[0]:
+        return [first] + [composed(line) for line in lines[1:]]
+    return [first] + [parse_train_config(data).model_dump(mode="json") for data in derived]
+
+
+#: the overrides that differ between the runs of one (group, env, algo): set on composed data
+_PER_RUN = {
+    "seed": ("seed",),
+    "env_name": ("env_name",),
+    "init_from": ("init_from",),
+    "train.output_dir": ("train", "output_dir"),
+}
+
+
+def _with_run_values(data: dict[str, Any], line: list[str]) -> dict[str, Any]:
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    out = copy.deepcopy(data)
+    for parsed in OverridesParser.create().parse_overrides(line):
+        where = _PER_RUN.get(parsed.key_or_group)
+        if where is not None:
+            node = out
+            for key in where[:-1]:
+                node = node[key]
+            node[where[-1]] = parsed.value()
+    return out
+
+
+def _init_spec(source_dir: Path, checkpoint: int | str) -> str:
+    """``init_from`` of a run that starts from ``source_dir``'s policy: a model file, or ``<dir>@<step>``."""
     from pyflyt_cli.training import rundir
 
     if checkpoint == "final":
-        return f"{run_dir}/{rundir.FINAL_MODEL}"
+        return str(source_dir / rundir.FINAL_MODEL)
     if checkpoint == "best":
-        return f"{run_dir}/{rundir.BEST_MODEL}"
-    return f"{run_dir}/{rundir.CHECKPOINTS}/model_{int(checkpoint)}_steps.zip"
+        return str(source_dir / rundir.BEST_MODEL)
+    return f"{source_dir}@{int(checkpoint)}"  # its first checkpoint at or after that step
+
+
+_PLAIN = re.compile(r"[A-Za-z0-9_/.@%:+\-]+")
+
+
+def override(key: str, value: str) -> str:
+    """``key=value`` as Hydra reads it back as the string ``value`` (quoted when needed)."""
+    if _PLAIN.fullmatch(value) and value[0] not in "+-":
+        return f"{key}={value}"
+    if "\\" in value or "${" in value:
+        raise CLIError(
+            f"{key}: {value!r} holds a backslash or '${{', which a pyflyt train override cannot carry; "
+            "choose a benchmark directory without them (benchmark.output_dir=...)"
+        )
+    return f"{key}='" + value.replace("'", "\\'") + "'"
 
 
 def _check_dependencies(jobs: dict[str, Job]) -> None:
+    from pyflyt_cli.training.schema import split_init_from
+
     for job in jobs.values():
         if job.depends_on is None:
             continue
@@ -342,9 +426,8 @@ def _check_dependencies(jobs: dict[str, Job]) -> None:
             raise CLIError(
                 f"run {job.id} starts from {source.id}, which itself starts from another run: one level only"
             )
-        name = Path(job.init_model or "").name
-        if name.startswith("model_") and name.endswith("_steps.zip"):
-            step = int(name[len("model_") : -len("_steps.zip")])
+        _, step = split_init_from(job.config.get("init_from"))
+        if step is not None:
             opts = source.config["train"]
             freq, total = int(opts["checkpoint_freq"]), int(opts["total_timesteps"])
             if freq <= 0 or step % freq or step > total or step <= 0:
@@ -352,8 +435,6 @@ def _check_dependencies(jobs: dict[str, Job]) -> None:
                     f"run {job.id} starts from checkpoint {step} of {source.id}, which checkpoints every "
                     f"{freq} steps up to {total}: choose a multiple of train.checkpoint_freq"
                 )
-            if int(opts.get("n_envs", 1)) > 1 and step % int(opts["n_envs"]):
-                raise CLIError(f"checkpoint {step} of {source.id} is not a multiple of its train.n_envs")
             if int(opts.get("keep_checkpoints", 0)) > 0:
                 raise CLIError(
                     f"{source.id} keeps only its newest {opts['keep_checkpoints']} checkpoints, so checkpoint "

@@ -11,34 +11,84 @@ interrupted sweep or a rerun agree on it.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shlex
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from pyflyt_cli.benchmark.plan import Job, Plan
+from pyflyt_cli.benchmark.plan import LOGS_DIR, RUNS_DIR, Job, Plan
 from pyflyt_cli.benchmark.worker import INTERRUPTED, PARENT_ENV
+from pyflyt_cli.config import CLIError
 
 Echo = Callable[[str], None]
 
 #: run states, as the summary names them
-COMPLETE, NEW, PARTIAL, BUSY = "complete", "new", "partial", "busy"
+COMPLETE, NEW, PARTIAL, BUSY, CHANGED = "complete", "new", "partial", "busy", "changed"
+#: where runs restarted by --restart-changed are moved: <benchmark>/replaced/<time>/<task>/<algo>/seed<k>
+REPLACED_DIR = "replaced"
+
+
+#: held (``flock``) by the pyflyt benchmark process working on the directory; holds its pid and command
+LOCK_FILE = "benchmark.lock"
+
+
+@contextlib.contextmanager
+def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
+    """Hold ``<root>/benchmark.lock`` while this process works on the benchmark directory.
+
+    An OS lock (``flock``) on the file: the kernel releases it when the process ends,
+    however it ends, so a killed benchmark never leaves a stale lock.  A second process
+    finds it held and gets a :class:`CLIError` naming the holder, before it touches
+    anything.  (Without ``fcntl``, on Windows, nothing is locked.)
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    path = root / LOCK_FILE
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise CLIError(
+            f"cannot use {root} as the benchmark directory ({exc.strerror}): choose another benchmark.output_dir"
+        ) from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 4096).decode(errors="replace").strip() or "another process"
+            pid, _, cmd = holder.partition(" ")
+            raise CLIError(
+                f"benchmark directory {root} is in use by process {pid}"
+                + (f" ({cmd})" if cmd else "")
+                + ": wait for it to finish or stop it (Ctrl-C), or give this benchmark another directory "
+                "(benchmark.name=<name> or benchmark.output_dir=<dir>)"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()} {shlex.join(command)}\n".encode())
+        yield
+    finally:
+        os.close(fd)  # releases the lock; the file stays (removing it would race with the next holder)
 
 
 def run_state(plan: Plan, job: Job) -> str:
-    """``complete``, ``new`` (no run directory yet), ``partial`` (interrupted or budget grown) or ``busy``."""
+    """``new`` (no run directory yet), ``busy`` (another process trains it), ``changed`` (its settings
+    differ from the plan: :func:`~pyflyt_cli.benchmark.worker.run_differences`), ``complete`` or
+    ``partial`` (interrupted, or its budget grew)."""
+    from pyflyt_cli.benchmark.worker import run_differences
     from pyflyt_cli.training import rundir
 
     path = plan.run_dir(job)
     if not (path / rundir.CONFIG_FILE).is_file():
         return NEW
-    state = rundir.read_state(path)
-    if state.get("status") == "complete" and int(state.get("total_timesteps") or 0) >= job.total_timesteps:
-        return COMPLETE
     lock = path / rundir.LOCK_FILE
     try:
         pid = int(lock.read_text().strip() or 0)
@@ -46,7 +96,48 @@ def run_state(plan: Plan, job: Job) -> str:
         pid = 0
     if pid and pid != os.getpid() and rundir._alive(pid):
         return BUSY
+    if run_differences(plan, job):
+        return CHANGED
+    state = rundir.read_state(path)
+    if state.get("status") == "complete" and int(state.get("total_timesteps") or 0) >= job.total_timesteps:
+        return COMPLETE
     return PARTIAL
+
+
+def to_restart(plan: Plan, states: dict[str, str]) -> dict[str, str]:
+    """Run id -> why it must start afresh: its settings changed, or it starts from a run that restarts."""
+    why = {j.id: "its settings differ from the plan" for j in plan.jobs if states[j.id] == CHANGED}
+    for job in plan.jobs:
+        if job.depends_on in why and job.id not in why and states[job.id] != NEW:
+            why[job.id] = f"it starts from {job.depends_on}, which restarts"
+    return why
+
+
+def move_aside(plan: Plan, jobs: Sequence[Job], echo: Echo) -> Path:
+    """Move the run directories (and logs) of ``jobs`` to ``<benchmark>/replaced/<time>/``; returns that folder.
+
+    Nothing is deleted: ``pyflyt plot <that folder>`` still reports the old runs.
+    """
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    parent = plan.root / REPLACED_DIR
+    parent.mkdir(parents=True, exist_ok=True)
+    for n in range(10_000):
+        folder = parent / (stamp if n == 0 else f"{stamp}-{n}")
+        try:
+            folder.mkdir()
+        except FileExistsError:
+            continue
+        break
+    for job in jobs:
+        target = folder / job.run_dir.removeprefix(f"{RUNS_DIR}/")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(plan.run_dir(job), target)
+        log = plan.log_file(job)
+        if log.is_file():
+            (folder / LOGS_DIR).mkdir(exist_ok=True)
+            os.replace(log, folder / LOGS_DIR / log.name)
+        echo(f"restarting {job.id}: its old run directory is now {target}")
+    return folder
 
 
 def worker_command(plan: Plan, job: Job) -> list[str]:

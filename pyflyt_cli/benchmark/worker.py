@@ -3,21 +3,23 @@
 Reads the run's configuration from ``<benchmark>/plan.json`` and brings its run
 directory to completion: trains it if it does not exist, resumes it from its newest
 checkpoint if it was interrupted, extends it if the plan's budget grew, and does
-nothing if it is complete.  A run directory trained with another configuration is
-refused (never overwritten).  Exit codes: 0 complete, 130 interrupted (checkpoint
-saved), 2 user error, 1 crash (traceback in the log).
+nothing if it is complete.  A run directory whose settings differ from the plan
+(:func:`run_differences`) is refused, never reused or overwritten; ``pyflyt benchmark``
+checks the same before anything starts.  Exit codes: 0 complete, 130 interrupted
+(checkpoint saved), 2 user error, 1 crash (traceback in the log).
 """
 
 from __future__ import annotations
 
 import faulthandler
+import json
 import os
 import shutil
 import signal
 import sys
 import time
 import traceback
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 from pyflyt_cli.benchmark.plan import Job, Plan, read_plan
@@ -26,78 +28,94 @@ from pyflyt_engine.errors import ConfigError, PyFlytError
 #: environment variable: the pid of the local launcher; the worker stops (checkpoint saved) if it dies
 PARENT_ENV = "PYFLYT_BENCHMARK_PARENT"
 INTERRUPTED = 130
-#: keys that may differ between the plan and an existing run directory
-_MAY_DIFFER = {"train.total_timesteps", "train.progress_bar", "train.output_dir"}
+#: the budget may grow: the run is extended (never shortened)
+EXTENSION_KEY = "train.total_timesteps"
 #: files a run directory holds before its configuration is written (safe to start over)
 _STARTUP_FILES = {"run.lock", "state.json", "run.yaml"}
+_ABSENT = object()
 
 
 def _log(message: str) -> None:
     print(message, flush=True)
 
 
-def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(data, dict):
-        out: dict[str, Any] = {}
-        for k, v in data.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out
-    return {prefix[:-1]: data}
+@dataclass(frozen=True)
+class Difference:
+    """A setting whose value in a run directory is not the planned one."""
+
+    key: str
+    saved: Any
+    planned: Any
+
+    def __str__(self) -> str:
+        return f"{self.key}: {_show(self.saved)} -> {_show(self.planned)}"
 
 
-def config_differences(planned: dict[str, Any], saved: dict[str, Any], run_dir: Path) -> list[str]:
-    """Keys whose values differ between the plan and a run directory's ``config.yaml``."""
-    a, b = _flatten(planned), _flatten(saved)
-    diffs = []
-    for key in sorted(set(a) | set(b)):
-        if key in _MAY_DIFFER or a.get(key) == b.get(key):
-            continue
-        if key == "env.uav" and str(b.get(key, "")).startswith(str(run_dir)):
-            continue  # an airframe file copied into the run directory
-        diffs.append(key)
-    return diffs
+def _show(value: Any) -> str:
+    return "(not set)" if value is _ABSENT else json.dumps(value)
 
 
-def resolve_init_model(plan: Plan, job: Job) -> Path | None:
-    """The policy file ``job`` starts from, or None if it starts from scratch.
+def run_differences(plan: Plan, job: Job) -> list[Difference]:
+    """The settings of ``job``'s run directory (its ``config.yaml``) that differ from the plan.
 
-    Checkpoints are saved at the first rollout boundary at or after each multiple of
-    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with SAC's ``train_freq: 8``): a
-    planned ``model_<N>_steps.zip`` is the source's first checkpoint at step N or later.
+    Compared: the run's identity (:func:`pyflyt_cli.training.rundir.identity`, the
+    settings that decide what it computes).  A larger planned ``train.total_timesteps``
+    is an extension, not a difference; a smaller one is.  An unreadable ``config.yaml``
+    is one difference.  Empty if the run directory has no ``config.yaml``.
     """
     from pyflyt_cli.training import rundir
 
-    if job.init_model is None:
-        return None
-    nominal = plan.root / job.init_model
-    if nominal.is_file() or nominal.parent.name != rundir.CHECKPOINTS:
-        return nominal
-    wanted = int(nominal.name[len("model_") : -len("_steps.zip")])
-    later = [c.model for c in rundir.checkpoints(nominal.parent.parent) if c.step >= wanted]
-    return later[0] if later else nominal
+    path = plan.run_dir(job)
+    if not (path / rundir.CONFIG_FILE).is_file():
+        return []
+    planned = rundir.identity(planned_config(plan, job, resolve=False))
+    try:
+        saved = rundir.identity(rundir.load_run_config(path), path)
+    except PyFlytError as exc:
+        return [Difference(rundir.CONFIG_FILE, f"unreadable: {exc}".splitlines()[0], "the planned configuration")]
+    out = []
+    for key in sorted(set(saved) | set(planned)):
+        old, new = saved.get(key, _ABSENT), planned.get(key, _ABSENT)
+        if old == new or (key == EXTENSION_KEY and isinstance(old, int) and isinstance(new, int) and new > old):
+            continue
+        out.append(Difference(key, old, new))
+    return out
+
+
+def planned_config(plan: Plan, job: Job, resolve: bool) -> Any:
+    """The validated configuration ``job`` trains with; ``resolve``: its ``<run>@<step>`` source made a file.
+
+    Without ``resolve`` an unresolvable source (not trained that far yet) is left as planned.
+    """
+    from pyflyt_cli.training.compose import resolve_init_from
+    from pyflyt_cli.training.schema import parse_train_config
+
+    cfg = parse_train_config(job.config, source=f"{plan.root / 'plan.json'}: {job.id}")
+    try:
+        return resolve_init_from(cfg)
+    except ConfigError:
+        if resolve:
+            raise
+        return cfg
 
 
 def bring_to_completion(plan: Plan, job: Job) -> int:
     """Train, resume, extend or skip ``job``; returns the exit code."""
     from pyflyt_cli.training import rundir
     from pyflyt_cli.training.loop import resume, train
-    from pyflyt_cli.training.schema import parse_train_config
 
     run_dir = plan.run_dir(job)
-    init_model = resolve_init_model(plan, job)
-    planned = dict(job.config, init_from=str(init_model) if init_model is not None else job.config.get("init_from"))
-    cfg = parse_train_config(planned, source=f"{plan.root / 'plan.json'}: {job.id}")
     _log(f"== {job.id}  {time.strftime('%Y-%m-%d %H:%M:%S')}  pid {os.getpid()}")
     _log("   pyflyt train " + " ".join(job.overrides))
     if (run_dir / rundir.CONFIG_FILE).is_file():
-        saved = rundir.load_run_config(run_dir)
-        diffs = config_differences(planned, saved.model_dump(mode="json"), run_dir)
+        diffs = run_differences(plan, job)
         if diffs:
             raise ConfigError(
-                f"{run_dir} was trained with another configuration ({', '.join(diffs[:6])}"
-                f"{' ...' if len(diffs) > 6 else ''} differ from the plan): keep it and give this benchmark "
-                "another benchmark.name, or delete that run directory to train it again"
+                f"{run_dir} was trained with other settings than planned ({'; '.join(map(str, diffs))}): "
+                "it is not reused. Rerun pyflyt benchmark with --restart-changed to move it aside and train "
+                "it afresh, or give this benchmark another benchmark.name"
             )
+        saved = rundir.load_run_config(run_dir)
         state = rundir.read_state(run_dir)
         if state.get("status") == "complete" and int(state.get("total_timesteps") or 0) >= job.total_timesteps:
             _log(f"   complete already ({state.get('num_timesteps')} steps)")
@@ -115,11 +133,10 @@ def bring_to_completion(plan: Plan, job: Job) -> int:
                     "move it away to train this run"
                 )
             shutil.rmtree(run_dir)  # killed while being created: nothing trained yet
-        if init_model is not None and not init_model.is_file():
-            raise ConfigError(
-                f"{job.id} starts from {job.init_model}, which does not exist: run {job.depends_on} "
-                "first (pyflyt benchmark runs it before this one), and keep its checkpoints"
-            )
+        try:
+            cfg = planned_config(plan, job, resolve=True)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (pyflyt benchmark trains {job.depends_on} before {job.id})") from None
         result = train(cfg, run_dir=run_dir, log=_log, command=list(plan.command), overrides=list(job.overrides))
     return INTERRUPTED if result.interrupted else 0
 

@@ -1,8 +1,7 @@
-"""``pyflyt train``: compose ``conf/train.yaml`` with Hydra, validate, call :func:`train`.
+"""``pyflyt train``: compose ``conf/train.yaml`` (:func:`pyflyt_cli.training.compose_config`), call :func:`train`.
 
-The only Hydra-aware part of training.  Hydra is used through its compose API, so it
-never changes the working directory and writes no ``outputs/`` folder; everything a run
-produces goes to its run directory.  ``-m`` expands sweeps (``seed=0,1,2``,
+Hydra is used through its compose API, so it never changes the working directory and
+writes no ``outputs/`` folder; everything a run produces goes to its run directory.  ``-m`` expands sweeps (``seed=0,1,2``,
 ``algo=ppo,sac``, ``seed=range(5)``) with Hydra's own basic sweeper rules and runs the
 jobs one after another; every job's config is composed and validated before the first
 one starts.
@@ -15,8 +14,7 @@ from typing import Any
 
 import typer
 
-from pyflyt_cli.config import CLIError, compose, parse_overrides
-from pyflyt_engine.paths import conf_dir
+from pyflyt_cli.config import CLIError, _group_choices, parse_overrides
 
 #: config groups a user picks from, in the order --help lists them
 USER_GROUPS = ("env", "algo", "uav", "reward", "experiment")
@@ -26,11 +24,6 @@ RESUME_KEYS = ("train.total_timesteps", "train.progress_bar")
 INTERRUPTED = 130
 
 
-def _choices(group: str) -> list[str]:
-    folder = conf_dir() / group
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
-
-
 def train_help() -> str:
     """``pyflyt train --help``: usage, the config groups and their choices, the main keys."""
     import textwrap
@@ -38,7 +31,7 @@ def train_help() -> str:
     try:
         rows = []
         for g in USER_GROUPS:
-            text = ", ".join(_choices(g)) or "(none)"
+            text = ", ".join(_group_choices(g)) or "(none)"
             rows.append(textwrap.fill(text, 62, initial_indent=f"  {g + '=':<12}", subsequent_indent=" " * 14))
         groups = "\n".join(rows)
     except FileNotFoundError:  # pragma: no cover - broken install
@@ -51,15 +44,18 @@ def train_help() -> str:
         "  pyflyt train env.reward=sparse algo.learning_rate=1e-3\n"
         "  pyflyt train -m seed=0,1,2        # one run per seed\n"
         "  pyflyt train resume=<run dir>     # continue an interrupted run\n"
-        "  pyflyt train init_from=<run dir>  # start from a run's policy\n\n"
+        "  pyflyt train init_from=<run dir>  # start from a run's policy\n"
+        "  pyflyt train init_from=<run dir>@<step>  # its first checkpoint at/after step\n\n"
         "Config groups (group=choice):\n"
         f"{groups}\n\n"
-        "Main keys: seed, train.total_timesteps, train.n_envs,\n"
+        "Main keys: seed, env_name, run_dir, train.total_timesteps, train.n_envs,\n"
         "train.eval_freq, train.eval_episodes, train.checkpoint_freq,\n"
         "train.output_dir, train.tensorboard, train.progress_bar,\n"
-        "algo.<hyper-parameter>, env.<option>, resume, init_from.\n"
+        "algo.<hyper-parameter>, env.<option>, resume, init_from,\n"
+        "trust_pickle (load legacy pickled files you made yourself).\n"
         "--cfg prints the full composed config.  Reference: docs/cli.md.\n\n"
-        "Runs go to <train.output_dir>/<env>/<algo>/<time>-seed<k>.\n"
+        "Runs go to <train.output_dir>/<env_name>/<algo>/<time>-seed<k>,\n"
+        "or exactly to run_dir=<dir>.\n"
         f"Ctrl-C saves a checkpoint and exits with code {INTERRUPTED};\n"
         "user errors exit with code 2."
     )
@@ -89,93 +85,11 @@ def _sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
     return [list(job) for batch in batches for job in batch]
 
 
-def compose_train_config(overrides: list[str], benchmark: bool = False) -> dict[str, Any]:
-    """The composed ``conf/train.yaml`` as a plain dict ready for :func:`parse_train_config`.
-
-    An experiment may declare a ``benchmark:`` section (a grid of runs for ``pyflyt
-    benchmark``); with ``benchmark`` it is kept in the result, otherwise it is refused.
-    """
-    from omegaconf import OmegaConf, open_dict
-
-    from pyflyt_cli.config import to_container
-
-    try:
-        cfg = compose("train", overrides, return_hydra_config=True)
-    except CLIError as exc:
-        raise CLIError(_suggest_key(str(exc), overrides)) from None
-    choices = dict(cfg.hydra.runtime.choices)
-    with open_dict(cfg):
-        del cfg["hydra"]
-    missing = sorted(OmegaConf.missing_keys(cfg))
-    if missing:
-        origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
-        raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
-    data = to_container(cfg)
-    data.pop("resume", None)
-    section = data.pop("benchmark", None)
-    if section is not None and not benchmark:
-        name = choices.get("experiment")
-        raise CLIError(
-            f"experiment={name} declares a benchmark (a grid of envs x algorithms x seeds): run it with "
-            f"pyflyt benchmark experiment={name}"
-        )
-    env_name = choices.get("env")
-    if not isinstance(data.get("env"), dict):
-        raise CLIError("no environment selected: pass env=<name> (" + ", ".join(_choices("env")) + ")")
-    env = dict(data["env"])
-    uav_choice = choices.get("uav")
-    uav = data.pop("uav", None)
-    if uav_choice:
-        shipped = OmegaConf.to_container(OmegaConf.load(conf_dir() / "uav" / f"{uav_choice}.yaml"), resolve=True)
-        if uav != shipped:
-            raise CLIError(
-                f"uav.* keys cannot be overridden in training (uav={uav_choice} names a shipped airframe); "
-                "write your airframe to a file and pass env.uav=path/to/airframe.yaml"
-            )
-        env["uav"] = uav_choice
-    reward_choice = choices.get("reward")
-    reward = data.pop("reward", None)
-    if reward_choice:
-        env["reward"] = {**(reward or {}), "name": reward_choice}
-    data["env"] = env
-    data["env_name"] = env_name
-    data["experiment"] = choices.get("experiment")
-    if benchmark and section is not None:
-        data["benchmark"] = section
-    return data
-
-
-def _suggest_key(message: str, overrides: list[str]) -> str:
-    """Add "Did you mean ...?" to an unknown-key message, from the keys beside the misspelt one."""
-    import difflib
-
-    from omegaconf import DictConfig
-
-    if not message.startswith("unknown key '"):
-        return message
-    key = message.split("'")[1]
-    parent, _, leaf = key.rpartition(".")
-    rest = [o for o in overrides if o.lstrip("+~").partition("=")[0] != key]
-    try:
-        node: Any = compose("train", rest)
-        for part in parent.split(".") if parent else []:
-            node = node[part]
-    except (CLIError, KeyError, TypeError):
-        return message
-    if not isinstance(node, DictConfig):
-        return message
-    keys = [str(k) for k in node]
-    close = difflib.get_close_matches(leaf, keys, n=1)
-    hint = f" Did you mean '{(parent + '.' if parent else '') + close[0]}'?" if close else ""
-    return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}. Check the spelling", 1)
-
-
 def load_train_config(overrides: list[str]) -> Any:
     """Compose and validate: the :class:`TrainConfig` ``pyflyt train <overrides>`` would run."""
-    from pyflyt_cli.training.schema import parse_train_config
+    from pyflyt_cli.training.compose import compose_config
 
-    data = compose_train_config(list(overrides))
-    return parse_train_config(data, source="pyflyt train " + " ".join(overrides) if overrides else "pyflyt train")
+    return compose_config(overrides=overrides)
 
 
 # ----------------------------------------------------------------------- run
@@ -215,6 +129,7 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
     """``pyflyt train``: returns the exit code (0 done, 130 interrupted)."""
     import yaml
 
+    from pyflyt_cli.training.compose import compose_run, resolve_init_from
     from pyflyt_cli.training.loop import resume, train
     from pyflyt_cli.training.rundir import config_dict
 
@@ -231,19 +146,22 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
         return INTERRUPTED if result.interrupted else 0
 
     jobs = _sweep_jobs(overrides, multirun)
-    configs = [load_train_config(job) for job in jobs]  # every job validated before the first runs
+    composed = [compose_run(job) for job in jobs]  # every job validated before the first runs
+    if len(jobs) > 1 and any(run_dir is not None for _, run_dir in composed):
+        raise CLIError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
     if show_config:
-        for job, cfg in zip(jobs, configs):
+        for job, (cfg, _) in zip(jobs, composed):
             if len(jobs) > 1:
                 typer.echo(f"# job: {' '.join(job)}")
             typer.echo(yaml.safe_dump(config_dict(cfg), sort_keys=False, default_flow_style=None, width=100))
         return 0
+    runs = [(resolve_init_from(cfg), run_dir) for cfg, run_dir in composed]  # <run>@<step>: a checkpoint file
     results = []
-    for i, (job, cfg) in enumerate(zip(jobs, configs)):
+    for i, (job, (cfg, run_dir)) in enumerate(zip(jobs, runs)):
         if len(jobs) > 1:
             _echo(f"[{i + 1}/{len(jobs)}] {' '.join(job)}")
         try:
-            result = train(cfg, overrides=job, log=_echo)
+            result = train(cfg, overrides=job, log=_echo, run_dir=run_dir)
         except KeyboardInterrupt:
             _echo("aborted (no checkpoint saved by this abort)")
             return INTERRUPTED

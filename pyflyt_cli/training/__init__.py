@@ -1,7 +1,9 @@
 """Training and evaluation of agents on the pyflyt environments (Stable-Baselines3).
 
-Plain functions on plain, validated configs; no Hydra (the CLI composes the config):
+Plain functions on plain, validated configs:
 
+* :func:`compose_config` — the configuration ``pyflyt train`` composes from ``conf/``
+  (:mod:`.compose`, the only module here that uses Hydra)
 * :func:`train` / :func:`resume` — :mod:`.loop`
 * :func:`evaluate_run` — :mod:`.evaluate`
 * :class:`TrainConfig`, :func:`parse_train_config`, :class:`EvalOptions` — :mod:`.schema`
@@ -14,6 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 _LAZY = {
+    "compose_config": "pyflyt_cli.training.compose",
     "train": "pyflyt_cli.training.loop",
     "resume": "pyflyt_cli.training.loop",
     "RunResult": "pyflyt_cli.training.loop",
@@ -39,6 +42,7 @@ __all__ = [
     "EvalReport",
     "RunResult",
     "TrainConfig",
+    "compose_config",
     "evaluate_run",
     "parse_eval_options",
     "parse_train_config",

@@ -1,13 +1,18 @@
 """Typed schema of a training run (``conf/train.yaml`` after composition) and of ``pyflyt eval``.
 
-:func:`parse_train_config` validates a plain mapping — what Hydra composed, or what a
-test or script writes by hand — into a frozen :class:`TrainConfig`.  Unknown keys, wrong
-types and out-of-range values fail here, before any environment or network is built,
-with one line per problem naming the key.  ``_target_`` keys are checked against the
-registries first (:func:`pyflyt_cli.training.registry.check_targets`).
+:func:`parse_train_config` validates a plain mapping — what
+:func:`pyflyt_cli.training.compose_config` composed, or a run's ``config.yaml`` — into a
+frozen :class:`TrainConfig`.  Unknown keys, missing keys, wrong types and out-of-range
+values fail here, before any environment or network is built, with one line per problem
+naming the key.  ``_target_`` keys are checked against the registries first
+(:func:`pyflyt_cli.training.registry.check_targets`).
 
-Every field is documented where it is declared; ``pyflyt train --help`` and
-``docs/cli.md`` show the same.
+**Defaults are not written here.**  Every default value lives in ``conf/`` (``train.yaml``,
+``eval.yaml``, ``algo/<name>.yaml``); this schema states types, ranges and meanings only,
+so the CLI and Python cannot disagree.  A field is either required (the YAML gives its
+value) or optional, where ``None`` means "not set": the library's own behaviour (e.g.
+``policy_kwargs.net_arch: null`` is SB3's default network).  Every field is documented
+where it is declared; ``pyflyt train --help`` and ``docs/cli.md`` show the same.
 """
 
 from __future__ import annotations
@@ -61,9 +66,9 @@ class PolicyConfig(_Strict):
 class NormalizeConfig(_Strict):
     """``algo.normalize``: running mean/std normalisation (SB3 ``VecNormalize``), saved with every model."""
 
-    observation: bool = Field(False, description="normalise observations by their running mean and std")
-    reward: bool = Field(False, description="scale rewards by the running std of the discounted return")
-    clip_obs: float = Field(10.0, gt=0, description="clip normalised observations to [-clip_obs, clip_obs]")
+    observation: bool = Field(description="normalise observations by their running mean and std")
+    reward: bool = Field(description="scale rewards by the running std of the discounted return")
+    clip_obs: float = Field(gt=0, description="clip normalised observations to [-clip_obs, clip_obs]")
 
     @property
     def enabled(self) -> bool:
@@ -73,19 +78,19 @@ class NormalizeConfig(_Strict):
 class ActionNoiseConfig(_Strict):
     """``algo.action_noise``: exploration noise added to deterministic off-policy actions (TD3/DDPG)."""
 
-    type: Literal["normal", "ornstein_uhlenbeck"] = Field("normal", description="noise process")
-    sigma: float = Field(0.1, gt=0, description="standard deviation, in the [-1, 1] rescaled action units")
+    type: Literal["normal", "ornstein_uhlenbeck"] = Field(description="noise process")
+    sigma: float = Field(gt=0, description="standard deviation, in the [-1, 1] rescaled action units")
 
 
 class _AlgoBase(_Strict):
-    policy: str = Field("MlpPolicy", description="SB3 policy name (observations are flattened to one Box)")
-    learning_rate: float = Field(3e-4, gt=0, description="optimiser step size")
+    policy: str = Field(description="SB3 policy name (observations are flattened to one Box)")
+    learning_rate: float = Field(gt=0, description="optimiser step size")
     lr_schedule: Literal["constant", "linear"] = Field(
-        "constant", description="'linear': decay learning_rate to 0 over train.total_timesteps (zoo's lin_<lr>)"
+        description="'linear': decay learning_rate to 0 over train.total_timesteps (zoo's lin_<lr>)"
     )
-    gamma: float = Field(0.99, gt=0, le=1, description="discount factor")
-    normalize: NormalizeConfig = Field(default_factory=NormalizeConfig)
-    policy_kwargs: PolicyConfig = Field(default_factory=PolicyConfig)
+    gamma: float = Field(gt=0, le=1, description="discount factor")
+    normalize: NormalizeConfig = Field(description="running observation / reward normalisation")
+    policy_kwargs: PolicyConfig = Field(description="the network")
 
     _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
         {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
@@ -114,47 +119,43 @@ class _AlgoBase(_Strict):
 
 
 class _OnPolicy(_AlgoBase):
-    n_steps: int = Field(2048, ge=1, description="steps per environment per rollout (rollout = n_steps x n_envs)")
-    gae_lambda: float = Field(0.95, ge=0, le=1, description="GAE bias/variance trade-off")
-    ent_coef: float = Field(0.0, ge=0, description="entropy bonus coefficient")
-    vf_coef: float = Field(0.5, ge=0, description="value loss coefficient")
-    max_grad_norm: float = Field(0.5, gt=0, description="gradient clipping norm")
-    use_sde: bool = Field(False, description="generalised state-dependent exploration")
-    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
-    normalize_advantage: bool = Field(True, description="normalise advantages per batch")
+    n_steps: int = Field(ge=1, description="steps per environment per rollout (rollout = n_steps x n_envs)")
+    gae_lambda: float = Field(ge=0, le=1, description="GAE bias/variance trade-off")
+    ent_coef: float = Field(ge=0, description="entropy bonus coefficient")
+    vf_coef: float = Field(ge=0, description="value loss coefficient")
+    max_grad_norm: float = Field(gt=0, description="gradient clipping norm")
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
+    normalize_advantage: bool = Field(description="normalise advantages per batch")
 
 
 class PPOConfig(_OnPolicy):
     """Proximal Policy Optimization (Schulman et al. 2017); SB3 ``PPO``."""
 
-    name: Literal["ppo"] = "ppo"
-    batch_size: int = Field(64, ge=2, description="minibatch size")
-    n_epochs: int = Field(10, ge=1, description="passes over each rollout")
-    clip_range: float = Field(0.2, gt=0, description="policy ratio clip")
-    clip_range_vf: float | None = Field(None, gt=0, description="value clip (null: none)")
-    target_kl: float | None = Field(None, gt=0, description="stop the epochs early beyond this KL (null: never)")
+    name: Literal["ppo"]
+    batch_size: int = Field(ge=2, description="minibatch size")
+    n_epochs: int = Field(ge=1, description="passes over each rollout")
+    clip_range: float = Field(gt=0, description="policy ratio clip")
+    clip_range_vf: float | None = Field(gt=0, description="value clip (null: none)")
+    target_kl: float | None = Field(gt=0, description="stop the epochs early beyond this KL (null: never)")
 
 
 class A2CConfig(_OnPolicy):
     """Advantage Actor-Critic (Mnih et al. 2016); SB3 ``A2C``."""
 
-    name: Literal["a2c"] = "a2c"
-    n_steps: int = Field(5, ge=1, description="steps per environment per update")
-    gae_lambda: float = Field(1.0, ge=0, le=1, description="GAE bias/variance trade-off")
-    learning_rate: float = Field(7e-4, gt=0, description="optimiser step size")
-    rms_prop_eps: float = Field(1e-5, gt=0, description="RMSprop epsilon")
-    use_rms_prop: bool = Field(True, description="RMSprop (true) or Adam (false)")
-    normalize_advantage: bool = Field(False, description="normalise advantages per batch")
+    name: Literal["a2c"]
+    rms_prop_eps: float = Field(gt=0, description="RMSprop epsilon")
+    use_rms_prop: bool = Field(description="RMSprop (true) or Adam (false)")
 
 
 class _OffPolicy(_AlgoBase):
-    buffer_size: int = Field(1_000_000, ge=1, description="replay buffer capacity [transitions]")
-    learning_starts: int = Field(100, ge=0, description="environment steps collected before the first update")
-    batch_size: int = Field(256, ge=1, description="minibatch size")
-    tau: float = Field(0.005, gt=0, le=1, description="target network soft update coefficient")
-    train_freq: int = Field(1, ge=1, description="update the model every train_freq steps (per environment)")
-    gradient_steps: int = Field(1, ge=-1, description="gradient steps per update (-1: as many as steps collected)")
-    action_noise: ActionNoiseConfig | None = Field(None, description="exploration noise (null: none)")
+    buffer_size: int = Field(ge=1, description="replay buffer capacity [transitions]")
+    learning_starts: int = Field(ge=0, description="environment steps collected before the first update")
+    batch_size: int = Field(ge=1, description="minibatch size")
+    tau: float = Field(gt=0, le=1, description="target network soft update coefficient")
+    train_freq: int = Field(ge=1, description="update the model every train_freq steps (per environment)")
+    gradient_steps: int = Field(ge=-1, description="gradient steps per update (-1: as many as steps collected)")
+    action_noise: ActionNoiseConfig | None = Field(description="exploration noise (null: none)")
 
     def constructor_kwargs(self) -> dict[str, Any]:
         kwargs = super().constructor_kwargs()
@@ -165,12 +166,12 @@ class _OffPolicy(_AlgoBase):
 class SACConfig(_OffPolicy):
     """Soft Actor-Critic (Haarnoja et al. 2018), the paper's algorithm; SB3 ``SAC``."""
 
-    name: Literal["sac"] = "sac"
-    ent_coef: float | str = Field("auto", description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
-    target_update_interval: int = Field(1, ge=1, description="target network update interval [gradient steps]")
-    target_entropy: float | Literal["auto"] = Field("auto", description="entropy target ('auto': -dim(action))")
-    use_sde: bool = Field(False, description="generalised state-dependent exploration")
-    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps")
+    name: Literal["sac"]
+    ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
+    target_update_interval: int = Field(ge=1, description="target network update interval [gradient steps]")
+    target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
 
     @field_validator("ent_coef")
     @classmethod
@@ -191,18 +192,16 @@ class SACConfig(_OffPolicy):
 class TD3Config(_OffPolicy):
     """Twin Delayed DDPG (Fujimoto et al. 2018); SB3 ``TD3``."""
 
-    name: Literal["td3"] = "td3"
-    learning_rate: float = Field(1e-3, gt=0, description="optimiser step size")
-    policy_delay: int = Field(2, ge=1, description="actor update every policy_delay critic updates")
-    target_policy_noise: float = Field(0.2, ge=0, description="target policy smoothing noise std")
-    target_noise_clip: float = Field(0.5, ge=0, description="target policy smoothing noise clip")
+    name: Literal["td3"]
+    policy_delay: int = Field(ge=1, description="actor update every policy_delay critic updates")
+    target_policy_noise: float = Field(ge=0, description="target policy smoothing noise std")
+    target_noise_clip: float = Field(ge=0, description="target policy smoothing noise clip")
 
 
 class DDPGConfig(_OffPolicy):
     """Deep Deterministic Policy Gradient (Lillicrap et al. 2016); SB3 ``DDPG``."""
 
-    name: Literal["ddpg"] = "ddpg"
-    learning_rate: float = Field(1e-3, gt=0, description="optimiser step size")
+    name: Literal["ddpg"]
 
 
 class AWACConfig(_OffPolicy):
@@ -211,19 +210,19 @@ class AWACConfig(_OffPolicy):
     See :mod:`pyflyt_cli.training.awac` for the losses; ``init_from`` may name a SAC run.
     """
 
-    name: Literal["awac"] = "awac"
-    batch_size: int = Field(1024, ge=1, description="minibatch size (the paper's 1024)")
-    beta: float = Field(1.0, gt=0, description="temperature lambda of the advantage weights exp(A/lambda)")
-    max_weight: float = Field(20.0, gt=0, description="clip of the advantage weights exp(A/lambda)")
-    n_value_samples: int = Field(1, ge=1, description="policy samples per state averaged into V(s)")
-    ent_coef: float = Field(0.0, ge=0, description="alpha of a soft (SAC-style) TD backup; 0: plain TD, the paper's")
-    target_update_interval: int = Field(1, ge=1, description="target network update interval [gradient steps]")
-    use_sde: bool = Field(False, description="generalised state-dependent exploration (as the SAC run to start from)")
-    sde_sample_freq: int = Field(-1, ge=-1, description="resample the gSDE noise every n steps")
+    name: Literal["awac"]
+    beta: float = Field(gt=0, description="temperature lambda of the advantage weights exp(A/lambda)")
+    max_weight: float = Field(gt=0, description="clip of the advantage weights exp(A/lambda)")
+    n_value_samples: int = Field(ge=1, description="policy samples per state averaged into V(s)")
+    ent_coef: float = Field(ge=0, description="alpha of a soft (SAC-style) TD backup; 0: plain TD, the paper's")
+    target_update_interval: int = Field(ge=1, description="target network update interval [gradient steps]")
+    use_sde: bool = Field(description="generalised state-dependent exploration (as the SAC run to start from)")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
     offline_buffer: str | None = Field(
-        None, description="replay buffer file (.pkl, SB3 save_replay_buffer) to pretrain on and keep filling"
+        description="replay buffer file to pretrain on and keep filling: .npz (a run's checkpoint), or a "
+        "legacy .pkl (SB3 save_replay_buffer) with trust_pickle=true; null: none"
     )
-    offline_steps: int = Field(0, ge=0, description="gradient steps on offline_buffer before any online step")
+    offline_steps: int = Field(ge=0, description="gradient steps on offline_buffer before any online step")
 
     @field_validator("offline_buffer")
     @classmethod
@@ -234,7 +233,12 @@ class AWACConfig(_OffPolicy):
 
         path = Path(value).expanduser()
         if not path.is_file():
-            raise ValueError(f"offline_buffer: no such file {value!r} (a replay buffer saved by SB3)")
+            raise ValueError(f"offline_buffer: no such file {value!r} (a replay buffer file: .npz, or a legacy .pkl)")
+        if path.suffix not in (".npz", ".pkl"):
+            raise ValueError(
+                f"offline_buffer: {value!r} is not a replay buffer file: give a .npz (a run's checkpoints/) "
+                "or a legacy SB3 .pkl"
+            )
         return str(path.resolve())
 
     @model_validator(mode="after")
@@ -255,31 +259,29 @@ AlgoConfig = Annotated[
 class TrainOptions(_Strict):
     """``train``: budget, parallelism, evaluation, checkpoints and outputs of a run."""
 
-    total_timesteps: int = Field(100_000, ge=1, description="environment steps to train for (summed over n_envs)")
-    n_envs: int = Field(1, ge=1, description="parallel environments (SubprocVecEnv when > 1, unless vec_env=dummy)")
+    total_timesteps: int = Field(ge=1, description="environment steps to train for (summed over n_envs)")
+    n_envs: int = Field(ge=1, description="parallel environments (SubprocVecEnv when > 1, unless vec_env=dummy)")
     vec_env: Literal["auto", "dummy", "subproc"] = Field(
-        "auto", description="auto: subprocesses when n_envs > 1; dummy: all in this process"
+        description="auto: subprocesses when n_envs > 1; dummy: all in this process"
     )
-    eval_freq: int = Field(10_000, ge=0, description="evaluate every this many environment steps (0: never)")
-    eval_episodes: int = Field(5, ge=1, description="episodes per evaluation")
-    eval_deterministic: bool = Field(True, description="evaluate the policy's mean action")
+    eval_freq: int = Field(ge=0, description="evaluate every this many environment steps (0: never)")
+    eval_episodes: int = Field(ge=1, description="episodes per evaluation")
+    eval_deterministic: bool = Field(description="evaluate the policy's mean action")
     checkpoint_freq: int = Field(
-        25_000, ge=0, description="checkpoint every this many environment steps (0: only on interrupt)"
+        ge=0, description="checkpoint every this many environment steps (0: only on interrupt)"
     )
     keep_checkpoints: int = Field(
-        0, ge=0, description="keep the newest k model checkpoints (0: all); one replay buffer is kept"
+        ge=0, description="keep the newest k model checkpoints (0: all); one replay buffer is kept"
     )
     save_replay_buffer: bool = Field(
-        True, description="save the replay buffer with checkpoints (off-policy), for exact resume"
+        description="save the replay buffer with checkpoints (off-policy), for exact resume"
     )
-    progress_bar: bool | None = Field(None, description="tqdm bar with steps/s and ETA; null: only on a terminal")
-    tensorboard: bool = Field(False, description="also write TensorBoard logs to <run>/tensorboard (needs tensorboard)")
-    output_dir: str = Field("runs", description="root of run directories: <output_dir>/<env>/<algo>/<time>-seed<k>")
-    device: Literal["cpu", "cuda", "auto"] = Field("cpu", description="torch device")
-    torch_threads: int = Field(
-        1, ge=1, description="torch intra-op threads (1: reproducible and fastest for small MLPs)"
-    )
-    verbose: int = Field(0, ge=0, le=2, description="SB3 verbosity (0: silent)")
+    progress_bar: bool | None = Field(description="tqdm bar with steps/s and ETA; null: only on a terminal")
+    tensorboard: bool = Field(description="also write TensorBoard logs to <run>/tensorboard (needs tensorboard)")
+    output_dir: str = Field(description="root of run directories: <output_dir>/<env>/<algo>/<time>-seed<k>")
+    device: Literal["cpu", "cuda", "auto"] = Field(description="torch device")
+    torch_threads: int = Field(ge=1, description="torch intra-op threads (1: reproducible and fastest for small MLPs)")
+    verbose: int = Field(ge=0, le=2, description="SB3 verbosity (0: silent)")
 
 
 class CallbackConfig(_Strict):
@@ -293,7 +295,9 @@ class CallbackConfig(_Strict):
     max_no_improvement_evals: int | None = Field(
         None, ge=1, description="stop_on_no_improvement: patience [evaluations]"
     )
-    min_evals: int = Field(0, ge=0, description="stop_on_no_improvement: evaluations before counting")
+    min_evals: int | None = Field(
+        None, ge=0, description="stop_on_no_improvement: evaluations before counting (null: SB3's, from the first)"
+    )
 
     @model_validator(mode="after")
     def _params(self) -> CallbackConfig:
@@ -307,26 +311,32 @@ class CallbackConfig(_Strict):
         cls = registry.resolve(registry.CALLBACKS, self.name, "callback")
         if self.name == "stop_on_reward":
             return cls(reward_threshold=self.reward_threshold, verbose=0)
-        return cls(max_no_improvement_evals=self.max_no_improvement_evals, min_evals=self.min_evals, verbose=0)
+        optional = {} if self.min_evals is None else {"min_evals": self.min_evals}
+        return cls(max_no_improvement_evals=self.max_no_improvement_evals, verbose=0, **optional)
 
 
 class TrainConfig(_Strict):
     """One training run: environment, algorithm, seed, options."""
 
-    seed: int = Field(0, ge=0, description="seeds everything: env resets, motor noise, network init, action sampling")
-    env_name: str = Field(description="env config name, used in the run directory (runs/<env_name>/...)")
+    seed: int = Field(ge=0, description="seeds everything: env resets, motor noise, network init, action sampling")
+    env_name: str = Field(
+        description="the name the run is filed and plotted under (runs/<env_name>/...): the env config's, "
+        "or a benchmark's task"
+    )
     env: SerializeAsAny[EnvConfig] = Field(description="the environment (conf/env, validated by EnvConfig)")
     algo: AlgoConfig = Field(description="algorithm and hyper-parameters (conf/algo, tuned by conf/hparams)")
-    train: TrainOptions = Field(default_factory=TrainOptions)
-    callbacks: list[CallbackConfig] = Field(
-        default_factory=list, description="extra callbacks run after each evaluation"
-    )
+    train: TrainOptions = Field(description="budget, parallelism, evaluation, checkpoints and outputs")
+    callbacks: list[CallbackConfig] = Field(description="extra callbacks run after each evaluation")
     init_from: str | None = Field(
-        None,
-        description="run directory, or one of its model files (e.g. checkpoints/model_<steps>_steps.zip), "
-        "whose policy weights start this run (bootstrap)",
+        description="run directory, one of its model files, or <run dir>@<step> (its first checkpoint at or "
+        "after that step), whose policy weights start this run (bootstrap); null: from scratch",
     )
-    experiment: str | None = Field(None, description="name of the experiment file applied, for the record")
+    trust_pickle: bool = Field(
+        description="load legacy pickled files (SB3 .zip models, .pkl replay buffers/normalisers) named by "
+        "init_from, algo.offline_buffer or pyflyt eval: unpickling can run arbitrary code; only for files you "
+        "made yourself"
+    )
+    experiment: str | None = Field(description="name of the experiment file applied, for the record")
 
     @field_validator("env", mode="before")
     @classmethod
@@ -334,6 +344,14 @@ class TrainConfig(_Strict):
         if isinstance(value, EnvConfig):
             return value
         return parse_env_config(value, source="env")
+
+    @field_validator("init_from")
+    @classmethod
+    def _init_from(cls, value: str | None) -> str | None:
+        if value is not None and not value.strip():
+            raise ValueError("init_from is empty: give a run directory, a model file or <run dir>@<step> (null: none)")
+        split_init_from(value)
+        return value
 
     @field_validator("env_name")
     @classmethod
@@ -345,6 +363,12 @@ class TrainConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> TrainConfig:
         algo, opts = self.algo, self.train
+        buffer = algo.offline_buffer if isinstance(algo, AWACConfig) else None
+        if buffer is not None and buffer.endswith(".pkl") and not self.trust_pickle:
+            raise ValueError(
+                f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
+                "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
+            )
         if isinstance(algo, PPOConfig):
             rollout = algo.n_steps * opts.n_envs
             if rollout < 2:
@@ -355,6 +379,16 @@ class TrainConfig(_Strict):
                     "lower algo.batch_size or raise algo.n_steps"
                 )
         return self
+
+
+def split_init_from(value: str | None) -> tuple[str | None, int | None]:
+    """``init_from`` as (source, checkpoint step): ``"<run dir>@<step>"`` -> (run dir, step); else (value, None)."""
+    if value is None or "@" not in value.replace("\\", "/").rsplit("/", 1)[-1]:
+        return value, None
+    source, _, step = value.rpartition("@")
+    if not source or not step.isdigit():
+        raise ValueError("write <run dir>@<step> with a whole number of steps (e.g. runs/a/sac/seed0@7500)")
+    return source, int(step)
 
 
 def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "train config") -> TrainConfig:
@@ -368,6 +402,8 @@ def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "tra
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: a training config must be a mapping, got {type(data).__name__}")
     data = registry.check_targets(data)
+    if "trust_pickle" not in data:  # a run recorded before the key existed never trusted pickles
+        data = {**data, "trust_pickle": False}
     algo = data.get("algo")
     if isinstance(algo, Mapping) and algo.get("name") not in registry.ALGOS:
         raise ConfigError(f"{source}: algo.name: " + registry.unknown("algorithm", algo.get("name"), registry.ALGOS))
@@ -386,7 +422,15 @@ def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "tra
                 problems.append(_describe(_algo_model(loc[1]), {**error, "loc": loc[2:]}, prefix="algo."))
                 continue
             problems.append(_describe(TrainConfig, error))
-        raise ConfigError(f"{source}: invalid configuration:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+        hint = ""
+        if any(e["type"] == "missing" for e in exc.errors()):
+            hint = (
+                "\n  (every key must be given: its default lives in conf/; compose a complete configuration with "
+                "pyflyt_cli.training.compose_config(env=..., algo=..., overrides=[...]))"
+            )
+        raise ConfigError(
+            f"{source}: invalid configuration:\n" + "\n".join(f"  - {p}" for p in problems) + hint
+        ) from None
     check_env_references(cfg.env)
     return cfg
 
@@ -420,17 +464,21 @@ def _algo_model(name: str) -> type[BaseModel]:
 class EvalOptions(_Strict):
     """``pyflyt eval <run_dir> [key=value ...]`` (``conf/eval.yaml``)."""
 
-    episodes: int = Field(10, ge=1, description="episodes to run")
-    seed: int | None = Field(None, ge=0, description="episode i is reset with seed + i (null: the run's seed + 1000)")
-    deterministic: bool = Field(True, description="use the policy's mean action (false: sample)")
+    episodes: int = Field(ge=1, description="episodes to run")
+    seed: int | None = Field(ge=0, description="episode i is reset with seed + i (null: the run's seed + 1000)")
+    deterministic: bool = Field(description="use the policy's mean action (false: sample)")
     model: Literal["auto", "best", "final", "latest"] = Field(
-        "auto",
-        description="best: best_model.zip; final: model.zip; latest: newest checkpoint; auto: best, else final, else latest",
+        description="best: the best model; final: the final model; latest: newest checkpoint; "
+        "auto: best, else final, else latest",
     )
-    record: bool = Field(True, description="write each episode to <run_dir>/episodes/ as MCAP")
-    video: str | None = Field(None, description="write rgb_array frames of the episodes to this .gif or .mp4")
-    video_episodes: int = Field(1, ge=1, description="episodes included in the video")
-    fps: int | None = Field(None, ge=1, description="video frame rate (null: the env's agent rate)")
+    record: bool = Field(description="write each episode to <run_dir>/episodes/ as MCAP")
+    video: str | None = Field(description="write rgb_array frames of the episodes to this .gif or .mp4")
+    video_episodes: int = Field(ge=1, description="episodes included in the video")
+    fps: int | None = Field(ge=1, description="video frame rate (null: the env's agent rate)")
+    trust_pickle: bool = Field(
+        description="load legacy pickled files (SB3 .zip models, .pkl normalisers) of the run: unpickling can "
+        "run arbitrary code; only for files you made yourself"
+    )
 
     @field_validator("video")
     @classmethod
@@ -441,11 +489,23 @@ class EvalOptions(_Strict):
 
 
 def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
-    """Validate ``pyflyt eval`` options (raises :class:`ConfigError`)."""
+    """Validate ``pyflyt eval`` options (raises :class:`ConfigError`); keys left out take ``conf/eval.yaml``'s values."""
     if isinstance(data, EvalOptions):
         return data
     try:
-        return EvalOptions.model_validate(dict(data))
+        return EvalOptions.model_validate({**eval_defaults(), **dict(data)})
     except ValidationError as exc:
         problems = [_describe(EvalOptions, e) for e in exc.errors()]
         raise ConfigError("invalid eval options:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+
+
+def eval_defaults() -> dict[str, Any]:
+    """``conf/eval.yaml``: the default of every :class:`EvalOptions` field (plain YAML data, no Hydra)."""
+    import yaml
+
+    from pyflyt_engine.paths import conf_dir
+
+    data = yaml.safe_load((conf_dir() / "eval.yaml").read_text())
+    if not isinstance(data, dict):  # pragma: no cover - broken install
+        raise ConfigError(f"{conf_dir() / 'eval.yaml'}: not a mapping of eval options")
+    return data

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from pyflyt_cli.benchmark.plan import build_plan, levels, read_plan, split_overrides
-from pyflyt_cli.benchmark.run import COMPLETE, NEW, PARTIAL, run_state
-from pyflyt_cli.benchmark.worker import config_differences
+from pyflyt_cli.benchmark.run import CHANGED, COMPLETE, NEW, PARTIAL, run_state
+from pyflyt_cli.benchmark.worker import run_differences
 from pyflyt_cli.config import CLIError
 
 P = "benchmark.presets.laptop"
@@ -53,9 +53,8 @@ def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> Non
     awac = plan.job("quadx_waypoints_sparse/awac/seed2")
     assert awac.depends_on == "quadx_waypoints/sac/seed2"
     step = plan.spec["presets"]["laptop"]["partial_step"]
-    assert awac.config["init_from"] == str(
-        plan.root / f"runs/quadx_waypoints/sac/seed2/checkpoints/model_{step}_steps.zip"
-    )
+    # the source run's first checkpoint at or after that step, resolved when the run starts
+    assert awac.config["init_from"] == f"{plan.root}/runs/quadx_waypoints/sac/seed2@{step}"
     assert awac.config["env"]["reward"] == "sparse"
     assert plan.job("quadx_waypoints/sac/seed2").config["env"]["reward"] == "dense"
     sac = plan.job("quadx_waypoints/sac/seed2")
@@ -78,6 +77,11 @@ def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> Non
         (["benchmark.groups.0.algos=[ppo,nope]"], "unknown algo 'nope'"),
         (["benchmark.colour=red"], "benchmark.colour"),
         (["train.total_timestep=5"], "Did you mean 'train.total_timesteps'"),
+        (["run_dir=/tmp/x"], "runs go to <benchmark>/runs/<task>/<algo>/seed<k>"),
+        (["env_name=x"], "filed under their group's task"),
+        (["train.output_dir=x"], "choose benchmark.output_dir"),
+        (["init_from=/tmp/x"], "benchmark.groups[i].init_from"),
+        (["benchmark.groups.0.overrides=['seed=3']"], "benchmark.groups[0].overrides: 'seed=3' cannot be given"),
     ],
 )
 def test_bad_benchmark_overrides_name_the_problem(tmp_path: Path, overrides: list[str], message: str) -> None:
@@ -136,6 +140,24 @@ def test_unknown_or_missing_launcher_plugin_is_named() -> None:
         launcher_name(["hydra.launcher.partition=gpu"])
 
 
+def _save_run(plan, job, **changes) -> Path:
+    """``job``'s run directory holding its planned config.yaml with ``changes`` (``"algo.gamma": 0.9``)."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.schema import parse_train_config
+
+    data = json.loads(json.dumps(job.config))
+    for path, value in changes.items():
+        *parents, leaf = path.split(".")
+        node = data
+        for key in parents:
+            node = node[key]
+        node[leaf] = value
+    run = plan.run_dir(job)
+    run.mkdir(parents=True, exist_ok=True)
+    rundir.save_config(parse_train_config(data), run)
+    return run
+
+
 def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
     plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
     plan.write()
@@ -144,9 +166,7 @@ def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
     assert again.jobs[0].config == plan.jobs[0].config
     job = plan.jobs[0]
     assert run_state(plan, job) == NEW
-    run = plan.run_dir(job)
-    run.mkdir(parents=True)
-    (run / "config.yaml").write_text("{}")
+    run = _save_run(plan, job)
     (run / "state.json").write_text(json.dumps({"status": "interrupted", "total_timesteps": 256}))
     assert run_state(plan, job) == PARTIAL
     (run / "state.json").write_text(json.dumps({"status": "complete", "total_timesteps": 256}))
@@ -156,6 +176,11 @@ def test_plan_round_trip_and_run_states(tmp_path: Path) -> None:
         "smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1", "train.total_timesteps=512"]
     )
     assert run_state(bigger, bigger.jobs[0]) == PARTIAL
+    # other settings: never reused, complete or not
+    other, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1", "algo.gamma=0.9"])
+    assert run_state(other, other.jobs[0]) == CHANGED
+    (run / "config.yaml").write_text("{}")
+    assert run_state(plan, job) == CHANGED
 
 
 def test_truncated_plan_file_is_reported(tmp_path: Path) -> None:
@@ -166,30 +191,44 @@ def test_truncated_plan_file_is_reported(tmp_path: Path) -> None:
         read_plan(tmp_path)
 
 
-def test_config_differences_ignore_budget_only(tmp_path: Path) -> None:
-    planned = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 10, "output_dir": "a"}}
-    saved = {"seed": 0, "algo": {"name": "ppo", "gamma": 0.99}, "train": {"total_timesteps": 5, "output_dir": "b"}}
-    assert config_differences(planned, saved, tmp_path) == []
-    saved["algo"]["gamma"] = 0.9
-    assert config_differences(planned, saved, tmp_path) == ["algo.gamma"]
+def test_run_differences_name_each_setting_saved_and_planned(tmp_path: Path) -> None:
+    plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
+    job = plan.jobs[0]
+    assert run_differences(plan, job) == []  # no run directory yet
+    _save_run(plan, job, **{"train.output_dir": "elsewhere", "train.progress_bar": True})
+    assert run_differences(plan, job) == []  # where it was written and how it reported are not settings
+    _save_run(plan, job, **{"train.total_timesteps": 128})
+    assert run_differences(plan, job) == []  # the plan's budget grew: an extension
+    _save_run(plan, job, **{"train.total_timesteps": 512, "algo.gamma": 0.9, "algo.policy_kwargs.net_arch": [8]})
+    assert [str(d) for d in run_differences(plan, job)] == [
+        "algo.gamma: 0.9 -> 0.99",
+        "algo.policy_kwargs.net_arch: [8] -> [64, 64]",
+        "train.total_timesteps: 512 -> 256",
+    ]
 
 
 def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path: Path) -> None:
-    from pyflyt_cli.benchmark.worker import resolve_init_model
+    from pyflyt_cli.benchmark.worker import planned_config
+    from pyflyt_cli.training import rundir
+    from pyflyt_engine.errors import ConfigError
 
     plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "seeds=1"])
     job = plan.job("quadx_waypoints_sparse/awac/seed0")
     step = plan.spec["presets"]["laptop"]["partial_step"]
-    folder = plan.run_dir(plan.job("quadx_waypoints/sac/seed0")) / "checkpoints"
-    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"  # not trained yet: as planned
-    folder.mkdir(parents=True)
-    (folder.parent / "config.yaml").write_text("{}")
+    source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
+    assert planned_config(plan, job, resolve=False).init_from == f"{source}@{step}"  # not trained yet: as planned
+    with pytest.raises(ConfigError, match=f"@{step}: run directory {source} does not exist"):
+        planned_config(plan, job, resolve=True)
+    (source / rundir.CHECKPOINTS).mkdir(parents=True)
+    (source / rundir.CONFIG_FILE).write_text("{}")
+    with pytest.raises(ConfigError, match=f"has no checkpoint at or after step {step} \\(its checkpoints: none yet\\)"):
+        planned_config(plan, job, resolve=True)
     for s in (step - 2496, step + 4, step + 2504):  # SAC with train_freq 8 checkpoints at rollout ends
-        (folder / f"model_{s}_steps.zip").write_bytes(b"")
-    assert resolve_init_model(plan, job) == folder / f"model_{step + 4}_steps.zip"
-    (folder / f"model_{step}_steps.zip").write_bytes(b"")
-    assert resolve_init_model(plan, job) == folder / f"model_{step}_steps.zip"
-    assert resolve_init_model(plan, plan.job("quadx_waypoints/sac/seed0")) is None
+        rundir.checkpoint_paths(source, s).model.write_bytes(b"")
+    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step + 4).model)
+    rundir.checkpoint_paths(source, step).model.write_bytes(b"")
+    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step).model)
+    assert planned_config(plan, plan.job("quadx_waypoints/sac/seed0"), resolve=True).init_from is None
 
 
 def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> None:
@@ -207,3 +246,88 @@ def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> 
     shadow.write_text(text)
     with pytest.raises(CLIError, match="is a shipped experiment's; rename the file"):
         build_plan(str(shadow), [])
+
+
+@pytest.mark.parametrize(
+    "override",
+    [
+        "+hydra.callbacks.x._target_=builtins.open",
+        "hydra/job_logging=disabled",
+        "hydra/hydra_logging=disabled",
+        "hydra.searchpath=[file:///tmp]",
+        "hydra.launcher._target_=os.system",
+        "+hydra.launcher.ray._args_=[x]",
+        "+hydra.launcher.setup={_target_: os.system}",
+        "+hydra.launcher.setup=[{_partial_: true}]",
+        "hydra.launcher.partition=${oc.env:HOME}",
+        "~hydra.launcher.partition",
+        "hydra.launcher.partition=a,b",
+    ],
+)
+def test_only_the_launcher_and_its_plain_settings_reach_hydra(tmp_path: Path, override: str) -> None:
+    with pytest.raises(CLIError, match="The only Hydra settings accepted are the launcher, hydra/launcher="):
+        build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "hydra/launcher=basic", override])
+    assert not any(tmp_path.iterdir())
+
+
+def test_launcher_settings_are_passed_on(tmp_path: Path) -> None:
+    ok = ["hydra/launcher=basic", "+hydra.launcher.ray.init.num_cpus=2", "hydra.launcher.setup=[a,b]"]
+    _, hydra = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", *ok])
+    assert hydra == ok
+
+
+def dry_run_lines(stdout: str) -> dict[str, list[str]]:
+    """``pyflyt benchmark --dry-run``'s script: run id -> the arguments of its ``pyflyt train`` line."""
+    import shlex
+
+    lines, run = {}, None
+    for line in stdout.splitlines():
+        if line.startswith("# "):
+            run = line.split()[-1]
+        elif line.startswith("pyflyt train "):
+            lines[run] = shlex.split(line)[2:]
+    return lines
+
+
+def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
+    """Each printed `pyflyt train` line, composed as pyflyt train composes it, is its run: same digest, same directory."""
+    from tests.train.conftest import pyflyt
+
+    out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
+    quoted = str(out).replace("'", "\\'")
+    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=9000"]
+    result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    plan, _ = build_plan("paper_rl", args)
+    lines = dry_run_lines(result.stdout)
+    assert sorted(lines) == sorted(j.id for j in plan.jobs)
+    assert list(lines).index("quadx_waypoints/sac/seed1") < list(lines).index("quadx_waypoints_sparse/awac/seed1")
+    from pyflyt_cli.training.compose import compose_run
+    from pyflyt_cli.training.rundir import config_digest
+
+    for job in plan.jobs:
+        cfg, run_dir = compose_run(lines[job.id])
+        assert run_dir == plan.run_dir(job)
+        assert cfg.env_name == job.task and cfg.seed == job.seed
+        assert config_digest(cfg) == config_digest(job.config), job.id
+    assert not out.exists()
+
+
+def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Path) -> None:
+    from pyflyt_cli.commands.benchmark import run_benchmark
+
+    (tmp_path / "a file").write_text("")
+    with pytest.raises(
+        CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
+    ):
+        run_benchmark(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
+
+
+def test_a_setting_that_interpolates_the_seed_is_composed_per_run(tmp_path: Path) -> None:
+    from pyflyt_engine.paths import conf_dir
+
+    study = tmp_path / "seeded_study.yaml"
+    text = (conf_dir() / "experiment" / "smoke_benchmark.yaml").read_text()
+    study.write_text(text.replace("  eval_episodes: 1\n", "  eval_episodes: ${oc.select:seed}\n"))
+    plan, _ = build_plan(str(study), [f"benchmark.output_dir={tmp_path}", "benchmark.seeds=[1,2,3]"])
+    assert [j.config["train"]["eval_episodes"] for j in plan.jobs] == [1, 2, 3, 1, 2, 3]

@@ -97,6 +97,8 @@ def test_hparams_follow_the_chosen_env_and_algo():
         (["algo.learning_rate=="], ["malformed override"]),
         (["seed"], ["'seed' is not an override"]),
         (["uav=quadx_f450", "uav.body.mass=2"], ["uav.* keys cannot be overridden"]),
+        (["hydra.searchpath=[file:///tmp]"], ["pyflyt train takes no Hydra settings"]),
+        (["+hydra.callbacks.x._target_=os.getcwd"], ["pyflyt train takes no Hydra settings"]),
     ],
 )
 def test_bad_configs_fail_with_a_message_naming_the_problem(overrides, expected):
@@ -291,3 +293,160 @@ def test_conf_is_packaged_with_train_configs():
     assert '"conf" = "pyflyt_engine/conf"' in text
     for name in ("train.yaml", "eval.yaml", "algo/ppo.yaml", "algo/sac.yaml", "algo/td3.yaml"):
         assert (conf_dir() / name).is_file(), name
+
+
+# ------------------------------------------------------------ experiment files
+
+
+def _tagged_experiment(path: Path, marker: Path) -> Path:
+    path.write_text(f'# @package _global_\nseed: !!python/object/apply:os.system ["touch {marker}"]\n')
+    return path
+
+
+def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path):
+    marker = tmp_path / "ran"
+    study = _tagged_experiment(tmp_path / "tagged_study.yaml", marker)
+    for command in (["train", "--cfg"], ["benchmark", "--dry-run"]):
+        result = pyflyt([*command, f"experiment={study}"], cwd=tmp_path, timeout=120)
+        assert result.returncode == 2, result.stderr
+        assert f"{study}, line 2: the YAML tag !!python/object/apply:os.system is not allowed" in result.stderr
+        assert "Traceback" not in result.stderr
+    assert not marker.exists(), "code from the file ran"
+
+
+def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_path, monkeypatch):
+    import shutil
+
+    from pyflyt_cli import config
+
+    conf = tmp_path / "conf"
+    shutil.copytree(conf_dir(), conf)
+    marker = tmp_path / "ran"
+    shipped = _tagged_experiment(conf / "experiment" / "tagged.yaml", marker)
+    monkeypatch.setattr(config, "conf_dir", lambda: conf)  # where Hydra looks
+    with pytest.raises(CLIError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
+        load_train_config(["experiment=tagged"])
+    assert not marker.exists(), "code from the file ran"
+
+
+@pytest.mark.parametrize(
+    ("content", "expected"),
+    [
+        (b"\x00\xff\xfe binary", "not a text file"),
+        (b"train: [1, 2\n", "line 2: not valid YAML"),
+    ],
+)
+def test_an_unreadable_experiment_file_is_named(tmp_path, content, expected):
+    study = tmp_path / "study.yaml"
+    study.write_bytes(content)
+    with pytest.raises(CLIError, match=None) as info:
+        load_train_config([f"experiment={study}"])
+    assert str(info.value).startswith(str(study)) and expected in str(info.value)
+
+
+@pytest.mark.parametrize(("override", "expected"), [("algo=null", "takes a name"), ("uav=null", "write ~uav")])
+def test_a_config_group_set_to_null_is_explained(override, expected):
+    with pytest.raises(CLIError, match=expected):
+        load_train_config([override])
+
+
+# ------------------------------------------------------- one source of defaults
+
+
+def _schema_models():
+    from pydantic import BaseModel
+
+    from pyflyt_cli.training import schema
+
+    return [
+        m
+        for m in vars(schema).values()
+        if isinstance(m, type) and issubclass(m, BaseModel) and m.__module__ == schema.__name__
+    ]
+
+
+def test_the_schema_writes_no_default_values():
+    """conf/ holds every default; a schema field is required, or optional with None meaning "not set"."""
+    restated = [
+        f"{model.__name__}.{name} = {field.get_default(call_default_factory=True)!r}"
+        for model in _schema_models()
+        for name, field in model.model_fields.items()
+        if not field.is_required() and field.get_default(call_default_factory=True) is not None
+    ]
+    assert restated == []
+
+
+@pytest.mark.parametrize("env", ENVS)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_python_and_the_cli_compose_the_same_configuration(env, algo):
+    import yaml
+
+    from pyflyt_cli.training import compose_config
+    from pyflyt_cli.training.rundir import config_dict
+
+    result = CliRunner().invoke(app, ["train", f"env={env}", f"algo={algo}", "--cfg"])
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(result.output) == config_dict(compose_config(env=env, algo=algo))
+
+
+def test_the_algorithm_defaults_are_those_of_conf():
+    import yaml
+
+    from pyflyt_cli.training import compose_config
+
+    shipped = yaml.safe_load((conf_dir() / "algo" / "sac.yaml").read_text())
+    # env=rocket_landing has no SAC tuning in conf/hparams: every value is conf/algo/sac.yaml's
+    cfg = compose_config(env="rocket_landing", algo="sac")
+    assert cfg.algo.learning_starts == shipped["learning_starts"] == 10_000
+    assert cfg.trust_pickle is False
+
+
+def test_a_hand_written_config_missing_keys_is_refused_not_completed():
+    data = load_train_config(["algo=sac"]).model_dump(mode="json")
+    del data["algo"]["learning_starts"]
+    with pytest.raises(ConfigError, match=r"algo\.learning_starts: .*required(.|\n)*compose_config\(env=") as info:
+        parse_train_config(data)
+    assert "learning_starts" in str(info.value)
+
+
+def test_eval_options_take_conf_eval_yaml_for_keys_left_out():
+    import yaml
+
+    from pyflyt_cli.training.schema import EvalOptions, parse_eval_options
+
+    shipped = yaml.safe_load((conf_dir() / "eval.yaml").read_text())
+    assert set(shipped) == set(EvalOptions.model_fields)
+    options = parse_eval_options({"episodes": 3})
+    assert options.episodes == 3 and options.trust_pickle is False
+    assert options.model_dump() == {**shipped, "episodes": 3}
+
+
+def test_a_run_recorded_before_trust_pickle_existed_reads_as_not_trusting():
+    data = load_train_config([]).model_dump(mode="json")
+    del data["trust_pickle"]
+    assert parse_train_config(data).trust_pickle is False
+
+
+def test_awac_offline_buffer_npz_or_trusted_pickle(tmp_path):
+    for name in ("buffer.npz", "buffer.pkl", "buffer.txt"):
+        (tmp_path / name).write_bytes(b"")
+    npz, pkl = tmp_path / "buffer.npz", tmp_path / "buffer.pkl"
+    assert load_train_config(["algo=awac", f"algo.offline_buffer={npz}"]).algo.offline_buffer == str(npz)
+    with pytest.raises(
+        ConfigError, match=r"is a pickle \(\.pkl\): unpickling can run arbitrary code.*trust_pickle=true"
+    ):
+        load_train_config(["algo=awac", f"algo.offline_buffer={pkl}"])
+    trusted = load_train_config(["algo=awac", f"algo.offline_buffer={pkl}", "trust_pickle=true"])
+    assert trusted.algo.offline_buffer == str(pkl) and trusted.trust_pickle
+    with pytest.raises(ConfigError, match="is not a replay buffer file"):
+        load_train_config(["algo=awac", f"algo.offline_buffer={tmp_path / 'buffer.txt'}"])
+
+
+def test_init_from_a_step_of_a_missing_run_names_the_run(tmp_path):
+    from pyflyt_cli.commands.train import run_train
+
+    with pytest.raises(ConfigError, match=r"init_from=.*@5: run directory .*nope does not exist"):
+        run_train([f"init_from={tmp_path / 'nope'}@5", f"train.output_dir={tmp_path / 'runs'}"])
+    with pytest.raises(ConfigError, match=r"write <run dir>@<step> with a whole number of steps"):
+        run_train([f"init_from={tmp_path}@five"], show_config=True)
+    assert not (tmp_path / "runs").exists()

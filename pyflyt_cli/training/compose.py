@@ -1,0 +1,181 @@
+"""The training configuration as ``pyflyt train`` composes it: ``conf/train.yaml`` + overrides.
+
+The one place a training config is put together, for the CLI and for Python alike::
+
+    from pyflyt_cli.training import compose_config, train
+    cfg = compose_config(env="quadx_waypoints", algo="sac", overrides=["seed=3"])
+    train(cfg)
+
+Every default value lives in ``conf/`` (``train.yaml``, ``algo/``, ``hparams/``, ``env/`` ...);
+the schema (:mod:`.schema`) only validates.  Hydra is used through its compose API
+(:func:`pyflyt_cli.config.compose`): it never changes the working directory and writes
+nothing.  This is the only Hydra-aware module of :mod:`pyflyt_cli.training`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from pyflyt_cli.config import CLIError, _group_choices, compose, to_container
+from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.paths import conf_dir
+
+#: top-level keys of ``conf/train.yaml`` that tell ``pyflyt train`` what to do, not what to train
+COMMAND_KEYS = ("resume", "run_dir")
+
+
+def compose_config(env: str | None = None, algo: str | None = None, overrides: Sequence[str] = ()) -> TrainConfig:
+    """The validated :class:`TrainConfig` that ``pyflyt train [env=<env>] [algo=<algo>] <overrides>`` trains.
+
+    Args:
+        env: an env config of ``conf/env`` (default: ``conf/train.yaml``'s).
+        algo: an algorithm config of ``conf/algo`` (default: ``conf/train.yaml``'s).
+        overrides: Hydra overrides, as on the command line (``"train.total_timesteps=5e4"``,
+            ``"experiment=smoke"``).
+
+    Raises :class:`~pyflyt_cli.config.CLIError` or :class:`~pyflyt_engine.errors.ConfigError`
+    with a message naming the problem.
+    """
+    given = [*([f"env={env}"] if env else []), *([f"algo={algo}"] if algo else []), *overrides]
+    cfg, command = _compose(given)
+    for key, value in command.items():
+        if value is not None:
+            raise CLIError(
+                f"{key}={value} tells pyflyt train what to do, it is not part of a configuration "
+                "(from Python: train(cfg, run_dir=...), resume(run_dir))"
+            )
+    return cfg
+
+
+def compose_run(overrides: Sequence[str]) -> tuple[TrainConfig, Path | None]:
+    """``pyflyt train <overrides>`` (no ``resume=``): the validated config and the ``run_dir=`` it names (or None)."""
+    cfg, command = _compose(overrides)
+    run_dir = command["run_dir"]
+    return cfg, None if run_dir is None else Path(str(run_dir)).expanduser()
+
+
+def _compose(overrides: Sequence[str]) -> tuple[TrainConfig, dict[str, Any]]:
+    data, command = compose_train_data(overrides)
+    source = "pyflyt train " + " ".join(overrides) if overrides else "pyflyt train"
+    return parse_train_config(data, source=source), command
+
+
+def resolve_init_from(cfg: TrainConfig) -> TrainConfig:
+    """``cfg`` with ``init_from=<run dir>@<step>`` replaced by that run's first checkpoint at or after ``step``.
+
+    Checkpoints are saved at the first rollout boundary at or after each multiple of
+    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with ``train_freq: 8``), so a
+    step names "the policy after about that many steps".  What ``pyflyt train`` and
+    ``pyflyt benchmark`` do just before training; any other ``init_from`` is kept.
+    """
+    from pyflyt_cli.training import rundir
+
+    source, step = split_init_from(cfg.init_from)
+    if step is None:
+        return cfg
+    try:
+        run = rundir.check_run_dir(Path(source))
+    except ConfigError as exc:
+        raise ConfigError(f"init_from={cfg.init_from}: {exc}") from None
+    found = rundir.checkpoints(run)
+    later = [c for c in found if c.step >= step]
+    if not later:
+        have = ", ".join(str(c.step) for c in found) or "none yet"
+        raise ConfigError(
+            f"init_from={cfg.init_from}: {run} has no checkpoint at or after step {step} (its checkpoints: "
+            f"{have}); train that run further (pyflyt train resume={run} train.total_timesteps=<more>) "
+            "or choose an earlier step"
+        )
+    data = cfg.model_dump(mode="json")
+    data["init_from"] = str(later[0].model)
+    return parse_train_config(data, source=f"init_from={cfg.init_from}")
+
+
+def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(training config as plain data, ready for :func:`parse_train_config`; the command keys).
+
+    An experiment may declare a ``benchmark:`` section (a grid of runs for ``pyflyt
+    benchmark``); with ``benchmark`` it is kept in the data, otherwise it is refused.
+    """
+    from omegaconf import OmegaConf, open_dict
+
+    overrides = list(overrides)
+    for item in overrides:
+        if item.lstrip("+~").startswith(("hydra.", "hydra/")):
+            raise CLIError(
+                f"'{item}': pyflyt train takes no Hydra settings (Hydra only composes conf/train.yaml here); "
+                "give config keys (key=value), and launcher settings to pyflyt benchmark"
+            )
+    try:
+        cfg = compose("train", overrides, return_hydra_config=True)
+    except CLIError as exc:
+        raise CLIError(_suggest_key(str(exc), overrides)) from None
+    choices = dict(cfg.hydra.runtime.choices)
+    with open_dict(cfg):
+        del cfg["hydra"]
+    missing = sorted(OmegaConf.missing_keys(cfg))
+    if missing:
+        origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
+        raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
+    data = to_container(cfg)
+    command = {key: data.pop(key, None) for key in COMMAND_KEYS}
+    section = data.pop("benchmark", None)
+    if section is not None and not benchmark and command["run_dir"] is None:
+        # one run of a benchmark names its run directory (the lines pyflyt benchmark --dry-run prints)
+        name = choices.get("experiment")
+        raise CLIError(
+            f"experiment={name} declares a benchmark (a grid of envs x algorithms x seeds): run it with "
+            f"pyflyt benchmark experiment={name} (--dry-run prints one pyflyt train line per run)"
+        )
+    env_name = choices.get("env")
+    if not isinstance(data.get("env"), dict):
+        raise CLIError("no environment selected: pass env=<name> (" + ", ".join(_group_choices("env")) + ")")
+    env = dict(data["env"])
+    uav_choice = choices.get("uav")
+    uav = data.pop("uav", None)
+    if uav_choice:
+        shipped = OmegaConf.to_container(OmegaConf.load(conf_dir() / "uav" / f"{uav_choice}.yaml"), resolve=True)
+        if uav != shipped:
+            raise CLIError(
+                f"uav.* keys cannot be overridden in training (uav={uav_choice} names a shipped airframe); "
+                "write your airframe to a file and pass env.uav=path/to/airframe.yaml"
+            )
+        env["uav"] = uav_choice
+    reward_choice = choices.get("reward")
+    reward = data.pop("reward", None)
+    if reward_choice:
+        env["reward"] = {**(reward or {}), "name": reward_choice}
+    data["env"] = env
+    data["env_name"] = data.get("env_name") or env_name
+    data["experiment"] = choices.get("experiment")
+    if benchmark and section is not None:
+        data["benchmark"] = section
+    return data, command
+
+
+def _suggest_key(message: str, overrides: list[str]) -> str:
+    """Add "Did you mean ...?" to an unknown-key message, from the keys beside the misspelt one."""
+    import difflib
+
+    from omegaconf import DictConfig
+
+    if not message.startswith("unknown key '"):
+        return message
+    key = message.split("'")[1]
+    parent, _, leaf = key.rpartition(".")
+    rest = [o for o in overrides if o.lstrip("+~").partition("=")[0] != key]
+    try:
+        node: Any = compose("train", rest)
+        for part in parent.split(".") if parent else []:
+            node = node[part]
+    except (CLIError, KeyError, TypeError):
+        return message
+    if not isinstance(node, DictConfig):
+        return message
+    keys = [str(k) for k in node]
+    close = difflib.get_close_matches(leaf, keys, n=1)
+    hint = f" Did you mean '{(parent + '.' if parent else '') + close[0]}'?" if close else ""
+    return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}. Check the spelling", 1)
