@@ -68,7 +68,7 @@ def run_differences(plan: Plan, job: Job) -> list[Difference]:
     path = plan.run_dir(job)
     if not (path / rundir.CONFIG_FILE).is_file():
         return []
-    planned = rundir.identity(planned_config(plan, job, resolve=False))
+    planned = rundir.identity(planned_config(plan, job))
     try:
         saved = rundir.identity(rundir.load_run_config(path), path)
     except PyFlytError as exc:
@@ -82,21 +82,12 @@ def run_differences(plan: Plan, job: Job) -> list[Difference]:
     return out
 
 
-def planned_config(plan: Plan, job: Job, resolve: bool) -> Any:
-    """The validated configuration ``job`` trains with; ``resolve``: its ``<run>@<step>`` source made a file.
-
-    Without ``resolve`` an unresolvable source (not trained that far yet) is left as planned.
-    """
-    from pyflyt_cli.training.compose import resolve_init_from
+def planned_config(plan: Plan, job: Job) -> Any:
+    """The validated configuration ``job`` trains with (its ``init_from`` as planned: ``<run>@<step>``
+    names the source's first checkpoint at or after that step, found when the run starts)."""
     from pyflyt_cli.training.schema import parse_train_config
 
-    cfg = parse_train_config(job.config, source=f"{plan.root / 'plan.json'}: {job.id}")
-    try:
-        return resolve_init_from(cfg)
-    except ConfigError:
-        if resolve:
-            raise
-        return cfg
+    return parse_train_config(job.config, source=f"{plan.root / 'plan.json'}: {job.id}")
 
 
 def bring_to_completion(plan: Plan, job: Job) -> int:
@@ -133,11 +124,13 @@ def bring_to_completion(plan: Plan, job: Job) -> int:
                     "move it away to train this run"
                 )
             shutil.rmtree(run_dir)  # killed while being created: nothing trained yet
+        cfg = planned_config(plan, job)
         try:
-            cfg = planned_config(plan, job, resolve=True)
+            result = train(cfg, run_dir=run_dir, log=_log, command=list(plan.command), overrides=list(job.overrides))
         except ConfigError as exc:
+            if job.depends_on is None or not str(exc).startswith("init_from="):
+                raise
             raise ConfigError(f"{exc} (pyflyt benchmark trains {job.depends_on} before {job.id})") from None
-        result = train(cfg, run_dir=run_dir, log=_log, command=list(plan.command), overrides=list(job.overrides))
     return INTERRUPTED if result.interrupted else 0
 
 

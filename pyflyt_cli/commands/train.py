@@ -129,7 +129,7 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
     """``pyflyt train``: returns the exit code (0 done, 130 interrupted)."""
     import yaml
 
-    from pyflyt_cli.training.compose import compose_run, resolve_init_from
+    from pyflyt_cli.training.compose import compose_run
     from pyflyt_cli.training.loop import resume, train
     from pyflyt_cli.training.rundir import config_dict
 
@@ -155,9 +155,8 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
                 typer.echo(f"# job: {' '.join(job)}")
             typer.echo(yaml.safe_dump(config_dict(cfg), sort_keys=False, default_flow_style=None, width=100))
         return 0
-    runs = [(resolve_init_from(cfg), run_dir) for cfg, run_dir in composed]  # <run>@<step>: a checkpoint file
     results = []
-    for i, (job, (cfg, run_dir)) in enumerate(zip(jobs, runs)):
+    for i, (job, (cfg, run_dir)) in enumerate(zip(jobs, composed)):
         if len(jobs) > 1:
             _echo(f"[{i + 1}/{len(jobs)}] {' '.join(job)}")
         try:

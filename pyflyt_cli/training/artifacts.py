@@ -162,21 +162,26 @@ def _set_rms(rms: Any, state: Any) -> None:
 
 
 def normalizer_state(vec: Any) -> dict[str, Any] | None:
-    """The statistics of an SB3 ``VecNormalize`` as plain data (None without one)."""
+    """The statistics of an SB3 ``VecNormalize`` as plain data (None without one).
+
+    Read from the instance's own attributes: an unpickled ``VecNormalize`` has no env
+    yet, and SB3 forwards a missing attribute to it (``returns`` is not pickled).
+    """
     if vec is None:
         return None
     import torch
 
+    own = vars(vec)
     return {
-        "norm_obs": bool(vec.norm_obs),
-        "norm_reward": bool(vec.norm_reward),
-        "clip_obs": float(vec.clip_obs),
-        "clip_reward": float(vec.clip_reward),
-        "epsilon": float(vec.epsilon),
-        "gamma": float(vec.gamma),
-        "obs_rms": _rms_state(vec.obs_rms),
-        "ret_rms": _rms_state(vec.ret_rms),
-        "returns": torch.from_numpy(np.array(vec.returns, dtype=np.float64)),
+        "norm_obs": bool(own["norm_obs"]),
+        "norm_reward": bool(own["norm_reward"]),
+        "clip_obs": float(own["clip_obs"]),
+        "clip_reward": float(own["clip_reward"]),
+        "epsilon": float(own["epsilon"]),
+        "gamma": float(own["gamma"]),
+        "obs_rms": _rms_state(own["obs_rms"]),
+        "ret_rms": _rms_state(own["ret_rms"]),
+        "returns": torch.from_numpy(np.array(own.get("returns", np.zeros(0)), dtype=np.float64)),
     }
 
 

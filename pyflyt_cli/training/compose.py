@@ -19,8 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from pyflyt_cli.config import CLIError, _group_choices, compose, to_container
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
-from pyflyt_engine.errors import ConfigError
+from pyflyt_cli.training.schema import TrainConfig, parse_train_config
 from pyflyt_engine.paths import conf_dir
 
 #: top-level keys of ``conf/train.yaml`` that tell ``pyflyt train`` what to do, not what to train
@@ -61,37 +60,6 @@ def _compose(overrides: Sequence[str]) -> tuple[TrainConfig, dict[str, Any]]:
     data, command = compose_train_data(overrides)
     source = "pyflyt train " + " ".join(overrides) if overrides else "pyflyt train"
     return parse_train_config(data, source=source), command
-
-
-def resolve_init_from(cfg: TrainConfig) -> TrainConfig:
-    """``cfg`` with ``init_from=<run dir>@<step>`` replaced by that run's first checkpoint at or after ``step``.
-
-    Checkpoints are saved at the first rollout boundary at or after each multiple of
-    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with ``train_freq: 8``), so a
-    step names "the policy after about that many steps".  What ``pyflyt train`` and
-    ``pyflyt benchmark`` do just before training; any other ``init_from`` is kept.
-    """
-    from pyflyt_cli.training import rundir
-
-    source, step = split_init_from(cfg.init_from)
-    if step is None:
-        return cfg
-    try:
-        run = rundir.check_run_dir(Path(source))
-    except ConfigError as exc:
-        raise ConfigError(f"init_from={cfg.init_from}: {exc}") from None
-    found = rundir.checkpoints(run)
-    later = [c for c in found if c.step >= step]
-    if not later:
-        have = ", ".join(str(c.step) for c in found) or "none yet"
-        raise ConfigError(
-            f"init_from={cfg.init_from}: {run} has no checkpoint at or after step {step} (its checkpoints: "
-            f"{have}); train that run further (pyflyt train resume={run} train.total_timesteps=<more>) "
-            "or choose an earlier step"
-        )
-    data = cfg.model_dump(mode="json")
-    data["init_from"] = str(later[0].model)
-    return parse_train_config(data, source=f"init_from={cfg.init_from}")
 
 
 def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:

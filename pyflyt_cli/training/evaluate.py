@@ -68,7 +68,7 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
     with ``video``, an animation of the first ``video_episodes`` episodes.
     """
     opts = parse_eval_options(options or {})
-    trust = bool(getattr(opts, "trust_pickle", False))
+    trust = opts.trust_pickle
     path = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(path)
     model_path, which = rundir.find_model(path, opts.model, legacy=trust)

@@ -30,7 +30,7 @@ from typing import Any
 from pyflyt_cli.training import artifacts, continuity, registry, rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET
 from pyflyt_cli.training.models import PolicySource, build_model, read_policy
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config
+from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
 from pyflyt_engine.errors import ConfigError, PyFlytError
 
 Log = Callable[[str], None]
@@ -191,22 +191,27 @@ def _probe_env(cfg: TrainConfig) -> None:
 def _init_source(cfg: TrainConfig) -> PolicySource:
     """The policy ``init_from`` names, read now (so a wrong file fails before training).
 
-    ``init_from`` is a run directory (its best model, else final, else newest checkpoint)
-    or one policy file of a run: ``model.pt``, ``best_model.pt`` or
-    ``checkpoints/model_<steps>_steps.pt`` (a partially trained policy).  SB3 ``.zip``
-    files of older versions only with ``trust_pickle``.
+    ``init_from`` is a run directory (its best model, else final, else newest checkpoint),
+    ``<run dir>@<step>`` (its first checkpoint at or after that step: a partially trained
+    policy), or one policy file of a run: ``model.pt``, ``best_model.pt`` or
+    ``checkpoints/model_<steps>_steps.pt``.  SB3 ``.zip`` files of older versions only with
+    ``trust_pickle``.  The configuration keeps ``init_from`` as given; ``run.yaml`` records
+    the file it named.
     """
-    trust = bool(getattr(cfg, "trust_pickle", False))
-    given = Path(str(cfg.init_from)).expanduser()
-    if given.suffix in (".pt", ".zip"):
-        if not given.is_file():
-            raise ConfigError(f"init_from: model file {given} does not exist")
-        model = given.resolve()
-    else:
-        try:
+    trust = cfg.trust_pickle
+    source, step = split_init_from(cfg.init_from)
+    given = Path(str(source)).expanduser()
+    try:
+        if step is not None:  # <run dir>@<step>: the first checkpoint at or after that step
+            model = rundir.checkpoint_at_or_after(rundir.check_run_dir(given), step).model
+        elif given.suffix in (".pt", ".zip"):
+            if not given.is_file():
+                raise ConfigError(f"model file {given} does not exist")
+            model = given.resolve()
+        else:
             model, _ = rundir.find_model(rundir.check_run_dir(given), "auto", legacy=trust)
-        except ConfigError as exc:
-            raise ConfigError(f"init_from: {exc}") from None
+    except ConfigError as exc:
+        raise ConfigError(f"init_from={cfg.init_from}: {exc}") from None
     hint = str((rundir.read_yaml(rundir.run_of(model) / rundir.CONFIG_FILE).get("algo") or {}).get("name", "?"))
     try:
         source = read_policy(model, trust_pickle=trust, algo_hint=hint)

@@ -49,7 +49,7 @@ def build_model(cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorbo
         kwargs.pop("offline_buffer", None)
         kwargs.pop("offline_steps", None)
     elif algo.name == "awac":
-        kwargs["trust_pickle"] = bool(getattr(cfg, "trust_pickle", False))
+        kwargs["trust_pickle"] = cfg.trust_pickle
     return cls(
         algo.policy,
         vec,

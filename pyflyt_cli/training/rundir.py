@@ -205,7 +205,7 @@ def config_dict(cfg: TrainConfig) -> dict[str, Any]:
 #: keys that do not change what a run computes: where it is written and how it reports.
 #: Everything else is part of a run's identity (:func:`config_digest`).
 NON_IDENTITY_KEYS = frozenset(
-    {"train.output_dir", "train.progress_bar", "train.verbose", "train.tensorboard", "experiment"}
+    {"train.output_dir", "train.progress_bar", "train.verbose", "train.tensorboard", "experiment", "trust_pickle"}
 )
 
 
@@ -400,6 +400,24 @@ def checkpoints(run_dir: Path, *, legacy: bool = False) -> list[Checkpoint]:
                 buffer = folder / f"replay_buffer_{step}_steps.pkl"
                 found[step] = Checkpoint(step, p, buffer if buffer.is_file() else None, legacy=True)
     return [found[k] for k in sorted(found)]
+
+
+def checkpoint_at_or_after(run_dir: Path, step: int) -> Checkpoint:
+    """The run's first checkpoint at or after ``step`` (what ``init_from=<run dir>@<step>`` names).
+
+    Checkpoints are saved at the first rollout boundary at or after each multiple of
+    ``train.checkpoint_freq`` (e.g. step 7504 for 7500 with ``train_freq: 8``), so a
+    step names "the policy after about that many steps".
+    """
+    found = checkpoints(run_dir)
+    later = [c for c in found if c.step >= step]
+    if not later:
+        have = ", ".join(str(c.step) for c in found) or "none yet"
+        raise RunDirError(
+            f"{run_dir} has no checkpoint at or after step {step} (its checkpoints: {have}); train that run "
+            f"further (pyflyt train resume={run_dir} train.total_timesteps=<more>) or choose an earlier step"
+        )
+    return later[0]
 
 
 def run_of(model: Path) -> Path:

@@ -207,7 +207,7 @@ def test_run_differences_name_each_setting_saved_and_planned(tmp_path: Path) -> 
     ]
 
 
-def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path: Path) -> None:
+def test_a_planned_checkpoint_names_the_first_one_at_or_after_it(tmp_path: Path) -> None:
     from pyflyt_cli.benchmark.worker import planned_config
     from pyflyt_cli.training import rundir
     from pyflyt_engine.errors import ConfigError
@@ -216,19 +216,16 @@ def test_a_planned_checkpoint_resolves_to_the_first_one_at_or_after_it(tmp_path:
     job = plan.job("quadx_waypoints_sparse/awac/seed0")
     step = plan.spec["presets"]["laptop"]["partial_step"]
     source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
-    assert planned_config(plan, job, resolve=False).init_from == f"{source}@{step}"  # not trained yet: as planned
-    with pytest.raises(ConfigError, match=f"@{step}: run directory {source} does not exist"):
-        planned_config(plan, job, resolve=True)
+    assert planned_config(plan, job).init_from == f"{source}@{step}"  # kept as planned, in config.yaml too
     (source / rundir.CHECKPOINTS).mkdir(parents=True)
-    (source / rundir.CONFIG_FILE).write_text("{}")
     with pytest.raises(ConfigError, match=f"has no checkpoint at or after step {step} \\(its checkpoints: none yet\\)"):
-        planned_config(plan, job, resolve=True)
+        rundir.checkpoint_at_or_after(source, step)
     for s in (step - 2496, step + 4, step + 2504):  # SAC with train_freq 8 checkpoints at rollout ends
         rundir.checkpoint_paths(source, s).model.write_bytes(b"")
-    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step + 4).model)
+    assert rundir.checkpoint_at_or_after(source, step).step == step + 4
     rundir.checkpoint_paths(source, step).model.write_bytes(b"")
-    assert planned_config(plan, job, resolve=True).init_from == str(rundir.checkpoint_paths(source, step).model)
-    assert planned_config(plan, plan.job("quadx_waypoints/sac/seed0"), resolve=True).init_from is None
+    assert rundir.checkpoint_at_or_after(source, step).step == step
+    assert planned_config(plan, plan.job("quadx_waypoints/sac/seed0")).init_from is None
 
 
 def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> None:

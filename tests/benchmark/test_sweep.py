@@ -383,12 +383,13 @@ def test_the_dry_run_lines_train_the_runs_the_benchmark_plans(tmp_path: Path) ->
         assert trained.returncode == 0, f"{shlex.join(line)}\n{trained.stderr[-3000:]}"
         job = plan.job(run_id)
         record = yaml.safe_load((plan.run_dir(job) / rundir.RUN_FILE).read_text())
-        assert record["config_digest"] == rundir.config_digest(planned_config(plan, job, resolve=True))
+        assert record["config_digest"] == rundir.config_digest(planned_config(plan, job))
     source = plan.run_dir(plan.job("quadx_waypoints/sac/seed0"))
     first_after_100 = next(c for c in rundir.checkpoints(source) if c.step >= 100)
     assert first_after_100.step == 104  # SAC's rollouts are train_freq 8 steps long
-    started = rundir.load_run_config(plan.run_dir(plan.job("quadx_waypoints_sparse/awac/seed0")))
-    assert started.init_from == str(first_after_100.model)
+    started = plan.run_dir(plan.job("quadx_waypoints_sparse/awac/seed0"))
+    assert rundir.load_run_config(started).init_from == f"{source}@100"  # as planned
+    assert yaml.safe_load((started / rundir.RUN_FILE).read_text())["init_from"]["model"] == str(first_after_100.model)
 
     bench = pyflyt(["benchmark", *args], tmp_path)
     assert bench.returncode == 0, bench.stderr[-3000:]

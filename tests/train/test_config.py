@@ -237,7 +237,7 @@ def test_init_from_a_missing_run_is_refused_before_creating_anything(tmp_path):
     from pyflyt_cli.training import train
 
     cfg = load_train_config([f"init_from={tmp_path / 'nope'}", f"train.output_dir={tmp_path / 'runs'}"])
-    with pytest.raises(ConfigError, match="init_from: run directory .* does not exist"):
+    with pytest.raises(ConfigError, match="init_from=.*: run directory .* does not exist"):
         train(cfg)
     assert not (tmp_path / "runs").exists()
 
