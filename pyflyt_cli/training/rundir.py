@@ -147,7 +147,31 @@ def package_versions() -> dict[str, str]:
         from pyflyt_engine import __version__
 
         versions["pyflyt-toolkit"] = f"{__version__} (source checkout)"
+    revision = source_revision()
+    if revision is not None:
+        versions["pyflyt-toolkit revision"] = revision
     return versions
+
+
+def source_revision() -> str | None:
+    """The git commit of the code, when it runs from a git checkout (an editable install):
+    ``<sha>``, with ``+modified`` if files differ from it; None for an installed wheel."""
+    import subprocess
+
+    import pyflyt_engine
+
+    top = Path(pyflyt_engine.__file__).resolve().parent.parent
+    if not (top / ".git").exists():
+        return None
+    try:
+        sha = subprocess.run(["git", "-C", str(top), "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
+        dirty = subprocess.run(
+            ["git", "-C", str(top), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return sha.stdout.strip() + ("+modified" if dirty.stdout.strip() else "")
 
 
 def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str] | None) -> dict[str, Any]:

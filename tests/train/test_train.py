@@ -12,7 +12,7 @@ import yaml
 
 from pyflyt_cli.training import evaluate_run, resume, train
 from pyflyt_cli.training.models import read_policy
-from pyflyt_cli.training.rundir import load_run_config, read_state
+from pyflyt_cli.training.rundir import config_digest, load_run_config, read_state
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.telemetry import read_metrics
@@ -47,6 +47,9 @@ def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path):
     record = yaml.safe_load((run / "run.yaml").read_text())
     assert record["seed"] == 0 and record["command"] == ["pyflyt", "train"] and record["overrides"] == TINY_PPO
     assert {"python", "stable-baselines3", "torch", "gymnasium", "pyflyt-toolkit"} <= set(record["versions"])
+    assert record["config_digest"] == config_digest(load_run_config(run), run)  # the run's identity
+    if (Path(__file__).resolve().parents[2] / ".git").exists():  # the code's commit, from a checkout
+        assert len(record["versions"]["pyflyt-toolkit revision"].split("+")[0]) == 40
     state = read_state(run)
     assert state["status"] == "complete" and state["num_timesteps"] == 512 and state["checkpoint"] == 512
     assert load_run_config(run) == load_run_config(run)  # config.yaml reloads and validates
