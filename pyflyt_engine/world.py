@@ -277,11 +277,9 @@ class World:
         vehicles = self.vehicles
         # Vehicles never read each other's state within a physics step, so each phase can
         # run over all of them in turn; the per-vehicle work is the same as interleaved.
-        # Each vehicle's step_functions: (net wrench after a full read-out at a control
-        # tick, the whole physics step between ticks: velocity read-out and wrench).
-        mass_updaters = [v.update_mass for v in vehicles if v.parts.boosters is not None]
-        appliers = [v.step_functions[0] for v in vehicles]
-        substeps = [v.step_functions[1] for v in vehicles]
+        mass_updaters = [v.update_mass for v in vehicles if v.actuators.boosters is not None]
+        appliers = [v.apply_loads for v in vehicles]
+        substeps = [v.substep for v in vehicles]
         contacts = self._contacts
         contacts.clear()
         record = contacts.record

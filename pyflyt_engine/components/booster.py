@@ -46,12 +46,15 @@ Deviations from the paper's equation, on purpose:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
 
 _UNIT_TOL = 1e-6
 
@@ -352,3 +355,87 @@ def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.nd
     mass = fuel.copy()
     inertia = (fuel / params.total_fuel)[:, None] * params.inertia_full
     return mass, inertia
+
+
+class Boosters:
+    """The boosters of one vehicle as an actuator group: lit, duty and fuel state, commands, thrust.
+
+    Args:
+        params: the boosters, in the centre-of-mass body frame.
+        physics_dt: physics step [s].
+        noise: the vehicle's noise generator (duty noise is drawn from it in blocks).
+        fuel_fraction: fuel at spawn, as a fraction of a full tank.
+
+    Attributes:
+        ignition, throttle: per booster, the commands (set at the control rate).
+        axes: per booster, the thrust axis in the body frame (a gimbal turns it).
+    """
+
+    def __init__(self, params: BoosterParams, physics_dt: float, noise: NoiseSource, fuel_fraction: float) -> None:
+        self.params = params
+        self.fuel_fraction = fuel_fraction
+        self._constants = booster_constants(params, physics_dt)
+        self._positions = [tuple(p) for p in params.positions.tolist()]
+        self._nominal_axes = [tuple(a) for a in params.thrust_axes.tolist()]
+        self._total_fuel = params.total_fuel.tolist()
+        self._noisy = bool(np.any(params.noise_ratio > 0))
+        self._zeros = [0.0] * params.n
+        self._noise = NoiseBlocks(noise, params.n)
+        self.reset()
+
+    @property
+    def state(self) -> BoosterState:
+        """The boosters' :class:`BoosterState` (read-only arrays; assign one to set it)."""
+        if self._state is None:
+            self._state = BoosterState(ignited=self.ignited, duty=self.duty, fuel=self.fuel)
+        return self._state
+
+    @state.setter
+    def state(self, state: BoosterState) -> None:
+        self.ignited, self.duty, self.fuel = state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist()
+        self._state = state
+
+    def step(self, air: AirVelocity) -> Wrench:
+        """One physics step of every booster (:func:`booster_step_scalar`); returns their summed
+        thrust wrench.  ``air`` does not enter this model."""
+        noise = self._noise.next() if self._noisy else self._zeros
+        ignited, duty, fuel = self.ignited, self.duty, self.fuel
+        fx = fy = fz = tx = ty = tz = 0.0
+        for i, k in enumerate(self._constants):
+            ignited[i], duty[i], fuel[i], thrust = booster_step_scalar(
+                k, ignited[i], duty[i], fuel[i], self.ignition[i], self.throttle[i], noise[i]
+            )
+            ax, ay, az = self.axes[i]
+            px, py, pz = self._positions[i]
+            ffx, ffy, ffz = thrust * ax, thrust * ay, thrust * az
+            if i == 0:
+                fx, fy, fz = ffx, ffy, ffz
+                tx, ty, tz = py * ffz - pz * ffy, pz * ffx - px * ffz, px * ffy - py * ffx
+            else:
+                fx, fy, fz = fx + ffx, fy + ffy, fz + ffz
+                tx, ty, tz = tx + (py * ffz - pz * ffy), ty + (pz * ffx - px * ffz), tz + (px * ffy - py * ffx)
+        self._state = None
+        return fx, fy, fz, tx, ty, tz
+
+    def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
+        """Point booster ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""
+        self.axes[index] = tuple(thrust_axis)
+
+    def reset(self) -> None:
+        """Unlit, duty 0, ``fuel_fraction`` of each tank; idle commands; buffered noise discarded."""
+        self.state = initial_booster_state(self.params, fuel_fraction=self.fuel_fraction)
+        self.ignition = [False] * self.params.n
+        self.throttle = [0.0] * self.params.n
+        self.axes = list(self._nominal_axes)
+        self._noise.discard()
+
+    def reseed(self) -> None:
+        """The noise generator was replaced: draw from the new one."""
+        self._noise.discard()
+
+    def aux(self) -> list[float]:
+        """Per booster: fuel fraction, duty and ignition (0/1)."""
+        values: list[float] = []
+        for fuel, total, duty, ignited in zip(self.fuel, self._total_fuel, self.duty, self.ignited):
+            values += (fuel / total, duty, 1.0 if ignited else 0.0)
+        return values

@@ -309,3 +309,38 @@ def capture(
     if want_segmentation:
         images["segmentation"] = np.asarray(segmentation, dtype=np.int32).reshape(*shape, 1)
     return images
+
+
+class Cameras:
+    """The cameras of one vehicle: their parameters and the last images of each.
+
+    Cameras are sensors: they are not stepped with the physics and apply no load; an
+    image is rendered when asked for, at most once per ``1 / capture_hz`` of simulated
+    time (the last one is returned in between).
+    """
+
+    def __init__(self, params: Sequence[CameraParams]) -> None:
+        self.params = tuple(params)
+        self._last: dict[int, tuple[float, dict[str, np.ndarray]]] = {}
+
+    def capture(
+        self,
+        client: int,
+        index: int,
+        body_position: Sequence[float],
+        body_quaternion: Sequence[float],
+        time: float | None = None,
+    ) -> dict[str, np.ndarray]:
+        """Images of camera ``index`` (:func:`capture`); with ``time`` (simulated seconds) a
+        cached image younger than ``1 / capture_hz`` is returned instead of a new one."""
+        params = self.params[index]
+        cached = self._last.get(index)
+        if time is not None and cached is not None and time - cached[0] < 1.0 / params.capture_hz - 1e-9:
+            return cached[1]
+        images = capture(client, params, body_position, body_quaternion)
+        self._last[index] = (time if time is not None else float("nan"), images)
+        return images
+
+    def reset(self) -> None:
+        """Forget the last images."""
+        self._last.clear()

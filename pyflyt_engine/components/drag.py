@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.constants import AIR_DENSITY
 
 
@@ -64,3 +65,23 @@ def drag_wrench(
         -angular_damping * wy * abs(wy),
         -angular_damping * wz * abs(wz),
     )
+
+
+class BodyDrag:
+    """A vehicle's body drag as a load group: no state, a wrench from the air-relative velocity."""
+
+    def __init__(self, params: DragParams) -> None:
+        self.params = params
+        self._factors = params.factors
+        self._damping = params.angular_damping
+
+    def step(self, air: AirVelocity) -> Wrench:
+        """The drag wrench at the body's current velocity through the air."""
+        return drag_wrench(self._factors, self._damping, *air)
+
+    def reset(self) -> None:
+        """Nothing to reset: drag has no state."""
+
+    def aux(self) -> list[float]:
+        """No read-outs."""
+        return []

@@ -24,11 +24,13 @@ nominal thrust axis into the vectored one passed to the propulsion loads.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine.components import AirVelocity
 from pyflyt_engine.components.lag import lag_coefficient
 
 _UNIT_TOL = 1e-6
@@ -147,7 +149,7 @@ def _check_angles(params: GimbalParams, name: str, value) -> np.ndarray:
 
 
 def gimbal_step(params: GimbalParams, angles: np.ndarray, command: np.ndarray, dt: float) -> np.ndarray:
-    """Advance the servo angles by one physics step.
+    """Advance the servo angles by one physics step (:func:`gimbal_step_scalar` per gimbal).
 
     Args:
         params: gimbal parameters.
@@ -158,24 +160,25 @@ def gimbal_step(params: GimbalParams, angles: np.ndarray, command: np.ndarray, d
     Returns:
         (n, 2) rad, angles after one step toward ``command * max_angle``.
     """
-    if dt <= 0.0:
-        raise ValueError(f"dt must be > 0 s, got {dt}.")
     angles = _check_angles(params, "angles", angles)
-    command = np.clip(_check_angles(params, "command", command), -1.0, 1.0)
-    target = command * params.max_angles
-    coeff = np.asarray(lag_coefficient(dt, params.tau))[:, None]
-    return angles + coeff * (target - angles)
+    command = _check_angles(params, "command", command)
+    return np.array(
+        [
+            gimbal_step_scalar(k, *eps, *xi)
+            for k, eps, xi in zip(gimbal_constants(params, dt), angles.tolist(), command.tolist())
+        ]
+    ).reshape(params.n, 2)
 
 
 def gimbal_rotation(params: GimbalParams, angles: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotation matrices ``R = R_a @ R_b`` for the given (n, 2) angles in rad."""
+    """(n, 3, 3) rotation matrices ``R = R_a @ R_b`` for the given (n, 2) angles in rad
+    (column j is :func:`rotate_vector_scalar` of the unit vector e_j)."""
     angles = _check_angles(params, "angles", angles)
-    eye = np.eye(3)
-    sin = np.sin(angles)[:, :, None, None]
-    vers = (2.0 * np.sin(0.5 * angles) ** 2)[:, :, None, None]
-    R_a = eye + sin[:, 0] * params.W_a + vers[:, 0] * params.W_a2
-    R_b = eye + sin[:, 1] * params.W_b + vers[:, 1] * params.W_b2
-    return R_a @ R_b
+    constants = gimbal_constants(params, 1.0)  # the rotation does not depend on the step
+    basis = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    return np.array(
+        [[rotate_vector_scalar(k, *eps, e) for e in basis] for k, eps in zip(constants, angles.tolist())]
+    ).transpose(0, 2, 1)
 
 
 def rotate_axes(params: GimbalParams, angles: np.ndarray, axes: np.ndarray) -> np.ndarray:
@@ -187,12 +190,16 @@ def rotate_axes(params: GimbalParams, angles: np.ndarray, axes: np.ndarray) -> n
         axes: (n, 3) vectors in the body frame (e.g. nominal thrust axes).
 
     Returns:
-        (n, 3) rotated vectors ``R_i @ axes_i`` (unit length preserved).
+        (n, 3) rotated vectors ``R_i @ axes_i`` (:func:`rotate_vector_scalar`; unit length preserved).
     """
+    angles = _check_angles(params, "angles", angles)
     axes = np.asarray(axes, dtype=np.float64)
     if axes.shape != (params.n, 3):
         raise ValueError(f"axes has shape {axes.shape}, expected ({params.n}, 3).")
-    return np.einsum("nij,nj->ni", gimbal_rotation(params, angles), axes)
+    constants = gimbal_constants(params, 1.0)
+    return np.array(
+        [rotate_vector_scalar(k, *eps, tuple(v)) for k, eps, v in zip(constants, angles.tolist(), axes.tolist())]
+    ).reshape(params.n, 3)
 
 
 class GimbalConstants(NamedTuple):
@@ -244,6 +251,56 @@ def _rodrigues(W: tuple[float, ...], W2: tuple[float, ...], eps: float, x: float
 
 
 def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tuple[float, float, float]) -> tuple[float, float, float]:
-    """``R_a R_b v`` for one gimbal at angles (eps_a, eps_b) [rad], as :func:`rotate_axes`
-    (equal up to rounding: the product is applied to the vector, not formed)."""
+    """``R_a R_b v`` for one gimbal at angles (eps_a, eps_b) [rad]: the Rodrigues rotation of
+    the module docstring about ``c_b``, then about ``c_a``, applied to the vector."""
     return _rodrigues(k.W_a, k.W_a2, eps_a, *_rodrigues(k.W_b, k.W_b2, eps_b, *v))
+
+
+class Gimbals:
+    """The gimbals of one vehicle as an actuator group: servo angles and commands.
+
+    A gimbal applies no load of its own: each physics step it moves its servos, then
+    turns its target's thrust axis (``turn(axis)`` of a motor or booster group), before
+    those groups step.
+
+    Args:
+        params: the gimbals.
+        physics_dt: physics step [s].
+        targets: per gimbal, ``(turn, nominal_axis)``: the function that points the
+            target's thrust along a new axis, and the axis the gimbal rotates (body frame).
+
+    Attributes:
+        angles: per gimbal, (eps_a, eps_b) [rad] (the state).
+        command: per gimbal, normalised (xi_a, xi_b) in [-1, 1] (set at the control rate).
+    """
+
+    def __init__(
+        self,
+        params: GimbalParams,
+        physics_dt: float,
+        targets: Sequence[tuple[Callable[[tuple[float, float, float]], None], tuple[float, float, float]]],
+    ) -> None:
+        self.params = params
+        self._constants = gimbal_constants(params, physics_dt)
+        self._targets = list(targets)
+        self._scale = [(max(a, 1e-12), max(b, 1e-12)) for a, b in params.max_angles.tolist()]
+        self.reset()
+
+    def step(self, air: AirVelocity) -> None:
+        """One physics step: servos toward their commands, targets turned.  Returns None: no load."""
+        angles, command = self.angles, self.command
+        for g, (k, (turn, base)) in enumerate(zip(self._constants, self._targets)):
+            eps_a, eps_b = angles[g] = gimbal_step_scalar(k, *angles[g], *command[g])
+            turn(rotate_vector_scalar(k, eps_a, eps_b, base))
+
+    def reset(self) -> None:
+        """Servos centred, commands zero."""
+        self.angles = [(0.0, 0.0)] * self.params.n
+        self.command = [(0.0, 0.0)] * self.params.n
+
+    def aux(self) -> list[float]:
+        """Servo angles normalised by their limits, in [-1, 1]."""
+        values: list[float] = []
+        for (eps_a, eps_b), (max_a, max_b) in zip(self.angles, self._scale):
+            values += (eps_a / max_a, eps_b / max_b)
+        return values

@@ -47,6 +47,7 @@ span axis ``s = c x n``, so ``(c, n, s)`` is right-handed and a positive rotatio
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -54,9 +55,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.constants import AIR_DENSITY
 
-AIR_DENSITY = 1.225  # kg/m^3, ISA sea level (REFERENCE.md, Conventions)
 
 # Dimensionless constants of the Khan & Nahon profile (ICUAS 2015; REFERENCE.md).
 _CP_BASE = 0.25  # centre-of-pressure lever at the quarter chord, fraction of chord
@@ -289,11 +291,6 @@ def _shifted_angles(k: SurfaceConstants, deflection: float) -> tuple[float, floa
     return alpha_0, alpha_0 + cl_max_pos / cl_alpha, alpha_0 + cl_max_neg / cl_alpha
 
 
-def _coefficients_scalar(params: LiftingSurfaceParams, alpha: float, deflection: float) -> tuple[float, float, float]:
-    """Scalar (math-module) version of :func:`surface_coefficients`, for the 240 Hz path."""
-    return _coefficients(params.constants, alpha, deflection)
-
-
 def _coefficients(k: SurfaceConstants, alpha: float, deflection: float) -> tuple[float, float, float]:
     cl_alpha, pi_ar = k[15:17]
     cd_0, cn_ar = k[22:24]
@@ -344,51 +341,12 @@ def surface_coefficients(
         C_L is positive toward ``normal_axis`` in forward flow; C_M is about the
         aerodynamic centre, positive nose-up (about ``span_axis``).
     """
+    k = params.constants
     if np.ndim(alpha) == 0:
-        return _coefficients_scalar(params, float(alpha), float(deflection))
-
-    ar = params.aspect_ratio
-    cl_alpha = params.cl_alpha
-    alpha_0, stall_pos, stall_neg = flap_shifted_angles(params, deflection)
-    a = np.remainder(np.asarray(alpha, dtype=np.float64) + np.pi, 2.0 * np.pi) - np.pi
-    reverse = np.abs(a) > _HALF_PI
-    a = np.where(reverse, a - np.pi * np.sign(a), a)
-
-    attached = (a > stall_neg) & (a < stall_pos)
-    stalled = ~attached
-    cl, cn, ct = np.empty_like(a), np.empty_like(a), np.empty_like(a)
-    alpha_eff, lever = np.empty_like(a), np.empty_like(a)
-
-    aa = a[attached]
-    cl_att = cl_alpha * (aa - alpha_0)
-    eff = aa - alpha_0 - cl_att / (np.pi * ar)
-    ct_att = params.cd_0 * np.cos(eff)
-    cl[attached] = cl_att
-    cn[attached] = (cl_att + ct_att * np.sin(eff)) / np.cos(eff)
-    ct[attached] = ct_att
-    alpha_eff[attached] = eff
-    lever[attached] = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * eff)
-
-    sa = a[stalled]
-    alpha_i = np.where(
-        sa >= stall_pos,
-        cl_alpha * (stall_pos - alpha_0) / (np.pi * ar) * (_HALF_PI - sa) / (_HALF_PI - stall_pos),
-        cl_alpha * (stall_neg - alpha_0) / (np.pi * ar) * (_HALF_PI + sa) / (_HALF_PI + stall_neg),
-    )
-    eff = sa - alpha_0 - alpha_i
-    sin_e, cos_e = np.sin(eff), np.cos(eff)
-    cd_90 = _CD90_QUAD * deflection * deflection + _CD90_LIN * deflection + _CD90_ZERO
-    shape = 1.0 / (_CN_BASE + _CN_SIN * np.abs(sin_e)) - _CN_AR_GAIN * (1.0 - math.exp(-_CN_AR_SCALE / ar))
-    cn_st = cd_90 * sin_e * shape
-    ct_st = _CT_STALL * params.cd_0 * cos_e
-    cl[stalled] = cn_st * cos_e - ct_st * sin_e
-    cn[stalled] = cn_st
-    ct[stalled] = ct_st
-    alpha_eff[stalled] = eff
-    lever[stalled] = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * np.abs(eff))
-
-    cd = cn * np.sin(alpha_eff) + ct * np.cos(alpha_eff)
-    cm = np.where(reverse, cn * (0.5 - lever), -cn * lever)
+        return _coefficients(k, float(alpha), float(deflection))
+    alphas = np.asarray(alpha, dtype=np.float64)
+    values = [_coefficients(k, a, float(deflection)) for a in alphas.ravel().tolist()]
+    cl, cd, cm = (np.array(column, dtype=np.float64).reshape(alphas.shape) for column in zip(*values))
     return cl, cd, cm
 
 
@@ -465,8 +423,12 @@ def flap_step(params: LiftingSurfaceParams, deflection: float, command: float, d
         The new deflection [rad], ``delta + k (nu delta_max - delta)`` with
         ``k = lag_coefficient(dt, tau)``.
     """
-    target = min(max(float(command), -1.0), 1.0) * params.max_deflection
-    return deflection + lag_coefficient(dt, params.tau) * (target - deflection)
+    return flap_deflection(deflection, float(command), float(lag_coefficient(dt, params.tau)), params.max_deflection)
+
+
+def flap_deflection(deflection: float, command: float, lag: float, max_deflection: float) -> float:
+    """:func:`flap_step` with the lag coefficient computed once: ``delta + k (clip(nu) delta_max - delta)``."""
+    return deflection + lag * (min(max(command, -1.0), 1.0) * max_deflection - deflection)
 
 
 def _floats3(vector) -> list[float]:
@@ -580,3 +542,46 @@ def surface_wrench(
         pz * fx - px * fz + moment * sy,
         px * fy - py * fx + moment * sz,
     )
+
+
+class Surfaces:
+    """The lifting surfaces of one vehicle as an actuator group: flap deflections, commands, loads.
+
+    Args:
+        params: the surfaces, in the centre-of-mass body frame.
+        physics_dt: physics step [s].
+
+    Attributes:
+        deflection: per surface, the flap deflection [rad] (the state).
+        command: per surface, the normalised flap command in [-1, 1] (set at the control rate).
+    """
+
+    def __init__(self, params: Sequence[LiftingSurfaceParams], physics_dt: float) -> None:
+        self.params = tuple(params)
+        self._constants = [surface.constants for surface in self.params]
+        self._lag = [float(lag_coefficient(physics_dt, surface.tau)) for surface in self.params]
+        self._scale = [surface.max_deflection or 1.0 for surface in self.params]
+        self.deflection = [0.0] * len(self.params)
+        self.command = [0.0] * len(self.params)
+
+    def step(self, air: AirVelocity) -> Wrench:
+        """One physics step: every flap follows its command, then the surfaces' summed wrench
+        at the body's air-relative velocity (:func:`surface_wrench`)."""
+        (vx, vy, vz), (wx, wy, wz) = air
+        deflection, command, lag = self.deflection, self.command, self._lag
+        fx = fy = fz = tx = ty = tz = 0.0
+        for i, k in enumerate(self._constants):
+            d = deflection[i] = flap_deflection(deflection[i], command[i], lag[i], k.max_deflection)
+            sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz)
+            fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
+            tx, ty, tz = tx + stx, ty + sty, tz + stz
+        return fx, fy, fz, tx, ty, tz
+
+    def reset(self) -> None:
+        """Flaps neutral, commands zero."""
+        self.deflection = [0.0] * len(self.params)
+        self.command = [0.0] * len(self.params)
+
+    def aux(self) -> list[float]:
+        """Flap deflections normalised by their limits, in [-1, 1]."""
+        return [d / scale for d, scale in zip(self.deflection, self._scale)]

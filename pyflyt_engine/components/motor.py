@@ -14,18 +14,23 @@ reference package draws one shared N(4, 1) scalar instead, which biases thrust u
 models and keeps reversed props (negative throttle) pushing the other way.  See
 :mod:`pyflyt_engine.components.lag` for the choice of discretisation.
 
-Because every motor is rigidly mounted, the body-frame wrench of all motors together is
-linear in ``x * |x|``: :func:`motor_wrench_matrix` precomputes that 6 x n map once, so a
-physics step costs one matrix-vector product.
+The body-frame wrench of all motors together is linear in ``x * |x|``: column ``i`` of
+:func:`motor_wrench_matrix` is motor ``i``'s wrench at full throttle, computed once (and
+again by a gimbal that turns the motor), so a physics step costs one multiply-add per
+motor and wrench component (:func:`motor_step`).  :class:`Motors` holds the state of a
+vehicle's motors and steps them.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
 
 
 @dataclass(frozen=True)
@@ -81,30 +86,6 @@ class MotorParams:
         return self.kt * self.max_rpm**2
 
 
-def motor_step(
-    params: MotorParams,
-    throttle: np.ndarray,
-    command: np.ndarray,
-    lag: float | np.ndarray,
-    noise_factor: float | np.ndarray,
-) -> np.ndarray:
-    """Advance the throttle state of every motor by one physics step.
-
-    Args:
-        params: the motors (unused by the arithmetic; names what the arrays belong to).
-        throttle: (n,) current normalised throttle x[t].
-        command: (n,) commanded throttle zeta, already in [-1, 1] (see
-            :func:`clip_command`).
-        lag: ``lag_coefficient(dt, params.tau)``, computed once per physics rate.
-        noise_factor: (n,) ``1 + noise_ratio * eta`` with eta standard normal, one per
-            motor (see :func:`noise_factors`), or 1.0 for no noise.
-
-    Returns:
-        (n,) new throttle x[t+1].
-    """
-    return (throttle + lag * (command - throttle)) * noise_factor
-
-
 def motor_lag(params: MotorParams, dt: float) -> np.ndarray:
     """(n,) lag coefficient of every motor for physics step ``dt`` (compute once)."""
     return np.asarray(lag_coefficient(dt, params.tau))
@@ -120,25 +101,31 @@ def noise_factors(params: MotorParams, eta: np.ndarray) -> np.ndarray:
     return 1.0 + params.noise_ratio * eta
 
 
-def motor_step_wrench(
+def motor_step(
     throttle: list[float],
     command: list[float],
     lag: list[float],
-    noise_factor: list[float],
-    wrench_columns: list[tuple[float, float, float, float, float, float]],
+    noise_factor: Sequence[float],
+    wrench_columns: Sequence[tuple[float, float, float, float, float, float]],
 ) -> tuple[list[float], tuple[float, float, float, float, float, float]]:
-    """:func:`motor_step` and the wrench of :func:`motor_wrench_matrix`, on Python floats.
+    """Advance every motor one physics step and sum their body wrench (the module docstring).
 
-    The same arithmetic as the NumPy functions, element by element: for the handful of
-    motors of one vehicle, stepped at the physics rate, plain floats avoid NumPy's
-    per-call overhead (a test checks both forms agree to rounding).
+    Plain Python floats: for the handful of motors of one vehicle, stepped at the physics
+    rate, they beat NumPy's per-call overhead.
 
     Args:
-        throttle, command, lag, noise_factor: per-motor lists (see :func:`motor_step`).
-        wrench_columns: per-motor columns of :func:`motor_wrench_matrix` as 6-tuples.
+        throttle: per motor, the normalised throttle x[t].
+        command: per motor, the commanded throttle zeta, already in [-1, 1] (see
+            :func:`clip_command`).
+        lag: per motor, ``lag_coefficient(dt, tau)`` (see :func:`motor_lag`).
+        noise_factor: per motor, ``1 + noise_ratio * eta`` with eta standard normal (see
+            :func:`noise_factors`), or 1.0 for no noise.
+        wrench_columns: per motor, its column of :func:`motor_wrench_matrix`: the body
+            wrench at full throttle.
 
     Returns:
-        (new throttle list, body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m).
+        (new throttle list x[t+1], body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m about
+        the centre of mass).
     """
     new = [(x + a * (c - x)) * z for x, c, a, z in zip(throttle, command, lag, noise_factor)]
     fx = fy = fz = tx = ty = tz = 0.0
@@ -161,12 +148,93 @@ def motor_outputs(params: MotorParams, throttle: np.ndarray) -> tuple[np.ndarray
 
 
 def motor_wrench_matrix(params: MotorParams) -> np.ndarray:
-    """The 6 x n map from ``x * |x|`` to the body wrench [Fx, Fy, Fz, Tx, Ty, Tz].
+    """The 6 x n map from ``x * |x|`` to the body wrench [Fx, Fy, Fz, Tx, Ty, Tz]: column i is
+    :func:`wrench_column` of motor i."""
+    reaction = (-(params.spin * params.max_torque)).tolist()
+    columns = [
+        wrench_column(position, axis, thrust, gain)
+        for position, axis, thrust, gain in zip(
+            params.positions.tolist(), params.thrust_axes.tolist(), params.max_thrust.tolist(), reaction
+        )
+    ]
+    return np.array(columns, dtype=np.float64).reshape(-1, 6).T.copy()
 
-    Column i is the wrench of motor i at full throttle: its thrust along its axis, the
-    moment of that thrust about the body origin, and its reaction torque.
+
+def wrench_column(
+    position: Sequence[float], axis: Sequence[float], max_thrust: float, reaction: float
+) -> tuple[float, float, float, float, float, float]:
+    """A motor's body wrench at full throttle (``x |x| = 1``), about the centre of mass.
+
+    The thrust ``F = max_thrust * axis`` [N] (max_thrust = k_F max_rpm^2), its moment
+    ``position x F``, and the reaction torque ``reaction * axis`` about the thrust axis,
+    with ``reaction = -spin * k_T max_rpm^2`` [N m] (the propeller drags the body the
+    other way round).
     """
-    thrust = params.thrust_axes * params.max_thrust[:, None]
-    moment = np.cross(params.positions, thrust)
-    reaction = -(params.spin * params.max_torque)[:, None] * params.thrust_axes
-    return np.concatenate([thrust, moment + reaction], axis=1).T.copy()
+    px, py, pz = position
+    ax, ay, az = axis
+    fx, fy, fz = ax * max_thrust, ay * max_thrust, az * max_thrust
+    return (
+        fx,
+        fy,
+        fz,
+        (py * fz - pz * fy) + reaction * ax,
+        (pz * fx - px * fz) + reaction * ay,
+        (px * fy - py * fx) + reaction * az,
+    )
+
+
+class Motors:
+    """The motors of one vehicle as an actuator group: throttle state, commands, noise, wrench.
+
+    Args:
+        params: the motors, in the centre-of-mass body frame.
+        physics_dt: physics step [s].
+        noise: the vehicle's noise generator (per-motor factors are drawn from it in blocks).
+
+    Attributes:
+        throttle: per motor, the normalised throttle x in [-1, 1] (the state).
+        command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
+    """
+
+    def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
+        self.params = params
+        self.lag = motor_lag(params, physics_dt).tolist()
+        self.columns = [tuple(column) for column in motor_wrench_matrix(params).T.tolist()]
+        self._positions = params.positions.tolist()
+        self._max_thrust = params.max_thrust.tolist()
+        self._reaction = (-(params.spin * params.max_torque)).tolist()
+        n = params.count
+        self.throttle = [0.0] * n
+        self.command = [0.0] * n
+        self._ones = [1.0] * n
+        self._noisy = bool(np.any(params.noise_ratio > 0))
+        self._noise = NoiseBlocks(noise, n, lambda eta: noise_factors(params, eta))
+
+    def step(self, air: AirVelocity) -> Wrench:
+        """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
+
+        ``air`` (the body's air-relative velocity) does not enter this model: static thrust.
+        """
+        factors = self._noise.next() if self._noisy else self._ones
+        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, self.columns)
+        return wrench
+
+    def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
+        """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""
+        self.columns[index] = wrench_column(
+            self._positions[index], thrust_axis, self._max_thrust[index], self._reaction[index]
+        )
+
+    def reset(self) -> None:
+        """Idle throttles and commands; buffered noise discarded."""
+        self.throttle = [0.0] * len(self.throttle)
+        self.command = [0.0] * len(self.command)
+        self._noise.discard()
+
+    def reseed(self) -> None:
+        """The noise generator was replaced: draw from the new one."""
+        self._noise.discard()
+
+    def aux(self) -> list[float]:
+        """Throttles, for the vehicle's auxiliary state."""
+        return list(self.throttle)

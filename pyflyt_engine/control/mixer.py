@@ -10,10 +10,6 @@ The mixer is its pseudo-inverse, so any airframe whose motors can produce all fo
 outputs independently (quad, hexa, octo, Y6, ...) needs no hand-written mixing table.
 """
 
-# Limits are written as conditional expressions, not min()/max(): cheaper at the control
-# rate, and they keep min/max's exact results (NaN and signed zeros included).
-# ruff: noqa: FURB136, PLR1730
-
 from __future__ import annotations
 
 from math import sqrt
@@ -53,6 +49,12 @@ def allocation_rank(allocation: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(allocation, tol=1e-9 * max(1.0, float(np.abs(allocation).max()))))
 
 
+def _lower(current: float, candidate: float) -> float:
+    """The smaller of ``current`` and ``candidate`` (negative candidates count as 0)."""
+    candidate = candidate if candidate > 0.0 else 0.0
+    return candidate if candidate < current else current
+
+
 class Mixer:
     """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles."""
 
@@ -90,56 +92,29 @@ class Mixer:
             from_torque = base - from_thrust + yaw_scale * yaw
             f           = scale * from_thrust + from_torque
 
-        and the throttle is ``sqrt(f / fm)`` clipped to [0, 1].  In the common case nothing
-        needs giving up (``yaw_scale = scale = 1``) and one pass does it all; otherwise
-        :meth:`_throttles_limited` runs the stages in turn.  Plain float arithmetic either
-        way (this runs at the control rate for every vehicle).
+        with ``yaw_scale`` the largest in [0, 1] that keeps every ``base + yaw_scale * yaw``
+        in [0, fm], then ``scale`` the largest in [0, 1] that keeps every ``f <= fm``; the
+        throttle is ``sqrt(f / fm)`` clipped to [0, 1].  Plain float arithmetic (this runs
+        at the control rate for every vehicle).
         """
-        out = []
-        append = out.append
-        for r0, r1, r2, r3, fm in self._rows:
-            ft = r0 * thrust
-            b = ft + r1 * tx + r2 * ty
-            y = r3 * tz
-            if (y > 0.0 and b + y > fm) or (y < 0.0 and b + y < 0.0):
-                return self._throttles_limited(thrust, tx, ty, tz)
-            f = ft + (b - ft + y)  # scale * ft + from_torque, both scales 1
-            if f > fm and ft > 0.0:
-                return self._throttles_limited(thrust, tx, ty, tz)
-            append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))
-        return out
-
-    def _throttles_limited(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
-        """:meth:`throttles` when the yaw torque or the collective thrust must be scaled down."""
         terms = []
-        append = terms.append
         yaw_scale = 1.0
         for r0, r1, r2, r3, fm in self._rows:
             ft = r0 * thrust
             b = ft + r1 * tx + r2 * ty
             y = r3 * tz
-            if y > 0.0:
-                if b + y > fm:
-                    s = (fm - b) / y
-                    s = s if s > 0.0 else 0.0  # max(0.0, s)
-                    if s < yaw_scale:
-                        yaw_scale = s
-            elif y < 0.0 and b + y < 0.0:
-                s = -b / y
-                s = s if s > 0.0 else 0.0
-                if s < yaw_scale:
-                    yaw_scale = s
-            append((ft, b - ft, y, fm))
+            if y > 0.0 and b + y > fm:  # yaw would push this motor past full thrust
+                yaw_scale = _lower(yaw_scale, (fm - b) / y)
+            elif y < 0.0 and b + y < 0.0:  # or below zero
+                yaw_scale = _lower(yaw_scale, -b / y)
+            terms.append((ft, b - ft, y, fm))
         scale = 1.0
         torques = []
         for ft, bt, y, fm in terms:
             fq = bt + yaw_scale * y
             torques.append(fq)
             if ft + fq > fm and ft > 0.0:
-                s = (fm - fq) / ft
-                s = s if s > 0.0 else 0.0
-                if s < scale:
-                    scale = s
+                scale = _lower(scale, (fm - fq) / ft)
         out = []
         for (ft, _, _, fm), fq in zip(terms, torques):
             f = scale * ft + fq

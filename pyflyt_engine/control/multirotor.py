@@ -10,8 +10,9 @@ inertia; the velocity loop asks for an acceleration, multiplied by the mass), so
 same gains fly airframes of very different size; the values live in each airframe's
 YAML (``control:`` section, :class:`~pyflyt_engine.spec.MultirotorControlSpec`).
 
-The controller is plain Python on floats: at four values per loop, that is several
-times cheaper than NumPy's per-call overhead, and the loop runs at 120 Hz per vehicle.
+Each loop is written once, as a small method whose docstring states its law, on plain
+Python floats: at three values per loop that is cheaper than NumPy's per-call overhead,
+and the cascade runs at 120 Hz per vehicle.
 """
 
 # Limits are written as conditional expressions, not min()/max(): cheaper at the control
@@ -43,6 +44,17 @@ _TWO_PI = 2 * math.pi
 _MIN_LIFT = 0.1 * GRAVITY
 
 
+def _clamp(value: float, limit: float) -> float:
+    """``value`` limited to [-limit, limit]."""
+    return limit if value > limit else -limit if value < -limit else value
+
+
+def _integral_limits(limits: Sequence[float], ki: Sequence[float]) -> tuple[float, ...]:
+    """Per axis, the bound on the integral of the error from the bound on ``ki * integral``
+    (0: no integration when ``ki = 0``)."""
+    return tuple(lim / k if k > 0 else 0.0 for lim, k in zip(limits, ki))
+
+
 class MultirotorController:
     """Turns a flight-mode setpoint into motor throttles.
 
@@ -52,9 +64,6 @@ class MultirotorController:
         inertia: principal inertia (Ixx, Iyy, Izz) [kg m^2].
         mixer: the airframe's mixer.
         dt: control period [s].
-
-    Each loop is written out on local floats with the gains unpacked once here (the
-    spec is frozen); the arithmetic of every loop is spelled out in its docstring.
 
     Attributes:
         law: the current mode's control law, ``law(state, setpoint) -> throttles``
@@ -74,19 +83,15 @@ class MultirotorController:
         self.inertia = tuple(float(i) for i in inertia)
         self.mixer = mixer
         self.dt = dt
-        rate, att, vel, pos = gains.rate, gains.attitude, gains.velocity, gains.position
-        # integrator limits on int(e), from the limit on ki * int(e); no integration when ki = 0
-        rate_limit = tuple(lim / k if k > 0 else 0.0 for lim, k in zip(rate.integral_limit, rate.ki))
+        rate, vel = gains.rate, gains.velocity
+        #: per body axis (kp, ki, kd, integral limit) of the rate loop
+        self._rate_axes = tuple(zip(rate.kp, rate.ki, rate.kd, _integral_limits(rate.integral_limit, rate.ki)))
+        self._rate_derivative = any(k != 0.0 for k in rate.kd)  # with kd = 0 the term is left out
         jx, jy, jz = self.inertia
-        self._rate_constants = (
-            *rate.kp, *rate.ki, *rate.kd, *rate_limit, dt, jx, jy, jz, jz - jy, jx - jz, jy - jx,
-        )  # fmt: skip
-        self._rate_derivative = any(k != 0.0 for k in rate.kd)
-        self._attitude_constants = (*att.kp, *att.max_rate)
-        vel_limit = tuple(lim / k if k > 0 else 0.0 for lim, k in zip(vel.integral_limit, vel.ki))
-        self._velocity_constants = (*vel.kp, *vel.ki, *vel_limit, vel.integral_window, dt)
-        self._max_tilt = vel.max_tilt
-        self._position_constants = (*pos.kp, *pos.max_velocity)
+        #: gyroscopic coefficients of omega x (J omega): (Jz - Jy, Jx - Jz, Jy - Jx)
+        self._gyro = (jz - jy, jx - jz, jy - jx)
+        #: per ground axis (kp, ki, integral limit) of the velocity loop
+        self._velocity_axes = tuple(zip(vel.kp, vel.ki, _integral_limits(vel.integral_limit, vel.ki)))
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -121,60 +126,60 @@ class MultirotorController:
         else:
             raise ValueError(f"no control law for mode {name!r}")
 
-    # --------------------------------------------------------------- dispatch
-
     def __call__(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
         """Motor throttles for the current mode and setpoint."""
         return self.law(state, setpoint)
 
     # ------------------------------------------------------------------ loops
 
-    def _rate_loop(self, state: KinematicState, p_sp: float, q_sp: float, r_sp: float) -> tuple[float, float, float]:
-        """Body torques [N m] that drive the body rates to the setpoint.
+    def _rate_loop(self, state: KinematicState, rates_sp: Sequence[float]) -> tuple[float, float, float]:
+        """Body torques [N m] that drive the body rates to ``rates_sp`` [rad/s].
 
         Per axis: ``e = sp - omega``; ``I = clip(I + e dt, limit)``;
-        ``alpha = kp e + ki I - kd (omega - omega_prev) / dt``; torque = J alpha plus the
-        gyroscopic feed-forward omega x (J omega).
+        ``alpha = kp e + ki I - kd (omega - omega_prev) / dt``; the torque is ``J alpha``
+        plus the gyroscopic feed-forward ``omega x (J omega)``.
         """
-        (
-            kpx, kpy, kpz, kix, kiy, kiz, kdx, kdy, kdz, lx, ly, lz, dt, jx, jy, jz, jzy, jxz, jyx
-        ) = self._rate_constants  # fmt: skip
-        wx, wy, wz = rates = state.ang_vel
-        px, py, pz = self._prev_rate or rates
+        dt = self.dt
+        rates = state.ang_vel
+        previous = self._prev_rate or rates
         self._prev_rate = rates
-        ix, iy, iz = self._rate_integral
-        ex, ey, ez = p_sp - wx, q_sp - wy, r_sp - wz
-        ix = ix + ex * dt
-        ix = lx if ix > lx else -lx if ix < -lx else ix
-        iy = iy + ey * dt
-        iy = ly if iy > ly else -ly if iy < -ly else iy
-        iz = iz + ez * dt
-        iz = lz if iz > lz else -lz if iz < -lz else iz
-        self._rate_integral = (ix, iy, iz)
-        ax = kpx * ex + kix * ix
-        ay = kpy * ey + kiy * iy
-        az = kpz * ez + kiz * iz
-        if self._rate_derivative:  # (with kd = 0 the term is zero: left out)
-            ax = ax - kdx * (wx - px) / dt
-            ay = ay - kdy * (wy - py) / dt
-            az = az - kdz * (wz - pz) / dt
-        return jx * ax + jzy * wy * wz, jy * ay + jxz * wz * wx, jz * az + jyx * wx * wy
+        integrals, alphas = [], []
+        for (kp, ki, kd, limit), sp, w, w_prev, i in zip(self._rate_axes, rates_sp, rates, previous, self._rate_integral):
+            e = sp - w
+            i = _clamp(i + e * dt, limit)
+            alpha = kp * e + ki * i
+            if self._rate_derivative:
+                alpha = alpha - kd * (w - w_prev) / dt
+            integrals.append(i)
+            alphas.append(alpha)
+        self._rate_integral = tuple(integrals)
+        (jx, jy, jz), (gx, gy, gz) = self.inertia, self._gyro
+        (ax, ay, az), (wx, wy, wz) = alphas, rates
+        return jx * ax + gx * wy * wz, jy * ay + gy * wz * wx, jz * az + gz * wx * wy
+
+    def _velocity_loop(self, state: KinematicState, velocity_sp: Sequence[float | None]) -> list[float]:
+        """Ground-frame accelerations [m/s^2] that drive the ground velocity to ``velocity_sp``.
+
+        Per axis with a setpoint (None: 0, not integrated): ``e = sp - v``;
+        ``a = kp e + ki I``, integrating ``I = clip(I + e dt, limit)`` only while
+        ``|e| < integral_window`` (anti-windup in transients).
+        """
+        window, dt = self.gains.velocity.integral_window, self.dt
+        integral = self._vel_integral
+        out = [0.0, 0.0, 0.0]
+        for axis, ((kp, ki, limit), sp, v) in enumerate(zip(self._velocity_axes, velocity_sp, state.lin_vel_ground)):
+            if sp is None:
+                continue
+            e = sp - v
+            if -window < e < window:
+                integral[axis] = _clamp(integral[axis] + e * dt, limit)
+            out[axis] = kp * e + ki * integral[axis]
+        return out
 
     def _climb(self, state: KinematicState, z: float) -> float:
-        """Climb-rate setpoint [m/s] from an altitude setpoint: clip(kp_z (z - z_now))."""
-        kp, lim = self._position_constants[2], self._position_constants[5]
-        v = kp * (z - state.lin_pos[2])
-        return lim if v > lim else -lim if v < -lim else v
-
-    def _vertical(self, state: KinematicState, vz: float) -> float:
-        """The z row of the velocity loop alone (x and y left at 0, not integrated)."""
-        _, _, kp, _, _, ki, _, _, limit, window, dt = self._velocity_constants
-        integral = self._vel_integral
-        err = vz - state.lin_vel_ground[2]
-        if -window < err < window:  # integrate near the setpoint only (anti-windup)
-            i = integral[2] + err * dt
-            integral[2] = limit if i > limit else -limit if i < -limit else i
-        return kp * err + ki * integral[2]
+        """Climb-rate setpoint [m/s] from an altitude setpoint: ``clip(kp_z (z - z_now))``."""
+        position = self.gains.position
+        return _clamp(position.kp[2] * (z - state.lin_pos[2]), position.max_velocity[2])
 
     def _thrust_for(self, state: KinematicState, az: float) -> float:
         """Collective thrust [N] for vertical acceleration ``az``, tilt-compensated:
@@ -185,19 +190,33 @@ class MultirotorController:
         thrust = self.mass * (GRAVITY + az) / tilt
         return 0.0 if 0.0 > thrust else thrust  # max(thrust, 0.0)
 
-    def _attitude_rates(self, state: KinematicState, roll: float, pitch: float, yaw: float | None, yaw_rate: float):
-        """Body-rate setpoint from an attitude setpoint (yaw=None: hold ``yaw_rate``):
-        ``clip(kp (angle_sp - angle))`` per axis, the yaw error wrapped to [-pi, pi)
-        as :func:`~pyflyt_engine.frames.wrap_angle` does."""
-        kx, ky, kz, lx, ly, lz = self._attitude_constants
-        cr, cp, cy = state.ang_pos
-        p = kx * (roll - cr)
-        p = lx if p > lx else -lx if p < -lx else p
-        q = ky * (pitch - cp)
-        q = ly if q > ly else -ly if q < -ly else q
-        r = yaw_rate if yaw is None else kz * ((yaw - cy + math.pi) % _TWO_PI - math.pi)
-        r = lz if r > lz else -lz if r < -lz else r
-        return p, q, r
+    def _attitude_rates(
+        self, state: KinematicState, roll: float, pitch: float, yaw: float | None, yaw_rate: float
+    ) -> tuple[float, float, float]:
+        """Body-rate setpoint from an attitude setpoint (yaw None: hold ``yaw_rate``):
+        ``clip(kp (angle_sp - angle))`` per axis, the yaw error wrapped to [-pi, pi) as
+        :func:`~pyflyt_engine.frames.wrap_angle` does."""
+        attitude = self.gains.attitude
+        (kx, ky, kz), (lx, ly, lz) = attitude.kp, attitude.max_rate
+        roll_now, pitch_now, yaw_now = state.ang_pos
+        r = yaw_rate if yaw is None else kz * ((yaw - yaw_now + math.pi) % _TWO_PI - math.pi)
+        return _clamp(kx * (roll - roll_now), lx), _clamp(ky * (pitch - pitch_now), ly), _clamp(r, lz)
+
+    def _tilt_for(self, state: KinematicState, ax: float, ay: float, az: float) -> tuple[float, float]:
+        """Roll and pitch [rad] that point the thrust along a ground-frame acceleration:
+        ``pitch = atan2(forward, lift)``, ``roll = atan2(-left cos(pitch), lift)`` with
+        ``lift = max(g + az, 0.1 g)`` and (forward, left) the acceleration in the heading
+        frame, both clipped to ``max_tilt``."""
+        yaw = state.ang_pos[2]
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        forward = cy * ax + sy * ay
+        left = -sy * ax + cy * ay
+        lift = GRAVITY + az
+        lift = _MIN_LIFT if _MIN_LIFT > lift else lift  # max(g + az, 0.1 g)
+        pitch = math.atan2(forward, lift)
+        roll = math.atan2(-left * math.cos(pitch), lift)
+        limit = self.gains.velocity.max_tilt
+        return _clamp(roll, limit), _clamp(pitch, limit)
 
     # ------------------------------------------------------------------ laws
 
@@ -205,100 +224,45 @@ class MultirotorController:
         return [float(s) for s in setpoint]
 
     def _rates_thrust(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
+        """[p, q, r, thrust fraction]: the rate loop, thrust as a fraction of the full collective."""
         a, b, c, d = setpoint
-        tx, ty, tz = self._rate_loop(state, a, b, c)
-        return self.mixer.throttles(d * self.mixer.max_collective, tx, ty, tz)
+        return self.mixer.throttles(d * self.mixer.max_collective, *self._rate_loop(state, (a, b, c)))
 
     def _rates_z(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
+        """[p, q, r, z]: the rate loop, and the altitude through the vertical velocity loop."""
         a, b, c, d = setpoint
-        az = self._vertical(state, self._climb(state, d))
-        tx, ty, tz = self._rate_loop(state, a, b, c)
-        return self.mixer.throttles(self._thrust_for(state, az), tx, ty, tz)
+        az = self._velocity_loop(state, (None, None, self._climb(state, d)))[2]
+        torques = self._rate_loop(state, (a, b, c))
+        return self.mixer.throttles(self._thrust_for(state, az), *torques)
 
     def _attitude(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
+        """[roll, pitch, yaw, vz or z]: attitude and rate loops, the vertical velocity loop."""
         a, b, c, d = setpoint
-        az = self._vertical(state, d if self.mode.name == "attitude_vz" else self._climb(state, d))
-        p, q, r = self._attitude_rates(state, a, b, c, 0.0)
-        tx, ty, tz = self._rate_loop(state, p, q, r)
-        return self.mixer.throttles(self._thrust_for(state, az), tx, ty, tz)
+        vz = d if self.mode.name == "attitude_vz" else self._climb(state, d)
+        az = self._velocity_loop(state, (None, None, vz))[2]
+        torques = self._rate_loop(state, self._attitude_rates(state, a, b, c, 0.0))
+        return self.mixer.throttles(self._thrust_for(state, az), *torques)
 
     def _translate(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
-        """Translational modes: a ground velocity setpoint, a yaw target (or rate) and vz.
-
-        position -> velocity: ``clip(kp (x_sp - x))``; velocity -> acceleration (ground
-        frame, per axis): ``kp e + ki I``, integrating only while ``|e| < window``;
-        acceleration -> tilt: ``pitch = atan2(forward, lift)``,
-        ``roll = atan2(-left cos(pitch), lift)`` with ``lift = max(g + az, 0.1 g)`` and
-        (forward, left) the acceleration in the heading frame, both clipped to max_tilt.
-        """
+        """Translational modes: a ground velocity setpoint (from a heading-frame velocity, a
+        position or given), a yaw target or rate, and a climb rate or altitude, through the
+        velocity, tilt, attitude and rate loops.  Position to velocity: ``clip(kp (x_sp - x))``."""
         yaw_is_rate, heading_frame, position, altitude = self._translational  # type: ignore[misc]
         a, b, c, d = setpoint
         x, y, z = state.lin_pos
-        cos, sin = math.cos, math.sin
-        pkx, pky, pkz, plx, ply, plz = self._position_constants
+        pos = self.gains.position
         if heading_frame:
             heading = state.ang_pos[2]
-            ch, sh = cos(heading), sin(heading)
+            ch, sh = math.cos(heading), math.sin(heading)
             vx, vy = ch * a - sh * b, sh * a + ch * b
         elif position:
-            vx = pkx * (a - x)
-            vx = plx if vx > plx else -plx if vx < -plx else vx
-            vy = pky * (b - y)
-            vy = ply if vy > ply else -ply if vy < -ply else vy
+            vx = _clamp(pos.kp[0] * (a - x), pos.max_velocity[0])
+            vy = _clamp(pos.kp[1] * (b - y), pos.max_velocity[1])
         else:
             vx, vy = a, b
-        if altitude:
-            vz = pkz * (d - z)
-            vz = plz if vz > plz else -plz if vz < -plz else vz
-        else:
-            vz = d
-
-        # velocity loop, ground frame
-        kpx, kpy, kpz, kix, kiy, kiz, lx, ly, lz, window, dt = self._velocity_constants
-        gx, gy, gz = state.lin_vel_ground
-        integral = self._vel_integral
-        ix, iy, iz = integral
-        ex = vx - gx
-        if -window < ex < window:  # integrate near the setpoint only (anti-windup)
-            ix = ix + ex * dt
-            ix = lx if ix > lx else -lx if ix < -lx else ix
-        ey = vy - gy
-        if -window < ey < window:
-            iy = iy + ey * dt
-            iy = ly if iy > ly else -ly if iy < -ly else iy
-        ez = vz - gz
-        if -window < ez < window:
-            iz = iz + ez * dt
-            iz = lz if iz > lz else -lz if iz < -lz else iz
-        integral[0], integral[1], integral[2] = ix, iy, iz
-        ax = kpx * ex + kix * ix
-        ay = kpy * ey + kiy * iy
-        az = kpz * ez + kiz * iz
-
-        # acceleration -> tilt
-        roll_now, pitch_now, yaw = state.ang_pos
-        cy, sy = cos(yaw), sin(yaw)
-        forward = cy * ax + sy * ay
-        left = -sy * ax + cy * ay
-        lift = GRAVITY + az
-        lift = _MIN_LIFT if _MIN_LIFT > lift else lift  # max(g + az, 0.1 g)
-        pitch = math.atan2(forward, lift)
-        roll = math.atan2(-left * cos(pitch), lift)
-        limit = self._max_tilt
-        roll = limit if roll > limit else -limit if roll < -limit else roll
-        pitch = limit if pitch > limit else -limit if pitch < -limit else pitch
-
-        # attitude -> body rates, and the thrust: _attitude_rates and _thrust_for, inline
-        kx, ky, kz, mx, my, mz = self._attitude_constants
-        p = kx * (roll - roll_now)
-        p = mx if p > mx else -mx if p < -mx else p
-        q = ky * (pitch - pitch_now)
-        q = my if q > my else -my if q < -my else q
-        r = c if yaw_is_rate else kz * ((c - yaw + math.pi) % _TWO_PI - math.pi)
-        r = mz if r > mz else -mz if r < -mz else r
-        tilt = cos(roll_now) * cos(pitch_now)
-        tilt = 0.5 if 0.5 > tilt else tilt
-        thrust = self.mass * (GRAVITY + az) / tilt
-        thrust = 0.0 if 0.0 > thrust else thrust
-        tx, ty, tz = self._rate_loop(state, p, q, r)
-        return self.mixer.throttles(thrust, tx, ty, tz)
+        vz = _clamp(pos.kp[2] * (d - z), pos.max_velocity[2]) if altitude else d
+        ax, ay, az = self._velocity_loop(state, (vx, vy, vz))
+        roll, pitch = self._tilt_for(state, ax, ay, az)
+        yaw, yaw_rate = (None, c) if yaw_is_rate else (c, 0.0)
+        torques = self._rate_loop(state, self._attitude_rates(state, roll, pitch, yaw, yaw_rate))
+        return self.mixer.throttles(self._thrust_for(state, az), *torques)

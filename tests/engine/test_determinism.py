@@ -66,7 +66,7 @@ def test_actuator_noise_does_not_depend_on_how_the_stream_is_cut_into_blocks(mon
     1 024 rows (or one row) at a time gives, across several refills.  (A reset discards
     the unused rest of a block, so where the next unseeded episode starts in the stream
     does depend on the block sizes; with a seed it does not.)"""
-    import pyflyt_engine.vehicle as vehicle_module
+    import pyflyt_engine.components.noise as noise_module
 
     def trajectory():
         # noisy motors (cf2x, f450) and a noisy booster (rocket), 8 physics steps per world step
@@ -88,11 +88,11 @@ def test_actuator_noise_does_not_depend_on_how_the_stream_is_cut_into_blocks(mon
         return np.concatenate(rows)
 
     growing = trajectory()
-    monkeypatch.setattr(vehicle_module, "_FIRST_NOISE_BLOCK", vehicle_module._NOISE_BLOCK)
+    monkeypatch.setattr(noise_module, "FIRST_BLOCK", noise_module.BLOCK)
     fixed = trajectory()
-    monkeypatch.setattr(vehicle_module, "_FIRST_NOISE_BLOCK", 1)
+    monkeypatch.setattr(noise_module, "FIRST_BLOCK", 1)
     from_one_row = trajectory()
     assert growing.tobytes() == fixed.tobytes() == from_one_row.tobytes()
-    # and the noise is there: without it the trajectory differs
-    monkeypatch.setattr(vehicle_module.Vehicle, "_refill_noise", lambda self: (1.0,) * self.motors.count)
+    # and the noise is there: without it (motor factors 1, booster normals 0) the trajectory differs
+    monkeypatch.setattr(noise_module.NoiseBlocks, "next", lambda self: (1.0 if self.transform else 0.0,) * self.width)
     assert trajectory().tobytes() != growing.tobytes()

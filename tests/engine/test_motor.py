@@ -10,16 +10,30 @@ from pyflyt_engine.components.motor import (
     MotorParams,
     motor_lag,
     motor_outputs,
-    motor_step,
     motor_wrench_matrix,
     noise_factors,
 )
+from pyflyt_engine.components.motor import motor_step as _motor_step
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.vehicle import motor_params_from_spec
 from pyflyt_engine.world import VehicleConfig, World
 from tests.conftest import spec_variant
 
 DT = 1.0 / 240.0
+
+
+def motor_step(params, throttle, command, lag, noise):
+    """The new throttles of :func:`~pyflyt_engine.components.motor.motor_step`, as an array."""
+    n = params.count
+    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
+    new, _ = _motor_step(
+        np.broadcast_to(throttle, n).tolist(),
+        np.broadcast_to(command, n).tolist(),
+        np.broadcast_to(lag, n).tolist(),
+        np.broadcast_to(noise, n).tolist(),
+        columns,
+    )
+    return np.array(new)
 
 
 def _params(n: int = 4, tau: float = 0.05, noise: float = 0.0) -> MotorParams:
@@ -129,10 +143,8 @@ def test_lag_coefficient_limits():
     assert lag_coefficient(DT, 1.0) == pytest.approx(DT, rel=0.01)
 
 
-def test_float_path_matches_numpy_functions():
-    """The per-element form used at the physics rate equals motor_step + the wrench matrix."""
-    from pyflyt_engine.components.motor import motor_step_wrench
-
+def test_motor_step_is_the_lag_noise_and_thrust_law_of_the_paper():
+    """One step against the equations evaluated with NumPy: x' = (x + a (c - x)) z, wrench = M (x'|x'|)."""
     params = _params(n=6)
     rng = np.random.default_rng(1)
     throttle = rng.uniform(-1, 1, 6)
@@ -140,7 +152,11 @@ def test_float_path_matches_numpy_functions():
     noise = noise_factors(params, rng.standard_normal(6))
     lag = motor_lag(params, DT)
     columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
-    new, wrench = motor_step_wrench(throttle.tolist(), command.tolist(), lag.tolist(), noise.tolist(), columns)
-    expected = motor_step(params, throttle, command, lag, noise)
+    new, wrench = _motor_step(throttle.tolist(), command.tolist(), lag.tolist(), noise.tolist(), columns)
+    expected = (throttle + lag * (command - throttle)) * noise
     np.testing.assert_allclose(new, expected, rtol=1e-14)
-    np.testing.assert_allclose(wrench, motor_wrench_matrix(params) @ (expected * np.abs(expected)), rtol=1e-12, atol=1e-18)
+    thrust = params.kf * (expected * params.max_rpm) * np.abs(expected * params.max_rpm)
+    torque = params.kt * (expected * params.max_rpm) * np.abs(expected * params.max_rpm)
+    force = (params.thrust_axes * thrust[:, None]).sum(axis=0)
+    moment = (np.cross(params.positions, params.thrust_axes * thrust[:, None]) - (params.spin * torque)[:, None] * params.thrust_axes).sum(axis=0)
+    np.testing.assert_allclose(wrench, np.concatenate([force, moment]), rtol=1e-12, atol=1e-18)

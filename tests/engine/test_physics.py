@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pyflyt_engine.components.motor import motor_wrench_matrix
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.world import VehicleConfig, World
@@ -20,7 +21,7 @@ def test_hover_throttle_gives_thrust_equal_to_weight(quiet_cf2x):
     world.set_setpoint(0, [hover] * 4)
     for _ in range(15):  # motors settle (0.5 s >> tau)
         world.step()
-    wrench = vehicle._motor_wrench @ (vehicle.motor_throttle * np.abs(vehicle.motor_throttle))
+    wrench = motor_wrench_matrix(vehicle.motors) @ (vehicle.motor_throttle * np.abs(vehicle.motor_throttle))
     assert wrench[2] == pytest.approx(quiet_cf2x.body.mass * GRAVITY, rel=0.01)
     np.testing.assert_allclose(wrench[3:], 0.0, atol=1e-12)
     # and the simulated body does not accelerate vertically

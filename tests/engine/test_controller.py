@@ -1,0 +1,139 @@
+"""The multirotor controller and mixer against their equations, evaluated by hand.
+
+Each loop is checked on one constructed state against its law written out with numbers
+(the docstrings of :mod:`pyflyt_engine.control.multirotor` and
+:mod:`pyflyt_engine.control.mixer`); convergence in flight is :mod:`test_flight_modes`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.control.modes import MULTIROTOR_MODES
+from pyflyt_engine.control.multirotor import MultirotorController
+from pyflyt_engine.state import KinematicState
+from pyflyt_engine.world import VehicleConfig, World
+from tests.conftest import spec_variant
+
+DT = 1.0 / 120.0
+
+
+def _controller(mode: str, **changes) -> tuple[MultirotorController, object]:
+    spec = spec_variant("quadx_f450", **{"body.inertia": [0.011, 0.009, 0.016], **changes})
+    vehicle = World([VehicleConfig(spec)], seed=0).vehicles[0]
+    controller = MultirotorController(spec.control, vehicle.parts.mass, np.diag(vehicle.parts.inertia), vehicle.mixer, DT)
+    controller.set_mode(MULTIROTOR_MODES[mode])
+    return controller, spec
+
+
+def _state(ang_vel=(0.0, 0.0, 0.0), ang_pos=(0.0, 0.0, 0.0), lin_pos=(0.0, 0.0, 1.0), lin_vel_ground=(0.0, 0.0, 0.0)):
+    return KinematicState(ang_vel, ang_pos, (0.0, 0.0, 0.0), lin_pos, (0.0, 0.0, 0.0, 1.0), lin_vel_ground, (0.0, 0.0, 0.0))
+
+
+def test_rate_loop_is_pi_plus_derivative_times_inertia_plus_gyroscopic_term():
+    controller, spec = _controller("rates_thrust", **{"control.rate.kd": [0.02, 0.03, 0.01]})
+    g = spec.control.rate
+    jx, jy, jz = 0.011, 0.009, 0.016
+    w0, w1 = (0.3, -0.2, 0.5), (0.35, -0.1, 0.45)
+    sp = (1.0, -0.5, 0.2)
+    controller._rate_loop(_state(ang_vel=w0), sp)  # first call: no derivative history yet
+    torques = controller._rate_loop(_state(ang_vel=w1), sp)
+    expected = []
+    for axis in range(3):
+        e0, e1 = sp[axis] - w0[axis], sp[axis] - w1[axis]
+        limit = g.integral_limit[axis] / g.ki[axis]
+        integral = max(-limit, min(limit, e0 * DT + e1 * DT))
+        expected.append(g.kp[axis] * e1 + g.ki[axis] * integral - g.kd[axis] * (w1[axis] - w0[axis]) / DT)
+    ax, ay, az = expected
+    wx, wy, wz = w1
+    # J alpha + omega x (J omega)
+    gyro = np.cross(w1, np.multiply((jx, jy, jz), w1))
+    np.testing.assert_allclose(torques, np.multiply((jx, jy, jz), (ax, ay, az)) + gyro, rtol=1e-12)
+
+
+def test_attitude_loop_is_clipped_proportional_and_wraps_the_yaw_error():
+    controller, spec = _controller("attitude_z")
+    g = spec.control.attitude
+    p_sp, q_sp, r_sp = controller._attitude_rates(_state(ang_pos=(0.1, -0.05, 3.0)), 0.2, 0.05, -3.0, 0.0)
+    assert p_sp == pytest.approx(min(g.kp[0] * 0.1, g.max_rate[0]))
+    assert q_sp == pytest.approx(g.kp[1] * 0.1)
+    yaw_error = -3.0 - 3.0 + 2 * math.pi  # -6 rad wrapped into [-pi, pi): +0.283 rad, the short way round
+    assert r_sp == pytest.approx(max(-g.max_rate[2], min(g.max_rate[2], g.kp[2] * yaw_error)))
+    assert r_sp > 0.0
+
+
+def test_thrust_is_weight_plus_climb_compensated_for_tilt():
+    controller, _ = _controller("attitude_z")
+    mass = controller.mass
+    assert controller._thrust_for(_state(), 0.0) == pytest.approx(mass * GRAVITY)
+    tilted = _state(ang_pos=(0.3, 0.2, 0.0))
+    assert controller._thrust_for(tilted, 1.5) == pytest.approx(mass * (GRAVITY + 1.5) / (math.cos(0.3) * math.cos(0.2)))
+    assert controller._thrust_for(_state(ang_pos=(1.4, 0.0, 0.0)), 0.0) == pytest.approx(mass * GRAVITY / 0.5)
+    assert controller._thrust_for(_state(), -2 * GRAVITY) == 0.0  # never pulls
+
+
+def test_velocity_loop_integrates_only_inside_its_window():
+    controller, spec = _controller("velocity_yawrate")
+    g = spec.control.velocity
+    far = controller._velocity_loop(_state(), (10.0, None, None))  # |e| = 10 > window: no integration
+    assert far[0] == pytest.approx(g.kp[0] * 10.0) and controller._vel_integral == [0.0, 0.0, 0.0]
+    near = controller._velocity_loop(_state(lin_vel_ground=(0.0, 0.1, 0.0)), (None, 0.3, 0.0))
+    assert near[1] == pytest.approx(g.kp[1] * 0.2 + g.ki[1] * 0.2 * DT)
+    assert near[0] == 0.0 and controller._vel_integral[1] == pytest.approx(0.2 * DT)
+
+
+def test_mixer_reproduces_any_wrench_it_can_and_gives_up_yaw_first():
+    controller, _ = _controller("rates_thrust")
+    mixer = controller.mixer
+    fm = np.array(mixer.max_thrust)
+    rng = np.random.default_rng(0)
+    for _ in range(500):  # within the motors' range: exact allocation
+        request = np.array([rng.uniform(0.3, 0.6) * mixer.max_collective, *rng.normal(0, 0.02, 3)])
+        throttles = np.array(mixer.throttles(*request))
+        np.testing.assert_allclose(mixer.allocation @ (fm * throttles**2), request, rtol=1e-9, atol=1e-12)
+    hover = 0.5 * mixer.max_collective
+    throttles = np.array(mixer.throttles(hover, 0.05, -0.05, 50.0))  # an impossible yaw torque
+    achieved = mixer.allocation @ (fm * throttles**2)
+    assert np.all((throttles >= 0.0) & (throttles <= 1.0))
+    np.testing.assert_allclose(achieved[:3], (hover, 0.05, -0.05), rtol=1e-9)  # thrust, roll, pitch kept
+    assert 0.0 < achieved[3] < 50.0  # yaw given up as far as needed
+
+
+def test_motors_mode_limits_the_command():
+    world = World([VehicleConfig("quadx_cf2x", (0, 0, 1), mode="motors")], seed=0)
+    world.set_setpoint(0, [1.5, -2.0, 0.25, -0.5])
+    world.vehicles[0].control_step()
+    assert world.vehicles[0].motor_command.tolist() == [1.0, -1.0, 0.25, -0.5]
+
+
+def test_state_after_a_step_is_read_when_asked_and_reading_it_changes_nothing():
+    def run(read_every_step: bool) -> str:
+        world = World([VehicleConfig("quadx_cf2x", (0, 0, 1), mode="position_yaw")], seed=1)
+        world.set_setpoint(0, [0.5, 0.2, 0.1, 1.4])
+        out = []
+        for i in range(20):
+            world.step()
+            if read_every_step or i % 7 == 0:
+                out.append((world.state(0), world.aux_state(0).tolist()))
+        out.append((world.state(0), world.aux_state(0).tolist()))
+        world.close()
+        return hashlib.sha256(repr(out[-1]).encode()).hexdigest()
+
+    assert run(True) == run(False)
+    world = World([VehicleConfig("quadx_cf2x", (0, 0, 1), mode="motors")], seed=0)
+    vehicle = world.vehicles[0]
+    world.step()
+    lazily = vehicle.state
+    assert lazily == vehicle.read_state()
+    assert vehicle.state is vehicle.state  # read once, then kept until the next step
+    # a pose set directly in PyBullet between steps shows in the state read after it
+    world.step()
+    p.resetBasePositionAndOrientation(vehicle.body_id, [5.0, 0.0, 1.0], [0, 0, 0, 1], physicsClientId=world.client)
+    assert vehicle.state.lin_pos[0] == 5.0
+    world.close()
