@@ -137,17 +137,13 @@ def replay(
 @app.command(
     help="Measure speed and memory on this machine: env steps/s, resets, real-time factor and peak memory of "
     "every env; worlds of 1, 8 and 64 QuadX; a 128x128 camera capture; the bare-PyBullet floor; optionally "
-    "vector envs (--vector) and the reference PyFlyt side by side (--reference-python).  Every case runs in a "
-    "fresh process; figures are medians of --repeats runs.\n\n"
-    "  pyflyt speed --reference-python ~/ref-venv/bin/python --markdown",
+    "vector envs (--vector).  Every case runs in a fresh process; figures are medians of --repeats runs.\n\n"
+    "  pyflyt speed --vector --markdown",
 )
 @user_errors
 def speed(
     repeats: int = typer.Option(5, "--repeats", min=1, help="runs per figure; the median is printed"),
     quick: bool = typer.Option(False, "--quick", help="tiny counts: check that everything runs (figures unreliable)"),
-    reference_python: Optional[str] = typer.Option(
-        None, "--reference-python", help="interpreter of a virtual env with PyFlyt 0.29 installed, for side-by-side figures"
-    ),
     vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
                                 "same step cost, and the machine's own 1 vs 2 process scaling"),
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
@@ -157,10 +153,8 @@ def speed(
 ) -> None:
     from pyflyt_cli.commands.speed import speed_command
 
-    counts = [int(v) for v in vehicles.split(",") if v.strip()] if vehicles else None
-    typer.echo(speed_command(repeats=repeats, quick=quick, reference_python=reference_python, vector=vector,
-                             markdown=markdown, envs=env, vehicles=counts, json_path=json_path,
-                             progress=lambda message: typer.echo(message, err=True)))
+    typer.echo(speed_command(repeats=repeats, quick=quick, vector=vector, markdown=markdown, envs=env,
+                             vehicles=vehicles, json_path=json_path, progress=lambda message: typer.echo(message, err=True)))
 
 
 @app.command(
