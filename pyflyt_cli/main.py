@@ -256,7 +256,7 @@ def uav_show(
 
 @uav_app.command("schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning).")
 def uav_schema() -> None:
-    from pyflyt_cli.commands.uav_schema import schema_markdown
+    from pyflyt_cli.airframes import schema_markdown
 
     typer.echo(schema_markdown(), nl=False)
 
