@@ -186,9 +186,9 @@ def benchmark(
         "their old directories move to <benchmark>/replaced/<time>/",
     ),
 ) -> None:
-    from pyflyt_cli.commands.benchmark import run_benchmark
+    from pyflyt_cli.commands.benchmark import benchmark_command
 
-    code = run_benchmark(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
+    code = benchmark_command(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
     if code:
         raise typer.Exit(code=code)
 
