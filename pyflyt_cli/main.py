@@ -55,20 +55,15 @@ def fly(overrides: Optional[list[str]] = typer.Argument(None, help="key=value ov
 
 @app.command(help="List the flight modes, their PyFlyt numbers and setpoint layouts.")
 def modes() -> None:
-    from pyflyt_engine.control.modes import MODE_ALIASES, MULTIROTOR_MODES
+    from pyflyt_cli.catalog import list_modes
 
-    typer.echo(f"{'mode':<22}{'PyFlyt':>7}  setpoint")
-    for mode in MULTIROTOR_MODES.values():
-        pid = "" if mode.pyflyt_id is None else str(mode.pyflyt_id)
-        layout = "one throttle per motor" if mode.name == "motors" else ", ".join(mode.setpoint)
-        typer.echo(f"{mode.name:<22}{pid:>7}  [{layout}]  {mode.description}")
-    typer.echo("aliases: " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
+    typer.echo(list_modes())
 
 
 @app.command(help="List the Gymnasium environments: spaces, reward presets and defaults.")
 @user_errors
 def envs() -> None:
-    from pyflyt_cli.commands.envs import list_envs
+    from pyflyt_cli.catalog import list_envs
 
     typer.echo(list_envs())
 
