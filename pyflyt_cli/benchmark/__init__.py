@@ -22,32 +22,8 @@ From Python::
 * :mod:`~pyflyt_cli.benchmark.normalise` — random-policy and reference scores for ``pyflyt plot``.
 """
 
-from __future__ import annotations
-
-from typing import Any
-
-# imported on first use: ``python -m pyflyt_cli.benchmark.worker`` imports this package first
-_LAZY = {
-    "Plan": "pyflyt_cli.benchmark.plan",
-    "Job": "pyflyt_cli.benchmark.plan",
-    "plan_benchmark": "pyflyt_cli.benchmark.plan",
-    "read_plan": "pyflyt_cli.benchmark.plan",
-    "BenchmarkResult": "pyflyt_cli.benchmark.sweep",
-    "Survey": "pyflyt_cli.benchmark.sweep",
-    "check_restarts": "pyflyt_cli.benchmark.sweep",
-    "dry_run_script": "pyflyt_cli.benchmark.sweep",
-    "run_benchmark": "pyflyt_cli.benchmark.sweep",
-    "survey": "pyflyt_cli.benchmark.sweep",
-}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
+from pyflyt_cli.benchmark.plan import Job, Plan, plan_benchmark, read_plan
+from pyflyt_cli.benchmark.sweep import BenchmarkResult, Survey, check_restarts, dry_run_script, run_benchmark, survey
 
 __all__ = [
     "BenchmarkResult",
