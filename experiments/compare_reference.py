@@ -157,6 +157,10 @@ def format_comparison(report: dict, ref: Reference, markdown: bool = False) -> s
     return "\n".join(out) + "\n"
 
 
+def _counts(text: str) -> tuple[int, ...]:
+    return tuple(int(n) for n in text.split(","))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--reference-python", default=os.environ.get("PYFLYT_REFERENCE_PYTHON"),
@@ -165,17 +169,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="tiny counts: checks that everything runs")
     parser.add_argument("--markdown", action="store_true", help="print Markdown tables")
     parser.add_argument("--env", action="append", help="env id to measure (repeatable; default: all)")
-    parser.add_argument("--vehicles", default="1,8,64", help="world sizes, comma-separated")
+    parser.add_argument("--vehicles", type=_counts, default=(1, 8, 64), help="world sizes, comma-separated")
     parser.add_argument("--json", type=Path, help="also write every figure, both sides, to this file")
     args = parser.parse_args(argv)
     if args.reference_python and not Path(args.reference_python).exists():
         parser.error(f"--reference-python {args.reference_python} does not exist")
 
-    chosen: dict[str, Any] = {"envs": tuple(args.env) if args.env else None,
-                              "vehicles": tuple(int(n) for n in args.vehicles.split(","))}  # fmt: skip
+    chosen: dict[str, Any] = {"envs": tuple(args.env) if args.env else None, "vehicles": args.vehicles}
     settings = SpeedSettings.quick(**chosen) if args.quick else SpeedSettings(repeats=args.repeats, **chosen)
     ref = Reference(args.reference_python)
-    report = run_speed(settings, progress=lambda line: print(line, file=sys.stderr), measure=ref.measure)
+    try:
+        report = run_speed(settings, progress=lambda line: print(line, file=sys.stderr), measure=ref.measure)
+    except SpeedError as exc:  # an unknown env id, or one of our cases failed
+        parser.exit(2, f"error: {exc}\n")
     if args.json:
         args.json.write_text(json.dumps({"ours": report, "reference": ref.as_dict(report)}, indent=2))
     print(format_comparison(report, ref, markdown=args.markdown), end="")
