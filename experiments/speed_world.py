@@ -19,7 +19,7 @@ import time
 import numpy as np
 import pybullet as p
 
-from pyflyt_cli.commands.speed_probe import bare_pybullet  # the floor, shared with `pyflyt speed`
+from pyflyt_cli.speed.probes import bare_pybullet  # the floor, shared with `pyflyt speed`
 from pyflyt_engine.world import VehicleConfig, World
 
 

@@ -55,20 +55,15 @@ def fly(overrides: Optional[list[str]] = typer.Argument(None, help="key=value ov
 
 @app.command(help="List the flight modes, their PyFlyt numbers and setpoint layouts.")
 def modes() -> None:
-    from pyflyt_engine.control.modes import MODE_ALIASES, MULTIROTOR_MODES
+    from pyflyt_cli.catalog import list_modes
 
-    typer.echo(f"{'mode':<22}{'PyFlyt':>7}  setpoint")
-    for mode in MULTIROTOR_MODES.values():
-        pid = "" if mode.pyflyt_id is None else str(mode.pyflyt_id)
-        layout = "one throttle per motor" if mode.name == "motors" else ", ".join(mode.setpoint)
-        typer.echo(f"{mode.name:<22}{pid:>7}  [{layout}]  {mode.description}")
-    typer.echo("aliases: " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
+    typer.echo(list_modes())
 
 
 @app.command(help="List the Gymnasium environments: spaces, reward presets and defaults.")
 @user_errors
 def envs() -> None:
-    from pyflyt_cli.commands.envs import list_envs
+    from pyflyt_cli.catalog import list_envs
 
     typer.echo(list_envs())
 
@@ -137,17 +132,13 @@ def replay(
 @app.command(
     help="Measure speed and memory on this machine: env steps/s, resets, real-time factor and peak memory of "
     "every env; worlds of 1, 8 and 64 QuadX; a 128x128 camera capture; the bare-PyBullet floor; optionally "
-    "vector envs (--vector) and the reference PyFlyt side by side (--reference-python).  Every case runs in a "
-    "fresh process; figures are medians of --repeats runs.\n\n"
-    "  pyflyt speed --reference-python ~/ref-venv/bin/python --markdown",
+    "vector envs (--vector).  Every case runs in a fresh process; figures are medians of --repeats runs.\n\n"
+    "  pyflyt speed --vector --markdown",
 )
 @user_errors
 def speed(
     repeats: int = typer.Option(5, "--repeats", min=1, help="runs per figure; the median is printed"),
     quick: bool = typer.Option(False, "--quick", help="tiny counts: check that everything runs (figures unreliable)"),
-    reference_python: Optional[str] = typer.Option(
-        None, "--reference-python", help="interpreter of a virtual env with PyFlyt 0.29 installed, for side-by-side figures"
-    ),
     vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
                                 "same step cost, and the machine's own 1 vs 2 process scaling"),
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
@@ -157,10 +148,8 @@ def speed(
 ) -> None:
     from pyflyt_cli.commands.speed import speed_command
 
-    counts = [int(v) for v in vehicles.split(",") if v.strip()] if vehicles else None
-    typer.echo(speed_command(repeats=repeats, quick=quick, reference_python=reference_python, vector=vector,
-                             markdown=markdown, envs=env, vehicles=counts, json_path=json_path,
-                             progress=lambda message: typer.echo(message, err=True)))
+    typer.echo(speed_command(repeats=repeats, quick=quick, vector=vector, markdown=markdown, envs=env,
+                             vehicles=vehicles, json_path=json_path, progress=lambda message: typer.echo(message, err=True)))
 
 
 @app.command(
@@ -192,9 +181,9 @@ def benchmark(
         "their old directories move to <benchmark>/replaced/<time>/",
     ),
 ) -> None:
-    from pyflyt_cli.commands.benchmark import run_benchmark
+    from pyflyt_cli.commands.benchmark import benchmark_command
 
-    code = run_benchmark(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
+    code = benchmark_command(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
     if code:
         raise typer.Exit(code=code)
 
@@ -262,7 +251,7 @@ def uav_show(
 
 @uav_app.command("schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning).")
 def uav_schema() -> None:
-    from pyflyt_cli.commands.uav_schema import schema_markdown
+    from pyflyt_cli.airframes import schema_markdown
 
     typer.echo(schema_markdown(), nl=False)
 

@@ -141,11 +141,24 @@ class Job:
 
 @dataclass
 class Plan:
+    """Every run of a benchmark (:func:`plan_benchmark`).
+
+    Attributes:
+        root: the benchmark directory.
+        experiment: the experiment it was planned from (a name or a file).
+        spec: the validated ``benchmark:`` section (JSON data).
+        jobs: every run, in the order the experiment declares them.
+        command: the command line recorded in ``plan.json`` and the directory's lock.
+        launcher: the Hydra launcher overrides (``hydra/launcher=ray`` ...) to train the
+            runs with; empty: local processes.  Not written to ``plan.json``.
+    """
+
     root: Path
     experiment: str
     spec: dict[str, Any]
     jobs: list[Job]
     command: list[str] = field(default_factory=list)
+    launcher: list[str] = field(default_factory=list)
 
     def job(self, job_id: str) -> Job:
         for job in self.jobs:
@@ -254,8 +267,33 @@ def _describe(exc: ValidationError) -> str:
     return "\n".join(lines)
 
 
+def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequence[str] | None = None) -> Plan:
+    """Every run of ``experiment``'s benchmark, each composed and validated; nothing is written.
+
+    Args:
+        experiment: a shipped experiment with a ``benchmark:`` section (``paper_rl``,
+            ``smoke_benchmark``) or the path of an experiment file.
+        overrides: ``pyflyt benchmark``'s: ``seeds=N``, ``jobs=J``, ``benchmark.<key>=<value>``,
+            ``hydra/launcher=...`` and ``hydra.launcher.<key>=<value>``, and ``pyflyt train``
+            overrides applied to every run.
+        command: the command line to record (default: the ``pyflyt benchmark`` line of these arguments).
+
+    Raises:
+        CLIError: an unknown experiment, key or launcher (or one whose plugin is missing), an
+            invalid benchmark section or run.
+    """
+    from pyflyt_cli.benchmark.launch import launcher_name
+
+    if command is None:
+        command = ["pyflyt", "benchmark", f"experiment={experiment}", *overrides]
+    plan, launcher = build_plan(experiment, overrides, command)
+    launcher_name(launcher)  # a launcher without its plugin is refused now, before anything runs
+    return plan
+
+
 def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
-    """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides."""
+    """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides
+    (also its :attr:`Plan.launcher`)."""
     from pyflyt_cli.benchmark.launch import check_launcher_overrides
     from pyflyt_cli.training import registry
 
@@ -321,7 +359,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
                     job.config = data
                     jobs[job.id] = job
     _check_dependencies(jobs)
-    plan = Plan(root, experiment, spec.model_dump(mode="json"), list(jobs.values()), list(command))
+    plan = Plan(root, experiment, spec.model_dump(mode="json"), list(jobs.values()), list(command), hydra_over)
     return plan, hydra_over
 
 

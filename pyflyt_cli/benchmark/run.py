@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pyflyt_cli.benchmark.plan import LOGS_DIR, RUNS_DIR, Job, Plan
-from pyflyt_cli.benchmark.worker import INTERRUPTED, PARENT_ENV
 from pyflyt_cli.config import CLIError
 
 Echo = Callable[[str], None]
@@ -189,6 +188,7 @@ def failure_reason(path: Path) -> str:
 
 def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcome:
     """Classify a finished worker from its exit code and its run directory."""
+    from pyflyt_cli.benchmark.worker import INTERRUPTED
     if code == 0 and run_state(plan, job) == COMPLETE:
         return Outcome(job, "complete", seconds, code)
     if code == INTERRUPTED or (code is not None and code < 0):
@@ -211,6 +211,9 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
     Ctrl-C or SIGTERM stops every worker cleanly (each saves a checkpoint); killing this
     process outright makes the workers do the same (Linux), so a rerun resumes them.
     """
+    # imported here: the package imports this module, and ``python -m ...worker`` imports the package first
+    from pyflyt_cli.benchmark.worker import INTERRUPTED, PARENT_ENV
+
     pending = list(jobs)
     planned = {j.id for j in jobs}
     running: dict[str, tuple[Job, subprocess.Popen, float, object]] = {}

@@ -311,13 +311,13 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
 
 
 def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Path) -> None:
-    from pyflyt_cli.commands.benchmark import run_benchmark
+    from pyflyt_cli.commands.benchmark import benchmark_command
 
     (tmp_path / "a file").write_text("")
     with pytest.raises(
         CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
     ):
-        run_benchmark(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
+        benchmark_command(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
 
 
 def test_a_setting_that_interpolates_the_seed_is_composed_per_run(tmp_path: Path) -> None:

@@ -16,8 +16,8 @@ import yaml
 from PIL import Image
 from typer.testing import CliRunner
 
-from pyflyt_cli.commands.uav import thrust_to_weight
-from pyflyt_cli.commands.uav_schema import BEGIN_MARKER, embedded_schema, schema_markdown
+from pyflyt_cli.airframes import thrust_to_weight
+from pyflyt_cli.airframes.schema import BEGIN_MARKER, embedded_schema, schema_markdown
 from pyflyt_cli.main import app
 from pyflyt_engine.spec import available_uavs, load_uav_spec, parse_uav_spec
 from tests.conftest import spec_dict

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typer.testing import CliRunner
 
-from pyflyt_cli.commands.envs import list_envs
+from pyflyt_cli.catalog import list_envs
 from pyflyt_cli.main import app
 from pyflyt_engine.envs import ENVS
 

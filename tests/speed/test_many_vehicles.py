@@ -9,18 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyflyt_cli.commands.speed_probe import grid_positions
+from pyflyt_cli.speed.probes import hover_grid as hover_world
+from pyflyt_cli.speed.protocols import grid_positions
 from pyflyt_engine.world import VehicleConfig, World
 
 SECONDS = 3.0
-
-
-def hover_world(n: int, seed: int = 0) -> World:
-    positions = grid_positions(n)
-    world = World([VehicleConfig("quadx_cf2x", pos, mode="position_yaw") for pos in positions], seed=seed)
-    for i, (x, y, z) in enumerate(positions):
-        world.set_setpoint(i, [x, y, 0.0, z])
-    return world
 
 
 def fly(world: World, seconds: float = SECONDS) -> np.ndarray:
@@ -101,8 +94,13 @@ def test_collision_between_two_of_eight_is_in_the_matrix(pair):
 
 
 def test_contacts_clear_at_the_next_step_and_at_reset():
-    world = World([VehicleConfig("quadx_cf2x", (0.0, 0.0, 0.05), mode="motors"),
-                   VehicleConfig("quadx_cf2x", (3.0, 0.0, 1.0), mode="motors")], seed=0)
+    world = World(
+        [
+            VehicleConfig("quadx_cf2x", (0.0, 0.0, 0.05), mode="motors"),
+            VehicleConfig("quadx_cf2x", (3.0, 0.0, 1.0), mode="motors"),
+        ],
+        seed=0,
+    )
     world.set_armed(0, False)
     world.set_armed(1, False)
     for _ in range(10):

@@ -17,7 +17,7 @@ import pybullet as p
 import pytest
 
 import pyflyt_engine  # noqa: F401  (registers the ids)
-from pyflyt_cli.commands.speed_probe import rss_mb
+from pyflyt_cli.speed.protocols import rss_mb
 from pyflyt_engine.envs import ENVS
 from pyflyt_engine.world import VehicleConfig, World
 

@@ -1,4 +1,8 @@
-"""``pyflyt envs``: the registered environments, their spaces, rewards and defaults."""
+"""What is registered, as ``pyflyt envs`` and ``pyflyt modes`` list it.
+
+:func:`list_envs`: every Gymnasium environment, its spaces, reward presets and defaults;
+:func:`list_modes`: the multirotor flight modes, their PyFlyt numbers and setpoint layouts.
+"""
 
 from __future__ import annotations
 
@@ -54,4 +58,17 @@ def list_envs() -> str:
     lines.append("reward terms: " + ", ".join(TERMS))
     lines.append("conditions:   " + ", ".join(CONDITIONS) + " (each also as not_<name>)")
     lines.append("make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine")
+    return "\n".join(lines)
+
+
+def list_modes() -> str:
+    """A table of the multirotor flight modes: name, PyFlyt number, setpoint layout, meaning; then the aliases."""
+    from pyflyt_engine.control.modes import MODE_ALIASES, MULTIROTOR_MODES
+
+    lines = [f"{'mode':<22}{'PyFlyt':>7}  setpoint"]
+    for mode in MULTIROTOR_MODES.values():
+        pid = "" if mode.pyflyt_id is None else str(mode.pyflyt_id)
+        layout = "one throttle per motor" if mode.name == "motors" else ", ".join(mode.setpoint)
+        lines.append(f"{mode.name:<22}{pid:>7}  [{layout}]  {mode.description}")
+    lines.append("aliases: " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
     return "\n".join(lines)

@@ -1,0 +1,136 @@
+"""The report of :func:`~pyflyt_cli.speed.run_speed` as plain-text or Markdown tables."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from pyflyt_cli.speed.protocols import AGENT_HZ
+
+#: Row labels of the camera cases.
+CAMERA_LABELS = {"all": "rgba + depth + segmentation", "rgba": "rgba only", "depth": "depth only"}
+
+
+def table(header: Sequence[str], rows: list[list[str]], markdown: bool) -> list[str]:
+    """Lines of a table: the first column left-aligned, the others right-aligned."""
+    if markdown:
+        rule = "|" + "|".join("---" if i == 0 else "---:" for i in range(len(header))) + "|"
+        return ["| " + " | ".join(header) + " |", rule] + ["| " + " | ".join(row) + " |" for row in rows]
+    widths = [max(len(str(c)) for c in column) for column in zip(header, *rows)]
+
+    def line(cells: Sequence[str]) -> str:
+        return "  ".join((c.ljust(w) if i == 0 else c.rjust(w)) for i, (c, w) in enumerate(zip(cells, widths)))
+
+    return [line(header), line(["-" * w for w in widths])] + [line(row) for row in rows]
+
+
+def number(value: float | None, digits: int = 0) -> str:
+    """``12,345`` (``-`` for a missing value)."""
+    return "-" if value is None else f"{value:,.{digits}f}"
+
+
+def ratio(value: float | None) -> str:
+    """``2.31x``, ``15x`` (``-`` for a missing value)."""
+    return "-" if value is None else f"{value:.2f}x" if value < 10 else f"{value:.0f}x"
+
+
+def _spread(scaling: dict) -> str:
+    return f"{scaling['median']:.2f}x ({scaling['min']:.2f}-{scaling['max']:.2f})"
+
+
+def describe_machine(machine: dict) -> str:
+    """One line: processor, cores, memory, software versions, load during the run."""
+    parts = [
+        f"{machine.get('processor') or machine.get('machine')}",
+        f"{machine.get('cores')} cores",
+        f"{machine.get('memory_gib', '?')} GiB",
+        f"{machine.get('system')}",
+        f"Python {machine.get('python')}",
+        f"PyBullet {machine.get('pybullet')}",
+        f"NumPy {machine.get('numpy')}",
+        f"Gymnasium {machine.get('gymnasium')}",
+    ]
+    if machine.get("load_average"):
+        parts.append("load average at start " + "/".join(f"{x:g}" for x in machine["load_average"]))
+    return ", ".join(parts)
+
+
+def titles(settings: dict) -> dict[str, str]:
+    """What each table of the report shows and how it was measured."""
+    return {
+        "envs": f"Environments: agent {AGENT_HZ} Hz, random actions, {settings['env_steps']} steps (resets at "
+        f"episode ends included), reset = median of {settings['resets']} seeded resets, memory = peak resident "
+        "set of the process",
+        "worlds": "Worlds of N QuadX (cf2x) holding position 1 m apart: real-time factor (simulated s per wall s), "
+        "floor = bare PyBullet doing the same physical work for N bodies",
+        "camera": "Camera: one 128 x 128 onboard capture (QuadX at 1 m; mounted on its front-right propeller, "
+        "90 deg field of view, pitched 20 deg down), ms wall (ms CPU)",
+        "vector": f"Vector envs: env steps/s summed over subprocess workers ({settings['vector_steps']} vector "
+        f"steps); scaling = 2 workers / 1 worker, median (lowest-highest) of {settings['repeats']} pairs; "
+        "stand-in = the same vector env stepping pure CPU work of the env's in-process step cost (empty info, "
+        "no episode ends); CPU = CPU time of the main process and the workers per env step",
+    }
+
+
+def floor_steps_per_s(floor: dict) -> float:
+    """Env steps per second of the bare-PyBullet floor (8 physics steps per env step)."""
+    return 1.0 / (floor["physics_step_s"] * 8)
+
+
+def capture_ms(camera: dict) -> str:
+    """``2.84 (2.80)``: ms of wall (and CPU) time per capture."""
+    return f"{camera['capture_s'] * 1e3:.2f} ({camera['capture_cpu_s'] * 1e3:.2f})"
+
+
+def format_report(report: dict, markdown: bool = False) -> str:
+    """The report as plain-text tables, or as Markdown (for docs/performance.md)."""
+    settings = report["settings"]
+    heading = titles(settings)
+    out: list[str] = [("Machine: " if markdown else "machine: ") + describe_machine(report["machine"])]
+    out.append(
+        ("\n" if markdown else "") + f"median of {settings['repeats']} run(s) per figure; each run in a fresh process"
+    )
+    out.append("")
+
+    def title(section: str) -> None:
+        out.extend([f"**{heading[section]}**", ""] if markdown else [heading[section]])
+
+    title("envs")
+    rows = [[row["id"], number(row["steps_per_s"]), number(row["rtf"], 1), number(row["reset_s"] * 1e3, 2),
+             number(row["peak_rss_mb"])] for row in report["envs"]]  # fmt: skip
+    floor = report["env_floor"]
+    rows.append(["bare PyBullet floor (1 body, 8 physics steps)", number(floor_steps_per_s(floor)),
+                 number(floor["rtf"], 1), "-", number(floor["peak_rss_mb"])])  # fmt: skip
+    out += table(["env", "steps/s", "RTF", "reset ms", "peak MB"], rows, markdown)
+    out.append("")
+
+    title("worlds")
+    rows = [[str(row["n"]), number(row["rtf"], 2), number(row["floor"]["rtf"], 2), ratio(row["floor"]["rtf"] / row["rtf"])]
+            for row in report["worlds"]]  # fmt: skip
+    out += table(["vehicles", "RTF", "floor RTF", "floor / ours"], rows, markdown)
+    out.append("")
+
+    title("camera")
+    rows = [[CAMERA_LABELS[key], capture_ms(row)] for key, row in report["camera"].items()]
+    out += table(["channels", "ours ms"], rows, markdown)
+
+    if report.get("vector"):
+        out.append("")
+        title("vector")
+        rows = []
+        for row in report["vector"]:
+            cpu = row.get("cpu_per_step_s") or {}
+            backend = "gymnasium async" if row["backend"] == "gymnasium" else "SB3 SubprocVecEnv"
+            stand_in = row["stand_in"]
+            rows.append([row["id"], backend, number(row["steps_per_s"]["1"]), number(row["steps_per_s"]["2"]),
+                         _spread(row["scaling"]), number(stand_in["env_step_cpu_s"] * 1e6), _spread(stand_in["scaling"]),
+                         *(number(cpu[w] * 1e6) if cpu.get(w) else "-" for w in ("1", "2"))])  # fmt: skip
+        out += table(["env", "vector env", "1 worker", "2 workers", "scaling", "step CPU us", "stand-in scaling",
+                      "CPU us/step 1", "CPU us/step 2"], rows, markdown)  # fmt: skip
+        parallel = report.get("parallel")
+        if parallel:
+            out.append("")
+            out.append(
+                f"machine: 2 processes of pure CPU work (no pipes) do {_spread(parallel)} the work of 1 "
+                f"({settings.get('parallel_seconds', 0.5):g} s each, {settings['repeats']} pairs)"
+            )
+    return "\n".join(out) + "\n"
