@@ -75,6 +75,7 @@ class Mixer:
         self.max_collective = float(axes[:, 2] @ motors.max_thrust)
         # per motor: its row of the pseudo-inverse and its full thrust, as plain floats
         self._rows = tuple((r[0], r[1], r[2], r[3], fm) for r, fm in zip(self._inverse_rows, self.max_thrust))
+        self._full = tuple(self.max_thrust)
 
     def throttles(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
         """Throttle per motor (in [0, 1]) that best produces the requested wrench.
@@ -97,7 +98,7 @@ class Mixer:
         throttle is ``sqrt(f / fm)`` clipped to [0, 1].  Plain float arithmetic (this runs
         at the control rate for every vehicle).
         """
-        terms = []
+        from_thrust, from_roll_pitch, yaw, full = [], [], [], self._full
         yaw_scale = 1.0
         for r0, r1, r2, r3, fm in self._rows:
             ft = r0 * thrust
@@ -107,16 +108,15 @@ class Mixer:
                 yaw_scale = _lower(yaw_scale, (fm - b) / y)
             elif y < 0.0 and b + y < 0.0:  # or below zero
                 yaw_scale = _lower(yaw_scale, -b / y)
-            terms.append((ft, b - ft, y, fm))
+            from_thrust.append(ft)
+            from_roll_pitch.append(b - ft)
+            yaw.append(y)
+        from_torque = [bt + yaw_scale * y for bt, y in zip(from_roll_pitch, yaw)]
         scale = 1.0
-        torques = []
-        for ft, bt, y, fm in terms:
-            fq = bt + yaw_scale * y
-            torques.append(fq)
+        for ft, fq, fm in zip(from_thrust, from_torque, full):
             if ft + fq > fm and ft > 0.0:
                 scale = _lower(scale, (fm - fq) / ft)
-        out = []
-        for (ft, _, _, fm), fq in zip(terms, torques):
-            f = scale * ft + fq
-            out.append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))
-        return out
+        return [
+            0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm)
+            for f, fm in zip([scale * ft + fq for ft, fq in zip(from_thrust, from_torque)], full)
+        ]
