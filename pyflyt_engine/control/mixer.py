@@ -55,6 +55,11 @@ def _lower(current: float, candidate: float) -> float:
     return candidate if candidate < current else current
 
 
+def _throttle(force: float, full: float) -> float:
+    """Throttle ``sqrt(force / full)`` for a thrust ``force`` [N], clipped to [0, 1] (thrust goes as throttle squared)."""
+    return 0.0 if force <= 0.0 else 1.0 if force >= full else sqrt(force / full)
+
+
 class Mixer:
     """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles."""
 
@@ -97,9 +102,14 @@ class Mixer:
         in [0, fm], then ``scale`` the largest in [0, 1] that keeps every ``f <= fm``; the
         throttle is ``sqrt(f / fm)`` clipped to [0, 1].  Plain float arithmetic (this runs
         at the control rate for every vehicle).
+
+        The first pass also evaluates ``f`` at ``yaw_scale = scale = 1`` (the same
+        expressions: ``1.0 * v == v``): when no motor asks for a smaller scale, that is
+        the answer, and the second and third passes, which would change nothing, are
+        skipped -- the usual case in flight.
         """
-        from_thrust, from_roll_pitch, yaw, full = [], [], [], self._full
-        yaw_scale = 1.0
+        yaw_scale, fits = 1.0, True
+        parts, out = [], []
         for r0, r1, r2, r3, fm in self._rows:
             ft = r0 * thrust
             b = ft + r1 * tx + r2 * ty
@@ -108,15 +118,17 @@ class Mixer:
                 yaw_scale = _lower(yaw_scale, (fm - b) / y)
             elif y < 0.0 and b + y < 0.0:  # or below zero
                 yaw_scale = _lower(yaw_scale, -b / y)
-            from_thrust.append(ft)
-            from_roll_pitch.append(b - ft)
-            yaw.append(y)
-        from_torque = [bt + yaw_scale * y for bt, y in zip(from_roll_pitch, yaw)]
+            from_roll_pitch = b - ft
+            f = ft + (from_roll_pitch + y)
+            if f > fm and ft > 0.0:  # the collective would have to give way
+                fits = False
+            parts.append((ft, from_roll_pitch, y, fm))
+            out.append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))  # _throttle, inlined
+        if fits and yaw_scale == 1.0:
+            return out
+        from_torque = [(ft, fr + yaw_scale * y, fm) for ft, fr, y, fm in parts]
         scale = 1.0
-        for ft, fq, fm in zip(from_thrust, from_torque, full):
+        for ft, fq, fm in from_torque:
             if ft + fq > fm and ft > 0.0:
                 scale = _lower(scale, (fm - fq) / ft)
-        return [
-            0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm)
-            for f, fm in zip([scale * ft + fq for ft, fq in zip(from_thrust, from_torque)], full)
-        ]
+        return [_throttle(scale * ft + fq, fm) for ft, fq, fm in from_torque]

@@ -92,6 +92,10 @@ class MultirotorController:
         self._gyro = (jz - jy, jx - jz, jy - jx)
         #: per ground axis (kp, ki, integral limit) of the velocity loop
         self._velocity_axes = tuple(zip(vel.kp, vel.ki, _integral_limits(vel.integral_limit, vel.ki)))
+        # the gains the outer loops read at every tick, as plain floats
+        self._window, self._max_tilt = vel.integral_window, vel.max_tilt
+        self._position_kp, self._max_velocity = tuple(gains.position.kp), tuple(gains.position.max_velocity)
+        self._attitude_kp, self._max_rate = tuple(gains.attitude.kp), tuple(gains.attitude.max_rate)
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -164,7 +168,7 @@ class MultirotorController:
         ``a = kp e + ki I``, integrating ``I = clip(I + e dt, limit)`` only while
         ``|e| < integral_window`` (anti-windup in transients).
         """
-        window, dt = self.gains.velocity.integral_window, self.dt
+        window, dt = self._window, self.dt
         integral = self._vel_integral
         out = [0.0, 0.0, 0.0]
         for axis, ((kp, ki, limit), sp, v) in enumerate(zip(self._velocity_axes, velocity_sp, state.lin_vel_ground)):
@@ -178,8 +182,7 @@ class MultirotorController:
 
     def _climb(self, state: KinematicState, z: float) -> float:
         """Climb-rate setpoint [m/s] from an altitude setpoint: ``clip(kp_z (z - z_now))``."""
-        position = self.gains.position
-        return _clamp(position.kp[2] * (z - state.lin_pos[2]), position.max_velocity[2])
+        return _clamp(self._position_kp[2] * (z - state.lin_pos[2]), self._max_velocity[2])
 
     def _thrust_for(self, state: KinematicState, az: float) -> float:
         """Collective thrust [N] for vertical acceleration ``az``, tilt-compensated:
@@ -196,8 +199,7 @@ class MultirotorController:
         """Body-rate setpoint from an attitude setpoint (yaw None: hold ``yaw_rate``):
         ``clip(kp (angle_sp - angle))`` per axis, the yaw error wrapped to [-pi, pi) as
         :func:`~pyflyt_engine.frames.wrap_angle` does."""
-        attitude = self.gains.attitude
-        (kx, ky, kz), (lx, ly, lz) = attitude.kp, attitude.max_rate
+        (kx, ky, kz), (lx, ly, lz) = self._attitude_kp, self._max_rate
         roll_now, pitch_now, yaw_now = state.ang_pos
         r = yaw_rate if yaw is None else kz * ((yaw - yaw_now + math.pi) % _TWO_PI - math.pi)
         return _clamp(kx * (roll - roll_now), lx), _clamp(ky * (pitch - pitch_now), ly), _clamp(r, lz)
@@ -215,7 +217,7 @@ class MultirotorController:
         lift = _MIN_LIFT if _MIN_LIFT > lift else lift  # max(g + az, 0.1 g)
         pitch = math.atan2(forward, lift)
         roll = math.atan2(-left * math.cos(pitch), lift)
-        limit = self.gains.velocity.max_tilt
+        limit = self._max_tilt
         return _clamp(roll, limit), _clamp(pitch, limit)
 
     # ------------------------------------------------------------------ laws
@@ -250,17 +252,17 @@ class MultirotorController:
         yaw_is_rate, heading_frame, position, altitude = self._translational  # type: ignore[misc]
         a, b, c, d = setpoint
         x, y, z = state.lin_pos
-        pos = self.gains.position
+        (kx, ky, kz), (lx, ly, lz) = self._position_kp, self._max_velocity
         if heading_frame:
             heading = state.ang_pos[2]
             ch, sh = math.cos(heading), math.sin(heading)
             vx, vy = ch * a - sh * b, sh * a + ch * b
         elif position:
-            vx = _clamp(pos.kp[0] * (a - x), pos.max_velocity[0])
-            vy = _clamp(pos.kp[1] * (b - y), pos.max_velocity[1])
+            vx = _clamp(kx * (a - x), lx)
+            vy = _clamp(ky * (b - y), ly)
         else:
             vx, vy = a, b
-        vz = _clamp(pos.kp[2] * (d - z), pos.max_velocity[2]) if altitude else d
+        vz = _clamp(kz * (d - z), lz) if altitude else d
         ax, ay, az = self._velocity_loop(state, (vx, vy, vz))
         roll, pitch = self._tilt_for(state, ax, ay, az)
         yaw, yaw_rate = (None, c) if yaw_is_rate else (c, 0.0)
