@@ -5,16 +5,21 @@ body (the generated cf2x URDF), one state read (pose and velocity), four motor f
 and one yaw torque applied, one ``stepSimulation`` per physics step.  The World runs
 the full stack: state read-out, the cascaded controller at 120 Hz, motor lag and noise,
 drag, contact tracking.  Both run in this process, alternately, and the best of
-``--repeats`` timings of each is kept, so load on the machine hits both alike.
+``--repeats`` timings of each is kept, so load on the machine hits both alike.  With
+``--cpu-time`` the timings are the CPU time this process used (``time.process_time``)
+rather than wall time: on a machine busy with other jobs, the time spent waiting for a
+core then counts for neither side (cache and frequency effects of the other jobs still do).
 
-    python experiments/speed_world.py [--steps 24000] [--repeats 5] [--mode position_yaw]
+    python experiments/speed_world.py [--steps 24000] [--repeats 5] [--mode position_yaw] [--cpu-time]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import time
+from collections.abc import Callable
 
 import numpy as np
 import pybullet as p
@@ -23,7 +28,7 @@ from pyflyt_cli.speed.probes import bare_pybullet  # the floor, shared with `pyf
 from pyflyt_engine.world import VehicleConfig, World
 
 
-def world_hover(steps: int, uav: str, mode: str) -> float:
+def world_hover(steps: int, uav: str, mode: str, clock: Callable[[], float] = time.perf_counter) -> float:
     """Seconds per physics step of the World hovering one vehicle."""
     world = World([VehicleConfig(uav, (0.0, 0.0, 1.0), mode=mode)], seed=0)
     vehicle = world.vehicles[0]
@@ -36,10 +41,10 @@ def world_hover(steps: int, uav: str, mode: str) -> float:
     agent_steps = max(1, steps // world.physics_per_agent)
     for _ in range(30):  # warm up
         world.step()
-    start = time.perf_counter()
+    start = clock()
     for _ in range(agent_steps):
         world.step()
-    elapsed = time.perf_counter() - start
+    elapsed = clock() - start
     world.close()
     return elapsed / (agent_steps * world.physics_per_agent)
 
@@ -50,17 +55,20 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5, help="timings of each; the best is kept")
     parser.add_argument("--uav", default="quadx_cf2x")
     parser.add_argument("--mode", default=None, help="flight mode (default: motors, rates_thrust and position_yaw)")
+    parser.add_argument("--cpu-time", action="store_true", help="time with process CPU time instead of wall time")
     args = parser.parse_args()
+    clock = time.process_time if args.cpu_time else time.perf_counter
     modes = [args.mode] if args.mode else ["motors", "rates_thrust", "position_yaw"]
 
     floor, world = [], {m: [] for m in modes}
     for _ in range(args.repeats):
-        floor.append(bare_pybullet(args.steps, args.uav))
+        floor.append(bare_pybullet(args.steps, args.uav, clock=clock))
         for mode in modes:
-            world[mode].append(world_hover(args.steps, args.uav, mode))
+            world[mode].append(world_hover(args.steps, args.uav, mode, clock))
     best_floor = min(floor)
     print(f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-          f"pybullet {p.getAPIVersion()}, numpy {np.__version__}")
+          f"pybullet {p.getAPIVersion()}, numpy {np.__version__}; {'CPU' if args.cpu_time else 'wall'} time, "
+          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(f"{'case':<28}{'us/step':>10}{'steps/s':>12}{'x floor':>10}")
     print(f"{'bare pybullet (floor)':<28}{best_floor * 1e6:>10.2f}{1 / best_floor:>12.0f}{1.0:>10.2f}")
     for mode in modes:

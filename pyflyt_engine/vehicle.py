@@ -394,7 +394,7 @@ class Vehicle:
             custom = self._custom_modes.get(self.mode.name) if self._custom_modes else None
             if custom is not None:
                 head = np.asarray(custom.controller(self.state, np.asarray(head)), dtype=np.float64).tolist()
-            throttles = self.controller(self.state, head)
+            throttles = self.controller.law(self.state, head)  # the mode's control law (what calling the controller runs)
         elif self.mode.name == "channels":
             self.channels = np.clip(self.setpoint, parts.channel_low, parts.channel_high)
         else:  # fixed-wing autopilot

@@ -32,6 +32,7 @@ import math
 import os
 import sys
 import time
+from collections.abc import Callable
 
 from pyflyt_cli.speed import protocols
 from pyflyt_cli.speed.protocols import AGENT_HZ, grid_positions, peak_rss_mb
@@ -74,8 +75,9 @@ def measure_world(n: int, seconds: float = 4.0) -> dict:
     return {"n": n, **timing, "contacts": contacts}
 
 
-def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1) -> float:
-    """Seconds per physics step of the floor: ``n`` bodies, bare PyBullet."""
+def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1, clock: Callable[[], float] = time.perf_counter) -> float:
+    """Seconds per physics step of the floor: ``n`` bodies, bare PyBullet (timed by
+    ``clock``: wall time, or ``time.process_time`` for the CPU time this process used)."""
     import pybullet as p
 
     from pyflyt_engine.spec import load_uav_spec
@@ -94,7 +96,7 @@ def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1) -> float:
     weight = spec.body.mass * 9.81 / 4
     motors = [tuple(m) for m in spec.motors.positions]
     frame = p.LINK_FRAME
-    start = time.perf_counter()
+    start = clock()
     for _ in range(steps):  # positional client ids: the binding's fastest calling form
         for body in bodies:
             p.getBasePositionAndOrientation(body, cid)
@@ -103,7 +105,7 @@ def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1) -> float:
                 p.applyExternalForce(body, -1, (0.0, 0.0, weight), position, frame, cid)
             p.applyExternalTorque(body, -1, (0.0, 0.0, 0.0), frame, cid)
         p.stepSimulation(cid)
-    elapsed = time.perf_counter() - start
+    elapsed = clock() - start
     p.disconnect(cid)
     return elapsed / steps
 

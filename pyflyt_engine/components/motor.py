@@ -127,10 +127,12 @@ def motor_step(
         (new throttle list x[t+1], body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m about
         the centre of mass).
     """
-    new = [(x + a * (c - x)) * z for x, c, a, z in zip(throttle, command, lag, noise_factor)]
+    new = []
     fx = fy = fz = tx = ty = tz = 0.0
-    for (wx, wy, wz, wl, wm, wn), x in zip(wrench_columns, new):
-        f = x * abs(x)
+    for x, c, a, z, (wx, wy, wz, wl, wm, wn) in zip(throttle, command, lag, noise_factor, wrench_columns):
+        x = (x + a * (c - x)) * z  # lag towards the command, then the noise factor
+        new.append(x)
+        f = x * abs(x)  # thrust and torque go as throttle squared, signed
         fx += wx * f
         fy += wy * f
         fz += wz * f

@@ -147,16 +147,15 @@ class MultirotorController:
         rates = state.ang_vel
         previous = self._prev_rate or rates
         self._prev_rate = rates
+        derivative = self._rate_derivative
         integrals, alphas = [], []
         for (kp, ki, kd, limit), sp, w, w_prev, i in zip(self._rate_axes, rates_sp, rates, previous, self._rate_integral):
             e = sp - w
-            i = _clamp(i + e * dt, limit)
-            alpha = kp * e + ki * i
-            if self._rate_derivative:
-                alpha = alpha - kd * (w - w_prev) / dt
+            i += e * dt
+            i = limit if i > limit else -limit if i < -limit else i  # _clamp(i, limit)
             integrals.append(i)
-            alphas.append(alpha)
-        self._rate_integral = tuple(integrals)
+            alphas.append(kp * e + ki * i - kd * (w - w_prev) / dt if derivative else kp * e + ki * i)
+        self._rate_integral = integrals
         (jx, jy, jz), (gx, gy, gz) = self.inertia, self._gyro
         (ax, ay, az), (wx, wy, wz) = alphas, rates
         return jx * ax + gx * wy * wz, jy * ay + gy * wz * wx, jz * az + gz * wx * wy
@@ -169,15 +168,19 @@ class MultirotorController:
         ``|e| < integral_window`` (anti-windup in transients).
         """
         window, dt = self._window, self.dt
-        integral = self._vel_integral
-        out = [0.0, 0.0, 0.0]
-        for axis, ((kp, ki, limit), sp, v) in enumerate(zip(self._velocity_axes, velocity_sp, state.lin_vel_ground)):
+        out = []
+        integrals = []
+        for (kp, ki, limit), sp, v, i in zip(self._velocity_axes, velocity_sp, state.lin_vel_ground, self._vel_integral):
             if sp is None:
-                continue
-            e = sp - v
-            if -window < e < window:
-                integral[axis] = _clamp(integral[axis] + e * dt, limit)
-            out[axis] = kp * e + ki * integral[axis]
+                out.append(0.0)
+            else:
+                e = sp - v
+                if -window < e < window:
+                    i += e * dt
+                    i = limit if i > limit else -limit if i < -limit else i  # _clamp(i, limit)
+                out.append(kp * e + ki * i)
+            integrals.append(i)
+        self._vel_integral = integrals
         return out
 
     def _climb(self, state: KinematicState, z: float) -> float:
@@ -201,8 +204,14 @@ class MultirotorController:
         :func:`~pyflyt_engine.frames.wrap_angle` does."""
         (kx, ky, kz), (lx, ly, lz) = self._attitude_kp, self._max_rate
         roll_now, pitch_now, yaw_now = state.ang_pos
+        p = kx * (roll - roll_now)
+        q = ky * (pitch - pitch_now)
         r = yaw_rate if yaw is None else kz * ((yaw - yaw_now + math.pi) % _TWO_PI - math.pi)
-        return _clamp(kx * (roll - roll_now), lx), _clamp(ky * (pitch - pitch_now), ly), _clamp(r, lz)
+        return (
+            lx if p > lx else -lx if p < -lx else p,  # _clamp(p, lx), and so on
+            ly if q > ly else -ly if q < -ly else q,
+            lz if r > lz else -lz if r < -lz else r,
+        )
 
     def _tilt_for(self, state: KinematicState, ax: float, ay: float, az: float) -> tuple[float, float]:
         """Roll and pitch [rad] that point the thrust along a ground-frame acceleration:
@@ -218,7 +227,10 @@ class MultirotorController:
         pitch = math.atan2(forward, lift)
         roll = math.atan2(-left * math.cos(pitch), lift)
         limit = self._max_tilt
-        return _clamp(roll, limit), _clamp(pitch, limit)
+        return (
+            limit if roll > limit else -limit if roll < -limit else roll,  # _clamp(roll, limit)
+            limit if pitch > limit else -limit if pitch < -limit else pitch,
+        )
 
     # ------------------------------------------------------------------ laws
 
@@ -258,11 +270,16 @@ class MultirotorController:
             ch, sh = math.cos(heading), math.sin(heading)
             vx, vy = ch * a - sh * b, sh * a + ch * b
         elif position:
-            vx = _clamp(kx * (a - x), lx)
-            vy = _clamp(ky * (b - y), ly)
+            vx, vy = kx * (a - x), ky * (b - y)
+            vx = lx if vx > lx else -lx if vx < -lx else vx  # _clamp(vx, lx)
+            vy = ly if vy > ly else -ly if vy < -ly else vy
         else:
             vx, vy = a, b
-        vz = _clamp(kz * (d - z), lz) if altitude else d
+        if altitude:
+            vz = kz * (d - z)
+            vz = lz if vz > lz else -lz if vz < -lz else vz
+        else:
+            vz = d
         ax, ay, az = self._velocity_loop(state, (vx, vy, vz))
         roll, pitch = self._tilt_for(state, ax, ay, az)
         yaw, yaw_rate = (None, c) if yaw_is_rate else (c, 0.0)
