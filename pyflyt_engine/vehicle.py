@@ -152,6 +152,7 @@ class Vehicle:
         body_id: the PyBullet body id.
         state: the latest :class:`KinematicState`.
         air_velocity: the body's velocity through the air, body frame, as the loads see it.
+        wind: the world's wind probe at this vehicle (None in still air).
         mode: the active :class:`FlightMode`; setpoint: its current setpoint.
         channels: the current channel vector (names: ``parts.channels``).
         armed: when False, every actuator is commanded to zero.
@@ -218,6 +219,9 @@ class Vehicle:
         self.needs_velocity = body_drag is not None or surfaces is not None
         """Whether the loads need fresh velocities every physics step (drag, surfaces)."""
         self.air_velocity: AirVelocity = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.wind: Callable[[Sequence[float]], tuple[float, ...]] | None = None
+        """The world's wind probe, ``position -> (wind x, y, z [m/s], gust p, q, r [rad/s])``
+        ground frame (None: still air); :attr:`air_velocity` subtracts it."""
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
 
         # --- routing of the channels (and the mixer's throttles) to the groups' commands
@@ -344,7 +348,10 @@ class Vehicle:
         # body frame = R^T ground frame
         ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
-        self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
+        if self.wind is None:
+            self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
+        else:
+            self._through_wind(pos, lin, ang, (r0, r1, r2, r3, r4, r5, r6, r7, r8))
         # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
         self._state = state = _new_state(
             KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)
@@ -371,9 +378,27 @@ class Vehicle:
     def read_velocity(self) -> None:
         """Refresh only the body-frame velocities (what the loads need between control ticks)."""
         cid = self._client
-        quat = _get_pose(self.body_id, cid)[1]
-        (lx, ly, lz), (ax, ay, az) = _get_velocity(self.body_id, cid)
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)
+        pos, quat = _get_pose(self.body_id, cid)
+        lin, ang = _get_velocity(self.body_id, cid)
+        r = _get_matrix(quat, cid)
+        if self.wind is not None:
+            self._through_wind(pos, lin, ang, r)
+            return
+        (lx, ly, lz), (ax, ay, az) = lin, ang
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+        self.air_velocity = (
+            (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
+            (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),
+        )
+
+    def _through_wind(self, position: Sequence[float], lin: Sequence[float], ang: Sequence[float], r: Sequence[float]) -> None:
+        """:attr:`air_velocity` in the wind at ``position``: ``R^T (v - v_wind)`` and
+        ``R^T (omega - omega_gust)`` (ground-frame velocities ``lin``, ``ang``; ``r`` the
+        body-to-ground matrix, row-major)."""
+        wx, wy, wz, gp, gq, gr = self.wind(position)  # type: ignore[misc]
+        lx, ly, lz = lin[0] - wx, lin[1] - wy, lin[2] - wz
+        ax, ay, az = ang[0] - gp, ang[1] - gq, ang[2] - gr
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
         self.air_velocity = (
             (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
             (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),

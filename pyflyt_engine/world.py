@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
+from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config, vehicle_span
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -126,6 +127,9 @@ class World:
         ground: add a ground plane at z = 0.
         drag: apply the airframes' body drag.
         gravity: gravitational acceleration [m/s^2].
+        wind: the atmosphere (``docs/atmosphere.md``): a preset name in ``conf/wind``
+            (``calm``, ``constant``, ``dryden_light`` ...), a YAML path, a mapping or a
+            :class:`~pyflyt_engine.atmosphere.WindConfig`; None or ``calm``: still air.
 
     Example::
 
@@ -148,6 +152,7 @@ class World:
         ground: bool = True,
         drag: bool = True,
         gravity: float = GRAVITY,
+        wind: str | Path | dict | WindConfig | None = None,
     ) -> None:
         self.physics_hz = float(physics_hz)
         self.control_hz = float(control_hz)
@@ -177,6 +182,11 @@ class World:
 
         self.vehicles: list[Vehicle] = []
         self._seed(seed)
+        self.wind_config: WindConfig = load_wind_config(wind)
+        #: the wind field (None in still air: nothing is added to the loop)
+        self.wind: WindField | None = None
+        if not self.wind_config.calm:
+            self.wind = WindField(self.wind_config, self.physics_dt, self._wind_rng())
         self.physics_steps = 0
         self._snapshot: int | None = None
         self._schedules: dict[tuple[int, int, int], tuple[tuple[bool, bool], ...]] = {}
@@ -192,6 +202,10 @@ class World:
         self._seed_sequence = np.random.SeedSequence(seed)
         self.np_random = np.random.default_rng(self._seed_sequence.spawn(1)[0])
         self._vehicle_seeds = self._seed_sequence.spawn(1)[0]
+
+    def _wind_rng(self) -> np.random.Generator:
+        # the wind's own stream, apart from np_random and the vehicles' (spawn key 2)
+        return np.random.default_rng(np.random.SeedSequence(self._seed_sequence.entropy, spawn_key=(2,)))
 
     def _vehicle_rng(self, index: int) -> np.random.Generator:
         # one independent stream per vehicle slot, the same for a given seed and index
@@ -224,6 +238,11 @@ class World:
             mode=mode,
             drag=self.drag,
         )
+        if self.wind is not None:
+            motors = vehicle.parts.motors
+            span = vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
+            vehicle.wind = self.wind.add_vehicle(span)
+            vehicle.read_state()
         self.vehicles.append(vehicle)
         self._contacts.add(vehicle.body_id)
         self._drop_snapshot()
@@ -284,6 +303,7 @@ class World:
         contacts.clear()
         record = contacts.record
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
+        wind = self.wind
         for tick, sample in self._schedule(self.physics_steps):
             if tick:  # control tick
                 for vehicle in vehicles:
@@ -298,6 +318,8 @@ class World:
                     substep()
             step_simulation(cid)
             self.physics_steps += 1
+            if wind is not None:
+                wind.advance()
             if sample:  # the end of a control period or of the agent step
                 record(contact_points(-1, -1, -2, -2, cid))
         for vehicle in vehicles:  # read again when asked for (Vehicle.state)
@@ -385,6 +407,8 @@ class World:
             p.restoreState(self._snapshot, physicsClientId=self.client)
         if seed is not None:
             self._seed(seed)
+        if self.wind is not None:  # time 0, a new turbulence realisation (a new stream when seeded)
+            self.wind.reset(self._wind_rng() if seed is not None else None)
         for index, vehicle in enumerate(self.vehicles):
             if seed is not None:
                 vehicle.reseed(self._vehicle_rng(index))
@@ -393,6 +417,14 @@ class World:
         self._contacts.clear()
         self.physics_steps = 0
 
+    def wind_at(self, index: int) -> tuple[float, ...]:
+        """Wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s], ground frame, at vehicle
+        ``index``'s position now (zeros in still air)."""
+        vehicle = self._vehicle(index)
+        if self.wind is None:
+            return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return self.wind.at(index, vehicle.state.lin_pos)
+
     def rng_state(self) -> dict:
         """Positions of every random stream: :attr:`np_random` and each vehicle's noise.
 
@@ -400,7 +432,10 @@ class World:
         episode that began with an unseeded ``reset()`` (the streams continue from where
         the previous episode left them).
         """
-        return {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        state = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        if self.wind is not None:
+            state["wind"] = self.wind.rng.bit_generator.state
+        return state
 
     def set_rng_state(self, state: dict) -> None:
         """Put every random stream where :meth:`rng_state` found it (same number of vehicles)."""
@@ -419,6 +454,8 @@ class World:
         self.np_random = generator(state["world"])
         for vehicle, bit_state in zip(self.vehicles, vehicles):
             vehicle.reseed(generator(bit_state))
+        if self.wind is not None and "wind" in state:
+            self.wind.reseed(generator(state["wind"]))
 
     def close(self) -> None:
         """Disconnect from PyBullet (idempotent)."""

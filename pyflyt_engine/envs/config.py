@@ -128,6 +128,11 @@ class EnvConfig(_Config):
         "quaternion", description="attitude in the observation: Euler (roll, pitch, yaw) or quaternion (x, y, z, w)"
     )
     drag: bool = Field(True, description="apply the airframe's body drag")
+    wind: Union[str, dict[str, Any]] = Field(
+        "calm",
+        description="the atmosphere: a preset in conf/wind (calm, constant, shear, gust, dryden_light, "
+        "dryden_moderate, dryden_severe), a path to a wind YAML, or an inline mapping (docs/atmosphere.md)",
+    )
     reward: Union[str, dict[str, Any]] = Field(
         "dense",
         description="'dense' or 'sparse' (see reward_presets), a preset name in conf/reward, "
@@ -140,6 +145,14 @@ class EnvConfig(_Config):
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
+
+    @field_validator("wind")
+    @classmethod
+    def _wind(cls, wind: Union[str, dict[str, Any]]) -> Union[str, dict[str, Any]]:
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        load_wind_config(wind)  # a bad preset, key or value fails here, at load
+        return wind
 
     @property
     def max_steps(self) -> int:

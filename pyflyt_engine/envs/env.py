@@ -130,6 +130,7 @@ class UAVEnv(gymnasium.Env):
             agent_hz=cfg.agent_hz,
             render=render_mode == "human",
             drag=cfg.drag,
+            wind=cfg.wind,
         )
         self.vehicle = self.world.vehicles[0]
         self.task.setup(self.world)
