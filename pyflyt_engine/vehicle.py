@@ -222,6 +222,9 @@ class Vehicle:
         self.wind: Callable[[Sequence[float]], tuple[float, ...]] | None = None
         """The world's wind probe, ``position -> (wind x, y, z [m/s], gust p, q, r [rad/s])``
         ground frame (None: still air); :attr:`air_velocity` subtracts it."""
+        self.rotor_effects: Callable[[Sequence[float], Sequence[float]], None] | None = None
+        """The world's rotor-interaction hook ``(position, body-to-ground matrix) -> None``,
+        called at every read (ground effect, downwash; None: off)."""
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
 
         # --- routing of the channels (and the mixer's throttles) to the groups' commands
@@ -345,6 +348,8 @@ class Vehicle:
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)  # body-to-ground, row-major
         lx, ly, lz = lin
         ax, ay, az = ang
+        if self.rotor_effects is not None:
+            self.rotor_effects(pos, (r0, r1, r2, r3, r4, r5, r6, r7, r8))
         # body frame = R^T ground frame
         ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
@@ -381,6 +386,8 @@ class Vehicle:
         pos, quat = _get_pose(self.body_id, cid)
         lin, ang = _get_velocity(self.body_id, cid)
         r = _get_matrix(quat, cid)
+        if self.rotor_effects is not None:
+            self.rotor_effects(pos, r)
         if self.wind is not None:
             self._through_wind(pos, lin, ang, r)
             return

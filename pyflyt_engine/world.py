@@ -27,6 +27,7 @@ import numpy as np
 import pybullet as p
 
 from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config, vehicle_span
+from pyflyt_engine.atmosphere.rotors import RotorInteractions
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -130,6 +131,10 @@ class World:
         wind: the atmosphere (``docs/atmosphere.md``): a preset name in ``conf/wind``
             (``calm``, ``constant``, ``dryden_light`` ...), a YAML path, a mapping or a
             :class:`~pyflyt_engine.atmosphere.WindConfig`; None or ``calm``: still air.
+        ground_effect: scale each rotor's thrust by the Cheeseman-Bennett ground-effect
+            ratio at its hub height (rotors with a ``prop_radius``; needs ``ground``).
+        downwash: vehicles below a rotorcraft feel its wake as a downward wind
+            (:mod:`pyflyt_engine.atmosphere.rotors`).
 
     Example::
 
@@ -153,6 +158,8 @@ class World:
         drag: bool = True,
         gravity: float = GRAVITY,
         wind: str | Path | dict | WindConfig | None = None,
+        ground_effect: bool = False,
+        downwash: bool = False,
     ) -> None:
         self.physics_hz = float(physics_hz)
         self.control_hz = float(control_hz)
@@ -187,6 +194,10 @@ class World:
         self.wind: WindField | None = None
         if not self.wind_config.calm:
             self.wind = WindField(self.wind_config, self.physics_dt, self._wind_rng())
+        #: ground effect and downwash (None when both are off: nothing is added to the loop)
+        self.rotor_interactions: RotorInteractions | None = None
+        if (ground_effect and ground) or downwash:
+            self.rotor_interactions = RotorInteractions(bool(ground_effect and ground), bool(downwash))
         self.physics_steps = 0
         self._snapshot: int | None = None
         self._schedules: dict[tuple[int, int, int], tuple[tuple[bool, bool], ...]] = {}
@@ -242,6 +253,18 @@ class World:
             motors = vehicle.parts.motors
             span = vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
             vehicle.wind = self.wind.add_vehicle(span)
+        rotors = self.rotor_interactions
+        if rotors is not None:
+            motors = vehicle.parts.motors
+            positions = motors.positions.tolist() if motors is not None else []
+            radii: list[float | None] = [None] * len(positions)
+            if spec.motors is not None and spec.motors.prop_radius is not None:
+                radii = spec.motors.to_array("prop_radius").tolist()
+            vehicle.rotor_effects = rotors.add_vehicle(vehicle.actuators.motors, positions, radii)
+            vehicle.needs_velocity = True  # the hook runs at every read
+            if rotors.downwash:
+                vehicle.wind = rotors.wind_probe(index, vehicle.wind)
+        if self.wind is not None or rotors is not None:
             vehicle.read_state()
         self.vehicles.append(vehicle)
         self._contacts.add(vehicle.body_id)

@@ -63,6 +63,8 @@ class FlyOptions(BaseModel):
     agent_hz: float = Field(gt=0, description="rate of the printed trajectory samples [Hz]")
     rows: int = Field(ge=1, description="rows of the printed trajectory table")
     render: bool = Field(description="open the PyBullet GUI (needs a display)")
+    ground_effect: bool = Field(description="rotor thrust times the ground-effect ratio (docs/atmosphere.md)")
+    downwash: bool = Field(description="wakes of rotorcraft above as wind (docs/atmosphere.md)")
 
 
 def run_fly(overrides: list[str]) -> Trajectory:

@@ -194,6 +194,8 @@ class Motors:
     Attributes:
         throttle: per motor, the normalised throttle x in [-1, 1] (the state).
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
+        thrust_scale: per motor, a factor on its thrust (and the thrust's moment; the
+            reaction torque is left alone), e.g. ground effect; None (default): 1 for all.
     """
 
     def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
@@ -209,6 +211,7 @@ class Motors:
         self._ones = [1.0] * n
         self._noisy = bool(np.any(params.noise_ratio > 0))
         self._noise = NoiseBlocks(noise, n, lambda eta: noise_factors(params, eta))
+        self.thrust_scale: list[float] | None = None
 
     def step(self, air: AirVelocity) -> Wrench:
         """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
@@ -216,8 +219,21 @@ class Motors:
         ``air`` (the body's air-relative velocity) does not enter this model: static thrust.
         """
         factors = self._noise.next() if self._noisy else self._ones
-        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, self.columns)
+        scale = self.thrust_scale
+        columns = self.columns if scale is None else self._scaled_columns(scale)
+        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, columns)
         return wrench
+
+    def _scaled_columns(self, scale: Sequence[float]) -> list[tuple[float, float, float, float, float, float]]:
+        """The wrench columns with each motor's thrust (force and its moment) times ``scale``."""
+        out = []
+        for (fx, fy, fz, tx, ty, tz), k, reaction, index in zip(self.columns, scale, self._reaction, range(len(scale))):
+            ax, ay, az = fx, fy, fz  # thrust along the (possibly turned) axis
+            thrust = self._max_thrust[index]
+            # the reaction part of the torque is reaction * axis (axis = force / max_thrust)
+            rx, ry, rz = (reaction * ax / thrust, reaction * ay / thrust, reaction * az / thrust) if thrust else (0.0, 0.0, 0.0)
+            out.append((k * fx, k * fy, k * fz, k * (tx - rx) + rx, k * (ty - ry) + ry, k * (tz - rz) + rz))
+        return out
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

@@ -146,6 +146,11 @@ class EnvConfig(_Config):
     render: RenderConfig = Field(default_factory=RenderConfig)
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
 
+    ground_effect: bool = Field(
+        False, description="rotor thrust times the Cheeseman-Bennett ground-effect ratio (rotors with a prop_radius)"
+    )
+    downwash: bool = Field(False, description="vehicles below a rotorcraft feel its wake as a downward wind")
+
     @field_validator("wind")
     @classmethod
     def _wind(cls, wind: Union[str, dict[str, Any]]) -> Union[str, dict[str, Any]]:

@@ -131,6 +131,8 @@ class UAVEnv(gymnasium.Env):
             render=render_mode == "human",
             drag=cfg.drag,
             wind=cfg.wind,
+            ground_effect=cfg.ground_effect,
+            downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
         self.task.setup(self.world)
