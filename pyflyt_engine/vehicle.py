@@ -191,6 +191,7 @@ class Vehicle:
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
         self._dry_inertia = np.diag(parts.inertia).copy()
+        self._dry_mass = parts.mass
 
         # --- actuator groups
         self._noise = NoiseSource(rng)
@@ -493,7 +494,7 @@ class Vehicle:
         """
         boosters = self.actuators.boosters
         if boosters is None:
-            self.mass = self.parts.mass
+            self.mass = self._dry_mass
             return
         fuel = tuple(boosters.fuel)
         if fuel == self._mass_fuel:  # no fuel burnt since the last update: nothing changes
@@ -504,9 +505,24 @@ class Vehicle:
         r = b.fuel_tank_positions
         parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
         inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
-        mass = self.parts.mass + float(fuel_mass.sum())
+        mass = self._dry_mass + float(fuel_mass.sum())
         p.changeDynamics(self.body_id, -1, mass=mass, localInertiaDiagonal=inertia.tolist(), physicsClientId=self._client)
         self.mass = mass
+
+    def set_mass_properties(self, mass: float, inertia_diagonal: Sequence[float]) -> None:
+        """Give the body a dry mass [kg] and inertia diagonal [kg m^2] (about the centre of
+        mass) other than the spec's, e.g. sampled by domain randomisation; fuel adds to
+        them as before.  The flight controller keeps the spec's values."""
+        self._dry_mass = float(mass)
+        self._dry_inertia = np.asarray(inertia_diagonal, dtype=np.float64).copy()
+        if self.actuators.boosters is not None:
+            self._mass_fuel = None
+            self._update_mass()
+            return
+        p.changeDynamics(
+            self.body_id, -1, mass=self._dry_mass, localInertiaDiagonal=self._dry_inertia.tolist(), physicsClientId=self._client
+        )
+        self.mass = self._dry_mass
 
     def update_mass(self) -> None:
         """Refresh mass properties that change in flight (fuel); the world calls this at the control rate."""

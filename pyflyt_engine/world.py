@@ -19,7 +19,7 @@ vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -193,7 +193,7 @@ class World:
         #: the wind field (None in still air: nothing is added to the loop)
         self.wind: WindField | None = None
         if not self.wind_config.calm:
-            self.wind = WindField(self.wind_config, self.physics_dt, self._wind_rng())
+            self.wind = WindField(self.wind_config, self.physics_dt, self._wind_generator)
         #: ground effect and downwash (None when both are off: nothing is added to the loop)
         self.rotor_interactions: RotorInteractions | None = None
         if (ground_effect and ground) or downwash:
@@ -213,6 +213,7 @@ class World:
         self._seed_sequence = np.random.SeedSequence(seed)
         self.np_random = np.random.default_rng(self._seed_sequence.spawn(1)[0])
         self._vehicle_seeds = self._seed_sequence.spawn(1)[0]
+        self._wind_generator = self._wind_rng()
 
     def _wind_rng(self) -> np.random.Generator:
         # the wind's own stream, apart from np_random and the vehicles' (spawn key 2)
@@ -249,10 +250,6 @@ class World:
             mode=mode,
             drag=self.drag,
         )
-        if self.wind is not None:
-            motors = vehicle.parts.motors
-            span = vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
-            vehicle.wind = self.wind.add_vehicle(span)
         rotors = self.rotor_interactions
         if rotors is not None:
             motors = vehicle.parts.motors
@@ -262,14 +259,34 @@ class World:
                 radii = spec.motors.to_array("prop_radius").tolist()
             vehicle.rotor_effects = rotors.add_vehicle(vehicle.actuators.motors, positions, radii)
             vehicle.needs_velocity = True  # the hook runs at every read
-            if rotors.downwash:
-                vehicle.wind = rotors.wind_probe(index, vehicle.wind)
-        if self.wind is not None or rotors is not None:
+        vehicle.wind = self._wind_probe(index, vehicle)
+        if vehicle.wind is not None:
             vehicle.read_state()
         self.vehicles.append(vehicle)
         self._contacts.add(vehicle.body_id)
         self._drop_snapshot()
         return index
+
+    def _wind_probe(self, index: int, vehicle: Vehicle) -> Callable | None:
+        """Vehicle ``index``'s wind probe: the field's, plus the downwash (None in still air)."""
+        probe = None
+        if self.wind is not None:
+            motors = vehicle.parts.motors
+            probe = self.wind.add_vehicle(
+                vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
+            )
+        if self.rotor_interactions is not None and self.rotor_interactions.downwash:
+            probe = self.rotor_interactions.wind_probe(index, probe)
+        return probe
+
+    def set_wind(self, wind: str | Path | dict | WindConfig | None) -> None:
+        """Replace the atmosphere (e.g. a wind sampled at a reset): a new field at time 0,
+        drawing from the world's wind stream."""
+        self.wind_config = load_wind_config(wind)
+        self.wind = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        for index, vehicle in enumerate(self.vehicles):
+            vehicle.wind = self._wind_probe(index, vehicle)
+            vehicle.state_changed()
 
     def add_body(self, body_id: int) -> int:
         """Track collisions of a body created directly with PyBullet (obstacles, pads)."""
@@ -431,7 +448,7 @@ class World:
         if seed is not None:
             self._seed(seed)
         if self.wind is not None:  # time 0, a new turbulence realisation (a new stream when seeded)
-            self.wind.reset(self._wind_rng() if seed is not None else None)
+            self.wind.reset(self._wind_generator if seed is not None else None)
         for index, vehicle in enumerate(self.vehicles):
             if seed is not None:
                 vehicle.reseed(self._vehicle_rng(index))
@@ -456,8 +473,7 @@ class World:
         the previous episode left them).
         """
         state = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
-        if self.wind is not None:
-            state["wind"] = self.wind.rng.bit_generator.state
+        state["wind"] = self._wind_generator.bit_generator.state
         return state
 
     def set_rng_state(self, state: dict) -> None:
@@ -477,8 +493,10 @@ class World:
         self.np_random = generator(state["world"])
         for vehicle, bit_state in zip(self.vehicles, vehicles):
             vehicle.reseed(generator(bit_state))
-        if self.wind is not None and "wind" in state:
-            self.wind.reseed(generator(state["wind"]))
+        if "wind" in state:  # recordings made before the atmosphere have none
+            self._wind_generator = generator(state["wind"])
+            if self.wind is not None:
+                self.wind.reseed(self._wind_generator)
 
     def close(self) -> None:
         """Disconnect from PyBullet (idempotent)."""

@@ -199,12 +199,8 @@ class Motors:
     """
 
     def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
-        self.params = params
-        self.lag = motor_lag(params, physics_dt).tolist()
-        self.columns = [tuple(column) for column in motor_wrench_matrix(params).T.tolist()]
-        self._positions = params.positions.tolist()
-        self._max_thrust = params.max_thrust.tolist()
-        self._reaction = (-(params.spin * params.max_torque)).tolist()
+        self.physics_dt = physics_dt
+        self.set_params(params)
         n = params.count
         self.throttle = [0.0] * n
         self.command = [0.0] * n
@@ -234,6 +230,16 @@ class Motors:
             rx, ry, rz = (reaction * ax / thrust, reaction * ay / thrust, reaction * az / thrust) if thrust else (0.0, 0.0, 0.0)
             out.append((k * fx, k * fy, k * fz, k * (tx - rx) + rx, k * (ty - ry) + ry, k * (tz - rz) + rz))
         return out
+
+    def set_params(self, params: MotorParams) -> None:
+        """Use new parameters (same motors, e.g. constants sampled by domain randomisation);
+        the throttles keep their state, and a gimbal re-turns its motor at its next step."""
+        self.params = params
+        self.lag = motor_lag(params, self.physics_dt).tolist()
+        self.columns = [tuple(column) for column in motor_wrench_matrix(params).T.tolist()]
+        self._positions = params.positions.tolist()
+        self._max_thrust = params.max_thrust.tolist()
+        self._reaction = (-(params.spin * params.max_torque)).tolist()
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

@@ -257,6 +257,8 @@ class RecordEpisode(gymnasium.Wrapper):
                 "seed": "" if seed is None else str(int(seed)),
                 "options": json.dumps(_jsonable(options)),
                 "rng_state": json.dumps(rng_state),
+                # domain randomisation: the values drawn at this reset (JSON; {} without)
+                "randomization": json.dumps(dict(getattr(self._base, "last_randomization", {}) or {})),
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             },
             flush=False,
