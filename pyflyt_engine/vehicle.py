@@ -356,8 +356,20 @@ class Vehicle:
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
         if self.wind is None:
             self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
-        else:
-            self._through_wind(pos, lin, ang, (r0, r1, r2, r3, r4, r5, r6, r7, r8))
+        else:  # minus the wind and rotary gust, turned into the body frame (R^T w)
+            wx, wy, wz, gp, gq, gr = self.wind(pos)
+            self.air_velocity = (
+                (
+                    lin_vel[0] - (r0 * wx + r3 * wy + r6 * wz),
+                    lin_vel[1] - (r1 * wx + r4 * wy + r7 * wz),
+                    lin_vel[2] - (r2 * wx + r5 * wy + r8 * wz),
+                ),
+                (
+                    ang_vel[0] - (r0 * gp + r3 * gq + r6 * gr),
+                    ang_vel[1] - (r1 * gp + r4 * gq + r7 * gr),
+                    ang_vel[2] - (r2 * gp + r5 * gq + r8 * gr),
+                ),
+            )
         # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
         self._state = state = _new_state(
             KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)

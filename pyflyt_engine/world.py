@@ -343,7 +343,7 @@ class World:
         contacts.clear()
         record = contacts.record
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
-        wind = self.wind
+        wind = self.wind if self.wind is not None and not self.wind.static else None
         for tick, sample in self._schedule(self.physics_steps):
             if tick:  # control tick
                 for vehicle in vehicles:

@@ -65,16 +65,23 @@ def shear_factor(config: WindConfig, height: float) -> float:
 class WindField:
     """The wind of one world (see the module docstring).
 
+    Samples are generated ahead in blocks of ``block`` physics steps, vectorised (mean
+    wind, gust and turbulence together, one row per vehicle and step), so advancing a
+    step is an index increment and sampling at a vehicle a list lookup (plus the shear
+    factor of its height, for a sheared mean wind).
+
     Args:
         config: the wind config (not calm: a calm world has no field).
         physics_dt: the physics step [s].
         rng: the generator of the turbulence (the world's wind stream).
+        block: physics steps generated at a time.
     """
 
-    def __init__(self, config: WindConfig, physics_dt: float, rng: np.random.Generator) -> None:
+    def __init__(self, config: WindConfig, physics_dt: float, rng: np.random.Generator, block: int = 2048) -> None:
         self.config = config
         self.physics_dt = physics_dt
         self.rng = rng
+        self.block = block
         mean = config.mean
         if mean is not None:
             heading = math.radians(mean.direction)
@@ -91,11 +98,16 @@ class WindField:
             direction = turbulence.direction if turbulence.direction is not None else (mean.direction if mean else 0.0)
             self._turbulence_heading = math.radians(direction)
             self.scales = low_altitude_scales(turbulence.height, turbulence.wind_speed_20ft)
+        #: the field does not change with time (no gust, no turbulence): the world need not advance it
+        self.static = config.gust is None and not self._turbulent
+        if self.static:
+            self.block = 1
         self.spans: list[float] = []
         self._process: DrydenProcess | None = None
-        self._rows: list[list[float]] = []
-        self.step_index = 0
-        self._now: tuple[float, ...] = ()
+        self._rows: list[list[list[float]]] = []  # per vehicle, per step of the block: the 6 values
+        self._start = 0  # physics step of the block's first row
+        self._k = 0  # row of the current step in the block
+        self._n = 0  # rows in the block
         self._build()
 
     # ------------------------------------------------------------ building
@@ -110,9 +122,21 @@ class WindField:
         self.spans.append(float(span))
         if self._angular:
             self._build()
+        else:
+            self._restart()
+        if self._sheared:
+            mx, my = self._mean
+            config = self.config
+
+            def sheared(position: Sequence[float]) -> WindSample:
+                row = self._rows[index][self._k]
+                f = shear_factor(config, position[2])
+                return (row[0] + f * mx, row[1] + f * my, row[2], row[3], row[4], row[5])
+
+            return sheared
 
         def probe(position: Sequence[float]) -> WindSample:
-            return self.at(index, position)
+            return self._rows[index][self._k]  # type: ignore[return-value]
 
         return probe
 
@@ -126,6 +150,7 @@ class WindField:
                 self.spans if self._angular else (),
                 self.physics_dt,
                 self.rng,
+                block=self.block,
             )
             c, s = math.cos(self._turbulence_heading), math.sin(self._turbulence_heading)
             blocks = 1 + (len(self.spans) if self._angular else 0)
@@ -136,23 +161,41 @@ class WindField:
         self._restart()
 
     def _restart(self) -> None:
-        self.step_index = 0
-        self._k = 0
-        self._rows = self._generate() if self._process is not None else []
-        self._update()
+        self._start = 0
+        self._fill()
 
-    def _generate(self) -> list[list[float]]:
-        assert self._process is not None
-        return (self._to_ground @ self._process.generate()).T.tolist()
+    def _fill(self) -> None:
+        """Generate the block of samples that starts at physics step :attr:`_start`."""
+        n = self.block
+        linear = np.empty((3, n))
+        linear[0] = 0.0 if self._sheared else self._mean[0]
+        linear[1] = 0.0 if self._sheared else self._mean[1]
+        linear[2] = self._vertical
+        gust = self.config.gust
+        if gust is not None:
+            t = (self._start + np.arange(n)) * self.physics_dt
+            f = gust_profiles(gust.speed * (t - gust.start), gust.length, gust.shape)
+            linear += np.outer(gust.amplitude, f)
+        rotary = None
+        if self._process is not None:
+            turbulence = self._to_ground @ self._process.generate(n)
+            linear += turbulence[:3]
+            if self._angular:
+                rotary = turbulence[3:]
+        zeros = np.zeros((3, n))
+        self._rows = [
+            np.vstack((linear, rotary[3 * i : 3 * i + 3] if rotary is not None else zeros)).T.tolist()
+            for i in range(len(self.spans))
+        ]
+        self._k = 0
+        self._n = n
 
     # ------------------------------------------------------------ stepping
 
     def reset(self, rng: np.random.Generator | None = None) -> None:
         """Back to time 0 with a new turbulence realisation (from ``rng`` when given)."""
         if rng is not None:
-            self.rng = rng
-            if self._process is not None:
-                self._process.rng = rng
+            self.reseed(rng)
         if self._process is not None:
             self._process.reset()
         self._restart()
@@ -164,32 +207,20 @@ class WindField:
             self._process.rng = rng
 
     def advance(self) -> None:
-        """Move on one physics step."""
-        self.step_index += 1
-        if self._process is not None:
-            self._k += 1
-            if self._k == len(self._rows):
-                self._rows = self._generate()
-                self._k = 0
-        self._update()
-
-    def _update(self) -> None:
-        """The parts that are the same everywhere at this step: (x, y, z) wind and the turbulence row."""
-        wx, wy = self._mean
-        wz = self._vertical
-        if self._sheared:
-            wx = wy = 0.0  # the sheared mean wind is added per position
-        gust = self.config.gust
-        if gust is not None:
-            f = gust_profile(gust.speed * (self.step_index * self.physics_dt - gust.start), gust.length, gust.shape)
-            ax, ay, az = gust.amplitude
-            wx, wy, wz = wx + f * ax, wy + f * ay, wz + f * az
-        if self._process is not None:
-            row = self._rows[self._k]
-            wx, wy, wz = wx + row[0], wy + row[1], wz + row[2]
-            self._now = (wx, wy, wz, row)
+        """Move on one physics step (a static field stays as it is: its one row)."""
+        if self.static:
+            return
+        k = self._k + 1
+        if k == self._n:
+            self._start += self._n
+            self._fill()
         else:
-            self._now = (wx, wy, wz, None)
+            self._k = k
+
+    @property
+    def step_index(self) -> int:
+        """Physics steps since the last reset."""
+        return self._start + self._k
 
     @property
     def time(self) -> float:
@@ -199,15 +230,22 @@ class WindField:
     def at(self, index: int, position: Sequence[float]) -> WindSample:
         """Wind velocity (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s], ground frame, at
         ``position`` [m] for vehicle ``index`` at the current step."""
-        wx, wy, wz, row = self._now
+        wx, wy, wz, p, q, r = self._rows[index][self._k]
         if self._sheared:
             f = shear_factor(self.config, position[2])
             wx += f * self._mean[0]
             wy += f * self._mean[1]
-        if row is not None and self._angular:
-            k = 3 + 3 * index
-            return (wx, wy, wz, row[k], row[k + 1], row[k + 2])
-        return (wx, wy, wz, 0.0, 0.0, 0.0)
+        return (wx, wy, wz, p, q, r)
+
+
+def gust_profiles(x: np.ndarray, length: float, shape: str) -> np.ndarray:
+    """:func:`gust_profile` over an array of distances ``x`` [m]."""
+    x = np.asarray(x, dtype=float)
+    rise = 0.5 * (1.0 - np.cos(np.pi * np.clip(x, 0.0, None) / length))
+    out = np.where(x <= 0.0, 0.0, rise)
+    if shape == "step":
+        return np.where(x > length, 1.0, out)
+    return np.where(x > 2.0 * length, 0.0, out)
 
 
 def vehicle_span(motor_positions: np.ndarray | None, surfaces: Sequence) -> float:
