@@ -3,8 +3,8 @@
 A wind config has three optional parts that add up::
 
     mean:        steady wind, uniform or sheared with height (log or power law)
-    gust:        a discrete 1-cosine gust (MIL-F-8785C 3.7.3)
-    turbulence:  Dryden continuous turbulence (MIL-F-8785C 3.7.2, low altitude)
+    gust:        a discrete 1-cosine gust (MIL-F-8785C, discrete gusts)
+    turbulence:  Dryden continuous turbulence (MIL-F-8785C, low altitude)
 
 ``calm`` (every part absent) is the default and changes nothing.  A config is named by a
 shipped preset (``constant``, ``dryden_light`` ...), a YAML path, or given as a mapping,
@@ -48,7 +48,7 @@ class MeanWind(_Config):
     )
     reference_height: float = Field(10.0, gt=0, description="height h_ref [m] where speed is measured (log, power)")
     roughness_length: float = Field(
-        0.03, gt=0, description="surface roughness z0 [m] of the log law (0.03: open flat terrain, WMO-No. 8 annex 5)"
+        0.03, gt=0, description="surface roughness z0 [m] of the log law (0.03: open flat terrain, Davenport-Wieringa roughness class "open", WMO-No. 8)"
     )
     exponent: float = Field(1 / 7, ge=0, description="power-law exponent alpha (1/7: neutral air over open land)")
 
@@ -60,7 +60,7 @@ class MeanWind(_Config):
 
 
 class Gust(_Config):
-    """A discrete gust, the MIL-F-8785C 3.7.3 "1-cosine" shape, uniform in space.
+    """A discrete gust, the MIL-F-8785C, discrete gusts "1-cosine" shape, uniform in space.
 
     ``x = speed (t - start)`` is the distance the gust front has travelled past the vehicle;
     the gust velocity is ``amplitude / 2 (1 - cos(pi x / length))`` for ``0 <= x <= length``,

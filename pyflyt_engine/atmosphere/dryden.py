@@ -1,13 +1,13 @@
-"""Dryden continuous turbulence, low-altitude form (MIL-F-8785C, section 3.7.2; MIL-HDBK-1797).
+"""Dryden continuous turbulence, low-altitude form (MIL-F-8785C, section 3.7, "Atmospheric disturbances"; MIL-HDBK-1797).
 
 Scales and intensities at height ``h`` (in feet, 10 ft <= h <= 1000 ft) from the wind
-speed ``W20`` measured 20 ft above the ground (MIL-F-8785C 3.7.2.3, "low altitude")::
+speed ``W20`` measured 20 ft above the ground (MIL-F-8785C, low-altitude turbulence)::
 
     L_w = h                 L_u = L_v = h / (0.177 + 0.000823 h)^1.2
     sigma_w = 0.1 W20       sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4
 
 Below 10 ft the 10 ft values are used (the model's lower bound, as in MIL-HDBK-1797's
-low-altitude model).  Shaping filters (MIL-F-8785C 3.7.2.2, Dryden forms) driven by
+low-altitude model).  Shaping filters (MIL-F-8785C, Dryden forms) driven by
 white noise, for the turbulence carried past at speed ``V`` (Taylor's frozen field)::
 
     H_u(s) = sigma_u sqrt(2 L_u / (pi V))                    / (1 + (L_u/V) s)
@@ -47,7 +47,7 @@ from scipy import linalg, signal
 FOOT = 0.3048  # [m], exact (international foot)
 #: lower bound of the low-altitude model [ft] (MIL-HDBK-1797, low-altitude turbulence)
 MIN_HEIGHT_FT = 10.0
-#: upper bound of the low-altitude model [ft] (MIL-F-8785C 3.7.2.3: "below 1000 ft")
+#: upper bound of the low-altitude model [ft] (MIL-F-8785C: the low-altitude model applies below 1000 ft)
 MAX_HEIGHT_FT = 1000.0
 SQRT3 = math.sqrt(3.0)
 NOISE_INTENSITY = math.pi  # two-sided white-noise intensity matching the one-sided spectra
@@ -81,7 +81,7 @@ def low_altitude_scales(height: float, wind_speed_20ft: float) -> DrydenScales:
 def spectrum(component: str, omega: np.ndarray, scales: DrydenScales, airspeed: float, span: float = 1.0) -> np.ndarray:
     """The specified one-sided PSD ``Phi(omega)`` [(m/s)^2/(rad/s) or (rad/s)^2/(rad/s)] of a
     component ``u, v, w, p, q, r`` at angular frequencies ``omega`` [rad/s] (the oracle of the tests
-    and the plots; MIL-F-8785C 3.7.2.2 with ``Omega = omega / V``)."""
+    and the plots; MIL-F-8785C with ``Omega = omega / V``)."""
     V = airspeed
     s = scales
     w = np.asarray(omega, dtype=float)

@@ -5,9 +5,9 @@ The field is the sum of the parts of a :class:`~pyflyt_engine.atmosphere.config.
 * **mean** wind, ground frame: ``speed`` toward ``direction`` times a height factor —
   1 (``uniform``), ``ln(z / z0) / ln(h_ref / z0)`` for ``z > z0`` and 0 below (``log``,
   the neutral surface-layer law, e.g. Stull, "An Introduction to Boundary Layer
-  Meteorology", 1988, eq. 9.7.5c), or ``(z / h_ref)^alpha`` for ``z > 0`` (``power``,
+  Meteorology", 1988, section 9.7), or ``(z / h_ref)^alpha`` for ``z > 0`` (``power``,
   Hellmann's law) — plus a uniform ``vertical`` component;
-* a discrete **gust** (MIL-F-8785C 3.7.3, "1-cosine"), the same everywhere at a time;
+* a discrete **gust** (MIL-F-8785C, discrete gusts, "1-cosine"), the same everywhere at a time;
 * **turbulence** (Dryden, :mod:`pyflyt_engine.atmosphere.dryden`): the linear gusts
   ``(u, v, w)`` are one realisation for the whole world (a frozen field advected past
   every vehicle at the same instant, evaluated at the config's reference height), and the
@@ -39,7 +39,7 @@ _ZERO3 = (0.0, 0.0, 0.0)
 
 
 def gust_profile(x: float, length: float, shape: str) -> float:
-    """The 1-cosine gust fraction (0..1) at distance ``x`` [m] past the gust front (MIL-F-8785C 3.7.3)."""
+    """The 1-cosine gust fraction (0..1) at distance ``x`` [m] past the gust front (MIL-F-8785C, discrete gusts)."""
     if x <= 0.0:
         return 0.0
     if x <= length:

@@ -6,17 +6,17 @@ in forward flight", ARC R&M 3021, 1955; the hover form from the method of images
     T_IGE / T_OGE = 1 / (1 - (R / (4 z))^2)
 
 for a rotor of radius ``R`` whose hub is ``z`` above the ground.  The ratio diverges at
-``z = R / 4`` while measured ratios stay finite (about 1.2 to 1.4 at ``z ~ R / 2``; e.g.
+``z = R / 4`` while measured ratios stay finite close to the ground (e.g.
 Sanchez-Cuevas et al., "Characterization of the aerodynamic ground effect and its influence
 in multirotor control", Int. J. Aerospace Eng. 2017), so the height is clamped to
-``z >= min_height * R`` (default 0.5: at most 4/3).  Each motor's thrust is scaled by the
-ratio at its own hub height (:attr:`pyflyt_engine.components.motor.Motors.thrust_scale`);
+``z >= min_height * R`` (default 0.5: at most 4/3).  Each motor's thrust is scaled by
+the ratio at its own hub height (:attr:`pyflyt_engine.components.motor.Motors.thrust_scale`);
 the reaction torque is left alone.
 
 **Downwash** (momentum theory plus a round turbulent jet; our model): a rotorcraft of
 total thrust ``T`` over total disc area ``A`` induces ``v_h = sqrt(T / (2 rho A))`` at its
 discs (Rankine-Froude momentum theory, Leishman, "Principles of Helicopter Aerodynamics",
-2nd ed., 2006, eq. 2.14); its fully developed wake moves down at ``U_J = 2 v_h`` through
+2nd ed., 2006, chapter 2); its fully developed wake moves down at ``U_J = 2 v_h`` through
 half the disc area, a jet of diameter ``d = sqrt(2 A / pi)``.  Below, it spreads as a
 self-similar round jet (Pope, "Turbulent Flows", 2000, section 5.1: centreline velocity
 ``B U_J d / (x - x0)`` with ``B = 5.8``, half-width ``S (x - x0)`` with ``S = 0.094``)::

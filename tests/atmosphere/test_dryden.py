@@ -10,7 +10,7 @@ from scipy import signal
 
 from pyflyt_engine.atmosphere.dryden import FOOT, DrydenProcess, low_altitude_scales, spectrum
 
-W20 = 15 * 0.514444  # light turbulence, 15 kt (MIL-F-8785C fig. 10)
+W20 = 15 * 0.514444  # light turbulence, 15 kt (MIL-F-8785C low-altitude "light")
 
 
 def test_low_altitude_scales_match_the_formulas_evaluated_by_hand():
