@@ -48,7 +48,7 @@ class MeanWind(_Config):
     )
     reference_height: float = Field(10.0, gt=0, description="height h_ref [m] where speed is measured (log, power)")
     roughness_length: float = Field(
-        0.03, gt=0, description="surface roughness z0 [m] of the log law (0.03: open flat terrain, Davenport-Wieringa roughness class "open", WMO-No. 8)"
+        0.03, gt=0, description="surface roughness z0 [m] of the log law (0.03: open flat terrain, Davenport-Wieringa roughness class 'open', WMO-No. 8)"
     )
     exponent: float = Field(1 / 7, ge=0, description="power-law exponent alpha (1/7: neutral air over open land)")
 
