@@ -394,30 +394,18 @@ class Vehicle:
         self._state_stale = True
 
     def read_velocity(self) -> None:
-        """Refresh only the body-frame velocities (what the loads need between control ticks)."""
+        """Refresh only the body-frame velocities through the air (what the loads need
+        between control ticks): ``R^T (v - v_wind)`` and ``R^T (omega - omega_gust)``."""
         cid = self._client
         pos, quat = _get_pose(self.body_id, cid)
-        lin, ang = _get_velocity(self.body_id, cid)
+        (lx, ly, lz), (ax, ay, az) = _get_velocity(self.body_id, cid)
         r = _get_matrix(quat, cid)
         if self.rotor_effects is not None:
             self.rotor_effects(pos, r)
-        if self.wind is not None:
-            self._through_wind(pos, lin, ang, r)
-            return
-        (lx, ly, lz), (ax, ay, az) = lin, ang
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
-        self.air_velocity = (
-            (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
-            (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),
-        )
-
-    def _through_wind(self, position: Sequence[float], lin: Sequence[float], ang: Sequence[float], r: Sequence[float]) -> None:
-        """:attr:`air_velocity` in the wind at ``position``: ``R^T (v - v_wind)`` and
-        ``R^T (omega - omega_gust)`` (ground-frame velocities ``lin``, ``ang``; ``r`` the
-        body-to-ground matrix, row-major)."""
-        wx, wy, wz, gp, gq, gr = self.wind(position)  # type: ignore[misc]
-        lx, ly, lz = lin[0] - wx, lin[1] - wy, lin[2] - wz
-        ax, ay, az = ang[0] - gp, ang[1] - gq, ang[2] - gr
+        wind = self.wind
+        if wind is not None:
+            wx, wy, wz, gp, gq, gr = wind(pos)
+            lx, ly, lz, ax, ay, az = lx - wx, ly - wy, lz - wz, ax - gp, ay - gq, az - gr
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
         self.air_velocity = (
             (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
