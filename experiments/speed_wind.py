@@ -3,8 +3,10 @@
 One process builds one env per case (same env id, same seed) and times them alternately,
 ``--repeats`` rounds of ``--steps`` agent steps each (a level-holding controller keeps
 the QuadX flying; dome and time limit widened so the episode never ends); the median of
-each case is kept, so load on the machine hits every case alike.  Printed: microseconds
-per env step and the ratio to ``calm``.
+each case is kept, so load on the machine hits every case alike.  Printed: CPU time of
+this thread per env step (``time.thread_time``: on a shared machine it moves less than
+wall time, which also counts the waits for a core) and wall time, in microseconds, with
+their ratios to ``calm``.
 
     python experiments/speed_wind.py [--steps 3000] [--repeats 7] [--env PyFlyt/QuadX-Hover-v0]
 """
@@ -48,14 +50,15 @@ def _hold(state) -> np.ndarray:
     return np.array([-4 * roll - 0.5 * p, -4 * pitch - 0.5 * q, -0.5 * r, 0.125 + 0.1 * (1 - z) - 0.05 * vz])
 
 
-def _time(env, steps: int) -> float:
+def _time(env, steps: int) -> tuple[float, float]:
+    """(CPU seconds, wall seconds) per env step."""
     env.reset(seed=0)
     state = env.state
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.thread_time()
     for _ in range(steps):
         env.step(_hold(state))
         state = env.state
-    return (time.perf_counter() - start) / steps
+    return (time.thread_time() - cpu) / steps, (time.perf_counter() - start) / steps
 
 
 def main() -> None:
@@ -69,16 +72,18 @@ def main() -> None:
     envs = {name: _make(args.env, args.steps, **kwargs) for name, kwargs in CASES.items()}
     for env in envs.values():  # warm up (URDF cache, first blocks, allocator)
         _time(env, 200)
-    times: dict[str, list[float]] = {name: [] for name in envs}
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name in envs}
     for _ in range(args.repeats):
         for name, env in envs.items():
             times[name].append(_time(env, args.steps))
-    base = statistics.median(times["calm"])
+    cpu0 = statistics.median(t[0] for t in times["calm"])
+    wall0 = statistics.median(t[1] for t in times["calm"])
     print(f"{args.env}, {args.steps} steps x {args.repeats} rounds, median; {platform.machine()}, Python {platform.python_version()}")
-    print(f"{'case':<32}{'us/step':>10}{'x calm':>9}")
+    print(f"{'case':<32}{'CPU us/step':>12}{'x calm':>8}{'wall us/step':>14}{'x calm':>8}")
     for name, values in times.items():
-        t = statistics.median(values)
-        print(f"{name:<32}{t * 1e6:>10.1f}{t / base:>9.3f}")
+        cpu = statistics.median(t[0] for t in values)
+        wall = statistics.median(t[1] for t in values)
+        print(f"{name:<32}{cpu * 1e6:>12.1f}{cpu / cpu0:>8.3f}{wall * 1e6:>14.1f}{wall / wall0:>8.3f}")
     for env in envs.values():
         env.close()
 
