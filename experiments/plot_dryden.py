@@ -15,12 +15,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import signal  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy import signal
 
-from pyflyt_engine.atmosphere import load_wind_config  # noqa: E402
-from pyflyt_engine.atmosphere.dryden import DrydenProcess, low_altitude_scales, spectrum  # noqa: E402
+from pyflyt_engine.atmosphere import load_wind_config
+from pyflyt_engine.atmosphere.dryden import DrydenProcess, low_altitude_scales, spectrum
 
 
 def main() -> None:
@@ -39,18 +39,28 @@ def main() -> None:
     shown = t <= 60
     for row, name in enumerate("uvw"):
         top.plot(t[shown], y[row, shown], lw=0.8, color=colours[name], label=f"{name} (σ = {np.std(y[row]):.2f} m/s)")
-    top.set(xlabel="time [s]", ylabel="gust velocity [m/s]", title=(
-        f"Dryden light turbulence at {turbulence.height:g} m, W20 = 15 kt, V = {V:.1f} m/s: "
-        f"σu = σv = {scales.sigma_u:.2f}, σw = {scales.sigma_w:.2f} m/s"
-    ))
+    top.set(
+        xlabel="time [s]",
+        ylabel="gust velocity [m/s]",
+        title=(
+            f"Dryden light turbulence at {turbulence.height:g} m, W20 = 15 kt, V = {V:.1f} m/s: "
+            f"σu = σv = {scales.sigma_u:.2f}, σw = {scales.sigma_w:.2f} m/s"
+        ),
+    )
     top.title.set_fontsize(9)
     top.legend(fontsize=8, loc="upper right")
     for row, name in enumerate("uvw"):
         f, psd = signal.welch(y[row], fs=fs, nperseg=16384)
         keep = f > 0
         bottom.loglog(f[keep], psd[keep], lw=0.8, color=colours[name], alpha=0.6, label=f"{name}: Welch estimate")
-        bottom.loglog(f[keep], 2 * np.pi * spectrum(name, 2 * np.pi * f[keep], scales, V), "--", color=colours[name], lw=1.5,
-                      label=f"{name}: MIL-F-8785C spectrum")
+        bottom.loglog(
+            f[keep],
+            2 * np.pi * spectrum(name, 2 * np.pi * f[keep], scales, V),
+            "--",
+            color=colours[name],
+            lw=1.5,
+            label=f"{name}: MIL-F-8785C spectrum",
+        )
     bottom.set(xlabel="frequency [Hz]", ylabel="PSD [(m/s)² / Hz]", xlim=(1e-2, fs / 2))
     bottom.legend(fontsize=7, ncol=2)
     args.out.parent.mkdir(parents=True, exist_ok=True)

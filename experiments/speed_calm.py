@@ -42,7 +42,9 @@ print(best)
 
 def _run(root: Path, steps: int) -> float:
     env = {**os.environ, "PYTHONPATH": str(root)}
-    out = subprocess.run([sys.executable, "-c", LOOP.format(steps=steps)], cwd=root, env=env, capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", LOOP.format(steps=steps)], cwd=root, env=env, capture_output=True, text=True, check=True
+    )
     where, value = out.stdout.strip().splitlines()[-2:]
     if not Path(where).resolve().is_relative_to(root.resolve()):
         raise SystemExit(f"the loop in {root} imported {where}: not that checkout's engine")
@@ -65,7 +67,9 @@ def main() -> None:
     print(f"calm QuadX hover, {args.steps} steps, best of 3 per process, median of {args.repeats} processes each")
     for name, values in times.items():
         t = statistics.median(values)
-        print(f"{name:<16}{t * 1e6:>10.1f} us CPU/step{t / base:>8.3f}  (range {min(values) * 1e6:.1f}-{max(values) * 1e6:.1f})")
+        print(
+            f"{name:<16}{t * 1e6:>10.1f} us CPU/step{t / base:>8.3f}  (range {min(values) * 1e6:.1f}-{max(values) * 1e6:.1f})"
+        )
 
 
 if __name__ == "__main__":

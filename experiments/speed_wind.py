@@ -78,7 +78,9 @@ def main() -> None:
             times[name].append(_time(env, args.steps))
     cpu0 = statistics.median(t[0] for t in times["calm"])
     wall0 = statistics.median(t[1] for t in times["calm"])
-    print(f"{args.env}, {args.steps} steps x {args.repeats} rounds, median; {platform.machine()}, Python {platform.python_version()}")
+    print(
+        f"{args.env}, {args.steps} steps x {args.repeats} rounds, median; {platform.machine()}, Python {platform.python_version()}"
+    )
     print(f"{'case':<32}{'CPU us/step':>12}{'x calm':>8}{'wall us/step':>14}{'x calm':>8}")
     for name, values in times.items():
         cpu = statistics.median(t[0] for t in values)

@@ -19,7 +19,7 @@ import difflib
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal, Optional
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -40,7 +40,8 @@ class MeanWind(_Config):
 
     speed: float = Field(ge=0, description="horizontal wind speed [m/s] (at reference_height unless uniform)")
     direction: float = Field(
-        0.0, description="direction the wind blows TOWARD [deg], from +x (east) counter-clockwise (90: toward +y, north)"
+        0.0,
+        description="direction the wind blows TOWARD [deg], from +x (east) counter-clockwise (90: toward +y, north)",
     )
     vertical: float = Field(0.0, description="vertical wind [m/s], + up; uniform in height")
     profile: Literal["uniform", "log", "power"] = Field(
@@ -48,7 +49,9 @@ class MeanWind(_Config):
     )
     reference_height: float = Field(10.0, gt=0, description="height h_ref [m] where speed is measured (log, power)")
     roughness_length: float = Field(
-        0.03, gt=0, description="surface roughness z0 [m] of the log law (0.03: open flat terrain, Davenport-Wieringa roughness class 'open', WMO-No. 8)"
+        0.03,
+        gt=0,
+        description="surface roughness z0 [m] of the log law (0.03: open flat terrain, Davenport-Wieringa roughness class 'open', WMO-No. 8)",
     )
     exponent: float = Field(1 / 7, ge=0, description="power-law exponent alpha (1/7: neutral air over open land)")
 
@@ -80,14 +83,18 @@ class Turbulence(_Config):
 
     model: Literal["dryden"] = Field("dryden", description="the spectral model (Dryden forms of MIL-F-8785C)")
     wind_speed_20ft: float = Field(
-        ge=0, description="wind speed W20 [m/s] 20 ft above ground that sets the intensities (light 15 kt, moderate 30 kt, severe 45 kt)"
+        ge=0,
+        description="wind speed W20 [m/s] 20 ft above ground that sets the intensities (light 15 kt, moderate 30 kt, severe 45 kt)",
     )
-    height: float = Field(10.0, gt=0, description="height [m] the scales and intensities are evaluated at (clamped to 10..1000 ft)")
-    airspeed: Optional[float] = Field(
+    height: float = Field(
+        10.0, gt=0, description="height [m] the scales and intensities are evaluated at (clamped to 10..1000 ft)"
+    )
+    airspeed: float | None = Field(
         None, gt=0, description="speed V [m/s] at which the frozen field passes the vehicles; null: W20"
     )
-    direction: Optional[float] = Field(
-        None, description="direction [deg] of the turbulence x axis (from +x, counter-clockwise); null: the mean wind's, else 0"
+    direction: float | None = Field(
+        None,
+        description="direction [deg] of the turbulence x axis (from +x, counter-clockwise); null: the mean wind's, else 0",
     )
     angular: bool = Field(True, description="also the rotary gusts p, q, r (per vehicle span)")
 
@@ -102,9 +109,9 @@ class WindConfig(_Config):
 
     name: str = Field("inline", description="preset name (the file name without .yaml)")
     description: str = Field("", description="one line of free text")
-    mean: Optional[MeanWind] = Field(None, description="steady wind (null: none)")
-    gust: Optional[Gust] = Field(None, description="discrete 1-cosine gust (null: none)")
-    turbulence: Optional[Turbulence] = Field(None, description="Dryden turbulence (null: none)")
+    mean: MeanWind | None = Field(None, description="steady wind (null: none)")
+    gust: Gust | None = Field(None, description="discrete 1-cosine gust (null: none)")
+    turbulence: Turbulence | None = Field(None, description="Dryden turbulence (null: none)")
 
     @property
     def calm(self) -> bool:
@@ -194,7 +201,9 @@ def load_wind_config(wind: str | Path | Mapping[str, Any] | WindConfig | None) -
     if isinstance(wind, Mapping):
         return parse_wind_config(wind)
     if not isinstance(wind, (str, Path)):
-        raise ConfigError(f"wind must be a preset name ({', '.join(available_winds())}), a .yaml path or a mapping, got {wind!r}")
+        raise ConfigError(
+            f"wind must be a preset name ({', '.join(available_winds())}), a .yaml path or a mapping, got {wind!r}"
+        )
     candidate = Path(wind)
     if candidate.suffix in (".yaml", ".yml"):
         if not candidate.is_file():
@@ -206,7 +215,9 @@ def load_wind_config(wind: str | Path | Mapping[str, Any] | WindConfig | None) -
             choices = available_winds()
             close = difflib.get_close_matches(str(wind), choices, n=1)
             hint = f" Did you mean '{close[0]}'?" if close else ""
-            raise ConfigError(f"unknown wind preset '{wind}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path")
+            raise ConfigError(
+                f"unknown wind preset '{wind}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path"
+            )
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:

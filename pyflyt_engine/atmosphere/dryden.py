@@ -98,7 +98,10 @@ def spectrum(component: str, omega: np.ndarray, scales: DrydenScales, airspeed: 
         return lateral(s.sigma_w, s.L_w)
     if component == "p":
         return (
-            s.sigma_w**2 / (s.L_w * V) * 0.8 * (math.pi * s.L_w / (4 * span)) ** (1 / 3)
+            s.sigma_w**2
+            / (s.L_w * V)
+            * 0.8
+            * (math.pi * s.L_w / (4 * span)) ** (1 / 3)
             / (1 + (4 * span * w / (math.pi * V)) ** 2)
         )
     if component == "q":

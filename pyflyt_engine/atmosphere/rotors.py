@@ -91,7 +91,9 @@ class RotorInteractions:
         self.min_height = min_height
         self.vehicles: list[_Rotorcraft | None] = []
 
-    def add_vehicle(self, motors: object | None, positions: Sequence[Sequence[float]], radii: Sequence[float | None]) -> Callable:
+    def add_vehicle(
+        self, motors: object | None, positions: Sequence[Sequence[float]], radii: Sequence[float | None]
+    ) -> Callable:
         """Register a vehicle (its motor group, hub positions in the CoM frame and radii);
         returns its hook ``(position, rotation) -> None`` for :attr:`Vehicle.rotor_effects`."""
         index = len(self.vehicles)

@@ -34,7 +34,7 @@ import dataclasses
 import difflib
 import math
 from collections.abc import Mapping
-from typing import Any, Literal, Optional
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -52,10 +52,10 @@ class Distribution(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     distribution: Literal["uniform", "normal", "log_uniform"] = Field(description="the law of the samples")
-    low: Optional[float] = Field(None, description="lower bound (uniform, log_uniform: required; normal: clip)")
-    high: Optional[float] = Field(None, description="upper bound (uniform, log_uniform: required; normal: clip)")
-    mean: Optional[float] = Field(None, description="normal: the mean")
-    std: Optional[float] = Field(None, ge=0, description="normal: the standard deviation")
+    low: float | None = Field(None, description="lower bound (uniform, log_uniform: required; normal: clip)")
+    high: float | None = Field(None, description="upper bound (uniform, log_uniform: required; normal: clip)")
+    mean: float | None = Field(None, description="normal: the mean")
+    std: float | None = Field(None, ge=0, description="normal: the standard deviation")
 
     @model_validator(mode="after")
     def _parameters(self) -> Distribution:
@@ -160,7 +160,9 @@ class Randomizer:
         if self.drag_params is not None and "drag" in values:
             d, f = self.drag_params, values["drag"]
             v.actuators.drag.set_params(
-                dataclasses.replace(d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f)
+                dataclasses.replace(
+                    d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+                )
             )
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
         if winds:
@@ -179,7 +181,9 @@ class Randomizer:
         return values
 
     @staticmethod
-    def spawn(values: Mapping[str, float], position: Any, orientation: Any) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    def spawn(
+        values: Mapping[str, float], position: Any, orientation: Any
+    ) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """The task's spawn pose plus the sampled ``spawn_*`` offsets."""
         x, y, z = (float(a) for a in position)
         r, p, w = (float(a) for a in orientation)

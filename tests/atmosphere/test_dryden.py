@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -55,7 +56,11 @@ def test_sample_variance_matches_the_intensity_within_sampling_error():
     dt, steps = 1.0, 200_000
     process = DrydenProcess(scales, W20, [], dt, np.random.default_rng(11), block=steps)
     y = process.generate()
-    for row, sigma, L in ((0, scales.sigma_u, scales.L_u), (1, scales.sigma_v, scales.L_v), (2, scales.sigma_w, scales.L_w)):
+    for row, sigma, L in (
+        (0, scales.sigma_u, scales.L_u),
+        (1, scales.sigma_v, scales.L_v),
+        (2, scales.sigma_w, scales.L_w),
+    ):
         # about T / (2 L / V) independent samples in a record of length T (at least one per
         # step): the standard error of a variance estimate is sigma^2 sqrt(2 / n)
         n_independent = min(steps, steps * dt / (2 * L / W20))
@@ -83,7 +88,7 @@ def test_welch_psd_matches_the_specified_spectrum(realisation, row, name):
     # group's mean ratio is 1 within 4 standard errors (about segments * bins / 2
     # independent chi-square(2) values: overlap and the window correlate neighbours)
     edges = 0.2 * 2.0 ** np.arange(0, 9)
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         pick = (f >= lo) & (f < hi)
         stderr = 1 / math.sqrt(segments * pick.sum() / 2)
         assert (psd[pick] / expected[pick]).mean() == pytest.approx(1.0, abs=max(4 * stderr, 0.02)), (name, lo, hi)

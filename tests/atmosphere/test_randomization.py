@@ -66,7 +66,12 @@ def test_draws_follow_the_seed_and_appear_in_info():
 
 def test_the_sampled_airframe_is_the_one_that_flies():
     """Mass factor f at the nominal hover throttle (motor noise off): a = g (1 / f - 1)."""
-    env = make(randomize={"mass": {"distribution": "uniform", "low": 1.2, "high": 1.2}, "motor_kf": {"distribution": "uniform", "low": 0.9, "high": 0.9}})
+    env = make(
+        randomize={
+            "mass": {"distribution": "uniform", "low": 1.2, "high": 1.2},
+            "motor_kf": {"distribution": "uniform", "low": 0.9, "high": 0.9},
+        }
+    )
     env.reset(seed=0)
     base = env.unwrapped
     vehicle = base.vehicle
@@ -107,7 +112,13 @@ def test_bad_randomisation_is_one_clear_message(randomize, message):
 
 
 def test_randomised_windy_episodes_record_their_draws_and_verify(tmp_path):
-    env = RecordEpisode(make(randomize={**WINDY, "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2}}, wind={"preset": "dryden_light", "mean": {"speed": 1.0}}), tmp_path)
+    env = RecordEpisode(
+        make(
+            randomize={**WINDY, "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2}},
+            wind={"preset": "dryden_light", "mean": {"speed": 1.0}},
+        ),
+        tmp_path,
+    )
     draws = []
     for episode in range(2):
         _, info = env.reset(seed=5 if episode == 0 else None)

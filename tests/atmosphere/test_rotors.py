@@ -28,7 +28,9 @@ def test_ground_effect_ratio_is_cheeseman_bennett_with_its_clamp():
 def _acceleration(z: float, ground_effect: bool) -> tuple[float, float, list[float]]:
     """Vertical acceleration of a level cf2x at height z whose motors give exactly its weight
     out of ground effect (noise off), over one physics step from rest; and the scales used."""
-    world = World([VehicleConfig("quadx_cf2x", (0, 0, z), mode="motors")], seed=0, ground_effect=ground_effect, drag=False)
+    world = World(
+        [VehicleConfig("quadx_cf2x", (0, 0, z), mode="motors")], seed=0, ground_effect=ground_effect, drag=False
+    )
     vehicle = world.vehicles[0]
     motors = vehicle.actuators.motors
     motors._noisy = False  # an exact weight balance for the oracle

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import math
 import subprocess
 import sys
@@ -11,10 +10,9 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 import pytest
-
-import pyflyt_engine.envs  # noqa: F401  (registers the ids)
 from typer.testing import CliRunner
 
+import pyflyt_engine.envs  # noqa: F401  (registers the ids)
 from pyflyt_cli.main import app
 from pyflyt_engine.atmosphere import available_winds, gust_profile, load_wind_config, shear_factor
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
@@ -135,40 +133,27 @@ def test_same_seed_same_windy_trajectory_different_seed_different():
     assert a != _trajectory(seed=2, wind="dryden_light")
 
 
-SCRIPT = """
-import hashlib, sys
-import gymnasium, numpy as np
-import pyflyt_engine.envs
-env = gymnasium.make("PyFlyt/QuadX-Hover-v0", wind="dryden_moderate")
-rows = []
-for episode in range(2):
-    obs, _ = env.reset(seed=int(sys.argv[1]) if episode == 0 else None)
-    for _ in range(20):
-        obs, *_ = env.step(np.array([0.1, -0.1, 0.0, 0.2]))
-        rows.append(obs)
-print(hashlib.sha256(np.array(rows).tobytes()).hexdigest())
-"""
+def windy_hash(seed: int) -> str:
+    """Hash of the observations of two episodes in moderate turbulence (the second unseeded)."""
+    import hashlib
+
+    env = gymnasium.make("PyFlyt/QuadX-Hover-v0", wind="dryden_moderate")
+    rows = []
+    for episode in range(2):
+        obs, _ = env.reset(seed=seed if episode == 0 else None)
+        for _ in range(20):
+            obs, *_ = env.step(np.array([0.1, -0.1, 0.0, 0.2]))
+            rows.append(obs)
+    env.close()
+    return hashlib.sha256(np.array(rows).tobytes()).hexdigest()
 
 
 def test_windy_env_is_identical_across_processes():
-    def here(seed: int) -> str:
-        namespace = {"__name__": "windy"}
-        argv, sys.argv = sys.argv, ["-c", str(seed)]
-        try:
-            from contextlib import redirect_stdout
-            from io import StringIO
-
-            out = StringIO()
-            with redirect_stdout(out):
-                exec(SCRIPT, namespace)
-        finally:
-            sys.argv = argv
-        return out.getvalue().strip().splitlines()[-1]
-
-    other = subprocess.run([sys.executable, "-c", SCRIPT, "4"], capture_output=True, text=True, cwd=ROOT, check=True)
-    first = here(4)
+    script = "import sys; from tests.atmosphere.test_wind import windy_hash; print(windy_hash(int(sys.argv[1])))"
+    other = subprocess.run([sys.executable, "-c", script, "4"], capture_output=True, text=True, cwd=ROOT, check=True)
+    first = windy_hash(4)
     assert first == other.stdout.strip().splitlines()[-1]
-    assert first != here(5)
+    assert first != windy_hash(5)
 
 
 def test_a_falling_body_in_wind_follows_the_drag_balance():
@@ -208,7 +193,9 @@ def test_a_falling_body_in_wind_follows_the_drag_balance():
 def test_position_controller_holds_a_quadx_in_constant_3ms_wind(uav):
     """Stated error: within 0.15 m of the setpoint (each axis) from 3 s to 10 s in 3 m/s wind;
     the wind is felt (the F450's drag is 0.9 N at 3 m/s, a tilt of about 5 deg)."""
-    world = World([VehicleConfig(uav, (0, 0, 1), mode="position_yaw")], seed=0, wind={"mean": {"speed": 3.0, "direction": 45}})
+    world = World(
+        [VehicleConfig(uav, (0, 0, 1), mode="position_yaw")], seed=0, wind={"mean": {"speed": 3.0, "direction": 45}}
+    )
     world.set_setpoint(0, [0.0, 0.0, 0.0, 1.0])
     worst = 0.0
     tilt = []

@@ -38,7 +38,10 @@ def _record(directory, env_id: str, wind, episodes: int = 2, steps: int = 45):
 
 @pytest.mark.parametrize(
     "env_id,wind",
-    [("PyFlyt/QuadX-Hover-v0", "dryden_moderate"), ("PyFlyt/Fixedwing-Waypoints-v0", {"preset": "gust", "gust": {"start": 0.2}})],
+    [
+        ("PyFlyt/QuadX-Hover-v0", "dryden_moderate"),
+        ("PyFlyt/Fixedwing-Waypoints-v0", {"preset": "gust", "gust": {"start": 0.2}}),
+    ],
 )
 def test_windy_episodes_record_the_wind_and_verify_exactly(tmp_path, env_id, wind):
     paths = _record(tmp_path, env_id, wind)
@@ -55,11 +58,7 @@ def test_windy_episodes_record_the_wind_and_verify_exactly(tmp_path, env_id, win
     # the scene carries one wind arrow per vehicle
     contents = read_mcap(paths[0])
     arrows = [
-        e
-        for m in contents.messages
-        if m.topic == "/scene"
-        for e in m.data["entities"]
-        if e["id"] == "uav_0/wind"
+        e for m in contents.messages if m.topic == "/scene" for e in m.data["entities"] if e["id"] == "uav_0/wind"
     ]
     assert arrows and any(e["arrows"] for e in arrows)
     jsonschema = pytest.importorskip("jsonschema")
