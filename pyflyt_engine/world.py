@@ -459,11 +459,11 @@ class World:
 
     def wind_at(self, index: int) -> tuple[float, ...]:
         """Wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s], ground frame, at vehicle
-        ``index``'s position now (zeros in still air)."""
+        ``index``'s position now, downwash included (zeros in still air)."""
         vehicle = self._vehicle(index)
-        if self.wind is None:
+        if vehicle.wind is None:
             return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        return self.wind.at(index, vehicle.state.lin_pos)
+        return tuple(vehicle.wind(vehicle.state.lin_pos))
 
     def rng_state(self) -> dict:
         """Positions of every random stream: :attr:`np_random` and each vehicle's noise.

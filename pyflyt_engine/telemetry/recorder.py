@@ -287,7 +287,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     cams.append(f.channel(f"/uav/{i}/camera/{k}", "foxglove.CompressedImage", schemas.COMPRESSED_IMAGE))
             self._ch_camera.append(cams)
         self._ch_wind = []
-        if world.wind is not None:
+        if any(v.wind is not None for v in world.vehicles):  # wind or downwash
             for i in range(len(world.vehicles)):
                 self._ch_wind.append(
                     f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
