@@ -115,15 +115,16 @@ class WindField:
     def add_vehicle(self, span: float) -> Callable[[Sequence[float]], WindSample]:
         """Register a vehicle of span ``span`` [m]; returns its probe ``position -> WindSample``.
 
-        With rotary turbulence the process is rebuilt (a new realisation): add vehicles
-        before flying.
+        The samples from the current step on are generated again (with rotary turbulence,
+        from a new realisation: add vehicles before flying); the time goes on.
         """
         index = len(self.spans)
         self.spans.append(float(span))
         if self._angular:
             self._build()
         else:
-            self._restart()
+            self._start = self.step_index
+            self._fill()
         if self._sheared:
             mx, my = self._mean
             config = self.config
@@ -158,7 +159,8 @@ class WindField:
             for b in range(blocks):  # turbulence axes -> ground frame, per (u, v, w) and (p, q, r) triple
                 rotation[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = ((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
             self._to_ground = rotation
-        self._restart()
+        self._start = self.step_index
+        self._fill()
 
     def _restart(self) -> None:
         self._start = 0
