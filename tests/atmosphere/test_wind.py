@@ -220,3 +220,38 @@ def test_train_selects_the_wind_with_env_wind():
     assert compose_config(env="fixedwing_waypoints", algo="sac").env.wind == "calm"
     with pytest.raises((CLIError, ConfigError), match="unknown wind preset 'hurricane'"):
         compose_config(overrides=["env.wind=hurricane"])
+
+
+@pytest.mark.parametrize("uav,speed", [("fixedwing", 18.0), ("quadx_f450", 4.0)])
+def test_a_body_at_rest_in_wind_feels_what_it_feels_flying_through_still_air(uav, speed):
+    """Galilean invariance, the oracle of 'wind enters once, by subtraction': at rest in a
+    headwind U, a vehicle gets the same aerodynamic loads (so the same velocity change over
+    a physics step) as when it flies at U through still air."""
+    import pybullet as p
+
+    def delta_v(wind, lin_vel):
+        world = World([VehicleConfig(uav, (0, 0, 50))], seed=0, ground=False, wind=wind)
+        vehicle = world.vehicles[0]
+        world.set_armed(0, False)
+        vehicle.reset((0, 0, 50), (0.0, 0.05, 0.1), lin_vel=lin_vel)
+        vehicle.control_step()
+        before = np.array(p.getBaseVelocity(vehicle.body_id, physicsClientId=world.client)[0])
+        vehicle.read_velocity()
+        vehicle.apply_loads()
+        p.stepSimulation(physicsClientId=world.client)
+        after = np.array(p.getBaseVelocity(vehicle.body_id, physicsClientId=world.client)[0])
+        world.close()
+        return after - before
+
+    # heading (roll 0, pitch 0.05, yaw 0.1): blow the wind along the nose, toward the tail
+    nose = np.array([math.cos(0.1) * math.cos(0.05), math.sin(0.1) * math.cos(0.05), -math.sin(0.05)])
+    headwind = -speed * nose
+    horizontal = math.degrees(math.atan2(headwind[1], headwind[0]))
+    at_rest = delta_v(
+        {"mean": {"speed": float(np.hypot(*headwind[:2])), "direction": horizontal, "vertical": float(headwind[2])}},
+        (0.0, 0.0, 0.0),
+    )
+    flying = delta_v(None, (speed, 0.0, 0.0))
+    gravity_only = delta_v(None, (0.0, 0.0, 0.0))
+    assert np.linalg.norm(flying - gravity_only) > 1e-4  # the air does something
+    assert at_rest == pytest.approx(flying, abs=1e-9)
