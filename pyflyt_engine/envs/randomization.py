@@ -7,19 +7,14 @@ An env config's ``randomize`` maps a parameter name to a bounded distribution; a
 
 Parameters (a fixed list; anything else is refused at load):
 
-=====================  ===========================================================  ========
-name                   what the sample is                                           unit
-=====================  ===========================================================  ========
-``mass``               factor on the airframe's dry mass                            --
-``inertia``            factor on its inertia (all three axes)                       --
-``motor_kf``           factor on every motor's thrust coefficient                   --
-``motor_kt``           factor on every motor's torque coefficient                   --
-``motor_tau``          factor on every motor's time constant                        --
-``drag``               factor on the body-drag coefficients (translation, rotation) --
-``spawn_x/y/z``        offset added to the task's spawn position                    m
-``spawn_roll/pitch/yaw`` offset added to the task's spawn attitude                  rad
-``wind.<path>``        value of a number of the wind config, e.g. ``wind.mean.speed``  its own
-=====================  ===========================================================  ========
+* ``mass``, ``inertia``: factors on the airframe's dry mass and inertia (all three axes);
+* ``motor_kf``, ``motor_kt``, ``motor_tau``: factors on every motor's thrust coefficient,
+  torque coefficient and time constant;
+* ``drag``: factor on the body-drag coefficients (translational and rotational);
+* ``spawn_x``, ``spawn_y``, ``spawn_z`` [m], ``spawn_roll``, ``spawn_pitch``,
+  ``spawn_yaw`` [rad]: offsets added to the task's spawn pose;
+* ``wind.<path>``: the value of a number of the env's wind config, e.g.
+  ``wind.mean.speed`` [m/s] or ``wind.turbulence.wind_speed_20ft`` [m/s].
 
 The flight controller keeps the airframe's nominal values (a controller does not know
 the real vehicle's parameters: that is what randomisation tests).  Distributions:
