@@ -130,3 +130,19 @@ def test_switched_from_env_config_and_cli():
     assert gymnasium.make("PyFlyt/QuadX-Hover-v0").unwrapped.world.rotor_interactions is None
     result = CliRunner().invoke(app, ["fly", "ground_effect=maybe", "duration=0.1"])
     assert result.exit_code == 2 and "ground_effect" in result.output
+
+
+def test_prop_radius_is_validated_with_the_airframe():
+    import yaml
+
+    from pyflyt_engine.errors import SpecError
+    from pyflyt_engine.paths import uav_dir
+    from pyflyt_engine.spec import parse_uav_spec
+
+    data = yaml.safe_load((uav_dir() / "quadx_cf2x.yaml").read_text())
+    data["motors"]["prop_radius"] = -0.02
+    with pytest.raises(SpecError, match="prop_radius"):
+        parse_uav_spec(data)
+    data["motors"]["prop_radius"] = [0.02, 0.02]
+    with pytest.raises(SpecError, match="prop_radius"):
+        parse_uav_spec(data)
