@@ -221,13 +221,11 @@ class Motors:
         return wrench
 
     def _scaled_columns(self, scale: Sequence[float]) -> list[tuple[float, float, float, float, float, float]]:
-        """The wrench columns with each motor's thrust (force and its moment) times ``scale``."""
+        """The wrench columns with each motor's thrust (force and its moment) times ``scale``;
+        the reaction torque, ``reaction * axis`` with ``axis = force / max_thrust``, unscaled."""
         out = []
-        for (fx, fy, fz, tx, ty, tz), k, reaction, index in zip(self.columns, scale, self._reaction, range(len(scale))):
-            ax, ay, az = fx, fy, fz  # thrust along the (possibly turned) axis
-            thrust = self._max_thrust[index]
-            # the reaction part of the torque is reaction * axis (axis = force / max_thrust)
-            rx, ry, rz = (reaction * ax / thrust, reaction * ay / thrust, reaction * az / thrust) if thrust else (0.0, 0.0, 0.0)
+        for (fx, fy, fz, tx, ty, tz), k, r in zip(self.columns, scale, self._reaction_per_thrust):
+            rx, ry, rz = r * fx, r * fy, r * fz
             out.append((k * fx, k * fy, k * fz, k * (tx - rx) + rx, k * (ty - ry) + ry, k * (tz - rz) + rz))
         return out
 
@@ -240,6 +238,8 @@ class Motors:
         self._positions = params.positions.tolist()
         self._max_thrust = params.max_thrust.tolist()
         self._reaction = (-(params.spin * params.max_torque)).tolist()
+        # reaction torque per newton of thrust (0 for a motor without thrust)
+        self._reaction_per_thrust = [r / t if t else 0.0 for r, t in zip(self._reaction, self._max_thrust)]
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

@@ -146,3 +146,26 @@ def test_prop_radius_is_validated_with_the_airframe():
     data["motors"]["prop_radius"] = [0.02, 0.02]
     with pytest.raises(SpecError, match="prop_radius"):
         parse_uav_spec(data)
+
+
+def test_thrust_scale_scales_the_thrust_and_its_moment_not_the_reaction_torque():
+    import numpy as np
+
+    from pyflyt_engine.components.motor import MotorParams, Motors
+    from pyflyt_engine.components.noise import NoiseSource
+
+    params = MotorParams(
+        positions=[[0.1, 0.2, 0.0]], thrust_axes=[[0.0, 0.0, 1.0]], spin=[1], tau=[1e-6], max_rpm=[1000.0],
+        kf=[1e-6], kt=[1e-8], noise_ratio=[0.0],
+    )  # fmt: skip
+    motors = Motors(params, 1 / 240, NoiseSource(np.random.default_rng(0)))
+    motors.command = [1.0]
+    plain = np.array(motors.step(((0, 0, 0), (0, 0, 0))))
+    motors.thrust_scale = [1.5]
+    scaled = np.array(motors.step(((0, 0, 0), (0, 0, 0))))
+    thrust, reaction = 1e-6 * 1000.0**2, -1e-8 * 1000.0**2
+    x2 = motors.throttle[0] ** 2  # the lag has settled: the same throttle both steps
+    assert plain == pytest.approx([0, 0, thrust * x2, 0.2 * thrust * x2, -0.1 * thrust * x2, reaction * x2], rel=1e-6)
+    assert scaled == pytest.approx(
+        [0, 0, 1.5 * thrust * x2, 1.5 * 0.2 * thrust * x2, -1.5 * 0.1 * thrust * x2, reaction * x2], rel=1e-6
+    )
