@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pyflyt_engine.atmosphere import WindConfig
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec
 from pyflyt_engine.vehicle import Vehicle
@@ -74,15 +75,29 @@ def fly(
     control_hz: float = 120.0,
     agent_hz: float = 30.0,
     render: bool = False,
+    wind: str | Mapping | WindConfig | None = None,
+    ground_effect: bool = False,
+    downwash: bool = False,
 ) -> Trajectory:
     """Fly ``uav`` in ``mode`` toward ``setpoint`` for ``duration`` seconds.
 
     ``setpoint`` is a list in the mode's layout, a mapping by name (missing names are
-    0), or None to hover 1 m above the spawn point.
+    0), or None to hover 1 m above the spawn point.  ``wind``: the atmosphere (a preset
+    name in ``conf/wind``, a mapping or a :class:`WindConfig`; None: still air);
+    ``ground_effect``, ``downwash``: the rotor interactions of :class:`World`.
     """
     if not duration > 0:
         raise ConfigError(f"duration must be > 0 s, got {duration}")
-    with World(seed=seed, physics_hz=physics_hz, control_hz=control_hz, agent_hz=agent_hz, render=render) as world:
+    with World(
+        seed=seed,
+        physics_hz=physics_hz,
+        control_hz=control_hz,
+        agent_hz=agent_hz,
+        render=render,
+        wind=wind,
+        ground_effect=ground_effect,
+        downwash=downwash,
+    ) as world:
         world.add_vehicle(uav, position, orientation, mode=mode)
         vehicle = world.vehicles[0]
         layout = vehicle.setpoint_layout

@@ -250,6 +250,9 @@ class MotorsSpec(_Spec):
     kf: ScalarOrList = Field(description="thrust coefficient [N / RPM^2]")
     kt: ScalarOrList = Field(description="reaction torque coefficient [N m / RPM^2]")
     noise_ratio: ScalarOrList = Field(0.0, description="std of the multiplicative throttle noise")
+    prop_radius: ScalarOrList | None = Field(
+        None, description="propeller radius [m], for ground effect and downwash (null: those effects skip the motor)"
+    )
     mix: list[dict[str, float] | None] | None = Field(
         None,
         description="per motor: channel weights driving it directly (e.g. {thrust: 1.0} for a pusher), "
@@ -262,7 +265,7 @@ class MotorsSpec(_Spec):
         if n == 0:
             raise ValueError("motors.positions is empty: list one [x, y, z] per motor")
         lists = {"spin": self.spin, "thrust_axes": self.thrust_axes, "mix": self.mix}
-        for name in ("tau", "max_rpm", "kf", "kt", "noise_ratio"):
+        for name in ("tau", "max_rpm", "kf", "kt", "noise_ratio", "prop_radius"):
             value = getattr(self, name)
             if isinstance(value, list):
                 lists[name] = value
@@ -279,7 +282,10 @@ class MotorsSpec(_Spec):
             ("kf", 0.0, True),
             ("kt", 0.0, False),
             ("noise_ratio", 0.0, False),
+            ("prop_radius", 0.0, True),
         ):
+            if getattr(self, name) is None:
+                continue
             arr = np.atleast_1d(np.asarray(getattr(self, name), dtype=float))
             bad = arr <= lower if strict else arr < lower
             if bad.any():

@@ -152,6 +152,7 @@ class Vehicle:
         body_id: the PyBullet body id.
         state: the latest :class:`KinematicState`.
         air_velocity: the body's velocity through the air, body frame, as the loads see it.
+        wind: the world's wind probe at this vehicle (None in still air).
         mode: the active :class:`FlightMode`; setpoint: its current setpoint.
         channels: the current channel vector (names: ``parts.channels``).
         armed: when False, every actuator is commanded to zero.
@@ -190,6 +191,7 @@ class Vehicle:
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
         self._dry_inertia = np.diag(parts.inertia).copy()
+        self._dry_mass = parts.mass
 
         # --- actuator groups
         self._noise = NoiseSource(rng)
@@ -218,6 +220,12 @@ class Vehicle:
         self.needs_velocity = body_drag is not None or surfaces is not None
         """Whether the loads need fresh velocities every physics step (drag, surfaces)."""
         self.air_velocity: AirVelocity = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.wind: Callable[[Sequence[float]], tuple[float, ...]] | None = None
+        """The world's wind probe, ``position -> (wind x, y, z [m/s], gust p, q, r [rad/s])``
+        ground frame (None: still air); :attr:`air_velocity` subtracts it."""
+        self.rotor_effects: Callable[[Sequence[float], Sequence[float]], None] | None = None
+        """The world's rotor-interaction hook ``(position, body-to-ground matrix) -> None``,
+        called at every read (ground effect, downwash; None: off)."""
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
 
         # --- routing of the channels (and the mixer's throttles) to the groups' commands
@@ -341,10 +349,27 @@ class Vehicle:
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)  # body-to-ground, row-major
         lx, ly, lz = lin
         ax, ay, az = ang
+        if self.rotor_effects is not None:
+            self.rotor_effects(pos, (r0, r1, r2, r3, r4, r5, r6, r7, r8))
         # body frame = R^T ground frame
         ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
-        self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
+        if self.wind is None:
+            self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
+        else:  # minus the wind and rotary gust, turned into the body frame (R^T w)
+            wx, wy, wz, gp, gq, gr = self.wind(pos)
+            self.air_velocity = (
+                (
+                    lin_vel[0] - (r0 * wx + r3 * wy + r6 * wz),
+                    lin_vel[1] - (r1 * wx + r4 * wy + r7 * wz),
+                    lin_vel[2] - (r2 * wx + r5 * wy + r8 * wz),
+                ),
+                (
+                    ang_vel[0] - (r0 * gp + r3 * gq + r6 * gr),
+                    ang_vel[1] - (r1 * gp + r4 * gq + r7 * gr),
+                    ang_vel[2] - (r2 * gp + r5 * gq + r8 * gr),
+                ),
+            )
         # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
         self._state = state = _new_state(
             KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)
@@ -369,11 +394,19 @@ class Vehicle:
         self._state_stale = True
 
     def read_velocity(self) -> None:
-        """Refresh only the body-frame velocities (what the loads need between control ticks)."""
+        """Refresh only the body-frame velocities through the air (what the loads need
+        between control ticks): ``R^T (v - v_wind)`` and ``R^T (omega - omega_gust)``."""
         cid = self._client
-        quat = _get_pose(self.body_id, cid)[1]
+        pos, quat = _get_pose(self.body_id, cid)
         (lx, ly, lz), (ax, ay, az) = _get_velocity(self.body_id, cid)
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)
+        r = _get_matrix(quat, cid)
+        if self.rotor_effects is not None:
+            self.rotor_effects(pos, r)
+        wind = self.wind
+        if wind is not None:
+            wx, wy, wz, gp, gq, gr = wind(pos)
+            lx, ly, lz, ax, ay, az = lx - wx, ly - wy, lz - wz, ax - gp, ay - gq, az - gr
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
         self.air_velocity = (
             (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
             (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),
@@ -461,7 +494,7 @@ class Vehicle:
         """
         boosters = self.actuators.boosters
         if boosters is None:
-            self.mass = self.parts.mass
+            self.mass = self._dry_mass
             return
         fuel = tuple(boosters.fuel)
         if fuel == self._mass_fuel:  # no fuel burnt since the last update: nothing changes
@@ -472,9 +505,24 @@ class Vehicle:
         r = b.fuel_tank_positions
         parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
         inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
-        mass = self.parts.mass + float(fuel_mass.sum())
+        mass = self._dry_mass + float(fuel_mass.sum())
         p.changeDynamics(self.body_id, -1, mass=mass, localInertiaDiagonal=inertia.tolist(), physicsClientId=self._client)
         self.mass = mass
+
+    def set_mass_properties(self, mass: float, inertia_diagonal: Sequence[float]) -> None:
+        """Give the body a dry mass [kg] and inertia diagonal [kg m^2] (about the centre of
+        mass) other than the spec's, e.g. sampled by domain randomisation; fuel adds to
+        them as before.  The flight controller keeps the spec's values."""
+        self._dry_mass = float(mass)
+        self._dry_inertia = np.asarray(inertia_diagonal, dtype=np.float64).copy()
+        if self.actuators.boosters is not None:
+            self._mass_fuel = None
+            self._update_mass()
+            return
+        p.changeDynamics(
+            self.body_id, -1, mass=self._dry_mass, localInertiaDiagonal=self._dry_inertia.tolist(), physicsClientId=self._client
+        )
+        self.mass = self._dry_mass
 
     def update_mass(self) -> None:
         """Refresh mass properties that change in flight (fuel); the world calls this at the control rate."""

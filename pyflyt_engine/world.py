@@ -19,13 +19,15 @@ vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pybullet as p
 
+from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config, vehicle_span
+from pyflyt_engine.atmosphere.rotors import RotorInteractions
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -126,6 +128,13 @@ class World:
         ground: add a ground plane at z = 0.
         drag: apply the airframes' body drag.
         gravity: gravitational acceleration [m/s^2].
+        wind: the atmosphere (``docs/atmosphere.md``): a preset name in ``conf/wind``
+            (``calm``, ``constant``, ``dryden_light`` ...), a YAML path, a mapping or a
+            :class:`~pyflyt_engine.atmosphere.WindConfig`; None or ``calm``: still air.
+        ground_effect: scale each rotor's thrust by the Cheeseman-Bennett ground-effect
+            ratio at its hub height (rotors with a ``prop_radius``; needs ``ground``).
+        downwash: vehicles below a rotorcraft feel its wake as a downward wind
+            (:mod:`pyflyt_engine.atmosphere.rotors`).
 
     Example::
 
@@ -148,6 +157,9 @@ class World:
         ground: bool = True,
         drag: bool = True,
         gravity: float = GRAVITY,
+        wind: str | Path | dict | WindConfig | None = None,
+        ground_effect: bool = False,
+        downwash: bool = False,
     ) -> None:
         self.physics_hz = float(physics_hz)
         self.control_hz = float(control_hz)
@@ -177,6 +189,15 @@ class World:
 
         self.vehicles: list[Vehicle] = []
         self._seed(seed)
+        self.wind_config: WindConfig = load_wind_config(wind)
+        #: the wind field (None in still air: nothing is added to the loop)
+        self.wind: WindField | None = None
+        if not self.wind_config.calm:
+            self.wind = WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        #: ground effect and downwash (None when both are off: nothing is added to the loop)
+        self.rotor_interactions: RotorInteractions | None = None
+        if (ground_effect and ground) or downwash:
+            self.rotor_interactions = RotorInteractions(bool(ground_effect and ground), bool(downwash))
         self.physics_steps = 0
         self._snapshot: int | None = None
         self._schedules: dict[tuple[int, int, int], tuple[tuple[bool, bool], ...]] = {}
@@ -192,6 +213,11 @@ class World:
         self._seed_sequence = np.random.SeedSequence(seed)
         self.np_random = np.random.default_rng(self._seed_sequence.spawn(1)[0])
         self._vehicle_seeds = self._seed_sequence.spawn(1)[0]
+        self._wind_generator = self._wind_rng()
+
+    def _wind_rng(self) -> np.random.Generator:
+        # the wind's own stream, apart from np_random and the vehicles' (spawn key 2)
+        return np.random.default_rng(np.random.SeedSequence(self._seed_sequence.entropy, spawn_key=(2,)))
 
     def _vehicle_rng(self, index: int) -> np.random.Generator:
         # one independent stream per vehicle slot, the same for a given seed and index
@@ -224,10 +250,43 @@ class World:
             mode=mode,
             drag=self.drag,
         )
+        rotors = self.rotor_interactions
+        if rotors is not None:
+            motors = vehicle.parts.motors
+            positions = motors.positions.tolist() if motors is not None else []
+            radii: list[float | None] = [None] * len(positions)
+            if spec.motors is not None and spec.motors.prop_radius is not None:
+                radii = spec.motors.to_array("prop_radius").tolist()
+            vehicle.rotor_effects = rotors.add_vehicle(vehicle.actuators.motors, positions, radii)
+            vehicle.needs_velocity = True  # the hook runs at every read
+        vehicle.wind = self._wind_probe(index, vehicle)
+        if vehicle.wind is not None:
+            vehicle.read_state()
         self.vehicles.append(vehicle)
         self._contacts.add(vehicle.body_id)
         self._drop_snapshot()
         return index
+
+    def _wind_probe(self, index: int, vehicle: Vehicle) -> Callable | None:
+        """Vehicle ``index``'s wind probe: the field's, plus the downwash (None in still air)."""
+        probe = None
+        if self.wind is not None:
+            motors = vehicle.parts.motors
+            probe = self.wind.add_vehicle(
+                vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
+            )
+        if self.rotor_interactions is not None and self.rotor_interactions.downwash:
+            probe = self.rotor_interactions.wind_probe(index, probe)
+        return probe
+
+    def set_wind(self, wind: str | Path | dict | WindConfig | None) -> None:
+        """Replace the atmosphere (e.g. a wind sampled at a reset): a new field at time 0,
+        drawing from the world's wind stream."""
+        self.wind_config = load_wind_config(wind)
+        self.wind = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        for index, vehicle in enumerate(self.vehicles):
+            vehicle.wind = self._wind_probe(index, vehicle)
+            vehicle.state_changed()
 
     def add_body(self, body_id: int) -> int:
         """Track collisions of a body created directly with PyBullet (obstacles, pads)."""
@@ -284,6 +343,7 @@ class World:
         contacts.clear()
         record = contacts.record
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
+        wind = self.wind if self.wind is not None and not self.wind.static else None
         for tick, sample in self._schedule(self.physics_steps):
             if tick:  # control tick
                 for vehicle in vehicles:
@@ -298,6 +358,8 @@ class World:
                     substep()
             step_simulation(cid)
             self.physics_steps += 1
+            if wind is not None:
+                wind.advance()
             if sample:  # the end of a control period or of the agent step
                 record(contact_points(-1, -1, -2, -2, cid))
         for vehicle in vehicles:  # read again when asked for (Vehicle.state)
@@ -385,6 +447,8 @@ class World:
             p.restoreState(self._snapshot, physicsClientId=self.client)
         if seed is not None:
             self._seed(seed)
+        if self.wind is not None:  # time 0, a new turbulence realisation (a new stream when seeded)
+            self.wind.reset(self._wind_generator if seed is not None else None)
         for index, vehicle in enumerate(self.vehicles):
             if seed is not None:
                 vehicle.reseed(self._vehicle_rng(index))
@@ -393,6 +457,14 @@ class World:
         self._contacts.clear()
         self.physics_steps = 0
 
+    def wind_at(self, index: int) -> tuple[float, ...]:
+        """Wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s], ground frame, at vehicle
+        ``index``'s position now, downwash included (zeros in still air)."""
+        vehicle = self._vehicle(index)
+        if vehicle.wind is None:
+            return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return tuple(vehicle.wind(vehicle.state.lin_pos))
+
     def rng_state(self) -> dict:
         """Positions of every random stream: :attr:`np_random` and each vehicle's noise.
 
@@ -400,7 +472,9 @@ class World:
         episode that began with an unseeded ``reset()`` (the streams continue from where
         the previous episode left them).
         """
-        return {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        state = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        state["wind"] = self._wind_generator.bit_generator.state
+        return state
 
     def set_rng_state(self, state: dict) -> None:
         """Put every random stream where :meth:`rng_state` found it (same number of vehicles)."""
@@ -419,6 +493,10 @@ class World:
         self.np_random = generator(state["world"])
         for vehicle, bit_state in zip(self.vehicles, vehicles):
             vehicle.reseed(generator(bit_state))
+        if "wind" in state:  # recordings made before the atmosphere have none
+            self._wind_generator = generator(state["wind"])
+            if self.wind is not None:
+                self.wind.reseed(self._wind_generator)
 
     def close(self) -> None:
         """Disconnect from PyBullet (idempotent)."""

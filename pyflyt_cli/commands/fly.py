@@ -15,6 +15,7 @@ import typer
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from pyflyt_cli.config import compose, parse_overrides, to_container
+from pyflyt_engine.atmosphere import parse_wind_config
 from pyflyt_engine.envs.config import validate_model
 from pyflyt_engine.flight import Trajectory, fly
 from pyflyt_engine.spec import parse_uav_spec
@@ -48,6 +49,7 @@ class FlyOptions(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     uav: dict[str, Any] = Field(description="the airframe (conf/uav group), validated as a UAV spec")
+    wind: dict[str, Any] = Field(description="the atmosphere (conf/wind group), validated as a wind config")
     mode: Annotated[Any, BeforeValidator(_mode)] = Field(description="flight mode: a name or a PyFlyt integer -1 ... 7")
     setpoint: Annotated[Any, BeforeValidator(_setpoint)] = Field(
         description="setpoint in the mode's layout, a mapping by name, or null (hover 1 m above the spawn point)"
@@ -61,6 +63,8 @@ class FlyOptions(BaseModel):
     agent_hz: float = Field(gt=0, description="rate of the printed trajectory samples [Hz]")
     rows: int = Field(ge=1, description="rows of the printed trajectory table")
     render: bool = Field(description="open the PyBullet GUI (needs a display)")
+    ground_effect: bool = Field(description="rotor thrust times the ground-effect ratio (docs/atmosphere.md)")
+    downwash: bool = Field(description="wakes of rotorcraft above as wind (docs/atmosphere.md)")
 
 
 def run_fly(overrides: list[str]) -> Trajectory:
@@ -69,10 +73,22 @@ def run_fly(overrides: list[str]) -> Trajectory:
         FlyOptions, to_container(compose("fly", parse_overrides(overrides))), "fly options", "pyflyt fly"
     )
     spec = parse_uav_spec(options.uav, source=f"uav={options.uav.get('name', '?')}")
+    wind = parse_wind_config(options.wind, source="wind", name=_chosen_wind(overrides))
     # every other option is an argument of fly() of the same name
-    traj = fly(spec, **{key: value for key, value in options if key not in ("uav", "rows")})
+    traj = fly(spec, wind=wind, **{key: value for key, value in options if key not in ("uav", "rows", "wind")})
     print_summary(spec.name, traj, options.rows)
+    if not wind.calm:
+        typer.echo(f"wind: {wind.name} ({wind.description or 'custom'})")
     return traj
+
+
+def _chosen_wind(overrides: list[str]) -> str:
+    """The wind preset named on the command line (``wind=<preset>``), else the default."""
+    for item in reversed(overrides):
+        key, sep, value = item.partition("=")
+        if sep and key.lstrip("+") == "wind":
+            return value
+    return "calm"
 
 
 def print_summary(name: str, traj: Trajectory, rows: int) -> None:

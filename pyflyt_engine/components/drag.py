@@ -71,6 +71,10 @@ class BodyDrag:
     """A vehicle's body drag as a load group: no state, a wrench from the air-relative velocity."""
 
     def __init__(self, params: DragParams) -> None:
+        self.set_params(params)
+
+    def set_params(self, params: DragParams) -> None:
+        """Use new coefficients (e.g. sampled by domain randomisation)."""
         self.params = params
         self._factors = params.factors
         self._damping = params.angular_damping

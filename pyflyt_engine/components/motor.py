@@ -196,21 +196,20 @@ class Motors:
     Attributes:
         throttle: per motor, the normalised throttle x in [-1, 1] (the state).
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
+        thrust_scale: per motor, a factor on its thrust (and the thrust's moment; the
+            reaction torque is left alone), e.g. ground effect; None (default): 1 for all.
     """
 
     def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
-        self.params = params
-        self.lag = motor_lag(params, physics_dt).tolist()
-        self.columns = [tuple(column) for column in motor_wrench_matrix(params).T.tolist()]
-        self._positions = params.positions.tolist()
-        self._max_thrust = params.max_thrust.tolist()
-        self._reaction = (-(params.spin * params.max_torque)).tolist()
+        self.physics_dt = physics_dt
+        self.set_params(params)
         n = params.count
         self.throttle = [0.0] * n
         self.command = [0.0] * n
         self._ones = [1.0] * n
         self._noisy = bool(np.any(params.noise_ratio > 0))
         self._noise = NoiseBlocks(noise, n, lambda eta: noise_factors(params, eta))
+        self.thrust_scale: list[float] | None = None
 
     def step(self, air: AirVelocity) -> Wrench:
         """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
@@ -218,8 +217,31 @@ class Motors:
         ``air`` (the body's air-relative velocity) does not enter this model: static thrust.
         """
         factors = self._noise.next() if self._noisy else self._ones
-        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, self.columns)
+        scale = self.thrust_scale
+        columns = self.columns if scale is None else self._scaled_columns(scale)
+        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, columns)
         return wrench
+
+    def _scaled_columns(self, scale: Sequence[float]) -> list[tuple[float, float, float, float, float, float]]:
+        """The wrench columns with each motor's thrust (force and its moment) times ``scale``;
+        the reaction torque, ``reaction * axis`` with ``axis = force / max_thrust``, unscaled."""
+        out = []
+        for (fx, fy, fz, tx, ty, tz), k, r in zip(self.columns, scale, self._reaction_per_thrust):
+            rx, ry, rz = r * fx, r * fy, r * fz
+            out.append((k * fx, k * fy, k * fz, k * (tx - rx) + rx, k * (ty - ry) + ry, k * (tz - rz) + rz))
+        return out
+
+    def set_params(self, params: MotorParams) -> None:
+        """Use new parameters (same motors, e.g. constants sampled by domain randomisation);
+        the throttles keep their state, and a gimbal re-turns its motor at its next step."""
+        self.params = params
+        self.lag = motor_lag(params, self.physics_dt).tolist()
+        self.columns = [tuple(column) for column in motor_wrench_matrix(params).T.tolist()]
+        self._positions = params.positions.tolist()
+        self._max_thrust = params.max_thrust.tolist()
+        self._reaction = (-(params.spin * params.max_torque)).tolist()
+        # reaction torque per newton of thrust (0 for a motor without thrust)
+        self._reaction_per_thrust = [r / t if t else 0.0 for r, t in zip(self._reaction, self._max_thrust)]
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

@@ -30,6 +30,7 @@ from pydantic import (
 )
 
 from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
@@ -128,6 +129,11 @@ class EnvConfig(_Config):
         "quaternion", description="attitude in the observation: Euler (roll, pitch, yaw) or quaternion (x, y, z, w)"
     )
     drag: bool = Field(True, description="apply the airframe's body drag")
+    wind: Union[str, dict[str, Any]] = Field(
+        "calm",
+        description="the atmosphere: a preset in conf/wind (calm, constant, shear, gust, dryden_light, "
+        "dryden_moderate, dryden_severe), a path to a wind YAML, or an inline mapping (docs/atmosphere.md)",
+    )
     reward: Union[str, dict[str, Any]] = Field(
         "dense",
         description="'dense' or 'sparse' (see reward_presets), a preset name in conf/reward, "
@@ -140,6 +146,50 @@ class EnvConfig(_Config):
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
+
+    ground_effect: bool = Field(
+        False, description="rotor thrust times the Cheeseman-Bennett ground-effect ratio (rotors with a prop_radius)"
+    )
+    downwash: bool = Field(False, description="vehicles below a rotorcraft feel its wake as a downward wind")
+
+    randomize: dict[str, Distribution] = Field(
+        default_factory=dict,
+        description="domain randomisation: parameter -> bounded distribution, drawn at every reset "
+        "(pyflyt_engine.envs.randomization); a name loads a preset of conf/randomize",
+    )
+
+    @field_validator("randomize", mode="before")
+    @classmethod
+    def _randomize_preset(cls, value: Any) -> Any:
+        if isinstance(value, str):
+            path = conf_dir() / "randomize" / f"{value}.yaml"
+            if not path.is_file():
+                choices = available("randomize")
+                close = difflib.get_close_matches(value, choices, n=1)
+                hint = f" Did you mean '{close[0]}'?" if close else ""
+                raise ValueError(f"unknown randomize preset '{value}'.{hint} Shipped: {', '.join(choices)}")
+            data = read_yaml(path)
+            if not isinstance(data, Mapping):
+                raise ValueError(f"{path}: a randomize preset must map parameter names to distributions")
+            return dict(data)
+        return value
+
+    @model_validator(mode="after")
+    def _randomize_names(self) -> EnvConfig:
+        if self.randomize:
+            try:
+                check_names(self.randomize, self.wind)
+            except ValueError as exc:
+                raise ValueError(f"randomize: {exc}") from None
+        return self
+
+    @field_validator("wind")
+    @classmethod
+    def _wind(cls, wind: Union[str, dict[str, Any]]) -> Union[str, dict[str, Any]]:
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        load_wind_config(wind)  # a bad preset, key or value fails here, at load
+        return wind
 
     @property
     def max_steps(self) -> int:

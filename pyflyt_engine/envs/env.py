@@ -19,6 +19,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, load_reward_preset
+from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError, SimulationError
@@ -130,6 +131,9 @@ class UAVEnv(gymnasium.Env):
             agent_hz=cfg.agent_hz,
             render=render_mode == "human",
             drag=cfg.drag,
+            wind=cfg.wind,
+            ground_effect=cfg.ground_effect,
+            downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
         self.task.setup(self.world)
@@ -155,6 +159,10 @@ class UAVEnv(gymnasium.Env):
         #: put ``reward_terms`` into every step's info (see the class docstring)
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: dict[str, float] = {}
+        #: samples and applies ``config.randomize`` at each reset (None without)
+        self.randomizer: Randomizer | None = Randomizer(cfg.randomize, self.world) if cfg.randomize else None  # type: ignore[arg-type]
+        #: the values drawn at the last reset (empty without randomisation)
+        self.last_randomization: dict[str, float] = {}
         self._markers = None
         if render_mode is not None:
             from pyflyt_engine.envs.render import Markers
@@ -167,8 +175,13 @@ class UAVEnv(gymnasium.Env):
         """Start an episode; ``options`` is accepted and unused."""
         super().reset(seed=seed)
         self.world.reset(seed)
+        drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None
         spawn = self.task.spawn(self.np_random)
-        self.vehicle.reset(spawn.position, spawn.orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
+        position, orientation = spawn.position, spawn.orientation
+        if drawn is not None:
+            self.last_randomization = drawn
+            position, orientation = Randomizer.spawn(drawn, position, orientation)
+        self.vehicle.reset(position, orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
         state = self.vehicle.state
         self.task.reset(state, self.np_random)
         self._action = np.zeros_like(self._low)
@@ -177,6 +190,8 @@ class UAVEnv(gymnasium.Env):
         if self._markers is not None:
             self._markers.show(self.task.markers())
         info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        if drawn is not None:
+            info["randomization"] = dict(drawn)
         info.update(self.task.info())
         observation = self._observe(state)
         if not _all_finite(0.0, observation):

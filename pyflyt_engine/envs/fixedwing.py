@@ -112,7 +112,7 @@ class FixedwingWaypointsEnv(UAVEnv):
     (2.0 m), ``start_position`` ((0, 0, 20) m), ``start_position_noise`` (2.0 m),
     ``start_orientation`` ((0, 0, 0) rad), ``start_orientation_noise`` (0.1 rad),
     ``start_lin_vel`` ((14, 0, 0) m/s, body frame), ``uav`` ("fixedwing"), ``drag``
-    (True), ``render_mode`` (None | "rgb_array" | "human").
+    (True), ``wind`` ("calm": still air; a preset of conf/wind such as "dryden_light", a path or a mapping, docs/atmosphere.md), ``ground_effect`` and ``downwash`` (False), ``randomize`` ({}: none; per-episode draws declared in config, reported in ``info["randomization"]`` at reset), ``render_mode`` (None | "rgb_array" | "human").
 
     **Version history**: v0 — this implementation of the paper's environment (reference
     PyFlyt 0.29.0 differs: 4 waypoints from 1 m out and 0.5 m high, spawn at (0, 0, 10) m

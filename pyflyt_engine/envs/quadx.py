@@ -80,7 +80,7 @@ class QuadXHoverEnv(UAVEnv):
     ``physics_hz`` (240), ``control_hz`` (120), ``max_duration_seconds`` (10.0),
     ``flight_dome_size`` (3.0), ``hover_point`` ((0, 0, 1)), ``start_position_noise``
     (0.1 m), ``start_orientation_noise`` (0.1 rad), ``uav`` ("quadx_cf2x"), ``drag``
-    (True), ``render_mode`` (None | "rgb_array" | "human").
+    (True), ``wind`` ("calm": still air; a preset of conf/wind such as "dryden_light", a path or a mapping, docs/atmosphere.md), ``ground_effect`` and ``downwash`` (False), ``randomize`` ({}: none; per-episode draws declared in config, reported in ``info["randomization"]`` at reset), ``render_mode`` (None | "rgb_array" | "human").
 
     **Version history**: v0 — this implementation of the paper's environment (reference
     PyFlyt 0.29.0 differs: +1 per-step offset in the dense reward, agent 40 Hz, exact

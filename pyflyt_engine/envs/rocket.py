@@ -131,7 +131,7 @@ class RocketLandingEnv(UAVEnv):
     tank), ``pad_radius`` (2.0 m), ``pad_height`` (0.1 m), ``max_touchdown_speed``
     (1.0 m/s), ``tip_over_angle_deg`` (30), ``upright_angle_deg`` (10), ``halt_speed``
     (0.1 m/s), ``halt_angular_speed`` (0.1 rad/s), ``halt_duration`` (0.5 s), ``uav``
-    ("rocket"), ``drag`` (True), ``render_mode`` (None | "rgb_array" | "human").
+    ("rocket"), ``drag`` (True), ``wind`` ("calm": still air; a preset of conf/wind such as "dryden_light", a path or a mapping, docs/atmosphere.md), ``ground_effect`` and ``downwash`` (False), ``randomize`` ({}: none; per-episode draws declared in config, reported in ``info["randomization"]`` at reset), ``render_mode`` (None | "rgb_array" | "human").
 
     **Version history**: v0 — this implementation of the paper's environment (reference
     PyFlyt 0.29.0 differs: 5 % fuel, spawn 400-450 m high with an extra -100 m/s

@@ -40,6 +40,9 @@ class VehicleTrack:
     states: dict[str, np.ndarray]
     aux: np.ndarray
     collision: np.ndarray
+    #: (T, 6) wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s] at the vehicle, ground
+    #: frame, from ``/uav/<i>/wind`` ((0, 6) when the recording has no wind channel)
+    wind: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
 
 
 @dataclass
@@ -222,6 +225,7 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
                 states={k: rows(topic, k, w) for k, w in STATE_FIELDS.items()},
                 aux=rows(topic, "aux", None),
                 collision=scalars(topic, "collision", bool),
+                wind=np.hstack([rows(f"/uav/{i}/wind", "velocity", 3), rows(f"/uav/{i}/wind", "rotary", 3)]),
             )
         )
     actions = rows("/uav/0/action", "applied", len(action_names))

@@ -100,8 +100,8 @@ class RecordEpisode(gymnasium.Wrapper):
     ``reset()`` or at ``close()`` (then marked ``stopped``), and at interpreter exit.
 
     Channels (see ``docs/mcap.md``): ``/tf``, ``/scene``, ``/uav/<i>/state``,
-    ``/uav/0/action``, ``/reward``, ``/episode`` and, with ``cameras=True``,
-    ``/uav/<i>/camera/<k>``.  Log time is the simulation time since the reset.  Metadata
+    ``/uav/0/action``, ``/reward``, ``/episode``, in wind ``/uav/<i>/wind`` (and a wind
+    arrow per vehicle in ``/scene``) and, with ``cameras=True``, ``/uav/<i>/camera/<k>``.  Log time is the simulation time since the reset.  Metadata
     records hold the resolved env config, reward preset, airframe specs, the reset's seed,
     options and RNG state, and package versions: everything ``pyflyt replay --verify``
     needs to re-simulate the episode.
@@ -215,6 +215,8 @@ class RecordEpisode(gymnasium.Wrapper):
                     "control_hz": repr(world.control_hz),
                     "agent_hz": repr(world.agent_hz),
                     "flight_dome_size": repr(float(base.config.flight_dome_size)),
+                    # the resolved atmosphere (a preset file may change; the recording may not)
+                    "wind": json.dumps(world.wind_config.model_dump(mode="json")),
                 },
                 VERSIONS: package_versions(),
             }
@@ -255,6 +257,8 @@ class RecordEpisode(gymnasium.Wrapper):
                 "seed": "" if seed is None else str(int(seed)),
                 "options": json.dumps(_jsonable(options)),
                 "rng_state": json.dumps(rng_state),
+                # domain randomisation: the values drawn at this reset (JSON; {} without)
+                "randomization": json.dumps(dict(getattr(self._base, "last_randomization", {}) or {})),
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             },
             flush=False,
@@ -282,6 +286,12 @@ class RecordEpisode(gymnasium.Wrapper):
                 for k in range(len(vehicle.parts.cameras)):
                     cams.append(f.channel(f"/uav/{i}/camera/{k}", "foxglove.CompressedImage", schemas.COMPRESSED_IMAGE))
             self._ch_camera.append(cams)
+        self._ch_wind = []
+        if any(v.wind is not None for v in world.vehicles):  # wind or downwash
+            for i in range(len(world.vehicles)):
+                self._ch_wind.append(
+                    f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
+                )
         names = json.dumps(list(base.config.action.names))
         self._ch_action = f.channel("/uav/0/action", "pyflyt.Action", schemas.ACTION, {"names": names})
         self._ch_reward = f.channel(
@@ -338,6 +348,8 @@ class RecordEpisode(gymnasium.Wrapper):
                     "collision": world.collided(i) if self._length else False,
                 },
             )
+            if self._ch_wind:
+                self._write_wind(ns, stamp, time_s, i, vehicle)
             cameras = vehicle.parts.cameras
             if cameras:
                 from pyflyt_engine.components.camera import camera_pose
@@ -356,6 +368,26 @@ class RecordEpisode(gymnasium.Wrapper):
                     )
                     if self._ch_camera[i]:
                         self._write_image(ns, i, k)
+
+    def _write_wind(self, ns: int, stamp: dict[str, int], time_s: float, i: int, vehicle: Any) -> None:
+        """The wind at vehicle ``i`` (channel ``/uav/<i>/wind``) and its arrow in the scene."""
+        s = vehicle.state
+        wind = self._base.world.wind_at(i)
+        (u, v, w), (p, q, r) = vehicle.air_velocity
+        self._file.write(
+            self._ch_wind[i],
+            ns,
+            {
+                "timestamp": stamp,
+                "step": self._length,
+                "time": time_s,
+                "velocity": wind[:3],
+                "rotary": wind[3:],
+                "air_velocity": (u, v, w),
+                "air_rates": (p, q, r),
+            },
+        )
+        self._file.write(self._ch_scene, ns, scene.scene_update([scene.wind_entity(ns, i, s.lin_pos, wind[:3])]))
 
     def _write_image(self, ns: int, i: int, k: int) -> None:
         images = self._base.world.capture(i, k)

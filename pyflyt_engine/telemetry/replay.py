@@ -79,6 +79,12 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
 
     config = json.loads(json.dumps(episode.config))
     config["reward"] = episode.reward_preset
+    recorded_wind = episode.env_info.get("wind")
+    if recorded_wind:  # the resolved atmosphere, not a preset name that may have changed since
+        try:
+            config["wind"] = json.loads(recorded_wind)
+        except json.JSONDecodeError:
+            raise TelemetryError(f"{episode.path}: the recorded wind config is not valid JSON") from None
     recorded_spec = episode.airframe_spec
     airframe = None
     named = config.get("uav")
@@ -164,7 +170,7 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
             env.reset(seed=0)
             env.reset(seed=episode.seed, options=episode.options)
         n = episode.length
-        per_field = {k: 0.0 for k in (*STATE_FIELDS, "aux")}
+        per_field = {k: 0.0 for k in (*STATE_FIELDS, "aux", "wind")}
         worst = (0.0, 0, "")
         reward_dev = 0.0
         diverged = ""
@@ -190,6 +196,11 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
                 per_field["aux"] = max(per_field["aux"], d)
                 if d > worst[0]:
                     worst = (d, step, f"uav {i} aux")
+                if step < len(track.wind):  # the recorded wind, sampled again at the re-simulated position
+                    d = _deviation("wind", np.asarray(env.world.wind_at(i)), track.wind[step])
+                    per_field["wind"] = max(per_field["wind"], d)
+                    if d > worst[0]:
+                        worst = (d, step, f"uav {i} wind")
 
         compare(0)
         for k in range(n):

@@ -288,6 +288,35 @@ def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
     return entity(ns, f"scenery/{body_id}", WORLD_FRAME, **prims)
 
 
+def wind_entity(ns: int, index: int, position: Any, wind: Any, metres_per_mps: float = 0.2) -> dict[str, Any]:
+    """The wind at vehicle ``index`` as an arrow from its position along the wind (world
+    frame), ``metres_per_mps`` long per m/s of wind; no arrow in still air."""
+    wx, wy, wz = (float(v) for v in wind)
+    speed = math.sqrt(wx * wx + wy * wy + wz * wz)
+    arrows = []
+    if speed > 1e-9:
+        # the quaternion turning +x onto the wind direction (half-way vector construction)
+        dx, dy, dz = wx / speed, wy / speed, wz / speed
+        w = 1.0 + dx
+        if w < 1e-9:  # opposite to +x: half a turn about z
+            q = (0.0, 0.0, 1.0, 0.0)
+        else:
+            norm = math.sqrt(w * w + dz * dz + dy * dy)
+            q = (0.0, -dz / norm, dy / norm, w / norm)
+        length = speed * metres_per_mps
+        arrows.append(
+            {
+                "pose": pose(position, q),
+                "shaft_length": 0.75 * length,
+                "shaft_diameter": 0.02,
+                "head_length": 0.25 * length,
+                "head_diameter": 0.05,
+                "color": _color((0.2, 0.5, 1.0, 0.9)),
+            }
+        )
+    return entity(ns, f"uav_{index}/wind", WORLD_FRAME, arrows=arrows, metadata={"speed_mps": f"{speed:.3f}"})
+
+
 def waypoints_entity(ns: int, points: np.ndarray, radius: float) -> dict[str, Any]:
     """The task's markers (next first, brightest) as spheres in the world frame."""
     n = len(points)

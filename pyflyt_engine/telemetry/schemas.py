@@ -441,6 +441,18 @@ VEHICLE_STATE = _strict(
     },
 )
 
+WIND = _strict(
+    "pyflyt.Wind",
+    "The wind at one vehicle after a reset or an agent step (pyflyt_engine.atmosphere; recorded when the world has wind)",
+    {
+        **_COMMON,
+        "velocity": _vec(3, "wind velocity (x, y, z) [m/s] at the vehicle, ground frame (ENU)"),
+        "rotary": _vec(3, "rotary gust (p, q, r) [rad/s] at the vehicle, ground frame"),
+        "air_velocity": _vec(3, "the vehicle's velocity through the air (u, v, w) [m/s], body frame"),
+        "air_rates": _vec(3, "the vehicle's angular velocity relative to the air (p, q, r) [rad/s], body frame"),
+    },
+)
+
 ACTION = _strict(
     "pyflyt.Action",
     "The agent's action for one step; 'applied' (clipped to the action bounds) is what the vehicle received and what re-simulation replays",
@@ -498,5 +510,5 @@ EPISODE_EVENT = _strict(
 #: schema name -> schema, for every channel kind a recording uses
 ALL: dict[str, dict[str, Any]] = {
     s["title"]: s
-    for s in (FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, VEHICLE_STATE, ACTION, REWARD, EPISODE_EVENT)
+    for s in (FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, VEHICLE_STATE, WIND, ACTION, REWARD, EPISODE_EVENT)
 }

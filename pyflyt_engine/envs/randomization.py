@@ -1,0 +1,188 @@
+"""Domain randomisation declared in config: per-episode samples of physical parameters.
+
+An env config's ``randomize`` maps a parameter name to a bounded distribution; at every
+``reset`` each entry is drawn, in declaration order, from the env's seeded generator
+(``env.np_random``), so a seed reproduces the episode; the values are in
+``info["randomization"]`` at the reset and in the episode's MCAP (``docs/atmosphere.md``).
+
+Parameters (a fixed list; anything else is refused at load):
+
+* ``mass``, ``inertia``: factors on the airframe's dry mass and inertia (all three axes);
+* ``motor_kf``, ``motor_kt``, ``motor_tau``: factors on every motor's thrust coefficient,
+  torque coefficient and time constant;
+* ``drag``: factor on the body-drag coefficients (translational and rotational);
+* ``spawn_x``, ``spawn_y``, ``spawn_z`` [m], ``spawn_roll``, ``spawn_pitch``,
+  ``spawn_yaw`` [rad]: offsets added to the task's spawn pose;
+* ``wind.<path>``: the value of a number of the env's wind config, e.g.
+  ``wind.mean.speed`` [m/s] or ``wind.turbulence.wind_speed_20ft`` [m/s].
+
+The flight controller keeps the airframe's nominal values (a controller does not know
+the real vehicle's parameters: that is what randomisation tests).  Distributions:
+``uniform`` (``low``, ``high``), ``log_uniform`` (``0 < low <= high``: ``exp`` of a
+uniform draw between the logs) and ``normal`` (``mean``, ``std``; clipped to ``low`` /
+``high`` when given).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from pyflyt_engine.errors import ConfigError
+
+AIRFRAME = ("mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag")
+SPAWN = ("spawn_x", "spawn_y", "spawn_z", "spawn_roll", "spawn_pitch", "spawn_yaw")
+PARAMETERS = AIRFRAME + SPAWN
+
+
+class Distribution(BaseModel):
+    """A bounded distribution of one parameter."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    distribution: Literal["uniform", "normal", "log_uniform"] = Field(description="the law of the samples")
+    low: float | None = Field(None, description="lower bound (uniform, log_uniform: required; normal: clip)")
+    high: float | None = Field(None, description="upper bound (uniform, log_uniform: required; normal: clip)")
+    mean: float | None = Field(None, description="normal: the mean")
+    std: float | None = Field(None, ge=0, description="normal: the standard deviation")
+
+    @model_validator(mode="after")
+    def _parameters(self) -> Distribution:
+        if self.distribution in ("uniform", "log_uniform"):
+            if self.low is None or self.high is None:
+                raise ValueError(f"a {self.distribution} distribution needs low and high")
+            if self.distribution == "log_uniform" and not self.low > 0:
+                raise ValueError(f"log_uniform needs low > 0, got {self.low}")
+            if self.mean is not None or self.std is not None:
+                raise ValueError(f"mean and std belong to a normal distribution, not {self.distribution}")
+        elif self.mean is None or self.std is None:
+            raise ValueError("a normal distribution needs mean and std")
+        if self.low is not None and self.high is not None and self.low > self.high:
+            raise ValueError(f"low must not exceed high, got [{self.low}, {self.high}]")
+        return self
+
+    def sample(self, rng: np.random.Generator) -> float:
+        """One draw (exactly one call of ``rng``)."""
+        if self.distribution == "uniform":
+            return float(rng.uniform(self.low, self.high))
+        if self.distribution == "log_uniform":
+            return float(math.exp(rng.uniform(math.log(self.low), math.log(self.high))))  # type: ignore[arg-type]
+        value = float(rng.normal(self.mean, self.std))
+        if self.low is not None:
+            value = max(value, self.low)
+        if self.high is not None:
+            value = min(value, self.high)
+        return value
+
+
+def check_names(entries: Mapping[str, Any], wind: Any) -> None:
+    """ValueError naming an unknown parameter, a factor that could reach 0, or a wind path
+    the env's wind config lacks."""
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    for name, dist in entries.items():
+        if name.startswith("wind."):
+            _wind_number(load_wind_config(wind).model_dump(mode="json"), name)
+        elif name not in PARAMETERS:
+            close = difflib.get_close_matches(name, PARAMETERS, n=1)
+            hint = f" Did you mean '{close[0]}'?" if close else ""
+            raise ValueError(f"unknown parameter '{name}'.{hint} Known: {', '.join(PARAMETERS)}, wind.<path>")
+        elif name in AIRFRAME and (dist.low is None or dist.low <= 0):
+            raise ValueError(f"'{name}' is a factor on the nominal value: give it a lower bound low > 0")
+
+
+def _wind_number(data: dict[str, Any], name: str) -> tuple[dict[str, Any], str]:
+    """The mapping holding the number at ``wind.<path>`` and its key (ValueError if none)."""
+    parts = name.split(".")[1:]
+    node: Any = data
+    for part in parts[:-1]:
+        if not isinstance(node, dict) or not isinstance(node.get(part), dict):
+            raise ValueError(
+                f"'{name}': the env's wind config has no '{part}' section to randomise; "
+                "choose a wind preset that has it (e.g. env.wind=constant for wind.mean.*)"
+            )
+        node = node[part]
+    key = parts[-1] if parts else ""
+    value = node.get(key) if isinstance(node, dict) else None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"'{name}' is not a number of the env's wind config")
+    return node, key
+
+
+class Randomizer:
+    """Samples and applies an env's ``randomize`` entries at each reset.
+
+    Args:
+        entries: name -> :class:`Distribution` (validated, in declaration order).
+        world: the env's world (vehicle 0 is randomised).
+    """
+
+    def __init__(self, entries: Mapping[str, Distribution], world: Any) -> None:
+        self.entries = dict(entries)
+        self.world = world
+        vehicle = world.vehicles[0]
+        self.vehicle = vehicle
+        self.mass = vehicle.parts.mass
+        self.inertia = np.diag(vehicle.parts.inertia).copy()
+        motors = vehicle.actuators.motors
+        self.motor_params = motors.params if motors is not None else None
+        drag = vehicle.actuators.drag
+        self.drag_params = drag.params if drag is not None else None
+        self.wind = world.wind_config.model_dump(mode="json")
+
+    def sample(self, rng: np.random.Generator) -> dict[str, float]:
+        """Draw every entry (declaration order), apply the airframe and wind ones; returns the values."""
+        values = {name: dist.sample(rng) for name, dist in self.entries.items()}
+        v = self.vehicle
+        if "mass" in values or "inertia" in values:
+            v.set_mass_properties(self.mass * values.get("mass", 1.0), self.inertia * values.get("inertia", 1.0))
+        if self.motor_params is not None and any(k in values for k in ("motor_kf", "motor_kt", "motor_tau")):
+            m = self.motor_params
+            v.actuators.motors.set_params(
+                dataclasses.replace(
+                    m,
+                    kf=m.kf * values.get("motor_kf", 1.0),
+                    kt=m.kt * values.get("motor_kt", 1.0),
+                    tau=m.tau * values.get("motor_tau", 1.0),
+                )
+            )
+        if self.drag_params is not None and "drag" in values:
+            d, f = self.drag_params, values["drag"]
+            v.actuators.drag.set_params(
+                dataclasses.replace(
+                    d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+                )
+            )
+        winds = {k: x for k, x in values.items() if k.startswith("wind.")}
+        if winds:
+            import copy
+
+            data = copy.deepcopy(self.wind)
+            for name, value in winds.items():
+                node, key = _wind_number(data, name)
+                node[key] = value
+            try:
+                self.world.set_wind(data)
+            except ConfigError as exc:
+                raise ConfigError(
+                    f"randomize: the sampled wind {winds} is invalid ({exc}); bound the distributions (low/high)"
+                ) from None
+        return values
+
+    @staticmethod
+    def spawn(
+        values: Mapping[str, float], position: Any, orientation: Any
+    ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The task's spawn pose plus the sampled ``spawn_*`` offsets."""
+        x, y, z = (float(a) for a in position)
+        r, p, w = (float(a) for a in orientation)
+        return (
+            (x + values.get("spawn_x", 0.0), y + values.get("spawn_y", 0.0), z + values.get("spawn_z", 0.0)),
+            (r + values.get("spawn_roll", 0.0), p + values.get("spawn_pitch", 0.0), w + values.get("spawn_yaw", 0.0)),
+        )
