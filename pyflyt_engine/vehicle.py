@@ -33,9 +33,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-import pybullet as p
 
 from pyflyt_engine.assembly import Assembly, assemble
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras

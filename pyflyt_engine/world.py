@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pybullet as p
 
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec

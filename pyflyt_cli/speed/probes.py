@@ -76,8 +76,7 @@ def measure_world(n: int, seconds: float = 4.0) -> dict:
 
 def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1) -> float:
     """Seconds per physics step of the floor: ``n`` bodies, bare PyBullet."""
-    import pybullet as p
-
+    from pyflyt_engine.bullet import pybullet as p
     from pyflyt_engine.spec import load_uav_spec
     from pyflyt_engine.urdf import urdf_path
 

@@ -98,8 +98,7 @@ def render_video(
     suffix = out.suffix.lower()
     if suffix not in VIDEO_SUFFIXES:
         raise TelemetryError(f"--video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
-    import pybullet as p
-
+    from pyflyt_engine.bullet import pybullet as p
     from pyflyt_engine.envs.render import Markers, chase_camera
     from pyflyt_engine.state import KinematicState
     from pyflyt_engine.telemetry.replay import rebuild_env
