@@ -229,6 +229,41 @@ class DragSpec(_Spec):
         return value
 
 
+# ------------------------------------------------------------------- unit vectors
+
+#: How far from length 1 a direction typed by hand may be: four decimals ([0.7071, 0,
+#: 0.7071] has length 0.99998) are accepted and normalised; further off is a mistake.
+UNIT_TOLERANCE = 1e-3
+#: Closer to length 1 than this, a direction is used exactly as given.
+_UNIT_EXACT = 1e-6
+
+
+def unit_vector(value: Vec3, key: str) -> Vec3:
+    """``value`` scaled to length 1 (as given when within 1e-6 of it).
+
+    Raises:
+        ValueError: naming ``key`` and the length, when it is more than
+            :data:`UNIT_TOLERANCE` from 1.
+    """
+    norm = math.sqrt(sum(v * v for v in value))
+    if abs(norm - 1.0) <= _UNIT_EXACT:
+        return tuple(value)  # type: ignore[return-value]
+    if abs(norm - 1.0) > UNIT_TOLERANCE:
+        raise ValueError(
+            f"'{key}' must be a unit vector, got {list(value)} of length {norm:.6g} (accepted: within "
+            f"{UNIT_TOLERANCE:g} of 1, then normalised); divide each component by the length"
+        )
+    return tuple(v / norm for v in value)  # type: ignore[return-value]
+
+
+def _unit_field(value: Vec3, info: ValidationInfo) -> Vec3:
+    return unit_vector(value, info.field_name or "axis")
+
+
+#: a direction in the body frame, normalised at load (see :func:`unit_vector`)
+UnitVec3 = Annotated[Vec3, AfterValidator(_unit_field)]
+
+
 # ------------------------------------------------------------------------- motors
 
 
@@ -239,7 +274,7 @@ class MotorsSpec(_Spec):
     """Motor-driven propellers.  One entry per motor in every list; scalars apply to all."""
 
     positions: list[Vec3] = Field(description="hub position of each motor in the body frame [m]")
-    thrust_axes: list[Vec3] | None = Field(
+    thrust_axes: list[UnitVec3] | None = Field(
         None, description="unit thrust direction of each motor, body frame (default +z for all)"
     )
     spin: list[Literal[-1, 1]] = Field(
@@ -285,12 +320,6 @@ class MotorsSpec(_Spec):
             if bad.any():
                 relation = ">" if strict else ">="
                 raise ValueError(f"'{name}' must be {relation} {lower}, got {arr.tolist()}")
-        if self.thrust_axes is not None:
-            norms = np.linalg.norm(np.asarray(self.thrust_axes, dtype=float), axis=1)
-            if np.any(np.abs(norms - 1.0) > 1e-6):
-                raise ValueError(
-                    f"thrust_axes must be unit vectors, got norms {norms.round(6).tolist()}: normalise them"
-                )
         return self
 
     def to_array(self, name: str) -> np.ndarray:
@@ -306,20 +335,13 @@ class MotorsSpec(_Spec):
 # --------------------------------------------------------------- other actuators
 
 
-def _unit(name: str, value: Vec3) -> Vec3:
-    norm = float(np.linalg.norm(value))
-    if abs(norm - 1.0) > 1e-6:
-        raise ValueError(f"'{name}' must be a unit vector, got {list(value)} (norm {norm:.6g}): normalise it")
-    return value
-
-
 class SurfaceSpec(_Spec):
     """A (flapped) lifting surface: Khan & Nahon performance profile (see docs/uav_authoring.md)."""
 
     name: Identifier = Field(description="identifier, unique within the vehicle (letters, digits, '_', '-')")
     position: Vec3 = Field(description="aerodynamic centre in the spec's coordinates [m]")
-    chord_axis: Vec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
-    normal_axis: Vec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
+    chord_axis: UnitVec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
+    normal_axis: UnitVec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
     chord: float = Field(gt=0, description="chord [m]")
     span: float = Field(gt=0, description="span [m]")
     flap_to_chord: float = Field(0.0, ge=0, le=1, description="movable fraction of the chord")
@@ -345,12 +367,29 @@ class SurfaceSpec(_Spec):
             )
         return value
 
+    @field_validator("normal_axis")
+    @classmethod
+    def _normal(cls, value: Vec3, info: ValidationInfo) -> Vec3:
+        """A unit vector perpendicular to ``chord_axis``: within :data:`UNIT_TOLERANCE` of
+        it, the chord-wise part is removed (typed decimals); further off is refused."""
+        normal = value
+        chord = info.data.get("chord_axis")
+        if chord is None:  # chord_axis itself is invalid: reported on its own
+            return normal
+        dot = sum(n * c for n, c in zip(normal, chord))
+        if abs(dot) <= _UNIT_EXACT:
+            return normal
+        if abs(dot) > UNIT_TOLERANCE:
+            raise ValueError(
+                f"chord_axis and normal_axis must be perpendicular, got a dot product of {dot:.4g} (accepted: "
+                f"within {UNIT_TOLERANCE:g} of 0, then corrected); the normal points to the lift side, across the chord"
+            )
+        corrected = [n - dot * c for n, c in zip(normal, chord)]
+        length = math.sqrt(sum(v * v for v in corrected))  # >= sqrt(1 - dot**2): never near 0
+        return tuple(v / length for v in corrected)  # type: ignore[return-value]
+
     @model_validator(mode="after")
     def _geometry(self) -> SurfaceSpec:
-        _unit("chord_axis", self.chord_axis)
-        _unit("normal_axis", self.normal_axis)
-        if abs(float(np.dot(self.chord_axis, self.normal_axis))) > 1e-6:
-            raise ValueError("chord_axis and normal_axis must be perpendicular")
         if not self.stall_neg_deg < self.alpha_0_deg < self.stall_pos_deg:
             raise ValueError(
                 f"need stall_neg_deg < alpha_0_deg < stall_pos_deg, got {self.stall_neg_deg} / "
@@ -365,7 +404,7 @@ class BoostersSpec(_Spec):
     """Fueled boosters (columnar like motors: one entry per booster, scalars apply to all)."""
 
     positions: list[Vec3] = Field(description="thrust point of each booster [m]")
-    thrust_axes: list[Vec3] | None = Field(None, description="unit thrust directions (default +z)")
+    thrust_axes: list[UnitVec3] | None = Field(None, description="unit thrust directions (default +z)")
     fuel_tank_positions: list[Vec3] | None = Field(None, description="tank centres [m] (default: the thrust point)")
     total_fuel: ScalarOrList = Field(description="fuel mass when full [kg]")
     max_fuel_rate: ScalarOrList = Field(description="fuel mass flow at full duty [kg/s]")
@@ -390,8 +429,6 @@ class BoostersSpec(_Spec):
             value = getattr(self, name)
             if isinstance(value, list) and len(value) != n:
                 raise ValueError(f"'{name}' has {len(value)} entries but 'positions' has {n}: give one per booster")
-        for axis in self.thrust_axes or []:
-            _unit("thrust_axes", axis)
         return self
 
     def per_booster(self, name: str) -> list:
@@ -405,8 +442,8 @@ class GimbalSpec(_Spec):
 
     name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     target: str = Field(description="'booster:<index>' or 'motor:<index>' whose thrust axis it rotates")
-    axis_a: Vec3 = Field(description="first rotation axis, unit vector in the body frame")
-    axis_b: Vec3 = Field(description="second rotation axis, unit vector in the body frame")
+    axis_a: UnitVec3 = Field(description="first rotation axis, unit vector in the body frame")
+    axis_b: UnitVec3 = Field(description="second rotation axis, unit vector in the body frame")
     max_angle_a_deg: float = Field(ge=0, description="deflection limit about axis a [deg]")
     max_angle_b_deg: float = Field(ge=0, description="deflection limit about axis b [deg]")
     tau: float = Field(0.01, ge=0, description="actuator time constant [s]")
@@ -414,8 +451,6 @@ class GimbalSpec(_Spec):
 
     @model_validator(mode="after")
     def _axes(self) -> GimbalSpec:
-        _unit("axis_a", self.axis_a)
-        _unit("axis_b", self.axis_b)
         kind, _, index = self.target.partition(":")
         if kind not in ("booster", "motor") or not index.isdigit():
             raise ValueError(f"target must look like 'booster:0' or 'motor:2', got '{self.target}'")
