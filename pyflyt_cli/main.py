@@ -44,7 +44,8 @@ def user_errors(func: Callable[..., Any]) -> Callable[..., Any]:
     help="Fly one vehicle toward a setpoint and print a trajectory summary.\n\n"
     "Overrides (key=value) of conf/fly.yaml, e.g.:\n\n"
     "  pyflyt fly uav=quadx_cf2x mode=position_yaw setpoint=[0,0,0,1] duration=10\n\n"
-    "  pyflyt fly uav=quadx_f450 mode=velocity_yawrate 'setpoint={vx:1}'",
+    "  pyflyt fly uav=quadx_f450 mode=velocity_yawrate 'setpoint={vx:1}'\n\n"
+    "  pyflyt fly uav=path/to/my_airframe.yaml",
 )
 @user_errors
 def fly(overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides")) -> None:
