@@ -448,6 +448,11 @@ class GimbalSpec(_Spec):
     max_angle_b_deg: float = Field(ge=0, description="deflection limit about axis b [deg]")
     tau: float = Field(0.01, ge=0, description="actuator time constant [s]")
     channels: tuple[str, str] = Field(("gimbal_a", "gimbal_b"), description="channels commanding axes a and b in [-1, 1]")
+    mixer: bool = Field(
+        False,
+        description="true: the multirotor mixer flies axis a (a tilting motor: tricopter tail, tilt-rotor); the "
+        "target is a mixer motor, axis_a is perpendicular to its thrust axis, max_angle_b_deg is 0, channels unused",
+    )
 
     @model_validator(mode="after")
     def _axes(self) -> GimbalSpec:
@@ -628,7 +633,7 @@ class UAVSpec(_Spec):
         if self.boosters is not None:
             used += [("boosters.ignition_channel", c) for c in self.boosters.per_booster("ignition_channel")]
             used += [("boosters.throttle_channel", c) for c in self.boosters.per_booster("throttle_channel")]
-        used += [(f"gimbals.{g.name}.channels", c) for g in self.gimbals for c in g.channels]
+        used += [(f"gimbals.{g.name}.channels", c) for g in self.gimbals if not g.mixer for c in g.channels]
         if isinstance(self.control, FixedwingControlSpec):
             c = self.control
             used += [("control", n) for n in (c.roll_channel, c.pitch_channel, c.yaw_channel, c.thrust_channel)]
@@ -652,11 +657,43 @@ class UAVSpec(_Spec):
             for index in self.control.mixer_motors or []:
                 if not 0 <= index < n:
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
+        self._check_mixer_gimbals()
         if self.body.inertia is None or self.body.mass is None:
             _check_inertia(self.inertia_matrix())
         if isinstance(self.control, MultirotorControlSpec):
             self._check_controllable()
         return self
+
+    def _check_mixer_gimbals(self) -> None:
+        """A gimbal flown by the mixer turns one mixer motor about one axis across its thrust."""
+        tilted: list[int] = []
+        for g in self.gimbals:
+            if not g.mixer:
+                continue
+            where = f"gimbals.{g.name}"
+            if not isinstance(self.control, MultirotorControlSpec):
+                raise ValueError(f"{where}: mixer: true needs control.type 'multirotor' (the mixer flies the servo)")
+            if g.target_kind != "motor" or g.target_index not in self.mixer_motor_indices():
+                raise ValueError(
+                    f"{where}: mixer: true needs a target among the mixer's motors {list(self.mixer_motor_indices())} "
+                    f"(motor:<index>), got '{g.target}'"
+                )
+            if g.target_index in tilted:
+                raise ValueError(f"{where}: motor {g.target_index} already has a gimbal flown by the mixer")
+            tilted.append(g.target_index)
+            if g.max_angle_a_deg <= 0 or g.max_angle_b_deg != 0:
+                raise ValueError(
+                    f"{where}: the mixer flies axis a only: give max_angle_a_deg > 0 and max_angle_b_deg: 0, got "
+                    f"{g.max_angle_a_deg:g} and {g.max_angle_b_deg:g}"
+                )
+            axis = self.motors.to_array("thrust_axes")[g.target_index]  # type: ignore[union-attr]
+            dot = float(np.dot(axis, g.axis_a))
+            if abs(dot) > _UNIT_EXACT:
+                raise ValueError(
+                    f"{where}: axis_a {list(g.axis_a)} must be perpendicular to the thrust axis {axis.tolist()} of "
+                    f"motor {g.target_index} (dot product {dot:.3g}): the servo tilts the thrust across its own axis"
+                )
+
 
     def mixer_motor_indices(self) -> tuple[int, ...]:
         """Indices of the motors a multirotor controller flies: ``control.mixer_motors``,
@@ -670,23 +707,27 @@ class UAVSpec(_Spec):
 
     def _check_controllable(self) -> None:
         """The mixer motors must reach collective thrust, roll, pitch and yaw independently."""
-        from pyflyt_engine.control.mixer import allocation_matrix, allocation_rank  # noqa: PLC0415 (import cycle)
+        from pyflyt_engine.components.motor import MotorParams  # noqa: PLC0415 (import cycle)
+        from pyflyt_engine.control.mixer import Tilt, allocation_rank, tilted_allocation  # noqa: PLC0415
 
         assert self.motors is not None  # checked above
         idx = list(self.mixer_motor_indices())
         m = self.motors
         positions = np.asarray(m.positions, dtype=float)[idx] - self.center_of_mass()
         axes, spin, kf, kt = (m.to_array(name)[idx] for name in ("thrust_axes", "spin", "kf", "kt"))
-        allocation = allocation_matrix(positions, axes, spin, kf, kt)
-        rank = allocation_rank(allocation)
+        ones = np.ones(len(idx))
+        params = MotorParams(positions=positions, thrust_axes=axes, spin=spin, tau=ones, max_rpm=ones, kf=kf, kt=kt, noise_ratio=0 * ones)
+        tilts = [Tilt(idx.index(g.target_index), g.axis_a, math.radians(g.max_angle_a_deg)) for g in self.gimbals if g.mixer]
+        rank = allocation_rank(tilted_allocation(params, tilts))
         if rank < 4:
             raise ValueError(
                 f"the multirotor motors {idx} cannot control the vehicle: their allocation matrix "
-                f"(collective thrust, roll, pitch, yaw torque per motor) has rank {rank} < 4. "
+                f"(collective thrust, roll, pitch, yaw torque per motor"
+                f"{' and per servo-tilted thrust' if tilts else ''}) has rank {rank} < 4. "
                 "Thrust, roll, pitch and yaw must be independently reachable: the motors need positions "
                 "not all on one line through the centre of mass, and spin directions that are not all the "
-                "same (or tilted thrust axes); check motors.positions, motors.spin, motors.thrust_axes "
-                "and control.mixer_motors"
+                "same (or tilted thrust axes, or a servo the mixer flies: gimbals with mixer: true); check "
+                "motors.positions, motors.spin, motors.thrust_axes and control.mixer_motors"
             )
 
     # ------------------------------------------------------- mass properties

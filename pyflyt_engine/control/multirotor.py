@@ -92,6 +92,10 @@ class MultirotorController:
         self._gyro = (jz - jy, jx - jz, jy - jx)
         #: per ground axis (kp, ki, integral limit) of the velocity loop
         self._velocity_axes = tuple(zip(vel.kp, vel.ki, _integral_limits(vel.integral_limit, vel.ki)))
+        # attitude at which the mixer's side force per newton of thrust (a tilted tail's) and
+        # the thrust add up to a force along body z of the level frame: (roll, pitch) trim
+        fx, fy = mixer.side_force
+        self._trim = (math.atan(fy), -math.atan(fx)) if (fx or fy) else None
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -206,7 +210,8 @@ class MultirotorController:
         """Roll and pitch [rad] that point the thrust along a ground-frame acceleration:
         ``pitch = atan2(forward, lift)``, ``roll = atan2(-left cos(pitch), lift)`` with
         ``lift = max(g + az, 0.1 g)`` and (forward, left) the acceleration in the heading
-        frame, both clipped to ``max_tilt``."""
+        frame, both clipped to ``max_tilt``.  With tilted thrust (a tricopter's tail) the
+        trim attitude that cancels the mixer's side force is added first."""
         yaw = state.ang_pos[2]
         cy, sy = math.cos(yaw), math.sin(yaw)
         forward = cy * ax + sy * ay
@@ -215,6 +220,8 @@ class MultirotorController:
         lift = _MIN_LIFT if _MIN_LIFT > lift else lift  # max(g + az, 0.1 g)
         pitch = math.atan2(forward, lift)
         roll = math.atan2(-left * math.cos(pitch), lift)
+        if self._trim is not None:
+            roll, pitch = roll + self._trim[0], pitch + self._trim[1]
         limit = self.gains.velocity.max_tilt
         return _clamp(roll, limit), _clamp(pitch, limit)
 
