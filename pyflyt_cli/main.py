@@ -16,6 +16,24 @@ import typer
 
 from pyflyt_engine.errors import PyFlytError
 
+def _flags_without_type() -> None:
+    """``--help`` lists an on/off flag without a value type: typer's rich help prints
+    ``<bool>`` beside every flag (``--verify <bool>``), which reads as if it took a value."""
+    from typer.core import TyperOption
+
+    typed = TyperOption.display_type_rich
+    if getattr(typed, "_pyflyt_flags", False):
+        return
+
+    def display_type_rich(self: TyperOption, ctx: Any) -> str | None:
+        return None if self.is_flag else typed(self, ctx)
+
+    display_type_rich._pyflyt_flags = True  # type: ignore[attr-defined]
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+_flags_without_type()
+
 app = typer.Typer(
     name="pyflyt",
     help="UAV simulation and reinforcement-learning toolkit (PyFlyt paper).",

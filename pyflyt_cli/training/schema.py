@@ -484,7 +484,7 @@ class EvalOptions(_Strict):
     @classmethod
     def _video(cls, value: str | None) -> str | None:
         if value is not None and not value.lower().endswith((".gif", ".mp4")):
-            raise ValueError(f"video must end in .gif or .mp4, got {value!r}")
+            raise ValueError(f"must end in .gif or .mp4, got {value!r}: e.g. video=flight.gif or video=flight.mp4")
         return value
 
 

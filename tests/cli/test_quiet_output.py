@@ -57,3 +57,44 @@ def test_every_module_imports_pybullet_through_the_quiet_helper():
         if path.name != "bullet.py" and pattern.search(path.read_text())
     ]
     assert offenders == [], f"import PyBullet with `from pyflyt_engine.bullet import pybullet as p` in {offenders}"
+
+
+# ----------------------------------------------------------------- help and messages
+
+
+def _invoke(*args: str):
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    return CliRunner().invoke(app, list(args), terminal_width=120)
+
+
+@pytest.mark.parametrize("command", [["train"], ["replay"], ["benchmark"], ["speed"], ["uav", "show"]])
+def test_help_lists_flags_without_a_value_type(command):
+    """`--verify` is a switch: no `<bool>` beside it, as if it took a value; options that
+    take one keep their type."""
+    result = _invoke(*command, "--help")
+    assert result.exit_code == 0, result.output
+    assert "<bool>" not in result.output
+    assert "--help" in result.output
+    if command == ["replay"]:
+        assert re.search(r"--verify\s+re-simulate", result.output)
+        assert re.search(r"--tolerance\s+<float>", result.output)
+
+
+def test_a_bad_video_name_is_reported_once():
+    from pyflyt_cli.training.schema import parse_eval_options
+    from pyflyt_engine.errors import ConfigError
+
+    with pytest.raises(ConfigError) as info:
+        parse_eval_options({"video": "foo.avi"})
+    message = str(info.value)
+    assert message.count("foo.avi") == 1, message
+    assert "video: must end in .gif or .mp4, got 'foo.avi'" in message
+
+
+def test_envs_says_what_the_target_distance_is_a_fraction_of():
+    result = _invoke("envs")
+    assert "max_target_distance=0.9 x dome = 4.5 m" in result.output  # QuadX-Waypoints: 5 m dome
+    assert "max_target_distance=0.9 x dome = 90 m" in result.output  # Fixedwing-Waypoints: 100 m dome

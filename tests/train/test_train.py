@@ -105,7 +105,7 @@ def test_eval_errors(tmp_path):
         evaluate_run(tmp_path / "missing")
     with pytest.raises(ConfigError, match="not a run directory"):
         evaluate_run(tmp_path)
-    with pytest.raises(ConfigError, match="video must end in .gif or .mp4"):
+    with pytest.raises(ConfigError, match="video: must end in .gif or .mp4"):
         evaluate_run(tmp_path, {"video": "out.avi"})
 
 
