@@ -228,6 +228,8 @@ def plot(
     typer.echo(f"report: {report.markdown}")
     for path in report.figures:
         typer.echo(f"figure: {path}")
+    for name, why in report.skipped.items():
+        typer.echo(f"not drawn: {name} ({why})")
 
 
 uav_app = typer.Typer(
