@@ -22,9 +22,9 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-import pybullet as p
 
 from pyflyt_cli.speed.probes import bare_pybullet  # the floor, shared with `pyflyt speed`
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.world import VehicleConfig, World
 
 

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 from gymnasium import spaces
 
@@ -50,7 +51,7 @@ def list_envs() -> str:
                 f"               dense: {load_reward_preset(cfg.reward_presets['dense']).description}",
                 f"  defaults:    uav={cfg.uav}, rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
                 f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m",
-                f"  task:        {cfg.task.name}: " + ", ".join(f"{k}={v}" for k, v in task_defaults.items()),
+                f"  task:        {cfg.task.name}: " + ", ".join(_task_value(cfg, k, v) for k, v in task_defaults.items()),
                 "",
             ]
         finally:
@@ -59,6 +60,14 @@ def list_envs() -> str:
     lines.append("conditions:   " + ", ".join(CONDITIONS) + " (each also as not_<name>)")
     lines.append("make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine")
     return "\n".join(lines)
+
+
+def _task_value(cfg: Any, key: str, value: Any) -> str:
+    """``key=value``; a fraction of the flight dome also in metres (``max_target_distance=0.9 x dome = 4.5 m``)."""
+    field = type(cfg.task).model_fields.get(key)
+    if field is not None and "fraction of the flight dome" in (field.description or ""):
+        return f"{key}={value:g} x dome = {value * cfg.flight_dome_size:g} m"
+    return f"{key}={value}"
 
 
 def list_modes() -> str:

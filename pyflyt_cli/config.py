@@ -8,6 +8,8 @@ containers and calls plain functions.  Every Hydra/OmegaConf failure becomes a
 from __future__ import annotations
 
 import difflib
+import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -40,7 +42,7 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     from omegaconf.errors import OmegaConfBaseException
 
     _check_group_choices(overrides)
-    overrides, copies = _experiment_files(overrides)
+    overrides, copies = _group_files(overrides)
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
             return hydra_compose(
@@ -77,14 +79,74 @@ def _check_group_choices(overrides: Sequence[str]) -> None:
             raise CLIError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
 
 
-def _experiment_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
-    """``experiment=path/to/study.yaml``: an experiment file outside ``conf/`` (e.g. in ``experiments/``).
+#: config groups whose choice may also be the path of a YAML file (``experiment=study.yaml``,
+#: ``uav=my_hexacopter.yaml``)
+FILE_GROUPS = ("experiment", "uav")
+
+
+def names_file(value: str) -> bool:
+    """Whether a group choice is a file path rather than the name of a shipped option."""
+    return value.endswith((".yaml", ".yml")) or "/" in value or (os.sep in value)
+
+
+def airframe_file(value: str, key: str = "uav") -> Path:
+    """The airframe file given as ``<key>=<value>`` (``uav=`` or ``env.uav=``), absolute, after checking it.
+
+    Raises:
+        CLIError: no such file (the message gives the absolute path looked at).
+        SpecError: the file is not a valid airframe (the message names the file, the field and the fix).
+    """
+    from pyflyt_engine.spec import available_uavs, load_uav_spec
+
+    path = Path(value).expanduser()
+    if not path.is_file():
+        what = "is a directory, not an airframe file" if path.is_dir() else "no such airframe file"
+        raise CLIError(
+            f"{key}={value}: {what} ({path.absolute()}); give the path of a .yaml airframe (relative to "
+            f"{Path.cwd()} or absolute), or a shipped airframe: {', '.join(available_uavs())}"
+        )
+    load_uav_spec(path)
+    return path.resolve()
+
+
+def hydra_value(value: str) -> str:
+    """``value`` as a Hydra override reads it back as that string (quoted when needed)."""
+    if re.fullmatch(r"[A-Za-z0-9_/.@%:+\-]+", value) and value[0] not in "+-":
+        return value
+    if "\\" in value or "${" in value:
+        raise CLIError(f"{value!r} holds a backslash or '${{', which an override cannot carry; rename or move it")
+    return "'" + value.replace("'", "\\'") + "'"
+
+
+def absolute_airframes(overrides: Sequence[str], *, into_env: bool = False) -> list[str]:
+    """``uav=<path>`` and ``env.uav=<path>`` with the path checked and made absolute.
+
+    So a command line means the same from any working directory (a benchmark's runs, a
+    launcher's jobs).  With ``into_env`` (training, where the airframe is the env's),
+    ``uav=<path>`` becomes ``env.uav=<path>``.  Shipped names pass unchanged.
+    """
+    out = []
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        bare = key.lstrip("+")
+        if sep and bare in ("uav", "env.uav") and not key.startswith("~") and names_file(value):
+            path = hydra_value(str(airframe_file(value, bare)))
+            key = "env.uav" if into_env else key
+            item = f"{key}={path}"
+        out.append(item)
+    return out
+
+
+def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
+    """``experiment=path/to/study.yaml``, ``uav=path/to/airframe.yaml``: an option given as a file.
 
     Hydra finds group options on its search path only, so the file is offered to it as
-    ``experiment/<stem>.yaml`` of a private directory added to ``hydra.searchpath``.  It
-    is read first as plain YAML data (``yaml.safe_load``: a ``!!python/...`` tag is
-    refused, never run) so a problem is reported against the file given; its name must
-    not shadow a shipped experiment.  Returns the overrides and {copy: file given}.
+    ``<group>/<name>.yaml`` of a private directory added to ``hydra.searchpath``.  It is
+    read first as plain YAML data (``yaml.safe_load``: a ``!!python/...`` tag is refused,
+    never run), so a problem is reported against the file given.  An experiment file's
+    name must not shadow a shipped experiment; an airframe file is validated as one and
+    offered as ``<stem>.file``, a name no shipped airframe has (``conf/`` comes first on
+    the search path).  Returns the overrides and {copy: file given}.
     """
     import atexit
     import shutil
@@ -92,27 +154,36 @@ def _experiment_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, st
 
     out: list[str] = []
     copies: dict[str, str] = {}
+    folder: Path | None = None
     for item in overrides:
         key, _, value = item.partition("=")
-        if key.lstrip("+") != "experiment" or not (value.endswith((".yaml", ".yml")) or "/" in value):
+        group = key.lstrip("+")
+        if group not in FILE_GROUPS or not names_file(value):
             out.append(item)
             continue
-        path = Path(value).expanduser()
-        shipped = ", ".join(_group_choices("experiment"))
-        if not value.endswith((".yaml", ".yml")):
-            raise CLIError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
-        if not path.is_file():
-            raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
-        if path.stem in _group_choices("experiment"):
-            raise CLIError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
-        read_yaml_data(path)
-        folder = Path(tempfile.mkdtemp(prefix="pyflyt-experiment-"))
-        atexit.register(shutil.rmtree, folder, True)
-        (folder / "experiment").mkdir()
-        copy = folder / "experiment" / f"{path.stem}.yaml"
+        if group == "experiment":
+            path = Path(value).expanduser()
+            shipped = ", ".join(_group_choices("experiment"))
+            if not value.endswith((".yaml", ".yml")):
+                raise CLIError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
+            if not path.is_file():
+                raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
+            if path.stem in _group_choices("experiment"):
+                raise CLIError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
+            read_yaml_data(path)
+            option = path.stem
+        else:
+            path = airframe_file(value, group)
+            option = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem) + ".file"
+        if folder is None:
+            folder = Path(tempfile.mkdtemp(prefix="pyflyt-files-"))
+            atexit.register(shutil.rmtree, folder, True)
+            out.append(f"hydra.searchpath=[file://{folder}]")
+        (folder / group).mkdir(exist_ok=True)
+        copy = folder / group / f"{option}.yaml"
         shutil.copyfile(path, copy)
         copies[str(copy)] = str(path)
-        out += [f"{key}={path.stem}", f"hydra.searchpath=[file://{folder}]"]
+        out.append(f"{key}={option}")
     return out, copies
 
 
@@ -152,7 +223,8 @@ def _missing_message(exc: Exception) -> str:
     if options:
         close = difflib.get_close_matches(choice, options, n=1)
         hint = f" Did you mean '{close[0]}'?" if close else ""
-        return f"unknown {group or 'config'} '{choice}'.{hint} Available: {', '.join(options)}"
+        file_hint = "; or give the path of a .yaml file" if group in FILE_GROUPS else ""
+        return f"unknown {group or 'config'} '{choice}'.{hint} Available: {', '.join(options)}{file_hint}"
     return str(exc).splitlines()[0]
 
 

@@ -16,6 +16,24 @@ import typer
 
 from pyflyt_engine.errors import PyFlytError
 
+def _flags_without_type() -> None:
+    """``--help`` lists an on/off flag without a value type: typer's rich help prints
+    ``<bool>`` beside every flag (``--verify <bool>``), which reads as if it took a value."""
+    from typer.core import TyperOption
+
+    typed = TyperOption.display_type_rich
+    if getattr(typed, "_pyflyt_flags", False):
+        return
+
+    def display_type_rich(self: TyperOption, ctx: Any) -> str | None:
+        return None if self.is_flag else typed(self, ctx)
+
+    display_type_rich._pyflyt_flags = True  # type: ignore[attr-defined]
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+_flags_without_type()
+
 app = typer.Typer(
     name="pyflyt",
     help="UAV simulation and reinforcement-learning toolkit (PyFlyt paper).",
@@ -44,7 +62,8 @@ def user_errors(func: Callable[..., Any]) -> Callable[..., Any]:
     help="Fly one vehicle toward a setpoint and print a trajectory summary.\n\n"
     "Overrides (key=value) of conf/fly.yaml, e.g.:\n\n"
     "  pyflyt fly uav=quadx_cf2x mode=position_yaw setpoint=[0,0,0,1] duration=10\n\n"
-    "  pyflyt fly uav=quadx_f450 mode=velocity_yawrate 'setpoint={vx:1}'",
+    "  pyflyt fly uav=quadx_f450 mode=velocity_yawrate 'setpoint={vx:1}'\n\n"
+    "  pyflyt fly uav=path/to/my_airframe.yaml",
 )
 @user_errors
 def fly(overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides")) -> None:
@@ -209,6 +228,8 @@ def plot(
     typer.echo(f"report: {report.markdown}")
     for path in report.figures:
         typer.echo(f"figure: {path}")
+    for name, why in report.skipped.items():
+        typer.echo(f"not drawn: {name} ({why})")
 
 
 uav_app = typer.Typer(

@@ -17,6 +17,7 @@ from pyflyt_engine.components.camera import CameraParams
 from pyflyt_engine.components.gimbal import GimbalParams
 from pyflyt_engine.components.lifting_surface import LiftingSurfaceParams
 from pyflyt_engine.components.motor import MotorParams
+from pyflyt_engine.control.mixer import Tilt
 from pyflyt_engine.spec import UAVSpec
 
 
@@ -33,7 +34,9 @@ class Assembly:
         surfaces: lifting surfaces; surface_mix: (n_surfaces, n_channels).
         boosters, ignition_index, throttle_index: boosters and their channel indices.
         gimbals, gimbal_channels, gimbal_targets: gimbals, their (n, 2) channel
-            indices and (kind, index) targets.
+            indices (-1 for a gimbal the mixer flies) and (kind, index) targets.
+        mixer_tilts: per gimbal the mixer flies, (gimbal index, its
+            :class:`~pyflyt_engine.control.mixer.Tilt`), in gimbal order.
         cameras: camera parameters, in spec order.
     """
 
@@ -55,6 +58,7 @@ class Assembly:
     gimbal_channels: np.ndarray
     gimbal_targets: tuple[tuple[str, int], ...]
     cameras: tuple[CameraParams, ...]
+    mixer_tilts: tuple[tuple[int, Tilt], ...] = ()
 
 
 def _mix_matrix(rows: list[dict[str, float] | None], channels: tuple[str, ...]) -> np.ndarray:
@@ -142,8 +146,16 @@ def assemble(spec: UAVSpec) -> Assembly:
             max_angle_b=np.radians([x.max_angle_b_deg for x in g]),
             tau=np.array([x.tau for x in g], dtype=float),
         )
-        gimbal_channels = np.array([[channels.index(c) for c in x.channels] for x in g], dtype=int)
+        gimbal_channels = np.array(
+            [[-1, -1] if x.mixer else [channels.index(c) for c in x.channels] for x in g], dtype=int
+        )
         gimbal_targets = tuple((x.target_kind, x.target_index) for x in g)
+    slots = {motor: slot for slot, motor in enumerate(spec.mixer_motor_indices())}
+    mixer_tilts = tuple(
+        (i, Tilt(slots[g.target_index], g.axis_a, math.radians(g.max_angle_a_deg)))
+        for i, g in enumerate(spec.gimbals)
+        if g.mixer
+    )
 
     cameras = tuple(
         CameraParams(
@@ -180,4 +192,5 @@ def assemble(spec: UAVSpec) -> Assembly:
         gimbal_channels=gimbal_channels,
         gimbal_targets=gimbal_targets,
         cameras=cameras,
+        mixer_tilts=mixer_tilts,
     )

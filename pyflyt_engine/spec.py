@@ -229,6 +229,41 @@ class DragSpec(_Spec):
         return value
 
 
+# ------------------------------------------------------------------- unit vectors
+
+#: How far from length 1 a direction typed by hand may be: four decimals ([0.7071, 0,
+#: 0.7071] has length 0.99998) are accepted and normalised; further off is a mistake.
+UNIT_TOLERANCE = 1e-3
+#: Closer to length 1 than this, a direction is used exactly as given.
+_UNIT_EXACT = 1e-6
+
+
+def unit_vector(value: Vec3, key: str) -> Vec3:
+    """``value`` scaled to length 1 (as given when within 1e-6 of it).
+
+    Raises:
+        ValueError: naming ``key`` and the length, when it is more than
+            :data:`UNIT_TOLERANCE` from 1.
+    """
+    norm = math.sqrt(sum(v * v for v in value))
+    if abs(norm - 1.0) <= _UNIT_EXACT:
+        return tuple(value)  # type: ignore[return-value]
+    if abs(norm - 1.0) > UNIT_TOLERANCE:
+        raise ValueError(
+            f"'{key}' must be a unit vector, got {list(value)} of length {norm:.6g} (accepted: within "
+            f"{UNIT_TOLERANCE:g} of 1, then normalised); divide each component by the length"
+        )
+    return tuple(v / norm for v in value)  # type: ignore[return-value]
+
+
+def _unit_field(value: Vec3, info: ValidationInfo) -> Vec3:
+    return unit_vector(value, info.field_name or "axis")
+
+
+#: a direction in the body frame, normalised at load (see :func:`unit_vector`)
+UnitVec3 = Annotated[Vec3, AfterValidator(_unit_field)]
+
+
 # ------------------------------------------------------------------------- motors
 
 
@@ -239,7 +274,7 @@ class MotorsSpec(_Spec):
     """Motor-driven propellers.  One entry per motor in every list; scalars apply to all."""
 
     positions: list[Vec3] = Field(description="hub position of each motor in the body frame [m]")
-    thrust_axes: list[Vec3] | None = Field(
+    thrust_axes: list[UnitVec3] | None = Field(
         None, description="unit thrust direction of each motor, body frame (default +z for all)"
     )
     spin: list[Literal[-1, 1]] = Field(
@@ -291,12 +326,6 @@ class MotorsSpec(_Spec):
             if bad.any():
                 relation = ">" if strict else ">="
                 raise ValueError(f"'{name}' must be {relation} {lower}, got {arr.tolist()}")
-        if self.thrust_axes is not None:
-            norms = np.linalg.norm(np.asarray(self.thrust_axes, dtype=float), axis=1)
-            if np.any(np.abs(norms - 1.0) > 1e-6):
-                raise ValueError(
-                    f"thrust_axes must be unit vectors, got norms {norms.round(6).tolist()}: normalise them"
-                )
         return self
 
     def to_array(self, name: str) -> np.ndarray:
@@ -312,20 +341,13 @@ class MotorsSpec(_Spec):
 # --------------------------------------------------------------- other actuators
 
 
-def _unit(name: str, value: Vec3) -> Vec3:
-    norm = float(np.linalg.norm(value))
-    if abs(norm - 1.0) > 1e-6:
-        raise ValueError(f"'{name}' must be a unit vector, got {list(value)} (norm {norm:.6g}): normalise it")
-    return value
-
-
 class SurfaceSpec(_Spec):
     """A (flapped) lifting surface: Khan & Nahon performance profile (see docs/uav_authoring.md)."""
 
     name: Identifier = Field(description="identifier, unique within the vehicle (letters, digits, '_', '-')")
     position: Vec3 = Field(description="aerodynamic centre in the spec's coordinates [m]")
-    chord_axis: Vec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
-    normal_axis: Vec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
+    chord_axis: UnitVec3 = Field((1.0, 0.0, 0.0), description="unit vector, trailing edge to leading edge, body frame")
+    normal_axis: UnitVec3 = Field((0.0, 0.0, 1.0), description="unit vector on the positive-lift side, body frame")
     chord: float = Field(gt=0, description="chord [m]")
     span: float = Field(gt=0, description="span [m]")
     flap_to_chord: float = Field(0.0, ge=0, le=1, description="movable fraction of the chord")
@@ -351,12 +373,29 @@ class SurfaceSpec(_Spec):
             )
         return value
 
+    @field_validator("normal_axis")
+    @classmethod
+    def _normal(cls, value: Vec3, info: ValidationInfo) -> Vec3:
+        """A unit vector perpendicular to ``chord_axis``: within :data:`UNIT_TOLERANCE` of
+        it, the chord-wise part is removed (typed decimals); further off is refused."""
+        normal = value
+        chord = info.data.get("chord_axis")
+        if chord is None:  # chord_axis itself is invalid: reported on its own
+            return normal
+        dot = sum(n * c for n, c in zip(normal, chord))
+        if abs(dot) <= _UNIT_EXACT:
+            return normal
+        if abs(dot) > UNIT_TOLERANCE:
+            raise ValueError(
+                f"chord_axis and normal_axis must be perpendicular, got a dot product of {dot:.4g} (accepted: "
+                f"within {UNIT_TOLERANCE:g} of 0, then corrected); the normal points to the lift side, across the chord"
+            )
+        corrected = [n - dot * c for n, c in zip(normal, chord)]
+        length = math.sqrt(sum(v * v for v in corrected))  # >= sqrt(1 - dot**2): never near 0
+        return tuple(v / length for v in corrected)  # type: ignore[return-value]
+
     @model_validator(mode="after")
     def _geometry(self) -> SurfaceSpec:
-        _unit("chord_axis", self.chord_axis)
-        _unit("normal_axis", self.normal_axis)
-        if abs(float(np.dot(self.chord_axis, self.normal_axis))) > 1e-6:
-            raise ValueError("chord_axis and normal_axis must be perpendicular")
         if not self.stall_neg_deg < self.alpha_0_deg < self.stall_pos_deg:
             raise ValueError(
                 f"need stall_neg_deg < alpha_0_deg < stall_pos_deg, got {self.stall_neg_deg} / "
@@ -371,7 +410,7 @@ class BoostersSpec(_Spec):
     """Fueled boosters (columnar like motors: one entry per booster, scalars apply to all)."""
 
     positions: list[Vec3] = Field(description="thrust point of each booster [m]")
-    thrust_axes: list[Vec3] | None = Field(None, description="unit thrust directions (default +z)")
+    thrust_axes: list[UnitVec3] | None = Field(None, description="unit thrust directions (default +z)")
     fuel_tank_positions: list[Vec3] | None = Field(None, description="tank centres [m] (default: the thrust point)")
     total_fuel: ScalarOrList = Field(description="fuel mass when full [kg]")
     max_fuel_rate: ScalarOrList = Field(description="fuel mass flow at full duty [kg/s]")
@@ -396,8 +435,6 @@ class BoostersSpec(_Spec):
             value = getattr(self, name)
             if isinstance(value, list) and len(value) != n:
                 raise ValueError(f"'{name}' has {len(value)} entries but 'positions' has {n}: give one per booster")
-        for axis in self.thrust_axes or []:
-            _unit("thrust_axes", axis)
         return self
 
     def per_booster(self, name: str) -> list:
@@ -411,17 +448,20 @@ class GimbalSpec(_Spec):
 
     name: Identifier = Field(description="identifier (letters, digits, '_', '-')")
     target: str = Field(description="'booster:<index>' or 'motor:<index>' whose thrust axis it rotates")
-    axis_a: Vec3 = Field(description="first rotation axis, unit vector in the body frame")
-    axis_b: Vec3 = Field(description="second rotation axis, unit vector in the body frame")
+    axis_a: UnitVec3 = Field(description="first rotation axis, unit vector in the body frame")
+    axis_b: UnitVec3 = Field(description="second rotation axis, unit vector in the body frame")
     max_angle_a_deg: float = Field(ge=0, description="deflection limit about axis a [deg]")
     max_angle_b_deg: float = Field(ge=0, description="deflection limit about axis b [deg]")
     tau: float = Field(0.01, ge=0, description="actuator time constant [s]")
     channels: tuple[str, str] = Field(("gimbal_a", "gimbal_b"), description="channels commanding axes a and b in [-1, 1]")
+    mixer: bool = Field(
+        False,
+        description="true: the multirotor mixer flies axis a (a tilting motor: tricopter tail, tilt-rotor); the "
+        "target is a mixer motor, axis_a is perpendicular to its thrust axis, max_angle_b_deg is 0, channels unused",
+    )
 
     @model_validator(mode="after")
     def _axes(self) -> GimbalSpec:
-        _unit("axis_a", self.axis_a)
-        _unit("axis_b", self.axis_b)
         kind, _, index = self.target.partition(":")
         if kind not in ("booster", "motor") or not index.isdigit():
             raise ValueError(f"target must look like 'booster:0' or 'motor:2', got '{self.target}'")
@@ -599,7 +639,7 @@ class UAVSpec(_Spec):
         if self.boosters is not None:
             used += [("boosters.ignition_channel", c) for c in self.boosters.per_booster("ignition_channel")]
             used += [("boosters.throttle_channel", c) for c in self.boosters.per_booster("throttle_channel")]
-        used += [(f"gimbals.{g.name}.channels", c) for g in self.gimbals for c in g.channels]
+        used += [(f"gimbals.{g.name}.channels", c) for g in self.gimbals if not g.mixer for c in g.channels]
         if isinstance(self.control, FixedwingControlSpec):
             c = self.control
             used += [("control", n) for n in (c.roll_channel, c.pitch_channel, c.yaw_channel, c.thrust_channel)]
@@ -623,11 +663,43 @@ class UAVSpec(_Spec):
             for index in self.control.mixer_motors or []:
                 if not 0 <= index < n:
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
+        self._check_mixer_gimbals()
         if self.body.inertia is None or self.body.mass is None:
             _check_inertia(self.inertia_matrix())
         if isinstance(self.control, MultirotorControlSpec):
             self._check_controllable()
         return self
+
+    def _check_mixer_gimbals(self) -> None:
+        """A gimbal flown by the mixer turns one mixer motor about one axis across its thrust."""
+        tilted: list[int] = []
+        for g in self.gimbals:
+            if not g.mixer:
+                continue
+            where = f"gimbals.{g.name}"
+            if not isinstance(self.control, MultirotorControlSpec):
+                raise ValueError(f"{where}: mixer: true needs control.type 'multirotor' (the mixer flies the servo)")
+            if g.target_kind != "motor" or g.target_index not in self.mixer_motor_indices():
+                raise ValueError(
+                    f"{where}: mixer: true needs a target among the mixer's motors {list(self.mixer_motor_indices())} "
+                    f"(motor:<index>), got '{g.target}'"
+                )
+            if g.target_index in tilted:
+                raise ValueError(f"{where}: motor {g.target_index} already has a gimbal flown by the mixer")
+            tilted.append(g.target_index)
+            if g.max_angle_a_deg <= 0 or g.max_angle_b_deg != 0:
+                raise ValueError(
+                    f"{where}: the mixer flies axis a only: give max_angle_a_deg > 0 and max_angle_b_deg: 0, got "
+                    f"{g.max_angle_a_deg:g} and {g.max_angle_b_deg:g}"
+                )
+            axis = self.motors.to_array("thrust_axes")[g.target_index]  # type: ignore[union-attr]
+            dot = float(np.dot(axis, g.axis_a))
+            if abs(dot) > _UNIT_EXACT:
+                raise ValueError(
+                    f"{where}: axis_a {list(g.axis_a)} must be perpendicular to the thrust axis {axis.tolist()} of "
+                    f"motor {g.target_index} (dot product {dot:.3g}): the servo tilts the thrust across its own axis"
+                )
+
 
     def mixer_motor_indices(self) -> tuple[int, ...]:
         """Indices of the motors a multirotor controller flies: ``control.mixer_motors``,
@@ -641,23 +713,27 @@ class UAVSpec(_Spec):
 
     def _check_controllable(self) -> None:
         """The mixer motors must reach collective thrust, roll, pitch and yaw independently."""
-        from pyflyt_engine.control.mixer import allocation_matrix, allocation_rank  # noqa: PLC0415 (import cycle)
+        from pyflyt_engine.components.motor import MotorParams  # noqa: PLC0415 (import cycle)
+        from pyflyt_engine.control.mixer import Tilt, allocation_rank, tilted_allocation  # noqa: PLC0415
 
         assert self.motors is not None  # checked above
         idx = list(self.mixer_motor_indices())
         m = self.motors
         positions = np.asarray(m.positions, dtype=float)[idx] - self.center_of_mass()
         axes, spin, kf, kt = (m.to_array(name)[idx] for name in ("thrust_axes", "spin", "kf", "kt"))
-        allocation = allocation_matrix(positions, axes, spin, kf, kt)
-        rank = allocation_rank(allocation)
+        ones = np.ones(len(idx))
+        params = MotorParams(positions=positions, thrust_axes=axes, spin=spin, tau=ones, max_rpm=ones, kf=kf, kt=kt, noise_ratio=0 * ones)
+        tilts = [Tilt(idx.index(g.target_index), g.axis_a, math.radians(g.max_angle_a_deg)) for g in self.gimbals if g.mixer]
+        rank = allocation_rank(tilted_allocation(params, tilts))
         if rank < 4:
             raise ValueError(
                 f"the multirotor motors {idx} cannot control the vehicle: their allocation matrix "
-                f"(collective thrust, roll, pitch, yaw torque per motor) has rank {rank} < 4. "
+                f"(collective thrust, roll, pitch, yaw torque per motor"
+                f"{' and per servo-tilted thrust' if tilts else ''}) has rank {rank} < 4. "
                 "Thrust, roll, pitch and yaw must be independently reachable: the motors need positions "
                 "not all on one line through the centre of mass, and spin directions that are not all the "
-                "same (or tilted thrust axes); check motors.positions, motors.spin, motors.thrust_axes "
-                "and control.mixer_motors"
+                "same (or tilted thrust axes, or a servo the mixer flies: gimbals with mixer: true); check "
+                "motors.positions, motors.spin, motors.thrust_axes and control.mixer_motors"
             )
 
     # ------------------------------------------------------- mass properties

@@ -33,9 +33,9 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-import pybullet as p
 
 from pyflyt_engine.assembly import Assembly, assemble
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras
@@ -236,6 +236,8 @@ class Vehicle:
         self._ignition_index = parts.ignition_index.tolist()
         self._throttle_index = parts.throttle_index.tolist()
         self._gimbal_channels = [tuple(row) for row in parts.gimbal_channels.tolist()]
+        # gimbals the mixer flies: (gimbal, index of its command among the mixer's outputs)
+        self._mixer_gimbals = [(g, len(parts.mixer_motors) + k) for k, (g, _) in enumerate(parts.mixer_tilts)]
 
         # --- control
         self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
@@ -245,7 +247,7 @@ class Vehicle:
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
-            self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors))
+            self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
             self.controller = MultirotorController(
                 spec.control, parts.mass, np.diag(parts.inertia), self.mixer, control_dt
             )
@@ -278,7 +280,7 @@ class Vehicle:
         if mode.name == "channels":
             return len(self.parts.channels)
         if mode.name == "motors":
-            return len(self.parts.mixer_motors) + len(self.parts.channels)
+            return len(self.parts.mixer_motors) + len(self.parts.mixer_tilts) + len(self.parts.channels)
         extra = len(self.parts.channels) if self.controller is not None else 0
         return len(mode.setpoint) + extra
 
@@ -288,7 +290,8 @@ class Vehicle:
         if self.mode.name == "channels":
             return self.parts.channels
         if self.mode.name == "motors":
-            return tuple(f"m{i + 1}" for i in self.parts.mixer_motors) + self.parts.channels
+            tilts = tuple(f"tilt_{self.spec.gimbals[g].name}" for g, _ in self.parts.mixer_tilts)
+            return tuple(f"m{i + 1}" for i in self.parts.mixer_motors) + tilts + self.parts.channels
         extra = self.parts.channels if self.controller is not None else ()
         return tuple(self.mode.setpoint) + extra
 
@@ -460,7 +463,12 @@ class Vehicle:
             a.boosters.ignition = [c[j] > 0.5 for j in self._ignition_index]
             a.boosters.throttle = [_clamp(c[j], 0.0, 1.0) for j in self._throttle_index]
         if a.gimbals is not None:
-            a.gimbals.command = [(_clamp(c[i], -1.0, 1.0), _clamp(c[j], -1.0, 1.0)) for i, j in self._gimbal_channels]
+            a.gimbals.command = [
+                (_clamp(c[i], -1.0, 1.0), _clamp(c[j], -1.0, 1.0)) if i >= 0 else (0.0, 0.0)
+                for i, j in self._gimbal_channels
+            ]
+            for g, k in self._mixer_gimbals:  # a servo the mixer flies (0: centred when disarmed)
+                a.gimbals.command[g] = (_clamp(throttles[k], -1.0, 1.0) if throttles is not None else 0.0, 0.0)
 
     def apply_loads(self) -> None:
         """Advance every actuator group one physics step and apply the net wrench to the body

@@ -24,10 +24,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pybullet as p
 
 from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config, vehicle_span
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec

@@ -71,8 +71,7 @@ def build_offline(spec: UAVSpec) -> None:
     Raises:
         PyFlytError: the vehicle cannot be built; the message starts with the file.
     """
-    import pybullet as p
-
+    from pyflyt_engine.bullet import pybullet as p
     from pyflyt_engine.world import World
 
     where = spec.source or spec.name

@@ -201,7 +201,7 @@ def describe(spec: UAVSpec) -> list[str]:
     if spec.gimbals:
         rows = [
             [g.name, g.target, _vec(g.axis_a), _vec(g.axis_b), f"+-{g.max_angle_a_deg:g} / +-{g.max_angle_b_deg:g}",
-             " / ".join(g.channels)]
+             "mixer (axis a)" if g.mixer else " / ".join(g.channels)]
             for g in spec.gimbals
         ]  # fmt: skip
         out.append(f"  gimbals ({len(rows)})")

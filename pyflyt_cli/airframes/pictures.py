@@ -123,9 +123,9 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
     Raises:
         CLIError: PyBullet cannot load the URDF (e.g. a missing mesh).
     """
-    import pybullet as p
     from PIL import Image
 
+    from pyflyt_engine.bullet import pybullet as p
     from pyflyt_engine.urdf import urdf_path
 
     client = p.connect(p.DIRECT)

@@ -43,7 +43,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.config import CLIError, absolute_airframes
 from pyflyt_engine.errors import ConfigError
 
 PLAN_FILE = "plan.json"
@@ -298,6 +298,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
     from pyflyt_cli.training import registry
 
     bench_over, hydra_over, run_over = split_overrides(overrides)
+    run_over = absolute_airframes(run_over)  # the run lines mean the same from any directory
     check_launcher_overrides(hydra_over)  # before anything is composed, written or run
     spec = load_spec(experiment, bench_over, run_over)
     name = spec.name or Path(experiment).stem

@@ -8,13 +8,14 @@ is one message naming the key, not a traceback.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated, Any, Optional
 
 import numpy as np
 import typer
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from pyflyt_cli.config import compose, parse_overrides, to_container
+from pyflyt_cli.config import compose, names_file, parse_overrides, to_container
 from pyflyt_engine.atmosphere import parse_wind_config
 from pyflyt_engine.envs.config import validate_model
 from pyflyt_engine.flight import Trajectory, fly
@@ -72,7 +73,12 @@ def run_fly(overrides: list[str]) -> Trajectory:
     options: FlyOptions = validate_model(
         FlyOptions, to_container(compose("fly", parse_overrides(overrides))), "fly options", "pyflyt fly"
     )
-    spec = parse_uav_spec(options.uav, source=f"uav={options.uav.get('name', '?')}")
+    given = [o.partition("=")[2] for o in overrides if o.partition("=")[0].lstrip("+") == "uav"]
+    if given and names_file(given[-1]):  # the file's own path: meshes are found beside it
+        source = str(Path(given[-1]).expanduser().resolve())
+    else:
+        source = f"uav={options.uav.get('name', '?')}"
+    spec = parse_uav_spec(options.uav, source=source)
     wind = parse_wind_config(options.wind, source="wind", name=_chosen_wind(overrides))
     # every other option is an argument of fly() of the same name
     traj = fly(spec, wind=wind, **{key: value for key, value in options if key not in ("uav", "rows", "wind")})

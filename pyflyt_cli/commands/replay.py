@@ -100,7 +100,7 @@ def run_replay(
         if not as_json:
             typer.echo(f"plot      {plot}")
     if video is not None:
-        from pyflyt_engine.telemetry.plots import render_video
+        from pyflyt_engine.telemetry.video import render_video
 
         with atomic_output(video, "--video") as tmp:
             render_video(episode, tmp, size=dims)

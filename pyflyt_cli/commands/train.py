@@ -41,6 +41,7 @@ def train_help() -> str:
         "Examples:\n"
         "  pyflyt train                      # PPO on quadx_hover, short budget\n"
         "  pyflyt train env=quadx_waypoints algo=sac seed=3\n"
+        "  pyflyt train uav=my_airframe.yaml # your own airframe file\n"
         "  pyflyt train env.reward=sparse algo.learning_rate=1e-3\n"
         "  pyflyt train -m seed=0,1,2        # one run per seed\n"
         "  pyflyt train resume=<run dir>     # continue an interrupted run\n"

@@ -13,7 +13,7 @@ improvement of two algorithms is over the envs they share (pairs sharing none ar
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,8 @@ class Report:
     figures: list[Path]
     benchmark: Benchmark
     numbers: dict[str, Any]
+    #: figure name -> why it was not drawn (it would have had nothing to show)
+    skipped: dict[str, str] = field(default_factory=dict)
 
 
 def compute(bench: Benchmark, reps: int, seed: int) -> dict[str, Any]:
@@ -107,14 +109,28 @@ def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int
     else:
         out_dir = make_output_dir(Path(out), "--out")
     numbers = compute(bench, reps, seed)
-    figures = _figures(bench, numbers, out_dir)
+    skipped = _empty_figures(bench, numbers)
+    figures = _figures(bench, numbers, out_dir, skipped)
     md = out_dir / "report.md"
     with atomic_output(md) as tmp:
-        tmp.write_text(_markdown(bench, numbers, reps, seed, figures, out_dir))
+        tmp.write_text(_markdown(bench, numbers, reps, seed, figures, out_dir, skipped))
     js = out_dir / "report.json"
     with atomic_output(js) as tmp:
-        tmp.write_text(json.dumps(_json(bench, numbers, reps, seed), indent=2, sort_keys=True) + "\n")
-    return Report(out_dir, md, js, figures, bench, numbers)
+        data = {**_json(bench, numbers, reps, seed), "figures_not_drawn": skipped}
+        tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    return Report(out_dir, md, js, figures, bench, numbers, skipped)
+
+
+def _empty_figures(bench: Benchmark, numbers: dict[str, Any]) -> dict[str, str]:
+    """Figures that would have nothing to show, and why: they are not drawn."""
+    skipped = {}
+    if not numbers["improvement"]:
+        skipped["probability_of_improvement"] = (
+            "one algorithm only: nothing to compare"
+            if len(bench.algos) < 2
+            else "no two algorithms ran on a common env: nothing to compare"
+        )
+    return skipped
 
 
 # -------------------------------------------------------------------- figures
@@ -138,7 +154,9 @@ def _count(items: list[str], noun: str) -> str:
     return f"{len(items)} {noun}{'s' if len(items) != 1 else ''}"
 
 
-def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[Path]:
+def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path, skipped: dict[str, str]) -> list[Path]:
+    """Draw every figure not in ``skipped``; a skipped figure's old files (an earlier
+    report in the same directory) are removed, so none is left that this report disowns."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -200,6 +218,12 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path) -> list[P
         ax.legend(loc="best")
         paths += _save(fig, out_dir, "performance_profiles")
 
+        for name in skipped:
+            for ext in ("png", "svg"):
+                (out_dir / f"{name}.{ext}").unlink(missing_ok=True)
+        if "probability_of_improvement" in skipped:
+            return paths
+
         # probability of improvement
         pairs = sorted(numbers["improvement"])
         fig, ax = plt.subplots(figsize=(5, 0.6 + 0.4 * max(1, len(pairs))))
@@ -229,8 +253,15 @@ def _ci(e: stats.Estimate) -> str:
 
 
 def _markdown(
-    bench: Benchmark, numbers: dict[str, Any], reps: int, seed: int, figures: list[Path], out_dir: Path
+    bench: Benchmark,
+    numbers: dict[str, Any],
+    reps: int,
+    seed: int,
+    figures: list[Path],
+    out_dir: Path,
+    skipped: dict[str, str] | None = None,
 ) -> str:
+    skipped = skipped or {}
     lines = [
         f"# Benchmark report: {bench.root.name}",
         "",
@@ -323,7 +354,10 @@ def _markdown(
         lines.append(f"| {_f(taus[i])} | " + " | ".join(cells) + " |")
     lines += ["", "## Figures", ""]
     for name in FIGURES:
-        lines.append(f"![{name}]({name}.png) ([SVG]({name}.svg))")
+        if name in skipped:
+            lines.append(f"- `{name}.png` is not drawn: {skipped[name]}.")
+        else:
+            lines.append(f"![{name}]({name}.png) ([SVG]({name}.svg))")
     if numbers["notes"]:
         lines += ["", "## Notes", ""] + [f"- {n}" for n in numbers["notes"]]
     return "\n".join(lines) + "\n"

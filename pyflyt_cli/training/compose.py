@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from pyflyt_cli.config import CLIError, _group_choices, compose, to_container
+from pyflyt_cli.config import CLIError, _group_choices, absolute_airframes, compose, to_container
 from pyflyt_cli.training.schema import TrainConfig, parse_train_config
 from pyflyt_engine.paths import conf_dir
 
@@ -70,7 +70,7 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     """
     from omegaconf import OmegaConf, open_dict
 
-    overrides = list(overrides)
+    overrides = absolute_airframes(overrides, into_env=True)
     for item in overrides:
         if item.lstrip("+~").startswith(("hydra.", "hydra/")):
             raise CLIError(

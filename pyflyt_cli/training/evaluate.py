@@ -10,7 +10,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from pyflyt_cli.training import rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, Episode, policy_predict, run_episodes, summarize
@@ -84,23 +83,20 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
     torch.set_num_threads(cfg.train.torch_threads)
     seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
     episodes_dir = path / rundir.EPISODES
-    env = EnvFactory(
-        cfg.env,
-        monitor=False,
-        render_mode="rgb_array" if video is not None else None,
-        record_dir=str(episodes_dir) if opts.record else None,
-    )()
+    scratch = None  # a video is filmed from recordings: without record=true, from temporary ones
+    if video is not None and not opts.record:
+        import tempfile
+
+        scratch = tempfile.TemporaryDirectory(prefix="pyflyt-eval-")
+    record_dir = str(episodes_dir) if opts.record else scratch.name if scratch is not None else None
+    env = EnvFactory(cfg.env, monitor=False, record_dir=record_dir)()
     try:  # the model is read before the first episode is recorded: a bad file leaves nothing behind
         model, normalize = load_policy(model_path, cfg, env, trust_pickle=trust)
     except BaseException:
         env.close()
+        if scratch is not None:
+            scratch.cleanup()
         raise
-    frames: list[np.ndarray] = []
-
-    def grab(e: Any, episode: int) -> None:
-        if episode < opts.video_episodes:
-            frames.append(e.render())
-
     try:
         model.set_random_seed(seed)
         episodes = run_episodes(
@@ -110,19 +106,24 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
             seed,
             opts.deterministic,
             normalize_obs=normalize,
-            on_step=grab if video is not None else None,
-            on_reset=grab if video is not None else None,
         )
     finally:
         recordings = list(_recorder_paths(env))
         env.close()
     summary = summarize(episodes)
-    if video is not None:
-        from pyflyt_cli.outputs import atomic_output
-        from pyflyt_engine.telemetry.plots import write_video
+    try:
+        if video is not None:  # the same film as `pyflyt replay --video` of those recordings
+            from pyflyt_cli.outputs import atomic_output
+            from pyflyt_engine.telemetry import load_episode
+            from pyflyt_engine.telemetry.video import render_video
 
-        with atomic_output(video, "video=") as tmp:
-            write_video(tmp, [f for f in frames if f is not None], opts.fps or round(cfg.env.agent_hz))
+            filmed = [load_episode(p) for p in recordings[: opts.video_episodes]]
+            with atomic_output(video, "video=") as tmp:
+                render_video(filmed, tmp, fps=opts.fps)
+    finally:
+        if scratch is not None:
+            recordings = []
+            scratch.cleanup()
     report = EvalReport(path, model_path, which, seed, opts.deterministic, episodes, summary, recordings, video)
     rundir.atomic_write(
         path / "eval.json",

@@ -472,7 +472,7 @@ class EvalOptions(_Strict):
         "auto: best, else final, else latest",
     )
     record: bool = Field(description="write each episode to <run_dir>/episodes/ as MCAP")
-    video: str | None = Field(description="write rgb_array frames of the episodes to this .gif or .mp4")
+    video: str | None = Field(description="film the first video_episodes episodes to this .gif or .mp4 (the pyflyt replay --video film)")
     video_episodes: int = Field(ge=1, description="episodes included in the video")
     fps: int | None = Field(ge=1, description="video frame rate (null: the env's agent rate)")
     trust_pickle: bool = Field(
@@ -484,7 +484,7 @@ class EvalOptions(_Strict):
     @classmethod
     def _video(cls, value: str | None) -> str | None:
         if value is not None and not value.lower().endswith((".gif", ".mp4")):
-            raise ValueError(f"video must end in .gif or .mp4, got {value!r}")
+            raise ValueError(f"must end in .gif or .mp4, got {value!r}: e.g. video=flight.gif or video=flight.mp4")
         return value
 
 

@@ -48,8 +48,8 @@ from dataclasses import dataclass
 from numbers import Integral, Real
 
 import numpy as np
-import pybullet as p
 
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import ground_to_body_matrix, quaternion_to_matrix
 

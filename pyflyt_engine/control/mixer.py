@@ -8,11 +8,26 @@ maps motor thrusts to [collective thrust along body z, roll, pitch, yaw torque]:
 
 The mixer is its pseudo-inverse, so any airframe whose motors can produce all four
 outputs independently (quad, hexa, octo, Y6, ...) needs no hand-written mixing table.
+
+**Tilting motors** (a tricopter's tail servo, tilt-rotors): a motor whose thrust axis
+a gimbal turns by an angle delta about an axis ``c`` perpendicular to its nominal axis
+``n`` pushes ``f R(c, delta) n = (f cos delta) n + (f sin delta) (c x n)``.  Its two
+components are taken as two virtual inputs, one along ``n`` and one along ``c x n``,
+both from the motor's position and with its reaction torque: the allocation stays
+linear, one more column per tilting motor, and is inverted as above.  The motor's
+thrust and the servo angle are recovered as ``delta = atan2(f_lateral, f_nominal)``,
+``f = f_nominal / cos(delta)``.  This change of variables is the allocation of
+tiltable-rotor vehicles in M. Kamel et al., "The Voliro Omniorientational Hexacopter:
+An Agile and Maneuverable Tiltable-Rotor Aerial Vehicle", IEEE Robotics & Automation
+Magazine 25(4), 2018 (section "Control allocation"); the same decomposition appears in
+M. Ryll, H. H. Bülthoff, P. R. Giordano, IEEE Trans. Control Systems Technology 23(2), 2015.
 """
 
 from __future__ import annotations
 
-from math import sqrt
+from collections.abc import Sequence
+from math import atan2, cos, sqrt
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,12 +75,37 @@ def _throttle(force: float, full: float) -> float:
     return 0.0 if force <= 0.0 else 1.0 if force >= full else sqrt(force / full)
 
 
-class Mixer:
-    """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles."""
+class Tilt(NamedTuple):
+    """A mixer motor on a servo the mixer flies (see the module docstring)."""
 
-    def __init__(self, motors: MotorParams) -> None:
+    #: index among the mixer's motors
+    motor: int
+    #: the servo's rotation axis ``c``, unit, perpendicular to the motor's thrust axis (body frame)
+    axis: tuple[float, float, float]
+    #: servo deflection limit [rad]; the mixer's output is the angle over this, in [-1, 1]
+    max_angle: float
+
+
+def tilted_allocation(motors: MotorParams, tilts: Sequence[Tilt]) -> np.ndarray:
+    """The allocation matrix with one more column per tilting motor: its thrust along
+    ``c x n`` (the lateral virtual input of the module docstring)."""
+    base = allocation_matrix(motors.positions, motors.thrust_axes, motors.spin, motors.kf, motors.kt)
+    if not tilts:
+        return base
+    idx = [t.motor for t in tilts]
+    lateral = np.cross(np.asarray([t.axis for t in tilts], dtype=float), motors.thrust_axes[idx])
+    extra = allocation_matrix(motors.positions[idx], lateral, motors.spin[idx], motors.kf[idx], motors.kt[idx])
+    return np.hstack([base, extra])
+
+
+class Mixer:
+    """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles (and,
+    with ``tilts``, then one normalised servo command per tilting motor)."""
+
+    def __init__(self, motors: MotorParams, tilts: Sequence[Tilt] = ()) -> None:
         axes = motors.thrust_axes
-        self.allocation = allocation_matrix(motors.positions, axes, motors.spin, motors.kf, motors.kt)
+        self.tilts = tuple(tilts)
+        self.allocation = tilted_allocation(motors, self.tilts)
         rank = allocation_rank(self.allocation)
         if rank < 4:
             raise ConfigError(
@@ -78,12 +118,29 @@ class Mixer:
         self.max_thrust = motors.max_thrust.tolist()
         #: Collective thrust along body z with every motor at full throttle [N].
         self.max_collective = float(axes[:, 2] @ motors.max_thrust)
+        n = len(self.max_thrust)
         # per motor: its row of the pseudo-inverse and its full thrust, as plain floats
-        self._rows = tuple((r[0], r[1], r[2], r[3], fm) for r, fm in zip(self._inverse_rows, self.max_thrust))
+        self._rows = tuple((r[0], r[1], r[2], r[3], fm) for r, fm in zip(self._inverse_rows[:n], self.max_thrust))
         self._full = tuple(self.max_thrust)
+        # per tilting motor: (motor, max angle, its lateral row of the pseudo-inverse)
+        self._lateral = tuple((t.motor, t.max_angle, tuple(r)) for t, r in zip(self.tilts, self._inverse_rows[n:]))
+        #: Body-frame (x, y) force per newton of collective thrust, no torque requested: the
+        #: side force of tilted thrust axes (a tricopter's tail trimming the yaw reaction).
+        self.side_force = (0.0, 0.0)
+        if self.tilts:
+            lateral_axes = np.cross(np.asarray([t.axis for t in self.tilts]), axes[[t.motor for t in self.tilts]])
+            directions = np.vstack([axes, lateral_axes])
+            side = self.inverse[:, 0] @ directions[:, :2]
+            self.side_force = (float(side[0]), float(side[1]))
+
+    @property
+    def outputs(self) -> int:
+        """Length of :meth:`throttles`: one throttle per motor, one command per tilting motor."""
+        return len(self._full) + len(self.tilts)
 
     def throttles(self, thrust: float, tx: float, ty: float, tz: float) -> list[float]:
-        """Throttle per motor (in [0, 1]) that best produces the requested wrench.
+        """Throttle per motor (in [0, 1]) that best produces the requested wrench; with
+        tilting motors, followed by each servo's command (angle / max angle, in [-1, 1]).
 
         When the request does not fit in the motors' range, it is given up in order of
         importance: first the yaw torque is scaled down until every motor is within
@@ -100,13 +157,16 @@ class Mixer:
 
         with ``yaw_scale`` the largest in [0, 1] that keeps every ``base + yaw_scale * yaw``
         in [0, fm], then ``scale`` the largest in [0, 1] that keeps every ``f <= fm``; the
-        throttle is ``sqrt(f / fm)`` clipped to [0, 1].  Plain float arithmetic (this runs
-        at the control rate for every vehicle).
+        throttle is ``sqrt(f / fm)`` clipped to [0, 1].  A tilting motor's lateral input
+        is ``scale r[0] thrust + r[1] tx + r[2] ty + yaw_scale r[3] tz`` (its lateral row
+        ``r``); its servo angle ``delta = atan2(lateral, f)`` is clipped to the servo's
+        limit and its thrust becomes ``f / cos(delta)``.  Plain float arithmetic (this
+        runs at the control rate for every vehicle).
 
         The first pass also evaluates ``f`` at ``yaw_scale = scale = 1`` (the same
         expressions: ``1.0 * v == v``): when no motor asks for a smaller scale, that is
-        the answer, and the second and third passes, which would change nothing, are
-        skipped -- the usual case in flight.
+        the answer for a mixer without tilting motors, and the second and third passes,
+        which would change nothing, are skipped -- the usual case in flight.
         """
         yaw_scale, fits = 1.0, True
         parts, out = [], []
@@ -124,11 +184,22 @@ class Mixer:
                 fits = False
             parts.append((ft, from_roll_pitch, y, fm))
             out.append(0.0 if f <= 0.0 else 1.0 if f >= fm else sqrt(f / fm))  # _throttle, inlined
-        if fits and yaw_scale == 1.0:
+        if fits and yaw_scale == 1.0 and not self._lateral:
             return out
         from_torque = [(ft, fr + yaw_scale * y, fm) for ft, fr, y, fm in parts]
         scale = 1.0
         for ft, fq, fm in from_torque:
             if ft + fq > fm and ft > 0.0:
                 scale = _lower(scale, (fm - fq) / ft)
-        return [_throttle(scale * ft + fq, fm) for ft, fq, fm in from_torque]
+        forces = [scale * ft + fq for ft, fq, _ in from_torque]
+        if not self._lateral:
+            return [_throttle(f, fm) for f, (_, _, fm) in zip(forces, from_torque)]
+        commands = []
+        for motor, limit, (r0, r1, r2, r3) in self._lateral:
+            lateral = scale * r0 * thrust + r1 * tx + r2 * ty + yaw_scale * r3 * tz
+            nominal = forces[motor]
+            angle = atan2(lateral, nominal) if nominal > 0.0 else 0.0
+            angle = limit if angle > limit else -limit if angle < -limit else angle
+            forces[motor] = nominal / cos(angle)
+            commands.append(angle / limit)
+        return [_throttle(f, fm) for f, fm in zip(forces, self._full)] + commands

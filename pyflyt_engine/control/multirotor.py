@@ -96,6 +96,10 @@ class MultirotorController:
         self._window, self._max_tilt = vel.integral_window, vel.max_tilt
         self._position_kp, self._max_velocity = tuple(gains.position.kp), tuple(gains.position.max_velocity)
         self._attitude_kp, self._max_rate = tuple(gains.attitude.kp), tuple(gains.attitude.max_rate)
+        # attitude at which the mixer's side force per newton of thrust (a tilted tail's) and
+        # the thrust add up to a force along body z of the level frame: (roll, pitch) trim
+        fx, fy = mixer.side_force
+        self._trim = (math.atan(fy), -math.atan(fx)) if (fx or fy) else None
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -217,7 +221,8 @@ class MultirotorController:
         """Roll and pitch [rad] that point the thrust along a ground-frame acceleration:
         ``pitch = atan2(forward, lift)``, ``roll = atan2(-left cos(pitch), lift)`` with
         ``lift = max(g + az, 0.1 g)`` and (forward, left) the acceleration in the heading
-        frame, both clipped to ``max_tilt``."""
+        frame, both clipped to ``max_tilt``.  With tilted thrust (a tricopter's tail) the
+        trim attitude that cancels the mixer's side force is added first."""
         yaw = state.ang_pos[2]
         cy, sy = math.cos(yaw), math.sin(yaw)
         forward = cy * ax + sy * ay
@@ -226,6 +231,8 @@ class MultirotorController:
         lift = _MIN_LIFT if _MIN_LIFT > lift else lift  # max(g + az, 0.1 g)
         pitch = math.atan2(forward, lift)
         roll = math.atan2(-left * math.cos(pitch), lift)
+        if self._trim is not None:
+            roll, pitch = roll + self._trim[0], pitch + self._trim[1]
         limit = self._max_tilt
         return (
             limit if roll > limit else -limit if roll < -limit else roll,  # _clamp(roll, limit)

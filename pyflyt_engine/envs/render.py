@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as p
 
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.state import KinematicState
 
 #: Where unused markers are parked (out of view, below the ground) [m].

@@ -1,4 +1,7 @@
-"""Pictures of a recorded episode: :func:`plot_episode` (PNG/PDF/SVG) and :func:`render_video` (MP4/GIF)."""
+"""Pictures of a recorded episode: :func:`plot_episode` (PNG/PDF/SVG), :func:`write_video` (MP4/GIF).
+
+Flight videos themselves are drawn by :mod:`pyflyt_engine.telemetry.video` (``render_video``).
+"""
 
 from __future__ import annotations
 
@@ -9,9 +12,9 @@ import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.telemetry.episode import Episode
+from pyflyt_engine.telemetry.video import VIDEO_SUFFIXES, render_video
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
-VIDEO_SUFFIXES = (".mp4", ".gif")
 
 
 def _waypoints(episode: Episode) -> np.ndarray:
@@ -81,79 +84,6 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
     plt.close(fig)
-    return out
-
-
-def render_video(
-    episode: Episode, out: str | Path, size: tuple[int, int] | None = None, fps: float | None = None
-) -> Path:
-    """Render the recorded flight offscreen with a chase camera to ``.mp4`` or ``.gif``.
-
-    Kinematic playback: the vehicles are posed at their recorded states in the rebuilt
-    world (no physics), so truncated files and other versions render too.  ``size`` is
-    (width, height) in pixels (default: the env config's render resolution); ``fps``
-    defaults to the agent rate.
-    """
-    out = Path(out)
-    suffix = out.suffix.lower()
-    if suffix not in VIDEO_SUFFIXES:
-        raise TelemetryError(f"--video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
-    import pybullet as p
-
-    from pyflyt_engine.envs.render import Markers, chase_camera
-    from pyflyt_engine.state import KinematicState
-    from pyflyt_engine.telemetry.replay import rebuild_env
-
-    render = episode.config.get("render", {}) or {}
-    if size is None:
-        h, w = render.get("resolution", (480, 480))
-        size = (int(w), int(h))
-    width, height = size
-    fps = float(fps or episode.agent_hz)
-    env = rebuild_env(episode)
-    try:
-        client = env.world.client
-        marker_frames = _marker_frames(episode)
-        most = max((len(points) for _, points in marker_frames), default=0)
-        radius = _marker_radius(episode)
-        markers = Markers(client, most, radius) if most else None
-        track0 = episode.vehicles[0]
-        frames: list[np.ndarray] = []
-        marker_index = -1
-        for step in range(len(track0.time)):
-            t = track0.time[step]
-            for i, track in enumerate(episode.vehicles):
-                if step < len(track.time):
-                    body = env.world.vehicles[i].body_id
-                    p.resetBasePositionAndOrientation(
-                        body,
-                        track.states["lin_pos"][step].tolist(),
-                        track.states["quaternion"][step].tolist(),
-                        physicsClientId=client,
-                    )
-            if markers is not None:
-                current = max((k for k, (mt, _) in enumerate(marker_frames) if mt <= t + 1e-9), default=-1)
-                if current != marker_index and current >= 0:
-                    markers.show(marker_frames[current][1])
-                    marker_index = current
-            s = {k: tuple(track0.states[k][step]) for k in track0.states}
-            state = KinematicState(**s)
-            frames.append(
-                chase_camera(
-                    client,
-                    state,
-                    (height, width),
-                    float(render.get("camera_distance", 0.6)),
-                    float(render.get("camera_height", 0.25)),
-                    float(render.get("fov", 60.0)),
-                )
-            )
-    finally:
-        env.close()
-    if not frames:
-        raise TelemetryError(f"{episode.path}: no recorded states to render")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_video(out, frames, fps)
     return out
 
 

@@ -255,7 +255,7 @@ def ground_entity(ns: int, dome: float) -> dict[str, Any]:
 
 def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
     """A PyBullet body's base visual shapes as an entity in the world frame (None if it has none)."""
-    import pybullet as p
+    from pyflyt_engine.bullet import pybullet as p
 
     base_pos, base_orn = p.getBasePositionAndOrientation(body_id, physicsClientId=client)
     rotation = quaternion_to_matrix(base_orn)

@@ -90,6 +90,7 @@ def _fly(uav: str, mode: str) -> str:
             if head is None:
                 n = len(vehicle.parts.mixer_motors)
                 head = list(vehicle.hover_throttle() * (1.0 + 0.05 * rng.uniform(-1, 1, n)))
+                head += [0.1] * len(vehicle.parts.mixer_tilts)  # servos the mixer flies (tricopter tail)
             elif head[3] is None:
                 head = [*head[:3], vehicle.hover_throttle() ** 2 * 1.05]
             extra = low + (high - low) * 0.5 if len(channels) else np.zeros(0)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from pyflyt_engine.spec import available_uavs, load_uav_spec, parse_uav_spec
@@ -72,8 +75,10 @@ def test_unknown_key_is_rejected_with_suggestion():
 
 def test_non_unit_thrust_axis_and_bad_types_are_rejected():
     data = spec_dict()
-    data["motors"]["thrust_axes"] = [[0, 0, 2]] * 4
-    assert "unit vectors" in _error(data)
+    data["motors"]["thrust_axes"] = [[0, 0, 1], [0, 0, 1], [0, 0, 1.01], [0, 0, 1]]
+    message = _error(data)
+    assert "motors.thrust_axes.2: 'thrust_axes' must be a unit vector, got [0.0, 0.0, 1.01] of length 1.01" in message
+    assert "divide each component by the length" in message
     data = spec_dict()
     data["motors"]["kf"] = "lots"
     assert "motors.kf" in _error(data)
@@ -104,3 +109,36 @@ def test_truncated_file_is_a_clear_error(tmp_path):
     path.write_text("name: cut\nbody:\n  mass: 1.0\n  inertia: [1, 1,")
     with pytest.raises(SpecError, match="not valid YAML"):
         load_uav_spec(path)
+
+
+def test_unit_vectors_typed_to_four_decimals_are_normalised():
+    """[0, 0.0872, 0.9962] (5 degrees, four decimals) has length 0.999984: accepted, stored at length 1."""
+    data = spec_dict("quadx_f450")
+    data["motors"]["thrust_axes"] = [[0.0, 0.0872, 0.9962]] * 4
+    axes = np.asarray(parse_uav_spec(data).motors.thrust_axes)
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(axes[0], np.array([0.0, 0.0872, 0.9962]) / np.hypot(0.0872, 0.9962), rtol=1e-15)
+    rocket = spec_dict("rocket")
+    rocket["gimbals"][0]["axis_a"] = [0.7071, 0.7071, 0.0]
+    axis = parse_uav_spec(rocket).gimbals[0].axis_a
+    assert math.hypot(*axis) == pytest.approx(1.0, abs=1e-15)
+
+
+def test_exact_unit_vectors_are_kept_as_given():
+    """Within 1e-6 of length 1 a vector is used as written: shipped airframes fly unchanged."""
+    data = spec_dict("flying_wing")
+    given = [s.get("chord_axis") for s in data["surfaces"]]
+    spec = parse_uav_spec(data)
+    assert [list(s.chord_axis) for s, g in zip(spec.surfaces, given) if g] == [g for g in given if g]
+
+
+def test_surface_axes_a_little_off_perpendicular_are_corrected_and_far_off_refused():
+    data = spec_dict("flying_wing")
+    data["surfaces"][0]["chord_axis"] = [0.9986, 0.0, -0.0524]
+    data["surfaces"][0]["normal_axis"] = [0.0523, 0.0, 0.9986]  # dot 1.4e-4 after normalising
+    surface = parse_uav_spec(data).surfaces[0]
+    assert abs(np.dot(surface.chord_axis, surface.normal_axis)) < 1e-15
+    assert math.hypot(*surface.normal_axis) == pytest.approx(1.0, abs=1e-15)
+    data["surfaces"][0]["normal_axis"] = [0.1, 0.0, 0.995]
+    message = _error(data)
+    assert "surfaces.0.normal_axis: chord_axis and normal_axis must be perpendicular, got a dot product of" in message

@@ -11,6 +11,9 @@ import numpy as np
 import pytest
 import yaml
 
+from typer.testing import CliRunner
+
+from pyflyt_cli.main import app
 from pyflyt_cli.plotting import load_benchmark, plot_benchmark, stats
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.telemetry.metrics import MetricsWriter
@@ -130,6 +133,30 @@ def test_plot_end_to_end_writes_figures_and_a_reproducible_report(bench, tmp_pat
     assert other.json.read_text() != report.json.read_text()  # the seed is what makes it reproducible
 
 
+def test_one_algorithm_writes_no_empty_improvement_figure_and_says_why(bench, tmp_path):
+    """Only 'good' ran: the probability-of-improvement figure would be an empty panel. It
+    is not written (an old one in the output directory is removed), and the report and
+    report.json say why."""
+    import shutil
+
+    shutil.rmtree(bench / "runs" / "quadx_hover" / "bad")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "probability_of_improvement.png").write_bytes(b"an earlier report's figure")
+    report = plot_benchmark(bench, out, reps=REPS, seed=0)
+    assert not list(out.glob("probability_of_improvement.*"))
+    assert {p.stem for p in report.figures} == {"learning_curves", "aggregates", "performance_profiles"}
+    text = report.markdown.read_text()
+    assert "- `probability_of_improvement.png` is not drawn: one algorithm only: nothing to compare." in text
+    assert "![probability_of_improvement]" not in text and "![aggregates](aggregates.png)" in text
+    data = json.loads(report.json.read_text())
+    assert data["figures_not_drawn"] == {"probability_of_improvement": "one algorithm only: nothing to compare"}
+    result = CliRunner().invoke(app, ["plot", str(bench), "--out", str(tmp_path / "cli"), "--reps", str(REPS)])
+    assert result.exit_code == 0, result.output
+    assert not [line for line in result.output.splitlines() if line.startswith("figure:") and "improvement" in line]
+    assert "not drawn: probability_of_improvement (one algorithm only: nothing to compare)" in result.output
+
+
 def _partial_bench(root: Path, grid: dict[str, list[str]], runs: dict[str, int]) -> Path:
     """``algo -> envs`` it ran on, ``runs[algo]`` seeds each; 5 evals climbing to a per-algo level."""
     rng = np.random.default_rng(1)
@@ -166,11 +193,14 @@ def test_a_partial_grid_with_disjoint_envs_is_loaded_and_plotted(tmp_path):
     assert any("not comparable" in n for n in b.notes)
 
     report = plot_benchmark(root, tmp_path / "out", reps=REPS, seed=2)
-    for name in ("learning_curves", "aggregates", "performance_profiles", "probability_of_improvement"):
+    for name in ("learning_curves", "aggregates", "performance_profiles"):
         for ext in ("png", "svg"):
             path = tmp_path / "out" / f"{name}.{ext}"
             assert path.is_file() and path.stat().st_size > 1000, path
     assert report.numbers["improvement"] == {}
+    # nothing to compare: no empty probability-of-improvement figure, and the report says why
+    assert not list((tmp_path / "out").glob("probability_of_improvement.*"))
+    assert report.skipped == {"probability_of_improvement": "no two algorithms ran on a common env: nothing to compare"}
     assert set(report.numbers["per_env_curves"]["quadx_waypoints"]) == {"sac"}
     text = report.markdown.read_text()
     assert "| algo | envs | median | IQM | mean | optimality gap |" in text
@@ -179,6 +209,8 @@ def test_a_partial_grid_with_disjoint_envs_is_loaded_and_plotted(tmp_path):
     assert "| quadx_waypoints | sac | 3 |" in text and "| quadx_waypoints | awac |" not in text  # runs table
     assert "| quadx_waypoints_sparse | 5000 | " in text and " — |" in text  # per-env IQM: awac only
     assert "No two algorithms ran on a common env" in text
+    assert "- `probability_of_improvement.png` is not drawn: no two algorithms ran on a common env" in text
+    assert "![probability_of_improvement]" not in text
     notes = text.split("## Notes")[1]
     assert "not comparable" in notes and "no all-envs panel" in notes and "not compared: awac vs sac" in notes
     data = json.loads(report.json.read_text())

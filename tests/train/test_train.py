@@ -89,7 +89,15 @@ def test_eval_writes_a_gif(tmp_path):
     import imageio.v2 as imageio
 
     frames = imageio.mimread(gif)
-    assert len(frames) == report.episodes[0].length + 1  # the reset frame, then one per step
+    assert len(frames) >= 2 and not report.recordings  # record=false: filmed from a temporary recording
+    assert not (run / "episodes").exists()
+    # the film is `pyflyt replay --video` of the episode's recording, frame for frame
+    recorded = evaluate_run(run, {"episodes": 1, "video": str(tmp_path / "again.gif"), "record": True})
+    from pyflyt_engine.telemetry import load_episode
+    from pyflyt_engine.telemetry.video import render_video
+
+    replayed = render_video(load_episode(recorded.recordings[0]), tmp_path / "replayed.gif")
+    assert replayed.read_bytes() == (tmp_path / "again.gif").read_bytes() == gif.read_bytes()
 
 
 def test_eval_errors(tmp_path):
@@ -97,7 +105,7 @@ def test_eval_errors(tmp_path):
         evaluate_run(tmp_path / "missing")
     with pytest.raises(ConfigError, match="not a run directory"):
         evaluate_run(tmp_path)
-    with pytest.raises(ConfigError, match="video must end in .gif or .mp4"):
+    with pytest.raises(ConfigError, match="video: must end in .gif or .mp4"):
         evaluate_run(tmp_path, {"video": "out.avi"})
 
 

@@ -30,7 +30,7 @@ def test_gimbal_axis_not_unit_length_is_rejected():
     data = spec_dict("rocket")
     data["gimbals"][0]["axis_b"] = [0.0, 2.0, 0.0]
     message = error_of(data)
-    assert "gimbals.0" in message and "'axis_b' must be a unit vector" in message and "normalise it" in message
+    assert "gimbals.0.axis_b: 'axis_b' must be a unit vector, got [0.0, 2.0, 0.0] of length 2" in message
 
 
 @pytest.mark.parametrize("field", ["width", "height"])

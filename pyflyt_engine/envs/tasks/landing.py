@@ -140,7 +140,7 @@ class LandingTask(Task):
 
     def setup(self, world: World) -> None:
         """Add the pad: a static cylinder of ``pad_radius`` and ``pad_height``, top face at z = pad_height."""
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         o, cid = self.options, world.client
         collision = p.createCollisionShape(

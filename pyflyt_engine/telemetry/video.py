@@ -1,0 +1,331 @@
+"""Flight videos of recorded episodes: what ``pyflyt replay --video`` and ``pyflyt eval video=`` write.
+
+Each frame is drawn from a recording (kinematic playback: the vehicles are posed at
+their recorded states in the rebuilt world, no physics), so evaluation videos and
+replays look the same and any recording can be filmed again:
+
+* a **chase camera** that frames the vehicles: centred on the vehicle, behind its
+  (smoothed) heading, above it at a fixed elevation, at a distance scaled to its span;
+  with several vehicles it looks at their centroid from far enough to keep all in view;
+* **translucent** target markers and scenery (gates): PyBullet's TinyRenderer draws every
+  body opaque (it ignores the alpha of a colour), so a frame with translucent bodies is
+  rendered twice, with and without them, and the two images are blended where the
+  segmentation mask shows such a body, with that body's own alpha;
+* a **trail** of each vehicle's recent path, fading with age, drawn over the image;
+* an **overlay** with the time, the step, the step reward, the return and, at the end,
+  the episode's outcome (held on screen for a second).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.telemetry.episode import Episode
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+#: Trail colours per vehicle (RGB), cycled.
+TRAIL_COLORS = ((255, 140, 0), (0, 170, 255), (230, 60, 200), (60, 200, 90), (240, 220, 40))
+#: Where hidden bodies are parked while the frame without them is drawn [m].
+_PARKED = (0.0, 0.0, -1000.0)
+
+
+@dataclass(frozen=True)
+class VideoStyle:
+    """How a flight video is framed and drawn."""
+
+    #: chase distance, in vehicle spans (the largest horizontal extent of the airframe)
+    distance_spans: float = 3.0
+    #: the camera never comes closer than this [m]
+    min_distance: float = 0.4
+    #: camera elevation above the horizon, looking down at the vehicle [deg]
+    elevation_deg: float = 20.0
+    #: time constant of the camera's smoothing of the heading and the vehicles' spread [s]
+    smoothing: float = 0.3
+    #: vertical field of view [deg]
+    fov: float = 60.0
+    #: length of the trail of the recent path [s]
+    trail_seconds: float = 3.0
+    #: the last frame is held this long, showing the outcome [s]
+    hold_seconds: float = 1.0
+
+
+def vehicle_span(client: int, body: int) -> float:
+    """The largest horizontal extent [m] of a body's axis-aligned bounding box (every link)."""
+    from pyflyt_engine.bullet import pybullet as p
+
+    lows, highs = [], []
+    for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
+        low, high = p.getAABB(body, link, physicsClientId=client)
+        lows.append(low)
+        highs.append(high)
+    extent = np.max(highs, axis=0) - np.min(lows, axis=0)
+    return float(max(extent[0], extent[1], 0.05))
+
+
+def outcome_text(episode: Episode) -> tuple[str, tuple[int, int, int]]:
+    """How the episode ended, for the overlay, and its colour (green success, red failure)."""
+    end = episode.end
+    if end is None:
+        return "recording cut short", (230, 200, 60)
+    reason = str(end.get("reason") or end.get("event") or "ended").replace("_", " ")
+    if end.get("success"):
+        return f"success ({reason})", (80, 220, 100)
+    if reason in ("time limit", "stopped"):
+        return reason, (230, 230, 230)
+    return f"failed: {reason}", (240, 80, 70)
+
+
+def _matrices(view: Sequence[float], projection: Sequence[float]) -> np.ndarray:
+    """The 4 x 4 clip-from-world matrix of PyBullet's column-major view and projection."""
+    return np.asarray(projection, dtype=float).reshape(4, 4).T @ np.asarray(view, dtype=float).reshape(4, 4).T
+
+
+def project(clip_from_world: np.ndarray, points: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates (n, 2) of world points (n, 3); NaN for points behind the camera."""
+    homogeneous = np.c_[points, np.ones(len(points))] @ clip_from_world.T
+    w = homogeneous[:, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ndc = homogeneous[:, :2] / w[:, None]
+    pixels = np.c_[(ndc[:, 0] + 1.0) * 0.5 * width, (1.0 - ndc[:, 1]) * 0.5 * height]
+    pixels[w <= 1e-6] = np.nan
+    return pixels
+
+
+class ChaseCamera:
+    """Smoothed chase camera over one or more vehicles (see the module docstring)."""
+
+    def __init__(self, style: VideoStyle, span: float, dt: float) -> None:
+        self.style = style
+        self.span = span
+        self._gain = 1.0 - math.exp(-dt / style.smoothing) if style.smoothing > 0 else 1.0
+        self.target: np.ndarray | None = None
+        self.yaw = 0.0
+        self.spread = 0.0
+
+    def update(self, positions: np.ndarray, yaw: float | None) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """(eye, target) for vehicles at ``positions`` (n, 3); ``yaw``: the heading to look
+        along (None: keep the current one)."""
+        centroid = positions.mean(axis=0)
+        spread = float(np.max(np.linalg.norm(positions - centroid, axis=1))) if len(positions) > 1 else 0.0
+        if self.target is None:
+            self.target, self.spread = centroid, spread
+            self.yaw = yaw if yaw is not None else 0.0
+        else:
+            k = self._gain  # the target follows exactly: a lagging camera loses fast vehicles
+            self.target = centroid
+            self.spread += k * (spread - self.spread)
+            if yaw is not None:  # along the shorter way round
+                self.yaw += k * ((yaw - self.yaw + math.pi) % (2 * math.pi) - math.pi)
+        s = self.style
+        half_fov = math.radians(s.fov) / 2
+        distance = max(s.min_distance, s.distance_spans * self.span, 1.4 * (self.spread + self.span) / math.tan(half_fov))
+        elevation = math.radians(s.elevation_deg)
+        x, y, z = self.target
+        eye = (
+            x - distance * math.cos(self.yaw) * math.cos(elevation),
+            y - distance * math.sin(self.yaw) * math.cos(elevation),
+            z + distance * math.sin(elevation),
+        )
+        return eye, (float(x), float(y), float(z))
+
+
+def episode_frames(
+    episode: Episode, size: tuple[int, int] | None = None, style: VideoStyle | None = None
+) -> Iterator[np.ndarray]:
+    """(H, W, 3) uint8 frames of the recorded flight, one per recorded state, then the
+    last one held for ``style.hold_seconds``.  ``size`` is (width, height) in pixels
+    (default: the env config's render resolution)."""
+    from PIL import Image, ImageDraw
+
+    from pyflyt_engine.bullet import pybullet as p
+    from pyflyt_engine.envs.render import Markers
+    from pyflyt_engine.spec import parse_uav_spec
+    from pyflyt_engine.telemetry.plots import _marker_frames, _marker_radius
+    from pyflyt_engine.telemetry.replay import rebuild_env
+
+    style = style or VideoStyle()
+    render = episode.config.get("render", {}) or {}
+    if size is None:
+        h, w = render.get("resolution", (480, 480))
+        size = (int(w), int(h))
+    width, height = size
+    tracks = episode.vehicles
+    if not tracks or not len(tracks[0].time):
+        raise TelemetryError(f"{episode.path}: no recorded states to render")
+    env = rebuild_env(episode)
+    try:
+        world = env.unwrapped.world
+        client = world.client
+        bodies = [v.body_id for v in world.vehicles]
+        for i in range(len(bodies), len(tracks)):  # vehicles the env does not build itself
+            spec = parse_uav_spec(episode.uav_specs[i], source=f"{episode.path} (vehicle {i})")
+            bodies.append(world.vehicles[world.add_vehicle(spec, tuple(tracks[i].states["lin_pos"][0]))].body_id)
+        marker_frames = _marker_frames(episode)
+        most = max((len(points) for _, points in marker_frames), default=0)
+        markers = Markers(client, most, _marker_radius(episode)) if most else None
+        translucent = _translucent_bodies(client, set(bodies))
+        span = max(vehicle_span(client, b) for b in bodies)
+        dt = 1.0 / episode.agent_hz
+        camera = ChaseCamera(style, span, dt)
+        projection = p.computeProjectionMatrixFOV(style.fov, width / height, 0.02, 500.0, physicsClientId=client)
+        returns = np.concatenate([[0.0], np.cumsum(np.nan_to_num(episode.rewards))])
+        outcome, outcome_color = outcome_text(episode)
+        trail_steps = max(2, round(style.trail_seconds / dt))
+        n_steps = len(tracks[0].time)
+        marker_index = -1
+        frame = None
+        for step in range(n_steps):
+            t = float(tracks[0].time[step])
+            live = [i for i, track in enumerate(tracks) if step < len(track.time)]
+            for i in live:
+                track = tracks[i]
+                p.resetBasePositionAndOrientation(
+                    bodies[i], track.states["lin_pos"][step].tolist(), track.states["quaternion"][step].tolist(),
+                    physicsClientId=client,
+                )  # fmt: skip
+            if markers is not None:
+                current = max((k for k, (mt, _) in enumerate(marker_frames) if mt <= t + 1e-9), default=-1)
+                if current != marker_index and current >= 0:
+                    markers.show(marker_frames[current][1])
+                    marker_index = current
+                    translucent = _translucent_bodies(client, set(bodies))
+            positions = np.array([tracks[i].states["lin_pos"][step] for i in live])
+            yaw = float(tracks[0].states["ang_pos"][step][2]) if len(tracks) == 1 else None
+            eye, target = camera.update(positions, yaw)
+            view = p.computeViewMatrix(eye, target, (0.0, 0.0, 1.0), physicsClientId=client)
+            image = _render_blended(client, width, height, view, projection, translucent)
+            canvas = Image.fromarray(image).convert("RGBA")
+            overlay = Image.new("RGBA", canvas.size, (0, 0, 0, 0))
+            draw = ImageDraw.Draw(overlay)
+            clip = _matrices(view, projection)
+            for i in live:
+                start = max(0, step - trail_steps)
+                path = project(clip, tracks[i].states["lin_pos"][start : step + 1], width, height)
+                _draw_trail(draw, path, TRAIL_COLORS[i % len(TRAIL_COLORS)], max(2, width // 200))
+            reward = float(episode.rewards[step - 1]) if 0 < step <= len(episode.rewards) else 0.0
+            lines = [f"t {t - float(tracks[0].time[0]):6.2f} s   step {step}", f"reward {reward:+.3f}   return {returns[min(step, len(returns) - 1)]:+.2f}"]
+            ended = step == n_steps - 1
+            _draw_text(draw, lines, outcome if ended else None, outcome_color, width, height)
+            frame = np.asarray(Image.alpha_composite(canvas, overlay).convert("RGB"))
+            yield frame
+        for _ in range(round(style.hold_seconds / dt)):
+            yield frame  # type: ignore[misc]
+    finally:
+        env.close()
+
+
+def _translucent_bodies(client: int, vehicles: set[int]) -> dict[int, float]:
+    """Body id -> alpha of every body (not a vehicle) drawn with a colour alpha below 1."""
+    from pyflyt_engine.bullet import pybullet as p
+
+    out = {}
+    for k in range(p.getNumBodies(physicsClientId=client)):
+        body = p.getBodyUniqueId(k, physicsClientId=client)
+        if body in vehicles:
+            continue
+        shapes = p.getVisualShapeData(body, physicsClientId=client)
+        alphas = [float(s[7][3]) for s in shapes]
+        if alphas and max(alphas) < 1.0:
+            out[body] = max(alphas)
+    return out
+
+
+def _camera(client: int, width: int, height: int, view, projection) -> tuple[np.ndarray, np.ndarray]:
+    from pyflyt_engine.bullet import pybullet as p
+
+    _, _, rgba, _, segmentation = p.getCameraImage(
+        width, height, view, projection, renderer=p.ER_TINY_RENDERER, physicsClientId=client
+    )
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    return rgb, np.asarray(segmentation).reshape(height, width)
+
+
+def _render_blended(client: int, width: int, height: int, view, projection, translucent: dict[int, float]) -> np.ndarray:
+    """The frame with every translucent body blended in with its alpha (see the module docstring)."""
+    from pyflyt_engine.bullet import pybullet as p
+
+    with_them, segmentation = _camera(client, width, height, view, projection)
+    alpha = np.zeros((height, width))
+    for body, a in translucent.items():
+        alpha[segmentation == body] = a
+    if not alpha.any():
+        return with_them
+    poses = {b: p.getBasePositionAndOrientation(b, physicsClientId=client) for b in translucent}
+    for body in translucent:
+        p.resetBasePositionAndOrientation(body, _PARKED, (0.0, 0.0, 0.0, 1.0), physicsClientId=client)
+    try:
+        behind, _ = _camera(client, width, height, view, projection)
+    finally:
+        for body, (position, orientation) in poses.items():
+            p.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=client)
+    blended = behind + alpha[:, :, None] * (with_them.astype(float) - behind)
+    return np.clip(np.rint(blended), 0, 255).astype(np.uint8)
+
+
+def _draw_trail(draw, pixels: np.ndarray, color: tuple[int, int, int], width: int) -> None:
+    """Segments of a projected path, oldest transparent, newest opaque."""
+    n = len(pixels)
+    for k in range(1, n):
+        a, b = pixels[k - 1], pixels[k]
+        if np.isnan(a).any() or np.isnan(b).any():
+            continue
+        alpha = int(230 * k / (n - 1))
+        draw.line([tuple(a), tuple(b)], fill=(*color, alpha), width=width)
+
+
+def _draw_text(
+    draw, lines: list[str], outcome: str | None, outcome_color: tuple[int, int, int], width: int, height: int
+) -> None:
+    """The time/step/reward box (top left) and, at the end, the outcome (bottom centre)."""
+    from PIL import ImageFont
+
+    size = max(11, width // 34)
+    font = ImageFont.load_default(size=size)
+    pad = size // 3
+    text = "\n".join(lines)
+    box = draw.multiline_textbbox((pad * 2, pad * 2), text, font=font, spacing=pad)
+    draw.rectangle((box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad), fill=(0, 0, 0, 140))
+    draw.multiline_text((pad * 2, pad * 2), text, font=font, fill=(255, 255, 255, 255), spacing=pad)
+    if outcome:
+        big = ImageFont.load_default(size=int(size * 1.3))
+        left, top, right, bottom = draw.textbbox((0, 0), outcome, font=big)
+        x = (width - (right - left)) // 2
+        y = height - (bottom - top) - 4 * pad
+        draw.rectangle((x - pad, y - pad, x + right - left + pad, y + bottom - top + 2 * pad), fill=(0, 0, 0, 160))
+        draw.text((x - left, y - top), outcome, font=big, fill=(*outcome_color, 255))
+
+
+def render_video(
+    episodes: Episode | Sequence[Episode],
+    out: str | Path,
+    size: tuple[int, int] | None = None,
+    fps: float | None = None,
+    style: VideoStyle | None = None,
+) -> Path:
+    """Film recorded episodes, one after the other, to ``.mp4`` or ``.gif`` (see the module docstring).
+
+    ``size`` is (width, height) in pixels (default: the first episode's render
+    resolution); ``fps`` defaults to the agent rate (real time).
+    """
+    from pyflyt_engine.telemetry.plots import write_video
+
+    out = Path(out)
+    if out.suffix.lower() not in VIDEO_SUFFIXES:
+        raise TelemetryError(f"a video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
+    episodes = [episodes] if isinstance(episodes, Episode) else list(episodes)
+    if not episodes:
+        raise TelemetryError("no episodes to film")
+    frames: list[np.ndarray] = []
+    for episode in episodes:
+        frames.extend(episode_frames(episode, size, style))
+        if size is None:  # every episode at the first one's size
+            size = (frames[0].shape[1], frames[0].shape[0])
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_video(out, frames, float(fps or episodes[0].agent_hz))
+    return out

@@ -1,0 +1,154 @@
+"""Flight videos (pyflyt_engine/telemetry/video.py): framing, translucency, trail, overlay.
+
+Oracles: the projection puts the camera target at the image centre; translucent bodies
+are the alpha blend of two independent renders; the chase distance is the span times
+the style's factor; every vehicle of a multi-vehicle recording is in view.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+from pyflyt_cli.main import app
+from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.telemetry import RecordEpisode, load_episode
+from pyflyt_engine.telemetry.video import (
+    ChaseCamera,
+    VideoStyle,
+    _camera,
+    _matrices,
+    _render_blended,
+    _translucent_bodies,
+    episode_frames,
+    outcome_text,
+    project,
+    vehicle_span,
+)
+from pyflyt_engine.world import VehicleConfig, World
+
+from .conftest import make_env, record
+
+W, H = 96, 72
+
+
+def _view(client: int, eye, target, fov: float = 60.0):
+    view = p.computeViewMatrix(eye, target, (0.0, 0.0, 1.0), physicsClientId=client)
+    projection = p.computeProjectionMatrixFOV(fov, W / H, 0.02, 500.0, physicsClientId=client)
+    return view, projection
+
+
+def test_projection_puts_the_target_at_the_centre_and_hides_points_behind():
+    with World([VehicleConfig("quadx_cf2x", (0, 0, 1))]) as world:
+        view, projection = _view(world.client, (-2.0, 0.0, 2.0), (0.0, 0.0, 1.0))
+    clip = _matrices(view, projection)
+    pixels = project(clip, np.array([[0.0, 0.0, 1.0], [-4.0, 0.0, 3.0], [0.0, 1.0, 1.0]]), W, H)
+    np.testing.assert_allclose(pixels[0], (W / 2, H / 2), atol=1e-9)
+    assert np.isnan(pixels[1]).all()  # behind the camera
+    assert pixels[2][0] < W / 2  # +y (left of the view along +x) is on the left
+
+
+def test_translucent_bodies_are_the_alpha_blend_of_two_renders():
+    """A sphere of alpha 0.4 in front of the vehicle: where it shows, the frame is
+    0.4 x (render with it) + 0.6 x (render without it), so the vehicle shows through."""
+    with World([VehicleConfig("quadx_f450", (0, 0, 1))]) as world:
+        client = world.client
+        shape = p.createVisualShape(p.GEOM_SPHERE, radius=0.15, rgbaColor=(0.1, 0.9, 0.1, 0.4), physicsClientId=client)
+        sphere = p.createMultiBody(0.0, -1, shape, basePosition=(-0.3, 0.0, 1.0), physicsClientId=client)
+        vehicle = world.vehicles[0].body_id
+        translucent = _translucent_bodies(client, {vehicle})
+        assert translucent == {sphere: pytest.approx(0.4)}
+        view, projection = _view(client, (-1.2, 0.0, 1.0), (0.0, 0.0, 1.0))
+        blended = _render_blended(client, W, H, view, projection, translucent)
+        with_it, segmentation = _camera(client, W, H, view, projection)
+        p.resetBasePositionAndOrientation(sphere, (0, 0, -50), (0, 0, 0, 1), physicsClientId=client)
+        without, behind_segmentation = _camera(client, W, H, view, projection)
+    covered = segmentation == sphere
+    assert covered.sum() > 100
+    expected = np.rint(without + 0.4 * (with_it.astype(float) - without)).astype(np.uint8)
+    np.testing.assert_array_equal(blended[covered], expected[covered])
+    np.testing.assert_array_equal(blended[~covered], with_it[~covered])
+    vehicle_behind = covered & (behind_segmentation == vehicle)
+    assert vehicle_behind.sum() > 20
+    assert np.abs(blended[vehicle_behind].astype(int) - with_it[vehicle_behind]).max() > 20  # not the opaque sphere
+
+
+def test_chase_distance_is_scaled_to_the_span_and_all_vehicles_stay_in_view():
+    style = VideoStyle()
+    with World([VehicleConfig("quadx_cf2x", (0, 0, 1)), VehicleConfig("fixedwing", (0, 5, 5))]) as world:
+        small = vehicle_span(world.client, world.vehicles[0].body_id)
+        large = vehicle_span(world.client, world.vehicles[1].body_id)
+        assert small == pytest.approx(0.1, abs=0.05) and large == pytest.approx(2.4, abs=0.2)  # 2.4 m span (paper)
+        for span in (small, large):
+            eye, target = ChaseCamera(style, span, 1 / 30).update(np.array([[0.0, 0.0, 1.0]]), 0.3)
+            distance = math.dist(eye, target)
+            assert distance == pytest.approx(max(style.min_distance, style.distance_spans * span, 1.4 * span / math.tan(math.radians(30))))
+            assert math.atan2(target[1] - eye[1], target[0] - eye[0]) == pytest.approx(0.3)  # behind the heading
+        positions = np.array([[0.0, 0.0, 1.0], [6.0, -4.0, 3.0], [-3.0, 5.0, 0.5]])
+        eye, target = ChaseCamera(style, small, 1 / 30).update(positions, None)
+        view, projection = _view(world.client, eye, target, style.fov)
+    pixels = project(_matrices(view, projection), positions, W, H)
+    assert np.all((pixels >= 0) & (pixels <= (W, H)))
+
+
+def _multi_vehicle_recording(directory) -> str:
+    env = make_env("PyFlyt/QuadX-Hover-v0")
+    world = env.unwrapped.world
+    world.add_vehicle("hexacopter", (1.5, 0.5, 1.0), mode="position_yaw")
+    recorder = RecordEpisode(env, directory)
+    recorder.reset(seed=0)
+    world.set_setpoint(1, [2.5, -0.5, 0.0, 1.5])
+    for _ in range(30):
+        recorder.step(np.array([0.0, 0.0, 0.0, 0.13]))
+    recorder.close()
+    return recorder.paths[0]
+
+
+def test_a_multi_vehicle_recording_shows_every_vehicle_with_its_trail(tmp_path):
+    episode = load_episode(_multi_vehicle_recording(tmp_path))
+    assert len(episode.vehicles) == 2
+    style = VideoStyle(hold_seconds=0.0)
+    frames = list(episode_frames(episode, (160, 120), style))
+    assert len(frames) == len(episode.vehicles[0].time) and frames[0].shape == (120, 160, 3)
+    # the trails: the recording's orange (vehicle 0) and blue (vehicle 1) pixels in the last frame
+    last = frames[-1].astype(int)
+    orange = (last[..., 0] > 200) & (last[..., 1] > 90) & (last[..., 1] < 190) & (last[..., 2] < 90)
+    blue = (last[..., 0] < 90) & (last[..., 1] > 120) & (last[..., 2] > 200)
+    assert orange.sum() > 3 and blue.sum() > 10, (orange.sum(), blue.sum())
+
+
+def test_outcome_text_names_how_the_episode_ended(tmp_path):
+    env, _ = record("PyFlyt/QuadX-Hover-v0", tmp_path, max_steps=5)
+    episode = load_episode(env.paths[0])
+    text, color = outcome_text(episode)
+    assert text == "recording cut short" or episode.end is not None
+    if episode.end is not None:
+        assert episode.end["reason"].replace("_", " ") in text
+
+
+def test_replay_video_is_the_flight_then_the_outcome_held(recorded_hover, tmp_path):
+    episode = load_episode(recorded_hover)
+    gif = tmp_path / "v.gif"
+    result = CliRunner().invoke(app, ["replay", str(recorded_hover), "--video", str(gif), "--size", "96x72"])
+    assert result.exit_code == 0, result.output
+    image = Image.open(gif)
+    assert image.size == (96, 72)
+    total = 0.0  # [ms]; the GIF writer merges the identical held frames into one longer one
+    for k in range(image.n_frames):
+        image.seek(k)
+        total += image.info["duration"]
+    frames = len(episode.vehicles[0].time) + round(episode.agent_hz)  # the flight, then 1 s held
+    assert total == pytest.approx(frames * 1000 / episode.agent_hz, rel=0.05)
+    image.seek(0)
+    first = np.asarray(image.convert("RGB")).astype(int)
+    assert np.median(first[6:14, 6:40]) < 160  # the dark overlay box, top left, over the white sky
+
+
+@pytest.fixture
+def recorded_hover(tmp_path):
+    env, _ = record("PyFlyt/QuadX-Hover-v0", tmp_path / "rec", max_steps=12)
+    return env.paths[0]
