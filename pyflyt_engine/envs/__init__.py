@@ -45,6 +45,12 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.fixedwing:FixedwingWaypointsEnv", "fixedwing_waypoints"
     ),
     "PyFlyt/Rocket-Landing-v0": EnvEntry("pyflyt_engine.envs.rocket:RocketLandingEnv", "rocket_landing"),
+    "PyFlyt/QuadX-Pole-Balance-v0": EnvEntry(
+        "pyflyt_engine.envs.quadx_payloads:QuadXPoleBalanceEnv", "quadx_pole_balance"
+    ),
+    "PyFlyt/QuadX-Pole-Waypoints-v0": EnvEntry(
+        "pyflyt_engine.envs.quadx_payloads:QuadXPoleWaypointsEnv", "quadx_pole_waypoints"
+    ),
 }
 
 
@@ -83,6 +89,8 @@ def __getattr__(name: str) -> Any:
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
+        "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
         "EnvConfig": "pyflyt_engine.envs.config",
         "RewardPreset": "pyflyt_engine.envs.config",
@@ -105,6 +113,8 @@ __all__ = [
     "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
     "QuadXHoverEnv",
+    "QuadXPoleBalanceEnv",
+    "QuadXPoleWaypointsEnv",
     "QuadXWaypointsEnv",
     "RewardPreset",
     "RocketLandingEnv",

@@ -33,6 +33,7 @@ from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.payloads import PayloadSpec
 from pyflyt_engine.spec import FIX_HINTS, check_finite, first_model
 
 
@@ -139,7 +140,27 @@ class EnvConfig(_Config):
     action: ActionConfig
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
+    payloads: list[PayloadSpec] = Field(
+        default_factory=list,
+        description="rigid bodies attached to the vehicle or the world (see pyflyt_engine.payloads)",
+    )
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
+
+    @model_validator(mode="after")
+    def _payloads(self) -> EnvConfig:
+        names = [p.name for p in self.payloads]
+        for name in names:
+            if names.count(name) > 1:
+                raise ValueError(f"payload name '{name}' is used twice: give each payload its own name")
+        for i, payload in enumerate(self.payloads):
+            if payload.attach.to == "world":
+                reach = payload.farthest_reach()
+                if reach > self.flight_dome_size:
+                    raise ValueError(
+                        f"payloads.{i} ('{payload.name}') reaches {reach:.3g} m from the origin, outside the flight "
+                        f"dome (flight_dome_size {self.flight_dome_size:g} m): move it closer or enlarge the dome"
+                    )
+        return self
 
     @property
     def max_steps(self) -> int:

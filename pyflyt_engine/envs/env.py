@@ -23,6 +23,7 @@ from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -132,6 +133,11 @@ class UAVEnv(gymnasium.Env):
             drag=cfg.drag,
         )
         self.vehicle = self.world.vehicles[0]
+        #: the config's payloads, built around the vehicle (None without payloads)
+        self.payloads: PayloadSet | None = None
+        if cfg.payloads:
+            self.payloads = PayloadSet(self.world, self.vehicle, list(cfg.payloads))
+        self.task.payloads = self.payloads
         self.task.setup(self.world)
         if self.vehicle.setpoint.size != len(cfg.action.names):
             self.world.close()
@@ -169,6 +175,8 @@ class UAVEnv(gymnasium.Env):
         self.world.reset(seed)
         spawn = self.task.spawn(self.np_random)
         self.vehicle.reset(spawn.position, spawn.orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
+        if self.payloads is not None:
+            self.payloads.place()
         state = self.vehicle.state
         self.task.reset(state, self.np_random)
         self._action = np.zeros_like(self._low)
@@ -177,6 +185,8 @@ class UAVEnv(gymnasium.Env):
         if self._markers is not None:
             self._markers.show(self.task.markers())
         info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        if self.payloads is not None:
+            info["payload_ground_contact"] = False
         info.update(self.task.info())
         observation = self._observe(state)
         if not _all_finite(0.0, observation):
@@ -200,6 +210,8 @@ class UAVEnv(gymnasium.Env):
         out_of_bounds = x * x + y * y + z * z > self._dome2
         signals = self.task.update(state)
         crashed = out_of_bounds or signals.failed or (collision and self.task.crash_on_contact)
+        payload_ground = self.payloads is not None and self.payloads.ground_failure()
+        crashed = crashed or payload_ground
         ctx = StepContext(
             state,
             a,
@@ -228,6 +240,8 @@ class UAVEnv(gymnasium.Env):
             "env_complete": signals.complete,
             "success": success,
         }
+        if self.payloads is not None:
+            info["payload_ground_contact"] = payload_ground
         if self.info_reward_terms:
             info["reward_terms"] = terms
         info.update(self.task.info())

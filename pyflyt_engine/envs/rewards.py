@@ -164,6 +164,17 @@ def action_magnitude(ctx: StepContext) -> float:
     return float(np.sqrt(np.dot(ctx.action, ctx.action)))
 
 
+def yaw_rate_squared(ctx: StepContext) -> float:
+    """r^2: squared body yaw rate [rad^2/s^2] (the reference PyFlyt's yaw-rate penalty)."""
+    r = ctx.state.ang_vel[2]
+    return r * r
+
+
+def pole_lean(ctx: StepContext) -> float:
+    """Lean of the pole in [0, 1]: sine of its tilt while upright, 1 once fallen (pole tasks)."""
+    return ctx.extras["pole_lean"]
+
+
 #: Every reward term a preset may name.
 TERMS: dict[str, RewardTerm] = {
     "constant": RewardTerm(constant, "1"),
@@ -177,6 +188,8 @@ TERMS: dict[str, RewardTerm] = {
     "angular_speed": RewardTerm(angular_speed, "rad/s"),
     "altitude": RewardTerm(altitude, "m"),
     "action_magnitude": RewardTerm(action_magnitude, "action units"),
+    "yaw_rate_squared": RewardTerm(yaw_rate_squared, "rad^2/s^2"),
+    "pole_lean": RewardTerm(pole_lean, "1", ("pole",)),
 }
 
 

@@ -11,6 +11,7 @@ import difflib
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
+from pyflyt_engine.envs.tasks.pole import PoleBalanceOptions, PoleBalanceTask, PoleWaypointsOptions, PoleWaypointsTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
 from pyflyt_engine.errors import ConfigError
 
@@ -18,6 +19,8 @@ TASKS: dict[str, type[Task]] = {
     HoverTask.name: HoverTask,
     WaypointsTask.name: WaypointsTask,
     LandingTask.name: LandingTask,
+    PoleBalanceTask.name: PoleBalanceTask,
+    PoleWaypointsTask.name: PoleWaypointsTask,
 }
 
 
@@ -44,6 +47,10 @@ __all__ = [
     "HoverTask",
     "LandingOptions",
     "LandingTask",
+    "PoleBalanceOptions",
+    "PoleBalanceTask",
+    "PoleWaypointsOptions",
+    "PoleWaypointsTask",
     "Spawn",
     "Task",
     "TaskOptions",

@@ -35,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
+    from pyflyt_engine.payloads import PayloadSet
     from pyflyt_engine.spec import UAVSpec
     from pyflyt_engine.world import World
 
@@ -115,6 +116,9 @@ class Task:
         self.options = options
         self.flight_dome_size = float(flight_dome_size)
         self.agent_dt = 1.0 / float(agent_hz)
+        #: the env config's payloads (:class:`~pyflyt_engine.payloads.PayloadSet`), set by the
+        #: environment before :meth:`setup`; None when the config declares none
+        self.payloads: PayloadSet | None = None
 
     def setup(self, world: World) -> None:
         """Once, after the world is built and before its first reset snapshot.
