@@ -51,6 +51,7 @@ ENVS: dict[str, EnvEntry] = {
     "PyFlyt/QuadX-Pole-Waypoints-v0": EnvEntry(
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleWaypointsEnv", "quadx_pole_waypoints"
     ),
+    "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
 }
 
 
@@ -89,6 +90,7 @@ def __getattr__(name: str) -> Any:
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
+        "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
@@ -112,6 +114,7 @@ __all__ = [
     "EnvEntry",
     "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
+    "QuadXBallInCupEnv",
     "QuadXHoverEnv",
     "QuadXPoleBalanceEnv",
     "QuadXPoleWaypointsEnv",

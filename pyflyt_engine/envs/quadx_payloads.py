@@ -1,6 +1,7 @@
 """QuadX tasks with payloads (reference PyFlyt 0.29.0 tasks beyond the paper).
 
-``PyFlyt/QuadX-Pole-Balance-v0`` and ``PyFlyt/QuadX-Pole-Waypoints-v0``.  Each class is the
+``PyFlyt/QuadX-Pole-Balance-v0``, ``PyFlyt/QuadX-Pole-Waypoints-v0`` and
+``PyFlyt/QuadX-Ball-In-Cup-v0``.  Each class is the
 generic :class:`~pyflyt_engine.envs.env.UAVEnv` bound to its shipped config
 (``conf/env/<config_name>.yaml``), whose ``payloads:`` declare the bodies it carries; its
 docstring is the environment's manual.
@@ -137,3 +138,73 @@ class QuadXPoleWaypointsEnv(UAVEnv):
     """
 
     config_name: ClassVar[str | None] = "quadx_pole_waypoints"
+
+
+class QuadXBallInCupEnv(UAVEnv):
+    """``PyFlyt/QuadX-Ball-In-Cup-v0``: swing a ball hanging below a 1 kg QuadX up into the cup on its top.
+
+    Config: ``conf/env/quadx_ball_in_cup.yaml``.  Payloads: a 0.1 kg ball of 50 mm radius
+    on a 0.5 m string (a tether: it can go slack) from the bottom of the airframe, and an
+    open cup (0.2 x 0.2 m floor, four 0.1 m walls, 50 g) welded on top; both the
+    reference's sizes and masses.
+
+    **Vehicle**: ``quadx_f450`` (1 kg, 40 N) in flight mode ``rates_thrust`` (the
+    reference's flight mode 0); physics 240 Hz, control 120 Hz, agent 30 Hz.
+
+    **Action space** ``Box(4,)``, float64: body rate setpoints p, q, r [rad/s] in
+    [-pi, pi] and collective thrust in [0, 1] of the maximum (about 0.28 hovers the
+    1.16 kg total).
+
+    **Observation space** ``Box(27,)`` (quaternion) or ``Box(26,)`` (Euler), float64: the
+    21 (20) values of the attitude vector (angular velocity, attitude, body velocity,
+    position, previous action, 4 motor throttles; see
+    :class:`~pyflyt_engine.envs.quadx.QuadXHoverEnv`), then the ball's position relative
+    to the vehicle's centre of mass in the body frame [m] (3), then the ball's ground
+    velocity in body axes, ``R^T v_ball`` [m/s] (3).
+
+    **Catch** (success): the ball touches the cup with its centre above the vehicle's
+    centre of mass while the vehicle is within ``goal_reach_distance`` = 1 m of
+    ``hover_point`` = (0, 0, 2) m and slower than ``goal_reach_velocity`` = 1 m/s.
+
+    **Reward** (dense, preset ``quadx_ball_in_cup_dense``; the reference's formula)::
+
+        r = -100                 crash (not by the ball)
+            -500                 the ball struck the vehicle
+            0.3 - 0.01 r_yaw^2 - 0.01 E
+              - 4 ln(0.45 d + 0.01)   if the ball is above the vehicle, else + h
+              + 50 (e_prev - e) + 10 / (e + 0.1)   while the ball is in the cup, not caught
+              + 1000             on the catch
+
+    E = |omega|^2 + |euler|^2 + |v|^2 + |p - p_hover|^2 (SI units squared), d the
+    vehicle-to-ball distance [m], h the ball's height above the vehicle [m], e =
+    |p - p_hover|^2 [m^2].  Terms: ``crash``, ``self_collision``, ``time_penalty``,
+    ``alive``, ``yaw_rate``, ``state_error``, ``ball_proximity``, ``ball_below``,
+    ``cup_approach``, ``cup_hold``, ``catch``.  Sparse (``quadx_ball_in_cup_sparse``):
+    -0.1 per step, +1000 on the catch, -100 on a crash, -500 when the ball strikes the
+    vehicle.
+
+    **Episode end**: terminated on a crash — any vehicle contact (the ball striking the
+    airframe included: ``info["ball_hit_vehicle"]``), leaving the 30 m flight dome, the
+    ball or cup touching the ground (``info["payload_ground_contact"]``) — or on the catch
+    (``info["env_complete"] = info["success"] = True``); truncated after 10 s (300
+    steps).  ``info["ball_in_cup"]`` and ``info["ball_height"]`` every step.
+
+    **Starting state**: at rest at (0, 0, 2) + U(-0.1, 0.1) m per axis, attitude
+    U(-0.05, 0.05) rad per angle; the ball hanging still at full string length.
+
+    **Arguments**: as :class:`~pyflyt_engine.envs.quadx.QuadXHoverEnv` plus ``ball``,
+    ``cup`` (payload names), ``hover_point``, ``goal_reach_distance``,
+    ``goal_reach_velocity``.
+
+    **Differences from the reference** (PyFlyt 0.29.0): it spawns at 4 m and measures its
+    state error and catch from (0, 0, 1); we spawn at and measure from one point, 2 m up.
+    Its ball starts at a random angle; ours hangs still (the spawn attitude varies).  Its
+    cup has no floor (a caught ball lands on the airframe); ours has a floor plate, and any
+    ball contact with the airframe is a strike (the reference only penalises strikes from
+    below).  The catch terminates with success (the reference truncates).  Our crash steps
+    pay their penalty only.
+
+    **Version history**: v0 — first version.
+    """
+
+    config_name: ClassVar[str | None] = "quadx_ball_in_cup"

@@ -58,6 +58,11 @@ def _motors_policy(rng: np.random.Generator) -> np.ndarray:
     return 0.54 + rng.uniform(-0.03, 0.03, 4)
 
 
+def _ball_in_cup_policy(rng: np.random.Generator) -> np.ndarray:
+    # around the hover thrust of the f450 with cup and ball (1.16 kg g / 40 N = 0.28)
+    return np.array([*rng.uniform(-0.3, 0.3, 3), rng.uniform(0.26, 0.31)])
+
+
 PROFILES: dict[str, EnvProfile] = {
     "PyFlyt/QuadX-Hover-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
     "PyFlyt/QuadX-Waypoints-v0": EnvProfile(
@@ -74,6 +79,10 @@ PROFILES: dict[str, EnvProfile] = {
     "PyFlyt/QuadX-Pole-Balance-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),
     "PyFlyt/QuadX-Pole-Waypoints-v0": EnvProfile(
         4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy
+    ),
+    # 4 motor throttles; then the ball's relative position and velocity (body frame)
+    "PyFlyt/QuadX-Ball-In-Cup-v0": EnvProfile(
+        4, 6, (0.0, 0.0, 2.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.28), _ball_in_cup_policy
     ),
 }
 

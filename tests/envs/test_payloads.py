@@ -334,3 +334,100 @@ def test_recording_carries_the_payload_frames_scene_and_urdf(tmp_path):
     assert "payload_pole.urdf" in [a.name for a in contents.attachments]
     result = verify(load_episode(path), tolerance=0.0)
     assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0
+
+
+# ---------------------------------------------------------------- ball in cup
+
+
+def _put_ball(env, height, up_speed=0.0):
+    """Put the tethered ball ``height`` m straight above the string's anchor (slack), rising at ``up_speed``."""
+    payload = env.payloads.by_name["ball"]
+    s = env.vehicle.state
+    cid = env.world.client
+    anchor = np.asarray(s.lin_pos) + np.array([0.0, 0.0, -0.03])
+    flipped = p.getQuaternionFromEuler([math.pi, 0.0, 0.0])  # the string's axis (down at reset) now points up
+    p.resetBasePositionAndOrientation(payload.body_id, anchor.tolist(), flipped, physicsClientId=cid)
+    p.resetBaseVelocity(payload.body_id, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
+    p.resetJointState(payload.body_id, 0, height, up_speed, physicsClientId=cid)
+
+
+def test_ball_dropped_into_the_cup_at_the_hover_point_is_a_catch():
+    env = gymnasium.make("PyFlyt/QuadX-Ball-In-Cup-v0").unwrapped
+    env.reset(seed=0)
+    _, reward, terminated, *_ = env.step([0.0, 0.0, 0.0, 0.28])
+    assert not terminated
+    _put_ball(env, 0.13)  # centre 0.10 m above the centre of mass: 1 cm above the cup floor
+    for _ in range(3):  # a 1 cm drop takes 45 ms: 2 agent steps
+        obs, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
+        if terminated:
+            break
+    assert terminated and info["env_complete"] and info["success"] and info["ball_in_cup"]
+    assert not info["collision"] and not info["ball_hit_vehicle"]
+    assert info["reward_terms"]["catch"] == 1000.0 and reward > 900.0
+    np.testing.assert_allclose(obs[-6:-3], [0.0, 0.0, 0.09], atol=0.02)  # resting on the floor plate
+    env.close()
+
+
+def test_ball_in_the_cup_away_from_the_hover_point_is_not_yet_a_catch():
+    env = gymnasium.make("PyFlyt/QuadX-Ball-In-Cup-v0", hover_point=(0.0, 0.0, 3.5)).unwrapped
+    env.reset(seed=0)
+    _put_ball(env, 0.13)
+    for _ in range(3):
+        _, reward, terminated, _, info = env.step([0.0, 0.0, 0.0, 0.28])
+        if info["ball_in_cup"]:
+            break
+    terms = info["reward_terms"]
+    assert not terminated and info["ball_in_cup"] and not info["success"]
+    # e = squared distance from (0, 0, 3.5), about 1.5^2: the cup shaping pays 10 / (e + 0.1)
+    z = env.vehicle.state.lin_pos[2]
+    e = sum(v * v for v in np.subtract(env.vehicle.state.lin_pos, (0.0, 0.0, 3.5)))
+    assert terms["cup_hold"] == pytest.approx(10.0 / (e + 0.1), rel=1e-9) and 1.3 < 3.5 - z < 1.7
+    assert terms["catch"] == 0.0
+    env.close()
+
+
+def test_ball_striking_the_vehicle_from_below_ends_the_episode():
+    env = gymnasium.make("PyFlyt/QuadX-Ball-In-Cup-v0").unwrapped
+    env.reset(seed=0)
+    payload = env.payloads.by_name["ball"]
+    p.resetJointState(payload.body_id, 0, 0.12, -6.0, physicsClientId=env.world.client)  # flung up at 6 m/s
+    _, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
+    assert terminated and info["ball_hit_vehicle"] and info["collision"] and not info["success"]
+    assert reward == -500.0 and info["reward_terms"]["self_collision"] == -500.0
+    env.close()
+
+
+def test_ball_in_cup_dense_reward_matches_the_reference_formula():
+    from pyflyt_engine.frames import euler_to_quaternion
+
+    reward = load_reward_preset("quadx_ball_in_cup_dense").compile(frozenset({"ball_in_cup"}))
+    ang_vel, ang_pos, lin_vel, lin_pos = (0.2, -0.1, 1.5), (0.1, 0.05, -0.3), (0.4, 0.0, -0.2), (0.3, 0.2, 1.6)
+    state = KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, tuple(euler_to_quaternion(*ang_pos)), lin_vel, ang_vel)
+    E = sum(v * v for v in (*ang_vel, *ang_pos, *lin_vel)) + 0.3**2 + 0.2**2 + 0.4**2
+    base = -0.1 + 0.4 - 0.01 * 1.5**2 - 0.01 * E
+
+    def extras(**kw):
+        e = {"ball_height": -0.5, "ball_distance": 0.53, "ball_above": 0.0, "ball_cup_contact": 0.0,
+             "ball_hit_vehicle": 0.0, "hover_error": 0.29, "hover_error_decrease": 0.01, "caught": 0.0}
+        e.update(kw)
+        return e
+
+    def r(crashed=False, complete=False, **kw):
+        ctx = StepContext(state, np.zeros(4), crashed, False, False, crashed, task_complete=complete, extras=extras(**kw))
+        total, terms = reward(ctx)
+        assert sum(terms.values()) == pytest.approx(total, abs=1e-12)
+        return total
+
+    assert r() == pytest.approx(base - 0.5, abs=1e-12)  # ball below: + h
+    above = r(ball_height=0.3, ball_distance=0.35, ball_above=1.0)
+    assert above == pytest.approx(base - 4.0 * math.log(0.45 * 0.35 + 0.01), abs=1e-12)
+    in_cup = r(ball_height=0.1, ball_distance=0.1, ball_above=1.0, ball_cup_contact=1.0)
+    shaping = 50.0 * 0.01 + 10.0 / (0.29 + 0.1)
+    assert in_cup == pytest.approx(base - 4.0 * math.log(0.45 * 0.1 + 0.01) + shaping, abs=1e-12)
+    caught = r(complete=True, ball_height=0.1, ball_distance=0.1, ball_above=1.0, ball_cup_contact=1.0, caught=1.0)
+    assert caught == pytest.approx(base - 4.0 * math.log(0.45 * 0.1 + 0.01) + 1000.0, abs=1e-12)
+    assert r(crashed=True) == -100.0
+    assert r(crashed=True, ball_hit_vehicle=1.0) == -500.0
+    sparse = load_reward_preset("quadx_ball_in_cup_sparse").compile(frozenset({"ball_in_cup"}))
+    ctx = StepContext(state, np.zeros(4), False, False, False, False, task_complete=True, extras=extras(caught=1.0))
+    assert sparse(ctx)[0] == pytest.approx(999.9)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import difflib
 
+from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
@@ -21,6 +22,7 @@ TASKS: dict[str, type[Task]] = {
     LandingTask.name: LandingTask,
     PoleBalanceTask.name: PoleBalanceTask,
     PoleWaypointsTask.name: PoleWaypointsTask,
+    BallInCupTask.name: BallInCupTask,
 }
 
 
@@ -43,6 +45,8 @@ def get_task(name: str) -> type[Task]:
 
 __all__ = [
     "TASKS",
+    "BallInCupOptions",
+    "BallInCupTask",
     "HoverOptions",
     "HoverTask",
     "LandingOptions",
