@@ -52,6 +52,7 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleWaypointsEnv", "quadx_pole_waypoints"
     ),
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
+    "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXGatesEnv", "quadx_gates"),
 }
 
 
@@ -91,6 +92,7 @@ def __getattr__(name: str) -> Any:
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
         "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
@@ -115,6 +117,7 @@ __all__ = [
     "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
     "QuadXBallInCupEnv",
+    "QuadXGatesEnv",
     "QuadXHoverEnv",
     "QuadXPoleBalanceEnv",
     "QuadXPoleWaypointsEnv",

@@ -117,10 +117,14 @@ class UAVEnv(gymnasium.Env):
         #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
+        flown = self.task.vehicle_spec(self.airframe)
+        self._camera: int | None = None
+        if cfg.camera_observation is not None:
+            flown, self._camera = _with_observation_camera(flown, cfg.camera_observation)
         self.world = World(
             [
                 VehicleConfig(
-                    self.task.vehicle_spec(self.airframe),
+                    flown,
                     cfg.task.start_position,
                     cfg.task.start_orientation,
                     mode=cfg.action.mode,
@@ -153,6 +157,8 @@ class UAVEnv(gymnasium.Env):
         size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + self.world.aux_state(0).size
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
+        if cfg.camera_observation is not None:
+            self.observation_space = _with_image_space(self.observation_space, cfg.camera_observation)
 
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
@@ -281,7 +287,16 @@ class UAVEnv(gymnasium.Env):
                 self.vehicle.aux_state,
             )
         )
-        return self.task.observe(attitude, state)
+        observation = self.task.observe(attitude, state)
+        if self._camera is None:
+            return observation
+        c = self.config.camera_observation
+        rgba = self.vehicle.capture(self._camera)["rgba"]
+        image = rgba[:, :, :3] if c.channels == "rgb" else rgba  # type: ignore[union-attr]
+        image = np.ascontiguousarray(image.transpose(2, 0, 1) if c.channel_first else image)  # type: ignore[union-attr]
+        if isinstance(observation, dict):
+            return {**observation, c.key: image}  # type: ignore[union-attr]
+        return {"attitude": observation, c.key: image}  # type: ignore[union-attr]
 
     def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
@@ -327,6 +342,28 @@ class UAVEnv(gymnasium.Env):
         return self._action.copy()
 
 
+def _with_observation_camera(spec: UAVSpec, obs: Any) -> tuple[UAVSpec, int]:
+    """The airframe with the observation camera appended, and its index."""
+    if any(c.name == obs.camera.name for c in spec.cameras):
+        raise ConfigError(
+            f"camera_observation.camera.name '{obs.camera.name}' is already a camera of airframe '{spec.name}': "
+            "give the observation camera another name"
+        )
+    camera = obs.camera.model_copy(update={"outputs": ["rgba"]})
+    return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
+
+
+def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
+    """``space`` as a Dict with the camera image Box (uint8) under ``obs.key``."""
+    cam = obs.camera
+    depth = 3 if obs.channels == "rgb" else 4
+    shape = (depth, cam.height, cam.width) if obs.channel_first else (cam.height, cam.width, depth)
+    image = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+    if isinstance(space, spaces.Dict):
+        return spaces.Dict({**space.spaces, obs.key: image})
+    return spaces.Dict({"attitude": space, obs.key: image})
+
+
 @functools.lru_cache(maxsize=16)
 def _zeros(size: int) -> np.ndarray:
     zeros = np.zeros(size)
@@ -344,6 +381,8 @@ def _all_finite(reward: float, observation: Any) -> bool:
         return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
     total = reward
     for value in observation.values() if isinstance(observation, Mapping) else (observation,):
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
+            continue
         flat = np.ravel(np.asarray(value, dtype=np.float64))
         total += flat.dot(_zeros(flat.size))
     return math.isfinite(total)

@@ -126,9 +126,10 @@ def target_distance(ctx: StepContext) -> float:
     return ctx.target_distance  # type: ignore[return-value]
 
 
-def inverse_target_distance(ctx: StepContext) -> float:
-    """1 / delta: inverse distance to the task's current target [1/m]."""
-    return 1.0 / ctx.target_distance  # type: ignore[operator]
+def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
+    """1 / max(delta, floor): inverse distance to the task's current target [1/m] (floor [m] bounds it)."""
+    delta = ctx.target_distance
+    return 1.0 / (delta if delta >= floor else floor)  # type: ignore[operator]
 
 
 def target_distance_rate(ctx: StepContext) -> float:

@@ -84,6 +84,8 @@ PROFILES: dict[str, EnvProfile] = {
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvProfile(
         4, 6, (0.0, 0.0, 2.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.28), _ball_in_cup_policy
     ),
+    # the attitude vector as QuadX-Waypoints; the image and the gate deltas are separate keys
+    "PyFlyt/QuadX-Gates-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
 }
 
 

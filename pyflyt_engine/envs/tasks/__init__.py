@@ -10,6 +10,7 @@ import difflib
 
 from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.gates import GatesOptions, GatesTask
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
 from pyflyt_engine.envs.tasks.pole import PoleBalanceOptions, PoleBalanceTask, PoleWaypointsOptions, PoleWaypointsTask
@@ -23,6 +24,7 @@ TASKS: dict[str, type[Task]] = {
     PoleBalanceTask.name: PoleBalanceTask,
     PoleWaypointsTask.name: PoleWaypointsTask,
     BallInCupTask.name: BallInCupTask,
+    GatesTask.name: GatesTask,
 }
 
 
@@ -47,6 +49,8 @@ __all__ = [
     "TASKS",
     "BallInCupOptions",
     "BallInCupTask",
+    "GatesOptions",
+    "GatesTask",
     "HoverOptions",
     "HoverTask",
     "LandingOptions",
