@@ -46,6 +46,16 @@ class UAVEnv(gymnasium.Env):
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
 
+    Camera image (``config.camera_observation``, optional): the camera is added to the
+    airframe for this env, rendered at every step, and the observation becomes a ``Dict``
+    with the image (``Box`` uint8, (H, W, C) or (C, H, W), RGB or RGBA) under its key and
+    the task's observation under ``attitude`` (or merged, if it is a ``Dict``).
+
+    Payloads (``config.payloads``, optional): rigid bodies attached to the vehicle or the
+    world (:mod:`pyflyt_engine.payloads`), placed relative to their parent at every reset;
+    a payload touching the ground ends the episode as a crash when it declares
+    ``ground_contact_fails`` (``info["payload_ground_contact"]``).
+
     Episode end: *terminated* on a crash — any contact of the vehicle (ground included;
     unless the task sets ``crash_on_contact = False``), leaving the flight dome
     (``|lin_pos| > flight_dome_size``) or a failure the task declares — or when the task
