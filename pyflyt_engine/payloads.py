@@ -116,7 +116,7 @@ class PayloadSpec(_Model):
         if self.body.urdf is not None:
             raise ValueError("payload body.urdf is not supported: describe the payload with shapes")
         if self.attach.joint == "tether":
-            distance = float(np.linalg.norm(np.subtract(self.anchor_to_payload_anchor(), 0.0)))
+            distance = float(np.linalg.norm(self.anchor_to_payload_anchor()))
             if distance <= 1e-9:
                 raise ValueError(
                     "tethered payload starts with its payload_anchor on the anchor: place it (position) along the string"
@@ -125,6 +125,13 @@ class PayloadSpec(_Model):
                 raise ValueError(
                     f"tethered payload starts {distance:.4g} m from its anchor, farther than the tether "
                     f"length {self.attach.length} m: move it closer or lengthen the tether"
+                )
+            axis = self.anchor_to_payload_anchor() / distance
+            offset = self.rotation() @ (self.center_of_mass() - np.asarray(self.attach.payload_anchor, dtype=float))
+            if np.linalg.norm(offset - (offset @ axis) * axis) > 1e-6:
+                raise ValueError(
+                    "a tethered payload's centre of mass must lie on its string's line (from attach.anchor through "
+                    "attach.payload_anchor at reset): tie the string at a point above the centre of mass"
                 )
         return self
 
@@ -220,9 +227,10 @@ def _link(name: str, spec: PayloadSpec) -> list[str]:
 def generate_payload_urdf(spec: PayloadSpec) -> str:
     """URDF text of a payload: one link ``body``; a tether adds the pivot link ``pivot`` as base.
 
-    Tether: the prismatic joint's axis is the unit vector from the anchor to the payload's
-    centre of mass at reset, expressed in the pivot's frame, which at reset is aligned with
-    the parent's frame; the joint coordinate is the anchor-to-centre-of-mass distance.
+    Tether: the prismatic joint's axis is the string's direction at reset (anchor to
+    ``payload_anchor``); the pivot's frame is aligned with the parent's at reset, the
+    payload's frame turned from it by ``orientation``; the joint coordinate is the distance
+    of the centre of mass from the anchor along the string.
     """
     lines = ['<?xml version="1.0"?>', f'<robot name="payload_{spec.name}">']
     if spec.attach.joint != "tether":
@@ -245,8 +253,9 @@ def generate_payload_urdf(spec: PayloadSpec) -> str:
             '  <joint name="tether" type="prismatic">',
             '    <parent link="pivot"/>',
             '    <child link="body"/>',
-            '    <origin xyz="0 0 0" rpy="0 0 0"/>',
-            f'    <axis xyz="{_fmt(axis)}"/>',
+            # the payload's frame turned by its declared orientation; the axis is given in it
+            f'    <origin xyz="0 0 0" rpy="{_fmt(spec.orientation)}"/>',
+            f'    <axis xyz="{_fmt(spec.rotation().T @ axis)}"/>',
             f'    <limit lower="0" upper="{upper:.9g}" effort="0" velocity="1000"/>',
             '    <dynamics damping="0" friction="0"/>',
             "  </joint>",
@@ -258,21 +267,19 @@ def generate_payload_urdf(spec: PayloadSpec) -> str:
 def tether_geometry(spec: PayloadSpec) -> tuple[np.ndarray, float, float]:
     """(unit axis in the parent frame, joint coordinate at reset, joint upper limit) [m] of a tether.
 
-    The joint moves the payload's centre of mass, so the string length (anchor to
-    ``payload_anchor``) becomes a limit on the centre of mass along the same line: the
-    payload's orientation is carried by the pivot, so the offset from ``payload_anchor``
-    to the centre of mass is fixed along the string only when it lies on it; shapes are
-    normally centred on the anchor point (a ball on its string), and the limit is
-    ``length + (com - payload_anchor) . axis``.
+    The prismatic joint moves the payload's centre of mass along the string's line (anchor
+    to ``payload_anchor`` at reset); the payload keeps its orientation relative to that
+    line, as a bob on a rigid-while-taut string does.  The centre of mass lies on the line
+    (checked by :class:`PayloadSpec`), a fixed ``offset`` beyond ``payload_anchor``, so the
+    string length limits the joint coordinate to ``length + offset``.
     """
     rot = spec.rotation()
+    string = spec.anchor_to_payload_anchor()
+    axis = string / np.linalg.norm(string)
     com = np.asarray(spec.position) + rot @ spec.center_of_mass()
-    to_com = com - np.asarray(spec.attach.anchor, dtype=float)
-    q0 = float(np.linalg.norm(to_com))
-    axis = to_com / q0 if q0 > 1e-12 else spec.anchor_to_payload_anchor() / np.linalg.norm(spec.anchor_to_payload_anchor())
+    q0 = float(axis @ (com - np.asarray(spec.attach.anchor, dtype=float)))
     offset = float(axis @ (rot @ (spec.center_of_mass() - np.asarray(spec.attach.payload_anchor, dtype=float))))
-    upper = float(spec.attach.length) + offset  # type: ignore[arg-type]
-    return axis, q0, upper
+    return axis, q0, float(spec.attach.length) + offset  # type: ignore[arg-type]
 
 
 # ------------------------------------------------------------------------ runtime

@@ -68,6 +68,13 @@ def build(payloads, **changes):
             lambda pl: pl.update(attach={"to": "vehicle", "joint": "tether", "length": 0.3}, position=[0, 0, -0.5]),
             "farther than the tether length 0.3 m",
         ),
+        (
+            lambda pl: pl.update(
+                attach={"to": "vehicle", "joint": "tether", "length": 2.0, "payload_anchor": [0.1, 0, 0]},
+                position=[0, 0, -1.5],  # tied 0.1 m beside the pole's lower end: its middle is off the string
+            ),
+            "centre of mass must lie on its string's line",
+        ),
         (lambda pl: pl.update(mass=1.0), "payloads.0.mass: unknown key 'mass'"),
         (lambda pl: pl.update(attach={"to": "world", "joint": "fixed"}, position=[0, 0, 9.0]), "outside the flight dome"),
         (lambda pl: pl.update(name="bad name"), "payloads.0.name"),
@@ -163,6 +170,28 @@ def test_tether_hangs_at_its_length_and_is_slack_when_shorter():
     s = env.payloads.state("ball")
     np.testing.assert_allclose(s.position, [0.0, 0.0, 2.5], atol=0.005)
     assert np.linalg.norm(s.lin_vel) < 0.05
+    env.close()
+
+
+def test_tethered_payload_starts_at_its_declared_pose():
+    bob = {
+        "name": "bob",
+        "body": {"shapes": [{"type": "box", "size": [0.1, 0.05, 0.02], "mass": 0.1, "position": [0, 0, -0.05]}]},
+        "attach": {"to": "world", "joint": "tether", "anchor": [0.0, 0.0, 3.0], "length": 0.6},
+        "position": [0.0, 0.0, 2.6],  # tied 0.4 m below the anchor, its centre 5 cm lower
+        "orientation": [0.0, 0.0, 0.7],
+    }
+    env = build([bob], drag=False)
+    env.reset(seed=0)
+    s = env.payloads.state("bob")
+    np.testing.assert_allclose(s.position, [0.0, 0.0, 2.55], atol=1e-9)
+    np.testing.assert_allclose(np.abs(np.dot(s.quaternion, p.getQuaternionFromEuler([0, 0, 0.7]))), 1.0, atol=1e-9)
+    # it falls straight down, slack, keeping its orientation, and stops at the string's length
+    for _ in range(240 * 3):
+        p.stepSimulation(physicsClientId=env.world.client)
+    s = env.payloads.state("bob")
+    np.testing.assert_allclose(s.position, [0.0, 0.0, 3.0 - 0.6 - 0.05], atol=0.006)
+    np.testing.assert_allclose(np.abs(np.dot(s.quaternion, p.getQuaternionFromEuler([0, 0, 0.7]))), 1.0, atol=1e-6)
     env.close()
 
 
