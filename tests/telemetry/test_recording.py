@@ -62,7 +62,12 @@ def test_every_message_validates_against_its_declared_schema(recorded):
         steps = topics["/uav/0/action"]
         assert steps > 0
         assert topics["/uav/0/state"] == steps + 1
-        assert topics["/tf"] == steps + 1
+        # one frame per vehicle and per payload of the env config, at the reset and every step
+        from pyflyt_engine.envs import ENVS
+        from pyflyt_engine.envs.config import load_env_config
+
+        frames = 1 + len(load_env_config(ENVS[env_id].config).payloads)
+        assert topics["/tf"] == frames * (steps + 1)
         assert topics["/reward"] == steps
         assert topics["/episode"] == 2
         assert topics["/scene"] >= 1

@@ -7,7 +7,9 @@ from :meth:`Task.setup` (scenery) it never talks to PyBullet: it sees
 runs the loop, detects crashes and dome exits, and evaluates the reward preset.
 
 Once, when the environment is built: ``vehicle_spec(spec)`` (the airframe variant the
-task flies, before the world exists), then ``setup(world)`` (add scenery).  Per episode
+task flies, before the world exists), then ``setup(world)`` (add scenery; the env
+config's payloads are already built and in :attr:`Task.payloads`, read through
+:class:`~pyflyt_engine.payloads.PayloadSet`).  Per episode
 the environment calls, in order::
 
     spawn(rng) -> Spawn            # initial pose and body-frame velocities of the vehicle
