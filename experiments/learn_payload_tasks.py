@@ -11,7 +11,8 @@ in the agent's action space is flown on the same episode seeds.  Dense rewards.
 Reported per task: mean episode return and length, success rate, for the random policy
 and for each seed's policy; written to ``experiments/results/learn_payload_tasks.md``
 (a table) and ``experiments/results/learn_payload_tasks.png`` (a figure: returns per
-seed against the random policy).
+seed against the random policy); raw numbers accumulate in ``learn_payload_tasks.json``
+(a task run again replaces its entry; ``--report-only`` redraws from it).
 
     python experiments/learn_payload_tasks.py [--tasks quadx_pole_balance ...] [--seeds 0 1 2]
         [--budget 50000 quadx_gates=8000] [--episodes 10]
@@ -118,7 +119,8 @@ def figure(results: dict, path: Path) -> None:
         colors = ["0.6"] + ["C0"] * len(seeds)
         ax.bar(range(len(values)), values, yerr=errors, color=colors, capsize=3)
         ax.set_xticks(range(len(values)), labels, rotation=45, ha="right", fontsize=8)
-        ax.set_title(f"{task}\n{r['budget'] // 1000}k steps", fontsize=9)
+        steps = max(s["steps"] for s in r["learned"].values())
+        ax.set_title(f"{task}\n{steps / 1000:.1f}k steps", fontsize=9)
         ax.axhline(0.0, color="k", linewidth=0.5)
     axes[0][0].set_ylabel("mean episode return (dense), ± std")
     fig.tight_layout()
@@ -132,7 +134,13 @@ def main() -> None:
     parser.add_argument("--budget", nargs="+", default=["50000"], help="steps per run; task=steps for one task")
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--output", type=Path, default=None, help="run directories (default: a temporary one)")
+    parser.add_argument("--report-only", action="store_true", help="rewrite the table and figure from the JSON results")
     args = parser.parse_args()
+    if args.report_only:
+        results = json.loads((RESULTS / "learn_payload_tasks.json").read_text())
+        write_table(results)
+        figure(results, RESULTS / "learn_payload_tasks.png")
+        return
     default, per_task = parse_budgets(args.budget)
     unknown = sorted(set(per_task) - set(args.tasks))
     if unknown:
@@ -165,13 +173,14 @@ def write_table(results: dict) -> None:
         f"seeded episodes (seed + 1000 + i, as `pyflyt eval`); random: uniform actions on episode seeds 1000 + i. "
         f"Machine: {platform.machine()}, 2 shared cores.",
         "",
-        "| task | budget | policy | return (mean ± std) | length | success | train wall [s] |",
+        "| task | steps trained | policy | return (mean ± std) | length | success | train wall [s] |",
         "|---|---:|---|---:|---:|---:|---:|",
     ]
     for task, r in results.items():
         rnd = r["random"]
-        lines.append(f"| {task} | {r['budget']:,} | random | {rnd['return']:.1f} ± {rnd['return_std']:.1f} | "
-                     f"{rnd['length']:.0f} | {rnd['success']:.0%} | |")
+        steps = max((s["steps"] for s in r["learned"].values()), default=r["budget"])  # whole PPO rollouts
+        lines.append(f"| {task} | {steps:,} | random ({r['episodes']} episodes) | {rnd['return']:.1f} ± "
+                     f"{rnd['return_std']:.1f} | {rnd['length']:.0f} | {rnd['success']:.0%} | |")
         for seed, s in sorted(r["learned"].items(), key=lambda kv: int(kv[0])):
             lines.append(f"| | | PPO seed {seed} | {s['return']:.1f} ± {s['return_std']:.1f} | {s['length']:.0f} | "
                          f"{s['success']:.0%} | {s['wall']:.0f} |")
