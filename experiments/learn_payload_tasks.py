@@ -73,22 +73,39 @@ def random_policy(task: str, episodes: int, seed: int) -> dict[str, float]:
         lengths.append(steps)
         successes.append(bool(info.get("success", False)))
     env.close()
-    return {"return": float(np.mean(returns)), "return_std": float(np.std(returns)),
-            "length": float(np.mean(lengths)), "success": float(np.mean(successes))}
+    return {
+        "return": float(np.mean(returns)),
+        "return_std": float(np.std(returns)),
+        "length": float(np.mean(lengths)),
+        "success": float(np.mean(successes)),
+    }
 
 
 def learned_policy(task: str, seed: int, budget: int, episodes: int, output: Path) -> dict[str, float]:
-    overrides = [*HOVER_PPO, f"seed={seed}", f"train.total_timesteps={budget}", f"train.output_dir={output}",
-                 "train.progress_bar=false", "train.eval_freq=0", f"train.checkpoint_freq={budget}"]
+    overrides = [
+        *HOVER_PPO,
+        f"seed={seed}",
+        f"train.total_timesteps={budget}",
+        f"train.output_dir={output}",
+        "train.progress_bar=false",
+        "train.eval_freq=0",
+        f"train.checkpoint_freq={budget}",
+    ]
     cfg = compose_config(env=task, algo="ppo", overrides=overrides)
     start = time.perf_counter()
     result = train(cfg, overrides=overrides, command=["experiments/learn_payload_tasks.py"])
     wall = time.perf_counter() - start
     report = evaluate_run(result.run_dir, {"episodes": episodes, "record": False, "model": "final"})
     eps = report.episodes
-    return {"return": float(np.mean([e.ret for e in eps])), "return_std": float(np.std([e.ret for e in eps])),
-            "length": float(np.mean([e.length for e in eps])), "success": float(np.mean([e.success for e in eps])),
-            "steps": result.num_timesteps, "wall": wall, "eval_seed": report.seed}
+    return {
+        "return": float(np.mean([e.ret for e in eps])),
+        "return_std": float(np.std([e.ret for e in eps])),
+        "length": float(np.mean([e.length for e in eps])),
+        "success": float(np.mean([e.success for e in eps])),
+        "steps": result.num_timesteps,
+        "wall": wall,
+        "eval_seed": report.seed,
+    }
 
 
 def parse_budgets(values: list[str]) -> tuple[int, dict[str, int]]:
@@ -169,9 +186,11 @@ def write_table(results: dict) -> None:
     lines = [
         "# Learnability of the payload and camera tasks (`experiments/learn_payload_tasks.py`)",
         "",
-        f"PPO with the QuadX-Hover tuning, dense rewards, final policy evaluated deterministically on "
-        f"seeded episodes (seed + 1000 + i, as `pyflyt eval`); random: uniform actions on episode seeds 1000 + i. "
-        f"Machine: {platform.machine()}, 2 shared cores.",
+        (
+            "PPO with the QuadX-Hover tuning, dense rewards, final policy evaluated deterministically on "
+            "seeded episodes (seed + 1000 + i, as `pyflyt eval`); random: uniform actions on episode seeds "
+            f"1000 + i. Machine: {platform.machine()}, 2 shared cores."
+        ),
         "",
         "| task | steps trained | policy | return (mean ± std) | length | success | train wall [s] |",
         "|---|---:|---|---:|---:|---:|---:|",
@@ -179,11 +198,15 @@ def write_table(results: dict) -> None:
     for task, r in results.items():
         rnd = r["random"]
         steps = max((s["steps"] for s in r["learned"].values()), default=r["budget"])  # whole PPO rollouts
-        lines.append(f"| {task} | {steps:,} | random ({r['episodes']} episodes) | {rnd['return']:.1f} ± "
-                     f"{rnd['return_std']:.1f} | {rnd['length']:.0f} | {rnd['success']:.0%} | |")
+        lines.append(
+            f"| {task} | {steps:,} | random ({r['episodes']} episodes) | {rnd['return']:.1f} ± "
+            f"{rnd['return_std']:.1f} | {rnd['length']:.0f} | {rnd['success']:.0%} | |"
+        )
         for seed, s in sorted(r["learned"].items(), key=lambda kv: int(kv[0])):
-            lines.append(f"| | | PPO seed {seed} | {s['return']:.1f} ± {s['return_std']:.1f} | {s['length']:.0f} | "
-                         f"{s['success']:.0%} | {s['wall']:.0f} |")
+            lines.append(
+                f"| | | PPO seed {seed} | {s['return']:.1f} ± {s['return_std']:.1f} | {s['length']:.0f} | "
+                f"{s['success']:.0%} | {s['wall']:.0f} |"
+            )
     (RESULTS / "learn_payload_tasks.md").write_text("\n".join(lines) + "\n")
 
 

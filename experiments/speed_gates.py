@@ -35,7 +35,9 @@ from pyflyt_engine.envs.config import load_env_config
 def steps_per_second(env, steps: int, seed: int) -> tuple[float, float]:
     """(steps per second of wall time, steps per second of this process's CPU time)."""
     rng = np.random.default_rng(seed)
-    actions = np.column_stack([rng.uniform(-0.3, 0.3, (steps + 100, 3)), 0.125 + 0.02 * rng.standard_normal(steps + 100)])
+    actions = np.column_stack(
+        [rng.uniform(-0.3, 0.3, (steps + 100, 3)), 0.125 + 0.02 * rng.standard_normal(steps + 100)]
+    )
     env.reset(seed=seed)
     for a in actions[:100]:  # warm up
         if any(env.step(a)[2:4]):
@@ -68,7 +70,9 @@ def main() -> None:
         rates = [steps_per_second(env, args.steps, seed) for seed in range(args.repeats)]
         env.close()
         rows.append((name, statistics.median(r[0] for r in rates), statistics.median(r[1] for r in rates)))
-    print(f"QuadX-Gates-v0, agent 40 Hz, {args.steps} steps x {args.repeats} repeats, {platform.processor() or platform.machine()}")
+    print(
+        f"QuadX-Gates-v0, agent 40 Hz, {args.steps} steps x {args.repeats} repeats, {platform.processor() or platform.machine()}"
+    )
     print()
     print("| observation | steps/s (wall) | steps/s (CPU) | ms/step (CPU) | x no image (CPU) |")
     print("|---|---:|---:|---:|---:|")

@@ -98,7 +98,9 @@ class PayloadSpec(_Model):
     position: Vec3 = Field(
         (0.0, 0.0, 0.0), description="payload frame origin relative to the parent at reset [m] (see attach.to)"
     )
-    orientation: Vec3 = Field((0.0, 0.0, 0.0), description="payload frame (roll, pitch, yaw) relative to the parent [rad]")
+    orientation: Vec3 = Field(
+        (0.0, 0.0, 0.0), description="payload frame (roll, pitch, yaw) relative to the parent [rad]"
+    )
     collide_with_parent: bool = Field(
         False, description="contacts between the payload and the vehicle it hangs from are simulated (and count)"
     )
@@ -215,8 +217,10 @@ def _link(name: str, spec: PayloadSpec) -> list[str]:
         "    <inertial>",
         '      <origin xyz="0 0 0" rpy="0 0 0"/>',
         f'      <mass value="{spec.mass():.9g}"/>',
-        f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="0" ixz="0" iyy="{inertia[1, 1]:.9g}" iyz="0" '
-        f'izz="{inertia[2, 2]:.9g}"/>',
+        (
+            f'      <inertia ixx="{inertia[0, 0]:.9g}" ixy="0" ixz="0" iyy="{inertia[1, 1]:.9g}" iyz="0" '
+            f'izz="{inertia[2, 2]:.9g}"/>'
+        ),
         "    </inertial>",
     ]
     lines += shape_elements(spec.body.shapes, spec.center_of_mass())
@@ -243,8 +247,10 @@ def generate_payload_urdf(spec: PayloadSpec) -> str:
             '  <link name="pivot">',
             "    <inertial>",
             f'      <mass value="{PIVOT_MASS:.9g}"/>',
-            f'      <inertia ixx="{pivot_inertia:.9g}" ixy="0" ixz="0" iyy="{pivot_inertia:.9g}" iyz="0" '
-            f'izz="{pivot_inertia:.9g}"/>',
+            (
+                f'      <inertia ixx="{pivot_inertia:.9g}" ixy="0" ixz="0" iyy="{pivot_inertia:.9g}" iyz="0" '
+                f'izz="{pivot_inertia:.9g}"/>'
+            ),
             "    </inertial>",
             "  </link>",
         ]
@@ -409,13 +415,22 @@ class PayloadSet:
             return p.createConstraint(body, -1, -1, -1, p.JOINT_POINT2POINT, zero, child, anchor, physicsClientId=cid)
         parent = self.vehicle.body_id
         if joint in ("tether", "ball"):  # the tether's pivot, or the payload's anchor point, on the anchor
-            return p.createConstraint(parent, -1, body, -1, p.JOINT_POINT2POINT, zero, anchor, child, physicsClientId=cid)
+            return p.createConstraint(
+                parent, -1, body, -1, p.JOINT_POINT2POINT, zero, anchor, child, physicsClientId=cid
+            )
         # fixed: the payload frame held at its reset pose relative to the parent
         from pyflyt_engine.telemetry.scene import matrix_to_quaternion
 
         com_in_parent = np.asarray(spec.position, dtype=float) + spec.rotation() @ spec.center_of_mass()
         return p.createConstraint(
-            parent, -1, body, -1, p.JOINT_FIXED, zero, list(com_in_parent), [0.0, 0.0, 0.0],
+            parent,
+            -1,
+            body,
+            -1,
+            p.JOINT_FIXED,
+            zero,
+            list(com_in_parent),
+            [0.0, 0.0, 0.0],
             parentFrameOrientation=matrix_to_quaternion(spec.rotation()),
             physicsClientId=self.world.client,
         )
@@ -494,4 +509,3 @@ class PayloadSet:
 
     def __len__(self) -> int:
         return len(self.payloads)
-

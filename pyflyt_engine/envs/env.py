@@ -22,8 +22,8 @@ from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, 
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError, SimulationError
-from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.payloads import PayloadSet
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 

@@ -129,7 +129,7 @@ def target_distance(ctx: StepContext) -> float:
 def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
     """1 / max(delta, floor): inverse distance to the task's current target [1/m] (floor [m] bounds it)."""
     delta = ctx.target_distance
-    return 1.0 / (floor if delta < floor else delta)  # type: ignore[operator]  (NaN stays NaN)
+    return 1.0 / max(delta, floor)  # type: ignore[type-var]  (a NaN delta, first, stays NaN)
 
 
 def target_distance_rate(ctx: StepContext) -> float:

@@ -119,7 +119,7 @@ def test_flying_through_every_gate_in_order_completes_the_task():
     np.testing.assert_allclose(env.task.centres[:, 0], [2.0, 4.0, 6.0, 8.0, 10.0])
     for i in range(5):
         _fly_through(env, i)
-        obs, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0, 0.125])
+        obs, _reward, terminated, _truncated, info = env.step([0.0, 0.0, 0.0, 0.125])
         assert info["num_targets_reached"] == i + 1 and not info["collision"]
         assert info["reward_terms"]["gate_bonus"] == 100.0
         assert len(obs["target_deltas"]) == 4 - i

@@ -55,7 +55,10 @@ def build(payloads, **changes):
     "change, message",
     [
         (lambda pl: pl["body"]["shapes"][0].pop("mass"), "payloads.0.body: body.mass and inertia missing"),
-        (lambda pl: pl["body"].update(mass=0.0, inertia=[1e-3, 1e-3, 1e-3]), "payloads.0.body.mass: mass must be a positive"),
+        (
+            lambda pl: pl["body"].update(mass=0.0, inertia=[1e-3, 1e-3, 1e-3]),
+            "payloads.0.body.mass: mass must be a positive",
+        ),
         (
             lambda pl: pl.update(attach={"to": "vehicle", "joint": "tether", "length": 0.0}),
             "payloads.0.attach: tether length must be > 0 m, got 0.0",
@@ -76,7 +79,10 @@ def build(payloads, **changes):
             "centre of mass must lie on its string's line",
         ),
         (lambda pl: pl.update(mass=1.0), "payloads.0.mass: unknown key 'mass'"),
-        (lambda pl: pl.update(attach={"to": "world", "joint": "fixed"}, position=[0, 0, 9.0]), "outside the flight dome"),
+        (
+            lambda pl: pl.update(attach={"to": "world", "joint": "fixed"}, position=[0, 0, 9.0]),
+            "outside the flight dome",
+        ),
         (lambda pl: pl.update(name="bad name"), "payloads.0.name"),
     ],
 )
@@ -128,7 +134,9 @@ def test_ball_joint_pendulum_has_the_compound_pendulum_period():
     # a uniform rod of length L pivoted at one end: T = 2 pi sqrt(2 L / (3 g)) for small swings
     rod = {
         "name": "rod",
-        "body": {"shapes": [{"type": "cylinder", "radius": 0.005, "length": 1.0, "position": [0, 0, -0.5], "mass": 0.2}]},
+        "body": {
+            "shapes": [{"type": "cylinder", "radius": 0.005, "length": 1.0, "position": [0, 0, -0.5], "mass": 0.2}]
+        },
         "attach": {"to": "world", "joint": "ball", "anchor": [0.0, 0.0, 2.0]},
         "position": [0.0, 0.0, 2.0],
         "orientation": [0.0, 0.05, 0.0],  # 0.05 rad swing
@@ -241,7 +249,7 @@ def test_payload_touching_the_ground_ends_the_episode_as_a_crash():
 def test_a_pole_tipped_past_horizontal_ends_the_episode(env_id):
     env = gymnasium.make(env_id).unwrapped
     env.reset(seed=0)
-    obs, reward, terminated, *_ , info = env.step(np.full(4, 0.54))
+    _, _, terminated, *_, info = env.step(np.full(4, 0.54))
     assert not terminated and 0.0 <= info["pole_lean"] < 0.2
     # tip the pole to 100 deg from vertical about its pivot
     payload = env.payloads.by_name["pole"]
@@ -251,7 +259,7 @@ def test_a_pole_tipped_past_horizontal_ends_the_episode(env_id):
     com = pivot + 0.5 * np.array([math.sin(angle), 0.0, math.cos(angle)])
     quat = p.getQuaternionFromEuler([0.0, angle, 0.0])
     p.resetBasePositionAndOrientation(payload.body_id, com.tolist(), quat, physicsClientId=env.world.client)
-    obs, reward, terminated, truncated, info = env.step(np.full(4, 0.54))
+    _obs, reward, terminated, truncated, info = env.step(np.full(4, 0.54))
     assert terminated and not truncated and info["pole_fallen"] and info["pole_lean"] == 1.0
     assert reward == -100.0 and not info["success"]
     env.close()
@@ -295,7 +303,9 @@ def _ctx(lin_pos, ang_pos, ang_vel, lean, crashed=False, **kw):
 
 
 def test_pole_balance_dense_reward_matches_the_reference_formula():
-    reward = load_reward_preset("quadx_pole_balance_dense").compile(frozenset({"target_distance", "target_distance_rate", "pole"}))
+    reward = load_reward_preset("quadx_pole_balance_dense").compile(
+        frozenset({"target_distance", "target_distance_rate", "pole"})
+    )
     pos, ang, rates, lean = (0.3, -0.4, 1.5), (0.1, -0.2, 0.7), (0.2, 0.1, 2.0), 0.35
     total, terms = reward(_ctx(pos, ang, rates, lean))
     by_hand = -0.1 + 1.0 - math.sqrt(0.3**2 + 0.4**2 + 0.5**2) - math.sqrt(0.1**2 + 0.2**2) - lean - 0.01 * 2.0**2
@@ -316,7 +326,9 @@ def test_pole_waypoints_dense_reward_matches_the_formula():
     assert total == pytest.approx(-0.1 + 0.375 * 4.0 + 0.5 / 2.0 + 0.5 - lean - 0.01, abs=1e-12)
     receding, _ = reward(_ctx(pos, ang, rates, lean, target_distance=2.0, target_distance_rate=4.0))
     assert receding == pytest.approx(-0.1 + 0.5 / 2.0 + 0.5 - lean - 0.01, abs=1e-12)
-    reached, _ = reward(_ctx(pos, ang, rates, lean, target_distance=0.1, target_distance_rate=-4.0, waypoint_reached=True))
+    reached, _ = reward(
+        _ctx(pos, ang, rates, lean, target_distance=0.1, target_distance_rate=-4.0, waypoint_reached=True)
+    )
     assert reached == 300.0
     sparse = load_reward_preset("quadx_pole_waypoints_sparse").compile(provides)
     assert sparse(_ctx(pos, ang, rates, lean, target_distance=2.0, target_distance_rate=-4.0))[0] == pytest.approx(-0.1)
@@ -332,7 +344,10 @@ def test_pole_balance_reward_in_the_env_is_the_sum_of_its_terms_and_its_formula(
         x, y, z = s.lin_pos
         roll, pitch, _ = s.ang_pos
         by_hand = (
-            0.9 - math.sqrt(x * x + y * y + (z - 1) ** 2) - math.hypot(roll, pitch) - info["pole_lean"]
+            0.9
+            - math.sqrt(x * x + y * y + (z - 1) ** 2)
+            - math.hypot(roll, pitch)
+            - info["pole_lean"]
             - 0.01 * s.ang_vel[2] ** 2
         )
         assert not terminated and reward == pytest.approx(by_hand, abs=1e-9)
@@ -344,9 +359,8 @@ def test_pole_balance_reward_in_the_env_is_the_sum_of_its_terms_and_its_formula(
 
 
 def test_recording_carries_the_payload_frames_scene_and_urdf(tmp_path):
-    from pyflyt_engine.telemetry import RecordEpisode, read_mcap
+    from pyflyt_engine.telemetry import RecordEpisode, load_episode, read_mcap
     from pyflyt_engine.telemetry.replay import verify
-    from pyflyt_engine.telemetry import load_episode
 
     env = RecordEpisode(gymnasium.make("PyFlyt/QuadX-Pole-Balance-v0"), tmp_path)
     env.reset(seed=2)
@@ -387,7 +401,7 @@ def test_ball_dropped_into_the_cup_at_the_hover_point_is_a_catch():
     assert not terminated
     _put_ball(env, 0.13)  # centre 0.10 m above the centre of mass: 1 cm above the cup floor
     for _ in range(3):  # a 1 cm drop takes 45 ms: 2 agent steps
-        obs, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
+        obs, reward, terminated, _truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
         if terminated:
             break
     assert terminated and info["env_complete"] and info["success"] and info["ball_in_cup"]
@@ -402,7 +416,7 @@ def test_ball_in_the_cup_away_from_the_hover_point_is_not_yet_a_catch():
     env.reset(seed=0)
     _put_ball(env, 0.13)
     for _ in range(3):
-        _, reward, terminated, _, info = env.step([0.0, 0.0, 0.0, 0.28])
+        _, _reward, terminated, _, info = env.step([0.0, 0.0, 0.0, 0.28])
         if info["ball_in_cup"]:
             break
     terms = info["reward_terms"]
@@ -420,7 +434,7 @@ def test_ball_striking_the_vehicle_from_below_ends_the_episode():
     env.reset(seed=0)
     payload = env.payloads.by_name["ball"]
     p.resetJointState(payload.body_id, 0, 0.12, -6.0, physicsClientId=env.world.client)  # flung up at 6 m/s
-    _, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
+    _, reward, terminated, _truncated, info = env.step([0.0, 0.0, 0.0, 0.28])
     assert terminated and info["ball_hit_vehicle"] and info["collision"] and not info["success"]
     assert reward == -500.0 and info["reward_terms"]["self_collision"] == -500.0
     env.close()
@@ -436,13 +450,23 @@ def test_ball_in_cup_dense_reward_matches_the_reference_formula():
     base = -0.1 + 0.4 - 0.01 * 1.5**2 - 0.01 * E
 
     def extras(**kw):
-        e = {"ball_height": -0.5, "ball_distance": 0.53, "ball_above": 0.0, "ball_cup_contact": 0.0,
-             "ball_hit_vehicle": 0.0, "hover_error": 0.29, "hover_error_decrease": 0.01, "caught": 0.0}
+        e = {
+            "ball_height": -0.5,
+            "ball_distance": 0.53,
+            "ball_above": 0.0,
+            "ball_cup_contact": 0.0,
+            "ball_hit_vehicle": 0.0,
+            "hover_error": 0.29,
+            "hover_error_decrease": 0.01,
+            "caught": 0.0,
+        }
         e.update(kw)
         return e
 
     def r(crashed=False, complete=False, **kw):
-        ctx = StepContext(state, np.zeros(4), crashed, False, False, crashed, task_complete=complete, extras=extras(**kw))
+        ctx = StepContext(
+            state, np.zeros(4), crashed, False, False, crashed, task_complete=complete, extras=extras(**kw)
+        )
         total, terms = reward(ctx)
         assert sum(terms.values()) == pytest.approx(total, abs=1e-12)
         return total

@@ -49,9 +49,7 @@ class GatesOptions(TaskOptions):
         "random", description="random: a new course at every reset; fixed: the payloads' declared poses"
     )
     opening: float = Field(0.4, gt=0, description="inner width and height of a gate's square opening [m]")
-    clearance: float = Field(
-        0.0, ge=0, description="margin kept from the opening's edges for a pass to count [m]"
-    )
+    clearance: float = Field(0.0, ge=0, description="margin kept from the opening's edges for a pass to count [m]")
     min_gate_distance: float = Field(1.0, gt=0, description="random course: closest spacing of gates [m]")
     max_gate_distance: float = Field(3.0, gt=0, description="random course: farthest spacing of gates [m]")
     max_turn: float = Field(1.0, ge=0, le=math.pi, description="random course: largest heading change per gate [rad]")
@@ -68,7 +66,9 @@ class GatesOptions(TaskOptions):
                 f"min_gate_distance {self.min_gate_distance} m exceeds max_gate_distance {self.max_gate_distance} m"
             )
         if self.min_gate_height > self.max_gate_height:
-            raise ValueError(f"min_gate_height {self.min_gate_height} m exceeds max_gate_height {self.max_gate_height} m")
+            raise ValueError(
+                f"min_gate_height {self.min_gate_height} m exceeds max_gate_height {self.max_gate_height} m"
+            )
         if 2 * self.clearance >= self.opening:
             raise ValueError(f"clearance {self.clearance} m leaves no opening in a gate {self.opening} m wide")
         if len(set(self.gates)) != len(self.gates):
@@ -156,10 +156,14 @@ class GatesTask(Task):
         for name in self.options.gates:
             if payloads is None or name not in payloads.by_name:
                 have = ", ".join(payloads.by_name) if payloads is not None else "none"
-                raise ConfigError(f"task 'gates' names the gate '{name}' (task.gates); the env config's payloads: {have}")
+                raise ConfigError(
+                    f"task 'gates' names the gate '{name}' (task.gates); the env config's payloads: {have}"
+                )
             attach = payloads.by_name[name].spec.attach
             if (attach.to, attach.joint) != ("world", "fixed"):
-                raise ConfigError(f"gate payload '{name}' must be fixed in the world (attach: {{to: world, joint: fixed}})")
+                raise ConfigError(
+                    f"gate payload '{name}' must be fixed in the world (attach: {{to: world, joint: fixed}})"
+                )
 
     def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
         import pybullet as p
@@ -172,7 +176,9 @@ class GatesTask(Task):
                 gate = payloads.by_name[name]  # type: ignore[union-attr]
                 com = centre + quaternion_to_matrix(euler_to_quaternion(0.0, 0.0, heading)) @ gate.com
                 p.resetBasePositionAndOrientation(
-                    gate.body_id, com.tolist(), euler_to_quaternion(0.0, 0.0, float(heading)),
+                    gate.body_id,
+                    com.tolist(),
+                    euler_to_quaternion(0.0, 0.0, float(heading)),
                     physicsClientId=payloads.world.client,  # type: ignore[union-attr]
                 )
         for i, name in enumerate(o.gates):
@@ -193,7 +199,10 @@ class GatesTask(Task):
         return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
-        return {"attitude": attitude, "target_deltas": body_frame_deltas(self.remaining, state.lin_pos, state.quaternion)}
+        return {
+            "attitude": attitude,
+            "target_deltas": body_frame_deltas(self.remaining, state.lin_pos, state.quaternion),
+        }
 
     def update(self, state: KinematicState) -> TaskSignals:
         o = self.options
@@ -204,7 +213,9 @@ class GatesTask(Task):
         i = self.num_passed
         distance = float(np.linalg.norm(self.centres[i] - position))
         rate = (distance - self._distance) / self.agent_dt
-        passed = gate_crossing(self._position, position, self.centres[i], self.rotations[i], 0.5 * o.opening - o.clearance)
+        passed = gate_crossing(
+            self._position, position, self.centres[i], self.rotations[i], 0.5 * o.opening - o.clearance
+        )
         if passed:
             self.num_passed += 1
             if self.num_passed < len(o.gates):
