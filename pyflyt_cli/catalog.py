@@ -52,8 +52,15 @@ def list_envs() -> str:
                 f"  defaults:    uav={cfg.uav}, rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
                 f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m",
                 f"  task:        {cfg.task.name}: " + ", ".join(_task_value(cfg, k, v) for k, v in task_defaults.items()),
-                "",
             ]
+            if cfg.payloads:
+                lines.append(
+                    "  payloads:    "
+                    + ", ".join(
+                        f"{pl.name} ({pl.mass():.3g} kg, {pl.attach.joint} to {pl.attach.to})" for pl in cfg.payloads
+                    )
+                )
+            lines.append("")
         finally:
             env.close()
     lines.append("reward terms: " + ", ".join(TERMS))

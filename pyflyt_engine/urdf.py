@@ -58,6 +58,32 @@ def _surface_plate(surface: SurfaceSpec) -> ShapeSpec:
     )
 
 
+def shape_elements(shapes: list[ShapeSpec], com: np.ndarray, base_dir: Path | None = None) -> list[str]:
+    """The ``<visual>`` and ``<collision>`` lines of a link whose origin is ``com`` (spec coordinates)."""
+    base_dir = base_dir or Path.cwd()
+    lines: list[str] = []
+    for i, shape in enumerate(shapes):
+        position = np.asarray(shape.position, dtype=float) - com
+        origin = f'<origin xyz="{_fmt(position)}" rpy="{_fmt(shape.rpy)}"/>'
+        geometry = _geometry(shape, base_dir)
+        if shape.visual:
+            lines += [
+                f'    <visual name="shape_{i}">',
+                f"      {origin}",
+                f"      <geometry>{geometry}</geometry>",
+                f'      <material name="shape_{i}_color"><color rgba="{_fmt(shape.color)}"/></material>',
+                "    </visual>",
+            ]
+        if shape.collision:
+            lines += [
+                f'    <collision name="shape_{i}">',
+                f"      {origin}",
+                f"      <geometry>{geometry}</geometry>",
+                "    </collision>",
+            ]
+    return lines
+
+
 def generate_urdf(spec: UAVSpec) -> str:
     """URDF text for ``spec`` (one link named ``body``).
 
@@ -86,25 +112,7 @@ def generate_urdf(spec: UAVSpec) -> str:
         "    </inertial>",
     ]
     shapes = list(spec.body.shapes) + [_surface_plate(s) for s in spec.surfaces if s.visual]
-    for i, shape in enumerate(shapes):
-        position = np.asarray(shape.position, dtype=float) - com
-        origin = f'<origin xyz="{_fmt(position)}" rpy="{_fmt(shape.rpy)}"/>'
-        geometry = _geometry(shape, base_dir)
-        if shape.visual:
-            lines += [
-                f'    <visual name="shape_{i}">',
-                f"      {origin}",
-                f"      <geometry>{geometry}</geometry>",
-                f'      <material name="shape_{i}_color"><color rgba="{_fmt(shape.color)}"/></material>',
-                "    </visual>",
-            ]
-        if shape.collision:
-            lines += [
-                f'    <collision name="shape_{i}">',
-                f"      {origin}",
-                f"      <geometry>{geometry}</geometry>",
-                "    </collision>",
-            ]
+    lines += shape_elements(shapes, com, base_dir)
     lines += ["  </link>", "</robot>", ""]
     return "\n".join(lines)
 
@@ -193,7 +201,16 @@ def urdf_path(spec: UAVSpec) -> Path:
         if not path.is_absolute() and spec.source:
             path = Path(spec.source).parent / path
         return path
-    data = generate_urdf(spec).encode()
+    return cached_urdf(generate_urdf(spec))
+
+
+def cached_urdf(text: str) -> Path:
+    """Path of a cached file holding exactly ``text`` (generated URDF), written if needed.
+
+    Named by the digest of the text alone; a cached file is used only if its content is
+    exactly ``text`` (see :func:`urdf_path`).
+    """
+    data = text.encode()
     directory = cache_dir()
     path = directory / f"{hashlib.sha256(data).hexdigest()[:32]}.urdf"
     if not _holds(path, data):

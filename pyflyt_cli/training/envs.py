@@ -9,7 +9,9 @@ observation and action layout it was trained on:
    actions the vehicle receives, in the env's own units);
 3. a ``Dict`` observation becomes one ``Box``: waypoint envs by
    :class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`, any other ``Dict`` by
-   Gymnasium's ``FlattenObservation``;
+   Gymnasium's ``FlattenObservation``; except that a camera image (a uint8 ``Box`` of
+   rank 3) stays a separate entry: ``Dict(attitude=Box, image=Box)``, trained with SB3's
+   ``MultiInputPolicy``;
    observations are cast to float32 (the networks' type; halves replay buffers);
 4. a bounded ``Box`` action space is rescaled to ``[-1, 1]`` (what SB3's squashed and
    clipped Gaussian policies assume; the paper's units stay in the env);
@@ -32,17 +34,29 @@ from gymnasium import spaces
 from pyflyt_engine.envs.config import EnvConfig
 
 
+def _float32(space: spaces.Box) -> spaces.Box:
+    return spaces.Box(np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32), dtype=np.float32)
+
+
 class Float32Observation(gymnasium.ObservationWrapper):
-    """Cast a ``Box`` observation to float32: what the networks use; halves replay buffers."""
+    """Cast a ``Box`` observation (or a ``Dict``'s float Boxes; images stay uint8) to float32:
+    what the networks use; halves replay buffers."""
 
     def __init__(self, env: gymnasium.Env) -> None:
         super().__init__(env)
         space = env.observation_space
-        self.observation_space = spaces.Box(
-            np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32), dtype=np.float32
-        )
+        if isinstance(space, spaces.Dict):
+            self._cast = [k for k, s in space.spaces.items() if isinstance(s, spaces.Box) and s.dtype.kind == "f"]
+            self.observation_space = spaces.Dict(
+                {k: _float32(s) if k in self._cast else s for k, s in space.spaces.items()}
+            )
+        else:
+            self._cast = []
+            self.observation_space = _float32(space)
 
-    def observation(self, observation: np.ndarray) -> np.ndarray:
+    def observation(self, observation: Any) -> Any:
+        if isinstance(observation, dict):
+            return {k: np.asarray(v, dtype=np.float32) if k in self._cast else v for k, v in observation.items()}
         return np.asarray(observation, dtype=np.float32)
 
 
@@ -54,9 +68,15 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
             from pyflyt_engine.envs.wrappers import FlattenWaypointEnv
 
             env = FlattenWaypointEnv(env)
+        elif any(is_image(s) for s in obs_space.spaces.values()):
+            env = _FlattenAllButImages(env)
         else:
             env = gymnasium.wrappers.FlattenObservation(env)
-    if isinstance(env.observation_space, spaces.Box) and env.observation_space.dtype != np.float32:
+    space = env.observation_space
+    if (isinstance(space, spaces.Box) and space.dtype != np.float32) or (
+        isinstance(space, spaces.Dict)
+        and any(isinstance(s, spaces.Box) and s.dtype.kind == "f" and s.dtype != np.float32 for s in space.spaces.values())
+    ):
         env = Float32Observation(env)
     act_space = env.action_space
     bounded = (
@@ -65,6 +85,27 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
     if bounded and not (np.allclose(act_space.low, -1.0) and np.allclose(act_space.high, 1.0)):
         env = gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)
     return env
+
+
+def is_image(space: spaces.Space) -> bool:
+    """A camera image: a uint8 Box of rank 3."""
+    return isinstance(space, spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
+
+
+class _FlattenAllButImages(gymnasium.ObservationWrapper):
+    """A ``Dict`` observation as ``Dict(attitude=<every non-image entry flattened>, <images>)``."""
+
+    def __init__(self, env: gymnasium.Env) -> None:
+        super().__init__(env)
+        space = env.observation_space
+        self._images = [k for k, s in space.spaces.items() if is_image(s)]
+        self._rest = spaces.Dict({k: s for k, s in space.spaces.items() if k not in self._images})
+        flat = spaces.flatten_space(self._rest)
+        self.observation_space = spaces.Dict({"attitude": flat, **{k: space[k] for k in self._images}})
+
+    def observation(self, observation: dict[str, Any]) -> dict[str, Any]:
+        rest = spaces.flatten(self._rest, {k: observation[k] for k in self._rest.spaces})
+        return {"attitude": rest, **{k: observation[k] for k in self._images}}
 
 
 def _rng_state(env: gymnasium.Env) -> dict[str, Any]:

@@ -357,8 +357,19 @@ class _Run:
         cleanup.push(_closing(vec.close, "the training environments"))
         norm = cfg.algo.normalize
         if norm.enabled:
+            from gymnasium import spaces
+
+            space = vec.observation_space
+            keys = None  # a Dict: normalise its float entries, never a camera image
+            if isinstance(space, spaces.Dict):
+                keys = [k for k, s in space.spaces.items() if s.dtype.kind == "f"]
             vec = VecNormalize(
-                vec, norm_obs=norm.observation, norm_reward=norm.reward, clip_obs=norm.clip_obs, gamma=cfg.algo.gamma
+                vec,
+                norm_obs=norm.observation,
+                norm_reward=norm.reward,
+                clip_obs=norm.clip_obs,
+                gamma=cfg.algo.gamma,
+                norm_obs_keys=keys,
             )
         tensorboard = str(self.run_dir / "tensorboard") if opts.tensorboard else None
         return build_model(cfg, vec, tensorboard_log=tensorboard)

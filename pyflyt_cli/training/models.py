@@ -50,8 +50,13 @@ def build_model(cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorbo
         kwargs.pop("offline_steps", None)
     elif algo.name == "awac":
         kwargs["trust_pickle"] = cfg.trust_pickle
+    from gymnasium import spaces
+
+    # a Dict observation (a camera image next to the state vector) needs SB3's multi-input
+    # policy; everything else is one Box
+    policy = "MultiInputPolicy" if isinstance(vec.observation_space, spaces.Dict) else algo.policy
     return cls(
-        algo.policy,
+        policy,
         vec,
         seed=cfg.seed,
         device=cfg.train.device,

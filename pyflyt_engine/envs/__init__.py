@@ -45,6 +45,14 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.fixedwing:FixedwingWaypointsEnv", "fixedwing_waypoints"
     ),
     "PyFlyt/Rocket-Landing-v0": EnvEntry("pyflyt_engine.envs.rocket:RocketLandingEnv", "rocket_landing"),
+    "PyFlyt/QuadX-Pole-Balance-v0": EnvEntry(
+        "pyflyt_engine.envs.quadx_payloads:QuadXPoleBalanceEnv", "quadx_pole_balance"
+    ),
+    "PyFlyt/QuadX-Pole-Waypoints-v0": EnvEntry(
+        "pyflyt_engine.envs.quadx_payloads:QuadXPoleWaypointsEnv", "quadx_pole_waypoints"
+    ),
+    "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
+    "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXGatesEnv", "quadx_gates"),
 }
 
 
@@ -83,6 +91,10 @@ def __getattr__(name: str) -> Any:
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
+        "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
         "EnvConfig": "pyflyt_engine.envs.config",
         "RewardPreset": "pyflyt_engine.envs.config",
@@ -104,7 +116,11 @@ __all__ = [
     "EnvEntry",
     "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
+    "QuadXBallInCupEnv",
+    "QuadXGatesEnv",
     "QuadXHoverEnv",
+    "QuadXPoleBalanceEnv",
+    "QuadXPoleWaypointsEnv",
     "QuadXWaypointsEnv",
     "RewardPreset",
     "RocketLandingEnv",

@@ -34,7 +34,8 @@ from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
-from pyflyt_engine.spec import FIX_HINTS, check_finite, first_model
+from pyflyt_engine.payloads import PayloadSpec
+from pyflyt_engine.spec import FIX_HINTS, CameraSpec, check_finite, first_model
 
 
 class _Config(BaseModel):
@@ -112,6 +113,29 @@ class RenderConfig(_Config):
     fov: float = Field(60.0, gt=0, lt=180, description="vertical field of view [deg]")
 
 
+class CameraObservationConfig(_Config):
+    """An onboard camera image added to the observation (``camera_observation:`` in an env YAML).
+
+    The camera is added to the airframe for this environment only and rendered at every
+    agent step.  The observation becomes a ``Dict``: the task's observation under
+    ``attitude`` (or its own keys if it is already a ``Dict``), plus the image under ``key``.
+    """
+
+    camera: CameraSpec = Field(description="the camera: mount pose, field of view, resolution (see `pyflyt uav`)")
+    key: str = Field("image", description="observation key of the image")
+    channels: Literal["rgb", "rgba"] = Field("rgb", description="colour channels, in this order")
+    channel_first: bool = Field(
+        False, description="image shape (C, H, W) instead of (H, W, C); row 0 is the top of the image"
+    )
+
+    @field_validator("key")
+    @classmethod
+    def _key(cls, value: str) -> str:
+        if value in ("attitude", "target_deltas"):
+            raise ValueError(f"'{value}' is an observation key of the tasks: choose another key for the image")
+        return value
+
+
 class EnvConfig(_Config):
     """An environment: vehicle, loop rates, episode limits, action, task and reward."""
 
@@ -145,6 +169,13 @@ class EnvConfig(_Config):
     action: ActionConfig
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
+    camera_observation: CameraObservationConfig | None = Field(
+        None, description="add an onboard camera image to the observation (None: no image)"
+    )
+    payloads: list[PayloadSpec] = Field(
+        default_factory=list,
+        description="rigid bodies attached to the vehicle or the world (see pyflyt_engine.payloads)",
+    )
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
 
     ground_effect: bool = Field(
@@ -190,6 +221,22 @@ class EnvConfig(_Config):
 
         load_wind_config(wind)  # a bad preset, key or value fails here, at load
         return wind
+
+    @model_validator(mode="after")
+    def _payloads(self) -> EnvConfig:
+        names = [p.name for p in self.payloads]
+        for name in names:
+            if names.count(name) > 1:
+                raise ValueError(f"payload name '{name}' is used twice: give each payload its own name")
+        for i, payload in enumerate(self.payloads):
+            if payload.attach.to == "world":
+                reach = payload.farthest_reach()
+                if reach > self.flight_dome_size:
+                    raise ValueError(
+                        f"payloads.{i} ('{payload.name}') reaches {reach:.3g} m from the origin, outside the flight "
+                        f"dome (flight_dome_size {self.flight_dome_size:g} m): move it closer or enlarge the dome"
+                    )
+        return self
 
     @property
     def max_steps(self) -> int:

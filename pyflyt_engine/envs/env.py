@@ -23,6 +23,7 @@ from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
@@ -45,6 +46,16 @@ class UAVEnv(gymnasium.Env):
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
+
+    Camera image (``config.camera_observation``, optional): the camera is added to the
+    airframe for this env, rendered at every step, and the observation becomes a ``Dict``
+    with the image (``Box`` uint8, (H, W, C) or (C, H, W), RGB or RGBA) under its key and
+    the task's observation under ``attitude`` (or merged, if it is a ``Dict``).
+
+    Payloads (``config.payloads``, optional): rigid bodies attached to the vehicle or the
+    world (:mod:`pyflyt_engine.payloads`), placed relative to their parent at every reset;
+    a payload touching the ground ends the episode as a crash when it declares
+    ``ground_contact_fails`` (``info["payload_ground_contact"]``).
 
     Episode end: *terminated* on a crash — any contact of the vehicle (ground included;
     unless the task sets ``crash_on_contact = False``), leaving the flight dome
@@ -117,10 +128,14 @@ class UAVEnv(gymnasium.Env):
         #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
+        flown = self.task.vehicle_spec(self.airframe)
+        self._camera: int | None = None
+        if cfg.camera_observation is not None:
+            flown, self._camera = _with_observation_camera(flown, cfg.camera_observation)
         self.world = World(
             [
                 VehicleConfig(
-                    self.task.vehicle_spec(self.airframe),
+                    flown,
                     cfg.task.start_position,
                     cfg.task.start_orientation,
                     mode=cfg.action.mode,
@@ -136,6 +151,11 @@ class UAVEnv(gymnasium.Env):
             downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
+        #: the config's payloads, built around the vehicle (None without payloads)
+        self.payloads: PayloadSet | None = None
+        if cfg.payloads:
+            self.payloads = PayloadSet(self.world, self.vehicle, list(cfg.payloads))
+        self.task.payloads = self.payloads
         self.task.setup(self.world)
         if self.vehicle.setpoint.size != len(cfg.action.names):
             self.world.close()
@@ -151,6 +171,8 @@ class UAVEnv(gymnasium.Env):
         size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + self.world.aux_state(0).size
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
+        if cfg.camera_observation is not None:
+            self.observation_space = _with_image_space(self.observation_space, cfg.camera_observation)
 
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
@@ -182,6 +204,8 @@ class UAVEnv(gymnasium.Env):
             self.last_randomization = drawn
             position, orientation = Randomizer.spawn(drawn, position, orientation)
         self.vehicle.reset(position, orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
+        if self.payloads is not None:
+            self.payloads.place()
         state = self.vehicle.state
         self.task.reset(state, self.np_random)
         self._action = np.zeros_like(self._low)
@@ -192,6 +216,8 @@ class UAVEnv(gymnasium.Env):
         info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         if drawn is not None:
             info["randomization"] = dict(drawn)
+        if self.payloads is not None:
+            info["payload_ground_contact"] = False
         info.update(self.task.info())
         observation = self._observe(state)
         if not _all_finite(0.0, observation):
@@ -215,6 +241,8 @@ class UAVEnv(gymnasium.Env):
         out_of_bounds = x * x + y * y + z * z > self._dome2
         signals = self.task.update(state)
         crashed = out_of_bounds or signals.failed or (collision and self.task.crash_on_contact)
+        payload_ground = self.payloads is not None and self.payloads.ground_failure()
+        crashed = crashed or payload_ground
         ctx = StepContext(
             state,
             a,
@@ -243,6 +271,8 @@ class UAVEnv(gymnasium.Env):
             "env_complete": signals.complete,
             "success": success,
         }
+        if self.payloads is not None:
+            info["payload_ground_contact"] = payload_ground
         if self.info_reward_terms:
             info["reward_terms"] = terms
         info.update(self.task.info())
@@ -282,7 +312,16 @@ class UAVEnv(gymnasium.Env):
                 self.vehicle.aux_state,
             )
         )
-        return self.task.observe(attitude, state)
+        observation = self.task.observe(attitude, state)
+        if self._camera is None:
+            return observation
+        c = self.config.camera_observation
+        rgba = self.vehicle.capture(self._camera)["rgba"]
+        image = rgba[:, :, :3] if c.channels == "rgb" else rgba  # type: ignore[union-attr]
+        image = np.ascontiguousarray(image.transpose(2, 0, 1) if c.channel_first else image)  # type: ignore[union-attr]
+        if isinstance(observation, dict):
+            return {**observation, c.key: image}  # type: ignore[union-attr]
+        return {"attitude": observation, c.key: image}  # type: ignore[union-attr]
 
     def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
@@ -328,6 +367,28 @@ class UAVEnv(gymnasium.Env):
         return self._action.copy()
 
 
+def _with_observation_camera(spec: UAVSpec, obs: Any) -> tuple[UAVSpec, int]:
+    """The airframe with the observation camera appended, and its index."""
+    if any(c.name == obs.camera.name for c in spec.cameras):
+        raise ConfigError(
+            f"camera_observation.camera.name '{obs.camera.name}' is already a camera of airframe '{spec.name}': "
+            "give the observation camera another name"
+        )
+    camera = obs.camera.model_copy(update={"outputs": ["rgba"]})
+    return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
+
+
+def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
+    """``space`` as a Dict with the camera image Box (uint8) under ``obs.key``."""
+    cam = obs.camera
+    depth = 3 if obs.channels == "rgb" else 4
+    shape = (depth, cam.height, cam.width) if obs.channel_first else (cam.height, cam.width, depth)
+    image = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
+    if isinstance(space, spaces.Dict):
+        return spaces.Dict({**space.spaces, obs.key: image})
+    return spaces.Dict({"attitude": space, obs.key: image})
+
+
 @functools.lru_cache(maxsize=16)
 def _zeros(size: int) -> np.ndarray:
     zeros = np.zeros(size)
@@ -345,6 +406,8 @@ def _all_finite(reward: float, observation: Any) -> bool:
         return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
     total = reward
     for value in observation.values() if isinstance(observation, Mapping) else (observation,):
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
+            continue
         flat = np.ravel(np.asarray(value, dtype=np.float64))
         total += flat.dot(_zeros(flat.size))
     return math.isfinite(total)

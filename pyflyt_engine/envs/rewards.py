@@ -126,9 +126,10 @@ def target_distance(ctx: StepContext) -> float:
     return ctx.target_distance  # type: ignore[return-value]
 
 
-def inverse_target_distance(ctx: StepContext) -> float:
-    """1 / delta: inverse distance to the task's current target [1/m]."""
-    return 1.0 / ctx.target_distance  # type: ignore[operator]
+def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
+    """1 / max(delta, floor): inverse distance to the task's current target [1/m] (floor [m] bounds it)."""
+    delta = ctx.target_distance
+    return 1.0 / max(delta, floor)  # type: ignore[type-var]  (a NaN delta, first, stays NaN)
 
 
 def target_distance_rate(ctx: StepContext) -> float:
@@ -164,6 +165,47 @@ def action_magnitude(ctx: StepContext) -> float:
     return float(np.sqrt(np.dot(ctx.action, ctx.action)))
 
 
+def yaw_rate_squared(ctx: StepContext) -> float:
+    """r^2: squared body yaw rate [rad^2/s^2] (the reference PyFlyt's yaw-rate penalty)."""
+    r = ctx.state.ang_vel[2]
+    return r * r
+
+
+def pole_lean(ctx: StepContext) -> float:
+    """Lean of the pole in [0, 1]: sine of its tilt while upright, 1 once fallen (pole tasks)."""
+    return ctx.extras["pole_lean"]
+
+
+def state_error(ctx: StepContext, point: Sequence[float] = (0.0, 0.0, 1.0)) -> float:
+    """||omega||^2 + ||[roll, pitch, yaw]||^2 + ||v||^2 + ||p - point||^2: the reference ball-in-cup's state error [SI^2]."""
+    s = ctx.state
+    total = 0.0
+    for row in (s.ang_vel, s.ang_pos, s.lin_vel):
+        total += row[0] * row[0] + row[1] * row[1] + row[2] * row[2]
+    x, y, z = s.lin_pos
+    return total + (x - point[0]) ** 2 + (y - point[1]) ** 2 + (z - point[2]) ** 2
+
+
+def ball_distance_log(ctx: StepContext, scale: float = 0.45, offset: float = 0.01) -> float:
+    """ln(scale * d + offset), d the vehicle-to-ball distance [m] (ball-in-cup; the reference's 0.45, 0.01)."""
+    return math.log(scale * ctx.extras["ball_distance"] + offset)
+
+
+def ball_height(ctx: StepContext) -> float:
+    """Height of the ball's centre above the vehicle's centre of mass [m] (ball-in-cup)."""
+    return ctx.extras["ball_height"]
+
+
+def inverse_hover_error(ctx: StepContext, offset: float = 0.1) -> float:
+    """1 / (e + offset), e the squared distance of the vehicle from the task's hover point [1/m^2] (ball-in-cup)."""
+    return 1.0 / (ctx.extras["hover_error"] + offset)
+
+
+def hover_error_decrease(ctx: StepContext) -> float:
+    """Decrease over the step of the squared distance from the task's hover point [m^2] (ball-in-cup)."""
+    return ctx.extras["hover_error_decrease"]
+
+
 #: Every reward term a preset may name.
 TERMS: dict[str, RewardTerm] = {
     "constant": RewardTerm(constant, "1"),
@@ -177,6 +219,13 @@ TERMS: dict[str, RewardTerm] = {
     "angular_speed": RewardTerm(angular_speed, "rad/s"),
     "altitude": RewardTerm(altitude, "m"),
     "action_magnitude": RewardTerm(action_magnitude, "action units"),
+    "yaw_rate_squared": RewardTerm(yaw_rate_squared, "rad^2/s^2"),
+    "pole_lean": RewardTerm(pole_lean, "1", ("pole",)),
+    "state_error": RewardTerm(state_error, "SI^2"),
+    "ball_distance_log": RewardTerm(ball_distance_log, "1", ("ball_in_cup",)),
+    "ball_height": RewardTerm(ball_height, "m", ("ball_in_cup",)),
+    "inverse_hover_error": RewardTerm(inverse_hover_error, "1/m^2", ("ball_in_cup",)),
+    "hover_error_decrease": RewardTerm(hover_error_decrease, "m^2", ("ball_in_cup",)),
 }
 
 
@@ -238,6 +287,21 @@ def fatal_landing(ctx: StepContext) -> bool:
     return ctx.extras.get("fatal_landing", 0.0) > 0.5
 
 
+def ball_above(ctx: StepContext) -> bool:
+    """The ball's centre is above the vehicle's centre of mass (ball-in-cup)."""
+    return ctx.extras.get("ball_above", 0.0) > 0.5
+
+
+def ball_in_cup(ctx: StepContext) -> bool:
+    """The ball touched the cup during the step with its centre above the vehicle's (ball-in-cup)."""
+    return ctx.extras.get("ball_cup_contact", 0.0) > 0.5
+
+
+def ball_hit_vehicle(ctx: StepContext) -> bool:
+    """The ball struck the vehicle itself during the step (ball-in-cup)."""
+    return ctx.extras.get("ball_hit_vehicle", 0.0) > 0.5
+
+
 #: Every condition a preset may name (each also as ``not_<name>``).
 CONDITIONS: dict[str, Condition] = {
     "always": Condition(always),
@@ -251,6 +315,9 @@ CONDITIONS: dict[str, Condition] = {
     "pad_contact": Condition(pad_contact, ("landing",)),
     "safe_landing": Condition(safe_landing, ("landing",)),
     "fatal_landing": Condition(fatal_landing, ("landing",)),
+    "ball_above": Condition(ball_above, ("ball_in_cup",)),
+    "ball_in_cup": Condition(ball_in_cup, ("ball_in_cup",)),
+    "ball_hit_vehicle": Condition(ball_hit_vehicle, ("ball_in_cup",)),
 }
 
 

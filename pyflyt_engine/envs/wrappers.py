@@ -22,6 +22,10 @@ class FlattenWaypointEnv(gymnasium.ObservationWrapper):
     1.0 when slot ``i`` holds a real waypoint, 0.0 when it is padding.  Shape
     ``(A + K * D + K,)``, float64.
 
+    Any other entry of the ``Dict`` (a camera ``image``) is kept: the observation is then a
+    ``Dict`` of that vector under ``attitude`` and the other entries unchanged (what SB3's
+    ``MultiInputPolicy`` takes).
+
     Args:
         env: an env whose observation space is ``Dict(attitude=Box, target_deltas=Sequence(Box))``.
         context_length: K, the number of upcoming waypoints kept (default 2, as the
@@ -45,14 +49,20 @@ class FlattenWaypointEnv(gymnasium.ObservationWrapper):
         self._attitude_size = int(np.prod(space["attitude"].shape))
         self._delta_size = int(np.prod(space["target_deltas"].feature_space.shape))
         size = self._attitude_size + self.context_length * (self._delta_size + 1)
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        flat = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        self._others = [k for k in space.spaces if k not in ("attitude", "target_deltas")]
+        self.observation_space = (
+            spaces.Dict({"attitude": flat, **{k: space[k] for k in self._others}}) if self._others else flat
+        )
 
-    def observation(self, observation: dict[str, Any]) -> np.ndarray:
+    def observation(self, observation: dict[str, Any]) -> np.ndarray | dict[str, Any]:
         k, a, d = self.context_length, self._attitude_size, self._delta_size
-        out = np.zeros(self.observation_space.shape, dtype=np.float64)
+        out = np.zeros(a + k * (d + 1), dtype=np.float64)
         out[:a] = observation["attitude"]
         deltas = np.asarray(observation["target_deltas"], dtype=np.float64).reshape(-1, d)[:k]
         n = len(deltas)
         out[a : a + n * d] = deltas.ravel()
         out[a + k * d : a + k * d + n] = 1.0
+        if self._others:
+            return {"attitude": out, **{key: observation[key] for key in self._others}}
         return out

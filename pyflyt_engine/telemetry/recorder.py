@@ -222,6 +222,11 @@ class RecordEpisode(gymnasium.Wrapper):
             }
         return self._static_metadata
 
+    def _base_payloads(self) -> Any:
+        """The env's :class:`~pyflyt_engine.payloads.PayloadSet` (an empty tuple without payloads)."""
+        payloads = getattr(self._base, "payloads", None)
+        return payloads if payloads is not None else ()
+
     def _airframe_prims(self) -> list[tuple[str, dict[str, list[dict[str, Any]]]]]:
         if self._airframes is None:
             from pyflyt_engine.urdf import urdf_path
@@ -265,6 +270,9 @@ class RecordEpisode(gymnasium.Wrapper):
         )
         for i, (urdf, _) in enumerate(self._airframe_prims()):
             f.attachment(f"uav_{i}.urdf", "text/xml", urdf.encode())
+        payloads = self._base_payloads()
+        for payload in payloads:
+            f.attachment(f"payload_{payload.spec.name}.urdf", "text/xml", payload.urdf_text.encode())
         base = self._base
         world = base.world
         self._ch_tf = f.channel("/tf", "foxglove.FrameTransform", schemas.FRAME_TRANSFORM)
@@ -313,6 +321,14 @@ class RecordEpisode(gymnasium.Wrapper):
         world = self._base.world
         stamp = scene.stamp(ns)
         time_s = ns * 1e-9
+        payloads = self._base_payloads()
+        for payload in payloads:
+            ps = payloads.state(payload.spec.name)  # type: ignore[union-attr]
+            f.write(
+                self._ch_tf,
+                ns,
+                scene.frame_transform(ns, scene.WORLD_FRAME, scene.payload_frame(payload.spec.name), ps.position, ps.quaternion),
+            )
         for i, vehicle in enumerate(world.vehicles):
             s = vehicle.state
             x, y, z = s.lin_pos
@@ -446,6 +462,12 @@ class RecordEpisode(gymnasium.Wrapper):
             self._static_entities = (ns, static)
         entities = list(self._static_entities[1])
         vehicle_bodies = {v.body_id for v in world.vehicles}
+        for payload in self._base_payloads():  # payloads: locked to their own frames (see _write_frames)
+            vehicle_bodies.add(payload.body_id)
+            prims = scene.airframe_primitives(payload.urdf_text, link_name="body")
+            name = payload.spec.name
+            frame = scene.payload_frame(name)
+            entities.append(scene.entity(ns, frame, frame, frame_locked=True, metadata={"payload": name}, **prims))
         for body in world.contact_bodies:  # scenery a task added (may move between episodes)
             if body != world.ground_id and body not in vehicle_bodies:
                 e = scene.body_entity(ns, world.client, body)

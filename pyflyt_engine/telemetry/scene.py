@@ -34,6 +34,11 @@ _MESH_TYPES = {
 _MAX_EMBEDDED_MESH = 4 * 1024 * 1024
 
 
+def payload_frame(name: str) -> str:
+    """Frame of payload ``name``: origin at its centre of mass, its own axes."""
+    return f"payload/{name}"
+
+
 def vehicle_frame(index: int) -> str:
     return f"uav_{index}"
 
@@ -129,8 +134,10 @@ def _floats(text: str | None, default: tuple[float, ...]) -> tuple[float, ...]:
     return tuple(float(v) for v in text.split())
 
 
-def airframe_primitives(urdf_text: str, base_dir: Path | None = None) -> dict[str, list[dict[str, Any]]]:
-    """Foxglove primitives of the visuals of a URDF's first link, in that link's frame.
+def airframe_primitives(
+    urdf_text: str, base_dir: Path | None = None, link_name: str | None = None
+) -> dict[str, list[dict[str, Any]]]:
+    """Foxglove primitives of the visuals of a URDF's first link (or the link ``link_name``), in that link's frame.
 
     The generated URDFs are one link whose origin is the centre of mass (the PyBullet base
     frame), so the primitives sit right when attached to the vehicle frame.  Boxes, cylinders
@@ -143,7 +150,7 @@ def airframe_primitives(urdf_text: str, base_dir: Path | None = None) -> dict[st
         color = mat.find("color")
         if color is not None and mat.get("name"):
             materials[mat.get("name")] = _floats(color.get("rgba"), (0.5, 0.5, 0.5, 1.0))
-    link = root.find("link")
+    link = root.find("link") if link_name is None else root.find(f"link[@name='{link_name}']")
     out: dict[str, list[dict[str, Any]]] = {"cubes": [], "cylinders": [], "spheres": [], "models": []}
     if link is None:
         return out

@@ -53,6 +53,16 @@ def _rocket_policy(rng: np.random.Generator) -> np.ndarray:
     return np.array([*rng.uniform(-1, 1, 3), rng.uniform(0, 1), rng.uniform(0, 1), *rng.uniform(-1, 1, 2)])
 
 
+def _motors_policy(rng: np.random.Generator) -> np.ndarray:
+    # around the pole-carrying f450's hover throttle ((1.2 kg g / 40 N)^0.5 = 0.54)
+    return 0.54 + rng.uniform(-0.03, 0.03, 4)
+
+
+def _ball_in_cup_policy(rng: np.random.Generator) -> np.ndarray:
+    # around the hover thrust of the f450 with cup and ball (1.16 kg g / 40 N = 0.28)
+    return np.array([*rng.uniform(-0.3, 0.3, 3), rng.uniform(0.26, 0.31)])
+
+
 PROFILES: dict[str, EnvProfile] = {
     "PyFlyt/QuadX-Hover-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
     "PyFlyt/QuadX-Waypoints-v0": EnvProfile(
@@ -65,6 +75,17 @@ PROFILES: dict[str, EnvProfile] = {
     # 4 fins + booster (fuel, duty, ignition) + 2 gimbal angles; then the pad contact flag;
     # dropped from 450 m, +-20 m sideways
     "PyFlyt/Rocket-Landing-v0": EnvProfile(9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 7, _rocket_policy),
+    # 4 motor throttles; then 12 pole values (tip, base positions and velocities, body frame)
+    "PyFlyt/QuadX-Pole-Balance-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),
+    "PyFlyt/QuadX-Pole-Waypoints-v0": EnvProfile(
+        4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy
+    ),
+    # 4 motor throttles; then the ball's relative position and velocity (body frame)
+    "PyFlyt/QuadX-Ball-In-Cup-v0": EnvProfile(
+        4, 6, (0.0, 0.0, 2.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.28), _ball_in_cup_policy
+    ),
+    # the attitude vector as QuadX-Waypoints; the image and the gate deltas are separate keys
+    "PyFlyt/QuadX-Gates-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
 }
 
 

@@ -118,7 +118,9 @@ def test_sb3_subproc_vec_env_matches_dummy(env_id):
         warnings.simplefilter("ignore")
         subproc = SubprocVecEnv([factory, factory])
         dummy = DummyVecEnv([factory, factory])
-    assert isinstance(subproc.observation_space, spaces.Box)
+    space = subproc.observation_space  # a Box, or a Dict of Boxes with a camera image
+    assert isinstance(space, spaces.Box) or all(isinstance(s, spaces.Box) for s in space.spaces.values())
     got, expected = rollout_sb3(subproc), rollout_sb3(dummy)
     assert_same(got, expected)
-    assert not np.array_equal(got[0][0], got[0][1])  # workers seeded SEED and SEED + 1
+    first = got[0]["attitude"] if isinstance(got[0], dict) else got[0]
+    assert not np.array_equal(first[0], first[1])  # workers seeded SEED and SEED + 1

@@ -62,7 +62,16 @@ def test_every_message_validates_against_its_declared_schema(recorded):
         steps = topics["/uav/0/action"]
         assert steps > 0
         assert topics["/uav/0/state"] == steps + 1
-        assert topics["/tf"] == steps + 1
+        # at the reset and every step, a frame per vehicle, per onboard camera (the airframe's and
+        # an observation camera) and per payload of the env config
+        from pyflyt_engine.envs import ENVS
+        from pyflyt_engine.envs.config import load_env_config
+        from pyflyt_engine.spec import load_uav_spec
+
+        cfg = load_env_config(ENVS[env_id].config)
+        cameras = len(load_uav_spec(cfg.uav).cameras) + (cfg.camera_observation is not None)
+        frames = 1 + cameras + len(cfg.payloads)
+        assert topics["/tf"] == frames * (steps + 1)
         assert topics["/reward"] == steps
         assert topics["/episode"] == 2
         assert topics["/scene"] >= 1

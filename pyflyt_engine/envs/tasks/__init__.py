@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import difflib
 
+from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.gates import GatesOptions, GatesTask
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
+from pyflyt_engine.envs.tasks.pole import PoleBalanceOptions, PoleBalanceTask, PoleWaypointsOptions, PoleWaypointsTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
 from pyflyt_engine.errors import ConfigError
 
@@ -18,6 +21,10 @@ TASKS: dict[str, type[Task]] = {
     HoverTask.name: HoverTask,
     WaypointsTask.name: WaypointsTask,
     LandingTask.name: LandingTask,
+    PoleBalanceTask.name: PoleBalanceTask,
+    PoleWaypointsTask.name: PoleWaypointsTask,
+    BallInCupTask.name: BallInCupTask,
+    GatesTask.name: GatesTask,
 }
 
 
@@ -40,10 +47,18 @@ def get_task(name: str) -> type[Task]:
 
 __all__ = [
     "TASKS",
+    "BallInCupOptions",
+    "BallInCupTask",
+    "GatesOptions",
+    "GatesTask",
     "HoverOptions",
     "HoverTask",
     "LandingOptions",
     "LandingTask",
+    "PoleBalanceOptions",
+    "PoleBalanceTask",
+    "PoleWaypointsOptions",
+    "PoleWaypointsTask",
     "Spawn",
     "Task",
     "TaskOptions",

@@ -7,7 +7,9 @@ from :meth:`Task.setup` (scenery) it never talks to PyBullet: it sees
 runs the loop, detects crashes and dome exits, and evaluates the reward preset.
 
 Once, when the environment is built: ``vehicle_spec(spec)`` (the airframe variant the
-task flies, before the world exists), then ``setup(world)`` (add scenery).  Per episode
+task flies, before the world exists), then ``setup(world)`` (add scenery; the env
+config's payloads are already built and in :attr:`Task.payloads`, read through
+:class:`~pyflyt_engine.payloads.PayloadSet`).  Per episode
 the environment calls, in order::
 
     spawn(rng) -> Spawn            # initial pose and body-frame velocities of the vehicle
@@ -35,6 +37,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
+    from pyflyt_engine.payloads import PayloadSet
     from pyflyt_engine.spec import UAVSpec
     from pyflyt_engine.world import World
 
@@ -115,6 +118,9 @@ class Task:
         self.options = options
         self.flight_dome_size = float(flight_dome_size)
         self.agent_dt = 1.0 / float(agent_hz)
+        #: the env config's payloads (:class:`~pyflyt_engine.payloads.PayloadSet`), set by the
+        #: environment before :meth:`setup`; None when the config declares none
+        self.payloads: PayloadSet | None = None
 
     def setup(self, world: World) -> None:
         """Once, after the world is built and before its first reset snapshot.

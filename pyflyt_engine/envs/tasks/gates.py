@@ -1,0 +1,235 @@
+"""Gates: fly through a course of gates in order.
+
+The gates are payloads of the env config fixed in the world (``attach: {to: world, joint:
+fixed}``), named in order by the task option ``gates``; touching one is a vehicle contact,
+a crash.  Each gate's frame has its opening in its y-z plane, centred on its origin, and
+is passed in the direction of its +x axis.
+
+Course: ``course: random`` (default) places the gates at every reset along a random
+chain, drawn from the env's seeded RNG (:func:`random_course`); ``course: fixed`` keeps
+the poses declared in the config.
+
+A gate is **passed** when the vehicle's centre of mass crosses the gate's plane from its
+-x side to its +x side during an agent step (on the straight segment between the step's
+start and end positions) at a point within the opening: ``|y|, |z| <= opening / 2 -
+clearance`` in the gate's frame.  Then the next gate becomes the target; passing the last
+completes the task.  Gates must be passed in order: crossing another gate's plane does
+nothing.
+
+Signals: ``target_distance`` [m] and ``target_distance_rate`` [m/s] to the next gate's
+centre, ``waypoint_reached`` when a gate is passed.
+
+Observation: ``Dict(attitude=Box, target_deltas=Sequence(Box(3,), stack=True))``: body-frame
+vectors [m] from the vehicle to the centre of every gate not yet passed, next first
+(as the waypoint tasks); env configs add the camera image with ``camera_observation``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from gymnasium import spaces
+from pydantic import Field, model_validator
+
+from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.waypoints import body_frame_deltas
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_matrix
+from pyflyt_engine.state import KinematicState
+
+
+class GatesOptions(TaskOptions):
+    """Options of the gates task (``task:`` in the env YAML)."""
+
+    name: Literal["gates"] = "gates"
+    gates: list[str] = Field(min_length=1, description="names of the gate payloads, in the order they are flown")
+    course: Literal["random", "fixed"] = Field(
+        "random", description="random: a new course at every reset; fixed: the payloads' declared poses"
+    )
+    opening: float = Field(0.4, gt=0, description="inner width and height of a gate's square opening [m]")
+    clearance: float = Field(0.0, ge=0, description="margin kept from the opening's edges for a pass to count [m]")
+    min_gate_distance: float = Field(1.0, gt=0, description="random course: closest spacing of gates [m]")
+    max_gate_distance: float = Field(3.0, gt=0, description="random course: farthest spacing of gates [m]")
+    max_turn: float = Field(1.0, ge=0, le=math.pi, description="random course: largest heading change per gate [rad]")
+    max_climb: float = Field(
+        0.3, ge=0, lt=math.pi / 2, description="random course: largest climb or dive angle between gates [rad]"
+    )
+    min_gate_height: float = Field(1.0, ge=0, description="random course: lowest gate centre [m]")
+    max_gate_height: float = Field(3.0, gt=0, description="random course: highest gate centre [m]")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> GatesOptions:
+        if self.min_gate_distance > self.max_gate_distance:
+            raise ValueError(
+                f"min_gate_distance {self.min_gate_distance} m exceeds max_gate_distance {self.max_gate_distance} m"
+            )
+        if self.min_gate_height > self.max_gate_height:
+            raise ValueError(
+                f"min_gate_height {self.min_gate_height} m exceeds max_gate_height {self.max_gate_height} m"
+            )
+        if 2 * self.clearance >= self.opening:
+            raise ValueError(f"clearance {self.clearance} m leaves no opening in a gate {self.opening} m wide")
+        if len(set(self.gates)) != len(self.gates):
+            raise ValueError("a gate is named twice in 'gates'")
+        return self
+
+
+def random_course(
+    rng: np.random.Generator, start: np.ndarray, count: int, options: GatesOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    """A random chain of ``count`` gates from ``start``: ``(centres (n, 3) [m], headings (n,) [rad])``.
+
+    Each gate is ``d ~ U(min_gate_distance, max_gate_distance)`` beyond the previous one (the
+    first beyond ``start``) along a heading that turns by ``U(-max_turn, max_turn)`` from the
+    previous one (the first from +x) and climbs at ``U(-max_climb, max_climb)``; heights are
+    clamped to ``[min_gate_height, max_gate_height]``.  Each gate faces along its heading
+    (yaw = heading: passed in its +x direction).  Draws exactly ``3 * count`` numbers.
+    """
+    o = options
+    draws = rng.uniform(-1.0, 1.0, size=(count, 3))
+    centres = np.zeros((count, 3))
+    headings = np.zeros(count)
+    position = np.asarray(start, dtype=np.float64).copy()
+    heading = 0.0
+    for i, (u_turn, u_climb, u_dist) in enumerate(draws):
+        heading += u_turn * o.max_turn
+        climb = u_climb * o.max_climb
+        distance = o.min_gate_distance + 0.5 * (u_dist + 1.0) * (o.max_gate_distance - o.min_gate_distance)
+        position = position + distance * np.array(
+            (math.cos(climb) * math.cos(heading), math.cos(climb) * math.sin(heading), math.sin(climb))
+        )
+        position[2] = min(max(position[2], o.min_gate_height), o.max_gate_height)
+        centres[i] = position
+        headings[i] = heading
+    return centres, headings
+
+
+def gate_crossing(
+    start: np.ndarray, end: np.ndarray, centre: np.ndarray, rotation: np.ndarray, half_opening: float
+) -> bool:
+    """Whether the segment ``start``-``end`` crosses the gate's plane from -x to +x within the opening.
+
+    ``rotation`` is the gate-to-ground rotation; the opening is ``|y|, |z| <= half_opening``
+    in the gate's frame.
+    """
+    a = (np.asarray(start) - centre) @ rotation  # gate-frame coordinates
+    b = (np.asarray(end) - centre) @ rotation
+    if not (a[0] < 0.0 <= b[0]):
+        return False
+    t = a[0] / (a[0] - b[0])
+    point = a + t * (b - a)
+    return abs(point[1]) <= half_opening and abs(point[2]) <= half_opening
+
+
+class GatesTask(Task):
+    """Pass every gate in order (module docstring)."""
+
+    name: ClassVar[str] = "gates"
+    Options: ClassVar[type[TaskOptions]] = GatesOptions
+    provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
+
+    options: GatesOptions
+
+    def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
+        super().__init__(options, flight_dome_size=flight_dome_size, agent_hz=agent_hz)
+        o = self.options
+        if o.course == "random":
+            # every gate is at most max_gate_distance beyond the previous (clamping heights only
+            # shortens a step), so no bar is farther than this from the origin
+            reach = float(np.linalg.norm(o.start_position)) + len(o.gates) * o.max_gate_distance + o.opening
+            if reach > self.flight_dome_size:
+                raise ConfigError(
+                    f"task: a random course of {len(o.gates)} gates up to {o.max_gate_distance} m apart can reach "
+                    f"{reach:.3g} m from the origin, outside the flight dome ({self.flight_dome_size:g} m): enlarge "
+                    "flight_dome_size, or lower max_gate_distance or the number of gates"
+                )
+        self.centres = np.zeros((len(o.gates), 3))
+        self.rotations = np.zeros((len(o.gates), 3, 3))
+        self.num_passed = 0
+        self._position = np.zeros(3)
+        self._distance = 0.0
+
+    def setup(self, world: Any) -> None:
+        payloads = self.payloads
+        for name in self.options.gates:
+            if payloads is None or name not in payloads.by_name:
+                have = ", ".join(payloads.by_name) if payloads is not None else "none"
+                raise ConfigError(
+                    f"task 'gates' names the gate '{name}' (task.gates); the env config's payloads: {have}"
+                )
+            attach = payloads.by_name[name].spec.attach
+            if (attach.to, attach.joint) != ("world", "fixed"):
+                raise ConfigError(
+                    f"gate payload '{name}' must be fixed in the world (attach: {{to: world, joint: fixed}})"
+                )
+
+    def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
+        import pybullet as p
+
+        o = self.options
+        payloads = self.payloads
+        if o.course == "random":
+            centres, headings = random_course(rng, np.asarray(o.start_position, dtype=np.float64), len(o.gates), o)
+            for name, centre, heading in zip(o.gates, centres, headings):
+                gate = payloads.by_name[name]  # type: ignore[union-attr]
+                com = centre + quaternion_to_matrix(euler_to_quaternion(0.0, 0.0, heading)) @ gate.com
+                p.resetBasePositionAndOrientation(
+                    gate.body_id,
+                    com.tolist(),
+                    euler_to_quaternion(0.0, 0.0, float(heading)),
+                    physicsClientId=payloads.world.client,  # type: ignore[union-attr]
+                )
+        for i, name in enumerate(o.gates):
+            s = payloads.state(name)  # type: ignore[union-attr]
+            self.rotations[i] = quaternion_to_matrix(tuple(s.quaternion))
+            self.centres[i] = s.point(payloads.by_name[name].local((0.0, 0.0, 0.0)))  # type: ignore[union-attr]
+        self.num_passed = 0
+        self._position = np.asarray(state.lin_pos, dtype=np.float64)
+        self._distance = float(np.linalg.norm(self.centres[0] - self._position))
+
+    @property
+    def remaining(self) -> np.ndarray:
+        """Centres of the gates not yet passed, in order, ``(n, 3)`` ground frame [m]."""
+        return self.centres[self.num_passed :]
+
+    def observation_space(self, attitude: spaces.Box) -> spaces.Space:
+        deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
+        return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
+
+    def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
+        return {
+            "attitude": attitude,
+            "target_deltas": body_frame_deltas(self.remaining, state.lin_pos, state.quaternion),
+        }
+
+    def update(self, state: KinematicState) -> TaskSignals:
+        o = self.options
+        position = np.asarray(state.lin_pos, dtype=np.float64)
+        if self.num_passed >= len(o.gates):
+            self._position = position
+            return TaskSignals(target_distance=0.0, target_distance_rate=0.0)
+        i = self.num_passed
+        distance = float(np.linalg.norm(self.centres[i] - position))
+        rate = (distance - self._distance) / self.agent_dt
+        passed = gate_crossing(
+            self._position, position, self.centres[i], self.rotations[i], 0.5 * o.opening - o.clearance
+        )
+        if passed:
+            self.num_passed += 1
+            if self.num_passed < len(o.gates):
+                distance_next = float(np.linalg.norm(self.centres[self.num_passed] - position))
+                self._distance = distance_next
+        else:
+            self._distance = distance
+        self._position = position
+        return TaskSignals(
+            target_distance=distance,
+            target_distance_rate=rate,
+            waypoint_reached=passed,
+            complete=passed and self.num_passed == len(o.gates),
+        )
+
+    def info(self) -> dict[str, Any]:
+        return {"num_targets_reached": self.num_passed}
