@@ -164,6 +164,55 @@ def action_magnitude(ctx: StepContext) -> float:
     return float(np.sqrt(np.dot(ctx.action, ctx.action)))
 
 
+def floor_margin(ctx: StepContext, scale: float = 0.1) -> float:
+    """tanh(scale * z - 1): rises from -0.76 on the ground through 0 at z = 1/scale [-] (reference dogfight floor term)."""
+    return math.tanh(scale * ctx.state.lin_pos[2] - 1.0)
+
+
+def dome_proximity(ctx: StepContext, scale: float = 0.0025) -> float:
+    """tanh(scale * ||p|| - 1): grows with the distance from the origin, 0 at ||p|| = 1/scale [-] (reference dogfight)."""
+    x, y, z = ctx.state.lin_pos
+    return math.tanh(scale * math.sqrt(x * x + y * y + z * z) - 1.0)
+
+
+# dogfight signals (pyflyt_engine.envs.multi_agent.dogfight): read from ctx.extras
+
+
+def hits_dealt(ctx: StepContext) -> float:
+    """Opponents this agent holds inside its gun cone and range this step [count] (dogfight)."""
+    return ctx.extras["hits_dealt"]
+
+
+def hits_taken(ctx: StepContext) -> float:
+    """Opponents holding this agent inside their gun cone and range this step [count] (dogfight)."""
+    return ctx.extras["hits_taken"]
+
+
+def kills(ctx: StepContext) -> float:
+    """Opponents whose health this agent's fire brought to zero this step [count] (dogfight)."""
+    return ctx.extras["kills"]
+
+
+def health(ctx: StepContext) -> float:
+    """Own health after the step, 1 at spawn, 0 dead [-] (dogfight)."""
+    return ctx.extras["health"]
+
+
+def pursuit(ctx: StepContext) -> float:
+    """Distance closed this step on opponents ahead but out of gun range, summed [m] (dogfight)."""
+    return ctx.extras["pursuit"]
+
+
+def aim(ctx: StepContext) -> float:
+    """Sum over opponents ahead and in range of 1 / (angle off the nose + 0.1) [1/rad] (dogfight)."""
+    return ctx.extras["aim"]
+
+
+def aimed_at(ctx: StepContext) -> float:
+    """Sum over opponents that have this agent ahead and in range of 1 / (their angle off + 0.1) [1/rad] (dogfight)."""
+    return ctx.extras["aimed_at"]
+
+
 #: Every reward term a preset may name.
 TERMS: dict[str, RewardTerm] = {
     "constant": RewardTerm(constant, "1"),
@@ -177,6 +226,15 @@ TERMS: dict[str, RewardTerm] = {
     "angular_speed": RewardTerm(angular_speed, "rad/s"),
     "altitude": RewardTerm(altitude, "m"),
     "action_magnitude": RewardTerm(action_magnitude, "action units"),
+    "floor_margin": RewardTerm(floor_margin, "1"),
+    "dome_proximity": RewardTerm(dome_proximity, "1"),
+    "hits_dealt": RewardTerm(hits_dealt, "count", ("dogfight",)),
+    "hits_taken": RewardTerm(hits_taken, "count", ("dogfight",)),
+    "kills": RewardTerm(kills, "count", ("dogfight",)),
+    "health": RewardTerm(health, "1", ("dogfight",)),
+    "pursuit": RewardTerm(pursuit, "m", ("dogfight",)),
+    "aim": RewardTerm(aim, "1/rad", ("dogfight",)),
+    "aimed_at": RewardTerm(aimed_at, "1/rad", ("dogfight",)),
 }
 
 
@@ -238,6 +296,11 @@ def fatal_landing(ctx: StepContext) -> bool:
     return ctx.extras.get("fatal_landing", 0.0) > 0.5
 
 
+def team_win(ctx: StepContext) -> bool:
+    """This agent's team has just shot down or outlasted every opponent (dogfight)."""
+    return ctx.extras.get("team_win", 0.0) > 0.5
+
+
 #: Every condition a preset may name (each also as ``not_<name>``).
 CONDITIONS: dict[str, Condition] = {
     "always": Condition(always),
@@ -251,6 +314,7 @@ CONDITIONS: dict[str, Condition] = {
     "pad_contact": Condition(pad_contact, ("landing",)),
     "safe_landing": Condition(safe_landing, ("landing",)),
     "fatal_landing": Condition(fatal_landing, ("landing",)),
+    "team_win": Condition(team_win, ("dogfight",)),
 }
 
 
