@@ -242,3 +242,12 @@ def test_supersuit_vector_env_interop():
         obs, rewards, terminations, truncations, _ = vec.step(np.tile(HOVER_ACTION, (4, 1)))
     assert obs.shape == (4, 24) and rewards.shape == (4,) and not terminations.any()
     vec.close()
+
+
+def test_pyflyt_envs_lists_the_multi_agent_envs():
+    from pyflyt_cli.catalog import list_envs
+
+    table = list_envs()
+    for name in ("ma_quadx_hover_v0", "ma_fixedwing_dogfight_v0"):
+        assert f"pyflyt_engine.envs.multi_agent.{name}" in table
+    assert "observation: Box(24,) per agent" in table and "teams [0, 1]" in table
