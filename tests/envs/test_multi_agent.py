@@ -251,3 +251,11 @@ def test_pyflyt_envs_lists_the_multi_agent_envs():
     for name in ("ma_quadx_hover_v0", "ma_fixedwing_dogfight_v0"):
         assert f"pyflyt_engine.envs.multi_agent.{name}" in table
     assert "observation: Box(24,) per agent" in table and "teams [0, 1]" in table
+
+
+def test_rgb_array_render_follows_a_live_agent():
+    env = make_env("ma_quadx_hover", agents=2, render_mode="rgb_array")
+    env.reset(seed=0)
+    image = env.render()
+    assert image.shape == (480, 480, 3) and image.dtype == np.uint8 and image.std() > 0
+    env.close()
