@@ -33,8 +33,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pyflyt_cli.training import compose_config, train  # noqa: E402
-from pyflyt_cli.training.envs import EnvFactory  # noqa: E402
+from pyflyt_cli.training import compose_config, train
+from pyflyt_cli.training.envs import EnvFactory
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"
 MAX_DISTANCE = 0.2  # [m], as learn_hover_ppo.py
@@ -160,8 +160,10 @@ def main() -> None:
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
             f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes\n"
         ),
-        "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "
-        "final: mean / worst distance [m] | final: mean per-agent return | training agent-steps/s | run wall-clock [s] |",
+        (
+            "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "
+            "final: mean / worst distance [m] | final: mean per-agent return | training agent-steps/s | run wall-clock [s] |"
+        ),
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

@@ -68,7 +68,11 @@ def time_env(env, steps: int, seed: int) -> tuple[float, float]:
 def ours(kind: str, size: int, steps: int, seed: int) -> tuple[float, float]:
     from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0, ma_quadx_hover_v0
 
-    env = ma_quadx_hover_v0.parallel_env(agents=size) if kind == "hover" else ma_fixedwing_dogfight_v0.parallel_env(agents=2 * size)
+    env = (
+        ma_quadx_hover_v0.parallel_env(agents=size)
+        if kind == "hover"
+        else ma_fixedwing_dogfight_v0.parallel_env(agents=2 * size)
+    )
     try:
         return time_env(env, steps, seed)
     finally:
@@ -81,7 +85,11 @@ def reference(kind: str, size: int, steps: int, seed: int) -> tuple[float, float
         from PyFlyt.pz_envs import MAQuadXHoverEnvV2
 
         angles = 2 * np.pi * np.arange(size) / size
-        start = np.stack((np.cos(angles), np.sin(angles), np.ones(size)), axis=1) if size > 1 else np.array([[0.0, 0.0, 1.0]])
+        start = (
+            np.stack((np.cos(angles), np.sin(angles), np.ones(size)), axis=1)
+            if size > 1
+            else np.array([[0.0, 0.0, 1.0]])
+        )
         env = MAQuadXHoverEnvV2(start_pos=start, start_orn=np.zeros((size, 3)), agent_hz=30)
     else:
         from PyFlyt.pz_envs import MAFixedwingDogfightEnvV2
@@ -139,7 +147,14 @@ def main(argv: list[str] | None = None) -> int:
     def fmt(v: float | None) -> str:
         return "-" if v is None else f"{v:,.0f}"
 
-    head = ["case", "ours env steps/s", "ours agent-steps/s", "reference env steps/s", "reference agent-steps/s", "ratio per agent-step"]
+    head = [
+        "case",
+        "ours env steps/s",
+        "ours agent-steps/s",
+        "reference env steps/s",
+        "reference agent-steps/s",
+        "ratio per agent-step",
+    ]
     lines = []
     if args.markdown:
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -148,7 +163,11 @@ def main(argv: list[str] | None = None) -> int:
     for label, m_env, m_agent, r_env, r_agent in rows:
         ratio = f"{m_agent / r_agent:.1f}x" if r_agent else "-"
         cells = [label, fmt(m_env), fmt(m_agent), fmt(r_env), fmt(r_agent), ratio]
-        lines.append("| " + " | ".join(cells) + " |" if args.markdown else f"{cells[0]:<28}" + "".join(f"{c:>26}" for c in cells[1:]))
+        lines.append(
+            "| " + " | ".join(cells) + " |"
+            if args.markdown
+            else f"{cells[0]:<28}" + "".join(f"{c:>26}" for c in cells[1:])
+        )
     print("\n".join(lines))
     print(
         f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores; random actions, agent 30 Hz, "

@@ -71,7 +71,7 @@ def list_multi_agent_envs() -> list[str]:
     from pyflyt_engine.envs.multi_agent import MA_ENVS
 
     lines = ["multi-agent environments (PettingZoo; train one shared policy with pyflyt train env=<config>):", ""]
-    for name, entry in MA_ENVS.items():
+    for entry in MA_ENVS.values():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             env = importlib.import_module(entry.module).parallel_env()
@@ -86,14 +86,18 @@ def list_multi_agent_envs() -> list[str]:
             lines += [
                 f"{entry.module}  (config: {entry.config}, class: {type(env).__name__})",
                 f"  {cfg.description}",
-                f"  agents:      {len(env.possible_agents)} ({', '.join(env.possible_agents)}), "
-                f"airframes {', '.join(sorted({v.spec.name for v in env.vehicles}))}, teams {teams}",
+                (
+                    f"  agents:      {len(env.possible_agents)} ({', '.join(env.possible_agents)}), "
+                    f"airframes {', '.join(sorted({v.spec.name for v in env.vehicles}))}, teams {teams}"
+                ),
                 f"  observation: {describe_space(env.observation_space(first))} per agent  [{cfg.angle_representation}]",
                 f"  action:      Box({len(action.names)},) per agent -> mode {action.mode}: {bounds}",
                 f"  rewards:     {presets} (default: {cfg.reward})",
                 f"               dense: {load_reward_preset(cfg.reward_presets['dense']).description}",
-                f"  defaults:    rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
-                f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m",
+                (
+                    f"  defaults:    rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
+                    f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m"
+                ),
                 f"  task:        {cfg.task.name}: " + ", ".join(f"{k}={v}" for k, v in task.items()),
                 "",
             ]

@@ -131,7 +131,9 @@ class AgentSlotsVecEnv(VecEnv):
                 # padding slots (agents retired at an earlier step) end with the episode
                 padding = ~slots["active"]
                 for i in np.flatnonzero(padding):
-                    infos[k * n + i].update({"terminal_observation": np.zeros_like(obs[i]), "TimeLimit.truncated": False})
+                    infos[k * n + i].update(
+                        {"terminal_observation": np.zeros_like(obs[i]), "TimeLimit.truncated": False}
+                    )
                 dones[rows] |= padding
                 self._obs[rows], _ = env.reset()
         return self._obs.copy(), rewards, dones, infos
@@ -166,7 +168,10 @@ class AgentSlotsVecEnv(VecEnv):
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         from stable_baselines3.common import env_util
 
-        return [env_util.is_wrapped(self.envs[slot // self.agents_per_env], wrapper_class) for slot in self._get_indices(indices)]
+        return [
+            env_util.is_wrapped(self.envs[slot // self.agents_per_env], wrapper_class)
+            for slot in self._get_indices(indices)
+        ]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [env.render() for env in self.envs]

@@ -55,7 +55,10 @@ def _trajectory_digest(module_name: str, kwargs: dict, seed: int, steps: int) ->
             digest.update(np.asarray(obs[name], dtype=np.float64).tobytes())
         if not env.agents:
             break
-        actions = {a: env.action_space(a).low + rng.random(4) * (env.action_space(a).high - env.action_space(a).low) * 0.3 for a in env.agents}
+        actions = {
+            a: env.action_space(a).low + rng.random(4) * (env.action_space(a).high - env.action_space(a).low) * 0.3
+            for a in env.agents
+        }
         obs, rewards, *_ = env.step(actions)
         digest.update(json.dumps(rewards, sort_keys=True).encode())
     env.close()
@@ -64,7 +67,10 @@ def _trajectory_digest(module_name: str, kwargs: dict, seed: int, steps: int) ->
 
 @pytest.mark.parametrize(
     ("module", "kwargs"),
-    [("pyflyt_engine.envs.multi_agent.ma_quadx_hover_v0", {}), ("pyflyt_engine.envs.multi_agent.ma_fixedwing_dogfight_v0", {})],
+    [
+        ("pyflyt_engine.envs.multi_agent.ma_quadx_hover_v0", {}),
+        ("pyflyt_engine.envs.multi_agent.ma_fixedwing_dogfight_v0", {}),
+    ],
     ids=["hover", "dogfight"],
 )
 def test_same_seed_same_trajectory_across_processes(module, kwargs):
@@ -110,7 +116,7 @@ def test_time_limit_truncates_every_live_agent_as_success():
     env = ma_quadx_hover_v0.parallel_env(agents=2, max_duration_seconds=0.2)  # 6 steps
     env.reset(seed=1)
     for _ in range(6):
-        obs, rewards, terms, truncs, infos = env.step({a: HOVER_ACTION for a in env.agents})
+        _obs, _rewards, terms, truncs, infos = env.step({a: HOVER_ACTION for a in env.agents})
     assert truncs == {"uav_0": True, "uav_1": True} and not any(terms.values())
     assert all(info["success"] for info in infos.values())
     assert env.agents == []
@@ -120,7 +126,7 @@ def test_time_limit_truncates_every_live_agent_as_success():
 def test_hover_reward_is_the_reference_formula_per_agent():
     env = ma_quadx_hover_v0.parallel_env(agents=3)
     env.reset(seed=2)
-    obs, rewards, terms, truncs, infos = env.step({a: HOVER_ACTION for a in env.agents})
+    obs, rewards, _terms, _truncs, infos = env.step({a: HOVER_ACTION for a in env.agents})
     for name, info in infos.items():
         i = env.agent_index[name]
         s = env.world.vehicles[i].state
@@ -169,7 +175,7 @@ def test_dogfight_gun_geometry_health_and_kill():
     env = ma_fixedwing_dogfight_v0.parallel_env(agents=agents, damage_per_second=3.0)
     env.reset(seed=0)
     action = np.array([0.0, 0.0, 0.0, 0.45])
-    obs, rewards, terms, truncs, infos = env.step({a: action for a in env.agents})
+    obs, rewards, terms, _truncs, infos = env.step({a: action for a in env.agents})
     assert infos["uav_0"]["hits_dealt"] == 1 and infos["uav_0"]["hits_taken"] == 0
     assert infos["uav_1"]["hits_taken"] == 1 and infos["uav_1"]["hits_dealt"] == 0
     assert infos["uav_1"]["health"] == pytest.approx(1.0 - 3.0 / 30.0)
@@ -181,7 +187,7 @@ def test_dogfight_gun_geometry_health_and_kill():
     assert block[9] == pytest.approx(1.0 - 3.0 / 30.0) and block[10] == 0.0 and block[11] == 1.0
     # 10 steps of sustained fire at 3/s shoot it down; uav_0 scores the kill and wins
     for _ in range(20):
-        obs, rewards, terms, truncs, infos = env.step({a: action for a in env.agents})
+        obs, rewards, terms, _truncs, infos = env.step({a: action for a in env.agents})
         if not env.agents:
             break
     assert infos["uav_1"]["shot_down"] and terms["uav_1"] and not infos["uav_1"]["success"]
@@ -211,10 +217,16 @@ def test_teammates_never_hit_each_other():
         ({"agents": 0}, "agents must be a count >= 1"),
         ({"agents": [{"uav": "quadx_cf2x", "colour": "red"}]}, "unknown key 'colour'"),
         ({"agents": [{"name": "a"}, {"name": "a"}]}, "names must be unique, repeated: a"),
-        ({"agents": [{"uav": "quadx_cf2x"}, {"uav": "fixedwing"}]}, "unknown mode .rates_thrust. for vehicle .fixedwing."),
+        (
+            {"agents": [{"uav": "quadx_cf2x"}, {"uav": "fixedwing"}]},
+            "unknown mode .rates_thrust. for vehicle .fixedwing.",
+        ),
         ({"task": {"name": "hover"}}, "needs task.name one of: ma_hover, dogfight"),
         ({"layout_radius": -1.0}, "task.layout_radius"),
-        ({"agents": [{"spawn": {"position": [0.0, 0.0, float("nan")]}}]}, "agents.0.spawn.position.2: Input should be a finite number"),
+        (
+            {"agents": [{"spawn": {"position": [0.0, 0.0, float("nan")]}}]},
+            "agents.0.spawn.position.2: Input should be a finite number",
+        ),
     ],
 )
 def test_bad_hover_configs_fail_with_one_clear_message(overrides, message):
@@ -239,7 +251,7 @@ def test_supersuit_vector_env_interop():
     obs, _ = vec.reset(seed=0)
     assert obs.shape == (4, 24)
     for _ in range(5):
-        obs, rewards, terminations, truncations, _ = vec.step(np.tile(HOVER_ACTION, (4, 1)))
+        obs, rewards, terminations, _truncations, _ = vec.step(np.tile(HOVER_ACTION, (4, 1)))
     assert obs.shape == (4, 24) and rewards.shape == (4,) and not terminations.any()
     vec.close()
 

@@ -92,11 +92,17 @@ class MultiAgentUAVEnv(ParallelEnv):
             overrides["reward"] = "sparse" if sparse_reward else "dense"
         cfg = load_env_config(config if config is not None else self.config_name).with_overrides(**overrides)
         if not isinstance(cfg, MultiAgentEnvConfig):
-            raise ConfigError(f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}")
+            raise ConfigError(
+                f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
+            )
         if self.task_name and cfg.task.name != self.task_name:
-            raise ConfigError(f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'")
+            raise ConfigError(
+                f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
+            )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError(f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None")
+            raise ConfigError(
+                f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None"
+            )
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -182,7 +188,9 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # ------------------------------------------------------------ pettingzoo
 
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode: every agent alive, spawned in its region (drawn in agent order)."""
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)

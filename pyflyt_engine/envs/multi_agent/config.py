@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal, Union
+from typing import Any, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, field_validator
 
@@ -131,7 +131,7 @@ MA_TASKS: dict[str, type[MATaskOptions]] = {"ma_hover": MAHoverOptions, "dogfigh
 class MultiAgentEnvConfig(EnvConfig):
     """An :class:`EnvConfig` with several agents sharing one world (and one action layout)."""
 
-    agents: Union[int, list[AgentConfig]] = Field(
+    agents: int | list[AgentConfig] = Field(
         description="a count (that many agents of `uav`, placed by the task's layout) or one entry per agent"
     )
     task: SerializeAsAny[MATaskOptions] = Field(description="multi-agent task name and options")  # type: ignore[assignment]

@@ -93,7 +93,9 @@ class MAQuadXHoverEnv(MultiAgentUAVEnv):
             distance = self._distance(i, states[i])
             rate = (distance - self._distances[i]) / dt
             self._distances[i] = distance
-            out[i] = AgentSignals(target_distance=distance, target_distance_rate=rate, info={"target_distance": distance})
+            out[i] = AgentSignals(
+                target_distance=distance, target_distance_rate=rate, info={"target_distance": distance}
+            )
         return out
 
     def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:

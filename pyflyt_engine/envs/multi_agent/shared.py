@@ -116,7 +116,9 @@ class SharedPolicyEnv(gymnasium.Env):
 
     # ----------------------------------------------------------------- gymnasium
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         observations, infos = self.parallel.reset(seed=seed, options=options)
         self._terms = {}
         self._successes[:] = False
