@@ -1,6 +1,7 @@
 """What is registered, as ``pyflyt envs`` and ``pyflyt modes`` list it.
 
-:func:`list_envs`: every Gymnasium environment, its spaces, reward presets and defaults;
+:func:`list_envs`: every Gymnasium environment, its spaces, reward presets and defaults,
+then the multi-agent (PettingZoo) ones (:func:`list_multi_agent_envs`);
 :func:`list_modes`: the multirotor flight modes, their PyFlyt numbers and setpoint layouts.
 """
 
@@ -40,7 +41,9 @@ def list_envs() -> str:
             bounds = ", ".join(f"{n} [{lo:g}, {hi:g}]" for n, lo, hi in zip(action.names, action.low, action.high))
             presets = ", ".join(f"{kind}={name}" for kind, name in cfg.reward_presets.items())
             task_defaults = {
-                k: v for k, v in cfg.task.model_dump().items() if k not in ("name", "start_orientation", "start_orientation_noise")
+                k: v
+                for k, v in cfg.task.model_dump().items()
+                if k not in ("name", "start_orientation", "start_orientation_noise")
             }
             lines += [
                 f"{env_id}  (config: {entry.config}, class: {type(env).__name__})",
@@ -51,7 +54,8 @@ def list_envs() -> str:
                 f"               dense: {load_reward_preset(cfg.reward_presets['dense']).description}",
                 f"  defaults:    uav={cfg.uav}, rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
                 f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m",
-                f"  task:        {cfg.task.name}: " + ", ".join(_task_value(cfg, k, v) for k, v in task_defaults.items()),
+                f"  task:        {cfg.task.name}: "
+                + ", ".join(_task_value(cfg, k, v) for k, v in task_defaults.items()),
             ]
             if cfg.payloads:
                 lines.append(
@@ -63,9 +67,12 @@ def list_envs() -> str:
             lines.append("")
         finally:
             env.close()
+    lines += list_multi_agent_envs()
     lines.append("reward terms: " + ", ".join(TERMS))
     lines.append("conditions:   " + ", ".join(CONDITIONS) + " (each also as not_<name>)")
-    lines.append("make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine")
+    lines.append(
+        "make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine"
+    )
     return "\n".join(lines)
 
 
@@ -75,6 +82,49 @@ def _task_value(cfg: Any, key: str, value: Any) -> str:
     if field is not None and "fraction of the flight dome" in (field.description or ""):
         return f"{key}={value:g} x dome = {value * cfg.flight_dome_size:g} m"
     return f"{key}={value}"
+
+
+def list_multi_agent_envs() -> list[str]:
+    """Lines describing every multi-agent (PettingZoo) environment (builds each once, headless)."""
+    import importlib
+
+    from pyflyt_engine.envs.config import load_reward_preset
+    from pyflyt_engine.envs.multi_agent import MA_ENVS
+
+    lines = ["multi-agent environments (PettingZoo; train one shared policy with pyflyt train env=<config>):", ""]
+    for entry in MA_ENVS.values():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            env = importlib.import_module(entry.module).parallel_env()
+        try:
+            cfg = env.config
+            first = env.possible_agents[0]
+            action = cfg.action
+            bounds = ", ".join(f"{n} [{lo:g}, {hi:g}]" for n, lo, hi in zip(action.names, action.low, action.high))
+            presets = ", ".join(f"{kind}={preset}" for kind, preset in cfg.reward_presets.items())
+            teams = sorted(set(env.teams.tolist()))
+            task = {k: v for k, v in cfg.task.model_dump().items() if k != "name"}
+            lines += [
+                f"{entry.module}  (config: {entry.config}, class: {type(env).__name__})",
+                f"  {cfg.description}",
+                (
+                    f"  agents:      {len(env.possible_agents)} ({', '.join(env.possible_agents)}), "
+                    f"airframes {', '.join(sorted({v.spec.name for v in env.vehicles}))}, teams {teams}"
+                ),
+                f"  observation: {describe_space(env.observation_space(first))} per agent  [{cfg.angle_representation}]",
+                f"  action:      Box({len(action.names)},) per agent -> mode {action.mode}: {bounds}",
+                f"  rewards:     {presets} (default: {cfg.reward})",
+                f"               dense: {load_reward_preset(cfg.reward_presets['dense']).description}",
+                (
+                    f"  defaults:    rates {cfg.physics_hz:g}/{cfg.control_hz:g}/{cfg.agent_hz:g} Hz, "
+                    f"episode {cfg.max_duration_seconds:g} s ({cfg.max_steps} steps), dome {cfg.flight_dome_size:g} m"
+                ),
+                f"  task:        {cfg.task.name}: " + ", ".join(f"{k}={v}" for k, v in task.items()),
+                "",
+            ]
+        finally:
+            env.close()
+    return lines
 
 
 def list_modes() -> str:

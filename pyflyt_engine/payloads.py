@@ -336,7 +336,7 @@ class PayloadSet:
     """
 
     def __init__(self, world: World, vehicle: Vehicle, specs: list[PayloadSpec]) -> None:
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         from pyflyt_engine.urdf import cached_urdf
 
@@ -402,7 +402,7 @@ class PayloadSet:
         return list(com), matrix_to_quaternion(rot)
 
     def _joint(self, spec: PayloadSpec, body: int, payload: Payload) -> int | None:
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         joint = spec.attach.joint
         if joint == "free" or (spec.attach.to == "world" and joint == "fixed"):
@@ -443,7 +443,7 @@ class PayloadSet:
         Call after the vehicle has been reset: a payload attached to the vehicle takes the
         vehicle's velocity at its point (v + omega x r), a tether its full length.
         """
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         cid = self.world.client
         s = self.vehicle.state
@@ -468,7 +468,7 @@ class PayloadSet:
 
     def state(self, name: str | int) -> PayloadState:
         """The current :class:`PayloadState` of a payload, by name or index."""
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         payload = self.payloads[name] if isinstance(name, int) else self.by_name[name]
         cid = self.world.client

@@ -18,6 +18,13 @@ observation and action layout it was trained on:
 5. SB3's ``Monitor`` (episode return, length and ``success``) for training envs;
 6. :class:`ResumableEpisode` (outermost, training envs): remembers how the episode in
    progress started and the actions since, so a checkpoint can rebuild it exactly.
+
+A multi-agent config (one with ``agents``) goes through the same steps: its env is the
+parallel env seen by one shared policy
+(:class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`: one agent's spaces,
+observations and actions stacked by agent), ``Monitor`` is replaced by
+:class:`~pyflyt_cli.training.multi_agent.AgentSlots`, and :func:`make_vec_env` gives a
+slot per agent (:class:`~pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`).
 """
 
 from __future__ import annotations
@@ -203,7 +210,12 @@ class EnvFactory:
 
             env = RecordEpisode(env, Path(self.record_dir), prefix="ep")
         env = wrap_for_agent(env)
-        if self.monitor:
+        if getattr(self.config, "multi_agent", False):
+            if self.monitor:  # training: per-agent slots and statistics (pyflyt_cli.training.multi_agent)
+                from pyflyt_cli.training.multi_agent import AgentSlots
+
+                env = AgentSlots(env)
+        elif self.monitor:
             from stable_baselines3.common.monitor import Monitor
 
             env = Monitor(env, info_keywords=("success",))
@@ -219,6 +231,10 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+    if getattr(config, "multi_agent", False):  # one shared policy: a slot per agent, envs in this process
+        from pyflyt_cli.training.multi_agent import AgentSlotsVecEnv
+
+        return AgentSlotsVecEnv([EnvFactory(config, resumable=True) for _ in range(n_envs)])
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
     factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
     if subproc:

@@ -442,6 +442,14 @@ def check_env_references(env: EnvConfig) -> None:
     from pyflyt_engine.errors import PyFlytError
     from pyflyt_engine.spec import load_uav_spec
 
+    if getattr(env, "multi_agent", False):
+        from pyflyt_engine.envs.multi_agent.config import check_references
+
+        try:
+            check_references(env)  # type: ignore[arg-type]
+        except PyFlytError as exc:
+            raise ConfigError(f"env: {exc}") from None
+        return
     try:
         task = get_task(env.task.name)
         load_reward_preset(env.reward_preset_name()).compile(task.provides, task.name)

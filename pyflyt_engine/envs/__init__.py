@@ -68,7 +68,9 @@ def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: An
 
     Uses the registered class when the config's ``id`` is in :data:`ENVS` (so the
     instance carries that env's manual), else :class:`UAVEnv`.  ``overrides`` as for
-    :class:`UAVEnv` (``sparse_reward=True``, ``num_targets=3``, ...).
+    :class:`UAVEnv` (``sparse_reward=True``, ``num_targets=3``, ...).  A multi-agent config
+    (one with ``agents``) gives its parallel env wrapped in
+    :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`.
     """
     import importlib
 
@@ -76,6 +78,11 @@ def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: An
     from pyflyt_engine.envs.env import UAVEnv
 
     cfg = load_env_config(config)
+    if getattr(cfg, "multi_agent", False):  # several agents: one shared-policy view of the parallel env
+        from pyflyt_engine.envs.multi_agent import env_class
+        from pyflyt_engine.envs.multi_agent.shared import SharedPolicyEnv
+
+        return SharedPolicyEnv(env_class(cfg.task.name)(cfg, **overrides))  # type: ignore[return-value]
     cls: type[UAVEnv] = UAVEnv
     if cfg.id in ENVS:
         module, _, name = ENVS[cfg.id].entry_point.partition(":")

@@ -358,9 +358,17 @@ def available(group: str) -> list[str]:
 
 
 def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
-    """Validate a mapping as an :class:`EnvConfig` (task options by the task's own model)."""
+    """Validate a mapping as an :class:`EnvConfig` (task options by the task's own model).
+
+    A mapping with ``agents`` is a multi-agent config
+    (:class:`~pyflyt_engine.envs.multi_agent.config.MultiAgentEnvConfig`, a subclass).
+    """
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: an env config must be a mapping of keys to values, got {type(data).__name__}")
+    if "agents" in data:  # several agents: pyflyt_engine.envs.multi_agent
+        from pyflyt_engine.envs.multi_agent.config import parse_multi_agent_config
+
+        return parse_multi_agent_config(data, source)
     data = {k: v for k, v in data.items() if k != "source"}
     task = data.get("task")
     if not isinstance(task, Mapping) or "name" not in task:

@@ -37,7 +37,9 @@ from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
 
 #: Signals every task provides (read from the vehicle and the world, not the task).
-BASE_SIGNALS = frozenset({"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete"})
+BASE_SIGNALS = frozenset(
+    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete"}
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -206,6 +208,55 @@ def hover_error_decrease(ctx: StepContext) -> float:
     return ctx.extras["hover_error_decrease"]
 
 
+def floor_margin(ctx: StepContext, scale: float = 0.1) -> float:
+    """tanh(scale * z - 1): rises from -0.76 on the ground through 0 at z = 1/scale [-] (reference dogfight floor term)."""
+    return math.tanh(scale * ctx.state.lin_pos[2] - 1.0)
+
+
+def dome_proximity(ctx: StepContext, scale: float = 0.0025) -> float:
+    """tanh(scale * ||p|| - 1): grows with the distance from the origin, 0 at ||p|| = 1/scale [-] (reference dogfight)."""
+    x, y, z = ctx.state.lin_pos
+    return math.tanh(scale * math.sqrt(x * x + y * y + z * z) - 1.0)
+
+
+# dogfight signals (pyflyt_engine.envs.multi_agent.dogfight): read from ctx.extras
+
+
+def hits_dealt(ctx: StepContext) -> float:
+    """Opponents this agent holds inside its gun cone and range this step [count] (dogfight)."""
+    return ctx.extras["hits_dealt"]
+
+
+def hits_taken(ctx: StepContext) -> float:
+    """Opponents holding this agent inside their gun cone and range this step [count] (dogfight)."""
+    return ctx.extras["hits_taken"]
+
+
+def kills(ctx: StepContext) -> float:
+    """Opponents whose health this agent's fire brought to zero this step [count] (dogfight)."""
+    return ctx.extras["kills"]
+
+
+def health(ctx: StepContext) -> float:
+    """Own health after the step, 1 at spawn, 0 dead [-] (dogfight)."""
+    return ctx.extras["health"]
+
+
+def pursuit(ctx: StepContext) -> float:
+    """Distance closed this step on opponents ahead but out of gun range, summed [m] (dogfight)."""
+    return ctx.extras["pursuit"]
+
+
+def aim(ctx: StepContext) -> float:
+    """Sum over opponents ahead and in range of 1 / (angle off the nose + 0.1) [1/rad] (dogfight)."""
+    return ctx.extras["aim"]
+
+
+def aimed_at(ctx: StepContext) -> float:
+    """Sum over opponents that have this agent ahead and in range of 1 / (their angle off + 0.1) [1/rad] (dogfight)."""
+    return ctx.extras["aimed_at"]
+
+
 #: Every reward term a preset may name.
 TERMS: dict[str, RewardTerm] = {
     "constant": RewardTerm(constant, "1"),
@@ -226,6 +277,15 @@ TERMS: dict[str, RewardTerm] = {
     "ball_height": RewardTerm(ball_height, "m", ("ball_in_cup",)),
     "inverse_hover_error": RewardTerm(inverse_hover_error, "1/m^2", ("ball_in_cup",)),
     "hover_error_decrease": RewardTerm(hover_error_decrease, "m^2", ("ball_in_cup",)),
+    "floor_margin": RewardTerm(floor_margin, "1"),
+    "dome_proximity": RewardTerm(dome_proximity, "1"),
+    "hits_dealt": RewardTerm(hits_dealt, "count", ("dogfight",)),
+    "hits_taken": RewardTerm(hits_taken, "count", ("dogfight",)),
+    "kills": RewardTerm(kills, "count", ("dogfight",)),
+    "health": RewardTerm(health, "1", ("dogfight",)),
+    "pursuit": RewardTerm(pursuit, "m", ("dogfight",)),
+    "aim": RewardTerm(aim, "1/rad", ("dogfight",)),
+    "aimed_at": RewardTerm(aimed_at, "1/rad", ("dogfight",)),
 }
 
 
@@ -302,6 +362,11 @@ def ball_hit_vehicle(ctx: StepContext) -> bool:
     return ctx.extras.get("ball_hit_vehicle", 0.0) > 0.5
 
 
+def team_win(ctx: StepContext) -> bool:
+    """This agent's team has just shot down or outlasted every opponent (dogfight)."""
+    return ctx.extras.get("team_win", 0.0) > 0.5
+
+
 #: Every condition a preset may name (each also as ``not_<name>``).
 CONDITIONS: dict[str, Condition] = {
     "always": Condition(always),
@@ -318,6 +383,7 @@ CONDITIONS: dict[str, Condition] = {
     "ball_above": Condition(ball_above, ("ball_in_cup",)),
     "ball_in_cup": Condition(ball_in_cup, ("ball_in_cup",)),
     "ball_hit_vehicle": Condition(ball_hit_vehicle, ("ball_in_cup",)),
+    "team_win": Condition(team_win, ("dogfight",)),
 }
 
 

@@ -76,6 +76,13 @@ def _scalar_info(info: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _action_names(base: Any) -> list[str]:
+    """Names of the recorded action vector: the env's own list if it has one (a multi-agent
+    env's stacked actions, ``<agent>.<entry>``), else its config's action names."""
+    names = getattr(base, "action_names", None)
+    return list(names) if names is not None else list(base.config.action.names)
+
+
 def end_reason(terminated: bool, truncated: bool, info: dict[str, Any]) -> str:
     """Why an episode ended, from its last step's flags and info."""
     if info.get("env_complete") and terminated:
@@ -210,7 +217,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     "uav_specs": json.dumps(specs),
                     "airframe_spec": airframe,
                     "uav_names": json.dumps([v.spec.name for v in world.vehicles]),
-                    "action_names": json.dumps(list(base.config.action.names)),
+                    "action_names": json.dumps(_action_names(base)),
                     "physics_hz": repr(world.physics_hz),
                     "control_hz": repr(world.control_hz),
                     "agent_hz": repr(world.agent_hz),
@@ -300,7 +307,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 self._ch_wind.append(
                     f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
                 )
-        names = json.dumps(list(base.config.action.names))
+        names = json.dumps(_action_names(base))
         self._ch_action = f.channel("/uav/0/action", "pyflyt.Action", schemas.ACTION, {"names": names})
         self._ch_reward = f.channel(
             "/reward", "pyflyt.Reward", schemas.REWARD, {"terms": json.dumps(list(base.reward_preset.terms))}
@@ -327,7 +334,9 @@ class RecordEpisode(gymnasium.Wrapper):
             f.write(
                 self._ch_tf,
                 ns,
-                scene.frame_transform(ns, scene.WORLD_FRAME, scene.payload_frame(payload.spec.name), ps.position, ps.quaternion),
+                scene.frame_transform(
+                    ns, scene.WORLD_FRAME, scene.payload_frame(payload.spec.name), ps.position, ps.quaternion
+                ),
             )
         for i, vehicle in enumerate(world.vehicles):
             s = vehicle.state

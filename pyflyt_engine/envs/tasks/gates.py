@@ -166,7 +166,7 @@ class GatesTask(Task):
                 )
 
     def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
-        import pybullet as p
+        from pyflyt_engine.bullet import pybullet as p
 
         o = self.options
         payloads = self.payloads

@@ -1,0 +1,195 @@
+"""Do 4 quadrotors sharing one PPO policy learn to hold their points, and how fast in wall-clock?
+
+Trains what ``pyflyt train env=ma_quadx_hover algo=ppo`` trains (``conf/hparams/
+ma_quadx_hover_ppo.yaml``: 4 agents, one shared policy) with 10 s episodes -- the
+single-agent hover episode, so the criterion is the one of ``learn_hover_ppo.py`` -- and
+every ``--probe-every`` agent-steps flies the current policy (deterministic) for
+``--episodes`` seeded episodes.  **Hovering** means, for every agent of every probe
+episode: no crash for the whole 10 s and a mean distance to its own hover point below
+0.2 m.
+
+Reported per seed: the first probe that hovers (agent-steps, wall-clock, and without the
+probes' cost); across seeds: the IQM of the final policies' mean per-agent return with
+its 95 % bootstrap interval (rliable).  The comparison asked for is *4 independent
+single-agent runs*: ``experiments/results/learn_hover_ppo.md`` records what one takes on
+this machine (90-100k steps, 150-180 s), so four take about four times that, run one
+after the other (or twice that on both cores).  Results are appended to
+``experiments/results/learn_ma_hover_ppo.md``.
+
+    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from pyflyt_cli.training import compose_config, train
+from pyflyt_cli.training.envs import EnvFactory
+
+RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"
+MAX_DISTANCE = 0.2  # [m], as learn_hover_ppo.py
+EPISODE_SECONDS = 10.0
+
+
+def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
+    """Fly ``episodes`` episodes with every agent; survival, distances, mean per-agent return."""
+    vec = model.get_vec_normalize_env()
+    parallel = env.unwrapped.parallel
+    points = np.array([a.hover_point for a in parallel.agent_list])
+    survived, worst, mean_distance, returns = [], [], [], []
+    for i in range(episodes):
+        obs, _ = env.reset(seed=seed + i)
+        done, total = False, 0.0
+        distances: list[np.ndarray] = []
+        alive_to_end = np.ones(len(points), dtype=bool)
+        while not done:
+            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
+            action, _ = model.predict(x, deterministic=True)
+            obs, reward, terminated, truncated, info = env.step(action)
+            total += float(reward)
+            alive_to_end &= ~info["agent_terminated"]
+            positions = np.array([v.state.lin_pos for v in parallel.vehicles])
+            distances.append(np.linalg.norm(positions - points, axis=1))
+            done = terminated or truncated
+        per_agent = np.mean(distances, axis=0)
+        survived.append(bool(alive_to_end.all()))
+        worst.append(float(per_agent.max()))
+        mean_distance.append(float(per_agent.mean()))
+        returns.append(total)
+    return {
+        "survived": float(np.mean(survived)),
+        "worst_distance": float(np.max(worst)),
+        "mean_distance": float(np.mean(mean_distance)),
+        "mean_return": float(np.mean(returns)),
+    }
+
+
+class HoverProbe(BaseCallback):
+    def __init__(self, cfg, every: int, episodes: int) -> None:
+        super().__init__()
+        self.env = EnvFactory(cfg.env, monitor=False)()
+        self.every, self.episodes, self.next = every, episodes, every
+        self.started = time.perf_counter()
+        self.probe_time = 0.0
+        self.history: list[tuple[int, float, dict[str, float]]] = []
+        self.hover_at: tuple[int, float, float] | None = None
+
+    def _on_training_start(self) -> None:
+        self.started = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next:
+            self.next += self.every
+            self.probe()
+        return True
+
+    def _on_training_end(self) -> None:
+        if not self.history or self.history[-1][0] != self.num_timesteps:
+            self.probe()
+
+    def probe(self) -> None:
+        t0 = time.perf_counter()
+        probe = hover_probe(self.model, self.env, self.episodes, seed=10_000)
+        self.probe_time += time.perf_counter() - t0
+        wall = time.perf_counter() - self.started
+        self.history.append((self.num_timesteps, wall, probe))
+        print(
+            f"  {self.num_timesteps:>7} agent-steps  {wall:6.1f} s  all survived {100 * probe['survived']:3.0f} %  "
+            f"distance mean {probe['mean_distance']:.3f} / worst {probe['worst_distance']:.3f} m  "
+            f"return {probe['mean_return']:8.2f}",
+            flush=True,
+        )
+        if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < MAX_DISTANCE:
+            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
+
+
+def run(seed: int, budget: int, every: int, episodes: int, output: Path) -> dict:
+    overrides = [
+        f"seed={seed}",
+        f"train.output_dir={output}",
+        "train.progress_bar=false",
+        f"train.total_timesteps={budget}",
+        "train.eval_freq=0",
+        f"env.max_duration_seconds={EPISODE_SECONDS}",
+    ]
+    cfg = compose_config(env="ma_quadx_hover", algo="ppo", overrides=overrides)
+    probe = HoverProbe(cfg, every, episodes)
+    start = time.perf_counter()
+    result = train(cfg, callbacks=[probe])
+    total = time.perf_counter() - start
+    return {
+        "seed": seed,
+        "steps": result.num_timesteps,
+        "hover_at": probe.hover_at,
+        "final": probe.history[-1][2],
+        "steps_per_second": result.num_timesteps / max(total - probe.probe_time, 1e-9),
+        "wall": total,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--budget", type=int, default=400_000, help="agent-steps per run")
+    parser.add_argument("--probe-every", type=int, default=40_000)
+    parser.add_argument("--episodes", type=int, default=3, help="episodes per probe")
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+
+    from pyflyt_cli.plotting.stats import iqm
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in args.seeds:
+            print(f"seed {seed}:", flush=True)
+            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp)))
+    finals = np.array([[r["final"]["mean_return"]] for r in rows])
+    estimate = iqm({"ppo_shared": finals})["ppo_shared"]
+    lines = [
+        (
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
+            f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes\n"
+        ),
+        (
+            "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "
+            "final: mean / worst distance [m] | final: mean per-agent return | training agent-steps/s | run wall-clock [s] |"
+        ),
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        h, f = r["hover_at"], r["final"]
+        lines.append(
+            f"| {r['seed']} | {h[0] if h else 'not within budget'} | {f'{h[1]:.0f}' if h else '-'} | "
+            f"{f'{h[2]:.0f}' if h else '-'} | {100 * f['survived']:.0f} % | "
+            f"{f['mean_distance']:.3f} / {f['worst_distance']:.3f} | {f['mean_return']:.1f} | "
+            f"{r['steps_per_second']:.0f} | {r['wall']:.0f} |"
+        )
+    lines.append(
+        f"\nIQM of the final mean per-agent return over {len(rows)} seeds (rliable, 95 % bootstrap CI): "
+        f"{float(estimate.value[0]):.1f} [{float(estimate.low[0]):.1f}, {float(estimate.high[0]):.1f}]"
+    )
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if not args.no_write:
+        if not RESULTS.exists():
+            RESULTS.write_text(
+                "# Four quadrotors, one shared PPO policy (experiments/learn_ma_hover_ppo.py)\n\n"
+                "Hovering = for every agent of every probe episode (deterministic policy, 10 s): no crash and mean\n"
+                "distance to its own hover point below 0.2 m.  Steps are agent-steps (4 per env step).\n"
+            )
+        with RESULTS.open("a") as fh:
+            fh.write(text)
+
+
+if __name__ == "__main__":
+    main()

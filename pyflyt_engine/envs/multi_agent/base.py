@@ -1,0 +1,404 @@
+"""The multi-agent loop: several vehicles in one World, one PettingZoo ``ParallelEnv``.
+
+:class:`MultiAgentUAVEnv` runs what every multi-agent task shares -- build the world from
+a :class:`~pyflyt_engine.envs.multi_agent.config.MultiAgentEnvConfig`, spawn each agent in
+its region, apply each live agent's action, step the physics once for everybody, detect
+contacts and dome exits, evaluate the reward preset per agent, retire agents whose
+episode ended -- and leaves three hooks to the task subclasses (:mod:`.hover`,
+:mod:`.dogfight`): ``_extra_size`` (observation entries beyond the shared attitude
+vector), ``_task_reset`` and ``_task_update`` (per-agent reward signals and outcomes),
+``_task_observe``.
+
+PettingZoo conventions: ``possible_agents`` never changes; ``agents`` lists the live
+ones; ``step`` takes an action for every live agent and returns observations, rewards,
+terminations, truncations and infos for exactly those agents; an agent whose episode
+ended is dropped from ``agents`` after that step (its vehicle is disarmed and falls, and
+remains a body others can hit).  The episode is over when ``agents`` is empty.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from pyflyt_engine.envs.config import RewardPreset, load_env_config, load_reward_preset
+from pyflyt_engine.envs.multi_agent.config import PROVIDES, MultiAgentEnvConfig, ResolvedAgent
+from pyflyt_engine.envs.rewards import RewardFunction, StepContext
+from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.state import KinematicState
+from pyflyt_engine.world import VehicleConfig, World
+
+
+@dataclass
+class AgentSignals:
+    """What a task reports for one live agent after a step."""
+
+    target_distance: float | None = None
+    target_distance_rate: float | None = None
+    #: the agent's job is done: terminate it with success
+    complete: bool = False
+    #: the task declares the agent lost (e.g. shot down): terminate it as a crash
+    failed: bool = False
+    extras: dict[str, float] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class MultiAgentUAVEnv(ParallelEnv):
+    """Base of the multi-agent environments (see the module docstring and each subclass's manual).
+
+    Args:
+        config: env config name (``conf/env``), YAML path, mapping or config object; default
+            the class's ``config_name``.
+        sparse_reward: shortcut for ``reward="sparse"`` / ``reward="dense"``.
+        render_mode: None, ``"rgb_array"`` (headless chase camera on the first live agent)
+            or ``"human"`` (PyBullet GUI).
+        info_reward_terms: put each agent's reward breakdown in its info as ``reward_terms``.
+        airframe: a loaded airframe flown instead of the config's ``uav`` (by every agent
+            that does not name its own), e.g. the one a recording carries.
+        **overrides: any top-level config field (``agents=8``, ``agent_hz=60``) or task option.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["human", "rgb_array"],
+        "name": "ma_uav",
+        "is_parallelizable": True,
+        "render_fps": 30,
+    }
+    config_name: ClassVar[str | None] = None
+    task_name: ClassVar[str] = ""
+
+    def __init__(
+        self,
+        config: str | Path | Mapping[str, Any] | MultiAgentEnvConfig | None = None,
+        *,
+        sparse_reward: bool | None = None,
+        render_mode: str | None = None,
+        info_reward_terms: bool = True,
+        airframe: UAVSpec | None = None,
+        **overrides: Any,
+    ) -> None:
+        if sparse_reward is not None:
+            if "reward" in overrides:
+                raise ConfigError("give either sparse_reward or reward, not both")
+            overrides["reward"] = "sparse" if sparse_reward else "dense"
+        cfg = load_env_config(config if config is not None else self.config_name).with_overrides(**overrides)
+        if not isinstance(cfg, MultiAgentEnvConfig):
+            raise ConfigError(
+                f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
+            )
+        if self.task_name and cfg.task.name != self.task_name:
+            raise ConfigError(
+                f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
+            )
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(
+                f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None"
+            )
+        self.config: MultiAgentEnvConfig = cfg
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
+        self.agent_list: list[ResolvedAgent] = cfg.resolved_agents()
+        self.possible_agents: list[str] = [a.name for a in self.agent_list]
+        self.agents: list[str] = []
+        self.agent_index: dict[str, int] = {name: i for i, name in enumerate(self.possible_agents)}
+        self.teams = np.array([a.team for a in self.agent_list], dtype=np.int64)
+
+        self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
+        self.reward_function: RewardFunction = self.reward_preset.compile(PROVIDES[cfg.task.name], cfg.task.name)
+        #: the airframe of ``config.uav`` (agents naming no airframe of their own fly it)
+        self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
+        specs: dict[str, UAVSpec] = {cfg.uav: self.airframe}
+        for agent in self.agent_list:
+            if agent.uav not in specs:
+                specs[agent.uav] = load_uav_spec(agent.uav)
+        self.world = World(
+            [
+                VehicleConfig(specs[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
+                for a in self.agent_list
+            ],
+            physics_hz=cfg.physics_hz,
+            control_hz=cfg.control_hz,
+            agent_hz=cfg.agent_hz,
+            render=render_mode == "human",
+            drag=cfg.drag,
+        )
+        self.vehicles = self.world.vehicles
+        n_act = len(cfg.action.names)
+        aux = {v.aux_state.size for v in self.vehicles}
+        for agent, vehicle in zip(self.agent_list, self.vehicles):
+            if vehicle.setpoint.size != n_act:
+                self.world.close()
+                raise ConfigError(
+                    f"agent '{agent.name}': action has {n_act} entries ({', '.join(cfg.action.names)}) but flight mode "
+                    f"'{cfg.action.mode}' of '{vehicle.spec.name}' takes {vehicle.setpoint.size}"
+                )
+        if len(aux) > 1:
+            self.world.close()
+            raise ConfigError(
+                "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
+                f"auxiliary states differ in size ({', '.join(f'{v.spec.name}: {v.aux_state.size}' for v in self.vehicles)}); "
+                "mix airframes of the same kind (e.g. quadrotors)"
+            )
+        self._low = np.array(cfg.action.low, dtype=np.float64)
+        self._high = np.array(cfg.action.high, dtype=np.float64)
+        self._quaternion = cfg.angle_representation == "quaternion"
+        self.attitude_size = 3 + (4 if self._quaternion else 3) + 3 + 3 + n_act + aux.pop()
+        size = self.attitude_size + self._extra_size()
+        obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        act_space = spaces.Box(self._low, self._high, dtype=np.float64)
+        # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
+        self.observation_spaces = {name: obs_space for name in self.possible_agents}
+        self.action_spaces = {name: act_space for name in self.possible_agents}
+
+        n = len(self.possible_agents)
+        self._actions = np.zeros((n, n_act))
+        self._alive = np.zeros(n, dtype=bool)
+        self._dome2 = cfg.flight_dome_size**2
+        self._max_steps = cfg.max_steps
+        self._steps = 0
+        self.info_reward_terms = bool(info_reward_terms)
+        self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
+        self.np_random, _ = seeding.np_random(None)
+        self._markers = None
+        if render_mode is not None and len(self.markers()):
+            from pyflyt_engine.envs.render import Markers
+
+            self._markers = Markers(self.world.client, len(self.markers()), 0.05)
+
+    # --------------------------------------------------------------- spaces
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self.action_spaces[agent]
+
+    @property
+    def num_agents_total(self) -> int:
+        return len(self.possible_agents)
+
+    # ------------------------------------------------------------ pettingzoo
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode: every agent alive, spawned in its region (drawn in agent order)."""
+        if seed is not None:
+            self.np_random, _ = seeding.np_random(seed)
+        self.world.reset(seed)
+        rng = self.np_random
+        for agent, vehicle in zip(self.agent_list, self.vehicles):
+            s = agent.spawn
+            dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
+            da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
+            vehicle.reset(np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist(), lin_vel=s.lin_vel)
+        self.agents = list(self.possible_agents)
+        self._alive[:] = True
+        self._actions[:] = 0.0
+        self._steps = 0
+        self._reward_terms = [{} for _ in self.possible_agents]
+        states = [v.state for v in self.vehicles]
+        self._task_reset(states)
+        if self._markers is not None:
+            self._markers.show(self.markers())
+        observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
+        infos = {name: self._reset_info(i) for i, name in enumerate(self.possible_agents)}
+        return observations, infos
+
+    def step(
+        self, actions: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict[str, Any]]]:
+        """One agent step for every live agent (``actions`` must hold one per live agent)."""
+        live = [self.agent_index[name] for name in self.agents]
+        if not live:
+            raise RuntimeError("step() after the episode ended (no live agents): call reset()")
+        low, high = self._low, self._high
+        self._actions[~self._alive] = 0.0  # retired agents receive nothing
+        for i in live:
+            name = self.possible_agents[i]
+            try:
+                raw = actions[name]
+            except KeyError:
+                raise ValueError(f"no action for live agent '{name}' (live: {', '.join(self.agents)})") from None
+            a = np.asarray(raw, dtype=np.float64).reshape(-1)
+            if a.shape != low.shape:
+                raise ValueError(f"agent '{name}': action must have {low.size} values, got {a.size}")
+            a = np.minimum(np.maximum(a, low), high)
+            self.vehicles[i].set_setpoint(a)
+            self._actions[i] = a
+        world = self.world
+        world.step()
+        self._steps += 1
+        states = [v.state for v in self.vehicles]
+        collisions = {i: world.collided(i) for i in live}
+        signals = self._task_update(states, live, collisions)
+
+        observations: dict[str, Any] = {}
+        rewards: dict[str, float] = {}
+        terminations: dict[str, bool] = {}
+        truncations: dict[str, bool] = {}
+        infos: dict[str, dict[str, Any]] = {}
+        time_up = self._steps >= self._max_steps
+        ended = []
+        for i in live:
+            name = self.possible_agents[i]
+            state = states[i]
+            sig = signals[i]
+            collision = collisions[i]
+            x, y, z = state.lin_pos
+            out_of_bounds = x * x + y * y + z * z > self._dome2
+            crashed = collision or out_of_bounds or sig.failed
+            ctx = StepContext(
+                state,
+                self._actions[i],
+                collision,
+                world.collided_with_ground(i) if collision else False,
+                out_of_bounds,
+                crashed,
+                sig.complete,
+                sig.target_distance,
+                sig.target_distance_rate,
+                False,
+                sig.extras,
+            )
+            reward, terms = self.reward_function(ctx)
+            self._reward_terms[i] = terms
+            terminated = crashed or sig.complete
+            truncated = not terminated and time_up
+            info = {
+                "collision": collision,
+                "out_of_bounds": out_of_bounds,
+                "env_complete": sig.complete,
+                "success": (sig.complete and not crashed) or (truncated and self._succeeds_at_time_limit()),
+                **sig.info,
+            }
+            if self.info_reward_terms:
+                info["reward_terms"] = terms
+            rewards[name] = reward
+            terminations[name] = terminated
+            truncations[name] = truncated
+            infos[name] = info
+            if terminated or truncated:
+                ended.append(i)
+        for i in live:
+            name = self.possible_agents[i]
+            observations[name] = obs = self._observe(i, states)
+            if not (math.isfinite(rewards[name]) and math.isfinite(obs.dot(np.zeros(obs.size)))):
+                self._diverged(i, obs, rewards[name], states[i])
+        for i in ended:
+            self._alive[i] = False
+            world.set_armed(i, False)  # a retired vehicle cuts its actuators and falls
+        if ended:
+            self.agents = [name for name in self.agents if self._alive[self.agent_index[name]]]
+        if self._markers is not None:
+            self._markers.show(self.markers())
+        return observations, rewards, terminations, truncations, infos
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: an (H, W, 3) uint8 chase-camera image of the first live agent."""
+        if self.render_mode is None:
+            return None
+        from pyflyt_engine.envs import render as _render
+
+        r = self.config.render
+        index = self.agent_index[self.agents[0]] if self.agents else 0
+        state = self.vehicles[index].state
+        if self.render_mode == "rgb_array":
+            return _render.chase_camera(
+                self.world.client, state, r.resolution, r.camera_distance, r.camera_height, r.fov
+            )
+        _render.follow_in_gui(self.world.client, state, r.camera_distance)
+        return None
+
+    def close(self) -> None:
+        """Disconnect the PyBullet client (idempotent)."""
+        if getattr(self, "world", None) is not None:
+            self.world.close()
+
+    def state(self) -> np.ndarray:
+        """The global state: every vehicle's (ang_vel, quaternion, lin_vel, lin_pos), flattened."""
+        return np.concatenate(
+            [np.array((*s.ang_vel, *s.quaternion, *s.lin_vel, *s.lin_pos)) for s in (v.state for v in self.vehicles)]
+        )
+
+    # ------------------------------------------------------------- helpers
+
+    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
+        s = states[i]
+        angles = s.quaternion if self._quaternion else s.ang_pos
+        return np.concatenate(
+            (
+                np.array((*s.ang_vel, *angles, *s.lin_vel, *s.lin_pos), dtype=np.float64),
+                self._actions[i],
+                self.vehicles[i].aux_state,
+                self._task_observe(i, states),
+            )
+        )
+
+    def _reset_info(self, i: int) -> dict[str, Any]:
+        return {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+
+    def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
+        bad = np.flatnonzero(~np.isfinite(obs)).tolist()
+        raise SimulationError(
+            f"{self.config.id or self.config.source}: the simulation diverged at step {self._steps}: agent "
+            f"'{self.possible_agents[i]}' has a non-finite observation (entries {bad}) or reward ({reward}); "
+            f"position {[round(v, 4) for v in state.lin_pos]} m, last action {self._actions[i].round(4).tolist()}. "
+            "Check the airframes' parameters"
+        )
+
+    def _succeeds_at_time_limit(self) -> bool:
+        return False
+
+    def episode_success(self, successes: np.ndarray) -> bool:
+        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded: all of them."""
+        return bool(successes.all())
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Agent steps since the last reset."""
+        return self._steps
+
+    @property
+    def alive(self) -> np.ndarray:
+        """(N,) bool: which agents are still in the episode (a copy)."""
+        return self._alive.copy()
+
+    @property
+    def last_actions(self) -> np.ndarray:
+        """(N, A): the clipped action each agent's vehicle received at the last step (zeros after a reset or death)."""
+        return self._actions.copy()
+
+    @property
+    def last_reward_terms(self) -> list[dict[str, float]]:
+        """Per agent, the reward breakdown of its last step (empty after a reset)."""
+        return [dict(t) for t in self._reward_terms]
+
+    def markers(self) -> np.ndarray:
+        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)``."""
+        return np.zeros((0, 3))
+
+    # ---------------------------------------------------------- task hooks
+
+    def _extra_size(self) -> int:
+        return 0
+
+    def _task_reset(self, states: list[KinematicState]) -> None:
+        pass
+
+    def _task_update(
+        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool]
+    ) -> dict[int, AgentSignals]:
+        return {i: AgentSignals() for i in live}
+
+    def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
+        return np.zeros(0)

@@ -1,0 +1,190 @@
+"""Every agent of a multi-agent env seen by one shared policy, as one Gymnasium env.
+
+:class:`SharedPolicyEnv` wraps a :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`
+so that the toolkit's single-env machinery -- evaluation, ``pyflyt eval``, MCAP recording
+(:class:`~pyflyt_engine.telemetry.RecordEpisode`), ``pyflyt replay --verify``, exact resume --
+runs a shared policy on it unchanged:
+
+* ``observation_space`` and ``action_space`` are **one agent's** (what the shared policy
+  takes and gives); ``reset`` and ``step`` return observations stacked by agent, shape
+  ``(N, *obs_shape)`` in ``possible_agents`` order, and ``step`` takes actions stacked the
+  same way, ``(N, *act_shape)`` (or flattened).  A policy's ``predict`` handles such a
+  batch as it handles a vector env's.  Rows of retired agents are zeros (observation) and
+  ignored (action).
+* the reward is the *mean per-agent reward*: the sum of the live agents' rewards over N,
+  so an episode's return is the mean of the agents' returns;
+* the episode ends when no agent is left: *truncated* if any agent reached the time
+  limit at the last step, else *terminated*;
+* ``info`` holds per agent ``agent_rewards``, ``agent_terminated``, ``agent_truncated``
+  (this step), ``agent_active`` (acted this step), ``agent_infos`` (by name), and
+  ``success`` (hover: every agent survived; dogfight: a team won), ``success_rate``
+  (fraction of agents whose own episode succeeded), ``collision`` / ``out_of_bounds``
+  (any agent, this step), ``reward_terms`` (the per-term means, summing to the reward).
+
+Training expands the N rows into N vector-env slots (``pyflyt_cli.training.multi_agent``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+
+
+class _SceneMarkers:
+    """The ``task`` read-outs the recorder draws: every agent's marker points."""
+
+    def __init__(self, env: MultiAgentUAVEnv) -> None:
+        self._env = env
+
+    def markers(self) -> np.ndarray:
+        return self._env.markers()
+
+    def marker_style(self) -> tuple[int, float]:
+        return len(self._env.markers()), 0.05
+
+
+class SharedPolicyEnv(gymnasium.Env):
+    """A parallel multi-agent env as one Gymnasium env for a shared policy (see the module docstring).
+
+    Args:
+        env: the parallel environment (owned: closed with this one).
+    """
+
+    def __init__(self, env: MultiAgentUAVEnv) -> None:
+        self.parallel = env
+        self.metadata = dict(env.metadata)
+        self.render_mode = env.render_mode
+        first = env.possible_agents[0]
+        self.observation_space = env.observation_space(first)
+        self.action_space = env.action_space(first)
+        self.num_agents = len(env.possible_agents)
+        self._obs_shape = self.observation_space.shape
+        self._act_shape = self.action_space.shape
+        names = list(env.config.action.names)
+        #: names of the flattened stacked action (``<agent>.<entry>``), as recorded
+        self.action_names = [f"{agent}.{n}" for agent in env.possible_agents for n in names]
+        self.task = _SceneMarkers(env)
+        self._terms: dict[str, float] = {}
+        self._successes = np.zeros(self.num_agents, dtype=bool)
+
+    # the pieces of a pyflyt env the recorder, replay and resume read
+    @property
+    def world(self) -> Any:
+        return self.parallel.world
+
+    @property
+    def config(self) -> Any:
+        return self.parallel.config
+
+    @property
+    def airframe(self) -> Any:
+        return self.parallel.airframe
+
+    @property
+    def reward_preset(self) -> Any:
+        return self.parallel.reward_preset
+
+    @property
+    def vehicle(self) -> Any:
+        return self.parallel.vehicles[0]
+
+    @property
+    def np_random(self) -> np.random.Generator:  # type: ignore[override]
+        return self.parallel.np_random
+
+    @np_random.setter
+    def np_random(self, value: np.random.Generator) -> None:
+        self.parallel.np_random = value
+
+    @property
+    def last_action(self) -> np.ndarray:
+        """The stacked clipped actions the vehicles received at the last step, flattened (N * A,)."""
+        return self.parallel.last_actions.reshape(-1)
+
+    @property
+    def last_reward_terms(self) -> dict[str, float]:
+        """Per term, the sum over live agents over N (summing to the last reward)."""
+        return dict(self._terms)
+
+    @property
+    def agent_names(self) -> list[str]:
+        return list(self.parallel.possible_agents)
+
+    # ----------------------------------------------------------------- gymnasium
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        observations, infos = self.parallel.reset(seed=seed, options=options)
+        self._terms = {}
+        self._successes[:] = False
+        return self._stack(observations), {
+            "success": False,
+            "collision": False,
+            "out_of_bounds": False,
+            "env_complete": False,
+            "agent_infos": infos,
+        }
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        env = self.parallel
+        actions = np.asarray(action, dtype=np.float64).reshape(self.num_agents, *self._act_shape)
+        index = env.agent_index
+        live = list(env.agents)
+        observations, rewards, terms, truncs, infos = env.step({name: actions[index[name]] for name in live})
+        n = self.num_agents
+        agent_rewards = np.zeros(n)
+        agent_terminated = np.zeros(n, dtype=bool)
+        agent_truncated = np.zeros(n, dtype=bool)
+        active = np.zeros(n, dtype=bool)
+        totals: dict[str, float] = {}
+        for name in live:
+            i = index[name]
+            active[i] = True
+            agent_rewards[i] = rewards[name]
+            agent_terminated[i] = terms[name]
+            agent_truncated[i] = truncs[name]
+            info = infos[name]
+            if info.get("success"):
+                self._successes[i] = True
+            for key, value in (info.get("reward_terms") or env.last_reward_terms[i]).items():
+                totals[key] = totals.get(key, 0.0) + value
+        self._terms = {k: v / n for k, v in totals.items()}
+        reward = float(agent_rewards.sum() / n)
+        over = not env.agents
+        truncated = over and bool(agent_truncated.any())
+        terminated = over and not truncated
+        step_info: dict[str, Any] = {
+            "agent_rewards": agent_rewards,
+            "agent_terminated": agent_terminated,
+            "agent_truncated": agent_truncated,
+            "agent_active": active,
+            "agent_infos": infos,
+            "collision": any(infos[name].get("collision", False) for name in live),
+            "out_of_bounds": any(infos[name].get("out_of_bounds", False) for name in live),
+            "env_complete": over and bool(self._successes.any()) and terminated,
+            "success": bool(over and env.episode_success(self._successes)),
+            "success_rate": float(self._successes.mean()),
+            "reward_terms": dict(self._terms),
+        }
+        return self._stack(observations), reward, terminated, truncated, step_info
+
+    def render(self) -> Any:
+        return self.parallel.render()
+
+    def close(self) -> None:
+        self.parallel.close()
+
+    def _stack(self, observations: dict[str, np.ndarray]) -> np.ndarray:
+        out = np.zeros((self.num_agents, *self._obs_shape))
+        index = self.parallel.agent_index
+        for name, obs in observations.items():
+            out[index[name]] = obs
+        return out
+
+    def __repr__(self) -> str:
+        return f"SharedPolicyEnv({type(self.parallel).__name__}, agents={self.num_agents})"
