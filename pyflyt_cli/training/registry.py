@@ -27,10 +27,15 @@ ALGOS: dict[str, str] = {
     "ddpg": "stable_baselines3:DDPG",
     # not in SB3: ours, on SB3's SAC policy (pyflyt_cli/training/awac.py)
     "awac": "pyflyt_cli.training.awac:AWAC",
+    # sb3-contrib
+    "tqc": "sb3_contrib:TQC",
+    "crossq": "sb3_contrib:CrossQ",
+    "trpo": "sb3_contrib:TRPO",
+    "recurrent_ppo": "sb3_contrib:RecurrentPPO",
 }
 
 #: algorithms that learn from a replay buffer (checkpoints also save the buffer)
-OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac"})
+OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac", "tqc", "crossq"})
 
 #: ``init_from``: algorithm -> algorithms whose policy weights it can start from (besides
 #: itself).  AWAC uses SAC's policy class unchanged, so it bootstraps from a SAC run as in
@@ -38,7 +43,7 @@ OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac"})
 INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"})}
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
-POLICIES: frozenset[str] = frozenset({"MlpPolicy"})
+POLICIES: frozenset[str] = frozenset({"MlpPolicy", "MlpLstmPolicy"})
 
 #: ``algo.policy_kwargs.activation_fn`` -> torch module class
 ACTIVATIONS: dict[str, str] = {
@@ -68,6 +73,8 @@ def _dotted(entry: str) -> set[str]:
     paths = {f"{module}.{name}"}
     if module == "stable_baselines3":  # stable_baselines3.PPO and stable_baselines3.ppo.PPO
         paths.add(f"stable_baselines3.{name.lower()}.{name}")
+    if module == "sb3_contrib":  # sb3_contrib.TQC and sb3_contrib.tqc.TQC (RecurrentPPO: ppo_recurrent)
+        paths.add(f"sb3_contrib.{'ppo_recurrent' if name == 'RecurrentPPO' else name.lower()}.{name}")
     return paths
 
 
