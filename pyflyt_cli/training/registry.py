@@ -27,6 +27,8 @@ ALGOS: dict[str, str] = {
     "ddpg": "stable_baselines3:DDPG",
     # not in SB3: ours, on SB3's SAC policy (pyflyt_cli/training/awac.py)
     "awac": "pyflyt_cli.training.awac:AWAC",
+    # not in SB3: ours, SAC with an oracle policy (pyflyt_cli/training/ccge.py)
+    "ccge": "pyflyt_cli.training.ccge:CCGE",
     # sb3-contrib
     "tqc": "sb3_contrib:TQC",
     "crossq": "sb3_contrib:CrossQ",
@@ -35,12 +37,13 @@ ALGOS: dict[str, str] = {
 }
 
 #: algorithms that learn from a replay buffer (checkpoints also save the buffer)
-OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac", "tqc", "crossq"})
+OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"})
 
 #: ``init_from``: algorithm -> algorithms whose policy weights it can start from (besides
 #: itself).  AWAC uses SAC's policy class unchanged, so it bootstraps from a SAC run as in
 #: Nair et al. (2020).
-INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"})}
+#: CCGE likewise takes a SAC policy: its actor becomes the oracle (Tai et al. 2022).
+INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"}), "ccge": frozenset({"sac"})}
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
 POLICIES: frozenset[str] = frozenset({"MlpPolicy", "MlpLstmPolicy"})

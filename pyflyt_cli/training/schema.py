@@ -227,6 +227,20 @@ class SACConfig(_OffPolicy):
         return _check_ent_coef(value)
 
 
+class CCGEConfig(SACConfig):
+    """Critic Confidence Guided Exploration (Tai et al. 2022, arXiv:2208.10533); ours, on SB3's SAC.
+
+    See :mod:`pyflyt_cli.training.ccge`; ``init_from`` names the SAC run whose actor is the oracle.
+    """
+
+    name: Literal["ccge"]  # type: ignore[assignment]
+    confidence_lambda: float = Field(
+        ge=0, allow_inf_nan=False,
+        description="the oracle acts (and is imitated) where the critic ensemble's normalised gap exceeds it",
+    )
+    supervise: bool = Field(description="imitate the oracle where the critic is unsure (false: exploration only)")
+
+
 class TD3Config(_OffPolicy):
     """Twin Delayed DDPG (Fujimoto et al. 2018); SB3 ``TD3``."""
 
@@ -378,7 +392,8 @@ AlgoConfig = Annotated[
     | TQCConfig
     | CrossQConfig
     | TRPOConfig
-    | RecurrentPPOConfig,
+    | RecurrentPPOConfig
+    | CCGEConfig,
     Field(discriminator="name"),
 ]
 
@@ -586,7 +601,7 @@ def check_env_references(env: EnvConfig) -> None:
 def _algo_model(name: str) -> type[BaseModel]:
     models = {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}
     contrib = {"tqc": TQCConfig, "crossq": CrossQConfig, "trpo": TRPOConfig, "recurrent_ppo": RecurrentPPOConfig}
-    return {**models, "awac": AWACConfig, **contrib}[name]
+    return {**models, "awac": AWACConfig, "ccge": CCGEConfig, **contrib}[name]
 
 
 # -------------------------------------------------------------------------- eval
