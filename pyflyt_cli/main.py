@@ -189,6 +189,26 @@ def benchmark(
 
 
 @app.command(
+    help="Search hyper-parameters with Optuna: trials=N training runs of env=<task> algo=<algo> over the search "
+    "space conf/search_space/<algo>.yaml (space=<name or file> for another), jobs=J at once in separate "
+    "processes; a trial whose evaluation curve falls below the others' median is pruned.  The study is kept in "
+    "<study_dir>/study.db (SQLite; default tune/<env>_<algo>): the same command continues it.  Writes "
+    "best_<env>_<algo>.yaml (a conf/hparams-style file: pyflyt train experiment=<file>), trials.csv, "
+    "history.png and importance.png.  Other key=value overrides are fixed for every trial "
+    "(train.total_timesteps=...).  Options and defaults: conf/tune.yaml.\n\n"
+    "  pyflyt tune env=quadx_hover algo=sac trials=20 jobs=2 train.total_timesteps=30000",
+    context_settings={"allow_extra_args": False},
+)
+@user_errors
+def tune(overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=, tune options, training overrides")) -> None:
+    from pyflyt_cli.commands.tune import run_tune
+
+    code = run_tune(overrides or [])
+    if code:
+        raise typer.Exit(code=code)
+
+
+@app.command(
     help="Report a benchmark directory with rliable: IQM learning curves with 95 % stratified-bootstrap "
     "bands, median / IQM / mean / optimality gap with intervals, performance profiles and probability of "
     "improvement, as PNG and SVG figures plus report.md and report.json.  Reads "

@@ -70,6 +70,7 @@ def train(
     log: Log = _silent,
     progress_bar: bool | None = None,
     run_dir: str | Path | None = None,
+    after_eval: Sequence[Any] = (),
 ) -> RunResult:
     """Train a new run; returns when done or interrupted (Ctrl-C, SIGTERM).
 
@@ -82,6 +83,9 @@ def train(
         run_dir: train in exactly this directory, which must not exist yet (``pyflyt
             benchmark`` names its runs ``<task>/<algo>/seed<k>``); default: a new
             ``<train.output_dir>/<env_name>/<algo>/<time>-seed<k>``.
+        after_eval: SB3 callbacks run after each evaluation besides ``cfg.callbacks`` (their
+            ``parent`` is the evaluation: ``parent.last_mean_reward``); one returning False
+            ends the run there, complete (``pyflyt tune`` prunes trials so).
     """
     cfg = parse_train_config(config)
     _check_environment(cfg)
@@ -104,7 +108,9 @@ def train(
         raise
     log(f"run directory: {run_dir}")
     with rundir.run_lock(run_dir):
-        return _Run(cfg, run_dir, log, progress_bar).execute(callbacks, init=init)
+        run = _Run(cfg, run_dir, log, progress_bar)
+        run.after_eval = list(after_eval)
+        return run.execute(callbacks, init=init)
 
 
 def resume(
@@ -311,6 +317,7 @@ class _Run:
         self.checkpointer: Any = None
         self.writer: Any = None
         self.phases: Any = None
+        self.after_eval: list[Any] = []
 
     def execute(
         self,
@@ -465,7 +472,7 @@ class _Run:
         if opts.eval_freq > 0:
             eval_env = EnvFactory(cfg.env, monitor=False)()
             cleanup.push(_closing(eval_env.close, "the evaluation environment"))
-            children = [c.build() for c in cfg.callbacks]
+            children = [c.build() for c in cfg.callbacks] + self.after_eval
             child = CallbackList(children) if len(children) > 1 else (children[0] if children else None)
             self.evaluation = PeriodicEvaluation(
                 eval_env,
@@ -482,10 +489,12 @@ class _Run:
                 total=opts.total_timesteps,
                 stop=stop,
             )
+            for c in children:  # SB3 sets the parent of a single child only; every child reads it
+                c.parent = self.evaluation
             if "evaluation" in saved:
                 self.evaluation.load_state_dict(saved["evaluation"])
             callbacks.append(self.evaluation)
-        elif cfg.callbacks:
+        elif cfg.callbacks or self.after_eval:
             raise ConfigError("callbacks run after evaluations: set train.eval_freq > 0 to use them")
         next_checkpoint = int(saved.get("next_checkpoint") or opts.checkpoint_freq or 0)
         self.checkpointer = Checkpointer(self, opts.checkpoint_freq, next_checkpoint, stop)
