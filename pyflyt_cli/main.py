@@ -97,7 +97,7 @@ def train(
 )
 @user_errors
 def eval_(
-    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train"),
+    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train, or zoo:<name> (pyflyt zoo)"),
     overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/eval.yaml"),
 ) -> None:
     from pyflyt_cli.commands.eval import run_eval
@@ -206,6 +206,25 @@ def tune(overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=
     code = run_tune(overrides or [])
     if code:
         raise typer.Exit(code=code)
+
+
+@app.command(
+    help="List the trained agents shipped with the package (name, env, algorithm, training steps, recorded "
+    "evaluation return and success); fly one with pyflyt eval zoo:<name>.  --add <run dir> makes a run's best "
+    "policy (else final) a shipped agent, evaluated now with pyflyt eval's defaults.",
+)
+@user_errors
+def zoo(
+    add: Optional[str] = typer.Option(None, "--add", help="a training run directory to ship as an agent"),
+    name: Optional[str] = typer.Option(None, "--name", help="the agent's name (default: <env>_<algo>)"),
+) -> None:
+    from pyflyt_cli import zoo as zoo_lib
+
+    if add is not None:
+        made = zoo_lib.add_agent(add, name)
+        e = made.summary["evaluation"]
+        typer.echo(f"added {made.name}: return {e['mean_return']:.2f} ± {e['std_return']:.2f} ({made.path})")
+    typer.echo(zoo_lib.table())
 
 
 @app.command(
