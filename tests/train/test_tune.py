@@ -105,11 +105,14 @@ def test_a_trial_below_the_median_of_the_others_is_pruned_on_its_evaluation_curv
     complete = optuna.trial.TrialState.COMPLETE
     pruned = [t for t in study.trials if t.state == optuna.trial.TrialState.PRUNED]
     assert pruned  # (same seeds: the same trials are pruned every time)
+    def best_until(trial, step):  # Optuna's median pruner compares a trial's best value so far
+        return max(v for s, v in trial.intermediate_values.items() if s <= step)
+
     for t in pruned:  # each was behind the median of the trials completed before it, at its last reported step
-        step, value = max(t.intermediate_values.items())
-        earlier = [u.intermediate_values[step] for u in study.trials
+        step = max(t.intermediate_values)
+        earlier = [best_until(u, step) for u in study.trials
                    if u.number < t.number and u.state == complete and step in u.intermediate_values]
-        assert earlier and value < np.median(earlier)
+        assert earlier and best_until(t, step) < np.median(earlier)
         assert step < 256  # stopped at an evaluation before the end of its budget
 
 
