@@ -315,7 +315,9 @@ def _optimize(env: str, algo: str, study_dir: Path, opts: TuneOptions, base: Seq
     study = _study(study_dir, env, algo, opts, worker)
     space = load_search_space(opts.space, algo)
     stop = MaxTrialsCallback(opts.trials, states=(TrialState.COMPLETE, TrialState.PRUNED))
-    while _finished(study) < opts.trials:
+    # trials other workers are running count too, so the study does not end with jobs - 1 extra
+    # trials (two workers checking at the same moment may still both start one)
+    while _finished(study) + len(study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))) < opts.trials:
         study.optimize(
             lambda t: run_trial(t, env, algo, study_dir, space, base, opts.objective, log),
             n_trials=1,
