@@ -89,6 +89,7 @@ def test_the_same_seed_samples_the_same_trials_with_the_same_results(tmp_path, s
     assert third.trials[0].params != studies[0].trials[0].params
 
 
+@pytest.mark.slow  # spawns two worker processes: tens of seconds
 def test_parallel_trials_run_in_separate_processes(tmp_path, space):
     report = tune("quadx_hover", "ppo", _options(tmp_path / "jobs", space, trials=2, jobs=2), TRAIN)
     assert report.finished >= 2
@@ -97,6 +98,7 @@ def test_parallel_trials_run_in_separate_processes(tmp_path, space):
     assert states <= {optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED}
 
 
+@pytest.mark.slow  # five trials
 def test_a_trial_below_the_median_of_the_others_is_pruned_on_its_evaluation_curve(tmp_path, space):
     report = tune(
         "quadx_hover", "ppo", _options(tmp_path / "prune", space, trials=5, startup_trials=1), TRAIN
