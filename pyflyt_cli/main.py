@@ -116,7 +116,7 @@ def train(
 )
 @user_errors
 def eval_(
-    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train"),
+    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train, or zoo:<name> (pyflyt zoo)"),
     overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/eval.yaml"),
 ) -> None:
     from pyflyt_cli.commands.eval import run_eval
@@ -205,6 +205,45 @@ def benchmark(
     code = benchmark_command(overrides or [], dry_run=dry_run, restart_changed=restart_changed)
     if code:
         raise typer.Exit(code=code)
+
+
+@app.command(
+    help="Search hyper-parameters with Optuna: trials=N training runs of env=<task> algo=<algo> over the search "
+    "space conf/search_space/<algo>.yaml (space=<name or file> for another), jobs=J at once in separate "
+    "processes; a trial whose evaluation curve falls below the others' median is pruned.  The study is kept in "
+    "<study_dir>/study.db (SQLite; default tune/<env>_<algo>): the same command continues it.  Writes "
+    "best_<env>_<algo>.yaml (a conf/hparams-style file: pyflyt train experiment=<file>), trials.csv, "
+    "history.png and importance.png.  Other key=value overrides are fixed for every trial "
+    "(train.total_timesteps=...).  Options and defaults: conf/tune.yaml.\n\n"
+    "  pyflyt tune env=quadx_hover algo=sac trials=20 jobs=2 train.total_timesteps=30000",
+    context_settings={"allow_extra_args": False},
+)
+@user_errors
+def tune(overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=, tune options, training overrides")) -> None:
+    from pyflyt_cli.commands.tune import run_tune
+
+    code = run_tune(overrides or [])
+    if code:
+        raise typer.Exit(code=code)
+
+
+@app.command(
+    help="List the trained agents shipped with the package (name, env, algorithm, training steps, recorded "
+    "evaluation return and success); fly one with pyflyt eval zoo:<name>.  --add <run dir> makes a run's best "
+    "policy (else final) a shipped agent, evaluated now with pyflyt eval's defaults.",
+)
+@user_errors
+def zoo(
+    add: Optional[str] = typer.Option(None, "--add", help="a training run directory to ship as an agent"),
+    name: Optional[str] = typer.Option(None, "--name", help="the agent's name (default: <env>_<algo>)"),
+) -> None:
+    from pyflyt_cli import zoo as zoo_lib
+
+    if add is not None:
+        made = zoo_lib.add_agent(add, name)
+        e = made.summary["evaluation"]
+        typer.echo(f"added {made.name}: return {e['mean_return']:.2f} ± {e['std_return']:.2f} ({made.path})")
+    typer.echo(zoo_lib.table())
 
 
 @app.command(

@@ -295,7 +295,8 @@ _BUFFER_FIELDS = ("observations", "next_observations", "actions", "rewards", "do
 
 
 def save_replay_buffer(path: Path, buffer: Any) -> None:
-    """Write an SB3 ``ReplayBuffer``/``DictReplayBuffer`` as plain arrays (filled rows only)."""
+    """Write an SB3 ``ReplayBuffer``/``DictReplayBuffer`` as plain arrays (filled rows only),
+    deflate-compressed (``np.savez_compressed``; read back by the same ``np.load``)."""
     size = buffer.buffer_size if buffer.full else buffer.pos
     arrays: dict[str, np.ndarray] = {
         "pos": np.array(buffer.pos),
@@ -311,7 +312,7 @@ def save_replay_buffer(path: Path, buffer: Any) -> None:
 
     def write(tmp: Path) -> None:
         with open(tmp, "wb") as handle:
-            np.savez(handle, **arrays)
+            np.savez_compressed(handle, **arrays)
 
     write_atomically(path, write)
 

@@ -9,7 +9,8 @@
   ``/eval``, ``best_model.pt``; runs child callbacks (stop on reward ...) after each.
 * :class:`Checkpointer` — every ``checkpoint_freq`` steps and on a stop request, at a
   rollout start: a checkpoint (see :mod:`pyflyt_cli.training.continuity`).
-* :class:`ProgressBar` — tqdm with steps/s and ETA.
+* :class:`ProgressBar` — tqdm with steps/s and ETA (on a terminal; elsewhere
+  :class:`~pyflyt_cli.training.timing.ProgressLines`).
 
 Checkpoints are taken at the start of a rollout (right after the previous update, before
 the next action is chosen), where everything the continuation depends on can be
@@ -160,9 +161,16 @@ class PeriodicEvaluation(EventCallback):
         self._started = time.perf_counter()
         self._start_steps = self.model.num_timesteps
 
+    #: a :class:`~pyflyt_cli.training.timing.PhaseClock` told the seconds evaluations take (or None)
+    phases: Any = None
+
     def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
-            if not self.evaluate() and self.stop is not None:  # a child callback ends the run here
+            started = time.perf_counter()
+            go_on = self.evaluate()
+            if self.phases is not None:
+                self.phases.add("eval", time.perf_counter() - started)
+            if not go_on and self.stop is not None:  # a child callback ends the run here
                 self.stop.request("an after-evaluation callback", final=True)
 
     def _on_step(self) -> bool:
@@ -264,6 +272,9 @@ class Checkpointer(BaseCallback):
         self.next_checkpoint = next_checkpoint
         self.stop = stop
 
+    #: a :class:`~pyflyt_cli.training.timing.PhaseClock` told the seconds checkpoints take (or None)
+    phases: Any = None
+
     def _on_rollout_start(self) -> None:
         step = self.model.num_timesteps
         due = self.freq > 0 and step >= self.next_checkpoint
@@ -271,7 +282,10 @@ class Checkpointer(BaseCallback):
             while self.next_checkpoint <= step:
                 self.next_checkpoint += self.freq
         if due or self.stop.requested:
+            started = time.perf_counter()
             self.run.save_checkpoint(self.model)
+            if self.phases is not None:
+                self.phases.add("checkpoint", time.perf_counter() - started)
             if self.stop.requested:
                 self.stop.saved_at = step
 

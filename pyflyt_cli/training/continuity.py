@@ -6,6 +6,7 @@ update is done, the next action is not chosen yet).  Besides the weights and opt
 
 * the algorithm's counters (steps, episodes, updates, the progress that drives
   schedules) and its last observation and episode-start flags;
+* a recurrent policy's hidden and cell states between rollouts (``RecurrentPPO``);
 * every random stream the run draws from: Python's ``random``, NumPy's global stream
   (replay sampling, minibatch permutations, Gaussian action noise), torch's CPU
   generator (policy sampling, gSDE), the action space's generator (random warm-up
@@ -137,11 +138,25 @@ def capture(model: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         for attr in ("exploration_mat", "exploration_matrices"):
             if hasattr(dist, attr):
                 tensors[f"gsde/{name}/{attr}"] = getattr(dist, attr).detach().clone()
+    tensors.update(_recurrent_states(model))
     for i, episode in enumerate(model.get_env().env_method("episode_state")):
         actions = episode.pop("actions")
         state["envs"].append(_plain(episode))
         tensors[f"env{i}/actions"] = _tensor(actions)
     return state, tensors
+
+
+def _recurrent_states(model: Any) -> dict[str, Any]:
+    """A recurrent policy's hidden and cell states carried from one rollout to the next
+    (sb3-contrib ``RecurrentPPO``: ``_last_lstm_states``, per env, actor and critic)."""
+    states = getattr(model, "_last_lstm_states", None)
+    if states is None:
+        return {}
+    return {
+        f"lstm/{head}/{i}": tensor.detach().clone()
+        for head in ("pi", "vf")
+        for i, tensor in enumerate(getattr(states, head))
+    }
 
 
 # ------------------------------------------------------------------ restore
@@ -156,6 +171,15 @@ def restore_model(model: Any, state: Mapping[str, Any], tensors: Mapping[str, An
     original = _observation_from(tensors, "last_original_obs")
     if original is not None:
         model._last_original_obs = original
+    if getattr(model, "_last_lstm_states", None) is not None:
+        states = model._last_lstm_states
+        restored = {}
+        for head in ("pi", "vf"):
+            keys = sorted(k for k in tensors if k.startswith(f"lstm/{head}/"))
+            if len(keys) != len(getattr(states, head)):
+                raise ArtifactError("the checkpoint holds no recurrent states fitting this model's LSTM")
+            restored[head] = tuple(tensors[k].clone() for k in keys)
+        model._last_lstm_states = type(states)(**restored)
     window = model._stats_window_size
     model.ep_info_buffer = deque(state["ep_info_buffer"], maxlen=window)
     model.ep_success_buffer = deque(state["ep_success_buffer"], maxlen=window)

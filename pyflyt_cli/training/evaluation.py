@@ -59,6 +59,8 @@ def run_episodes(
     results = []
     for i in range(episodes):
         obs, info = env.reset(seed=seed + i)
+        if hasattr(predict, "reset"):  # a recurrent policy starts each episode from a blank memory
+            predict.reset()
         total, length, done = 0.0, 0, False
         if on_reset is not None:
             on_reset(env, i)
@@ -87,10 +89,37 @@ def summarize(episodes: list[Episode]) -> dict[str, float]:
 
 
 def policy_predict(model: Any) -> Callable[[np.ndarray, bool], np.ndarray]:
-    """``(obs, deterministic) -> action`` of an SB3 model."""
+    """``(obs, deterministic) -> action`` of an SB3 model.
+
+    A recurrent policy (sb3-contrib ``RecurrentPPO``) carries its LSTM state from step to
+    step; the returned callable then has a ``reset()`` that :func:`run_episodes` calls at
+    every episode start.
+    """
+    if getattr(model, "_last_lstm_states", None) is not None or hasattr(model.policy, "lstm_actor"):
+        return _RecurrentPredict(model)
 
     def predict(obs: np.ndarray, deterministic: bool) -> np.ndarray:
         action, _ = model.predict(obs, deterministic=deterministic)
         return action
 
     return predict
+
+
+class _RecurrentPredict:
+    """A recurrent policy's actions along one episode: its state carried, reset per episode."""
+
+    def __init__(self, model: Any) -> None:
+        self.model = model
+        self.state: Any = None
+        self.episode_start = np.ones((1,), dtype=bool)
+
+    def reset(self) -> None:
+        self.state = None
+        self.episode_start = np.ones((1,), dtype=bool)
+
+    def __call__(self, obs: np.ndarray, deterministic: bool) -> np.ndarray:
+        action, self.state = self.model.predict(
+            obs, state=self.state, episode_start=self.episode_start, deterministic=deterministic
+        )
+        self.episode_start = np.zeros((1,), dtype=bool)
+        return action

@@ -70,6 +70,7 @@ def train(
     log: Log = _silent,
     progress_bar: bool | None = None,
     run_dir: str | Path | None = None,
+    after_eval: Sequence[Any] = (),
 ) -> RunResult:
     """Train a new run; returns when done or interrupted (Ctrl-C, SIGTERM).
 
@@ -82,6 +83,9 @@ def train(
         run_dir: train in exactly this directory, which must not exist yet (``pyflyt
             benchmark`` names its runs ``<task>/<algo>/seed<k>``); default: a new
             ``<train.output_dir>/<env_name>/<algo>/<time>-seed<k>``.
+        after_eval: SB3 callbacks run after each evaluation besides ``cfg.callbacks`` (their
+            ``parent`` is the evaluation: ``parent.last_mean_reward``); one returning False
+            ends the run there, complete (``pyflyt tune`` prunes trials so).
     """
     cfg = parse_train_config(config)
     _check_environment(cfg)
@@ -104,7 +108,9 @@ def train(
         raise
     log(f"run directory: {run_dir}")
     with rundir.run_lock(run_dir):
-        return _Run(cfg, run_dir, log, progress_bar).execute(callbacks, init=init)
+        run = _Run(cfg, run_dir, log, progress_bar)
+        run.after_eval = list(after_eval)
+        return run.execute(callbacks, init=init)
 
 
 def resume(
@@ -310,6 +316,8 @@ class _Run:
         self.evaluation: Any = None
         self.checkpointer: Any = None
         self.writer: Any = None
+        self.phases: Any = None
+        self.after_eval: list[Any] = []
 
     def execute(
         self,
@@ -327,6 +335,7 @@ class _Run:
                 if init is not None:
                     self._bootstrap(model, init)
                 start_step = int(model.num_timesteps)
+                self._announce(start_step)
                 self._open_metrics(cleanup, checkpoint)
                 stop = StopRequest()
                 callbacks = self._callbacks(cleanup, stop, restored, extra_callbacks)
@@ -397,6 +406,34 @@ class _Run:
             artifacts.restore_normalizer(target, init.normalizer, returns=False)
         self.log(f"policy initialised from {init.path}")
 
+    def _announce(self, start_step: int) -> None:
+        """The budget and the expected duration, measured on a throw-away copy of the model
+        (only when someone reads the log: the CLI)."""
+        if self.log is _silent:
+            return
+        from pyflyt_cli.training.timing import estimate_seconds, format_duration, measure_costs
+
+        cfg, opts = self.cfg, self.cfg.train
+        text = f"budget: {opts.total_timesteps} steps of {cfg.env_name} with {cfg.algo.name} on {opts.n_envs} env(s)"
+        if start_step:
+            text += f", from step {start_step}"
+        if opts.eval_freq:
+            text += f"; evaluation every {opts.eval_freq} steps ({opts.eval_episodes} episodes)"
+        if opts.checkpoint_freq:
+            text += f"; checkpoint every {opts.checkpoint_freq} steps"
+        self.log(text)
+        costs = measure_costs(cfg)
+        if costs is None:
+            self.log("ETA: printed with the progress once training has run for a while")
+            return
+        seconds = estimate_seconds(cfg, costs, start_step)
+        self.log(
+            f"ETA: about {format_duration(seconds)} (measured just now on a copy of the model: "
+            f"{1e3 * costs.collect:.2f} ms per collected step, {1e3 * costs.update:.2f} ms of updates per step"
+            + (f" after learning_starts={cfg.algo.learning_starts}" if getattr(cfg.algo, "learning_starts", 0) else "")
+            + ")"
+        )
+
     # -------------------------------------------------------------- metrics
 
     def _open_metrics(self, cleanup: contextlib.ExitStack, checkpoint: rundir.Checkpoint | None) -> None:
@@ -435,6 +472,7 @@ class _Run:
             RunCallbacks,
         )
         from pyflyt_cli.training.envs import EnvFactory
+        from pyflyt_cli.training.timing import PhaseClock, ProgressLines
 
         cfg, opts = self.cfg, self.cfg.train
         saved = restored[0].get("callbacks", {}) if restored is not None else {}
@@ -445,7 +483,7 @@ class _Run:
         if opts.eval_freq > 0:
             eval_env = EnvFactory(cfg.env, monitor=False)()
             cleanup.push(_closing(eval_env.close, "the evaluation environment"))
-            children = [c.build() for c in cfg.callbacks]
+            children = [c.build() for c in cfg.callbacks] + self.after_eval
             child = CallbackList(children) if len(children) > 1 else (children[0] if children else None)
             self.evaluation = PeriodicEvaluation(
                 eval_env,
@@ -462,16 +500,25 @@ class _Run:
                 total=opts.total_timesteps,
                 stop=stop,
             )
+            for c in children:  # SB3 sets the parent of a single child only; every child reads it
+                c.parent = self.evaluation
             if "evaluation" in saved:
                 self.evaluation.load_state_dict(saved["evaluation"])
             callbacks.append(self.evaluation)
-        elif cfg.callbacks:
+        elif cfg.callbacks or self.after_eval:
             raise ConfigError("callbacks run after evaluations: set train.eval_freq > 0 to use them")
         next_checkpoint = int(saved.get("next_checkpoint") or opts.checkpoint_freq or 0)
         self.checkpointer = Checkpointer(self, opts.checkpoint_freq, next_checkpoint, stop)
         callbacks.append(self.checkpointer)
+        self.phases = PhaseClock()  # after evaluation and checkpoints, which report their time to it
+        self.checkpointer.phases = self.phases
+        if self.evaluation is not None:
+            self.evaluation.phases = self.phases
+        callbacks.append(self.phases)
         if show_bar:
             callbacks.append(ProgressBar(_expected_end(cfg), episodes))
+        elif self.log is not _silent:  # a log file or a batch job: a line at least every 30 s
+            callbacks.append(ProgressLines(_expected_end(cfg), self.log, self.phases, episode_returns=lambda: episodes.recent))
         callbacks.extend(extra)
         return RunCallbacks(callbacks, stop)
 
@@ -582,7 +629,8 @@ class _Run:
                 if stop.saved_at != step:
                     self.save_checkpoint(model)  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
                 trained_rate = (step - start_step) / elapsed if elapsed > 0 else 0.0
-                self.writer.log("/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate})
+                split = {f"{k}_seconds": v for k, v in self.phases.split().items()} if self.phases else {}
+                self.writer.log("/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate, **split})
                 self._write_state("complete", step)
         ev = self.evaluation
         trained = max(0, step - start_step)
@@ -598,6 +646,10 @@ class _Run:
         )
         if not interrupted:
             self.log(_summary(result))
+            if self.phases is not None and elapsed > 0:
+                from pyflyt_cli.training.timing import describe_split
+
+                self.log(f"time in training: {describe_split(self.phases.split())}")
         return result
 
 

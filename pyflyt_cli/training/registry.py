@@ -27,18 +27,26 @@ ALGOS: dict[str, str] = {
     "ddpg": "stable_baselines3:DDPG",
     # not in SB3: ours, on SB3's SAC policy (pyflyt_cli/training/awac.py)
     "awac": "pyflyt_cli.training.awac:AWAC",
+    # not in SB3: ours, SAC with an oracle policy (pyflyt_cli/training/ccge.py)
+    "ccge": "pyflyt_cli.training.ccge:CCGE",
+    # sb3-contrib
+    "tqc": "sb3_contrib:TQC",
+    "crossq": "sb3_contrib:CrossQ",
+    "trpo": "sb3_contrib:TRPO",
+    "recurrent_ppo": "sb3_contrib:RecurrentPPO",
 }
 
 #: algorithms that learn from a replay buffer (checkpoints also save the buffer)
-OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac"})
+OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"})
 
 #: ``init_from``: algorithm -> algorithms whose policy weights it can start from (besides
 #: itself).  AWAC uses SAC's policy class unchanged, so it bootstraps from a SAC run as in
 #: Nair et al. (2020).
-INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"})}
+#: CCGE likewise takes a SAC policy: its actor becomes the oracle (Tai et al. 2022).
+INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"}), "ccge": frozenset({"sac"})}
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
-POLICIES: frozenset[str] = frozenset({"MlpPolicy"})
+POLICIES: frozenset[str] = frozenset({"MlpPolicy", "MlpLstmPolicy"})
 
 #: ``algo.policy_kwargs.activation_fn`` -> torch module class
 ACTIVATIONS: dict[str, str] = {
@@ -68,6 +76,8 @@ def _dotted(entry: str) -> set[str]:
     paths = {f"{module}.{name}"}
     if module == "stable_baselines3":  # stable_baselines3.PPO and stable_baselines3.ppo.PPO
         paths.add(f"stable_baselines3.{name.lower()}.{name}")
+    if module == "sb3_contrib":  # sb3_contrib.TQC and sb3_contrib.tqc.TQC (RecurrentPPO: ppo_recurrent)
+        paths.add(f"sb3_contrib.{'ppo_recurrent' if name == 'RecurrentPPO' else name.lower()}.{name}")
     return paths
 
 

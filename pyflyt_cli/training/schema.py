@@ -45,7 +45,17 @@ class PolicyConfig(_Strict):
     )
     log_std_init: float | None = Field(None, description="initial log standard deviation of the Gaussian policy")
     ortho_init: bool | None = Field(None, description="orthogonal initialisation (PPO/A2C)")
-    n_critics: int | None = Field(None, ge=1, description="number of Q networks (SAC/TD3/DDPG)")
+    n_critics: int | None = Field(None, ge=1, description="number of Q networks (SAC/TD3/DDPG/TQC/CrossQ)")
+    n_quantiles: int | None = Field(None, ge=1, description="quantiles per critic (TQC)")
+    lstm_hidden_size: int | None = Field(None, ge=1, description="hidden units per LSTM layer (recurrent_ppo)")
+    n_lstm_layers: int | None = Field(None, ge=1, description="LSTM layers (recurrent_ppo)")
+    shared_lstm: bool | None = Field(None, description="one LSTM for actor and critic (recurrent_ppo)")
+    enable_critic_lstm: bool | None = Field(
+        None, description="a separate LSTM for the critic (recurrent_ppo; false with shared_lstm: a feed-forward critic)"
+    )
+    batch_norm_momentum: float | None = Field(
+        None, gt=0, le=1, description="momentum of the batch renormalisation layers (CrossQ)"
+    )
 
     @field_validator("activation_fn", mode="before")
     @classmethod
@@ -95,6 +105,29 @@ class _AlgoBase(_Strict):
     _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
         {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
     )
+    #: ``policy_kwargs`` keys only some algorithms' policies take (the rest accept none of them)
+    _SPECIFIC_POLICY_KEYS: ClassVar[dict[str, frozenset[str]]] = {
+        "n_quantiles": frozenset({"tqc"}),
+        "lstm_hidden_size": frozenset({"recurrent_ppo"}),
+        "n_lstm_layers": frozenset({"recurrent_ppo"}),
+        "shared_lstm": frozenset({"recurrent_ppo"}),
+        "enable_critic_lstm": frozenset({"recurrent_ppo"}),
+        "batch_norm_momentum": frozenset({"crossq"}),
+    }
+    #: policies the algorithm takes (registry.POLICIES lists every one)
+    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpPolicy"})
+
+    @model_validator(mode="after")
+    def _policy_fits(self) -> Any:
+        name = self.name  # type: ignore[attr-defined]
+        if self.policy not in self._POLICIES:
+            raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(self._POLICIES))}")
+        for key, algos in self._SPECIFIC_POLICY_KEYS.items():
+            if getattr(self.policy_kwargs, key) is not None and name not in algos:
+                raise ValueError(
+                    f"policy_kwargs.{key} applies to {', '.join(sorted(algos))} only, not {name}: leave it null"
+                )
+        return self
 
     @field_validator("policy")
     @classmethod
@@ -163,6 +196,21 @@ class _OffPolicy(_AlgoBase):
         return kwargs
 
 
+def _check_ent_coef(value: float | str) -> float | str:
+    """An entropy coefficient: a number >= 0, ``auto`` or ``auto_<initial value>`` (SAC, TQC, CrossQ)."""
+    if isinstance(value, str):
+        if value != "auto" and not value.startswith("auto_"):
+            raise ValueError(f"ent_coef must be a number, 'auto' or 'auto_<initial value>', got {value!r}")
+        if value.startswith("auto_"):
+            try:
+                float(value[5:])
+            except ValueError:
+                raise ValueError(f"ent_coef {value!r}: the part after auto_ must be a number") from None
+    elif value < 0:
+        raise ValueError("ent_coef must be >= 0")
+    return value
+
+
 class SACConfig(_OffPolicy):
     """Soft Actor-Critic (Haarnoja et al. 2018), the paper's algorithm; SB3 ``SAC``."""
 
@@ -176,17 +224,21 @@ class SACConfig(_OffPolicy):
     @field_validator("ent_coef")
     @classmethod
     def _ent_coef(cls, value: float | str) -> float | str:
-        if isinstance(value, str):
-            if value != "auto" and not value.startswith("auto_"):
-                raise ValueError(f"ent_coef must be a number, 'auto' or 'auto_<initial value>', got {value!r}")
-            if value.startswith("auto_"):
-                try:
-                    float(value[5:])
-                except ValueError:
-                    raise ValueError(f"ent_coef {value!r}: the part after auto_ must be a number") from None
-        elif value < 0:
-            raise ValueError("ent_coef must be >= 0")
-        return value
+        return _check_ent_coef(value)
+
+
+class CCGEConfig(SACConfig):
+    """Critic Confidence Guided Exploration (Tai et al. 2022, arXiv:2208.10533); ours, on SB3's SAC.
+
+    See :mod:`pyflyt_cli.training.ccge`; ``init_from`` names the SAC run whose actor is the oracle.
+    """
+
+    name: Literal["ccge"]  # type: ignore[assignment]
+    confidence_lambda: float = Field(
+        ge=0, allow_inf_nan=False,
+        description="the oracle acts (and is imitated) where the critic ensemble's normalised gap exceeds it",
+    )
+    supervise: bool = Field(description="imitate the oracle where the critic is unsure (false: exploration only)")
 
 
 class TD3Config(_OffPolicy):
@@ -248,8 +300,101 @@ class AWACConfig(_OffPolicy):
         return self
 
 
+class TQCConfig(_OffPolicy):
+    """Truncated Quantile Critics (Kuznetsov et al. 2020, arXiv:2005.04269); sb3-contrib ``TQC``."""
+
+    name: Literal["tqc"]
+    ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
+    target_update_interval: int = Field(ge=1, description="target network update interval [gradient steps]")
+    target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
+    top_quantiles_to_drop_per_net: int = Field(
+        ge=0, description="quantiles dropped per critic from the pooled target distribution (over-estimation control)"
+    )
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
+
+    @field_validator("ent_coef")
+    @classmethod
+    def _ent_coef(cls, value: float | str) -> float | str:
+        return _check_ent_coef(value)
+
+
+class CrossQConfig(_OffPolicy):
+    """CrossQ (Bhatt et al. 2024, ICLR, arXiv:1902.05605): SAC without target networks, batch
+    renormalisation in actor and critic; sb3-contrib ``CrossQ``."""
+
+    name: Literal["crossq"]
+    tau: None = Field(description="unused: CrossQ has no target network (null)")
+    ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
+    target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
+    policy_delay: int = Field(ge=1, description="actor (and entropy) update every policy_delay critic updates")
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
+
+    @field_validator("ent_coef")
+    @classmethod
+    def _ent_coef(cls, value: float | str) -> float | str:
+        return _check_ent_coef(value)
+
+    def constructor_kwargs(self) -> dict[str, Any]:
+        kwargs = super().constructor_kwargs()
+        kwargs.pop("tau")  # CrossQ has no target network
+        return kwargs
+
+
+class TRPOConfig(_AlgoBase):
+    """Trust Region Policy Optimization (Schulman et al. 2015, arXiv:1502.05477); sb3-contrib ``TRPO``."""
+
+    name: Literal["trpo"]
+    n_steps: int = Field(ge=1, description="steps per environment per rollout (rollout = n_steps x n_envs)")
+    batch_size: int = Field(ge=2, description="minibatch size of the critic updates")
+    gae_lambda: float = Field(ge=0, le=1, description="GAE bias/variance trade-off")
+    cg_max_steps: int = Field(ge=1, description="conjugate gradient iterations for the natural gradient step")
+    cg_damping: float = Field(ge=0, description="damping of the Fisher-vector product")
+    line_search_shrinking_factor: float = Field(gt=0, lt=1, description="step shrink per line search iteration")
+    line_search_max_iter: int = Field(ge=1, description="line search iterations")
+    n_critic_updates: int = Field(ge=1, description="critic epochs per rollout")
+    target_kl: float = Field(gt=0, description="KL divergence bound of the trust region")
+    sub_sampling_factor: int = Field(ge=1, description="use every k-th sample for the Fisher-vector products")
+    normalize_advantage: bool = Field(description="normalise advantages per batch")
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
+
+
+class RecurrentPPOConfig(_AlgoBase):
+    """PPO with an LSTM policy and value function (sb3-contrib ``RecurrentPPO``)."""
+
+    name: Literal["recurrent_ppo"]
+    n_steps: int = Field(ge=1, description="steps per environment per rollout (rollout = n_steps x n_envs)")
+    batch_size: int = Field(ge=2, description="minibatch size (whole sequences are kept together)")
+    n_epochs: int = Field(ge=1, description="passes over each rollout")
+    gae_lambda: float = Field(ge=0, le=1, description="GAE bias/variance trade-off")
+    clip_range: float = Field(gt=0, description="policy ratio clip")
+    clip_range_vf: float | None = Field(gt=0, description="value clip (null: none)")
+    normalize_advantage: bool = Field(description="normalise advantages per batch")
+    ent_coef: float = Field(ge=0, description="entropy bonus coefficient")
+    vf_coef: float = Field(ge=0, description="value loss coefficient")
+    max_grad_norm: float = Field(gt=0, description="gradient clipping norm")
+    use_sde: bool = Field(description="generalised state-dependent exploration")
+    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
+    target_kl: float | None = Field(gt=0, description="stop the epochs early beyond this KL (null: never)")
+
+    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpLstmPolicy"})
+
+
 AlgoConfig = Annotated[
-    PPOConfig | A2CConfig | SACConfig | TD3Config | DDPGConfig | AWACConfig, Field(discriminator="name")
+    PPOConfig
+    | A2CConfig
+    | SACConfig
+    | TD3Config
+    | DDPGConfig
+    | AWACConfig
+    | TQCConfig
+    | CrossQConfig
+    | TRPOConfig
+    | RecurrentPPOConfig
+    | CCGEConfig,
+    Field(discriminator="name"),
 ]
 
 
@@ -369,10 +514,10 @@ class TrainConfig(_Strict):
                 f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
                 "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
             )
-        if isinstance(algo, PPOConfig):
+        if isinstance(algo, (PPOConfig, RecurrentPPOConfig, TRPOConfig)):
             rollout = algo.n_steps * opts.n_envs
             if rollout < 2:
-                raise ValueError("algo.n_steps x train.n_envs must be at least 2 for PPO")
+                raise ValueError(f"algo.n_steps x train.n_envs must be at least 2 for {algo.name}")
             if algo.batch_size > rollout:
                 raise ValueError(
                     f"algo.batch_size ({algo.batch_size}) exceeds the rollout size n_steps x n_envs = {rollout}; "
@@ -463,7 +608,8 @@ def check_env_references(env: EnvConfig) -> None:
 
 def _algo_model(name: str) -> type[BaseModel]:
     models = {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}
-    return {**models, "awac": AWACConfig}[name]
+    contrib = {"tqc": TQCConfig, "crossq": CrossQConfig, "trpo": TRPOConfig, "recurrent_ppo": RecurrentPPOConfig}
+    return {**models, "awac": AWACConfig, "ccge": CCGEConfig, **contrib}[name]
 
 
 # -------------------------------------------------------------------------- eval

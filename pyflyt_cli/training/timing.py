@@ -1,0 +1,295 @@
+"""Where a run's time goes, how long it will take, and a progress line for logs.
+
+* :class:`PhaseClock` — an SB3 callback splitting ``learn()``'s wall-clock time into
+  *collect* (the envs stepping and the policy choosing actions: from a rollout start to
+  its end), *update* (gradient steps: from a rollout end to the next rollout start,
+  less what evaluations and checkpoints took there) and *eval* / *checkpoint*.
+* :func:`measure_costs` — the cost of one collected step and of the updates per
+  step, measured before a run starts on a throw-away copy of its model (same
+  configuration, one env, random streams left untouched), from which
+  :func:`estimate_seconds` gives the run's expected duration.
+* :class:`ProgressLines` — when stdout/stderr is not a terminal (a log file, a batch
+  job), one line at least every :data:`PROGRESS_INTERVAL` seconds: step, rate, elapsed,
+  ETA and the split of the time so far.
+
+The clock is a parameter everywhere (``time.perf_counter`` by default) so the tests
+drive these classes with a fake one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import random
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+
+Clock = Callable[[], float]
+
+#: seconds between two progress lines when no progress bar is shown (log files, batch jobs)
+PROGRESS_INTERVAL = 30.0
+#: wall-clock time spent measuring the update cost before a run (a few updates of a copy)
+MEASURE_SECONDS = 0.4
+
+
+def format_duration(seconds: float) -> str:
+    """``1:02:03`` / ``4:05`` / ``?`` for an unknown duration."""
+    if not math.isfinite(seconds) or seconds < 0:
+        return "?"
+    seconds = int(round(seconds))
+    hours, rest = divmod(seconds, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
+
+
+class PhaseClock(BaseCallback):
+    """Accumulate wall-clock seconds per phase of ``learn()``: collect, update, eval, checkpoint.
+
+    ``eval`` and ``checkpoint`` time is reported by the callbacks that spend it
+    (:meth:`add`); it happens at rollout starts, between an update and the next
+    collection, and is taken out of the update phase.  Put this callback after them.
+    """
+
+    PHASES = ("collect", "update", "eval", "checkpoint")
+
+    def __init__(self, clock: Clock = time.perf_counter) -> None:
+        super().__init__()
+        self.clock = clock
+        self.seconds = dict.fromkeys(self.PHASES, 0.0)
+        self.collected = 0  # steps collected since training started
+        self._mark: float | None = None
+        self._phase: str | None = None
+        self._others = 0.0  # eval + checkpoint seconds reported since the mark
+        self._rollout_steps = 0
+
+    def add(self, phase: str, seconds: float) -> None:
+        self.seconds[phase] += seconds
+        self._others += seconds
+
+    def _switch(self, phase: str | None) -> None:
+        now = self.clock()
+        if self._mark is not None and self._phase is not None:
+            spent = now - self._mark
+            if self._phase == "update":
+                spent = max(0.0, spent - self._others)
+            self.seconds[self._phase] += spent
+        self._mark, self._phase, self._others = now, phase, 0.0
+
+    def _on_training_start(self) -> None:
+        self._mark, self._phase, self._others = self.clock(), "update", 0.0
+
+    def _on_rollout_start(self) -> None:
+        self._rollout_steps = self.model.num_timesteps
+        self._switch("collect")
+
+    def _on_rollout_end(self) -> None:
+        self.collected += self.model.num_timesteps - self._rollout_steps
+        self._switch("update")
+
+    def _on_training_end(self) -> None:
+        if self._phase == "collect":  # learn() ended inside a rollout (a callback stopped it)
+            self.collected += self.model.num_timesteps - self._rollout_steps
+        self._switch(None)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def split(self) -> dict[str, float]:
+        """Seconds per phase so far, the phase in progress included."""
+        out = dict(self.seconds)
+        if self._mark is not None and self._phase is not None:
+            spent = self.clock() - self._mark
+            if self._phase == "update":
+                spent = max(0.0, spent - self._others)
+            out[self._phase] += spent
+        return out
+
+
+def describe_split(split: dict[str, float]) -> str:
+    """``collect 31 %, update 62 %, eval 6 %, checkpoint 1 %``."""
+    total = sum(split.values())
+    if total <= 0:
+        return ""
+    return ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in split.items())
+
+
+@dataclass(frozen=True)
+class Costs:
+    """Measured costs: seconds per collected step, and seconds of updates per collected step
+    once updates run (off-policy: after ``learning_starts``)."""
+
+    collect: float
+    update: float
+
+
+def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
+    """Expected seconds of ``learn()`` for ``cfg`` from step ``done`` on: collection, updates and
+    evaluations (an evaluation step costs a collected step; episodes counted at full length)."""
+    total = cfg.train.total_timesteps
+    remaining = max(0, total - done)
+    starts = int(getattr(cfg.algo, "learning_starts", 0) or 0)
+    updating = max(0, total - max(done, starts))
+    seconds = remaining * costs.collect + updating * costs.update
+    if cfg.train.eval_freq > 0:
+        evals = total // cfg.train.eval_freq - done // cfg.train.eval_freq
+        seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * costs.collect
+    return seconds
+
+
+def _episode_steps(cfg: Any) -> int:
+    steps = getattr(cfg.env, "max_steps", 0)
+    return int(steps() if callable(steps) else steps)
+
+
+@contextlib.contextmanager
+def _streams_kept() -> Iterator[None]:
+    """Python's, NumPy's and torch's global random streams are as before, whatever runs inside."""
+    import torch
+
+    py, np_state, torch_state = random.getstate(), np.random.get_state(), torch.get_rng_state()
+    try:
+        yield
+    finally:
+        random.setstate(py)
+        np.random.set_state(np_state)
+        torch.set_rng_state(torch_state)
+
+
+class _StopAfter(BaseCallback):
+    """End a measuring ``learn()`` once it has seen ``updates`` update phases and ``seconds`` of time."""
+
+    def __init__(self, phases: PhaseClock, updates: int, seconds: float, clock: Clock) -> None:
+        super().__init__()
+        self.phases, self.updates, self.seconds, self.clock = phases, updates, seconds, clock
+        self.seen = 0
+        self.started = 0.0
+        self.stop = False
+
+    def _on_training_start(self) -> None:
+        self.started = self.clock()
+
+    def _on_rollout_start(self) -> None:
+        if self.phases.collected > 0:
+            self.seen += 1
+        self.stop = self.seen >= self.updates and self.clock() - self.started >= self.seconds
+
+    def _on_step(self) -> bool:
+        return not self.stop
+
+
+def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None:
+    """Time a throw-away copy of ``cfg``'s model on one env: collected steps and updates.
+
+    The copy learns with ``learning_starts`` 0 (off-policy) and the run's rollout size
+    (on-policy: ``n_steps x n_envs`` steps on one env) until it has done a few updates and
+    ``seconds`` have passed (an on-policy copy: one rollout and its update).  The global
+    random streams are restored afterwards, so the run itself is unchanged.  None if the
+    algorithm cannot be measured this way.
+    """
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from pyflyt_cli.training.envs import EnvFactory
+    from pyflyt_cli.training.models import build_model
+    from pyflyt_cli.training.schema import parse_train_config
+
+    data = cfg.model_dump(mode="json")
+    algo = data["algo"]
+    on_policy = "n_steps" in algo and "buffer_size" not in algo
+    if on_policy:
+        algo["n_steps"] = algo["n_steps"] * cfg.train.n_envs
+    if "buffer_size" in algo:
+        algo["buffer_size"] = 10_000
+        algo["learning_starts"] = 0
+    for key in ("offline_buffer", "offline_steps"):
+        if key in algo:
+            algo[key] = None if key == "offline_buffer" else 0
+    data["train"] = {**data["train"], "n_envs": 1}
+    probe_cfg = parse_train_config(data)
+    with _streams_kept():
+        vec: Any = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False)])
+        try:
+            norm = probe_cfg.algo.normalize
+            if norm.enabled:
+                vec = VecNormalize(vec, norm_obs=norm.observation, norm_reward=norm.reward, gamma=probe_cfg.algo.gamma)
+            model = build_model(probe_cfg, vec)
+            phases = PhaseClock()
+            stop = _StopAfter(phases, 1 if on_policy else 3, 0.0 if on_policy else seconds, time.perf_counter)
+            budget = algo["n_steps"] + 1 if on_policy else 100_000
+            model.learn(budget, callback=[phases, stop], progress_bar=False)
+        finally:
+            vec.close()
+    split = phases.split()
+    if phases.collected <= 0 or split["update"] <= 0:
+        return None
+    return Costs(split["collect"] / phases.collected, split["update"] / phases.collected)
+
+
+class ProgressLines(BaseCallback):
+    """A progress line at least every ``interval`` seconds (at the first step after it passed).
+
+    ``step 12000/60000 (20 %) | 410 steps/s | elapsed 0:29 | ETA 1:57 | collect 35 %, update 60 %, eval 5 %``;
+    the ETA comes from the rate since training started (before the first line: from
+    ``estimate``, the expected total seconds, when given).
+    """
+
+    def __init__(
+        self,
+        total: int,
+        log: Callable[[str], None],
+        phases: PhaseClock | None = None,
+        interval: float = PROGRESS_INTERVAL,
+        clock: Clock = time.perf_counter,
+        episode_returns: Callable[[], list[float]] | None = None,
+    ) -> None:
+        super().__init__()
+        self.total = total
+        self.log = log
+        self.phases = phases
+        self.interval = interval
+        self.clock = clock
+        self.episode_returns = episode_returns
+        self.started = 0.0
+        self.start_step = 0
+        self.next_line = 0.0
+        self.lines = 0
+
+    def _on_training_start(self) -> None:
+        self.started = self.clock()
+        self.start_step = int(self.model.num_timesteps)
+        self.next_line = self.started + self.interval
+
+    def _on_step(self) -> bool:
+        now = self.clock()
+        if now >= self.next_line:
+            self.log(self.line(now))
+            self.lines += 1
+            while self.next_line <= now:
+                self.next_line += self.interval
+        return True
+
+    def line(self, now: float) -> str:
+        step = int(self.model.num_timesteps)
+        elapsed = now - self.started
+        done = step - self.start_step
+        rate = done / elapsed if elapsed > 0 else 0.0
+        left = (self.total - step) / rate if rate > 0 else float("inf")
+        parts = [
+            f"step {step}/{self.total} ({100 * step / self.total:.0f} %)",
+            f"{rate:.0f} steps/s",
+            f"elapsed {format_duration(elapsed)}",
+            f"ETA {format_duration(left)}",
+        ]
+        if self.episode_returns is not None:
+            recent = self.episode_returns()
+            if recent:
+                parts.append(f"train return {np.mean(recent):.1f}")
+        if self.phases is not None:
+            split = describe_split(self.phases.split())
+            if split:
+                parts.append(split)
+        return " | ".join(parts)

@@ -1,0 +1,175 @@
+"""Trained agents shipped with the package: ``pyflyt zoo`` lists them, ``pyflyt eval zoo:<name>`` flies one.
+
+An agent is a folder ``pyflyt_cli/zoo/agents/<env>_<algo>/`` made from a training run by
+:func:`add_agent` (``pyflyt zoo --add <run dir>``):
+
+    config.yaml         the run's configuration (the model is rebuilt from it)
+    model.pt            the policy and its normaliser statistics (tensors only, safe to load)
+    summary.yaml        env, algo, seed, the training (steps, time, command) and the recorded
+                        evaluation (episodes, seeds, return per episode, mean ± std, success)
+    learning_curve.png  the training run's evaluation return over steps
+
+``pyflyt eval zoo:<name>`` copies ``config.yaml`` and ``model.pt`` to ``zoo/<name>/`` under
+the working directory (a run directory: the shipped folder is never written) and
+evaluates it there; with the recorded options it reproduces the recorded returns.
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pyflyt_engine.errors import ConfigError
+
+AGENTS = Path(__file__).resolve().parent / "agents"
+PREFIX = "zoo:"
+
+
+@dataclass(frozen=True)
+class Agent:
+    name: str
+    path: Path
+    summary: dict[str, Any]
+
+
+def agents(root: Path = AGENTS) -> list[Agent]:
+    """The shipped agents, by name."""
+    found = []
+    if root.is_dir():
+        for folder in sorted(root.iterdir()):
+            summary = folder / "summary.yaml"
+            if summary.is_file() and (folder / "model.pt").is_file():
+                found.append(Agent(folder.name, folder, yaml.safe_load(summary.read_text()) or {}))
+    return found
+
+
+def agent(name: str, root: Path = AGENTS) -> Agent:
+    for a in agents(root):
+        if a.name == name:
+            return a
+    names = ", ".join(a.name for a in agents(root)) or "none"
+    raise ConfigError(f"zoo:{name}: no such agent (shipped: {names}; list them with pyflyt zoo)")
+
+
+def table(root: Path = AGENTS) -> str:
+    """``pyflyt zoo``: one row per agent."""
+    rows = [f"{'name':<28} {'env':<22} {'algo':<8} {'steps':>8} {'return':>18} {'success':>8}"]
+    for a in agents(root):
+        s, e = a.summary, a.summary.get("evaluation", {})
+        rows.append(
+            f"{a.name:<28} {s.get('env_id', '?'):<22} {s.get('algo', '?'):<8} {s.get('training', {}).get('steps', 0):>8} "
+            f"{e.get('mean_return', float('nan')):>9.2f} ± {e.get('std_return', float('nan')):<6.2f} "
+            f"{100 * e.get('success_rate', 0):>7.0f} %"
+        )
+    if len(rows) == 1:
+        rows.append("(no agents shipped)")
+    rows.append("fly one: pyflyt eval zoo:<name> [video=agent.gif]")
+    return "\n".join(rows)
+
+
+def materialise(name: str, workdir: Path | None = None, root: Path = AGENTS) -> Path:
+    """``zoo/<name>/`` under ``workdir``: a run directory holding the agent's config and policy."""
+    a = agent(name, root)
+    target = (workdir or Path.cwd()) / "zoo" / name
+    target.mkdir(parents=True, exist_ok=True)
+    for file in ("config.yaml", "model.pt"):
+        shutil.copyfile(a.path / file, target / file)
+    return target
+
+
+def add_agent(run_dir: str | Path, name: str | None = None, episodes: int = 10, root: Path = AGENTS) -> Agent:
+    """Make a shipped agent of a training run: its best policy (else final), evaluated now on
+    ``episodes`` episodes with ``pyflyt eval``'s defaults (seeds run seed + 1000 + i, deterministic)."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    run = rundir.check_run_dir(run_dir)
+    cfg = rundir.load_run_config(run)
+    model, which = rundir.find_model(run, "auto")
+    name = name or f"{cfg.env_name}_{cfg.algo.name}"
+    if not name.replace("_", "").replace("-", "").isalnum():
+        raise ConfigError(f"zoo agent name {name!r}: letters, digits, _ and - only")
+    folder = root / name
+    folder.mkdir(parents=True, exist_ok=True)
+    rundir.save_config(cfg, folder)
+    shutil.copyfile(model, folder / "model.pt")
+    # the recorded evaluation is that of the shipped folder itself, as pyflyt eval zoo:<name> runs it
+    report = evaluate_run(folder, {"episodes": episodes, "model": "final", "record": False})
+    (folder / "eval.json").unlink(missing_ok=True)
+    record = rundir.read_yaml(run / rundir.RUN_FILE)
+    state = rundir.read_state(run)
+    progress = _progress(run)
+    summary = {
+        "name": name,
+        "env": cfg.env_name,
+        "env_id": str(cfg.env.id),
+        "algo": cfg.algo.name,
+        "seed": cfg.seed,
+        "policy": {"from": which, "step": _step(folder / "model.pt")},
+        "training": {
+            "steps": int(state.get("num_timesteps") or 0),
+            "seconds": progress.get("elapsed"),
+            "steps_per_second": progress.get("steps_per_second"),
+            "command": " ".join(["pyflyt train", *(record.get("overrides") or [])]),
+            "overrides": record.get("overrides") or [],
+            "versions": record.get("versions") or {},
+        },
+        "evaluation": {
+            "episodes": episodes,
+            "seed": report.seed,
+            "deterministic": True,
+            **report.summary,
+            "returns": [e.ret for e in report.episodes],
+        },
+    }
+    (folder / "summary.yaml").write_text(yaml.safe_dump(summary, sort_keys=False))
+    _learning_curve(run, folder / "learning_curve.png", name)
+    return agent(name, root)
+
+
+def _step(model: Path) -> int:
+    from pyflyt_cli.training.models import read_policy
+
+    return int(read_policy(model).step or 0)
+
+
+def _progress(run: Path) -> dict[str, Any]:
+    import warnings
+
+    from pyflyt_engine.telemetry import read_metrics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        records = read_metrics(run).get("/train/progress", [])
+    return dict(records[-1]) if records else {}
+
+
+def _learning_curve(run: Path, out: Path, title: str) -> None:
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pyflyt_engine.telemetry import read_metrics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        evals = read_metrics(run).get("/eval", [])
+    fig, ax = plt.subplots(figsize=(5, 3.2))
+    steps = [r["step"] for r in evals]
+    mean = [r["mean_return"] for r in evals]
+    std = [r["std_return"] for r in evals]
+    ax.plot(steps, mean, marker="o")
+    ax.fill_between(steps, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)], alpha=0.25)
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("evaluation return")
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)

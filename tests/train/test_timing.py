@@ -1,0 +1,155 @@
+"""The headline command is practical: budget and ETA at start, a progress line at least every
+30 s without a terminal, the time split by phase, one compressed replay buffer on disk.
+
+The progress and phase classes are driven by a fake clock: no test waits on real time.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from pyflyt_cli.training import train
+from pyflyt_cli.training.timing import (
+    PROGRESS_INTERVAL,
+    Costs,
+    PhaseClock,
+    ProgressLines,
+    estimate_seconds,
+    format_duration,
+    measure_costs,
+)
+
+from .conftest import TINY_SAC, load, pyflyt
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _attach(callback, model) -> None:
+    callback.model = model  # what BaseCallback.init_callback sets (it also wants a logger)
+
+
+def test_progress_lines_come_at_least_every_interval_with_rate_and_eta():
+    clock = FakeClock()
+    model = SimpleNamespace(num_timesteps=0)
+    lines: list[str] = []
+    progress = ProgressLines(10_000, lines.append, clock=clock)
+    _attach(progress, model)
+    progress.on_training_start({}, {})
+    # 100 steps per fake second: a line at 30 s, 60 s, 90 s ... whenever the step after it comes
+    for _ in range(95):
+        clock.now += 1.0
+        model.num_timesteps += 100
+        progress.on_step()
+    assert len(lines) == 3  # 30, 60, 90 s
+    assert lines[0].startswith("step 3000/10000 (30 %) | 100 steps/s | elapsed 0:30 | ETA 1:10")
+    # a long step (a slow update) still gives one line, and the schedule keeps the 30 s grid
+    clock.now += 100.0
+    model.num_timesteps += 100
+    progress.on_step()
+    assert len(lines) == 4 and "elapsed 3:15" in lines[-1]
+    clock.now += 14.0  # 209 s: the next line is due at 210 s (the 30 s grid)
+    progress.on_step()
+    assert len(lines) == 4
+    clock.now += 1.0
+    progress.on_step()
+    assert len(lines) == 5 and PROGRESS_INTERVAL == 30.0
+
+
+def test_progress_lines_resume_counts_the_rate_from_the_resumed_step():
+    clock = FakeClock()
+    model = SimpleNamespace(num_timesteps=5000)
+    lines: list[str] = []
+    progress = ProgressLines(6000, lines.append, clock=clock)
+    _attach(progress, model)
+    progress.on_training_start({}, {})
+    clock.now += 30.0
+    model.num_timesteps = 5300
+    progress.on_step()
+    assert lines == ["step 5300/6000 (88 %) | 10 steps/s | elapsed 0:30 | ETA 1:10"]
+
+
+def test_phase_clock_splits_collection_updates_evaluations_and_checkpoints():
+    clock = FakeClock()
+    model = SimpleNamespace(num_timesteps=0)
+    phases = PhaseClock(clock=clock)
+    _attach(phases, model)
+    phases.on_training_start({}, {})
+    for _ in range(3):
+        clock.now += 0.5  # (first: setup before the first rollout; then: update + eval + checkpoint)
+        phases.add("eval", 0.2)
+        phases.add("checkpoint", 0.1)
+        phases.on_rollout_start()
+        clock.now += 2.0
+        model.num_timesteps += 8
+        phases.on_rollout_end()
+    clock.now += 1.0
+    phases.on_training_end()
+    split = phases.split()
+    assert split["collect"] == pytest.approx(6.0)
+    assert split["eval"] == pytest.approx(0.6) and split["checkpoint"] == pytest.approx(0.3)
+    assert split["update"] == pytest.approx(3 * 0.2 + 1.0)  # gaps less what eval and checkpoints took
+    assert phases.collected == 24
+    assert sum(split.values()) == pytest.approx(clock.now - 1000.0)
+
+
+def test_estimate_counts_collection_updates_after_learning_starts_and_evaluations():
+    cfg = load([*TINY_SAC, "train.total_timesteps=1000", "algo.learning_starts=200", "train.eval_freq=500"], "/tmp")
+    costs = Costs(collect=0.001, update=0.01)
+    episode = cfg.env.max_steps
+    expected = 1000 * 0.001 + 800 * 0.01 + 2 * cfg.train.eval_episodes * episode * 0.001
+    assert estimate_seconds(cfg, costs) == pytest.approx(expected)
+    # from a checkpoint at 600: 400 steps left, all updating, one evaluation (at 1000) left
+    assert estimate_seconds(cfg, costs, 600) == pytest.approx(400 * 0.011 + cfg.train.eval_episodes * episode * 0.001)
+
+
+def test_format_duration():
+    assert format_duration(59.4) == "0:59" and format_duration(3723) == "1:02:03"
+    assert format_duration(float("inf")) == "?"
+
+
+def test_measuring_costs_leaves_the_random_streams_and_the_run_unchanged(tmp_path):
+    import random
+
+    import torch
+
+    cfg = load(TINY_SAC, tmp_path)
+    np.random.seed(5)
+    random.seed(5)
+    torch.manual_seed(5)
+    before = (np.random.random(), random.random(), torch.rand(1).item())
+    np.random.seed(5)
+    random.seed(5)
+    torch.manual_seed(5)
+    costs = measure_costs(cfg, seconds=0.0)
+    after = (np.random.random(), random.random(), torch.rand(1).item())
+    assert costs is not None and costs.collect > 0 and costs.update > 0
+    assert before == after
+
+
+def test_the_command_prints_budget_eta_and_time_split_without_a_terminal(tmp_path):
+    result = pyflyt(["train", *TINY_SAC, f"train.output_dir={tmp_path / 'runs'}"], cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    err = result.stderr
+    assert "budget: 400 steps of quadx_hover with sac on 1 env(s)" in err
+    assert "ETA: about " in err and "ms per collected step" in err
+    assert "time in training: collect " in err and "update " in err
+
+
+def test_one_compressed_replay_buffer_is_kept(tmp_path):
+    run = train(load(TINY_SAC, tmp_path)).run_dir
+    buffers = sorted((run / "checkpoints").glob("replay_buffer_*.npz"))
+    assert [b.name for b in buffers] == ["replay_buffer_400_steps.npz"]  # the newest checkpoint's only
+    with zipfile.ZipFile(buffers[0]) as archive:
+        infos = archive.infolist()
+    assert infos and all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
+    assert sum(i.compress_size for i in infos) < sum(i.file_size for i in infos)

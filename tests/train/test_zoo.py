@@ -1,0 +1,38 @@
+"""Shipped agents: a run made into a zoo agent, listed, and flown by pyflyt eval zoo:<name> with the
+recorded return; every agent shipped in the package reproduces its recorded evaluation."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from pyflyt_cli import zoo
+from pyflyt_cli.training import evaluate_run, train
+from pyflyt_cli.training.models import read_policy
+
+from .conftest import TINY_PPO, load, pyflyt
+
+
+def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path):
+    run = train(load(TINY_PPO, tmp_path / "runs")).run_dir
+    root = tmp_path / "agents"
+    made = zoo.add_agent(run, episodes=3, root=root)
+    assert made.name == "quadx_hover_ppo"
+    assert sorted(p.name for p in made.path.iterdir()) == ["config.yaml", "learning_curve.png", "model.pt", "summary.yaml"]
+    summary = yaml.safe_load((made.path / "summary.yaml").read_text())
+    assert summary["algo"] == "ppo" and summary["seed"] == 0 and summary["training"]["steps"] == 512
+    assert read_policy(made.path / "model.pt").algo == "ppo"
+    assert "quadx_hover_ppo" in zoo.table(root)
+    copy = zoo.materialise("quadx_hover_ppo", tmp_path / "work", root=root)
+    again = evaluate_run(copy, {"episodes": 3, "record": False})
+    assert [e.ret for e in again.episodes] == summary["evaluation"]["returns"]
+    assert again.summary["mean_return"] == summary["evaluation"]["mean_return"]
+
+
+@pytest.mark.parametrize("name", [a.name for a in zoo.agents()])
+def test_a_shipped_agent_flies_its_recorded_return_from_the_command_line(tmp_path, name):
+    recorded = zoo.agent(name).summary["evaluation"]
+    result = pyflyt(["eval", f"zoo:{name}", f"episodes={recorded['episodes']}", "record=false"], cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "(matches)" in result.stdout
+    assert not list(zoo.agent(name).path.glob("eval.json"))  # the shipped folder is not written
