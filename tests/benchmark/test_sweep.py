@@ -32,6 +32,7 @@ def mtimes(root: Path) -> dict[str, int]:
     return {str(p.relative_to(root)): p.stat().st_mtime_ns for p in sorted((root / "runs").rglob("*")) if p.is_file()}
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_tiny_sweep_runs_reruns_as_skips_and_plots(tmp_path: Path) -> None:
     args = ["benchmark", *SMOKE, f"benchmark.output_dir={tmp_path}"]
     first = pyflyt(args, tmp_path)
@@ -96,6 +97,7 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers follow a killed launcher on Linux")
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> None:
     from pyflyt_cli.training import rundir
 
@@ -145,6 +147,7 @@ def test_killed_sweep_resumes_without_redoing_finished_runs(tmp_path: Path) -> N
     assert "from_step:" in resumed and "from_step: 0" not in resumed  # continued from its checkpoint
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_a_failed_run_is_reported_and_the_others_carry_on(tmp_path: Path) -> None:
     root = tmp_path / "smoke_benchmark"
     squatter = root / "runs" / "quadx_waypoints" / "ppo" / "seed0"
@@ -166,6 +169,7 @@ def test_a_failed_run_is_reported_and_the_others_carry_on(tmp_path: Path) -> Non
     assert "| quadx_waypoints/ppo/seed0 | failed (exit 2) |" in summary
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_budget_grown_in_the_plan_extends_complete_runs(tmp_path: Path) -> None:
     args = ["benchmark", "experiment=smoke_benchmark", "seeds=1", f"benchmark.output_dir={tmp_path}"]
     assert pyflyt(args, tmp_path).returncode == 0
@@ -216,6 +220,7 @@ def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_
     assert again.returncode == 0 and "2 complete (skipped)" in again.stderr
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_runs_that_start_from_a_restarted_run_restart_too(tmp_path: Path) -> None:
     study = tmp_path / "tiny_bootstrap.yaml"
     study.write_text(BOOTSTRAP)
@@ -358,6 +363,7 @@ algo: {learning_starts: 40, batch_size: 16, buffer_size: 1000, policy_kwargs: {n
 """
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_the_dry_run_lines_train_the_runs_the_benchmark_plans(tmp_path: Path) -> None:
     """Run as printed, the lines train each run in its planned directory; the benchmark then finds them complete."""
     import shlex

@@ -59,6 +59,7 @@ class Canned:
         raise AssertionError(kind)
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_quick_speed_for_one_env_prints_every_section(tmp_path):
     out = tmp_path / "speed.json"
     result = runner.invoke(app, ["speed", "--quick", "--env", HOVER, "--vehicles", "1,2", "--json", str(out)])
@@ -169,6 +170,7 @@ def test_machine_scaling_probe_runs_its_processes():
     assert one["work_per_s"] > 0 and two["work_per_s"] > 0
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_reference_comparison_script_runs_without_the_reference(tmp_path):
     """experiments/compare_reference.py: our side of every table, '-' where the reference's figures go."""
     out = tmp_path / "comparison.json"

@@ -48,6 +48,7 @@ def installed(tmp_path_factory):
     return env_dir / "bin" / "pyflyt", env
 
 
+@pytest.mark.slow  # a whole sweep / install: run with -m slow
 def test_train_and_eval_from_the_wheel_in_an_empty_directory(installed, tmp_path):
     pyflyt, env = installed
     work = tmp_path / "empty"
