@@ -45,7 +45,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from pyflyt_engine.frames import quaternion_to_matrix
-from pyflyt_engine.spec import BodySpec, _rpy_matrix, check_identifier, inertia_tensor, shape_inertia
+from pyflyt_engine.spec import BodySpec, _rpy_matrix, check_identifier
 
 if TYPE_CHECKING:
     from pyflyt_engine.vehicle import Vehicle
@@ -141,32 +141,15 @@ class PayloadSpec(_Model):
 
     def mass(self) -> float:
         """Mass [kg]."""
-        if self.body.mass is not None:
-            return float(self.body.mass)
-        return float(sum(s.mass or 0.0 for s in self.body.shapes))
+        return float(self.body.total_mass())
 
     def center_of_mass(self) -> np.ndarray:
         """Centre of mass in the payload's frame [m]."""
-        if self.body.center_of_mass is not None:
-            return np.asarray(self.body.center_of_mass, dtype=float)
-        parts = [s for s in self.body.shapes if s.mass]
-        if not parts:
-            return np.zeros(3)
-        masses = np.array([s.mass for s in parts])
-        return masses @ np.array([s.position for s in parts], dtype=float) / masses.sum()
+        return self.body.mass_center()
 
     def inertia_matrix(self) -> np.ndarray:
         """Inertia about the centre of mass in the payload's axes [kg m^2] (parts: parallel axes)."""
-        if self.body.inertia is not None:
-            return inertia_tensor(self.body.inertia)
-        com = self.center_of_mass()
-        total = np.zeros((3, 3))
-        for shape in self.body.shapes:
-            if shape.mass:
-                rot = _rpy_matrix(shape.rpy)
-                r = np.asarray(shape.position, dtype=float) - com
-                total += rot @ shape_inertia(shape) @ rot.T + shape.mass * (r @ r * np.eye(3) - np.outer(r, r))
-        return total
+        return self.body.inertia_matrix()
 
     def rotation(self) -> np.ndarray:
         """Payload frame -> parent frame rotation at reset."""

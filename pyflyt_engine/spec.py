@@ -172,6 +172,41 @@ class BodySpec(_Spec):
             raise ValueError("body.shapes has no collision shape: add one (collision: true) or give a urdf")
         return self
 
+    # ------------------------------------------------------------- mass properties
+
+    def total_mass(self) -> float:
+        """Mass [kg]: ``mass`` when given, else the sum of the shapes' masses."""
+        if self.mass is not None:
+            return self.mass
+        return float(sum(s.mass or 0.0 for s in self.shapes))
+
+    def mass_center(self) -> np.ndarray:
+        """Centre of mass in the body's coordinates [m]: ``center_of_mass`` when given,
+        else the mass-weighted mean of the shapes' positions."""
+        if self.center_of_mass is not None:
+            return np.asarray(self.center_of_mass, dtype=float)
+        parts = [s for s in self.shapes if s.mass]
+        if not parts:
+            return np.zeros(3)
+        masses = np.array([s.mass for s in parts])
+        positions = np.array([s.position for s in parts], dtype=float)
+        return masses @ positions / masses.sum()
+
+    def inertia_matrix(self) -> np.ndarray:
+        """3 x 3 inertia about the centre of mass, body axes [kg m^2]: ``inertia`` when
+        given, else the shapes' own inertias moved there (parallel-axis theorem)."""
+        if self.inertia is not None:
+            return inertia_tensor(self.inertia)
+        com = self.mass_center()
+        total = np.zeros((3, 3))
+        for shape in self.shapes:
+            if not shape.mass:
+                continue
+            rot = _rpy_matrix(shape.rpy)
+            r = np.asarray(shape.position, dtype=float) - com
+            total += rot @ shape_inertia(shape) @ rot.T + shape.mass * (r @ r * np.eye(3) - np.outer(r, r))
+        return total
+
 
 def _check_inertia(tensor: np.ndarray) -> None:
     eig = np.linalg.eigvalsh(tensor)
@@ -740,34 +775,15 @@ class UAVSpec(_Spec):
 
     def total_mass(self) -> float:
         """Dry mass of the airframe [kg] (booster fuel is added by the vehicle)."""
-        if self.body.mass is not None:
-            return self.body.mass
-        return float(sum(s.mass or 0.0 for s in self.body.shapes))
+        return self.body.total_mass()
 
     def center_of_mass(self) -> np.ndarray:
         """Centre of mass in the spec's coordinates [m]; the vehicle's body origin."""
-        if self.body.center_of_mass is not None:
-            return np.asarray(self.body.center_of_mass, dtype=float)
-        parts = [s for s in self.body.shapes if s.mass]
-        if not parts:
-            return np.zeros(3)
-        masses = np.array([s.mass for s in parts])
-        positions = np.array([s.position for s in parts], dtype=float)
-        return masses @ positions / masses.sum()
+        return self.body.mass_center()
 
     def inertia_matrix(self) -> np.ndarray:
         """3 x 3 inertia about the centre of mass, body axes [kg m^2]."""
-        if self.body.inertia is not None:
-            return inertia_tensor(self.body.inertia)
-        com = self.center_of_mass()
-        total = np.zeros((3, 3))
-        for shape in self.body.shapes:
-            if not shape.mass:
-                continue
-            rot = _rpy_matrix(shape.rpy)
-            r = np.asarray(shape.position, dtype=float) - com
-            total += rot @ shape_inertia(shape) @ rot.T + shape.mass * (r @ r * np.eye(3) - np.outer(r, r))
-        return total
+        return self.body.inertia_matrix()
 
 
 def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
