@@ -300,23 +300,14 @@ class AWACConfig(_OffPolicy):
         return self
 
 
-class TQCConfig(_OffPolicy):
-    """Truncated Quantile Critics (Kuznetsov et al. 2020, arXiv:2005.04269); sb3-contrib ``TQC``."""
+class TQCConfig(SACConfig):
+    """Truncated Quantile Critics (Kuznetsov et al. 2020, arXiv:2005.04269); sb3-contrib ``TQC``:
+    SAC's settings plus how many quantiles to drop."""
 
-    name: Literal["tqc"]
-    ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
-    target_update_interval: int = Field(ge=1, description="target network update interval [gradient steps]")
-    target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
+    name: Literal["tqc"]  # type: ignore[assignment]
     top_quantiles_to_drop_per_net: int = Field(
         ge=0, description="quantiles dropped per critic from the pooled target distribution (over-estimation control)"
     )
-    use_sde: bool = Field(description="generalised state-dependent exploration")
-    sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
-
-    @field_validator("ent_coef")
-    @classmethod
-    def _ent_coef(cls, value: float | str) -> float | str:
-        return _check_ent_coef(value)
 
 
 class CrossQConfig(_OffPolicy):
