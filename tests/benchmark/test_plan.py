@@ -44,12 +44,18 @@ def test_overrides_reach_every_run_and_seed_lists(tmp_path: Path) -> None:
     assert {j.total_timesteps for j in plan.jobs} == {512}
 
 
-def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> None:
+def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Path) -> None:
     plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}"])
     assert plan.root.name == "paper_rl_laptop"
-    assert len(plan.jobs) == 12
+    assert len(plan.jobs) == 18
     first, second = levels(plan.jobs)
-    assert {j.algo for j in first} == {"sac"} and {j.algo for j in second} == {"awac"}
+    assert {j.algo for j in first} == {"sac"} and {j.algo for j in second} == {"awac", "ccge"}
+    ccge = plan.job("fixedwing_waypoints_sparse/ccge/seed1")
+    assert ccge.depends_on == "fixedwing_waypoints/sac/seed1"
+    assert ccge.config["env"]["reward"] == "sparse"
+    # CCGE keeps its own warm-up; AWAC's is the preset's
+    assert ccge.config["algo"]["learning_starts"] == 1000
+    assert plan.job("quadx_waypoints_sparse/awac/seed0").total_timesteps == ccge.total_timesteps == 7500
     awac = plan.job("quadx_waypoints_sparse/awac/seed2")
     assert awac.depends_on == "quadx_waypoints/sac/seed2"
     step = plan.spec["presets"]["laptop"]["partial_step"]
@@ -62,7 +68,8 @@ def test_paper_rl_bootstraps_sparse_awac_from_partial_sac(tmp_path: Path) -> Non
     assert awac.config["algo"]["policy_kwargs"]["net_arch"] == sac.config["algo"]["policy_kwargs"]["net_arch"]
     assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
     big, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "benchmark.preset=paper"])
-    assert big.root.name == "paper_rl_paper" and len(big.jobs) == 200
+    assert big.root.name == "paper_rl_paper" and len(big.jobs) == 300
+    assert big.job("quadx_waypoints_sparse/ccge/seed7").config["init_from"].endswith("quadx_waypoints/sac/seed7@200000")
     assert big.job("fixedwing_waypoints/sac/seed49").total_timesteps == 1_000_000
 
 
