@@ -282,8 +282,12 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--tuning", choices=["shipped", "hover"], default="shipped")
     parser.add_argument("--output", type=Path, default=None, help="run directories (default: a temporary one)")
-    parser.add_argument("--report-only", action="store_true", help="rewrite the tables and figure from the JSON results")
-    parser.add_argument("--random-only", action="store_true", help="re-fly the random policy only, keep trained entries")
+    parser.add_argument(
+        "--report-only", action="store_true", help="rewrite the tables and figure from the JSON results"
+    )
+    parser.add_argument(
+        "--random-only", action="store_true", help="re-fly the random policy only, keep trained entries"
+    )
     args = parser.parse_args()
     raw = RESULTS / "learn_payload_tasks.json"
     results = json.loads(raw.read_text()) if raw.exists() else {}

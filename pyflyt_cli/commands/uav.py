@@ -78,7 +78,9 @@ def run_show(
     width, height = parse_size(size)
     for target, option in ((png, "--png"), (curves, "--curves")):
         if target is not None:
-            check_output(target, option, (".png",), [path] + ([Path(config.source)] if config and config.source else []))
+            check_output(
+                target, option, (".png",), [path] + ([Path(config.source)] if config and config.source else [])
+            )
     if png is not None and curves is not None and png.resolve() == curves.resolve():
         raise CLIError(f"--png and --curves name the same file {png}; give two different files")
     spec = load_uav_spec(path)
