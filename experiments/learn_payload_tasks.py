@@ -201,7 +201,21 @@ def figure(results: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     tasks = list(results)
-    fig, axes = plt.subplots(1, len(tasks), figsize=(3.3 * len(tasks), 3.6), squeeze=False)
+    fig, axes = plt.subplots(2, len(tasks), figsize=(3.3 * len(tasks), 6.2), squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 2]})  # fmt: skip
+    for ax, task in zip(axes[1], tasks):  # episode lengths: how long each policy keeps flying
+        r = results[task]
+        seeds = sorted(r["learned"], key=int)
+        runs = r["random"].get("runs", {})
+        random = [runs.get(s, r["random"])["length"] for s in seeds]
+        ppo = [r["learned"][s]["length"] for s in seeds]
+        jitter = np.linspace(-0.12, 0.12, len(seeds))
+        ax.scatter(0 + jitter, random, color="0.5", s=14)
+        ax.scatter(1 + jitter, ppo, color="C0", s=14)
+        ax.set_xticks([0, 1], ["random", "PPO"])
+        ax.set_xlim(-0.5, 1.6)
+        ax.set_ylim(0, None)
+    axes[1][0].set_ylabel("mean episode length\n[agent steps] per seed")
     for ax, task in zip(axes[0], tasks):
         r = results[task]
         st = task_statistics(r)
