@@ -294,19 +294,25 @@ def uav_validate(files: list[str] = typer.Argument(..., help="YAML files or ship
 @uav_app.command(
     "show",
     help="Print mass, centre of mass, inertia, thrust-to-weight, components, channels and "
-    "controller; optionally render a picture (offscreen) and the surfaces' C_L/C_D/C_M curves.\n\n"
-    "  pyflyt uav show quadx_f450 --png f450.png --size 800x600",
+    "controller; optionally render a picture (offscreen) and the surfaces' C_L/C_D/C_M curves. "
+    "With --env, also the env's payloads (bodies, mass, inertia, geometry, joints and tethers), "
+    "drawn in the picture.\n\n"
+    "  pyflyt uav show quadx_f450 --png f450.png --size 800x600\n\n"
+    "  pyflyt uav show --env quadx_pole_balance --png pole.png",
 )
 @user_errors
 def uav_show(
-    file: str = typer.Argument(..., help="YAML file or shipped name"),
+    file: Optional[str] = typer.Argument(None, help="YAML file or shipped name (default with --env: the env's airframe)"),
     png: Optional[Path] = typer.Option(None, "--png", help="write a 3/4-view picture to this .png file"),
     size: str = typer.Option("640x480", "--size", help="picture size WIDTHxHEIGHT in pixels"),
     curves: Optional[Path] = typer.Option(None, "--curves", help="plot every lifting surface's coefficients to this .png"),
+    env: Optional[str] = typer.Option(
+        None, "--env", help="also show this env config's payloads (shipped name in conf/env or a YAML path)"
+    ),
 ) -> None:
     from pyflyt_cli.commands.uav import run_show
 
-    run_show(file, png=png, size=size, curves=curves)
+    run_show(file, png=png, size=size, curves=curves, env=env)
 
 
 @uav_app.command("schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning).")

@@ -248,3 +248,112 @@ def channel_users(spec: UAVSpec, channel: str) -> list[str]:
         loops = {c.roll_channel: "roll", c.pitch_channel: "pitch", c.yaw_channel: "yaw", c.thrust_channel: "thrust"}
         users += [f"autopilot {loop}" for name, loop in loops.items() if name == channel]
     return users
+
+
+# ---------------------------------------------------------------------------- payloads
+
+_JOINTS = {
+    "fixed": "fixed (welded)",
+    "ball": "ball joint (passive, frictionless)",
+    "tether": "tether (a string: never farther than its length, may go slack)",
+    "free": "free (no joint; placed at every reset)",
+}
+
+
+def carried_mass(payloads) -> float:
+    """Mass [kg] the vehicle carries: its payloads held by a fixed, ball or tether joint."""
+    return float(sum(p.mass() for p in payloads if p.attach.to == "vehicle" and p.attach.joint != "free"))
+
+
+def _shape_size(shape) -> str:
+    if shape.type == "box":
+        return "box " + " x ".join(f"{v:.4g}" for v in shape.size)
+    if shape.type == "cylinder":
+        return f"cylinder r {shape.radius:.4g}, length {shape.length:.4g}"
+    if shape.type == "sphere":
+        return f"sphere r {shape.radius:.4g}"
+    return f"mesh {shape.mesh}"
+
+
+def describe_payloads(config, spec: UAVSpec | None = None) -> list[str]:
+    """The lines ``pyflyt uav show --env <env>`` adds: every payload of the env config ``config``.
+
+    Per payload: mass, centre of mass and inertia (as the engine builds it: computed from
+    the parts when not given), its attachment (parent, joint, anchors, tether length), its
+    declared pose (where every reset puts it, unless the task places it), contact
+    settings and shapes.  With ``spec`` (the airframe that carries
+    them) also the carried mass and the thrust-to-weight ratios with it.
+    """
+    source = f": {config.source}" if config.source else ""
+    name = config.id or "inline config"
+    if not config.payloads:
+        return [f"payloads: none (env {name}{source} declares no payloads)"]
+    out = [f"payloads of env {name}{source} ({len(config.payloads)})"]
+    # a task that places payloads itself (QuadX-Gates' random course) names them in its options
+    moved = set(getattr(config.task, "gates", ())) if getattr(config.task, "course", None) == "random" else set()
+    for payload in config.payloads:
+        attach = payload.attach
+        parent = "the vehicle" if attach.to == "vehicle" else "the world"
+        frame = "vehicle body frame, from its centre of mass" if attach.to == "vehicle" else "ground frame (ENU)"
+        static = attach.to == "world" and attach.joint == "fixed"
+        out.append(f"  {payload.name}: {_JOINTS[attach.joint]} to {parent}" + (" (a static body)" if static else ""))
+        from_parts = "  (from the parts)" if payload.body.mass is None else ""
+        out.append(f"    mass                {payload.mass():.6g} kg{from_parts}")
+        out.append(f"    centre of mass      {_vec(payload.center_of_mass())} m in the payload's frame")
+        inertia = payload.inertia_matrix()
+        scale = np.abs(inertia).max()
+        inertia = np.where(np.abs(inertia) < 1e-9 * scale, 0.0, inertia)  # round-off
+        out.append("    inertia about the centre of mass, payload axes [kg m^2]:")
+        for row in inertia:
+            out.append("      [" + "  ".join(f"{v:11.4g}" for v in row) + " ]")
+        out.append("    principal moments   " + ", ".join(f"{v:.4g}" for v in np.linalg.eigvalsh(inertia)) + " kg m^2")
+        if attach.joint == "tether":
+            out.append(
+                f"    attachment          string of {attach.length:g} m from {_vec(attach.anchor)} m on {parent} "
+                f"to {_vec(attach.payload_anchor)} m on the payload"
+            )
+        elif attach.joint == "ball" or (attach.joint == "fixed" and attach.to == "vehicle"):
+            out.append(
+                f"    attachment          at {_vec(attach.anchor)} m on {parent}, "
+                f"{_vec(attach.payload_anchor)} m on the payload"
+            )
+        com = np.asarray(payload.position) + payload.rotation() @ payload.center_of_mass()
+        out.append(
+            f"    declared pose       frame at {_vec(payload.position)} m, rpy {_vec(payload.orientation)} rad; "
+            f"centre of mass at {_vec(com)} m ({frame})"
+        )
+        if payload.name in moved:
+            out.append(f"                        (task {config.task.name}, course: random: moved at every reset)")
+        contacts = f"ground contact ends the episode: {'yes' if payload.ground_contact_fails and not static else 'no'}"
+        if attach.to == "vehicle":
+            contacts = f"with the vehicle: {'simulated' if payload.collide_with_parent else 'off'}; " + contacts
+        out.append(f"    contacts            {contacts}")
+        rows = [
+            [
+                _shape_size(s),
+                _vec(s.position),
+                _vec(s.rpy),
+                "-" if s.mass is None else f"{s.mass:.4g}",
+                "yes" if s.collision else "no",
+                "yes" if s.visual else "no",
+            ]
+            for s in payload.body.shapes
+        ]
+        out.append(f"    shapes ({len(rows)}; positions in the payload's frame [m])")
+        out += ["  " + line for line in _table(["shape [m]", "position", "rpy [rad]", "mass [kg]", "collision",
+                                                "visual"], rows)]  # fmt: skip
+    carried = carried_mass(config.payloads)
+    if spec is not None:
+        mass = mass_report(spec)
+        spawn = mass.dry_mass + mass.fuel_at_spawn
+        total = spawn + carried
+        if carried == 0:
+            out.append(f"carried by {spec.name}: none")
+            return out
+        out.append(f"carried by {spec.name}: {carried:.6g} kg of payloads; with them {total:.6g} kg")
+        ratios = thrust_to_weight(spec)
+        if ratios and carried > 0:
+            out.append(f"thrust-to-weight with the payloads (at {total:.6g} kg)")
+            for key, ratio in ratios.items():
+                out.append(f"  {key:<28}  {ratio * spawn / total:.2f}")
+    return out

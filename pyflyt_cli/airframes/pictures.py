@@ -8,6 +8,7 @@ their file all at once (:func:`~pyflyt_cli.outputs.atomic_output`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +79,7 @@ _CCW_COLOR = (1.0, 0.55, 0.0, 1.0)
 _CW_COLOR = (0.0, 0.6, 0.9, 1.0)
 _BOOSTER_COLOR = (0.8, 0.0, 0.8, 1.0)
 _AXIS_COLORS = ((0.9, 0.1, 0.1, 1.0), (0.1, 0.7, 0.1, 1.0), (0.1, 0.2, 0.9, 1.0))
+_STRING_COLOR = (0.25, 0.25, 0.25, 1.0)  # a payload's tether
 
 
 def _add_rod(p, client: int, start: np.ndarray, axis: np.ndarray, length: float, radius: float, color) -> None:
@@ -110,7 +112,7 @@ def _fit_distance(points: np.ndarray, direction: np.ndarray, aspect: float) -> f
     return 1.1 * max(float(need.max()), 1e-3)
 
 
-def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 480) -> Path:
+def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 480, payloads: Sequence = ()) -> Path:
     """Write a 3/4-view PNG of ``spec`` (offscreen: PyBullet DIRECT + TinyRenderer).
 
     The airframe's generated URDF (:func:`~pyflyt_engine.urdf.urdf_path`) is loaded with
@@ -122,6 +124,11 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
 
     Raises:
         CLIError: PyBullet cannot load the URDF (e.g. a missing mesh).
+
+    ``payloads``: :class:`~pyflyt_engine.payloads.PayloadSpec` s attached to the vehicle
+    (``attach.to: vehicle``), drawn at their reset poses (a tether at full length, its
+    string a thin dark grey rod) from their generated URDFs and included in the framing; payloads of the world are skipped
+    (:func:`drawable_payloads` tells which are drawn).
     """
     from PIL import Image
 
@@ -142,6 +149,10 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
         features = _feature_points(spec)
         if spec.body.urdf is not None or any(shape.type == "mesh" for shape in spec.body.shapes) or not len(features):
             features = np.vstack([features, box_corners])
+        for payload in drawable_payloads(payloads):
+            corners = _add_payload(p, client, payload)
+            features = np.vstack([features, corners])
+            box_corners = np.vstack([box_corners, corners])
         extent = np.vstack([features, box_corners])
         size = max(float(np.linalg.norm(extent.max(axis=0) - extent.min(axis=0))), 1e-3)
 
@@ -188,6 +199,44 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
     with atomic_output(path, "--png") as tmp:
         Image.fromarray(image, "RGB").save(tmp, format="PNG")
     return path
+
+
+def drawable_payloads(payloads: Sequence) -> list:
+    """The payloads :func:`render_airframe` draws: those attached to the vehicle."""
+    return [p for p in payloads if p.attach.to == "vehicle"]
+
+
+def _add_payload(p, client: int, payload) -> np.ndarray:
+    """Load ``payload`` at its reset pose relative to the vehicle (centre of mass at the origin, body
+    axes = world axes); the corners of its bodies' bounding boxes [m]."""
+    from pyflyt_engine.payloads import PayloadSet, generate_payload_urdf, tether_geometry
+    from pyflyt_engine.urdf import cached_urdf
+
+    position, quaternion = PayloadSet._spawn_pose(payload, np.zeros(3), (0.0, 0.0, 0.0, 1.0))
+    try:
+        body = p.loadURDF(
+            str(cached_urdf(generate_payload_urdf(payload))),
+            basePosition=position,
+            baseOrientation=quaternion,
+            useFixedBase=True,
+            flags=p.URDF_USE_INERTIA_FROM_FILE,
+            physicsClientId=client,
+        )
+    except p.error as exc:
+        raise CLIError(f"payload {payload.name}: PyBullet cannot load its URDF: {exc}") from None
+    links = [-1]
+    if payload.attach.joint == "tether":
+        _axis, q0, _upper = tether_geometry(payload)
+        p.resetJointState(body, 0, q0, 0.0, physicsClientId=client)
+        links = [0]  # the pivot has no shape
+        string = payload.anchor_to_payload_anchor()
+        _add_rod(p, client, np.asarray(payload.attach.anchor, dtype=float), string, float(np.linalg.norm(string)),
+                 0.002, _STRING_COLOR)  # fmt: skip
+    corners = []
+    for link in links:
+        box = np.array(p.getAABB(body, link, physicsClientId=client), dtype=float)
+        corners += [[x, y, z] for x in box[:, 0] for y in box[:, 1] for z in box[:, 2]]
+    return np.asarray(corners, dtype=float)
 
 
 def plot_surface_curves(spec: UAVSpec, path: Path) -> Path:

@@ -10,7 +10,15 @@ from pathlib import Path
 
 import typer
 
-from pyflyt_cli.airframes import describe, plot_surface_curves, render_airframe, resolve_file, validate_uav
+from pyflyt_cli.airframes import (
+    describe,
+    describe_payloads,
+    drawable_payloads,
+    plot_surface_curves,
+    render_airframe,
+    resolve_file,
+    validate_uav,
+)
 from pyflyt_cli.config import CLIError
 from pyflyt_cli.outputs import check_output, parse_size
 from pyflyt_engine.errors import PyFlytError
@@ -43,16 +51,36 @@ def run_validate(files: list[str]) -> int:
     return failures
 
 
-def run_show(name_or_path: str, png: Path | None = None, size: str = "640x480", curves: Path | None = None) -> UAVSpec:
+def run_show(
+    name_or_path: str | None,
+    png: Path | None = None,
+    size: str = "640x480",
+    curves: Path | None = None,
+    env: str | None = None,
+) -> UAVSpec:
     """Print the airframe's numbers; optionally write its picture and coefficient curves.
 
-    Output paths are checked before anything is printed or rendered.
+    ``env``: an env config (shipped name in ``conf/env`` or YAML path) whose payloads are
+    printed after the airframe and drawn in its picture; without ``name_or_path`` the
+    airframe is the env's own (its ``uav``).  Output paths are checked before anything is
+    printed or rendered.
     """
+    config = None
+    if env is not None:
+        from pyflyt_engine.envs.config import load_env_config
+
+        config = load_env_config(env)
+    if name_or_path is None:
+        if config is None:
+            raise CLIError("give an airframe (a YAML file or a shipped name), or --env <env> to show an env's airframe")
+        name_or_path = config.uav
     path = resolve_file(name_or_path)
     width, height = parse_size(size)
     for target, option in ((png, "--png"), (curves, "--curves")):
         if target is not None:
-            check_output(target, option, (".png",), [path])
+            check_output(
+                target, option, (".png",), [path] + ([Path(config.source)] if config and config.source else [])
+            )
     if png is not None and curves is not None and png.resolve() == curves.resolve():
         raise CLIError(f"--png and --curves name the same file {png}; give two different files")
     spec = load_uav_spec(path)
@@ -60,12 +88,22 @@ def run_show(name_or_path: str, png: Path | None = None, size: str = "640x480", 
         raise CLIError(f"{spec.name} has no lifting surfaces: nothing to plot for --curves")
     for line in describe(spec):
         typer.echo(line)
+    payloads = list(config.payloads) if config is not None else []
+    if config is not None:
+        for line in describe_payloads(config, spec):
+            typer.echo(line)
     if png is not None:
-        render_airframe(spec, png, width, height)
+        render_airframe(spec, png, width, height, payloads=payloads)
         typer.echo(
             f"picture: {png} ({width}x{height}; body axes red X forward, green Y left, blue Z up; "
             "motor thrust axes orange CCW, blue CW; boosters magenta)"
         )
+        drawn = [p.name for p in drawable_payloads(payloads)]
+        if drawn:
+            typer.echo(f"  payloads drawn at their reset poses: {', '.join(drawn)}")
+        skipped = [p.name for p in payloads if p.name not in drawn]
+        if skipped:
+            typer.echo(f"  not drawn (placed in the world, not on the vehicle): {', '.join(skipped)}")
     if curves is not None:
         plot_surface_curves(spec, curves)
         typer.echo(f"coefficient curves: {curves}")

@@ -471,3 +471,73 @@ def test_fixed_wing_mixing_follows_the_documented_sign_convention(airframe):
         others = max(abs(torque[k]) for k in range(3) if k != axis)
         assert torque[axis] > others or axis == 2, (channel, torque)  # a fin above the axis also rolls
     assert math.isfinite(float(torque.sum()))
+
+
+# ------------------------------------------------------------------ show --env: an env's payloads
+
+
+def test_show_env_prints_the_payloads_mass_inertia_and_joint():
+    result = invoke("show", "--env", "quadx_pole_balance")
+    assert result.exit_code == 0, result.output
+    out = result.output
+    assert out.startswith("quadx_f450:")  # the env's airframe when no FILE is given
+    assert "payloads of env PyFlyt/QuadX-Pole-Balance-v0" in out
+    assert "pole: ball joint (passive, frictionless) to the vehicle" in out
+    assert "mass                0.2 kg  (from the parts)" in out
+    assert "centre of mass      (0, 0, 0.5) m in the payload's frame" in out
+    # uniform cylinder, m = 0.2 kg, r = 5 mm, l = 1 m: m (3 r^2 + l^2) / 12 across, m r^2 / 2 along
+    across, along = 0.2 * (3 * 0.005**2 + 1.0) / 12, 0.2 * 0.005**2 / 2
+    assert f"principal moments   {along:.4g}, {across:.4g}, {across:.4g} kg m^2" in out
+    assert "attachment          at (0, 0, 0.05) m on the vehicle, (0, 0, 0) m on the payload" in out
+    assert re.search(r"cylinder r 0\.005, length 1\s+\(0, 0, 0\.5\)\s+\(0, 0, 0\)\s+0\.2\s+yes\s+yes", out)
+    assert "carried by quadx_f450: 0.2 kg of payloads; with them 1.2 kg" in out
+    assert re.search(rf"mixer motors\s+{40.0 / (1.2 * 9.81):.2f}\n", out)  # 4 x 10 N on 1.2 kg
+
+
+def test_show_env_tethers_world_payloads_and_another_airframe():
+    out = invoke("show", "--env", "quadx_ball_in_cup").output
+    assert "ball: tether (a string: never farther than its length, may go slack) to the vehicle" in out
+    assert "string of 0.5 m from (0, 0, -0.03) m on the vehicle to (0, 0, 0) m on the payload" in out
+    assert "with the vehicle: simulated" in out
+    assert "carried by quadx_f450: 0.15 kg of payloads; with them 1.15 kg" in out
+    result = invoke("show", "quadx_cf2x", "--env", "quadx_gates")
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("quadx_cf2x:")
+    assert "gate_4: fixed (welded) to the world (a static body)" in result.output
+    assert "(task gates, course: random: moved at every reset)" in result.output
+    assert "carried by quadx_cf2x: none" in result.output
+    assert "payloads: none (env PyFlyt/QuadX-Hover-v0" in invoke("show", "--env", "quadx_hover").output
+
+
+def test_show_env_bad_input_exits_2_with_one_message(tmp_path):
+    result = invoke("show", "--env", "quadx_pole_balanc")
+    assert result.exit_code == 2
+    assert "unknown env config 'quadx_pole_balanc'. Did you mean 'quadx_pole_balance'?" in result.output
+    bad = yaml.safe_load((Path(__file__).resolve().parents[2] / "conf/env/quadx_pole_balance.yaml").read_text())
+    del bad["payloads"][0]["body"]["shapes"][0]["mass"]
+    result = invoke("show", "--env", write_yaml(tmp_path / "no_mass.yaml", bad))
+    assert result.exit_code == 2
+    assert "payloads.0.body: body.mass and inertia missing" in result.output
+    result = invoke("show")
+    assert result.exit_code == 2 and "give an airframe" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_show_env_png_draws_the_vehicle_payloads(tmp_path):
+    magenta = (255, 0, 255)  # a colour nothing else in the picture has
+    env = yaml.safe_load((Path(__file__).resolve().parents[2] / "conf/env/quadx_pole_balance.yaml").read_text())
+    env["payloads"][0]["body"]["shapes"][0].update(color=[1.0, 0.0, 1.0, 1.0], radius=0.02)
+    env_file = write_yaml(tmp_path / "magenta_pole.yaml", env)
+    pictures = {}
+    for name, extra in (("bare", []), ("pole", ["--env", env_file])):
+        out = tmp_path / f"{name}.png"
+        result = invoke("show", "quadx_f450", "--png", out, "--size", "160x120", *extra)
+        assert result.exit_code == 0, result.output
+        with Image.open(out) as image:
+            pictures[name] = np.asarray(image.convert("RGB")).astype(int)
+    assert "payloads drawn at their reset poses: pole" in result.output
+
+    def pole_pixels(image):
+        return int(np.all(np.abs(image - magenta) < 40, axis=-1).sum())
+
+    assert pole_pixels(pictures["pole"]) >= 10 and pole_pixels(pictures["bare"]) == 0

@@ -484,3 +484,32 @@ def test_ball_in_cup_dense_reward_matches_the_reference_formula():
     sparse = load_reward_preset("quadx_ball_in_cup_sparse").compile(frozenset({"ball_in_cup"}))
     ctx = StepContext(state, np.zeros(4), False, False, False, False, task_complete=True, extras=extras(caught=1.0))
     assert sparse(ctx)[0] == pytest.approx(999.9)
+
+
+# ------------------------------------------------------------------ rendering
+
+
+def _colour_pixels(image: np.ndarray, rgb) -> int:
+    """Pixels within 40 of ``rgb`` (0-255) in every channel."""
+    return int(np.all(np.abs(image.astype(int) - np.asarray(rgb)) < 40, axis=-1).sum())
+
+
+def test_rgb_array_render_shows_the_payload_bodies():
+    """The env's chase camera draws payloads: a magenta pole shows magenta pixels, recoloured green, green ones."""
+    view = {"resolution": [96, 96], "camera_distance": 2.0, "camera_height": 0.8, "fov": 60.0}
+    counts = {}
+    for name, colour in (("magenta", [1.0, 0.0, 1.0, 1.0]), ("green", [0.0, 1.0, 0.0, 1.0])):
+        pole = copy.deepcopy(POLE)
+        pole["body"]["shapes"][0]["radius"] = 0.02  # a few pixels wide at this resolution
+        pole["body"]["shapes"][0]["color"] = colour
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            env = make_env(hover_config([pole], render=view), render_mode="rgb_array")
+        env.reset(seed=0)
+        image = env.render()
+        env.close()
+        assert image.shape == (96, 96, 3) and image.dtype == np.uint8
+        counts[name] = (_colour_pixels(image, (255, 0, 255)), _colour_pixels(image, (0, 255, 0)))
+    # the pixels follow the payload's colour: they are the payload's
+    assert counts["magenta"][0] >= 20 and counts["magenta"][1] <= 5
+    assert counts["green"][1] >= 20 and counts["green"][0] <= 5
