@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -74,10 +75,38 @@ def test_a_stop_then_resume_is_bit_identical_to_the_uninterrupted_run(tmp_path, 
 
 
 def test_eval_and_replay_verify_from_the_command_line(tmp_path):
+    """Also: airframe files the listed agents name are copied into the run (one copy per
+    distinct file), so eval and replay work from the run directory alone."""
+    from pyflyt_cli.training.rundir import config_digest, load_run_config
+    from pyflyt_engine.paths import conf_dir
+
+    small, big = tmp_path / "small.yaml", tmp_path / "big.yaml"
+    small.write_text((conf_dir() / "uav" / "quadx_cf2x.yaml").read_text())
+    big.write_text((conf_dir() / "uav" / "quadx_f450.yaml").read_text())
+    agents = (
+        f"[{{uav: {small}, spawn: {{position: [-1, 0, 1]}}}}, {{uav: {big}, spawn: {{position: [1, 0, 1]}}}},"
+        f" {{uav: {small}, spawn: {{position: [0, 1, 1]}}}}]"
+    )
     # `pyflyt train` is this library call (the command's own path is tested with bad input below)
-    args = [*MA_PPO, "train.n_envs=1", "train.total_timesteps=256", "env.max_duration_seconds=2"]
-    run = train(load(args, tmp_path / "runs")).run_dir
+    args = [
+        *MA_PPO,
+        f"env.agents={agents}",
+        "train.n_envs=1",
+        "train.total_timesteps=192",
+        "train.eval_freq=192",
+        "env.max_duration_seconds=2",
+    ]
+    cfg = load(args, tmp_path / "runs")
+    digest = config_digest(cfg)
+    run = train(cfg).run_dir
     assert (run / "model.pt").is_file() and list((run / "checkpoints").glob("*.pt"))
+    assert len(list(run.glob("airframe-*.yaml"))) == 2
+    small.unlink()
+    big.unlink()
+    loaded = load_run_config(run)
+    uavs = [agent.uav for agent in loaded.env.agents]
+    assert {Path(u).parent for u in uavs} == {run} and uavs[0] == uavs[2] != uavs[1]
+    assert config_digest(loaded, run) == digest  # the copies identify as the files they copy
     metrics = read_metrics(run)
     assert metrics["/eval"] and metrics["/train/episode"]
     shown = pyflyt(["eval", str(run), "episodes=2"], cwd=tmp_path)
@@ -86,7 +115,7 @@ def test_eval_and_replay_verify_from_the_command_line(tmp_path):
     assert len(report["episodes"]) == 2 and len(report["recordings"]) == 2
     recording = run / "episodes" / report["recordings"][0]
     episode = load_episode(recording)
-    assert len(episode.vehicles) == 2  # every agent has its frame in the scene
+    assert len(episode.vehicles) == 3  # every agent has its frame in the scene
     replay = pyflyt(["replay", str(recording), "--verify"], cwd=tmp_path)
     assert replay.returncode == 0 and "verify    OK" in replay.stdout, replay.stdout + replay.stderr
 
@@ -124,3 +153,4 @@ def test_a_bad_multi_agent_config_is_one_message_exit_2(tmp_path):
 def test_the_shipped_configs_compose(name, tmp_path):
     cfg = load([f"env={name}", "algo=ppo"], tmp_path)
     assert cfg.env.multi_agent and cfg.env_name == name
+
