@@ -28,6 +28,18 @@ import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 
+def agents_per_env(env_config: Any) -> int:
+    """Vector-env slots one env of ``env_config`` fills: its agent count (1 for a single-agent env)."""
+    if not getattr(env_config, "multi_agent", False):
+        return 1
+    return len(env_config.resolved_agents())
+
+
+def step_unit(env_config: Any) -> str:
+    """What ``train.total_timesteps`` counts for ``env_config``: ``steps`` or ``agent-steps``."""
+    return "agent-steps" if getattr(env_config, "multi_agent", False) else "steps"
+
+
 class AgentSlots(gymnasium.Wrapper):
     """Per-agent bookkeeping of a :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`
     (wrapped for the agent): each step's observation rows become the slots' next
