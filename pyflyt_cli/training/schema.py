@@ -398,7 +398,10 @@ class TrainOptions(_Strict):
     total_timesteps: int = Field(ge=1, description="environment steps to train for (summed over n_envs)")
     n_envs: int = Field(ge=1, description="parallel environments (SubprocVecEnv when > 1, unless vec_env=dummy)")
     vec_env: Literal["auto", "dummy", "subproc"] = Field(
-        description="auto: subprocesses when n_envs > 1; dummy: all in this process"
+        description=(
+            "auto: subprocesses when n_envs > 1 (multi-agent envs: in this process); dummy: all in this "
+            "process; subproc: one process per env"
+        )
     )
     eval_freq: int = Field(ge=0, description="evaluate every this many environment steps (0: never)")
     eval_episodes: int = Field(ge=1, description="episodes per evaluation")

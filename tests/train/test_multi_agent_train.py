@@ -74,6 +74,54 @@ def test_a_stop_then_resume_is_bit_identical_to_the_uninterrupted_run(tmp_path, 
     assert len(reference["episodes"]) > 0  # per-agent training episodes were logged
 
 
+@pytest.mark.slow  # the training test below covers the same in the default suite
+def test_envs_in_subprocesses_step_exactly_as_in_this_process():
+    """train.vec_env=subproc for a multi-agent env: the same seed gives the same slots
+    (observations, rewards, dones, episode statistics) as the envs in this process."""
+    from pyflyt_cli.training.envs import make_vec_env
+    from pyflyt_engine.envs.config import load_env_config
+
+    config = load_env_config("ma_quadx_hover").with_overrides(agents=2, max_duration_seconds=0.5)
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1.0, 1.0, (40, 4, 4))
+    runs = []
+    for kind in ("dummy", "subproc"):
+        vec = make_vec_env(config, 2, kind)
+        try:
+            assert vec.num_envs == 4 and vec.subprocess == (kind == "subproc")
+            vec.seed(11)
+            steps = [vec.reset()]
+            for a in actions:
+                obs, rewards, dones, infos = vec.step(a)
+                episodes = [
+                    (i, info["episode"]["r"], info["episode"]["l"]) for i, info in enumerate(infos) if "episode" in info
+                ]
+                steps.append((obs, rewards, dones, episodes))
+            states = vec.env_method("episode_state")
+        finally:
+            vec.close()
+        runs.append((steps, states))
+    (dummy, dummy_states), (subproc, subproc_states) = runs
+    assert np.array_equal(dummy[0], subproc[0])
+    for a, b in zip(dummy[1:], subproc[1:]):
+        assert all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3])) and a[3] == b[3]
+    assert sum(len(step[3]) for step in dummy[1:]) >= 4  # episodes ended (and restarted) on the way
+    assert repr(dummy_states) == repr(subproc_states)
+
+
+def test_envs_in_subprocesses_train_the_same_run_and_resume_exactly(tmp_path, tmp_path_factory):
+    """train.vec_env=subproc: each env in its own process, the same numbers as in this process
+    under a seed (first rollout, updates, evaluations), and a stop + resume through the pipes
+    (episode state saved and re-simulated in the workers) still bit-identical."""
+    budget = ["train.total_timesteps=512"]
+    reference = _outcome(train(load([*MA_PPO, *budget, "train.vec_env=dummy"], tmp_path_factory.mktemp("ref"))).run_dir)
+    first = train(load([*MA_PPO, *budget, "train.vec_env=subproc"], tmp_path), callbacks=[SignalAt(45)])
+    assert first.interrupted
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted and resumed.num_timesteps == 512
+    _assert_same(_outcome(first.run_dir), reference)
+
+
 def test_eval_and_replay_verify_from_the_command_line(tmp_path):
     """Also: airframe files the listed agents name are copied into the run (one copy per
     distinct file), so eval and replay work from the run directory alone."""
@@ -153,4 +201,3 @@ def test_a_bad_multi_agent_config_is_one_message_exit_2(tmp_path):
 def test_the_shipped_configs_compose(name, tmp_path):
     cfg = load([f"env={name}", "algo=ppo"], tmp_path)
     assert cfg.env.multi_agent and cfg.env_name == name
-
