@@ -128,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3, help="timings per case and package (median kept)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference-python", default=None, help="interpreter with PyFlyt 0.29.0 installed")
+    parser.add_argument("--no-reference", action="store_true", help="time only this package")
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
     parser.add_argument("--cpu-time", action="store_true", help="time with process CPU time instead of wall time")
     parser.add_argument("--cases", nargs="+", default=None, help="only these cases, KIND:SIZE (hover:4 dogfight:2)")
@@ -156,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
         if unknown:
             parser.error(f"unknown case(s) {unknown}; known: {' '.join(f'{k}:{n}' for k, n in CASES)}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    python = _reference_python(args.reference_python)
+    python = None if args.no_reference else _reference_python(args.reference_python)
     rows = []
     for kind, size in cases:
         mine, theirs = [], []
