@@ -134,23 +134,28 @@ class LocalEnv:
 def worker(remote: Any, parent_remote: Any, env_fn: Callable[[], gymnasium.Env]) -> None:
     """A subprocess of :class:`~pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`: one env,
     driven over a pipe (commands: the methods of :class:`LocalEnv`)."""
+    import traceback
+
     parent_remote.close()
-    local = None
+    local, failure = None, None
     try:
-        local = LocalEnv(env_fn)
+        try:
+            local = LocalEnv(env_fn)
+        except Exception as exc:  # noqa: BLE001 -- reported as the answer to every command
+            failure = f"building the env failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}"
         while True:
             command, data = remote.recv()
             if command == "close":
                 break
             try:
+                if local is None:
+                    raise RuntimeError(failure)
                 if command == "step":
                     local.step_send(data)
                     out = local.step_recv()
                 else:
                     out = getattr(local, command)(*data)
             except Exception as exc:  # noqa: BLE001 -- any failure is reported to the trainer, which raises it
-                import traceback
-
                 remote.send(("error", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"))
             else:
                 remote.send(("ok", out))

@@ -61,7 +61,12 @@ class _RemoteEnv:
         return self._answer()
 
     def _answer(self) -> Any:
-        status, out = self.remote.recv()
+        try:
+            status, out = self.remote.recv()
+        except (EOFError, ConnectionResetError) as exc:
+            raise RuntimeError(
+                f"an env subprocess (pid {self.process.pid}) exited unexpectedly (exit code {self.process.exitcode})"
+            ) from exc
         if status == "error":
             raise RuntimeError(f"an env subprocess failed: {out}")
         return out
