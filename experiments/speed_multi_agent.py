@@ -16,7 +16,8 @@ $PYFLYT_REFERENCE_PYTHON); without one, only our figures are printed.  Each case
 timed ``--repeats`` times alternately in both packages; the median is kept.  With
 ``--cpu-time`` the timings are the CPU time of the timing process (``time.process_time``)
 instead of wall time: on a machine other jobs load, wall time counts their share too, the
-process's own CPU time much less so.  ``--cases`` picks some cases (e.g. ``dogfight:2``).
+process's own CPU time much less so.  ``--cases`` picks some cases (e.g. ``dogfight:2``);
+``--no-reference`` times only this package (e.g. two checkouts before and after a change).
 
     python experiments/speed_multi_agent.py [--steps 1500] [--repeats 3] [--markdown] [--cpu-time]
 """
