@@ -24,6 +24,7 @@ import argparse
 import platform
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -105,8 +106,9 @@ class HoverProbe(BaseCallback):
             self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
 
 
-def run(seed: int, budget: int | None, every: int, episodes: int, output: Path) -> dict:
+def run(seed: int, budget: int | None, every: int, episodes: int, output: Path, extra: Sequence[str] = ()) -> dict:
     overrides = [
+        *extra,
         f"seed={seed}",
         f"train.output_dir={output}",
         "train.progress_bar=false",
@@ -138,13 +140,14 @@ def main() -> None:
     parser.add_argument("--probe-every", type=int, default=10_000)
     parser.add_argument("--episodes", type=int, default=10, help="episodes per probe")
     parser.add_argument("--no-write", action="store_true", help="do not append to the results file")
+    parser.add_argument("--set", nargs="*", default=[], help="config overrides, e.g. train.eval_freq=0")
     args = parser.parse_args()
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
-            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp)))
+            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set))
 
     cfg = compose_config()
     lines = [

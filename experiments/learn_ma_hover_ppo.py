@@ -11,12 +11,13 @@ episode: no crash for the whole 10 s and a mean distance to its own hover point 
 Reported per seed: the first probe that hovers (agent-steps, wall-clock, and without the
 probes' cost); across seeds: the IQM of the final policies' mean per-agent return with
 its 95 % bootstrap interval (rliable).  The comparison asked for is *4 independent
-single-agent runs*: ``experiments/results/learn_hover_ppo.md`` records what one takes on
-this machine (90-100k steps, 150-180 s), so four take about four times that, run one
-after the other (or twice that on both cores).  Results are appended to
-``experiments/results/learn_ma_hover_ppo.md``.
+single-agent runs*, measured the same way with ``experiments/learn_hover_ppo.py --seeds
+0 1 2 3 --episodes 3 --set train.eval_freq=0 train.vec_env=dummy`` on the same machine
+(``experiments/results/learn_ma_hover_ppo.md`` has both).  Results are appended to
+``experiments/results/learn_ma_hover_ppo.md``; ``--set`` passes config overrides (e.g.
+to try a tuning: ``--set algo.n_steps=256 algo.n_epochs=10``).
 
-    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000]
+    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -113,8 +114,9 @@ class HoverProbe(BaseCallback):
             self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
 
 
-def run(seed: int, budget: int, every: int, episodes: int, output: Path) -> dict:
+def run(seed: int, budget: int, every: int, episodes: int, output: Path, extra: list[str]) -> dict:
     overrides = [
+        *extra,
         f"seed={seed}",
         f"train.output_dir={output}",
         "train.progress_bar=false",
@@ -144,6 +146,7 @@ def main() -> None:
     parser.add_argument("--probe-every", type=int, default=40_000)
     parser.add_argument("--episodes", type=int, default=3, help="episodes per probe")
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--set", nargs="*", default=[], help="config overrides, e.g. algo.n_epochs=10")
     args = parser.parse_args()
 
     from pyflyt_cli.plotting.stats import iqm
@@ -152,7 +155,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
-            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp)))
+            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set))
     finals = np.array([[r["final"]["mean_return"]] for r in rows])
     estimate = iqm({"ppo_shared": finals})["ppo_shared"]
     lines = [

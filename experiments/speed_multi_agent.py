@@ -13,9 +13,13 @@ The reference (PyFlyt 0.29.0: ``MAQuadXHoverEnv``, ``MAFixedwingDogfightEnv`` wi
 ``team_size`` 1 and 2, agent_hz set to 30) runs in its own interpreter, given by
 ``--reference-python`` (default ``/work/refvenv/bin/python`` when it exists, or
 $PYFLYT_REFERENCE_PYTHON); without one, only our figures are printed.  Each case is
-timed ``--repeats`` times alternately in both packages; the median is kept.
+timed ``--repeats`` times alternately in both packages; the median is kept.  With
+``--cpu-time`` the timings are the CPU time of the timing process (``time.process_time``)
+instead of wall time: on a machine other jobs load, wall time counts their share too, the
+process's own CPU time much less so.  ``--cases`` picks some cases (e.g. ``dogfight:2``);
+``--no-reference`` times only this package (e.g. two checkouts before and after a change).
 
-    python experiments/speed_multi_agent.py [--steps 1500] [--repeats 3] [--markdown]
+    python experiments/speed_multi_agent.py [--steps 1500] [--repeats 3] [--markdown] [--cpu-time]
 """
 
 from __future__ import annotations
@@ -40,8 +44,13 @@ def _label(kind: str, size: int) -> str:
     return f"MAQuadX-Hover N={size}" if kind == "hover" else f"MAFixedwing-Dogfight {size}v{size}"
 
 
-def time_env(env, steps: int, seed: int) -> tuple[float, float]:
-    """(env steps/s, agent-steps/s) over ``steps`` parallel steps with random actions."""
+CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
+
+
+def time_env(env, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
+    """(env steps/s, agent-steps/s) over ``steps`` parallel steps with random actions,
+    timed by the ``clock`` named in :data:`CLOCKS`."""
+    now = CLOCKS[clock]
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
     first = env.possible_agents[0]
@@ -59,13 +68,13 @@ def time_env(env, steps: int, seed: int) -> tuple[float, float]:
         return agent_steps
 
     run(50)  # warm up
-    start = time.perf_counter()
+    start = now()
     agent_steps = run(steps)
-    elapsed = time.perf_counter() - start
+    elapsed = now() - start
     return steps / elapsed, agent_steps / elapsed
 
 
-def ours(kind: str, size: int, steps: int, seed: int) -> tuple[float, float]:
+def ours(kind: str, size: int, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
     from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0, ma_quadx_hover_v0
 
     env = (
@@ -74,12 +83,12 @@ def ours(kind: str, size: int, steps: int, seed: int) -> tuple[float, float]:
         else ma_fixedwing_dogfight_v0.parallel_env(agents=2 * size)
     )
     try:
-        return time_env(env, steps, seed)
+        return time_env(env, steps, seed, clock)
     finally:
         env.close()
 
 
-def reference(kind: str, size: int, steps: int, seed: int) -> tuple[float, float]:
+def reference(kind: str, size: int, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
     """Runs inside the reference interpreter (``--case``)."""
     if kind == "hover":
         from PyFlyt.pz_envs import MAQuadXHoverEnvV2
@@ -96,7 +105,7 @@ def reference(kind: str, size: int, steps: int, seed: int) -> tuple[float, float
 
         env = MAFixedwingDogfightEnvV2(team_size=size, agent_hz=30)
     try:
-        return time_env(env, steps, seed)
+        return time_env(env, steps, seed, clock)
     finally:
         env.close()
 
@@ -108,8 +117,8 @@ def _reference_python(given: str | None) -> str | None:
     return None
 
 
-def _run_reference(python: str, kind: str, size: int, steps: int, seed: int) -> tuple[float, float]:
-    code = [python, str(Path(__file__).resolve()), "--case", kind, str(size), str(steps), str(seed)]
+def _run_reference(python: str, kind: str, size: int, steps: int, seed: int, clock: str) -> tuple[float, float]:
+    code = [python, str(Path(__file__).resolve()), "--case", kind, str(size), str(steps), str(seed), clock]
     out = subprocess.run(code, capture_output=True, text=True, check=True, cwd="/")
     return tuple(json.loads(out.stdout.strip().splitlines()[-1]))  # type: ignore[return-value]
 
@@ -120,24 +129,43 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3, help="timings per case and package (median kept)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference-python", default=None, help="interpreter with PyFlyt 0.29.0 installed")
+    parser.add_argument("--no-reference", action="store_true", help="time only this package")
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
-    parser.add_argument("--case", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
+    parser.add_argument("--cpu-time", action="store_true", help="time with process CPU time instead of wall time")
+    parser.add_argument("--cases", nargs="+", default=None, help="only these cases, KIND:SIZE (hover:4 dogfight:2)")
+    parser.add_argument("--case", nargs=5, metavar=("KIND", "SIZE", "STEPS", "SEED", "CLOCK"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.case:  # inside the reference interpreter
-        kind, size, steps, seed = args.case[0], int(args.case[1]), int(args.case[2]), int(args.case[3])
-        print(json.dumps(reference(kind, size, steps, seed)))
+        kind, size, steps, seed, clock = (
+            args.case[0],
+            int(args.case[1]),
+            int(args.case[2]),
+            int(args.case[3]),
+            args.case[4],
+        )
+        print(json.dumps(reference(kind, size, steps, seed, clock)))
         return 0
     if args.steps < 1 or args.repeats < 1:
         parser.error("--steps and --repeats must be >= 1")
+    clock = "cpu" if args.cpu_time else "wall"
+    cases = CASES
+    if args.cases:
+        try:
+            cases = [(c.split(":")[0], int(c.split(":")[1])) for c in args.cases]
+        except (IndexError, ValueError):
+            parser.error("--cases takes KIND:SIZE entries, e.g. hover:4 dogfight:2")
+        unknown = [c for c in cases if c not in CASES]
+        if unknown:
+            parser.error(f"unknown case(s) {unknown}; known: {' '.join(f'{k}:{n}' for k, n in CASES)}")
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    python = _reference_python(args.reference_python)
+    python = None if args.no_reference else _reference_python(args.reference_python)
     rows = []
-    for kind, size in CASES:
+    for kind, size in cases:
         mine, theirs = [], []
         for r in range(args.repeats):
-            mine.append(ours(kind, size, args.steps, args.seed + r))
+            mine.append(ours(kind, size, args.steps, args.seed + r, clock))
             if python:
-                theirs.append(_run_reference(python, kind, size, args.steps, args.seed + r))
+                theirs.append(_run_reference(python, kind, size, args.steps, args.seed + r, clock))
         m_env = statistics.median(x[0] for x in mine)
         m_agent = statistics.median(x[1] for x in mine)
         r_env = statistics.median(x[0] for x in theirs) if theirs else None
@@ -171,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines))
     print(
         f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores; random actions, agent 30 Hz, "
-        f"{args.steps} steps x {args.repeats} repeats (median); reference: {python or 'not available'}"
+        f"{args.steps} steps x {args.repeats} repeats (median), {'CPU' if args.cpu_time else 'wall'} time; "
+        f"reference: {python or 'not available'}; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}"
     )
     return 0
 

@@ -136,6 +136,8 @@ class PeriodicEvaluation(EventCallback):
         super().__init__(callback_after_eval, verbose=0)
         self.stop = stop
         self.log = log
+        #: what the steps count in the log line (``agent-steps`` for a multi-agent env)
+        self.unit = "steps"
         self.total = total
         self.env = env
         self.run_dir = run_dir
@@ -211,10 +213,11 @@ class PeriodicEvaluation(EventCallback):
         self.last_mean_reward = summary["mean_return"]
         if self.log is not None:
             of = f"/{self.total}" if self.total else ""
+            label = "step" if self.unit == "steps" else self.unit
             self.log(
-                f"step {step}{of}: eval return {summary['mean_return']:.2f} ± {summary['std_return']:.2f}, "
+                f"{label} {step}{of}: eval return {summary['mean_return']:.2f} ± {summary['std_return']:.2f}, "
                 f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
-                f"({trained / elapsed if elapsed > 0 else 0:.0f} steps/s)"
+                f"({trained / elapsed if elapsed > 0 else 0:.0f} {self.unit}/s)"
             )
         if summary["mean_return"] > self.best_mean_reward:
             self.best_mean_reward = summary["mean_return"]
@@ -296,9 +299,10 @@ class Checkpointer(BaseCallback):
 class ProgressBar(BaseCallback):
     """A tqdm bar over the run's total steps: steps/s, elapsed, ETA, recent mean return."""
 
-    def __init__(self, total: int, episode_metrics: EpisodeMetrics | None = None) -> None:
+    def __init__(self, total: int, episode_metrics: EpisodeMetrics | None = None, unit: str = "steps") -> None:
         super().__init__()
         self.total = total
+        self.unit = unit[:-1]  # tqdm's unit is singular
         self.episode_metrics = episode_metrics
         self.bar: Any = None
         self._shown = 0
@@ -309,7 +313,7 @@ class ProgressBar(BaseCallback):
 
         self._shown = self.model.num_timesteps
         self.bar = tqdm(
-            total=self.total, initial=self._shown, unit="step", unit_scale=True, dynamic_ncols=True, smoothing=0.05
+            total=self.total, initial=self._shown, unit=self.unit, unit_scale=True, dynamic_ncols=True, smoothing=0.05
         )
 
     def _on_step(self) -> bool:

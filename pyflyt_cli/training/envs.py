@@ -212,7 +212,7 @@ class EnvFactory:
         env = wrap_for_agent(env)
         if getattr(self.config, "multi_agent", False):
             if self.monitor:  # training: per-agent slots and statistics (pyflyt_cli.training.multi_agent)
-                from pyflyt_cli.training.multi_agent import AgentSlots
+                from pyflyt_cli.training.agent_slots import AgentSlots
 
                 env = AgentSlots(env)
         elif self.monitor:
@@ -227,14 +227,22 @@ class EnvFactory:
 def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
     """``n_envs`` training environments: a ``SubprocVecEnv`` when ``n_envs > 1`` (``kind="auto"``).
 
+    A multi-agent env gives an :class:`~pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`
+    (a slot per agent), its envs in this process for ``"auto"`` and ``"dummy"``, each in its
+    own process for ``"subproc"``.
+
     Seeds are set by the algorithm (``seed + i`` for env ``i``, at the first reset).
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    if getattr(config, "multi_agent", False):  # one shared policy: a slot per agent, envs in this process
+    if getattr(config, "multi_agent", False):
+        # one shared policy: a slot per agent; the envs run in this process unless asked for
+        # subprocesses (kind="subproc"): an env of N agents already fills N slots
         from pyflyt_cli.training.multi_agent import AgentSlotsVecEnv
 
-        return AgentSlotsVecEnv([EnvFactory(config, resumable=True) for _ in range(n_envs)])
+        subproc = kind == "subproc"
+        factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
+        return AgentSlotsVecEnv(factories, subprocess=subproc)
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
     factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
     if subproc:

@@ -411,16 +411,20 @@ class _Run:
         (only when someone reads the log: the CLI)."""
         if self.log is _silent:
             return
+        from pyflyt_cli.training.multi_agent import agents_per_env, step_unit
         from pyflyt_cli.training.timing import estimate_seconds, format_duration, measure_costs
 
         cfg, opts = self.cfg, self.cfg.train
-        text = f"budget: {opts.total_timesteps} steps of {cfg.env_name} with {cfg.algo.name} on {opts.n_envs} env(s)"
+        unit, agents = step_unit(cfg.env), agents_per_env(cfg.env)
+        text = f"budget: {opts.total_timesteps} {unit} of {cfg.env_name} with {cfg.algo.name} on {opts.n_envs} env(s)"
+        if agents > 1:
+            text += f" of {agents} agents (one shared policy; {opts.total_timesteps // agents} env steps)"
         if start_step:
             text += f", from step {start_step}"
         if opts.eval_freq:
-            text += f"; evaluation every {opts.eval_freq} steps ({opts.eval_episodes} episodes)"
+            text += f"; evaluation every {opts.eval_freq} {unit} ({opts.eval_episodes} episodes)"
         if opts.checkpoint_freq:
-            text += f"; checkpoint every {opts.checkpoint_freq} steps"
+            text += f"; checkpoint every {opts.checkpoint_freq} {unit}"
         self.log(text)
         costs = measure_costs(cfg)
         if costs is None:
@@ -429,7 +433,7 @@ class _Run:
         seconds = estimate_seconds(cfg, costs, start_step)
         self.log(
             f"ETA: about {format_duration(seconds)} (measured just now on a copy of the model: "
-            f"{1e3 * costs.collect:.2f} ms per collected step, {1e3 * costs.update:.2f} ms of updates per step"
+            f"{1e3 * costs.collect:.2f} ms per collected {unit[:-1]}, {1e3 * costs.update:.2f} ms of updates per {unit[:-1]}"
             + (f" after learning_starts={cfg.algo.learning_starts}" if getattr(cfg.algo, "learning_starts", 0) else "")
             + ")"
         )
@@ -500,6 +504,9 @@ class _Run:
                 total=opts.total_timesteps,
                 stop=stop,
             )
+            from pyflyt_cli.training.multi_agent import step_unit
+
+            self.evaluation.unit = step_unit(cfg.env)
             for c in children:  # SB3 sets the parent of a single child only; every child reads it
                 c.parent = self.evaluation
             if "evaluation" in saved:
@@ -515,10 +522,17 @@ class _Run:
         if self.evaluation is not None:
             self.evaluation.phases = self.phases
         callbacks.append(self.phases)
+        from pyflyt_cli.training.multi_agent import step_unit
+
+        unit = step_unit(cfg.env)
         if show_bar:
-            callbacks.append(ProgressBar(_expected_end(cfg), episodes))
+            callbacks.append(ProgressBar(_expected_end(cfg), episodes, unit=unit))
         elif self.log is not _silent:  # a log file or a batch job: a line at least every 30 s
-            callbacks.append(ProgressLines(_expected_end(cfg), self.log, self.phases, episode_returns=lambda: episodes.recent))
+            callbacks.append(
+                ProgressLines(
+                    _expected_end(cfg), self.log, self.phases, episode_returns=lambda: episodes.recent, unit=unit
+                )
+            )
         callbacks.extend(extra)
         return RunCallbacks(callbacks, stop)
 
@@ -645,7 +659,9 @@ class _Run:
             best_mean_return=None if ev is None or not math.isfinite(ev.best_mean_reward) else ev.best_mean_reward,
         )
         if not interrupted:
-            self.log(_summary(result))
+            from pyflyt_cli.training.multi_agent import step_unit
+
+            self.log(_summary(result, step_unit(self.cfg.env)))
             if self.phases is not None and elapsed > 0:
                 from pyflyt_cli.training.timing import describe_split
 
@@ -654,14 +670,20 @@ class _Run:
 
 
 def _expected_end(cfg: TrainConfig) -> int:
-    """The step count a run ends at: the budget rounded up to whole rollouts (on-policy) or collection rounds."""
+    """The step count a run ends at: the budget rounded up to whole rollouts (on-policy) or collection rounds
+    (a multi-agent env fills a vector-env slot per agent)."""
+    from pyflyt_cli.training.multi_agent import agents_per_env
+
     per_round = getattr(cfg.algo, "n_steps", None) or getattr(cfg.algo, "train_freq", 1)
-    chunk = per_round * cfg.train.n_envs
+    chunk = per_round * cfg.train.n_envs * agents_per_env(cfg.env)
     return -(-cfg.train.total_timesteps // chunk) * chunk
 
 
-def _summary(result: RunResult) -> str:
-    text = f"done: {result.num_timesteps} steps, {result.elapsed:.1f} s in training ({result.steps_per_second:.0f} steps/s)"
+def _summary(result: RunResult, unit: str = "steps") -> str:
+    text = (
+        f"done: {result.num_timesteps} {unit}, {result.elapsed:.1f} s in training "
+        f"({result.steps_per_second:.0f} {unit}/s)"
+    )
     if result.last_eval is not None:
         e = result.last_eval
         text += (

@@ -14,12 +14,13 @@ when it reached the time limit) and its return, length and success in ``info["ep
 then, until its env's episode ends, the slot is *padding* -- zero observation, zero
 reward -- the same convention as SuperSuit's ``black_death`` wrapper; the padding ends
 (``done``, no statistics) when the env starts its next episode.  All N slots of an env
-share its simulation: all envs run in this process.
+share its simulation.  The envs run in this process, or each in its own process with
+``train.vec_env=subproc`` (the same numbers under a seed; the worker side is
+:mod:`pyflyt_cli.training.agent_slots`).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -27,54 +28,83 @@ import gymnasium
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from pyflyt_cli.training.agent_slots import AgentSlots, LocalEnv, worker
 
-class AgentSlots(gymnasium.Wrapper):
-    """Per-agent bookkeeping of a :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`
-    (wrapped for the agent): each step's observation rows become the slots' next
-    observations (zeros for retired agents), and ``info["slots"]`` carries per agent the
-    reward, ``done``, the terminal observation and, for an agent whose episode ended, its
-    ``episode`` statistics.  Kept inside :class:`~pyflyt_cli.training.envs.ResumableEpisode`,
-    so re-simulating an episode rebuilds this state too.
-    """
+__all__ = ["AgentSlots", "AgentSlotsVecEnv", "agents_per_env", "step_unit"]
 
-    def __init__(self, env: gymnasium.Env) -> None:
-        super().__init__(env)
-        self.num_agents = int(env.unwrapped.num_agents)
-        self._returns = np.zeros(self.num_agents)
-        self._lengths = np.zeros(self.num_agents, dtype=np.int64)
-        self._started = time.time()
 
-    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        obs, info = self.env.reset(**kwargs)
-        self._returns[:] = 0.0
-        self._lengths[:] = 0
-        return obs, info
+def agents_per_env(env_config: Any) -> int:
+    """Vector-env slots one env of ``env_config`` fills: its agent count (1 for a single-agent env)."""
+    if not getattr(env_config, "multi_agent", False):
+        return 1
+    return len(env_config.resolved_agents())
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        active = info["agent_active"]
-        ended = active & (info["agent_terminated"] | info["agent_truncated"])
-        rewards = np.where(active, info["agent_rewards"], 0.0)
-        self._returns += rewards
-        self._lengths += active
-        slots_obs = np.array(obs, copy=True)
-        episodes: dict[int, dict[str, Any]] = {}
-        names = self.env.unwrapped.agent_names
-        for i in np.flatnonzero(ended):
-            agent_info = info["agent_infos"][names[i]]
-            episodes[int(i)] = {
-                "terminal_observation": slots_obs[i].copy(),
-                "TimeLimit.truncated": bool(info["agent_truncated"][i] and not info["agent_terminated"][i]),
-                "episode": {
-                    "r": float(self._returns[i]),
-                    "l": int(self._lengths[i]),
-                    "t": round(time.time() - self._started, 6),
-                    "success": bool(agent_info.get("success", False)),
-                },
-            }
-        slots_obs[~active | ended] = 0.0
-        info["slots"] = {"rewards": rewards, "ended": ended, "active": active, "episodes": episodes, "obs": slots_obs}
-        return slots_obs, reward, terminated, truncated, info
+
+def step_unit(env_config: Any) -> str:
+    """What ``train.total_timesteps`` counts for ``env_config``: ``steps`` or ``agent-steps``."""
+    return "agent-steps" if getattr(env_config, "multi_agent", False) else "steps"
+
+
+class _RemoteEnv:
+    """An env of :class:`AgentSlotsVecEnv` in its own process (``train.vec_env=subproc``)."""
+
+    def __init__(self, env_fn: Callable[[], gymnasium.Env], context: Any) -> None:
+        self.remote, worker_remote = context.Pipe()
+        # env_fn is an EnvFactory: plain pickle carries it (no cloudpickle, no SB3 in the worker)
+        self.process = context.Process(target=worker, args=(worker_remote, self.remote, env_fn), daemon=True)
+        self.process.start()
+        worker_remote.close()
+        self.closed = False
+
+    def _ask(self, command: str, *data: Any) -> Any:
+        self.remote.send((command, data))
+        return self._answer()
+
+    def _answer(self) -> Any:
+        try:
+            status, out = self.remote.recv()
+        except (EOFError, ConnectionResetError) as exc:
+            raise RuntimeError(
+                f"an env subprocess (pid {self.process.pid}) exited unexpectedly (exit code {self.process.exitcode})"
+            ) from exc
+        if status == "error":
+            raise RuntimeError(f"an env subprocess failed: {out}")
+        return out
+
+    def reset(self, seed: int | None, options: dict | None) -> np.ndarray:
+        return self._ask("reset", seed, options)
+
+    def step_send(self, actions: np.ndarray) -> None:
+        self.remote.send(("step", actions))
+
+    def step_recv(self) -> Any:
+        return self._answer()
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> Any:
+        return self._ask("call_packed", name, args, kwargs)
+
+    def num_agents(self) -> int:
+        return self._ask("num_agents")
+
+    def get(self, name: str) -> Any:
+        return self._ask("get", name)
+
+    def set(self, name: str, value: Any) -> None:
+        self._ask("set", name, value)
+
+    def is_wrapped(self, wrapper: tuple[str, str]) -> bool:
+        return self._ask("is_wrapped", wrapper)
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self.remote.send(("close", ()))
+        except (BrokenPipeError, OSError):
+            pass
+        self.process.join()
+        self.remote.close()
 
 
 class AgentSlotsVecEnv(VecEnv):
@@ -83,17 +113,43 @@ class AgentSlotsVecEnv(VecEnv):
     Slot ``k * N + i`` is agent ``i`` of env ``k``.  Env ``k`` is reset with ``seed + k``
     at the first reset after :meth:`seed`, later with its continuing random streams.
 
+    With ``subprocess=True`` every env runs in its own process (``train.vec_env=subproc``),
+    stepped in parallel; each env's computation is the same as in this process, so a seed
+    gives the same numbers either way.
+
     ``env_method("episode_state")`` gives, for every slot, the state of its env's episode
     in progress; ``env_method("restore_episode", state, indices=[slot])`` re-simulates the
     env at its first slot (agent 0) and returns each slot's row of the rebuilt observation
     (slots are restored in order, as :mod:`pyflyt_cli.training.continuity` does).
     """
 
-    def __init__(self, env_fns: Sequence[Callable[[], gymnasium.Env]]) -> None:
-        self.envs = [fn() for fn in env_fns]
+    def __init__(self, env_fns: Sequence[Callable[[], gymnasium.Env]], subprocess: bool = False) -> None:
+        if subprocess:
+            import multiprocessing
+
+            methods = multiprocessing.get_all_start_methods()
+            context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+            if "forkserver" in methods:  # workers fork from a server that imported the env code once
+                context.set_forkserver_preload(
+                    [
+                        "pyflyt_cli.training.agent_slots",
+                        "pyflyt_cli.training.envs",
+                        "pyflyt_engine.world",  # with scipy.signal (seconds to import)
+                        "pyflyt_engine.envs.multi_agent",
+                    ]
+                )
+            self.envs: list[Any] = [_RemoteEnv(fn, context) for fn in env_fns]
+        else:
+            self.envs = [LocalEnv(fn) for fn in env_fns]
+        self.subprocess = subprocess
         first = self.envs[0]
-        self.agents_per_env = int(first.unwrapped.num_agents)
-        super().__init__(len(self.envs) * self.agents_per_env, first.observation_space, first.action_space)
+        try:
+            self.agents_per_env = first.num_agents()
+            observation_space, action_space = first.get("observation_space"), first.get("action_space")
+        except Exception:
+            self.close()
+            raise
+        super().__init__(len(self.envs) * self.agents_per_env, observation_space, action_space)
         self._obs = np.zeros((self.num_envs, *self.observation_space.shape), dtype=self.observation_space.dtype)
         self._actions: np.ndarray | None = None
         self._restored: dict[int, np.ndarray] = {}
@@ -103,8 +159,7 @@ class AgentSlotsVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         n = self.agents_per_env
         for k, env in enumerate(self.envs):
-            obs, _ = env.reset(seed=self._seeds[k], options=self._options[k] or None)
-            self._obs[k * n : (k + 1) * n] = obs
+            self._obs[k * n : (k + 1) * n] = env.reset(self._seeds[k], self._options[k] or None)
         self._reset_seeds()
         self._reset_options()
         return self._obs.copy()
@@ -116,26 +171,17 @@ class AgentSlotsVecEnv(VecEnv):
         n = self.agents_per_env
         rewards = np.zeros(self.num_envs, dtype=np.float32)
         dones = np.zeros(self.num_envs, dtype=bool)
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        infos: list[dict[str, Any]] = []
         assert self._actions is not None
+        for k, env in enumerate(self.envs):  # all envs step at once when they are subprocesses
+            env.step_send(self._actions[k * n : (k + 1) * n])
         for k, env in enumerate(self.envs):
             rows = slice(k * n, (k + 1) * n)
-            obs, _, terminated, truncated, info = env.step(self._actions[rows])
-            slots = info["slots"]
-            rewards[rows] = slots["rewards"]
-            dones[rows] = slots["ended"]
-            for i, extra in slots["episodes"].items():
-                infos[k * n + i].update(extra)
+            obs, env_rewards, env_dones, env_infos = env.step_recv()
             self._obs[rows] = obs
-            if terminated or truncated:
-                # padding slots (agents retired at an earlier step) end with the episode
-                padding = ~slots["active"]
-                for i in np.flatnonzero(padding):
-                    infos[k * n + i].update(
-                        {"terminal_observation": np.zeros_like(obs[i]), "TimeLimit.truncated": False}
-                    )
-                dones[rows] |= padding
-                self._obs[rows], _ = env.reset()
+            rewards[rows] = env_rewards
+            dones[rows] = env_dones
+            infos.extend(env_infos)
         return self._obs.copy(), rewards, dones, infos
 
     def close(self) -> None:
@@ -143,11 +189,11 @@ class AgentSlotsVecEnv(VecEnv):
             env.close()
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        return [getattr(self.envs[slot // self.agents_per_env], attr_name) for slot in self._get_indices(indices)]
+        return [self.envs[slot // self.agents_per_env].get(attr_name) for slot in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         for k in sorted({slot // self.agents_per_env for slot in self._get_indices(indices)}):
-            setattr(self.envs[k], attr_name, value)
+            self.envs[k].set(attr_name, value)
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
         n = self.agents_per_env
@@ -156,22 +202,18 @@ class AgentSlotsVecEnv(VecEnv):
             k, i = divmod(slot, n)
             if method_name == "restore_episode":
                 if i == 0:
-                    self._restored[k] = np.asarray(self.envs[k].restore_episode(*method_args, **method_kwargs))
+                    self._restored[k] = np.asarray(self.envs[k].call("restore_episode", *method_args, **method_kwargs))
                     self._obs[k * n : (k + 1) * n] = self._restored[k]
                 if k not in self._restored:
                     raise RuntimeError(f"restore slot {k * n} (agent 0 of env {k}) before slot {slot}")
                 out.append(self._restored[k][i])
             else:
-                out.append(getattr(self.envs[k], method_name)(*method_args, **method_kwargs))
+                out.append(self.envs[k].call(method_name, *method_args, **method_kwargs))
         return out
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
-        from stable_baselines3.common import env_util
-
-        return [
-            env_util.is_wrapped(self.envs[slot // self.agents_per_env], wrapper_class)
-            for slot in self._get_indices(indices)
-        ]
+        name = (wrapper_class.__module__, wrapper_class.__qualname__)
+        return [self.envs[slot // self.agents_per_env].is_wrapped(name) for slot in self._get_indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [env.render() for env in self.envs]
+        return [env.call("render") for env in self.envs]

@@ -15,6 +15,8 @@
         episodes/            ep_<NNNN>.mcap written by `pyflyt eval`
         eval.json            the last `pyflyt eval` summary
         airframe.yaml        copy of a user airframe file, if the env named one by path
+        airframe-<sha>.yaml  multi-agent envs: a copy of each airframe file an agent names by
+                             path (<sha> = the first 12 hex digits of its SHA-256)
 
 Directories are created with ``mkdir(exist_ok=False)``: two runs started in the same
 second get ``...-seed0`` and ``...-seed0-1``, never the same directory.  Files are written
@@ -195,11 +197,24 @@ def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str]
     }
 
 
+def _is_airframe_path(uav: Any) -> bool:
+    """An airframe named by a file path (not a conf/uav name)."""
+    return isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav or Path(uav).is_file())
+
+
+def _agent_list(env: dict[str, Any]) -> list[dict[str, Any]]:
+    """The listed agents of a multi-agent env's data (none for a count or a single-agent env)."""
+    agents = env.get("agents")
+    return [a for a in agents if isinstance(a, dict)] if isinstance(agents, list) else []
+
+
 def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with files the env names by path made part of the run directory.
 
     A reward preset given as a path is inlined; an airframe given as a path is copied to
-    ``airframe.yaml`` (reloaded relative to the run directory by :func:`load_run_config`).
+    ``airframe.yaml``, and each airframe a listed agent of a multi-agent env names by path
+    to ``airframe-<sha>.yaml`` (one copy per distinct file content); all are reloaded
+    relative to the run directory by :func:`load_run_config`.
     """
     from pyflyt_engine.envs.config import load_reward_preset
 
@@ -212,6 +227,17 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
         atomic_write(run_dir / AIRFRAME_COPY, Path(env.uav).read_bytes())
         update["uav"] = str(run_dir / AIRFRAME_COPY)
+    agents = getattr(env, "agents", None)
+    if isinstance(agents, list) and any(_is_airframe_path(a.uav) for a in agents):
+        listed = [a.model_dump(mode="json") for a in agents]
+        for agent in listed:
+            if _is_airframe_path(agent.get("uav")):
+                data = Path(agent["uav"]).read_bytes()
+                copy = run_dir / f"airframe-{hashlib.sha256(data).hexdigest()[:12]}.yaml"
+                if not copy.exists():
+                    atomic_write(copy, data)
+                agent["uav"] = str(copy)
+        update["agents"] = listed
     if not update:
         return cfg
     data = cfg.model_dump(mode="json")
@@ -253,15 +279,23 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     walk(data, "")
     for key in NON_IDENTITY_KEYS:
         flat.pop(key, None)
-    uav = flat.get("env.uav")
-    if isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav):
+    def file_identity(uav: Any) -> Any:
+        if not (isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav)):
+            return uav
         path = Path(uav)
         if not path.is_absolute() and run_dir is not None:
             path = run_dir / path
         try:
-            flat["env.uav"] = "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
+            return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
         except OSError:
-            pass  # a missing file keeps its name: it then differs from any readable one
+            return uav  # a missing file keeps its name: it then differs from any readable one
+
+    if "env.uav" in flat:
+        flat["env.uav"] = file_identity(flat["env.uav"])
+    if isinstance(flat.get("env.agents"), list):  # listed agents of a multi-agent env
+        flat["env.agents"] = [
+            {**a, "uav": file_identity(a.get("uav"))} if isinstance(a, dict) else a for a in flat["env.agents"]
+        ]
     return flat
 
 
@@ -281,6 +315,10 @@ def save_config(cfg: TrainConfig, run_dir: Path) -> None:
     uav = Path(data["env"]["uav"])
     if uav.is_absolute() and uav.parent == run_dir:
         data["env"]["uav"] = uav.name
+    for agent in _agent_list(data["env"]):
+        if isinstance(agent.get("uav"), str) and Path(agent["uav"]).is_absolute():
+            if Path(agent["uav"]).parent == run_dir:
+                agent["uav"] = Path(agent["uav"]).name
     write_yaml(run_dir / CONFIG_FILE, data, header)
 
 
@@ -312,6 +350,10 @@ def load_run_config(run_dir: str | Path) -> TrainConfig:
         uav = data["env"].get("uav")
         if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
             data["env"]["uav"] = str(path / uav)
+        for agent in _agent_list(data["env"]):
+            uav = agent.get("uav")
+            if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
+                agent["uav"] = str(path / uav)
     return parse_train_config(data, source=str(path / CONFIG_FILE))
 
 

@@ -398,7 +398,10 @@ class TrainOptions(_Strict):
     total_timesteps: int = Field(ge=1, description="environment steps to train for (summed over n_envs)")
     n_envs: int = Field(ge=1, description="parallel environments (SubprocVecEnv when > 1, unless vec_env=dummy)")
     vec_env: Literal["auto", "dummy", "subproc"] = Field(
-        description="auto: subprocesses when n_envs > 1; dummy: all in this process"
+        description=(
+            "auto: subprocesses when n_envs > 1 (multi-agent envs: in this process); dummy: all in this "
+            "process; subproc: one process per env"
+        )
     )
     eval_freq: int = Field(ge=0, description="evaluate every this many environment steps (0: never)")
     eval_episodes: int = Field(ge=1, description="episodes per evaluation")
@@ -506,12 +509,16 @@ class TrainConfig(_Strict):
                 "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
             )
         if isinstance(algo, (PPOConfig, RecurrentPPOConfig, TRPOConfig)):
-            rollout = algo.n_steps * opts.n_envs
+            from pyflyt_cli.training.multi_agent import agents_per_env
+
+            agents = agents_per_env(self.env)  # a multi-agent env fills a slot per agent
+            rollout = algo.n_steps * opts.n_envs * agents
+            size = "n_steps x n_envs" + (f" x {agents} agents" if agents > 1 else "")
             if rollout < 2:
                 raise ValueError(f"algo.n_steps x train.n_envs must be at least 2 for {algo.name}")
             if algo.batch_size > rollout:
                 raise ValueError(
-                    f"algo.batch_size ({algo.batch_size}) exceeds the rollout size n_steps x n_envs = {rollout}; "
+                    f"algo.batch_size ({algo.batch_size}) exceeds the rollout size {size} = {rollout}; "
                     "lower algo.batch_size or raise algo.n_steps"
                 )
         return self

@@ -129,15 +129,21 @@ class Costs:
 
 def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
     """Expected seconds of ``learn()`` for ``cfg`` from step ``done`` on: collection, updates and
-    evaluations (an evaluation step costs a collected step; episodes counted at full length)."""
+    evaluations (an evaluation step costs a collected step per agent; episodes counted at full
+    length).  Steps are what ``train.total_timesteps`` counts: agent-steps for a multi-agent env,
+    and ``costs`` are per such step (:func:`measure_costs`)."""
     total = cfg.train.total_timesteps
     remaining = max(0, total - done)
     starts = int(getattr(cfg.algo, "learning_starts", 0) or 0)
     updating = max(0, total - max(done, starts))
     seconds = remaining * costs.collect + updating * costs.update
     if cfg.train.eval_freq > 0:
+        from pyflyt_cli.training.multi_agent import agents_per_env
+
+        # an evaluation step moves every agent of the env: as many collected (agent-)steps
         evals = total // cfg.train.eval_freq - done // cfg.train.eval_freq
-        seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * costs.collect
+        per_step = agents_per_env(cfg.env) * costs.collect
+        seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * per_step
     return seconds
 
 
@@ -185,6 +191,9 @@ class _StopAfter(BaseCallback):
 def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None:
     """Time a throw-away copy of ``cfg``'s model on one env: collected steps and updates.
 
+    Costs are per step ``train.total_timesteps`` counts: per agent-step for a multi-agent env
+    (its one env fills a slot per agent, as in training).
+
     The copy learns with ``learning_starts`` 0 (off-policy) and the run's rollout size
     (on-policy: ``n_steps x n_envs`` steps on one env) until it has done a few updates and
     ``seconds`` have passed (an on-policy copy: one rollout and its update).  The global
@@ -211,7 +220,12 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     data["train"] = {**data["train"], "n_envs": 1}
     probe_cfg = parse_train_config(data)
     with _streams_kept():
-        vec: Any = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False)])
+        if getattr(probe_cfg.env, "multi_agent", False):  # a slot per agent: costs per agent-step
+            from pyflyt_cli.training.envs import make_vec_env
+
+            vec: Any = make_vec_env(probe_cfg.env, 1)
+        else:
+            vec = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False)])
         try:
             norm = probe_cfg.algo.normalize
             if norm.enabled:
@@ -234,7 +248,8 @@ class ProgressLines(BaseCallback):
 
     ``step 12000/60000 (20 %) | 410 steps/s | elapsed 0:29 | ETA 1:57 | collect 35 %, update 60 %, eval 5 %``;
     the ETA comes from the rate since training started (before the first line: from
-    ``estimate``, the expected total seconds, when given).
+    ``estimate``, the expected total seconds, when given).  ``unit`` names what the steps
+    count (``agent-steps`` for a multi-agent env: every agent's step is one).
     """
 
     def __init__(
@@ -245,9 +260,11 @@ class ProgressLines(BaseCallback):
         interval: float = PROGRESS_INTERVAL,
         clock: Clock = time.perf_counter,
         episode_returns: Callable[[], list[float]] | None = None,
+        unit: str = "steps",
     ) -> None:
         super().__init__()
         self.total = total
+        self.unit = unit
         self.log = log
         self.phases = phases
         self.interval = interval
@@ -279,8 +296,8 @@ class ProgressLines(BaseCallback):
         rate = done / elapsed if elapsed > 0 else 0.0
         left = (self.total - step) / rate if rate > 0 else float("inf")
         parts = [
-            f"step {step}/{self.total} ({100 * step / self.total:.0f} %)",
-            f"{rate:.0f} steps/s",
+            f"{'step' if self.unit == 'steps' else self.unit} {step}/{self.total} ({100 * step / self.total:.0f} %)",
+            f"{rate:.0f} {self.unit}/s",
             f"elapsed {format_duration(elapsed)}",
             f"ETA {format_duration(left)}",
         ]

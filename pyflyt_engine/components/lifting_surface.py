@@ -74,6 +74,7 @@ _CT_STALL = 0.5  # post-stall tangential force as a fraction of C_D0
 
 _HALF_PI = 0.5 * math.pi
 _TWO_OVER_PI = 2.0 / math.pi
+_TWO_PI = 2.0 * math.pi
 _AXIS_TOL = 1e-6  # tolerance on axis norms and on chord . normal
 
 
@@ -560,21 +561,97 @@ class Surfaces:
         self.params = tuple(params)
         self._constants = [surface.constants for surface in self.params]
         self._lag = [float(lag_coefficient(physics_dt, surface.tau)) for surface in self.params]
+        #: per surface, its constants followed by its flap lag coefficient (the step's loop)
+        self._fused = [(*k, lag) for k, lag in zip(self._constants, self._lag)]
         self._scale = [surface.max_deflection or 1.0 for surface in self.params]
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
 
     def step(self, air: AirVelocity) -> Wrench:
         """One physics step: every flap follows its command, then the surfaces' summed wrench
-        at the body's air-relative velocity (:func:`surface_wrench`)."""
+        at the body's air-relative velocity.
+
+        This is :func:`flap_deflection` followed by :func:`surface_wrench` (with
+        :func:`_coefficients` and :func:`_shifted_angles`) per surface, written out in one
+        loop: the same floating-point operations in the same order, so bit for bit the same
+        result (tests/components/test_lifting_surface.py checks it exactly), without the
+        four function calls and the tuple packing per surface per physics step that
+        dominated a fixed-wing's step.  Change the equations there and here together.
+        """
         (vx, vy, vz), (wx, wy, wz) = air
-        deflection, command, lag = self.deflection, self.command, self._lag
+        deflection, command = self.deflection, self.command
+        atan2, cos, sin, sqrt, remainder = math.atan2, math.cos, math.sin, math.sqrt, math.remainder
+        half_area_density = 0.5 * AIR_DENSITY
         fx = fy = fz = tx = ty = tz = 0.0
-        for i, k in enumerate(self._constants):
-            d = deflection[i] = flap_deflection(deflection[i], command[i], lag[i], k.max_deflection)
-            sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz)
+        i = 0
+        for (
+            px, py, pz, cx, cy, cz, nx, ny, nz, sx, sy, sz, area, chord, _, cl_alpha, pi_ar,
+            delta_cl_per_rad, flap_to_chord, cl_max_pos_base, cl_max_neg_base, alpha_0_base,
+            cd_0, cn_ar, max_deflection, lag,
+        ) in self._fused:  # fmt: skip
+            # flap_deflection
+            d = deflection[i]
+            c = command[i]
+            # min(max(c, -1), 1) as comparisons (same value, NaN passes through as there)
+            d = deflection[i] = d + lag * ((-1.0 if c < -1.0 else 1.0 if c > 1.0 else c) * max_deflection - d)  # noqa: FURB136
+            i += 1
+            # surface_wrench: velocity of the aerodynamic centre, chord and normal parts
+            svx = vx + (wy * pz - wz * py)
+            svy = vy + (wz * px - wx * pz)
+            svz = vz + (wx * py - wy * px)
+            u = svx * cx + svy * cy + svz * cz
+            w = svx * nx + svy * ny + svz * nz
+            speed_sq = u * u + w * w
+            if speed_sq == 0.0:
+                continue
+            # _shifted_angles
+            delta_cl = delta_cl_per_rad * d
+            delta_cl_max = flap_to_chord * delta_cl
+            cl_max_pos = cl_max_pos_base + delta_cl_max
+            cl_max_neg = cl_max_neg_base + delta_cl_max
+            alpha_0 = alpha_0_base - delta_cl / cl_alpha
+            stall_pos = alpha_0 + cl_max_pos / cl_alpha
+            stall_neg = alpha_0 + cl_max_neg / cl_alpha
+            # _coefficients
+            alpha = remainder(atan2(-w, u), _TWO_PI)
+            reverse = abs(alpha) > _HALF_PI
+            if reverse:
+                alpha = alpha - math.pi if alpha > 0.0 else alpha + math.pi
+            if stall_neg < alpha < stall_pos:
+                cl = cl_alpha * (alpha - alpha_0)
+                alpha_eff = alpha - alpha_0 - cl / pi_ar
+                cos_e, sin_e = cos(alpha_eff), sin(alpha_eff)
+                ct = cd_0 * cos_e
+                cn = (cl + ct * sin_e) / cos_e
+                lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * alpha_eff)
+            else:
+                if alpha >= stall_pos:
+                    alpha_i = cl_alpha * (stall_pos - alpha_0) / pi_ar * (_HALF_PI - alpha) / (_HALF_PI - stall_pos)
+                else:
+                    alpha_i = cl_alpha * (stall_neg - alpha_0) / pi_ar * (_HALF_PI + alpha) / (_HALF_PI + stall_neg)
+                alpha_eff = alpha - alpha_0 - alpha_i
+                cos_e, sin_e = cos(alpha_eff), sin(alpha_eff)
+                cd_90 = _CD90_QUAD * d * d + _CD90_LIN * d + _CD90_ZERO
+                shape = 1.0 / (_CN_BASE + _CN_SIN * abs(sin_e)) - cn_ar
+                cn = cd_90 * sin_e * shape
+                ct = _CT_STALL * cd_0 * cos_e
+                cl = cn * cos_e - ct * sin_e
+                lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * abs(alpha_eff))
+            cd = cn * sin_e + ct * cos_e
+            cm = cn * (0.5 - lever) if reverse else -cn * lever
+            # surface_wrench: loads
+            q_area = half_area_density * speed_sq * area
+            scale = q_area / sqrt(speed_sq)
+            f_c = -scale * (cl * w + cd * u)
+            f_n = scale * (cl * u - cd * w)
+            sfx = f_c * cx + f_n * nx
+            sfy = f_c * cy + f_n * ny
+            sfz = f_c * cz + f_n * nz
+            moment = cm * q_area * chord
             fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
-            tx, ty, tz = tx + stx, ty + sty, tz + stz
+            tx = tx + (py * sfz - pz * sfy + moment * sx)
+            ty = ty + (pz * sfx - px * sfz + moment * sy)
+            tz = tz + (px * sfy - py * sfx + moment * sz)
         return fx, fy, fz, tx, ty, tz
 
     def reset(self) -> None:

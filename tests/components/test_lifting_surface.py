@@ -480,3 +480,49 @@ def test_params_are_frozen_and_read_only():
     with pytest.raises(ValueError):
         wing.position[0] = 1.0
     assert wing.position.dtype == np.float64
+
+
+def test_vehicle_step_equals_the_per_surface_functions_bit_for_bit():
+    """``Surfaces.step`` writes flap lag, coefficients and loads out in one loop: it must give
+    exactly (``==``) the flap deflections and the summed wrench of ``flap_deflection`` +
+    ``surface_wrench`` per surface, over attached, stalled and reverse flow, flaps moving
+    and saturated, and zero airspeed."""
+    from pyflyt_engine.components.lag import lag_coefficient
+    from pyflyt_engine.components.lifting_surface import Surfaces, flap_deflection, surface_wrench
+
+    params = [
+        make(MAIN_WING),
+        make(AILERON, position=[0.0, 0.5, 0.01]),
+        make(AILERON, position=[0.0, -0.5, 0.01]),
+        make(HORIZONTAL_TAIL, position=[-0.8, 0.0, 0.05]),
+        make(HORIZONTAL_TAIL, position=[-0.8, 0.0, 0.15], normal_axis=[0.0, 1.0, 0.0]),
+    ]
+    dt = 1.0 / 240.0
+    surfaces = Surfaces(params, dt)
+    deflection = [0.0] * len(params)
+    rng = np.random.default_rng(7)
+    stalled = reverse = 0
+    for step in range(600):
+        command = rng.uniform(-1.5, 1.5, len(params)).tolist()
+        surfaces.command = list(command)
+        if step % 50 == 0:
+            v, omega = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        else:
+            scale = 2.0 if step % 3 else 20.0
+            v = tuple(rng.normal(0.0, scale, 3).tolist())
+            omega = tuple(rng.normal(0.0, 3.0, 3).tolist())
+        got = surfaces.step((v, omega))
+        expected = [0.0] * 6
+        for i, p in enumerate(params):
+            k = p.constants
+            deflection[i] = flap_deflection(
+                deflection[i], command[i], float(lag_coefficient(dt, p.tau)), k.max_deflection
+            )
+            wrench = surface_wrench(k, deflection[i], *v, *omega)
+            expected = [a + b for a, b in zip(expected, wrench)]
+        alpha = math.atan2(-v[2], v[0])  # the main wing's (at the origin, chord +X, normal +Z)
+        stalled += abs(alpha) > 20.0 * DEG
+        reverse += abs(alpha) > 100.0 * DEG
+        assert surfaces.deflection == deflection
+        assert list(got) == expected, step
+    assert stalled > 100 and reverse > 50  # the flow regimes were all visited (main wing)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -73,11 +74,87 @@ def test_a_stop_then_resume_is_bit_identical_to_the_uninterrupted_run(tmp_path, 
     assert len(reference["episodes"]) > 0  # per-agent training episodes were logged
 
 
+@pytest.mark.slow  # the training test below covers the same in the default suite
+def test_envs_in_subprocesses_step_exactly_as_in_this_process():
+    """train.vec_env=subproc for a multi-agent env: the same seed gives the same slots
+    (observations, rewards, dones, episode statistics) as the envs in this process."""
+    from pyflyt_cli.training.envs import make_vec_env
+    from pyflyt_engine.envs.config import load_env_config
+
+    config = load_env_config("ma_quadx_hover").with_overrides(agents=2, max_duration_seconds=0.5)
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1.0, 1.0, (40, 4, 4))
+    runs = []
+    for kind in ("dummy", "subproc"):
+        vec = make_vec_env(config, 2, kind)
+        try:
+            assert vec.num_envs == 4 and vec.subprocess == (kind == "subproc")
+            vec.seed(11)
+            steps = [vec.reset()]
+            for a in actions:
+                obs, rewards, dones, infos = vec.step(a)
+                episodes = [
+                    (i, info["episode"]["r"], info["episode"]["l"]) for i, info in enumerate(infos) if "episode" in info
+                ]
+                steps.append((obs, rewards, dones, episodes))
+            states = vec.env_method("episode_state")
+        finally:
+            vec.close()
+        runs.append((steps, states))
+    (dummy, dummy_states), (subproc, subproc_states) = runs
+    assert np.array_equal(dummy[0], subproc[0])
+    for a, b in zip(dummy[1:], subproc[1:]):
+        assert all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3])) and a[3] == b[3]
+    assert sum(len(step[3]) for step in dummy[1:]) >= 4  # episodes ended (and restarted) on the way
+    assert repr(dummy_states) == repr(subproc_states)
+
+
+def test_envs_in_subprocesses_train_the_same_run_and_resume_exactly(tmp_path, tmp_path_factory):
+    """train.vec_env=subproc: each env in its own process, the same numbers as in this process
+    under a seed (first rollout, updates, evaluations), and a stop + resume through the pipes
+    (episode state saved and re-simulated in the workers) still bit-identical."""
+    budget = ["train.total_timesteps=512"]
+    reference = _outcome(train(load([*MA_PPO, *budget, "train.vec_env=dummy"], tmp_path_factory.mktemp("ref"))).run_dir)
+    first = train(load([*MA_PPO, *budget, "train.vec_env=subproc"], tmp_path), callbacks=[SignalAt(45)])
+    assert first.interrupted
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted and resumed.num_timesteps == 512
+    _assert_same(_outcome(first.run_dir), reference)
+
+
 def test_eval_and_replay_verify_from_the_command_line(tmp_path):
+    """Also: airframe files the listed agents name are copied into the run (one copy per
+    distinct file), so eval and replay work from the run directory alone."""
+    from pyflyt_cli.training.rundir import config_digest, load_run_config
+    from pyflyt_engine.paths import conf_dir
+
+    small, big = tmp_path / "small.yaml", tmp_path / "big.yaml"
+    small.write_text((conf_dir() / "uav" / "quadx_cf2x.yaml").read_text())
+    big.write_text((conf_dir() / "uav" / "quadx_f450.yaml").read_text())
+    agents = (
+        f"[{{uav: {small}, spawn: {{position: [-1, 0, 1]}}}}, {{uav: {big}, spawn: {{position: [1, 0, 1]}}}},"
+        f" {{uav: {small}, spawn: {{position: [0, 1, 1]}}}}]"
+    )
     # `pyflyt train` is this library call (the command's own path is tested with bad input below)
-    args = [*MA_PPO, "train.n_envs=1", "train.total_timesteps=256", "env.max_duration_seconds=2"]
-    run = train(load(args, tmp_path / "runs")).run_dir
+    args = [
+        *MA_PPO,
+        f"env.agents={agents}",
+        "train.n_envs=1",
+        "train.total_timesteps=192",
+        "train.eval_freq=192",
+        "env.max_duration_seconds=2",
+    ]
+    cfg = load(args, tmp_path / "runs")
+    digest = config_digest(cfg)
+    run = train(cfg).run_dir
     assert (run / "model.pt").is_file() and list((run / "checkpoints").glob("*.pt"))
+    assert len(list(run.glob("airframe-*.yaml"))) == 2
+    small.unlink()
+    big.unlink()
+    loaded = load_run_config(run)
+    uavs = [agent.uav for agent in loaded.env.agents]
+    assert {Path(u).parent for u in uavs} == {run} and uavs[0] == uavs[2] != uavs[1]
+    assert config_digest(loaded, run) == digest  # the copies identify as the files they copy
     metrics = read_metrics(run)
     assert metrics["/eval"] and metrics["/train/episode"]
     shown = pyflyt(["eval", str(run), "episodes=2"], cwd=tmp_path)
@@ -86,7 +163,7 @@ def test_eval_and_replay_verify_from_the_command_line(tmp_path):
     assert len(report["episodes"]) == 2 and len(report["recordings"]) == 2
     recording = run / "episodes" / report["recordings"][0]
     episode = load_episode(recording)
-    assert len(episode.vehicles) == 2  # every agent has its frame in the scene
+    assert len(episode.vehicles) == 3  # every agent has its frame in the scene
     replay = pyflyt(["replay", str(recording), "--verify"], cwd=tmp_path)
     assert replay.returncode == 0 and "verify    OK" in replay.stdout, replay.stdout + replay.stderr
 

@@ -145,6 +145,42 @@ def test_the_command_prints_budget_eta_and_time_split_without_a_terminal(tmp_pat
     assert "time in training: collect " in err and "update " in err
 
 
+def test_multi_agent_runs_count_and_time_agent_steps(tmp_path):
+    """Every agent's step is one of ``train.total_timesteps``: the ETA is measured per agent-step
+    on the run's own slot layout, an evaluation step costs one per agent, rollouts hold
+    n_steps x n_envs x agents, and the progress lines say agent-steps."""
+    from pyflyt_cli.training.loop import _expected_end
+
+    args = [
+        "env=ma_quadx_hover",
+        "algo=ppo",
+        "env.agents=2",
+        "algo.n_steps=32",
+        "algo.batch_size=64",  # = 32 steps x 1 env x 2 agents: a valid rollout
+        "algo.n_epochs=1",
+        "train.total_timesteps=1000",
+        "train.eval_freq=500",
+        "train.eval_episodes=1",
+    ]
+    cfg = load(args, tmp_path)
+    costs = measure_costs(cfg)
+    assert costs is not None and costs.collect > 0 and costs.update > 0
+    unit = Costs(collect=0.001, update=0.01)
+    evals = 2 * cfg.env.max_steps * 2 * 0.001  # 2 evaluations x 1 episode x steps x 2 agents
+    assert estimate_seconds(cfg, unit) == pytest.approx(1000 * 0.011 + evals)
+    assert _expected_end(cfg) == 1024  # whole rollouts of 64 agent-steps
+    with pytest.raises(Exception, match=r"n_steps x n_envs x 2 agents = 64"):
+        load([*args, "algo.batch_size=128"], tmp_path)
+    clock, model, lines = FakeClock(), SimpleNamespace(num_timesteps=0), []
+    progress = ProgressLines(1024, lines.append, clock=clock, unit="agent-steps")
+    _attach(progress, model)
+    progress.on_training_start({}, {})
+    clock.now += 30.0
+    model.num_timesteps = 512
+    progress.on_step()
+    assert lines[0].startswith("agent-steps 512/1024 (50 %) | 17 agent-steps/s | elapsed 0:30 | ETA 0:30")
+
+
 def test_one_compressed_replay_buffer_is_kept(tmp_path):
     run = train(load(TINY_SAC, tmp_path)).run_dir
     buffers = sorted((run / "checkpoints").glob("replay_buffer_*.npz"))
