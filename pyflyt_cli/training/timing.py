@@ -183,11 +183,14 @@ class _StopAfter(BaseCallback):
 
 
 def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None:
-    """Time a throw-away copy of ``cfg``'s model on one env: collected steps and updates.
+    """Time a throw-away copy of ``cfg``'s model: collected steps and updates.
 
-    The copy learns with ``learning_starts`` 0 (off-policy) and the run's rollout size
-    (on-policy: ``n_steps x n_envs`` steps on one env) until it has done a few updates and
-    ``seconds`` have passed (an on-policy copy: one rollout and its update).  The global
+    The copy runs the run's envs when they live in this process (``train.vec_env`` dummy,
+    or one env): a batch of envs shares one policy forward pass per step, so one env alone
+    would overstate the cost of a step.  Subprocess envs are measured on one env in this
+    process instead (on-policy: with the run's rollout size, ``n_steps x n_envs`` steps).
+    The copy learns with ``learning_starts`` 0 (off-policy) until it has done a few updates
+    and ``seconds`` have passed (an on-policy copy: one rollout and its update).  The global
     random streams are restored afterwards, so the run itself is unchanged.  None if the
     algorithm cannot be measured this way.
     """
@@ -200,18 +203,22 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     data = cfg.model_dump(mode="json")
     algo = data["algo"]
     on_policy = "n_steps" in algo and "buffer_size" not in algo
-    if on_policy:
-        algo["n_steps"] = algo["n_steps"] * cfg.train.n_envs
+    n_envs = cfg.train.n_envs
+    in_process = cfg.train.vec_env == "dummy" or n_envs == 1
+    if not in_process:
+        if on_policy:
+            algo["n_steps"] = algo["n_steps"] * n_envs
+        n_envs = 1
     if "buffer_size" in algo:
         algo["buffer_size"] = 10_000
         algo["learning_starts"] = 0
     for key in ("offline_buffer", "offline_steps"):
         if key in algo:
             algo[key] = None if key == "offline_buffer" else 0
-    data["train"] = {**data["train"], "n_envs": 1}
+    data["train"] = {**data["train"], "n_envs": n_envs}
     probe_cfg = parse_train_config(data)
     with _streams_kept():
-        vec: Any = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False)])
+        vec: Any = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False) for _ in range(n_envs)])
         try:
             norm = probe_cfg.algo.normalize
             if norm.enabled:
@@ -219,7 +226,7 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
             model = build_model(probe_cfg, vec)
             phases = PhaseClock()
             stop = _StopAfter(phases, 1 if on_policy else 3, 0.0 if on_policy else seconds, time.perf_counter)
-            budget = algo["n_steps"] + 1 if on_policy else 100_000
+            budget = algo["n_steps"] * n_envs + 1 if on_policy else 100_000
             model.learn(budget, callback=[phases, stop], progress_bar=False)
         finally:
             vec.close()
