@@ -35,4 +35,5 @@ def test_a_shipped_agent_flies_its_recorded_return_from_the_command_line(tmp_pat
     result = pyflyt(["eval", f"zoo:{name}", f"episodes={recorded['episodes']}", "record=false"], cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "(matches)" in result.stdout
+    assert "mini-batch" not in result.stderr  # an on-policy run's minibatch does not concern flying it
     assert not list(zoo.agent(name).path.glob("eval.json"))  # the shipped folder is not written
