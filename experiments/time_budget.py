@@ -5,7 +5,7 @@ and the wall-clock time the shipped configuration needs for a budget, per algori
 
 Uses the same measurement as the ETA ``pyflyt train`` prints at start
 (:func:`pyflyt_cli.training.timing.measure_costs`: a throw-away copy of the configured model
-on one env, a few updates).  The figures are estimates for this machine at this moment
+on the run's in-process envs or one env, a few updates).  The figures are estimates for this machine at this moment
 (other processes share the CPU); they say nothing about what a policy learns.
 """
 

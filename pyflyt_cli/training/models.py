@@ -46,6 +46,11 @@ def build_model(cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorbo
     if inference:
         if "buffer_size" in kwargs:
             kwargs["buffer_size"] = 1
+        if "n_steps" in kwargs and "batch_size" in kwargs:
+            # the rollout buffer is never filled: a minibatch that fits the evaluation's
+            # env count keeps SB3 from warning about truncated minibatches (a run of 16
+            # envs x 32 steps, flown on one env)
+            kwargs["batch_size"] = min(kwargs["batch_size"], kwargs["n_steps"] * vec.num_envs)
         kwargs.pop("offline_buffer", None)
         kwargs.pop("offline_steps", None)
     elif algo.name == "awac":

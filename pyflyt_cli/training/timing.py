@@ -189,16 +189,19 @@ class _StopAfter(BaseCallback):
 
 
 def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None:
-    """Time a throw-away copy of ``cfg``'s model on one env: collected steps and updates.
+    """Time a throw-away copy of ``cfg``'s model: collected steps and updates.
 
     Costs are per step ``train.total_timesteps`` counts: per agent-step for a multi-agent env
-    (its one env fills a slot per agent, as in training).
+    (each env fills a slot per agent, as in training).
 
-    The copy learns with ``learning_starts`` 0 (off-policy) and the run's rollout size
-    (on-policy: ``n_steps x n_envs`` steps on one env) until it has done a few updates and
-    ``seconds`` have passed (an on-policy copy: one rollout and its update).  The global
-    random streams are restored afterwards, so the run itself is unchanged.  None if the
-    algorithm cannot be measured this way.
+    The copy runs the run's envs when they live in this process (``train.vec_env`` dummy,
+    one env, or a multi-agent env under ``auto``): a batch of envs shares one policy forward
+    pass per step, so one env alone would overstate the cost of a step.  Subprocess envs are
+    measured on one env in this process instead (on-policy: with the run's rollout size,
+    ``n_steps x n_envs`` steps).  The copy learns with ``learning_starts`` 0 (off-policy)
+    until it has done a few updates and ``seconds`` have passed (an on-policy copy: one
+    rollout and its update).  The global random streams are restored afterwards, so the run
+    itself is unchanged.  None if the algorithm cannot be measured this way.
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
@@ -209,23 +212,28 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     data = cfg.model_dump(mode="json")
     algo = data["algo"]
     on_policy = "n_steps" in algo and "buffer_size" not in algo
-    if on_policy:
-        algo["n_steps"] = algo["n_steps"] * cfg.train.n_envs
+    n_envs = cfg.train.n_envs
+    multi_agent = bool(getattr(cfg.env, "multi_agent", False))
+    in_process = cfg.train.vec_env == "dummy" or n_envs == 1 or (multi_agent and cfg.train.vec_env == "auto")
+    if not in_process:
+        if on_policy:
+            algo["n_steps"] = algo["n_steps"] * n_envs
+        n_envs = 1
     if "buffer_size" in algo:
         algo["buffer_size"] = 10_000
         algo["learning_starts"] = 0
     for key in ("offline_buffer", "offline_steps"):
         if key in algo:
             algo[key] = None if key == "offline_buffer" else 0
-    data["train"] = {**data["train"], "n_envs": 1}
+    data["train"] = {**data["train"], "n_envs": n_envs}
     probe_cfg = parse_train_config(data)
     with _streams_kept():
-        if getattr(probe_cfg.env, "multi_agent", False):  # a slot per agent: costs per agent-step
+        if multi_agent:  # a slot per agent: costs per agent-step
             from pyflyt_cli.training.envs import make_vec_env
 
-            vec: Any = make_vec_env(probe_cfg.env, 1)
+            vec: Any = make_vec_env(probe_cfg.env, n_envs, "dummy")
         else:
-            vec = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False)])
+            vec = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False) for _ in range(n_envs)])
         try:
             norm = probe_cfg.algo.normalize
             if norm.enabled:
@@ -233,7 +241,7 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
             model = build_model(probe_cfg, vec)
             phases = PhaseClock()
             stop = _StopAfter(phases, 1 if on_policy else 3, 0.0 if on_policy else seconds, time.perf_counter)
-            budget = algo["n_steps"] + 1 if on_policy else 100_000
+            budget = algo["n_steps"] * vec.num_envs + 1 if on_policy else 100_000
             model.learn(budget, callback=[phases, stop], progress_bar=False)
         finally:
             vec.close()

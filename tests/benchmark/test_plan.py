@@ -208,7 +208,7 @@ def test_run_differences_name_each_setting_saved_and_planned(tmp_path: Path) -> 
     assert run_differences(plan, job) == []  # the plan's budget grew: an extension
     _save_run(plan, job, **{"train.total_timesteps": 512, "algo.gamma": 0.9, "algo.policy_kwargs.net_arch": [8]})
     assert [str(d) for d in run_differences(plan, job)] == [
-        "algo.gamma: 0.9 -> 0.99",
+        "algo.gamma: 0.9 -> 0.95",
         "algo.policy_kwargs.net_arch: [8] -> [64, 64]",
         "train.total_timesteps: 512 -> 256",
     ]

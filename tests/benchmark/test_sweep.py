@@ -193,8 +193,9 @@ def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_
     changed = [*args, "algo.learning_rate=1e-3", "algo.n_epochs=2"]
     refused = pyflyt(changed, tmp_path)
     assert refused.returncode == 2, refused.stderr[-3000:]
-    for run in ("quadx_hover/ppo/seed0", "quadx_waypoints/ppo/seed0"):  # one line per run and key: saved -> planned
-        assert f"  {run}  algo.learning_rate: 0.0003 -> 0.001\n" in refused.stderr
+    # one line per run and key: saved -> planned (hover's learning rate is its hparams file's)
+    for run, saved in (("quadx_hover/ppo/seed0", "0.002"), ("quadx_waypoints/ppo/seed0", "0.0003")):
+        assert f"  {run}  algo.learning_rate: {saved} -> 0.001\n" in refused.stderr
         assert f"  {run}  algo.n_epochs: 1 -> 2\n" in refused.stderr
     assert "benchmark.name=" in refused.stderr and "--restart-changed" in refused.stderr
     assert "started" not in refused.stderr and mtimes(root) == before  # nothing trained, nothing rewritten
@@ -212,7 +213,7 @@ def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_
         if p.is_file() and "logs" not in p.parts
     }  # the old runs, untouched, beside their logs
     assert (replaced / "logs" / "quadx_hover__ppo__seed0.log").is_file()
-    assert "learning_rate: 0.0003" in (old / "config.yaml").read_text()
+    assert "learning_rate: 0.002" in (old / "config.yaml").read_text()
     assert "learning_rate: 0.001" in (root / "runs" / "quadx_hover" / "ppo" / "seed0" / "config.yaml").read_text()
     assert all(s["status"] == "complete" for s in states(root).values())
     assert {r.run_dir.parent.parent.parent for r in load_benchmark(root).runs} == {root / "runs"}  # plots new runs only

@@ -54,7 +54,7 @@ def test_a_failing_close_does_not_hide_the_error_nor_leave_workers_running(tmp_p
     monkeypatch.setattr(artifacts, "_save_torch", lambda data: full)  # every checkpoint and policy file
     monkeypatch.setattr(MetricsWriter, "close", full)  # and the metrics file
     with pytest.raises(ConfigError, match="No space left on device") as info:
-        train(load([*TINY_PPO, "train.n_envs=2", "algo.n_steps=128"], tmp_path))
+        train(load([*TINY_PPO, "train.n_envs=2", "train.vec_env=subproc", "algo.n_steps=128"], tmp_path))
     assert "pyflyt train resume=" in str(info.value)
     assert multiprocessing.active_children() == []  # the SubprocVecEnv workers were closed
     monkeypatch.undo()

@@ -60,6 +60,7 @@ def test_train_and_eval_from_the_wheel_in_an_empty_directory(installed, tmp_path
             "env=quadx_hover",
             "algo=ppo",
             "train.total_timesteps=1024",
+            "train.n_envs=2",  # 2 x 256 steps per rollout: ends at exactly 1024
             "algo.n_steps=256",
             "train.eval_freq=512",
             "train.eval_episodes=2",

@@ -23,7 +23,7 @@ from pyflyt_cli.training.timing import (
     measure_costs,
 )
 
-from .conftest import TINY_SAC, load, pyflyt
+from .conftest import TINY_PPO, TINY_SAC, load, pyflyt
 
 
 class FakeClock:
@@ -134,6 +134,25 @@ def test_measuring_costs_leaves_the_random_streams_and_the_run_unchanged(tmp_pat
     after = (np.random.random(), random.random(), torch.rand(1).item())
     assert costs is not None and costs.collect > 0 and costs.update > 0
     assert before == after
+
+
+def test_costs_are_measured_on_the_runs_envs_when_they_run_in_this_process(tmp_path, monkeypatch):
+    """In-process envs share one policy forward pass per step, so the copy runs all of them
+    (with one env, the ETA of the 16-env hover default was 3.6x too long)."""
+    from pyflyt_cli.training import models
+
+    seen = []
+    real = models.build_model
+
+    def spy(cfg, vec, *args, **kwargs):
+        seen.append((vec.num_envs, cfg.algo.n_steps * vec.num_envs))
+        return real(cfg, vec, *args, **kwargs)
+
+    monkeypatch.setattr(models, "build_model", spy)
+    overrides = [*TINY_PPO, "train.n_envs=2", "train.vec_env=dummy", "algo.n_steps=32", "algo.batch_size=32"]
+    costs = measure_costs(load(overrides, tmp_path), seconds=0.0)
+    assert costs is not None and costs.collect > 0 and costs.update > 0
+    assert seen == [(2, 64)]
 
 
 def test_the_command_prints_budget_eta_and_time_split_without_a_terminal(tmp_path):

@@ -161,7 +161,7 @@ def test_other_algorithms_train(tmp_path, algo):
 
 
 def test_parallel_environments(tmp_path):
-    overrides = [*TINY_PPO, "train.n_envs=2", "algo.n_steps=128"]
+    overrides = [*TINY_PPO, "train.n_envs=2", "train.vec_env=subproc", "algo.n_steps=128"]
     result = train(load(overrides, tmp_path / "runs"))
     assert result.num_timesteps == 512
     evals = _metrics(result.run_dir)["/eval"]
