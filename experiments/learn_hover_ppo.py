@@ -225,7 +225,11 @@ def main() -> None:
     parser.add_argument("--algo", default="ppo")
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--stop-on-hover", action="store_true", help="end a run at its first hovering probe")
+    parser.add_argument(
+        "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
+    )
     args = parser.parse_args()
+    globals()["MAX_DISTANCE"] = args.max_distance  # the probes read it: one criterion per run
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -249,7 +253,7 @@ def main() -> None:
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {platform.machine()}, {platform.python_version()}, "
             f"budget {rows[0]['budget']} steps, {rows[0]['n_envs']} envs, "
-            f"probe every {args.probe_every} steps x {args.episodes} episodes\n"
+            f"probe every {args.probe_every} steps x {args.episodes} episodes, hovering below {args.max_distance} m\n"
         ),
         f"Shipped default budget (`pyflyt train`): {cfg.train.total_timesteps} steps.\n",
         "| seed | hovers at [steps] | wall-clock then [s] | without probes [s] | final: survived | final: mean / worst distance [m] | training steps/s | run wall-clock [s] |",

@@ -147,7 +147,11 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=3, help="episodes per probe")
     parser.add_argument("--no-write", action="store_true")
     parser.add_argument("--set", nargs="*", default=[], help="config overrides, e.g. algo.n_epochs=10")
+    parser.add_argument(
+        "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
+    )
     args = parser.parse_args()
+    globals()["MAX_DISTANCE"] = args.max_distance  # the probes read it: one criterion per run
 
     from pyflyt_cli.plotting.stats import iqm
 
@@ -161,7 +165,8 @@ def main() -> None:
     lines = [
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
-            f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes\n"
+            f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes, "
+            f"hovering below {args.max_distance} m\n"
         ),
         (
             "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "

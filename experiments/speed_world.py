@@ -66,9 +66,11 @@ def main() -> None:
         for mode in modes:
             world[mode].append(world_hover(args.steps, args.uav, mode, clock))
     best_floor = min(floor)
-    print(f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-          f"pybullet {p.getAPIVersion()}, numpy {np.__version__}; {'CPU' if args.cpu_time else 'wall'} time, "
-          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
+        f"pybullet {p.getAPIVersion()}, numpy {np.__version__}; {'CPU' if args.cpu_time else 'wall'} time, "
+        f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}"
+    )
     print(f"{'case':<28}{'us/step':>10}{'steps/s':>12}{'x floor':>10}")
     print(f"{'bare pybullet (floor)':<28}{best_floor * 1e6:>10.2f}{1 / best_floor:>12.0f}{1.0:>10.2f}")
     for mode in modes:

@@ -27,7 +27,9 @@ def main() -> None:
     parser.add_argument("--algos", nargs="+", default=["ppo", "sac", "tqc", "crossq", "trpo", "td3"])
     args = parser.parse_args()
     torch.set_num_threads(1)
-    print(f"# {args.env}, {args.steps} steps, shipped configuration per algorithm ({platform.processor() or platform.machine()})")
+    print(
+        f"# {args.env}, {args.steps} steps, shipped configuration per algorithm ({platform.processor() or platform.machine()})"
+    )
     print()
     print("| algo | n_envs | collect [ms/step] | updates [ms/step] | update share | estimated time |")
     print("|---|---|---|---|---|---|")
