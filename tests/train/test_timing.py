@@ -175,6 +175,7 @@ def test_multi_agent_runs_count_and_time_agent_steps(tmp_path):
         "algo=ppo",
         "env.agents=2",
         "algo.n_steps=32",
+        "train.n_envs=1",
         "algo.batch_size=64",  # = 32 steps x 1 env x 2 agents: a valid rollout
         "algo.n_epochs=1",
         "train.total_timesteps=1000",
