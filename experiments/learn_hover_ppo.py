@@ -72,11 +72,25 @@ def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
 
 
 class HoverProbe(BaseCallback):
-    """Every ``every`` steps: run :func:`hover_probe`; remember the first step that hovers."""
+    """Every ``every`` steps: fly ``probe_fn`` (default :func:`hover_probe`) on a fresh env of
+    ``cfg``; remember the first step whose probe hovers (every episode survived, worst mean
+    distance below ``max_distance``).  ``unit`` names the steps in the printed lines
+    (``learn_ma_hover_ppo.py`` probes all agents and counts agent-steps)."""
 
-    def __init__(self, cfg, every: int, episodes: int, stop_on_hover: bool = False) -> None:
+    def __init__(
+        self,
+        cfg,
+        every: int,
+        episodes: int,
+        stop_on_hover: bool = False,
+        *,
+        max_distance: float = MAX_DISTANCE,
+        probe_fn=hover_probe,
+        unit: str = "steps",
+    ) -> None:
         super().__init__()
         self.stop_on_hover = stop_on_hover
+        self.max_distance, self.probe_fn, self.unit = max_distance, probe_fn, unit
         self.env = EnvFactory(cfg.env, monitor=False)()
         self.every, self.episodes = every, episodes
         self.next = every
@@ -102,17 +116,17 @@ class HoverProbe(BaseCallback):
 
     def probe(self) -> None:
         t0 = time.perf_counter()
-        probe = hover_probe(self.model, self.env, self.episodes, seed=10_000)
+        probe = self.probe_fn(self.model, self.env, self.episodes, seed=10_000)
         self.probe_time += time.perf_counter() - t0
         wall = time.perf_counter() - self.started
         self.history.append((self.num_timesteps, wall, probe))
         print(
-            f"  {self.num_timesteps:>7} steps  {wall:6.1f} s  survived {100 * probe['survived']:3.0f} %  "
+            f"  {self.num_timesteps:>7} {self.unit}  {wall:6.1f} s  survived {100 * probe['survived']:3.0f} %  "
             f"distance mean {probe['mean_distance']:.3f} / worst {probe['worst_distance']:.3f} m  "
             f"return {probe['mean_return']:8.2f}",
             flush=True,
         )
-        if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < MAX_DISTANCE:
+        if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < self.max_distance:
             self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
 
 
@@ -125,6 +139,7 @@ def run(
     algo: str = "ppo",
     extra: tuple[str, ...] | list[str] = (),
     stop_on_hover: bool = False,
+    max_distance: float = MAX_DISTANCE,
 ) -> dict:
     overrides = [
         *extra,
@@ -135,7 +150,7 @@ def run(
     if budget is not None:
         overrides.append(f"train.total_timesteps={budget}")
     cfg = compose_config(env="quadx_hover", algo=algo, overrides=overrides)
-    probe = HoverProbe(cfg, every, episodes, stop_on_hover)
+    probe = HoverProbe(cfg, every, episodes, stop_on_hover, max_distance=max_distance)
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe])
     total = time.perf_counter() - start
@@ -229,7 +244,6 @@ def main() -> None:
         "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
     )
     args = parser.parse_args()
-    globals()["MAX_DISTANCE"] = args.max_distance  # the probes read it: one criterion per run
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -245,6 +259,7 @@ def main() -> None:
                     args.algo,
                     args.set,
                     args.stop_on_hover,
+                    args.max_distance,
                 )
             )
 

@@ -2,22 +2,21 @@
 
 Trains what ``pyflyt train env=ma_quadx_hover algo=ppo`` trains (``conf/hparams/
 ma_quadx_hover_ppo.yaml``: 4 agents, one shared policy) with 10 s episodes -- the
-single-agent hover episode, so the criterion is the one of ``learn_hover_ppo.py`` -- and
-every ``--probe-every`` agent-steps flies the current policy (deterministic) for
+single-agent hover episode, probed by ``learn_hover_ppo.py``'s callback -- and every ``--probe-every`` agent-steps flies the current policy (deterministic) for
 ``--episodes`` seeded episodes.  **Hovering** means, for every agent of every probe
 episode: no crash for the whole 10 s and a mean distance to its own hover point below
-0.2 m.
+``--max-distance`` (0.2 m).
 
 Reported per seed: the first probe that hovers (agent-steps, wall-clock, and without the
 probes' cost); across seeds: the IQM of the final policies' mean per-agent return with
 its 95 % bootstrap interval (rliable).  The comparison asked for is *4 independent
 single-agent runs*, measured the same way with ``experiments/learn_hover_ppo.py --seeds
-0 1 2 3 --episodes 3 --set train.eval_freq=0 train.vec_env=dummy`` on the same machine
+0 1 2 3 --episodes 3 --max-distance 0.2 --set train.eval_freq=0`` on the same machine
 (``experiments/results/learn_ma_hover_ppo.md`` has both).  Results are appended to
 ``experiments/results/learn_ma_hover_ppo.md``; ``--set`` passes config overrides (e.g.
 to try a tuning: ``--set algo.n_steps=256 algo.n_epochs=10``).
 
-    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--set KEY=VALUE ...]
+    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--max-distance 0.2] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -30,12 +29,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from learn_hover_ppo import HoverProbe  # this folder: the probe callback and its criterion
+
 from pyflyt_cli.training import compose_config, train
-from pyflyt_cli.training.envs import EnvFactory
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"
 MAX_DISTANCE = 0.2  # [m], as learn_hover_ppo.py
@@ -75,46 +74,15 @@ def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
     }
 
 
-class HoverProbe(BaseCallback):
-    def __init__(self, cfg, every: int, episodes: int) -> None:
-        super().__init__()
-        self.env = EnvFactory(cfg.env, monitor=False)()
-        self.every, self.episodes, self.next = every, episodes, every
-        self.started = time.perf_counter()
-        self.probe_time = 0.0
-        self.history: list[tuple[int, float, dict[str, float]]] = []
-        self.hover_at: tuple[int, float, float] | None = None
-
-    def _on_training_start(self) -> None:
-        self.started = time.perf_counter()
-
-    def _on_step(self) -> bool:
-        if self.num_timesteps >= self.next:
-            self.next += self.every
-            self.probe()
-        return True
-
-    def _on_training_end(self) -> None:
-        if not self.history or self.history[-1][0] != self.num_timesteps:
-            self.probe()
-
-    def probe(self) -> None:
-        t0 = time.perf_counter()
-        probe = hover_probe(self.model, self.env, self.episodes, seed=10_000)
-        self.probe_time += time.perf_counter() - t0
-        wall = time.perf_counter() - self.started
-        self.history.append((self.num_timesteps, wall, probe))
-        print(
-            f"  {self.num_timesteps:>7} agent-steps  {wall:6.1f} s  all survived {100 * probe['survived']:3.0f} %  "
-            f"distance mean {probe['mean_distance']:.3f} / worst {probe['worst_distance']:.3f} m  "
-            f"return {probe['mean_return']:8.2f}",
-            flush=True,
-        )
-        if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < MAX_DISTANCE:
-            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
-
-
-def run(seed: int, budget: int, every: int, episodes: int, output: Path, extra: list[str]) -> dict:
+def run(
+    seed: int,
+    budget: int,
+    every: int,
+    episodes: int,
+    output: Path,
+    extra: list[str],
+    max_distance: float = MAX_DISTANCE,
+) -> dict:
     overrides = [
         *extra,
         f"seed={seed}",
@@ -125,7 +93,7 @@ def run(seed: int, budget: int, every: int, episodes: int, output: Path, extra: 
         f"env.max_duration_seconds={EPISODE_SECONDS}",
     ]
     cfg = compose_config(env="ma_quadx_hover", algo="ppo", overrides=overrides)
-    probe = HoverProbe(cfg, every, episodes)
+    probe = HoverProbe(cfg, every, episodes, max_distance=max_distance, probe_fn=hover_probe, unit="agent-steps")
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe])
     total = time.perf_counter() - start
@@ -151,7 +119,6 @@ def main() -> None:
         "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
     )
     args = parser.parse_args()
-    globals()["MAX_DISTANCE"] = args.max_distance  # the probes read it: one criterion per run
 
     from pyflyt_cli.plotting.stats import iqm
 
@@ -159,7 +126,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
-            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set))
+            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set, args.max_distance))
     finals = np.array([[r["final"]["mean_return"]] for r in rows])
     estimate = iqm({"ppo_shared": finals})["ppo_shared"]
     lines = [
