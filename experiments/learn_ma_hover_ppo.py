@@ -1,27 +1,39 @@
 """Do 4 quadrotors sharing one PPO policy learn to hold their points, and how fast in wall-clock?
 
 Trains what ``pyflyt train env=ma_quadx_hover algo=ppo`` trains (``conf/hparams/
-ma_quadx_hover_ppo.yaml``: 4 agents, one shared policy) with 10 s episodes -- the
-single-agent hover episode, probed by ``learn_hover_ppo.py``'s callback -- and every ``--probe-every`` agent-steps flies the current policy (deterministic) for
-``--episodes`` seeded episodes.  **Hovering** means, for every agent of every probe
-episode: no crash for the whole 10 s and a mean distance to its own hover point below
-``--max-distance`` (0.2 m).
+ma_quadx_hover_ppo.yaml``: 4 agents, one shared policy), and every ``--probe-every``
+agent-steps flies the current policy (deterministic) for ``--episodes`` seeded episodes
+with ``learn_hover_ppo.py``'s probe callback.
+
+**The task's limits.**  By default every agent flies the single-agent QuadX-Hover
+task's limits, read from ``conf/env/quadx_hover.yaml``: 10 s episodes and its 3 m
+flight dome (around the origin; the agents start 1.41 m from it), so that each agent
+learns what one single-agent run learns.  ``--reference-limits`` keeps the shipped
+MAQuadX-Hover dome instead (the reference's 10 m; episodes stay 10 s): a drifting agent
+then flies far before it is out, and the shared policy needs more agent-steps.
+
+**Hovering** means, for every agent of every probe episode: no crash for the whole 10 s
+and a mean distance to its own hover point below ``--max-distance`` (0.2 m).
 
 Reported per seed: the first probe that hovers (agent-steps, wall-clock, and without the
 probes' cost); across seeds: the IQM of the final policies' mean per-agent return with
 its 95 % bootstrap interval (rliable).  The comparison asked for is *4 independent
-single-agent runs*, measured the same way with ``experiments/learn_hover_ppo.py --seeds
-0 1 2 3 --episodes 3 --max-distance 0.2 --set train.eval_freq=0`` on the same machine
-(``experiments/results/learn_ma_hover_ppo.md`` has both).  Results are appended to
+single-agent runs*: ``--compare-single 0 1 2 3`` trains them afterwards in the same
+process (QuadX-Hover's shipped PPO, probed the same way every ``--single-probe-every``
+steps, each stopped at its first hovering probe) and adds the table of what four
+hovering agents cost either way: steps and training wall-clock without the probes, IQM
+with 95 % intervals, the single-agent figures four times one run's.  Results are appended to
 ``experiments/results/learn_ma_hover_ppo.md``; ``--set`` passes config overrides (e.g.
 to try a tuning: ``--set algo.n_steps=256 algo.n_epochs=10``).
 
-    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--max-distance 0.2] [--set KEY=VALUE ...]
+    python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--max-distance 0.2]
+        [--reference-limits] [--compare-single 0 1 2 3] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import tempfile
@@ -33,12 +45,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from learn_hover_ppo import HoverProbe  # this folder: the probe callback and its criterion
+from learn_hover_ppo import run as run_single
 
 from pyflyt_cli.training import compose_config, train
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"
 MAX_DISTANCE = 0.2  # [m], as learn_hover_ppo.py
-EPISODE_SECONDS = 10.0
+EPISODE_SECONDS = 10.0  # the single-agent hover episode
+
+
+def single_agent_limits() -> dict[str, float]:
+    """Episode length [s] and flight dome [m] of the single-agent QuadX-Hover task."""
+    env = compose_config(env="quadx_hover", algo="ppo").env
+    return {"max_duration_seconds": float(env.max_duration_seconds), "flight_dome_size": float(env.flight_dome_size)}
 
 
 def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
@@ -82,15 +101,17 @@ def run(
     output: Path,
     extra: list[str],
     max_distance: float = MAX_DISTANCE,
+    limits: dict[str, float] | None = None,
 ) -> dict:
+    limits = limits or {"max_duration_seconds": EPISODE_SECONDS}
     overrides = [
+        *(f"env.{key}={value}" for key, value in limits.items()),
         *extra,
         f"seed={seed}",
         f"train.output_dir={output}",
         "train.progress_bar=false",
         f"train.total_timesteps={budget}",
         "train.eval_freq=0",
-        f"env.max_duration_seconds={EPISODE_SECONDS}",
     ]
     cfg = compose_config(env="ma_quadx_hover", algo="ppo", overrides=overrides)
     probe = HoverProbe(cfg, every, episodes, max_distance=max_distance, probe_fn=hover_probe, unit="agent-steps")
@@ -99,12 +120,73 @@ def run(
     total = time.perf_counter() - start
     return {
         "seed": seed,
+        "agents": len(cfg.env.resolved_agents()),
         "steps": result.num_timesteps,
         "hover_at": probe.hover_at,
         "final": probe.history[-1][2],
         "steps_per_second": result.num_timesteps / max(total - probe.probe_time, 1e-9),
         "wall": total,
     }
+
+
+def hover_cost(row: dict) -> tuple[float, float, bool]:
+    """Steps and training wall-clock (probes excluded) until the run hovered, or its whole run if it
+    never did (the last flag)."""
+    if row["hover_at"] is not None:
+        steps, _, wall = row["hover_at"]
+        return float(steps), float(wall), True
+    return float(row["steps"]), float(row["steps"] / row["steps_per_second"]), False
+
+
+def comparison(rows: list[dict], singles: list[dict], iqm) -> list[str]:
+    """The table of what N hovering agents cost: one shared-policy run against N single-agent runs
+    (N x the single-agent IQM and its interval; and the sum of the first N single-agent runs)."""
+    agents = rows[0]["agents"]
+    shared = np.array([hover_cost(r)[:2] for r in rows])
+    single = np.array([hover_cost(r)[:2] for r in singles])
+    missed = sum(not hover_cost(r)[2] for r in rows + singles)
+    est = {name: iqm({name: data[:, [0]]})[name] for name, data in (("shared", shared), ("single", single))}
+    wall = {name: iqm({name: data[:, [1]]})[name] for name, data in (("shared", shared), ("single", single))}
+
+    def cell(e, scale: float, unit: str, digits: int = 0) -> str:
+        v, lo, hi = (scale * float(x[0]) for x in (e.value, e.low, e.high))
+        return f"{v:,.{digits}f}{unit} [{lo:,.{digits}f}, {hi:,.{digits}f}]"
+
+    lines = [
+        "",
+        (
+            "Single-agent runs, the shipped QuadX-Hover PPO (`conf/hparams/quadx_hover_ppo.yaml`), probed the same "
+            "way (stopped at their first hovering probe):"
+        ),
+        "",
+        "| seed | hovers at [steps] | without probes [s] | training steps/s |",
+        "|---|---|---|---|",
+    ]
+    for r in singles:
+        steps, seconds, hovered = hover_cost(r)
+        lines.append(
+            f"| {r['seed']} | {steps:.0f}{'' if hovered else ' (did not hover)'} | {seconds:.0f} | {r['steps_per_second']:.0f} |"
+        )
+    lines += [
+        "",
+        f"{agents} hovering agents cost (IQM over seeds, 95 % bootstrap CI, rliable; single-agent: {agents} x the per-run IQM):",
+        "",
+        "| | steps until every agent hovers | training wall-clock until then, probes excluded [s] |",
+        "|---|---|---|",
+        f"| one run, {agents} agents, shared policy | {cell(est['shared'], 1, '')} agent-steps | {cell(wall['shared'], 1, '')} |",
+        (
+            f"| {agents} independent single-agent runs, one after the other | {cell(est['single'], agents, '')} steps | "
+            f"{cell(wall['single'], agents, '')} |"
+        ),
+    ]
+    if len(singles) >= agents:
+        first = single[:agents].sum(axis=0)
+        lines.append(f"| the first {agents} single-agent runs above, summed | {first[0]:,.0f} steps | {first[1]:.0f} |")
+    if missed:
+        lines.append(
+            f"\n{missed} run(s) did not hover within their budget: counted at their whole run (a lower bound)."
+        )
+    return lines
 
 
 def main() -> None:
@@ -118,22 +200,58 @@ def main() -> None:
     parser.add_argument(
         "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
     )
+    parser.add_argument(
+        "--compare-single",
+        type=int,
+        nargs="*",
+        default=[],
+        metavar="SEED",
+        help="then train single-agent QuadX-Hover runs (its shipped PPO) with these seeds, probed the same way",
+    )
+    parser.add_argument("--single-probe-every", type=int, default=5_000, help="steps between single-agent probes")
+    parser.add_argument(
+        "--reference-limits",
+        action="store_true",
+        help="keep the shipped 10 m flight dome instead of the single-agent task's 3 m",
+    )
     args = parser.parse_args()
 
     from pyflyt_cli.plotting.stats import iqm
 
+    limits = {"max_duration_seconds": EPISODE_SECONDS} if args.reference_limits else single_agent_limits()
+    dome = limits.get("flight_dome_size", compose_config(env="ma_quadx_hover", algo="ppo").env.flight_dome_size)
+
+    load_before = os.getloadavg()[0]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
-            rows.append(run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set, args.max_distance))
+            rows.append(
+                run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set, args.max_distance, limits)
+            )
+        singles = []
+        for seed in args.compare_single:
+            print(f"single-agent seed {seed}:", flush=True)
+            single = run_single(
+                seed,
+                None,
+                args.single_probe_every,
+                args.episodes,
+                Path(tmp) / "single",
+                extra=["train.eval_freq=0"],
+                stop_on_hover=True,
+                max_distance=args.max_distance,
+            )
+            singles.append(single)
+    load_after = os.getloadavg()[0]
     finals = np.array([[r["final"]["mean_return"]] for r in rows])
     estimate = iqm({"ppo_shared": finals})["ppo_shared"]
     lines = [
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
             f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes, "
-            f"hovering below {args.max_distance} m\n"
+            f"hovering below {args.max_distance} m, {limits['max_duration_seconds']:g} s episodes, "
+            f"{dome:g} m flight dome\n"
         ),
         (
             "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "
@@ -153,6 +271,9 @@ def main() -> None:
         f"\nIQM of the final mean per-agent return over {len(rows)} seeds (rliable, 95 % bootstrap CI): "
         f"{float(estimate.value[0]):.1f} [{float(estimate.low[0]):.1f}, {float(estimate.high[0]):.1f}]"
     )
+    if singles:
+        lines += comparison(rows, singles, iqm)
+    lines.append(f"\nLoad average (1 min): {load_before:.1f} at the start, {load_after:.1f} at the end.")
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:
