@@ -255,6 +255,7 @@ class UAVEnv(gymnasium.Env):
             signals.target_distance_rate,
             signals.waypoint_reached,
             signals.extras,
+            max(self._max_steps - self._steps - 1, 0),
         )
         reward, terms = self.reward_function(ctx)
         self._reward_terms = terms

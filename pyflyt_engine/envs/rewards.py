@@ -38,7 +38,7 @@ from pyflyt_engine.state import KinematicState
 
 #: Signals every task provides (read from the vehicle and the world, not the task).
 BASE_SIGNALS = frozenset(
-    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete"}
+    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete", "steps_remaining"}
 )
 
 
@@ -63,6 +63,8 @@ class StepContext:
         waypoint_reached: a waypoint was reached during the step.
         extras: further task-specific signals by name (the landing task's ``pad_contact``,
             ``safe_landing``, ``fatal_landing`` as 0/1 and ``touchdown_speed`` [m/s]).
+        steps_remaining: agent steps the episode had left after this one before its time
+            limit (0 on the last step); every env sets it.
     """
 
     state: KinematicState
@@ -76,6 +78,7 @@ class StepContext:
     target_distance_rate: float | None = None
     waypoint_reached: bool = False
     extras: Mapping[str, float] = field(default_factory=dict)
+    steps_remaining: int = 0
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,11 @@ def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
 def target_distance_rate(ctx: StepContext) -> float:
     """d(delta)/dt: rate of change of the distance to the current target [m/s], < 0 approaching."""
     return ctx.target_distance_rate  # type: ignore[return-value]
+
+
+def target_distance_over_remaining_steps(ctx: StepContext) -> float:
+    """delta x steps left before the time limit: a per-step distance cost, paid for the rest of the episode [m]."""
+    return ctx.target_distance * ctx.steps_remaining  # type: ignore[operator]
 
 
 def speed_per_squared_target_distance(ctx: StepContext) -> float:
@@ -265,6 +273,9 @@ TERMS: dict[str, RewardTerm] = {
     "target_distance": RewardTerm(target_distance, "m", ("target_distance",)),
     "inverse_target_distance": RewardTerm(inverse_target_distance, "1/m", ("target_distance",)),
     "target_distance_rate": RewardTerm(target_distance_rate, "m/s", ("target_distance_rate",)),
+    "target_distance_over_remaining_steps": RewardTerm(
+        target_distance_over_remaining_steps, "m", ("target_distance",)
+    ),
     "speed_per_squared_target_distance": RewardTerm(speed_per_squared_target_distance, "1/(m s)", ("target_distance",)),
     "speed": RewardTerm(speed, "m/s"),
     "angular_speed": RewardTerm(angular_speed, "rad/s"),

@@ -229,6 +229,7 @@ def test_terms_are_pure_functions_with_the_documented_values():
     assert rewards.altitude(ctx) == 3.0
     assert rewards.approaching(ctx) and not rewards.approaching(_ctx(target_distance_rate=0.0))
     assert rewards.crash(_ctx(out_of_bounds=True)) and rewards.crash(_ctx(collision=True)) and not rewards.crash(ctx)
+    assert rewards.target_distance_over_remaining_steps(_ctx(target_distance=0.5, steps_remaining=12)) == 6.0
 
 
 def test_waypoint_dense_preset_is_continuous_at_zero_rate():

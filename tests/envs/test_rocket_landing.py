@@ -46,7 +46,8 @@ def _tilt(quaternion):
 
 
 class LandingOracle:
-    """The documented outcome rules and the paper's reward, from observations only."""
+    """The documented outcome rules and the paper's reward, from observations (and, for a dome exit,
+    the steps the episode had left: ``steps_left``)."""
 
     def __init__(self, obs, sparse):
         self.sparse = sparse
@@ -55,7 +56,7 @@ class LandingOracle:
         self.halted = 0
         self.seen = set()
 
-    def __call__(self, obs, info):
+    def __call__(self, obs, info, steps_left=0):
         ang_vel, quaternion, lin_vel, position = obs[0:3], obs[3:7], obs[7:10], obs[10:13]
         on_pad = obs[-1] == 1.0
         speed = float(np.linalg.norm(lin_vel))
@@ -79,6 +80,8 @@ class LandingOracle:
         d_pad = float(np.linalg.norm(position - [0.0, 0.0, PAD_TOP]))
         reward = 0.0 if self.sparse else -0.2 * d_pad - speed / d_pad**2
         reward += 100.0 * safe - 20.0 * fatal - 100.0 * ground - 100.0 * out_of_bounds
+        if out_of_bounds and not self.sparse:  # r_d for the rest of the episode, at the exit distance
+            reward += -0.2 * d_pad * steps_left
         self.seen |= {
             name
             for name, flag in (
@@ -127,7 +130,8 @@ def test_reward_matches_the_paper_on_flights_and_set_states(make, sparse):
                 else np.array([*rng.uniform(-1, 1, 3), rng.uniform(0, 0.6), rng.uniform(0, 1), *rng.uniform(-1, 1, 2)])
             )
             obs, reward, terminated, truncated, info = env.step(action)
-            expected, ended = oracle(obs, info)
+            # 30 s at 30 Hz: 900 steps per episode
+            expected, ended = oracle(obs, info, steps_left=900 - env.unwrapped.elapsed_steps)
             assert reward == pytest.approx(expected, rel=1e-12, abs=1e-9)
             assert reward == pytest.approx(sum(info["reward_terms"].values()), abs=1e-12)
             assert terminated == ended and not truncated

@@ -269,6 +269,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 sig.target_distance_rate,
                 False,
                 sig.extras,
+                max(self._max_steps - self._steps, 0),
             )
             reward, terms = self.reward_function(ctx)
             self._reward_terms[i] = terms
