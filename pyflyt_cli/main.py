@@ -230,17 +230,22 @@ def tune(overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=
 @app.command(
     help="List the trained agents shipped with the package (name, env, algorithm, training steps, recorded "
     "evaluation return and success); fly one with pyflyt eval zoo:<name>.  --add <run dir> makes a run's best "
-    "policy (else final) a shipped agent, evaluated now with pyflyt eval's defaults.",
+    "policy (else final) a shipped agent, evaluated now with pyflyt eval's defaults; an agent of that name "
+    "already shipped is kept unless --replace.",
 )
 @user_errors
 def zoo(
     add: Optional[str] = typer.Option(None, "--add", help="a training run directory to ship as an agent"),
     name: Optional[str] = typer.Option(None, "--name", help="the agent's name (default: <env>_<algo>)"),
+    replace: bool = typer.Option(False, "--replace", help="with --add: replace a shipped agent of that name"),
 ) -> None:
     from pyflyt_cli import zoo as zoo_lib
+    from pyflyt_engine.errors import ConfigError
 
+    if replace and add is None:
+        raise ConfigError("--replace goes with --add <run dir>: pyflyt zoo --add <run dir> --replace")
     if add is not None:
-        made = zoo_lib.add_agent(add, name)
+        made = zoo_lib.add_agent(add, name, replace=replace)
         e = made.summary["evaluation"]
         typer.echo(f"added {made.name}: return {e['mean_return']:.2f} ± {e['std_return']:.2f} ({made.path})")
     typer.echo(zoo_lib.table())

@@ -41,6 +41,8 @@ def agents(root: Path = AGENTS) -> list[Agent]:
     found = []
     if root.is_dir():
         for folder in sorted(root.iterdir()):
+            if folder.name.startswith("."):  # an agent being built or replaced by add_agent
+                continue
             summary = folder / "summary.yaml"
             if summary.is_file() and (folder / "model.pt").is_file():
                 found.append(Agent(folder.name, folder, yaml.safe_load(summary.read_text()) or {}))
@@ -81,11 +83,20 @@ def materialise(name: str, workdir: Path | None = None, root: Path = AGENTS) -> 
     return target
 
 
-def add_agent(run_dir: str | Path, name: str | None = None, episodes: int = 10, root: Path = AGENTS) -> Agent:
+def add_agent(
+    run_dir: str | Path,
+    name: str | None = None,
+    episodes: int = 10,
+    root: Path = AGENTS,
+    replace: bool = False,
+) -> Agent:
     """Make a shipped agent of a training run: its best policy (else final), evaluated now on
-    ``episodes`` episodes with ``pyflyt eval``'s defaults (seeds run seed + 1000 + i, deterministic)."""
+    ``episodes`` episodes with ``pyflyt eval``'s defaults (seeds run seed + 1000 + i, deterministic).
+
+    An agent of that name already shipped is kept (a :class:`ConfigError`) unless ``replace``.
+    The new agent is built and evaluated in a staging folder beside it and only then takes the
+    name, so a failure on the way leaves the shipped agent as it was."""
     from pyflyt_cli.training import rundir
-    from pyflyt_cli.training.evaluate import evaluate_run
 
     run = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(run)
@@ -93,8 +104,36 @@ def add_agent(run_dir: str | Path, name: str | None = None, episodes: int = 10, 
     name = name or f"{cfg.env_name}_{cfg.algo.name}"
     if not name.replace("_", "").replace("-", "").isalnum():
         raise ConfigError(f"zoo agent name {name!r}: letters, digits, _ and - only")
-    folder = root / name
-    folder.mkdir(parents=True, exist_ok=True)
+    final = root / name
+    if final.exists() and not replace:
+        raise ConfigError(
+            f"zoo agent {name!r} exists ({final}): pass --replace to replace it, or --name to ship this run "
+            "under another name"
+        )
+    folder = root / f".{name}.new"
+    shutil.rmtree(folder, ignore_errors=True)  # a staging folder left by an interrupted --add
+    folder.mkdir(parents=True)
+    try:
+        _build(run, cfg, model, which, name, episodes, folder)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    if final.exists():
+        old = root / f".{name}.old"
+        shutil.rmtree(old, ignore_errors=True)
+        final.rename(old)
+        folder.rename(final)
+        shutil.rmtree(old)
+    else:
+        folder.rename(final)
+    return agent(name, root)
+
+
+def _build(run: Path, cfg: Any, model: Path, which: str, name: str, episodes: int, folder: Path) -> None:
+    """Write an agent's files into ``folder``: config, weights, the evaluation, summary and curve."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.evaluate import evaluate_run
+
     rundir.save_config(cfg, folder)
     shutil.copyfile(model, folder / "model.pt")
     # the recorded evaluation is that of the shipped folder itself, as pyflyt eval zoo:<name> runs it
@@ -128,7 +167,6 @@ def add_agent(run_dir: str | Path, name: str | None = None, episodes: int = 10, 
     }
     (folder / "summary.yaml").write_text(yaml.safe_dump(summary, sort_keys=False))
     _learning_curve(run, folder / "learning_curve.png", name)
-    return agent(name, root)
 
 
 def _step(model: Path) -> int:

@@ -9,6 +9,7 @@ import yaml
 from pyflyt_cli import zoo
 from pyflyt_cli.training import evaluate_run, train
 from pyflyt_cli.training.models import read_policy
+from pyflyt_engine.errors import ConfigError
 
 from .conftest import TINY_PPO, load, pyflyt
 
@@ -27,6 +28,25 @@ def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path)
     again = evaluate_run(copy, {"episodes": 3, "record": False})
     assert [e.ret for e in again.episodes] == summary["evaluation"]["returns"]
     assert again.summary["mean_return"] == summary["evaluation"]["mean_return"]
+
+    # shipping a run again under a taken name keeps the shipped agent, unless replaced
+    before = {f.name: f.read_bytes() for f in made.path.iterdir()}
+    with pytest.raises(ConfigError, match="--replace"):
+        zoo.add_agent(run, episodes=2, root=root)
+    assert {f.name: f.read_bytes() for f in made.path.iterdir()} == before
+    assert sorted(p.name for p in root.iterdir()) == ["quadx_hover_ppo"]  # no staging folder left
+    replaced = zoo.add_agent(run, episodes=2, root=root, replace=True)
+    assert yaml.safe_load((replaced.path / "summary.yaml").read_text())["evaluation"]["episodes"] == 2
+    assert sorted(p.name for p in root.iterdir()) == ["quadx_hover_ppo"]
+
+    # from the command line: the package's own quadx_hover_ppo is taken, and stays as shipped
+    shipped = zoo.agent("quadx_hover_ppo").path
+    files = {f.name: f.read_bytes() for f in shipped.iterdir()}
+    done = pyflyt(["zoo", "--add", str(run)], cwd=tmp_path)
+    assert done.returncode == 2 and "exists" in done.stderr and "--replace" in done.stderr, done.stderr
+    assert {f.name: f.read_bytes() for f in shipped.iterdir()} == files
+    alone = pyflyt(["zoo", "--replace"], cwd=tmp_path)
+    assert alone.returncode == 2 and "--add" in alone.stderr, alone.stderr
 
 
 #: agents whose recorded evaluation flies in seconds (10 hover episodes of 300 steps); the
