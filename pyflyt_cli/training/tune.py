@@ -13,6 +13,9 @@
   (``median`` by default) stops a trial whose evaluation curve falls behind the others'
   at the same step.  The objective is the final evaluation's mean return (``last``) or the
   best one (``best``).
+* A new study's first trial is the **baseline** (``baseline``, on by default): the
+  configuration as composed, with the space's keys at their configured values (skipped,
+  with a message naming the key, when one lies outside its distribution).
 * The **study** lives in ``<study_dir>/study.db`` (SQLite): the same command again
   continues it up to ``trials`` finished trials (complete or pruned); a trial cut short
   by a kill is marked failed and replaced.
@@ -46,7 +49,18 @@ from pyflyt_engine.paths import conf_dir
 Log = Callable[[str], None]
 
 #: the keys ``pyflyt tune`` takes itself; every other key=value is a training override
-TUNE_KEYS = ("trials", "jobs", "space", "study_dir", "sampler_seed", "objective", "pruner", "startup_trials", "warmup_steps")
+TUNE_KEYS = (
+    "trials",
+    "jobs",
+    "space",
+    "study_dir",
+    "sampler_seed",
+    "objective",
+    "pruner",
+    "startup_trials",
+    "warmup_steps",
+    "baseline",
+)
 
 
 class TuneOptions(BaseModel):
@@ -63,6 +77,9 @@ class TuneOptions(BaseModel):
     pruner: Literal["median", "none"] = Field(description="median: stop a trial below the median of the others at a step")
     startup_trials: int = Field(ge=0, description="trials finished before the pruner prunes")
     warmup_steps: int = Field(ge=0, description="environment steps of a trial before it may be pruned")
+    baseline: bool = Field(
+        description="a new study's first trial trains the configuration as composed (when the space holds its values)"
+    )
 
 
 def tune_defaults() -> dict[str, Any]:
@@ -114,6 +131,21 @@ class SearchSpace:
                 encoded = [_encode(c) for c in p.choices or []]
                 values[key] = yaml.safe_load(trial.suggest_categorical(key, encoded))
         return values
+
+    def holds(self, key: str, value: Any) -> bool:
+        """Whether ``value`` is one the distribution of ``key`` can give."""
+        p = self.params[key]
+        if p.type == "categorical":
+            return _encode(value) in [_encode(c) for c in p.choices or []]
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return False
+        if p.type == "int" and int(value) != value:
+            return False
+        return float(p.low) <= float(value) <= float(p.high)  # type: ignore[arg-type]
+
+    def enqueued(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """``values`` (one per key) as Optuna takes them in ``enqueue_trial``."""
+        return {k: _encode(v) if self.params[k].type == "categorical" else v for k, v in values.items()}
 
     def corners(self) -> list[dict[str, Any]]:
         """Each distribution's low end and high end (or first and last choice): checked before a study."""
@@ -240,6 +272,31 @@ def _study(study_dir: Path, env: str, algo: str, opts: TuneOptions, worker: int 
         pruner=_pruner(opts),
         load_if_exists=True,
     )
+
+
+def _config_value(cfg: Any, key: str) -> Any:
+    """The value at a dotted key of a composed training configuration (models and mappings)."""
+    value = cfg
+    for part in key.split("."):
+        value = value[part] if isinstance(value, Mapping) else getattr(value, part)
+    if isinstance(value, tuple):
+        value = list(value)
+    return value
+
+
+def _enqueue_baseline(study: Any, cfg: Any, space: SearchSpace, log: Log) -> None:
+    """Make a new study's first trial the configuration as composed, when the space can hold it."""
+    values = {key: _config_value(cfg, key) for key in space.params}
+    outside = [f"{key}={values[key]!r}" for key in space.params if not space.holds(key, values[key])]
+    if outside:
+        log(
+            "baseline trial skipped: the configuration's "
+            + ", ".join(outside)
+            + " lie(s) outside the search space (widen it to include them, or set baseline=false)"
+        )
+        return
+    study.enqueue_trial(space.enqueued(values))
+    log("trial 0 is the baseline: the configuration as composed (shipped tuning and fixed overrides)")
 
 
 def _finished(study: Any) -> int:
@@ -383,6 +440,8 @@ def tune(env: str, algo: str, options: TuneOptions | Mapping[str, Any] | None = 
         for stale in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
             study.tell(stale.number, state=TrialState.FAIL)  # cut short by a kill: replaced by a new trial
             log(f"trial {stale.number} was cut short by an interruption: marked failed, a new trial replaces it")
+        if opts.baseline and not study.get_trials(deepcopy=False):
+            _enqueue_baseline(study, cfg, space, log)
         before = _finished(study)
         log(
             f"study {study.study_name} in {study_dir / 'study.db'}: {before} of {opts.trials} trials finished; "

@@ -174,3 +174,27 @@ def test_the_command_line(tmp_path, space):
     assert done.returncode == 0, done.stderr
     assert "best settings:" in done.stderr and "pyflyt train env=quadx_hover algo=ppo experiment=" in done.stderr
     assert (tmp_path / "s" / "best_quadx_hover_ppo.yaml").is_file()
+
+
+def test_a_new_study_starts_with_the_configuration_as_composed(tmp_path):
+    """The baseline trial: trial 0 trains the composed configuration's own values (the shipped
+    hover PPO tuning here); a space that cannot hold them skips it, saying which key."""
+    cfg = compose_config(env="quadx_hover", algo="ppo", overrides=TRAIN)
+    inside = tmp_path / "inside.yaml"
+    inside.write_text(
+        "algo.learning_rate: {type: float, low: 1.0e-5, high: 1.0e-2, log: true}\n"
+        "algo.gamma: {type: categorical, choices: [0.9, 0.95, 0.99]}\n"
+        "algo.policy_kwargs.net_arch: {type: categorical, choices: [[16], [64, 64]]}\n"
+    )
+    messages: list[str] = []
+    report = tune("quadx_hover", "ppo", _options(tmp_path / "a", inside, trials=1), TRAIN, log=messages.append)
+    first = yaml.safe_load((report.study_dir / "trials" / "trial_0000" / "run.yaml").read_text())["overrides"]
+    assert f"algo.learning_rate={cfg.algo.learning_rate}" in first
+    assert f"algo.gamma={cfg.algo.gamma}" in first and "algo.policy_kwargs.net_arch=[64,64]" in first
+    assert any("baseline" in m for m in messages)
+
+    outside = tmp_path / "outside.yaml"
+    outside.write_text("algo.gamma: {type: categorical, choices: [0.9, 0.99]}\n")
+    messages.clear()
+    tune("quadx_hover", "ppo", _options(tmp_path / "b", outside, trials=1), TRAIN, log=messages.append)
+    assert any("baseline trial skipped" in m and "algo.gamma=0.95" in m for m in messages), messages
