@@ -1,0 +1,329 @@
+"""How many waypoints does a QuadX-Waypoints agent reach, and after how much training?
+
+Trains what ``pyflyt train env=quadx_waypoints algo=<algo>`` trains (``conf/train.yaml``
+with the env's tuning ``conf/hparams/quadx_waypoints_<algo>.yaml`` when there is one;
+``--set key=value ...`` adds overrides) and every ``--probe-every`` steps flies the
+current policy (deterministic) for ``--episodes`` seeded episodes (seeds 10 000+),
+counting per episode the waypoints reached (of 5) and how it ended (crash, left the
+flight dome, time limit, all reached).  Progress is the fraction of probe episodes that
+reach at least 1, 2, ..., 5 waypoints, not the return: the dense reward pays for
+approaching a waypoint whether or not it is ever reached.  The issue's target: >= 80 %
+of the episodes reach every waypoint within 30 minutes of training on 2 cores.
+
+Reported per seed: the probes, the first probe at which >= 80 % reach every waypoint
+(steps, wall-clock, and wall-clock without the probes' cost), and where the training
+time went: stepping the environments (timed at the vector env), the rest of the
+collection (policy forward passes, buffers, callbacks), the updates and the run's own
+evaluations (the probes' cost taken out); across seeds: IQM with 95 % stratified-
+bootstrap intervals (rliable, through ``pyflyt_cli.plotting.stats``) of the final
+policy's mean waypoints reached and fractions reaching 1 and all 5.  ``--write`` appends
+a section to ``experiments/results/learn_waypoints.md`` and writes the raw probes to
+``learn_waypoints.json`` and the curve to ``learn_waypoints.png``.
+
+    python experiments/learn_waypoints.py [--algo ppo] [--seeds 0 1 2] [--budget N] \\
+        [--probe-every 100000] [--episodes 10] [--set KEY=VALUE ...] [--write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from learn_hover_ppo import HoverProbe  # this folder: the probe callback pattern
+
+from pyflyt_cli.training import compose_config, train
+
+RESULTS = Path(__file__).resolve().parent / "results" / "learn_waypoints.md"
+ENV = "quadx_waypoints"
+TARGET_FRACTION = 0.8  # the issue: >= 80 % of the evaluation episodes reach every waypoint
+PROBE_SEED = 10_000
+
+
+def ending(info: dict, truncated: bool) -> str:
+    """How an episode ended, from its last ``info``: complete, crash, out (of the dome) or time."""
+    if info.get("env_complete"):
+        return "complete"
+    if info.get("out_of_bounds"):
+        return "out"
+    if truncated and not info.get("collision"):
+        return "time"
+    return "crash"
+
+
+def summarize_probe(reached: list[int], endings: list[str], returns: list[float], num_targets: int) -> dict:
+    """Fractions of the episodes reaching at least 1..``num_targets`` waypoints, and the rest."""
+    counts = np.asarray(reached, dtype=int)
+    return {
+        "reached": [int(c) for c in counts],
+        "at_least": [float(np.mean(counts >= k)) for k in range(1, num_targets + 1)],
+        "mean_reached": float(counts.mean()),
+        "all": float(np.mean(counts >= num_targets)),
+        "endings": {e: endings.count(e) for e in ("complete", "time", "out", "crash") if e in endings},
+        "mean_return": float(np.mean(returns)),
+    }
+
+
+def waypoint_probe(model, env, episodes: int, seed: int) -> dict:
+    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...); see :func:`summarize_probe`."""
+    vec = model.get_vec_normalize_env()
+    num_targets = env.unwrapped.task.options.num_targets
+    reached, endings, returns = [], [], []
+    for i in range(episodes):
+        obs, _ = env.reset(seed=seed + i)
+        done, total, info, truncated = False, 0.0, {}, False
+        while not done:
+            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
+            action, _ = model.predict(x, deterministic=True)
+            obs, reward, terminated, truncated, info = env.step(action)
+            total += float(reward)
+            done = terminated or truncated
+        reached.append(int(info["num_targets_reached"]))
+        endings.append(ending(info, truncated))
+        returns.append(total)
+    return summarize_probe(reached, endings, returns, num_targets)
+
+
+class WaypointProbe(HoverProbe):
+    """:class:`learn_hover_ppo.HoverProbe`'s schedule with :func:`waypoint_probe`; remembers the first
+    probe at which ``target`` of the episodes reach every waypoint, and times the env stepping."""
+
+    def __init__(self, cfg, every: int, episodes: int, target: float = TARGET_FRACTION) -> None:
+        super().__init__(cfg, every, episodes, probe_fn=waypoint_probe)
+        self.target = target
+        self.env_time = 0.0
+        self.loads: list[float] = []
+
+    def _on_training_start(self) -> None:
+        super()._on_training_start()
+        venv = self.model.get_env()  # the outermost vector env: its step_wait steps every env
+        inner = venv.step_wait
+
+        def timed_step_wait():
+            t0 = time.perf_counter()
+            try:
+                return inner()
+            finally:
+                self.env_time += time.perf_counter() - t0
+
+        venv.step_wait = timed_step_wait
+
+    def probe(self) -> None:
+        t0 = time.perf_counter()
+        probe = self.probe_fn(self.model, self.env, self.episodes, seed=PROBE_SEED)
+        self.probe_time += time.perf_counter() - t0
+        wall = time.perf_counter() - self.started
+        load = os.getloadavg()[0]
+        self.loads.append(load)
+        self.history.append((self.num_timesteps, wall, probe))
+        at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
+        print(
+            f"  {self.num_timesteps:>8} steps  {wall:7.1f} s  (train {wall - self.probe_time:7.1f} s, load {load:.1f})  "
+            f">=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  endings {probe['endings']}  "
+            f"return {probe['mean_return']:8.1f}",
+            flush=True,
+        )
+        if self.hover_at is None and probe["all"] >= self.target:
+            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
+
+
+def _phase_split(run_dir: Path) -> dict[str, float]:
+    import warnings
+
+    from pyflyt_engine.telemetry import read_metrics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        records = read_metrics(run_dir).get("/train/progress", [])
+    last = dict(records[-1]) if records else {}
+    return {k[: -len("_seconds")]: float(v) for k, v in last.items() if k.endswith("_seconds")}
+
+
+def run(
+    seed: int,
+    algo: str,
+    budget: int | None,
+    every: int,
+    episodes: int,
+    output: Path,
+    extra: tuple[str, ...] | list[str] = (),
+) -> dict:
+    overrides = [*extra, f"seed={seed}", f"train.output_dir={output}", "train.progress_bar=false"]
+    if budget is not None:
+        overrides.append(f"train.total_timesteps={budget}")
+    cfg = compose_config(env=ENV, algo=algo, overrides=overrides)
+    probe = WaypointProbe(cfg, every, episodes)
+    start = time.perf_counter()
+    result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
+    wall = time.perf_counter() - start
+    split = _phase_split(Path(result.run_dir))
+    # the probes run inside the collection phase (from a callback's on_step): take them out
+    collect = split.get("collect", 0.0) - probe.probe_time
+    split = {
+        "env": probe.env_time,
+        "collect_other": collect - probe.env_time,
+        "update": split.get("update", 0.0),
+        "eval": split.get("eval", 0.0),
+        "checkpoint": split.get("checkpoint", 0.0),
+    }
+    trained = result.elapsed - probe.probe_time  # learn() alone, without the run's set-up
+    return {
+        "seed": seed,
+        "algo": algo,
+        "overrides": list(extra),
+        "budget": cfg.train.total_timesteps,
+        "probe_every": every,
+        "episodes": episodes,
+        "steps": result.num_timesteps,
+        "target_at": probe.hover_at,
+        "final": probe.history[-1][2] if probe.history else {},
+        "best_mean_reached": max((h[2]["mean_reached"] for h in probe.history), default=0.0),
+        "split": split,
+        "steps_per_second": result.num_timesteps / max(trained, 1e-9),
+        "wall": wall,  # the whole run: set-up, training, probes, final files
+        "trained_wall": trained,
+        "load": [min(probe.loads, default=0.0), max(probe.loads, default=0.0)],
+        "history": probe.history,
+    }
+
+
+def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
+    """IQM over seeds with 95 % stratified-bootstrap CIs of the final probe's waypoint measures,
+    and of the mean-waypoints-reached curve when every seed was probed at the same steps."""
+    from pyflyt_cli.plotting import stats
+
+    def iqm(values: list[float]) -> stats.Estimate:
+        return stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
+
+    def fmt(e: stats.Estimate, digits: int) -> str:
+        return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
+
+    final = [r["final"] for r in rows]
+    lines = [
+        "",
+        f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
+        "",
+        "| measure | IQM [95 % CI] |",
+        "|---|---|",
+        f"| mean waypoints reached (of 5) | {fmt(iqm([f['mean_reached'] for f in final]), 2)} |",
+        f"| fraction reaching >= 1 waypoint | {fmt(iqm([f['at_least'][0] for f in final]), 2)} |",
+        f"| fraction reaching all 5 | {fmt(iqm([f['all'] for f in final]), 2)} |",
+        f"| probe return | {fmt(iqm([f['mean_return'] for f in final]), 1)} |",
+    ]
+    data: dict = {"rows": rows}
+    probe_steps = [[h[0] for h in r["history"]] for r in rows]
+    if rows and all(s == probe_steps[0] for s in probe_steps) and len(probe_steps[0]) > 1:
+        curve = np.asarray([[[h[2]["mean_reached"] for h in r["history"]]] for r in rows])  # (runs, 1, points)
+        band = stats.iqm_curves({"x": curve}, reps=reps, seed=0)["x"]
+        data["curve"] = {
+            "steps": probe_steps[0],
+            "iqm": band.value.tolist(),
+            "low": band.low.tolist(),
+            "high": band.high.tolist(),
+        }
+    return lines, data
+
+
+def plot_curve(data: dict, path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    curve = data["curve"]
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.plot(curve["steps"], curve["iqm"], color="C0", label="IQM over seeds")
+    ax.fill_between(curve["steps"], curve["low"], curve["high"], color="C0", alpha=0.25, label="95 % CI")
+    for r in data["rows"]:
+        ax.plot([h[0] for h in r["history"]], [h[2]["mean_reached"] for h in r["history"]], color="0.6", lw=0.8)
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("waypoints reached (of 5), probe mean")
+    ax.set_title(title)
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def table(rows: list[dict]) -> list[str]:
+    lines = [
+        "| seed | steps | final: >= 1 / 2 / 3 / 4 / 5 reached [%] | final: mean reached | final endings | best mean reached | >= 80 % all at [steps] | training wall-clock [s] | steps/s | env / other collect / update / eval [s] | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        f, s, t = r["final"], r["split"], r["target_at"]
+        lines.append(
+            f"| {r['seed']} | {r['steps']} | {' / '.join(f'{100 * x:.0f}' for x in f['at_least'])} | "
+            f"{f['mean_reached']:.1f} | {', '.join(f'{k} {v}' for k, v in f['endings'].items())} | "
+            f"{r['best_mean_reached']:.1f} | {t[0] if t else 'not within budget'} | {r['trained_wall']:.0f} | "
+            f"{r['steps_per_second']:.0f} | {s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f} | "
+            f"{r['load'][0]:.1f}-{r['load'][1]:.1f} |"
+        )
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--algo", default="ppo")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--budget", type=int, default=None, help="steps per run (default: the tuning's budget)")
+    parser.add_argument("--probe-every", type=int, default=100_000)
+    parser.add_argument("--episodes", type=int, default=10, help="episodes per probe")
+    parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
+    parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
+    parser.add_argument("--save-rows", type=Path, help="also write each run's raw results here (JSON), seed by seed")
+    parser.add_argument(
+        "--from-rows", type=Path, nargs="+", help="no training: report the runs saved by earlier --save-rows"
+    )
+    args = parser.parse_args()
+
+    rows = []
+    if args.from_rows:
+        for path in args.from_rows:
+            rows += json.loads(path.read_text())
+        args.algo = rows[0]["algo"]
+        args.seeds = [r["seed"] for r in rows]
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            for seed in args.seeds:
+                print(f"seed {seed}:", flush=True)
+                rows.append(run(seed, args.algo, args.budget, args.probe_every, args.episodes, Path(tmp), args.set))
+                if args.save_rows:  # a long study survives an interruption seed by seed
+                    args.save_rows.write_text(json.dumps(rows, indent=1) + "\n")
+
+    command = "python experiments/learn_waypoints.py " + " ".join(sys.argv[1:])
+    lines = [
+        (
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.algo}, budget {rows[0]['budget']} steps, "
+            f"probe every {rows[0]['probe_every']} steps x {rows[0]['episodes']} episodes ({platform.machine()}, "
+            f"{platform.python_version()})\n"
+        ),
+        f"```bash\n{command}\n```\n",
+        *table(rows),
+    ]
+    summary, data = rliable_summary(rows)
+    lines += summary
+    if args.write and "curve" in data:
+        png = RESULTS.with_suffix(".png")
+        plot_curve(data, png, f"QuadX-Waypoints, {args.algo}, seeds {', '.join(map(str, args.seeds))}")
+        lines.append(f"\nCurve: `{png.name}` (IQM and 95 % CI of the mean waypoints reached per probe; grey: each seed).")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.write:
+        data["command"] = command
+        RESULTS.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
+        with RESULTS.open("a") as fh:
+            fh.write(text)
+
+
+if __name__ == "__main__":
+    main()

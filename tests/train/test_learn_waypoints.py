@@ -1,0 +1,80 @@
+"""The waypoint probe of experiments/learn_waypoints.py counts what it should (cheap, no training).
+
+Constructed cases with known answers: a reach distance wider than the flight dome makes
+every step reach the next waypoint (the tracker moves on by one per step), so every
+episode reaches all of them and completes; zero thrust with a tiny reach distance drops
+the vehicle from 1 m onto the ground before anything is reached.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+import yaml
+
+from .conftest import ROOT
+
+
+def _experiment():
+    spec = importlib.util.spec_from_file_location("learn_waypoints", ROOT / "experiments" / "learn_waypoints.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class _FixedAction:
+    """A policy that always returns ``action`` (in the agent's [-1, 1] units)."""
+
+    def __init__(self, action):
+        self.action = np.asarray(action, dtype=np.float32)
+
+    def get_vec_normalize_env(self):
+        return None
+
+    def predict(self, obs, deterministic=True):
+        return self.action, None
+
+
+def _env(num_targets: int, reach: float):
+    from pyflyt_cli.training.envs import wrap_for_agent
+    from pyflyt_engine.envs import make_env
+
+    data = yaml.safe_load((ROOT / "conf" / "env" / "quadx_waypoints.yaml").read_text())
+    data["task"].update(num_targets=num_targets, goal_reach_distance=reach)
+    return wrap_for_agent(make_env(data))
+
+
+@pytest.fixture(scope="module")
+def exp():
+    return _experiment()
+
+
+def test_every_waypoint_counted_when_each_step_reaches_one(exp):
+    env = _env(num_targets=3, reach=20.0)  # wider than the 5 m dome: reached at once, one per step
+    try:
+        probe = exp.waypoint_probe(_FixedAction([0, 0, 0, -0.7]), env, episodes=2, seed=0)
+    finally:
+        env.close()
+    assert probe["reached"] == [3, 3]
+    assert probe["at_least"] == [1.0, 1.0, 1.0] and probe["all"] == 1.0 and probe["mean_reached"] == 3.0
+    assert probe["endings"] == {"complete": 2}
+
+
+def test_nothing_counted_when_the_vehicle_falls(exp):
+    env = _env(num_targets=5, reach=1e-4)
+    try:
+        probe = exp.waypoint_probe(_FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)  # no thrust
+    finally:
+        env.close()
+    assert probe["reached"] == [0, 0]
+    assert probe["at_least"] == [0.0] * 5 and probe["all"] == 0.0
+    assert probe["endings"] == {"crash": 2}
+
+
+def test_fractions_of_mixed_episodes(exp):
+    probe = exp.summarize_probe([0, 2, 5, 5], ["crash", "out", "complete", "complete"], [1.0, 2.0, 3.0, 6.0], 5)
+    assert probe["at_least"] == [0.75, 0.75, 0.5, 0.5, 0.5]
+    assert probe["mean_reached"] == 3.0 and probe["all"] == 0.5 and probe["mean_return"] == 3.0
+    assert probe["endings"] == {"complete": 2, "out": 1, "crash": 1}
