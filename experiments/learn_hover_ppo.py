@@ -196,20 +196,34 @@ def rliable_summary(rows: list[dict], budget: int, reps: int = 2000) -> tuple[li
         f"| final mean distance [m] | {fmt(iqm(final_distance), 3)} |",
     ]
     data = {"rows": [{k: v for k, v in r.items()} for r in rows]}
-    probe_steps = [[h[0] for h in r["history"]] for r in rows]
-    if rows and all(s == probe_steps[0] for s in probe_steps) and len(probe_steps[0]) > 1:
-        curve = np.asarray([[[h[2]["mean_return"] for h in r["history"]]] for r in rows])  # (runs, 1, points)
-        band = stats.iqm_curves({"x": curve}, reps=reps, seed=0)["x"]
-        data["curve"] = {
-            "steps": probe_steps[0],
-            "iqm": band.value.tolist(),
-            "low": band.low.tolist(),
-            "high": band.high.tolist(),
-        }
+    curve = probe_curve(rows, "mean_return", reps)
+    if curve is not None:
+        data["curve"] = curve
     return lines, data
 
 
-def plot_curve(data: dict, path: Path, title: str) -> None:
+def probe_curve(rows: list[dict], key: str, reps: int = 2000) -> dict | None:
+    """IQM over seeds, with its 95 % bootstrap band (rliable), of the probes' ``key`` at each probe
+    step; None unless every run probed at the same steps (two or more)."""
+    from pyflyt_cli.plotting import stats
+
+    probe_steps = [[h[0] for h in r["history"]] for r in rows]
+    if not rows or any(s != probe_steps[0] for s in probe_steps) or len(probe_steps[0]) < 2:
+        return None
+    curve = np.asarray([[[h[2][key] for h in r["history"]]] for r in rows])  # (runs, 1, points)
+    band = stats.iqm_curves({"x": curve}, reps=reps, seed=0)["x"]
+    return {"steps": probe_steps[0], "iqm": band.value.tolist(), "low": band.low.tolist(), "high": band.high.tolist()}
+
+
+def plot_curve(
+    data: dict,
+    path: Path,
+    title: str,
+    key: str = "mean_return",
+    ylabel: str = "probe return (deterministic)",
+    legend: str = "lower right",
+) -> None:
+    """``data["curve"]`` (from :func:`probe_curve`) with its band, and every run's probes of ``key`` in grey."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -220,11 +234,11 @@ def plot_curve(data: dict, path: Path, title: str) -> None:
     ax.plot(curve["steps"], curve["iqm"], color="C0", label="IQM over seeds")
     ax.fill_between(curve["steps"], curve["low"], curve["high"], color="C0", alpha=0.25, label="95 % CI")
     for r in data["rows"]:
-        ax.plot([h[0] for h in r["history"]], [h[2]["mean_return"] for h in r["history"]], color="0.6", lw=0.8)
+        ax.plot([h[0] for h in r["history"]], [h[2][key] for h in r["history"]], color="0.6", lw=0.8)
     ax.set_xlabel("environment steps")
-    ax.set_ylabel("probe return (deterministic)")
+    ax.set_ylabel(ylabel)
     ax.set_title(title)
-    ax.legend(loc="lower right")
+    ax.legend(loc=legend)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

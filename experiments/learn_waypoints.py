@@ -39,7 +39,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from learn_hover_ppo import HoverProbe  # this folder: the probe callback pattern
+from learn_hover_ppo import HoverProbe, plot_curve, probe_curve  # this folder: probe callback, curve, plot
 
 from pyflyt_cli.training import compose_config, train
 
@@ -220,38 +220,10 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict
         f"| probe return | {fmt(iqm([f['mean_return'] for f in final]), 1)} |",
     ]
     data: dict = {"rows": rows}
-    probe_steps = [[h[0] for h in r["history"]] for r in rows]
-    if rows and all(s == probe_steps[0] for s in probe_steps) and len(probe_steps[0]) > 1:
-        curve = np.asarray([[[h[2]["mean_reached"] for h in r["history"]]] for r in rows])  # (runs, 1, points)
-        band = stats.iqm_curves({"x": curve}, reps=reps, seed=0)["x"]
-        data["curve"] = {
-            "steps": probe_steps[0],
-            "iqm": band.value.tolist(),
-            "low": band.low.tolist(),
-            "high": band.high.tolist(),
-        }
+    curve = probe_curve(rows, "mean_reached", reps)
+    if curve is not None:
+        data["curve"] = curve
     return lines, data
-
-
-def plot_curve(data: dict, path: Path, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    curve = data["curve"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.plot(curve["steps"], curve["iqm"], color="C0", label="IQM over seeds")
-    ax.fill_between(curve["steps"], curve["low"], curve["high"], color="C0", alpha=0.25, label="95 % CI")
-    for r in data["rows"]:
-        ax.plot([h[0] for h in r["history"]], [h[2]["mean_reached"] for h in r["history"]], color="0.6", lw=0.8)
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("waypoints reached (of 5), probe mean")
-    ax.set_title(title)
-    ax.legend(loc="upper left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def table(rows: list[dict]) -> list[str]:
@@ -314,8 +286,17 @@ def main() -> None:
     lines += summary
     if args.write and "curve" in data:
         png = RESULTS.with_suffix(".png")
-        plot_curve(data, png, f"QuadX-Waypoints, {args.algo}, seeds {', '.join(map(str, args.seeds))}")
-        lines.append(f"\nCurve: `{png.name}` (IQM and 95 % CI of the mean waypoints reached per probe; grey: each seed).")
+        plot_curve(
+            data,
+            png,
+            f"QuadX-Waypoints, {args.algo}, seeds {', '.join(map(str, args.seeds))}",
+            key="mean_reached",
+            ylabel="waypoints reached (of 5), probe mean",
+            legend="upper left",
+        )
+        lines.append(
+            f"\nCurve: `{png.name}` (IQM and 95 % CI of the mean waypoints reached per probe; grey: each seed)."
+        )
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
