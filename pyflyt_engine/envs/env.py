@@ -119,6 +119,7 @@ class UAVEnv(gymnasium.Env):
         self.config: EnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
+        self._agent_dt = 1.0 / cfg.agent_hz
 
         # task and reward first: a bad config fails before PyBullet starts
         task_cls = get_task(cfg.task.name)
@@ -256,6 +257,7 @@ class UAVEnv(gymnasium.Env):
             signals.waypoint_reached,
             signals.extras,
             max(self._max_steps - self._steps - 1, 0),
+            self._agent_dt,
         )
         reward, terms = self.reward_function(ctx)
         self._reward_terms = terms

@@ -38,7 +38,7 @@ from pyflyt_engine.state import KinematicState
 
 #: Signals every task provides (read from the vehicle and the world, not the task).
 BASE_SIGNALS = frozenset(
-    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete", "steps_remaining"}
+    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete", "steps_remaining", "agent_dt"}
 )
 
 
@@ -65,6 +65,7 @@ class StepContext:
             ``safe_landing``, ``fatal_landing`` as 0/1 and ``touchdown_speed`` [m/s]).
         steps_remaining: agent steps the episode had left after this one before its time
             limit (0 on the last step); every env sets it.
+        agent_dt: duration of the agent step [s] (1 / agent_hz); every env sets it.
     """
 
     state: KinematicState
@@ -79,6 +80,7 @@ class StepContext:
     waypoint_reached: bool = False
     extras: Mapping[str, float] = field(default_factory=dict)
     steps_remaining: int = 0
+    agent_dt: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,11 @@ def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
 def target_distance_rate(ctx: StepContext) -> float:
     """d(delta)/dt: rate of change of the distance to the current target [m/s], < 0 approaching."""
     return ctx.target_distance_rate  # type: ignore[return-value]
+
+
+def target_distance_decrease(ctx: StepContext) -> float:
+    """Decrease of delta over the agent step [m], > 0 approaching: the reference PyFlyt's waypoint progress."""
+    return -ctx.target_distance_rate * ctx.agent_dt  # type: ignore[operator]
 
 
 def target_distance_over_remaining_steps(ctx: StepContext) -> float:
@@ -273,6 +280,7 @@ TERMS: dict[str, RewardTerm] = {
     "target_distance": RewardTerm(target_distance, "m", ("target_distance",)),
     "inverse_target_distance": RewardTerm(inverse_target_distance, "1/m", ("target_distance",)),
     "target_distance_rate": RewardTerm(target_distance_rate, "m/s", ("target_distance_rate",)),
+    "target_distance_decrease": RewardTerm(target_distance_decrease, "m", ("target_distance_rate",)),
     "target_distance_over_remaining_steps": RewardTerm(
         target_distance_over_remaining_steps, "m", ("target_distance",)
     ),

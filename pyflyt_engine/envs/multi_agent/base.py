@@ -106,6 +106,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
+        self._agent_dt = 1.0 / cfg.agent_hz
         self.agent_list: list[ResolvedAgent] = cfg.resolved_agents()
         self.possible_agents: list[str] = [a.name for a in self.agent_list]
         self.agents: list[str] = []
@@ -270,6 +271,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 False,
                 sig.extras,
                 max(self._max_steps - self._steps, 0),
+                self._agent_dt,
             )
             reward, terms = self.reward_function(ctx)
             self._reward_terms[i] = terms
