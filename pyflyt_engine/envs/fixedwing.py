@@ -81,8 +81,9 @@ class FixedwingWaypointsEnv(UAVEnv):
             c_a / delta                            otherwise
 
     delta: distance to the next waypoint [m] at the end of the step (>= d unless
-    reached, so c_a / delta <= 0.5); delta_dot: its rate of change over the step [m/s].
-    Cases tried in that order.  Terms (``info["reward_terms"]``): ``crash``,
+    reached, so c_a / delta <= 0.5); delta_dot: its change over the step [m] (c_b = 3
+    per metre closed, as for QuadX; preset ``fixedwing_waypoints_dense_rate``: the rate
+    in m/s).  Cases tried in that order.  Terms (``info["reward_terms"]``): ``crash``,
     ``waypoint_bonus``, ``proximity`` (c_a / delta), ``approach`` (-c_b delta_dot when
     approaching).  The paper prints the last case as 1/delta; with c_a = 1 the two agree.
 

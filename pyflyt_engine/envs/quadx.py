@@ -122,14 +122,16 @@ class QuadXWaypointsEnv(UAVEnv):
             c_a / delta                            otherwise
 
     delta is the distance to the next waypoint [m] at the end of the step, delta_dot its
-    rate of change over the step [m/s] (both to the waypoint that was the target during
-    the step).  The cases are tried in that order (crash first).  Note: the paper prints
+    change over the step [m] (both to the waypoint that was the target during the step):
+    approaching pays c_b = 3 per metre closed, at any agent rate, as in the reference
+    PyFlyt.  The cases are tried in that order (crash first).  Note: the paper prints
     the last case as 1/delta (no c_a); c_a/delta is used because it is the only form
     continuous at delta_dot = 0 — with 1/delta, lingering just outside the reach radius
-    while drifting away would pay 10x more than approaching.  Note also that delta_dot
-    is a rate [m/s]; the reference PyFlyt used the per-step change in metres
-    (delta_dot / 30 at 30 Hz).  Terms: ``crash``, ``waypoint_bonus``, ``proximity``
-    (c_a/delta), ``approach`` (-c_b delta_dot when approaching).
+    while drifting away would pay 10x more than approaching.  Preset
+    ``quadx_waypoints_dense_rate`` reads delta_dot as a rate [m/s] instead: c_b x 30 = 90
+    per metre at 30 Hz, which makes a near miss pay almost as much as a waypoint.  Terms:
+    ``crash``, ``waypoint_bonus``, ``proximity`` (c_a/delta), ``approach`` (-c_b
+    delta_dot when approaching).
 
     Sparse (preset ``quadx_waypoints_sparse``): -100 on a crash, +100 per waypoint
     reached, 0 otherwise.

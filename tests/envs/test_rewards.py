@@ -117,11 +117,16 @@ class WaypointOracle:
 
     Defaults are QuadX-Waypoints' c_a = 0.1, c_b = 3, d = 0.2 m, dome 5 m (see the env
     docstring); Fixedwing-Waypoints uses the same formula with its own constants.
+    delta_dot is the change of delta over the agent step [m] (the shipped dense presets),
+    or with ``per_second`` its rate [m/s] (the ``*_dense_rate`` presets).
     """
 
-    def __init__(self, targets, position, sparse, dome=5.0, c_a=0.1, c_b=3.0, reach=0.2):
+    def __init__(
+        self, targets, position, sparse, dome=5.0, c_a=0.1, c_b=3.0, reach=0.2, per_second=False, agent_hz=AGENT_HZ
+    ):
         self.targets, self.position, self.sparse, self.dome = targets, np.array(position), sparse, dome
         self.c_a, self.c_b, self.reach = c_a, c_b, reach
+        self.rate_scale = agent_hz if per_second else 1.0
         self.index = 0
         self.branches = set()
 
@@ -131,7 +136,7 @@ class WaypointOracle:
         assert out_of_bounds == info["out_of_bounds"]
         target = self.targets[self.index]
         delta = np.linalg.norm(position - target)
-        delta_dot = (delta - np.linalg.norm(self.position - target)) * AGENT_HZ
+        delta_dot = (delta - np.linalg.norm(self.position - target)) * self.rate_scale
         reached = _segment_distance(self.position, position, target) < self.reach
         self.position = position.copy()
         if reached:
@@ -151,14 +156,19 @@ class WaypointOracle:
         return reward
 
 
-@pytest.mark.parametrize("sparse", [False, True])
-def test_waypoint_reward_matches_the_paper_on_random_flights_and_set_states(make, sparse):
-    env = make(WAYPOINTS, sparse_reward=sparse)
+@pytest.mark.parametrize(
+    ("reward", "agent_hz"), [("dense", 30), ("dense", 60), ("quadx_waypoints_dense_rate", 30), ("sparse", 30)]
+)
+def test_waypoint_reward_matches_the_paper_on_random_flights_and_set_states(make, reward, agent_hz):
+    env = make(WAYPOINTS, reward=reward, agent_hz=agent_hz)
     rng = np.random.default_rng(2)
     checked = 0
+    sparse, per_second = reward == "sparse", reward.endswith("_rate")
     for episode in range(12):
         obs, _ = env.reset(seed=episode)
-        oracle = WaypointOracle(env.task.targets, obs["attitude"][10:13], sparse)
+        oracle = WaypointOracle(
+            env.task.targets, obs["attitude"][10:13], sparse, per_second=per_second, agent_hz=agent_hz
+        )
         for step in range(60):
             if episode % 2 and step % 3 == 0:
                 # put the vehicle somewhere around its next waypoint, some of the time within d
@@ -230,17 +240,27 @@ def test_terms_are_pure_functions_with_the_documented_values():
     assert rewards.approaching(ctx) and not rewards.approaching(_ctx(target_distance_rate=0.0))
     assert rewards.crash(_ctx(out_of_bounds=True)) and rewards.crash(_ctx(collision=True)) and not rewards.crash(ctx)
     assert rewards.target_distance_over_remaining_steps(_ctx(target_distance=0.5, steps_remaining=12)) == 6.0
+    assert rewards.target_distance_decrease(_ctx(target_distance_rate=-2.0, agent_dt=0.25)) == 0.5
 
 
-def test_waypoint_dense_preset_is_continuous_at_zero_rate():
-    reward = load_reward_preset("quadx_waypoints_dense").compile()
-    at = lambda rate: reward(_ctx(target_distance=0.7, target_distance_rate=rate))[0]  # noqa: E731
+@pytest.mark.parametrize(
+    ("preset", "per_metre"),
+    [("quadx_waypoints_dense", 3.0), ("quadx_waypoints_dense_rate", 3.0 * 30)],  # c_b; c_b x agent_hz
+)
+def test_waypoint_dense_presets_are_continuous_at_zero_rate_and_pay_their_rate_per_metre(preset, per_metre):
+    reward = load_reward_preset(preset).compile()
+    dt = 1.0 / 30  # the env's 30 Hz agent step
+    at = lambda rate: reward(_ctx(target_distance=0.7, target_distance_rate=rate, agent_dt=dt))[0]  # noqa: E731
     assert at(-1e-9) == pytest.approx(at(0.0), abs=1e-6) == pytest.approx(at(1e-9), abs=1e-6)
     assert at(0.0) == pytest.approx(0.1 / 0.7)
-    assert at(-1.0) == pytest.approx(0.1 / 0.7 + 3.0)
-    total, terms = reward(_ctx(target_distance=0.1, target_distance_rate=-5.0, waypoint_reached=True))
+    # closing 1 m in one step (delta_dot = -30 m/s at 30 Hz) pays c_b or c_b x 30 on top of c_a / delta
+    assert at(-30.0) == pytest.approx(0.1 / 0.7 + per_metre)
+    assert at(2.0) == pytest.approx(0.1 / 0.7)  # receding costs nothing
+    total, terms = reward(_ctx(target_distance=0.1, target_distance_rate=-5.0, waypoint_reached=True, agent_dt=dt))
     assert total == 100.0 and terms["waypoint_bonus"] == 100.0 and terms["proximity"] == 0.0
-    total, terms = reward(_ctx(target_distance=0.1, target_distance_rate=-5.0, waypoint_reached=True, collision=True))
+    total, terms = reward(
+        _ctx(target_distance=0.1, target_distance_rate=-5.0, waypoint_reached=True, collision=True, agent_dt=dt)
+    )
     assert total == -100.0  # a crash takes precedence
 
 
