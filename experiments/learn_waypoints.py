@@ -1,14 +1,16 @@
-"""How many waypoints does a QuadX-Waypoints agent reach, and after how much training?
+"""How many waypoints does a waypoint-task agent reach, and after how much training?
 
-Trains what ``pyflyt train env=quadx_waypoints algo=<algo>`` trains (``conf/train.yaml``
-with the env's tuning ``conf/hparams/quadx_waypoints_<algo>.yaml`` when there is one;
-``--set key=value ...`` adds overrides) and every ``--probe-every`` steps flies the
+Trains what ``pyflyt train env=<env> algo=<algo>`` trains (``--env quadx_waypoints``, the
+default, or ``fixedwing_waypoints``; ``conf/train.yaml`` with the env's tuning
+``conf/hparams/<env>_<algo>.yaml`` when there is one; ``--set key=value ...`` adds
+overrides) and every ``--probe-every`` steps flies the
 current policy (deterministic) for ``--episodes`` seeded episodes (seeds 10 000+),
 counting per episode the waypoints reached (of 5) and how it ended (crash, left the
 flight dome, time limit, all reached).  Progress is the fraction of probe episodes that
 reach at least 1, 2, ..., 5 waypoints, not the return: the dense reward pays for
-approaching a waypoint whether or not it is ever reached.  The issue's target: >= 80 %
-of the episodes reach every waypoint within 30 minutes of training on 2 cores.
+approaching a waypoint whether or not it is ever reached.  The targets: >= 80 % of the
+episodes reach every waypoint within 30 minutes of training on 2 cores (QuadX), >= 50 %
+within 60 minutes (Fixedwing).
 
 Reported per seed: the probes, the first probe at which >= 80 % reach every waypoint
 (steps, wall-clock, and wall-clock without the probes' cost), and where the training
@@ -17,11 +19,12 @@ collection (policy forward passes, buffers, callbacks), the updates and the run'
 evaluations (the probes' cost taken out); across seeds: IQM with 95 % stratified-
 bootstrap intervals (rliable, through ``pyflyt_cli.plotting.stats``) of the final
 policy's mean waypoints reached and fractions reaching 1 and all 5.  ``--write`` appends
-a section to ``experiments/results/learn_waypoints.md`` and writes the raw probes to
-``learn_waypoints.json`` and the curve to ``learn_waypoints.png``.
+a section to ``experiments/results/learn_waypoints.md`` (Fixedwing:
+``learn_fixedwing_waypoints.md``) and writes the raw probes and the curve beside it
+(``.json``, ``.png``).
 
-    python experiments/learn_waypoints.py [--algo ppo] [--seeds 0 1 2] [--budget N] \\
-        [--probe-every 100000] [--episodes 10] [--set KEY=VALUE ...] [--write]
+    python experiments/learn_waypoints.py [--env quadx_waypoints] [--algo ppo] [--seeds 0 1 2] [--budget N] \\
+        [--probe-every 100000] [--episodes 10] [--set KEY=VALUE ...] [--keep-runs DIR] [--write]
 """
 
 from __future__ import annotations
@@ -43,9 +46,12 @@ from learn_hover_ppo import HoverProbe, plot_curve, probe_curve  # this folder: 
 
 from pyflyt_cli.training import compose_config, train
 
-RESULTS = Path(__file__).resolve().parent / "results" / "learn_waypoints.md"
-ENV = "quadx_waypoints"
-TARGET_FRACTION = 0.8  # the issue: >= 80 % of the evaluation episodes reach every waypoint
+RESULTS_DIR = Path(__file__).resolve().parent / "results"
+#: env -> (results file, fraction of the evaluation episodes that must reach every waypoint, title)
+TASKS = {
+    "quadx_waypoints": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints"),
+    "fixedwing_waypoints": (RESULTS_DIR / "learn_fixedwing_waypoints.md", 0.5, "Fixedwing-Waypoints"),
+}
 PROBE_SEED = 10_000
 
 
@@ -97,7 +103,7 @@ class WaypointProbe(HoverProbe):
     """:class:`learn_hover_ppo.HoverProbe`'s schedule with :func:`waypoint_probe`; remembers the first
     probe at which ``target`` of the episodes reach every waypoint, and times the env stepping."""
 
-    def __init__(self, cfg, every: int, episodes: int, target: float = TARGET_FRACTION) -> None:
+    def __init__(self, cfg, every: int, episodes: int, target: float) -> None:
         super().__init__(cfg, every, episodes, probe_fn=waypoint_probe)
         self.target = target
         self.env_time = 0.0
@@ -149,6 +155,7 @@ def _phase_split(run_dir: Path) -> dict[str, float]:
 
 
 def run(
+    env: str,
     seed: int,
     algo: str,
     budget: int | None,
@@ -160,8 +167,8 @@ def run(
     overrides = [*extra, f"seed={seed}", f"train.output_dir={output}", "train.progress_bar=false"]
     if budget is not None:
         overrides.append(f"train.total_timesteps={budget}")
-    cfg = compose_config(env=ENV, algo=algo, overrides=overrides)
-    probe = WaypointProbe(cfg, every, episodes)
+    cfg = compose_config(env=env, algo=algo, overrides=overrides)
+    probe = WaypointProbe(cfg, every, episodes, TASKS[env][1])
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     wall = time.perf_counter() - start
@@ -177,6 +184,7 @@ def run(
     }
     trained = result.elapsed - probe.probe_time  # learn() alone, without the run's set-up
     return {
+        "env": env,
         "seed": seed,
         "algo": algo,
         "overrides": list(extra),
@@ -226,9 +234,10 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict
     return lines, data
 
 
-def table(rows: list[dict]) -> list[str]:
+def table(rows: list[dict], target: float) -> list[str]:
     lines = [
-        "| seed | steps | final: >= 1 / 2 / 3 / 4 / 5 reached [%] | final: mean reached | final endings | best mean reached | >= 80 % all at [steps] | training wall-clock [s] | steps/s | env / other collect / update / eval [s] | load |",
+        "| seed | steps | final: >= 1 / 2 / 3 / 4 / 5 reached [%] | final: mean reached | final endings | best mean reached | "
+        f">= {100 * target:.0f} % all at [steps] | training wall-clock [s] | steps/s | env / other collect / update / eval [s] | load |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -245,6 +254,7 @@ def table(rows: list[dict]) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", default="quadx_waypoints", choices=sorted(TASKS))
     parser.add_argument("--algo", default="ppo")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--budget", type=int, default=None, help="steps per run (default: the tuning's budget)")
@@ -253,6 +263,7 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
     parser.add_argument("--save-rows", type=Path, help="also write each run's raw results here (JSON), seed by seed")
+    parser.add_argument("--keep-runs", type=Path, help="keep the run directories here (default: a temporary folder)")
     parser.add_argument(
         "--from-rows", type=Path, nargs="+", help="no training: report the runs saved by earlier --save-rows"
     )
@@ -263,33 +274,36 @@ def main() -> None:
         for path in args.from_rows:
             rows += json.loads(path.read_text())
         args.algo = rows[0]["algo"]
+        args.env = rows[0].get("env", "quadx_waypoints")
         args.seeds = [r["seed"] for r in rows]
     else:
         with tempfile.TemporaryDirectory() as tmp:
+            output = args.keep_runs or Path(tmp)
             for seed in args.seeds:
                 print(f"seed {seed}:", flush=True)
-                rows.append(run(seed, args.algo, args.budget, args.probe_every, args.episodes, Path(tmp), args.set))
+                rows.append(run(args.env, seed, args.algo, args.budget, args.probe_every, args.episodes, output, args.set))
                 if args.save_rows:  # a long study survives an interruption seed by seed
                     args.save_rows.write_text(json.dumps(rows, indent=1) + "\n")
 
+    results, target, title = TASKS[args.env]
     command = "python experiments/learn_waypoints.py " + " ".join(sys.argv[1:])
     lines = [
         (
-            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.algo}, budget {rows[0]['budget']} steps, "
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {title}, {args.algo}, budget {rows[0]['budget']} steps, "
             f"probe every {rows[0]['probe_every']} steps x {rows[0]['episodes']} episodes ({platform.machine()}, "
             f"{platform.python_version()})\n"
         ),
         f"```bash\n{command}\n```\n",
-        *table(rows),
+        *table(rows, target),
     ]
     summary, data = rliable_summary(rows)
     lines += summary
     if args.write and "curve" in data:
-        png = RESULTS.with_suffix(".png")
+        png = results.with_suffix(".png")
         plot_curve(
             data,
             png,
-            f"QuadX-Waypoints, {args.algo}, seeds {', '.join(map(str, args.seeds))}",
+            f"{title}, {args.algo}, seeds {', '.join(map(str, args.seeds))}",
             key="mean_reached",
             ylabel="waypoints reached (of 5), probe mean",
             legend="upper left",
@@ -301,8 +315,8 @@ def main() -> None:
     print(text)
     if args.write:
         data["command"] = command
-        RESULTS.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
-        with RESULTS.open("a") as fh:
+        results.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
+        with results.open("a") as fh:
             fh.write(text)
 
 
