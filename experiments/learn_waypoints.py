@@ -25,6 +25,7 @@ a section to ``experiments/results/learn_waypoints.md`` (Fixedwing:
 
     python experiments/learn_waypoints.py [--env quadx_waypoints] [--algo ppo] [--seeds 0 1 2] [--budget N] \\
         [--probe-every 100000] [--episodes 10] [--set KEY=VALUE ...] [--keep-runs DIR] [--write]
+    python experiments/learn_waypoints.py --probe-run RUN_DIR [--after STEPS] [--episodes 10]
 """
 
 from __future__ import annotations
@@ -140,6 +141,46 @@ class WaypointProbe(HoverProbe):
         )
         if self.hover_at is None and probe["all"] >= self.target:
             self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
+
+
+class _SavedPolicy:
+    """A saved policy with the probe's interface (``predict``; its normaliser applied inside)."""
+
+    def __init__(self, model, normalize) -> None:
+        self.model, self.normalize = model, normalize
+
+    def get_vec_normalize_env(self):
+        return None
+
+    def predict(self, obs, deterministic: bool = True):
+        return self.model.predict(self.normalize(obs) if self.normalize is not None else obs, deterministic=deterministic)
+
+
+def probe_run(run_dir: Path, episodes: int, after: int = 0) -> list[tuple[int, dict]]:
+    """The probe of every checkpoint of a run directory after step ``after`` (e.g. a run extended
+    with ``pyflyt train resume=<run> train.total_timesteps=N``), on the env the run trained on."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.envs import EnvFactory
+    from pyflyt_cli.training.models import load_policy
+
+    cfg = rundir.load_run_config(run_dir)
+    env = EnvFactory(cfg.env, monitor=False)()
+    out = []
+    try:
+        for checkpoint in rundir.checkpoints(run_dir):
+            if checkpoint.step > after:
+                model, normalize = load_policy(checkpoint.model, cfg, env)
+                probe = waypoint_probe(_SavedPolicy(model, normalize), env, episodes, seed=PROBE_SEED)
+                out.append((checkpoint.step, probe))
+                at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
+                print(
+                    f"  {checkpoint.step:>8} steps  >=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  "
+                    f"endings {probe['endings']}  return {probe['mean_return']:8.1f}",
+                    flush=True,
+                )
+    finally:
+        env.close()
+    return out
 
 
 def _phase_split(run_dir: Path) -> dict[str, float]:
@@ -267,7 +308,16 @@ def main() -> None:
     parser.add_argument(
         "--from-rows", type=Path, nargs="+", help="no training: report the runs saved by earlier --save-rows"
     )
+    parser.add_argument(
+        "--probe-run", type=Path, help="no training: probe every checkpoint of this run directory (after --after steps)"
+    )
+    parser.add_argument("--after", type=int, default=0)
     args = parser.parse_args()
+
+    if args.probe_run:
+        print(f"{args.probe_run}: probes of its checkpoints ({args.episodes} episodes, seeds {PROBE_SEED}+)")
+        probe_run(args.probe_run, args.episodes, args.after)
+        return
 
     rows = []
     if args.from_rows:

@@ -9,6 +9,7 @@ the vehicle from 1 m onto the ground before anything is reached.
 from __future__ import annotations
 
 import importlib.util
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -78,3 +79,34 @@ def test_fractions_of_mixed_episodes(exp):
     assert probe["at_least"] == [0.75, 0.75, 0.5, 0.5, 0.5]
     assert probe["mean_reached"] == 3.0 and probe["all"] == 0.5 and probe["mean_return"] == 3.0
     assert probe["endings"] == {"complete": 2, "out": 1, "crash": 1}
+
+
+def test_probe_run_flies_the_checkpoints_after_a_step_with_their_normaliser(exp, tmp_path):
+    """--probe-run: each checkpoint after --after, loaded as `pyflyt eval` loads it (observation
+    normaliser included), flies the same probe episodes as the live policy of that step."""
+    from pyflyt_cli.training import train
+    from pyflyt_cli.training.envs import EnvFactory
+
+    from .conftest import TINY_PPO, load
+
+    overrides = [o for o in TINY_PPO if not o.startswith("env=")]
+    cfg = load(["env=quadx_waypoints", *overrides, "algo.normalize.observation=true"], tmp_path)
+    live = {}
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class ProbeAtEnd(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_training_end(self) -> None:
+            env = EnvFactory(cfg.env, monitor=False)()
+            try:
+                live["probe"] = exp.waypoint_probe(self.model, env, episodes=2, seed=exp.PROBE_SEED)
+            finally:
+                env.close()
+
+    result = train(cfg, callbacks=[ProbeAtEnd()], log=lambda line: None)
+    probes = exp.probe_run(Path(result.run_dir), episodes=2, after=256)
+    assert [step for step, _ in probes] == [512]
+    assert probes[0][1] == live["probe"]
