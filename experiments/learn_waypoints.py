@@ -1,7 +1,7 @@
 """How many waypoints does a waypoint-task agent reach, and after how much training?
 
 Trains what ``pyflyt train env=<env> algo=<algo>`` trains (``--env quadx_waypoints``, the
-default, or ``fixedwing_waypoints``; ``conf/train.yaml`` with the env's tuning
+default, ``quadx_waypoints_velocity`` or ``fixedwing_waypoints``; ``conf/train.yaml`` with the env's tuning
 ``conf/hparams/<env>_<algo>.yaml`` when there is one; ``--set key=value ...`` adds
 overrides) and every ``--probe-every`` steps flies the
 current policy (deterministic) for ``--episodes`` seeded episodes (seeds 10 000+),
@@ -51,6 +51,7 @@ RESULTS_DIR = Path(__file__).resolve().parent / "results"
 #: env -> (results file, fraction of the evaluation episodes that must reach every waypoint, title)
 TASKS = {
     "quadx_waypoints": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints"),
+    "quadx_waypoints_velocity": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints, velocity flight mode"),
     "fixedwing_waypoints": (RESULTS_DIR / "learn_fixedwing_waypoints.md", 0.5, "Fixedwing-Waypoints"),
 }
 PROBE_SEED = 10_000
