@@ -12,15 +12,15 @@ approaching a waypoint whether or not it is ever reached.  The targets: >= 80 % 
 episodes reach every waypoint within 30 minutes of training on 2 cores (QuadX), >= 50 %
 within 60 minutes (Fixedwing).
 
-Reported per seed: the probes, the first probe at which >= 80 % reach every waypoint
+Reported per seed: the probes, the first probe at which the target fraction reaches every waypoint
 (steps, wall-clock, and wall-clock without the probes' cost), and where the training
 time went: stepping the environments (timed at the vector env), the rest of the
 collection (policy forward passes, buffers, callbacks), the updates and the run's own
 evaluations (the probes' cost taken out); across seeds: IQM with 95 % stratified-
 bootstrap intervals (rliable, through ``pyflyt_cli.plotting.stats``) of the final
 policy's mean waypoints reached and fractions reaching 1 and all 5.  ``--write`` appends
-a section to ``experiments/results/learn_waypoints.md`` (Fixedwing:
-``learn_fixedwing_waypoints.md``) and writes the raw probes and the curve beside it
+a section to ``experiments/results/learn_waypoints.md`` (velocity mode:
+``learn_waypoints_velocity.md``; Fixedwing: ``learn_fixedwing_waypoints.md``) and writes the raw probes and the curve beside it
 (``.json``, ``.png``).
 
     python experiments/learn_waypoints.py [--env quadx_waypoints] [--algo ppo] [--seeds 0 1 2] [--budget N] \\
@@ -51,7 +51,7 @@ RESULTS_DIR = Path(__file__).resolve().parent / "results"
 #: env -> (results file, fraction of the evaluation episodes that must reach every waypoint, title)
 TASKS = {
     "quadx_waypoints": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints"),
-    "quadx_waypoints_velocity": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints, velocity flight mode"),
+    "quadx_waypoints_velocity": (RESULTS_DIR / "learn_waypoints_velocity.md", 0.8, "QuadX-Waypoints, velocity flight mode"),
     "fixedwing_waypoints": (RESULTS_DIR / "learn_fixedwing_waypoints.md", 0.5, "Fixedwing-Waypoints"),
 }
 PROBE_SEED = 10_000
