@@ -316,8 +316,14 @@ def main() -> None:
     args = parser.parse_args()
 
     if args.probe_run:
+        from pyflyt_engine.errors import PyFlytError
+
         print(f"{args.probe_run}: probes of its checkpoints ({args.episodes} episodes, seeds {PROBE_SEED}+)")
-        probe_run(args.probe_run, args.episodes, args.after)
+        try:
+            if not probe_run(args.probe_run, args.episodes, args.after):
+                sys.exit(f"{args.probe_run}: no checkpoint after step {args.after} (checkpoints/model_<N>_steps.pt)")
+        except PyFlytError as exc:  # not a run directory, an unreadable config or checkpoint
+            sys.exit(f"error: {exc}")
         return
 
     rows = []
