@@ -5,6 +5,8 @@
 * :class:`ResumeStreams` — after a resume, puts the random streams back at the first
   rollout start (where they were captured).
 * :class:`EpisodeMetrics` — every finished training episode → ``/train/episode``.
+* :class:`TaskCurriculum` — ``train.curriculum``: the task option values training
+  episodes start with, moved towards the configured ones → ``/train/curriculum``.
 * :class:`PeriodicEvaluation` — every ``eval_freq`` steps: N episodes on a separate env →
   ``/eval``, ``best_model.pt``; runs child callbacks (stop on reward ...) after each.
 * :class:`Checkpointer` — every ``checkpoint_freq`` steps and on a stop request, at a
@@ -101,6 +103,58 @@ class EpisodeMetrics(BaseCallback):
                     values["success"] = bool(episode["success"])
                 self.writer.log("/train/episode", self.model.num_timesteps, values)
                 self.recent = (self.recent + [values["return"]])[-20:]
+        return True
+
+
+class TaskCurriculum(BaseCallback):
+    """Move task options from a start value to the configured one as training goes on.
+
+    For each option of ``train.curriculum`` the value at environment step ``t`` is
+    ``start + (configured - start) * stage / 100`` with ``stage = min(100, 100 * t // steps)``:
+    100 equal stages, so the training envs are told (``set_task_changes`` of
+    :class:`~pyflyt_cli.training.envs.EpisodeTaskOptions`) at most 100 times, and only
+    episodes that start afterwards fly the new value.  The value is a function of the
+    step count alone: a resumed run continues the same schedule.  Evaluation envs are
+    not touched: they always fly the configured task.
+
+    Args:
+        curriculum: option -> :class:`~pyflyt_cli.training.schema.CurriculumOption`.
+        configured: option -> the env config's value (where the schedule ends).
+        writer: the run's metrics writer (``/train/curriculum`` at every change), or None.
+    """
+
+    STAGES = 100
+
+    def __init__(self, curriculum: dict[str, Any], configured: dict[str, float], writer: Any = None) -> None:
+        super().__init__()
+        self.curriculum = curriculum
+        self.configured = configured
+        self.writer = writer
+        self._stages: tuple[int, ...] | None = None
+
+    def stages(self, step: int) -> tuple[int, ...]:
+        return tuple(min(self.STAGES, self.STAGES * int(step) // c.steps) for c in self.curriculum.values())
+
+    def changes_at(self, step: int) -> dict[str, float]:
+        """The option values of the episodes that start at ``step`` (configured ones left out)."""
+        changes = {}
+        for (name, c), stage in zip(self.curriculum.items(), self.stages(step)):
+            if stage < self.STAGES:
+                changes[name] = c.start + (self.configured[name] - c.start) * stage / self.STAGES
+        return changes
+
+    def apply(self, vec_env: Any, step: int) -> None:
+        """Tell the training envs the values of ``step`` (before ``learn()``: its first resets use them)."""
+        self._stages = self.stages(step)
+        changes = self.changes_at(step)
+        vec_env.env_method("set_task_changes", changes)
+        if self.writer is not None:
+            values = {name: changes.get(name, self.configured[name]) for name in self.curriculum}
+            self.writer.log("/train/curriculum", int(step), values)
+
+    def _on_step(self) -> bool:
+        if self.stages(self.model.num_timesteps) != self._stages:
+            self.apply(self.training_env, self.model.num_timesteps)
         return True
 
 

@@ -175,6 +175,31 @@ class ResumableEpisode(gymnasium.Wrapper):
         return obs
 
 
+class EpisodeTaskOptions(gymnasium.Wrapper):
+    """Start every episode with the task option values a training curriculum set.
+
+    :meth:`set_task_changes` (called through ``VecEnv.env_method`` by
+    :class:`~pyflyt_cli.training.callbacks.TaskCurriculum`) sets them; each later reset
+    passes them as ``reset(options={"task": changes})`` (:meth:`UAVEnv.reset
+    <pyflyt_engine.envs.env.UAVEnv.reset>`).  The wrapper sits outside
+    :class:`ResumableEpisode`, which records those options with the episode, so an episode
+    re-simulated after a resume flies the values it started with.
+    """
+
+    def __init__(self, env: gymnasium.Env) -> None:
+        super().__init__(env)
+        self.task_changes: dict[str, Any] = {}
+
+    def set_task_changes(self, changes: dict[str, Any]) -> None:
+        """The task option values of the episodes that start from now on ({}: as configured)."""
+        self.task_changes = dict(changes)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        if options is None and self.task_changes:
+            options = {"task": dict(self.task_changes)}
+        return self.env.reset(seed=seed, options=options)
+
+
 @dataclass(frozen=True)
 class EnvFactory:
     """A picklable ``() -> env`` for vectorised training and evaluation environments.
@@ -189,6 +214,8 @@ class EnvFactory:
         record_dir: record every episode to MCAP files in this directory.
         resumable: wrap in :class:`ResumableEpisode` (training envs, whose episodes in
             progress are saved with checkpoints).
+        curriculum: wrap (outermost) in :class:`EpisodeTaskOptions` (training envs of a
+            run with ``train.curriculum``).
     """
 
     config: EnvConfig
@@ -197,6 +224,7 @@ class EnvFactory:
     render_mode: str | None = None
     record_dir: str | None = None
     resumable: bool = False
+    curriculum: bool = False
 
     def __call__(self) -> gymnasium.Env:
         if self.in_subprocess:
@@ -221,10 +249,12 @@ class EnvFactory:
             env = Monitor(env, info_keywords=("success",))
         if self.resumable:
             env = ResumableEpisode(env)
+        if self.curriculum:
+            env = EpisodeTaskOptions(env)
         return env
 
 
-def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
+def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum: bool = False) -> Any:
     """``n_envs`` training environments: a ``SubprocVecEnv`` when ``n_envs > 1`` (``kind="auto"``).
 
     A multi-agent env gives an :class:`~pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`
@@ -232,6 +262,7 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
     own process for ``"subproc"``.
 
     Seeds are set by the algorithm (``seed + i`` for env ``i``, at the first reset).
+    ``curriculum``: each env takes per-episode task options (:class:`EpisodeTaskOptions`).
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
@@ -244,7 +275,7 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto") -> Any:
         factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
         return AgentSlotsVecEnv(factories, subprocess=subproc)
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
-    factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
+    factories = [EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)]
     if subproc:
         return SubprocVecEnv(factories)
     return DummyVecEnv(factories)

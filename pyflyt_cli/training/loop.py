@@ -338,7 +338,7 @@ class _Run:
                 self._announce(start_step)
                 self._open_metrics(cleanup, checkpoint)
                 stop = StopRequest()
-                callbacks = self._callbacks(cleanup, stop, restored, extra_callbacks)
+                callbacks = self._callbacks(cleanup, stop, restored, [*self._curriculum(model), *extra_callbacks])
                 self._write_state("running", start_step, checkpoint=checkpoint.step if checkpoint else None)
                 elapsed = self._learn(model, callbacks, stop)
                 return self._finish(model, stop, start_step, elapsed)
@@ -362,7 +362,7 @@ class _Run:
         cfg, opts = self.cfg, self.cfg.train
         torch.set_num_threads(opts.torch_threads)
         set_random_seed(cfg.seed)
-        vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env)
+        vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env, curriculum=bool(opts.curriculum))
         cleanup.push(_closing(vec.close, "the training environments"))
         norm = cfg.algo.normalize
         if norm.enabled:
@@ -535,6 +535,20 @@ class _Run:
             )
         callbacks.extend(extra)
         return RunCallbacks(callbacks, stop)
+
+    def _curriculum(self, model: Any) -> list[Any]:
+        """``train.curriculum``: its callback, the training envs already told the current values."""
+        curriculum = self.cfg.train.curriculum
+        if not curriculum:
+            return []
+        from pyflyt_cli.training.callbacks import TaskCurriculum
+
+        configured = {name: float(getattr(self.cfg.env.task, name)) for name in curriculum}
+        callback = TaskCurriculum(curriculum, configured, self.writer)
+        callback.apply(model.get_env(), int(model.num_timesteps))
+        moves = ", ".join(f"{n} {c.start:g} -> {configured[n]:g} over {c.steps} steps" for n, c in curriculum.items())
+        self.log(f"curriculum: {moves} (evaluations fly the configured task)")
+        return [callback]
 
     def _callback_state(self) -> dict[str, Any]:
         state: dict[str, Any] = {"next_checkpoint": self.checkpointer.next_checkpoint if self.checkpointer else None}

@@ -392,6 +392,17 @@ AlgoConfig = Annotated[
 # ------------------------------------------------------------------------- train
 
 
+class CurriculumOption(_Strict):
+    """``train.curriculum.<option>``: one task option the training envs start at another value."""
+
+    start: float = Field(description="the option's value for the episodes that start at step 0")
+    steps: int = Field(
+        ge=1,
+        description="the value moves linearly (in 100 equal stages) from start to the env's configured "
+        "value (env.task.<option>) over this many environment steps, and stays there",
+    )
+
+
 class TrainOptions(_Strict):
     """``train``: budget, parallelism, evaluation, checkpoints and outputs of a run."""
 
@@ -421,6 +432,11 @@ class TrainOptions(_Strict):
     device: Literal["cpu", "cuda", "auto"] = Field(description="torch device")
     torch_threads: int = Field(ge=1, description="torch intra-op threads (1: reproducible and fastest for small MLPs)")
     verbose: int = Field(ge=0, le=2, description="SB3 verbosity (0: silent)")
+    curriculum: dict[str, CurriculumOption] | None = Field(
+        None,  # runs recorded before the key existed had none
+        description="task option -> {start, steps}: training episodes fly the option at start, moving to the "
+        "configured value over steps (evaluations always fly the configured task); null: none",
+    )
 
 
 class CallbackConfig(_Strict):
@@ -508,6 +524,8 @@ class TrainConfig(_Strict):
                 f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
                 "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
             )
+        if opts.curriculum:
+            _check_curriculum(self.env, opts.curriculum)
         if isinstance(algo, (PPOConfig, RecurrentPPOConfig, TRPOConfig)):
             from pyflyt_cli.training.multi_agent import agents_per_env
 
@@ -522,6 +540,28 @@ class TrainConfig(_Strict):
                     "lower algo.batch_size or raise algo.n_steps"
                 )
         return self
+
+
+def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]) -> None:
+    """Every option of ``train.curriculum`` can change per episode, and its start value is valid."""
+    if getattr(env, "multi_agent", False):
+        raise ValueError("train.curriculum: the multi-agent envs take no per-episode task options; remove it")
+    from pyflyt_engine.envs.tasks import get_task
+    from pyflyt_engine.errors import PyFlytError
+
+    task_cls = get_task(env.task.name)
+    unknown = sorted(set(curriculum) - task_cls.episode_options)
+    if unknown:
+        allowed = ", ".join(sorted(task_cls.episode_options)) or "none"
+        raise ValueError(
+            f"train.curriculum: task '{env.task.name}' cannot change {', '.join(unknown)} per episode "
+            f"(options a curriculum may move: {allowed})"
+        )
+    task = task_cls(env.task, flight_dome_size=env.flight_dome_size, agent_hz=env.agent_hz)
+    try:
+        task.set_episode_options({name: option.start for name, option in curriculum.items()})
+    except (PyFlytError, ValueError) as exc:
+        raise ValueError(f"train.curriculum: the start values are not a valid task: {exc}") from None
 
 
 def split_init_from(value: str | None) -> tuple[str | None, int | None]:

@@ -29,6 +29,15 @@ from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
 
+def _task_changes(options: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The task option changes in a ``reset(options=...)`` mapping (see :meth:`UAVEnv.reset`)."""
+    if not options:
+        return None
+    if not isinstance(options, dict) or set(options) - {"task"} or not isinstance(options.get("task", {}), dict):
+        raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
+    return options.get("task")
+
+
 class UAVEnv(gymnasium.Env):
     """A single-vehicle UAV task as a Gymnasium environment, built from an env config.
 
@@ -195,7 +204,14 @@ class UAVEnv(gymnasium.Env):
     # ----------------------------------------------------------------- gymnasium
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        """Start an episode; ``options`` is accepted and unused."""
+        """Start an episode.
+
+        ``options``: ``None``, or ``{"task": {option: value, ...}}`` to fly this episode with
+        other values of the task options its task lists in ``episode_options`` (e.g. a
+        wider ``goal_reach_distance`` early in training); the next reset without them
+        flies the configured task again.  Anything else raises ``ValueError``.
+        """
+        self.task.set_episode_options(_task_changes(options))
         super().reset(seed=seed)
         self.world.reset(seed)
         drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None

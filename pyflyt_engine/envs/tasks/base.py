@@ -106,6 +106,11 @@ class Task:
         crash_on_contact: any contact of the vehicle ends the episode as a crash; a task
             where touching something is part of the job (landing on a pad) sets False and
             reports outcomes through :attr:`TaskSignals.failed` / ``complete``.
+        episode_options: the options one episode may fly with other values than the
+            configured ones, through ``env.reset(options={"task": {name: value}})`` (a
+            training curriculum: ``curriculum:`` of ``pyflyt train``).  Only options the
+            task reads afresh at every reset or step belong here: never one that shaped
+            the world, the spaces or anything else built once.
     """
 
     name: ClassVar[str] = "base"
@@ -113,9 +118,13 @@ class Task:
     provides: ClassVar[frozenset[str]] = frozenset()
     succeeds_at_time_limit: ClassVar[bool] = False
     crash_on_contact: ClassVar[bool] = True
+    episode_options: ClassVar[frozenset[str]] = frozenset()
 
     def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
         self.options = options
+        #: the options of the env config; :attr:`options` are the ones of the episode
+        self.configured = options
+        self._episode_changes: dict[str, Any] = {}
         self.flight_dome_size = float(flight_dome_size)
         self.agent_dt = 1.0 / float(agent_hz)
         #: the env config's payloads (:class:`~pyflyt_engine.payloads.PayloadSet`), set by the
@@ -139,6 +148,36 @@ class Task:
         stay as fast as without it.
         """
         return spec
+
+    def set_episode_options(self, changes: dict[str, Any] | None) -> None:
+        """Fly the next episodes with ``changes`` to the configured options (None or ``{}``:
+        as configured); called by the environment before :meth:`spawn`.
+
+        Raises:
+            ValueError: an option not in :attr:`episode_options`, or a value the options'
+                model rejects (the message names it).
+        """
+        changes = dict(changes or {})
+        if changes == self._episode_changes:
+            return
+        unknown = sorted(set(changes) - self.episode_options)
+        if unknown:
+            allowed = ", ".join(sorted(self.episode_options)) or "none"
+            raise ValueError(
+                f"task '{self.name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {allowed})"
+            )
+        options = self.Options.model_validate({**self.configured.model_dump(), **changes}) if changes else self.configured
+        self.check_options(options)
+        self.options = options
+        self._episode_changes = changes
+        self.options_changed()
+
+    def check_options(self, options: TaskOptions) -> None:
+        """Reject options that contradict the env (raise ``ConfigError`` naming the fix);
+        run on the configured options when the env is built and on every episode's."""
+
+    def options_changed(self) -> None:
+        """:attr:`options` now hold an episode's values: refresh what was derived from them."""
 
     def spawn(self, rng: np.random.Generator) -> Spawn:
         """Initial state: the mean pose plus uniform noise (draws 6 numbers from ``rng``),

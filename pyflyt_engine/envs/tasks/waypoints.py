@@ -50,12 +50,28 @@ class WaypointsTask(Task):
     name: ClassVar[str] = "waypoints"
     Options: ClassVar[type[TaskOptions]] = WaypointsOptions
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
+    # read at every reset (sampling, spawn) or step (the reach test); num_targets is not:
+    # the renderer sizes its markers by it once
+    episode_options: ClassVar[frozenset[str]] = frozenset(
+        {
+            "goal_reach_distance",
+            "min_target_distance",
+            "max_target_distance",
+            "min_target_height",
+            "start_position_noise",
+            "start_orientation_noise",
+        }
+    )
 
     options: WaypointsOptions
 
     def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
         super().__init__(options, flight_dome_size=flight_dome_size, agent_hz=agent_hz)
-        o = self.options
+        self.check_options(self.options)
+        self.tracker = WaypointTracker(self.options.goal_reach_distance)
+
+    def check_options(self, options: TaskOptions) -> None:
+        o: WaypointsOptions = options  # type: ignore[assignment]
         if o.min_target_distance > o.max_target_distance * self.flight_dome_size:
             from pyflyt_engine.errors import ConfigError
 
@@ -63,7 +79,9 @@ class WaypointsTask(Task):
                 f"task.min_target_distance ({o.min_target_distance} m) exceeds max_target_distance x flight_dome_size "
                 f"({o.max_target_distance} x {self.flight_dome_size} m): widen the dome or lower min_target_distance"
             )
-        self.tracker = WaypointTracker(o.goal_reach_distance)
+
+    def options_changed(self) -> None:
+        self.tracker.reach_distance = float(self.options.goal_reach_distance)
 
     def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
         o = self.options

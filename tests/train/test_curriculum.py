@@ -1,0 +1,96 @@
+"""``train.curriculum``: training episodes start with other task option values, moved to the configured ones.
+
+Oracles: the schedule evaluated by hand; a reach distance wider than the flight dome
+(every waypoint reached in the first steps, one per step) in the training episodes of
+the first stages, the configured 0.2 m in the evaluations; and a run stopped and
+resumed mid-schedule ends bit-identical to the uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pyflyt_cli.training import resume, train
+from pyflyt_cli.training.callbacks import TaskCurriculum
+from pyflyt_cli.training.schema import CurriculumOption
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.telemetry import read_metrics
+
+from .conftest import load
+from .test_resume import SignalAt, _assert_same, _outcome, _reference
+
+SAC_WAYPOINTS = [
+    "env=quadx_waypoints",
+    "algo=sac",
+    "train.total_timesteps=600",
+    "algo.buffer_size=2000",
+    "algo.learning_starts=100",
+    "algo.batch_size=32",
+    "algo.policy_kwargs.net_arch=[32,32]",
+    "train.eval_freq=200",
+    "train.eval_episodes=1",
+    "train.checkpoint_freq=100",
+    "train.progress_bar=false",
+    # wider than the dome's diameter until step 300, then shrinking to 0.2 m at 600
+    "train.curriculum={goal_reach_distance:{start:40.0,steps:600}}",
+]
+
+
+def test_the_schedule_moves_linearly_in_100_stages_to_the_configured_value():
+    c = TaskCurriculum({"goal_reach_distance": CurriculumOption(start=1.0, steps=1000)}, {"goal_reach_distance": 0.2})
+    assert c.changes_at(0) == {"goal_reach_distance": 1.0}
+    assert c.changes_at(9) == {"goal_reach_distance": 1.0}  # stage 0 until step 10
+    assert c.changes_at(10) == {"goal_reach_distance": pytest.approx(1.0 - 0.8 / 100)}
+    assert c.changes_at(500) == {"goal_reach_distance": pytest.approx(0.6)}
+    assert c.changes_at(999) == {"goal_reach_distance": pytest.approx(0.2 + 0.8 / 100)}
+    assert c.changes_at(1000) == {} and c.changes_at(10**9) == {}  # the configured task from then on
+    assert len({c.stages(t) for t in range(0, 2000, 3)}) == 101
+
+
+def test_training_episodes_fly_the_curriculum_and_evaluations_the_configured_task(tmp_path):
+    result = train(load(SAC_WAYPOINTS, tmp_path))
+    metrics = read_metrics(result.run_dir)
+    moves = metrics["/train/curriculum"]
+    assert moves[0]["step"] == 0 and moves[0]["goal_reach_distance"] == 40.0
+    values = [m["goal_reach_distance"] for m in moves]
+    assert values == sorted(values, reverse=True) and values[-1] == pytest.approx(0.2)
+    assert len(moves) == 101  # one per stage, the last at the configured value
+    episodes = metrics["/train/episode"]
+    early = [e for e in episodes if e["step"] <= 150]  # reach distance >= 30 m: all 5 in 5 steps
+    assert len(early) >= 10 and all(e["length"] == 5 and e["success"] for e in early)
+    for e in metrics["/eval"]:  # the configured 0.2 m: no 5-step flights
+        assert e["mean_length"] > 5
+
+
+def test_a_run_with_a_curriculum_stopped_mid_schedule_resumes_bit_identical(tmp_path, tmp_path_factory):
+    reference = _reference(SAC_WAYPOINTS, tmp_path_factory)
+    first = train(load(SAC_WAYPOINTS, tmp_path), callbacks=[SignalAt(333)])
+    assert first.interrupted
+    state = json.loads((first.run_dir / "state.json").read_text())
+    assert state["status"] == "interrupted"
+    resume(first.run_dir)
+    _assert_same(_outcome(first.run_dir), reference)
+
+
+@pytest.mark.parametrize(
+    ("curriculum", "names"),
+    [
+        ("{num_targets:{start:2,steps:10}}", ["num_targets", "goal_reach_distance"]),
+        ("{goal_reach_distance:{start:-1,steps:10}}", ["start values", "greater than 0"]),
+        ("{goal_reach_distance:{start:1}}", ["steps"]),
+        ("{goal_reach_distance:{start:1,steps:0}}", ["steps"]),
+        ("{goal_reach_distance:{start:1,steps:10,stop:3}}", ["stop"]),
+    ],
+)
+def test_a_bad_curriculum_is_refused_naming_what_is_wrong(tmp_path, curriculum, names):
+    with pytest.raises(ConfigError) as exc:
+        load(["env=quadx_waypoints", "algo=sac", f"train.curriculum={curriculum}"], tmp_path)
+    for name in names:
+        assert name in str(exc.value)
+
+
+def test_a_task_with_no_episode_options_takes_no_curriculum(tmp_path):
+    with pytest.raises(ConfigError, match="options a curriculum may move: none"):
+        load(["env=quadx_hover", "train.curriculum={start_position_noise:{start:0,steps:10}}"], tmp_path)
