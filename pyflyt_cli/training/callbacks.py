@@ -110,7 +110,8 @@ class TaskCurriculum(BaseCallback):
     """Move task options from a start value to the configured one as training goes on.
 
     For each option of ``train.curriculum`` the value at environment step ``t`` is
-    ``start + (configured - start) * stage / 100`` with ``stage = min(100, 100 * t // steps)``:
+    ``start + (configured - start) * stage / 100`` with ``stage = min(100, 100 * t // steps)``
+    (a vector option element by element):
     100 equal stages, so the training envs are told (``set_task_changes`` of
     :class:`~pyflyt_cli.training.envs.EpisodeTaskOptions`) at most 100 times, and only
     episodes that start afterwards fly the new value.  The value is a function of the
@@ -125,7 +126,7 @@ class TaskCurriculum(BaseCallback):
 
     STAGES = 100
 
-    def __init__(self, curriculum: dict[str, Any], configured: dict[str, float], writer: Any = None) -> None:
+    def __init__(self, curriculum: dict[str, Any], configured: dict[str, Any], writer: Any = None) -> None:
         super().__init__()
         self.curriculum = curriculum
         self.configured = configured
@@ -135,12 +136,16 @@ class TaskCurriculum(BaseCallback):
     def stages(self, step: int) -> tuple[int, ...]:
         return tuple(min(self.STAGES, self.STAGES * int(step) // c.steps) for c in self.curriculum.values())
 
-    def changes_at(self, step: int) -> dict[str, float]:
+    def changes_at(self, step: int) -> dict[str, Any]:
         """The option values of the episodes that start at ``step`` (configured ones left out)."""
-        changes = {}
+        changes: dict[str, Any] = {}
         for (name, c), stage in zip(self.curriculum.items(), self.stages(step)):
             if stage < self.STAGES:
-                changes[name] = c.start + (self.configured[name] - c.start) * stage / self.STAGES
+                end, f = self.configured[name], stage / self.STAGES
+                if isinstance(c.start, list):
+                    changes[name] = [a + (float(b) - a) * f for a, b in zip(c.start, end)]
+                else:
+                    changes[name] = c.start + (float(end) - c.start) * f
         return changes
 
     def apply(self, vec_env: Any, step: int) -> None:
@@ -149,7 +154,13 @@ class TaskCurriculum(BaseCallback):
         changes = self.changes_at(step)
         vec_env.env_method("set_task_changes", changes)
         if self.writer is not None:
-            values = {name: changes.get(name, self.configured[name]) for name in self.curriculum}
+            values: dict[str, float] = {}
+            for name in self.curriculum:
+                value = changes.get(name, self.configured[name])
+                if isinstance(value, (list, tuple)):
+                    values.update({f"{name}[{i}]": float(v) for i, v in enumerate(value)})
+                else:
+                    values[name] = float(value)
             self.writer.log("/train/curriculum", int(step), values)
 
     def _on_step(self) -> bool:

@@ -543,10 +543,14 @@ class _Run:
             return []
         from pyflyt_cli.training.callbacks import TaskCurriculum
 
-        configured = {name: float(getattr(self.cfg.env.task, name)) for name in curriculum}
+        configured = {name: getattr(self.cfg.env.task, name) for name in curriculum}
         callback = TaskCurriculum(curriculum, configured, self.writer)
         callback.apply(model.get_env(), int(model.num_timesteps))
-        moves = ", ".join(f"{n} {c.start:g} -> {configured[n]:g} over {c.steps} steps" for n, c in curriculum.items())
+
+        def show(value: Any) -> str:
+            return f"[{', '.join(f'{v:g}' for v in value)}]" if isinstance(value, (list, tuple)) else f"{value:g}"
+
+        moves = ", ".join(f"{n} {show(c.start)} -> {show(configured[n])} over {c.steps} steps" for n, c in curriculum.items())
         self.log(f"curriculum: {moves} (evaluations fly the configured task)")
         return [callback]
 

@@ -395,7 +395,10 @@ AlgoConfig = Annotated[
 class CurriculumOption(_Strict):
     """``train.curriculum.<option>``: one task option the training envs start at another value."""
 
-    start: float = Field(description="the option's value for the episodes that start at step 0")
+    start: float | list[float] = Field(
+        description="the option's value for the episodes that start at step 0 (a list for a vector option, "
+        "e.g. start_position: moved element by element)"
+    )
     steps: int = Field(
         ge=1,
         description="the value moves linearly (in 100 equal stages) from start to the env's configured "

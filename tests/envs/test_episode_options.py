@@ -78,3 +78,18 @@ def test_a_task_without_episode_options_refuses_any():
             env.reset(seed=0, options={"task": {"start_position_noise": 0.0}})
     finally:
         env.close()
+
+
+def test_the_landing_task_drops_from_an_episode_height_and_refreshes_its_thresholds():
+    env = make_env(CONFIG.with_name("rocket_landing.yaml"))
+    try:
+        env.reset(seed=2, options={"task": {"start_position": [0.0, 0.0, 40.0], "tip_over_angle_deg": 60.0}})
+        assert env.vehicle.state.lin_pos[2] == pytest.approx(40.0)  # start_height_noise is 0
+        assert env.task._tip_over == pytest.approx(np.radians(60.0))
+        env.reset(seed=2)
+        assert env.vehicle.state.lin_pos[2] == pytest.approx(450.0)
+        assert env.task._tip_over == pytest.approx(np.radians(30.0))
+        with pytest.raises(ValueError, match="pad_radius"):
+            env.reset(seed=2, options={"task": {"pad_radius": 5.0}})  # the pad is built once
+    finally:
+        env.close()

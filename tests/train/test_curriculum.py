@@ -94,3 +94,17 @@ def test_a_bad_curriculum_is_refused_naming_what_is_wrong(tmp_path, curriculum, 
 def test_a_task_with_no_episode_options_takes_no_curriculum(tmp_path):
     with pytest.raises(ConfigError, match="options a curriculum may move: none"):
         load(["env=quadx_hover", "train.curriculum={start_position_noise:{start:0,steps:10}}"], tmp_path)
+
+
+def test_a_vector_option_moves_element_by_element():
+    c = TaskCurriculum(
+        {"start_position": CurriculumOption(start=[0.0, 0.0, 50.0], steps=100)}, {"start_position": (0.0, 0.0, 450.0)}
+    )
+    assert c.changes_at(0) == {"start_position": [0.0, 0.0, 50.0]}
+    assert c.changes_at(25) == {"start_position": [0.0, 0.0, pytest.approx(150.0)]}
+    assert c.changes_at(100) == {}
+
+
+def test_a_vector_start_of_the_wrong_length_is_refused(tmp_path):
+    with pytest.raises(ConfigError, match="start_position"):
+        load(["env=rocket_landing", "train.curriculum={start_position:{start:[0,50],steps:10}}"], tmp_path)

@@ -115,19 +115,40 @@ class LandingTask(Task):
     Options: ClassVar[type[TaskOptions]] = LandingOptions
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "landing"})
     crash_on_contact: ClassVar[bool] = False
+    # read at every spawn or step; the pad (world) and the fuel (airframe) are built once
+    episode_options: ClassVar[frozenset[str]] = frozenset(
+        {
+            "start_position",
+            "start_position_noise",
+            "start_height_noise",
+            "start_orientation_noise",
+            "start_velocity_noise",
+            "start_ang_vel_noise",
+            "max_touchdown_speed",
+            "tip_over_angle_deg",
+            "upright_angle_deg",
+            "halt_speed",
+            "halt_angular_speed",
+            "halt_duration",
+        }
+    )
 
     options: LandingOptions
 
     def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
         super().__init__(options, flight_dome_size=flight_dome_size, agent_hz=agent_hz)
-        o = self.options
-        self.pad_centre = (0.0, 0.0, float(o.pad_height))
-        self.halt_steps = max(1, math.ceil(o.halt_duration * float(agent_hz) - 1e-9))
-        self._tip_over = math.radians(o.tip_over_angle_deg)
-        self._upright = math.radians(o.upright_angle_deg)
+        self.pad_centre = (0.0, 0.0, float(self.options.pad_height))
+        self._agent_hz = float(agent_hz)
+        self.options_changed()
         self.world: World | None = None
         self.pad_id = -1
         self._reset_episode(0.0, 0.0)
+
+    def options_changed(self) -> None:
+        o = self.options
+        self.halt_steps = max(1, math.ceil(o.halt_duration * self._agent_hz - 1e-9))
+        self._tip_over = math.radians(o.tip_over_angle_deg)
+        self._upright = math.radians(o.upright_angle_deg)
 
     # ------------------------------------------------------------ building
 
