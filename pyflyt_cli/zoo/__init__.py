@@ -153,7 +153,7 @@ def _build(run: Path, cfg: Any, model: Path, which: str, name: str, episodes: in
             "steps": int(state.get("num_timesteps") or 0),
             "seconds": progress.get("elapsed"),
             "steps_per_second": progress.get("steps_per_second"),
-            "command": " ".join(["pyflyt train", *(record.get("overrides") or [])]),
+            "command": _train_command(cfg, record),
             "overrides": record.get("overrides") or [],
             "versions": record.get("versions") or {},
         },
@@ -211,3 +211,17 @@ def _learning_curve(run: Path, out: Path, title: str) -> None:
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)
+
+
+def _train_command(cfg: Any, record: dict[str, Any]) -> str:
+    """The ``pyflyt train`` command that trains this run: its overrides, plus the env, algorithm
+    and seed when they did not come from them (a run started from Python, e.g. an
+    experiment script, records only its extra overrides)."""
+    overrides = list(record.get("overrides") or [])
+    given = {o.split("=", 1)[0].lstrip("+~") for o in overrides}
+    implied = []
+    if "experiment" not in given:
+        implied += [f"{k}={v}" for k, v in (("env", cfg.env_name), ("algo", cfg.algo.name)) if k not in given]
+    if "seed" not in given:
+        implied.append(f"seed={cfg.seed}")
+    return " ".join(["pyflyt train", *implied, *overrides])

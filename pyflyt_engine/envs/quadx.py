@@ -147,7 +147,14 @@ class QuadXWaypointsEnv(UAVEnv):
     **Arguments**: as :class:`QuadXHoverEnv` plus ``num_targets`` (5),
     ``goal_reach_distance`` (0.2 m), ``min_target_distance`` (1.0 m),
     ``max_target_distance`` (0.9 of the dome radius), ``min_target_height`` (0.1 m);
-    defaults ``flight_dome_size`` 5.0, ``max_duration_seconds`` 20.0.
+    defaults ``flight_dome_size`` 5.0, ``max_duration_seconds`` 20.0.  An episode may
+    set ``goal_reach_distance`` and the waypoint and spawn ranges through
+    ``reset(options={"task": {...}})``.
+
+    **Training**: ``pyflyt train env=quadx_waypoints`` (PPO, 4.5 M steps, ~26 minutes on
+    2 cores) starts its training episodes with a 1 m reach sphere and shrinks it to
+    0.2 m over 2 M steps (``train.curriculum``); 2 of 3 seeds reach all 5 waypoints in
+    >= 80 % of the episodes (experiments/results/learn_waypoints.md).
 
     **Version history**: v0 — this implementation of the paper's environment (reference
     PyFlyt 0.29.0 differs: 4 waypoints, 10 s, per-step progress in metres, point reach

@@ -22,6 +22,9 @@ def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path)
     assert sorted(p.name for p in made.path.iterdir()) == ["config.yaml", "learning_curve.png", "model.pt", "summary.yaml"]
     summary = yaml.safe_load((made.path / "summary.yaml").read_text())
     assert summary["algo"] == "ppo" and summary["seed"] == 0 and summary["training"]["steps"] == 512
+    # the command that trains it names the env, algorithm and seed even for a run started from Python
+    words = summary["training"]["command"].split()
+    assert words[:2] == ["pyflyt", "train"] and {"env=quadx_hover", "algo=ppo", "seed=0"} <= set(words)
     assert read_policy(made.path / "model.pt").algo == "ppo"
     assert "quadx_hover_ppo" in zoo.table(root)
     copy = zoo.materialise("quadx_hover_ppo", tmp_path / "work", root=root)
