@@ -108,3 +108,23 @@ def test_a_vector_option_moves_element_by_element():
 def test_a_vector_start_of_the_wrong_length_is_refused(tmp_path):
     with pytest.raises(ConfigError, match="start_position"):
         load(["env=rocket_landing", "train.curriculum={start_position:{start:[0,50],steps:10}}"], tmp_path)
+
+
+def test_the_curriculum_reaches_envs_in_subprocesses(tmp_path):
+    overrides = [
+        "env=quadx_waypoints",
+        "algo=ppo",
+        "train.total_timesteps=2048",
+        "train.n_envs=2",
+        "train.vec_env=subproc",
+        "algo.n_steps=512",
+        "algo.batch_size=256",
+        "train.eval_freq=0",
+        "train.checkpoint_freq=0",
+        "train.progress_bar=false",
+        "train.curriculum={goal_reach_distance:{start:40.0,steps:1024}}",
+    ]
+    episodes = read_metrics(train(load(overrides, tmp_path)).run_dir)["/train/episode"]
+    early = [e for e in episodes if e["step"] <= 256]  # reach distance >= 30 m in both workers
+    assert len(early) >= 20 and all(e["length"] == 5 and e["success"] for e in early)
+    assert any(e["length"] > 5 for e in episodes if e["step"] > 1536)  # 0.2 m from step 1024 on
