@@ -153,7 +153,7 @@ class QuadXWaypointsEnv(UAVEnv):
 
     **Training**: ``pyflyt train env=quadx_waypoints`` (PPO, 4.5 M steps, ~26 minutes on
     2 cores) starts its training episodes with a 1 m reach sphere and shrinks it to
-    0.2 m over 2 M steps (``train.curriculum``); 2 of 3 seeds reach all 5 waypoints in
+    0.2 m over 2 M steps (``train.curriculum``); 3 of 5 seeds reach all 5 waypoints in
     >= 80 % of the episodes (experiments/results/learn_waypoints.md).
 
     **Version history**: v0 — this implementation of the paper's environment (reference
