@@ -563,6 +563,14 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
     task = task_cls(env.task, flight_dome_size=env.flight_dome_size, agent_hz=env.agent_hz)
     try:
         task.set_episode_options({name: option.start for name, option in curriculum.items()})
+    except ValidationError as exc:  # one line per rejected value, named as the user wrote it
+        problems = "; ".join(
+            f"train.curriculum.{e['loc'][0]}.start"
+            + (f" (element {e['loc'][1]})" if len(e["loc"]) > 1 else "")
+            + f": {e['msg']}"
+            for e in exc.errors()
+        )
+        raise ValueError(f"the curriculum's start values are not a valid task: {problems}") from None
     except (PyFlytError, ValueError) as exc:
         raise ValueError(f"train.curriculum: the start values are not a valid task: {exc}") from None
 
