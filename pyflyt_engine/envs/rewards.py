@@ -90,6 +90,8 @@ class RewardTerm:
     fn: Callable[..., float]
     unit: str
     requires: tuple[str, ...] = ()
+    nonnegative: tuple[str, ...] = ()
+    """Parameters that must be numbers >= 0 (checked when a preset is compiled)."""
 
     @property
     def description(self) -> str:
@@ -158,6 +160,21 @@ def speed_per_squared_target_distance(ctx: StepContext) -> float:
     """||v|| / delta^2: speed over the squared distance to the target [1/(m s)] (Rocket-Landing's r_v)."""
     u, v, w = ctx.state.lin_vel
     return math.sqrt(u * u + v * v + w * w) / (ctx.target_distance * ctx.target_distance)  # type: ignore[operator]
+
+
+def speed_above_braking_envelope(
+    ctx: StepContext, deceleration: float = 30.0, floor_speed: float = 0.5, floor_distance: float = 0.0
+) -> float:
+    """max(0, ||v|| - v_env(delta)): speed above the braking envelope to the target [m/s].
+
+    ``v_env(delta) = floor_speed + sqrt(2 * deceleration * max(delta - floor_distance, 0))``
+    is the fastest approach from which braking at ``deceleration`` [m/s^2] still arrives
+    at ``floor_distance`` [m] from the target no faster than ``floor_speed`` [m/s].  0
+    inside the envelope, so it only costs speed that can no longer be braked away.
+    """
+    u, v, w = ctx.state.lin_vel
+    room = max(ctx.target_distance - floor_distance, 0.0)  # type: ignore[operator]
+    return max(0.0, math.sqrt(u * u + v * v + w * w) - floor_speed - math.sqrt(2.0 * deceleration * room))
 
 
 def speed(ctx: StepContext) -> float:
@@ -285,6 +302,9 @@ TERMS: dict[str, RewardTerm] = {
         target_distance_over_remaining_steps, "m", ("target_distance",)
     ),
     "speed_per_squared_target_distance": RewardTerm(speed_per_squared_target_distance, "1/(m s)", ("target_distance",)),
+    "speed_above_braking_envelope": RewardTerm(
+        speed_above_braking_envelope, "m/s", ("target_distance",), ("deceleration", "floor_speed", "floor_distance")
+    ),
     "speed": RewardTerm(speed, "m/s"),
     "angular_speed": RewardTerm(angular_speed, "rad/s"),
     "altitude": RewardTerm(altitude, "m"),
@@ -527,6 +547,11 @@ def compile_reward(
             if param not in allowed:
                 valid = ", ".join(allowed) or "none"
                 raise ConfigError(f"{where}: '{term_name}' has no parameter '{param}'; its parameters: {valid}")
+            value = params[param]
+            if param in term.nonnegative and (
+                isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0.0
+            ):
+                raise ConfigError(f"{where}: '{term_name}' parameter '{param}' must be a number >= 0, got {value!r}")
         when = get("when", "always")
         when = [when] if isinstance(when, str) else list(when)
         conditions = []

@@ -89,6 +89,13 @@ class RocketLandingEnv(UAVEnv):
     sparse reward): the outcome terms alone, +100 safe landing, -20 fatal landing, -100
     ground contact, -100 dome exit, 0 on every other step.
 
+    Braking envelope (``reward="rocket_landing_envelope"``, not the paper's): the outcome
+    terms, -0.01 d_pad per step, and -1 per m/s of speed above the braking envelope
+    ``0.5 + sqrt(2 * 30 * max(d_pad - 1.82, 0))`` (the fastest approach a 30 m/s^2 burn
+    still stops at the pad); a dome exit costs -100 and the pad pull for the steps left.
+    Under the paper's dense reward a safe landing returns about what a crash does
+    (``experiments/results/rocket_landing_scripted.md``); under this one it returns more.
+
     **Landing outcome** (:mod:`pyflyt_engine.envs.tasks.landing`), evaluated every step:
 
     * *Touchdown*: the first step touching the pad after a step off it.  Touchdown

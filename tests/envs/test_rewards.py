@@ -243,6 +243,23 @@ def test_terms_are_pure_functions_with_the_documented_values():
     assert rewards.target_distance_decrease(_ctx(target_distance_rate=-2.0, agent_dt=0.25)) == 0.5
 
 
+def test_speed_above_braking_envelope_by_hand():
+    term = rewards.speed_above_braking_envelope  # ||v|| = 3 m/s in _ctx
+    # 10 m from the target, envelope from 1 m at 0.5 m/s braking at 0.125 m/s^2: 0.5 + sqrt(2 * 0.125 * 9) = 2
+    assert term(_ctx(target_distance=10.0), deceleration=0.125, floor_speed=0.5, floor_distance=1.0) == pytest.approx(1.0)
+    # inside the envelope (0.5 + sqrt(2 * 30 * 9) = 23.7 m/s): nothing
+    assert term(_ctx(target_distance=10.0), deceleration=30.0, floor_speed=0.5, floor_distance=1.0) == 0.0
+    # at or below floor_distance only floor_speed is allowed
+    assert term(_ctx(target_distance=0.5), deceleration=30.0, floor_speed=0.5, floor_distance=1.0) == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize("bad", [-1.0, "fast", True])
+def test_a_braking_envelope_parameter_must_be_a_nonnegative_number(bad):
+    terms = {"e": {"term": "speed_above_braking_envelope", "params": {"deceleration": bad}}}
+    with pytest.raises(ConfigError, match="'deceleration' must be a number >= 0"):
+        rewards.compile_reward("x", terms)
+
+
 @pytest.mark.parametrize(
     ("preset", "per_metre"),
     [("quadx_waypoints_dense", 3.0), ("quadx_waypoints_dense_rate", 3.0 * 30)],  # c_b; c_b x agent_hz

@@ -293,3 +293,59 @@ def test_time_limit_truncates_without_success(make):
     results = [env.step(np.zeros(7)) for _ in range(15)]
     assert [r[3] for r in results] == [False] * 14 + [True]
     assert not any(r[2] for r in results) and not results[-1][4]["success"]
+
+
+def _hoverslam(obs, landed, a_brake=35.0, v_land=0.6, h_slow=2.0):
+    """A vertical landing controller: free fall, then burn to hold v_z on the braking curve
+    v_ref(h) = -sqrt(2 a_brake (h - h_slow)) (and -v_land below h_slow), booster out from the first pad contact."""
+    x, y, z, w = obs[3:7]
+    u = obs[7:10]
+    # body -> ground z component of the velocity: the third row of the rotation matrix
+    row = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+    v_z, h = float(row @ u), float(obs[12]) - STAND
+    action = np.zeros(7)
+    if landed or obs[-1] == 1.0:
+        return action, True
+    v_ref = -max(v_land, math.sqrt(2.0 * a_brake * max(h - h_slow, 0.0)))
+    error = v_ref - v_z  # > 0: falling faster than the curve
+    if error > 0.05:
+        mass = DRY_MASS + 0.01 * FULL_TANK
+        action[3] = 1.0
+        action[4] = np.clip((mass * (9.81 + 8.0 * error) - 2966.7) / (7607.0 - 2966.7), 0.0, 1.0)
+    return action, False
+
+
+def _fly(env, policy):
+    obs, _ = env.reset(seed=0)
+    landed, total = False, 0.0
+    while True:
+        if policy == "fall":
+            action = np.zeros(7)
+        else:
+            action, landed = _hoverslam(obs, landed)
+        obs, reward, terminated, truncated, info = env.step(action)
+        total += reward
+        if terminated or truncated:
+            return total, info
+
+
+def test_a_scripted_hoverslam_lands_from_the_450_m_drop_and_the_envelope_reward_prefers_it(make):
+    """Feasibility: the Rocket as configured (1 % fuel, minimum thrust above the weight) can land
+    safely from 450 m: a burn along a 35 m/s^2 braking curve, then pulses near the pad, lands at
+    < 1 m/s and halts upright.  The braking-envelope preset pays this landing far more than
+    falling straight onto the pad; under the paper's dense reward the two are within 1 %."""
+    noise = ("start_position_noise", "start_orientation_noise", "start_velocity_noise", "start_ang_vel_noise")
+    still = dict.fromkeys(noise, 0.0)
+    returns = {}
+    for reward in ("rocket_landing_envelope", "rocket_landing_dense"):
+        env = make(ROCKET, reward=reward, **still)
+        landing, info = _fly(env, "hoverslam")
+        assert info["safe_landing"] and info["success"] and 0.0 <= info["touchdown_speed"] < 1.0
+        assert env.vehicle.aux_state[4] * FULL_TANK > 0.0  # fuel left
+        crash, info = _fly(env, "fall")
+        assert info["fatal_landing"] and info["touchdown_speed"] > 50.0  # straight onto the pad
+        returns[reward] = (landing, crash)
+    landing, crash = returns["rocket_landing_envelope"]
+    assert landing - crash > 300.0
+    landing, crash = returns["rocket_landing_dense"]
+    assert abs(landing - crash) < 0.01 * abs(crash)
