@@ -38,6 +38,8 @@ def test_every_shipped_config_loads_and_every_registered_id_has_one():
         config = load_env_config(name)
         load_reward_preset(config.reward_presets["dense"])
         load_reward_preset(config.reward_presets["sparse"])
+    for name in available("reward"):  # the opt-in presets too (e.g. rocket_landing_envelope)
+        load_reward_preset(name).compile()
     for env_id, entry in ENVS.items():
         assert load_env_config(entry.config).id == env_id
     assert {"quadx_hover_dense", "quadx_hover_sparse", "quadx_waypoints_dense", "quadx_waypoints_sparse"} <= set(
