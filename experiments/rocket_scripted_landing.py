@@ -42,6 +42,7 @@ import gymnasium
 import numpy as np
 
 import pyflyt_engine.envs  # noqa: F401  (registers the envs)
+from pyflyt_engine.frames import quaternion_to_matrix
 
 ENV_ID = "PyFlyt/Rocket-Landing-v0"
 G = 9.81
@@ -50,13 +51,6 @@ MASS = 138.0 + 4.109  # kg: dry mass + 1 % of the 410.9 kg tank (conf/uav/rocket
 MIN_THRUST, MAX_THRUST = 2966.7, 7607.0  # N (conf/uav/rocket.yaml)
 PRESETS = ("rocket_landing_dense", "rocket_landing_sparse", "rocket_landing_envelope")
 RESULTS = Path(__file__).parent / "results" / "rocket_landing_scripted.md"
-
-
-def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The body-frame vector ``v`` in the ground frame, for the quaternion ``q`` = (x, y, z, w)."""
-    x, y, z, w = q
-    u = np.array([x, y, z])
-    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
 
 
 class ScriptedLander:
@@ -71,13 +65,14 @@ class ScriptedLander:
         self.aiming = True
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        omega, q, pos = obs[0:3], obs[3:7], obs[10:13]
-        vel = _rotate(q, obs[7:10])
+        omega, pos = obs[0:3], obs[10:13]
+        body_to_ground = quaternion_to_matrix(obs[3:7])
+        vel = body_to_ground @ obs[7:10]
         action = np.zeros(7)
         if self.landed or obs[-1] == 1.0:
             self.landed = True
             return action
-        up = _rotate(q, np.array([0.0, 0.0, 1.0]))
+        up = body_to_ground[:, 2]
         h, v_z = pos[2] - STAND, vel[2]
         # time until the braking burn starts (about 30 m above its ideal start), plus a margin
         h_burn = v_z * v_z / (2.0 * self.a_brake) + 30.0
@@ -107,7 +102,7 @@ class ScriptedLander:
             action[3], action[4] = 1.0, throttle
         target = np.array([lean[0], lean[1], 1.0])
         target /= np.linalg.norm(target)
-        axis = _rotate(q * np.array([-1.0, -1.0, -1.0, 1.0]), np.cross(up, target))  # ground -> body
+        axis = body_to_ground.T @ np.cross(up, target)  # in the body frame
         moment = self.k_att * axis[:2] - self.k_rate * omega[:2]
         action[0:2] = np.clip(moment, -1.0, 1.0)  # fins: + moment about body x, y
         action[2] = np.clip(-self.k_roll * omega[2], -1.0, 1.0)

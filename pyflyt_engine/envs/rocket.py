@@ -93,8 +93,9 @@ class RocketLandingEnv(UAVEnv):
     terms, -0.01 d_pad per step, and -1 per m/s of speed above the braking envelope
     ``0.5 + sqrt(2 * 30 * max(d_pad - 1.82, 0))`` (the fastest approach a 30 m/s^2 burn
     still stops at the pad); a dome exit costs -100 and the pad pull for the steps left.
-    Under the paper's dense reward a safe landing returns about what a crash does
-    (``experiments/results/rocket_landing_scripted.md``); under this one it returns more.
+    Under the paper's dense reward a scripted safe landing returns less than a free fall
+    from the same start (``experiments/results/rocket_landing_scripted.md``); under this
+    one it returns more.
 
     **Landing outcome** (:mod:`pyflyt_engine.envs.tasks.landing`), evaluated every step:
 

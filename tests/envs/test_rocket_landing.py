@@ -19,6 +19,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from pyflyt_engine.frames import quaternion_to_matrix
+
 ROCKET = "PyFlyt/Rocket-Landing-v0"
 PAD_TOP = 0.1  # m, the pad's top face (centre at the origin)
 STAND = PAD_TOP + 1.72  # m, centre-of-mass height of the rocket standing on the pad (feet 1.72 m below it)
@@ -298,11 +300,8 @@ def test_time_limit_truncates_without_success(make):
 def _hoverslam(obs, landed, a_brake=35.0, v_land=0.6, h_slow=2.0):
     """A vertical landing controller: free fall, then burn to hold v_z on the braking curve
     v_ref(h) = -sqrt(2 a_brake (h - h_slow)) (and -v_land below h_slow), booster out from the first pad contact."""
-    x, y, z, w = obs[3:7]
-    u = obs[7:10]
-    # body -> ground z component of the velocity: the third row of the rotation matrix
-    row = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
-    v_z, h = float(row @ u), float(obs[12]) - STAND
+    v_z = float(quaternion_to_matrix(obs[3:7])[2] @ obs[7:10])  # ground-frame vertical speed
+    h = float(obs[12]) - STAND
     action = np.zeros(7)
     if landed or obs[-1] == 1.0:
         return action, True
