@@ -883,13 +883,17 @@ def parse_uav_spec(data: Any, source: str = "<dict>") -> UAVSpec:
 def resolve_uav_path(name_or_path: str | Path) -> Path:
     """A shipped airframe name (``quadx_cf2x``) or a path to a YAML file, as a path."""
     candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml") or candidate.exists():
+    if candidate.suffix in (".yaml", ".yml") or len(candidate.parts) > 1:
         if not candidate.is_file():
             raise SpecError(f"{candidate}: no such UAV file; check the path")
         return candidate
+    # a bare name: a shipped airframe first, so a file or directory of that name in the
+    # working directory (e.g. a run folder called "rocket") cannot shadow it
     shipped = uav_dir() / f"{name_or_path}.yaml"
     if shipped.is_file():
         return shipped
+    if candidate.is_file():
+        return candidate
     choices = available_uavs()
     close = difflib.get_close_matches(str(name_or_path), choices, n=1)
     hint = f" Did you mean '{close[0]}'?" if close else ""

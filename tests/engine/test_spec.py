@@ -142,3 +142,19 @@ def test_surface_axes_a_little_off_perpendicular_are_corrected_and_far_off_refus
     data["surfaces"][0]["normal_axis"] = [0.1, 0.0, 0.995]
     message = _error(data)
     assert "surfaces.0.normal_axis: chord_axis and normal_axis must be perpendicular, got a dot product of" in message
+
+
+def test_a_bare_name_is_the_shipped_airframe_even_if_the_working_directory_has_that_name(tmp_path, monkeypatch):
+    """A run folder called "rocket" (or a stray file "quadx_cf2x") in the working directory does not
+    shadow the shipped airframe; a bare name that is not shipped can still be a file there."""
+    from pyflyt_engine.spec import resolve_uav_path, uav_dir
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rocket").mkdir()
+    (tmp_path / "quadx_cf2x").write_text("not a uav\n")
+    assert resolve_uav_path("rocket") == uav_dir() / "rocket.yaml"
+    assert resolve_uav_path("quadx_cf2x") == uav_dir() / "quadx_cf2x.yaml"
+    (tmp_path / "my_frame").write_text("name: x\n")
+    assert resolve_uav_path("my_frame").resolve() == (tmp_path / "my_frame").resolve()
+    with pytest.raises(SpecError, match="no such UAV file"):
+        resolve_uav_path("frames/missing")
