@@ -1,28 +1,16 @@
 """Rocket-Landing with a scripted controller: is the task feasible, and what do the rewards pay for it?
 
-A hand-written controller (no learning) flies ``PyFlyt/Rocket-Landing-v0`` from its
+A scripted controller (no learning) flies ``PyFlyt/Rocket-Landing-v0`` from its
 seeded start states (450 m drop, +-20 m sideways, +-5 m/s, +-0.3 rad, +-0.5 rad/s, 1 %
 fuel) and, for comparison, the same starts with the booster never lit (a free fall).
 Each episode is flown once under each reward preset (the paper's dense reward, the
 sparse one and the braking-envelope shaping) from the same seed; the script checks that
 the flights are identical, so the presets' returns compare one flight.
 
-The controller, in the ground frame:
-
-1. *Aim* (above 120 m): the lateral velocity that carries the Rocket over the pad by
-   the time it starts braking is ``-p_xy / T``; while the lateral velocity is more than
-   1 m/s off it, lean the top toward the error (0.6 rad) and pulse the booster when
-   leaning the right way (a 1/30 s pulse at minimum thrust, leaning 0.6 rad, adds
-   ~0.4 m/s sideways).
-2. *Fall* upright, the grid fins holding the attitude.
-3. *Brake*: burn whenever falling faster than ``v_ref(h) = -sqrt(2 a (h - h_slow))``
-   (a = 30 m/s^2), throttle proportional to the error; lean the thrust (up to 0.2 rad)
-   to bring position and lateral velocity to zero; below ``h_slow`` = 2 m hold
-   ``-v_land`` = 0.35 m/s by pulses (the minimum thrust exceeds the weight).
-4. Booster out from the first pad contact.
-
-Attitude: a PD law on the tilt error drives the fins (and the gimbal while lit); roll
-rate is damped by the fins.
+The controller is the ``rocket_lander`` oracle (``pyflyt_engine/envs/oracles.py``,
+``RocketLander``, whose docstring describes it): aim with short tilted booster pulses
+above 120 m, fall upright on the fins, brake along a 30 m/s^2 curve, pulse down the last
+2 m at 0.35 m/s, booster out on the pad.  It acts on the observation alone.
 
     python experiments/rocket_scripted_landing.py [--seeds 50] [--write]
 
@@ -32,7 +20,6 @@ rate is damped by the fins.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 import warnings
@@ -42,72 +29,11 @@ import gymnasium
 import numpy as np
 
 import pyflyt_engine.envs  # noqa: F401  (registers the envs)
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine.envs.oracles import make_oracle
 
 ENV_ID = "PyFlyt/Rocket-Landing-v0"
-G = 9.81
-STAND = 1.82  # m: centre-of-mass height of the Rocket standing on the pad (0.1 m top face + 1.72 m)
-MASS = 138.0 + 4.109  # kg: dry mass + 1 % of the 410.9 kg tank (conf/uav/rocket.yaml)
-MIN_THRUST, MAX_THRUST = 2966.7, 7607.0  # N (conf/uav/rocket.yaml)
 PRESETS = ("rocket_landing_dense", "rocket_landing_sparse", "rocket_landing_envelope")
 RESULTS = Path(__file__).parent / "results" / "rocket_landing_scripted.md"
-
-
-class ScriptedLander:
-    """The controller described in the module docstring; ``__call__(obs) -> action``."""
-
-    def __init__(self, a_brake=30.0, v_land=0.35, h_slow=2.0, lean_aim=0.6, lean_brake=0.2,
-                 k_att=3.0, k_rate=1.2, k_roll=0.05, kp_lat=0.5, kd_lat=2.0):
-        self.a_brake, self.v_land, self.h_slow = a_brake, v_land, h_slow
-        self.lean_aim, self.lean_brake = lean_aim, lean_brake
-        self.k_att, self.k_rate, self.k_roll, self.kp_lat, self.kd_lat = k_att, k_rate, k_roll, kp_lat, kd_lat
-        self.landed = False
-        self.aiming = True
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        omega, pos = obs[0:3], obs[10:13]
-        body_to_ground = quaternion_to_matrix(obs[3:7])
-        vel = body_to_ground @ obs[7:10]
-        action = np.zeros(7)
-        if self.landed or obs[-1] == 1.0:
-            self.landed = True
-            return action
-        up = body_to_ground[:, 2]
-        h, v_z = pos[2] - STAND, vel[2]
-        # time until the braking burn starts (about 30 m above its ideal start), plus a margin
-        h_burn = v_z * v_z / (2.0 * self.a_brake) + 30.0
-        t_go = (v_z + math.sqrt(v_z * v_z + 2.0 * G * max(h - h_burn, 0.0))) / G + 1.5
-        lean, burn, throttle = np.zeros(2), False, 0.0
-        miss = -pos[:2] / t_go - vel[:2]
-        if h > 120.0:
-            if np.linalg.norm(miss) > 1.0:
-                self.aiming = True
-            elif np.linalg.norm(miss) < 0.2:
-                self.aiming = False
-            if self.aiming:
-                lean = self.lean_aim * miss / np.linalg.norm(miss)
-                burn = float(up[:2] @ miss) / np.linalg.norm(miss) > 0.3
-        v_ref = -max(self.v_land, math.sqrt(2.0 * self.a_brake * max(h - self.h_slow, 0.0)))
-        error = v_ref - v_z
-        if error > 0.05:
-            burn = True
-            thrust = MASS * (G + 8.0 * error) / max(up[2], 0.5)
-            throttle = float(np.clip((thrust - MIN_THRUST) / (MAX_THRUST - MIN_THRUST), 0.0, 1.0))
-            want = -self.kp_lat * pos[:2] - self.kd_lat * vel[:2]
-            n = np.linalg.norm(want)
-            lean = min(n / 20.0, self.lean_brake) * want / n if n > 1e-9 and h > 1.0 else np.zeros(2)
-        elif h <= 120.0:
-            lean = np.zeros(2)
-        if burn:
-            action[3], action[4] = 1.0, throttle
-        target = np.array([lean[0], lean[1], 1.0])
-        target /= np.linalg.norm(target)
-        axis = body_to_ground.T @ np.cross(up, target)  # in the body frame
-        moment = self.k_att * axis[:2] - self.k_rate * omega[:2]
-        action[0:2] = np.clip(moment, -1.0, 1.0)  # fins: + moment about body x, y
-        action[2] = np.clip(-self.k_roll * omega[2], -1.0, 1.0)
-        action[5:7] = np.clip(-moment, -1.0, 1.0)  # gimbal: + angle gives - moment
-        return action
 
 
 def _outcome(info: dict) -> str:
@@ -127,7 +53,7 @@ def fly(seed: int, policy: str) -> dict:
             warnings.simplefilter("ignore")
             env = gymnasium.make(ENV_ID, reward=preset)
         obs, _ = env.reset(seed=seed)
-        lander = ScriptedLander()
+        lander = make_oracle("rocket_lander", env)
         total, steps = 0.0, 0
         while True:
             action = lander(obs) if policy == "scripted" else np.zeros(7)
