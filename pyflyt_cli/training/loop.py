@@ -337,6 +337,9 @@ class _Run:
                 start_step = int(model.num_timesteps)
                 self._announce(start_step)
                 self._open_metrics(cleanup, checkpoint)
+                imitation = self.cfg.train.imitation
+                if checkpoint is None and imitation is not None and imitation.oracle is not None:
+                    self._imitate(model)
                 stop = StopRequest()
                 callbacks = self._callbacks(cleanup, stop, restored, [*self._curriculum(model), *extra_callbacks])
                 self._write_state("running", start_step, checkpoint=checkpoint.step if checkpoint else None)
@@ -405,6 +408,27 @@ class _Run:
         if target is not None and init.normalizer is not None:
             artifacts.restore_normalizer(target, init.normalizer, returns=False)
         self.log(f"policy initialised from {init.path}")
+
+    def _imitate(self, model: Any) -> None:
+        """``train.imitation``: DAgger from the oracle into the new policy, each round in the metrics."""
+        from pyflyt_cli.training.envs import EnvFactory
+        from pyflyt_cli.training.imitation import IMITATION_RECORD, imitate
+
+        options = self.cfg.train.imitation
+        self.log(
+            f"imitation: {options.rounds + 1} DAgger rounds x {options.episodes} episodes with oracle "
+            f"{options.oracle}, before {self.cfg.algo.name}"
+        )
+        env = EnvFactory(self.cfg.env, monitor=False)()
+
+        def record(r: Any) -> None:
+            values = {key: getattr(r, key) for key in IMITATION_RECORD}
+            self.writer.log("/imitation", r.index, values)
+
+        try:
+            imitate(model, env, options, self.cfg.seed, self.log, on_round=record)
+        finally:
+            env.close()
 
     def _announce(self, start_step: int) -> None:
         """The budget and the expected duration, measured on a throw-away copy of the model

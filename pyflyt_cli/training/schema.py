@@ -406,6 +406,34 @@ class CurriculumOption(_Strict):
     )
 
 
+class ImitationOptions(_Strict):
+    """``train.imitation``: fit the policy to a scripted oracle by DAgger before learning (docs/cli.md)."""
+
+    oracle: str | None = Field(
+        description="a scripted controller of pyflyt_engine/envs/oracles.py (rocket_lander); null: no imitation"
+    )
+    rounds: int = Field(ge=0, description="DAgger rounds after round 0 (the oracle alone)")
+    episodes: int = Field(ge=1, description="episodes flown per round")
+    mixing: float = Field(
+        ge=0.0,
+        le=1.0,
+        description="the oracle's share of the actions in round 1, falling linearly to mixing/rounds at the "
+        "last round (the policy acts otherwise)",
+    )
+    epochs: int = Field(ge=1, description="passes over the aggregated data set after every round")
+    batch_size: int = Field(ge=1, description="minibatch of the fit")
+    learning_rate: float = Field(gt=0.0, description="Adam step size of the fit")
+
+    @field_validator("oracle")
+    @classmethod
+    def _known(cls, value: str | None) -> str | None:
+        from pyflyt_engine.envs.oracles import ORACLES
+
+        if value is not None and value not in ORACLES:
+            raise ValueError(f"unknown oracle {value!r}; oracles: {', '.join(sorted(ORACLES))}")
+        return value
+
+
 class TrainOptions(_Strict):
     """``train``: budget, parallelism, evaluation, checkpoints and outputs of a run."""
 
@@ -439,6 +467,10 @@ class TrainOptions(_Strict):
         None,  # runs recorded before the key existed had none
         description="task option -> {start, steps}: training episodes fly the option at start, moving to the "
         "configured value over steps (evaluations always fly the configured task); null: none",
+    )
+    imitation: ImitationOptions | None = Field(
+        None,  # runs recorded before the key existed had none
+        description="fit the new policy to a scripted oracle by DAgger before learning (imitation.oracle null: none)",
     )
 
 
@@ -529,6 +561,8 @@ class TrainConfig(_Strict):
             )
         if opts.curriculum:
             _check_curriculum(self.env, opts.curriculum)
+        if opts.imitation is not None and opts.imitation.oracle is not None:
+            _check_imitation(self.env, algo.name, opts.imitation)
         if isinstance(algo, (PPOConfig, RecurrentPPOConfig, TRPOConfig)):
             from pyflyt_cli.training.multi_agent import agents_per_env
 
@@ -543,6 +577,20 @@ class TrainConfig(_Strict):
                     "lower algo.batch_size or raise algo.n_steps"
                 )
         return self
+
+
+def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> None:
+    """The oracle flies this env, and the algorithm's policy can be fitted state by state."""
+    from pyflyt_cli.training.imitation import SUPPORTED_ALGOS
+    from pyflyt_engine.envs.oracles import ORACLES
+
+    if getattr(env, "multi_agent", False):
+        raise ValueError("train.imitation: the multi-agent envs have no oracle; remove it")
+    if algo not in SUPPORTED_ALGOS:
+        raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(SUPPORTED_ALGOS)}")
+    flies = ORACLES[imitation.oracle].env_ids
+    if env.id not in flies:
+        raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")
 
 
 def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]) -> None:

@@ -1,0 +1,195 @@
+"""``train.imitation``: DAgger from a scripted oracle before reinforcement learning.
+
+Oracles: the mixing schedule evaluated by hand; the oracle's actions mapped into the
+agent's [-1, 1] action units by hand; the fit measured against the oracle's own labels
+(the policy's deterministic action must move most of the way to the oracle's on the
+states it flew); a run repeated with the same seed gives the same weights; bad settings
+fail before anything runs, naming the key.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import torch as th
+
+from pyflyt_cli.config import CLIError
+from pyflyt_cli.training import resume, train
+from pyflyt_cli.training.envs import EnvFactory
+from pyflyt_cli.training.imitation import IMITATION_SEED_OFFSET, _agent_units, imitate, oracle_share
+from pyflyt_cli.training.models import read_policy
+from pyflyt_cli.training.schema import ImitationOptions
+from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.envs.oracles import make_oracle
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.telemetry import read_metrics
+
+from .conftest import load
+from .test_resume import SignalAt
+
+#: one DAgger round after the oracle's, two episodes each, then 256 PPO steps
+TINY_IMITATION = [
+    "env=rocket_landing",
+    "algo=ppo",
+    "train.total_timesteps=256",
+    "algo.n_steps=256",
+    "algo.batch_size=64",
+    "algo.n_epochs=1",
+    "train.eval_freq=256",
+    "train.eval_episodes=1",
+    "train.checkpoint_freq=0",
+    "train.progress_bar=false",
+    "train.imitation.oracle=rocket_lander",
+    "train.imitation.rounds=1",
+    "train.imitation.episodes=2",
+    "train.imitation.epochs=3",
+]
+
+
+def _rocket_env():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return EnvFactory(load_env_config("rocket_landing"), monitor=False)()
+
+
+def test_the_oracle_share_falls_linearly_from_mixing_after_the_oracles_round():
+    assert oracle_share(0, 4, 0.5) == 1.0  # round 0: the oracle alone
+    assert [oracle_share(k, 4, 0.5) for k in (1, 2, 3, 4)] == pytest.approx([0.5, 0.375, 0.25, 0.125])
+    assert oracle_share(1, 1, 0.8) == pytest.approx(0.8)
+    assert oracle_share(3, 4, 0.0) == 0.0
+
+
+def test_the_oracles_actions_are_mapped_into_the_agents_units():
+    env = _rocket_env()
+    try:
+        assert np.allclose(env.action_space.low, -1.0) and np.allclose(env.action_space.high, 1.0)
+        to_agent = _agent_units(env)
+        # fins and gimbals are in [-1, 1] already; ignition and throttle [0, 1] -> [-1, 1]
+        env_units = np.array([0.5, -1.0, 0.0, 1.0, 0.25, 1.0, -0.2])
+        np.testing.assert_allclose(to_agent(env_units), [0.5, -1.0, 0.0, 1.0, -0.5, 1.0, -0.2])
+        np.testing.assert_allclose(to_agent(np.zeros(7))[3:5], [-1.0, -1.0])
+    finally:
+        env.close()
+
+
+def _oracle_flight(env, seed):
+    """States of one oracle-flown episode and the oracle's actions there, in the agent's units."""
+    oracle, to_agent = make_oracle("rocket_lander", env), _agent_units(env)
+    obs, _ = env.reset(seed=seed)
+    states, labels, done = [], [], False
+    while not done:
+        act = to_agent(oracle(obs))
+        states.append(obs)
+        labels.append(act)
+        obs, _, terminated, truncated, _ = env.step(act)
+        done = terminated or truncated
+    return np.array(states, dtype=np.float32), np.array(labels, dtype=np.float32)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_the_fit_brings_the_policy_to_the_oracle_on_the_states_flown(algo):
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    th.manual_seed(0)
+    threads = th.get_num_threads()
+    th.set_num_threads(1)  # as training runs (train.torch_threads): small networks are slower on more
+    env = _rocket_env()
+    try:
+        vec = DummyVecEnv([_rocket_env])
+        small = {"policy_kwargs": {"net_arch": [64, 64]}}  # PPO's default size
+        model = (PPO if algo == "ppo" else SAC)(
+            "MlpPolicy", vec, seed=0, device="cpu", **small, **({"buffer_size": 10} if algo == "sac" else {})
+        )
+        options = ImitationOptions(
+            oracle="rocket_lander", rounds=0, episodes=1, mixing=0.5, epochs=60, batch_size=32, learning_rate=1e-3
+        )
+        states, labels = _oracle_flight(env, seed=IMITATION_SEED_OFFSET)  # the flight round 0 will fly
+
+        def error() -> float:
+            actions = np.array([model.policy.predict(s, deterministic=True)[0] for s in states])
+            return float(np.mean((actions - labels) ** 2))
+
+        before = error()
+        rounds = imitate(model, env, options, seed=0, log=lambda _: None)
+        after = error()
+        vec.close()
+    finally:
+        env.close()
+        th.set_num_threads(threads)
+    assert len(rounds) == 1 and rounds[0].oracle_share == 1.0 and rounds[0].samples > 300
+    assert after < 0.3 * before, (before, after)
+
+
+def test_a_run_imitates_then_learns_records_each_round_and_repeats_exactly(tmp_path):
+    first = train(load(TINY_IMITATION, tmp_path / "a"))
+    second = train(load(TINY_IMITATION, tmp_path / "b"))
+    rounds = read_metrics(first.run_dir)["/imitation"]
+    assert [r["step"] for r in rounds] == [0, 1]
+    assert [r["oracle_share"] for r in rounds] == [1.0, 0.5]
+    assert rounds[0]["success_rate"] == 1.0  # the oracle lands both of its drops
+    assert rounds[1]["samples"] == rounds[0]["samples"] + rounds[1]["steps"]
+    again = read_metrics(second.run_dir)["/imitation"]
+    for a, b in zip(rounds, again, strict=True):
+        assert {k: v for k, v in a.items() if k not in ("seconds", "wall_time")} == {
+            k: v for k, v in b.items() if k not in ("seconds", "wall_time")
+        }
+    a, b = _final(first.run_dir), _final(second.run_dir)
+    assert a["evals"] == b["evals"]
+    for key, value in a["policy"].items():
+        assert th.equal(b["policy"][key], value), key
+
+
+def test_a_resumed_run_does_not_imitate_again_and_ends_as_the_uninterrupted_one(tmp_path, tmp_path_factory):
+    overrides = [*TINY_IMITATION, "train.total_timesteps=512", "algo.normalize.observation=true"]
+    reference = _final(train(load(overrides, tmp_path_factory.mktemp("reference"))).run_dir)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(100)])
+    assert first.interrupted and first.num_timesteps == 256
+    lines: list[str] = []
+    resume(first.run_dir, log=lines.append)
+    assert not any("imitation" in line for line in lines)
+    assert len(read_metrics(first.run_dir)["/imitation"]) == 2
+    resumed = _final(first.run_dir)
+    assert resumed["evals"] == reference["evals"] and len(reference["evals"]) == 2
+    assert reference["obs_rms"]["count"] > 512 + 1000  # 512 PPO steps, and the imitation's ~2 000 observations
+    for part in ("policy", "obs_rms"):
+        assert resumed[part].keys() == reference[part].keys()
+        for key, value in reference[part].items():
+            same = th.equal(resumed[part][key], value) if isinstance(value, th.Tensor) else resumed[part][key] == value
+            assert same, (part, key)
+
+
+def _final(run_dir) -> dict:
+    """The final weights, observation statistics and evaluations of a run."""
+    final = read_policy(run_dir / "model.pt")
+    evals = [(r["step"], r["mean_return"]) for r in read_metrics(run_dir)["/eval"]]
+    obs_rms = final.normalizer["obs_rms"] if final.normalizer is not None else None
+    return {"policy": final.policy, "obs_rms": obs_rms, "evals": evals}
+
+
+@pytest.mark.parametrize(
+    ("override", "names"),
+    [
+        ("train.imitation.oracle=lander", ["train.imitation.oracle", "unknown oracle 'lander'", "rocket_lander"]),
+        ("train.imitation.rounds=-1", ["train.imitation.rounds", "greater than or equal to 0"]),
+        ("train.imitation.mixing=1.5", ["train.imitation.mixing", "less than or equal to 1"]),
+        ("train.imitation.epoch=3", ["train.imitation.epoch", "epochs"]),
+        ("algo=recurrent_ppo", ["train.imitation cannot fit a recurrent_ppo policy"]),
+        ("env=quadx_hover", ["rocket_lander flies PyFlyt/Rocket-Landing-v0, not PyFlyt/QuadX-Hover-v0"]),
+    ],
+)
+def test_bad_imitation_settings_fail_before_anything_runs_naming_the_key(tmp_path, override, names):
+    with pytest.raises((CLIError, ConfigError)) as info:  # unknown keys: at composition; bad values: the schema
+        load([*TINY_IMITATION, override], tmp_path)
+    for name in names:
+        assert name in str(info.value), str(info.value)
+    assert not (tmp_path / "runs").exists()
+
+
+def test_no_oracle_no_imitation(tmp_path):
+    """The default (train.imitation.oracle=null) learns from scratch: no /imitation record."""
+    cfg = load([*TINY_IMITATION, "train.imitation.oracle=null", "env=quadx_hover"], tmp_path)
+    assert cfg.train.imitation.oracle is None
+    assert "/imitation" not in read_metrics(train(cfg).run_dir)
