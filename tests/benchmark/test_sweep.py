@@ -183,6 +183,7 @@ def test_budget_grown_in_the_plan_extends_complete_runs(tmp_path: Path) -> None:
     assert "quadx_hover/ppo/seed0  train.total_timesteps: 384 -> 256" in shorter.stderr
 
 
+@pytest.mark.slow  # two whole sweeps (~70 s): run with -m slow
 def test_a_rerun_with_changed_settings_is_refused_then_restarted_on_request(tmp_path: Path) -> None:
     from pyflyt_cli.plotting.data import load_benchmark
 
