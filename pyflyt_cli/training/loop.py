@@ -337,8 +337,7 @@ class _Run:
                 start_step = int(model.num_timesteps)
                 self._announce(start_step)
                 self._open_metrics(cleanup, checkpoint)
-                imitation = self.cfg.train.imitation
-                if checkpoint is None and imitation is not None and imitation.oracle is not None:
+                if checkpoint is None and self.cfg.train.imitation is not None:
                     self._imitate(model)
                 stop = StopRequest()
                 callbacks = self._callbacks(cleanup, stop, restored, [*self._curriculum(model), *extra_callbacks])

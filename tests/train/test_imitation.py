@@ -188,8 +188,15 @@ def test_bad_imitation_settings_fail_before_anything_runs_naming_the_key(tmp_pat
     assert not (tmp_path / "runs").exists()
 
 
-def test_no_oracle_no_imitation(tmp_path):
-    """The default (train.imitation.oracle=null) learns from scratch: no /imitation record."""
+def test_no_oracle_no_imitation_and_the_same_identity_as_runs_made_before_the_key(tmp_path):
+    """The default (train.imitation.oracle=null) learns from scratch, with no /imitation record,
+    and is the run a config without the key describes (a benchmark must not see it as changed)."""
+    from pyflyt_cli.training.rundir import config_dict, identity
+    from pyflyt_cli.training.schema import parse_train_config
+
     cfg = load([*TINY_IMITATION, "train.imitation.oracle=null", "env=quadx_hover"], tmp_path)
-    assert cfg.train.imitation.oracle is None
+    assert cfg.train.imitation is None
+    older = config_dict(cfg)
+    del older["train"]["imitation"]
+    assert identity(parse_train_config(older)) == identity(cfg)
     assert "/imitation" not in read_metrics(train(cfg).run_dir)
