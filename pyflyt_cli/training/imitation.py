@@ -114,9 +114,9 @@ def imitate(
             episode += 1
             total, done, info = 0.0, False, {}
             while not done:
-                target = to_agent(oracle(obs)).astype(np.float32)
+                target = to_agent(oracle(obs))  # flown as computed; stored as float32
                 new.append(np.asarray(obs, dtype=np.float32))
-                actions.append(target)
+                actions.append(target.astype(np.float32))
                 if rng.random() < beta:
                     act = target
                 else:
