@@ -285,6 +285,11 @@ class Vehicle:
         return len(mode.setpoint) + extra
 
     @property
+    def dry_mass(self) -> float:
+        """Mass without fuel [kg]: the spec's, or the one domain randomisation set."""
+        return self._dry_mass
+
+    @property
     def setpoint_layout(self) -> tuple[str, ...]:
         """Names of the setpoint entries in the current mode."""
         if self.mode.name == "channels":

@@ -71,14 +71,14 @@ class RocketLander:
         kd_lat: float = 2.0,
     ) -> None:
         base = env.unwrapped
-        if getattr(base, "_quaternion", True) is not True:
+        if base.config.angle_representation != "quaternion":
             raise ConfigError(
                 "oracle rocket_lander reads the attitude as a quaternion: set env.angle_representation=quaternion"
             )
         booster = base.vehicle.spec.boosters
         if booster is None:
             raise ConfigError("oracle rocket_lander needs a vehicle with a booster (the rocket airframe)")
-        self.dry_mass = float(base.vehicle._dry_mass)
+        self.vehicle = base.vehicle  # its dry mass is read at every call: randomisation may change it per episode
         self.total_fuel = float(np.ravel(booster.total_fuel)[0])
         self.min_thrust = float(np.ravel(booster.min_thrust)[0])
         self.max_thrust = float(np.ravel(booster.max_thrust)[0])
@@ -94,7 +94,7 @@ class RocketLander:
         omega, pos = obs[0:3], obs[10:13]
         body_to_ground = quaternion_to_matrix(obs[3:7])
         vel = body_to_ground @ obs[7:10]
-        mass = self.dry_mass + float(obs[-6]) * self.total_fuel
+        mass = self.vehicle.dry_mass + float(obs[-6]) * self.total_fuel
         up = body_to_ground[:, 2]
         h, v_z = pos[2] - self.standing, vel[2]
         # time until the braking burn starts (about 30 m above its ideal start), plus a margin
