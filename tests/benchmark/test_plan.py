@@ -55,7 +55,7 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     assert ccge.config["env"]["reward"] == "sparse"
     # CCGE keeps its own warm-up; AWAC's is the preset's
     assert ccge.config["algo"]["learning_starts"] == 1000
-    assert plan.job("quadx_waypoints_sparse/awac/seed0").total_timesteps == ccge.total_timesteps == 7500
+    assert plan.job("quadx_waypoints_sparse/awac/seed0").total_timesteps == ccge.total_timesteps == 30000
     awac = plan.job("quadx_waypoints_sparse/awac/seed2")
     assert awac.depends_on == "quadx_waypoints/sac/seed2"
     step = plan.spec["presets"]["laptop"]["partial_step"]
@@ -299,7 +299,7 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
 
     out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
     quoted = str(out).replace("'", "\\'")
-    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=9000"]
+    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=40000"]
     result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
     assert result.returncode == 0, result.stderr
     plan, _ = build_plan("paper_rl", args)
