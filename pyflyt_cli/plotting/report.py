@@ -183,10 +183,11 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path, skipped: 
                 ax.fill_between(x, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
             ax.set_title(title)
             ax.set_xlabel("environment steps" if title != "all envs" else "evaluation index")
-            ax.set_ylabel("IQM normalised score")
             ax.grid(alpha=0.3)
             if not full:
                 ax.legend(loc="best")
+        # one label for the row: on every panel it ran into the tick labels of the panel before
+        axes[0][0].set_ylabel("IQM normalised score")
         if full:
             axes[0][0].legend(loc="best")
         paths += _save(fig, out_dir, "learning_curves")
