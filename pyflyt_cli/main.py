@@ -112,11 +112,14 @@ def train(
     help="Evaluate a trained run: N episodes, a returns table, each episode to <run>/episodes/*.mcap.\n\n"
     "Overrides of conf/eval.yaml: episodes=10 seed=<run seed + 1000> deterministic=true "
     "model=auto|best|final|latest record=true video=out.gif\n\n"
-    "  pyflyt eval runs/quadx_hover/ppo/<time>-seed0 episodes=20 video=hover.gif",
+    "  pyflyt eval runs/quadx_hover/ppo/<time>-seed0 episodes=20 video=hover.gif\n\n"
+    "oracle:<name> flies a scripted controller (rocket_lander) in its env instead, into a new "
+    "runs/<env>/oracle_<name>/<time>-seed<k>; other keys set the env as in pyflyt train:\n\n"
+    "  pyflyt eval oracle:rocket_lander episodes=50 seed=0 env.task.start_position_noise=0",
 )
 @user_errors
 def eval_(
-    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train, or zoo:<name> (pyflyt zoo)"),
+    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train, zoo:<name> (pyflyt zoo) or oracle:<name> (a scripted controller)"),
     overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/eval.yaml"),
 ) -> None:
     from pyflyt_cli.commands.eval import run_eval

@@ -1,4 +1,11 @@
-"""``pyflyt eval <run dir> [key=value ...]``: compose ``conf/eval.yaml``, evaluate, print the table."""
+"""``pyflyt eval <run dir> [key=value ...]``: compose ``conf/eval.yaml``, evaluate, print the table.
+
+``pyflyt eval oracle:<name> [key=value ...]`` flies a scripted oracle instead
+(:mod:`pyflyt_engine.envs.oracles`): the keys of ``conf/eval.yaml`` go to the evaluation,
+every other key composes ``conf/train.yaml`` as ``pyflyt train`` would, for the
+environment (``env=``, ``env.*``, ``uav=``, ``reward=``), ``train.output_dir`` and
+``run_dir``.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +20,8 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
     from pyflyt_cli.training.rundir import check_run_dir
     from pyflyt_cli.training.schema import parse_eval_options
 
+    if run_dir.startswith("oracle:"):
+        return run_oracle_eval(run_dir[len("oracle:") :], overrides)
     shipped = None
     if run_dir.startswith("zoo:"):  # a shipped agent: copied to zoo/<name>/ here, evaluated there
         from pyflyt_cli.zoo import agent, materialise
@@ -40,4 +49,39 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
                 else " (other episodes or seeds than recorded: not comparable)"
             )
         )
+    return report
+
+
+#: eval keys that name a trained policy's file or sampling: an oracle has neither
+POLICY_ONLY_KEYS = ("model", "deterministic", "trust_pickle")
+
+
+def run_oracle_eval(name: str, overrides: list[str]) -> object:
+    """``pyflyt eval oracle:<name> [overrides]``: fly the scripted oracle, print and return the report."""
+    from pyflyt_cli.config import CLIError
+    from pyflyt_cli.training.compose import compose_train_data
+    from pyflyt_cli.training.evaluate import evaluate_oracle
+    from pyflyt_cli.training.schema import EvalOptions, parse_eval_options, parse_train_config
+    from pyflyt_engine.envs import ENVS
+    from pyflyt_engine.envs.oracles import ORACLES
+
+    if name not in ORACLES:
+        raise CLIError(f"unknown oracle {name!r} in oracle:{name}; oracles: {', '.join(sorted(ORACLES))}")
+    evaluation, training = [], []
+    for item in parse_overrides(overrides):
+        key = item.lstrip("+~").partition("=")[0]
+        if key in POLICY_ONLY_KEYS:
+            raise CLIError(f"{key}= applies to a trained run, not to oracle:{name} (a scripted controller)")
+        (evaluation if key in EvalOptions.model_fields else training).append(item)
+    if not any(item.lstrip("+").partition("=")[0] == "env" for item in training):
+        training.insert(0, f"env={ENVS[ORACLES[name].env_ids[0]].config}")
+    data, command = compose_train_data(training)
+    if command.get("resume") is not None:
+        raise CLIError(f"resume= continues a training run; oracle:{name} flies a scripted controller")
+    cfg = parse_train_config(data, source=f"pyflyt eval oracle:{name} " + " ".join(training))
+    options = parse_eval_options({**to_container(compose("eval", evaluation)), "deterministic": True})
+    report = evaluate_oracle(name, cfg, options, run_dir=command.get("run_dir"))
+    typer.echo(report.table())
+    if report.recordings:
+        typer.echo(f"replay:       pyflyt replay {report.recordings[0]}")
     return report

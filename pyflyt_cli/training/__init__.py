@@ -5,7 +5,7 @@ Plain functions on plain, validated configs:
 * :func:`compose_config` — the configuration ``pyflyt train`` composes from ``conf/``
   (:mod:`.compose`, the only module here that uses Hydra)
 * :func:`train` / :func:`resume` — :mod:`.loop`
-* :func:`evaluate_run` — :mod:`.evaluate`
+* :func:`evaluate_run`, :func:`evaluate_oracle` — :mod:`.evaluate`
 * :class:`TrainConfig`, :func:`parse_train_config`, :class:`EvalOptions` — :mod:`.schema`
 * what a config may instantiate — :mod:`.registry`
 * the run directory layout — :mod:`.rundir`
@@ -21,6 +21,7 @@ _LAZY = {
     "resume": "pyflyt_cli.training.loop",
     "RunResult": "pyflyt_cli.training.loop",
     "evaluate_run": "pyflyt_cli.training.evaluate",
+    "evaluate_oracle": "pyflyt_cli.training.evaluate",
     "EvalReport": "pyflyt_cli.training.evaluate",
     "TrainConfig": "pyflyt_cli.training.schema",
     "EvalOptions": "pyflyt_cli.training.schema",
@@ -43,6 +44,7 @@ __all__ = [
     "RunResult",
     "TrainConfig",
     "compose_config",
+    "evaluate_oracle",
     "evaluate_run",
     "parse_eval_options",
     "parse_train_config",

@@ -1,19 +1,20 @@
-"""``pyflyt eval``: run a trained policy, record its episodes, summarise, optionally film it."""
+"""``pyflyt eval``: run a trained policy or a scripted oracle, record its episodes, summarise, optionally film it."""
 
 from __future__ import annotations
 
 import importlib.util
 import json
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 
 from pyflyt_cli.training import rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, Episode, policy_predict, run_episodes, summarize
-from pyflyt_cli.training.schema import EvalOptions, parse_eval_options
+from pyflyt_cli.training.schema import EvalOptions, TrainConfig, parse_eval_options
 from pyflyt_engine.errors import ConfigError
 
 
@@ -22,8 +23,9 @@ class EvalReport:
     """The outcome of :func:`evaluate_run`."""
 
     run_dir: Path
-    model: Path
-    #: which model: best, final or latest (checkpoint)
+    #: the policy file flown (None for an oracle)
+    model: Path | None
+    #: which model: best, final or latest (checkpoint); ``oracle`` for a scripted oracle
     which: str
     seed: int
     deterministic: bool
@@ -32,16 +34,22 @@ class EvalReport:
     #: the episode recordings (MCAP), empty if not recorded
     recordings: list[Path]
     video: Path | None
+    #: the scripted oracle flown (``pyflyt eval oracle:<name>``), None for a trained policy
+    oracle: str | None = None
 
     def table(self) -> str:
         """The printed report: one row per episode, then mean ± std."""
         s = self.summary
+        seeds = f"seeds {self.seed}..{self.seed + len(self.episodes) - 1}"
+        flown = (
+            f"oracle: {self.oracle} (scripted), {seeds}"
+            if self.oracle is not None
+            else f"model:  {self.model.name if self.model else '-'} ({self.which}), "
+            f"{'deterministic' if self.deterministic else 'stochastic'} actions, {seeds}"
+        )
         lines = [
             f"run:    {self.run_dir}",
-            (
-                f"model:  {self.model.name} ({self.which}), {'deterministic' if self.deterministic else 'stochastic'} "
-                f"actions, seeds {self.seed}..{self.seed + len(self.episodes) - 1}"
-            ),
+            flown,
             "",
             f"{'episode':>7}  {'seed':>6}  {'return':>10}  {'length':>6}  success",
         ]
@@ -71,17 +79,98 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
     path = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(path)
     model_path, which = rundir.find_model(path, opts.model, legacy=trust)
-    video = Path(opts.video).expanduser().resolve() if opts.video else None
-    if video is not None:
-        _check_video_writer(video)
-
     import torch
 
-    from pyflyt_cli.training.envs import EnvFactory
     from pyflyt_cli.training.models import load_policy
 
     torch.set_num_threads(cfg.train.torch_threads)
     seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
+
+    def load(env: Any) -> tuple[Callable[[np.ndarray, bool], np.ndarray], Any]:
+        model, normalize = load_policy(model_path, cfg, env, trust_pickle=trust)
+        model.set_random_seed(seed)
+        return policy_predict(model), normalize
+
+    return _fly(path, cfg.env, load, opts, seed, model=model_path, which=which)
+
+
+def evaluate_oracle(
+    name: str,
+    cfg: TrainConfig,
+    options: EvalOptions | Mapping[str, Any] | None = None,
+    run_dir: str | Path | None = None,
+) -> EvalReport:
+    """Fly the scripted oracle ``name`` (:mod:`pyflyt_engine.envs.oracles`) in ``cfg.env``, as
+    :func:`evaluate_run` flies a trained policy: the same episodes for the same seeds, the
+    same recordings, ``eval.json`` and video.
+
+    The results go to ``run_dir`` (created; it must not exist), by default a new
+    ``<train.output_dir>/<env_name>/oracle_<name>/<time>-seed<k>`` (k: the first episode's
+    seed), with ``oracle.yaml``: the oracle and the environment it flew.  ``options.seed``
+    null flies the episodes a seed-0 run's evaluations fly (seeds 1000, 1001, ...).
+    """
+    from pyflyt_engine.envs.oracles import ORACLES, make_oracle
+
+    opts = parse_eval_options(options or {})
+    if name not in ORACLES:
+        raise ConfigError(f"unknown oracle {name!r}; oracles: {', '.join(sorted(ORACLES))}")
+    env_ids = ORACLES[name].env_ids
+    if cfg.env.id not in env_ids:
+        raise ConfigError(f"oracle {name} flies {', '.join(env_ids)}, not {cfg.env.id} (env={cfg.env_name})")
+    if opts.video:  # nothing is created for a video that cannot be written
+        _check_video_writer(Path(opts.video).expanduser().resolve())
+    seed = opts.seed if opts.seed is not None else EVAL_SEED_OFFSET
+    env_name = cfg.env_name
+    if run_dir is None:
+        path = rundir.create_run_dir(cfg.train.output_dir, env_name, f"oracle_{name}", seed)
+    else:
+        path = rundir.create_named_run_dir(run_dir)
+    env_data = rundir.config_dict(cfg)["env"]
+    rundir.write_yaml(
+        path / ORACLE_FILE,
+        {"oracle": name, "env_name": env_name, "env": env_data},
+        f"# The scripted oracle flown here and its environment (pyflyt eval oracle:{name}).\n",
+    )
+
+    def load(env: Any) -> tuple[Callable[[np.ndarray, bool], np.ndarray], Any]:
+        from pyflyt_cli.training.imitation import agent_units
+
+        oracle, to_agent = make_oracle(name, env), agent_units(env)
+        return (lambda obs, deterministic: to_agent(oracle(obs))), None
+
+    try:
+        return _fly(path, cfg.env, load, opts, seed, model=None, which="oracle", oracle=name)
+    except BaseException:
+        if not any((path / rundir.EPISODES).glob("*.mcap")):  # nothing flown: leave nothing behind
+            import shutil
+
+            shutil.rmtree(path, ignore_errors=True)
+        raise
+
+
+#: what ``pyflyt eval oracle:<name>`` writes beside the recordings
+ORACLE_FILE = "oracle.yaml"
+
+
+def _fly(
+    path: Path,
+    env_config: Any,
+    load: Callable[[Any], tuple[Callable[[np.ndarray, bool], np.ndarray], Any]],
+    opts: EvalOptions,
+    seed: int,
+    *,
+    model: Path | None,
+    which: str,
+    oracle: str | None = None,
+) -> EvalReport:
+    """Fly ``opts.episodes`` episodes of ``env_config`` with the policy ``load(env)`` returns
+    (``(predict, normalize_obs)``); record, film, write ``eval.json``; the report."""
+    video = Path(opts.video).expanduser().resolve() if opts.video else None
+    if video is not None:
+        _check_video_writer(video)
+
+    from pyflyt_cli.training.envs import EnvFactory
+
     episodes_dir = path / rundir.EPISODES
     scratch = None  # a video is filmed from recordings: without record=true, from temporary ones
     if video is not None and not opts.record:
@@ -89,24 +178,16 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
 
         scratch = tempfile.TemporaryDirectory(prefix="pyflyt-eval-")
     record_dir = str(episodes_dir) if opts.record else scratch.name if scratch is not None else None
-    env = EnvFactory(cfg.env, monitor=False, record_dir=record_dir)()
-    try:  # the model is read before the first episode is recorded: a bad file leaves nothing behind
-        model, normalize = load_policy(model_path, cfg, env, trust_pickle=trust)
+    env = EnvFactory(env_config, monitor=False, record_dir=record_dir)()
+    try:  # the policy is read before the first episode is recorded: a bad file leaves nothing behind
+        predict, normalize = load(env)
     except BaseException:
         env.close()
         if scratch is not None:
             scratch.cleanup()
         raise
     try:
-        model.set_random_seed(seed)
-        episodes = run_episodes(
-            policy_predict(model),
-            env,
-            opts.episodes,
-            seed,
-            opts.deterministic,
-            normalize_obs=normalize,
-        )
+        episodes = run_episodes(predict, env, opts.episodes, seed, opts.deterministic, normalize_obs=normalize)
     finally:
         recordings = list(_recorder_paths(env))
         env.close()
@@ -124,13 +205,14 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
         if scratch is not None:
             recordings = []
             scratch.cleanup()
-    report = EvalReport(path, model_path, which, seed, opts.deterministic, episodes, summary, recordings, video)
+    report = EvalReport(path, model, which, seed, opts.deterministic, episodes, summary, recordings, video, oracle)
+    flown = {"oracle": oracle} if oracle is not None else {"model": model.name if model else None}
     rundir.atomic_write(
         path / "eval.json",
         json.dumps(
             {
                 "time": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                "model": model_path.name,
+                **flown,
                 "which": which,
                 "seed": seed,
                 "deterministic": opts.deterministic,

@@ -93,7 +93,7 @@ def imitate(
     from pyflyt_engine.envs.oracles import make_oracle
 
     oracle = make_oracle(options.oracle, env)
-    to_agent = _agent_units(env)
+    to_agent = agent_units(env)
     policy = model.policy
     normalizer = model.get_vec_normalize_env()
     if normalizer is not None and not normalizer.norm_obs:
@@ -155,7 +155,7 @@ def imitate(
     return rounds
 
 
-def _agent_units(env: Any) -> Callable[[np.ndarray], np.ndarray]:
+def agent_units(env: Any) -> Callable[[np.ndarray], np.ndarray]:
     """The oracle's action (in the env's own action space) in the agent's: the wrappers rescale a
     bounded Box to [-1, 1] (:func:`pyflyt_cli.training.envs.wrap_for_agent`)."""
     inner, outer = env.unwrapped.action_space, env.action_space

@@ -4,7 +4,8 @@ An oracle is a callable ``oracle(observation) -> action`` built for one environm
 (``make_oracle(name, env)``) from that environment's parameters, with no state carried
 between calls: the action is a function of the observation alone, so it can label any
 state a learner visits (imitation by DAgger, ``train.imitation`` in ``pyflyt train``)
-and serve as a baseline (``experiments/rocket_scripted_landing.py``).
+and serve as a baseline, flown, recorded and filmed like a trained run by ``pyflyt eval
+oracle:<name>`` (``experiments/rocket_scripted_landing.py`` compares it with a free fall).
 
 Oracles:
 

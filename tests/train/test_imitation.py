@@ -19,7 +19,7 @@ import torch as th
 from pyflyt_cli.config import CLIError
 from pyflyt_cli.training import resume, train
 from pyflyt_cli.training.envs import EnvFactory
-from pyflyt_cli.training.imitation import IMITATION_SEED_OFFSET, _agent_units, imitate, oracle_share
+from pyflyt_cli.training.imitation import IMITATION_SEED_OFFSET, agent_units, imitate, oracle_share
 from pyflyt_cli.training.models import read_policy
 from pyflyt_cli.training.schema import ImitationOptions
 from pyflyt_engine.envs.config import load_env_config
@@ -66,7 +66,7 @@ def test_the_oracles_actions_are_mapped_into_the_agents_units():
     env = _rocket_env()
     try:
         assert np.allclose(env.action_space.low, -1.0) and np.allclose(env.action_space.high, 1.0)
-        to_agent = _agent_units(env)
+        to_agent = agent_units(env)
         # fins and gimbals are in [-1, 1] already; ignition and throttle [0, 1] -> [-1, 1]
         env_units = np.array([0.5, -1.0, 0.0, 1.0, 0.25, 1.0, -0.2])
         np.testing.assert_allclose(to_agent(env_units), [0.5, -1.0, 0.0, 1.0, -0.5, 1.0, -0.2])
@@ -77,7 +77,7 @@ def test_the_oracles_actions_are_mapped_into_the_agents_units():
 
 def _oracle_flight(env, seed):
     """States of one oracle-flown episode and the oracle's actions there, in the agent's units."""
-    oracle, to_agent = make_oracle("rocket_lander", env), _agent_units(env)
+    oracle, to_agent = make_oracle("rocket_lander", env), agent_units(env)
     obs, _ = env.reset(seed=seed)
     states, labels, done = [], [], False
     while not done:
