@@ -58,15 +58,25 @@ def agent(name: str, root: Path = AGENTS) -> Agent:
 
 
 def table(root: Path = AGENTS) -> str:
-    """``pyflyt zoo``: one row per agent."""
-    rows = [f"{'name':<28} {'env':<22} {'algo':<8} {'steps':>8} {'return':>18} {'success':>8}"]
+    """``pyflyt zoo``: one row per agent, the columns as wide as their longest entry."""
+    cells = [("name", "env", "algo", "steps", "return", "success")]
     for a in agents(root):
         s, e = a.summary, a.summary.get("evaluation", {})
-        rows.append(
-            f"{a.name:<28} {s.get('env_id', '?'):<22} {s.get('algo', '?'):<8} {s.get('training', {}).get('steps', 0):>8} "
-            f"{e.get('mean_return', float('nan')):>9.2f} ± {e.get('std_return', float('nan')):<6.2f} "
-            f"{100 * e.get('success_rate', 0):>7.0f} %"
+        cells.append(
+            (
+                a.name,
+                str(s.get("env_id", "?")),
+                str(s.get("algo", "?")),
+                str(s.get("training", {}).get("steps", 0)),
+                f"{e.get('mean_return', float('nan')):.2f} ± {e.get('std_return', float('nan')):.2f}",
+                f"{100 * e.get('success_rate', 0):.0f} %",
+            )
         )
+    widths = [max(len(row[i]) for row in cells) for i in range(6)]
+    right = (False, False, False, True, True, True)
+    rows = [
+        "  ".join(c.rjust(w) if r else c.ljust(w) for c, w, r in zip(row, widths, right)).rstrip() for row in cells
+    ]
     if len(rows) == 1:
         rows.append("(no agents shipped)")
     rows.append("fly one: pyflyt eval zoo:<name> [video=agent.gif]")
