@@ -16,6 +16,7 @@ evaluates it there; with the recorded options it reproduces the recorded returns
 
 from __future__ import annotations
 
+import shlex
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -163,7 +164,10 @@ def _build(run: Path, cfg: Any, model: Path, which: str, name: str, episodes: in
             "steps": int(state.get("num_timesteps") or 0),
             "seconds": progress.get("elapsed"),
             "steps_per_second": progress.get("steps_per_second"),
+            # a pyflyt train line that composes the run's settings (null if none does), and the
+            # command line of the process that trained it
             "command": _train_command(cfg, record),
+            "ran": shlex.join(str(a) for a in record.get("command") or []) or None,
             "overrides": record.get("overrides") or [],
             "versions": record.get("versions") or {},
         },
@@ -223,10 +227,12 @@ def _learning_curve(run: Path, out: Path, title: str) -> None:
     plt.close(fig)
 
 
-def _train_command(cfg: Any, record: dict[str, Any]) -> str:
-    """The ``pyflyt train`` command that trains this run: its overrides, plus the env, algorithm
-    and seed when they did not come from them (a run started from Python, e.g. an
-    experiment script, records only its extra overrides)."""
+def _train_command(cfg: Any, record: dict[str, Any]) -> str | None:
+    """The ``pyflyt train`` command that trains this run with the package's ``conf/`` as it is:
+    its overrides, the env, algorithm and seed when they did not come from them, and every
+    setting that still differs (a run started from Python, e.g. by an experiment script,
+    records only its extra overrides).  None if no such command composes the run's settings
+    exactly (checked by the configuration digest)."""
     overrides = list(record.get("overrides") or [])
     given = {o.split("=", 1)[0].lstrip("+~") for o in overrides}
     implied = []
@@ -234,4 +240,47 @@ def _train_command(cfg: Any, record: dict[str, Any]) -> str:
         implied += [f"{k}={v}" for k, v in (("env", cfg.env_name), ("algo", cfg.algo.name)) if k not in given]
     if "seed" not in given:
         implied.append(f"seed={cfg.seed}")
-    return " ".join(["pyflyt train", *implied, *overrides])
+    words = _reproducing(cfg, [*implied, *overrides])
+    return None if words is None else " ".join(["pyflyt train", *words])
+
+
+def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
+    """``words`` plus the overrides that make ``pyflyt train <words>`` compose ``cfg``'s settings, or None."""
+    from pyflyt_cli.training.compose import COMMAND_KEYS, compose_config
+    from pyflyt_cli.training.rundir import identity
+    from pyflyt_engine.errors import PyFlytError
+
+    target = identity(cfg)
+    # run_dir= says where, not what: kept in the command, left out of the composition
+    settings = [w for w in words if w.split("=", 1)[0].lstrip("+~") not in COMMAND_KEYS]
+    try:
+        composed = identity(compose_config(overrides=settings))
+        extra = []
+        for key in sorted(set(target) | set(composed)):
+            if key in composed and target.get(key) == composed[key]:
+                continue
+            if key not in target:
+                return None  # a setting the run did not have: an override cannot remove it
+            extra.append(f"{'' if key in composed else '+'}{key}={_override_value(target[key])}")
+        return [*words, *extra] if identity(compose_config(overrides=[*settings, *extra])) == target else None
+    except (PyFlytError, ValueError):
+        return None
+
+
+def _override_value(value: Any) -> str:
+    """``value`` in Hydra's override grammar."""
+    from pyflyt_cli.config import hydra_value
+
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return hydra_value(value)
+    if isinstance(value, list):
+        return "[" + ",".join(_override_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ",".join(f"{k}:{_override_value(v)}" for k, v in value.items()) + "}"
+    raise ValueError(f"no override syntax for {value!r}")

@@ -7,8 +7,9 @@ import pytest
 import yaml
 
 from pyflyt_cli import zoo
-from pyflyt_cli.training import evaluate_run, train
+from pyflyt_cli.training import compose_config, evaluate_run, train
 from pyflyt_cli.training.models import read_policy
+from pyflyt_cli.training.rundir import config_digest, load_run_config
 from pyflyt_engine.errors import ConfigError
 
 from .conftest import TINY_PPO, load, pyflyt
@@ -25,6 +26,10 @@ def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path)
     # the command that trains it names the env, algorithm and seed even for a run started from Python
     words = summary["training"]["command"].split()
     assert words[:2] == ["pyflyt", "train"] and {"env=quadx_hover", "algo=ppo", "seed=0"} <= set(words)
+    # ... and every setting it was trained with: the command composes the run's configuration exactly
+    assert "train.total_timesteps=512" in words and "algo.n_steps=256" in words
+    assert config_digest(compose_config(overrides=words[2:])) == config_digest(load_run_config(run))
+    assert summary["training"]["ran"]  # the command line of the process that trained it
     assert read_policy(made.path / "model.pt").algo == "ppo"
     assert "quadx_hover_ppo" in zoo.table(root)
     copy = zoo.materialise("quadx_hover_ppo", tmp_path / "work", root=root)
