@@ -215,15 +215,17 @@ def run(
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     wall = time.perf_counter() - start
     split = _phase_split(Path(result.run_dir))
-    # the probes run inside the collection phase (from a callback's on_step): take them out
-    collect = split.get("collect", 0.0) - probe.probe_time
-    split = {
-        "env": probe.env_time,
-        "collect_other": collect - probe.env_time,
-        "update": split.get("update", 0.0),
-        "eval": split.get("eval", 0.0),
-        "checkpoint": split.get("checkpoint", 0.0),
-    }
+    if split:
+        # the probes run inside the collection phase (from a callback's on_step): take them out
+        collect = split.get("collect", 0.0) - probe.probe_time
+        split = {
+            "env": probe.env_time,
+            "collect_other": collect - probe.env_time,
+            "update": split.get("update", 0.0),
+            "eval": split.get("eval", 0.0),
+            "checkpoint": split.get("checkpoint", 0.0),
+        }
+    # else: a run stopped before its budget records no split of its time (its metrics end at the checkpoint)
     trained = result.elapsed - probe.probe_time  # learn() alone, without the run's set-up
     return {
         "env": env,
@@ -288,8 +290,9 @@ def table(rows: list[dict], target: float) -> list[str]:
             f"| {r['seed']} | {r['steps']} | {' / '.join(f'{100 * x:.0f}' for x in f['at_least'])} | "
             f"{f['mean_reached']:.1f} | {', '.join(f'{k} {v}' for k, v in f['endings'].items())} | "
             f"{r['best_mean_reached']:.1f} | {t[0] if t else 'not within budget'} | {r['trained_wall']:.0f} | "
-            f"{r['steps_per_second']:.0f} | {s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f} | "
-            f"{r['load'][0]:.1f}-{r['load'][1]:.1f} |"
+            f"{r['steps_per_second']:.0f} | "
+            + (f"{s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f}" if s else "- (stopped)")
+            + f" | {r['load'][0]:.1f}-{r['load'][1]:.1f} |"
         )
     return lines
 

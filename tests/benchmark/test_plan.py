@@ -55,7 +55,7 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     assert ccge.config["env"]["reward"] == "sparse"
     # CCGE keeps its own warm-up; AWAC's is the preset's
     assert ccge.config["algo"]["learning_starts"] == 1000
-    assert plan.job("quadx_waypoints_sparse/awac/seed0").total_timesteps == ccge.total_timesteps == 30000
+    assert plan.job("quadx_waypoints_sparse/awac/seed0").total_timesteps == ccge.total_timesteps == 100000
     awac = plan.job("quadx_waypoints_sparse/awac/seed2")
     assert awac.depends_on == "quadx_waypoints/sac/seed2"
     step = plan.spec["presets"]["laptop"]["partial_step"]
@@ -67,6 +67,11 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     # the policy shapes agree, so the weights load
     assert awac.config["algo"]["policy_kwargs"]["net_arch"] == sac.config["algo"]["policy_kwargs"]["net_arch"]
     assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
+    # and they train the same way: the tunings' 4 envs and reach-sphere curriculum
+    assert sac.config["train"]["n_envs"] == awac.config["train"]["n_envs"] == ccge.config["train"]["n_envs"] == 4
+    assert sac.config["train"]["curriculum"] == awac.config["train"]["curriculum"]
+    assert sac.config["train"]["curriculum"]["goal_reach_distance"]["start"] == 1.0
+    assert ccge.config["train"]["curriculum"]["goal_reach_distance"]["start"] == 10.0
     big, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "benchmark.preset=paper"])
     assert big.root.name == "paper_rl_paper" and len(big.jobs) == 300
     assert big.job("quadx_waypoints_sparse/ccge/seed7").config["init_from"].endswith("quadx_waypoints/sac/seed7@200000")
@@ -299,7 +304,7 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
 
     out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
     quoted = str(out).replace("'", "\\'")
-    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=40000"]
+    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=160000"]
     result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
     assert result.returncode == 0, result.stderr
     plan, _ = build_plan("paper_rl", args)
