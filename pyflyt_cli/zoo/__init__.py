@@ -200,31 +200,53 @@ def _progress(run: Path) -> dict[str, Any]:
     return dict(records[-1]) if records else {}
 
 
-def _learning_curve(run: Path, out: Path, title: str) -> None:
+def _learning_curve(run: Path, out: Path, title: str, bins: int = 40) -> str:
+    """Draw the run's evaluation return (mean ± std) against environment steps; for a run
+    trained without evaluations, its training episodes' return instead (mean ± std per step
+    bin), so labelled.  Returns the y label."""
     import warnings
 
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from pyflyt_engine.telemetry import read_metrics
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        evals = read_metrics(run).get("/eval", [])
+        metrics = read_metrics(run)
+    evals = metrics.get("/eval", [])
+    if evals:
+        steps = np.array([r["step"] for r in evals], dtype=float)
+        mean = np.array([r["mean_return"] for r in evals], dtype=float)
+        std = np.array([r["std_return"] for r in evals], dtype=float)
+        label = "evaluation return"
+    else:  # no evaluations: the training episodes, binned by the step they ended at
+        episodes = metrics.get("/train/episode", [])
+        at = np.array([r["step"] for r in episodes], dtype=float)
+        returns = np.array([r["return"] for r in episodes], dtype=float)
+        edges = np.linspace(0.0, at.max(), bins + 1) if len(at) else np.zeros(1)
+        which = np.clip(np.searchsorted(edges, at, side="right") - 1, 0, max(len(edges) - 2, 0))
+        kept = [b for b in range(len(edges) - 1) if np.any(which == b)]
+        steps = np.array([(edges[b] + edges[b + 1]) / 2 for b in kept])
+        mean = np.array([returns[which == b].mean() for b in kept])
+        std = np.array([returns[which == b].std() for b in kept])
+        label = "training episode return"
     fig, ax = plt.subplots(figsize=(5, 3.2))
-    steps = [r["step"] for r in evals]
-    mean = [r["mean_return"] for r in evals]
-    std = [r["std_return"] for r in evals]
-    ax.plot(steps, mean, marker="o")
-    ax.fill_between(steps, [m - s for m, s in zip(mean, std)], [m + s for m, s in zip(mean, std)], alpha=0.25)
+    ax.plot(steps, mean, marker="o", markersize=3 if not evals else 6)
+    ax.fill_between(steps, mean - std, mean + std, alpha=0.25)
+    from matplotlib.ticker import EngFormatter
+
+    ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1.5M: no run-together digits
     ax.set_xlabel("environment steps")
-    ax.set_ylabel("evaluation return")
+    ax.set_ylabel(label)
     ax.set_title(title)
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)
+    return label
 
 
 def _train_command(cfg: Any, record: dict[str, Any]) -> str | None:

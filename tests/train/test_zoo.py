@@ -72,3 +72,15 @@ def test_a_shipped_agent_flies_its_recorded_return_from_the_command_line(tmp_pat
     assert "(matches)" in result.stdout
     assert "mini-batch" not in result.stderr  # an on-policy run's minibatch does not concern flying it
     assert not list(zoo.agent(name).path.glob("eval.json"))  # the shipped folder is not written
+
+
+def test_an_agent_of_a_run_without_evaluations_gets_its_training_curve(tmp_path):
+    """A run trained with train.eval_freq=0 has no /eval records: the agent's figure shows its
+    training episodes' returns (and says so) rather than an empty plot."""
+    from pyflyt_cli.zoo import _learning_curve
+
+    cfg = load([*TINY_PPO, "train.eval_freq=0"], tmp_path / "runs")
+    run = train(cfg).run_dir
+    assert _learning_curve(run, tmp_path / "curve.png", "t") == "training episode return"
+    made = zoo.add_agent(run, episodes=1, root=tmp_path / "agents")  # and --add draws it without failing
+    assert (made.path / "learning_curve.png").is_file()
