@@ -8,9 +8,10 @@ containers and calls plain functions.  Every Hydra/OmegaConf failure becomes a
 from __future__ import annotations
 
 import difflib
+import json
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -116,6 +117,22 @@ def hydra_value(value: str) -> str:
     if "\\" in value or "${" in value:
         raise CLIError(f"{value!r} holds a backslash or '${{', which an override cannot carry; rename or move it")
     return "'" + value.replace("'", "\\'") + "'"
+
+
+def override_value(value: Any) -> str:
+    """A value in Hydra's override grammar: ``0.001``, ``true``, ``[64,64]``, ``{pi:[64],qf:[256]}``,
+    ``null``; strings double-quoted (``"relu"``)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(override_value(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ",".join(f"{k}:{override_value(v)}" for k, v in value.items()) + "}"
+    return json.dumps(str(value))
 
 
 def absolute_airframes(overrides: Sequence[str], *, into_env: bool = False) -> list[str]:

@@ -43,6 +43,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from pyflyt_cli.config import override_value
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 
@@ -165,24 +166,9 @@ def _encode(value: Any) -> str:
     return json.dumps(value)
 
 
-def _hydra_value(value: Any) -> str:
-    """A value in Hydra's override grammar: ``0.001``, ``true``, ``[64,64]``, ``{pi:[64],qf:[256]}``, ``null``."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ",".join(_hydra_value(v) for v in value) + "]"
-    if isinstance(value, Mapping):
-        return "{" + ",".join(f"{k}:{_hydra_value(v)}" for k, v in value.items()) + "}"
-    return json.dumps(str(value))
-
-
 def overrides_of(values: Mapping[str, Any]) -> list[str]:
     """``{"algo.learning_rate": 1e-3}`` -> ``["algo.learning_rate=0.001"]`` (Hydra's override grammar)."""
-    return [f"{key}={_hydra_value(value)}" for key, value in values.items()]
+    return [f"{key}={override_value(value)}" for key, value in values.items()]
 
 
 def load_search_space(space: str | None, algo: str) -> SearchSpace:

@@ -268,6 +268,7 @@ def _train_command(cfg: Any, record: dict[str, Any]) -> str | None:
 
 def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
     """``words`` plus the overrides that make ``pyflyt train <words>`` compose ``cfg``'s settings, or None."""
+    from pyflyt_cli.config import override_value
     from pyflyt_cli.training.compose import COMMAND_KEYS, compose_config
     from pyflyt_cli.training.rundir import identity
     from pyflyt_engine.errors import PyFlytError
@@ -283,26 +284,7 @@ def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
                 continue
             if key not in target:
                 return None  # a setting the run did not have: an override cannot remove it
-            extra.append(f"{'' if key in composed else '+'}{key}={_override_value(target[key])}")
+            extra.append(f"{'' if key in composed else '+'}{key}={override_value(target[key])}")
         return [*words, *extra] if identity(compose_config(overrides=[*settings, *extra])) == target else None
-    except (PyFlytError, ValueError):
+    except PyFlytError:
         return None
-
-
-def _override_value(value: Any) -> str:
-    """``value`` in Hydra's override grammar."""
-    from pyflyt_cli.config import hydra_value
-
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return hydra_value(value)
-    if isinstance(value, list):
-        return "[" + ",".join(_override_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ",".join(f"{k}:{_override_value(v)}" for k, v in value.items()) + "}"
-    raise ValueError(f"no override syntax for {value!r}")
