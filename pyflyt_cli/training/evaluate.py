@@ -123,6 +123,8 @@ def evaluate_oracle(
     env_name = cfg.env_name
     if run_dir is None:
         path = rundir.create_run_dir(cfg.train.output_dir, env_name, f"oracle_{name}", seed)
+    elif Path(run_dir).expanduser().exists():
+        raise rundir.RunDirError(f"run_dir={run_dir} already exists: choose a new directory for the oracle's episodes")
     else:
         path = rundir.create_named_run_dir(run_dir)
     env_data = rundir.config_dict(cfg)["env"]
