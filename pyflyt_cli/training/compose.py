@@ -77,6 +77,7 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
                 f"'{item}': pyflyt train takes no Hydra settings (Hydra only composes conf/train.yaml here); "
                 "give config keys (key=value), and launcher settings to pyflyt benchmark"
             )
+    overrides, replaced = _whole_value_overrides(overrides)
     try:
         cfg = compose("train", overrides, return_hydra_config=True)
     except CLIError as exc:
@@ -89,6 +90,12 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
         origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
         raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
     data = to_container(cfg)
+    for key, value in replaced.items():  # the command line's value, not merged into the tuning's
+        *parents, leaf = key.split(".")
+        node = data
+        for part in parents:
+            node = node[part]
+        node[leaf] = value
     command = {key: data.pop(key, None) for key in COMMAND_KEYS}
     section = data.pop("benchmark", None)
     if section is not None and not benchmark and command["run_dir"] is None:
@@ -122,6 +129,41 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     if benchmark and section is not None:
         data["benchmark"] = section
     return data, command
+
+
+#: keys whose ``key=value`` override replaces the value as a whole: Hydra merges a mapping
+#: given on the command line into the one a tuning set (``train.curriculum={num_targets:...}``
+#: would keep the tuning's ``goal_reach_distance`` schedule beside it, or fail on a key the
+#: tuning's mapping lacks).  ``key.field=value`` still changes one field of the tuning's.
+WHOLE_VALUE_KEYS = ("train.curriculum",)
+
+
+def _whole_value_overrides(overrides: Sequence[str]) -> tuple[list[str], dict[str, Any]]:
+    """(the overrides Hydra composes, {key: value} of the :data:`WHOLE_VALUE_KEYS` ones, set after)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    kept, replaced = [], {}
+    for item in overrides:
+        key, sep, _ = item.partition("=")
+        if not sep or key not in WHOLE_VALUE_KEYS:
+            kept.append(item)
+            continue
+        try:
+            value = OverridesParser.create().parse_overrides([item])[0].value()
+        except HydraException as exc:
+            raise CLIError(f"'{item}': cannot read the value: {exc}") from None
+        replaced[key] = _plain(value)
+    return kept, replaced
+
+
+def _plain(value: Any) -> Any:
+    """A parsed override value as plain dicts, lists and scalars."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
 
 
 def _suggest_key(message: str, overrides: list[str]) -> str:

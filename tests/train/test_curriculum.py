@@ -128,3 +128,15 @@ def test_the_curriculum_reaches_envs_in_subprocesses(tmp_path):
     early = [e for e in episodes if e["step"] <= 256]  # reach distance >= 30 m in both workers
     assert len(early) >= 20 and all(e["length"] == 5 and e["success"] for e in early)
     assert any(e["length"] > 5 for e in episodes if e["step"] > 1536)  # 0.2 m from step 1024 on
+
+
+def test_a_curriculum_on_the_command_line_replaces_the_tunings_and_a_field_changes_one(tmp_path):
+    """conf/hparams/quadx_waypoints_sac.yaml sets goal_reach_distance 1 m over 600k steps."""
+    tuned = load(["env=quadx_waypoints", "algo=sac"], tmp_path).train.curriculum
+    assert tuned["goal_reach_distance"].start == 1.0 and tuned["goal_reach_distance"].steps == 600000
+    whole = load(["env=quadx_waypoints", "algo=sac", "train.curriculum={goal_reach_distance:{start:3.0,steps:100}}"], tmp_path)
+    assert set(whole.train.curriculum) == {"goal_reach_distance"}
+    assert (whole.train.curriculum["goal_reach_distance"].start, whole.train.curriculum["goal_reach_distance"].steps) == (3.0, 100)
+    field = load(["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.start=3.0"], tmp_path)
+    assert (field.train.curriculum["goal_reach_distance"].start, field.train.curriculum["goal_reach_distance"].steps) == (3.0, 600000)
+    assert not load(["env=quadx_waypoints", "algo=sac", "train.curriculum=null"], tmp_path).train.curriculum
