@@ -703,10 +703,10 @@ class _Run:
             from pyflyt_cli.training.multi_agent import step_unit
 
             self.log(_summary(result, step_unit(self.cfg.env)))
-            if self.phases is not None and elapsed > 0:
-                from pyflyt_cli.training.timing import describe_split
+        if self.phases is not None and elapsed > 0:  # printed when interrupted too (not logged: past the checkpoint)
+            from pyflyt_cli.training.timing import describe_split
 
-                self.log(f"time in training: {describe_split(self.phases.split())}")
+            self.log(f"time in training: {describe_split(self.phases.split())}")
         return result
 
 

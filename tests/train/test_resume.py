@@ -184,6 +184,7 @@ def test_a_signal_then_resume_from_the_command_line_is_bit_identical(tmp_path, t
         assert proc.returncode == 130, err
         name = "SIGINT" if how == "ctrl-c" else "SIGTERM"
         assert f"{name} received" in err and "interrupted at step" in err and "Traceback" not in err
+        assert "time in training: collect " in err  # where the interrupted session's time went
         state = json.loads((run / "state.json").read_text())
         assert state["status"] == "interrupted" and state["checkpoint"] == state["num_timesteps"]
     resumed = pyflyt(["train", f"resume={run}"], cwd=tmp_path)
