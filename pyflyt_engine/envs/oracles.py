@@ -24,6 +24,15 @@ from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import quaternion_to_matrix
 
+#: the ignition label's slope: the oracle's burn margin (the alignment of the lean with the
+#: aim, or the aim or braking error's excess in m/s/2, whichever lights the booster) maps to
+#: ``0.5 + 0.5 tanh(margin / IGNITION_SCALE)``.  The booster is lit above 0.5, so the flights
+#: are those of a 0/1 switch; the graded value gives a learner fitting the oracle (DAgger) a
+#: target that is continuous across the switching surface instead of a step.
+IGNITION_SCALE = 0.1
+#: the smallest ignition value sent when lit (0.5 itself, or a float32 rounding to it, is out)
+IGNITION_LIT = 0.5 + 1e-6
+
 #: the Rocket's centre of mass above its feet when standing [m], measured in the engine
 #: (the shipped ``conf/uav/rocket.yaml``, legs and 1 % fuel)
 ROCKET_STANDING_HEIGHT = 1.72
@@ -48,7 +57,9 @@ class RocketLander:
     4. Booster out while touching the pad.
 
     Attitude: a PD law on the tilt error drives the fins (and the gimbal while lit); the
-    fins damp the roll rate.  Mass (dry plus the fuel left, read from the observation),
+    fins damp the roll rate.  The ignition value is graded by how far the state is from
+    switching the booster (:data:`IGNITION_SCALE`): the flights are a 0/1 switch's, the
+    label a learner fits is continuous.  Mass (dry plus the fuel left, read from the observation),
     the thrust range, gravity and the pad's height come from the environment.
 
     Flies 50 of the first 50 seeded starts to a safe landing
@@ -101,17 +112,21 @@ class RocketLander:
         # time until the braking burn starts (about 30 m above its ideal start), plus a margin
         h_burn = v_z * v_z / (2.0 * self.a_brake) + 30.0
         t_go = (v_z + math.sqrt(v_z * v_z + 2.0 * GRAVITY * max(h - h_burn, 0.0))) / GRAVITY + 1.5
-        lean, burn, throttle = np.zeros(2), False, 0.0
+        # burn > 0 lights the booster: aiming (the lean points the right way and the miss is
+        # over 0.2 m/s) or braking (falling over 0.05 m/s faster than the curve); the margin's
+        # size grades the ignition label on both sides of the switch (see IGNITION_SCALE)
+        lean, burn, throttle = np.zeros(2), -math.inf, 0.0
         if h > 120.0:
             miss = -pos[:2] / t_go - vel[:2]
             size = float(np.linalg.norm(miss))
+            aligned = float(up[:2] @ miss) / size if size > 0.0 else -1.0
+            burn = min(aligned - 0.3, (size - 0.2) / 2.0)
             if size > 0.2:
                 lean = self.lean_aim * miss / size
-                burn = float(up[:2] @ miss) / size > 0.3
         v_ref = -max(self.v_land, math.sqrt(2.0 * self.a_brake * max(h - self.h_slow, 0.0)))
         error = v_ref - v_z
+        burn = max(burn, (error - 0.05) / 2.0)
         if error > 0.05:
-            burn = True
             thrust = mass * (GRAVITY + 8.0 * error) / max(up[2], 0.5)
             throttle = float(np.clip((thrust - self.min_thrust) / (self.max_thrust - self.min_thrust), 0.0, 1.0))
             want = -self.kp_lat * pos[:2] - self.kd_lat * vel[:2]
@@ -119,8 +134,10 @@ class RocketLander:
             lean = min(n / 20.0, self.lean_brake) * want / n if n > 1e-9 and h > 1.0 else np.zeros(2)
         elif h <= 120.0:
             lean = np.zeros(2)
-        if burn:
-            action[3], action[4] = 1.0, throttle
+        if burn > 0.0:  # lit: above 0.5 even where the float32 action rounds
+            action[3], action[4] = max(0.5 + 0.5 * math.tanh(burn / IGNITION_SCALE), IGNITION_LIT), throttle
+        else:
+            action[3] = 0.5 + 0.5 * math.tanh(burn / IGNITION_SCALE)
         target = np.array([lean[0], lean[1], 1.0])
         target /= np.linalg.norm(target)
         axis = body_to_ground.T @ np.cross(up, target)  # in the body frame

@@ -42,7 +42,36 @@ def test_the_rocket_lander_is_a_function_of_the_observation(make):
         obs, *_ = env.step(first(obs))
     for o in reversed(seen):  # another order, another instance
         np.testing.assert_array_equal(second(o), first(o))
-    assert any(second(o)[3] == 1.0 for o in seen)  # the booster is lit somewhere (aim pulses)
+    assert any(second(o)[3] > 0.5 for o in seen)  # the booster is lit somewhere (aim pulses)
+
+
+def test_the_graded_ignition_label_flies_the_switch(make):
+    """The ignition value is graded by the burn margin (a target continuous across the switch
+    for a learner), yet the flight is the one of a 0/1 switch on the same decision: the
+    booster only reads > 0.5."""
+    flights, labels = [], []
+    for snap in (False, True):
+        env = make(ROCKET)
+        oracle = make_oracle("rocket_lander", env)
+        obs, _ = env.reset(seed=5)
+        states, done = [], False
+        while not done:
+            action = oracle(obs)
+            if snap:
+                action[3] = 1.0 if action[3] > 0.5 else 0.0
+            else:
+                labels.append(action[3])
+            obs, _, terminated, truncated, info = env.step(action)
+            # the state without the echo of the last command (entries 13-19)
+            states.append(np.concatenate([obs[:13], obs[20:]]))
+            done = terminated or truncated
+        assert info["safe_landing"]
+        flights.append(np.array(states))
+    np.testing.assert_array_equal(flights[0], flights[1])
+    labels = np.array(labels)
+    assert ((labels > 0.05) & (labels < 0.5)).sum() > 10  # graded below the switch (approaching a burn)
+    assert ((labels > 0.5) & (labels < 0.95)).sum() > 10  # and above it
+    assert labels.min() >= 0.0 and labels.max() <= 1.0
 
 
 def test_an_oracle_refuses_another_env_and_unknown_names_are_listed(make):
