@@ -169,6 +169,10 @@ class TaskCurriculum(BaseCallback):
         return True
 
 
+#: ``train.best_by``: what ranks evaluations for ``best_model.pt``
+BEST_BY = ("return", "success")
+
+
 class PeriodicEvaluation(EventCallback):
     """Evaluate at the first rollout start at or after every ``eval_freq`` steps; keep the best model.
 
@@ -178,6 +182,11 @@ class PeriodicEvaluation(EventCallback):
     Attributes ``best_mean_reward`` and ``last_mean_reward`` follow SB3's ``EvalCallback``,
     so SB3's ``StopTrainingOnRewardThreshold`` and ``StopTrainingOnNoModelImprovement`` work
     as child callbacks: their verdict ends the run at this rollout start (through ``stop``).
+
+    ``best_by`` says which evaluation is the best (kept as ``best_model.pt``): ``"return"``
+    the highest mean return; ``"success"`` the highest success rate, ties broken by the
+    mean return (for tasks whose return pays for more than the outcome, e.g. a waypoint
+    task's proximity term).  ``best_mean_reward`` is the best evaluation's mean return.
     """
 
     def __init__(
@@ -197,8 +206,15 @@ class PeriodicEvaluation(EventCallback):
         log: Any = None,
         total: int | None = None,
         stop: StopRequest | None = None,
+        best_by: str = "return",
+        best_success_rate: float | None = None,
     ) -> None:
         super().__init__(callback_after_eval, verbose=0)
+        if best_by not in BEST_BY:
+            raise ValueError(f"best_by must be one of {', '.join(BEST_BY)}, not {best_by!r}")
+        self.best_by = best_by
+        #: the best evaluation's success rate (None before the first)
+        self.best_success_rate = best_success_rate
         self.stop = stop
         self.log = log
         #: what the steps count in the log line (``agent-steps`` for a multi-agent env)
@@ -284,13 +300,22 @@ class PeriodicEvaluation(EventCallback):
                 f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
                 f"({trained / elapsed if elapsed > 0 else 0:.0f} {self.unit}/s)"
             )
-        if summary["mean_return"] > self.best_mean_reward:
+        if self._better(summary):
             self.best_mean_reward = summary["mean_return"]
+            self.best_success_rate = float(summary["success_rate"])
             self.best_step = step
             save_policy(self.run_dir / rundir.BEST_MODEL, self.model, self.algo, step)
         if self.callback is not None:
             return self.callback.on_step()
         return True
+
+    def _better(self, summary: dict[str, float]) -> bool:
+        """Whether this evaluation beats the best so far under ``best_by``."""
+        if self.best_by == "success":
+            best = -np.inf if self.best_success_rate is None else self.best_success_rate
+            if summary["success_rate"] != best:
+                return summary["success_rate"] > best
+        return summary["mean_return"] > self.best_mean_reward
 
     #: the counters of SB3's after-evaluation callbacks that a resume carries on
     _CHILD_STATE = ("no_improvement_evals", "last_best_mean_reward")
@@ -302,6 +327,7 @@ class PeriodicEvaluation(EventCallback):
             "next_eval": self.next_eval,
             "best_mean_reward": None if not np.isfinite(self.best_mean_reward) else float(self.best_mean_reward),
             "best_step": self.best_step,
+            "best_success_rate": self.best_success_rate,
             "last": self.last,
             "last_step": self.last_step,
             "last_updates": self.last_updates,
@@ -318,6 +344,7 @@ class PeriodicEvaluation(EventCallback):
         self.next_eval = int(state["next_eval"])
         self.best_mean_reward = -np.inf if state["best_mean_reward"] is None else float(state["best_mean_reward"])
         self.best_step = state["best_step"]
+        self.best_success_rate = state.get("best_success_rate")  # absent from older checkpoints
         self.last = state["last"]
         self.last_step = state["last_step"]
         self.last_updates = state["last_updates"]

@@ -526,6 +526,7 @@ class _Run:
                 log=None if show_bar else self.log,  # without a bar, one line per evaluation
                 total=opts.total_timesteps,
                 stop=stop,
+                best_by=opts.best_by or "return",
             )
             from pyflyt_cli.training.multi_agent import step_unit
 

@@ -258,11 +258,16 @@ NON_IDENTITY_KEYS = frozenset(
     {"train.output_dir", "train.progress_bar", "train.verbose", "train.tensorboard", "experiment", "trust_pickle"}
 )
 
+#: keys added after runs were first recorded, with the value those runs had without them: a
+#: key at that value (or unset) is left out of the identity, so older runs keep their digest
+LATER_KEYS = {"train.best_by": "return"}
+
 
 def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
     """The flattened settings that define what a run computes (``key.path -> value``).
 
-    Keys of :data:`NON_IDENTITY_KEYS` are left out.  An airframe named by path
+    Keys of :data:`NON_IDENTITY_KEYS` are left out, and those of :data:`LATER_KEYS` at their
+    earlier value.  An airframe named by path
     (``env.uav``, e.g. the ``airframe.yaml`` a run keeps of it) is identified by the
     SHA-256 of its file's bytes, not its path, so a copy of the same file is the same run.
     """
@@ -279,6 +284,9 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     walk(data, "")
     for key in NON_IDENTITY_KEYS:
         flat.pop(key, None)
+    for key, earlier in LATER_KEYS.items():
+        if flat.get(key) in (None, earlier):
+            flat.pop(key, None)
     def file_identity(uav: Any) -> Any:
         if not (isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav)):
             return uav

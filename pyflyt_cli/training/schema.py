@@ -448,6 +448,11 @@ class TrainOptions(_Strict):
     eval_freq: int = Field(ge=0, description="evaluate every this many environment steps (0: never)")
     eval_episodes: int = Field(ge=1, description="episodes per evaluation")
     eval_deterministic: bool = Field(description="evaluate the policy's mean action")
+    best_by: Literal["return", "success"] | None = Field(
+        None,  # runs recorded before the key existed: return
+        description="which evaluation best_model.pt keeps: return, the highest mean return; success, the "
+        "highest success rate (ties: the higher return); null: return",
+    )
     checkpoint_freq: int = Field(
         ge=0, description="checkpoint every this many environment steps (0: only on interrupt)"
     )

@@ -281,3 +281,52 @@ def test_every_env_config_trains_and_evaluates(tmp_path, env):
     assert run.parent.parent.name == env
     report = evaluate_run(run, {"episodes": 1, "record": True})
     assert report.episodes[0].length > 0 and len(report.recordings) == 1
+
+
+@pytest.mark.parametrize(("best_by", "best_step"), [("return", 256), ("success", 768)])
+def test_best_by_picks_the_evaluation_best_model_keeps(tmp_path, monkeypatch, best_by, best_step):
+    """``train.best_by=success`` ranks evaluations by success rate, ties by return; the default
+    by return.  The evaluations' outcomes are scripted: 256 the best return, 512 and 768 the
+    best success rate, 768 the better return of the two."""
+    from pyflyt_cli.training import callbacks
+
+    scripted = iter([(0.0, 900.0), (0.5, 100.0), (0.5, 200.0)])
+    real = callbacks.summarize
+
+    def summarize(episodes):
+        summary = real(episodes)
+        summary["success_rate"], summary["mean_return"] = next(scripted)
+        return summary
+
+    monkeypatch.setattr(callbacks, "summarize", summarize)
+    overrides = [*TINY_PPO, "train.total_timesteps=768", f"train.best_by={best_by}"]
+    result = train(load(overrides, tmp_path / "runs"))
+    assert [e["step"] for e in _metrics(result.run_dir)["/eval"]] == [256, 512, 768]
+    state = read_state(result.run_dir)
+    assert state["best_step"] == best_step and read_policy(result.run_dir / "best_model.pt").step == best_step
+    assert state["best_mean_return"] == {256: 900.0, 768: 200.0}[best_step]
+
+
+def test_best_by_is_checked_resumes_and_leaves_older_runs_their_identity(tmp_path):
+    from pyflyt_cli.training.callbacks import PeriodicEvaluation
+
+    with pytest.raises(ConfigError, match="train.best_by"):
+        load([*TINY_PPO, "train.best_by=waypoints"], tmp_path)
+    default = load(TINY_PPO, tmp_path)
+    assert default.train.best_by == "return"
+    older = default.model_dump(mode="json")
+    del older["train"]["best_by"]  # a config.yaml written before the key existed
+    assert config_digest(older) == config_digest(default)
+    assert config_digest(type(default).model_validate(older)) == config_digest(default)  # read back: None
+    assert config_digest(load([*TINY_PPO, "train.best_by=success"], tmp_path)) != config_digest(default)
+
+    def evaluation(**kwargs):
+        return PeriodicEvaluation(None, tmp_path, "ppo", None, 256, 1, 0, True, next_eval=256, **kwargs)
+
+    saved = evaluation(best_by="success", best_mean_reward=3.0, best_step=512, best_success_rate=0.4).state_dict()
+    resumed = evaluation(best_by="success")
+    resumed.load_state_dict(saved)
+    assert (resumed.best_success_rate, resumed.best_mean_reward, resumed.best_step) == (0.4, 3.0, 512)
+    del saved["best_success_rate"]  # a checkpoint from before the key
+    resumed.load_state_dict(saved)
+    assert resumed.best_success_rate is None
