@@ -62,6 +62,19 @@ def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path)
 QUICK = {"quadx_hover_ppo"}
 
 
+@pytest.mark.parametrize("name", [a.name for a in zoo.agents()])
+def test_a_shipped_agent_s_command_still_composes_its_configuration(name):
+    """The documented command of every shipped agent trains its configuration with today's
+    defaults: a changed tuning (conf/hparams) must come with the override that restores it."""
+    from pyflyt_cli.training.compose import COMMAND_KEYS
+
+    agent = zoo.agent(name)
+    words = agent.summary["training"]["command"].split()
+    assert words[:2] == ["pyflyt", "train"]
+    settings = [w for w in words[2:] if w.split("=", 1)[0] not in COMMAND_KEYS]
+    assert config_digest(compose_config(overrides=settings)) == config_digest(load_run_config(agent.path), agent.path)
+
+
 @pytest.mark.parametrize(
     "name", [pytest.param(a.name, marks=() if a.name in QUICK else pytest.mark.slow) for a in zoo.agents()]
 )
