@@ -26,6 +26,7 @@ a section to ``experiments/results/learn_waypoints.md`` (velocity mode:
     python experiments/learn_waypoints.py [--env quadx_waypoints] [--algo ppo] [--seeds 0 1 2] [--budget N] \\
         [--probe-every 100000] [--episodes 10] [--set KEY=VALUE ...] [--keep-runs DIR] [--write]
     python experiments/learn_waypoints.py --probe-run RUN_DIR [--after STEPS] [--episodes 10]
+    python experiments/learn_waypoints.py --probe-run RUN_DIR --as-evaluations [--probe-every 100000] [--eval-episodes N] [--after STEPS]
 """
 
 from __future__ import annotations
@@ -184,6 +185,46 @@ def probe_run(run_dir: Path, episodes: int, after: int = 0) -> list[tuple[int, d
     return out
 
 
+def replay_evaluations(
+    run_dir: Path, every: int, after: int = 0, episodes: int | None = None
+) -> list[tuple[int, dict]]:
+    """Every checkpoint after ``after`` at a multiple of ``every`` steps flown as the run's own evaluation flies it (its
+    ``train.eval_episodes`` from seed + 1000, deterministic as configured), and which one
+    ``best_model.pt`` keeps under each ``train.best_by`` (``episodes``: another number of episodes
+    per evaluation).  Evaluations do not change training,
+    so this is what a run with evaluations at the checkpoints' steps would have recorded."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.envs import EnvFactory
+    from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, policy_predict, run_episodes, summarize
+    from pyflyt_cli.training.models import load_policy
+
+    cfg = rundir.load_run_config(run_dir)
+    env = EnvFactory(cfg.env, monitor=False)()
+    out = []
+    try:
+        for checkpoint in rundir.checkpoints(run_dir):
+            if checkpoint.step > after and checkpoint.step % every == 0:
+                model, normalize = load_policy(checkpoint.model, cfg, env)
+                flown = run_episodes(
+                    policy_predict(model), env, episodes or cfg.train.eval_episodes, cfg.seed + EVAL_SEED_OFFSET,
+                    cfg.train.eval_deterministic, normalize_obs=normalize,
+                )
+                summary = summarize(flown)
+                out.append((checkpoint.step, summary))
+                print(
+                    f"  {checkpoint.step:>8} steps  success {100 * summary['success_rate']:3.0f} %  "
+                    f"return {summary['mean_return']:8.1f}",
+                    flush=True,
+                )
+    finally:
+        env.close()
+    if out:
+        by_return = max(out, key=lambda r: r[1]["mean_return"])[0]  # the first of equals, as the run keeps it
+        by_success = max(out, key=lambda r: (r[1]["success_rate"], r[1]["mean_return"]))[0]
+        print(f"best_model.pt: step {by_return} with best_by=return, step {by_success} with best_by=success")
+    return out
+
+
 def _phase_split(run_dir: Path) -> dict[str, float]:
     import warnings
 
@@ -316,8 +357,23 @@ def main() -> None:
         "--probe-run", type=Path, help="no training: probe every checkpoint of this run directory (after --after steps)"
     )
     parser.add_argument("--after", type=int, default=0)
+    parser.add_argument(
+        "--as-evaluations", action="store_true",
+        help="with --probe-run: fly each checkpoint as the run's own evaluation would, and say which best_by keeps",
+    )
+    parser.add_argument("--eval-episodes", type=int, help="with --as-evaluations: episodes per evaluation (default: the run's)")
     args = parser.parse_args()
 
+    if args.probe_run and args.as_evaluations:
+        from pyflyt_engine.errors import PyFlytError
+
+        print(f"{args.probe_run}: its checkpoints every {args.probe_every} steps flown as its own evaluations")
+        try:
+            if not replay_evaluations(args.probe_run, args.probe_every, args.after, args.eval_episodes):
+                sys.exit(f"{args.probe_run}: no checkpoint after step {args.after} (checkpoints/model_<N>_steps.pt)")
+        except PyFlytError as exc:
+            sys.exit(f"error: {exc}")
+        return
     if args.probe_run:
         from pyflyt_engine.errors import PyFlytError
 

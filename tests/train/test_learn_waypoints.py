@@ -110,3 +110,21 @@ def test_probe_run_flies_the_checkpoints_after_a_step_with_their_normaliser(exp,
     probes = exp.probe_run(Path(result.run_dir), episodes=2, after=256)
     assert [step for step, _ in probes] == [512]
     assert probes[0][1] == live["probe"]
+
+
+def test_replayed_evaluations_are_the_run_s_own(tmp_path, capsys):
+    """``--as-evaluations`` flies each checkpoint as the run's own evaluation: the same
+    summaries as its /eval records at those steps (evaluations do not change training)."""
+    from pyflyt_cli.training import train
+    from pyflyt_engine.telemetry import read_metrics
+
+    from .conftest import TINY_PPO, load
+
+    run = train(load([*TINY_PPO, "train.total_timesteps=768"], tmp_path / "runs")).run_dir
+    recorded = {r["step"]: r for r in read_metrics(run)["/eval"]}
+    replayed = dict(_experiment().replay_evaluations(run, every=256))
+    assert sorted(replayed) == sorted(recorded) == [256, 512, 768]
+    for step, summary in replayed.items():
+        assert summary == {k: recorded[step][k] for k in summary}
+    best = max(replayed, key=lambda s: replayed[s]["mean_return"])
+    assert f"step {best} with best_by=return" in capsys.readouterr().out
