@@ -158,70 +158,71 @@ class _SavedPolicy:
         return self.model.predict(self.normalize(obs) if self.normalize is not None else obs, deterministic=deterministic)
 
 
-def probe_run(run_dir: Path, episodes: int, after: int = 0) -> list[tuple[int, dict]]:
-    """The probe of every checkpoint of a run directory after step ``after`` (e.g. a run extended
-    with ``pyflyt train resume=<run> train.total_timesteps=N``), on the env the run trained on."""
+def _checkpoint_policies(run_dir: Path, after: int = 0, every: int = 1):
+    """(step, model, observation normaliser, run config, env) for each checkpoint of a run
+    directory after step ``after`` at a multiple of ``every`` steps, on the env the run trained on."""
     from pyflyt_cli.training import rundir
     from pyflyt_cli.training.envs import EnvFactory
     from pyflyt_cli.training.models import load_policy
 
     cfg = rundir.load_run_config(run_dir)
     env = EnvFactory(cfg.env, monitor=False)()
-    out = []
     try:
         for checkpoint in rundir.checkpoints(run_dir):
-            if checkpoint.step > after:
+            if checkpoint.step > after and checkpoint.step % every == 0:
                 model, normalize = load_policy(checkpoint.model, cfg, env)
-                probe = waypoint_probe(_SavedPolicy(model, normalize), env, episodes, seed=PROBE_SEED)
-                out.append((checkpoint.step, probe))
-                at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
-                print(
-                    f"  {checkpoint.step:>8} steps  >=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  "
-                    f"endings {probe['endings']}  return {probe['mean_return']:8.1f}",
-                    flush=True,
-                )
+                yield checkpoint.step, model, normalize, cfg, env
     finally:
         env.close()
+
+
+def probe_run(run_dir: Path, episodes: int, after: int = 0) -> list[tuple[int, dict]]:
+    """The probe of every checkpoint of a run directory after step ``after`` (e.g. a run extended
+    with ``pyflyt train resume=<run> train.total_timesteps=N``), on the env the run trained on."""
+    out = []
+    for step, model, normalize, _, env in _checkpoint_policies(run_dir, after):
+        probe = waypoint_probe(_SavedPolicy(model, normalize), env, episodes, seed=PROBE_SEED)
+        out.append((step, probe))
+        at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
+        print(
+            f"  {step:>8} steps  >=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  "
+            f"endings {probe['endings']}  return {probe['mean_return']:8.1f}",
+            flush=True,
+        )
     return out
 
 
 def replay_evaluations(
     run_dir: Path, every: int, after: int = 0, episodes: int | None = None
 ) -> list[tuple[int, dict]]:
-    """Every checkpoint after ``after`` at a multiple of ``every`` steps flown as the run's own evaluation flies it (its
-    ``train.eval_episodes`` from seed + 1000, deterministic as configured), and which one
-    ``best_model.pt`` keeps under each ``train.best_by`` (``episodes``: another number of episodes
-    per evaluation).  Evaluations do not change training,
-    so this is what a run with evaluations at the checkpoints' steps would have recorded."""
-    from pyflyt_cli.training import rundir
-    from pyflyt_cli.training.envs import EnvFactory
+    """Every checkpoint after ``after`` at a multiple of ``every`` steps flown as the run's own
+    evaluation flies it (``train.eval_episodes``, or ``episodes``, from seed + 1000,
+    deterministic as configured), and which one ``best_model.pt`` keeps under each
+    ``train.best_by`` (the training loop's own ranking).  Evaluations do not change training,
+    so this is what a run evaluating at the checkpoints' steps would have recorded."""
+    from pyflyt_cli.training.callbacks import BEST_BY, better_evaluation
     from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, policy_predict, run_episodes, summarize
-    from pyflyt_cli.training.models import load_policy
 
-    cfg = rundir.load_run_config(run_dir)
-    env = EnvFactory(cfg.env, monitor=False)()
     out = []
-    try:
-        for checkpoint in rundir.checkpoints(run_dir):
-            if checkpoint.step > after and checkpoint.step % every == 0:
-                model, normalize = load_policy(checkpoint.model, cfg, env)
-                flown = run_episodes(
-                    policy_predict(model), env, episodes or cfg.train.eval_episodes, cfg.seed + EVAL_SEED_OFFSET,
-                    cfg.train.eval_deterministic, normalize_obs=normalize,
-                )
-                summary = summarize(flown)
-                out.append((checkpoint.step, summary))
-                print(
-                    f"  {checkpoint.step:>8} steps  success {100 * summary['success_rate']:3.0f} %  "
-                    f"return {summary['mean_return']:8.1f}",
-                    flush=True,
-                )
-    finally:
-        env.close()
+    for step, model, normalize, cfg, env in _checkpoint_policies(run_dir, after, every):
+        flown = run_episodes(
+            policy_predict(model), env, episodes or cfg.train.eval_episodes, cfg.seed + EVAL_SEED_OFFSET,
+            cfg.train.eval_deterministic, normalize_obs=normalize,
+        )
+        summary = summarize(flown)
+        out.append((step, summary))
+        print(
+            f"  {step:>8} steps  success {100 * summary['success_rate']:3.0f} %  return {summary['mean_return']:8.1f}",
+            flush=True,
+        )
     if out:
-        by_return = max(out, key=lambda r: r[1]["mean_return"])[0]  # the first of equals, as the run keeps it
-        by_success = max(out, key=lambda r: (r[1]["success_rate"], r[1]["mean_return"]))[0]
-        print(f"best_model.pt: step {by_return} with best_by=return, step {by_success} with best_by=success")
+        kept = {}
+        for best_by in BEST_BY:  # in step order, as the run's evaluations come
+            best_return, best_success = -np.inf, None
+            for step, summary in out:
+                if better_evaluation(summary, best_return, best_success, best_by):
+                    best_return, best_success, kept[best_by] = summary["mean_return"], summary["success_rate"], step
+        print("best_model.pt: " + ", ".join(f"step {kept[b]} with best_by={b}" for b in BEST_BY))
     return out
 
 

@@ -173,6 +173,17 @@ class TaskCurriculum(BaseCallback):
 BEST_BY = ("return", "success")
 
 
+def better_evaluation(summary: dict[str, float], best_return: float, best_success: float | None, best_by: str) -> bool:
+    """Whether the evaluation ``summary`` beats the best so far (its mean return and success
+    rate; ``-inf`` and None before the first) under ``best_by``: ``return``, a higher mean
+    return; ``success``, a higher success rate, or an equal one and a higher return."""
+    if best_by == "success":
+        best = -np.inf if best_success is None else best_success
+        if summary["success_rate"] != best:
+            return summary["success_rate"] > best
+    return summary["mean_return"] > best_return
+
+
 class PeriodicEvaluation(EventCallback):
     """Evaluate at the first rollout start at or after every ``eval_freq`` steps; keep the best model.
 
@@ -300,7 +311,7 @@ class PeriodicEvaluation(EventCallback):
                 f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
                 f"({trained / elapsed if elapsed > 0 else 0:.0f} {self.unit}/s)"
             )
-        if self._better(summary):
+        if better_evaluation(summary, self.best_mean_reward, self.best_success_rate, self.best_by):
             self.best_mean_reward = summary["mean_return"]
             self.best_success_rate = float(summary["success_rate"])
             self.best_step = step
@@ -308,14 +319,6 @@ class PeriodicEvaluation(EventCallback):
         if self.callback is not None:
             return self.callback.on_step()
         return True
-
-    def _better(self, summary: dict[str, float]) -> bool:
-        """Whether this evaluation beats the best so far under ``best_by``."""
-        if self.best_by == "success":
-            best = -np.inf if self.best_success_rate is None else self.best_success_rate
-            if summary["success_rate"] != best:
-                return summary["success_rate"] > best
-        return summary["mean_return"] > self.best_mean_reward
 
     #: the counters of SB3's after-evaluation callbacks that a resume carries on
     _CHILD_STATE = ("no_improvement_evals", "last_best_mean_reward")
