@@ -8,3 +8,7 @@
   package), ``catalog.py`` (the registered envs and flight modes), ``outputs.py``
   (checked, atomic output files).
 """
+
+# The engine first: its import pins the numeric kernels before NumPy or PyTorch load
+# (pyflyt_engine/numerics.py).
+import pyflyt_engine  # noqa: E402,F401

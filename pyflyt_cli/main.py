@@ -43,6 +43,19 @@ app = typer.Typer(
 )
 
 
+@app.callback()
+def _check_numerics() -> None:
+    # PYFLYT_NUMERICS (pinned | native) is read when pyflyt_engine loads; a value it does not
+    # know is refused here, before any command runs
+    from pyflyt_engine.numerics import check_mode
+
+    try:
+        check_mode()
+    except ValueError as exc:
+        typer.secho(f"error: {exc}", err=True, fg=typer.colors.RED)
+        raise typer.Exit(code=2) from None
+
+
 def user_errors(func: Callable[..., Any]) -> Callable[..., Any]:
     """Turn library errors into a one-line message on stderr and exit code 2."""
 

@@ -83,7 +83,10 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
 
     from pyflyt_cli.training.models import load_policy
 
+    from pyflyt_engine.numerics import apply_torch
+
     torch.set_num_threads(cfg.train.torch_threads)
+    apply_torch()
     seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
 
     def load(env: Any) -> tuple[Callable[[np.ndarray, bool], np.ndarray], Any]:
