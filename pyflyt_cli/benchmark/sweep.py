@@ -77,6 +77,27 @@ def survey(plan: Plan) -> Survey:
     )
 
 
+def platform_note(plan: Plan, found: Survey) -> str | None:
+    """One line when runs already in the directory were made under another numeric platform
+    than this process's (``run.yaml``'s ``numerics``), or on another CPU: what is reused or
+    resumed here was computed there."""
+    from pyflyt_cli.training import rundir
+
+    kept = [j for j in plan.jobs if found.states[j.id] not in (NEW, BUSY) and j.id not in found.restart]
+    if not kept:
+        return None
+    here = rundir.numeric_platform()
+    notes: dict[str, list[str]] = {}
+    for job in kept:
+        note = rundir.platform_note(rundir.read_yaml(plan.run_dir(job) / rundir.RUN_FILE), here)
+        if note:
+            notes.setdefault(note, []).append(job.id)
+    if not notes:
+        return None
+    return "; ".join(f"note: {len(ids)} of the runs here ({', '.join(ids[:3])}{', ...' if len(ids) > 3 else ''}) were {note}"
+                     for note, ids in notes.items())  # fmt: skip
+
+
 def check_restarts(plan: Plan, found: Survey, restart_changed: bool) -> None:
     """Refuse runs with other settings than planned unless ``restart_changed``, and restarts of busy runs.
 
@@ -170,6 +191,9 @@ def run_benchmark(plan: Plan, *, restart_changed: bool = False, log: Echo = _sil
         found = survey(plan)
         check_restarts(plan, found, restart_changed)
         log(found.headline(plan))
+        note = platform_note(plan, found)
+        if note:
+            log(note)
         if found.restart:
             move_aside(plan, [plan.job(i) for i in found.restart], log)
         plan.write()

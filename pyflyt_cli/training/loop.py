@@ -32,6 +32,7 @@ from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET
 from pyflyt_cli.training.models import PolicySource, build_model, read_policy
 from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
 from pyflyt_engine.errors import ConfigError, PyFlytError
+from pyflyt_engine.numerics import apply_torch
 
 Log = Callable[[str], None]
 
@@ -156,9 +157,14 @@ def _resume(
     if total_timesteps is not None:
         rundir.save_config(cfg, path)
     record = rundir.read_yaml(path / rundir.RUN_FILE)
+    here = rundir.numeric_platform()
+    note = rundir.platform_note(record, here)
+    if note:
+        log(f"note: this run was {note}")
     record.setdefault("resumes", []).append(
-        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid()}
-    )
+        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid(),
+         "cpu": here["cpu"], "numerics": here["key"]}
+    )  # fmt: skip
     rundir.write_yaml(path / rundir.RUN_FILE, record)
     log(f"resuming {path} from " + (f"step {checkpoint.step}" if checkpoint else "the start (no checkpoint was saved)"))
     init = _init_source(cfg) if cfg.init_from and checkpoint is None else None
@@ -363,6 +369,7 @@ class _Run:
 
         cfg, opts = self.cfg, self.cfg.train
         torch.set_num_threads(opts.torch_threads)
+        apply_torch()
         set_random_seed(cfg.seed)
         vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env, curriculum=bool(opts.curriculum))
         cleanup.push(_closing(vec.close, "the training environments"))

@@ -193,8 +193,39 @@ def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str]
         "host": socket.gethostname(),
         "platform": platform.platform(),
         "versions": package_versions(),
+        # what decides the last bits: CPU, kernel sets in force, library versions
+        "numerics": numeric_platform(),
         "resumes": [],
     }
+
+
+def numeric_platform() -> dict[str, Any]:
+    """:func:`pyflyt_engine.numerics.platform_info` of a training process: with PyTorch
+    (set up as training sets it) and SciPy's BLAS loaded, so that every kernel set a run
+    computes with is reported, whenever this is called."""
+    import scipy.linalg  # noqa: F401 - its own OpenBLAS
+    import torch  # noqa: F401
+
+    from pyflyt_engine.numerics import apply_torch, platform_info
+
+    apply_torch()
+    return platform_info()
+
+
+def platform_note(record: dict[str, Any], here: dict[str, Any]) -> str | None:
+    """How the numeric platform ``run.yaml`` (``record``) recorded differs from ``here``
+    (:func:`numeric_platform`), in words, or None when it does not (or none was recorded)."""
+    from pyflyt_engine.numerics import describe_difference
+
+    made = record.get("numerics") if isinstance(record.get("numerics"), dict) else None
+    if not made or not isinstance(made.get("key"), dict):
+        return None
+    difference = describe_difference(made["key"], here["key"])
+    if difference:
+        return f"made under another numeric platform ({difference}): what is computed here may round differently"
+    if made.get("cpu") != here["cpu"]:
+        return f"made on another CPU ({made.get('cpu')}; here {here['cpu']}) with the same pinned kernels: the numbers agree"
+    return None
 
 
 def _is_airframe_path(uav: Any) -> bool:

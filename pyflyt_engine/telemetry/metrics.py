@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from pyflyt_engine import numerics
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.telemetry._io import DEFAULT_FLUSH_INTERVAL, McapFileWriter, to_ns
 from pyflyt_engine.telemetry.reader import (
@@ -192,6 +193,7 @@ class MetricsWriter:
         try:  # the marker reaches the disk with the file's first bytes, before anything is logged
             self._file.metadata(FILE_INFO, info, flush=False)
             self._file.metadata(RUN_INFO, {str(k): str(v) for k, v in (metadata or {}).items()}, flush=False)
+            self._file.metadata(numerics.MCAP_RECORD, numerics.mcap_record(), flush=False)
             self._file.flush(sync=True)
         except BaseException:
             self._file.close()

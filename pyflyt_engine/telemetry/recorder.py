@@ -25,6 +25,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
+from pyflyt_engine import numerics
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.telemetry import scene, schemas
 from pyflyt_engine.telemetry._io import DEFAULT_CHUNK_SIZE, McapFileWriter, to_ns
@@ -226,6 +227,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     "wind": json.dumps(world.wind_config.model_dump(mode="json")),
                 },
                 VERSIONS: package_versions(),
+                numerics.MCAP_RECORD: numerics.mcap_record(),
             }
         return self._static_metadata
 

@@ -340,3 +340,29 @@ def test_a_setting_that_interpolates_the_seed_is_composed_per_run(tmp_path: Path
     study.write_text(text.replace("  eval_episodes: 1\n", "  eval_episodes: ${oc.select:seed}\n"))
     plan, _ = build_plan(str(study), [f"benchmark.output_dir={tmp_path}", "benchmark.seeds=[1,2,3]"])
     assert [j.config["train"]["eval_episodes"] for j in plan.jobs] == [1, 2, 3, 1, 2, 3]
+
+
+def test_runs_made_under_another_numeric_platform_are_named_in_one_line(tmp_path: Path) -> None:
+    from pyflyt_cli.benchmark.sweep import platform_note, survey
+    from pyflyt_cli.training import rundir
+
+    plan, _ = build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "seeds=2"])
+    here = rundir.numeric_platform()
+    made = [  # what each run's run.yaml says it was made under
+        here,
+        {**here, "cpu": "Intel(R) Xeon(R) Platinum 8375C"},  # another CPU, the same pinned kernels
+        {**here, "key": {**here["key"], "numerics": "native", "cpu": "Intel(R) Xeon(R)"}},
+    ]
+    for job, numerics in zip(plan.jobs, made):
+        run = _save_run(plan, job)
+        (run / "state.json").write_text(json.dumps({"status": "complete", "total_timesteps": 256}))
+        rundir.write_yaml(run / rundir.RUN_FILE, {"numerics": numerics})
+    note = platform_note(plan, survey(plan))
+    assert note is not None and len(note.splitlines()) == 1
+    assert f"1 of the runs here ({plan.jobs[1].id}) were made on another CPU (Intel(R) Xeon(R) Platinum 8375C" in note
+    assert "the same pinned kernels: the numbers agree" in note
+    assert f"1 of the runs here ({plan.jobs[2].id}) were made under another numeric platform (cpu Intel(R) Xeon(R) -> -;" in note
+    assert plan.jobs[0].id not in note
+    for job in plan.jobs[1:3]:  # all made here: nothing to say
+        rundir.write_yaml(plan.run_dir(job) / rundir.RUN_FILE, {"numerics": here})
+    assert platform_note(plan, survey(plan)) is None

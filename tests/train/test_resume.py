@@ -274,3 +274,26 @@ def test_a_legacy_pickled_run_is_refused_for_resume(tmp_path):
     (run / "state.json").write_text(json.dumps({"status": "interrupted", "num_timesteps": 0, "checkpoint": 256}))
     with pytest.raises(ConfigError, match="older version in a pickled format"):
         resume(run)
+
+
+def test_a_resume_under_another_numeric_platform_says_so_in_one_line_and_records_where_it_ran(tmp_path):
+    from pyflyt_cli.training import rundir
+
+    run = train(load([*PPO, "train.total_timesteps=128", "train.eval_freq=0", "train.n_envs=1"], tmp_path)).run_dir
+    record = rundir.read_yaml(run / rundir.RUN_FILE)
+    here = record["numerics"]
+    assert here == rundir.numeric_platform()  # the CPU, the kernels in force, the key
+    for made, expected in (
+        ({**here, "cpu": "Intel(R) Xeon(R) Gold 6338"},
+         "note: this run was made on another CPU (Intel(R) Xeon(R) Gold 6338; here "),
+        ({**here, "key": {**here["key"], "numerics": "native", "cpu": "Intel(R) Xeon(R) Gold 6338"}},
+         "note: this run was made under another numeric platform (cpu Intel(R) Xeon(R) Gold 6338 -> -; "
+         "numerics native -> pinned): what is computed here may round differently"),
+    ):  # fmt: skip
+        rundir.write_yaml(run / rundir.RUN_FILE, {**record, "numerics": made})
+        lines: list[str] = []
+        steps = rundir.read_state(run)["num_timesteps"] + 128
+        resume(run, total_timesteps=steps, log=lines.append)
+        assert [line for line in lines if line.startswith("note:")] == [next(x for x in lines if x.startswith(expected))]
+        resumes = rundir.read_yaml(run / rundir.RUN_FILE)["resumes"]
+        assert resumes[-1]["cpu"] == here["cpu"] and resumes[-1]["numerics"] == here["key"]
