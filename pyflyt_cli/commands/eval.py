@@ -33,21 +33,23 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
     report = evaluate_run(run_dir, options)
     typer.echo(report.table())
     if shipped is not None:
+        from pyflyt_cli.zoo import compare
+
         recorded = shipped.summary.get("evaluation", {})
         same = (
             options.episodes == recorded.get("episodes")
             and report.seed == recorded.get("seed")
             and options.deterministic
         )
+        words = (
+            compare(recorded, [e.ret for e in report.episodes], report.summary["success_rate"])[1]
+            if same
+            else "other episodes or seeds than recorded: not comparable"
+        )
         typer.echo(
             f"recorded:      return {recorded.get('mean_return', float('nan')):.2f} ± "
             f"{recorded.get('std_return', float('nan')):.2f} over {recorded.get('episodes')} episodes from seed "
-            f"{recorded.get('seed')}"
-            + (
-                f" ({'matches' if report.summary['mean_return'] == recorded.get('mean_return') else 'DIFFERS'})"
-                if same
-                else " (other episodes or seeds than recorded: not comparable)"
-            )
+            f"{recorded.get('seed')} ({words})"
         )
     return report
 

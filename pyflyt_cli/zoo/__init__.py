@@ -84,6 +84,44 @@ def table(root: Path = AGENTS) -> str:
     return "\n".join(rows)
 
 
+#: below this p-value, returns that are not bit-identical to the recording are said to disagree with it
+AGREEMENT_P = 0.01
+
+
+def compare(recorded: dict[str, Any], returns: list[float], success_rate: float) -> tuple[bool, str]:
+    """How an evaluation of the recorded episodes compares with the recording: (agrees, words).
+
+    Bit-identical returns episode by episode match.  Otherwise the words say whether the
+    recording was made under another numeric platform (``recorded["numerics"]``, compared
+    with this process's) and whether the two samples of returns are consistent: a two-sided
+    Mann-Whitney U test, consistent at p >= :data:`AGREEMENT_P`.  On the platform it was
+    recorded on, returns that are not bit-identical mean the engine or the policy changed.
+    """
+    from pyflyt_engine.numerics import describe_difference, platform_info
+
+    was = [float(r) for r in recorded.get("returns") or []]
+    if was == [float(r) for r in returns]:
+        return True, "matches episode by episode"
+    if len(was) != len(returns) or not was:
+        return False, "DIFFERS: the recording holds other episodes"
+    made = recorded.get("numerics") or {}
+    other = describe_difference(made.get("key"), platform_info()["key"]) if made.get("key") else None
+    from scipy.stats import mannwhitneyu
+
+    p = float(mannwhitneyu(was, returns, alternative="two-sided").pvalue)
+    shift = sum(returns) / len(returns) - sum(was) / len(was)
+    stats = (
+        f"mean {shift:+.2f}, success {100 * success_rate:.0f} % vs {100 * float(recorded.get('success_rate', 0)):.0f} %, "
+        f"Mann-Whitney p = {p:.2f}"
+    )
+    if other is None and made.get("key"):
+        return False, f"DIFFERS episode by episode on the numeric platform it was recorded on ({stats}): the engine or the policy changed"
+    where = f"recorded under another numeric platform ({other})" if other else "recorded without its numeric platform"
+    if p >= AGREEMENT_P:
+        return True, f"{where}: not bit-identical here, consistent with the recording ({stats})"
+    return False, f"{where}: not bit-identical here, and inconsistent with the recording ({stats})"
+
+
 def materialise(name: str, workdir: Path | None = None, root: Path = AGENTS) -> Path:
     """``zoo/<name>/`` under ``workdir``: a run directory holding the agent's config and policy."""
     a = agent(name, root)
@@ -143,13 +181,11 @@ def add_agent(
 def _build(run: Path, cfg: Any, model: Path, which: str, name: str, episodes: int, folder: Path) -> None:
     """Write an agent's files into ``folder``: config, weights, the evaluation, summary and curve."""
     from pyflyt_cli.training import rundir
-    from pyflyt_cli.training.evaluate import evaluate_run
 
     rundir.save_config(cfg, folder)
     shutil.copyfile(model, folder / "model.pt")
     # the recorded evaluation is that of the shipped folder itself, as pyflyt eval zoo:<name> runs it
-    report = evaluate_run(folder, {"episodes": episodes, "model": "final", "record": False})
-    (folder / "eval.json").unlink(missing_ok=True)
+    evaluation = evaluation_record(folder, episodes)
     record = rundir.read_yaml(run / rundir.RUN_FILE)
     state = rundir.read_state(run)
     progress = _progress(run)
@@ -171,16 +207,52 @@ def _build(run: Path, cfg: Any, model: Path, which: str, name: str, episodes: in
             "overrides": record.get("overrides") or [],
             "versions": record.get("versions") or {},
         },
-        "evaluation": {
-            "episodes": episodes,
-            "seed": report.seed,
-            "deterministic": True,
-            **report.summary,
-            "returns": [e.ret for e in report.episodes],
-        },
+        "evaluation": evaluation,
     }
     (folder / "summary.yaml").write_text(yaml.safe_dump(summary, sort_keys=False))
     _learning_curve(run, folder / "learning_curve.png", name)
+
+
+def evaluation_record(folder: Path, episodes: int) -> dict[str, Any]:
+    """The evaluation a summary records: ``episodes`` deterministic episodes from
+    ``pyflyt eval``'s default seeds, flown in ``folder`` as ``pyflyt eval zoo:<name>`` flies
+    them, with the numeric platform they were flown on."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    report = evaluate_run(folder, {"episodes": episodes, "model": "final", "record": False})
+    (folder / "eval.json").unlink(missing_ok=True)
+    here = rundir.numeric_platform()
+    return {
+        "episodes": episodes,
+        "seed": report.seed,
+        "deterministic": True,
+        **report.summary,
+        "returns": [e.ret for e in report.episodes],
+        "numerics": {"cpu": here["cpu"], "status": here["status"], "key": here["key"]},
+    }
+
+
+def rerecord(name: str, root: Path = AGENTS) -> dict[str, Any]:
+    """Fly a shipped agent's recorded evaluation again and record it (after a change of the
+    engine that is meant to change its numbers); returns the new evaluation block."""
+    a = agent(name, root)
+    episodes = int(a.summary.get("evaluation", {}).get("episodes") or 10)
+    staging = root / f".{name}.eval"
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir()
+    try:
+        for file in ("config.yaml", "model.pt"):
+            shutil.copyfile(a.path / file, staging / file)
+        evaluation = evaluation_record(staging, episodes)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    summary = dict(a.summary)
+    summary["evaluation"] = evaluation
+    tmp = a.path / ".summary.yaml.tmp"
+    tmp.write_text(yaml.safe_dump(summary, sort_keys=False))
+    tmp.replace(a.path / "summary.yaml")
+    return evaluation
 
 
 def _step(model: Path) -> int:

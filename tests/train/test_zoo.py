@@ -82,7 +82,7 @@ def test_a_shipped_agent_flies_its_recorded_return_from_the_command_line(tmp_pat
     recorded = zoo.agent(name).summary["evaluation"]
     result = pyflyt(["eval", f"zoo:{name}", f"episodes={recorded['episodes']}", "record=false"], cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert "(matches)" in result.stdout
+    assert "(matches episode by episode)" in result.stdout, result.stdout
     assert "mini-batch" not in result.stderr  # an on-policy run's minibatch does not concern flying it
     assert not list(zoo.agent(name).path.glob("eval.json"))  # the shipped folder is not written
 
@@ -97,3 +97,27 @@ def test_an_agent_of_a_run_without_evaluations_gets_its_training_curve(tmp_path)
     assert _learning_curve(run, tmp_path / "curve.png", "t") == "training episode return"
     made = zoo.add_agent(run, episodes=1, root=tmp_path / "agents")  # and --add draws it without failing
     assert (made.path / "learning_curve.png").is_file()
+
+
+def test_returns_that_are_not_bit_identical_are_judged_by_where_they_were_recorded():
+    """Episode by episode equality matches; otherwise, on the numeric platform the agent
+    was recorded on, a difference is a change of the engine or policy (DIFFERS), and on
+    another one the returns are judged by a statistical test, never DIFFERS for the
+    platform alone."""
+    from pyflyt_cli.training import rundir
+
+    here = rundir.numeric_platform()["key"]
+    elsewhere = {**here, "numerics": "native", "cpu": "Intel(R) Xeon(R) Gold 6338"}
+    returns = [-11.2, -17.4, -11.9, -13.9, -16.5, -20.3, -11.8, -15.3, -13.0, -14.3]
+    record = {"returns": returns, "success_rate": 1.0, "numerics": {"key": here}}
+    assert zoo.compare(record, list(returns), 1.0) == (True, "matches episode by episode")
+    nudged = [r + 1e-9 for r in returns]
+    agrees, words = zoo.compare(record, nudged, 1.0)
+    assert not agrees and words.startswith("DIFFERS episode by episode on the numeric platform it was recorded on")
+    record["numerics"] = {"key": elsewhere}
+    agrees, words = zoo.compare(record, nudged, 1.0)
+    assert agrees and words.startswith("recorded under another numeric platform (cpu Intel(R) Xeon(R) Gold 6338 -> -;")
+    assert "not bit-identical here, consistent with the recording (mean +0.00, success 100 % vs 100 %, Mann-Whitney p = 0.73)" in words
+    agrees, words = zoo.compare(record, [r - 30.0 for r in returns], 0.0)
+    assert not agrees and "inconsistent with the recording (mean -30.00, success 0 % vs 100 %, Mann-Whitney p = 0.00)" in words
+    assert "DIFFERS" not in words
