@@ -21,7 +21,7 @@ are IEEE-exact wherever they run.  This module holds what that needs beyond them
 
 * per step: 3-vectors and 3 x 3 rotations written out, in a fixed order
   (:func:`rotate`, :func:`rotate_t`, :func:`rows_rotate_t`, :func:`norm`, :func:`cross`);
-* at set-up: small dense algebra with correctly rounded dot products (:func:`math.fsum`):
+* at set-up: small dense algebra with dot products summed by :func:`math.fsum`:
   :func:`dot`, :func:`matmul`, :func:`inverse` (Gauss-Jordan), :func:`pinv`, :func:`rank`,
   :func:`eigvalsh3`; and on NumPy arrays with element-wise operations only:
   :func:`array_matmul`, :func:`expm`, :func:`covariance_root`;
@@ -84,7 +84,8 @@ def cross(u: Sequence[float], v: Sequence[float]) -> Vec3:
 
 
 def norm(v: Sequence[float]) -> float:
-    """Euclidean length of a vector (:func:`math.hypot`: within one rounding, and the same everywhere)."""
+    """Euclidean length of a vector: :func:`math.hypot` (CPython's own accurate algorithm on
+    plain doubles, the same on every CPU)."""
     return math.hypot(*(float(x) for x in v))
 
 
@@ -98,7 +99,8 @@ def apply(function: Callable[[float], float], values: np.ndarray | Sequence[floa
 
 
 def dot(u: Sequence[float], v: Sequence[float]) -> float:
-    """Correctly rounded dot product (:func:`math.fsum` of the products)."""
+    """Dot product: :func:`math.fsum` of the rounded products (their sum correctly rounded,
+    whatever the order)."""
     return math.fsum(float(a) * float(b) for a, b in zip(u, v, strict=True))
 
 
@@ -114,7 +116,7 @@ def transpose(m: Sequence[Sequence[float]]) -> Matrix:
 
 
 def matmul(a: Sequence[Sequence[float]] | np.ndarray, b: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
-    """``a b`` for small matrices, every entry a correctly rounded dot product; lists of rows."""
+    """``a b`` for small matrices, every entry a :func:`dot`; lists of rows."""
     cols = transpose(b)
     return [[dot(row, col) for col in cols] for row in _rows(a)]
 

@@ -222,7 +222,7 @@ def _stationary_covariance(A: np.ndarray, G: np.ndarray) -> np.ndarray:
     Entry (i, j) of the equation is ``(a_ii + a_jj) p_ij + sum_{k<i} a_ik p_kj +
     sum_{k<j} a_jk p_ik + g_ij = 0``, so the entries follow one another row by row
     (forward substitution; the Bartels-Stewart method with ``A`` already triangular),
-    each sum correctly rounded.
+    each sum by :func:`math.fsum`.
     """
     n = A.shape[0]
     a = A.tolist()

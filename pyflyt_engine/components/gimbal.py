@@ -53,7 +53,7 @@ def skew(u: np.ndarray) -> np.ndarray:
 
 
 def _squares(W: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) ``W_i @ W_i`` in correctly rounded sums (:mod:`pyflyt_engine.exact`; not BLAS)."""
+    """(n, 3, 3) ``W_i @ W_i`` with :func:`math.fsum` sums (:mod:`pyflyt_engine.exact`; not BLAS)."""
     return np.array([exact.matmul(w, w) for w in W], dtype=np.float64).reshape(W.shape)
 
 
