@@ -9,6 +9,7 @@ Euler angles are (roll phi, pitch theta, yaw psi), applied yaw, then pitch, then
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -33,13 +34,17 @@ def ground_to_body_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 def quaternion_to_matrix(quaternion: tuple[float, float, float, float]) -> np.ndarray:
     """Body-to-ground rotation matrix of a unit quaternion (x, y, z, w)."""
+    return np.array(quaternion_to_rows(quaternion))
+
+
+def quaternion_to_rows(quaternion: Sequence[float]) -> tuple[tuple[float, float, float], ...]:
+    """:func:`quaternion_to_matrix` as three row tuples of floats (for the per-step
+    arithmetic of :mod:`pyflyt_engine.exact`, without building an array)."""
     x, y, z, w = quaternion
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
+    return (
+        (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+        (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+        (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
     )
 
 

@@ -44,7 +44,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine import exact
+from pyflyt_engine.frames import quaternion_to_rows
 from pyflyt_engine.spec import BodySpec, _rpy_matrix, check_identifier
 
 if TYPE_CHECKING:
@@ -118,7 +119,7 @@ class PayloadSpec(_Model):
         if self.body.urdf is not None:
             raise ValueError("payload body.urdf is not supported: describe the payload with shapes")
         if self.attach.joint == "tether":
-            distance = float(np.linalg.norm(self.anchor_to_payload_anchor()))
+            distance = exact.norm(self.anchor_to_payload_anchor())
             if distance <= 1e-9:
                 raise ValueError(
                     "tethered payload starts with its payload_anchor on the anchor: place it (position) along the string"
@@ -129,8 +130,9 @@ class PayloadSpec(_Model):
                     f"length {self.attach.length} m: move it closer or lengthen the tether"
                 )
             axis = self.anchor_to_payload_anchor() / distance
-            offset = self.rotation() @ (self.center_of_mass() - np.asarray(self.attach.payload_anchor, dtype=float))
-            if np.linalg.norm(offset - (offset @ axis) * axis) > 1e-6:
+            lever = self.center_of_mass() - np.asarray(self.attach.payload_anchor, dtype=float)
+            offset = np.array(exact.rotate(self.rotation(), lever))
+            if exact.norm(offset - exact.dot(offset, axis) * axis) > 1e-6:
                 raise ValueError(
                     "a tethered payload's centre of mass must lie on its string's line (from attach.anchor through "
                     "attach.payload_anchor at reset): tie the string at a point above the centre of mass"
@@ -157,13 +159,13 @@ class PayloadSpec(_Model):
 
     def anchor_to_payload_anchor(self) -> np.ndarray:
         """Vector from ``attach.anchor`` to the payload's anchor point at reset, parent frame [m]."""
-        point = np.asarray(self.position) + self.rotation() @ np.asarray(self.attach.payload_anchor, dtype=float)
+        point = np.asarray(self.position) + np.array(exact.rotate(self.rotation(), self.attach.payload_anchor))
         return point - np.asarray(self.attach.anchor, dtype=float)
 
     def farthest_reach(self) -> float:
         """Upper bound of the distance from the parent's origin of any point of the payload at reset [m]."""
-        com = np.asarray(self.position) + self.rotation() @ self.center_of_mass()
-        return float(np.linalg.norm(com)) + _bounding_radius(self)
+        com = np.asarray(self.position) + np.array(exact.rotate(self.rotation(), self.center_of_mass()))
+        return exact.norm(com) + _bounding_radius(self)
 
 
 def _bounding_radius(spec: PayloadSpec) -> float:
@@ -179,7 +181,7 @@ def _bounding_radius(spec: PayloadSpec) -> float:
             half = float(s.radius)  # type: ignore[arg-type]
         else:
             half = 0.0
-        radius = max(radius, float(np.linalg.norm(np.asarray(s.position) - com)) + half)
+        radius = max(radius, exact.norm(np.asarray(s.position) - com) + half)
     return radius
 
 
@@ -244,7 +246,7 @@ def generate_payload_urdf(spec: PayloadSpec) -> str:
             '    <child link="body"/>',
             # the payload's frame turned by its declared orientation; the axis is given in it
             f'    <origin xyz="0 0 0" rpy="{_fmt(spec.orientation)}"/>',
-            f'    <axis xyz="{_fmt(spec.rotation().T @ axis)}"/>',
+            f'    <axis xyz="{_fmt(exact.rotate_t(spec.rotation(), axis))}"/>',
             f'    <limit lower="0" upper="{upper:.9g}" effort="0" velocity="1000"/>',
             '    <dynamics damping="0" friction="0"/>',
             "  </joint>",
@@ -264,10 +266,12 @@ def tether_geometry(spec: PayloadSpec) -> tuple[np.ndarray, float, float]:
     """
     rot = spec.rotation()
     string = spec.anchor_to_payload_anchor()
-    axis = string / np.linalg.norm(string)
-    com = np.asarray(spec.position) + rot @ spec.center_of_mass()
-    q0 = float(axis @ (com - np.asarray(spec.attach.anchor, dtype=float)))
-    offset = float(axis @ (rot @ (spec.center_of_mass() - np.asarray(spec.attach.payload_anchor, dtype=float))))
+    axis = string / exact.norm(string)
+    com = np.asarray(spec.position) + np.array(exact.rotate(rot, spec.center_of_mass()))
+    q0 = exact.dot(axis, com - np.asarray(spec.attach.anchor, dtype=float))
+    offset = exact.dot(
+        axis, exact.rotate(rot, spec.center_of_mass() - np.asarray(spec.attach.payload_anchor, dtype=float))
+    )
     return axis, q0, float(spec.attach.length) + offset  # type: ignore[arg-type]
 
 
@@ -286,12 +290,14 @@ class PayloadState:
 
     def point(self, local: Any) -> np.ndarray:
         """Ground-frame position of a point given relative to the centre of mass, payload axes [m]."""
-        return self.position + quaternion_to_matrix(tuple(self.quaternion)) @ np.asarray(local, dtype=float)
+        rotation = quaternion_to_rows(self.quaternion.tolist())
+        return self.position + np.array(exact.rotate(rotation, [float(v) for v in local]))
 
     def point_velocity(self, local: Any) -> np.ndarray:
         """Ground-frame velocity of that point [m/s]."""
-        r = quaternion_to_matrix(tuple(self.quaternion)) @ np.asarray(local, dtype=float)
-        return self.lin_vel + np.cross(self.ang_vel, r)
+        rotation = quaternion_to_rows(self.quaternion.tolist())
+        r = exact.rotate(rotation, [float(v) for v in local])
+        return self.lin_vel + np.array(exact.cross(self.ang_vel.tolist(), r))
 
 
 class Payload:
@@ -375,11 +381,15 @@ class PayloadSet:
         spec: PayloadSpec, parent_pos: np.ndarray, parent_quat: tuple[float, float, float, float]
     ) -> tuple[list[float], tuple[float, float, float, float]]:
         """Pose of the PyBullet base: the payload's centre of mass (or the tether pivot)."""
-        parent_rot = quaternion_to_matrix(parent_quat)
+        parent_rot = quaternion_to_rows(parent_quat)
         if spec.attach.joint == "tether":  # the base is the pivot, aligned with the parent
-            return list(parent_pos + parent_rot @ np.asarray(spec.attach.anchor, dtype=float)), parent_quat
-        rot = parent_rot @ spec.rotation()
-        com = parent_pos + parent_rot @ np.asarray(spec.position, dtype=float) + rot @ spec.center_of_mass()
+            return list(parent_pos + np.array(exact.rotate(parent_rot, spec.attach.anchor))), parent_quat
+        rot = np.array(exact.matmul(parent_rot, spec.rotation()))
+        com = (
+            parent_pos
+            + np.array(exact.rotate(parent_rot, spec.position))
+            + np.array(exact.rotate(rot, spec.center_of_mass()))
+        )
         from pyflyt_engine.telemetry.scene import matrix_to_quaternion
 
         return list(com), matrix_to_quaternion(rot)
@@ -404,7 +414,8 @@ class PayloadSet:
         # fixed: the payload frame held at its reset pose relative to the parent
         from pyflyt_engine.telemetry.scene import matrix_to_quaternion
 
-        com_in_parent = np.asarray(spec.position, dtype=float) + spec.rotation() @ spec.center_of_mass()
+        com_offset = exact.rotate(spec.rotation(), spec.center_of_mass())
+        com_in_parent = np.asarray(spec.position, dtype=float) + np.array(com_offset)
         return p.createConstraint(
             parent,
             -1,

@@ -32,6 +32,7 @@ from pydantic import (
     model_validator,
 )
 
+from pyflyt_engine import exact
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
 
@@ -188,34 +189,39 @@ class BodySpec(_Spec):
         parts = [s for s in self.shapes if s.mass]
         if not parts:
             return np.zeros(3)
-        masses = np.array([s.mass for s in parts])
-        positions = np.array([s.position for s in parts], dtype=float)
-        return masses @ positions / masses.sum()
+        masses = [float(s.mass) for s in parts]  # type: ignore[arg-type]
+        total = math.fsum(masses)
+        return np.array([exact.dot(masses, [s.position[axis] for s in parts]) / total for axis in range(3)])
 
     def inertia_matrix(self) -> np.ndarray:
         """3 x 3 inertia about the centre of mass, body axes [kg m^2]: ``inertia`` when
         given, else the shapes' own inertias moved there (parallel-axis theorem)."""
         if self.inertia is not None:
             return inertia_tensor(self.inertia)
-        com = self.mass_center()
-        total = np.zeros((3, 3))
+        com = self.mass_center().tolist()
+        terms: list[list[list[float]]] = []  # per shape: its inertia about the centre of mass
         for shape in self.shapes:
             if not shape.mass:
                 continue
             rot = _rpy_matrix(shape.rpy)
-            r = np.asarray(shape.position, dtype=float) - com
-            total += rot @ shape_inertia(shape) @ rot.T + shape.mass * (r @ r * np.eye(3) - np.outer(r, r))
-        return total
+            own = exact.matmul(exact.matmul(rot, shape_inertia(shape)), exact.transpose(rot))
+            r = [float(p) - c for p, c in zip(shape.position, com)]
+            r2 = exact.dot(r, r)
+            m = float(shape.mass)
+            terms.append(
+                [[own[i][j] + m * ((r2 if i == j else 0.0) - r[i] * r[j]) for j in range(3)] for i in range(3)]
+            )
+        return np.array([[math.fsum(t[i][j] for t in terms) for j in range(3)] for i in range(3)])
 
 
 def _check_inertia(tensor: np.ndarray) -> None:
-    eig = np.linalg.eigvalsh(tensor)
-    if eig.min() <= 0:
+    eig = exact.eigvalsh3(tensor)
+    if min(eig) <= 0:
         raise ValueError(
-            f"inertia tensor is not positive definite (principal moments {eig.round(9).tolist()}); "
+            f"inertia tensor is not positive definite (principal moments {[round(x, 9) for x in eig]}); "
             "every principal moment must be > 0 kg m^2"
         )
-    a, b, c = (float(x) for x in sorted(eig))
+    a, b, c = eig
     if a + b < c * (1 - 1e-9):
         raise ValueError(
             f"principal moments {[round(a, 12), round(b, 12), round(c, 12)]} violate the triangle inequality "
@@ -224,12 +230,13 @@ def _check_inertia(tensor: np.ndarray) -> None:
 
 
 def _rpy_matrix(rpy: Vec3) -> np.ndarray:
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    return rz @ ry @ rx
+    """Rz(yaw) Ry(pitch) Rx(roll): the URDF ``rpy`` convention."""
+    r, p, y = (float(a) for a in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    rz = [[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]
+    ry = [[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]
+    rx = [[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]]
+    return np.array(exact.matmul(exact.matmul(rz, ry), rx))
 
 
 def shape_inertia(shape: ShapeSpec) -> np.ndarray:
@@ -728,7 +735,7 @@ class UAVSpec(_Spec):
                     f"{g.max_angle_a_deg:g} and {g.max_angle_b_deg:g}"
                 )
             axis = self.motors.to_array("thrust_axes")[g.target_index]  # type: ignore[union-attr]
-            dot = float(np.dot(axis, g.axis_a))
+            dot = exact.dot(axis, g.axis_a)
             if abs(dot) > _UNIT_EXACT:
                 raise ValueError(
                     f"{where}: axis_a {list(g.axis_a)} must be perpendicular to the thrust axis {axis.tolist()} of "

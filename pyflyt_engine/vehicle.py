@@ -34,6 +34,7 @@ from typing import Protocol
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
@@ -579,10 +580,11 @@ class Vehicle:
         cid = self._client
         quat = euler_to_quaternion(*orientation)
         p.resetBasePositionAndOrientation(self.body_id, list(position), quat, physicsClientId=cid)
-        rotation = np.array(p.getMatrixFromQuaternion(quat, physicsClientId=cid)).reshape(3, 3)  # body to ground
-        lin = rotation @ np.asarray(lin_vel if lin_vel is not None else (0.0, 0.0, 0.0), dtype=float)
-        ang = rotation @ np.asarray(ang_vel if ang_vel is not None else (0.0, 0.0, 0.0), dtype=float)
-        p.resetBaseVelocity(self.body_id, lin.tolist(), ang.tolist(), physicsClientId=cid)
+        r = p.getMatrixFromQuaternion(quat, physicsClientId=cid)  # body to ground, row-major
+        rotation = (r[0:3], r[3:6], r[6:9])
+        lin = exact.rotate(rotation, [float(v) for v in lin_vel] if lin_vel is not None else (0.0, 0.0, 0.0))
+        ang = exact.rotate(rotation, [float(v) for v in ang_vel] if ang_vel is not None else (0.0, 0.0, 0.0))
+        p.resetBaseVelocity(self.body_id, list(lin), list(ang), physicsClientId=cid)
         self.setpoint[:] = 0.0
         self.channels = self._idle_channels.copy()
         a = self.actuators
@@ -689,8 +691,8 @@ class Vehicle:
         if self.motors is None or not self.parts.mixer_motors:
             raise ConfigError(f"vehicle '{self.spec.name}' has no multirotor motors")
         idx = list(self.parts.mixer_motors)
-        lift = float(self.motors.thrust_axes[idx, 2] @ self.motors.max_thrust[idx])
-        return float(np.sqrt(self.parts.mass * GRAVITY / lift))
+        lift = exact.dot(self.motors.thrust_axes[idx, 2].tolist(), self.motors.max_thrust[idx].tolist())
+        return math.sqrt(self.parts.mass * GRAVITY / lift)
 
 
 def _turner(group: Motors | Boosters | None, index: int) -> Callable[[tuple[float, float, float]], None]:

@@ -33,6 +33,13 @@ solution ``P`` of ``A P + P A^T + B pi B^T = 0``): no start-up transient.
 Because ``A`` is lower triangular in the state order used here, the recursion is solved
 a row at a time for a whole block of steps with :func:`scipy.signal.lfilter` (C loops):
 a physics step then costs a list lookup.
+
+No step goes through BLAS or LAPACK, whose last bits depend on the CPU
+(:mod:`pyflyt_engine.exact`): the exponential is :func:`~pyflyt_engine.exact.expm`, the
+stationary covariance solves the Lyapunov equation by substitution (``A`` is
+triangular), the noise is shaped by a Cholesky factor
+(:func:`~pyflyt_engine.exact.covariance_root`) and the matrix products of a block are
+sums of element-wise products (:func:`~pyflyt_engine.exact.array_matmul`).
 """
 
 from __future__ import annotations
@@ -42,7 +49,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, signal
+from scipy import signal
+
+from pyflyt_engine import exact
 
 FOOT = 0.3048  # [m], exact (international foot)
 #: lower bound of the low-altitude model [ft] (MIL-HDBK-1797, low-altitude turbulence)
@@ -70,7 +79,7 @@ def low_altitude_scales(height: float, wind_speed_20ft: float) -> DrydenScales:
 
     ``height`` is clamped to the model's range [10 ft, 1000 ft] (3.05 m to 304.8 m).
     """
-    h = min(max(height / FOOT, MIN_HEIGHT_FT), MAX_HEIGHT_FT)  # [ft]
+    h = min(max(float(height) / FOOT, MIN_HEIGHT_FT), MAX_HEIGHT_FT)  # [ft]; a Python float: ** is libm's pow
     base = 0.177 + 0.000823 * h
     L_uv = h / base**1.2 * FOOT
     sigma_w = 0.1 * wind_speed_20ft
@@ -140,18 +149,18 @@ class DrydenProcess:
         self.rng = rng
         A, B, C = self._system()
         n = A.shape[0]
-        G = B @ B.T * NOISE_INTENSITY
+        G = exact.array_matmul(B, B.T) * NOISE_INTENSITY
         # Van Loan: expm([[-A, G], [0, A^T]] dt) = [[., Phi^-1 Q_d], [0, Phi^T]]
-        E = linalg.expm(np.block([[-A, G], [np.zeros((n, n)), A.T]]) * dt)
-        self.Phi = E[n:, n:].T
-        Qd = self.Phi @ E[:n, n:]
+        E = exact.expm(np.block([[-A, G], [np.zeros((n, n)), A.T]]) * dt)
+        self.Phi = E[n:, n:].T.copy()
+        Qd = exact.array_matmul(self.Phi, E[:n, n:])
         self.Qd = 0.5 * (Qd + Qd.T)
-        self.P = linalg.solve_continuous_lyapunov(A, -G)  # stationary covariance
+        self.P = _stationary_covariance(A, G)
         self.C = C
-        self._noise_root = _root(self.Qd)
-        self._state_root = _root(0.5 * (self.P + self.P.T))
+        self._noise_root = exact.covariance_root(self.Qd)
+        self._state_root = exact.covariance_root(self.P)
         self._diag = np.diag(self.Phi).copy()
-        self._lower = [np.flatnonzero(self.Phi[i, :i]) for i in range(n)]  # dependencies of each row
+        self._lower = [np.flatnonzero(self.Phi[i, :i]).tolist() for i in range(n)]  # dependencies of each row
         self.state = np.zeros(n)
         self.reset()
 
@@ -189,27 +198,41 @@ class DrydenProcess:
 
     def reset(self) -> None:
         """A fresh realisation: the state drawn from the stationary distribution."""
-        self.state = self._state_root @ self.rng.standard_normal(self.state.size)
+        self.state = exact.array_matmul(self._state_root, self.rng.standard_normal((self.state.size, 1)))[:, 0]
 
     def generate(self, steps: int | None = None) -> np.ndarray:
         """(outputs, steps) samples: the current state's output first; the state moves on ``steps``."""
         N = self.block if steps is None else steps
-        W = self._noise_root @ self.rng.standard_normal((self.state.size, N))
+        W = exact.array_matmul(self._noise_root, self.rng.standard_normal((self.state.size, N)))
         X = np.empty((self.state.size, N + 1))
         X[:, 0] = self.state
         for i in range(self.state.size):
             f = W[i].copy()
-            deps = self._lower[i]
-            if deps.size:
-                f += self.Phi[i, deps] @ X[deps, :N]
+            for j in self._lower[i]:
+                f += self.Phi[i, j] * X[j, :N]
             a = self._diag[i]
             X[i, 1:] = signal.lfilter([1.0], [1.0, -a], f, zi=[a * X[i, 0]])[0]
         self.state = X[:, N].copy()
-        return self.C @ X[:, :N]
+        return exact.array_matmul(self.C, X[:, :N])
 
 
-def _root(covariance: np.ndarray) -> np.ndarray:
-    """A matrix ``S`` with ``S S^T = covariance`` (symmetric eigen-decomposition; robust when
-    the covariance is nearly singular, as the integrated noise of a chain of filters is)."""
-    values, vectors = np.linalg.eigh(covariance)
-    return vectors * np.sqrt(np.clip(values, 0.0, None))
+def _stationary_covariance(A: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """The solution ``P`` of ``A P + P A^T + G = 0`` for a lower-triangular stable ``A``.
+
+    Entry (i, j) of the equation is ``(a_ii + a_jj) p_ij + sum_{k<i} a_ik p_kj +
+    sum_{k<j} a_jk p_ik + g_ij = 0``, so the entries follow one another row by row
+    (forward substitution; the Bartels-Stewart method with ``A`` already triangular),
+    each sum by :func:`math.fsum`.
+    """
+    n = A.shape[0]
+    a = A.tolist()
+    g = G.tolist()
+    lower = [[(k, a[i][k]) for k in range(i) if a[i][k] != 0.0] for i in range(n)]
+    p = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            terms = [g[i][j]]
+            terms += [a_ik * p[k][j] for k, a_ik in lower[i]]
+            terms += [a_jk * p[i][k] for k, a_jk in lower[j]]
+            p[i][j] = p[j][i] = -math.fsum(terms) / (a[i][i] + a[j][j])
+    return np.array(p)

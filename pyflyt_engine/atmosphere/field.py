@@ -30,6 +30,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.config import WindConfig
 from pyflyt_engine.atmosphere.dryden import DrydenProcess, low_altitude_scales
 
@@ -153,12 +154,8 @@ class WindField:
                 self.rng,
                 block=self.block,
             )
-            c, s = math.cos(self._turbulence_heading), math.sin(self._turbulence_heading)
-            blocks = 1 + (len(self.spans) if self._angular else 0)
-            rotation = np.zeros((3 * blocks, 3 * blocks))
-            for b in range(blocks):  # turbulence axes -> ground frame, per (u, v, w) and (p, q, r) triple
-                rotation[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = ((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
-            self._to_ground = rotation
+            #: cosine and sine of the turbulence x axis's heading (turbulence axes -> ground frame)
+            self._to_ground = (math.cos(self._turbulence_heading), math.sin(self._turbulence_heading))
         self._start = self.step_index
         self._fill()
 
@@ -180,7 +177,7 @@ class WindField:
             linear += np.outer(gust.amplitude, f)
         rotary = None
         if self._process is not None:
-            turbulence = self._to_ground @ self._process.generate(n)
+            turbulence = _turned(self._process.generate(n), *self._to_ground)
             linear += turbulence[:3]
             if self._angular:
                 rotary = turbulence[3:]
@@ -240,10 +237,23 @@ class WindField:
         return (wx, wy, wz, p, q, r)
 
 
+def _turned(samples: np.ndarray, c: float, s: float) -> np.ndarray:
+    """Each (x, y, z) triple of rows of ``samples`` turned about z from the turbulence axes
+    to the ground frame: ``(c x - s y, s x + c y, z)``."""
+    out = np.empty_like(samples)
+    for b in range(0, samples.shape[0], 3):
+        x, y = samples[b], samples[b + 1]
+        out[b] = c * x - s * y
+        out[b + 1] = s * x + c * y
+        out[b + 2] = samples[b + 2]
+    return out
+
+
 def gust_profiles(x: np.ndarray, length: float, shape: str) -> np.ndarray:
     """:func:`gust_profile` over an array of distances ``x`` [m]."""
     x = np.asarray(x, dtype=float)
-    rise = 0.5 * (1.0 - np.cos(np.pi * np.clip(x, 0.0, None) / length))
+    # math.cos per element, not np.cos (CPU-dependent on AVX-512 machines: pyflyt_engine.exact)
+    rise = 0.5 * (1.0 - exact.apply(math.cos, np.pi * np.clip(x, 0.0, None) / length))
     out = np.where(x <= 0.0, 0.0, rise)
     if shape == "step":
         return np.where(x > length, 1.0, out)

@@ -141,7 +141,7 @@ class BoosterParams:
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"{name} contains non-finite values; give finite numbers.")
 
-        norms = np.linalg.norm(self.thrust_axes, axis=1)
+        norms = np.sqrt(np.sum(self.thrust_axes * self.thrust_axes, axis=1))
         if np.any(np.abs(norms - 1.0) > _UNIT_TOL):
             raise ValueError(
                 f"thrust_axes must be unit vectors (norms {norms.tolist()}); "

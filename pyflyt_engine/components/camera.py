@@ -49,9 +49,10 @@ from numbers import Integral, Real
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import ground_to_body_matrix, quaternion_to_matrix
+from pyflyt_engine.frames import ground_to_body_matrix, quaternion_to_rows
 
 CHANNELS = ("rgba", "depth", "segmentation")
 """Every image channel a camera can return, in the order :func:`capture` fills them."""
@@ -178,17 +179,22 @@ def camera_pose(
         body's yaw (heading of its +X axis) is used for the direction; that heading is
         undefined when the body points straight up or down, where yaw 0 is used.
     """
-    q = np.asarray(body_quaternion, dtype=np.float64)
-    body_rotation = quaternion_to_matrix(q / np.linalg.norm(q))
-    eye = np.asarray(body_position, dtype=np.float64) + body_rotation @ np.asarray(params.position)
+    q = [float(v) for v in body_quaternion]
+    size = exact.norm(q)
+    body_rotation = quaternion_to_rows([v / size for v in q])
+    mount = exact.rotate(body_rotation, params.position)
+    eye = np.array([float(b) + m for b, m in zip(body_position, mount)])
 
     if params.horizon_lock:
-        yaw = math.atan2(body_rotation[1, 0], body_rotation[0, 0])
-        attitude = ground_to_body_matrix(0.0, 0.0, yaw).T
+        yaw = math.atan2(body_rotation[1][0], body_rotation[0][0])
+        attitude = ground_to_body_matrix(0.0, 0.0, yaw).T.tolist()
     else:
         attitude = body_rotation
-    rotation = attitude @ params.mount_rotation
-    return eye, rotation[:, 0].copy(), rotation[:, 2].copy()
+    mount_rotation = params.mount_rotation.tolist()
+    # columns 0 (camera +X) and 2 (camera +Z) of attitude @ mount_rotation
+    forward = exact.rotate(attitude, [row[0] for row in mount_rotation])
+    up = exact.rotate(attitude, [row[2] for row in mount_rotation])
+    return eye, np.array(forward), np.array(up)
 
 
 def view_matrix(
@@ -203,19 +209,24 @@ def view_matrix(
     ``[s, -s.eye]``, ``[u, -u.eye]``, ``[-f, f.eye]``, ``[0, 0, 0, 1]``.  ``up`` need not
     be orthogonal to ``forward``, only not parallel to it.
     """
-    eye = np.asarray(eye, dtype=np.float64)
-    f = np.asarray(forward, dtype=np.float64)
-    f = f / np.linalg.norm(f)
-    s = np.cross(f, np.asarray(up, dtype=np.float64))
-    norm = np.linalg.norm(s)
+    e = [float(v) for v in eye]
+    f = [float(v) for v in forward]
+    length = exact.norm(f)
+    f = [v / length for v in f]
+    s = exact.cross(f, [float(v) for v in up])
+    norm = exact.norm(s)
     if norm < _PARALLEL_TOL:
         raise ValueError(f"view_matrix: up {up!r} is parallel to forward {forward!r}; give an up not along the view")
-    s = s / norm
-    u = np.cross(s, f)
-    matrix = np.eye(4)
-    matrix[0, :3], matrix[1, :3], matrix[2, :3] = s, u, -f
-    matrix[:3, 3] = -s @ eye, -u @ eye, f @ eye
-    return tuple(matrix.T.ravel().tolist())
+    s = tuple(v / norm for v in s)
+    u = exact.cross(s, f)
+    se, ue, fe = (c[0] * e[0] + c[1] * e[1] + c[2] * e[2] for c in (s, u, f))
+    # column-major, as OpenGL and PyBullet take it: one line per column of the matrix
+    return (
+        s[0], u[0], -f[0], 0.0,
+        s[1], u[1], -f[1], 0.0,
+        s[2], u[2], -f[2], 0.0,
+        -se, -ue, fe, 1.0,
+    )  # fmt: skip
 
 
 def projection_matrix(params: CameraParams) -> tuple[float, ...]:

@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.components import AirVelocity
 from pyflyt_engine.components.lag import lag_coefficient
 
@@ -49,6 +50,11 @@ def skew(u: np.ndarray) -> np.ndarray:
         ],
         axis=-2,
     )
+
+
+def _squares(W: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) ``W_i @ W_i`` with :func:`math.fsum` sums (:mod:`pyflyt_engine.exact`; not BLAS)."""
+    return np.array([exact.matmul(w, w) for w in W], dtype=np.float64).reshape(W.shape)
 
 
 def _readonly(arr: np.ndarray) -> np.ndarray:
@@ -103,7 +109,7 @@ class GimbalParams:
                 )
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} contains non-finite values; give finite unit vectors.")
-            norms = np.linalg.norm(arr, axis=1)
+            norms = np.sqrt(np.sum(arr * arr, axis=1))
             if np.any(np.abs(norms - 1.0) > _UNIT_TOL):
                 raise ValueError(
                     f"{name} must be unit vectors (norms {norms.tolist()}); normalise each axis to length 1."
@@ -126,9 +132,9 @@ class GimbalParams:
         W_a = skew(self.axis_a)
         W_b = skew(self.axis_b)
         object.__setattr__(self, "W_a", _readonly(W_a))
-        object.__setattr__(self, "W_a2", _readonly(W_a @ W_a))
+        object.__setattr__(self, "W_a2", _readonly(_squares(W_a)))
         object.__setattr__(self, "W_b", _readonly(W_b))
-        object.__setattr__(self, "W_b2", _readonly(W_b @ W_b))
+        object.__setattr__(self, "W_b2", _readonly(_squares(W_b)))
 
     @property
     def n(self) -> int:

@@ -19,7 +19,11 @@ physics steps, and Euler would overshoot 63 % by ten points after one tau).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from pyflyt_engine import exact
 
 
 def lag_coefficient(dt: float, tau: float | np.ndarray) -> float | np.ndarray:
@@ -32,9 +36,12 @@ def lag_coefficient(dt: float, tau: float | np.ndarray) -> float | np.ndarray:
     Returns:
         ``1 - exp(-dt / tau)``, in (0, 1]; same shape as ``tau``.
     """
-    tau_arr = np.asarray(tau, dtype=np.float64)
-    with np.errstate(divide="ignore"):
-        coeff = np.where(tau_arr > 0.0, -np.expm1(-dt / np.where(tau_arr > 0.0, tau_arr, 1.0)), 1.0)
     if np.ndim(tau) == 0:
-        return float(coeff)
-    return coeff
+        return _coefficient(dt, float(tau))  # type: ignore[arg-type]
+    return exact.apply(lambda t: _coefficient(dt, t), tau)
+
+
+def _coefficient(dt: float, tau: float) -> float:
+    # math.expm1, not np.expm1: NumPy's float64 loop is SVML on AVX-512 machines and
+    # rounds differently from the C library (pyflyt_engine.exact)
+    return -math.expm1(-dt / tau) if tau > 0.0 else 1.0

@@ -55,6 +55,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.constants import AIR_DENSITY
@@ -183,13 +184,13 @@ class LiftingSurfaceParams:
                     "must be positive; give the real chord and span of the surface"
                 )
         for name in ("chord_axis", "normal_axis"):
-            norm = float(np.linalg.norm(getattr(self, name)))
+            norm = exact.norm(getattr(self, name))
             if abs(norm - 1.0) > _AXIS_TOL:
                 raise ValueError(
                     f"{name} must be a unit vector (norm 1 +- {_AXIS_TOL}), got norm {norm:.6g}; "
                     f"normalise it, e.g. v / np.linalg.norm(v)"
                 )
-        dot = float(self.chord_axis @ self.normal_axis)
+        dot = exact.dot(self.chord_axis, self.normal_axis)
         if abs(dot) > _AXIS_TOL:
             kind = "parallel" if abs(abs(dot) - 1.0) <= _AXIS_TOL else "not perpendicular"
             raise ValueError(

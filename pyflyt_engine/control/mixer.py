@@ -6,8 +6,10 @@ maps motor thrusts to [collective thrust along body z, roll, pitch, yaw torque]:
 
     A[:, i] = [a_i,z, (p_i x a_i - s_i kappa_i a_i)]       kappa_i = k_T,i / k_F,i
 
-The mixer is its pseudo-inverse, so any airframe whose motors can produce all four
-outputs independently (quad, hexa, octo, Y6, ...) needs no hand-written mixing table.
+The mixer is its pseudo-inverse ``A^T (A A^T)^-1`` (``A`` has full row rank: checked),
+so any airframe whose motors can produce all four outputs independently (quad, hexa,
+octo, Y6, ...) needs no hand-written mixing table.  It is computed in Python floats
+(:func:`pyflyt_engine.exact.pinv`), not by LAPACK, whose last bits depend on the CPU.
 
 **Tilting motors** (a tricopter's tail servo, tilt-rotors): a motor whose thrust axis
 a gimbal turns by an angle delta about an axis ``c`` perpendicular to its nominal axis
@@ -31,6 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.components.motor import MotorParams
 from pyflyt_engine.errors import ConfigError
 
@@ -58,10 +61,13 @@ def allocation_matrix(
 
 
 def allocation_rank(allocation: np.ndarray) -> int:
-    """Numerical rank of an allocation matrix: 4 when thrust, roll, pitch and yaw are independently reachable."""
+    """Numerical rank of an allocation matrix: 4 when thrust, roll, pitch and yaw are independently reachable.
+
+    Counted as the pivots above ``1e-9 max(1, largest |entry|)`` in Gaussian elimination
+    with complete pivoting (:func:`pyflyt_engine.exact.rank`)."""
     if allocation.size == 0:
         return 0
-    return int(np.linalg.matrix_rank(allocation, tol=1e-9 * max(1.0, float(np.abs(allocation).max()))))
+    return exact.rank(allocation, tol=1e-9 * max(1.0, float(np.abs(allocation).max())))
 
 
 def _lower(current: float, candidate: float) -> float:
@@ -113,11 +119,11 @@ class Mixer:
                 "(collective thrust, roll, pitch and yaw must be independently reachable); "
                 "check motor positions, thrust axes and spin directions"
             )
-        self.inverse = np.linalg.pinv(self.allocation)
-        self._inverse_rows = self.inverse.tolist()
+        self._inverse_rows = exact.pinv(self.allocation)
+        self.inverse = np.array(self._inverse_rows, dtype=np.float64)
         self.max_thrust = motors.max_thrust.tolist()
         #: Collective thrust along body z with every motor at full throttle [N].
-        self.max_collective = float(axes[:, 2] @ motors.max_thrust)
+        self.max_collective = exact.dot(axes[:, 2].tolist(), self.max_thrust)
         n = len(self.max_thrust)
         # per motor: its row of the pseudo-inverse and its full thrust, as plain floats
         self._rows = tuple((r[0], r[1], r[2], r[3], fm) for r, fm in zip(self._inverse_rows[:n], self.max_thrust))
@@ -130,8 +136,8 @@ class Mixer:
         if self.tilts:
             lateral_axes = np.cross(np.asarray([t.axis for t in self.tilts]), axes[[t.motor for t in self.tilts]])
             directions = np.vstack([axes, lateral_axes])
-            side = self.inverse[:, 0] @ directions[:, :2]
-            self.side_force = (float(side[0]), float(side[1]))
+            thrust_column = self.inverse[:, 0].tolist()
+            self.side_force = (exact.dot(thrust_column, directions[:, 0]), exact.dot(thrust_column, directions[:, 1]))
 
     @property
     def outputs(self) -> int:

@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine.frames import quaternion_to_rows
 
 #: the ignition label's slope: the oracle's burn margin (the alignment of the lean with the
 #: aim, or the aim or braking error's excess in m/s/2, whichever lights the booster) maps to
@@ -104,8 +105,9 @@ class RocketLander:
         if obs[-1] == 1.0:  # on the pad: booster out (the minimum thrust would lift it off)
             return action
         omega, pos = obs[0:3], obs[10:13]
-        body_to_ground = quaternion_to_matrix(obs[3:7])
-        vel = body_to_ground @ obs[7:10]
+        rows = quaternion_to_rows(obs[3:7].tolist())
+        body_to_ground = np.array(rows)
+        vel = np.array(exact.rotate(rows, obs[7:10].tolist()))
         mass = self.vehicle.dry_mass + float(obs[-6]) * self.total_fuel
         up = body_to_ground[:, 2]
         h, v_z = pos[2] - self.standing, vel[2]
@@ -118,8 +120,8 @@ class RocketLander:
         lean, burn, throttle = np.zeros(2), -math.inf, 0.0
         if h > 120.0:
             miss = -pos[:2] / t_go - vel[:2]
-            size = float(np.linalg.norm(miss))
-            aligned = float(up[:2] @ miss) / size if size > 0.0 else -1.0
+            size = exact.norm(miss)
+            aligned = (float(up[0]) * float(miss[0]) + float(up[1]) * float(miss[1])) / size if size > 0.0 else -1.0
             burn = min(aligned - 0.3, (size - 0.2) / 2.0)
             if size > 0.2:
                 lean = self.lean_aim * miss / size
@@ -130,7 +132,7 @@ class RocketLander:
             thrust = mass * (GRAVITY + 8.0 * error) / max(up[2], 0.5)
             throttle = float(np.clip((thrust - self.min_thrust) / (self.max_thrust - self.min_thrust), 0.0, 1.0))
             want = -self.kp_lat * pos[:2] - self.kd_lat * vel[:2]
-            n = float(np.linalg.norm(want))
+            n = exact.norm(want)
             lean = min(n / 20.0, self.lean_brake) * want / n if n > 1e-9 and h > 1.0 else np.zeros(2)
         elif h <= 120.0:
             lean = np.zeros(2)
@@ -139,8 +141,8 @@ class RocketLander:
         else:
             action[3] = 0.5 + 0.5 * math.tanh(burn / IGNITION_SCALE)
         target = np.array([lean[0], lean[1], 1.0])
-        target /= np.linalg.norm(target)
-        axis = body_to_ground.T @ np.cross(up, target)  # in the body frame
+        target /= exact.norm(target)
+        axis = np.array(exact.rotate_t(rows, exact.cross(up.tolist(), target.tolist())))  # in the body frame
         moment = self.k_att * axis[:2] - self.k_rate * omega[:2]
         action[0:2] = np.clip(moment, -1.0, 1.0)  # fins: + moment about body x, y
         action[2] = np.clip(-self.k_roll * omega[2], -1.0, 1.0)

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
 
@@ -196,7 +197,7 @@ def altitude(ctx: StepContext) -> float:
 
 def action_magnitude(ctx: StepContext) -> float:
     """||a||: Euclidean norm of the action, in the action space's units."""
-    return float(np.sqrt(np.dot(ctx.action, ctx.action)))
+    return exact.norm(ctx.action)
 
 
 def yaw_rate_squared(ctx: StepContext) -> float:

@@ -22,7 +22,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine import exact
+from pyflyt_engine.frames import quaternion_to_rows
 
 
 def sample_waypoints(
@@ -40,7 +41,7 @@ def sample_waypoints(
     Draws exactly ``4 * count`` numbers from ``rng``.
     """
     direction = rng.standard_normal((count, 3))
-    norm = np.linalg.norm(direction, axis=1, keepdims=True)
+    norm = np.sqrt(np.sum(direction * direction, axis=1, keepdims=True))
     direction = direction / np.maximum(norm, 1e-12)
     direction[:, 2] = np.abs(direction[:, 2])
     distance = rng.uniform(min_distance, max_distance, size=(count, 1))
@@ -55,10 +56,11 @@ def body_frame_deltas(
     """Vectors from the vehicle to each target, in the body frame [m], shape ``(n, 3)``.
 
     ``delta_body = R^T (target - position)`` with ``R`` the body-to-ground rotation of
-    ``quaternion`` (x, y, z, w); row-wise that is ``(targets - position) @ R``.
+    ``quaternion`` (x, y, z, w); row-wise that is ``(targets - position) @ R``, written
+    out element-wise (:func:`pyflyt_engine.exact.rows_rotate_t`, not BLAS).
     """
-    rotation = quaternion_to_matrix(tuple(quaternion))  # type: ignore[arg-type]
-    return (np.asarray(targets, dtype=np.float64).reshape(-1, 3) - np.asarray(position)) @ rotation
+    targets = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
+    return exact.rows_rotate_t(targets, quaternion_to_rows(quaternion), position)
 
 
 def segment_point_distance(start: Sequence[float], end: Sequence[float], point: Sequence[float]) -> float:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.multi_agent.base import AgentSignals, MultiAgentUAVEnv
 from pyflyt_engine.envs.multi_agent.config import DogfightOptions
 from pyflyt_engine.state import KinematicState
@@ -130,10 +132,13 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
         self._rot = _rotations(np.array([s.quaternion for s in states]))
         forward = self._rot[:, :, 0]
         separation = self._pos[None, :, :] - self._pos[:, None, :]  # [i, j] = p_j - p_i
-        distance = np.linalg.norm(separation, axis=-1)
+        sx, sy, sz = separation[..., 0], separation[..., 1], separation[..., 2]
+        distance = np.sqrt(sx * sx + sy * sy + sz * sz)
         np.fill_diagonal(distance, np.inf)
-        cosine = np.einsum("ijk,ik->ij", separation, forward) / distance
-        angle = np.arccos(np.clip(cosine, -1.0, 1.0))
+        # element-wise, in a fixed order (not einsum), and math.acos (NumPy's arccos is
+        # CPU-dependent on AVX-512 machines): pyflyt_engine.exact
+        cosine = (sx * forward[:, 0, None] + sy * forward[:, 1, None] + sz * forward[:, 2, None]) / distance
+        angle = exact.apply(math.acos, np.clip(cosine, -1.0, 1.0))
         o = self._options()
         both_alive = self._alive[:, None] & self._alive[None, :]
         engaged = self._enemy & both_alive
@@ -205,10 +210,10 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
 
     def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         others = self._others[i]
-        rot_t = self._rot[i].T  # ground -> body of agent i
-        rel_pos = (self._pos[others] - self._pos[i]) @ rot_t.T
-        rel_vel = (self._vel[others] - self._vel[i]) @ rot_t.T
-        noses = self._rot[others, :, 0] @ rot_t.T
+        rot = self._rot[i].tolist()  # body of agent i -> ground; rows_rotate_t turns into its body frame
+        rel_pos = exact.rows_rotate_t(self._pos[others], rot, self._pos[i].tolist())
+        rel_vel = exact.rows_rotate_t(self._vel[others], rot, self._vel[i].tolist())
+        noses = exact.rows_rotate_t(self._rot[others, :, 0], rot)
         alive = self._alive[others]
         block = np.concatenate(
             (

@@ -34,9 +34,10 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine.frames import quaternion_to_rows
 from pyflyt_engine.state import KinematicState
 
 BALL_OBS_SIZE = 6
@@ -97,9 +98,9 @@ class BallInCupTask(Task):
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> np.ndarray:
         ball = self.payloads.state(self.options.ball)  # type: ignore[union-attr]
-        rotation = quaternion_to_matrix(tuple(state.quaternion))
-        relative = (ball.position - np.asarray(state.lin_pos)) @ rotation
-        velocity = ball.lin_vel @ rotation
+        rotation = quaternion_to_rows(state.quaternion)
+        relative = exact.rotate_t(rotation, ball.position - np.asarray(state.lin_pos))
+        velocity = exact.rotate_t(rotation, ball.lin_vel)
         return np.concatenate((attitude, relative, velocity))
 
     def update(self, state: KinematicState) -> TaskSignals:
@@ -116,7 +117,7 @@ class BallInCupTask(Task):
         caught = in_cup and error < o.goal_reach_distance**2 and speed < o.goal_reach_velocity
         self._extras = {
             "ball_height": height,
-            "ball_distance": float(np.linalg.norm(offset)),
+            "ball_distance": exact.norm(offset),
             "ball_above": float(height > 0.0),
             "ball_cup_contact": float(in_cup),
             "ball_hit_vehicle": float(hit_vehicle),

@@ -33,10 +33,11 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field, model_validator
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.waypoints import body_frame_deltas
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_matrix
+from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_matrix, quaternion_to_rows
 from pyflyt_engine.state import KinematicState
 
 
@@ -114,8 +115,8 @@ def gate_crossing(
     ``rotation`` is the gate-to-ground rotation; the opening is ``|y|, |z| <= half_opening``
     in the gate's frame.
     """
-    a = (np.asarray(start) - centre) @ rotation  # gate-frame coordinates
-    b = (np.asarray(end) - centre) @ rotation
+    a = np.array(exact.rotate_t(rotation, np.asarray(start) - centre))  # gate-frame coordinates
+    b = np.array(exact.rotate_t(rotation, np.asarray(end) - centre))
     if not (a[0] < 0.0 <= b[0]):
         return False
     t = a[0] / (a[0] - b[0])
@@ -138,7 +139,7 @@ class GatesTask(Task):
         if o.course == "random":
             # every gate is at most max_gate_distance beyond the previous (clamping heights only
             # shortens a step), so no bar is farther than this from the origin
-            reach = float(np.linalg.norm(o.start_position)) + len(o.gates) * o.max_gate_distance + o.opening
+            reach = exact.norm(o.start_position) + len(o.gates) * o.max_gate_distance + o.opening
             if reach > self.flight_dome_size:
                 raise ConfigError(
                     f"task: a random course of {len(o.gates)} gates up to {o.max_gate_distance} m apart can reach "
@@ -174,7 +175,8 @@ class GatesTask(Task):
             centres, headings = random_course(rng, np.asarray(o.start_position, dtype=np.float64), len(o.gates), o)
             for name, centre, heading in zip(o.gates, centres, headings):
                 gate = payloads.by_name[name]  # type: ignore[union-attr]
-                com = centre + quaternion_to_matrix(euler_to_quaternion(0.0, 0.0, heading)) @ gate.com
+                turn = quaternion_to_rows(euler_to_quaternion(0.0, 0.0, float(heading)))
+                com = centre + np.array(exact.rotate(turn, gate.com))
                 p.resetBasePositionAndOrientation(
                     gate.body_id,
                     com.tolist(),
@@ -187,7 +189,7 @@ class GatesTask(Task):
             self.centres[i] = s.point(payloads.by_name[name].local((0.0, 0.0, 0.0)))  # type: ignore[union-attr]
         self.num_passed = 0
         self._position = np.asarray(state.lin_pos, dtype=np.float64)
-        self._distance = float(np.linalg.norm(self.centres[0] - self._position))
+        self._distance = exact.norm(self.centres[0] - self._position)
 
     @property
     def remaining(self) -> np.ndarray:
@@ -211,7 +213,7 @@ class GatesTask(Task):
             self._position = position
             return TaskSignals(target_distance=0.0, target_distance_rate=0.0)
         i = self.num_passed
-        distance = float(np.linalg.norm(self.centres[i] - position))
+        distance = exact.norm(self.centres[i] - position)
         rate = (distance - self._distance) / self.agent_dt
         passed = gate_crossing(
             self._position, position, self.centres[i], self.rotations[i], 0.5 * o.opening - o.clearance
@@ -219,7 +221,7 @@ class GatesTask(Task):
         if passed:
             self.num_passed += 1
             if self.num_passed < len(o.gates):
-                distance_next = float(np.linalg.norm(self.centres[self.num_passed] - position))
+                distance_next = exact.norm(self.centres[self.num_passed] - position)
                 self._distance = distance_next
         else:
             self._distance = distance

@@ -38,6 +38,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field, model_validator
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.frames import ground_to_body_matrix
 from pyflyt_engine.state import KinematicState
@@ -200,7 +201,7 @@ class LandingTask(Task):
         orientation = np.add(o.start_orientation, unit[3:6] * o.start_orientation_noise)
         roll, pitch, yaw = (float(a) for a in orientation)
         lin_vel = np.add(
-            o.start_lin_vel, ground_to_body_matrix(roll, pitch, yaw) @ (unit[6:9] * o.start_velocity_noise)
+            o.start_lin_vel, exact.rotate(ground_to_body_matrix(roll, pitch, yaw), unit[6:9] * o.start_velocity_noise)
         )
         ang_vel = unit[9:12] * o.start_ang_vel_noise
         return Spawn(_floats(position), (roll, pitch, yaw), lin_vel=_floats(lin_vel), ang_vel=_floats(ang_vel))

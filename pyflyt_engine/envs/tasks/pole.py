@@ -28,11 +28,12 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import quaternion_to_matrix
+from pyflyt_engine.frames import quaternion_to_rows
 from pyflyt_engine.state import KinematicState
 
 #: number of pole values appended to the attitude vector
@@ -60,7 +61,7 @@ class PoleReadout:
     def __init__(self, task: Task, options: _PoleFields) -> None:
         self.task = task
         self.options = options
-        length = float(np.linalg.norm(np.subtract(options.pole_tip, options.pole_base)))
+        length = exact.norm(np.subtract(options.pole_tip, options.pole_base))
         if length <= 0:
             raise ConfigError("task.pole_tip and task.pole_base are the same point: give the two ends of the pole")
         self.length = length
@@ -86,14 +87,14 @@ class PoleReadout:
         tip, base = s.point(self._tip), s.point(self._base)
         self.lean = pole_lean(tip, base, self.length)
         self.fallen = bool(tip[2] <= base[2])
-        rotation = quaternion_to_matrix(tuple(state.quaternion))  # body -> ground
+        rotation = quaternion_to_rows(state.quaternion)  # body -> ground
         position = np.asarray(state.lin_pos)
         velocity = np.asarray(state.lin_vel_ground)
         out = np.empty(POLE_OBS_SIZE)
-        out[0:3] = (tip - position) @ rotation
-        out[3:6] = (base - position) @ rotation
-        out[6:9] = (s.point_velocity(self._tip) - velocity) @ rotation
-        out[9:12] = (s.point_velocity(self._base) - velocity) @ rotation
+        out[0:3] = exact.rotate_t(rotation, tip - position)
+        out[3:6] = exact.rotate_t(rotation, base - position)
+        out[6:9] = exact.rotate_t(rotation, s.point_velocity(self._tip) - velocity)
+        out[9:12] = exact.rotate_t(rotation, s.point_velocity(self._base) - velocity)
         self._values = out
         return out
 
