@@ -1,0 +1,72 @@
+"""The figures README.md and the docs quote are those ``experiments/doc_figures.py`` measured.
+
+``experiments/results/doc_figures.json`` holds what the script measured; each document must
+quote it, so a rerun of the script that changes a figure fails here until the documents
+follow.  The slow test trains the default run again and gets the same returns.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+FIGURES = json.loads((ROOT / "experiments" / "results" / "doc_figures.json").read_text())
+README = (ROOT / "README.md").read_text()
+QUICKSTART = (ROOT / "docs" / "quickstart.md").read_text()
+CLI = (ROOT / "docs" / "cli.md").read_text()
+
+
+def _last_eval() -> str:
+    last = FIGURES["train"]["evaluations"][-1]
+    return f"{last['mean']:.2f} ± {last['std']:.2f}"
+
+
+def test_the_quickstart_transcript_is_the_measured_one():
+    runs = re.compile(r"/\S*runs/quadx_hover/ppo/\d{8}-\d{6}-seed0")
+    quoted = [runs.sub("<run>", line) for line in QUICKSTART.splitlines()]
+    for line in FIGURES["train"]["transcript"]:
+        assert runs.sub("<run>", line) in quoted, f"docs/quickstart.md does not quote: {line}"
+    t = FIGURES["train"]
+    assert f"{t['training_s']:.0f} s of training, {t['wall_s']:.0f} s for the whole command" in QUICKSTART
+    e = FIGURES["eval"]
+    assert f"returns {e['mean_return']:.2f} ± {e['std_return']:.2f} and holds {100 * e['mean_distance_m']:.1f} cm" in QUICKSTART
+
+
+def test_the_readme_quotes_the_default_run_and_its_video_frame():
+    assert f"last evaluation returns {_last_eval().replace('-', '-')}" in README.replace("\n", " ")
+    t, v = FIGURES["train"], FIGURES["video"]
+    assert f"Training took {t['training_s']:.0f} s ({t['wall_s']:.0f} s for the whole command" in README.replace("\n", " ")
+    assert f"{100 * v['distance_m']:.1f} cm from it, return {v['return']:.2f} after 5 s" in README.replace("\n", " ")
+    assert v["frame"] == 150 and (ROOT / v["image"]).is_file()
+
+
+def test_the_cli_eval_example_is_the_default_run_flown():
+    for i, ret in enumerate(FIGURES["eval"]["returns"][:5]):
+        assert re.search(rf"^\s+{i}\s+{1000 + i}\s+{ret:.2f}\s+300\s+yes$", CLI, re.M), (i, ret)
+    assert f"return        {_last_eval()}  (mean ± std over 5 episodes)" in CLI
+
+
+def test_the_shipped_hover_agent_is_the_default_run():
+    """Trained in another process by the same command, the zoo agent is the same policy."""
+    summary = yaml.safe_load((ROOT / "pyflyt_cli/zoo/agents/quadx_hover_ppo/summary.yaml").read_text())
+    assert [round(r, 2) for r in summary["evaluation"]["returns"]] == FIGURES["eval"]["returns"]
+
+
+def test_the_zoo_lines_say_every_agent_matches():
+    for name, result in FIGURES["zoo"].items():
+        assert result["line"].endswith("(matches episode by episode)"), name
+
+
+@pytest.mark.slow  # the default training run (~2 minutes on 2 cores)
+def test_the_default_run_trains_to_the_documented_returns(tmp_path):
+    from tests.train.conftest import pyflyt
+
+    done = pyflyt(["train"], tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    evals = re.findall(r"eval return (-?[\d.]+) ± ([\d.]+)", done.stderr + done.stdout)
+    assert [(float(m), float(s)) for m, s in evals] == [(e["mean"], e["std"]) for e in FIGURES["train"]["evaluations"]]
