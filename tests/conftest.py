@@ -1,4 +1,4 @@
-"""Shared fixtures: small worlds and spec variants built from the shipped airframes."""
+"""Shared fixtures: small worlds and spec variants built from the shipped airframes; hostile input."""
 
 from __future__ import annotations
 
@@ -9,6 +9,14 @@ import yaml
 
 from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import UAVSpec, parse_uav_spec
+
+
+def billion_laughs(levels: int = 9, key: str = "a") -> str:
+    """A few hundred bytes of YAML whose aliases expand to 10**levels values (``<key><levels-1>`` holds them all)."""
+    lines = [f"{key}0: &{key}0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for i in range(1, levels):
+        lines.append(f"{key}{i}: &{key}{i} [" + ", ".join([f"*{key}{i - 1}"] * 10) + "]")
+    return "\n".join(lines) + "\n"
 
 
 def spec_dict(name: str = "quadx_cf2x") -> dict:
