@@ -189,11 +189,17 @@ class Plan:
 
 def read_plan(root: str | Path) -> Plan:
     """The plan written by ``pyflyt benchmark`` in ``root`` (a worker's view of it)."""
+    from pyflyt_engine.safe_load import load_json_file
+
     root = Path(root)
     path = root / PLAN_FILE
     try:
-        data = json.loads(path.read_text())
+        # a plan holds a full configuration per run: bounded, but far above any grid this package plans
+        data = load_json_file(path, what="benchmark plan", limit=64 << 20, max_nodes=4_000_000)
         jobs = [Job(**{k: v for k, v in j.items() if k != "id"}) for j in data["jobs"]]
+    except ConfigError as exc:
+        reason = str(exc).removeprefix(f"{path}: ")
+        raise ConfigError(f"{path}: not a readable benchmark plan ({reason}); rerun pyflyt benchmark to rewrite it") from None
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ConfigError(
             f"{path}: not a readable benchmark plan ({exc}); rerun pyflyt benchmark to rewrite it"

@@ -88,11 +88,7 @@ def run_state(plan: Plan, job: Job) -> str:
     path = plan.run_dir(job)
     if not (path / rundir.CONFIG_FILE).is_file():
         return NEW
-    lock = path / rundir.LOCK_FILE
-    try:
-        pid = int(lock.read_text().strip() or 0)
-    except (OSError, ValueError):
-        pid = 0
+    pid = rundir.read_pid(path / rundir.LOCK_FILE)
     if pid and pid != os.getpid() and rundir._alive(pid):
         return BUSY
     if run_differences(plan, job):

@@ -43,7 +43,8 @@ from typing import Any
 import yaml
 
 from pyflyt_cli.training.schema import TrainConfig, parse_train_config
-from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.errors import ConfigError, PyFlytError
+from pyflyt_engine.safe_load import MAX_YAML_BYTES, read_bytes
 
 CONFIG_FILE = "config.yaml"
 RUN_FILE = "run.yaml"
@@ -225,14 +226,14 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
         preset = load_reward_preset(reward)
         update["reward"] = preset.model_dump()
     if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
-        atomic_write(run_dir / AIRFRAME_COPY, Path(env.uav).read_bytes())
+        atomic_write(run_dir / AIRFRAME_COPY, read_bytes(env.uav, limit=MAX_YAML_BYTES, what="airframe file"))
         update["uav"] = str(run_dir / AIRFRAME_COPY)
     agents = getattr(env, "agents", None)
     if isinstance(agents, list) and any(_is_airframe_path(a.uav) for a in agents):
         listed = [a.model_dump(mode="json") for a in agents]
         for agent in listed:
             if _is_airframe_path(agent.get("uav")):
-                data = Path(agent["uav"]).read_bytes()
+                data = read_bytes(agent["uav"], limit=MAX_YAML_BYTES, what="airframe file")
                 copy = run_dir / f"airframe-{hashlib.sha256(data).hexdigest()[:12]}.yaml"
                 if not copy.exists():
                     atomic_write(copy, data)
@@ -294,9 +295,9 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
         if not path.is_absolute() and run_dir is not None:
             path = run_dir / path
         try:
-            return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError:
-            return uav  # a missing file keeps its name: it then differs from any readable one
+            return "sha256:" + hashlib.sha256(read_bytes(path, limit=MAX_YAML_BYTES, what="airframe file")).hexdigest()
+        except PyFlytError:
+            return uav  # a missing (or unreadable) file keeps its name: it then differs from any readable one
 
     if "env.uav" in flat:
         flat["env.uav"] = file_identity(flat["env.uav"])
@@ -349,11 +350,10 @@ def check_run_dir(run_dir: str | Path) -> Path:
 
 def load_run_config(run_dir: str | Path) -> TrainConfig:
     """The :class:`TrainConfig` a run was started with."""
+    from pyflyt_engine.safe_load import load_yaml_file
+
     path = check_run_dir(run_dir)
-    try:
-        data = yaml.safe_load((path / CONFIG_FILE).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise RunDirError(f"{path / CONFIG_FILE}: cannot read it: {exc}") from None
+    data = load_yaml_file(path / CONFIG_FILE, what="config file", error=RunDirError)
     if isinstance(data, dict) and isinstance(data.get("env"), dict):
         uav = data["env"].get("uav")
         if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
@@ -379,10 +379,7 @@ def run_lock(run_dir: Path) -> Iterator[None]:
         try:
             fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
         except FileExistsError:
-            try:
-                pid = int(path.read_text().strip() or 0)
-            except (OSError, ValueError):
-                pid = 0
+            pid = read_pid(path)
             if pid and pid != os.getpid() and _alive(pid):
                 raise RunDirError(
                     f"{run_dir} is being trained by process {pid}; wait for it, stop it (Ctrl-C), "
@@ -399,6 +396,17 @@ def run_lock(run_dir: Path) -> Iterator[None]:
         path.unlink(missing_ok=True)
 
 
+def read_pid(path: Path) -> int:
+    """The process id a lock file holds (its first word); 0 if it holds none, or is not a small regular file."""
+    from pyflyt_engine.safe_load import read_text
+
+    try:
+        words = read_text(path, limit=4096, what="lock file").split()
+        return int(words[0]) if words else 0
+    except (PyFlytError, ValueError):
+        return 0
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -410,18 +418,32 @@ def _alive(pid: int) -> bool:
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError):
+    """A run's YAML record (``run.yaml``) as a mapping; ``{}`` if it is missing or not a mapping.
+
+    Raises:
+        RunDirError: not a regular file, too large, not YAML, or an alias-expansion bomb.
+    """
+    from pyflyt_engine.safe_load import load_yaml_file
+
+    if not path.exists() and not path.is_symlink():
         return {}
+    data = load_yaml_file(path, what="run record", error=RunDirError)
     return data if isinstance(data, dict) else {}
 
 
 def read_state(run_dir: Path) -> dict[str, Any]:
-    try:
-        return json.loads((run_dir / STATE_FILE).read_text())
-    except (OSError, ValueError):
+    """``state.json`` as a mapping; ``{}`` if it is missing or not a mapping.
+
+    Raises:
+        RunDirError: not a regular file, too large or not JSON.
+    """
+    from pyflyt_engine.safe_load import load_json_file
+
+    path = run_dir / STATE_FILE
+    if not path.exists() and not path.is_symlink():
         return {}
+    data = load_json_file(path, what="state file", error=RunDirError)
+    return data if isinstance(data, dict) else {}
 
 
 def write_state(run_dir: Path, state: dict[str, Any]) -> None:

@@ -764,11 +764,10 @@ def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
 
 def eval_defaults() -> dict[str, Any]:
     """``conf/eval.yaml``: the default of every :class:`EvalOptions` field (plain YAML data, no Hydra)."""
-    import yaml
-
     from pyflyt_engine.paths import conf_dir
+    from pyflyt_engine.safe_load import load_yaml_file
 
-    data = yaml.safe_load((conf_dir() / "eval.yaml").read_text())
+    data = load_yaml_file(conf_dir() / "eval.yaml")
     if not isinstance(data, dict):  # pragma: no cover - broken install
         raise ConfigError(f"{conf_dir() / 'eval.yaml'}: not a mapping of eval options")
     return data

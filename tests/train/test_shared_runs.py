@@ -1,0 +1,142 @@
+"""A shared run directory is hostile input: its files cannot hang or exhaust the reader.
+
+Each case is a run directory rewritten the way an attacker would, from the reproductions
+of issue 39, and fed to ``pyflyt train resume=``, ``pyflyt eval`` and ``pyflyt
+benchmark``: an alias-expansion bomb, deep nesting or a FIFO where a run file should be
+gets one line and exit code 2, in seconds.  These cases run in a forked child (with a
+memory limit) whose timeout only detects a hang (:func:`tests.conftest.pyflyt_forked`);
+they answer in well under a second.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from pyflyt_cli.main import app
+from pyflyt_cli.training import train
+from tests.conftest import billion_laughs, pyflyt_forked
+
+from .conftest import TINY_PPO, load
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> Path:
+    """A finished tiny PPO run (checkpoints at 256 and 512 steps)."""
+    return train(load(TINY_PPO, tmp_path_factory.mktemp("runs"))).run_dir
+
+
+@pytest.fixture
+def run(trained, tmp_path) -> Path:
+    """A private copy of the trained run, free to tamper with."""
+    copy = tmp_path / "run"
+    shutil.copytree(trained, copy)
+    return copy
+
+
+def cli(*args: str) -> tuple[int, str]:
+    """``pyflyt <args>`` in this process: (exit code, output)."""
+    result = CliRunner().invoke(app, list(args))
+    crash = "" if result.exception is None or isinstance(result.exception, SystemExit) else "\nTraceback"
+    return result.exit_code, result.output + crash
+
+
+def refused(result: tuple[int, str], *fragments: str) -> str:
+    """Exit code 2 and one ``error:`` line (no traceback) holding every fragment; returns that line."""
+    code, output = result
+    assert code == 2, output[-3000:]
+    assert "Traceback" not in output, output[-3000:]
+    errors = [line for line in output.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1, output[-3000:]
+    for fragment in fragments:
+        assert fragment in errors[0], errors[0]
+    return errors[0]
+
+
+def interrupted_at_256(run: Path) -> None:
+    """Make ``run`` look stopped at its first checkpoint (step 256), as after a Ctrl-C."""
+    (run / "checkpoints" / "model_512_steps.pt").unlink()
+    (run / "model.pt").unlink()
+    state = json.loads((run / "state.json").read_text())
+    state.update(status="interrupted", num_timesteps=256, checkpoint=256)
+    (run / "state.json").write_text(json.dumps(state))
+
+
+# ------------------------------------------------------------- bounded readers
+
+
+def _airframe_bomb(run: Path) -> None:
+    from pyflyt_engine.paths import uav_dir
+
+    spec = yaml.safe_load((uav_dir() / "quadx_cf2x.yaml").read_text())
+    text = billion_laughs(10, key="z") + yaml.safe_dump(spec, sort_keys=False).replace("shapes:", "shapes: *z9\n  old:", 1)
+    (run / "airframe.yaml").write_text(text)
+    path = run / "config.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["env"]["uav"] = "airframe.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+def _config_bomb(run: Path) -> None:
+    path = run / "config.yaml"
+    text = path.read_text().replace("net_arch:", "net_arch: *z9\n    old_net_arch:", 1)
+    path.write_text(billion_laughs(10, key="z") + text)
+
+
+def _state_deep(run: Path) -> None:
+    (run / "state.json").write_text('{"status": ' + "[" * 200_000 + "]" * 200_000 + "}")
+
+
+def _state_fifo(run: Path) -> None:
+    (run / "state.json").unlink()
+    os.mkfifo(run / "state.json")  # reading it waits for a writer for ever
+
+
+@pytest.mark.parametrize(
+    ("damage", "command", "fragment"),
+    [
+        ("config_bomb", "eval", "alias-expansion bomb"),
+        ("config_bomb", "resume", "alias-expansion bomb"),
+        ("airframe_bomb", "eval", "alias-expansion bomb"),
+        ("state_deep", "resume", "nested too deeply"),
+        ("state_fifo", "resume", "FIFO"),
+    ],
+)
+def test_a_run_file_built_to_exhaust_the_reader_is_refused_in_seconds(run, damage, command, fragment):
+    if damage == "state_fifo" and not hasattr(os, "mkfifo"):
+        pytest.skip("needs FIFOs")
+    interrupted_at_256(run)
+    {"config_bomb": _config_bomb, "airframe_bomb": _airframe_bomb, "state_deep": _state_deep,
+     "state_fifo": _state_fifo}[damage](run)  # fmt: skip
+    args = ["train", f"resume={run}"] if command == "resume" else ["eval", str(run), "episodes=1", "record=false"]
+    refused(pyflyt_forked(args), str(run), fragment)
+
+
+# ------------------------------------------------------------- benchmark and plot
+
+
+def _benchmark_with(run: Path, tmp_path: Path) -> Path:
+    """A benchmark directory holding ``run`` as the first run of experiment=smoke_benchmark (seeds=1)."""
+    root = tmp_path / "smoke_benchmark"
+    place = root / "runs" / "quadx_hover" / "ppo" / "seed0"
+    place.parent.mkdir(parents=True)
+    shutil.move(run, place)
+    return root
+
+
+SMOKE = ["benchmark", "experiment=smoke_benchmark", "seeds=1"]
+
+
+def test_benchmark_refuses_a_shared_run_built_to_exhaust_the_reader(run, tmp_path):
+    _config_bomb(run)
+    root = _benchmark_with(run, tmp_path)
+    code, output = pyflyt_forked([*SMOKE, f"benchmark.output_dir={tmp_path}", "--dry-run"])
+    assert code == 2, output[-3000:]
+    assert "Traceback" not in output and "alias-expansion bomb" in output
+    assert str(root / "runs" / "quadx_hover" / "ppo" / "seed0") in output
