@@ -318,6 +318,16 @@ def _first_line(exc: Exception) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
+# -------------------------------------------------------------- closed trees
+
+
+def outside(root: str | os.PathLike[str], path: str | os.PathLike[str]) -> bool:
+    """Whether ``path``, with every link resolved, leaves the directory ``root``."""
+    base = Path(os.path.realpath(root))
+    target = Path(os.path.realpath(path))
+    return target != base and base not in target.parents
+
+
 _PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 

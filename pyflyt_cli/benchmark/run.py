@@ -54,7 +54,7 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
     path = root / LOCK_FILE
     try:
         root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except OSError as exc:
         raise CLIError(
             f"cannot use {root} as the benchmark directory ({exc.strerror}): choose another benchmark.output_dir"

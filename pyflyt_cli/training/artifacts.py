@@ -77,6 +77,7 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     """
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
+        _create_new(tmp)  # never through a link or a file someone left under that name
         write(tmp)
         _fsync(tmp)
         fault_point(f"written {path.name}")
@@ -91,6 +92,14 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
             raise ArtifactError(f"cannot write {path}: {reason}") from None
         raise
     fault_point(f"renamed {path.name}")
+
+
+def _create_new(path: Path) -> None:
+    """Create ``path`` empty and new: whatever is there (a stale temporary file, a link) is removed first,
+    and the file is created exclusively, never through a link."""
+    path.unlink(missing_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    os.close(fd)
 
 
 def _save_torch(data: dict[str, Any]) -> Callable[[Path], None]:

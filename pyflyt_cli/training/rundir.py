@@ -335,7 +335,8 @@ def save_config(cfg: TrainConfig, run_dir: Path) -> None:
 
 
 def check_run_dir(run_dir: str | Path) -> Path:
-    """``run_dir`` as a resolved path; :class:`RunDirError` unless it holds a run's ``config.yaml``."""
+    """``run_dir`` as a resolved path; :class:`RunDirError` unless it holds a run's ``config.yaml``
+    and is a closed world (:func:`check_closed`)."""
     path = Path(run_dir).expanduser()
     if not path.exists():
         raise RunDirError(f"run directory {path} does not exist")
@@ -343,9 +344,42 @@ def check_run_dir(run_dir: str | Path) -> Path:
         raise RunDirError(
             f"{path} is not a directory (expected a run directory such as runs/quadx_hover/ppo/<time>-seed0)"
         )
+    check_closed(path)
     if not (path / CONFIG_FILE).is_file():
         raise RunDirError(f"{path} is not a run directory: it has no {CONFIG_FILE}")
     return path.resolve()
+
+
+def check_closed(
+    run_dir: Path, folders: tuple[str, ...] = (CHECKPOINTS, EPISODES), what: str = "run directory"
+) -> None:
+    """Refuse a directory that is not a closed world: an entry (of it, or of its ``folders``)
+    that is a link leading out of it, or a special file (a FIFO, a device, a socket).
+
+    A run directory (or a benchmark directory, ``what``) can be shared, so no link inside it
+    may decide where a resume writes or what an evaluation reads.  Links that stay inside
+    are allowed.
+    """
+    from pyflyt_engine.safe_load import outside
+
+    root = Path(run_dir)
+    for folder in (root, *(root / name for name in folders)):
+        if folder != root and not folder.is_dir():
+            continue
+        try:
+            entries = sorted(os.scandir(folder), key=lambda e: e.name)
+        except OSError as exc:
+            raise RunDirError(f"{folder}: cannot list it: {exc.strerror or exc}") from None
+        for entry in entries:
+            path = Path(entry.path)
+            if entry.is_symlink():
+                if outside(root, path):
+                    raise RunDirError(
+                        f"{path} is a link to {os.readlink(path)}, outside {root}: a shared {what} is "
+                        "read and written only inside itself; replace the link by a copy of what it points to"
+                    )
+            elif not (entry.is_dir(follow_symlinks=False) or entry.is_file(follow_symlinks=False)):
+                raise RunDirError(f"{path} is not a regular file or a folder (a FIFO or a device?): remove it")
 
 
 def load_run_config(run_dir: str | Path) -> TrainConfig:

@@ -1,11 +1,15 @@
 """A shared run directory is hostile input: its files cannot hang or exhaust the reader.
 
 Each case is a run directory rewritten the way an attacker would, from the reproductions
-of issue 39, and fed to ``pyflyt train resume=``, ``pyflyt eval`` and ``pyflyt
-benchmark``: an alias-expansion bomb, deep nesting or a FIFO where a run file should be
-gets one line and exit code 2, in seconds.  These cases run in a forked child (with a
-memory limit) whose timeout only detects a hang (:func:`tests.conftest.pyflyt_forked`);
-they answer in well under a second.
+of issue 39, and fed to ``pyflyt train resume=``, ``pyflyt eval``, ``pyflyt benchmark``
+and ``pyflyt plot``:
+
+* an entry is a link leading out of the run (or benchmark) directory: refused before
+  anything is read or written (nothing appears where the link leads);
+* an alias-expansion bomb, deep nesting or a FIFO where a run file should be: one line,
+  exit code 2, in seconds.  These cases run in a forked child (with a memory limit) whose
+  timeout only detects a hang (:func:`tests.conftest.pyflyt_forked`); they answer in well
+  under a second.
 """
 
 from __future__ import annotations
@@ -66,6 +70,34 @@ def interrupted_at_256(run: Path) -> None:
     state = json.loads((run / "state.json").read_text())
     state.update(status="interrupted", num_timesteps=256, checkpoint=256)
     (run / "state.json").write_text(json.dumps(state))
+
+
+# ------------------------------------------------------------- closed world
+
+
+@pytest.mark.parametrize(
+    ("entry", "command"),
+    [
+        ("checkpoints", "resume"),  # resume wrote model_*_steps.pt where the link led
+        ("episodes", "eval"),  # eval wrote ep_*.mcap where the link led
+        ("state.json", "resume"),
+        ("metrics.mcap", "resume"),
+        ("best_model.pt", "eval"),
+        ("checkpoints/model_256_steps.pt", "resume"),
+    ],
+)
+def test_a_link_out_of_the_run_directory_is_refused_before_anything_is_written(run, tmp_path, entry, command):
+    interrupted_at_256(run)
+    (run / "episodes").mkdir(exist_ok=True)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    target = elsewhere / Path(entry).name
+    shutil.move(run / entry, target)
+    (run / entry).symlink_to(target, target_is_directory=target.is_dir())
+    listing = sorted(str(p) for p in elsewhere.rglob("*"))
+    args = ["train", f"resume={run}"] if command == "resume" else ["eval", str(run), "episodes=1"]
+    refused(cli(*args), str(run / entry), "outside")
+    assert sorted(str(p) for p in elsewhere.rglob("*")) == listing  # nothing written where the link leads
 
 
 # ------------------------------------------------------------- bounded readers
@@ -140,3 +172,27 @@ def test_benchmark_refuses_a_shared_run_built_to_exhaust_the_reader(run, tmp_pat
     assert code == 2, output[-3000:]
     assert "Traceback" not in output and "alias-expansion bomb" in output
     assert str(root / "runs" / "quadx_hover" / "ppo" / "seed0") in output
+
+
+def test_benchmark_refuses_a_link_out_of_its_directory_before_taking_its_lock(run, tmp_path):
+    root = _benchmark_with(run, tmp_path)
+    outside = tmp_path / "precious.txt"
+    outside.write_text("kept\n")
+    (root / "benchmark.lock").symlink_to(outside)  # opening the lock used to truncate what it points to
+    refused(cli(*SMOKE, f"benchmark.output_dir={tmp_path}"), str(root / "benchmark.lock"), "outside")
+    assert outside.read_text() == "kept\n"
+
+
+def test_plot_refuses_links_out_of_the_benchmark_and_its_runs(run, tmp_path):
+    root = _benchmark_with(run, tmp_path)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (root / "report").symlink_to(elsewhere, target_is_directory=True)  # the default output directory
+    refused(cli("plot", str(root), "--reps", "10"), str(root / "report"), "outside")
+    assert not any(elsewhere.iterdir())
+    (root / "report").unlink()
+    metrics = root / "runs" / "quadx_hover" / "ppo" / "seed0" / "metrics.mcap"
+    shutil.move(metrics, elsewhere / "metrics.mcap")
+    metrics.symlink_to(elsewhere / "metrics.mcap")
+    refused(cli("plot", str(root), "--reps", "10"), str(metrics), "outside")
+    assert not (root / "report").exists()
