@@ -302,6 +302,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
     (also its :attr:`Plan.launcher`)."""
     from pyflyt_cli.benchmark.launch import check_launcher_overrides
     from pyflyt_cli.training import registry
+    from pyflyt_cli.training.schema import OPT_INS
 
     bench_over, hydra_over, run_over = split_overrides(overrides)
     run_over = absolute_airframes(run_over)  # the run lines mean the same from any directory
@@ -318,6 +319,11 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
             key = item.partition("=")[0].lstrip("+~")
             if key in _SET_BY_THE_PLAN:
                 raise CLIError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
+            if key in OPT_INS:
+                raise CLIError(
+                    f"benchmark.groups[{g}].overrides: '{item}' is an opt-in, taken from the command line only "
+                    f"(pyflyt benchmark ... {key}=true), never from an experiment file"
+                )
         for env in group.envs:
             task = _task_name(group.task, env, f"benchmark.groups[{g}].task")
             for algo in group.algos:

@@ -243,6 +243,19 @@ def save_policy(path: Path, model: Any, algo: str, step: int) -> None:
     write_atomically(path, _save_torch(policy_payload(model, algo, step)))
 
 
+def save_policy_data(path: Path, algo: str, step: int, policy: Mapping[str, Any], normalizer: Any) -> None:
+    """Write a policy file from a policy's state dict and normaliser statistics (a run's ``init_policy.pt``)."""
+    payload = {
+        "format": POLICY_FORMAT,
+        "version": FORMAT_VERSION,
+        "algo": algo,
+        "step": int(step),
+        "policy": dict(policy),
+        "normalizer": normalizer,
+    }
+    write_atomically(path, _save_torch(payload))
+
+
 def load_policy_into(model: Any, data: Mapping[str, Any], path: Path) -> None:
     """Load a policy file's weights into ``model`` (built from a matching configuration)."""
     try:

@@ -15,6 +15,7 @@
         episodes/            ep_<NNNN>.mcap written by `pyflyt eval`
         eval.json            the last `pyflyt eval` summary
         airframe.yaml        copy of a user airframe file, if the env named one by path
+        init_policy.pt       copy of the policy init_from named (tensors only), if any
         airframe-<sha>.yaml  multi-agent envs: a copy of each airframe file an agent names by
                              path (<sha> = the first 12 hex digits of its SHA-256)
 
@@ -42,9 +43,9 @@ from typing import Any
 
 import yaml
 
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config
+from pyflyt_cli.training.schema import OPT_INS, TrainConfig, parse_train_config
 from pyflyt_engine.errors import ConfigError, PyFlytError
-from pyflyt_engine.safe_load import MAX_YAML_BYTES, read_bytes
+from pyflyt_engine.safe_load import MAX_YAML_BYTES, plain_name, read_bytes
 
 CONFIG_FILE = "config.yaml"
 RUN_FILE = "run.yaml"
@@ -57,6 +58,8 @@ LEGACY_BEST_MODEL = "best_model.zip"
 CHECKPOINTS = "checkpoints"
 EPISODES = "episodes"
 AIRFRAME_COPY = "airframe.yaml"
+#: a copy of the policy ``init_from`` named, kept so a restart never reads outside the run
+INIT_POLICY = "init_policy.pt"
 
 _CHECKPOINT = re.compile(r"^model_(\d+)_steps\.(pt|zip)$")
 #: a checkpoint's replay buffer file
@@ -212,7 +215,7 @@ def _agent_list(env: dict[str, Any]) -> list[dict[str, Any]]:
 def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with files the env names by path made part of the run directory.
 
-    A reward preset given as a path is inlined; an airframe given as a path is copied to
+    A reward preset or a wind config given as a path is inlined; an airframe given as a path is copied to
     ``airframe.yaml``, and each airframe a listed agent of a multi-agent env names by path
     to ``airframe-<sha>.yaml`` (one copy per distinct file content); all are reloaded
     relative to the run directory by :func:`load_run_config`.
@@ -225,6 +228,11 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     if isinstance(reward, str) and (reward.endswith((".yaml", ".yml")) or Path(reward).is_file()):
         preset = load_reward_preset(reward)
         update["reward"] = preset.model_dump()
+    wind = env.wind
+    if isinstance(wind, str) and not plain_name(wind):  # a file: a run names no file outside itself
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        update["wind"] = load_wind_config(wind).model_dump(mode="json")
     if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
         atomic_write(run_dir / AIRFRAME_COPY, read_bytes(env.uav, limit=MAX_YAML_BYTES, what="airframe file"))
         update["uav"] = str(run_dir / AIRFRAME_COPY)
@@ -382,21 +390,103 @@ def check_closed(
                 raise RunDirError(f"{path} is not a regular file or a folder (a FIFO or a device?): remove it")
 
 
+#: keys of an env config that name a shipped preset (or give it inline): never a file in a run
+_PRESET_KEYS = ("wind", "reward", "randomize")
+
+
+def _confine(data: Any, root: Path, source: str) -> None:
+    """Make the files a run's config names its own: airframes by a file name inside ``root`` (made
+    absolute) or a shipped name; presets by a shipped name or inline.  Anything else is refused."""
+    from pyflyt_engine.paths import uav_dir
+    from pyflyt_engine.safe_load import outside, plain_name
+
+    env = data.get("env") if isinstance(data, dict) else None
+    if not isinstance(env, dict):
+        return  # the schema says what is missing
+
+    def airframe(holder: dict[str, Any], key: str) -> None:
+        uav = holder.get(key)
+        if uav is None:
+            return
+        if isinstance(uav, str) and plain_name(uav):
+            if (root / uav).is_file() and not outside(root, root / uav):
+                holder[key] = str(root / uav)
+                return
+            if (uav_dir() / f"{uav}.yaml").is_file():
+                return
+        raise RunDirError(
+            f"{source}: {key}={uav!r} is neither a shipped airframe nor a file of the run directory "
+            "(a run keeps a copy of its airframe file beside its config.yaml)"
+        )
+
+    airframe(env, "uav")
+    for agent in _agent_list(env):
+        airframe(agent, "uav")
+    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    named = {f"env.reward_presets.{k}": v for k, v in presets.items()}
+    for key in _PRESET_KEYS:
+        value = env.get(key)
+        named[f"env.{key}"] = value.get("preset") if isinstance(value, dict) and key == "wind" else value
+    for key, name in named.items():
+        if isinstance(name, str) and not plain_name(name):
+            raise RunDirError(
+                f"{source}: {key}={name!r} names a file: a run directory keeps its presets inline or by a "
+                "shipped name, and names no file outside itself"
+            )
+    for payload in env.get("payloads") or []:
+        shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
+        for shape in shapes:
+            if isinstance(shape, dict) and shape.get("type") == "mesh" and outside(root, Path(str(shape.get("mesh")))):
+                raise RunDirError(f"{source}: a payload's mesh {shape.get('mesh')!r} is outside the run directory")
+
+
+def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
+    """Refuse an airframe file of the run whose URDF or meshes lie outside the run directory."""
+    from pyflyt_engine.safe_load import outside
+    from pyflyt_engine.spec import load_uav_spec
+
+    names = [cfg.env.uav, *(a.uav for a in getattr(cfg.env, "agents", None) or [] if getattr(a, "uav", None))]
+    for name in dict.fromkeys(names):
+        if not (isinstance(name, str) and Path(name).is_absolute()):
+            continue  # a shipped airframe
+        spec = load_uav_spec(name)
+        base = Path(name).parent
+        files = [spec.body.urdf] + [s.mesh for s in spec.body.shapes if s.type == "mesh"]
+        for file in files:
+            if file is not None and outside(root, base / file):
+                raise RunDirError(
+                    f"{source}: the airframe {Path(name).name} names {file!r}, outside the run directory: "
+                    "a shared run is read only from its own files"
+                )
+
+
 def load_run_config(run_dir: str | Path) -> TrainConfig:
-    """The :class:`TrainConfig` a run was started with."""
+    """The :class:`TrainConfig` a run was started with, read as untrusted data.
+
+    The run directory must be a closed world (:func:`check_run_dir`); ``config.yaml`` is
+    read with the bounded reader of :mod:`pyflyt_engine.safe_load`; the files it names
+    must be the run's own (:func:`_confine`: its airframe copies; presets by a shipped name
+    or inline; an airframe's URDF and meshes inside the run); ``trust_pickle`` is never
+    taken from it (an opt-in comes from the command line of the current command only).
+    """
+    path = check_run_dir(run_dir)
+    return load_config_file(path / CONFIG_FILE, root=path)
+
+
+def load_config_file(file: Path, *, root: Path) -> TrainConfig:
+    """A resolved configuration file (a run's ``config.yaml``) read as untrusted data, its files in ``root``."""
     from pyflyt_engine.safe_load import load_yaml_file
 
-    path = check_run_dir(run_dir)
-    data = load_yaml_file(path / CONFIG_FILE, what="config file", error=RunDirError)
-    if isinstance(data, dict) and isinstance(data.get("env"), dict):
-        uav = data["env"].get("uav")
-        if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
-            data["env"]["uav"] = str(path / uav)
-        for agent in _agent_list(data["env"]):
-            uav = agent.get("uav")
-            if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
-                agent["uav"] = str(path / uav)
-    return parse_train_config(data, source=str(path / CONFIG_FILE))
+    source = str(file)
+    data = load_yaml_file(file, what="config file", error=RunDirError)
+    if isinstance(data, dict):
+        data = dict(data)
+        _confine(data, root, source)
+        for key in OPT_INS:
+            data[key] = False  # an opt-in never comes from the file it would trust
+    cfg = parse_train_config(data, source=source, recorded=True)
+    _confine_airframes(cfg, root, source)
+    return cfg
 
 
 LOCK_FILE = "run.lock"

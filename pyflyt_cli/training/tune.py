@@ -184,12 +184,16 @@ def load_search_space(space: str | None, algo: str) -> SearchSpace:
                 f"space={name}: no search space {'file' if name.endswith(('.yaml', '.yml')) else 'named so'}; "
                 f"shipped: {', '.join(shipped)}, or give a YAML file"
             )
+    from pyflyt_cli.training.schema import OPT_INS
+
     data = load_yaml_file(path, what="search space")
     if not isinstance(data, dict) or not data:
         raise ConfigError(f"{path}: a search space maps training keys (algo.learning_rate) to distributions")
     params: dict[str, _Param] = {}
     for key, spec in data.items():
         where = f"{path}: {key}"
+        if key in OPT_INS:
+            raise ConfigError(f"{where}: {key} is an opt-in, given on the command line only, never searched over")
         if not isinstance(spec, dict):
             raise ConfigError(f"{where}: give a distribution, e.g. {{type: float, low: 1e-4, high: 1e-2, log: true}}")
         try:

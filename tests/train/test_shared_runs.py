@@ -1,9 +1,12 @@
-"""A shared run directory is hostile input: its files cannot hang or exhaust the reader.
+"""A shared run directory is hostile input: no code from it, no writes through its links, no hang.
 
 Each case is a run directory rewritten the way an attacker would, from the reproductions
 of issue 39, and fed to ``pyflyt train resume=``, ``pyflyt eval``, ``pyflyt benchmark``
 and ``pyflyt plot``:
 
+* its ``config.yaml`` carries ``trust_pickle: true`` and names a pickled file to start from
+  (``init_from``, an AWAC ``algo.offline_buffer``), with the digests in ``state.json`` and
+  ``run.yaml`` forged to match: nothing is unpickled (the payload would create a marker);
 * an entry is a link leading out of the run (or benchmark) directory: refused before
   anything is read or written (nothing appears where the link leads);
 * an alias-expansion bomb, deep nesting or a FIFO where a run file should be: one line,
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import shutil
 from pathlib import Path
 
@@ -24,10 +28,11 @@ import yaml
 from typer.testing import CliRunner
 
 from pyflyt_cli.main import app
-from pyflyt_cli.training import train
+from pyflyt_cli.training import rundir, train
 from tests.conftest import billion_laughs, pyflyt_forked
 
-from .conftest import TINY_PPO, load
+from .conftest import TINY_AWAC, TINY_PPO, load
+from .test_artifacts import Payload, _sb3_zip_with_payload
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +75,87 @@ def interrupted_at_256(run: Path) -> None:
     state = json.loads((run / "state.json").read_text())
     state.update(status="interrupted", num_timesteps=256, checkpoint=256)
     (run / "state.json").write_text(json.dumps(state))
+
+
+def stopped_before_a_checkpoint(run: Path) -> None:
+    for name in ("checkpoints", "model.pt", "best_model.pt"):
+        path = run / name
+        shutil.rmtree(path) if path.is_dir() else path.unlink(missing_ok=True)
+    state = json.loads((run / "state.json").read_text())
+    state.update(status="interrupted", num_timesteps=0, checkpoint=None)
+    (run / "state.json").write_text(json.dumps(state))
+
+
+def rewrite_config(run: Path, change) -> None:
+    """Change ``config.yaml`` and forge the digests of ``state.json`` and ``run.yaml`` to match it."""
+    path = run / "config.yaml"
+    data = yaml.safe_load(path.read_text())
+    change(data)
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    digest = rundir.config_digest(rundir.load_run_config(run), run)
+    state = json.loads((run / "state.json").read_text())
+    (run / "state.json").write_text(json.dumps({**state, "config_digest": digest}))
+    record = yaml.safe_load((run / "run.yaml").read_text())
+    (run / "run.yaml").write_text(yaml.safe_dump({**record, "config_digest": digest}))
+
+
+# ------------------------------------------------------------- opt-ins
+
+
+@pytest.mark.parametrize("named", ["relative", "absolute"])
+def test_resume_never_takes_trust_pickle_from_the_run_it_resumes(run, tmp_path, monkeypatch, named):
+    marker = tmp_path / "ran"
+    stopped_before_a_checkpoint(run)
+    model = _sb3_zip_with_payload(run, marker)  # <run>/model.zip, a pickle that creates the marker
+
+    def change(data):
+        data["trust_pickle"] = True
+        data["init_from"] = model.name if named == "relative" else str(model)
+
+    rewrite_config(run, change)
+    monkeypatch.chdir(run)  # where a relative init_from was resolved
+    result = cli("train", f"resume={run}")
+    assert not marker.exists(), "the pickle named by the run's config.yaml was loaded"
+    line = refused(result, str(run), "init_policy.pt", "never read by a resume")
+    assert "trust_pickle=true on that command line" in line
+
+
+def test_resume_never_unpickles_an_awac_offline_buffer_named_by_the_run(run, tmp_path):
+    marker = tmp_path / "ran"
+    buffer = run / "buffer.pkl"
+    buffer.write_bytes(pickle.dumps(Payload(marker)))
+    awac = load([*TINY_AWAC, f"algo.offline_buffer={buffer}", "algo.offline_steps=5", "trust_pickle=true"], tmp_path)
+    stopped_before_a_checkpoint(run)
+    rewrite_config(run, lambda data: data.update(rundir.config_dict(awac)))
+    result = cli("train", f"resume={run}")
+    assert not marker.exists(), "the pickle named by the run's config.yaml was loaded"
+    line = refused(result, str(buffer), "trust_pickle=true", "never takes from the run's files")
+    assert "a pickle" in line
+
+
+def test_a_run_started_from_another_restarts_from_its_own_copy_of_that_policy(trained, tmp_path):
+    """A resume before the first checkpoint starts over from init_policy.pt: init_from may be gone (or hostile)."""
+    from pyflyt_cli.training import resume
+
+    source = tmp_path / "source"
+    shutil.copytree(trained, source)
+    tiny = [*TINY_PPO, "train.total_timesteps=256", "train.eval_freq=0"]
+    run = train(load([*tiny, f"init_from={source}"], tmp_path / "runs")).run_dir
+    assert (run / rundir.INIT_POLICY).is_file()
+    stopped_before_a_checkpoint(run)
+    shutil.rmtree(source)
+    messages: list[str] = []
+    result = resume(run, log=messages.append)
+    assert not result.interrupted and result.num_timesteps == 256
+    assert f"policy initialised from {run / rundir.INIT_POLICY}" in messages
+
+
+def test_an_experiment_file_cannot_opt_in_for_the_command_line(tmp_path):
+    experiment = tmp_path / "trusting.yaml"
+    experiment.write_text("# @package _global_\ntrust_pickle: true\n")
+    result = cli("train", f"experiment={experiment}", "--cfg")
+    refused(result, "trust_pickle is set by experiment=trusting", "command line only")
+    assert cli("train", f"experiment={experiment}", "trust_pickle=true", "--cfg")[0] == 0
 
 
 # ------------------------------------------------------------- closed world
