@@ -143,13 +143,15 @@ def _resume(
     path: Path, total_timesteps: int | None, callbacks: Sequence[Any], log: Log, progress_bar: bool | None
 ) -> RunResult:
     cfg = rundir.load_run_config(path)
+    state = rundir.read_state(path)
+    record = rundir.read_yaml(path / rundir.RUN_FILE)
+    _check_digest(path, cfg, state, record)
     if total_timesteps is not None:
         data = cfg.model_dump(mode="json")
         data["train"]["total_timesteps"] = int(total_timesteps)
         cfg = parse_train_config(data, source=str(path / rundir.CONFIG_FILE), recorded=True)
     _check_environment(cfg)
     _probe_env(cfg)
-    state = rundir.read_state(path)
     checkpoint = _resume_point(path, cfg, log)
     done = checkpoint.step if checkpoint is not None else 0
     if state.get("status") == "complete" and done >= cfg.train.total_timesteps:
@@ -160,15 +162,36 @@ def _resume(
     init = _restart_source(path, cfg) if checkpoint is None else None
     if checkpoint is None:
         _check_restart_inputs(path, cfg)
+    digest = rundir.config_digest(cfg, path)
+    record.setdefault("resumes", []).append(
+        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid(), "config_digest": digest}
+    )
+    rundir.write_yaml(path / rundir.RUN_FILE, record)  # the new digest is recorded before the config changes
     if total_timesteps is not None:
         rundir.save_config(cfg, path)
-    record = rundir.read_yaml(path / rundir.RUN_FILE)
-    record.setdefault("resumes", []).append(
-        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid()}
-    )
-    rundir.write_yaml(path / rundir.RUN_FILE, record)
     log(f"resuming {path} from " + (f"step {checkpoint.step}" if checkpoint else "the start (no checkpoint was saved)"))
     return _Run(cfg, path, log, progress_bar).execute(callbacks, checkpoint=checkpoint, init=init)
+
+
+def _check_digest(path: Path, cfg: TrainConfig, state: Mapping[str, Any], record: Mapping[str, Any]) -> None:
+    """Refuse to resume a run whose ``config.yaml`` is not a configuration it was trained with.
+
+    ``run.yaml`` records the config digest at the start and at each resume, ``state.json``
+    at each state change; ``config.yaml`` changed since (edited, or swapped in a shared
+    copy) matches none of them.
+    """
+    recorded = {state.get("config_digest"), record.get("config_digest")}
+    resumes = record.get("resumes")
+    recorded |= {r.get("config_digest") for r in resumes if isinstance(r, dict)} if isinstance(resumes, list) else set()
+    recorded = {d for d in recorded if isinstance(d, str)}
+    if rundir.config_digest(cfg, path) in recorded:
+        return
+    why = "does not match the configuration it was trained with" if recorded else "has no recorded config digest"
+    raise ConfigError(
+        f"{path / rundir.CONFIG_FILE} {why} (state.json, run.yaml): it was changed after the run started, so "
+        f"it is not resumed; to train those settings on purpose, start a new run from them: "
+        f"pyflyt train from_config={path / rundir.CONFIG_FILE}"
+    )
 
 
 def _restart_source(path: Path, cfg: TrainConfig) -> PolicySource | None:

@@ -7,6 +7,7 @@ and ``pyflyt plot``:
 * its ``config.yaml`` carries ``trust_pickle: true`` and names a pickled file to start from
   (``init_from``, an AWAC ``algo.offline_buffer``), with the digests in ``state.json`` and
   ``run.yaml`` forged to match: nothing is unpickled (the payload would create a marker);
+* a ``config.yaml`` changed after the run started is not resumed;
 * an entry is a link leading out of the run (or benchmark) directory: refused before
   anything is read or written (nothing appears where the link leads);
 * an alias-expansion bomb, deep nesting or a FIFO where a run file should be: one line,
@@ -156,6 +157,23 @@ def test_an_experiment_file_cannot_opt_in_for_the_command_line(tmp_path):
     result = cli("train", f"experiment={experiment}", "--cfg")
     refused(result, "trust_pickle is set by experiment=trusting", "command line only")
     assert cli("train", f"experiment={experiment}", "trust_pickle=true", "--cfg")[0] == 0
+
+
+# ------------------------------------------------------------- identity
+
+
+def test_a_config_changed_after_the_run_started_is_not_resumed(run):
+    interrupted_at_256(run)
+    path = run / "config.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["algo"]["learning_rate"] = 0.5  # edited, or swapped in a shared copy; the digests left as they were
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    before = sorted(p.name for p in (run / "checkpoints").iterdir())
+    refused(cli("train", f"resume={run}"), str(path), "does not match", f"pyflyt train from_config={path}")
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == before
+    code, output = cli("train", f"from_config={path}", "--cfg")  # the way out: a new run of those settings
+    assert code == 0, output
+    assert "learning_rate: 0.5" in output
 
 
 # ------------------------------------------------------------- closed world
