@@ -17,6 +17,7 @@ import os
 from pathlib import Path
 
 import pytest
+import yaml
 from typer.testing import CliRunner
 
 from pyflyt_cli.main import app
@@ -69,6 +70,29 @@ def test_a_recorded_airframe_naming_a_fifo_flies_the_recorded_urdf_and_does_not_
     crafted = craft(recording, tmp_path / "ep.mcap", env)
     code, output = pyflyt_forked(["replay", str(crafted), "--verify"])
     assert code == 0, output[-3000:]  # the recording's own URDF is flown: the same flight
+    assert "verify    OK" in output
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_a_multi_agent_recording_flies_its_recorded_airframes_not_the_files_its_agents_name(tmp_path):
+    import numpy as np
+
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.paths import conf_dir, uav_dir
+    from pyflyt_engine.telemetry import RecordEpisode
+
+    mine = tmp_path / "mine.yaml"
+    mine.write_text((uav_dir() / "quadx_f450.yaml").read_text())
+    config = {**yaml.safe_load((conf_dir() / "env" / "ma_quadx_hover.yaml").read_text()), "agents": [{"uav": str(mine)}, {}]}
+    env = RecordEpisode(make_env(config), tmp_path / "episodes")
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(np.full((2, 4), 0.1))
+    env.close()
+    mine.unlink()
+    os.mkfifo(mine)  # the file an agent named: opening it would hang
+    code, output = pyflyt_forked(["replay", str(env.paths[0]), "--verify"])
+    assert code == 0, output[-3000:]
     assert "verify    OK" in output
 
 
