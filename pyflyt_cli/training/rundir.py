@@ -445,7 +445,8 @@ def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
     from pyflyt_engine.safe_load import outside
     from pyflyt_engine.spec import load_uav_spec
 
-    names = [cfg.env.uav, *(a.uav for a in getattr(cfg.env, "agents", None) or [] if getattr(a, "uav", None))]
+    agents = getattr(cfg.env, "agents", None)  # a multi-agent env: a count, or a list of agents
+    names = [cfg.env.uav, *(a.uav for a in agents if a.uav)] if isinstance(agents, list) else [cfg.env.uav]
     for name in dict.fromkeys(names):
         if not (isinstance(name, str) and Path(name).is_absolute()):
             continue  # a shipped airframe
