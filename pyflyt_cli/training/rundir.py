@@ -279,8 +279,12 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     earlier value.  An airframe named by path
     (``env.uav``, e.g. the ``airframe.yaml`` a run keeps of it) is identified by the
     SHA-256 of its file's bytes, not its path, so a copy of the same file is the same run.
+    A wind config or reward preset named by path counts by its content, as the run keeps it
+    inline (:func:`portable_config`).
     """
     data = cfg.model_dump(mode="json") if isinstance(cfg, TrainConfig) else json.loads(json.dumps(cfg))
+    if isinstance(data.get("env"), dict):
+        _inline_preset_files(data["env"])
     flat: dict[str, Any] = {}
 
     def walk(node: Any, prefix: str) -> None:
@@ -314,6 +318,23 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
             {**a, "uav": file_identity(a.get("uav"))} if isinstance(a, dict) else a for a in flat["env.agents"]
         ]
     return flat
+
+
+def _inline_preset_files(env: dict[str, Any]) -> None:
+    """Replace a wind config or reward preset named by path with its content (as plain JSON data)."""
+    from pyflyt_engine.atmosphere import load_wind_config
+    from pyflyt_engine.envs.config import load_reward_preset
+
+    wind = env.get("wind")
+    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    reward = presets.get(env.get("reward"), env.get("reward")) if isinstance(env.get("reward"), str) else None
+    try:
+        if isinstance(wind, str) and not plain_name(wind):
+            env["wind"] = json.loads(json.dumps(load_wind_config(wind).model_dump(mode="json")))
+        if isinstance(reward, str) and (reward.endswith((".yaml", ".yml")) or Path(reward).is_file()):
+            env["reward"] = json.loads(json.dumps(load_reward_preset(reward).model_dump()))
+    except PyFlytError:
+        pass  # an unreadable file keeps its name: it then differs from any readable one
 
 
 def config_digest(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> str:

@@ -176,6 +176,19 @@ def test_a_config_changed_after_the_run_started_is_not_resumed(run):
     assert "learning_rate: 0.5" in output
 
 
+def test_a_wind_or_reward_file_counts_by_the_content_the_run_keeps_inline(tmp_path):
+    """A run names no file outside itself, so it keeps these inline; it is still the run that was planned."""
+    from pyflyt_engine.paths import conf_dir
+
+    wind, reward = tmp_path / "my_wind.yaml", tmp_path / "my_reward.yaml"
+    shutil.copyfile(conf_dir() / "wind" / "gust.yaml", wind)
+    shutil.copyfile(conf_dir() / "reward" / "quadx_hover_sparse.yaml", reward)
+    planned = load([*TINY_PPO, f"env.wind={wind}", f"env.reward={reward}"], tmp_path)
+    kept = rundir.portable_config(planned, tmp_path)
+    assert isinstance(kept.env.wind, dict) and isinstance(kept.env.reward, dict)
+    assert rundir.identity(kept) == rundir.identity(planned)
+
+
 # ------------------------------------------------------------- closed world
 
 
