@@ -159,11 +159,12 @@ def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
 
     Hydra finds group options on its search path only, so the file is offered to it as
     ``<group>/<name>.yaml`` of a private directory added to ``hydra.searchpath``.  It is
-    read first as plain YAML data (``yaml.safe_load``: a ``!!python/...`` tag is refused,
-    never run), so a problem is reported against the file given.  An experiment file's
-    name must not shadow a shipped experiment; an airframe file is validated as one and
-    offered as ``<stem>.file``, a name no shipped airframe has (``conf/`` comes first on
-    the search path).  Returns the overrides and {copy: file given}.
+    read first as plain YAML data (:func:`read_yaml_data`: a ``!!python/...`` tag is refused,
+    never run; so are a special file, an oversized file and an alias-expansion bomb), so a
+    problem is reported against the file given.  An experiment file's name must not shadow
+    a shipped experiment; an airframe file is validated as one and offered as
+    ``<stem>.file``, a name no shipped airframe has (``conf/`` comes first on the search
+    path).  Returns the overrides and {copy: file given}.
     """
     import atexit
     import shutil
@@ -205,15 +206,13 @@ def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
 
 
 def read_yaml_data(path: Path) -> Any:
-    """The plain data of a YAML file (``yaml.safe_load``); :class:`CLIError` naming the file otherwise."""
+    """The plain data of a YAML file (the bounded reader of :mod:`pyflyt_engine.safe_load`: no tags,
+    no special files, no alias-expansion bombs); :class:`CLIError` naming the file otherwise."""
+    from pyflyt_engine.safe_load import MAX_YAML_BYTES, read_text, yaml_data
+
+    text = read_text(path, what="YAML file", error=CLIError, limit=MAX_YAML_BYTES)
     try:
-        text = path.read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise CLIError(f"{path}: cannot read the file: {exc}") from None
-    except UnicodeDecodeError:
-        raise CLIError(f"{path}: not a text file (not UTF-8): give a YAML file") from None
-    try:
-        return yaml.safe_load(text)
+        return yaml_data(text, source=str(path), error=CLIError)
     except yaml.YAMLError as exc:
         raise CLIError(yaml_problem(exc, str(path))) from None
 

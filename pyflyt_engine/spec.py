@@ -1,8 +1,8 @@
 """Typed vehicle (UAV) specs, loaded from YAML and validated at load.
 
 A vehicle is data: a YAML file under ``conf/uav/`` (or anywhere) that declares the body,
-its components and its controller.  :func:`load_uav_spec` reads it with
-``yaml.safe_load`` (no tags, no code), checks every field against the schema below and
+its components and its controller.  :func:`load_uav_spec` reads it with the bounded YAML reader of
+:mod:`pyflyt_engine.safe_load` (no tags, no code), checks every field against the schema below and
 raises :class:`~pyflyt_engine.errors.SpecError` naming the file, the field and the fix.
 
 The schema is written as pydantic models with ``extra="forbid"``, so a misspelt key is
@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-import yaml
 from pydantic import (
     AfterValidator,
     BaseModel,
@@ -35,6 +34,7 @@ from pydantic import (
 from pyflyt_engine import exact
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
+from pyflyt_engine.safe_load import load_yaml_file
 
 Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float, float]
@@ -918,17 +918,13 @@ def available_uavs() -> list[str]:
 def load_uav_spec(name_or_path: str | Path) -> UAVSpec:
     """Load and validate a UAV spec from a shipped name or a YAML path.
 
-    The file is parsed with ``yaml.safe_load``: YAML tags that would construct Python
-    objects are rejected, so loading a spec never runs code from it.
+    The file is read by :func:`pyflyt_engine.safe_load.load_yaml_file`: YAML tags that
+    would construct Python objects are rejected, so loading a spec never runs code from it,
+    and a special file, an oversized file or an alias-expansion bomb is refused.
 
     Raises:
         SpecError: the file is missing, is not valid YAML, or does not match the schema.
     """
     path = resolve_uav_path(name_or_path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise SpecError(f"{path}: not valid YAML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{path}: cannot read the file: {exc}") from None
+    data = load_yaml_file(path, what="UAV file", error=SpecError)
     return parse_uav_spec(data, source=str(path))

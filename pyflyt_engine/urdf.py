@@ -224,3 +224,79 @@ def cached_urdf(text: str) -> Path:
             Path(tmp).unlink(missing_ok=True)
             raise
     return path
+
+
+# ------------------------------------------------------------- foreign URDF
+
+#: the largest URDF text accepted from a recording [bytes]; a generated one is a few kB
+MAX_URDF_BYTES = 1 << 20
+#: the most elements and the deepest nesting of such a URDF (a generated one: a few dozen, 6 levels)
+MAX_URDF_ELEMENTS = 10_000
+MAX_URDF_DEPTH = 16
+#: attribute -> how many numbers it holds (and whether they must be > 0)
+_NUMBERS = {
+    "xyz": (3, False),
+    "rpy": (3, False),
+    "size": (3, True),
+    "scale": (3, True),
+    "rgba": (4, False),
+    "radius": (1, True),
+    "length": (1, True),
+    "value": (1, False),
+    **{name: (1, False) for name in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+}
+
+
+def urdf_problem(text: str) -> str | None:
+    """What makes ``text`` unfit to hand to PyBullet as a URDF from someone else (None: fit).
+
+    PyBullet parses a URDF in C++ and aborts the process (or prints errors and fails)
+    on input it does not expect, so a URDF that did not come from :func:`generate_urdf`
+    in this process is checked first: at most :data:`MAX_URDF_BYTES`, well-formed XML
+    without a document type (no entities to expand), a ``<robot>`` with at least one
+    ``<link>``, at most :data:`MAX_URDF_ELEMENTS` elements nested at most
+    :data:`MAX_URDF_DEPTH` deep, no attribute naming a file (``filename``: meshes,
+    textures), and every number of an origin, a shape, a colour, a mass or an inertia
+    finite (sizes positive).
+    """
+    from xml.etree import ElementTree
+
+    size = len(text.encode())
+    if size > MAX_URDF_BYTES:
+        return f"it is {size} bytes, more than the {MAX_URDF_BYTES} a URDF may have"
+    lowered = text.lower()
+    if "<!doctype" in lowered or "<!entity" in lowered:
+        return "it declares a document type or entities, which a URDF does not need"
+    try:
+        root = ElementTree.fromstring(text)
+    except ElementTree.ParseError as exc:
+        return f"it is not well-formed XML ({exc})"
+    if root.tag != "robot":
+        return f"its root element is <{root.tag}>, not <robot>"
+    count = 0
+    links = 0
+    stack = [(root, 1)]
+    while stack:
+        element, depth = stack.pop()
+        count += 1
+        if count > MAX_URDF_ELEMENTS:
+            return f"it has more than {MAX_URDF_ELEMENTS} elements"
+        if depth > MAX_URDF_DEPTH:
+            return f"its elements nest more than {MAX_URDF_DEPTH} deep"
+        links += element.tag == "link"
+        for name, value in element.attrib.items():
+            if name == "filename":
+                return f"<{element.tag}> names the file {value!r}, and a file is not part of the recording"
+            if name in _NUMBERS:
+                n, positive = _NUMBERS[name]
+                try:
+                    numbers = [float(v) for v in value.split()]
+                except ValueError:
+                    return f"<{element.tag} {name}={value!r}> is not {n} number{'s' * (n > 1)}"
+                if len(numbers) != n or not all(math.isfinite(v) and (v > 0 or not positive) for v in numbers):
+                    kind = "positive" if positive else "finite"
+                    return f"<{element.tag} {name}={value!r}> is not {n} {kind} number{'s' * (n > 1)}"
+        stack.extend((child, depth + 1) for child in element)
+    if not links:
+        return "it has no <link>"
+    return None

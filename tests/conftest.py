@@ -1,14 +1,66 @@
-"""Shared fixtures: small worlds and spec variants built from the shipped airframes."""
+"""Shared fixtures: small worlds and spec variants built from the shipped airframes; hostile-input helpers."""
 
 from __future__ import annotations
 
 import copy
+import os
+import resource
 
 import pytest
 import yaml
 
 from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import UAVSpec, parse_uav_spec
+
+
+def pyflyt_forked(args: list[str], timeout: float = 120, memory: int = 2 << 30) -> tuple[int, str]:
+    """``pyflyt <args>`` (in-process CLI) in a forked child: (exit code, output).
+
+    For input built to hang, exhaust memory or crash the process: the child may grow by
+    ``memory`` bytes at most, and a child that does not answer within ``timeout`` seconds
+    (a hang detector only: the commands tested answer in well under a second) or dies
+    (an abort) fails the test.  Forking skips the seconds a new interpreter spends on imports.
+    """
+    import multiprocessing
+
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+
+    def target() -> None:
+        if os.path.exists("/proc/self/statm"):
+            with open("/proc/self/statm") as statm:  # the address space in use now, in pages
+                used = int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+            resource.setrlimit(resource.RLIMIT_AS, (used + memory, used + memory))
+        result = CliRunner().invoke(app, args)
+        send.send((result.exit_code, result.output + ("" if result.exception is None or isinstance(
+            result.exception, SystemExit) else f"\nTraceback (in the child): {result.exception!r}")))
+
+    child = context.Process(target=target)
+    child.start()
+    send.close()
+    try:
+        if not receive.poll(timeout):
+            pytest.fail(f"pyflyt {' '.join(args)} did not answer within {timeout} s (it hangs)")
+        try:
+            return receive.recv()
+        except EOFError:
+            child.join()
+            pytest.fail(f"pyflyt {' '.join(args)} crashed (exit code {child.exitcode})")
+    finally:
+        child.kill()
+        child.join()
+
+
+def billion_laughs(levels: int = 9, key: str = "a") -> str:
+    """A few hundred bytes of YAML whose aliases expand to 10**levels values (``<key><levels-1>`` holds them all)."""
+    lines = [f"{key}0: &{key}0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for i in range(1, levels):
+        lines.append(f"{key}{i}: &{key}{i} [" + ", ".join([f"*{key}{i - 1}"] * 10) + "]")
+    return "\n".join(lines) + "\n"
 
 
 def spec_dict(name: str = "quadx_cf2x") -> dict:

@@ -17,6 +17,7 @@ from typing import Any
 import yaml
 
 from pyflyt_cli.benchmark.plan import NORMALISATION_FILE, Job, Plan
+from pyflyt_engine.safe_load import load_yaml_file
 
 #: seed of the random policy's episodes (episode i: reset(seed=RANDOM_SEED + i)) and action sampler
 RANDOM_SEED = 1000
@@ -45,7 +46,7 @@ def update_normalisation(plan: Plan, jobs: Sequence[Job] | None = None, echo: An
     path = plan.root / NORMALISATION_FILE
     existing: dict[str, Any] = {}
     if path.is_file():
-        loaded = yaml.safe_load(path.read_text())
+        loaded = load_yaml_file(path, what="normalisation file")
         existing = loaded if isinstance(loaded, dict) else {}
     references = plan.spec.get("reference") or {}
     episodes = int(plan.spec.get("random_episodes", 10))

@@ -189,11 +189,17 @@ class Plan:
 
 def read_plan(root: str | Path) -> Plan:
     """The plan written by ``pyflyt benchmark`` in ``root`` (a worker's view of it)."""
+    from pyflyt_engine.safe_load import load_json_file
+
     root = Path(root)
     path = root / PLAN_FILE
     try:
-        data = json.loads(path.read_text())
+        # a plan holds a full configuration per run: bounded, but far above any grid this package plans
+        data = load_json_file(path, what="benchmark plan", limit=64 << 20, max_nodes=4_000_000)
         jobs = [Job(**{k: v for k, v in j.items() if k != "id"}) for j in data["jobs"]]
+    except ConfigError as exc:
+        reason = str(exc).removeprefix(f"{path}: ")
+        raise ConfigError(f"{path}: not a readable benchmark plan ({reason}); rerun pyflyt benchmark to rewrite it") from None
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ConfigError(
             f"{path}: not a readable benchmark plan ({exc}); rerun pyflyt benchmark to rewrite it"
@@ -296,6 +302,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
     (also its :attr:`Plan.launcher`)."""
     from pyflyt_cli.benchmark.launch import check_launcher_overrides
     from pyflyt_cli.training import registry
+    from pyflyt_cli.training.schema import OPT_INS
 
     bench_over, hydra_over, run_over = split_overrides(overrides)
     run_over = absolute_airframes(run_over)  # the run lines mean the same from any directory
@@ -312,6 +319,11 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
             key = item.partition("=")[0].lstrip("+~")
             if key in _SET_BY_THE_PLAN:
                 raise CLIError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
+            if key in OPT_INS:
+                raise CLIError(
+                    f"benchmark.groups[{g}].overrides: '{item}' is an opt-in, taken from the command line only "
+                    f"(pyflyt benchmark ... {key}=true), never from an experiment file"
+                )
         for env in group.envs:
             task = _task_name(group.task, env, f"benchmark.groups[{g}].task")
             for algo in group.algos:

@@ -54,7 +54,7 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
     path = root / LOCK_FILE
     try:
         root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except OSError as exc:
         raise CLIError(
             f"cannot use {root} as the benchmark directory ({exc.strerror}): choose another benchmark.output_dir"
@@ -88,11 +88,7 @@ def run_state(plan: Plan, job: Job) -> str:
     path = plan.run_dir(job)
     if not (path / rundir.CONFIG_FILE).is_file():
         return NEW
-    lock = path / rundir.LOCK_FILE
-    try:
-        pid = int(lock.read_text().strip() or 0)
-    except (OSError, ValueError):
-        pid = 0
+    pid = rundir.read_pid(path / rundir.LOCK_FILE)
     if pid and pid != os.getpid() and rundir._alive(pid):
         return BUSY
     if run_differences(plan, job):

@@ -64,8 +64,31 @@ class Survey:
         )
 
 
+def check_benchmark_dir(plan: Plan) -> None:
+    """Refuse a benchmark directory that is not a closed world before anything in it is read or written:
+    a link leading out of it (its top level, ``logs/``, or on the way to a run directory) or a special file.
+
+    Raises:
+        RunDirError: naming the link and where it leads.
+    """
+    from pyflyt_cli.benchmark.plan import LOGS_DIR
+    from pyflyt_cli.training.rundir import RunDirError, check_closed
+    from pyflyt_engine.safe_load import outside
+
+    if not plan.root.is_dir():
+        return
+    check_closed(plan.root, folders=(LOGS_DIR,), what="benchmark directory")
+    for job in plan.jobs:
+        if outside(plan.root, plan.run_dir(job)):
+            raise RunDirError(
+                f"{plan.run_dir(job)} leads outside {plan.root} (a link on its way): a shared benchmark directory "
+                "is read and written only inside itself; replace the link by a copy of what it points to"
+            )
+
+
 def survey(plan: Plan) -> Survey:
     """The state of every run of ``plan``, read from its run directory."""
+    check_benchmark_dir(plan)
     states = {j.id: run_state(plan, j) for j in plan.jobs}
     restart = to_restart(plan, states)
     return Survey(
@@ -187,6 +210,7 @@ def run_benchmark(plan: Plan, *, restart_changed: bool = False, log: Echo = _sil
     from pyflyt_cli.benchmark.run import move_aside, run_local, summary
     from pyflyt_cli.training.rundir import atomic_write
 
+    check_benchmark_dir(plan)  # before the lock file is opened
     with hold_benchmark(plan.root, plan.command):  # a second benchmark on this directory stops here
         found = survey(plan)
         check_restarts(plan, found, restart_changed)

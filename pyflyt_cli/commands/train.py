@@ -20,6 +20,8 @@ from pyflyt_cli.config import CLIError, _group_choices, parse_overrides
 USER_GROUPS = ("env", "algo", "uav", "reward", "experiment")
 #: overrides accepted together with resume=<run>
 RESUME_KEYS = ("train.total_timesteps", "train.progress_bar")
+#: overrides accepted together with from_config=<file>: where the new run goes, how it reports, opt-ins
+FROM_CONFIG_KEYS = ("run_dir", "train.output_dir", "train.progress_bar", "trust_pickle")
 #: exit code of a run stopped by Ctrl-C / SIGTERM (its checkpoint saved): 128 + SIGINT
 INTERRUPTED = 130
 
@@ -46,7 +48,8 @@ def train_help() -> str:
         "  pyflyt train -m seed=0,1,2        # one run per seed\n"
         "  pyflyt train resume=<run dir>     # continue an interrupted run\n"
         "  pyflyt train init_from=<run dir>  # start from a run's policy\n"
-        "  pyflyt train init_from=<run dir>@<step>  # its first checkpoint at/after step\n\n"
+        "  pyflyt train init_from=<run dir>@<step>  # its first checkpoint at/after step\n"
+        "  pyflyt train from_config=<run dir>/config.yaml  # a new run of a run's settings\n\n"
         "Config groups (group=choice):\n"
         f"{groups}\n\n"
         "Main keys: seed, env_name, run_dir, train.total_timesteps, train.n_envs,\n"
@@ -122,6 +125,48 @@ def _resume_args(overrides: list[str]) -> tuple[str, dict[str, Any]]:
     return run, {"total_timesteps": parsed_total, "progress_bar": parsed_bar}
 
 
+def _from_config(overrides: list[str]) -> tuple[Any, Path | None]:
+    """``from_config=<file> [run_dir=...] [train.output_dir=...] [train.progress_bar=...] [trust_pickle=...]``:
+    the resolved configuration in ``<file>`` (a run's ``config.yaml``) to train as a new run, and its ``run_dir``.
+
+    The file is read as untrusted data, as a run's own (:func:`~pyflyt_cli.training.rundir.load_config_file`:
+    the airframe copies beside it, no ``trust_pickle`` from it), then validated as a config to start.
+    """
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.schema import parse_train_config
+
+    file, extra = None, {}
+    for item in overrides:
+        key, _, value = item.partition("=")
+        if key == "from_config":
+            file = value
+        elif key in FROM_CONFIG_KEYS:
+            extra[key] = value
+        else:
+            raise CLIError(
+                f"'{item}' cannot be combined with from_config=: the new run trains the file's settings "
+                f"(only {', '.join(k + '=' for k in FROM_CONFIG_KEYS)} may be given)"
+            )
+    if not file:
+        raise CLIError("from_config= needs a configuration file: pyflyt train from_config=<run dir>/config.yaml")
+    path = Path(file).expanduser()
+    if not path.is_file():
+        raise CLIError(f"from_config={file}: no such file ({path.absolute()})")
+    data = rundir.config_dict(rundir.load_config_file(path, root=path.resolve().parent))
+    flag = {"true": True, "false": False, "1": True, "0": False, "yes": True, "no": False}
+    for key in ("train.progress_bar", "trust_pickle"):
+        if key in extra:
+            if extra[key].lower() not in flag:
+                raise CLIError(f"{key} must be true or false, got {extra[key]!r}")
+            section, _, leaf = key.rpartition(".")
+            (data[section] if section else data)[leaf] = flag[extra[key].lower()]
+    if "train.output_dir" in extra:
+        data["train"]["output_dir"] = extra["train.output_dir"]
+    cfg = parse_train_config(data, source=str(path))
+    run_dir = extra.get("run_dir")
+    return cfg, Path(run_dir).expanduser() if run_dir else None
+
+
 def _echo(message: str) -> None:
     typer.echo(message, err=True)
 
@@ -146,8 +191,13 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
             return INTERRUPTED
         return INTERRUPTED if result.interrupted else 0
 
-    jobs = _sweep_jobs(overrides, multirun)
-    composed = [compose_run(job) for job in jobs]  # every job validated before the first runs
+    if any(o.startswith("from_config=") for o in overrides):
+        if multirun:
+            raise CLIError("from_config= trains one configuration: do not combine it with -m")
+        jobs, composed = [overrides], [_from_config(overrides)]
+    else:
+        jobs = _sweep_jobs(overrides, multirun)
+        composed = [compose_run(job) for job in jobs]  # every job validated before the first runs
     if len(jobs) > 1 and any(run_dir is not None for _, run_dir in composed):
         raise CLIError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
     if show_config:

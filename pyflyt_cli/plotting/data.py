@@ -88,6 +88,22 @@ class Benchmark:
         return sorted(set(self.algo_envs[x]) & set(self.algo_envs[y]))
 
 
+def _check_closed(path: Path, root: Path | None = None) -> None:
+    """Refuse a benchmark (or, under ``root``, a run) directory with a link leading out of it or a special file."""
+    from pyflyt_cli.training.rundir import RunDirError, check_closed
+    from pyflyt_engine.safe_load import outside
+
+    if root is None:
+        check_closed(path, folders=(), what="benchmark directory")
+        return
+    if outside(root, path):
+        raise RunDirError(
+            f"{path} leads outside {root} (a link on its way): a shared benchmark directory is read only inside "
+            "itself; replace the link by a copy of what it points to"
+        )
+    check_closed(path)
+
+
 def _run_dirs(root: Path) -> list[Path]:
     base = root / "runs" if (root / "runs").is_dir() else root
     return sorted({p.parent for p in base.glob("*/*/*/metrics.mcap")})
@@ -189,7 +205,10 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
     root = Path(root)
     if not root.is_dir():
         raise ConfigError(f"benchmark directory {root} does not exist")
+    _check_closed(root)
     dirs = _run_dirs(root)
+    for d in dirs:  # a shared benchmark is read only inside itself
+        _check_closed(d, root)
     if not dirs:
         raise ConfigError(
             f"no runs in {root}: expected <env>/<algo>/<run>/metrics.mcap (or runs/<env>/<algo>/<run>/...) "

@@ -77,6 +77,7 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
     """
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
+        _create_new(tmp)  # never through a link or a file someone left under that name
         write(tmp)
         _fsync(tmp)
         fault_point(f"written {path.name}")
@@ -91,6 +92,14 @@ def write_atomically(path: Path, write: Callable[[Path], None]) -> None:
             raise ArtifactError(f"cannot write {path}: {reason}") from None
         raise
     fault_point(f"renamed {path.name}")
+
+
+def _create_new(path: Path) -> None:
+    """Create ``path`` empty and new: whatever is there (a stale temporary file, a link) is removed first,
+    and the file is created exclusively, never through a link."""
+    path.unlink(missing_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    os.close(fd)
 
 
 def _save_torch(data: dict[str, Any]) -> Callable[[Path], None]:
@@ -232,6 +241,19 @@ def policy_payload(model: Any, algo: str, step: int) -> dict[str, Any]:
 def save_policy(path: Path, model: Any, algo: str, step: int) -> None:
     """Write ``model.pt`` / ``best_model.pt``: the policy and normaliser, atomically."""
     write_atomically(path, _save_torch(policy_payload(model, algo, step)))
+
+
+def save_policy_data(path: Path, algo: str, step: int, policy: Mapping[str, Any], normalizer: Any) -> None:
+    """Write a policy file from a policy's state dict and normaliser statistics (a run's ``init_policy.pt``)."""
+    payload = {
+        "format": POLICY_FORMAT,
+        "version": FORMAT_VERSION,
+        "algo": algo,
+        "step": int(step),
+        "policy": dict(policy),
+        "normalizer": normalizer,
+    }
+    write_atomically(path, _save_torch(payload))
 
 
 def load_policy_into(model: Any, data: Mapping[str, Any], path: Path) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from pyflyt_cli.config import CLIError, _group_choices, absolute_airframes, compose, to_container
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config
+from pyflyt_cli.training.schema import OPT_INS, TrainConfig, parse_train_config
 from pyflyt_engine.paths import conf_dir
 
 #: top-level keys of ``conf/train.yaml`` that tell ``pyflyt train`` what to do, not what to train
@@ -90,6 +90,14 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
         origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
         raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
     data = to_container(cfg)
+    given = {item.lstrip("+~").partition("=")[0] for item in overrides}
+    for key in OPT_INS:
+        if data.get(key) and key not in given:
+            origin = f"experiment={choices['experiment']}" if choices.get("experiment") else "a config file"
+            raise CLIError(
+                f"{key} is set by {origin}: an opt-in to load pickled files is taken from the command line only, "
+                f"never from a file; give {key}=true on the command line if you made those files yourself"
+            )
     for key, value in replaced.items():  # the command line's value, not merged into the tuning's
         *parents, leaf = key.split(".")
         node = data

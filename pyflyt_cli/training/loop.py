@@ -102,6 +102,10 @@ def train(
         record = rundir.run_record(cfg, command, overrides)
         if init is not None:
             record["init_from"] = {"run": str(init.run), "model": str(init.path), "algo": init.algo}
+            # a restart (a resume before the first checkpoint) starts from this copy, never from outside the run
+            artifacts.save_policy_data(
+                run_dir / rundir.INIT_POLICY, init.algo, init.step or 0, init.policy, init.normalizer
+            )
         rundir.write_yaml(run_dir / rundir.RUN_FILE, record)
         rundir.write_state(run_dir, {"status": "starting", "num_timesteps": 0, "checkpoint": None})
     except Exception:
@@ -140,13 +144,15 @@ def _resume(
     path: Path, total_timesteps: int | None, callbacks: Sequence[Any], log: Log, progress_bar: bool | None
 ) -> RunResult:
     cfg = rundir.load_run_config(path)
+    state = rundir.read_state(path)
+    record = rundir.read_yaml(path / rundir.RUN_FILE)
+    _check_digest(path, cfg, state, record)
     if total_timesteps is not None:
         data = cfg.model_dump(mode="json")
         data["train"]["total_timesteps"] = int(total_timesteps)
-        cfg = parse_train_config(data)
+        cfg = parse_train_config(data, source=str(path / rundir.CONFIG_FILE), recorded=True)
     _check_environment(cfg)
     _probe_env(cfg)
-    state = rundir.read_state(path)
     checkpoint = _resume_point(path, cfg, log)
     done = checkpoint.step if checkpoint is not None else 0
     if state.get("status") == "complete" and done >= cfg.train.total_timesteps:
@@ -154,21 +160,87 @@ def _resume(
             f"{path} is complete ({done} of train.total_timesteps={cfg.train.total_timesteps} steps); "
             f"to train it longer: pyflyt train resume={path} train.total_timesteps=<more>"
         )
-    if total_timesteps is not None:
-        rundir.save_config(cfg, path)
-    record = rundir.read_yaml(path / rundir.RUN_FILE)
+    init = _restart_source(path, cfg) if checkpoint is None else None
+    if checkpoint is None:
+        _check_restart_inputs(path, cfg)
+    digest = rundir.config_digest(cfg, path)
     here = rundir.numeric_platform()
     note = rundir.platform_note(record, here)
     if note:
         log(f"note: this run was {note}")
     record.setdefault("resumes", []).append(
-        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid(),
+        {"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_step": done, "pid": os.getpid(), "config_digest": digest,
          "cpu": here["cpu"], "numerics": here["key"]}
     )  # fmt: skip
-    rundir.write_yaml(path / rundir.RUN_FILE, record)
+    rundir.write_yaml(path / rundir.RUN_FILE, record)  # the new digest is recorded before the config changes
+    if total_timesteps is not None:
+        rundir.save_config(cfg, path)
     log(f"resuming {path} from " + (f"step {checkpoint.step}" if checkpoint else "the start (no checkpoint was saved)"))
-    init = _init_source(cfg) if cfg.init_from and checkpoint is None else None
     return _Run(cfg, path, log, progress_bar).execute(callbacks, checkpoint=checkpoint, init=init)
+
+
+def _check_digest(path: Path, cfg: TrainConfig, state: Mapping[str, Any], record: Mapping[str, Any]) -> None:
+    """Refuse to resume a run whose ``config.yaml`` is not a configuration it was trained with.
+
+    ``run.yaml`` records the config digest at the start and at each resume, ``state.json``
+    at each state change; ``config.yaml`` changed since (edited, or swapped in a shared
+    copy) matches none of them.
+    """
+    recorded = {state.get("config_digest"), record.get("config_digest")}
+    resumes = record.get("resumes")
+    recorded |= {r.get("config_digest") for r in resumes if isinstance(r, dict)} if isinstance(resumes, list) else set()
+    recorded = {d for d in recorded if isinstance(d, str)}
+    if rundir.config_digest(cfg, path) in recorded:
+        return
+    why = "does not match the configuration it was trained with" if recorded else "has no recorded config digest"
+    raise ConfigError(
+        f"{path / rundir.CONFIG_FILE} {why} (state.json, run.yaml): it was changed after the run started, so "
+        f"it is not resumed; to train those settings on purpose, start a new run from them: "
+        f"pyflyt train from_config={path / rundir.CONFIG_FILE}"
+    )
+
+
+def _restart_source(path: Path, cfg: TrainConfig) -> PolicySource | None:
+    """The policy a run restarted from scratch starts from: the copy of ``init_from``'s policy it keeps.
+
+    A resume reads nothing outside the run directory, so ``init_from`` itself (another run,
+    perhaps a pickled file) is never read again.
+    """
+    if not cfg.init_from:
+        return None
+    copy = path / rundir.INIT_POLICY
+    if not copy.is_file():
+        pickled = "; it is a pickled file: give trust_pickle=true on that command line if you made it yourself"
+        raise ConfigError(
+            f"{path} stopped before its first checkpoint: a resume starts it over from the copy of the init_from "
+            f"policy a run keeps ({rundir.INIT_POLICY}), and this run has none (an older version made it, or its "
+            f"files were changed); init_from={cfg.init_from} itself is never read by a resume: start a new run "
+            f"from it with pyflyt train init_from=<that policy>" + (pickled if cfg.init_from.endswith(".zip") else "")
+        )
+    try:
+        return read_policy(copy)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: cannot restart from its copy of the init_from policy: {exc}") from None
+
+
+def _check_restart_inputs(path: Path, cfg: TrainConfig) -> None:
+    """A run restarted from scratch reads its ``algo.offline_buffer`` again: only inside the run, never a pickle."""
+    from pyflyt_engine.safe_load import outside
+
+    buffer = getattr(cfg.algo, "offline_buffer", None)
+    if buffer is None:
+        return
+    if buffer.endswith(".pkl"):
+        raise ConfigError(
+            f"{path} stopped before its first checkpoint, so a resume starts it over from algo.offline_buffer="
+            f"{buffer}, a pickle: loading one needs trust_pickle=true, which a resume never takes from the run's "
+            "files; start a new run with trust_pickle=true on its command line if you made that file yourself"
+        )
+    if outside(path, buffer):
+        raise ConfigError(
+            f"{path} stopped before its first checkpoint, so a resume starts it over from algo.offline_buffer="
+            f"{buffer}, outside the run directory, which a resume does not read: start a new run from that buffer"
+        )
 
 
 # ------------------------------------------------------------------- internals
@@ -324,6 +396,8 @@ class _Run:
         self.writer: Any = None
         self.phases: Any = None
         self.after_eval: list[Any] = []
+        #: continued from a checkpoint (which restores everything the model was built from)
+        self.resumed = False
 
     def execute(
         self,
@@ -334,6 +408,7 @@ class _Run:
     ) -> RunResult:
         from pyflyt_cli.training.callbacks import StopRequest
 
+        self.resumed = checkpoint is not None
         try:
             with contextlib.ExitStack() as cleanup:  # closes writer, envs and workers even if a close fails
                 model = self._build(cleanup)
@@ -390,7 +465,8 @@ class _Run:
                 norm_obs_keys=keys,
             )
         tensorboard = str(self.run_dir / "tensorboard") if opts.tensorboard else None
-        return build_model(cfg, vec, tensorboard_log=tensorboard)
+        # resumed from a checkpoint: the offline buffer's data is in the checkpoint's buffer (never read again)
+        return build_model(cfg, vec, tensorboard_log=tensorboard, offline=not self.resumed)
 
     def _restore(self, model: Any, checkpoint: rundir.Checkpoint) -> tuple[dict[str, Any], dict[str, Any]]:
         """Everything from the checkpoint; the envs' episodes in progress re-simulated and checked."""

@@ -29,11 +29,15 @@ from pyflyt_cli.training.artifacts import (
 from pyflyt_cli.training.schema import TrainConfig
 
 
-def build_model(cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorboard_log: str | None = None) -> Any:
+def build_model(
+    cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorboard_log: str | None = None, offline: bool = True
+) -> Any:
     """A new SB3 model of ``cfg.algo`` on ``vec`` (a VecEnv), seeded with ``cfg.seed``.
 
     ``inference``: for predicting only (evaluation): an off-policy replay buffer of one
     transition instead of ``algo.buffer_size``.  ``tensorboard_log``: SB3's TensorBoard folder.
+    ``offline``: load ``algo.offline_buffer`` (AWAC); False for a model a checkpoint restores,
+    whose replay buffer holds that data already.
     """
     algo = cfg.algo
     cls = registry.resolve(registry.ALGOS, algo.name, "algorithm")
@@ -43,6 +47,9 @@ def build_model(cfg: TrainConfig, vec: Any, *, inference: bool = False, tensorbo
         noise_cls = registry.resolve(registry.ACTION_NOISES, noise.type, "action noise")
         n = int(np.prod(vec.action_space.shape))
         kwargs["action_noise"] = noise_cls(mean=np.zeros(n), sigma=noise.sigma * np.ones(n))
+    if not offline:
+        kwargs.pop("offline_buffer", None)
+        kwargs.pop("offline_steps", None)
     if inference:
         if "buffer_size" in kwargs:
             kwargs["buffer_size"] = 1

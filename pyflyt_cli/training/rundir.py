@@ -15,6 +15,7 @@
         episodes/            ep_<NNNN>.mcap written by `pyflyt eval`
         eval.json            the last `pyflyt eval` summary
         airframe.yaml        copy of a user airframe file, if the env named one by path
+        init_policy.pt       copy of the policy init_from named (tensors only), if any
         airframe-<sha>.yaml  multi-agent envs: a copy of each airframe file an agent names by
                              path (<sha> = the first 12 hex digits of its SHA-256)
 
@@ -42,8 +43,9 @@ from typing import Any
 
 import yaml
 
-from pyflyt_cli.training.schema import TrainConfig, parse_train_config
-from pyflyt_engine.errors import ConfigError
+from pyflyt_cli.training.schema import OPT_INS, TrainConfig, parse_train_config
+from pyflyt_engine.errors import ConfigError, PyFlytError
+from pyflyt_engine.safe_load import MAX_YAML_BYTES, plain_name, read_bytes
 
 CONFIG_FILE = "config.yaml"
 RUN_FILE = "run.yaml"
@@ -56,6 +58,8 @@ LEGACY_BEST_MODEL = "best_model.zip"
 CHECKPOINTS = "checkpoints"
 EPISODES = "episodes"
 AIRFRAME_COPY = "airframe.yaml"
+#: a copy of the policy ``init_from`` named, kept so a restart never reads outside the run
+INIT_POLICY = "init_policy.pt"
 
 _CHECKPOINT = re.compile(r"^model_(\d+)_steps\.(pt|zip)$")
 #: a checkpoint's replay buffer file
@@ -242,7 +246,7 @@ def _agent_list(env: dict[str, Any]) -> list[dict[str, Any]]:
 def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with files the env names by path made part of the run directory.
 
-    A reward preset given as a path is inlined; an airframe given as a path is copied to
+    A reward preset or a wind config given as a path is inlined; an airframe given as a path is copied to
     ``airframe.yaml``, and each airframe a listed agent of a multi-agent env names by path
     to ``airframe-<sha>.yaml`` (one copy per distinct file content); all are reloaded
     relative to the run directory by :func:`load_run_config`.
@@ -255,15 +259,20 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     if isinstance(reward, str) and (reward.endswith((".yaml", ".yml")) or Path(reward).is_file()):
         preset = load_reward_preset(reward)
         update["reward"] = preset.model_dump()
+    wind = env.wind
+    if isinstance(wind, str) and not plain_name(wind):  # a file: a run names no file outside itself
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        update["wind"] = load_wind_config(wind).model_dump(mode="json")
     if env.uav.endswith((".yaml", ".yml")) or Path(env.uav).is_file():
-        atomic_write(run_dir / AIRFRAME_COPY, Path(env.uav).read_bytes())
+        atomic_write(run_dir / AIRFRAME_COPY, read_bytes(env.uav, limit=MAX_YAML_BYTES, what="airframe file"))
         update["uav"] = str(run_dir / AIRFRAME_COPY)
     agents = getattr(env, "agents", None)
     if isinstance(agents, list) and any(_is_airframe_path(a.uav) for a in agents):
         listed = [a.model_dump(mode="json") for a in agents]
         for agent in listed:
             if _is_airframe_path(agent.get("uav")):
-                data = Path(agent["uav"]).read_bytes()
+                data = read_bytes(agent["uav"], limit=MAX_YAML_BYTES, what="airframe file")
                 copy = run_dir / f"airframe-{hashlib.sha256(data).hexdigest()[:12]}.yaml"
                 if not copy.exists():
                     atomic_write(copy, data)
@@ -301,8 +310,12 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     earlier value.  An airframe named by path
     (``env.uav``, e.g. the ``airframe.yaml`` a run keeps of it) is identified by the
     SHA-256 of its file's bytes, not its path, so a copy of the same file is the same run.
+    A wind config or reward preset named by path counts by its content, as the run keeps it
+    inline (:func:`portable_config`).
     """
     data = cfg.model_dump(mode="json") if isinstance(cfg, TrainConfig) else json.loads(json.dumps(cfg))
+    if isinstance(data.get("env"), dict):
+        _inline_preset_files(data["env"])
     flat: dict[str, Any] = {}
 
     def walk(node: Any, prefix: str) -> None:
@@ -325,9 +338,9 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
         if not path.is_absolute() and run_dir is not None:
             path = run_dir / path
         try:
-            return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError:
-            return uav  # a missing file keeps its name: it then differs from any readable one
+            return "sha256:" + hashlib.sha256(read_bytes(path, limit=MAX_YAML_BYTES, what="airframe file")).hexdigest()
+        except PyFlytError:
+            return uav  # a missing (or unreadable) file keeps its name: it then differs from any readable one
 
     if "env.uav" in flat:
         flat["env.uav"] = file_identity(flat["env.uav"])
@@ -336,6 +349,23 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
             {**a, "uav": file_identity(a.get("uav"))} if isinstance(a, dict) else a for a in flat["env.agents"]
         ]
     return flat
+
+
+def _inline_preset_files(env: dict[str, Any]) -> None:
+    """Replace a wind config or reward preset named by path with its content (as plain JSON data)."""
+    from pyflyt_engine.atmosphere import load_wind_config
+    from pyflyt_engine.envs.config import load_reward_preset
+
+    wind = env.get("wind")
+    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    reward = presets.get(env.get("reward"), env.get("reward")) if isinstance(env.get("reward"), str) else None
+    try:
+        if isinstance(wind, str) and not plain_name(wind):
+            env["wind"] = json.loads(json.dumps(load_wind_config(wind).model_dump(mode="json")))
+        if isinstance(reward, str) and (reward.endswith((".yaml", ".yml")) or Path(reward).is_file()):
+            env["reward"] = json.loads(json.dumps(load_reward_preset(reward).model_dump()))
+    except PyFlytError:
+        pass  # an unreadable file keeps its name: it then differs from any readable one
 
 
 def config_digest(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> str:
@@ -365,7 +395,8 @@ def save_config(cfg: TrainConfig, run_dir: Path) -> None:
 
 
 def check_run_dir(run_dir: str | Path) -> Path:
-    """``run_dir`` as a resolved path; :class:`RunDirError` unless it holds a run's ``config.yaml``."""
+    """``run_dir`` as a resolved path; :class:`RunDirError` unless it holds a run's ``config.yaml``
+    and is a closed world (:func:`check_closed`)."""
     path = Path(run_dir).expanduser()
     if not path.exists():
         raise RunDirError(f"run directory {path} does not exist")
@@ -373,27 +404,142 @@ def check_run_dir(run_dir: str | Path) -> Path:
         raise RunDirError(
             f"{path} is not a directory (expected a run directory such as runs/quadx_hover/ppo/<time>-seed0)"
         )
+    check_closed(path)
     if not (path / CONFIG_FILE).is_file():
         raise RunDirError(f"{path} is not a run directory: it has no {CONFIG_FILE}")
     return path.resolve()
 
 
+def check_closed(
+    run_dir: Path, folders: tuple[str, ...] = (CHECKPOINTS, EPISODES), what: str = "run directory"
+) -> None:
+    """Refuse a directory that is not a closed world: an entry (of it, or of its ``folders``)
+    that is a link leading out of it, or a special file (a FIFO, a device, a socket).
+
+    A run directory (or a benchmark directory, ``what``) can be shared, so no link inside it
+    may decide where a resume writes or what an evaluation reads.  Links that stay inside
+    are allowed.
+    """
+    from pyflyt_engine.safe_load import outside
+
+    root = Path(run_dir)
+    for folder in (root, *(root / name for name in folders)):
+        if folder != root and not folder.is_dir():
+            continue
+        try:
+            entries = sorted(os.scandir(folder), key=lambda e: e.name)
+        except OSError as exc:
+            raise RunDirError(f"{folder}: cannot list it: {exc.strerror or exc}") from None
+        for entry in entries:
+            path = Path(entry.path)
+            if entry.is_symlink():
+                if outside(root, path):
+                    raise RunDirError(
+                        f"{path} is a link to {os.readlink(path)}, outside {root}: a shared {what} is "
+                        "read and written only inside itself; replace the link by a copy of what it points to"
+                    )
+            elif not (entry.is_dir(follow_symlinks=False) or entry.is_file(follow_symlinks=False)):
+                raise RunDirError(f"{path} is not a regular file or a folder (a FIFO or a device?): remove it")
+
+
+#: keys of an env config that name a shipped preset (or give it inline): never a file in a run
+_PRESET_KEYS = ("wind", "reward", "randomize")
+
+
+def _confine(data: Any, root: Path, source: str) -> None:
+    """Make the files a run's config names its own: airframes by a file name inside ``root`` (made
+    absolute) or a shipped name; presets by a shipped name or inline.  Anything else is refused."""
+    from pyflyt_engine.paths import uav_dir
+    from pyflyt_engine.safe_load import outside, plain_name
+
+    env = data.get("env") if isinstance(data, dict) else None
+    if not isinstance(env, dict):
+        return  # the schema says what is missing
+
+    def airframe(holder: dict[str, Any], key: str) -> None:
+        uav = holder.get(key)
+        if uav is None:
+            return
+        if isinstance(uav, str) and plain_name(uav):
+            if (root / uav).is_file() and not outside(root, root / uav):
+                holder[key] = str(root / uav)
+                return
+            if (uav_dir() / f"{uav}.yaml").is_file():
+                return
+        raise RunDirError(
+            f"{source}: {key}={uav!r} is neither a shipped airframe nor a file of the run directory "
+            "(a run keeps a copy of its airframe file beside its config.yaml)"
+        )
+
+    airframe(env, "uav")
+    for agent in _agent_list(env):
+        airframe(agent, "uav")
+    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    named = {f"env.reward_presets.{k}": v for k, v in presets.items()}
+    for key in _PRESET_KEYS:
+        value = env.get(key)
+        named[f"env.{key}"] = value.get("preset") if isinstance(value, dict) and key == "wind" else value
+    for key, name in named.items():
+        if isinstance(name, str) and not plain_name(name):
+            raise RunDirError(
+                f"{source}: {key}={name!r} names a file: a run directory keeps its presets inline or by a "
+                "shipped name, and names no file outside itself"
+            )
+    for payload in env.get("payloads") or []:
+        shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
+        for shape in shapes:
+            if isinstance(shape, dict) and shape.get("type") == "mesh" and outside(root, Path(str(shape.get("mesh")))):
+                raise RunDirError(f"{source}: a payload's mesh {shape.get('mesh')!r} is outside the run directory")
+
+
+def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
+    """Refuse an airframe file of the run whose URDF or meshes lie outside the run directory."""
+    from pyflyt_engine.safe_load import outside
+    from pyflyt_engine.spec import load_uav_spec
+
+    agents = getattr(cfg.env, "agents", None)  # a multi-agent env: a count, or a list of agents
+    names = [cfg.env.uav, *(a.uav for a in agents if a.uav)] if isinstance(agents, list) else [cfg.env.uav]
+    for name in dict.fromkeys(names):
+        if not (isinstance(name, str) and Path(name).is_absolute()):
+            continue  # a shipped airframe
+        spec = load_uav_spec(name)
+        base = Path(name).parent
+        files = [spec.body.urdf] + [s.mesh for s in spec.body.shapes if s.type == "mesh"]
+        for file in files:
+            if file is not None and outside(root, base / file):
+                raise RunDirError(
+                    f"{source}: the airframe {Path(name).name} names {file!r}, outside the run directory: "
+                    "a shared run is read only from its own files"
+                )
+
+
 def load_run_config(run_dir: str | Path) -> TrainConfig:
-    """The :class:`TrainConfig` a run was started with."""
+    """The :class:`TrainConfig` a run was started with, read as untrusted data.
+
+    The run directory must be a closed world (:func:`check_run_dir`); ``config.yaml`` is
+    read with the bounded reader of :mod:`pyflyt_engine.safe_load`; the files it names
+    must be the run's own (:func:`_confine`: its airframe copies; presets by a shipped name
+    or inline; an airframe's URDF and meshes inside the run); ``trust_pickle`` is never
+    taken from it (an opt-in comes from the command line of the current command only).
+    """
     path = check_run_dir(run_dir)
-    try:
-        data = yaml.safe_load((path / CONFIG_FILE).read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise RunDirError(f"{path / CONFIG_FILE}: cannot read it: {exc}") from None
-    if isinstance(data, dict) and isinstance(data.get("env"), dict):
-        uav = data["env"].get("uav")
-        if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
-            data["env"]["uav"] = str(path / uav)
-        for agent in _agent_list(data["env"]):
-            uav = agent.get("uav")
-            if isinstance(uav, str) and not Path(uav).is_absolute() and (path / uav).is_file():
-                agent["uav"] = str(path / uav)
-    return parse_train_config(data, source=str(path / CONFIG_FILE))
+    return load_config_file(path / CONFIG_FILE, root=path)
+
+
+def load_config_file(file: Path, *, root: Path) -> TrainConfig:
+    """A resolved configuration file (a run's ``config.yaml``) read as untrusted data, its files in ``root``."""
+    from pyflyt_engine.safe_load import load_yaml_file
+
+    source = str(file)
+    data = load_yaml_file(file, what="config file", error=RunDirError)
+    if isinstance(data, dict):
+        data = dict(data)
+        _confine(data, root, source)
+        for key in OPT_INS:
+            data[key] = False  # an opt-in never comes from the file it would trust
+    cfg = parse_train_config(data, source=source, recorded=True)
+    _confine_airframes(cfg, root, source)
+    return cfg
 
 
 LOCK_FILE = "run.lock"
@@ -410,10 +556,7 @@ def run_lock(run_dir: Path) -> Iterator[None]:
         try:
             fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
         except FileExistsError:
-            try:
-                pid = int(path.read_text().strip() or 0)
-            except (OSError, ValueError):
-                pid = 0
+            pid = read_pid(path)
             if pid and pid != os.getpid() and _alive(pid):
                 raise RunDirError(
                     f"{run_dir} is being trained by process {pid}; wait for it, stop it (Ctrl-C), "
@@ -430,6 +573,17 @@ def run_lock(run_dir: Path) -> Iterator[None]:
         path.unlink(missing_ok=True)
 
 
+def read_pid(path: Path) -> int:
+    """The process id a lock file holds (its first word); 0 if it holds none, or is not a small regular file."""
+    from pyflyt_engine.safe_load import read_text
+
+    try:
+        words = read_text(path, limit=4096, what="lock file").split()
+        return int(words[0]) if words else 0
+    except (PyFlytError, ValueError):
+        return 0
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -441,18 +595,32 @@ def _alive(pid: int) -> bool:
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError):
+    """A run's YAML record (``run.yaml``) as a mapping; ``{}`` if it is missing or not a mapping.
+
+    Raises:
+        RunDirError: not a regular file, too large, not YAML, or an alias-expansion bomb.
+    """
+    from pyflyt_engine.safe_load import load_yaml_file
+
+    if not path.exists() and not path.is_symlink():
         return {}
+    data = load_yaml_file(path, what="run record", error=RunDirError)
     return data if isinstance(data, dict) else {}
 
 
 def read_state(run_dir: Path) -> dict[str, Any]:
-    try:
-        return json.loads((run_dir / STATE_FILE).read_text())
-    except (OSError, ValueError):
+    """``state.json`` as a mapping; ``{}`` if it is missing or not a mapping.
+
+    Raises:
+        RunDirError: not a regular file, too large or not JSON.
+    """
+    from pyflyt_engine.safe_load import load_json_file
+
+    path = run_dir / STATE_FILE
+    if not path.exists() and not path.is_symlink():
         return {}
+    data = load_json_file(path, what="state file", error=RunDirError)
+    return data if isinstance(data, dict) else {}
 
 
 def write_state(run_dir: Path, state: dict[str, Any]) -> None:

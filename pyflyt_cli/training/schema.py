@@ -20,7 +20,16 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from pyflyt_cli.training import registry
 from pyflyt_engine.envs.config import EnvConfig, _describe, parse_env_config
@@ -278,9 +287,9 @@ class AWACConfig(_OffPolicy):
 
     @field_validator("offline_buffer")
     @classmethod
-    def _buffer_file(cls, value: str | None) -> str | None:
-        if value is None:
-            return None
+    def _buffer_file(cls, value: str | None, info: ValidationInfo) -> str | None:
+        if value is None or _recorded(info):  # a run's record: read (if ever) only by a resume, which checks it
+            return value
         from pathlib import Path
 
         path = Path(value).expanduser()
@@ -517,6 +526,12 @@ class CallbackConfig(_Strict):
         return cls(max_no_improvement_evals=self.max_no_improvement_evals, verbose=0, **optional)
 
 
+#: keys that widen what loading may do (run code from a pickled file): honoured only from the command
+#: line of the current command, never from a file (a run's config.yaml, an experiment, a benchmark
+#: plan, a search space), which is the very thing they would trust
+OPT_INS = ("trust_pickle",)
+
+
 class TrainConfig(_Strict):
     """One training run: environment, algorithm, seed, options."""
 
@@ -563,10 +578,10 @@ class TrainConfig(_Strict):
         return value
 
     @model_validator(mode="after")
-    def _consistent(self) -> TrainConfig:
+    def _consistent(self, info: ValidationInfo) -> TrainConfig:
         algo, opts = self.algo, self.train
         buffer = algo.offline_buffer if isinstance(algo, AWACConfig) else None
-        if buffer is not None and buffer.endswith(".pkl") and not self.trust_pickle:
+        if buffer is not None and buffer.endswith(".pkl") and not self.trust_pickle and not _recorded(info):
             raise ValueError(
                 f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
                 "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
@@ -645,11 +660,22 @@ def split_init_from(value: str | None) -> tuple[str | None, int | None]:
     return source, int(step)
 
 
-def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "train config") -> TrainConfig:
+def _recorded(info: ValidationInfo) -> bool:
+    """Whether the config being validated is a run's record (``parse_train_config(recorded=True)``)."""
+    return bool(info.context and info.context.get("recorded"))
+
+
+def parse_train_config(
+    data: Mapping[str, Any] | TrainConfig, source: str = "train config", *, recorded: bool = False
+) -> TrainConfig:
     """Validate a plain mapping into a :class:`TrainConfig` (raises :class:`ConfigError`).
 
     ``_target_`` keys are checked against the registries before anything else; an env
-    config that fails its own schema reports its problems under ``env.``.
+    config that fails its own schema reports its problems under ``env.``.  ``recorded``:
+    the configuration a run was trained with (its ``config.yaml``), not one to start: the
+    files it names to start from (``algo.offline_buffer``) are kept as recorded, not
+    checked, and its ``trust_pickle`` is never honoured (see
+    :func:`pyflyt_cli.training.rundir.load_run_config`).
     """
     if isinstance(data, TrainConfig):
         return data
@@ -662,7 +688,7 @@ def parse_train_config(data: Mapping[str, Any] | TrainConfig, source: str = "tra
     if isinstance(algo, Mapping) and algo.get("name") not in registry.ALGOS:
         raise ConfigError(f"{source}: algo.name: " + registry.unknown("algorithm", algo.get("name"), registry.ALGOS))
     try:
-        cfg = TrainConfig.model_validate(data)
+        cfg = TrainConfig.model_validate(data, context={"recorded": recorded})
     except ValidationError as exc:
         problems = []
         for error in exc.errors():
@@ -764,11 +790,10 @@ def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
 
 def eval_defaults() -> dict[str, Any]:
     """``conf/eval.yaml``: the default of every :class:`EvalOptions` field (plain YAML data, no Hydra)."""
-    import yaml
-
     from pyflyt_engine.paths import conf_dir
+    from pyflyt_engine.safe_load import load_yaml_file
 
-    data = yaml.safe_load((conf_dir() / "eval.yaml").read_text())
+    data = load_yaml_file(conf_dir() / "eval.yaml")
     if not isinstance(data, dict):  # pragma: no cover - broken install
         raise ConfigError(f"{conf_dir() / 'eval.yaml'}: not a mapping of eval options")
     return data

@@ -46,6 +46,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from pyflyt_cli.config import override_value
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.safe_load import load_yaml_file, yaml_data
 
 Log = Callable[[str], None]
 
@@ -84,7 +85,7 @@ class TuneOptions(BaseModel):
 
 
 def tune_defaults() -> dict[str, Any]:
-    data = yaml.safe_load((conf_dir() / "tune.yaml").read_text())
+    data = load_yaml_file(conf_dir() / "tune.yaml")
     if not isinstance(data, dict):  # pragma: no cover - broken install
         raise ConfigError(f"{conf_dir() / 'tune.yaml'}: not a mapping")
     return data
@@ -130,7 +131,7 @@ class SearchSpace:
                 values[key] = trial.suggest_int(key, int(p.low), int(p.high), log=p.log, step=int(p.step or 1))
             else:
                 encoded = [_encode(c) for c in p.choices or []]
-                values[key] = yaml.safe_load(trial.suggest_categorical(key, encoded))
+                values[key] = _decoded(trial.suggest_categorical(key, encoded))
         return values
 
     def holds(self, key: str, value: Any) -> bool:
@@ -183,15 +184,16 @@ def load_search_space(space: str | None, algo: str) -> SearchSpace:
                 f"space={name}: no search space {'file' if name.endswith(('.yaml', '.yml')) else 'named so'}; "
                 f"shipped: {', '.join(shipped)}, or give a YAML file"
             )
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"{path}: cannot read this search space: {exc}") from None
+    from pyflyt_cli.training.schema import OPT_INS
+
+    data = load_yaml_file(path, what="search space")
     if not isinstance(data, dict) or not data:
         raise ConfigError(f"{path}: a search space maps training keys (algo.learning_rate) to distributions")
     params: dict[str, _Param] = {}
     for key, spec in data.items():
         where = f"{path}: {key}"
+        if key in OPT_INS:
+            raise ConfigError(f"{where}: {key} is an opt-in, given on the command line only, never searched over")
         if not isinstance(spec, dict):
             raise ConfigError(f"{where}: give a distribution, e.g. {{type: float, low: 1e-4, high: 1e-2, log: true}}")
         try:
@@ -383,14 +385,11 @@ def _worker(env: str, algo: str, study_dir: str, opts: dict[str, Any], base: lis
 
 @contextlib.contextmanager
 def _study_lock(study_dir: Path) -> Iterator[None]:
-    from pyflyt_cli.training.rundir import RunDirError, _alive
+    from pyflyt_cli.training.rundir import RunDirError, _alive, read_pid
 
     path = study_dir / "tune.lock"
     if path.exists():
-        try:
-            pid = int(path.read_text().strip() or 0)
-        except (OSError, ValueError):
-            pid = 0
+        pid = read_pid(path)
         if pid and pid != os.getpid() and _alive(pid):
             raise RunDirError(f"{study_dir} is being tuned by process {pid}; wait for it or stop it (Ctrl-C)")
     path.write_text(f"{os.getpid()}\n")
@@ -495,8 +494,9 @@ def _write_report(study: Any, study_dir: Path, env: str, algo: str, opts: TuneOp
 
 
 def _decoded(value: Any) -> Any:
-    """A parameter as sampled: categorical choices are stored as their JSON text."""
-    return yaml.safe_load(value) if isinstance(value, str) else value
+    """A parameter as sampled: categorical choices are stored as their JSON text (read back bounded:
+    the study database is a file like any other)."""
+    return yaml_data(value, source=f"a stored choice {value[:40]!r}") if isinstance(value, str) else value
 
 
 def _nested(values: Mapping[str, Any]) -> dict[str, Any]:

@@ -25,6 +25,7 @@ from typing import Any
 import yaml
 
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.safe_load import load_yaml_file
 
 AGENTS = Path(__file__).resolve().parent / "agents"
 PREFIX = "zoo:"
@@ -46,7 +47,7 @@ def agents(root: Path = AGENTS) -> list[Agent]:
                 continue
             summary = folder / "summary.yaml"
             if summary.is_file() and (folder / "model.pt").is_file():
-                found.append(Agent(folder.name, folder, yaml.safe_load(summary.read_text()) or {}))
+                found.append(Agent(folder.name, folder, load_yaml_file(summary, what="agent summary") or {}))
     return found
 
 

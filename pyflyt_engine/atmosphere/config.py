@@ -10,7 +10,7 @@ A wind config has three optional parts that add up::
 shipped preset (``constant``, ``dryden_light`` ...), a YAML path, or given as a mapping,
 whose optional ``preset`` key names a base preset the rest of the mapping overrides
 (``{"preset": "constant", "mean": {"speed": 5}}``).  Files are read with
-``yaml.safe_load``; every number must be finite; unknown keys are refused.
+the bounded YAML reader of :mod:`pyflyt_engine.safe_load`; every number must be finite; unknown keys are refused.
 """
 
 from __future__ import annotations
@@ -21,11 +21,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.safe_load import load_yaml_file, plain_name
 from pyflyt_engine.spec import FIX_HINTS, first_model
 
 KNOT = 0.514444  # [m/s] (1852 m / 3600 s)
@@ -211,17 +211,12 @@ def load_wind_config(wind: str | Path | Mapping[str, Any] | WindConfig | None) -
         path = candidate
     else:
         path = conf_dir() / "wind" / f"{wind}.yaml"
-        if not path.is_file():
+        if not plain_name(str(wind)) or not path.is_file():  # a name, never a path out of conf/wind
             choices = available_winds()
             close = difflib.get_close_matches(str(wind), choices, n=1)
             hint = f" Did you mean '{close[0]}'?" if close else ""
             raise ConfigError(
                 f"unknown wind preset '{wind}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path"
             )
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the file: {exc}") from None
+    data = load_yaml_file(path, what="wind file")
     return parse_wind_config(data, source=str(path), name=path.stem)

@@ -1,6 +1,6 @@
 """Typed environment and reward configs (``conf/env/*.yaml``, ``conf/reward/*.yaml``).
 
-Files are read with ``yaml.safe_load`` and validated by the pydantic models below
+Files are read with the bounded YAML reader of :mod:`pyflyt_engine.safe_load` and validated by the pydantic models below
 (``extra="forbid"``: a misspelt key is an error naming the valid keys).  Every field is
 documented where it is declared.  Loading never imports or runs code named in a file:
 tasks, reward terms and conditions are looked up by name in plain registries.
@@ -17,7 +17,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
-import yaml
 from pydantic import (
     BaseModel,
     BeforeValidator,
@@ -35,6 +34,7 @@ from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.payloads import PayloadSpec
+from pyflyt_engine.safe_load import load_yaml_file, plain_name
 from pyflyt_engine.spec import FIX_HINTS, CameraSpec, check_finite, first_model
 
 
@@ -194,7 +194,7 @@ class EnvConfig(_Config):
     def _randomize_preset(cls, value: Any) -> Any:
         if isinstance(value, str):
             path = conf_dir() / "randomize" / f"{value}.yaml"
-            if not path.is_file():
+            if not plain_name(value) or not path.is_file():  # a name, never a path out of conf/randomize
                 choices = available("randomize")
                 close = difflib.get_close_matches(value, choices, n=1)
                 hint = f" Did you mean '{close[0]}'?" if close else ""
@@ -328,13 +328,9 @@ def validate_model(model: type[BaseModel], data: Mapping[str, Any], what: str, s
 
 
 def read_yaml(path: Path) -> Any:
-    """The data of a YAML file (``yaml.safe_load``: no tags, no code); ConfigError naming the file otherwise."""
-    try:
-        return yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the file: {exc}") from None
+    """The data of a YAML file (:func:`pyflyt_engine.safe_load.load_yaml_file`: no tags, no code,
+    bounded); ConfigError naming the file otherwise."""
+    return load_yaml_file(path)
 
 
 def _resolve(name_or_path: str | Path, group: str) -> Path:
@@ -344,7 +340,7 @@ def _resolve(name_or_path: str | Path, group: str) -> Path:
             raise ConfigError(f"{candidate}: no such {group} file; check the path")
         return candidate
     shipped = conf_dir() / group / f"{name_or_path}.yaml"
-    if shipped.is_file():
+    if plain_name(str(name_or_path)) and shipped.is_file():  # a name never walks out of conf/<group>
         return shipped
     choices = available(group)
     close = difflib.get_close_matches(str(name_or_path), choices, n=1)

@@ -6,7 +6,6 @@ Built on :func:`pyflyt_engine.telemetry.reader.read_mcap`; used by ``pyflyt repl
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.safe_load import json_data
 from pyflyt_engine.telemetry.reader import McapContents, read_mcap
 from pyflyt_engine.telemetry.recorder import ENV_INFO, EPISODE_INFO, FILE_INFO, FORMAT_VERSION, VERSIONS
 
@@ -109,8 +109,11 @@ class Episode:
 
 
 def _json(path: Path, record: dict[str, str], key: str) -> Any:
+    """Metadata ``key`` of ``record`` as JSON data (bounded: :func:`pyflyt_engine.safe_load.json_data`)."""
     try:
-        return json.loads(record[key])
+        return json_data(record[key], source=f"{path}: metadata '{key}'", error=TelemetryError)
+    except TelemetryError:
+        raise
     except KeyError:
         raise TelemetryError(f"{path}: metadata is missing '{key}'; was it written by pyflyt's recorder?") from None
     except ValueError as exc:

@@ -52,6 +52,7 @@ from mcap.records import (
 from mcap.stream_reader import breakup_chunk
 
 from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.safe_load import json_data, read_bytes
 
 MAGIC = bytes([137, 77, 67, 65, 80, 48, 13, 10])
 
@@ -142,7 +143,7 @@ class McapContents:
                 schema = self.schemas.get(channel.schema_id)
                 if schema is None or schema.encoding != "jsonschema":
                     return None
-                return json.loads(schema.data)
+                return json_data(schema.data, source=f"{self.path}: the schema of {topic}", error=TelemetryError)
         return None
 
     def require_metadata(self, name: str) -> dict[str, str]:
@@ -288,7 +289,8 @@ def read_mcap(
         raise TelemetryError(f"{path}: no such file")
     if path.is_dir():
         raise TelemetryError(f"{path} is a directory, not an .mcap file")
-    data = path.read_bytes()
+    # a FIFO or a device is refused before it is opened: reading one may never end
+    data = read_bytes(path, limit=None, what="recording", error=TelemetryError)
     if data[: len(MAGIC)] != MAGIC:
         what = "it is empty" if not data else "it does not start with the MCAP magic bytes"
         raise TelemetryError(f"{path} is not an MCAP file ({what})")
@@ -411,6 +413,8 @@ def _take(out: McapContents, record: Any, decode: bool) -> None:
                 data = json.loads(record.data)
             except ValueError as exc:
                 raise TelemetryError(f"{out.path}: a message on {channel.topic} is not valid JSON ({exc})") from None
+            except RecursionError:  # nested deeper than any message a writer makes
+                raise TelemetryError(f"{out.path}: a message on {channel.topic} is nested too deeply") from None
         out.messages.append(
             McapMessage(
                 topic=channel.topic,

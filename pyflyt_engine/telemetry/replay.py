@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.errors import PyFlytError, TelemetryError
+from pyflyt_engine.safe_load import json_data
 from pyflyt_engine.telemetry.episode import STATE_FIELDS, Episode
 from pyflyt_engine.telemetry.recorder import package_versions
 
@@ -67,46 +68,105 @@ def format_summary(summary: dict[str, Any]) -> str:
 
 
 def rebuild_env(episode: Episode, **overrides: Any) -> Any:
-    """The recorded episode's environment, built from the file's metadata alone.
+    """The recorded episode's environment, built from the file's content alone.
 
-    The recorded reward preset is inlined, and the recorded airframe spec is flown when the
-    airframe named in the config has changed or is missing.  Nothing is written: the
-    recorded spec is validated like any airframe file and handed to the env as it is.
-    ``overrides`` go to the env constructor (e.g. ``render_mode``).
+    A recording is shared data: nothing in it names a file this process opens.  The
+    recorded reward preset, atmosphere and airframe specs are flown as they are (validated
+    like any config; the agents of a multi-agent env each fly their vehicle's recorded
+    spec); an airframe given by its own URDF flies the URDF the recording holds
+    (``uav_<i>.urdf``), checked before PyBullet parses it (:func:`pyflyt_engine.urdf.urdf_problem`).
+    A recording whose airframes or payloads draw mesh files, or whose config names a wind
+    or randomisation file, is refused: it cannot be re-simulated from its content.  Nothing
+    is written but the checked URDF, to the private URDF cache.  ``overrides`` go to the env
+    constructor (e.g. ``render_mode``).
     """
     from pyflyt_engine.envs import make_env
-    from pyflyt_engine.spec import load_uav_spec, parse_uav_spec
 
     config = json.loads(json.dumps(episode.config))
     config["reward"] = episode.reward_preset
     recorded_wind = episode.env_info.get("wind")
     if recorded_wind:  # the resolved atmosphere, not a preset name that may have changed since
+        config["wind"] = json_data(recorded_wind, source=f"{episode.path}: metadata 'wind'", error=TelemetryError)
+    _check_named_files(episode, config)
+    specs = [s if isinstance(s, dict) else {} for s in episode.uav_specs]
+    flown = [i for i, s in enumerate(specs) if s == episode.airframe_spec]
+    airframe = _recorded_airframe(episode, episode.airframe_spec, flown[0] if flown else 0)
+    if "agents" in config:  # each agent's airframe by the name it gives: its vehicle's recorded spec
+        from pyflyt_engine.envs.config import parse_env_config
+
         try:
-            config["wind"] = json.loads(recorded_wind)
-        except json.JSONDecodeError:
-            raise TelemetryError(f"{episode.path}: the recorded wind config is not valid JSON") from None
-    recorded_spec = episode.airframe_spec
-    airframe = None
-    named = config.get("uav")
-    if isinstance(named, str) and named:
-        try:
-            airframe = load_uav_spec(named)
-        except PyFlytError:
-            pass
-    # order matters (channels, surfaces ...): compare the JSON texts, not the dicts
-    if airframe is None or json.dumps(airframe.model_dump(mode="json")) != json.dumps(recorded_spec):
-        try:
-            airframe = parse_uav_spec(recorded_spec, source=f"{episode.path} (recorded airframe)")
+            agents = parse_env_config(config, source=f"{episode.path} (recorded config)").resolved_agents()
         except PyFlytError as exc:
-            raise TelemetryError(
-                f"{episode.path}: the recorded airframe spec is invalid for this version: {exc}"
-            ) from None
+            raise TelemetryError(f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}") from None
+        airframes: dict[str, Any] = {}
+        for i, agent in enumerate(agents[: len(specs)]):
+            if agent.uav not in airframes:
+                airframes[agent.uav] = _recorded_airframe(episode, specs[i], i)
+        overrides = {**overrides, "airframes": airframes}
     try:
         return make_env(config, airframe=airframe, **overrides)
     except PyFlytError as exc:
         raise TelemetryError(
             f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}"
         ) from None
+
+
+def _cannot_replay(episode: Episode, why: str) -> TelemetryError:
+    return TelemetryError(
+        f"{episode.path}: {why}; a recording is re-simulated from its own content only, never from files it "
+        "names (its summary and --plot still work)"
+    )
+
+
+def _check_named_files(episode: Episode, config: dict[str, Any]) -> None:
+    """Refuse a recorded config that names a file (only shipped preset names and inline data may be flown)."""
+    from pyflyt_engine.safe_load import plain_name
+
+    wind = config.get("wind")
+    base = wind.get("preset") if isinstance(wind, dict) else wind
+    if base is not None and not plain_name(base):
+        raise _cannot_replay(episode, f"its wind config names {base!r}, not a shipped preset")
+    randomize = config.get("randomize")
+    if isinstance(randomize, str) and not plain_name(randomize):
+        raise _cannot_replay(episode, f"its randomisation names {randomize!r}, not a shipped preset")
+    for payload in config.get("payloads") or []:
+        shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
+        if any(isinstance(s, dict) and s.get("type") == "mesh" for s in shapes):
+            raise _cannot_replay(episode, "a payload draws a mesh file, which the recording does not hold")
+
+
+def _recorded_airframe(episode: Episode, recorded: dict[str, Any], index: int) -> Any:
+    """A recorded airframe spec (vehicle ``index``'s), validated; its own URDF, if it names one,
+    swapped for the recording's checked copy (``uav_<index>.urdf``)."""
+    from pyflyt_engine.spec import parse_uav_spec
+    from pyflyt_engine.urdf import cached_urdf, urdf_problem
+
+    spec = json.loads(json.dumps(recorded))
+    body = spec.get("body")
+    if isinstance(body, dict):  # otherwise the spec's validation says what is wrong
+        shapes = body.get("shapes") if isinstance(body.get("shapes"), list) else []
+        if body.get("urdf") is None:
+            if any(isinstance(s, dict) and s.get("type") == "mesh" for s in shapes):
+                raise _cannot_replay(episode, "its airframe draws mesh files, which the recording does not hold")
+        else:
+            name = f"uav_{index}.urdf"
+            copies = [a for a in episode.contents.attachments if a.name == name]
+            if not copies:
+                raise _cannot_replay(
+                    episode, f"its airframe names the URDF file {body['urdf']!r} and the recording holds no copy"
+                )
+            try:
+                text = copies[-1].data.decode("utf-8")
+            except UnicodeDecodeError:
+                text = None
+            problem = "it is not UTF-8 text" if text is None else urdf_problem(text)
+            if problem is not None:
+                raise TelemetryError(f"{episode.path}: the recorded URDF ({name}) is refused: {problem}")
+            body["urdf"] = str(cached_urdf(text))
+    try:
+        return parse_uav_spec(spec, source=f"{episode.path} (recorded airframe)")
+    except PyFlytError as exc:
+        raise TelemetryError(f"{episode.path}: the recorded airframe spec is invalid for this version: {exc}") from None
 
 
 @dataclass

@@ -94,22 +94,25 @@ def rewrite_mcap(
     dst: Path,
     transform: Callable[[str, dict], dict | None],
     metadata: Callable[[str, dict[str, str]], dict[str, str]] | None = None,
+    attachments: Callable[[str, bytes], bytes] | None = None,
 ) -> None:
-    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``
-    and every metadata record through ``metadata(name, record)``."""
+    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``,
+    every metadata record through ``metadata(name, record)`` and every attachment's bytes through
+    ``attachments(name, data)``."""
     with open(src, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
         summary = reader.get_summary()
         records = list(reader.iter_metadata())
-        attachments = list(reader.iter_attachments())
+        stored = list(reader.iter_attachments())
         messages = list(reader.iter_messages(log_time_order=False))
     with open(dst, "xb") as out:
         writer = Writer(out)
         writer.start()
         for m in records:
             writer.add_metadata(m.name, metadata(m.name, dict(m.metadata)) if metadata else m.metadata)
-        for a in attachments:
-            writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, a.data)
+        for a in stored:
+            data = attachments(a.name, a.data) if attachments else a.data
+            writer.add_attachment(a.create_time, a.log_time, a.name, a.media_type, data)
         schema_ids = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in summary.schemas.items()}
         channel_ids = {
             cid: writer.register_channel(c.topic, c.message_encoding, schema_ids[c.schema_id], c.metadata)

@@ -64,6 +64,8 @@ class MultiAgentUAVEnv(ParallelEnv):
         info_reward_terms: put each agent's reward breakdown in its info as ``reward_terms``.
         airframe: a loaded airframe flown instead of the config's ``uav`` (by every agent
             that does not name its own), e.g. the one a recording carries.
+        airframes: loaded airframes flown instead of the files the agents name (the name an
+            agent gives -> its spec), e.g. those a recording carries: nothing is read for them.
         **overrides: any top-level config field (``agents=8``, ``agent_hz=60``) or task option.
     """
 
@@ -84,6 +86,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         render_mode: str | None = None,
         info_reward_terms: bool = True,
         airframe: UAVSpec | None = None,
+        airframes: Mapping[str, UAVSpec] | None = None,
         **overrides: Any,
     ) -> None:
         if sparse_reward is not None:
@@ -117,7 +120,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.reward_function: RewardFunction = self.reward_preset.compile(PROVIDES[cfg.task.name], cfg.task.name)
         #: the airframe of ``config.uav`` (agents naming no airframe of their own fly it)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
-        specs: dict[str, UAVSpec] = {cfg.uav: self.airframe}
+        specs: dict[str, UAVSpec] = {**(airframes or {}), cfg.uav: self.airframe}
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)

@@ -1,0 +1,337 @@
+"""Bounded, data-only readers for files that may come from someone else.
+
+A run directory, a recording, an airframe or a benchmark can be shared, so every file
+read from one is hostile input until checked.  The readers here are the only ones the
+package uses for YAML and JSON documents (configs, airframes, ``state.json``, ``plan.json``,
+the JSON metadata of an MCAP recording):
+
+* **special files are refused before they are read**: a FIFO, a device or a socket is
+  not a document (reading one may block for ever or never end);
+* **size is bounded**: a document larger than its limit (:data:`MAX_YAML_BYTES`,
+  :data:`MAX_DOCUMENT_BYTES` for JSON) is refused by its byte length, before it is parsed;
+* **YAML aliases cannot multiply a document**: the composed nodes are counted with every
+  alias expanded (a "billion laughs" document is a few hundred bytes that expand to 10^9
+  values); more than :data:`MAX_NODES` values, nesting deeper than :data:`MAX_DEPTH` or a
+  value that contains itself is refused before anything is constructed;
+* **JSON is bounded alike**: size, values and nesting depth;
+* YAML goes through ``yaml.SafeLoader``: tags that would construct Python objects are
+  refused, so loading never runs code.
+
+Each refusal is a :class:`~pyflyt_engine.errors.PyFlytError` (the caller chooses which)
+whose message names the file and the limit.  Syntax errors are left to the caller, which
+knows how to word them: :func:`yaml_data` raises ``yaml.YAMLError``, :func:`json_data`
+``ValueError``.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import re
+import stat
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pyflyt_engine.errors import ConfigError, PyFlytError
+
+#: the largest JSON document read [bytes]
+MAX_DOCUMENT_BYTES = 1 << 20
+#: the largest YAML document read [bytes]: the largest shipped config is a few kB, and a
+#: YAML parser written in Python takes seconds per megabyte
+MAX_YAML_BYTES = 256 << 10
+#: the most values (mappings, lists, scalars, keys) one document may hold, aliases expanded
+MAX_NODES = 100_000
+#: the deepest nesting of mappings and lists in one document
+MAX_DEPTH = 64
+
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISDIR, "a directory"),
+)
+
+
+def _kind(mode: int) -> str | None:
+    """What a file of ``mode`` is, if it is not a regular file."""
+    for test, name in _KINDS:
+        if test(mode):
+            return name
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
+def check_regular(path: str | os.PathLike[str], *, what: str = "file", error: type[PyFlytError] = ConfigError) -> None:
+    """Refuse ``path`` unless it is a regular file (links are followed), without opening it."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what}: {exc.strerror or exc}") from None
+    kind = _kind(mode)
+    if kind is not None:
+        raise error(f"{path}: the {what} is {kind}, not a regular file; give a regular file")
+
+
+def read_bytes(
+    path: str | os.PathLike[str],
+    *,
+    limit: int | None = MAX_DOCUMENT_BYTES,
+    what: str = "file",
+    error: type[PyFlytError] = ConfigError,
+) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes (None: no limit).
+
+    A special file is refused before it is opened, and opened without blocking (a FIFO
+    swapped in meanwhile is refused by its descriptor).  The size is checked before
+    reading, and again while reading (a file still growing).
+    """
+    check_regular(path, what=what, error=error)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what}: {exc.strerror or exc}") from None
+    with os.fdopen(fd, "rb") as handle:
+        info = os.fstat(handle.fileno())
+        kind = _kind(info.st_mode)
+        if kind is not None:
+            raise error(f"{path}: the {what} is {kind}, not a regular file; give a regular file")
+        if limit is not None and info.st_size > limit:
+            raise error(_too_large(path, what, info.st_size, limit))
+        try:
+            data = handle.read() if limit is None else handle.read(limit + 1)
+        except OSError as exc:
+            if exc.errno == errno.EAGAIN:  # pragma: no cover - only a special file blocks
+                raise error(f"{path}: the {what} is not a regular file") from None
+            raise error(f"{path}: cannot read the {what}: {exc.strerror or exc}") from None
+    if limit is not None and len(data) > limit:
+        raise error(_too_large(path, what, len(data), limit))
+    return data
+
+
+def read_text(
+    path: str | os.PathLike[str],
+    *,
+    limit: int | None = MAX_DOCUMENT_BYTES,
+    what: str = "file",
+    error: type[PyFlytError] = ConfigError,
+) -> str:
+    """:func:`read_bytes` decoded as UTF-8 (a file that is not text is refused by name)."""
+    data = read_bytes(path, limit=limit, what=what, error=error)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise error(f"{path}: cannot read the file: it is not a text file (not UTF-8)") from None
+
+
+def _too_large(path: Any, what: str, size: int, limit: int) -> str:
+    return (
+        f"{path}: the {what} is {_size(size)}, more than the {_size(limit)} a {what} may have; "
+        "it is not one this package wrote"
+    )
+
+
+def _size(n: int) -> str:
+    if n >= 1 << 20:
+        return f"{n / (1 << 20):.1f} MiB"
+    if n >= 1 << 10:
+        return f"{n / (1 << 10):.1f} KiB"
+    return f"{n} bytes"
+
+
+# ------------------------------------------------------------------------- YAML
+
+
+def yaml_data(
+    text: str | bytes,
+    *,
+    source: str,
+    error: type[PyFlytError] = ConfigError,
+    limit: int | None = MAX_YAML_BYTES,
+    max_nodes: int = MAX_NODES,
+) -> Any:
+    """The plain data of a YAML document (``yaml.SafeLoader``), within the limits.
+
+    Raises:
+        error: the document is larger than ``limit`` bytes, holds more than ``max_nodes``
+            values with its aliases expanded, nests deeper than :data:`MAX_DEPTH`, or
+            contains itself.
+        yaml.YAMLError: not valid YAML, or a tag that is not plain data.
+    """
+    if limit is not None and len(text) > limit:
+        raise error(_too_large(source, "document", len(text), limit))
+    loader = yaml.SafeLoader(text)
+    try:
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                return None
+            _check_nodes(node, source, error, max_nodes)
+            return loader.construct_document(node)
+        except RecursionError:
+            raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)") from None
+    finally:
+        loader.dispose()
+
+
+def _check_nodes(root: yaml.Node, source: str, error: type[PyFlytError], max_nodes: int) -> None:
+    """Refuse a composed YAML graph that expands to too many values, nests too deeply or loops.
+
+    Aliases share their anchor's node, so the graph is small; each node's expanded size
+    (itself plus its children's, an alias counted as often as it is used) and height are
+    computed once, bottom-up, without recursion.
+    """
+    sizes: dict[int, tuple[int, int]] = {}  # id(node) -> (expanded values, height)
+    open_: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        if isinstance(node, yaml.MappingNode):
+            children = [item for pair in node.value for item in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        else:
+            children = []
+        if not done:
+            if key in sizes:
+                continue
+            if key in open_:
+                raise error(f"{source}: a value contains itself (a YAML alias to its own anchor); write it out")
+            open_.add(key)
+            stack.append((node, True))
+            for child in children:
+                if id(child) in open_:
+                    raise error(f"{source}: a value contains itself (a YAML alias to its own anchor); write it out")
+                if id(child) not in sizes:
+                    stack.append((child, False))
+            continue
+        open_.discard(key)
+        count = 1 + sum(sizes[id(c)][0] for c in children)
+        height = 1 + max((sizes[id(c)][1] for c in children), default=0)
+        if count > max_nodes:
+            raise error(
+                f"{source}: the document holds more than {max_nodes} values, its YAML aliases expanded "
+                "(an alias-expansion bomb?); it is not one this package wrote"
+            )
+        if height > MAX_DEPTH:
+            raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)")
+        sizes[key] = (count, height)
+
+
+# ------------------------------------------------------------------------- JSON
+
+
+def json_data(
+    text: str | bytes,
+    *,
+    source: str,
+    error: type[PyFlytError] = ConfigError,
+    limit: int | None = MAX_DOCUMENT_BYTES,
+    max_nodes: int = MAX_NODES,
+) -> Any:
+    """The data of a JSON document, within the limits (see :func:`yaml_data`).
+
+    Raises:
+        error: larger than ``limit`` bytes, more than ``max_nodes`` values, or nested
+            deeper than :data:`MAX_DEPTH`.
+        ValueError: not valid JSON.
+    """
+    if limit is not None and len(text) > limit:
+        raise error(_too_large(source, "document", len(text), limit))
+    try:
+        data = json.loads(text)
+    except RecursionError:
+        raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)") from None
+    count = 0
+    stack: list[tuple[Any, int]] = [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        count += 1
+        if count > max_nodes:
+            raise error(f"{source}: the document holds more than {max_nodes} values; it is not one this package wrote")
+        if depth > MAX_DEPTH:
+            raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)")
+        if isinstance(value, dict):
+            stack.extend((v, depth + 1) for v in value.values())
+            count += len(value)  # the keys
+        elif isinstance(value, list):
+            stack.extend((v, depth + 1) for v in value)
+    return data
+
+
+# --------------------------------------------------------------------- files
+
+
+def load_yaml_file(
+    path: str | os.PathLike[str],
+    *,
+    what: str = "YAML file",
+    error: type[PyFlytError] = ConfigError,
+    limit: int = MAX_YAML_BYTES,
+    max_nodes: int = MAX_NODES,
+) -> Any:
+    """The plain data of a YAML file: :func:`read_text` then :func:`yaml_data`.
+
+    Every problem (special file, too large, not text, not valid YAML, a bomb) is one
+    ``error`` naming the file.
+    """
+    text = read_text(path, limit=limit, what=what, error=error)
+    try:
+        return yaml_data(text, source=str(path), error=error, limit=limit, max_nodes=max_nodes)
+    except yaml.YAMLError as exc:
+        raise error(f"{path}: not valid YAML: {_yaml_problem(exc)}") from None
+
+
+def load_json_file(
+    path: str | os.PathLike[str],
+    *,
+    what: str = "JSON file",
+    error: type[PyFlytError] = ConfigError,
+    limit: int = MAX_DOCUMENT_BYTES,
+    max_nodes: int = MAX_NODES,
+) -> Any:
+    """The data of a JSON file: :func:`read_text` then :func:`json_data`; one ``error`` for any problem."""
+    text = read_text(path, limit=limit, what=what, error=error)
+    try:
+        return json_data(text, source=str(path), error=error, limit=limit, max_nodes=max_nodes)
+    except ValueError as exc:
+        if isinstance(exc, PyFlytError):
+            raise
+        raise error(f"{path}: not valid JSON: {_first_line(exc)}") from None
+
+
+def _yaml_problem(exc: yaml.YAMLError) -> str:
+    """A YAML error in one line: what is wrong, and where."""
+    problem = getattr(exc, "problem", None) or getattr(exc, "context", None)
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    if not problem:
+        return _first_line(exc)
+    where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+    return f"{problem}{where}"
+
+
+def _first_line(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+# -------------------------------------------------------------- closed trees
+
+
+def outside(root: str | os.PathLike[str], path: str | os.PathLike[str]) -> bool:
+    """Whether ``path``, with every link resolved, leaves the directory ``root``."""
+    base = Path(os.path.realpath(root))
+    target = Path(os.path.realpath(path))
+    return target != base and base not in target.parents
+
+
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
+
+
+def plain_name(value: object) -> bool:
+    """Whether ``value`` is a plain name (a shipped preset's, ``dryden_light``), never a path:
+    letters, digits, ``_``, ``-`` and ``.``, no separator, not ``..``."""
+    return isinstance(value, str) and _PLAIN_NAME.fullmatch(value) is not None and ".." not in value
