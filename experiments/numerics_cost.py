@@ -5,7 +5,7 @@ in turn (the kernels are chosen when the libraries load), alternating the two fo
 ``--rounds`` rounds so that the machine's load falls on both alike; it prints the median
 CPU time of each figure per mode and the ratio pinned / native::
 
-    python experiments/numerics_cost.py             # 3 rounds, ~2 min
+    python experiments/numerics_cost.py             # 3 rounds, ~4 min
     python experiments/numerics_cost.py --rounds 5
 
 Figures (CPU time of this process, one torch thread as training uses):
@@ -15,7 +15,12 @@ Figures (CPU time of this process, one torch thread as training uses):
   batch 256 [ms];  ``SAC update 128``: the same with the waypoint tunings' [128, 128];
 * ``PPO update``: one SB3 PPO ``train()`` on a 2048-step rollout, [64, 64], batch 64,
   10 epochs (SB3's defaults) [s];
-* ``predict``: one deterministic ``PPO.predict`` of one observation [us].
+* ``predict``: one deterministic ``PPO.predict`` of one observation [us];
+* ``SAC training``: CPU time per env step of SB3 SAC learning in the shape
+  of the waypoint tunings (``conf/hparams/quadx_waypoints_sac.yaml``: 4
+  ``PyFlyt/QuadX-Waypoints-v0`` envs stepped in the process, one gradient step of batch
+  256 per vector step, [128, 128]), after its warm-up [ms]: what a training run's length
+  scales with.
 """
 
 from __future__ import annotations
@@ -60,6 +65,14 @@ t = cpu()
 for _ in range(2000):
     ppo.predict(obs, deterministic=True)
 out["predict [us]"] = (cpu() - t) / 2000 * 1e6
+from stable_baselines3.common.env_util import make_vec_env
+from pyflyt_engine.envs.wrappers import FlattenWaypointEnv
+venv = make_vec_env("PyFlyt/QuadX-Waypoints-v0", n_envs=4, seed=0, wrapper_class=FlattenWaypointEnv)
+sac = SAC("MlpPolicy", venv, learning_starts=1000, batch_size=256, train_freq=1, gradient_steps=1,
+          seed=0, verbose=0, device="cpu", policy_kwargs={"net_arch": [128, 128]})
+sac.learn(2000)
+t = cpu(); sac.learn(6000, reset_num_timesteps=False)
+out["SAC training [ms/step]"] = (cpu() - t) / 6000 * 1e3
 out["status"] = numerics.platform_info()["status"]
 print(json.dumps(out))
 """
