@@ -21,6 +21,7 @@ from pyflyt_engine.compat.gym_envs._base import (
     check_angle_representation,
     native_config,
     quadx_action,
+    surface_commands_to_channels,
 )
 from pyflyt_engine.envs.multi_agent.dogfight import MAFixedwingDogfightEnv as _NativeDogfight
 from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv as _NativeMAHover
@@ -273,8 +274,7 @@ class _SurfaceCommands:
         object.__setattr__(self, "_vehicle", vehicle)
 
     def set_setpoint(self, setpoint: Any) -> None:
-        la, ra, ht, vt, _mw, thrust = (float(v) for v in setpoint)
-        self._vehicle.set_setpoint(np.array((0.5 * (la - ra), ht, -vt, thrust)))
+        self._vehicle.set_setpoint(surface_commands_to_channels(setpoint))
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._vehicle, name)

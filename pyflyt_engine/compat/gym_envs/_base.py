@@ -133,6 +133,16 @@ class _PwmThrust:
         setattr(self._vehicle, name, value)
 
 
+def surface_commands_to_channels(setpoint: Any) -> np.ndarray:
+    """PyFlyt 0.29.0 Fixedwing mode -1 commands (left aileron, right aileron, horizontal tail,
+    vertical tail, main wing, thrust) folded onto the airframe's channels (roll, pitch,
+    yaw, thrust): roll = (left - right) / 2, pitch = horizontal tail, yaw = -vertical tail
+    (PyFlyt Fixedwing mode 0 drives them as left = roll, right = -roll, tail = pitch,
+    vertical tail = -yaw); the main wing's entry has no surface here."""
+    la, ra, ht, vt, _mw, thrust = (float(v) for v in setpoint)
+    return np.array((0.5 * (la - ra), ht, -vt, thrust))
+
+
 class ReferenceEnv:
     """Mixin for the compat envs, placed before the native class in the bases."""
 
