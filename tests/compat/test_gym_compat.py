@@ -140,14 +140,20 @@ def test_info_keys_are_the_references():
         waypoints.close()
 
 
-def test_mode_0_thrust_is_a_motor_command():
-    # PyFlyt 0.29.0 QuadX mode 0: thrust adds to each motor's command, thrust ~ command**2
+def test_mode_0_thrust_is_a_motor_command_matched_at_hover():
+    # PyFlyt 0.29.0 QuadX mode 0: the thrust entry is a motor command, thrust ~ command**2;
+    # its cf2x hovers at 0.3125, which must be this airframe's hover
+    from pyflyt_engine.compat.gym_envs._base import REFERENCE_QUADX_HOVER_COMMAND
+
     env = _make("PyFlyt/QuadX-Hover-v4")
     try:
         env.reset(seed=0)
-        env.step(np.array([0.0, 0.0, 0.0, 0.5]))
-        assert env.vehicle.setpoint[3] == pytest.approx(0.25)
-        assert env.last_action[3] == pytest.approx(0.5)  # the observation keeps the agent's value
+        hover = env.vehicle.hover_throttle() ** 2  # thrust fraction at hover
+        env.step(np.array([0.0, 0.0, 0.0, REFERENCE_QUADX_HOVER_COMMAND]))
+        assert env.vehicle.setpoint[3] == pytest.approx(hover)
+        env.step(np.array([0.0, 0.0, 0.0, 2 * REFERENCE_QUADX_HOVER_COMMAND]))
+        assert env.vehicle.setpoint[3] == pytest.approx(4 * hover)  # quadratic
+        assert env.last_action[3] == pytest.approx(2 * REFERENCE_QUADX_HOVER_COMMAND)  # observed as given
     finally:
         env.close()
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.core.abstractions import YAML_AIRFRAMES, ControlClass, UnsupportedFeature, WindFieldClass
-from pyflyt_engine.compat.gym_envs._base import surface_commands_to_channels
+from pyflyt_engine.compat.gym_envs._base import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
 from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
@@ -68,10 +68,11 @@ class _ControllerAdapter:
     ``QuadX.set_mode``); the native vehicle calls :meth:`reset` then, which does the same.
     """
 
-    def __init__(self, constructor: Callable[[], ControlClass], pwm_thrust: bool) -> None:
+    def __init__(self, constructor: Callable[[], ControlClass], pwm_thrust: bool, gain: float) -> None:
         self.constructor = constructor
         self.instance = constructor()
         self.pwm_thrust = pwm_thrust
+        self.gain = gain
 
     def reset(self) -> None:
         self.instance = self.constructor()
@@ -82,7 +83,7 @@ class _ControllerAdapter:
             raise AssertionError(f"custom controller outputting wrong shape, expected (4, ) but got {out.shape}.")
         if self.pwm_thrust:
             out = out.copy()
-            out[3] = max(out[3], 0.0) ** 2
+            out[3] = command_to_thrust_fraction(out[3], self.gain)
         return out
 
 
@@ -112,6 +113,7 @@ class Drone:
         self._setpoint = np.zeros(0)
         self._controllers: dict[int, tuple[Callable[[], ControlClass], int]] = {}
         self.np_random = aviary.np_random
+        self._gain = thrust_gain(self.vehicle) if kind == "quadx" else 1.0
 
     # ------------------------------------------------------------------ read-outs
 
@@ -140,8 +142,8 @@ class Drone:
         base = self._base_mode(self.mode)
         native = value
         if self.kind == "quadx" and base == 0 and self.mode not in self._controllers:
-            native = value.copy()  # PyFlyt 0.29.0 QuadX mode 0: thrust is a motor command, thrust ~ command**2
-            native[3] = max(native[3], 0.0) ** 2
+            native = value.copy()  # PyFlyt 0.29.0 QuadX mode 0: thrust is a motor command
+            native[3] = command_to_thrust_fraction(native[3], self._gain)
         elif self.kind == "fixedwing" and self.mode == -1:
             native = surface_commands_to_channels(value)
         self.vehicle.set_setpoint(native)
@@ -194,7 +196,7 @@ class Drone:
             raise ValueError(f"`base_mode` must be between -1 and 7, got {base_mode}.")
         if -1 <= int(controller_id) <= 7:
             raise ValueError(f"`controller_id` must not be a built-in mode (-1 to 7), got {controller_id}.")
-        adapter = _ControllerAdapter(controller_constructor, pwm_thrust=int(base_mode) == 0)
+        adapter = _ControllerAdapter(controller_constructor, pwm_thrust=int(base_mode) == 0, gain=self._gain)
         self.vehicle.register_controller(f"pyflyt_{int(controller_id)}", adapter, int(base_mode))
         self._controllers[int(controller_id)] = (controller_constructor, int(base_mode))
 

@@ -5,7 +5,8 @@ task, same reward presets) built from its shipped config with the reference's de
 written into it; the few things a config cannot say are done here, in thin overrides:
 
 * the thrust of flight mode 0 is a motor command in the reference and a fraction of the
-  full collective thrust here: :class:`_PwmThrust` squares it on its way to the vehicle;
+  full collective thrust here: :class:`_PwmThrust` maps it (quadratic, matched at hover)
+  on its way to the vehicle;
 * ``rgb_array`` frames carry an alpha channel, (H, W, 4), as the reference's;
 * info keys are the reference's (``fatal_collision`` for the rocket), without
   ``reward_terms``;
@@ -105,25 +106,44 @@ def quadx_action(flight_mode: int) -> dict[str, Any]:
     }
 
 
+#: the mode-0 thrust command at which the reference's QuadX (cf2x) hovers: 0.3125, measured
+#: on PyFlyt 0.29.0 QuadX-Hover-v4 by bisection (zero net climb over 2 s from a level
+#: spawn); the motor model's noise there is biased upwards, so this is not sqrt(weight /
+#: max thrust)
+REFERENCE_QUADX_HOVER_COMMAND = 0.3125
+
+
+def thrust_gain(vehicle: Any) -> float:
+    """Scale from a reference mode-0 thrust command to this airframe's motor throttle: the
+    reference's hover command meets this airframe's hover throttle (1 without a mixer)."""
+    try:
+        return float(vehicle.hover_throttle()) / REFERENCE_QUADX_HOVER_COMMAND
+    except Exception:  # noqa: BLE001 - an airframe without multirotor motors: no scaling
+        return 1.0
+
+
+def command_to_thrust_fraction(command: float, gain: float) -> float:
+    """PyFlyt 0.29.0 QuadX mode 0: the thrust entry is a motor command and a motor's thrust goes
+    as the square of its command; here the entry is a fraction of the full collective
+    thrust.  So ``T`` becomes ``(gain x T)**2`` (negative commands: idle), ``gain`` from
+    :func:`thrust_gain`; exact at hover by construction, quadratic around it."""
+    t = max(float(command), 0.0) * gain
+    return t * t
+
+
 class _PwmThrust:
-    """The vehicle, seen through the reference's meaning of mode 0's thrust.
+    """The vehicle, seen through the reference's meaning of mode 0's thrust (:func:`command_to_thrust_fraction`)."""
 
-    PyFlyt 0.29.0 QuadX mode 0: the thrust entry is added to every motor's command, and a
-    motor's thrust goes as the square of its command; here the entry is a fraction of the
-    full collective thrust, so the command ``T`` becomes ``T**2`` (exact when the body
-    rates are at their setpoints, the rate loop's share then being zero).
-    """
-
-    __slots__ = ("_vehicle", "_index")
+    __slots__ = ("_vehicle", "_index", "_gain")
 
     def __init__(self, vehicle: Any, index: int = 3) -> None:
         object.__setattr__(self, "_vehicle", vehicle)
         object.__setattr__(self, "_index", index)
+        object.__setattr__(self, "_gain", thrust_gain(vehicle))
 
     def set_setpoint(self, setpoint: Any) -> None:
         s = np.array(setpoint, dtype=np.float64)
-        t = s[self._index]
-        s[self._index] = t * abs(t)
+        s[self._index] = command_to_thrust_fraction(s[self._index], self._gain)
         self._vehicle.set_setpoint(s)
 
     def __getattr__(self, name: str) -> Any:
