@@ -89,8 +89,8 @@ class MAQuadXHoverEnvV2(_NativeMAHover):
         )
         self.start_pos, self.start_orn, self.flight_mode = start_pos, start_orn, flight_mode
         super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
-        if cfg["action"]["mode"] == "rates_thrust":
-            self.vehicles = [_PwmThrust(v) for v in self.vehicles]
+        if cfg["action"]["mode"] in ("rates_thrust", "motors"):
+            self.vehicles = [_PwmThrust(v, motors=cfg["action"]["mode"] == "motors") for v in self.vehicles]
 
     def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         s = states[i]

@@ -144,6 +144,8 @@ class Drone:
         if self.kind == "quadx" and base == 0 and self.mode not in self._controllers:
             native = value.copy()  # PyFlyt 0.29.0 QuadX mode 0: thrust is a motor command
             native[3] = command_to_thrust_fraction(native[3], self._gain)
+        elif self.kind == "quadx" and base == -1 and self.mode not in self._controllers:
+            native = np.clip(value * self._gain, -1.0, 1.0)  # PyFlyt 0.29.0 motor commands, matched at hover
         elif self.kind == "fixedwing" and self.mode == -1:
             native = surface_commands_to_channels(value)
         self.vehicle.set_setpoint(native)

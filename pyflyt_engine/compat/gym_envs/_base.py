@@ -132,18 +132,27 @@ def command_to_thrust_fraction(command: float, gain: float) -> float:
 
 
 class _PwmThrust:
-    """The vehicle, seen through the reference's meaning of mode 0's thrust (:func:`command_to_thrust_fraction`)."""
+    """The vehicle, seen through the reference's meaning of its QuadX commands.
 
-    __slots__ = ("_vehicle", "_index", "_gain")
+    Mode 0 (``motors=False``): the thrust entry through :func:`command_to_thrust_fraction`.
+    Mode -1 (``motors=True``): each motor command times the same gain, so that the
+    reference's hover command hovers here too (PyFlyt 0.29.0 Motors: its biased noise
+    raises every command's thrust alike).
+    """
 
-    def __init__(self, vehicle: Any, index: int = 3) -> None:
+    __slots__ = ("_vehicle", "_motors", "_gain")
+
+    def __init__(self, vehicle: Any, motors: bool = False) -> None:
         object.__setattr__(self, "_vehicle", vehicle)
-        object.__setattr__(self, "_index", index)
+        object.__setattr__(self, "_motors", motors)
         object.__setattr__(self, "_gain", thrust_gain(vehicle))
 
     def set_setpoint(self, setpoint: Any) -> None:
         s = np.array(setpoint, dtype=np.float64)
-        s[self._index] = command_to_thrust_fraction(s[self._index], self._gain)
+        if self._motors:
+            s = np.clip(s * self._gain, -1.0, 1.0)
+        else:
+            s[3] = command_to_thrust_fraction(s[3], self._gain)
         self._vehicle.set_setpoint(s)
 
     def __getattr__(self, name: str) -> Any:
@@ -174,12 +183,15 @@ class ReferenceEnv:
     _delta_bound: float | None = None
 
     def _finish_init(self, *, pwm_thrust: bool, render_resolution: tuple[int, int], render_mode: str | None) -> None:
+        """``pwm_thrust``: the action is a QuadX command of the reference (modes 0 and -1)."""
         #: "human" asked for without a display: frames are drawn headless
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
         self.render_resolution = tuple(render_resolution)
-        if pwm_thrust:
-            self.vehicle = _PwmThrust(self.vehicle)  # type: ignore[attr-defined]
+        mode = self.config.action.mode  # type: ignore[attr-defined]
+        if pwm_thrust or mode == "motors":
+            if mode in ("rates_thrust", "motors"):
+                self.vehicle = _PwmThrust(self.vehicle, motors=mode == "motors")  # type: ignore[attr-defined]
         space = self.observation_space  # type: ignore[has-type]
         if self._delta_bound is not None and isinstance(space, spaces.Dict):
             feature = space["target_deltas"].feature_space

@@ -11,6 +11,9 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
+import numpy as np
+
+from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.gym_envs._base import (
     ReferenceEnv,
     common_overrides,
@@ -384,7 +387,9 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
 
     PyFlyt 0.29.0 RocketLandingEnv: ceiling 500.0, max_displacement 200.0,
     max_duration_seconds 30.0, agent_hz 40; spawn x, y ~ U(+-0.1 max_displacement),
-    z ~ U(0.8, 0.9) x ceiling; out of bounds beyond max_displacement sideways or above
+    z ~ U(0.8, 0.9) x ceiling, attitude U(+-0.3) rad per angle, falling at 100 m/s (its
+    default reset options ``randomize_drop`` and ``accelerate_drop``; the velocity noise it
+    means to add is never applied), 5 % fuel (``starting_fuel_ratio``); out of bounds beyond max_displacement sideways or above
     the ceiling; info ``out_of_bounds``, ``fatal_collision``, ``env_complete``;
     observation Box(30,) / Box(29,) whose last entry (pad contact) is in [0, 1].
     """
@@ -418,9 +423,29 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
             start_position=(0.0, 0.0, 0.85 * self.ceiling),
             start_height_noise=0.05 * self.ceiling,
             start_position_noise=0.1 * self.max_displacement,
+            start_orientation=(0.0, 0.0, 0.0),
+            start_orientation_noise=0.3,
+            start_lin_vel=(0.0, 0.0, 0.0),
+            start_velocity_noise=0.0,
+            start_ang_vel_noise=0.0,
+            initial_fuel=0.05,
         )
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(pwm_thrust=False, render_resolution=render_resolution, render_mode=render_mode)
+
+    #: PyFlyt 0.29.0 RocketBaseEnv ``accelerate_drop``: the drop starts at this ground velocity [m/s]
+    drop_velocity = (0.0, 0.0, -100.0)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        observation, info = super().reset(seed=seed, options=options)
+        state = self.vehicle.state
+        cid = self.world.client
+        rotation = np.array(p.getMatrixFromQuaternion(state.quaternion, physicsClientId=cid)).reshape(3, 3)
+        body_velocity = rotation.T @ np.array(self.drop_velocity)  # ground -> body
+        self.vehicle.reset(tuple(state.lin_pos), tuple(state.ang_pos), lin_vel=tuple(body_velocity))
+        state = self.vehicle.state
+        self.task.reset(state, self.np_random)
+        return self._observe(state), info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         observation, reward, terminated, truncated, info = super().step(action)
