@@ -168,11 +168,11 @@ print("RESULT " + json.dumps(out))
 
 
 def actions_for(kind: str, steps: int, rng: np.random.Generator) -> list[list[float]]:
-    """Actions that keep the vehicle flying: hover commands (0.3125, the reference's) with noise."""
+    """Actions that keep the vehicle flying: the reference's hover command (0.300) with noise."""
     if kind == "quadx_rates":
-        return [[*rng.normal(0.0, 0.1, 3), 0.3125 + rng.normal(0.0, 0.01)] for _ in range(steps)]
+        return [[*rng.normal(0.0, 0.1, 3), 0.300 + rng.normal(0.0, 0.01)] for _ in range(steps)]
     if kind == "quadx_motors":
-        return [list(np.clip(0.3125 + rng.normal(0.0, 0.01, 4), 0.0, 0.8)) for _ in range(steps)]
+        return [list(np.clip(0.300 + rng.normal(0.0, 0.01, 4), 0.0, 0.8)) for _ in range(steps)]
     if kind == "fixedwing":
         return [[rng.normal(0.0, 0.1), 0.0, 0.0, 0.6] for _ in range(steps)]
     return [[0.0] * 7 for _ in range(steps)]

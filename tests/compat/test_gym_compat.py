@@ -142,7 +142,7 @@ def test_info_keys_are_the_references():
 
 def test_mode_0_thrust_is_a_motor_command_matched_at_hover():
     # PyFlyt 0.29.0 QuadX mode 0: the thrust entry is a motor command, thrust ~ command**2;
-    # its cf2x hovers at 0.3125, which must be this airframe's hover
+    # its cf2x hovers at 0.300 (measured), which must be this airframe's hover
     from pyflyt_engine.compat.gym_envs._base import REFERENCE_QUADX_HOVER_COMMAND
 
     env = _make("PyFlyt/QuadX-Hover-v4")
