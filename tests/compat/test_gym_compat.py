@@ -159,7 +159,8 @@ def test_mode_0_thrust_is_a_motor_command_matched_at_hover():
 
 
 def test_flatten_waypoint_env_has_the_references_layout():
-    env = FlattenWaypointEnv(gymnasium.make("PyFlyt/QuadX-Waypoints-v4", angle_representation="euler"), context_length=2)
+    base = gymnasium.make("PyFlyt/QuadX-Waypoints-v4", angle_representation="euler")
+    env = FlattenWaypointEnv(base, context_length=2)
     try:
         assert env.observation_space.shape == (20 + 3 * 2,)
         assert env.observation_space.dtype == np.float32

@@ -164,7 +164,9 @@ class Drone:
         base = self._base_mode(mode)
         if self.kind == "quadx":
             if not -1 <= base <= 7:
-                raise ValueError(f"`mode` must be between -1 and 7 or be registered in {list(self._controllers)}, got {mode}.")
+                raise ValueError(
+                    f"`mode` must be between -1 and 7 or be registered in {list(self._controllers)}, got {mode}."
+                )
             self.vehicle.set_mode(f"pyflyt_{mode}" if mode in self._controllers else mode)
         else:
             if mode not in (-1, 0):
@@ -205,7 +207,8 @@ class Drone:
     def get_joint_info(self) -> None:
         """Print the body's links and joints (PyFlyt 0.29.0 ``DroneClass.get_joint_info``)."""
         cid = self._aviary.world.client
-        infos = [p.getJointInfo(self.Id, i, physicsClientId=cid) for i in range(p.getNumJoints(self.Id, physicsClientId=cid))]
+        count = p.getNumJoints(self.Id, physicsClientId=cid)
+        infos = [p.getJointInfo(self.Id, i, physicsClientId=cid) for i in range(count)]
         print(f"Spawned UAV with ID {self.Id} and {len(infos)} links.")
         for info in infos:
             print(f"Joint {info[0]}: {info[1].decode()}, link {info[12].decode()}")
@@ -386,7 +389,8 @@ class Aviary:
     @staticmethod
     def _start_velocity(kind: str, option: dict[str, Any]) -> tuple[float, float, float] | None:
         if kind == "fixedwing":  # PyFlyt 0.29.0 Fixedwing: starting_velocity (20, 0, 0), body frame
-            return tuple(float(v) for v in option.get("starting_velocity", (20.0, 0.0, 0.0)))  # type: ignore[return-value]
+            velocity = option.get("starting_velocity", (20.0, 0.0, 0.0))
+            return tuple(float(v) for v in velocity)  # type: ignore[return-value]
         return None
 
     def _reset_drones(self) -> None:

@@ -182,16 +182,15 @@ class ReferenceEnv:
     #: bound of the target deltas (PyFlyt 0.29.0: 2 x flight_dome_size), or None
     _delta_bound: float | None = None
 
-    def _finish_init(self, *, pwm_thrust: bool, render_resolution: tuple[int, int], render_mode: str | None) -> None:
-        """``pwm_thrust``: the action is a QuadX command of the reference (modes 0 and -1)."""
+    def _finish_init(self, render_resolution: tuple[int, int], render_mode: str | None) -> None:
+        """After the native ``__init__``: the reference's command meanings, render mode and delta bounds."""
         #: "human" asked for without a display: frames are drawn headless
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
         self.render_resolution = tuple(render_resolution)
         mode = self.config.action.mode  # type: ignore[attr-defined]
-        if pwm_thrust or mode == "motors":
-            if mode in ("rates_thrust", "motors"):
-                self.vehicle = _PwmThrust(self.vehicle, motors=mode == "motors")  # type: ignore[attr-defined]
+        if mode in ("rates_thrust", "motors"):  # a QuadX in the reference's mode 0 or -1
+            self.vehicle = _PwmThrust(self.vehicle, motors=mode == "motors")  # type: ignore[attr-defined]
         space = self.observation_space  # type: ignore[has-type]
         if self._delta_bound is not None and isinstance(space, spaces.Dict):
             feature = space["target_deltas"].feature_space
@@ -216,7 +215,9 @@ class ReferenceEnv:
     def render(self) -> np.ndarray | None:
         """``rgb_array``: an (H, W, 4) uint8 RGBA frame, as the reference's; ``human``: the GUI."""
         if self.render_mode is None:  # type: ignore[attr-defined]
-            raise ValueError("Please set `render_mode='human'` or `render_mode='rgb_array'` in init to use this function.")
+            raise ValueError(
+                "Please set `render_mode='human'` or `render_mode='rgb_array'` in init to use this function."
+            )
         if self._headless_human:
             self.render_mode = "rgb_array"
         try:

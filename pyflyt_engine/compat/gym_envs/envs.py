@@ -80,7 +80,7 @@ class QuadXHoverEnv(ReferenceEnv, _NativeHover):
         still_spawn(cfg["task"], (0.0, 0.0, 1.0))
         self.flight_mode = flight_mode
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
@@ -124,12 +124,14 @@ class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
             render_resolution=render_resolution,
         )
         cfg["action"] = quadx_action(flight_mode)
-        cfg["task"].update(num_targets=int(num_targets), goal_reach_distance=float(goal_reach_distance), min_target_height=0.1)
+        cfg["task"].update(
+            num_targets=int(num_targets), goal_reach_distance=float(goal_reach_distance), min_target_height=0.1
+        )
         still_spawn(cfg["task"], (0.0, 0.0, 1.0))
         self.flight_mode, self.use_yaw_targets, self.goal_reach_angle = flight_mode, use_yaw_targets, goal_reach_angle
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
@@ -167,7 +169,7 @@ class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
         cfg["action"] = quadx_action(flight_mode)
         self.flight_mode = flight_mode
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class QuadXPoleWaypointsEnv(ReferenceEnv, _NativePoleWaypoints):
@@ -206,11 +208,13 @@ class QuadXPoleWaypointsEnv(ReferenceEnv, _NativePoleWaypoints):
             render_resolution=render_resolution,
         )
         cfg["action"] = quadx_action(flight_mode)
-        cfg["task"].update(num_targets=int(num_targets), goal_reach_distance=float(goal_reach_distance), min_target_height=1.3)
+        cfg["task"].update(
+            num_targets=int(num_targets), goal_reach_distance=float(goal_reach_distance), min_target_height=1.3
+        )
         self.flight_mode = flight_mode
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
@@ -248,10 +252,12 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
             render_resolution=render_resolution,
         )
         cfg["action"] = quadx_action(flight_mode)
-        cfg["task"].update(goal_reach_distance=float(goal_reach_distance), goal_reach_velocity=float(goal_reach_velocity))
+        cfg["task"].update(
+            goal_reach_distance=float(goal_reach_distance), goal_reach_velocity=float(goal_reach_velocity)
+        )
         self.flight_mode = flight_mode
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class QuadXGatesEnv(ReferenceEnv, _NativeGates):
@@ -324,7 +330,7 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
         cfg["camera_observation"] = cam
         self.flight_mode, self.goal_reach_distance = flight_mode, goal_reach_distance
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=cfg["action"]["mode"] == "rates_thrust", render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class FixedwingWaypointsEnv(ReferenceEnv, _NativeFixedwingWaypoints):
@@ -379,7 +385,7 @@ class FixedwingWaypointsEnv(ReferenceEnv, _NativeFixedwingWaypoints):
         self.flight_mode = flight_mode
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=False, render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
 
 class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
@@ -389,9 +395,9 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
     max_duration_seconds 30.0, agent_hz 40; spawn x, y ~ U(+-0.1 max_displacement),
     z ~ U(0.8, 0.9) x ceiling, attitude U(+-0.3) rad per angle, falling at 100 m/s (its
     default reset options ``randomize_drop`` and ``accelerate_drop``; the velocity noise it
-    means to add is never applied), 5 % fuel (``starting_fuel_ratio``); out of bounds beyond max_displacement sideways or above
-    the ceiling; info ``out_of_bounds``, ``fatal_collision``, ``env_complete``;
-    observation Box(30,) / Box(29,) whose last entry (pad contact) is in [0, 1].
+    means to add is never applied), 5 % fuel (``starting_fuel_ratio``); out of bounds
+    beyond max_displacement sideways or above the ceiling; info ``out_of_bounds``,
+    ``fatal_collision``, ``env_complete``; observation Box(30,) / Box(29,) whose last entry (pad contact) is in [0, 1].
     """
 
     reference_id = "PyFlyt/Rocket-Landing-v4"
@@ -431,12 +437,14 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
             initial_fuel=0.05,
         )
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
-        self._finish_init(pwm_thrust=False, render_resolution=render_resolution, render_mode=render_mode)
+        self._finish_init(render_resolution, render_mode)
 
     #: PyFlyt 0.29.0 RocketBaseEnv ``accelerate_drop``: the drop starts at this ground velocity [m/s]
     drop_velocity = (0.0, 0.0, -100.0)
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
         observation, info = super().reset(seed=seed, options=options)
         state = self.vehicle.state
         cid = self.world.client
