@@ -60,9 +60,9 @@ AVIARY_CASES: dict[str, tuple[str, int, float]] = {
 }
 
 WHY = {
-    "hover": "reference: 10 settle steps before the first observation with idle motors (a 3.4 cm, 0.8 m/s "
-    "drop the compat env does not have); its motor noise N(4, 1) x 2 % biases thrust (matched at hover only); "
-    "different PID gains and rate loop",
+    "hover": "the reference's motor noise N(4, 1) x 2 % biases its thrust (the command is matched at hover "
+    "only, so climb and sink rates differ a little); different rate-loop gains, motor lag and drag; open loop, "
+    "so small differences in attitude grow into drift",
     "waypoints": "as hover; targets drawn from different random streams (rewards differ, the flight does not)",
     "pole_balance": "as hover, in motor mode; the pole: the reference's URDF pole vs the native payload "
     "(mass, joint, attachment)",

@@ -87,7 +87,8 @@ def test_the_references_constructor_arguments_are_accepted():
         for seed in range(3):
             rocket.reset(seed=seed)
             x, y, z = rocket.state.lin_pos
-            assert 240.0 - 1e-6 <= z <= 270.0 + 1e-6 and abs(x) <= 10.0 + 1e-6 and abs(y) <= 10.0 + 1e-6
+            # spawn z in U(0.8, 0.9) x ceiling, then 1/12 s of settling at ~100 m/s down
+            assert 240.0 - 9.0 <= z <= 270.0 - 8.0 and abs(x) <= 10.5 and abs(y) <= 10.5
     finally:
         rocket.close()
 
@@ -170,10 +171,15 @@ def test_flatten_waypoint_env_has_the_references_layout():
         env.close()
 
 
-def test_hover_spawns_exactly_at_the_start_point():
-    env = _make("PyFlyt/QuadX-Hover-v4")
+def test_hover_spawns_at_the_start_point_and_settles_as_the_reference():
+    # PyFlyt 0.29.0 QuadXBaseEnv: spawn exactly at (0, 0, 1), then 10 steps of 1/120 s with
+    # idle motors before the first observation: 1/12 s of free fall
+    env = _make("PyFlyt/QuadX-Hover-v4", angle_representation="euler")
     try:
-        env.reset(seed=3)
-        np.testing.assert_allclose(env.state.lin_pos, [0.0, 0.0, 1.0], atol=1e-9)
+        obs, _ = env.reset(seed=3)
+        fall = 0.5 * 9.81 * (1 / 12) ** 2
+        np.testing.assert_allclose(obs[9:12], [0.0, 0.0, 1.0 - fall], atol=2e-3)
+        assert obs[8] == pytest.approx(-9.81 / 12, abs=0.02)  # body w (level): falling
+        assert env.elapsed_steps == 0
     finally:
         env.close()

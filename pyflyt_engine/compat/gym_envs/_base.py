@@ -34,6 +34,9 @@ REFERENCE_STEP_HZ = 120
 
 #: PyFlyt 0.29.0 QuadXBaseEnv: body-rate bound pi rad/s, thrust and motor bound 0.8.
 QUADX_RATE_LIMIT = math.pi
+
+#: PyFlyt 0.29.0 QuadXBaseEnv/FixedwingBaseEnv/RocketBaseEnv ``end_reset``: Aviary steps before the first observation
+SETTLE_STEPS = 10
 QUADX_THRUST_LIMIT = 0.8
 
 
@@ -202,8 +205,33 @@ class ReferenceEnv:
         return info
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        observation, info = super().reset(seed=seed, options=options or None)  # type: ignore[misc]
-        return observation, self._reference_info(info)
+        """The native reset, then the reference's settling: PyFlyt 0.29.0 ``*BaseEnv.end_reset``
+        runs 10 Aviary steps (1/120 s each) with the flight mode's preset setpoint (idle
+        motors, neutral surfaces) before the first observation, so a QuadX starts 3.4 cm
+        below its spawn point, falling at 0.8 m/s.  The task is reset on the settled state."""
+        _, info = super().reset(seed=seed, options=options or None)  # type: ignore[misc]
+        self._after_spawn()
+        self._settle()
+        state = self.vehicle.state  # type: ignore[attr-defined]
+        self.task.reset(state, self.np_random)  # type: ignore[attr-defined]
+        if self._markers is not None:  # type: ignore[attr-defined]
+            self._markers.show(self.task.markers())  # type: ignore[attr-defined]
+        info.update(self.task.info())  # type: ignore[attr-defined]
+        return self._observe(state), self._reference_info(info)  # type: ignore[attr-defined]
+
+    def _after_spawn(self) -> None:
+        """Change the spawned state before settling (the rocket's drop velocity)."""
+
+    def _settle(self) -> None:
+        world = self.world  # type: ignore[attr-defined]
+        per_agent = world.physics_per_agent
+        world.physics_per_agent = max(1, int(round(world.physics_hz / REFERENCE_STEP_HZ)))
+        try:
+            self.vehicle.set_setpoint(np.zeros(self.action_space.shape))  # type: ignore[attr-defined]
+            for _ in range(SETTLE_STEPS):
+                world.step()
+        finally:
+            world.physics_per_agent = per_agent
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         observation, reward, terminated, truncated, info = super().step(action)  # type: ignore[misc]

@@ -442,18 +442,12 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
     #: PyFlyt 0.29.0 RocketBaseEnv ``accelerate_drop``: the drop starts at this ground velocity [m/s]
     drop_velocity = (0.0, 0.0, -100.0)
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Any, dict[str, Any]]:
-        observation, info = super().reset(seed=seed, options=options)
+    def _after_spawn(self) -> None:
         state = self.vehicle.state
         cid = self.world.client
         rotation = np.array(p.getMatrixFromQuaternion(state.quaternion, physicsClientId=cid)).reshape(3, 3)
         body_velocity = rotation.T @ np.array(self.drop_velocity)  # ground -> body
         self.vehicle.reset(tuple(state.lin_pos), tuple(state.ang_pos), lin_vel=tuple(body_velocity))
-        state = self.vehicle.state
-        self.task.reset(state, self.np_random)
-        return self._observe(state), info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         observation, reward, terminated, truncated, info = super().step(action)
