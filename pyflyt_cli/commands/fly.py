@@ -15,7 +15,8 @@ import numpy as np
 import typer
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from pyflyt_cli.config import compose, names_file, parse_overrides, to_container
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.compose import compose, names_file, to_container
 from pyflyt_engine.atmosphere import parse_wind_config
 from pyflyt_engine.envs.config import validate_model
 from pyflyt_engine.flight import Trajectory, fly

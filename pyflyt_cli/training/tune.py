@@ -43,7 +43,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from pyflyt_cli.config import override_value
+from pyflyt_cli.compose import override_value
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.safe_load import load_yaml_file, yaml_data
