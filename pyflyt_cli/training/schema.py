@@ -18,7 +18,7 @@ where it is declared; ``pyflyt train --help`` and ``docs/cli.md`` show the same.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import (
     BaseModel,
@@ -123,14 +123,12 @@ class _AlgoBase(_Strict):
         "enable_critic_lstm": frozenset({"recurrent_ppo"}),
         "batch_norm_momentum": frozenset({"crossq"}),
     }
-    #: policies the algorithm takes (registry.POLICIES lists every one)
-    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpPolicy"})
-
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:
         name = self.name  # type: ignore[attr-defined]
-        if self.policy not in self._POLICIES:
-            raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(self._POLICIES))}")
+        policies = registry.ALGORITHMS[name].policies
+        if self.policy not in policies:
+            raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(policies))}")
         for key, algos in self._SPECIFIC_POLICY_KEYS.items():
             if getattr(self.policy_kwargs, key) is not None and name not in algos:
                 raise ValueError(
@@ -379,21 +377,10 @@ class RecurrentPPOConfig(_AlgoBase):
     sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
     target_kl: float | None = Field(gt=0, description="stop the epochs early beyond this KL (null: never)")
 
-    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpLstmPolicy"})
 
-
+#: ``algo:``: one model per algorithm, as the table of algorithms names it
 AlgoConfig = Annotated[
-    PPOConfig
-    | A2CConfig
-    | SACConfig
-    | TD3Config
-    | DDPGConfig
-    | AWACConfig
-    | TQCConfig
-    | CrossQConfig
-    | TRPOConfig
-    | RecurrentPPOConfig
-    | CCGEConfig,
+    Union[tuple(globals()[a.config] for a in registry.ALGORITHMS.values())],  # noqa: UP007 - built from the table
     Field(discriminator="name"),
 ]
 
@@ -608,13 +595,13 @@ class TrainConfig(_Strict):
 
 def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> None:
     """The oracle flies this env, and the algorithm's policy can be fitted state by state."""
-    from pyflyt_cli.training.imitation import SUPPORTED_ALGOS
     from pyflyt_engine.envs.oracles import ORACLES
 
     if getattr(env, "multi_agent", False):
         raise ValueError("train.imitation: the multi-agent envs have no oracle; set train.imitation.oracle=null")
-    if algo not in SUPPORTED_ALGOS:
-        raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(SUPPORTED_ALGOS)}")
+    fitted = [name for name, a in registry.ALGORITHMS.items() if a.imitation]
+    if algo not in fitted:
+        raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(fitted)}")
     flies = ORACLES[imitation.oracle].env_ids
     if env.id not in flies:
         raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")
@@ -742,9 +729,7 @@ def check_env_references(env: EnvConfig) -> None:
 
 
 def _algo_model(name: str) -> type[BaseModel]:
-    models = {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}
-    contrib = {"tqc": TQCConfig, "crossq": CrossQConfig, "trpo": TRPOConfig, "recurrent_ppo": RecurrentPPOConfig}
-    return {**models, "awac": AWACConfig, "ccge": CCGEConfig, **contrib}[name]
+    return globals()[registry.ALGORITHMS[name].config]
 
 
 # -------------------------------------------------------------------------- eval
