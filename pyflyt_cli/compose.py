@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import difflib
 import json
-import os
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -21,6 +20,7 @@ import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from pyflyt_cli.errors import UsageError
+from pyflyt_engine.loading import names_file
 from pyflyt_engine.paths import conf_dir
 
 
@@ -82,11 +82,6 @@ def _checkgroup_choices(overrides: Sequence[str]) -> None:
 #: config groups whose choice may also be the path of a YAML file (``experiment=study.yaml``,
 #: ``uav=my_hexacopter.yaml``)
 FILE_GROUPS = ("experiment", "uav")
-
-
-def names_file(value: str) -> bool:
-    """Whether a group choice is a file path rather than the name of a shipped option."""
-    return value.endswith((".yaml", ".yml")) or "/" in value or (os.sep in value)
 
 
 def airframe_file(value: str, key: str = "uav") -> Path:

@@ -41,11 +41,12 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from pyflyt_cli.compose import absolute_airframes
 from pyflyt_cli.errors import UsageError
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import validate
 
 PLAN_FILE = "plan.json"
 RUNS_DIR = "runs"
@@ -257,21 +258,9 @@ def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Se
             f"experiment={experiment} declares no benchmark (no 'benchmark:' section): train it with "
             f"pyflyt train experiment={experiment} -m seed=0,1,2, or see docs/benchmarks.md to declare a grid"
         )
-    try:
-        return BenchmarkSpec.model_validate(section)
-    except ValidationError as exc:
-        raise UsageError(f"experiment={experiment}: invalid benchmark section:\n{_describe(exc)}") from None
-
-
-def _describe(exc: ValidationError) -> str:
-    lines = []
-    for err in exc.errors():
-        # a union (seeds: int | list[int]) reports each member: name the field once
-        loc = ".".join(str(p) for p in err["loc"] if p not in ("int", "list[int]"))
-        line = f"  benchmark.{loc}: {err['msg']} (got {err.get('input')!r})"
-        if line not in lines:
-            lines.append(line)
-    return "\n".join(lines)
+    return validate(
+        BenchmarkSpec, section, "benchmark section", f"experiment={experiment}", prefix="benchmark.", error=UsageError
+    )
 
 
 def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequence[str] | None = None) -> Plan:

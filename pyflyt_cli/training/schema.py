@@ -32,8 +32,9 @@ from pydantic import (
 )
 
 from pyflyt_cli.training import registry
-from pyflyt_engine.envs.config import EnvConfig, _describe, parse_env_config
+from pyflyt_engine.envs.config import EnvConfig, parse_env_config
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import describe_error, problem_list, problems
 
 
 class _Strict(BaseModel):
@@ -626,13 +627,13 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
     try:
         task.set_episode_options({name: option.start for name, option in curriculum.items()})
     except ValidationError as exc:  # one line per rejected value, named as the user wrote it
-        problems = "; ".join(
+        wrong = "; ".join(
             f"train.curriculum.{e['loc'][0]}.start"
             + (f" (element {e['loc'][1]})" if len(e["loc"]) > 1 else "")
             + f": {e['msg']}"
             for e in exc.errors()
         )
-        raise ValueError(f"the curriculum's start values are not a valid task: {problems}") from None
+        raise ValueError(f"the curriculum's start values are not a valid task: {wrong}") from None
     except (PyFlytError, ValueError) as exc:
         raise ValueError(f"train.curriculum: the start values are not a valid task: {exc}") from None
 
@@ -677,18 +678,14 @@ def parse_train_config(
     try:
         cfg = TrainConfig.model_validate(data, context={"recorded": recorded})
     except ValidationError as exc:
-        problems = []
+        lines = []
         for error in exc.errors():
             loc = tuple(error["loc"])
             if loc and loc[0] == "env" and error["type"] == "value_error":
                 # the env's own validator already produced a full message
-                message = str(error["msg"]).removeprefix("Value error, ")
-                problems.append(message)
-                continue
-            if len(loc) > 1 and loc[0] == "algo" and loc[1] in registry.ALGOS:
-                problems.append(_describe(_algo_model(loc[1]), {**error, "loc": loc[2:]}, prefix="algo."))
-                continue
-            problems.append(_describe(TrainConfig, error))
+                lines.append(str(error["msg"]).removeprefix("Value error, "))
+            else:  # algo.<key>: the chosen algorithm's model (the union's tag is left out)
+                lines.append(describe_error(TrainConfig, error))
         hint = ""
         if any(e["type"] == "missing" for e in exc.errors()):
             hint = (
@@ -696,7 +693,7 @@ def parse_train_config(
                 "pyflyt_cli.training.compose_config(env=..., algo=..., overrides=[...]))"
             )
         raise ConfigError(
-            f"{source}: invalid configuration:\n" + "\n".join(f"  - {p}" for p in problems) + hint
+            f"{source}: invalid configuration:\n" + problem_list(lines) + hint
         ) from None
     check_env_references(cfg.env)
     return cfg
@@ -769,8 +766,7 @@ def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
     try:
         return EvalOptions.model_validate({**eval_defaults(), **dict(data)})
     except ValidationError as exc:
-        problems = [_describe(EvalOptions, e) for e in exc.errors()]
-        raise ConfigError("invalid eval options:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+        raise ConfigError("invalid eval options:\n" + problem_list(problems(EvalOptions, exc))) from None
 
 
 def eval_defaults() -> dict[str, Any]:
