@@ -628,9 +628,7 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
         task.set_episode_options({name: option.start for name, option in curriculum.items()})
     except ValidationError as exc:  # one line per rejected value, named as the user wrote it
         wrong = "; ".join(
-            f"train.curriculum.{e['loc'][0]}.start"
-            + (f" (element {e['loc'][1]})" if len(e["loc"]) > 1 else "")
-            + f": {e['msg']}"
+            describe_error(task_cls.Options, {**e, "loc": (e["loc"][0], "start", *e["loc"][1:])}, "train.curriculum.")
             for e in exc.errors()
         )
         raise ValueError(f"the curriculum's start values are not a valid task: {wrong}") from None
