@@ -2,7 +2,7 @@
 
 :data:`ALGORITHMS` is the one table of what the library knows of each algorithm (its
 class, its hyper-parameters' model, on- or off-policy, what ``init_from`` accepts,
-whether imitation can fit its policy, its policies).
+whether imitation can fit its policy, its policies and the policy keys only it takes).
 
 A config never names a Python object by import path.  Algorithms, policies, activation
 functions, action noises and callbacks are picked by *name* from the maps below;
@@ -41,6 +41,9 @@ class Algorithm:
     imitation: bool = True
     #: the policies it takes (every one is in :data:`POLICIES`)
     policies: frozenset[str] = frozenset({"MlpPolicy"})
+    #: the ``algo.policy_kwargs`` keys its policies take that not every algorithm's do
+    #: (every one in :data:`SPECIFIC_POLICY_KEYS`; the others must leave them null)
+    policy_keys: frozenset[str] = frozenset()
 
 
 #: algorithm name (``algo.name``, ``conf/algo/<name>.yaml`` holds its defaults) -> its facts
@@ -57,9 +60,15 @@ ALGORITHMS: dict[str, Algorithm] = {
     # actor becomes the oracle (Tai et al. 2022)
     "ccge": Algorithm("pyflyt_cli.training.ccge:CCGE", "CCGEConfig", off_policy=True, init_from=frozenset({"sac"})),
     # sb3-contrib
-    "tqc": Algorithm("sb3_contrib:TQC", "TQCConfig", off_policy=True),
+    "tqc": Algorithm("sb3_contrib:TQC", "TQCConfig", off_policy=True, policy_keys=frozenset({"n_quantiles"})),
     # batch renormalisation: its policy does not fit one state at a time
-    "crossq": Algorithm("sb3_contrib:CrossQ", "CrossQConfig", off_policy=True, imitation=False),
+    "crossq": Algorithm(
+        "sb3_contrib:CrossQ",
+        "CrossQConfig",
+        off_policy=True,
+        imitation=False,
+        policy_keys=frozenset({"batch_norm_momentum"}),
+    ),
     "trpo": Algorithm("sb3_contrib:TRPO", "TRPOConfig", off_policy=False),
     # an LSTM's memory: its policy does not fit one state at a time
     "recurrent_ppo": Algorithm(
@@ -68,6 +77,7 @@ ALGORITHMS: dict[str, Algorithm] = {
         off_policy=False,
         imitation=False,
         policies=frozenset({"MlpLstmPolicy"}),
+        policy_keys=frozenset({"lstm_hidden_size", "n_lstm_layers", "shared_lstm", "enable_critic_lstm"}),
     ),
 }
 
@@ -79,6 +89,11 @@ INIT_FROM: dict[str, frozenset[str]] = {name: a.init_from for name, a in ALGORIT
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
 POLICIES: frozenset[str] = frozenset().union(*(a.policies for a in ALGORITHMS.values()))
+#: ``algo.policy_kwargs`` key -> the algorithms whose policies take it (keys only some take)
+SPECIFIC_POLICY_KEYS: dict[str, frozenset[str]] = {
+    key: frozenset(name for name, a in ALGORITHMS.items() if key in a.policy_keys)
+    for key in sorted(set().union(*(a.policy_keys for a in ALGORITHMS.values())))
+}
 
 #: ``algo.policy_kwargs.activation_fn`` -> torch module class
 ACTIVATIONS: dict[str, str] = {

@@ -115,22 +115,14 @@ class _AlgoBase(_Strict):
     _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
         {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
     )
-    #: ``policy_kwargs`` keys only some algorithms' policies take (the rest accept none of them)
-    _SPECIFIC_POLICY_KEYS: ClassVar[dict[str, frozenset[str]]] = {
-        "n_quantiles": frozenset({"tqc"}),
-        "lstm_hidden_size": frozenset({"recurrent_ppo"}),
-        "n_lstm_layers": frozenset({"recurrent_ppo"}),
-        "shared_lstm": frozenset({"recurrent_ppo"}),
-        "enable_critic_lstm": frozenset({"recurrent_ppo"}),
-        "batch_norm_momentum": frozenset({"crossq"}),
-    }
+
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:
         name = self.name  # type: ignore[attr-defined]
         policies = registry.ALGORITHMS[name].policies
         if self.policy not in policies:
             raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(policies))}")
-        for key, algos in self._SPECIFIC_POLICY_KEYS.items():
+        for key, algos in registry.SPECIFIC_POLICY_KEYS.items():
             if getattr(self.policy_kwargs, key) is not None and name not in algos:
                 raise ValueError(
                     f"policy_kwargs.{key} applies to {', '.join(sorted(algos))} only, not {name}: leave it null"

@@ -31,3 +31,21 @@ def test_the_config_union_and_the_views_come_from_the_table():
     assert set(registry.ALGOS) == set(registry.ALGORITHMS)
     assert registry.OFF_POLICY == {"sac", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"}
     assert registry.INIT_FROM == {"awac": {"sac"}, "ccge": {"sac"}}
+    assert registry.SPECIFIC_POLICY_KEYS["n_quantiles"] == {"tqc"}
+    assert registry.SPECIFIC_POLICY_KEYS["shared_lstm"] == {"recurrent_ppo"}
+
+
+def test_the_policy_keys_only_some_algorithms_take_are_refused_for_the_others():
+    from pyflyt_cli.training.schema import PolicyConfig
+
+    assert set(registry.SPECIFIC_POLICY_KEYS) <= set(PolicyConfig.model_fields)
+    with pytest.raises(ValueError, match="policy_kwargs.n_quantiles applies to tqc only, not sac"):
+        _algo_model("sac").model_validate(
+            {**_defaults("sac"), "policy_kwargs": {**_defaults("sac")["policy_kwargs"], "n_quantiles": 5}}
+        )
+
+
+def _defaults(name):
+    from pyflyt_engine.safe_load import load_yaml_file
+
+    return load_yaml_file(conf_dir() / "algo" / f"{name}.yaml")
