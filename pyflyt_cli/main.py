@@ -12,7 +12,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Optional
 
-import typer
+try:
+    import typer
+except ImportError as exc:  # the simulator was installed without the command's extra
+    raise SystemExit(
+        f"error: the pyflyt command needs its extra ({exc}): pip install 'pyflyt-toolkit[cli]' "
+        "(after pip install torch==2.13.0, so that PyTorch comes without CUDA)"
+    ) from None
 
 from pyflyt_engine.errors import PyFlytError
 

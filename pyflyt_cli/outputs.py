@@ -17,7 +17,7 @@ import secrets
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 
 #: largest image side [pixels]: the offscreen renderer is a CPU rasteriser
 MAX_PIXELS = 4096
@@ -36,10 +36,10 @@ def parse_size(text: str) -> tuple[int, int]:
     """``"640x480"`` -> (640, 480), each side 16 ... :data:`MAX_PIXELS` pixels."""
     match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
     if not match:
-        raise CLIError(f"--size '{text}': write WIDTHxHEIGHT in pixels, e.g. 640x480")
+        raise UsageError(f"--size '{text}': write WIDTHxHEIGHT in pixels, e.g. 640x480")
     width, height = int(match.group(1)), int(match.group(2))
     if not (16 <= width <= MAX_PIXELS and 16 <= height <= MAX_PIXELS):
-        raise CLIError(f"--size {width}x{height}: each side must be between 16 and {MAX_PIXELS} pixels")
+        raise UsageError(f"--size {width}x{height}: each side must be between 16 and {MAX_PIXELS} pixels")
     return width, height
 
 
@@ -64,25 +64,25 @@ def check_output(
         input_name: how messages call those inputs (e.g. "the input recording").
 
     Raises:
-        CLIError: naming the option, the path and what to do instead.
+        UsageError: naming the option, the path and what to do instead.
     """
     endings = " or ".join(suffixes)
     suffix = path.suffix.lower()
     if suffix not in suffixes:
-        raise CLIError(f"{option} {path}: give a file name ending in {endings}")
+        raise UsageError(f"{option} {path}: give a file name ending in {endings}")
     if path.is_dir():
-        raise CLIError(f"{option} {path}: is a directory; give a file name ending in {endings}")
+        raise UsageError(f"{option} {path}: is a directory; give a file name ending in {endings}")
     if path.exists():
         resolved = path.resolve()
         if any(resolved == p.resolve() for p in protected):
-            raise CLIError(f"{option} {path}: that is {input_name}; refusing to overwrite it")
+            raise UsageError(f"{option} {path}: that is {input_name}; refusing to overwrite it")
         if not _same_kind(path, suffix):
-            raise CLIError(
+            raise UsageError(
                 f"{option} {path}: the file exists and is not a {_KINDS[suffix][0]}; refusing to overwrite it "
                 "(choose another name or delete it)"
             )
     if not path.parent.is_dir():
-        raise CLIError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
+        raise UsageError(f"{option} {path}: the directory {path.parent} does not exist; create it first")
     return path
 
 
@@ -107,7 +107,7 @@ def atomic_output(path: Path, option: str | None = None) -> Iterator[Path]:
             fig.savefig(tmp)
 
     Raises:
-        CLIError: the write or the rename failed with an OSError (full disk, read-only
+        UsageError: the write or the rename failed with an OSError (full disk, read-only
             directory, file too large ...): one message naming the option, ``path`` and
             the reason.  Other exceptions propagate unchanged (after the clean-up).
     """
@@ -118,18 +118,18 @@ def atomic_output(path: Path, option: str | None = None) -> Iterator[Path]:
         os.replace(tmp, path)
     except OSError as exc:
         where = f"{option} {path}" if option else str(path)
-        raise CLIError(f"{where}: cannot write the file: {_reason(exc)}; the file was not changed") from None
+        raise UsageError(f"{where}: cannot write the file: {_reason(exc)}; the file was not changed") from None
     finally:
         tmp.unlink(missing_ok=True)
 
 
 def make_output_dir(path: Path, option: str | None = None) -> Path:
-    """Create the directory ``path`` (and its parents) for outputs; CLIError naming it and the reason."""
+    """Create the directory ``path`` (and its parents) for outputs; UsageError naming it and the reason."""
     where = f"{option} {path}" if option else str(path)
     if path.exists() and not path.is_dir():
-        raise CLIError(f"{where}: is a file, not a directory; give a directory for the outputs")
+        raise UsageError(f"{where}: is a file, not a directory; give a directory for the outputs")
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise CLIError(f"{where}: cannot create the output directory: {_reason(exc)}") from None
+        raise UsageError(f"{where}: cannot create the output directory: {_reason(exc)}") from None
     return path

@@ -12,9 +12,9 @@ documented where it is declared; ``docs/uav_authoring.md`` walks through a full 
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
@@ -25,7 +25,6 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
-    ValidationError,
     ValidationInfo,
     field_validator,
     model_validator,
@@ -34,7 +33,7 @@ from pydantic import (
 from pyflyt_engine import exact
 from pyflyt_engine.errors import SpecError
 from pyflyt_engine.paths import uav_dir
-from pyflyt_engine.safe_load import load_yaml_file
+from pyflyt_engine.loading import load, resolve, unknown_name, validate
 
 Vec3 = tuple[float, float, float]
 Color = tuple[float, float, float, float]
@@ -802,75 +801,6 @@ def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
 
 # ------------------------------------------------------------------------ loading
 
-#: validation error type -> how to fix it (appended to messages)
-FIX_HINTS = {
-    "extra_forbidden": "remove it or check its spelling",
-    "missing": "add it",
-    "float_parsing": "give a number",
-    "float_type": "give a number",
-    "int_parsing": "give an integer",
-    "bool_parsing": "give true or false",
-    "list_type": "give a list, e.g. [1, 2, 3]",
-    "tuple_type": "give a list, e.g. [1, 2, 3]",
-    "literal_error": "use one of the allowed values",
-    "too_short": "give the expected number of values",
-    "too_long": "give the expected number of values",
-    "greater_than": "give a larger value",
-    "greater_than_equal": "give a larger value",
-    "less_than": "give a smaller value",
-    "less_than_equal": "give a smaller value",
-    "union_tag_invalid": "use one of the allowed values",
-    "finite_number": "give a real number (not .inf or .nan)",
-}
-
-
-def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
-    """The pydantic model that holds the field at ``loc`` (for listing valid keys)."""
-    model: Any = UAVSpec
-    for part in loc[:-1]:
-        if isinstance(part, int) or model is None:
-            continue
-        field = model.model_fields.get(part)
-        if field is None:
-            # discriminated unions appear in loc as their tag, e.g. ('control', 'multirotor', ...)
-            candidates = [MultirotorControlSpec, FixedwingControlSpec, NoControlSpec]
-            model = next((c for c in candidates if c.model_fields["type"].default == part), None)
-            continue
-        annotation = field.annotation
-        model = first_model(annotation)
-    return model
-
-
-def first_model(annotation: Any) -> Any:
-    """The first pydantic model class in a type annotation (through unions, lists, ...)."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in getattr(annotation, "__args__", ()):
-        found = first_model(arg)
-        if found is not None:
-            return found
-    return None
-
-
-def _describe(error: dict[str, Any]) -> str:
-    loc = tuple(error["loc"])
-    where = ".".join(str(p) for p in loc if p not in ("multirotor", "fixedwing", "none")) or "(top level)"
-    kind = error["type"]
-    if kind == "extra_forbidden":
-        model = _model_at(loc)
-        allowed = sorted(model.model_fields) if model is not None else []
-        allowed = [a for a in allowed if a != "source"]
-        key = str(loc[-1])
-        close = difflib.get_close_matches(key, allowed, n=1)
-        hint = f"did you mean '{close[0]}'? " if close else ""
-        return f"{where}: unknown key '{key}'. {hint}Allowed keys here: {', '.join(allowed)}"
-    message = error["msg"].removeprefix("Value error, ")
-    hint = FIX_HINTS.get(kind)
-    value = error.get("input")
-    shown = "" if kind == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
-    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
-
-
 def parse_uav_spec(data: Any, source: str = "<dict>") -> UAVSpec:
     """Validate an already-parsed mapping as a :class:`UAVSpec`.
 
@@ -879,35 +809,18 @@ def parse_uav_spec(data: Any, source: str = "<dict>") -> UAVSpec:
     """
     if not isinstance(data, dict):
         raise SpecError(f"{source}: a UAV spec must be a mapping of keys to values, got {type(data).__name__}")
-    try:
-        spec = UAVSpec.model_validate({**data, "source": source})
-    except ValidationError as exc:
-        problems = "\n".join(f"  - {_describe(e)}" for e in exc.errors())
-        raise SpecError(f"{source}: invalid UAV spec:\n{problems}") from None
-    return spec
+    return validate(UAVSpec, {**data, "source": source}, "UAV spec", source, error=SpecError)
+
+
+def _unknown_uav(name: Any) -> str:
+    return unknown_name(name, available_uavs(), "UAV", "Shipped airframes", "or give the path to a .yaml file")
 
 
 def resolve_uav_path(name_or_path: str | Path) -> Path:
-    """A shipped airframe name (``quadx_cf2x``) or a path to a YAML file, as a path."""
-    candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml") or len(candidate.parts) > 1:
-        if not candidate.is_file():
-            raise SpecError(f"{candidate}: no such UAV file; check the path")
-        return candidate
-    # a bare name: a shipped airframe first, so a file or directory of that name in the
-    # working directory (e.g. a run folder called "rocket") cannot shadow it
-    shipped = uav_dir() / f"{name_or_path}.yaml"
-    if shipped.is_file():
-        return shipped
-    if candidate.is_file():
-        return candidate
-    choices = available_uavs()
-    close = difflib.get_close_matches(str(name_or_path), choices, n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
-    raise SpecError(
-        f"unknown UAV '{name_or_path}'.{hint} Shipped airframes: {', '.join(choices)}; "
-        "or give the path to a .yaml file"
-    )
+    """A shipped airframe name (``quadx_cf2x``) or a path to a YAML file, as a path
+    (:func:`pyflyt_engine.loading.resolve`: a shipped name first, so a file or directory
+    of that name in the working directory, e.g. a run folder called "rocket", cannot shadow it)."""
+    return resolve(name_or_path, "uav", what="UAV", error=SpecError, unknown=_unknown_uav)
 
 
 def available_uavs() -> list[str]:
@@ -915,8 +828,9 @@ def available_uavs() -> list[str]:
     return sorted(p.stem for p in uav_dir().glob("*.yaml"))
 
 
-def load_uav_spec(name_or_path: str | Path) -> UAVSpec:
-    """Load and validate a UAV spec from a shipped name or a YAML path.
+def load_uav_spec(name_or_path: str | Path | Mapping[str, Any] | UAVSpec) -> UAVSpec:
+    """Load and validate a UAV spec from a shipped name, a YAML path or a mapping
+    (:func:`pyflyt_engine.loading.load`).
 
     The file is read by :func:`pyflyt_engine.safe_load.load_yaml_file`: YAML tags that
     would construct Python objects are rejected, so loading a spec never runs code from it,
@@ -925,6 +839,12 @@ def load_uav_spec(name_or_path: str | Path) -> UAVSpec:
     Raises:
         SpecError: the file is missing, is not valid YAML, or does not match the schema.
     """
-    path = resolve_uav_path(name_or_path)
-    data = load_yaml_file(path, what="UAV file", error=SpecError)
-    return parse_uav_spec(data, source=str(path))
+    return load(
+        name_or_path,
+        group="uav",
+        model=UAVSpec,
+        parse=lambda data, source, _name: parse_uav_spec(data, source=source),
+        what="UAV",
+        error=SpecError,
+        unknown=_unknown_uav,
+    )

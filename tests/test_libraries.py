@@ -20,7 +20,11 @@ LIBRARIES = (
     "pyflyt_cli.plotting",
     "pyflyt_cli.airframes",
     "pyflyt_cli.speed",
+    "pyflyt_cli.zoo",
     "pyflyt_cli.catalog",
+    "pyflyt_cli.compose",
+    "pyflyt_cli.errors",
+    "pyflyt_cli.outputs",
 )
 
 IMPORT_ALL = """

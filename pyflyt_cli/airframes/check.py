@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pyflyt_cli.airframes.describe import thrust_to_weight
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_engine.errors import PyFlytError, SpecError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec, resolve_uav_path
 
@@ -81,7 +81,7 @@ def build_offline(spec: UAVSpec) -> None:
         except SpecError:
             raise
         except (PyFlytError, ValueError, p.error) as exc:  # components check their parameters with ValueError
-            raise CLIError(f"{where}: cannot build the vehicle: {exc}") from None
+            raise UsageError(f"{where}: cannot build the vehicle: {exc}") from None
 
 
 def one_line_summary(spec: UAVSpec) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.outputs import atomic_output
 from pyflyt_engine.spec import UAVSpec
 
@@ -123,7 +123,7 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
     CCW +1, blue CW -1) and each booster's plume (magenta, opposite its thrust).
 
     Raises:
-        CLIError: PyBullet cannot load the URDF (e.g. a missing mesh).
+        UsageError: PyBullet cannot load the URDF (e.g. a missing mesh).
 
     ``payloads``: :class:`~pyflyt_engine.payloads.PayloadSpec` s attached to the vehicle
     (``attach.to: vehicle``), drawn at their reset poses (a tether at full length, its
@@ -140,7 +140,7 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
         try:
             body = p.loadURDF(str(urdf_path(spec)), useFixedBase=True, physicsClientId=client)
         except p.error as exc:
-            raise CLIError(f"{spec.source or spec.name}: PyBullet cannot load the airframe's URDF: {exc}") from None
+            raise UsageError(f"{spec.source or spec.name}: PyBullet cannot load the airframe's URDF: {exc}") from None
         # the collision bounding box sets the scale; the primitives' own corners give a tight
         # framing (a box's far corners lie well outside a cross-shaped airframe), except for
         # meshes and user URDFs, whose extent only PyBullet knows
@@ -223,7 +223,7 @@ def _add_payload(p, client: int, payload) -> np.ndarray:
             physicsClientId=client,
         )
     except p.error as exc:
-        raise CLIError(f"payload {payload.name}: PyBullet cannot load its URDF: {exc}") from None
+        raise UsageError(f"payload {payload.name}: PyBullet cannot load its URDF: {exc}") from None
     links = [-1]
     if payload.attach.joint == "tether":
         _axis, q0, _upper = tether_geometry(payload)
@@ -246,7 +246,7 @@ def plot_surface_curves(spec: UAVSpec, path: Path) -> Path:
     :func:`~pyflyt_engine.components.lifting_surface.coefficient_curves`).
 
     Raises:
-        CLIError: the airframe has no lifting surfaces.
+        UsageError: the airframe has no lifting surfaces.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -255,11 +255,11 @@ def plot_surface_curves(spec: UAVSpec, path: Path) -> Path:
     from pyflyt_engine.components.lifting_surface import coefficient_curves
 
     if not spec.surfaces:
-        raise CLIError(f"{spec.name} has no lifting surfaces: nothing to plot for --curves")
+        raise UsageError(f"{spec.name} has no lifting surfaces: nothing to plot for --curves")
     try:
         surfaces = assemble(spec).surfaces
     except ValueError as exc:
-        raise CLIError(f"{spec.source or spec.name}: cannot build the lifting surfaces: {exc}") from None
+        raise UsageError(f"{spec.source or spec.name}: cannot build the lifting surfaces: {exc}") from None
     n = len(surfaces)
     fig = Figure(figsize=(12.0, 2.4 * n + 0.8))
     FigureCanvasAgg(fig)

@@ -18,7 +18,8 @@ From Python::
 * :mod:`~pyflyt_cli.benchmark.run` — the directory lock, run states, restarts, the local
   launcher (``jobs`` processes) and the summary.
 * :mod:`~pyflyt_cli.benchmark.launch` — the same runs through a Hydra launcher (Ray,
-  Slurm), which gets only the launcher's own settings.
+  Slurm); :mod:`~pyflyt_cli.benchmark.launchers` — which launchers, and the only settings
+  passed on to them (checked when the plan is made).
 * :mod:`~pyflyt_cli.benchmark.normalise` — random-policy and reference scores for ``pyflyt plot``.
 """
 

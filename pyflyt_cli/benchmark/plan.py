@@ -41,10 +41,12 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from pyflyt_cli.config import CLIError, absolute_airframes
+from pyflyt_cli.compose import absolute_airframes
+from pyflyt_cli.errors import UsageError
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import validate
 
 PLAN_FILE = "plan.json"
 RUNS_DIR = "runs"
@@ -239,7 +241,7 @@ def split_overrides(overrides: Sequence[str]) -> tuple[list[str], list[str], lis
             hydra.append(item)
         elif bare in _SET_BY_THE_PLAN:
             what = _SET_BY_THE_PLAN[bare]
-            raise CLIError(f"'{item}' cannot be given to pyflyt benchmark: {what}")
+            raise UsageError(f"'{item}' cannot be given to pyflyt benchmark: {what}")
         else:
             runs.append(item)
     return bench, hydra, runs
@@ -252,25 +254,13 @@ def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Se
     data, _ = compose_train_data([f"experiment={experiment}", *bench_overrides, *run_overrides], benchmark=True)
     section = data.get("benchmark")
     if not isinstance(section, dict):
-        raise CLIError(
+        raise UsageError(
             f"experiment={experiment} declares no benchmark (no 'benchmark:' section): train it with "
             f"pyflyt train experiment={experiment} -m seed=0,1,2, or see docs/benchmarks.md to declare a grid"
         )
-    try:
-        return BenchmarkSpec.model_validate(section)
-    except ValidationError as exc:
-        raise CLIError(f"experiment={experiment}: invalid benchmark section:\n{_describe(exc)}") from None
-
-
-def _describe(exc: ValidationError) -> str:
-    lines = []
-    for err in exc.errors():
-        # a union (seeds: int | list[int]) reports each member: name the field once
-        loc = ".".join(str(p) for p in err["loc"] if p not in ("int", "list[int]"))
-        line = f"  benchmark.{loc}: {err['msg']} (got {err.get('input')!r})"
-        if line not in lines:
-            lines.append(line)
-    return "\n".join(lines)
+    return validate(
+        BenchmarkSpec, section, "benchmark section", f"experiment={experiment}", prefix="benchmark.", error=UsageError
+    )
 
 
 def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequence[str] | None = None) -> Plan:
@@ -285,10 +275,10 @@ def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequ
         command: the command line to record (default: the ``pyflyt benchmark`` line of these arguments).
 
     Raises:
-        CLIError: an unknown experiment, key or launcher (or one whose plugin is missing), an
+        UsageError: an unknown experiment, key or launcher (or one whose plugin is missing), an
             invalid benchmark section or run.
     """
-    from pyflyt_cli.benchmark.launch import launcher_name
+    from pyflyt_cli.benchmark.launchers import launcher_name
 
     if command is None:
         command = ["pyflyt", "benchmark", f"experiment={experiment}", *overrides]
@@ -300,7 +290,7 @@ def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequ
 def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str] = ()) -> tuple[Plan, list[str]]:
     """Compose and validate every run of ``experiment``; returns the plan and the Hydra launcher overrides
     (also its :attr:`Plan.launcher`)."""
-    from pyflyt_cli.benchmark.launch import check_launcher_overrides
+    from pyflyt_cli.benchmark.launchers import check_launcher_overrides
     from pyflyt_cli.training import registry
     from pyflyt_cli.training.schema import OPT_INS
 
@@ -310,7 +300,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
     spec = load_spec(experiment, bench_over, run_over)
     name = spec.name or Path(experiment).stem
     if not name or any(c in name for c in "/\\") or name in (".", ".."):
-        raise CLIError(f"benchmark.name must be a plain directory name, got {name!r}")
+        raise UsageError(f"benchmark.name must be a plain directory name, got {name!r}")
     root = (Path(spec.output_dir).expanduser() / name).resolve()
 
     jobs: dict[str, Job] = {}
@@ -318,9 +308,9 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
         for item in group.overrides:
             key = item.partition("=")[0].lstrip("+~")
             if key in _SET_BY_THE_PLAN:
-                raise CLIError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
+                raise UsageError(f"benchmark.groups[{g}].overrides: '{item}' cannot be given: {_SET_BY_THE_PLAN[key]}")
             if key in OPT_INS:
-                raise CLIError(
+                raise UsageError(
                     f"benchmark.groups[{g}].overrides: '{item}' is an opt-in, taken from the command line only "
                     f"(pyflyt benchmark ... {key}=true), never from an experiment file"
                 )
@@ -351,7 +341,7 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
                         src_task = _task_name(src.task, env, f"benchmark.groups[{g}].init_from.task")
                         accepted = {algo} | set(registry.INIT_FROM.get(algo, frozenset()))
                         if src.algo not in accepted:
-                            raise CLIError(
+                            raise UsageError(
                                 f"benchmark.groups[{g}].init_from: {algo} cannot start from {src.algo} policies "
                                 f"(it can from: {', '.join(sorted(accepted))})"
                             )
@@ -362,10 +352,10 @@ def build_plan(experiment: str, overrides: Sequence[str], command: Sequence[str]
                 try:
                     configs = _compose_lines([job.overrides for job in group_jobs])
                 except ConfigError as exc:
-                    raise CLIError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
+                    raise UsageError(f"benchmark.groups[{g}] ({env}, {algo}): {exc}") from None
                 for job, data in zip(group_jobs, configs):
                     if job.id in jobs:
-                        raise CLIError(
+                        raise UsageError(
                             f"run {job.id} is declared twice: give the groups different tasks "
                             '(task: "{env}_sparse") or algorithms'
                         )
@@ -380,9 +370,9 @@ def _task_name(pattern: str, env: str, where: str) -> str:
     try:
         task = pattern.format(env=env)
     except (KeyError, IndexError, ValueError):
-        raise CLIError(f"{where}: {pattern!r} may only use {{env}}") from None
+        raise UsageError(f"{where}: {pattern!r} may only use {{env}}") from None
     if not task or any(c in task for c in "/\\") or task in (".", ".."):
-        raise CLIError(f"{where}: {task!r} is not a plain directory name")
+        raise UsageError(f"{where}: {task!r} is not a plain directory name")
     return task
 
 
@@ -401,7 +391,7 @@ def _compose_lines(lines: list[list[str]]) -> list[dict[str, Any]]:
     def composed(line: list[str]) -> dict[str, Any]:
         try:
             cfg, _ = compose_run(line)
-        except CLIError as exc:
+        except UsageError as exc:
             raise ConfigError(str(exc)) from None
         return cfg.model_dump(mode="json")
 
@@ -454,7 +444,7 @@ def override(key: str, value: str) -> str:
     if _PLAIN.fullmatch(value) and value[0] not in "+-":
         return f"{key}={value}"
     if "\\" in value or "${" in value:
-        raise CLIError(
+        raise UsageError(
             f"{key}: {value!r} holds a backslash or '${{', which a pyflyt train override cannot carry; "
             "choose a benchmark directory without them (benchmark.output_dir=...)"
         )
@@ -469,12 +459,12 @@ def _check_dependencies(jobs: dict[str, Job]) -> None:
             continue
         source = jobs.get(job.depends_on)
         if source is None:
-            raise CLIError(
+            raise UsageError(
                 f"run {job.id} starts from {job.depends_on}, which the benchmark does not declare: "
                 "check init_from's task and algo"
             )
         if source.depends_on is not None:
-            raise CLIError(
+            raise UsageError(
                 f"run {job.id} starts from {source.id}, which itself starts from another run: one level only"
             )
         _, step = split_init_from(job.config.get("init_from"))
@@ -482,12 +472,12 @@ def _check_dependencies(jobs: dict[str, Job]) -> None:
             opts = source.config["train"]
             freq, total = int(opts["checkpoint_freq"]), int(opts["total_timesteps"])
             if freq <= 0 or step % freq or step > total or step <= 0:
-                raise CLIError(
+                raise UsageError(
                     f"run {job.id} starts from checkpoint {step} of {source.id}, which checkpoints every "
                     f"{freq} steps up to {total}: choose a multiple of train.checkpoint_freq"
                 )
             if int(opts.get("keep_checkpoints", 0)) > 0:
-                raise CLIError(
+                raise UsageError(
                     f"{source.id} keeps only its newest {opts['keep_checkpoints']} checkpoints, so checkpoint "
                     f"{step} would be deleted before {job.id} starts: set train.keep_checkpoints=0 for it"
                 )

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pyflyt_cli.benchmark.plan import LOGS_DIR, RUNS_DIR, Job, Plan
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 
 Echo = Callable[[str], None]
 
@@ -43,7 +43,7 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
 
     An OS lock (``flock``) on the file: the kernel releases it when the process ends,
     however it ends, so a killed benchmark never leaves a stale lock.  A second process
-    finds it held and gets a :class:`CLIError` naming the holder, before it touches
+    finds it held and gets a :class:`UsageError` naming the holder, before it touches
     anything.  (Without ``fcntl``, on Windows, nothing is locked.)
     """
     try:
@@ -56,7 +56,7 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
         root.mkdir(parents=True, exist_ok=True)
         fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except OSError as exc:
-        raise CLIError(
+        raise UsageError(
             f"cannot use {root} as the benchmark directory ({exc.strerror}): choose another benchmark.output_dir"
         ) from None
     try:
@@ -65,7 +65,7 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
         except BlockingIOError:
             holder = os.read(fd, 4096).decode(errors="replace").strip() or "another process"
             pid, _, cmd = holder.partition(" ")
-            raise CLIError(
+            raise UsageError(
                 f"benchmark directory {root} is in use by process {pid}"
                 + (f" ({cmd})" if cmd else "")
                 + ": wait for it to finish or stop it (Ctrl-C), or give this benchmark another directory "

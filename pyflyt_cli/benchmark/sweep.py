@@ -26,7 +26,7 @@ from pyflyt_cli.benchmark.run import (
     run_state,
     to_restart,
 )
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 
 
 def _silent(_: str) -> None:
@@ -125,13 +125,13 @@ def check_restarts(plan: Plan, found: Survey, restart_changed: bool) -> None:
     """Refuse runs with other settings than planned unless ``restart_changed``, and restarts of busy runs.
 
     Raises:
-        CLIError: one line per changed run and setting (saved value -> planned value), or the busy runs.
+        UsageError: one line per changed run and setting (saved value -> planned value), or the busy runs.
     """
     if found.restart and not restart_changed:
-        raise CLIError(changed_message(plan, found.restart))
+        raise UsageError(changed_message(plan, found.restart))
     busy = [i for i in found.restart if found.states[i] == BUSY]
     if busy:
-        raise CLIError(f"cannot restart {', '.join(busy)}: being trained by another process; stop it first")
+        raise UsageError(f"cannot restart {', '.join(busy)}: being trained by another process; stop it first")
 
 
 def changed_message(plan: Plan, restart: dict[str, str]) -> str:
@@ -201,11 +201,12 @@ def run_benchmark(plan: Plan, *, restart_changed: bool = False, log: Echo = _sil
         log: receives one-line progress messages.
 
     Raises:
-        CLIError: the directory is in use by another ``pyflyt benchmark``; runs with other
+        UsageError: the directory is in use by another ``pyflyt benchmark``; runs with other
             settings than planned and no ``restart_changed``; a restart of a run another
             process trains.  Nothing has been trained then.
     """
-    from pyflyt_cli.benchmark.launch import launcher_name, run_hydra
+    from pyflyt_cli.benchmark.launch import run_hydra
+    from pyflyt_cli.benchmark.launchers import launcher_name
     from pyflyt_cli.benchmark.normalise import update_normalisation
     from pyflyt_cli.benchmark.run import move_aside, run_local, summary
     from pyflyt_cli.training.rundir import atomic_write

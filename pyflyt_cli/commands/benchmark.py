@@ -14,7 +14,8 @@ import sys
 import typer
 
 from pyflyt_cli.benchmark import check_restarts, dry_run_script, plan_benchmark, run_benchmark, survey
-from pyflyt_cli.config import CLIError, parse_overrides
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.errors import UsageError
 
 FAILED = 1
 INTERRUPTED = 130
@@ -29,7 +30,7 @@ def benchmark_command(overrides: list[str], dry_run: bool = False, restart_chang
     overrides = parse_overrides(overrides)
     experiments = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]
     if not experiments or not experiments[-1]:
-        raise CLIError("choose the benchmark: pyflyt benchmark experiment=<name> (e.g. experiment=paper_rl)")
+        raise UsageError("choose the benchmark: pyflyt benchmark experiment=<name> (e.g. experiment=paper_rl)")
     rest = [o for o in overrides if o.partition("=")[0] != "experiment"]
     plan = plan_benchmark(experiments[-1], rest, command=["pyflyt", "benchmark", *overrides])
     if dry_run:

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import typer
 
-from pyflyt_cli.config import compose, parse_overrides, to_container
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.compose import compose, to_container
 
 
 def run_eval(run_dir: str, overrides: list[str]) -> object:
@@ -60,7 +61,7 @@ POLICY_ONLY_KEYS = ("model", "deterministic", "trust_pickle")
 
 def run_oracle_eval(name: str, overrides: list[str]) -> object:
     """``pyflyt eval oracle:<name> [overrides]``: fly the scripted oracle, print and return the report."""
-    from pyflyt_cli.config import CLIError
+    from pyflyt_cli.errors import UsageError
     from pyflyt_cli.training.compose import compose_train_data
     from pyflyt_cli.training.evaluate import evaluate_oracle
     from pyflyt_cli.training.schema import EvalOptions, parse_eval_options, parse_train_config
@@ -68,18 +69,18 @@ def run_oracle_eval(name: str, overrides: list[str]) -> object:
     from pyflyt_engine.envs.oracles import ORACLES
 
     if name not in ORACLES:
-        raise CLIError(f"unknown oracle {name!r} in oracle:{name}; oracles: {', '.join(sorted(ORACLES))}")
+        raise UsageError(f"unknown oracle {name!r} in oracle:{name}; oracles: {', '.join(sorted(ORACLES))}")
     evaluation, training = [], []
     for item in parse_overrides(overrides):
         key = item.lstrip("+~").partition("=")[0]
         if key in POLICY_ONLY_KEYS:
-            raise CLIError(f"{key}= applies to a trained run, not to oracle:{name} (a scripted controller)")
+            raise UsageError(f"{key}= applies to a trained run, not to oracle:{name} (a scripted controller)")
         (evaluation if key in EvalOptions.model_fields else training).append(item)
     if not any(item.lstrip("+").partition("=")[0] == "env" for item in training):
         training.insert(0, f"env={ENVS[ORACLES[name].env_ids[0]].config}")
     data, command = compose_train_data(training)
     if command.get("resume") is not None:
-        raise CLIError(f"resume= continues a training run; oracle:{name} flies a scripted controller")
+        raise UsageError(f"resume= continues a training run; oracle:{name} flies a scripted controller")
     cfg = parse_train_config(data, source=f"pyflyt eval oracle:{name} " + " ".join(training))
     options = parse_eval_options({**to_container(compose("eval", evaluation)), "deterministic": True})
     report = evaluate_oracle(name, cfg, options, run_dir=command.get("run_dir"))

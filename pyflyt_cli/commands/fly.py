@@ -15,10 +15,11 @@ import numpy as np
 import typer
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from pyflyt_cli.config import compose, names_file, parse_overrides, to_container
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.compose import compose, names_file, to_container
 from pyflyt_engine.atmosphere import parse_wind_config
-from pyflyt_engine.envs.config import validate_model
 from pyflyt_engine.flight import Trajectory, fly
+from pyflyt_engine.loading import validate
 from pyflyt_engine.spec import parse_uav_spec
 
 Vec3 = tuple[float, float, float]
@@ -70,7 +71,7 @@ class FlyOptions(BaseModel):
 
 def run_fly(overrides: list[str]) -> Trajectory:
     """Compose ``conf/fly.yaml`` with ``overrides``, validate, fly, print the summary."""
-    options: FlyOptions = validate_model(
+    options: FlyOptions = validate(
         FlyOptions, to_container(compose("fly", parse_overrides(overrides))), "fly options", "pyflyt fly"
     )
     given = [o.partition("=")[2] for o in overrides if o.partition("=")[0].lstrip("+") == "uav"]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import typer
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.outputs import atomic_output, check_output, parse_size
 
 
@@ -36,17 +36,17 @@ def run_replay(
     from pyflyt_engine.telemetry.replay import format_summary, summarize
 
     if not tolerance >= 0:
-        raise CLIError(f"--tolerance must be >= 0, got {tolerance}")
+        raise UsageError(f"--tolerance must be >= 0, got {tolerance}")
     # check every output before any work (and before reading a large file)
     if video is not None:
         check_output(video, "--video", VIDEO_SUFFIXES, [file], "the input recording")
     if plot is not None:
         check_output(plot, "--plot", PLOT_SUFFIXES, [file], "the input recording")
     if video is not None and plot is not None and video.resolve() == plot.resolve():
-        raise CLIError("--video and --plot name the same file")
+        raise UsageError("--video and --plot name the same file")
     dims = parse_size(size) if size is not None else None
     if dims is not None and video is None:
-        raise CLIError("--size applies to --video; give --video out.mp4 too")
+        raise UsageError("--size applies to --video; give --video out.mp4 too")
 
     episode = load_episode(file, warn=False)
     summary = summarize(episode)

@@ -14,7 +14,9 @@ from typing import Any
 
 import typer
 
-from pyflyt_cli.config import CLIError, _group_choices, parse_overrides
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.compose import group_choices
+from pyflyt_cli.errors import UsageError
 
 #: config groups a user picks from, in the order --help lists them
 USER_GROUPS = ("env", "algo", "uav", "reward", "experiment")
@@ -33,7 +35,7 @@ def train_help() -> str:
     try:
         rows = []
         for g in USER_GROUPS:
-            text = ", ".join(_group_choices(g)) or "(none)"
+            text = ", ".join(group_choices(g)) or "(none)"
             rows.append(textwrap.fill(text, 62, initial_indent=f"  {g + '=':<12}", subsequent_indent=" " * 14))
         groups = "\n".join(rows)
     except FileNotFoundError:  # pragma: no cover - broken install
@@ -69,24 +71,35 @@ def train_help() -> str:
 
 
 def _sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
-    from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+    import itertools
+
     from hydra.core.override_parser.overrides_parser import OverridesParser
     from hydra.errors import HydraException
 
     try:
         parsed = OverridesParser.create().parse_overrides(overrides)
     except HydraException as exc:
-        raise CLIError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or algo=sac") from None
+        raise UsageError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or algo=sac") from None
     sweeps = [o.input_line for o in parsed if o.is_sweep_override()]
     if not multirun:
         if sweeps:
-            raise CLIError(
+            raise UsageError(
                 f"{sweeps[0]} is a sweep: add -m (--multirun) to start one run per value, "
                 "or quote the value to use it as a string"
             )
         return [overrides]
-    batches = BasicSweeper.split_arguments(parsed, None)
-    return [list(job) for batch in batches for job in batch]
+    # Hydra's basic sweeper rules, through its public override API: every combination of
+    # the swept values; a key given twice keeps its first place and its last value
+    choices: dict[str, list[str]] = {}
+    for override in parsed:
+        key = override.get_key_element()
+        if not override.is_sweep_override():
+            choices[key] = [f"{key}={override.get_value_element_as_str()}"]
+        elif override.is_discrete_sweep():
+            choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
+        else:
+            raise UsageError(f"{override.input_line}: a sweep takes a list of values (a,b,c or range(...)), not an interval")
+    return [list(job) for job in itertools.product(*choices.values())]
 
 
 def load_train_config(overrides: list[str]) -> Any:
@@ -109,18 +122,18 @@ def _resume_args(overrides: list[str]) -> tuple[str, dict[str, Any]]:
         elif key in RESUME_KEYS:
             extra[key] = value
         else:
-            raise CLIError(
+            raise UsageError(
                 f"'{item}' cannot be combined with resume=: a resumed run keeps its saved configuration "
                 f"(only {', '.join(k + '=' for k in RESUME_KEYS)} may be given)"
             )
     if not run:
-        raise CLIError("resume= needs a run directory: pyflyt train resume=runs/<env>/<algo>/<time>-seed<k>")
+        raise UsageError("resume= needs a run directory: pyflyt train resume=runs/<env>/<algo>/<time>-seed<k>")
     total = extra.get("train.total_timesteps")
     bar = extra.get("train.progress_bar")
     try:
         parsed_total = int(float(total)) if total is not None else None
     except ValueError:
-        raise CLIError(f"train.total_timesteps must be a number, got {total!r}") from None
+        raise UsageError(f"train.total_timesteps must be a number, got {total!r}") from None
     parsed_bar = None if bar in (None, "null") else bar.lower() in ("true", "1", "yes")
     return run, {"total_timesteps": parsed_total, "progress_bar": parsed_bar}
 
@@ -143,21 +156,21 @@ def _from_config(overrides: list[str]) -> tuple[Any, Path | None]:
         elif key in FROM_CONFIG_KEYS:
             extra[key] = value
         else:
-            raise CLIError(
+            raise UsageError(
                 f"'{item}' cannot be combined with from_config=: the new run trains the file's settings "
                 f"(only {', '.join(k + '=' for k in FROM_CONFIG_KEYS)} may be given)"
             )
     if not file:
-        raise CLIError("from_config= needs a configuration file: pyflyt train from_config=<run dir>/config.yaml")
+        raise UsageError("from_config= needs a configuration file: pyflyt train from_config=<run dir>/config.yaml")
     path = Path(file).expanduser()
     if not path.is_file():
-        raise CLIError(f"from_config={file}: no such file ({path.absolute()})")
+        raise UsageError(f"from_config={file}: no such file ({path.absolute()})")
     data = rundir.config_dict(rundir.load_config_file(path, root=path.resolve().parent))
     flag = {"true": True, "false": False, "1": True, "0": False, "yes": True, "no": False}
     for key in ("train.progress_bar", "trust_pickle"):
         if key in extra:
             if extra[key].lower() not in flag:
-                raise CLIError(f"{key} must be true or false, got {extra[key]!r}")
+                raise UsageError(f"{key} must be true or false, got {extra[key]!r}")
             section, _, leaf = key.rpartition(".")
             (data[section] if section else data)[leaf] = flag[extra[key].lower()]
     if "train.output_dir" in extra:
@@ -182,7 +195,7 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
     overrides = parse_overrides(overrides)
     if any(o.startswith("resume=") for o in overrides):
         if multirun:
-            raise CLIError("resume= continues one run: do not combine it with -m")
+            raise UsageError("resume= continues one run: do not combine it with -m")
         run, kwargs = _resume_args(overrides)
         try:
             result = resume(run, log=_echo, **kwargs)
@@ -193,13 +206,13 @@ def run_train(overrides: list[str], multirun: bool = False, show_config: bool = 
 
     if any(o.startswith("from_config=") for o in overrides):
         if multirun:
-            raise CLIError("from_config= trains one configuration: do not combine it with -m")
+            raise UsageError("from_config= trains one configuration: do not combine it with -m")
         jobs, composed = [overrides], [_from_config(overrides)]
     else:
         jobs = _sweep_jobs(overrides, multirun)
         composed = [compose_run(job) for job in jobs]  # every job validated before the first runs
     if len(jobs) > 1 and any(run_dir is not None for _, run_dir in composed):
-        raise CLIError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
+        raise UsageError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
     if show_config:
         for job, (cfg, _) in zip(jobs, composed):
             if len(jobs) > 1:

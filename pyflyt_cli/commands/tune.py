@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import typer
 
-from pyflyt_cli.config import CLIError, parse_overrides
+from pyflyt_cli.commands import parse_overrides
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.training.tune import TUNE_KEYS, tune
 
 INTERRUPTED = 130
@@ -26,11 +27,11 @@ def run_tune(overrides: list[str]) -> int:
         elif key in TUNE_KEYS:
             options[key] = None if value == "null" else value  # type: ignore[assignment]
         elif key in ("resume", "run_dir", "init_from"):
-            raise CLIError(f"{key}= is not a tuning setting: every trial is a new run in the study directory")
+            raise UsageError(f"{key}= is not a tuning setting: every trial is a new run in the study directory")
         else:
             training.append(item)
     if not env or not algo:
-        raise CLIError("pyflyt tune needs env=<task> and algo=<algorithm>, e.g. pyflyt tune env=quadx_hover algo=sac trials=20")
+        raise UsageError("pyflyt tune needs env=<task> and algo=<algorithm>, e.g. pyflyt tune env=quadx_hover algo=sac trials=20")
 
     def echo(message: str) -> None:
         typer.echo(message, err=True)

@@ -19,7 +19,7 @@ from pyflyt_cli.airframes import (
     resolve_file,
     validate_uav,
 )
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.outputs import check_output, parse_size
 from pyflyt_engine.errors import PyFlytError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -72,7 +72,7 @@ def run_show(
         config = load_env_config(env)
     if name_or_path is None:
         if config is None:
-            raise CLIError("give an airframe (a YAML file or a shipped name), or --env <env> to show an env's airframe")
+            raise UsageError("give an airframe (a YAML file or a shipped name), or --env <env> to show an env's airframe")
         name_or_path = config.uav
     path = resolve_file(name_or_path)
     width, height = parse_size(size)
@@ -82,10 +82,10 @@ def run_show(
                 target, option, (".png",), [path] + ([Path(config.source)] if config and config.source else [])
             )
     if png is not None and curves is not None and png.resolve() == curves.resolve():
-        raise CLIError(f"--png and --curves name the same file {png}; give two different files")
+        raise UsageError(f"--png and --curves name the same file {png}; give two different files")
     spec = load_uav_spec(path)
     if curves is not None and not spec.surfaces:
-        raise CLIError(f"{spec.name} has no lifting surfaces: nothing to plot for --curves")
+        raise UsageError(f"{spec.name} has no lifting surfaces: nothing to plot for --curves")
     for line in describe(spec):
         typer.echo(line)
     payloads = list(config.payloads) if config is not None else []

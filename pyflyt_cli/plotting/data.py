@@ -152,12 +152,13 @@ def read_normalisation(root: Path) -> dict[str, Normalisation]:
         ConfigError: the file cannot be read, is not YAML, is not a mapping of env names to
             ``{random, reference, source}``, or holds a score that is not a finite number.
     """
-    from pyflyt_engine.envs.config import read_yaml, validate_model
+    from pyflyt_engine.loading import validate
+    from pyflyt_engine.safe_load import load_yaml_file
 
     path = root / NORMALISATION_FILE
     if not path.is_file():
         return {}
-    data = read_yaml(path)
+    data = load_yaml_file(path)
     if data is None:
         return {}
     if not isinstance(data, dict):
@@ -172,7 +173,7 @@ def read_normalisation(root: Path) -> dict[str, Normalisation]:
                 f"{path}: {env}: needs a mapping {{random: R, reference: S, source: ...}} with numbers 'random' and "
                 f"'reference' (reference may be null: the best evaluation in the benchmark), got {entry!r}"
             )
-        checked = validate_model(_NormalisationEntry, entry, "normalisation entry", str(path), prefix=f"{env}.")
+        checked = validate(_NormalisationEntry, entry, "normalisation entry", str(path), prefix=f"{env}.")
         norm = Normalisation(
             checked.random,
             math.nan if checked.reference is None else checked.reference,

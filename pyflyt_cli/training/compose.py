@@ -8,7 +8,7 @@ The one place a training config is put together, for the CLI and for Python alik
 
 Every default value lives in ``conf/`` (``train.yaml``, ``algo/``, ``hparams/``, ``env/`` ...);
 the schema (:mod:`.schema`) only validates.  Hydra is used through its compose API
-(:func:`pyflyt_cli.config.compose`): it never changes the working directory and writes
+(:func:`pyflyt_cli.compose.compose`): it never changes the working directory and writes
 nothing.  This is the only Hydra-aware module of :mod:`pyflyt_cli.training`.
 """
 
@@ -18,7 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from pyflyt_cli.config import CLIError, _group_choices, absolute_airframes, compose, to_container
+from pyflyt_cli.compose import group_choices, absolute_airframes, compose, to_container
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.training.schema import OPT_INS, TrainConfig, parse_train_config
 from pyflyt_engine.paths import conf_dir
 
@@ -35,14 +36,14 @@ def compose_config(env: str | None = None, algo: str | None = None, overrides: S
         overrides: Hydra overrides, as on the command line (``"train.total_timesteps=5e4"``,
             ``"experiment=smoke"``).
 
-    Raises :class:`~pyflyt_cli.config.CLIError` or :class:`~pyflyt_engine.errors.ConfigError`
+    Raises :class:`~pyflyt_cli.compose.UsageError` or :class:`~pyflyt_engine.errors.ConfigError`
     with a message naming the problem.
     """
     given = [*([f"env={env}"] if env else []), *([f"algo={algo}"] if algo else []), *overrides]
     cfg, command = _compose(given)
     for key, value in command.items():
         if value is not None:
-            raise CLIError(
+            raise UsageError(
                 f"{key}={value} tells pyflyt train what to do, it is not part of a configuration "
                 "(from Python: train(cfg, run_dir=...), resume(run_dir))"
             )
@@ -73,28 +74,28 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     overrides = absolute_airframes(overrides, into_env=True)
     for item in overrides:
         if item.lstrip("+~").startswith(("hydra.", "hydra/")):
-            raise CLIError(
+            raise UsageError(
                 f"'{item}': pyflyt train takes no Hydra settings (Hydra only composes conf/train.yaml here); "
                 "give config keys (key=value), and launcher settings to pyflyt benchmark"
             )
     overrides, replaced = _whole_value_overrides(overrides)
     try:
         cfg = compose("train", overrides, return_hydra_config=True)
-    except CLIError as exc:
-        raise CLIError(_suggest_key(str(exc), overrides)) from None
+    except UsageError as exc:
+        raise UsageError(_suggest_key(str(exc), overrides)) from None
     choices = dict(cfg.hydra.runtime.choices)
     with open_dict(cfg):
         del cfg["hydra"]
     missing = sorted(OmegaConf.missing_keys(cfg))
     if missing:
         origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
-        raise CLIError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
+        raise UsageError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
     data = to_container(cfg)
     given = {item.lstrip("+~").partition("=")[0] for item in overrides}
     for key in OPT_INS:
         if data.get(key) and key not in given:
             origin = f"experiment={choices['experiment']}" if choices.get("experiment") else "a config file"
-            raise CLIError(
+            raise UsageError(
                 f"{key} is set by {origin}: an opt-in to load pickled files is taken from the command line only, "
                 f"never from a file; give {key}=true on the command line if you made those files yourself"
             )
@@ -109,20 +110,20 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     if section is not None and not benchmark and command["run_dir"] is None:
         # one run of a benchmark names its run directory (the lines pyflyt benchmark --dry-run prints)
         name = choices.get("experiment")
-        raise CLIError(
+        raise UsageError(
             f"experiment={name} declares a benchmark (a grid of envs x algorithms x seeds): run it with "
             f"pyflyt benchmark experiment={name} (--dry-run prints one pyflyt train line per run)"
         )
     env_name = choices.get("env")
     if not isinstance(data.get("env"), dict):
-        raise CLIError("no environment selected: pass env=<name> (" + ", ".join(_group_choices("env")) + ")")
+        raise UsageError("no environment selected: pass env=<name> (" + ", ".join(group_choices("env")) + ")")
     env = dict(data["env"])
     uav_choice = choices.get("uav")
     uav = data.pop("uav", None)
     if uav_choice:
         shipped = OmegaConf.to_container(OmegaConf.load(conf_dir() / "uav" / f"{uav_choice}.yaml"), resolve=True)
         if uav != shipped:
-            raise CLIError(
+            raise UsageError(
                 f"uav.* keys cannot be overridden in training (uav={uav_choice} names a shipped airframe); "
                 "write your airframe to a file and pass env.uav=path/to/airframe.yaml"
             )
@@ -160,7 +161,7 @@ def _whole_value_overrides(overrides: Sequence[str]) -> tuple[list[str], dict[st
         try:
             value = OverridesParser.create().parse_overrides([item])[0].value()
         except HydraException as exc:
-            raise CLIError(f"'{item}': cannot read the value: {exc}") from None
+            raise UsageError(f"'{item}': cannot read the value: {exc}") from None
         replaced[key] = _plain(value)
     return kept, replaced
 
@@ -189,7 +190,7 @@ def _suggest_key(message: str, overrides: list[str]) -> str:
         node: Any = compose("train", rest)
         for part in parent.split(".") if parent else []:
             node = node[part]
-    except (CLIError, KeyError, TypeError):
+    except (UsageError, KeyError, TypeError):
         return message
     if not isinstance(node, DictConfig):
         return message

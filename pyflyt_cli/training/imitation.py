@@ -38,11 +38,6 @@ import numpy as np
 #: the training envs' seed + i and the evaluations' seed + 1000 + i)
 IMITATION_SEED_OFFSET = 2_000_000
 
-#: algorithms whose policy gives a differentiable deterministic action from one observation
-#: (CrossQ's batch renormalisation and RecurrentPPO's memory do not fit a per-state fit)
-SUPPORTED_ALGOS = ("ppo", "a2c", "trpo", "sac", "td3", "ddpg", "tqc", "awac", "ccge")
-
-
 #: the fields of a :class:`Round` logged on ``/imitation`` (the round's index is the step)
 IMITATION_RECORD = ("oracle_share", "episodes", "steps", "samples", "mean_return", "success_rate", "loss", "seconds")
 

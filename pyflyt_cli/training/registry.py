@@ -1,5 +1,9 @@
 """What a training config may instantiate: plain maps of names, nothing else.
 
+:data:`ALGORITHMS` is the one table of what the library knows of each algorithm (its
+class, its hyper-parameters' model, on- or off-policy, what ``init_from`` accepts,
+whether imitation can fit its policy, its policies and the policy keys only it takes).
+
 A config never names a Python object by import path.  Algorithms, policies, activation
 functions, action noises and callbacks are picked by *name* from the maps below;
 environments by the env configs in ``conf/env`` (which name a registered Gymnasium id,
@@ -14,39 +18,82 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from pyflyt_engine.errors import ConfigError
 
-#: algorithm name -> Stable-Baselines3 class (import string); ``algo.name`` in a config
-ALGOS: dict[str, str] = {
-    "ppo": "stable_baselines3:PPO",
-    "a2c": "stable_baselines3:A2C",
-    "sac": "stable_baselines3:SAC",
-    "td3": "stable_baselines3:TD3",
-    "ddpg": "stable_baselines3:DDPG",
-    # not in SB3: ours, on SB3's SAC policy (pyflyt_cli/training/awac.py)
-    "awac": "pyflyt_cli.training.awac:AWAC",
-    # not in SB3: ours, SAC with an oracle policy (pyflyt_cli/training/ccge.py)
-    "ccge": "pyflyt_cli.training.ccge:CCGE",
+@dataclass(frozen=True)
+class Algorithm:
+    """What the library knows of one algorithm (a row of :data:`ALGORITHMS`)."""
+
+    #: the class that trains it (import string, resolved lazily)
+    cls: str
+    #: its hyper-parameters' model in :mod:`pyflyt_cli.training.schema` (``algo:`` of a config)
+    config: str
+    #: learns from a replay buffer: its checkpoints also save the buffer, which an exact
+    #: resume needs; otherwise on-policy (rollouts of ``n_steps`` per env)
+    off_policy: bool
+    #: ``init_from``: the algorithms whose policy weights it can start from, besides itself
+    init_from: frozenset[str] = frozenset()
+    #: ``train.imitation`` (DAgger before learning) can fit its policy state by state: its
+    #: policy gives a differentiable deterministic action from one observation
+    imitation: bool = True
+    #: the policies it takes (every one is in :data:`POLICIES`)
+    policies: frozenset[str] = frozenset({"MlpPolicy"})
+    #: the ``algo.policy_kwargs`` keys its policies take that not every algorithm's do
+    #: (every one in :data:`SPECIFIC_POLICY_KEYS`; the others must leave them null)
+    policy_keys: frozenset[str] = frozenset()
+
+
+#: algorithm name (``algo.name``, ``conf/algo/<name>.yaml`` holds its defaults) -> its facts
+ALGORITHMS: dict[str, Algorithm] = {
+    "ppo": Algorithm("stable_baselines3:PPO", "PPOConfig", off_policy=False),
+    "a2c": Algorithm("stable_baselines3:A2C", "A2CConfig", off_policy=False),
+    "sac": Algorithm("stable_baselines3:SAC", "SACConfig", off_policy=True),
+    "td3": Algorithm("stable_baselines3:TD3", "TD3Config", off_policy=True),
+    "ddpg": Algorithm("stable_baselines3:DDPG", "DDPGConfig", off_policy=True),
+    # not in SB3: ours (pyflyt_cli/training/awac.py), on SB3's SAC policy class unchanged,
+    # so it bootstraps from a SAC run as in Nair et al. (2020)
+    "awac": Algorithm("pyflyt_cli.training.awac:AWAC", "AWACConfig", off_policy=True, init_from=frozenset({"sac"})),
+    # not in SB3: ours (pyflyt_cli/training/ccge.py), SAC with an oracle policy: a SAC run's
+    # actor becomes the oracle (Tai et al. 2022)
+    "ccge": Algorithm("pyflyt_cli.training.ccge:CCGE", "CCGEConfig", off_policy=True, init_from=frozenset({"sac"})),
     # sb3-contrib
-    "tqc": "sb3_contrib:TQC",
-    "crossq": "sb3_contrib:CrossQ",
-    "trpo": "sb3_contrib:TRPO",
-    "recurrent_ppo": "sb3_contrib:RecurrentPPO",
+    "tqc": Algorithm("sb3_contrib:TQC", "TQCConfig", off_policy=True, policy_keys=frozenset({"n_quantiles"})),
+    # batch renormalisation: its policy does not fit one state at a time
+    "crossq": Algorithm(
+        "sb3_contrib:CrossQ",
+        "CrossQConfig",
+        off_policy=True,
+        imitation=False,
+        policy_keys=frozenset({"batch_norm_momentum"}),
+    ),
+    "trpo": Algorithm("sb3_contrib:TRPO", "TRPOConfig", off_policy=False),
+    # an LSTM's memory: its policy does not fit one state at a time
+    "recurrent_ppo": Algorithm(
+        "sb3_contrib:RecurrentPPO",
+        "RecurrentPPOConfig",
+        off_policy=False,
+        imitation=False,
+        policies=frozenset({"MlpLstmPolicy"}),
+        policy_keys=frozenset({"lstm_hidden_size", "n_lstm_layers", "shared_lstm", "enable_critic_lstm"}),
+    ),
 }
 
-#: algorithms that learn from a replay buffer (checkpoints also save the buffer)
-OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"})
-
-#: ``init_from``: algorithm -> algorithms whose policy weights it can start from (besides
-#: itself).  AWAC uses SAC's policy class unchanged, so it bootstraps from a SAC run as in
-#: Nair et al. (2020).
-#: CCGE likewise takes a SAC policy: its actor becomes the oracle (Tai et al. 2022).
-INIT_FROM: dict[str, frozenset[str]] = {"awac": frozenset({"sac"}), "ccge": frozenset({"sac"})}
+#: views of :data:`ALGORITHMS`: name -> class (import string); the off-policy ones;
+#: ``init_from`` beyond the algorithm itself
+ALGOS: dict[str, str] = {name: a.cls for name, a in ALGORITHMS.items()}
+OFF_POLICY: frozenset[str] = frozenset(name for name, a in ALGORITHMS.items() if a.off_policy)
+INIT_FROM: dict[str, frozenset[str]] = {name: a.init_from for name, a in ALGORITHMS.items() if a.init_from}
 
 #: policies an algorithm may use (the envs' observations are flattened to one Box)
-POLICIES: frozenset[str] = frozenset({"MlpPolicy", "MlpLstmPolicy"})
+POLICIES: frozenset[str] = frozenset().union(*(a.policies for a in ALGORITHMS.values()))
+#: ``algo.policy_kwargs`` key -> the algorithms whose policies take it (keys only some take)
+SPECIFIC_POLICY_KEYS: dict[str, frozenset[str]] = {
+    key: frozenset(name for name, a in ALGORITHMS.items() if key in a.policy_keys)
+    for key in sorted(set().union(*(a.policy_keys for a in ALGORITHMS.values())))
+}
 
 #: ``algo.policy_kwargs.activation_fn`` -> torch module class
 ACTIVATIONS: dict[str, str] = {

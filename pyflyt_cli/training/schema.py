@@ -18,7 +18,7 @@ where it is declared; ``pyflyt train --help`` and ``docs/cli.md`` show the same.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import (
     BaseModel,
@@ -32,8 +32,9 @@ from pydantic import (
 )
 
 from pyflyt_cli.training import registry
-from pyflyt_engine.envs.config import EnvConfig, _describe, parse_env_config
+from pyflyt_engine.envs.config import EnvConfig, parse_env_config
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import describe_error, problem_list, problems
 
 
 class _Strict(BaseModel):
@@ -114,24 +115,14 @@ class _AlgoBase(_Strict):
     _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
         {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
     )
-    #: ``policy_kwargs`` keys only some algorithms' policies take (the rest accept none of them)
-    _SPECIFIC_POLICY_KEYS: ClassVar[dict[str, frozenset[str]]] = {
-        "n_quantiles": frozenset({"tqc"}),
-        "lstm_hidden_size": frozenset({"recurrent_ppo"}),
-        "n_lstm_layers": frozenset({"recurrent_ppo"}),
-        "shared_lstm": frozenset({"recurrent_ppo"}),
-        "enable_critic_lstm": frozenset({"recurrent_ppo"}),
-        "batch_norm_momentum": frozenset({"crossq"}),
-    }
-    #: policies the algorithm takes (registry.POLICIES lists every one)
-    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpPolicy"})
 
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:
         name = self.name  # type: ignore[attr-defined]
-        if self.policy not in self._POLICIES:
-            raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(self._POLICIES))}")
-        for key, algos in self._SPECIFIC_POLICY_KEYS.items():
+        policies = registry.ALGORITHMS[name].policies
+        if self.policy not in policies:
+            raise ValueError(f"policy {self.policy!r} is not one of {name}'s: {', '.join(sorted(policies))}")
+        for key, algos in registry.SPECIFIC_POLICY_KEYS.items():
             if getattr(self.policy_kwargs, key) is not None and name not in algos:
                 raise ValueError(
                     f"policy_kwargs.{key} applies to {', '.join(sorted(algos))} only, not {name}: leave it null"
@@ -379,21 +370,10 @@ class RecurrentPPOConfig(_AlgoBase):
     sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps (-1: per rollout)")
     target_kl: float | None = Field(gt=0, description="stop the epochs early beyond this KL (null: never)")
 
-    _POLICIES: ClassVar[frozenset[str]] = frozenset({"MlpLstmPolicy"})
 
-
+#: ``algo:``: one model per algorithm, as the table of algorithms names it
 AlgoConfig = Annotated[
-    PPOConfig
-    | A2CConfig
-    | SACConfig
-    | TD3Config
-    | DDPGConfig
-    | AWACConfig
-    | TQCConfig
-    | CrossQConfig
-    | TRPOConfig
-    | RecurrentPPOConfig
-    | CCGEConfig,
+    Union[tuple(globals()[a.config] for a in registry.ALGORITHMS.values())],  # noqa: UP007 - built from the table
     Field(discriminator="name"),
 ]
 
@@ -608,13 +588,13 @@ class TrainConfig(_Strict):
 
 def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> None:
     """The oracle flies this env, and the algorithm's policy can be fitted state by state."""
-    from pyflyt_cli.training.imitation import SUPPORTED_ALGOS
     from pyflyt_engine.envs.oracles import ORACLES
 
     if getattr(env, "multi_agent", False):
         raise ValueError("train.imitation: the multi-agent envs have no oracle; set train.imitation.oracle=null")
-    if algo not in SUPPORTED_ALGOS:
-        raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(SUPPORTED_ALGOS)}")
+    fitted = [name for name, a in registry.ALGORITHMS.items() if a.imitation]
+    if algo not in fitted:
+        raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(fitted)}")
     flies = ORACLES[imitation.oracle].env_ids
     if env.id not in flies:
         raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")
@@ -639,13 +619,11 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
     try:
         task.set_episode_options({name: option.start for name, option in curriculum.items()})
     except ValidationError as exc:  # one line per rejected value, named as the user wrote it
-        problems = "; ".join(
-            f"train.curriculum.{e['loc'][0]}.start"
-            + (f" (element {e['loc'][1]})" if len(e["loc"]) > 1 else "")
-            + f": {e['msg']}"
+        wrong = "; ".join(
+            describe_error(task_cls.Options, {**e, "loc": (e["loc"][0], "start", *e["loc"][1:])}, "train.curriculum.")
             for e in exc.errors()
         )
-        raise ValueError(f"the curriculum's start values are not a valid task: {problems}") from None
+        raise ValueError(f"the curriculum's start values are not a valid task: {wrong}") from None
     except (PyFlytError, ValueError) as exc:
         raise ValueError(f"train.curriculum: the start values are not a valid task: {exc}") from None
 
@@ -690,18 +668,14 @@ def parse_train_config(
     try:
         cfg = TrainConfig.model_validate(data, context={"recorded": recorded})
     except ValidationError as exc:
-        problems = []
+        lines = []
         for error in exc.errors():
             loc = tuple(error["loc"])
             if loc and loc[0] == "env" and error["type"] == "value_error":
                 # the env's own validator already produced a full message
-                message = str(error["msg"]).removeprefix("Value error, ")
-                problems.append(message)
-                continue
-            if len(loc) > 1 and loc[0] == "algo" and loc[1] in registry.ALGOS:
-                problems.append(_describe(_algo_model(loc[1]), {**error, "loc": loc[2:]}, prefix="algo."))
-                continue
-            problems.append(_describe(TrainConfig, error))
+                lines.append(str(error["msg"]).removeprefix("Value error, "))
+            else:  # algo.<key>: the chosen algorithm's model (the union's tag is left out)
+                lines.append(describe_error(TrainConfig, error))
         hint = ""
         if any(e["type"] == "missing" for e in exc.errors()):
             hint = (
@@ -709,7 +683,7 @@ def parse_train_config(
                 "pyflyt_cli.training.compose_config(env=..., algo=..., overrides=[...]))"
             )
         raise ConfigError(
-            f"{source}: invalid configuration:\n" + "\n".join(f"  - {p}" for p in problems) + hint
+            f"{source}: invalid configuration:\n" + problem_list(lines) + hint
         ) from None
     check_env_references(cfg.env)
     return cfg
@@ -742,9 +716,7 @@ def check_env_references(env: EnvConfig) -> None:
 
 
 def _algo_model(name: str) -> type[BaseModel]:
-    models = {"ppo": PPOConfig, "a2c": A2CConfig, "sac": SACConfig, "td3": TD3Config, "ddpg": DDPGConfig}
-    contrib = {"tqc": TQCConfig, "crossq": CrossQConfig, "trpo": TRPOConfig, "recurrent_ppo": RecurrentPPOConfig}
-    return {**models, "awac": AWACConfig, "ccge": CCGEConfig, **contrib}[name]
+    return globals()[registry.ALGORITHMS[name].config]
 
 
 # -------------------------------------------------------------------------- eval
@@ -784,8 +756,7 @@ def parse_eval_options(data: Mapping[str, Any] | EvalOptions) -> EvalOptions:
     try:
         return EvalOptions.model_validate({**eval_defaults(), **dict(data)})
     except ValidationError as exc:
-        problems = [_describe(EvalOptions, e) for e in exc.errors()]
-        raise ConfigError("invalid eval options:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+        raise ConfigError("invalid eval options:\n" + problem_list(problems(EvalOptions, exc))) from None
 
 
 def eval_defaults() -> dict[str, Any]:

@@ -211,7 +211,7 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
 
     data = cfg.model_dump(mode="json")
     algo = data["algo"]
-    on_policy = "n_steps" in algo and "buffer_size" not in algo
+    on_policy = not cfg.algo.off_policy
     n_envs = cfg.train.n_envs
     multi_agent = bool(getattr(cfg.env, "multi_agent", False))
     in_process = cfg.train.vec_env == "dummy" or n_envs == 1 or (multi_agent and cfg.train.vec_env == "auto")

@@ -43,8 +43,9 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from pyflyt_cli.config import override_value
+from pyflyt_cli.compose import override_value
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import available, describe_error, problem_list, problems, resolve
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.safe_load import load_yaml_file, yaml_data
 
@@ -96,8 +97,7 @@ def parse_tune_options(data: Mapping[str, Any]) -> TuneOptions:
     try:
         return TuneOptions.model_validate({**tune_defaults(), **dict(data)})
     except ValidationError as exc:
-        problems = [f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors()]
-        raise ConfigError("invalid tune options:\n" + "\n".join(f"  - {p}" for p in problems)) from None
+        raise ConfigError("invalid tune options:\n" + problem_list(problems(TuneOptions, exc))) from None
 
 
 # --------------------------------------------------------------------- search space
@@ -175,15 +175,13 @@ def overrides_of(values: Mapping[str, Any]) -> list[str]:
 def load_search_space(space: str | None, algo: str) -> SearchSpace:
     """``space`` (a name in ``conf/search_space`` or a YAML file) or, for None, the algorithm's."""
     name = space or algo
-    path = Path(name).expanduser()
-    if not (name.endswith((".yaml", ".yml")) and path.is_file()):
-        path = conf_dir() / "search_space" / f"{name}.yaml"
-        if not path.is_file():
-            shipped = sorted(p.stem for p in (conf_dir() / "search_space").glob("*.yaml"))
-            raise ConfigError(
-                f"space={name}: no search space {'file' if name.endswith(('.yaml', '.yml')) else 'named so'}; "
-                f"shipped: {', '.join(shipped)}, or give a YAML file"
-            )
+    path = resolve(
+        name,
+        "search_space",
+        what="search space",
+        unknown=lambda _: f"space={name}: no search space named so; shipped: {', '.join(available('search_space'))}, "
+        "or give a YAML file",
+    )
     from pyflyt_cli.training.schema import OPT_INS
 
     data = load_yaml_file(path, what="search space")
@@ -199,8 +197,7 @@ def load_search_space(space: str | None, algo: str) -> SearchSpace:
         try:
             param = _Param.model_validate(spec)
         except ValidationError as exc:
-            first = exc.errors()[0]
-            raise ConfigError(f"{where}.{'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from None
+            raise ConfigError(f"{path}: {describe_error(_Param, exc.errors()[0], prefix=f'{key}.')}") from None
         if param.type == "categorical":
             if not param.choices:
                 raise ConfigError(f"{where}: a categorical distribution needs a non-empty list of choices")

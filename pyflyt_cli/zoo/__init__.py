@@ -341,7 +341,7 @@ def _train_command(cfg: Any, record: dict[str, Any]) -> str | None:
 
 def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
     """``words`` plus the overrides that make ``pyflyt train <words>`` compose ``cfg``'s settings, or None."""
-    from pyflyt_cli.config import override_value
+    from pyflyt_cli.compose import override_value
     from pyflyt_cli.training.compose import COMMAND_KEYS, compose_config
     from pyflyt_cli.training.rundir import identity
     from pyflyt_engine.errors import PyFlytError

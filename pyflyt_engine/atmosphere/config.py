@@ -15,18 +15,16 @@ the bounded YAML reader of :mod:`pyflyt_engine.safe_load`; every number must be 
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
-from pyflyt_engine.safe_load import load_yaml_file, plain_name
-from pyflyt_engine.spec import FIX_HINTS, first_model
+from pyflyt_engine.loading import load, unknown_name, validate
 
 KNOT = 0.514444  # [m/s] (1852 m / 3600 s)
 
@@ -130,26 +128,6 @@ def available_winds() -> list[str]:
     return sorted(p.stem for p in (conf_dir() / "wind").glob("*.yaml"))
 
 
-def _describe(error: Mapping[str, Any]) -> str:
-    loc = tuple(error["loc"])
-    where = "wind." + (".".join(str(p) for p in loc) or "(top level)")
-    if error["type"] == "extra_forbidden":
-        model: Any = WindConfig
-        for part in loc[:-1]:
-            field = model.model_fields.get(part) if model is not None and not isinstance(part, int) else None
-            if field is not None:
-                model = first_model(field.annotation)
-        allowed = sorted(model.model_fields) if model is not None else []
-        close = difflib.get_close_matches(str(loc[-1]), allowed, n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
-        return f"{where}: unknown key '{loc[-1]}'.{hint} Allowed keys here: {', '.join(allowed)}"
-    message = error["msg"].removeprefix("Value error, ")
-    value = error.get("input")
-    shown = "" if error["type"] == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
-    hint = FIX_HINTS.get(error["type"])
-    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
-
-
 def parse_wind_config(data: Any, source: str = "<dict>", name: str = "inline") -> WindConfig:
     """Validate a mapping as a :class:`WindConfig` (a ``preset`` key: a base preset to override)."""
     if data is None:
@@ -168,11 +146,7 @@ def parse_wind_config(data: Any, source: str = "<dict>", name: str = "inline") -
         data = merged
         data.setdefault("name", f"{base}+overrides")
     data.setdefault("name", name)
-    try:
-        config = WindConfig.model_validate(data)
-    except ValidationError as exc:
-        problems = "\n".join(f"  - {_describe(e)}" for e in exc.errors())
-        raise ConfigError(f"{source}: invalid wind config:\n{problems}") from None
+    config = validate(WindConfig, data, "wind config", source, prefix="wind.")
     for key in ("mean", "gust", "turbulence"):  # a NaN hidden in a nested tuple is refused above; belt and braces
         part = getattr(config, key)
         if part is not None and not all(math.isfinite(v) for v in _numbers(part.model_dump())):
@@ -196,27 +170,8 @@ def load_wind_config(wind: str | Path | Mapping[str, Any] | WindConfig | None) -
     """A :class:`WindConfig` from a preset name (``conf/wind``), a YAML path, a mapping or None (calm)."""
     if wind is None:
         return CALM
-    if isinstance(wind, WindConfig):
-        return wind
-    if isinstance(wind, Mapping):
-        return parse_wind_config(wind)
-    if not isinstance(wind, (str, Path)):
-        raise ConfigError(
-            f"wind must be a preset name ({', '.join(available_winds())}), a .yaml path or a mapping, got {wind!r}"
-        )
-    candidate = Path(wind)
-    if candidate.suffix in (".yaml", ".yml"):
-        if not candidate.is_file():
-            raise ConfigError(f"wind file {candidate} does not exist; check the path")
-        path = candidate
-    else:
-        path = conf_dir() / "wind" / f"{wind}.yaml"
-        if not plain_name(str(wind)) or not path.is_file():  # a name, never a path out of conf/wind
-            choices = available_winds()
-            close = difflib.get_close_matches(str(wind), choices, n=1)
-            hint = f" Did you mean '{close[0]}'?" if close else ""
-            raise ConfigError(
-                f"unknown wind preset '{wind}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path"
-            )
-    data = load_yaml_file(path, what="wind file")
-    return parse_wind_config(data, source=str(path), name=path.stem)
+    return load(wind, group="wind", model=WindConfig, parse=parse_wind_config, what="wind", unknown=_unknown_wind)
+
+
+def _unknown_wind(name: Any) -> str:
+    return unknown_name(name, available_winds(), "wind preset")

@@ -23,7 +23,6 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializeAsAny,
-    ValidationError,
     field_validator,
     model_validator,
 )
@@ -32,10 +31,10 @@ from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.payloads import PayloadSpec
-from pyflyt_engine.safe_load import load_yaml_file, plain_name
-from pyflyt_engine.spec import FIX_HINTS, CameraSpec, check_finite, first_model
+from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
+from pyflyt_engine.safe_load import load_yaml_file
+from pyflyt_engine.spec import CameraSpec, check_finite
 
 
 class _Config(BaseModel):
@@ -192,14 +191,9 @@ class EnvConfig(_Config):
     @field_validator("randomize", mode="before")
     @classmethod
     def _randomize_preset(cls, value: Any) -> Any:
-        if isinstance(value, str):
-            path = conf_dir() / "randomize" / f"{value}.yaml"
-            if not plain_name(value) or not path.is_file():  # a name, never a path out of conf/randomize
-                choices = available("randomize")
-                close = difflib.get_close_matches(value, choices, n=1)
-                hint = f" Did you mean '{close[0]}'?" if close else ""
-                raise ValueError(f"unknown randomize preset '{value}'.{hint} Shipped: {', '.join(choices)}")
-            data = read_yaml(path)
+        if isinstance(value, str):  # a name, never a path out of conf/randomize
+            path = resolve(value, "randomize", what="randomize preset", files=False, unknown=_unknown_randomize)
+            data = load_yaml_file(path, what="randomize preset file")
             if not isinstance(data, Mapping):
                 raise ValueError(f"{path}: a randomize preset must map parameter names to distributions")
             return dict(data)
@@ -276,81 +270,11 @@ class EnvConfig(_Config):
         return parse_env_config(data, source=f"{self.source or 'config'} with overrides {sorted(overrides)}")
 
 
-# ---------------------------------------------------------------------- errors
-
-
-def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
-    model: Any = root
-    for part in loc[:-1]:
-        if isinstance(part, int) or model is None:
-            continue
-        field = model.model_fields.get(part)
-        if field is None:  # a mapping key, e.g. terms.<entry>: stay on the value's model
-            continue
-        model = first_model(field.annotation)
-    return model
-
-
-def _describe(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "") -> str:
-    loc = tuple(error["loc"])
-    where = prefix + (".".join(str(p) for p in loc) or "(top level)")
-    if error["type"] == "extra_forbidden":
-        model = _model_at(root, loc)
-        allowed = sorted(k for k in (model.model_fields if model else {}) if k != "source")
-        key = str(loc[-1])
-        close = difflib.get_close_matches(key, allowed, n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
-        return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
-    message = error["msg"].removeprefix("Value error, ")
-    value = error.get("input")
-    shown = "" if error["type"] == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
-    hint = FIX_HINTS.get(error["type"])
-    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
-
-
-def _problems(model: type[BaseModel], data: Mapping[str, Any], prefix: str = "") -> tuple[Any, list[str]]:
-    """(validated model or None, one line per problem)."""
-    try:
-        return model.model_validate(data), []
-    except ValidationError as exc:
-        return None, [_describe(model, e, prefix) for e in exc.errors()]
-
-
-def validate_model(model: type[BaseModel], data: Mapping[str, Any], what: str, source: str, prefix: str = "") -> Any:
-    """``data`` validated as ``model``; ConfigError listing every problem (key, value, fix) otherwise."""
-    result, problems = _problems(model, data, prefix)
-    if problems:
-        raise ConfigError(f"{source}: invalid {what}:\n" + "\n".join(f"  - {p}" for p in problems))
-    return result
-
-
 # ---------------------------------------------------------------------- loading
 
 
-def read_yaml(path: Path) -> Any:
-    """The data of a YAML file (:func:`pyflyt_engine.safe_load.load_yaml_file`: no tags, no code,
-    bounded); ConfigError naming the file otherwise."""
-    return load_yaml_file(path)
-
-
-def _resolve(name_or_path: str | Path, group: str) -> Path:
-    candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml") or candidate.exists():
-        if not candidate.is_file():
-            raise ConfigError(f"{candidate}: no such {group} file; check the path")
-        return candidate
-    shipped = conf_dir() / group / f"{name_or_path}.yaml"
-    if plain_name(str(name_or_path)) and shipped.is_file():  # a name never walks out of conf/<group>
-        return shipped
-    choices = available(group)
-    close = difflib.get_close_matches(str(name_or_path), choices, n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
-    raise ConfigError(f"unknown {group} config '{name_or_path}'.{hint} Shipped: {', '.join(choices)}; or give a .yaml path")
-
-
-def available(group: str) -> list[str]:
-    """Names of the shipped configs of a group (``env`` or ``reward``)."""
-    return sorted(p.stem for p in (conf_dir() / group).glob("*.yaml"))
+def _unknown_randomize(name: Any) -> str:
+    return unknown_name(name, available("randomize"), "randomize preset", files="")
 
 
 def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
@@ -375,44 +299,32 @@ def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
         task_cls = get_task(task["name"])
     except ConfigError as exc:
         raise ConfigError(f"{source}: task.name: {exc}") from None
-    options, task_problems = _problems(task_cls.Options, task, prefix="task.")
+    options, task_problems = check(task_cls.Options, task, prefix="task.")
     placeholder = options if options is not None else TaskOptions.model_construct(name=task["name"])
-    config, problems = _problems(EnvConfig, {**data, "task": placeholder})
+    config, problems = check(EnvConfig, {**data, "task": placeholder})
     problems += task_problems
     if problems:
-        raise ConfigError(f"{source}: invalid env config:\n" + "\n".join(f"  - {p}" for p in problems))
+        raise ConfigError(f"{source}: invalid env config:\n" + problem_list(problems))
     return config.model_copy(update={"source": source})
 
 
 def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvConfig:
     """An :class:`EnvConfig` from a shipped name (``conf/env``), a YAML path or a mapping."""
-    if isinstance(config, EnvConfig):
-        return config
-    if isinstance(config, Mapping):
-        return parse_env_config(config)
-    path = _resolve(config, "env")
-    return parse_env_config(read_yaml(path), source=str(path))
+    return load(config, group="env", model=EnvConfig, parse=lambda data, source, _name: parse_env_config(data, source), what="env", unknown=_unknown("env"))
 
 
 def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline") -> RewardPreset:
     """Validate a mapping as a :class:`RewardPreset`."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: a reward preset must be a mapping with 'terms', got {type(data).__name__}")
-    data = dict(data)
-    data.setdefault("name", name)
-    try:
-        return validate_model(RewardPreset, data, "reward preset", source)
-    except ConfigError:
-        raise
-    except Exception as exc:  # pragma: no cover - defensive
-        raise ConfigError(f"{source}: invalid reward preset: {exc}") from None
+    return validate(RewardPreset, {"name": name, **data}, "reward preset", source)
 
 
 def load_reward_preset(preset: str | Path | Mapping[str, Any] | RewardPreset) -> RewardPreset:
     """A :class:`RewardPreset` from a shipped name (``conf/reward``), a YAML path or a mapping."""
-    if isinstance(preset, RewardPreset):
-        return preset
-    if isinstance(preset, Mapping):
-        return parse_reward_preset(preset)
-    path = _resolve(preset, "reward")
-    return parse_reward_preset(read_yaml(path), source=str(path), name=path.stem)
+    return load(preset, group="reward", model=RewardPreset, parse=parse_reward_preset, what="reward", unknown=_unknown("reward"))
+
+
+def _unknown(group: str):  # noqa: ANN202
+    """``unknown env config 'x'. Did you mean ...? Shipped: ...; or give a .yaml path``."""
+    return lambda name: unknown_name(name, available(group), f"{group} config")

@@ -213,12 +213,12 @@ def test_position_controller_holds_a_quadx_in_constant_3ms_wind(uav):
 
 
 def test_train_selects_the_wind_with_env_wind():
-    from pyflyt_cli.config import CLIError
+    from pyflyt_cli.errors import UsageError
     from pyflyt_cli.training.compose import compose_config
 
     assert compose_config(overrides=["env.wind=dryden_light"]).env.wind == "dryden_light"
     assert compose_config(env="fixedwing_waypoints", algo="sac").env.wind == "calm"
-    with pytest.raises((CLIError, ConfigError), match="unknown wind preset 'hurricane'"):
+    with pytest.raises((UsageError, ConfigError), match="unknown wind preset 'hurricane'"):
         compose_config(overrides=["env.wind=hurricane"])
 
 

@@ -13,7 +13,7 @@ import pytest
 from pyflyt_cli.benchmark.plan import build_plan, levels, read_plan, split_overrides
 from pyflyt_cli.benchmark.run import CHANGED, COMPLETE, NEW, PARTIAL, run_state
 from pyflyt_cli.benchmark.worker import run_differences
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 
 P = "benchmark.presets.laptop"
 
@@ -97,32 +97,32 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     ],
 )
 def test_bad_benchmark_overrides_name_the_problem(tmp_path: Path, overrides: list[str], message: str) -> None:
-    with pytest.raises(CLIError, match=None) as err:
+    with pytest.raises(UsageError, match=None) as err:
         build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", *overrides])
     assert message in str(err.value)
 
 
 def test_experiment_without_benchmark_section_is_refused() -> None:
-    with pytest.raises(CLIError, match="declares no benchmark"):
+    with pytest.raises(UsageError, match="declares no benchmark"):
         build_plan("hover_ppo", [])
 
 
 def test_train_refuses_a_benchmark_experiment() -> None:
     from pyflyt_cli.commands.train import load_train_config
 
-    with pytest.raises(CLIError, match="pyflyt benchmark experiment=smoke_benchmark"):
+    with pytest.raises(UsageError, match="pyflyt benchmark experiment=smoke_benchmark"):
         load_train_config(["experiment=smoke_benchmark"])
 
 
 def test_init_from_checkpoint_must_exist_in_the_source_run(tmp_path: Path) -> None:
     base = [f"benchmark.output_dir={tmp_path}"]
-    with pytest.raises(CLIError, match="multiple of train.checkpoint_freq"):
+    with pytest.raises(UsageError, match="multiple of train.checkpoint_freq"):
         build_plan("paper_rl", [*base, f"{P}.partial_step=1234"])
-    with pytest.raises(CLIError, match="keep_checkpoints"):
+    with pytest.raises(UsageError, match="keep_checkpoints"):
         build_plan("paper_rl", [*base, "train.keep_checkpoints=2"])
-    with pytest.raises(CLIError, match="cannot start from"):
+    with pytest.raises(UsageError, match="cannot start from"):
         build_plan("paper_rl", [*base, "benchmark.groups.1.init_from.algo=ppo"])
-    with pytest.raises(CLIError, match="does not declare"):
+    with pytest.raises(UsageError, match="does not declare"):
         build_plan("paper_rl", [*base, "benchmark.groups.1.init_from.task=elsewhere"])
 
 
@@ -143,12 +143,12 @@ def test_split_overrides() -> None:
 
 
 def test_unknown_or_missing_launcher_plugin_is_named() -> None:
-    from pyflyt_cli.benchmark.launch import launcher_name
+    from pyflyt_cli.benchmark.launchers import launcher_name
 
     assert launcher_name([]) is None
-    with pytest.raises(CLIError, match="unknown launcher hydra/launcher=rai"):
+    with pytest.raises(UsageError, match="unknown launcher hydra/launcher=rai"):
         launcher_name(["hydra/launcher=rai"])
-    with pytest.raises(CLIError, match="choose one with hydra/launcher="):
+    with pytest.raises(UsageError, match="choose one with hydra/launcher="):
         launcher_name(["hydra.launcher.partition=gpu"])
 
 
@@ -249,11 +249,11 @@ def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> 
     study.write_text(text)
     plan, _ = build_plan(str(study), [f"benchmark.output_dir={tmp_path}"])
     assert plan.root.name == "my_sweep" and len(plan.jobs) == 4
-    with pytest.raises(CLIError, match="does not exist"):
+    with pytest.raises(UsageError, match="does not exist"):
         build_plan(str(tmp_path / "nope.yaml"), [])
     shadow = tmp_path / "paper_rl.yaml"
     shadow.write_text(text)
-    with pytest.raises(CLIError, match="is a shipped experiment's; rename the file"):
+    with pytest.raises(UsageError, match="is a shipped experiment's; rename the file"):
         build_plan(str(shadow), [])
 
 
@@ -274,7 +274,7 @@ def test_an_experiment_file_outside_conf_is_accepted_by_path(tmp_path: Path) -> 
     ],
 )
 def test_only_the_launcher_and_its_plain_settings_reach_hydra(tmp_path: Path, override: str) -> None:
-    with pytest.raises(CLIError, match="The only Hydra settings accepted are the launcher, hydra/launcher="):
+    with pytest.raises(UsageError, match="The only Hydra settings accepted are the launcher, hydra/launcher="):
         build_plan("smoke_benchmark", [f"benchmark.output_dir={tmp_path}", "hydra/launcher=basic", override])
     assert not any(tmp_path.iterdir())
 
@@ -327,7 +327,7 @@ def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Pat
 
     (tmp_path / "a file").write_text("")
     with pytest.raises(
-        CLIError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
+        UsageError, match="cannot use .* as the benchmark directory .* choose another benchmark.output_dir"
     ):
         benchmark_command(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
 

@@ -325,7 +325,7 @@ def test_a_second_benchmark_on_the_same_directory_is_refused_untouched(tmp_path:
 
 def test_the_benchmark_lock_dies_with_its_process(tmp_path: Path) -> None:
     from pyflyt_cli.benchmark.run import hold_benchmark
-    from pyflyt_cli.config import CLIError
+    from pyflyt_cli.errors import UsageError
 
     code = (
         "import sys, time\nfrom pathlib import Path\nfrom pyflyt_cli.benchmark.run import hold_benchmark\n"
@@ -337,7 +337,7 @@ def test_the_benchmark_lock_dies_with_its_process(tmp_path: Path) -> None:
     try:
         assert holder.stdout.readline().strip() == "held"  # type: ignore[union-attr]
         with (
-            pytest.raises(CLIError, match=f"in use by process {holder.pid} \\(holder\\)"),
+            pytest.raises(UsageError, match=f"in use by process {holder.pid} \\(holder\\)"),
             hold_benchmark(tmp_path, ["second"]),
         ):
             pass

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 from typer.testing import CliRunner
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.main import app
 from pyflyt_cli.outputs import atomic_output
 from pyflyt_engine.telemetry import RecordEpisode
@@ -80,7 +80,7 @@ def test_atomic_output_replaces_the_file_only_when_the_write_completes(tmp_path)
         assert out.read_bytes() == b"old"  # not yet
     assert out.read_bytes() == b"new" and files_in(tmp_path) == ["fig.png"]
 
-    with pytest.raises(CLIError) as info:
+    with pytest.raises(UsageError) as info:
         with atomic_output(out, "--png") as tmp:
             tmp.write_bytes(b"half")
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp))

@@ -116,7 +116,7 @@ def _renamed(old: str, new: str) -> str:
 
 
 BAD_FILES = {
-    "unknown_key": (_renamed("mass", "mas"), ["body.mas", "unknown key 'mas'", "did you mean 'mass'"]),
+    "unknown_key": (_renamed("mass", "mas"), ["body.mas", "unknown key 'mas'", "Did you mean 'mass'"]),
     "negative_mass": (_cf2x_with(**{"body.mass": -0.5}), ["body.mass", "positive number of kilograms", "-0.5"]),
     "motor_lists": (_cf2x_with(**{"motors.spin": [1, -1, 1]}), ["'spin' has 3 entries but 'positions' has 4"]),
     "malformed": ("name: x\nbody: {mass: 1\n", ["not valid YAML", "line"]),
@@ -393,7 +393,7 @@ def test_show_curves_without_surfaces_and_bad_file_exit_2(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text(_renamed("mass", "mas"))
     result = invoke("show", bad)
-    assert result.exit_code == 2 and "did you mean 'mass'" in result.output
+    assert result.exit_code == 2 and "Did you mean 'mass'" in result.output
     assert "Traceback" not in result.output
 
 

@@ -67,10 +67,10 @@ def test_unknown_key_is_rejected_with_suggestion():
     data = spec_dict()
     data["body"]["mas"] = 1.0
     message = _error(data)
-    assert "body.mas" in message and "unknown key" in message and "did you mean 'mass'" in message
+    assert "body.mas" in message and "unknown key" in message and "Did you mean 'mass'" in message
     data = spec_dict()
     data["motor"] = {}
-    assert "unknown key 'motor'" in _error(data) and "did you mean 'motors'" in _error(data)
+    assert "unknown key 'motor'" in _error(data) and "Did you mean 'motors'" in _error(data)
 
 
 def test_non_unit_thrust_axis_and_bad_types_are_rejected():

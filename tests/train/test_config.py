@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pyflyt_cli.commands.train import load_train_config
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.main import app
 from pyflyt_cli.training import registry
 from pyflyt_cli.training.rundir import create_run_dir
@@ -62,7 +62,7 @@ def test_experiment_files_are_override_only_and_compose(experiment):
     text = (conf_dir() / "experiment" / f"{experiment}.yaml").read_text()
     assert text.lstrip().startswith("# @package _global_") or "\n# @package _global_" in text
     if "\nbenchmark:" in text:  # a grid for pyflyt benchmark (tests/benchmark); pyflyt train refuses it
-        with pytest.raises(CLIError, match=f"pyflyt benchmark experiment={experiment}"):
+        with pytest.raises(UsageError, match=f"pyflyt benchmark experiment={experiment}"):
             load_train_config([f"experiment={experiment}"])
         return
     cfg = load_train_config([f"experiment={experiment}"])
@@ -102,7 +102,7 @@ def test_hparams_follow_the_chosen_env_and_algo():
     ],
 )
 def test_bad_configs_fail_with_a_message_naming_the_problem(overrides, expected):
-    with pytest.raises((CLIError, ConfigError)) as info:
+    with pytest.raises((UsageError, ConfigError)) as info:
         from pyflyt_cli.commands.train import run_train
 
         run_train(overrides, show_config=True)
@@ -225,7 +225,7 @@ def test_hydra_leaves_the_working_directory_alone(tmp_path, monkeypatch):
 def test_resume_rejects_other_overrides_and_missing_dirs(tmp_path):
     from pyflyt_cli.commands.train import run_train
 
-    with pytest.raises(CLIError, match="cannot be combined with resume="):
+    with pytest.raises(UsageError, match="cannot be combined with resume="):
         run_train([f"resume={tmp_path}", "algo=sac"])
     with pytest.raises(ConfigError, match="does not exist"):
         run_train([f"resume={tmp_path / 'nope'}"])
@@ -317,14 +317,14 @@ def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path)
 def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_path, monkeypatch):
     import shutil
 
-    from pyflyt_cli import config
+    from pyflyt_cli import compose
 
     conf = tmp_path / "conf"
     shutil.copytree(conf_dir(), conf)
     marker = tmp_path / "ran"
     shipped = _tagged_experiment(conf / "experiment" / "tagged.yaml", marker)
-    monkeypatch.setattr(config, "conf_dir", lambda: conf)  # where Hydra looks
-    with pytest.raises(CLIError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
+    monkeypatch.setattr(compose, "conf_dir", lambda: conf)  # where Hydra looks
+    with pytest.raises(UsageError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
         load_train_config(["experiment=tagged"])
     assert not marker.exists(), "code from the file ran"
 
@@ -339,14 +339,14 @@ def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_pat
 def test_an_unreadable_experiment_file_is_named(tmp_path, content, expected):
     study = tmp_path / "study.yaml"
     study.write_bytes(content)
-    with pytest.raises(CLIError, match=None) as info:
+    with pytest.raises(UsageError, match=None) as info:
         load_train_config([f"experiment={study}"])
     assert str(info.value).startswith(str(study)) and expected in str(info.value)
 
 
 @pytest.mark.parametrize(("override", "expected"), [("algo=null", "takes a name"), ("uav=null", "write ~uav")])
 def test_a_config_group_set_to_null_is_explained(override, expected):
-    with pytest.raises(CLIError, match=expected):
+    with pytest.raises(UsageError, match=expected):
         load_train_config([override])
 
 

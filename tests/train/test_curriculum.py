@@ -106,7 +106,7 @@ def test_a_vector_option_moves_element_by_element():
 
 
 def test_a_vector_start_of_the_wrong_length_is_refused(tmp_path):
-    with pytest.raises(ConfigError, match=r"train\.curriculum\.start_position\.start \(element 2\)"):
+    with pytest.raises(ConfigError, match=r"train\.curriculum\.start_position\.start\.2: Field required; fix: add it"):
         load(["env=rocket_landing", "train.curriculum={start_position:{start:[0,50],steps:10}}"], tmp_path)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import torch as th
 
-from pyflyt_cli.config import CLIError
+from pyflyt_cli.errors import UsageError
 from pyflyt_cli.training import resume, train
 from pyflyt_cli.training.envs import EnvFactory
 from pyflyt_cli.training.imitation import IMITATION_SEED_OFFSET, agent_units, imitate, oracle_share
@@ -182,7 +182,7 @@ def _final(run_dir) -> dict:
     ],
 )
 def test_bad_imitation_settings_fail_before_anything_runs_naming_the_key(tmp_path, override, names):
-    with pytest.raises((CLIError, ConfigError)) as info:  # unknown keys: at composition; bad values: the schema
+    with pytest.raises((UsageError, ConfigError)) as info:  # unknown keys: at composition; bad values: the schema
         load([*TINY_IMITATION, override], tmp_path)
     for name in names:
         assert name in str(info.value), str(info.value)

@@ -26,7 +26,8 @@ from typing import Any, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, field_validator
 
-from pyflyt_engine.envs.config import EnvConfig, _problems
+from pyflyt_engine.envs.config import EnvConfig
+from pyflyt_engine.loading import check
 from pyflyt_engine.errors import ConfigError
 
 Vec3 = tuple[float, float, float]
@@ -208,9 +209,9 @@ def parse_multi_agent_config(data: Mapping[str, Any], source: str) -> MultiAgent
             f"{source}: a multi-agent env (one with 'agents') needs task.name one of: {', '.join(MA_TASKS)} "
             f"(got {got!r})"
         )
-    options, task_problems = _problems(MA_TASKS[task["name"]], task, prefix="task.")
+    options, task_problems = check(MA_TASKS[task["name"]], task, prefix="task.")
     placeholder = options if options is not None else MATaskOptions.model_construct(name=task["name"])
-    config, problems = _problems(MultiAgentEnvConfig, {**data, "task": placeholder})
+    config, problems = check(MultiAgentEnvConfig, {**data, "task": placeholder})
     problems = _one_branch(problems, data.get("agents")) + task_problems
     if problems:
         raise ConfigError(f"{source}: invalid multi-agent env config:\n" + "\n".join(f"  - {p}" for p in problems))

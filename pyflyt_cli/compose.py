@@ -1,15 +1,16 @@
-"""Hydra glue: compose configs from ``conf/`` with command-line overrides.
+"""Compose configs from ``conf/`` with Hydra overrides (``key=value``): the library's one door to Hydra.
 
-Library code never sees Hydra: the CLI composes a config here, converts it to plain
-containers and calls plain functions.  Every Hydra/OmegaConf failure becomes a
-:class:`CLIError` whose message names what is wrong and how to fix it.
+The training library (:mod:`pyflyt_cli.training.compose`), ``pyflyt tune``, the zoo and the
+benchmark compose here and go on with plain containers; the command line calls the same
+functions.  Only Hydra's public API is used (its compose API, the override parser), and
+every Hydra/OmegaConf failure becomes a :class:`~pyflyt_cli.errors.UsageError` whose
+message names what is wrong and how to fix it.
 """
 
 from __future__ import annotations
 
 import difflib
 import json
-import os
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -18,15 +19,13 @@ from typing import Any
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
-from pyflyt_engine.errors import PyFlytError
+from pyflyt_cli.errors import UsageError
+from pyflyt_engine.loading import names_file
 from pyflyt_engine.paths import conf_dir
 
 
-class CLIError(PyFlytError):
-    """A user error on the command line; printed without a traceback, exit code 2."""
-
-
-def _group_choices(group: str) -> list[str]:
+def group_choices(group: str) -> list[str]:
+    """The shipped options of a config group (``conf/<group>/*.yaml``), by name."""
     path = conf_dir() / group
     return sorted(p.stem for p in path.glob("*.yaml")) if path.is_dir() else []
 
@@ -42,7 +41,7 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
     from omegaconf.errors import OmegaConfBaseException
 
-    _check_group_choices(overrides)
+    _checkgroup_choices(overrides)
     overrides, copies = _group_files(overrides)
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
@@ -52,32 +51,32 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     except yaml.YAMLError as exc:  # a config file of conf/ (experiment files given by path are read first)
         mark = getattr(exc, "problem_mark", None)
         name = getattr(mark, "name", None) or "a config file"
-        raise CLIError(yaml_problem(exc, copies.get(name, name))) from None
+        raise UsageError(yaml_problem(exc, copies.get(name, name))) from None
     except UnicodeDecodeError as exc:
-        raise CLIError(f"a config file under {conf_dir()} is not UTF-8 text ({exc}); reinstall the package") from None
+        raise UsageError(f"a config file under {conf_dir()} is not UTF-8 text ({exc}); reinstall the package") from None
     except OverrideParseException as exc:
-        raise CLIError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450") from None
+        raise UsageError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450") from None
     except MissingConfigException as exc:
-        raise CLIError(_missing_message(exc)) from None
+        raise UsageError(_missing_message(exc)) from None
     except ConfigCompositionException as exc:
         cause = exc.__cause__ or exc
         message = _composition_message(str(cause), config_name)
         outer = str(exc).splitlines()[0] if str(exc) else ""
         if outer.startswith("Error merging override") and not message.startswith("unknown key"):
             message = f"cannot apply override {outer.removeprefix('Error merging override').strip()}: {message}"
-        raise CLIError(message) from None
+        raise UsageError(message) from None
     except OmegaConfBaseException as exc:
-        raise CLIError(f"invalid configuration: {exc}") from None
+        raise UsageError(f"invalid configuration: {exc}") from None
 
 
-def _check_group_choices(overrides: Sequence[str]) -> None:
+def _checkgroup_choices(overrides: Sequence[str]) -> None:
     """``algo=null``: a config group is left out with ``~group``, never set to null."""
     for item in overrides:
         key, sep, value = item.partition("=")
         group = key.lstrip("+")
         if sep and value.strip().lower() == "null" and (conf_dir() / group).is_dir():
-            choices = ", ".join(_group_choices(group))
-            raise CLIError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
+            choices = ", ".join(group_choices(group))
+            raise UsageError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
 
 
 #: config groups whose choice may also be the path of a YAML file (``experiment=study.yaml``,
@@ -85,16 +84,11 @@ def _check_group_choices(overrides: Sequence[str]) -> None:
 FILE_GROUPS = ("experiment", "uav")
 
 
-def names_file(value: str) -> bool:
-    """Whether a group choice is a file path rather than the name of a shipped option."""
-    return value.endswith((".yaml", ".yml")) or "/" in value or (os.sep in value)
-
-
 def airframe_file(value: str, key: str = "uav") -> Path:
     """The airframe file given as ``<key>=<value>`` (``uav=`` or ``env.uav=``), absolute, after checking it.
 
     Raises:
-        CLIError: no such file (the message gives the absolute path looked at).
+        UsageError: no such file (the message gives the absolute path looked at).
         SpecError: the file is not a valid airframe (the message names the file, the field and the fix).
     """
     from pyflyt_engine.spec import available_uavs, load_uav_spec
@@ -102,7 +96,7 @@ def airframe_file(value: str, key: str = "uav") -> Path:
     path = Path(value).expanduser()
     if not path.is_file():
         what = "is a directory, not an airframe file" if path.is_dir() else "no such airframe file"
-        raise CLIError(
+        raise UsageError(
             f"{key}={value}: {what} ({path.absolute()}); give the path of a .yaml airframe (relative to "
             f"{Path.cwd()} or absolute), or a shipped airframe: {', '.join(available_uavs())}"
         )
@@ -115,7 +109,7 @@ def hydra_value(value: str) -> str:
     if re.fullmatch(r"[A-Za-z0-9_/.@%:+\-]+", value) and value[0] not in "+-":
         return value
     if "\\" in value or "${" in value:
-        raise CLIError(f"{value!r} holds a backslash or '${{', which an override cannot carry; rename or move it")
+        raise UsageError(f"{value!r} holds a backslash or '${{', which an override cannot carry; rename or move it")
     return "'" + value.replace("'", "\\'") + "'"
 
 
@@ -181,13 +175,13 @@ def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
             continue
         if group == "experiment":
             path = Path(value).expanduser()
-            shipped = ", ".join(_group_choices("experiment"))
+            shipped = ", ".join(group_choices("experiment"))
             if not value.endswith((".yaml", ".yml")):
-                raise CLIError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
+                raise UsageError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
             if not path.is_file():
-                raise CLIError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
-            if path.stem in _group_choices("experiment"):
-                raise CLIError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
+                raise UsageError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
+            if path.stem in group_choices("experiment"):
+                raise UsageError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
             read_yaml_data(path)
             option = path.stem
         else:
@@ -207,14 +201,14 @@ def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
 
 def read_yaml_data(path: Path) -> Any:
     """The plain data of a YAML file (the bounded reader of :mod:`pyflyt_engine.safe_load`: no tags,
-    no special files, no alias-expansion bombs); :class:`CLIError` naming the file otherwise."""
+    no special files, no alias-expansion bombs); :class:`UsageError` naming the file otherwise."""
     from pyflyt_engine.safe_load import MAX_YAML_BYTES, read_text, yaml_data
 
-    text = read_text(path, what="YAML file", error=CLIError, limit=MAX_YAML_BYTES)
+    text = read_text(path, what="YAML file", error=UsageError, limit=MAX_YAML_BYTES)
     try:
-        return yaml_data(text, source=str(path), error=CLIError)
+        return yaml_data(text, source=str(path), error=UsageError)
     except yaml.YAMLError as exc:
-        raise CLIError(yaml_problem(exc, str(path))) from None
+        raise UsageError(yaml_problem(exc, str(path))) from None
 
 
 def yaml_problem(exc: yaml.YAMLError, path: str) -> str:
@@ -259,17 +253,19 @@ def to_container(cfg: DictConfig) -> dict[str, Any]:
     try:
         return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
     except Exception as exc:  # omegaconf interpolation errors
-        raise CLIError(f"cannot resolve the configuration: {exc}") from None
+        raise UsageError(f"cannot resolve the configuration: {exc}") from None
 
 
-def parse_overrides(overrides: Sequence[str] | None) -> list[str]:
-    """Overrides as given; rejects bare words that are not key=value."""
-    result = []
-    for item in overrides or []:
-        if "=" not in item and not item.startswith("~"):
-            raise CLIError(f"'{item}' is not an override: write key=value (e.g. duration=5)")
-        result.append(item)
-    return result
-
-
-__all__ = ["CLIError", "compose", "parse_overrides", "to_container", "_group_choices"]
+__all__ = [
+    "FILE_GROUPS",
+    "absolute_airframes",
+    "airframe_file",
+    "compose",
+    "group_choices",
+    "hydra_value",
+    "names_file",
+    "override_value",
+    "read_yaml_data",
+    "to_container",
+    "yaml_problem",
+]

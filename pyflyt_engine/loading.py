@@ -1,0 +1,284 @@
+"""One way to load every kind of config, and one way to word what is wrong with it.
+
+Airframes, env configs, reward presets, wind presets, randomize presets, search spaces,
+training configs, benchmark sections and command options are all plain data checked by
+a pydantic model.  Each kind is given the same three ways, and loaded here:
+
+* a **shipped name** -- ``conf/<group>/<name>.yaml``, a plain name that never walks out
+  of its group (``quadx_hover``, ``dryden_light``);
+* a **YAML file** -- a value ending in ``.yaml``/``.yml`` or holding a path separator
+  (a bare name that is not shipped but names a file here is that file), read by the
+  bounded, data-only reader of :mod:`pyflyt_engine.safe_load`;
+* a **mapping** (or an already validated model), from Python.
+
+:func:`describe_error` words one pydantic error the same way for every kind -- where
+(the keys as the user wrote them), what, the value given and how to fix it; an unknown
+key with the closest allowed one and every key allowed there -- and :func:`validate`
+lists every problem of a document under ``<source>: invalid <what>:``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import types
+import typing
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+from pyflyt_engine.errors import ConfigError, PyFlytError
+from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.safe_load import load_yaml_file, plain_name
+
+Model = TypeVar("Model", bound=BaseModel)
+
+#: validation error type -> how to fix it (appended to messages)
+FIX_HINTS = {
+    "extra_forbidden": "remove it or check its spelling",
+    "missing": "add it",
+    "float_parsing": "give a number",
+    "float_type": "give a number",
+    "int_parsing": "give an integer",
+    "bool_parsing": "give true or false",
+    "list_type": "give a list, e.g. [1, 2, 3]",
+    "tuple_type": "give a list, e.g. [1, 2, 3]",
+    "literal_error": "use one of the allowed values",
+    "too_short": "give the expected number of values",
+    "too_long": "give the expected number of values",
+    "greater_than": "give a larger value",
+    "greater_than_equal": "give a larger value",
+    "less_than": "give a smaller value",
+    "less_than_equal": "give a smaller value",
+    "union_tag_invalid": "use one of the allowed values",
+    "finite_number": "give a real number (not .inf or .nan)",
+}
+
+
+# ------------------------------------------------------------------ the wording
+
+
+def first_model(annotation: Any) -> Any:
+    """The first pydantic model class in a type annotation (through unions, lists, ...)."""
+    found = _models_in(annotation)
+    return found[0] if found else None
+
+
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    """Every pydantic model class in a type annotation, in order."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in typing.get_args(annotation) for m in _models_in(arg)]
+
+
+def _union_members(annotation: Any) -> list[Any]:
+    """The members of a union annotation (through ``Annotated``); [] for anything else."""
+    if typing.get_origin(annotation) is typing.Annotated:
+        return _union_members(typing.get_args(annotation)[0])
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        return list(typing.get_args(annotation))
+    return []
+
+
+def _tags(member: Any) -> set[str]:
+    """How pydantic names a union member in an error's location: its discriminator value
+    (a one-value ``Literal`` field) for a tagged union, else its type's name."""
+    names = {str(member), getattr(member, "__name__", "")}
+    if isinstance(member, type) and issubclass(member, BaseModel):
+        for field in member.model_fields.values():
+            values = typing.get_args(field.annotation) if typing.get_origin(field.annotation) is typing.Literal else ()
+            if len(values) == 1:
+                names.add(str(values[0]))
+    return names - {""}
+
+
+def _walk(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[Any, list[Any]]:
+    """The model holding the last key of ``loc``, and ``loc`` as the user wrote it (the
+    members pydantic names inside a union, e.g. ``control.multirotor`` or ``seeds.int``, left out)."""
+    model: Any = root
+    annotation: Any = None
+    written: list[Any] = []
+    for i, part in enumerate(loc):
+        last = i == len(loc) - 1
+        members = _union_members(annotation)
+        member = next((m for m in members if isinstance(part, str) and part in _tags(m)), None)
+        if member is not None and not (model is not None and part in model.model_fields):
+            # a union's member: not a key the user wrote
+            annotation = member
+            models = _models_in(member)
+            model = models[0] if models else None
+            continue
+        written.append(part)
+        if last or isinstance(part, int):
+            continue
+        field = model.model_fields.get(part) if model is not None else None
+        if field is None:  # a mapping's key (terms.<entry>): stay on the value's model
+            continue
+        annotation = field.annotation
+        model = first_model(annotation)
+    return model, written
+
+
+def describe_error(root: type[BaseModel], error: Mapping[str, Any], prefix: str = "") -> str:
+    """One pydantic error of validating ``root``, in one line: where, what, the value, the fix.
+
+    ``prefix`` goes before the location (``task.``, ``wind.``, ``algo.``).
+    """
+    loc = tuple(error["loc"])
+    model, written = _walk(root, loc)
+    where = prefix + (".".join(str(p) for p in written) or "(top level)")
+    kind = error["type"]
+    if kind == "extra_forbidden":
+        allowed = sorted(k for k in (model.model_fields if model is not None else {}) if k != "source")
+        key = str(loc[-1])
+        close = difflib.get_close_matches(key, allowed, n=1)
+        hint = f" Did you mean '{close[0]}'?" if close else ""
+        return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
+    message = str(error["msg"]).removeprefix("Value error, ")
+    value = error.get("input")
+    shown = "" if kind == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
+    hint = FIX_HINTS.get(kind)
+    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
+
+
+def problems(root: type[BaseModel], exc: ValidationError, prefix: str = "") -> list[str]:
+    """Every error of ``exc`` in one line each (:func:`describe_error`), each once."""
+    lines: list[str] = []
+    for error in exc.errors():
+        line = describe_error(root, error, prefix)
+        if line not in lines:
+            lines.append(line)
+    return lines
+
+
+def problem_list(lines: list[str]) -> str:
+    """Problems as the indented list that follows ``<source>: invalid <what>:``."""
+    return "\n".join(f"  - {line}" for line in lines)
+
+
+def check(
+    model: type[Model], data: Any, prefix: str = "", *, context: dict[str, Any] | None = None
+) -> tuple[Model | None, list[str]]:
+    """(``data`` validated as ``model``, []) or (None, one line per problem): for a kind that
+    collects the problems of several parts before it reports them."""
+    try:
+        return model.model_validate(data, context=context), []
+    except ValidationError as exc:
+        return None, problems(model, exc, prefix)
+
+
+def validate(
+    model: type[Model],
+    data: Any,
+    what: str,
+    source: str,
+    *,
+    prefix: str = "",
+    error: type[PyFlytError] = ConfigError,
+    context: dict[str, Any] | None = None,
+) -> Model:
+    """``data`` validated as ``model``; otherwise ``error``: ``<source>: invalid <what>:`` and
+    every problem on its own line (key, value, fix)."""
+    try:
+        return model.model_validate(data, context=context)
+    except ValidationError as exc:
+        raise error(f"{source}: invalid {what}:\n" + problem_list(problems(model, exc, prefix))) from None
+
+
+# ------------------------------------------------------------------ the loader
+
+
+def available(group: str) -> list[str]:
+    """Names of the shipped configs of a group (``conf/<group>/*.yaml``)."""
+    return sorted(p.stem for p in (conf_dir() / group).glob("*.yaml"))
+
+
+def names_file(value: str | Path) -> bool:
+    """Whether ``value`` is given as a file (a ``.yaml``/``.yml`` name or a path) rather than a name."""
+    text = str(value)
+    return text.endswith((".yaml", ".yml")) or "/" in text or os.sep in text
+
+
+def unknown_name(value: Any, choices: list[str], what: str, shipped: str = "Shipped", files: str = "or give a .yaml path") -> str:
+    """``unknown <what> '<value>'. Did you mean '...'? <shipped>: ...; <files>``."""
+    close = difflib.get_close_matches(str(value), choices, n=1)
+    hint = f" Did you mean '{close[0]}'?" if close else ""
+    tail = f"; {files}" if files else ""
+    return f"unknown {what} '{value}'.{hint} {shipped}: {', '.join(choices)}{tail}"
+
+
+def resolve(
+    value: str | Path,
+    group: str,
+    *,
+    what: str,
+    error: type[PyFlytError] = ConfigError,
+    unknown: Callable[[str | Path], str] | None = None,
+    files: bool = True,
+) -> Path:
+    """The file ``value`` names: a shipped name of ``conf/<group>`` or, with ``files``, a YAML path.
+
+    A shipped name comes first, so a file or directory of that name in the working
+    directory cannot shadow it; a name never leaves ``conf/<group>``.
+
+    Raises:
+        error: no such file (``<path>: no such <what> file; check the path``), or an
+            unknown name (``unknown(value)``, or a message listing the shipped names).
+    """
+    if files and names_file(value):
+        path = Path(value).expanduser()
+        if not path.is_file():
+            raise error(f"{path}: no such {what} file; check the path")
+        return path
+    shipped = conf_dir() / group / f"{value}.yaml"
+    if plain_name(str(value)) and shipped.is_file():
+        return shipped
+    if files and Path(value).is_file():
+        return Path(value)
+    message = unknown(value) if unknown is not None else unknown_name(value, available(group), what)
+    raise error(message)
+
+
+def load(
+    value: Any,
+    *,
+    group: str,
+    model: type[Model],
+    parse: Callable[..., Model],
+    what: str,
+    error: type[PyFlytError] = ConfigError,
+    unknown: Callable[[str | Path], str] | None = None,
+    files: bool = True,
+) -> Model:
+    """A validated ``model`` from a shipped name of ``conf/<group>``, a YAML path, a mapping or a model.
+
+    ``parse(data, source, name)`` validates the data of a file or a mapping (the kind's own
+    steps, e.g. a wind preset's ``preset:`` base, then :func:`validate`); a file's name is
+    its stem, a mapping's ``inline``.
+    """
+    if isinstance(value, model):
+        return value
+    if isinstance(value, Mapping):
+        return parse(value, "<dict>", "inline")
+    if not isinstance(value, (str, Path)):
+        raise error(f"{what} must be a name ({', '.join(available(group))}), a .yaml path or a mapping, got {value!r}")
+    path = resolve(value, group, what=what, error=error, unknown=unknown, files=files)
+    return parse(load_yaml_file(path, what=f"{what} file", error=error), str(path), path.stem)
+
+
+__all__ = [
+    "FIX_HINTS",
+    "available",
+    "check",
+    "describe_error",
+    "first_model",
+    "load",
+    "names_file",
+    "problem_list",
+    "problems",
+    "resolve",
+    "unknown_name",
+    "validate",
+]
