@@ -133,6 +133,8 @@ class MultirotorController:
         # the thrust add up to a force along body z of the level frame: (roll, pitch) trim
         fx, fy = mixer.side_force
         self._trim = (math.atan(fy), -math.atan(fx)) if (fx or fy) else None
+        #: (roll, pitch) [rad] a level hover needs: the trim above, else (0, 0)
+        self.trim = self._trim or (0.0, 0.0)
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -308,6 +310,25 @@ class MultirotorController:
         """Translational modes: a ground velocity setpoint (from a heading-frame velocity, a
         position or given), a yaw target or rate, and a climb rate or altitude, through the
         velocity, tilt, attitude and rate loops.  Position to velocity: ``clip(kp (x_sp - x))``."""
+        rates, thrust = self._translate_command(state, setpoint)
+        return self.mixer.throttles(thrust, *self._rate_loop(state, rates))
+
+    def hover_command(
+        self, state: KinematicState, position: Sequence[float], yaw: float
+    ) -> tuple[tuple[float, float, float], float, float]:
+        """What the translational loops ask to hold ``position`` [m] at ``yaw`` [rad]:
+        (body-rate setpoint [rad/s], collective thrust [N], climb rate [m/s]).  Runs the
+        velocity loop (its integrator advances): call it on a controller of its own, once
+        per control period, as :func:`pyflyt_engine.flight.fly` does to steer the default
+        setpoint of modes that hold no position themselves."""
+        x, y, z = position
+        rates, thrust = self._translate_command(state, (x, y, yaw, z))
+        return rates, thrust, self._climb(state, z)
+
+    def _translate_command(
+        self, state: KinematicState, setpoint: Sequence[float]
+    ) -> tuple[tuple[float, float, float], float]:
+        """The body-rate setpoint and collective thrust of :meth:`_translate`."""
         yaw_is_rate, heading_frame, position, altitude = self._translational  # type: ignore[misc]
         a, b, c, d = setpoint
         x, y, z = state.lin_pos
@@ -330,5 +351,4 @@ class MultirotorController:
         ax, ay, az = self._velocity_loop(state, (vx, vy, vz))
         roll, pitch = self._tilt_for(state, ax, ay, az)
         yaw, yaw_rate = (None, c) if yaw_is_rate else (c, 0.0)
-        torques = self._rate_loop(state, self._attitude_rates(state, roll, pitch, yaw, yaw_rate))
-        return self.mixer.throttles(self._thrust_for(state, az), *torques)
+        return self._attitude_rates(state, roll, pitch, yaw, yaw_rate), self._thrust_for(state, az)
