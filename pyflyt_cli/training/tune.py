@@ -506,7 +506,8 @@ def _write_report(study: Any, study_dir: Path, env: str, algo: str, opts: TuneOp
             log(line)
         best_file = study_dir / f"best_{study_name(env, algo)}.yaml"
         if verdict.finding:
-            atomic_write(best_file, _hparams_text(best_params, env, algo, best.number, best_value, opts, base, finished))
+            text = _hparams_text(best_params, env, algo, best.number, best_value, opts, base, finished)
+            atomic_write(best_file, text)
             log(f"best: trial {best.number}, return {best_value:.2f}: {best_file}")
         else:
             best_file.unlink(missing_ok=True)  # an earlier run's recommendation no longer stands

@@ -154,6 +154,5 @@ def judge(study, complete: Sequence) -> Verdict:  # noqa: ANN001 - an Optuna stu
     best, worst = score(ranked[-1], f"trial {ranked[-1].number}"), score(ranked[0], f"trial {ranked[0].number}")
     mean, std, n = study.user_attrs.get("random_policy", (math.nan, 0.0, 1))
     baseline = next((t for t in complete if "fixed_params" in t.system_attrs), None)
-    return Verdict(
-        best, worst, Score(mean, std, n, "random policy"), None if baseline is None else score(baseline, f"trial {baseline.number}")
-    )
+    reference = None if baseline is None else score(baseline, f"trial {baseline.number}")
+    return Verdict(best, worst, Score(mean, std, n, "random policy"), reference)

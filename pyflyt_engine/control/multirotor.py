@@ -213,7 +213,8 @@ class MultirotorController:
         window, dt = self._window, self.dt
         out = []
         integrals = []
-        for (kp, ki, lo, hi), sp, v, i in zip(self._velocity_axes, velocity_sp, state.lin_vel_ground, self._vel_integral):
+        axes = zip(self._velocity_axes, velocity_sp, state.lin_vel_ground, self._vel_integral)
+        for (kp, ki, lo, hi), sp, v, i in axes:
             if sp is None:
                 out.append(0.0)
             else:

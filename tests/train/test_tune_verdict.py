@@ -33,7 +33,8 @@ def test_a_real_improvement_is_a_finding_and_equal_to_the_baseline_is_not():
     best, worst = Score(400.0, 20.0, 10), Score(-100.0, 10.0, 10)
     verdict = Verdict(best, worst, random, baseline)
     assert verdict.finding and verdict.parameters_matter
-    assert "finding: the best trial is better than the random policy and the shipped tuning" in "\n".join(verdict.lines())
+    text = "\n".join(verdict.lines())
+    assert "finding: the best trial is better than the random policy and the shipped tuning" in text
     level = Verdict(Score(205.0, 20.0, 10), worst, random, baseline)  # 5 < 2 * 8.9
     assert level.beats_random and level.beats_baseline is False and not level.finding
     assert "within noise of the shipped tuning; keep it" in "\n".join(level.lines())
