@@ -233,9 +233,10 @@ def benchmark(
     help="Search hyper-parameters with Optuna: trials=N training runs of env=<task> algo=<algo> over the search "
     "space conf/search_space/<algo>.yaml (space=<name or file> for another), jobs=J at once in separate "
     "processes; a trial whose evaluation curve falls below the others' median is pruned.  The study is kept in "
-    "<study_dir>/study.db (SQLite; default tune/<env>_<algo>): the same command continues it.  Writes "
-    "best_<env>_<algo>.yaml (a conf/hparams-style file: pyflyt train experiment=<file>), trials.csv, "
-    "history.png and importance.png.  Other key=value overrides are fixed for every trial "
+    "<study_dir>/study.db (SQLite; default tune/<env>_<algo>): the same command continues it.  It compares "
+    "the best trial with a random policy and the shipped tuning by the spread of their evaluation returns, "
+    "and only on a finding writes best_<env>_<algo>.yaml (a conf/hparams-style file: pyflyt train "
+    "experiment=<file>) and importance.png; always trials.csv and history.png.  Other key=value overrides are fixed for every trial "
     "(train.total_timesteps=...).  Options and defaults: conf/tune.yaml.\n\n"
     "  pyflyt tune env=quadx_hover algo=sac trials=20 jobs=2 train.total_timesteps=30000",
     context_settings={"allow_extra_args": False},

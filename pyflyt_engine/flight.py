@@ -8,6 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pyflyt_engine.atmosphere import WindConfig
+from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.control.modes import MULTIROTOR_MODES
+from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec
 from pyflyt_engine.vehicle import Vehicle
@@ -50,16 +53,75 @@ def setpoint_vector(layout: Sequence[str], setpoint: Sequence[float] | Mapping[s
     return [float(v) for v in setpoint]
 
 
+#: modes whose setpoint holds no position: the default setpoint is steered toward the hover
+#: each control period by a pilot (the airframe's own cascade, on a controller of its own)
+_PILOTED = {"motors", "rates_thrust", "rates_z"}
+#: modes with a climb-rate setpoint: the default climbs toward the hover height
+_CLIMB_RATE = {"attitude_vz", "heading_velocity_vz", "velocity_yawrate", "velocity_yaw"}
+
+
 def hover_setpoint(vehicle: Vehicle, altitude: float) -> list[float]:
-    """A setpoint that holds ``vehicle`` at ``altitude`` [m] in its current mode."""
+    """A setpoint that holds ``vehicle`` at ``altitude`` [m] in its current mode, at its
+    current horizontal position: in the attitude modes the airframe's trim attitude (a
+    tricopter's tilted tail), in climb-rate modes no climb (see :class:`HoverPilot`, which
+    steers the modes that hold no height or position themselves), in ``motors`` and
+    ``rates_thrust`` the level trim (throttles that balance the weight with no torque)."""
     mode = vehicle.mode.name
+    layout = vehicle.setpoint_layout
+    controller = vehicle.controller
     if mode == "motors":
-        return [vehicle.hover_throttle()] * len(vehicle.setpoint_layout)
+        if controller is not None:
+            trim = controller.mixer.throttles(vehicle.parts.mass * GRAVITY, 0.0, 0.0, 0.0)
+            return [float(v) for v in trim] + [0.0] * (len(layout) - len(trim))
+        return [vehicle.hover_throttle()] * len(layout)
+    values = {"x": 0.0, "y": 0.0, "z": altitude}
+    values["x"], values["y"], _ = vehicle.state.lin_pos
+    if controller is not None:
+        values["roll"], values["pitch"] = controller.trim
     if mode == "rates_thrust":
-        return [0.0, 0.0, 0.0, vehicle.hover_throttle() ** 2]
-    x, y, _ = vehicle.state.lin_pos
-    values = {"x": x, "y": y, "z": altitude}
-    return [values.get(name, 0.0) for name in vehicle.setpoint_layout]
+        values["thrust"] = vehicle.hover_throttle() ** 2
+    return [values.get(name, 0.0) for name in layout]
+
+
+class HoverPilot:
+    """Steers the default setpoint of ``motors``, ``rates_thrust``, ``rates_z`` and the
+    climb-rate modes toward a hover at ``target`` (x, y, z) [m], once per control period.
+
+    It is the airframe's own cascade (gains, mixer) on a controller of its own in
+    ``position_yaw``: in ``motors`` it gives the throttles (and tail servo) that cascade
+    would, in ``rates_thrust`` / ``rates_z`` the body rates (and thrust fraction), in the
+    climb-rate modes the climb rate ``clip(kp_z (z_target - z))``; everything else of the
+    mode's setpoint is :func:`hover_setpoint`'s.
+    """
+
+    def __init__(self, vehicle: Vehicle, target: Sequence[float], control_dt: float) -> None:
+        own = vehicle.controller
+        assert own is not None
+        self.controller = MultirotorController(own.gains, own.mass, own.inertia, own.mixer, control_dt)
+        self.controller.set_mode(MULTIROTOR_MODES["position_yaw"])
+        self.vehicle = vehicle
+        self.target = tuple(float(v) for v in target)
+        self.yaw = float(vehicle.state.ang_pos[2])
+        self.base = hover_setpoint(vehicle, self.target[2])
+        self.mode = vehicle.mode.name
+
+    def __call__(self) -> list[float]:
+        """The setpoint for the next control period."""
+        state = self.vehicle.state
+        setpoint = list(self.base)
+        if self.mode == "motors":
+            x, y, z = self.target
+            throttles = self.controller(state, (x, y, self.yaw, z))
+            setpoint[: len(throttles)] = [float(v) for v in throttles]
+            return setpoint
+        rates, thrust, climb = self.controller.hover_command(state, self.target, self.yaw)
+        if self.mode in ("rates_thrust", "rates_z"):
+            setpoint[:3] = rates
+            if self.mode == "rates_thrust":
+                setpoint[3] = thrust / self.controller.mixer.max_collective
+        else:  # climb rate
+            setpoint[3] = climb
+        return setpoint
 
 
 def fly(
@@ -82,17 +144,25 @@ def fly(
     """Fly ``uav`` in ``mode`` toward ``setpoint`` for ``duration`` seconds.
 
     ``setpoint`` is a list in the mode's layout, a mapping by name (missing names are
-    0), or None to hover 1 m above the spawn point.  ``wind``: the atmosphere (a preset
+    0), or None to hover 1 m above the spawn point: a fixed setpoint in the modes that
+    hold a height and position (the attitude modes at the airframe's trim attitude); in
+    the others (``motors``, ``rates_thrust``, ``rates_z``, the climb-rate modes) a
+    setpoint steered toward that hover every control period by :class:`HoverPilot`.  ``wind``: the atmosphere (a preset
     name in ``conf/wind``, a mapping or a :class:`WindConfig`; None: still air);
     ``ground_effect``, ``downwash``: the rotor interactions of :class:`World`.
     """
     if not duration > 0:
         raise ConfigError(f"duration must be > 0 s, got {duration}")
+    # a piloted default setpoint changes every control period: step the world at that rate
+    # and keep every stride-th row
+    stride = 1
+    if setpoint is None and agent_hz > 0 and control_hz > 0 and (control_hz / agent_hz).is_integer():
+        stride = int(control_hz / agent_hz)
     with World(
         seed=seed,
         physics_hz=physics_hz,
         control_hz=control_hz,
-        agent_hz=agent_hz,
+        agent_hz=agent_hz * stride,
         render=render,
         wind=wind,
         ground_effect=ground_effect,
@@ -101,16 +171,26 @@ def fly(
         world.add_vehicle(uav, position, orientation, mode=mode)
         vehicle = world.vehicles[0]
         layout = vehicle.setpoint_layout
+        pilot = None
         if setpoint is None:
-            world.set_setpoint(0, hover_setpoint(vehicle, float(position[2]) + 1.0))
+            target = (float(position[0]), float(position[1]), float(position[2]) + 1.0)
+            world.set_setpoint(0, hover_setpoint(vehicle, target[2]))
+            if vehicle.controller is not None and (vehicle.mode.name in _PILOTED or vehicle.mode.name in _CLIMB_RATE):
+                pilot = HoverPilot(vehicle, target, 1.0 / control_hz)
         else:
             world.set_setpoint(0, setpoint_vector(layout, setpoint))
-        steps = int(round(duration * world.agent_hz))
+        steps = int(round(duration * agent_hz))
         rows = []
-        for _ in range(steps + 1):
-            s = vehicle.state
-            rows.append((world.elapsed, s.lin_pos, s.ang_pos, s.lin_vel_ground, vehicle.aux_state, world.collided(0)))
-            if len(rows) <= steps:
+        collided = False
+        for tick in range(steps * stride + 1):
+            collided = collided or world.collided(0)
+            if tick % stride == 0:
+                s = vehicle.state
+                rows.append((world.elapsed, s.lin_pos, s.ang_pos, s.lin_vel_ground, vehicle.aux_state, collided))
+                collided = False
+            if tick < steps * stride:
+                if pilot is not None:
+                    world.set_setpoint(0, pilot())
                 world.step()
         return Trajectory(
             time=np.array([r[0] for r in rows]),

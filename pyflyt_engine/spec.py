@@ -574,10 +574,12 @@ class VelocityGains(_Spec):
     """Velocity loop (ground frame): acceleration command = kp e + ki int(e)."""
 
     kp: Vec3 = Field((3.0, 3.0, 4.0), description="[1/s] x, y, z")
-    ki: Vec3 = Field((0.5, 0.5, 1.0), description="[1/s^2]")
-    integral_limit: Vec3 = Field((2.0, 2.0, 3.0), description="clamp on the integral term [m/s^2]")
-    integral_window: float = Field(
-        0.5, gt=0, description="integrate only while |error| is below this [m/s] (anti-windup in transients)"
+    ki: Vec3 = Field((2.0, 2.0, 2.0), description="[1/s^2]")
+    integral_limit: Vec3 | None = Field(
+        None, description="clamp on the integral term [m/s^2]; null: the airframe's thrust margin (docs/atmosphere.md)"
+    )
+    integral_window: float | None = Field(
+        None, gt=0, description="also integrate only while |error| is below this [m/s]; null: no window"
     )
     max_tilt: float = Field(0.6, gt=0, lt=1.5, description="largest roll/pitch the loop may ask [rad]")
 

@@ -25,9 +25,11 @@ critic is unsure of the learning policy's:
 
 **Bootstrapping** (the paper's setting): ``init_from=<a SAC run>`` loads that run's SAC
 policy; its actor becomes both the oracle (frozen) and the learning actor's start, its
-critics the critics' start (:meth:`CCGEPolicy.load_state_dict`).  Without ``init_from`` the
-oracle is the randomly initialised actor's copy: CCGE then only adds a pull towards a
-fixed random policy where the critic is unsure, and is not meant to be used so.
+critics the critics' start (:meth:`CCGEPolicy.load_state_dict`).  ``pyflyt train``
+refuses ``algo=ccge`` without ``init_from`` (:class:`~pyflyt_cli.training.schema.TrainConfig`):
+the oracle would be the randomly initialised actor's copy, a pull towards a fixed random
+policy where the critic is unsure, which CCGE is not meant for.  (Built directly from
+Python without a loaded oracle, the class still behaves so.)
 
 The oracle is part of the policy's state (``oracle.*`` tensors), so policy files and
 checkpoints carry it and a resume is exact.  The explicit variant of the paper (a

@@ -566,6 +566,11 @@ class TrainConfig(_Strict):
                 f"algo.offline_buffer {buffer} is a pickle (.pkl): unpickling can run arbitrary code. Give a .npz "
                 "replay buffer (a run's checkpoints/), or set trust_pickle=true if you made that file yourself"
             )
+        if isinstance(algo, CCGEConfig) and not self.init_from and not _recorded(info):
+            raise ValueError(
+                "algo=ccge needs init_from=<a SAC run, policy file or <run dir>@<step>>: that policy's actor is "
+                "CCGE's oracle; without one the oracle would be the random initial actor (docs/algorithms.md)"
+            )
         if opts.curriculum:
             _check_curriculum(self.env, opts.curriculum)
         if opts.imitation is not None:

@@ -23,10 +23,12 @@
   streams stay per process).  The sampler (TPE) is seeded with ``sampler_seed`` (+ the
   worker index): with ``jobs=1`` the same command samples the same trials, and each
   trial, trained with the run's ``seed``, gives the same numbers.
-* At the end: ``best_<env>_<algo>.yaml``, the best trial's settings as a
+* At the end: the verdict (:mod:`pyflyt_cli.training.tune_verdict`): the best trial
+  against a random policy and the baseline trial, by the spread of their evaluation
+  returns.  Only on a finding ``best_<env>_<algo>.yaml``, the best trial's settings as a
   ``conf/hparams``-style file (use it as ``pyflyt train experiment=<that file>`` or copy
-  it to ``conf/hparams/<env>_<algo>.yaml``), ``trials.csv``, and Optuna's report plots
-  ``history.png`` and ``importance.png``.
+  it to ``conf/hparams/<env>_<algo>.yaml``); ``trials.csv`` and Optuna's ``history.png``
+  always; ``importance.png`` only when the trials differ by more than their noise.
 """
 
 from __future__ import annotations
@@ -227,6 +229,8 @@ class TuneReport:
     best_params: dict[str, Any] | None
     best_file: Path | None
     plots: list[Path]
+    #: whether the trials beat the random policy and the shipped tuning (tune_verdict)
+    verdict: Any = None
 
 
 def study_name(env: str, algo: str) -> str:
@@ -343,6 +347,10 @@ def run_trial(trial: Any, env: str, algo: str, study_dir: Path, space: SearchSpa
     if value is None:
         raise ConfigError("pyflyt tune needs evaluations: set train.eval_freq > 0")
     log(f"trial {trial.number}: return {value:.2f} ({shown})")
+    # the spread of that evaluation, for the study's verdict (tune_verdict)
+    n = int(cfg.train.eval_episodes)
+    trial.set_user_attr("eval_std", float(result.last_eval["std_return"]) * (n / (n - 1)) ** 0.5 if n > 1 else 0.0)
+    trial.set_user_attr("eval_episodes", n)
     return float(value)
 
 
@@ -453,6 +461,11 @@ def tune(env: str, algo: str, options: TuneOptions | Mapping[str, Any] | None = 
                 if failed:
                     raise ConfigError(f"{len(failed)} tune worker(s) failed (exit codes {failed}); rerun to continue")
         study = _study(study_dir, env, algo, opts)
+        if "random_policy" not in study.user_attrs:
+            from pyflyt_cli.training.tune_verdict import random_policy_score
+
+            r = random_policy_score(cfg)
+            study.set_user_attr("random_policy", [r.mean, r.std, r.n])
         return _write_report(study, study_dir, env, algo, opts, base, before, log)
 
 
@@ -478,16 +491,28 @@ def _write_report(study: Any, study_dir: Path, env: str, algo: str, opts: TuneOp
     best_file = None
     best_params = None
     best_value = None
+    verdict = None
     if complete:
+        from pyflyt_cli.training.tune_verdict import judge
+
         best = study.best_trial
         best_value = float(best.value)
         best_params = {k: _decoded(v) for k, v in best.params.items()}
+        verdict = judge(study, complete)
+        for line in verdict.lines():
+            log(line)
         best_file = study_dir / f"best_{study_name(env, algo)}.yaml"
-        atomic_write(best_file, _hparams_text(best_params, env, algo, best.number, best_value, opts, base, finished))
-        log(f"best: trial {best.number}, return {best_value:.2f}: {best_file}")
-    plots = _plots(study, study_dir, log)
+        if verdict.finding:
+            text = _hparams_text(best_params, env, algo, best.number, best_value, opts, base, finished)
+            atomic_write(best_file, text)
+            log(f"best: trial {best.number}, return {best_value:.2f}: {best_file}")
+        else:
+            best_file.unlink(missing_ok=True)  # an earlier run's recommendation no longer stands
+            best_file = None
+            log(f"best: trial {best.number}, return {best_value:.2f}; no settings recommended")
+    plots = _plots(study, study_dir, log, importance=verdict is not None and verdict.parameters_matter)
     return TuneReport(study_dir, _storage_url(study_dir), finished, finished - before, best_value, best_params,
-                      best_file, plots)
+                      best_file, plots, verdict)
 
 
 def _decoded(value: Any) -> Any:
@@ -520,8 +545,9 @@ def _hparams_text(params: Mapping[str, Any], env: str, algo: str, number: int, v
     return "\n".join(header) + "\n" + yaml.safe_dump(_nested(params), sort_keys=False, default_flow_style=None)
 
 
-def _plots(study: Any, study_dir: Path, log: Log) -> list[Path]:
-    """Optuna's optimisation history and parameter importances, as PNG (importance needs 2+ complete trials)."""
+def _plots(study: Any, study_dir: Path, log: Log, importance: bool = True) -> list[Path]:
+    """Optuna's optimisation history and parameter importances, as PNG (importance needs 2+ complete
+    trials, and ``importance``: returns that differ by more than their noise)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -531,7 +557,9 @@ def _plots(study: Any, study_dir: Path, log: Log) -> list[Path]:
 
     written = []
     plots = [("history.png", vis.plot_optimization_history)]
-    if len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))) >= 2:
+    if not importance:
+        (study_dir / "importance.png").unlink(missing_ok=True)
+    elif len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))) >= 2:
         plots.append(("importance.png", vis.plot_param_importances))
     import warnings
 

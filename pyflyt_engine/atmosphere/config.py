@@ -95,6 +95,12 @@ class Turbulence(_Config):
         description="direction [deg] of the turbulence x axis (from +x, counter-clockwise); null: the mean wind's, else 0",
     )
     angular: bool = Field(True, description="also the rotary gusts p, q, r (per vehicle span)")
+    rotary_min_span: float = Field(
+        1.0,
+        ge=0,
+        description="vehicles of smaller span [m] get no rotary gusts: the MIL-F-8785C forms are for aeroplane "
+        "spans and grow as b^(-2/3) below them (docs/atmosphere.md); 0: every vehicle",
+    )
 
     @property
     def advection_speed(self) -> float:

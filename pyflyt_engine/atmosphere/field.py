@@ -121,7 +121,7 @@ class WindField:
         """
         index = len(self.spans)
         self.spans.append(float(span))
-        if self._angular:
+        if self._angular and self._rotary(float(span)):
             self._build()
         else:
             self._start = self.step_index
@@ -142,14 +142,26 @@ class WindField:
 
         return probe
 
+    def _rotary(self, span: float) -> bool:
+        """Whether a vehicle of ``span`` [m] gets rotary gusts (``rotary_min_span``)."""
+        turbulence = self.config.turbulence
+        return turbulence is not None and span >= turbulence.rotary_min_span
+
     def _build(self) -> None:
         if self._turbulent:
             turbulence = self.config.turbulence
             assert turbulence is not None
+            #: per vehicle: its row in the process's rotary outputs, or None (no rotary gusts)
+            self._rotary_rows: list[int | None] = []
+            spans = []
+            for b in self.spans if self._angular else ():
+                self._rotary_rows.append(len(spans) if self._rotary(b) else None)
+                if self._rotary(b):
+                    spans.append(b)
             self._process = DrydenProcess(
                 self.scales,
                 turbulence.advection_speed,
-                self.spans if self._angular else (),
+                spans,
                 self.physics_dt,
                 self.rng,
                 block=self.block,
@@ -182,10 +194,11 @@ class WindField:
             if self._angular:
                 rotary = turbulence[3:]
         zeros = np.zeros((3, n))
-        self._rows = [
-            np.vstack((linear, rotary[3 * i : 3 * i + 3] if rotary is not None else zeros)).T.tolist()
-            for i in range(len(self.spans))
-        ]
+        rows = getattr(self, "_rotary_rows", [])
+        self._rows = []
+        for i in range(len(self.spans)):
+            j = rows[i] if rotary is not None and i < len(rows) else None
+            self._rows.append(np.vstack((linear, rotary[3 * j : 3 * j + 3] if j is not None else zeros)).T.tolist())
         self._k = 0
         self._n = n
 

@@ -49,6 +49,30 @@ def _clamp(value: float, limit: float) -> float:
     return limit if value > limit else -limit if value < -limit else value
 
 
+def velocity_authority(max_collective: float, mass: float, max_tilt: float) -> tuple[float, float, float]:
+    """The accelerations [m/s^2] the airframe can add to hover, from its thrust margin:
+    (horizontal, up, down).
+
+    Horizontal: the tilt loop leans the thrust by at most ``max_tilt`` with the vertical
+    component held at ``m g``, so ``a_h = min(g tan(max_tilt), sqrt((T_max/m)^2 - g^2))``
+    (the second, the full collective ``T_max`` leaned until its vertical part is the
+    weight, binds only when the thrust margin is thin).  Up: ``T_max/m - g``.  Down: the
+    tilt loop keeps at least 0.1 g of lift, so ``0.9 g``.  These bound the velocity loop's
+    integral (a steady disturbance beyond them cannot be held) and mark where its output
+    saturates (the anti-windup).
+    """
+    per_mass = max_collective / mass
+    margin = per_mass * per_mass - GRAVITY * GRAVITY
+    thrust_bound = math.sqrt(margin) if margin > 0.0 else 0.0
+    tilt_bound = GRAVITY * math.tan(max_tilt)
+    up = per_mass - GRAVITY
+    return (
+        tilt_bound if tilt_bound < thrust_bound else thrust_bound,
+        up if up > 0.0 else 0.0,
+        GRAVITY - _MIN_LIFT,
+    )
+
+
 def _integral_limits(limits: Sequence[float], ki: Sequence[float]) -> tuple[float, ...]:
     """Per axis, the bound on the integral of the error from the bound on ``ki * integral``
     (0: no integration when ``ki = 0``)."""
@@ -90,16 +114,27 @@ class MultirotorController:
         jx, jy, jz = self.inertia
         #: gyroscopic coefficients of omega x (J omega): (Jz - Jy, Jx - Jz, Jy - Jx)
         self._gyro = (jz - jy, jx - jz, jy - jx)
-        #: per ground axis (kp, ki, integral limit) of the velocity loop
-        self._velocity_axes = tuple(zip(vel.kp, vel.ki, _integral_limits(vel.integral_limit, vel.ki)))
+        #: (horizontal, up, down) acceleration the thrust margin allows [m/s^2]
+        self.authority = velocity_authority(mixer.max_collective, mass, vel.max_tilt)
+        horizontal, up, down = self.authority
+        # per ground axis (low, high) saturation of the acceleration command: the integral's
+        # bound unless integral_limit gives one
+        bounds = ((-horizontal, horizontal), (-horizontal, horizontal), (-down, up))
+        if vel.integral_limit is not None:
+            bounds = tuple((-lim, lim) for lim in vel.integral_limit)
+        #: per ground axis (kp, ki, lowest and highest integral term) of the velocity loop
+        self._velocity_axes = tuple((kp, ki, lo, hi) for kp, ki, (lo, hi) in zip(vel.kp, vel.ki, bounds))
         # the gains the outer loops read at every tick, as plain floats
-        self._window, self._max_tilt = vel.integral_window, vel.max_tilt
+        self._window = vel.integral_window if vel.integral_window is not None else math.inf
+        self._max_tilt = vel.max_tilt
         self._position_kp, self._max_velocity = tuple(gains.position.kp), tuple(gains.position.max_velocity)
         self._attitude_kp, self._max_rate = tuple(gains.attitude.kp), tuple(gains.attitude.max_rate)
         # attitude at which the mixer's side force per newton of thrust (a tilted tail's) and
         # the thrust add up to a force along body z of the level frame: (roll, pitch) trim
         fx, fy = mixer.side_force
         self._trim = (math.atan(fy), -math.atan(fx)) if (fx or fy) else None
+        #: (roll, pitch) [rad] a level hover needs: the trim above, else (0, 0)
+        self.trim = self._trim or (0.0, 0.0)
         self.mode: FlightMode = resolve_mode(gains.mode)
         self.law: Callable[[KinematicState, Sequence[float]], list[float]]
         self._select(self.mode)
@@ -168,20 +203,28 @@ class MultirotorController:
         """Ground-frame accelerations [m/s^2] that drive the ground velocity to ``velocity_sp``.
 
         Per axis with a setpoint (None: 0, not integrated): ``e = sp - v``;
-        ``a = kp e + ki I``, integrating ``I = clip(I + e dt, limit)`` only while
-        ``|e| < integral_window`` (anti-windup in transients).
+        ``a = kp e + ki I``.  ``I`` integrates ``e dt`` unless ``a`` would pass the axis's
+        saturation ``[lo, hi]`` (:func:`velocity_authority`, or ``integral_limit``) with
+        ``e`` pushing it further (conditional integration: the integrator keeps working
+        while the error is large, and stops only where the airframe cannot follow), and
+        ``ki I`` is kept within ``[lo, hi]``.  With ``integral_window`` set it integrates
+        only while ``|e|`` is below it as well.
         """
         window, dt = self._window, self.dt
         out = []
         integrals = []
-        for (kp, ki, limit), sp, v, i in zip(self._velocity_axes, velocity_sp, state.lin_vel_ground, self._vel_integral):
+        axes = zip(self._velocity_axes, velocity_sp, state.lin_vel_ground, self._vel_integral)
+        for (kp, ki, lo, hi), sp, v, i in axes:
             if sp is None:
                 out.append(0.0)
             else:
                 e = sp - v
-                if -window < e < window:
-                    i += e * dt
-                    i = limit if i > limit else -limit if i < -limit else i  # _clamp(i, limit)
+                if ki > 0.0 and -window < e < window:
+                    trial = i + e * dt
+                    a = kp * e + ki * trial
+                    if not ((a > hi and e > 0.0) or (a < lo and e < 0.0)):
+                        term = ki * trial
+                        i = hi / ki if term > hi else lo / ki if term < lo else trial
                 out.append(kp * e + ki * i)
             integrals.append(i)
         self._vel_integral = integrals
@@ -268,6 +311,25 @@ class MultirotorController:
         """Translational modes: a ground velocity setpoint (from a heading-frame velocity, a
         position or given), a yaw target or rate, and a climb rate or altitude, through the
         velocity, tilt, attitude and rate loops.  Position to velocity: ``clip(kp (x_sp - x))``."""
+        rates, thrust = self._translate_command(state, setpoint)
+        return self.mixer.throttles(thrust, *self._rate_loop(state, rates))
+
+    def hover_command(
+        self, state: KinematicState, position: Sequence[float], yaw: float
+    ) -> tuple[tuple[float, float, float], float, float]:
+        """What the translational loops ask to hold ``position`` [m] at ``yaw`` [rad]:
+        (body-rate setpoint [rad/s], collective thrust [N], climb rate [m/s]).  Runs the
+        velocity loop (its integrator advances): call it on a controller of its own, once
+        per control period, as :func:`pyflyt_engine.flight.fly` does to steer the default
+        setpoint of modes that hold no position themselves."""
+        x, y, z = position
+        rates, thrust = self._translate_command(state, (x, y, yaw, z))
+        return rates, thrust, self._climb(state, z)
+
+    def _translate_command(
+        self, state: KinematicState, setpoint: Sequence[float]
+    ) -> tuple[tuple[float, float, float], float]:
+        """The body-rate setpoint and collective thrust of :meth:`_translate`."""
         yaw_is_rate, heading_frame, position, altitude = self._translational  # type: ignore[misc]
         a, b, c, d = setpoint
         x, y, z = state.lin_pos
@@ -290,5 +352,4 @@ class MultirotorController:
         ax, ay, az = self._velocity_loop(state, (vx, vy, vz))
         roll, pitch = self._tilt_for(state, ax, ay, az)
         yaw, yaw_rate = (None, c) if yaw_is_rate else (c, 0.0)
-        torques = self._rate_loop(state, self._attitude_rates(state, roll, pitch, yaw, yaw_rate))
-        return self.mixer.throttles(self._thrust_for(state, az), *torques)
+        return self._attitude_rates(state, roll, pitch, yaw, yaw_rate), self._thrust_for(state, az)

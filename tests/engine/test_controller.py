@@ -78,14 +78,57 @@ def test_thrust_is_weight_plus_climb_compensated_for_tilt():
     assert controller._thrust_for(_state(), -2 * GRAVITY) == 0.0  # never pulls
 
 
-def test_velocity_loop_integrates_only_inside_its_window():
+def test_velocity_loop_integrates_while_the_error_is_large_and_stops_only_at_saturation():
     controller, spec = _controller("velocity_yawrate")
     g = spec.control.velocity
-    far = controller._velocity_loop(_state(), (10.0, None, None))  # |e| = 10 > window: no integration
-    assert far[0] == pytest.approx(g.kp[0] * 10.0) and controller._vel_integral == [0.0, 0.0, 0.0]
+    horizontal, up, down = controller.authority
+    # |e| = 1 m/s, far outside the old 0.5 m/s window: kp e = 3 < a_h, so it integrates
+    a = controller._velocity_loop(_state(), (1.0, None, None))
+    assert controller._vel_integral[0] == pytest.approx(1.0 * DT)
+    assert a[0] == pytest.approx(g.kp[0] * 1.0 + g.ki[0] * 1.0 * DT)
+    # e = 10 m/s: kp e = 30 > a_h and e pushes further into saturation: no integration
+    far = controller._velocity_loop(_state(), (10.0, None, None))
+    assert controller._vel_integral[0] == pytest.approx(1.0 * DT)
+    assert far[0] == pytest.approx(g.kp[0] * 10.0 + g.ki[0] * 1.0 * DT)
+    # ... but an error that leads out of saturation is integrated at once
+    controller._vel_integral = [horizontal / g.ki[0], 0.0, 0.0]
+    controller._velocity_loop(_state(), (-0.5, None, None))
+    assert controller._vel_integral[0] == pytest.approx(horizontal / g.ki[0] - 0.5 * DT)
+    # the integral term never passes the authority: vertical (up, down) bounds
+    controller._vel_integral = [0.0, 0.0, up / g.ki[2] - 1e-9]
+    controller._velocity_loop(_state(lin_vel_ground=(0.0, 0.0, 0.0)), (None, None, 0.001))
+    assert g.ki[2] * controller._vel_integral[2] == pytest.approx(up)
+    controller._vel_integral = [0.0, 0.0, -down / g.ki[2] + 1e-9]
+    controller._velocity_loop(_state(), (None, None, -0.001))
+    assert g.ki[2] * controller._vel_integral[2] == pytest.approx(-down)
+
+
+def test_velocity_authority_is_the_thrust_margin_by_hand():
+    controller, spec = _controller("velocity_yawrate")
+    # quadx_f450: 1 kg, 40 N, max_tilt 0.6 rad
+    horizontal, up, down = controller.authority
+    assert horizontal == pytest.approx(GRAVITY * math.tan(0.6))  # tilt-bound: 6.71 < sqrt(40^2 - 9.81^2)
+    full = 4 * 3.0e-7 * 5773.5**2  # k_F max_rpm^2 per motor: 40 N
+    assert controller.mixer.max_collective == pytest.approx(full, rel=1e-12)
+    assert up == pytest.approx(full / 1.0 - GRAVITY, rel=1e-12) and down == pytest.approx(0.9 * GRAVITY)
+    from pyflyt_engine.control.multirotor import velocity_authority
+
+    # a thin margin: 1.2 m g of thrust leans to sqrt(1.2^2 - 1) g before max_tilt
+    assert velocity_authority(1.2 * GRAVITY, 1.0, 1.0)[0] == pytest.approx(GRAVITY * math.sqrt(1.44 - 1.0))
+    assert velocity_authority(0.9 * GRAVITY, 1.0, 0.6)[:2] == (0.0, 0.0)  # cannot hover: no authority
+
+
+def test_the_old_window_and_a_fixed_integral_limit_are_still_honoured_when_given():
+    controller, spec = _controller(
+        "velocity_yawrate", **{"control.velocity.integral_window": 0.5, "control.velocity.integral_limit": [2, 2, 3]}
+    )
+    controller._velocity_loop(_state(), (1.0, None, None))  # |e| = 1 > window: no integration
+    assert controller._vel_integral == [0.0, 0.0, 0.0]
     near = controller._velocity_loop(_state(lin_vel_ground=(0.0, 0.1, 0.0)), (None, 0.3, 0.0))
-    assert near[1] == pytest.approx(g.kp[1] * 0.2 + g.ki[1] * 0.2 * DT)
-    assert near[0] == 0.0 and controller._vel_integral[1] == pytest.approx(0.2 * DT)
+    assert near[1] == pytest.approx(spec.control.velocity.kp[1] * 0.2 + spec.control.velocity.ki[1] * 0.2 * DT)
+    controller._vel_integral = [0.0, 3.0 / spec.control.velocity.ki[1], 0.0]
+    controller._velocity_loop(_state(), (None, -0.1, None))  # integrating, it is clamped to the limit
+    assert spec.control.velocity.ki[1] * controller._vel_integral[1] == pytest.approx(2.0)
 
 
 def test_mixer_reproduces_any_wrench_it_can_and_gives_up_yaw_first():

@@ -143,3 +143,13 @@ def test_pyflyt_train_ccge_bootstraps_from_a_sac_run_and_resumes_exactly(tmp_pat
     assert first.interrupted
     assert not resume(first.run_dir).interrupted
     _assert_same(_outcome(first.run_dir), _outcome(reference_run))
+
+
+def test_pyflyt_train_refuses_ccge_without_an_oracle_naming_init_from():
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    result = CliRunner().invoke(app, ["train", "env=quadx_hover", "algo=ccge", "train.total_timesteps=10"])
+    assert result.exit_code == 2, result.output
+    assert "algo=ccge needs init_from=" in result.output and "random initial actor" in result.output

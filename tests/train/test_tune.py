@@ -7,6 +7,7 @@ the trials stay a few seconds each.
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -54,7 +55,17 @@ def _options(study_dir: Path, space: Path, **extra) -> dict:
     return {"study_dir": str(study_dir), "space": str(space), "startup_trials": 1, **extra}
 
 
-def test_a_study_runs_continues_from_sqlite_and_writes_a_usable_best_file(tmp_path, space):
+@pytest.fixture
+def as_finding(monkeypatch):
+    """Judge every study a finding whose parameters matter: to test the files a finding writes
+    (tiny trials of one evaluation episode never are one; test_tune_verdict.py tests the rule)."""
+    from pyflyt_cli.training import tune_verdict
+
+    monkeypatch.setattr(tune_verdict.Verdict, "finding", property(lambda self: True))
+    monkeypatch.setattr(tune_verdict.Verdict, "parameters_matter", property(lambda self: True))
+
+
+def test_a_study_runs_continues_from_sqlite_and_writes_a_usable_best_file(tmp_path, space, as_finding):
     study_dir = tmp_path / "study"
     first = tune("quadx_hover", "ppo", _options(study_dir, space, trials=2), TRAIN)
     assert first.finished == 2 and first.ran == 2 and (study_dir / "study.db").is_file()
@@ -172,8 +183,11 @@ def test_the_command_line(tmp_path, space):
     done = pyflyt(["tune", "env=quadx_hover", "algo=ppo", "trials=1", f"space={space}", "study_dir=s", *TRAIN],
                   cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert "best settings:" in done.stderr and "pyflyt train env=quadx_hover algo=ppo experiment=" in done.stderr
-    assert (tmp_path / "s" / "best_quadx_hover_ppo.yaml").is_file()
+    # one evaluation episode per trial: no spread, so no finding, no recommendation, no importance
+    assert "no finding: with one evaluation episode per trial" in done.stderr and "random policy" in done.stderr
+    assert "best settings:" not in done.stderr and "pyflyt train env=" not in done.stderr
+    assert not (tmp_path / "s" / "best_quadx_hover_ppo.yaml").exists()
+    assert not (tmp_path / "s" / "importance.png").exists()
 
 
 def test_a_new_study_starts_with_the_configuration_as_composed(tmp_path):
@@ -192,6 +206,10 @@ def test_a_new_study_starts_with_the_configuration_as_composed(tmp_path):
     assert f"algo.learning_rate={cfg.algo.learning_rate}" in first
     assert f"algo.gamma={cfg.algo.gamma}" in first and "algo.policy_kwargs.net_arch=[64,64]" in first
     assert any("baseline" in m for m in messages)
+    # the verdict compares against the baseline trial and a random policy on the same episodes
+    assert report.verdict.baseline is not None and report.verdict.baseline.label == "trial 0"
+    assert math.isfinite(report.verdict.random.mean) and report.verdict.random.n == 1
+    assert any(m.startswith("random policy: ") for m in messages)
 
     outside = tmp_path / "outside.yaml"
     outside.write_text("algo.gamma: {type: categorical, choices: [0.9, 0.99]}\n")

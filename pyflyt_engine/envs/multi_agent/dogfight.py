@@ -82,7 +82,17 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
 
     **Info** per agent: ``health``, ``hits_dealt``, ``hits_taken``, ``kills`` (this
     step), ``total_hits_taken``, ``shot_down``, ``team_win``, ``team``, ``collision``,
-    ``out_of_bounds``, ``success`` (the agent's team won), ``reward_terms``.
+    ``out_of_bounds``, ``outcome``, ``success``, ``reward_terms``.
+
+    **Outcome** (``info["outcome"]``; None while the agent fights on, else set on its last
+    step): ``loss`` (shot down), ``crash`` (contact with anything), ``out_of_bounds``
+    (left the dome), ``win_by_kill`` (no opponent left in the fight and its team shot down
+    at least one of them), ``win_by_default`` (no opponent left, but none was shot down:
+    they all crashed or left the dome), ``time_limit`` (alive at the time limit).  When
+    several happen in one step the first of loss, crash, out_of_bounds, win counts.
+    ``success`` is ``outcome == "win_by_kill"``: a crash is never a success, and neither is
+    an opponent's crash.  An episode succeeds when some agent's does (a team won by kills).
+    ``team_win`` (and its reward) is any win, by kill or by default.
 
     **Arguments**: ``agents`` (count or list), ``lethal_distance`` (20 m), ``lethal_angle``
     (0.07 rad), ``damage_per_second`` (0.36), ``team_separation`` (100 m),
@@ -115,6 +125,8 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
         self.health = np.ones(n)
         self.total_hits_taken = np.zeros(n, dtype=np.int64)
         self._shot_down = np.zeros(n, dtype=bool)
+        #: per team: opponents it has shot down this episode
+        self._team_kills = [0, 0]
         # per agent: the other agents, teammates first then opponents, in agent order
         self._others = []
         for i in range(n):
@@ -181,6 +193,9 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
             if remaining[mine].any() and not remaining[~mine].any():
                 wins |= mine & remaining
         self._shot_down |= killed
+        for j in np.flatnonzero(killed):  # only opponents shoot: a kill is the other team's
+            self._team_kills[1 - int(self.teams[j])] += 1
+        time_up = self._steps >= self._max_steps
         self.health[out & ~killed] = 0.0  # crashed or left the dome: out of the fight
         aim, aimed_at = self._aim.sum(axis=1), self._aim.sum(axis=0)
         signals = {}
@@ -195,6 +210,10 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
                 "aimed_at": float(aimed_at[i]),
                 "team_win": float(wins[i]),
             }
+            x, y, z = states[i].lin_pos
+            outcome = self._outcome(
+                bool(killed[i]), collisions[i], x * x + y * y + z * z > self._dome2, bool(wins[i]), i, time_up
+            )
             info: dict[str, Any] = {
                 "health": float(self.health[i]),
                 "hits_dealt": int(dealt[i]),
@@ -204,9 +223,24 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
                 "shot_down": bool(killed[i]),
                 "team_win": bool(wins[i]),
                 "team": int(self.teams[i]),
+                "outcome": outcome,
+                "success": outcome == "win_by_kill",
             }
             signals[i] = AgentSignals(complete=bool(wins[i]), failed=bool(killed[i]), extras=extras, info=info)
         return signals
+
+    def _outcome(self, shot_down: bool, crashed: bool, out: bool, won: bool, i: int, time_up: bool) -> str | None:
+        """How agent ``i``'s episode ended this step (None: it fights on); the order decides
+        when several happen in one step (shot down and crashing: ``loss``)."""
+        if shot_down:
+            return "loss"
+        if crashed:
+            return "crash"
+        if out:
+            return "out_of_bounds"
+        if won:
+            return "win_by_kill" if self._team_kills[int(self.teams[i])] > 0 else "win_by_default"
+        return "time_limit" if time_up else None
 
     def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         others = self._others[i]
@@ -230,8 +264,9 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
         return np.concatenate(((self.health[i],), block.ravel()))
 
     def episode_success(self, successes: np.ndarray) -> bool:
-        """A dogfight episode succeeds when it is decided: one team won."""
+        """A dogfight episode succeeds when a team won by shooting down opponents (an agent's
+        ``success`` is its outcome ``win_by_kill``; a crash never is)."""
         return bool(successes.any())
 
     def _reset_info(self, i: int) -> dict[str, Any]:
-        return {**super()._reset_info(i), "health": 1.0, "team": int(self.teams[i])}
+        return {**super()._reset_info(i), "health": 1.0, "team": int(self.teams[i]), "outcome": None}

@@ -17,7 +17,7 @@ runs a shared policy on it unchanged:
   limit at the last step, else *terminated*;
 * ``info`` holds per agent ``agent_rewards``, ``agent_terminated``, ``agent_truncated``
   (this step), ``agent_active`` (acted this step), ``agent_infos`` (by name), and
-  ``success`` (hover: every agent survived; dogfight: a team won), ``success_rate``
+  ``success`` (hover: every agent survived; dogfight: a team won by shooting down opponents), ``success_rate``
   (fraction of agents whose own episode succeeded), ``collision`` / ``out_of_bounds``
   (any agent, this step), ``reward_terms`` (the per-term means, summing to the reward).
 
