@@ -53,7 +53,9 @@ def test_uav_and_reward_groups_override_the_env():
 @pytest.mark.parametrize("env", ENVS)
 @pytest.mark.parametrize("algo", ALGOS)
 def test_every_env_and_algo_composes_and_validates(env, algo):
-    cfg = load_train_config([f"env={env}", f"algo={algo}"])
+    # CCGE's oracle is the policy init_from names; it is refused without one (test_ccge.py)
+    oracle = ["init_from=sac_run/best_model.pt"] if algo == "ccge" else []
+    cfg = load_train_config([f"env={env}", f"algo={algo}", *oracle])
     assert cfg.env_name == env and cfg.algo.name == algo
 
 
@@ -74,7 +76,7 @@ def test_hparams_follow_the_chosen_env_and_algo():
     for path in (conf_dir() / "hparams").glob("*.yaml"):
         env, algo = next((e, path.stem[len(e) + 1 :]) for e in ENVS if path.stem.startswith(e + "_"))
         assert algo in ALGOS, path
-        load_train_config([f"env={env}", f"algo={algo}"])
+        load_train_config([f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])])
 
 
 @pytest.mark.parametrize(
