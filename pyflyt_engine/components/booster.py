@@ -1,7 +1,8 @@
 """Fueled booster: ignition latch, throttle-limited duty cycle, fuel burn, tank mass.
 
-Model (paper, "Fueled Boosters"), vectorised over ``n`` boosters.  Per physics step of
-length ``dt``, for booster ``i``:
+Model (paper, "Fueled Boosters"), for each of a vehicle's ``n`` boosters
+(:func:`booster_step_scalar`, stepped by the group :class:`Boosters`, which also sums
+their loads).  Per physics step of length ``dt``, for booster ``i``:
 
 1. Ignition latch.  A booster that is not reignitable cannot be put out::
 
@@ -20,7 +21,8 @@ length ``dt``, for booster ``i``:
 
 3. Thrust along the booster's thrust axis ``T = lambda[t+1] * max_thrust`` (N), so an
    empty or unlit booster gives no thrust.  Boosters produce no reaction torque about
-   their own axis.
+   their own axis: the load on the body is the force ``T a`` at the booster's position
+   ``p``, i.e. that force and the torque ``p x (T a)`` about the centre of mass.
 
 4. Fuel burn ``fuel[t+1] = max(fuel[t] - lambda[t+1] * max_fuel_rate * dt, 0)`` (kg).
 
@@ -269,72 +271,6 @@ def booster_step_scalar(
     duty = min(max(noisy, 0.0), 1.0) if ignited and fuel > 0.0 else 0.0
     fuel = max(fuel - duty * k.max_fuel_rate * k.dt, 0.0)
     return ignited, duty, fuel, duty * k.max_thrust
-
-
-def booster_step(
-    params: BoosterParams,
-    state: BoosterState,
-    ignition: bool | np.ndarray,
-    throttle: float | np.ndarray,
-    dt: float,
-    noise: np.ndarray,
-) -> tuple[BoosterState, np.ndarray]:
-    """Advance ``n`` boosters by one physics step.
-
-    Args:
-        params: booster parameters.
-        state: state at step t.
-        ignition: (n,) bool (or scalar) ignition command iota_t.
-        throttle: (n,) (or scalar) normalised throttle beta; clipped to [0, 1].
-        dt: physics step in s (> 0).
-        noise: (n,) standard-normal samples eta, one independent draw per booster,
-            from the caller's seeded generator (zeros for a noiseless step).
-
-    Returns:
-        ``(new_state, thrust)``: state at t+1 and (n,) thrust in N along each thrust axis.
-    """
-    n = params.n
-    if dt <= 0.0:
-        raise ValueError(f"dt must be > 0 s, got {dt}.")
-    noise = np.asarray(noise, dtype=np.float64)
-    if noise.shape != (n,):
-        raise ValueError(f"noise has shape {noise.shape}, expected ({n},): one standard-normal sample per booster.")
-    ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,)).tolist()
-    throttle = np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)).tolist()
-    steps = [
-        booster_step_scalar(k, *args)
-        for k, args in zip(
-            booster_constants(params, dt),
-            zip(state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist(), ignition, throttle, noise.tolist()),
-        )
-    ]
-    ignited, duty, fuel, thrust = (np.array(column) for column in zip(*steps))
-    return BoosterState(ignited=ignited, duty=duty, fuel=fuel), thrust
-
-
-def booster_loads(
-    params: BoosterParams, thrust: np.ndarray, thrust_axes: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Net force and torque of all boosters in the body frame, about the body origin.
-
-    Args:
-        params: booster parameters (positions used as lever arms).
-        thrust: (n,) N, thrust magnitudes from :func:`booster_step`.
-        thrust_axes: optional (n, 3) unit vectors overriding ``params.thrust_axes``,
-            e.g. axes vectored by a gimbal (:func:`pyflyt_engine.components.gimbal.rotate_axes`).
-
-    Returns:
-        ``(force, torque)``: (3,) N and (3,) N m.  ``force = sum_i T_i a_i`` and
-        ``torque = sum_i p_i x (T_i a_i)``; no reaction torque about the thrust axes.
-    """
-    axes = params.thrust_axes if thrust_axes is None else np.asarray(thrust_axes, dtype=np.float64)
-    if axes.shape != (params.n, 3):
-        raise ValueError(f"thrust_axes has shape {axes.shape}, expected ({params.n}, 3).")
-    thrust = np.asarray(thrust, dtype=np.float64)
-    if thrust.shape != (params.n,):
-        raise ValueError(f"thrust has shape {thrust.shape}, expected ({params.n},).")
-    forces = thrust[:, None] * axes
-    return forces.sum(axis=0), np.cross(params.positions, forces).sum(axis=0)
 
 
 def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

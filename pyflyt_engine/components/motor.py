@@ -91,11 +91,6 @@ def motor_lag(params: MotorParams, dt: float) -> np.ndarray:
     return np.asarray(lag_coefficient(dt, params.tau))
 
 
-def clip_command(command: np.ndarray) -> np.ndarray:
-    """Throttle commands limited to the motors' range [-1, 1]."""
-    return np.clip(command, -1.0, 1.0)
-
-
 def noise_factors(params: MotorParams, eta: np.ndarray) -> np.ndarray:
     """Multiplicative noise ``1 + noise_ratio * eta`` for standard normals ``eta`` (..., n)."""
     return 1.0 + params.noise_ratio * eta
@@ -115,8 +110,7 @@ def motor_step(
 
     Args:
         throttle: per motor, the normalised throttle x[t].
-        command: per motor, the commanded throttle zeta, already in [-1, 1] (see
-            :func:`clip_command`).
+        command: per motor, the commanded throttle zeta, already in [-1, 1].
         lag: per motor, ``lag_coefficient(dt, tau)`` (see :func:`motor_lag`).
         noise_factor: per motor, ``1 + noise_ratio * eta`` with eta standard normal (see
             :func:`noise_factors`), or 1.0 for no noise.
@@ -140,13 +134,6 @@ def motor_step(
         ty += wm * f
         tz += wn * f
     return new, (fx, fy, fz, tx, ty, tz)
-
-
-def motor_outputs(params: MotorParams, throttle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Thrust [N] and reaction-torque magnitude [N m] of every motor at ``throttle``."""
-    omega = throttle * params.max_rpm
-    omega_sq = omega * np.abs(omega)
-    return params.kf * omega_sq, params.kt * omega_sq
 
 
 def motor_wrench_matrix(params: MotorParams) -> np.ndarray:

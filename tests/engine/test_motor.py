@@ -9,7 +9,6 @@ from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import (
     MotorParams,
     motor_lag,
-    motor_outputs,
     motor_wrench_matrix,
     noise_factors,
 )
@@ -34,6 +33,13 @@ def motor_step(params, throttle, command, lag, noise):
         columns,
     )
     return np.array(new)
+
+
+def thrust_and_torque(params, throttle):
+    """Oracle: thrust k_F omega|omega| [N] and reaction-torque magnitude k_T omega|omega| [N m]
+    per motor at ``throttle`` (omega = throttle * max_rpm), from the paper's law."""
+    omega = np.asarray(throttle) * params.max_rpm
+    return params.kf * omega * np.abs(omega), params.kt * omega * np.abs(omega)
 
 
 def _params(n: int = 4, tau: float = 0.05, noise: float = 0.0) -> MotorParams:
@@ -77,20 +83,26 @@ def test_step_response_at_the_crazyflie_time_constant():
     assert np.interp(0.01, t, samples) == pytest.approx(0.632, rel=0.05)
 
 
-def test_thrust_and_torque_are_kf_and_kt_times_rpm_squared():
-    params = _params()
-    throttle = np.array([0.2, 0.5, 0.9, 1.0])
-    thrust, torque = motor_outputs(params, throttle)
+@pytest.mark.parametrize("throttle", [0.2, 0.5, 0.9, 1.0, -0.4])
+def test_thrust_and_torque_are_kf_and_kt_times_rpm_squared(throttle):
+    """One motor at the origin, thrust along +Z, no lag (tau = 0): the step's wrench is
+    F = k_F rpm|rpm| along the axis and the reaction -spin k_T rpm|rpm| about it."""
+    params = MotorParams(positions=[[0.0, 0.0, 0.0]], thrust_axes=[[0.0, 0.0, 1.0]], spin=1.0, tau=0.0,
+                         max_rpm=20000.0, kf=3e-10, kt=8e-12, noise_ratio=0.0)  # fmt: skip
+    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
+    (x,), (fx, fy, fz, tx, ty, tz) = _motor_step([0.0], [throttle], [1.0], [1.0], columns)
     rpm = throttle * 20000.0
-    np.testing.assert_allclose(thrust, 3e-10 * rpm**2)
-    np.testing.assert_allclose(torque, 8e-12 * rpm**2)
+    assert x == throttle
+    assert fz == pytest.approx(3e-10 * rpm * abs(rpm), rel=1e-12)
+    assert tz == pytest.approx(-8e-12 * rpm * abs(rpm), rel=1e-12)
+    assert fx == fy == tx == ty == 0.0
 
 
 def test_wrench_matrix_is_sum_of_thrusts_moments_and_reactions():
     params = _params()
     throttle = np.array([0.3, 0.6, 0.4, 0.8])
     wrench = motor_wrench_matrix(params) @ (throttle * np.abs(throttle))
-    thrust, torque = motor_outputs(params, throttle)
+    thrust, torque = thrust_and_torque(params, throttle)
     force = (params.thrust_axes * thrust[:, None]).sum(axis=0)
     moment = sum(np.cross(r, f * a) for r, f, a in zip(params.positions, thrust, params.thrust_axes))
     reaction = -(params.spin * torque)[:, None] * params.thrust_axes
@@ -112,8 +124,8 @@ def test_noise_is_zero_mean_and_independent_per_motor_in_the_world():
     for i in range(10_000):
         world.step()
         throttles[i] = vehicle.motor_throttle
-    thrust = motor_outputs(vehicle.motors, throttles)[0]
-    noiseless = motor_outputs(vehicle.motors, np.full(4, command))[0]
+    thrust = thrust_and_torque(vehicle.motors, throttles)[0]
+    noiseless = thrust_and_torque(vehicle.motors, np.full(4, command))[0]
     np.testing.assert_allclose(thrust.mean(axis=0), noiseless, rtol=0.005)
     assert thrust.std(axis=0).min() > 0.005 * noiseless[0]  # noise is really there
     corr = np.corrcoef(throttles.T)
