@@ -54,9 +54,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components import Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
+from pyflyt_engine.components.routing import clamp
 
 _UNIT_TOL = 1e-6
 
@@ -301,14 +302,27 @@ class Boosters:
         physics_dt: physics step [s].
         noise: the vehicle's noise generator (duty noise is drawn from it in blocks).
         fuel_fraction: fuel at spawn, as a fraction of a full tank.
+        ignition_channels, throttle_channels: per booster, the index of its ignition and
+            of its throttle channel, for :meth:`route` (a group driven by setting
+            ``ignition`` and ``throttle`` directly needs neither).
 
     Attributes:
         ignition, throttle: per booster, the commands (set at the control rate).
         axes: per booster, the thrust axis in the body frame (a gimbal turns it).
     """
 
-    def __init__(self, params: BoosterParams, physics_dt: float, noise: NoiseSource, fuel_fraction: float) -> None:
+    def __init__(
+        self,
+        params: BoosterParams,
+        physics_dt: float,
+        noise: NoiseSource,
+        fuel_fraction: float,
+        ignition_channels: Sequence[int] = (),
+        throttle_channels: Sequence[int] = (),
+    ) -> None:
         self.params = params
+        self._ignition_channels = list(ignition_channels)
+        self._throttle_channels = list(throttle_channels)
         self.fuel_fraction = fuel_fraction
         self._constants = booster_constants(params, physics_dt)
         self._positions = [tuple(p) for p in params.positions.tolist()]
@@ -331,9 +345,15 @@ class Boosters:
         self.ignited, self.duty, self.fuel = state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist()
         self._state = state
 
-    def step(self, air: AirVelocity) -> Wrench:
+    def route(self, channels: Sequence[float]) -> None:
+        """Commands from the channels: a booster is lit while its ignition channel is above
+        0.5; its throttle is its throttle channel limited to [0, 1]."""
+        self.ignition = [channels[j] > 0.5 for j in self._ignition_channels]
+        self.throttle = [clamp(channels[j], 0.0, 1.0) for j in self._throttle_channels]
+
+    def step(self) -> Wrench:
         """One physics step of every booster (:func:`booster_step_scalar`); returns their summed
-        thrust wrench.  ``air`` does not enter this model."""
+        thrust wrench (the module docstring, item 3).  The air does not enter this model."""
         noise = self._noise.next() if self._noisy else self._zeros
         ignited, duty, fuel = self.ignited, self.duty, self.fuel
         fx = fy = fz = tx = ty = tz = 0.0

@@ -24,15 +24,15 @@ motor's nominal thrust axis into the vectored one its group then pushes along.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from pyflyt_engine import exact
-from pyflyt_engine.components import AirVelocity
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.routing import clamp
 
 _UNIT_TOL = 1e-6
 
@@ -204,15 +204,19 @@ def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tupl
 class Gimbals:
     """The gimbals of one vehicle as an actuator group: servo angles and commands.
 
-    A gimbal applies no load of its own: each physics step it moves its servos, then
-    turns its target's thrust axis (``turn(axis)`` of a motor or booster group), before
-    those groups step.
+    A gimbal applies no load of its own: each physics step it moves its servos and
+    returns, per gimbal, its target's thrust axis turned by the new angles; the vehicle
+    points the target motor or booster along it (``turn``) before those groups step.
 
     Args:
         params: the gimbals.
         physics_dt: physics step [s].
-        targets: per gimbal, ``(turn, nominal_axis)``: the function that points the
-            target's thrust along a new axis, and the axis the gimbal rotates (body frame).
+        nominal_axes: per gimbal, the axis it turns (its target's nominal thrust axis,
+            body frame).
+        channels: per gimbal, the indices of its (a, b) command channels, or (-1, -1) for
+            a gimbal the mixer flies (default: (-1, -1) for every gimbal).
+        mixer_outputs: gimbal index -> the mixer output that commands its axis a (axis b
+            centred), for the gimbals the mixer flies.
 
     Attributes:
         angles: per gimbal, (eps_a, eps_b) [rad] (the state).
@@ -223,20 +227,38 @@ class Gimbals:
         self,
         params: GimbalParams,
         physics_dt: float,
-        targets: Sequence[tuple[Callable[[tuple[float, float, float]], None], tuple[float, float, float]]],
+        nominal_axes: Sequence[tuple[float, float, float]],
+        channels: Sequence[tuple[int, int]] | None = None,
+        mixer_outputs: dict[int, int] | None = None,
     ) -> None:
         self.params = params
         self._constants = gimbal_constants(params, physics_dt)
-        self._targets = list(targets)
+        self._nominal = [tuple(float(v) for v in axis) for axis in nominal_axes]
+        self._channels = [tuple(c) for c in channels] if channels is not None else [(-1, -1)] * params.n
+        self._mixer_outputs = dict(mixer_outputs or {})
         self._scale = [(max(a, 1e-12), max(b, 1e-12)) for a, b in params.max_angles.tolist()]
         self.reset()
 
-    def step(self, air: AirVelocity) -> None:
-        """One physics step: servos toward their commands, targets turned.  Returns None: no load."""
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None:
+        """Commands from the channels (each axis its channel, limited to [-1, 1]; (0, 0) for
+        a gimbal without channels) and, for a gimbal the mixer flies, the mixer's output
+        on axis a (0, centred, when there is none this tick)."""
+        self.command = [
+            (clamp(channels[i], -1.0, 1.0), clamp(channels[j], -1.0, 1.0)) if i >= 0 else (0.0, 0.0)
+            for i, j in self._channels
+        ]
+        for g, k in self._mixer_outputs.items():
+            self.command[g] = (clamp(outputs[k], -1.0, 1.0) if outputs is not None else 0.0, 0.0)
+
+    def step(self) -> list[tuple[float, float, float]]:
+        """One physics step: servos toward their commands; returns, per gimbal, its target's
+        thrust axis turned by the new angles (:func:`rotate_vector_scalar`)."""
         angles, command = self.angles, self.command
-        for g, (k, (turn, base)) in enumerate(zip(self._constants, self._targets)):
+        axes = []
+        for g, (k, nominal) in enumerate(zip(self._constants, self._nominal)):
             eps_a, eps_b = angles[g] = gimbal_step_scalar(k, *angles[g], *command[g])
-            turn(rotate_vector_scalar(k, eps_a, eps_b, base))
+            axes.append(rotate_vector_scalar(k, eps_a, eps_b, nominal))
+        return axes
 
     def reset(self) -> None:
         """Servos centred, commands zero."""

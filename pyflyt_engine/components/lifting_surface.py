@@ -58,6 +58,7 @@ import numpy as np
 from pyflyt_engine import exact
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.routing import MixRow, clamp, mixed
 from pyflyt_engine.constants import AIR_DENSITY
 
 
@@ -498,19 +499,28 @@ class Surfaces:
     Args:
         params: the surfaces, in the centre-of-mass body frame.
         physics_dt: physics step [s].
+        mix: per surface, the channels that drive its flap
+            (:mod:`~pyflyt_engine.components.routing`; default none).
 
     Attributes:
         deflection: per surface, the flap deflection [rad] (the state).
         command: per surface, the normalised flap command in [-1, 1] (set at the control rate).
     """
 
-    def __init__(self, params: Sequence[LiftingSurfaceParams], physics_dt: float) -> None:
+    def __init__(
+        self, params: Sequence[LiftingSurfaceParams], physics_dt: float, mix: Sequence[MixRow] | None = None
+    ) -> None:
         self.params = tuple(params)
+        self._mix = list(mix) if mix is not None else [()] * len(self.params)
         #: per surface, its constants and its flap's lag coefficient for one physics step
         self._surfaces = [(surface.constants, float(lag_coefficient(physics_dt, surface.tau))) for surface in self.params]
         self._scale = [surface.max_deflection or 1.0 for surface in self.params]
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
+
+    def route(self, channels: Sequence[float]) -> None:
+        """Flap commands from the channels (each surface's mix), limited to [-1, 1]."""
+        self.command = [clamp(mixed(channels, row), -1.0, 1.0) for row in self._mix]
 
     def step(self, air: AirVelocity) -> Wrench:
         """One physics step: every flap follows its command (:func:`flap_deflection`), then

@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components import Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
+from pyflyt_engine.components.routing import MixRow, clamp, mixed
 
 
 @dataclass(frozen=True)
@@ -179,15 +180,24 @@ class Motors:
         params: the motors, in the centre-of-mass body frame.
         physics_dt: physics step [s].
         noise: the vehicle's noise generator (per-motor factors are drawn from it in blocks).
+        mix: per motor, the channels that drive it (:mod:`~pyflyt_engine.components.routing`;
+            default none).
+        mixer_outputs: per motor, the index of the mixer output that drives it, or None
+            for a motor driven by its ``mix`` (default: None for every motor).
 
     Attributes:
         throttle: per motor, the normalised throttle x in [-1, 1] (the state).
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
-        thrust_scale: per motor, a factor on its thrust (and the thrust's moment; the
-            reaction torque is left alone), e.g. ground effect; None (default): 1 for all.
     """
 
-    def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
+    def __init__(
+        self,
+        params: MotorParams,
+        physics_dt: float,
+        noise: NoiseSource,
+        mix: Sequence[MixRow] | None = None,
+        mixer_outputs: Sequence[int | None] | None = None,
+    ) -> None:
         self.physics_dt = physics_dt
         self.set_params(params)
         n = params.count
@@ -196,16 +206,29 @@ class Motors:
         self._ones = [1.0] * n
         self._noisy = bool(np.any(params.noise_ratio > 0))
         self._noise = NoiseBlocks(noise, n, lambda eta: noise_factors(params, eta))
-        self.thrust_scale: list[float] | None = None
+        #: per motor, (mixer output index or None, channel mix row): where its command comes from
+        self._sources = list(zip(mixer_outputs or [None] * n, mix or [()] * n))
 
-    def step(self, air: AirVelocity) -> Wrench:
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None:
+        """Commands from the channels and the mixer's ``outputs`` (None: none this tick):
+        a motor the mixer flies takes its output (0 without), any other its channel mix;
+        limited to [-1, 1]."""
+        self.command = [
+            clamp((outputs[k] if outputs is not None else 0.0) if k is not None else mixed(channels, row), -1.0, 1.0)
+            for k, row in self._sources
+        ]
+
+    def step(self, thrust_ratio: Sequence[float] | None = None) -> Wrench:
         """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
 
-        ``air`` (the body's air-relative velocity) does not enter this model: static thrust.
+        Args:
+            thrust_ratio: per motor, a factor on its thrust and the thrust's moment (the
+                reaction torque is left alone) from the air around it, e.g. ground effect
+                (:func:`pyflyt_engine.atmosphere.rotors.ground_effect_ratios`); None: 1
+                for every motor.  The air's velocity does not enter this model (static thrust).
         """
         factors = self._noise.next() if self._noisy else self._ones
-        scale = self.thrust_scale
-        columns = self.columns if scale is None else self._scaled_columns(scale)
+        columns = self.columns if thrust_ratio is None else self._scaled_columns(thrust_ratio)
         self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, columns)
         return wrench
 

@@ -304,7 +304,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     cams.append(f.channel(f"/uav/{i}/camera/{k}", "foxglove.CompressedImage", schemas.COMPRESSED_IMAGE))
             self._ch_camera.append(cams)
         self._ch_wind = []
-        if any(v.wind is not None for v in world.vehicles):  # wind or downwash
+        if world.atmosphere.moving:  # wind or downwash
             for i in range(len(world.vehicles)):
                 self._ch_wind.append(
                     f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
@@ -400,7 +400,7 @@ class RecordEpisode(gymnasium.Wrapper):
         """The wind at vehicle ``i`` (channel ``/uav/<i>/wind``) and its arrow in the scene."""
         s = vehicle.state
         wind = self._base.world.wind_at(i)
-        (u, v, w), (p, q, r) = vehicle.air_velocity
+        (u, v, w), (p, q, r) = self._base.world.air_velocity(i)
         self._file.write(
             self._ch_wind[i],
             ns,

@@ -17,7 +17,6 @@ from pyflyt_engine.components.booster import (
 from pyflyt_engine.components.noise import NoiseSource
 
 DT = 1.0 / 240.0
-STILL_AIR = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 def make_params(n: int = 1, **overrides) -> BoosterParams:
@@ -51,7 +50,7 @@ def step(boosters, ignition, throttle):
     n = boosters.params.n
     boosters.ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,)).tolist()
     boosters.throttle = np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)).tolist()
-    wrench = boosters.step(STILL_AIR)
+    wrench = boosters.step()
     thrust = np.array(boosters.duty) * boosters.params.max_thrust  # T = duty * max_thrust
     return boosters.state, thrust, wrench
 
