@@ -17,8 +17,8 @@ models and keeps reversed props (negative throttle) pushing the other way.  See
 The body-frame wrench of all motors together is linear in ``x * |x|``: column ``i`` of
 :func:`motor_wrench_matrix` is motor ``i``'s wrench at full throttle, computed once (and
 again by a gimbal that turns the motor), so a physics step costs one multiply-add per
-motor and wrench component (:func:`motor_step`).  :class:`Motors` holds the state of a
-vehicle's motors and steps them.
+motor and wrench component.  :class:`Motors` holds the state of a vehicle's motors and
+steps them (:meth:`Motors.step`: this law, on plain floats).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import numpy as np
 from pyflyt_engine.components import Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
-from pyflyt_engine.components.routing import MixRow, clamp, mixed
+from pyflyt_engine.components.routing import MixRow, mixed
 
 
 @dataclass(frozen=True)
@@ -95,46 +95,6 @@ def motor_lag(params: MotorParams, dt: float) -> np.ndarray:
 def noise_factors(params: MotorParams, eta: np.ndarray) -> np.ndarray:
     """Multiplicative noise ``1 + noise_ratio * eta`` for standard normals ``eta`` (..., n)."""
     return 1.0 + params.noise_ratio * eta
-
-
-def motor_step(
-    throttle: list[float],
-    command: list[float],
-    lag: list[float],
-    noise_factor: Sequence[float],
-    wrench_columns: Sequence[tuple[float, float, float, float, float, float]],
-) -> tuple[list[float], tuple[float, float, float, float, float, float]]:
-    """Advance every motor one physics step and sum their body wrench (the module docstring).
-
-    Plain Python floats: for the handful of motors of one vehicle, stepped at the physics
-    rate, they beat NumPy's per-call overhead.
-
-    Args:
-        throttle: per motor, the normalised throttle x[t].
-        command: per motor, the commanded throttle zeta, already in [-1, 1].
-        lag: per motor, ``lag_coefficient(dt, tau)`` (see :func:`motor_lag`).
-        noise_factor: per motor, ``1 + noise_ratio * eta`` with eta standard normal (see
-            :func:`noise_factors`), or 1.0 for no noise.
-        wrench_columns: per motor, its column of :func:`motor_wrench_matrix`: the body
-            wrench at full throttle.
-
-    Returns:
-        (new throttle list x[t+1], body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m about
-        the centre of mass).
-    """
-    new = []
-    fx = fy = fz = tx = ty = tz = 0.0
-    for x, c, a, z, (wx, wy, wz, wl, wm, wn) in zip(throttle, command, lag, noise_factor, wrench_columns):
-        x = (x + a * (c - x)) * z  # lag towards the command, then the noise factor
-        new.append(x)
-        f = x * abs(x)  # thrust and torque go as throttle squared, signed
-        fx += wx * f
-        fy += wy * f
-        fz += wz * f
-        tx += wl * f
-        ty += wm * f
-        tz += wn * f
-    return new, (fx, fy, fz, tx, ty, tz)
 
 
 def motor_wrench_matrix(params: MotorParams) -> np.ndarray:
@@ -213,13 +173,17 @@ class Motors:
         """Commands from the channels and the mixer's ``outputs`` (None: none this tick):
         a motor the mixer flies takes its output (0 without), any other its channel mix;
         limited to [-1, 1]."""
-        self.command = [
-            clamp((outputs[k] if outputs is not None else 0.0) if k is not None else mixed(channels, row), -1.0, 1.0)
+        values = [
+            (outputs[k] if outputs is not None else 0.0) if k is not None else mixed(channels, row)
             for k, row in self._sources
         ]
+        self.command = [1.0 if v > 1.0 else -1.0 if v < -1.0 else v for v in values]  # clamp(v, -1, 1)
 
     def step(self, thrust_ratio: Sequence[float] | None = None) -> Wrench:
-        """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
+        """One physics step of every motor (the module docstring): the throttle lags toward its
+        command and takes its noise factor, ``x' = (x + a (zeta - x)) (1 + sigma eta)``; returns
+        the motors' wrench, column i of :func:`motor_wrench_matrix` times ``x'_i |x'_i|``
+        summed over the motors, in N and N m about the centre of mass, body frame.
 
         Args:
             thrust_ratio: per motor, a factor on its thrust and the thrust's moment (the
@@ -227,10 +191,24 @@ class Motors:
                 (:func:`pyflyt_engine.atmosphere.rotors.ground_effect_ratios`); None: 1
                 for every motor.  The air's velocity does not enter this model (static thrust).
         """
-        factors = self._noise.next() if self._noisy else self._ones
+        factors = self._noise.next() if self._noisy else self._ones  # z = 1 + sigma eta, per motor
         columns = self.columns if thrust_ratio is None else self._scaled_columns(thrust_ratio)
-        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, columns)
-        return wrench
+        new = []
+        fx = fy = fz = tx = ty = tz = 0.0
+        # Plain Python floats: for the handful of motors of one vehicle, stepped at the
+        # physics rate, they beat NumPy's per-call overhead.
+        for x, c, a, z, (wx, wy, wz, wl, wm, wn) in zip(self.throttle, self.command, self.lag, factors, columns):
+            x = (x + a * (c - x)) * z  # lag towards the command, then the noise factor
+            new.append(x)
+            f = x * abs(x)  # thrust and torque go as throttle squared, signed
+            fx += wx * f
+            fy += wy * f
+            fz += wz * f
+            tx += wl * f
+            ty += wm * f
+            tz += wn * f
+        self.throttle = new
+        return fx, fy, fz, tx, ty, tz
 
     def _scaled_columns(self, scale: Sequence[float]) -> list[tuple[float, float, float, float, float, float]]:
         """The wrench columns with each motor's thrust (force and its moment) times ``scale``;

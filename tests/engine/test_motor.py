@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from pyflyt_engine.components.lag import lag_coefficient
-from pyflyt_engine.components.motor import (
-    MotorParams,
-    motor_lag,
-    motor_wrench_matrix,
-    noise_factors,
-)
-from pyflyt_engine.components.motor import motor_step as _motor_step
+from pyflyt_engine.components.motor import MotorParams, Motors, motor_lag, motor_wrench_matrix
+from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.vehicle import motor_params_from_spec
 from pyflyt_engine.world import VehicleConfig, World
@@ -21,18 +18,19 @@ from tests.conftest import spec_variant
 DT = 1.0 / 240.0
 
 
-def motor_step(params, throttle, command, lag, noise):
-    """The new throttles of :func:`~pyflyt_engine.components.motor.motor_step`, as an array."""
-    n = params.count
-    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
-    new, _ = _motor_step(
-        np.broadcast_to(throttle, n).tolist(),
-        np.broadcast_to(command, n).tolist(),
-        np.broadcast_to(lag, n).tolist(),
-        np.broadcast_to(noise, n).tolist(),
-        columns,
-    )
-    return np.array(new)
+def group(params, throttle=0.0, command=0.0, seed=0) -> Motors:
+    """The motors as the vehicle steps them, at ``throttle`` with ``command``, noise from a seeded generator."""
+    motors = Motors(params, DT, NoiseSource(np.random.default_rng(seed)))
+    motors.throttle = np.broadcast_to(np.asarray(throttle, dtype=float), params.count).tolist()
+    motors.command = np.broadcast_to(np.asarray(command, dtype=float), params.count).tolist()
+    return motors
+
+
+def motor_step(params, throttle, command):
+    """The new throttles after one noiseless ``Motors.step`` (what the simulator runs), as an array."""
+    motors = group(dataclasses.replace(params, noise_ratio=0.0), throttle, command)
+    motors.step()
+    return np.array(motors.throttle)
 
 
 def thrust_and_torque(params, throttle):
@@ -62,7 +60,7 @@ def test_step_response_reaches_63_percent_after_tau():
     throttle = np.zeros(4)
     command = np.full(4, 0.8)
     for _ in range(12):
-        throttle = motor_step(params, throttle, command, motor_lag(params, DT), 1.0)
+        throttle = motor_step(params, throttle, command)
     fraction = throttle / 0.8
     np.testing.assert_allclose(fraction, 1 - np.exp(-1), rtol=0.05)
     np.testing.assert_allclose(fraction, 0.632, atol=0.001)
@@ -75,7 +73,7 @@ def test_step_response_at_the_crazyflie_time_constant():
     throttle = np.zeros(4)
     samples = []
     for _ in range(5):
-        throttle = motor_step(params, throttle, np.ones(4), motor_lag(params, DT), 1.0)
+        throttle = motor_step(params, throttle, np.ones(4))
         samples.append(throttle[0])
     t = DT * np.arange(1, 6)
     np.testing.assert_allclose(samples, 1 - np.exp(-t / 0.01), rtol=1e-12)
@@ -89,8 +87,9 @@ def test_thrust_and_torque_are_kf_and_kt_times_rpm_squared(throttle):
     F = k_F rpm|rpm| along the axis and the reaction -spin k_T rpm|rpm| about it."""
     params = MotorParams(positions=[[0.0, 0.0, 0.0]], thrust_axes=[[0.0, 0.0, 1.0]], spin=1.0, tau=0.0,
                          max_rpm=20000.0, kf=3e-10, kt=8e-12, noise_ratio=0.0)  # fmt: skip
-    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
-    (x,), (fx, fy, fz, tx, ty, tz) = _motor_step([0.0], [throttle], [1.0], [1.0], columns)
+    motors = group(params, command=throttle)
+    fx, fy, fz, tx, ty, tz = motors.step()
+    (x,) = motors.throttle
     rpm = throttle * 20000.0
     assert x == throttle
     assert fz == pytest.approx(3e-10 * rpm * abs(rpm), rel=1e-12)
@@ -143,7 +142,7 @@ def test_shared_biased_noise_would_fail_the_oracle():
     means = []
     for _ in range(2000):
         shared = rng.normal(4, 1)  # one scalar for all motors, mean 4
-        throttle = motor_step(params, throttle, np.full(4, 0.6), lag, noise_factors(params, np.full(4, shared)))
+        throttle = (throttle + lag * (0.6 - throttle)) * (1.0 + params.noise_ratio * shared)  # the lag and noise law
         means.append(throttle.copy())
     assert abs(np.mean(means) / 0.6 - 1) > 0.05
 
@@ -156,15 +155,17 @@ def test_lag_coefficient_limits():
 
 
 def test_motor_step_is_the_lag_noise_and_thrust_law_of_the_paper():
-    """One step against the equations evaluated with NumPy: x' = (x + a (c - x)) z, wrench = M (x'|x'|)."""
-    params = _params(n=6)
+    """One step of ``Motors.step`` against the equations evaluated with NumPy:
+    x' = (x + a (c - x)) z with z = 1 + sigma eta, wrench = M (x'|x'|)."""
+    params = _params(n=6, noise=0.05)
     rng = np.random.default_rng(1)
     throttle = rng.uniform(-1, 1, 6)
     command = rng.uniform(-1, 1, 6)
-    noise = noise_factors(params, rng.standard_normal(6))
+    motors = group(params, throttle, command, seed=2)
+    wrench = motors.step()
+    new = motors.throttle
+    noise = 1.0 + params.noise_ratio * np.random.default_rng(2).standard_normal(6)  # the first row the group drew
     lag = motor_lag(params, DT)
-    columns = [tuple(c) for c in motor_wrench_matrix(params).T.tolist()]
-    new, wrench = _motor_step(throttle.tolist(), command.tolist(), lag.tolist(), noise.tolist(), columns)
     expected = (throttle + lag * (command - throttle)) * noise
     np.testing.assert_allclose(new, expected, rtol=1e-14)
     thrust = params.kf * (expected * params.max_rpm) * np.abs(expected * params.max_rpm)

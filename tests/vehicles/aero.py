@@ -15,7 +15,7 @@ import numpy as np
 from scipy.optimize import fsolve
 
 from pyflyt_engine.assembly import Assembly, assemble
-from pyflyt_engine.components.drag import DragParams, drag_wrench
+from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.lifting_surface import surface_wrench
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.spec import UAVSpec
@@ -34,7 +34,7 @@ def aero_wrench(spec: UAVSpec, parts: Assembly, velocity_body, channels) -> tupl
         force += wrench[:3]
         torque += wrench[3:]
     drag = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
-    d = drag_wrench(drag.factors, 0.0, tuple(velocity_body), (0.0, 0.0, 0.0))
+    d = np.array(BodyDrag(drag).step((tuple(float(v) for v in velocity_body), (0.0, 0.0, 0.0))))
     return force + d[:3], torque + d[3:]
 
 
