@@ -84,7 +84,7 @@ class _CustomMode:
     base: FlightMode
 
 
-@dataclass
+@dataclass(frozen=True)
 class Actuators:
     """A vehicle's actuator groups (None where the airframe has none of that kind)."""
 
@@ -131,7 +131,6 @@ class Vehicle:
         state: the latest :class:`KinematicState`.
         position: the body's position at the latest read (of the state or of the motion).
         rotation: the body-to-ground rotation matrix of the latest :meth:`read_state`, row-major (9 floats).
-        air_velocity: the body's velocity through the air, body frame, as the loads last saw it.
         needs_air: whether the loads depend on the air's velocity (body drag, lifting
             surfaces): the world then reads the vehicle's motion at every physics step.
         mode: the active :class:`FlightMode`; setpoint: its current setpoint.
@@ -212,8 +211,8 @@ class Vehicle:
         drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
         body_drag = BodyDrag(drag_params) if drag and drag_params.active else None
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
+        self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
-        self.air_velocity: AirVelocity = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
         self._n_channels = len(parts.channels)
@@ -302,7 +301,7 @@ class Vehicle:
             raise ConfigError(
                 f"setpoint for mode '{self.mode.name}' needs {self.setpoint.size} values ({layout}), got {value.size}"
             )
-        if not math.isfinite(value.sum()):  # any inf or nan makes the sum non-finite
+        if not all(map(math.isfinite, value.tolist())):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
 
@@ -417,20 +416,19 @@ class Vehicle:
                 surfaces; see :mod:`pyflyt_engine.atmosphere.air`).
             thrust_ratio: per motor, the air's factor on its thrust (ground effect); None: 1.
         """
-        self.air_velocity = air
-        a = self.actuators
-        if a.gimbals is not None:  # servos first: they turn their targets' thrust axes
-            for (group, index), axis in zip(self._gimbal_targets, a.gimbals.step()):
+        motors, surfaces, boosters, drag, gimbals = self._groups
+        if gimbals is not None:  # servos first: they turn their targets' thrust axes
+            for (group, index), axis in zip(self._gimbal_targets, gimbals.step()):
                 group.turn(index, axis)
         loads = []  # summed in this order: motors, surfaces, boosters, drag
-        if a.motors is not None:
-            loads.append(a.motors.step(thrust_ratio))
-        if a.surfaces is not None:
-            loads.append(a.surfaces.step(air))
-        if a.boosters is not None:
-            loads.append(a.boosters.step())
-        if a.drag is not None:
-            loads.append(a.drag.step(air))
+        if motors is not None:
+            loads.append(motors.step(thrust_ratio))
+        if surfaces is not None:
+            loads.append(surfaces.step(air))
+        if boosters is not None:
+            loads.append(boosters.step())
+        if drag is not None:
+            loads.append(drag.step(air))
         fx, fy, fz, tx, ty, tz = loads[0] if loads else _NO_LOAD
         for gx, gy, gz, hx, hy, hz in loads[1:]:
             fx, fy, fz = fx + gx, fy + gy, fz + gz
@@ -571,12 +569,16 @@ class Vehicle:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
         ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        return np.array(self.aux_values(), dtype=np.float64)
+
+    def aux_values(self) -> list[float]:
+        """:attr:`aux_state` as a list of floats."""
         a = self.actuators
         values: list[float] = []
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
             if group is not None:
                 values += group.aux()
-        return np.array(values, dtype=np.float64)
+        return values
 
     @property
     def surface_deflection(self) -> np.ndarray:

@@ -345,18 +345,25 @@ class World:
             if tick:  # control tick
                 for i, vehicle in ticking:
                     state = vehicle.read_state()
-                    airs[i] = ((state.lin_vel, state.ang_vel), None) if atmosphere is None else atmosphere.at_state(i, vehicle)
+                    if atmosphere is None:  # still air: the air velocity is the body's own
+                        airs[i] = ((state.lin_vel, state.ang_vel), None)
+                    else:
+                        airs[i] = atmosphere.at_state(i, vehicle)
                     vehicle.control_step()
                 for vehicle in boosted:  # fuel burnt: new mass and inertia
                     vehicle.update_mass()
-                for i, vehicle in ticking:
-                    vehicle.apply_loads(*airs[i])
+                for vehicle, (air, thrust_ratio) in zip(vehicles, airs):
+                    vehicle.apply_loads(air, thrust_ratio)
             else:
                 for i, vehicle in ticking:
                     if vehicle.needs_air or rotors:  # loads that take the air (drag, surfaces), or rotor interactions
                         pos, r, lin, ang = vehicle.read_motion()
-                        airs[i] = (air_velocity(r, lin, ang), None) if atmosphere is None else atmosphere.at_motion(i, pos, r, lin, ang)
-                    vehicle.apply_loads(*airs[i])
+                        if atmosphere is None:
+                            airs[i] = (air_velocity(r, lin, ang), None)
+                        else:
+                            airs[i] = atmosphere.at_motion(i, pos, r, lin, ang)
+                    air, thrust_ratio = airs[i]
+                    vehicle.apply_loads(air, thrust_ratio)
             step_simulation(cid)
             self.physics_steps += 1
             if wind is not None:
