@@ -27,6 +27,7 @@ import numpy as np
 
 from pyflyt_engine import numerics
 from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.frames import matrix_to_quaternion
 from pyflyt_engine.telemetry import scene, schemas
 from pyflyt_engine.telemetry._io import DEFAULT_CHUNK_SIZE, McapFileWriter, to_ns
 
@@ -385,7 +386,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 for k, params in enumerate(cameras):
                     _eye, forward, up = camera_pose(params, s.lin_pos, s.quaternion)
                     rot = np.column_stack([forward, np.cross(up, forward), up])
-                    relative = scene.matrix_to_quaternion(body.T @ rot)
+                    relative = matrix_to_quaternion(body.T @ rot)
                     f.write(
                         self._ch_tf,
                         ns,
