@@ -74,6 +74,7 @@ _CN_AR_GAIN = 0.41  # finite-aspect-ratio reduction of the post-stall normal for
 _CN_AR_SCALE = 17.0  # aspect-ratio scale of that reduction
 _CT_STALL = 0.5  # post-stall tangential force as a fraction of C_D0
 
+_TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
 _TWO_OVER_PI = 2.0 / math.pi
 _AXIS_TOL = 1e-6  # tolerance on axis norms and on chord . normal
@@ -294,10 +295,9 @@ def _shifted_angles(k: SurfaceConstants, deflection: float) -> tuple[float, floa
 
 
 def _coefficients(k: SurfaceConstants, alpha: float, deflection: float) -> tuple[float, float, float]:
-    cl_alpha, pi_ar = k[15:17]
-    cd_0, cn_ar = k[22:24]
+    cl_alpha, pi_ar, _, _, _, _, _, cd_0, cn_ar = k[15:24]
     alpha_0, stall_pos, stall_neg = _shifted_angles(k, deflection)
-    alpha = math.remainder(alpha, 2.0 * math.pi)  # wrap into [-pi, pi]
+    alpha = math.remainder(alpha, _TWO_PI)  # wrap into [-pi, pi]
     reverse = abs(alpha) > _HALF_PI
     if reverse:
         alpha = alpha - math.pi if alpha > 0.0 else alpha + math.pi
@@ -424,7 +424,8 @@ def flap_deflection(deflection: float, command: float, lag: float, max_deflectio
     Returns:
         The new deflection [rad], ``delta + k (clip(nu) delta_max - delta)``.
     """
-    return deflection + lag * (min(max(command, -1.0), 1.0) * max_deflection - deflection)
+    clipped = -1.0 if command < -1.0 else 1.0 if command > 1.0 else command  # min(max(nu, -1), 1), NaN kept
+    return deflection + lag * (clipped * max_deflection - deflection)
 
 
 def surface_wrench(
@@ -512,8 +513,11 @@ class Surfaces:
     ) -> None:
         self.params = tuple(params)
         self._mix = list(mix) if mix is not None else [()] * len(self.params)
-        #: per surface, its constants and its flap's lag coefficient for one physics step
-        self._surfaces = [(surface.constants, float(lag_coefficient(physics_dt, surface.tau))) for surface in self.params]
+        #: per surface, its constants, its flap's lag coefficient for one physics step and its flap limit
+        self._surfaces = [
+            (surface.constants, float(lag_coefficient(physics_dt, surface.tau)), surface.constants.max_deflection)
+            for surface in self.params
+        ]
         self._scale = [surface.max_deflection or 1.0 for surface in self.params]
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
@@ -527,13 +531,15 @@ class Surfaces:
         the surfaces' summed wrench (:func:`surface_wrench` per surface) at the body's
         air-relative velocity ``air``."""
         (vx, vy, vz), (wx, wy, wz) = air
-        deflection, command = self.deflection, self.command
+        deflection = []
         fx = fy = fz = tx = ty = tz = 0.0
-        for i, (k, lag) in enumerate(self._surfaces):
-            d = deflection[i] = flap_deflection(deflection[i], command[i], lag, k.max_deflection)
+        for (k, lag, max_deflection), d, c in zip(self._surfaces, self.deflection, self.command):
+            d = flap_deflection(d, c, lag, max_deflection)
+            deflection.append(d)
             sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz)
             fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
             tx, ty, tz = tx + stx, ty + sty, tz + stz
+        self.deflection = deflection
         return fx, fy, fz, tx, ty, tz
 
     def reset(self) -> None:
