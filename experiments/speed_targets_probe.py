@@ -5,8 +5,8 @@
 Runs in our interpreter (``side: ours``, this checkout or a baseline's on ``PYTHONPATH``)
 or in the reference's (``side: reference``, PyFlyt 0.29.0 in its own virtual
 environment): it imports only the standard library, NumPy, Gymnasium and PyBullet at
-the top, and the timing protocols by their path (``pyflyt_cli/speed/protocols.py``,
-standard library only).  The env is built once; then ``rounds`` times, alternately,
+the top, and the timing protocols and PyBullet's quiet importer by their paths
+(``pyflyt_cli/speed/protocols.py``, ``pyflyt_engine/bullet.py``: standard library only).  The env is built once; then ``rounds`` times, alternately,
 ``8 * steps`` physics steps of the bare-PyBullet floor
 (:func:`~pyflyt_cli.speed.protocols.time_floor`, on the URDF, mass and motor positions
 given) and ``steps`` env steps, each timed by the CPU time of this thread
@@ -32,6 +32,9 @@ import warnings
 from pathlib import Path
 
 PROTOCOLS = Path(__file__).resolve().parents[1] / "pyflyt_cli" / "speed" / "protocols.py"
+#: PyBullet's quiet importer (standard library only), loaded by path like the protocols:
+#: the reference's interpreter has no pyflyt_engine to import it from.
+BULLET = Path(__file__).resolve().parents[1] / "pyflyt_engine" / "bullet.py"
 #: Thrust that holds a QuadX level at 1 m, per side (found by flying each: our QuadX-Hover
 #: action's thrust is a fraction of the full collective, the reference's a motor command).
 HOVER_THRUST = {"ours": 0.125, "reference": 0.3}
@@ -44,12 +47,16 @@ REFERENCE_IDS = {
 }
 
 
-def _load_protocols():
-    spec = importlib.util.spec_from_file_location("speed_protocols", PROTOCOLS)
+def _load(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def _load_protocols():
+    return _load("speed_protocols", PROTOCOLS)
 
 
 def _make(side: str, env_id: str, hover: bool):
@@ -95,8 +102,7 @@ def _hover_law(side: str, env):
 
 def measure(side: str, env_id: str, floor: dict, actions: str = "random", steps: int = 300, rounds: int = 7) -> dict:
     """Per round: CPU seconds per env step and per 8 floor physics steps (the module docstring)."""
-    import pybullet
-
+    pybullet = _load("speed_bullet", BULLET).pybullet
     protocols = _load_protocols()
     warnings.filterwarnings("ignore")
     hover = actions == "hover"
