@@ -12,12 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pyflyt_engine.allocation import Tilt
 from pyflyt_engine.components.booster import BoosterParams
 from pyflyt_engine.components.camera import CameraParams
 from pyflyt_engine.components.gimbal import GimbalParams
 from pyflyt_engine.components.lifting_surface import LiftingSurfaceParams
 from pyflyt_engine.components.motor import MotorParams
-from pyflyt_engine.control.mixer import Tilt
 from pyflyt_engine.spec import UAVSpec
 
 
@@ -36,7 +36,7 @@ class Assembly:
         gimbals, gimbal_channels, gimbal_targets: gimbals, their (n, 2) channel
             indices (-1 for a gimbal the mixer flies) and (kind, index) targets.
         mixer_tilts: per gimbal the mixer flies, (gimbal index, its
-            :class:`~pyflyt_engine.control.mixer.Tilt`), in gimbal order.
+            :class:`~pyflyt_engine.allocation.Tilt`), in gimbal order.
         cameras: camera parameters, in spec order.
     """
 

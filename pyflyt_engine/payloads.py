@@ -45,8 +45,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from pyflyt_engine import exact
-from pyflyt_engine.frames import quaternion_to_rows
-from pyflyt_engine.spec import BodySpec, _rpy_matrix, check_identifier
+from pyflyt_engine.frames import matrix_to_quaternion, quaternion_to_rows, rpy_matrix
+from pyflyt_engine.spec import BodySpec, check_identifier
 
 if TYPE_CHECKING:
     from pyflyt_engine.vehicle import Vehicle
@@ -155,7 +155,7 @@ class PayloadSpec(_Model):
 
     def rotation(self) -> np.ndarray:
         """Payload frame -> parent frame rotation at reset."""
-        return _rpy_matrix(self.orientation)
+        return rpy_matrix(self.orientation)
 
     def anchor_to_payload_anchor(self) -> np.ndarray:
         """Vector from ``attach.anchor`` to the payload's anchor point at reset, parent frame [m]."""
@@ -390,8 +390,6 @@ class PayloadSet:
             + np.array(exact.rotate(parent_rot, spec.position))
             + np.array(exact.rotate(rot, spec.center_of_mass()))
         )
-        from pyflyt_engine.telemetry.scene import matrix_to_quaternion
-
         return list(com), matrix_to_quaternion(rot)
 
     def _joint(self, spec: PayloadSpec, body: int, payload: Payload) -> int | None:
@@ -412,8 +410,6 @@ class PayloadSet:
                 parent, -1, body, -1, p.JOINT_POINT2POINT, zero, anchor, child, physicsClientId=cid
             )
         # fixed: the payload frame held at its reset pose relative to the parent
-        from pyflyt_engine.telemetry.scene import matrix_to_quaternion
-
         com_offset = exact.rotate(spec.rotation(), spec.center_of_mass())
         com_in_parent = np.asarray(spec.position, dtype=float) + np.array(com_offset)
         return p.createConstraint(

@@ -31,7 +31,9 @@ from pydantic import (
 )
 
 from pyflyt_engine import exact
+from pyflyt_engine.allocation import Tilt, require_controllable, tilted_allocation
 from pyflyt_engine.errors import SpecError
+from pyflyt_engine.frames import rpy_matrix
 from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.loading import load, resolve, unknown_name, validate
 
@@ -202,7 +204,7 @@ class BodySpec(_Spec):
         for shape in self.shapes:
             if not shape.mass:
                 continue
-            rot = _rpy_matrix(shape.rpy)
+            rot = rpy_matrix(shape.rpy)
             own = exact.matmul(exact.matmul(rot, shape_inertia(shape)), exact.transpose(rot))
             r = [float(p) - c for p, c in zip(shape.position, com)]
             r2 = exact.dot(r, r)
@@ -226,16 +228,6 @@ def _check_inertia(tensor: np.ndarray) -> None:
             f"principal moments {[round(a, 12), round(b, 12), round(c, 12)]} violate the triangle inequality "
             "(I1 + I2 >= I3) that every real rigid body satisfies; check the units and the values"
         )
-
-
-def _rpy_matrix(rpy: Vec3) -> np.ndarray:
-    """Rz(yaw) Ry(pitch) Rx(roll): the URDF ``rpy`` convention."""
-    r, p, y = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    rz = [[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]
-    ry = [[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]
-    rx = [[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]]
-    return np.array(exact.matmul(exact.matmul(rz, ry), rx))
 
 
 def shape_inertia(shape: ShapeSpec) -> np.ndarray:
@@ -755,29 +747,15 @@ class UAVSpec(_Spec):
         return tuple(i for i, mix in enumerate(mixes) if not mix)
 
     def _check_controllable(self) -> None:
-        """The mixer motors must reach collective thrust, roll, pitch and yaw independently."""
-        from pyflyt_engine.components.motor import MotorParams  # noqa: PLC0415 (import cycle)
-        from pyflyt_engine.control.mixer import Tilt, allocation_rank, tilted_allocation  # noqa: PLC0415
-
+        """The mixer motors must reach collective thrust, roll, pitch and yaw independently
+        (the mixer's own check, :func:`pyflyt_engine.allocation.require_controllable`, run at load)."""
         assert self.motors is not None  # checked above
         idx = list(self.mixer_motor_indices())
         m = self.motors
         positions = np.asarray(m.positions, dtype=float)[idx] - self.center_of_mass()
         axes, spin, kf, kt = (m.to_array(name)[idx] for name in ("thrust_axes", "spin", "kf", "kt"))
-        ones = np.ones(len(idx))
-        params = MotorParams(positions=positions, thrust_axes=axes, spin=spin, tau=ones, max_rpm=ones, kf=kf, kt=kt, noise_ratio=0 * ones)
         tilts = [Tilt(idx.index(g.target_index), g.axis_a, math.radians(g.max_angle_a_deg)) for g in self.gimbals if g.mixer]
-        rank = allocation_rank(tilted_allocation(params, tilts))
-        if rank < 4:
-            raise ValueError(
-                f"the multirotor motors {idx} cannot control the vehicle: their allocation matrix "
-                f"(collective thrust, roll, pitch, yaw torque per motor"
-                f"{' and per servo-tilted thrust' if tilts else ''}) has rank {rank} < 4. "
-                "Thrust, roll, pitch and yaw must be independently reachable: the motors need positions "
-                "not all on one line through the centre of mass, and spin directions that are not all the "
-                "same (or tilted thrust axes, or a servo the mixer flies: gimbals with mixer: true); check "
-                "motors.positions, motors.spin, motors.thrust_axes and control.mixer_motors"
-            )
+        require_controllable(tilted_allocation(positions, axes, spin, kf, kt, tilts), idx, tilted=bool(tilts))
 
     # ------------------------------------------------------- mass properties
 

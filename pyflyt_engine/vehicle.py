@@ -7,13 +7,16 @@ and :class:`Cameras` -- and a controller that turns the setpoint into the groups
 commands.  This module is the one adapter between the groups and PyBullet.
 
 Per physics step (:meth:`Vehicle.apply_loads`) every group advances from its commands
-and contributes its wrench, given the body's velocity through the air in the body
-frame; the vehicle sums them in a fixed order (motors, surfaces, boosters, drag) into
-one net force and one net torque about its centre of mass (the body origin) and applies
-them in the body frame: two PyBullet calls whatever the number of actuators.  Summing is
-exact for a rigid body: a force F at a point r is F at the centre of mass plus the
-torque r x F.  Gimbals apply no load of their own: they turn the thrust axis of their
-target motor or booster first.  Every airframe kind takes this same path.
+and contributes its wrench, given what it needs of the air the world computed at the
+vehicle's last read (:mod:`pyflyt_engine.atmosphere.air`): drag and lifting surfaces
+the body's velocity through the air in the body frame, motors the ground-effect thrust
+ratio of each rotor, boosters nothing.  The vehicle sums the wrenches in a fixed order
+(motors, surfaces, boosters, drag) into one net force and one net torque about its
+centre of mass (the body origin) and applies them in the body frame: two PyBullet calls
+whatever the number of actuators.  Summing is exact for a rigid body: a force F at a
+point r is F at the centre of mass plus the torque r x F.  Gimbals apply no load of
+their own: the vehicle points each gimbal's target motor or booster along the axis the
+gimbal's step returns, before the loads.  Every airframe kind takes this same path.
 
 Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 
@@ -45,6 +48,7 @@ from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
 from pyflyt_engine.components.motor import MotorParams, Motors
 from pyflyt_engine.components.noise import NoiseSource
+from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
@@ -73,16 +77,6 @@ class Controller(Protocol):
     def __call__(self, state: KinematicState, setpoint: np.ndarray) -> Sequence[float]: ...
 
 
-class LoadGroup(Protocol):
-    """What the vehicle steps at the physics rate (see :mod:`pyflyt_engine.components`)."""
-
-    def step(self, air: AirVelocity) -> Wrench | None: ...
-
-    def reset(self) -> None: ...
-
-    def aux(self) -> list[float]: ...
-
-
 @dataclass
 class _CustomMode:
     mode: FlightMode
@@ -90,7 +84,7 @@ class _CustomMode:
     base: FlightMode
 
 
-@dataclass
+@dataclass(frozen=True)
 class Actuators:
     """A vehicle's actuator groups (None where the airframe has none of that kind)."""
 
@@ -116,23 +110,6 @@ def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
     )
 
 
-def _clamp(value: float, low: float, high: float) -> float:
-    return high if value > high else low if value < low else value
-
-
-def _mix_rows(matrix: np.ndarray) -> list[tuple[tuple[int, float], ...]]:
-    """Per row of a channel-mix matrix, its (channel index, weight) pairs with a non-zero weight."""
-    return [tuple((j, w) for j, w in enumerate(row) if w != 0.0) for row in matrix.tolist()]
-
-
-def _mixed(channels: list[float], row: tuple[tuple[int, float], ...]) -> float:
-    """The weighted sum of ``channels`` a mix row names (0 for an empty row)."""
-    value = 0.0
-    for j, w in row:
-        value += w * channels[j]
-    return value
-
-
 def motor_params_from_spec(spec: UAVSpec) -> MotorParams | None:
     """The :class:`MotorParams` of a spec's ``motors`` (centre-of-mass frame; None without)."""
     return assemble(spec).motors
@@ -152,8 +129,10 @@ class Vehicle:
         motors: the motors' parameters (None without motors).
         body_id: the PyBullet body id.
         state: the latest :class:`KinematicState`.
-        air_velocity: the body's velocity through the air, body frame, as the loads see it.
-        wind: the world's wind probe at this vehicle (None in still air).
+        position: the body's position at the latest read (of the state or of the motion).
+        rotation: the body-to-ground rotation matrix of the latest :meth:`read_state`, row-major (9 floats).
+        needs_air: whether the loads depend on the air's velocity (body drag, lifting
+            surfaces): the world then reads the vehicle's motion at every physics step.
         mode: the active :class:`FlightMode`; setpoint: its current setpoint.
         channels: the current channel vector (names: ``parts.channels``).
         armed: when False, every actuator is commanded to zero.
@@ -194,51 +173,49 @@ class Vehicle:
         self._dry_inertia = np.diag(parts.inertia).copy()
         self._dry_mass = parts.mass
 
-        # --- actuator groups
+        # --- actuator groups, each with the tables that route the channels (and the
+        # mixer's outputs) to its commands
         self._noise = NoiseSource(rng)
         self.motors: MotorParams | None = parts.motors
-        motors = Motors(parts.motors, physics_dt, self._noise) if parts.motors is not None else None
-        surfaces = Surfaces(parts.surfaces, physics_dt) if parts.surfaces else None
-        boosters = None
+        motors = surfaces = boosters = gimbals = None
+        n_mixer = len(parts.mixer_motors)
+        if parts.motors is not None:
+            slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
+            outputs = [slots.get(i) for i in range(parts.motors.count)]
+            motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
+        if parts.surfaces:
+            surfaces = Surfaces(parts.surfaces, physics_dt, mix_rows(parts.surface_mix))
         if parts.boosters is not None:
-            boosters = Boosters(parts.boosters, physics_dt, self._noise, spec.boosters.initial_fuel)  # type: ignore[union-attr]
-        gimbals = None
+            boosters = Boosters(
+                parts.boosters,
+                physics_dt,
+                self._noise,
+                spec.boosters.initial_fuel,  # type: ignore[union-attr]
+                parts.ignition_index.tolist(),
+                parts.throttle_index.tolist(),
+            )
+        #: per gimbal, (the group of its target, the target's index): the vehicle turns it
+        self._gimbal_targets: list[tuple[Motors | Boosters, int]] = []
         if parts.gimbals is not None:
-            targets = []
+            nominal = []
             for kind, index in parts.gimbal_targets:
                 group = motors if kind == "motor" else boosters
-                nominal = (parts.motors if kind == "motor" else parts.boosters).thrust_axes[index]  # type: ignore[union-attr]
-                targets.append((_turner(group, index), tuple(float(v) for v in nominal)))
-            gimbals = Gimbals(parts.gimbals, physics_dt, targets)
+                assert group is not None  # the spec validator checks every gimbal's target exists
+                self._gimbal_targets.append((group, index))
+                axes = (parts.motors if kind == "motor" else parts.boosters).thrust_axes  # type: ignore[union-attr]
+                nominal.append(tuple(axes[index].tolist()))
+            # a gimbal the mixer flies: its command is the mixer output after the motors' throttles
+            flown = {g: n_mixer + k for k, (g, _) in enumerate(parts.mixer_tilts)}
+            channels = [tuple(row) for row in parts.gimbal_channels.tolist()]
+            gimbals = Gimbals(parts.gimbals, physics_dt, nominal, channels, flown)
         drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
         body_drag = BodyDrag(drag_params) if drag and drag_params.active else None
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
-        # stepped at the physics rate, in this order: gimbals turn their targets first;
-        # then the loads, summed in this order
-        self._movers: list[LoadGroup] = [g for g in (gimbals,) if g is not None]
-        loads: list[LoadGroup] = [g for g in (motors, surfaces, boosters, body_drag) if g is not None]
-        self._first_load, self._more_loads = (loads[0], loads[1:]) if loads else (None, [])
-        self.needs_velocity = body_drag is not None or surfaces is not None
-        """Whether the loads need fresh velocities every physics step (drag, surfaces)."""
-        self.air_velocity: AirVelocity = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self.wind: Callable[[Sequence[float]], tuple[float, ...]] | None = None
-        """The world's wind probe, ``position -> (wind x, y, z [m/s], gust p, q, r [rad/s])``
-        ground frame (None: still air); :attr:`air_velocity` subtracts it."""
-        self.rotor_effects: Callable[[Sequence[float], Sequence[float]], None] | None = None
-        """The world's rotor-interaction hook ``(position, body-to-ground matrix) -> None``,
-        called at every read (ground effect, downwash; None: off)."""
+        self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
+        self.needs_air = body_drag is not None or surfaces is not None
+        self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
-
-        # --- routing of the channels (and the mixer's throttles) to the groups' commands
         self._n_channels = len(parts.channels)
-        self._motor_mix = _mix_rows(parts.motor_mix)
-        self._mixer_slot = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
-        self._surface_mix = _mix_rows(parts.surface_mix)
-        self._ignition_index = parts.ignition_index.tolist()
-        self._throttle_index = parts.throttle_index.tolist()
-        self._gimbal_channels = [tuple(row) for row in parts.gimbal_channels.tolist()]
-        # gimbals the mixer flies: (gimbal, index of its command among the mixer's outputs)
-        self._mixer_gimbals = [(g, len(parts.mixer_motors) + k) for k, (g, _) in enumerate(parts.mixer_tilts)]
 
         # --- control
         self.channels = np.clip(np.zeros(len(parts.channels)), parts.channel_low, parts.channel_high)
@@ -324,7 +301,7 @@ class Vehicle:
             raise ConfigError(
                 f"setpoint for mode '{self.mode.name}' needs {self.setpoint.size} values ({layout}), got {value.size}"
             )
-        if not math.isfinite(value.sum()):  # any inf or nan makes the sum non-finite
+        if not all(map(math.isfinite, value.tolist())):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
 
@@ -350,35 +327,18 @@ class Vehicle:
     # -------------------------------------------------------------- stepping
 
     def read_state(self) -> KinematicState:
-        """Read the body's pose and velocity from PyBullet into :attr:`state`."""
+        """Read the body's pose and velocity from PyBullet into :attr:`state` (and :attr:`rotation`)."""
         cid = self._client
         body = self.body_id
         pos, quat = _get_pose(body, cid)
+        self.position = pos
         lin, ang = _get_velocity(body, cid)
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)  # body-to-ground, row-major
+        self.rotation = r0, r1, r2, r3, r4, r5, r6, r7, r8 = _get_matrix(quat, cid)  # body-to-ground, row-major
         lx, ly, lz = lin
         ax, ay, az = ang
-        if self.rotor_effects is not None:
-            self.rotor_effects(pos, (r0, r1, r2, r3, r4, r5, r6, r7, r8))
         # body frame = R^T ground frame
         ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
-        if self.wind is None:
-            self.air_velocity = (lin_vel, ang_vel)  # still air: the velocity through the air is the body's
-        else:  # minus the wind and rotary gust, turned into the body frame (R^T w)
-            wx, wy, wz, gp, gq, gr = self.wind(pos)
-            self.air_velocity = (
-                (
-                    lin_vel[0] - (r0 * wx + r3 * wy + r6 * wz),
-                    lin_vel[1] - (r1 * wx + r4 * wy + r7 * wz),
-                    lin_vel[2] - (r2 * wx + r5 * wy + r8 * wz),
-                ),
-                (
-                    ang_vel[0] - (r0 * gp + r3 * gq + r6 * gr),
-                    ang_vel[1] - (r1 * gp + r4 * gq + r7 * gr),
-                    ang_vel[2] - (r2 * gp + r5 * gq + r8 * gr),
-                ),
-            )
         # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
         self._state = state = _new_state(
             KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)
@@ -402,24 +362,15 @@ class Vehicle:
         """The body may have moved since :meth:`read_state`: read it again when :attr:`state` is next asked for."""
         self._state_stale = True
 
-    def read_velocity(self) -> None:
-        """Refresh only the body-frame velocities through the air (what the loads need
-        between control ticks): ``R^T (v - v_wind)`` and ``R^T (omega - omega_gust)``."""
+    def read_motion(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+        """What the loads need between control ticks, read from PyBullet: ``(position,
+        rotation, velocity, angular velocity)``, the velocities in the ground frame
+        (:attr:`state` is left as it was)."""
         cid = self._client
         pos, quat = _get_pose(self.body_id, cid)
-        (lx, ly, lz), (ax, ay, az) = _get_velocity(self.body_id, cid)
-        r = _get_matrix(quat, cid)
-        if self.rotor_effects is not None:
-            self.rotor_effects(pos, r)
-        wind = self.wind
-        if wind is not None:
-            wx, wy, wz, gp, gq, gr = wind(pos)
-            lx, ly, lz, ax, ay, az = lx - wx, ly - wy, lz - wz, ax - gp, ay - gq, az - gr
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
-        self.air_velocity = (
-            (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz),
-            (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az),
-        )
+        self.position = pos
+        lin, ang = _get_velocity(self.body_id, cid)
+        return pos, _get_matrix(quat, cid), lin, ang
 
     def control_step(self) -> None:
         """Run the flight controller once (at the control rate) and route its outputs to the groups."""
@@ -443,61 +394,48 @@ class Vehicle:
             self.channels = self.autopilot(self.state, self.setpoint.tolist())  # type: ignore[misc]
         self._route(throttles)
 
-    def _route(self, throttles: Sequence[float] | None) -> None:
-        """Turn the channel vector (and the mixer's throttles) into the groups' commands.
-
-        A motor flown by the mixer takes its throttle (0 without one); any other actuator
-        takes the weighted sum of the channels its ``mix`` names.  Motor and flap
-        commands are limited to [-1, 1], booster throttles to [0, 1], gimbal commands to
-        [-1, 1]; a booster is lit while its ignition channel is above 0.5.
-        """
+    def _route(self, outputs: Sequence[float] | None) -> None:
+        """Hand the channel vector and the mixer's outputs (None: none this tick) to every
+        group, which routes them to its commands (:mod:`pyflyt_engine.components.routing`)."""
         c = self.channels.tolist() if self._n_channels else []
         a = self.actuators
         if a.motors is not None:
-            slot = self._mixer_slot
-            a.motors.command = [
-                _clamp(
-                    (throttles[slot[i]] if throttles is not None else 0.0) if i in slot else _mixed(c, row),
-                    -1.0,
-                    1.0,
-                )
-                for i, row in enumerate(self._motor_mix)
-            ]
+            a.motors.route(c, outputs)
         if a.surfaces is not None:
-            a.surfaces.command = [_clamp(_mixed(c, row), -1.0, 1.0) for row in self._surface_mix]
+            a.surfaces.route(c)
         if a.boosters is not None:
-            a.boosters.ignition = [c[j] > 0.5 for j in self._ignition_index]
-            a.boosters.throttle = [_clamp(c[j], 0.0, 1.0) for j in self._throttle_index]
+            a.boosters.route(c)
         if a.gimbals is not None:
-            a.gimbals.command = [
-                (_clamp(c[i], -1.0, 1.0), _clamp(c[j], -1.0, 1.0)) if i >= 0 else (0.0, 0.0)
-                for i, j in self._gimbal_channels
-            ]
-            for g, k in self._mixer_gimbals:  # a servo the mixer flies (0: centred when disarmed)
-                a.gimbals.command[g] = (_clamp(throttles[k], -1.0, 1.0) if throttles is not None else 0.0, 0.0)
+            a.gimbals.route(c, outputs)
 
-    def apply_loads(self) -> None:
-        """Advance every actuator group one physics step and apply the net wrench to the body
-        (with the air-relative velocity of the last read-out)."""
-        air = self.air_velocity
-        for group in self._movers:
-            group.step(air)
-        first = self._first_load
-        fx, fy, fz, tx, ty, tz = first.step(air) if first is not None else _NO_LOAD  # type: ignore[misc]
-        for group in self._more_loads:
-            gx, gy, gz, hx, hy, hz = group.step(air)  # type: ignore[misc]
+    def apply_loads(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """Advance every actuator group one physics step and apply the net wrench to the body.
+
+        Args:
+            air: the body's velocity through the air, body frame (for drag and lifting
+                surfaces; see :mod:`pyflyt_engine.atmosphere.air`).
+            thrust_ratio: per motor, the air's factor on its thrust (ground effect); None: 1.
+        """
+        motors, surfaces, boosters, drag, gimbals = self._groups
+        if gimbals is not None:  # servos first: they turn their targets' thrust axes
+            for (group, index), axis in zip(self._gimbal_targets, gimbals.step()):
+                group.turn(index, axis)
+        loads = []  # summed in this order: motors, surfaces, boosters, drag
+        if motors is not None:
+            loads.append(motors.step(thrust_ratio))
+        if surfaces is not None:
+            loads.append(surfaces.step(air))
+        if boosters is not None:
+            loads.append(boosters.step())
+        if drag is not None:
+            loads.append(drag.step(air))
+        fx, fy, fz, tx, ty, tz = loads[0] if loads else _NO_LOAD
+        for gx, gy, gz, hx, hy, hz in loads[1:]:
             fx, fy, fz = fx + gx, fy + gy, fz + gz
             tx, ty, tz = tx + hx, ty + hy, tz + hz
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
-
-    def substep(self) -> None:
-        """One physics step between control ticks: read the velocity when the loads depend
-        on it, then :meth:`apply_loads`."""
-        if self.needs_velocity:
-            self.read_velocity()
-        self.apply_loads()
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
@@ -631,12 +569,16 @@ class Vehicle:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
         ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        return np.array(self.aux_values(), dtype=np.float64)
+
+    def aux_values(self) -> list[float]:
+        """:attr:`aux_state` as a list of floats."""
         a = self.actuators
         values: list[float] = []
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
             if group is not None:
                 values += group.aux()
-        return np.array(values, dtype=np.float64)
+        return values
 
     @property
     def surface_deflection(self) -> np.ndarray:
@@ -693,13 +635,3 @@ class Vehicle:
         idx = list(self.parts.mixer_motors)
         lift = exact.dot(self.motors.thrust_axes[idx, 2].tolist(), self.motors.max_thrust[idx].tolist())
         return math.sqrt(self.parts.mass * GRAVITY / lift)
-
-
-def _turner(group: Motors | Boosters | None, index: int) -> Callable[[tuple[float, float, float]], None]:
-    """``axis -> None``: point actuator ``index`` of ``group`` along a gimbal's rotated axis."""
-    assert group is not None  # the spec validator checks every gimbal's target exists
-
-    def turn(axis: tuple[float, float, float]) -> None:
-        group.turn(index, axis)
-
-    return turn

@@ -6,10 +6,14 @@ physics steps, with the flight controllers running on every
 ``physics_hz / control_hz``-th of them (counted globally, so the schedule does not
 depend on where agent steps fall).  Every ratio must be an integer.
 
-Each physics step, in order: on control ticks every vehicle reads its state and runs
-its controller (between ticks, vehicles whose loads depend on velocity, e.g. through
-drag, read their velocity only); every vehicle advances its actuators and applies its
-net wrench; PyBullet steps.  Contacts are read at the end of every control period (and
+Each physics step, in order: on control ticks every vehicle reads its state, the world
+works out the air at it (:mod:`pyflyt_engine.atmosphere.air`: its velocity through the
+air, its rotors' ground-effect ratios) and the vehicle runs its controller; then every
+vehicle with boosters updates its mass for the fuel burnt, and every vehicle advances its
+actuators in that air and applies its net wrench.  Between ticks, each vehicle in turn
+reads its motion if its loads depend on the air (drag, lifting surfaces; every vehicle
+when rotor interactions are on), gets its air, and applies its loads.  Then PyBullet
+steps.  Contacts are read at the end of every control period (and
 of every agent step): a touch shorter than one control period (8 ms at 120 Hz) can go
 unrecorded, while resting and crash contacts, which PyBullet keeps in its contact
 manifolds for as long as the bodies touch, are always seen.  After the agent step each
@@ -19,13 +23,14 @@ vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config, vehicle_span
+from pyflyt_engine.atmosphere import WindConfig, WindField, load_wind_config
+from pyflyt_engine.atmosphere.air import Air, Atmosphere, air_velocity
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.constants import GRAVITY
@@ -190,14 +195,14 @@ class World:
         self.vehicles: list[Vehicle] = []
         self._seed(seed)
         self.wind_config: WindConfig = load_wind_config(wind)
-        #: the wind field (None in still air: nothing is added to the loop)
-        self.wind: WindField | None = None
-        if not self.wind_config.calm:
-            self.wind = WindField(self.wind_config, self.physics_dt, self._wind_generator)
-        #: ground effect and downwash (None when both are off: nothing is added to the loop)
-        self.rotor_interactions: RotorInteractions | None = None
+        field = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        rotors = None
         if (ground_effect and ground) or downwash:
-            self.rotor_interactions = RotorInteractions(bool(ground_effect and ground), bool(downwash))
+            rotors = RotorInteractions(bool(ground_effect and ground), bool(downwash))
+        #: the air the vehicles fly through: wind field, ground effect, downwash
+        self.atmosphere = Atmosphere(field, rotors, self.vehicles)
+        #: per vehicle, the air at its latest read, as its loads take it
+        self._airs: list[Air] = []
         self.physics_steps = 0
         self._snapshot: int | None = None
         self._schedules: dict[tuple[int, int, int], tuple[tuple[bool, bool], ...]] = {}
@@ -250,43 +255,30 @@ class World:
             mode=mode,
             drag=self.drag,
         )
-        rotors = self.rotor_interactions
-        if rotors is not None:
-            motors = vehicle.parts.motors
-            positions = motors.positions.tolist() if motors is not None else []
-            radii: list[float | None] = [None] * len(positions)
-            if spec.motors is not None and spec.motors.prop_radius is not None:
-                radii = spec.motors.to_array("prop_radius").tolist()
-            vehicle.rotor_effects = rotors.add_vehicle(vehicle.actuators.motors, positions, radii)
-            vehicle.needs_velocity = True  # the hook runs at every read
-        vehicle.wind = self._wind_probe(index, vehicle)
-        if vehicle.wind is not None:
-            vehicle.read_state()
         self.vehicles.append(vehicle)
+        self.atmosphere.add_vehicle(vehicle)
+        self._airs.append(((vehicle.state.lin_vel, vehicle.state.ang_vel), None))
         self._contacts.add(vehicle.body_id)
         self._drop_snapshot()
         return index
-
-    def _wind_probe(self, index: int, vehicle: Vehicle) -> Callable | None:
-        """Vehicle ``index``'s wind probe: the field's, plus the downwash (None in still air)."""
-        probe = None
-        if self.wind is not None:
-            motors = vehicle.parts.motors
-            probe = self.wind.add_vehicle(
-                vehicle_span(motors.positions if motors is not None else None, vehicle.parts.surfaces)
-            )
-        if self.rotor_interactions is not None and self.rotor_interactions.downwash:
-            probe = self.rotor_interactions.wind_probe(index, probe)
-        return probe
 
     def set_wind(self, wind: str | Path | dict | WindConfig | None) -> None:
         """Replace the atmosphere (e.g. a wind sampled at a reset): a new field at time 0,
         drawing from the world's wind stream."""
         self.wind_config = load_wind_config(wind)
-        self.wind = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
-        for index, vehicle in enumerate(self.vehicles):
-            vehicle.wind = self._wind_probe(index, vehicle)
+        self.atmosphere.field = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        for vehicle in self.vehicles:
             vehicle.state_changed()
+
+    @property
+    def wind(self) -> WindField | None:
+        """The wind field (None in still air: nothing is added to the loop)."""
+        return self.atmosphere.field
+
+    @property
+    def rotor_interactions(self) -> RotorInteractions | None:
+        """Ground effect and downwash (None when both are off: nothing is added to the loop)."""
+        return self.atmosphere.rotors
 
     def add_body(self, body_id: int) -> int:
         """Track collisions of a body created directly with PyBullet (obstacles, pads)."""
@@ -334,28 +326,44 @@ class World:
         """Advance one agent step (``physics_hz / agent_hz`` physics steps)."""
         cid = self.client
         vehicles = self.vehicles
+        airs = self._airs
+        atmosphere = self.atmosphere
+        rotors = atmosphere.rotors is not None
+        if atmosphere.field is None and not rotors:
+            atmosphere = None  # still air: each vehicle's air velocity is its own velocity
         # Vehicles never read each other's state within a physics step, so each phase can
         # run over all of them in turn; the per-vehicle work is the same as interleaved.
-        mass_updaters = [v.update_mass for v in vehicles if v.actuators.boosters is not None]
-        appliers = [v.apply_loads for v in vehicles]
-        substeps = [v.substep for v in vehicles]
+        ticking = list(enumerate(vehicles))
+        boosted = [v for v in vehicles if v.actuators.boosters is not None]
         contacts = self._contacts
         contacts.clear()
         record = contacts.record
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
-        wind = self.wind if self.wind is not None and not self.wind.static else None
+        wind = self.atmosphere.field
+        wind = wind if wind is not None and not wind.static else None
         for tick, sample in self._schedule(self.physics_steps):
             if tick:  # control tick
-                for vehicle in vehicles:
-                    vehicle.read_state()
+                for i, vehicle in ticking:
+                    state = vehicle.read_state()
+                    if atmosphere is None:  # still air: the air velocity is the body's own
+                        airs[i] = ((state.lin_vel, state.ang_vel), None)
+                    else:
+                        airs[i] = atmosphere.at_state(i, vehicle)
                     vehicle.control_step()
-                for update_mass in mass_updaters:  # fuel burnt: new mass and inertia
-                    update_mass()
-                for apply_loads in appliers:
-                    apply_loads()
+                for vehicle in boosted:  # fuel burnt: new mass and inertia
+                    vehicle.update_mass()
+                for vehicle, (air, thrust_ratio) in zip(vehicles, airs):
+                    vehicle.apply_loads(air, thrust_ratio)
             else:
-                for substep in substeps:
-                    substep()
+                for i, vehicle in ticking:
+                    if vehicle.needs_air or rotors:  # loads that take the air (drag, surfaces), or rotor interactions
+                        pos, r, lin, ang = vehicle.read_motion()
+                        if atmosphere is None:
+                            airs[i] = (air_velocity(r, lin, ang), None)
+                        else:
+                            airs[i] = atmosphere.at_motion(i, pos, r, lin, ang)
+                    air, thrust_ratio = airs[i]
+                    vehicle.apply_loads(air, thrust_ratio)
             step_simulation(cid)
             self.physics_steps += 1
             if wind is not None:
@@ -461,9 +469,17 @@ class World:
         """Wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s], ground frame, at vehicle
         ``index``'s position now, downwash included (zeros in still air)."""
         vehicle = self._vehicle(index)
-        if vehicle.wind is None:
-            return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        return tuple(vehicle.wind(vehicle.state.lin_pos))
+        wind = self.atmosphere.wind_at(index, vehicle.state.lin_pos)
+        return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0) if wind is None else tuple(wind)
+
+    def air_velocity(self, index: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """Vehicle ``index``'s velocity through the air now, body frame: ((u, v, w) [m/s],
+        (p, q, r) [rad/s]), wind and downwash subtracted (its own velocity in still air)."""
+        vehicle = self._vehicle(index)
+        state = vehicle.state
+        if self.atmosphere.field is None and self.atmosphere.rotors is None:
+            return (state.lin_vel, state.ang_vel)
+        return self.atmosphere.at_state(index, vehicle)[0]
 
     def rng_state(self) -> dict:
         """Positions of every random stream: :attr:`np_random` and each vehicle's noise.

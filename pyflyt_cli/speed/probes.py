@@ -79,35 +79,12 @@ def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1, clock: Callab
     """Seconds per physics step of the floor: ``n`` bodies, bare PyBullet (timed by
     ``clock``: wall time, or ``time.process_time`` for the CPU time this process used)."""
     from pyflyt_engine.bullet import pybullet as p
-
     from pyflyt_engine.spec import load_uav_spec
     from pyflyt_engine.urdf import urdf_path
 
     spec = load_uav_spec(uav)
-    cid = p.connect(p.DIRECT)
-    p.setGravity(0, 0, -9.81, physicsClientId=cid)
-    p.setTimeStep(1 / 240, physicsClientId=cid)
-    p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
-    path = str(urdf_path(spec))
-    bodies = [
-        p.loadURDF(path, list(pos), flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
-        for pos in grid_positions(n)
-    ]
-    weight = spec.body.mass * 9.81 / 4
     motors = [tuple(m) for m in spec.motors.positions]
-    frame = p.LINK_FRAME
-    start = clock()
-    for _ in range(steps):  # positional client ids: the binding's fastest calling form
-        for body in bodies:
-            p.getBasePositionAndOrientation(body, cid)
-            p.getBaseVelocity(body, cid)
-            for position in motors:
-                p.applyExternalForce(body, -1, (0.0, 0.0, weight), position, frame, cid)
-            p.applyExternalTorque(body, -1, (0.0, 0.0, 0.0), frame, cid)
-        p.stepSimulation(cid)
-    elapsed = clock() - start
-    p.disconnect(cid)
-    return elapsed / steps
+    return protocols.time_floor(p, str(urdf_path(spec)), spec.body.mass, motors, steps, n, clock)
 
 
 def measure_floor(n: int = 1, seconds: float = 4.0, physics_hz: float = 240.0) -> dict:

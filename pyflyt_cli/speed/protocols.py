@@ -111,6 +111,49 @@ def time_captures(shoot: Callable[[], object], captures: int = 50, repeats: int 
     return {"capture_s": statistics.median(wall), "capture_cpu_s": statistics.median(cpu)}
 
 
+def time_floor(
+    pybullet,
+    urdf: str,
+    mass: float,
+    motor_positions: list[tuple[float, float, float]],
+    steps: int,
+    n: int = 1,
+    clock: Callable[[], float] = time.perf_counter,
+) -> float:
+    """Seconds per physics step of the bare-PyBullet floor (timed by ``clock``).
+
+    ``n`` bodies from ``urdf`` on :func:`grid_positions` over a ground plane, 240 Hz; per
+    physics step and body one pose and one velocity read, one force of ``mass * g / 4``
+    at each of ``motor_positions`` and one zero torque; one ``stepSimulation``.  Client
+    ids are passed positionally (the binding's fastest calling form).  ``pybullet`` is
+    the module to use, so any interpreter with PyBullet times the same floor.
+    """
+    p = pybullet
+    cid = p.connect(p.DIRECT)
+    p.setGravity(0, 0, -9.81, physicsClientId=cid)
+    p.setTimeStep(1 / 240, physicsClientId=cid)
+    p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
+    bodies = [
+        p.loadURDF(urdf, list(pos), flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        for pos in grid_positions(n)
+    ]
+    weight = mass * 9.81 / 4
+    motors = [tuple(m) for m in motor_positions]
+    frame = p.LINK_FRAME
+    start = clock()
+    for _ in range(steps):
+        for body in bodies:
+            p.getBasePositionAndOrientation(body, cid)
+            p.getBaseVelocity(body, cid)
+            for position in motors:
+                p.applyExternalForce(body, -1, (0.0, 0.0, weight), position, frame, cid)
+            p.applyExternalTorque(body, -1, (0.0, 0.0, 0.0), frame, cid)
+        p.stepSimulation(cid)
+    elapsed = clock() - start
+    p.disconnect(cid)
+    return elapsed / steps
+
+
 def grid_positions(n: int) -> list[tuple[float, float, float]]:
     """Spawn positions of ``n`` vehicles: a square grid ``GRID_SPACING`` apart at 1 m."""
     side = math.ceil(math.sqrt(n))

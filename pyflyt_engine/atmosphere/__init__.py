@@ -1,9 +1,11 @@
 """The atmosphere: wind fields (steady, sheared, gusts, Dryden turbulence) and their configs.
 
 See ``docs/atmosphere.md``.  A :class:`~pyflyt_engine.world.World` built with
-``wind=<preset name | path | mapping | WindConfig>`` owns one :class:`WindField`; each
-vehicle samples it at its position and subtracts it from its velocity, so every
-aerodynamic model (body drag, lifting surfaces) sees the air-relative velocity.
+``wind=<preset name | path | mapping | WindConfig>`` owns one :class:`WindField`, inside
+its :class:`~pyflyt_engine.atmosphere.air.Atmosphere` (with the rotor interactions of
+:mod:`.rotors`); at every read of a vehicle the world samples it at the vehicle's
+position and subtracts it from its velocity (:mod:`.air`), so every aerodynamic model
+(body drag, lifting surfaces) gets the air-relative velocity as its input.
 """
 
 from pyflyt_engine.atmosphere.config import CALM, WindConfig, available_winds, load_wind_config, parse_wind_config

@@ -17,7 +17,7 @@ The field is the sum of the parts of a :class:`~pyflyt_engine.atmosphere.config.
 
 A vehicle flies through the air, so the loads see ``v_air = v_body - R^T v_wind`` and
 ``omega_air = omega_body - R^T omega_gust`` (``R`` body to ground): that subtraction is
-done once, by the vehicle (:meth:`pyflyt_engine.vehicle.Vehicle.read_velocity`).
+done once, for every vehicle, by :mod:`pyflyt_engine.atmosphere.air`.
 
 The world advances the field one physics step at a time (:meth:`WindField.advance`) and
 reseeds it with everything else; all randomness comes from the field's own generator.

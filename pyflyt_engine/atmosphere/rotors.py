@@ -10,8 +10,9 @@ for a rotor of radius ``R`` whose hub is ``z`` above the ground.  The ratio dive
 Sanchez-Cuevas et al., "Characterization of the aerodynamic ground effect and its influence
 in multirotor control", Int. J. Aerospace Eng. 2017), so the height is clamped to
 ``z >= min_height * R`` (default 0.5: at most 4/3).  Each motor's thrust is scaled by
-the ratio at its own hub height (:attr:`pyflyt_engine.components.motor.Motors.thrust_scale`);
-the reaction torque is left alone.
+the ratio at its own hub height: :meth:`RotorInteractions.ground_effect_ratios` gives
+them, and the motor group takes them as an input of its step
+(:meth:`pyflyt_engine.components.motor.Motors.step`); the reaction torque is left alone.
 
 **Downwash** (momentum theory plus a round turbulent jet; our model): a rotorcraft of
 total thrust ``T`` over total disc area ``A`` induces ``v_h = sqrt(T / (2 rho A))`` at its
@@ -29,14 +30,15 @@ at ``dz`` below the rotorcraft and ``r`` off its axis.  The downwash is a wind: 
 the vehicle below through its air-relative velocity (body drag, lifting surfaces) like any
 other wind.  Limits: the jet is vertical whatever the upper vehicle's attitude; the change
 of a rotor's thrust in the descending air of the wake (inflow) is not modelled; positions
-of the other vehicles are their latest reads (at most one physics step old).
+of the other vehicles are their latest reads (at most one physics step old), and their
+thrust is that of their current throttles.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 from pyflyt_engine.constants import AIR_DENSITY
 
@@ -67,17 +69,19 @@ def downwash_velocity(dz: float, r: float, thrust: float, disc_area: float, air_
 
 @dataclass
 class _Rotorcraft:
-    motors: object  # pyflyt_engine.components.motor.Motors
+    """The rotors of one vehicle: hub positions (centre-of-mass frame), radii, full thrusts."""
+
     positions: list[tuple[float, float, float]]
     radii: list[float | None]
     max_thrust: list[float]
     disc_area: float
-    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    heights: list[float] = field(default_factory=list)
 
 
 class RotorInteractions:
     """Ground effect and downwash for the vehicles of one world (see the module docstring).
+
+    Holds each vehicle's rotor geometry only; where the vehicles are and how hard their
+    rotors push are given to every call.
 
     Args:
         ground_effect: scale each motor's thrust by its ground-effect ratio (needs a ground).
@@ -92,78 +96,60 @@ class RotorInteractions:
         self.vehicles: list[_Rotorcraft | None] = []
 
     def add_vehicle(
-        self, motors: object | None, positions: Sequence[Sequence[float]], radii: Sequence[float | None]
-    ) -> Callable:
-        """Register a vehicle (its motor group, hub positions in the CoM frame and radii);
-        returns its hook ``(position, rotation) -> None`` for :attr:`Vehicle.rotor_effects`."""
-        index = len(self.vehicles)
-        if motors is None:
+        self, positions: Sequence[Sequence[float]], radii: Sequence[float | None], max_thrust: Sequence[float]
+    ) -> None:
+        """Register the next vehicle: its motors' hub positions (centre-of-mass frame), prop
+        radii (None: not a rotor) and full thrusts [N]; no motors: empty sequences."""
+        if not len(positions):
             self.vehicles.append(None)
-        else:
-            radii = list(radii)
-            area = sum(math.pi * r * r for r in radii if r)
-            self.vehicles.append(
-                _Rotorcraft(
-                    motors,
-                    [tuple(float(v) for v in p) for p in positions],  # type: ignore[misc]
-                    radii,
-                    motors.params.max_thrust.tolist(),  # type: ignore[attr-defined]
-                    area,
-                )
-            )
+            return
+        radii = list(radii)
+        area = sum(math.pi * r * r for r in radii if r)
+        hubs = [tuple(float(v) for v in p) for p in positions]
+        self.vehicles.append(_Rotorcraft(hubs, radii, [float(t) for t in max_thrust], area))  # type: ignore[arg-type]
 
-        def hook(position: Sequence[float], r: Sequence[float]) -> None:
-            self.update(index, position, r)
-
-        return hook
-
-    def update(self, index: int, position: Sequence[float], r: Sequence[float]) -> None:
-        """Vehicle ``index`` is at ``position`` with body-to-ground matrix ``r`` (row-major)."""
+    def ground_effect_ratios(self, index: int, position: Sequence[float], r: Sequence[float]) -> list[float] | None:
+        """Per motor of vehicle ``index``, at ``position`` with body-to-ground matrix ``r``
+        (row-major), the ground-effect thrust ratio at its hub height (1 for a motor without
+        a radius); None when ground effect is off or the vehicle has no motors."""
         craft = self.vehicles[index]
-        if craft is None:
-            return
-        craft.position = (position[0], position[1], position[2])
-        if not self.ground_effect:
-            return
+        if craft is None or not self.ground_effect:
+            return None
         _, _, _, _, _, _, r6, r7, r8 = r
         z = position[2]
-        scale = []
+        ratios = []
         for (px, py, pz), radius in zip(craft.positions, craft.radii):
             if radius:
-                scale.append(ground_effect_ratio(z + r6 * px + r7 * py + r8 * pz, radius, self.min_height))
+                ratios.append(ground_effect_ratio(z + r6 * px + r7 * py + r8 * pz, radius, self.min_height))
             else:
-                scale.append(1.0)
-        craft.motors.thrust_scale = scale  # type: ignore[attr-defined]
+                ratios.append(1.0)
+        return ratios
 
-    def thrust(self, index: int) -> float:
-        """Total static thrust [N] of vehicle ``index``'s rotors at their current throttles."""
+    def thrust(self, index: int, throttle: Sequence[float]) -> float:
+        """Total static thrust [N] of vehicle ``index``'s rotors at ``throttle`` (its motors' throttles)."""
         craft = self.vehicles[index]
         if craft is None:
             return 0.0
-        throttle = craft.motors.throttle  # type: ignore[attr-defined]
         return sum(t * x * abs(x) for t, x, radius in zip(craft.max_thrust, throttle, craft.radii) if radius)
 
-    def downwash_at(self, index: int, position: Sequence[float]) -> float:
-        """Vertical wind [m/s] (negative: down) at ``position`` of vehicle ``index`` from the others' wakes."""
+    def downwash_at(
+        self,
+        index: int,
+        position: Sequence[float],
+        positions: Sequence[Sequence[float]],
+        throttles: Sequence[Sequence[float] | None],
+    ) -> float:
+        """Vertical wind [m/s] (negative: down) at ``position`` of vehicle ``index`` from the
+        others' wakes, the vehicles being at ``positions`` with motor ``throttles`` (one
+        entry per vehicle, None without motors)."""
         x, y, z = position[0], position[1], position[2]
         w = 0.0
         for j, craft in enumerate(self.vehicles):
             if j == index or craft is None or craft.disc_area <= 0.0:
                 continue
-            cx, cy, cz = craft.position
+            cx, cy, cz = positions[j]
             if cz <= z:
                 continue
-            w -= downwash_velocity(cz - z, math.hypot(x - cx, y - cy), self.thrust(j), craft.disc_area)
+            thrust = self.thrust(j, throttles[j])  # type: ignore[arg-type]
+            w -= downwash_velocity(cz - z, math.hypot(x - cx, y - cy), thrust, craft.disc_area)
         return w
-
-    def wind_probe(self, index: int, probe: Callable | None) -> Callable:
-        """``probe`` (the wind field's, or None) plus the downwash at vehicle ``index``."""
-
-        def with_downwash(position: Sequence[float]) -> tuple[float, ...]:
-            w = self.downwash_at(index, position)
-            if probe is None:
-                return (0.0, 0.0, w, 0.0, 0.0, 0.0)
-            wx, wy, wz, p, q, r = probe(position)
-            return (wx, wy, wz + w, p, q, r)
-
-        return with_downwash

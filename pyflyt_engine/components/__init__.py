@@ -5,21 +5,26 @@ on the fields), pure functions on plain floats that advance its state and give i
 in the body frame, with the equation and its source in the docstring, and the
 **actuator group** that steps every such actuator of one vehicle.
 
-Every group has the same small interface, so the vehicle steps them all the same way
-and a new actuator kind or a new effect is added in one place:
+Every group has the same small interface:
 
-* ``step(air) -> wrench``: advance one physics step from the current commands and
-  return the group's load on the body, ``(Fx, Fy, Fz, Tx, Ty, Tz)`` [N, N m] in the
-  body frame about the centre of mass.  ``air`` is the body's velocity *through the air*
-  in the body frame, ``((u, v, w), (p, q, r))`` [m/s, rad/s]: every aerodynamic model
-  (drag, lifting surfaces, rotors) takes it, so wind enters once, by subtraction.
+* ``route(channels[, outputs])``: at every control tick, set the group's commands from
+  the vehicle's channel vector (and the multirotor mixer's outputs), with the routing
+  tables the group was built with (:mod:`pyflyt_engine.components.routing`).
+* ``step(...)``: advance one physics step from the current commands, given exactly what
+  the model needs, and return the group's load on the body, ``(Fx, Fy, Fz, Tx, Ty, Tz)``
+  [N, N m] in the body frame about the centre of mass: drag and lifting surfaces take
+  ``air``, the body's velocity *through the air* in the body frame, ``((u, v, w),
+  (p, q, r))`` [m/s, rad/s], so wind enters once, by subtraction; motors take each
+  rotor's thrust ratio from the air around it (ground effect); boosters take nothing.
+  Gimbals apply no load: their step returns the thrust axes they turn.
 * ``reset()``: back to the idle state of a fresh spawn.
 * ``aux()``: the read-outs appended to the vehicle's auxiliary state.
 
-Commands are plain attributes the vehicle sets at the control rate (``command``).
-Groups never touch PyBullet: the vehicle (:mod:`pyflyt_engine.vehicle`) sums their
-wrenches and applies them; the one other PyBullet call in this package is the camera's
-renderer, :func:`pyflyt_engine.components.camera.capture`, kept beside the camera maths.
+No group writes into another or is written into by another module: the vehicle
+(:mod:`pyflyt_engine.vehicle`) hands each its inputs (the air from the world, a
+gimbal's axes to its target's ``turn``), sums the wrenches and applies them.  Groups
+never touch PyBullet; the one PyBullet call in this package is the camera's renderer,
+:func:`pyflyt_engine.components.camera.capture`, kept beside the camera maths.
 """
 
 from __future__ import annotations

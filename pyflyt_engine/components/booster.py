@@ -1,7 +1,8 @@
 """Fueled booster: ignition latch, throttle-limited duty cycle, fuel burn, tank mass.
 
-Model (paper, "Fueled Boosters"), vectorised over ``n`` boosters.  Per physics step of
-length ``dt``, for booster ``i``:
+Model (paper, "Fueled Boosters"), for each of a vehicle's ``n`` boosters
+(:func:`booster_step_scalar`, stepped by the group :class:`Boosters`, which also sums
+their loads).  Per physics step of length ``dt``, for booster ``i``:
 
 1. Ignition latch.  A booster that is not reignitable cannot be put out::
 
@@ -20,7 +21,8 @@ length ``dt``, for booster ``i``:
 
 3. Thrust along the booster's thrust axis ``T = lambda[t+1] * max_thrust`` (N), so an
    empty or unlit booster gives no thrust.  Boosters produce no reaction torque about
-   their own axis.
+   their own axis: the load on the body is the force ``T a`` at the booster's position
+   ``p``, i.e. that force and the torque ``p x (T a)`` about the centre of mass.
 
 4. Fuel burn ``fuel[t+1] = max(fuel[t] - lambda[t+1] * max_fuel_rate * dt, 0)`` (kg).
 
@@ -52,9 +54,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components import Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
+from pyflyt_engine.components.routing import clamp
 
 _UNIT_TOL = 1e-6
 
@@ -271,72 +274,6 @@ def booster_step_scalar(
     return ignited, duty, fuel, duty * k.max_thrust
 
 
-def booster_step(
-    params: BoosterParams,
-    state: BoosterState,
-    ignition: bool | np.ndarray,
-    throttle: float | np.ndarray,
-    dt: float,
-    noise: np.ndarray,
-) -> tuple[BoosterState, np.ndarray]:
-    """Advance ``n`` boosters by one physics step.
-
-    Args:
-        params: booster parameters.
-        state: state at step t.
-        ignition: (n,) bool (or scalar) ignition command iota_t.
-        throttle: (n,) (or scalar) normalised throttle beta; clipped to [0, 1].
-        dt: physics step in s (> 0).
-        noise: (n,) standard-normal samples eta, one independent draw per booster,
-            from the caller's seeded generator (zeros for a noiseless step).
-
-    Returns:
-        ``(new_state, thrust)``: state at t+1 and (n,) thrust in N along each thrust axis.
-    """
-    n = params.n
-    if dt <= 0.0:
-        raise ValueError(f"dt must be > 0 s, got {dt}.")
-    noise = np.asarray(noise, dtype=np.float64)
-    if noise.shape != (n,):
-        raise ValueError(f"noise has shape {noise.shape}, expected ({n},): one standard-normal sample per booster.")
-    ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,)).tolist()
-    throttle = np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)).tolist()
-    steps = [
-        booster_step_scalar(k, *args)
-        for k, args in zip(
-            booster_constants(params, dt),
-            zip(state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist(), ignition, throttle, noise.tolist()),
-        )
-    ]
-    ignited, duty, fuel, thrust = (np.array(column) for column in zip(*steps))
-    return BoosterState(ignited=ignited, duty=duty, fuel=fuel), thrust
-
-
-def booster_loads(
-    params: BoosterParams, thrust: np.ndarray, thrust_axes: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Net force and torque of all boosters in the body frame, about the body origin.
-
-    Args:
-        params: booster parameters (positions used as lever arms).
-        thrust: (n,) N, thrust magnitudes from :func:`booster_step`.
-        thrust_axes: optional (n, 3) unit vectors overriding ``params.thrust_axes``,
-            e.g. axes vectored by a gimbal (:func:`pyflyt_engine.components.gimbal.rotate_axes`).
-
-    Returns:
-        ``(force, torque)``: (3,) N and (3,) N m.  ``force = sum_i T_i a_i`` and
-        ``torque = sum_i p_i x (T_i a_i)``; no reaction torque about the thrust axes.
-    """
-    axes = params.thrust_axes if thrust_axes is None else np.asarray(thrust_axes, dtype=np.float64)
-    if axes.shape != (params.n, 3):
-        raise ValueError(f"thrust_axes has shape {axes.shape}, expected ({params.n}, 3).")
-    thrust = np.asarray(thrust, dtype=np.float64)
-    if thrust.shape != (params.n,):
-        raise ValueError(f"thrust has shape {thrust.shape}, expected ({params.n},).")
-    forces = thrust[:, None] * axes
-    return forces.sum(axis=0), np.cross(params.positions, forces).sum(axis=0)
-
-
 def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mass and diagonal inertia of each fuel tank for the remaining fuel.
 
@@ -365,14 +302,27 @@ class Boosters:
         physics_dt: physics step [s].
         noise: the vehicle's noise generator (duty noise is drawn from it in blocks).
         fuel_fraction: fuel at spawn, as a fraction of a full tank.
+        ignition_channels, throttle_channels: per booster, the index of its ignition and
+            of its throttle channel, for :meth:`route` (a group driven by setting
+            ``ignition`` and ``throttle`` directly needs neither).
 
     Attributes:
         ignition, throttle: per booster, the commands (set at the control rate).
         axes: per booster, the thrust axis in the body frame (a gimbal turns it).
     """
 
-    def __init__(self, params: BoosterParams, physics_dt: float, noise: NoiseSource, fuel_fraction: float) -> None:
+    def __init__(
+        self,
+        params: BoosterParams,
+        physics_dt: float,
+        noise: NoiseSource,
+        fuel_fraction: float,
+        ignition_channels: Sequence[int] = (),
+        throttle_channels: Sequence[int] = (),
+    ) -> None:
         self.params = params
+        self._ignition_channels = list(ignition_channels)
+        self._throttle_channels = list(throttle_channels)
         self.fuel_fraction = fuel_fraction
         self._constants = booster_constants(params, physics_dt)
         self._positions = [tuple(p) for p in params.positions.tolist()]
@@ -395,9 +345,15 @@ class Boosters:
         self.ignited, self.duty, self.fuel = state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist()
         self._state = state
 
-    def step(self, air: AirVelocity) -> Wrench:
+    def route(self, channels: Sequence[float]) -> None:
+        """Commands from the channels: a booster is lit while its ignition channel is above
+        0.5; its throttle is its throttle channel limited to [0, 1]."""
+        self.ignition = [channels[j] > 0.5 for j in self._ignition_channels]
+        self.throttle = [clamp(channels[j], 0.0, 1.0) for j in self._throttle_channels]
+
+    def step(self) -> Wrench:
         """One physics step of every booster (:func:`booster_step_scalar`); returns their summed
-        thrust wrench.  ``air`` does not enter this model."""
+        thrust wrench (the module docstring, item 3).  The air does not enter this model."""
         noise = self._noise.next() if self._noisy else self._zeros
         ignited, duty, fuel = self.ignited, self.duty, self.fuel
         fx = fy = fz = tx = ty = tz = 0.0

@@ -43,30 +43,6 @@ class DragParams:
         return any(self.factors) or self.angular_damping > 0
 
 
-def drag_wrench(
-    factors: tuple[float, float, float],
-    angular_damping: float,
-    velocity_body: tuple[float, float, float],
-    angular_velocity_body: tuple[float, float, float],
-) -> tuple[float, float, float, float, float, float]:
-    """Body-frame drag force [N] and damping torque [N m] as (Fx, Fy, Fz, Tx, Ty, Tz).
-
-    ``factors`` is :attr:`DragParams.factors`; velocities are the body's velocity through
-    the air, in the body frame [m/s] and [rad/s].
-    """
-    kx, ky, kz = factors
-    vx, vy, vz = velocity_body
-    wx, wy, wz = angular_velocity_body
-    return (
-        -kx * vx * abs(vx),
-        -ky * vy * abs(vy),
-        -kz * vz * abs(vz),
-        -angular_damping * wx * abs(wx),
-        -angular_damping * wy * abs(wy),
-        -angular_damping * wz * abs(wz),
-    )
-
-
 class BodyDrag:
     """A vehicle's body drag as a load group: no state, a wrench from the air-relative velocity."""
 
@@ -80,8 +56,13 @@ class BodyDrag:
         self._damping = params.angular_damping
 
     def step(self, air: AirVelocity) -> Wrench:
-        """The drag wrench at the body's current velocity through the air."""
-        return drag_wrench(self._factors, self._damping, *air)
+        """The drag force [N] and damping torque [N m], body frame, at the body's velocity
+        through the air ``air`` (body frame, [m/s] and [rad/s]): the module docstring's law."""
+        (vx, vy, vz), (wx, wy, wz) = air
+        kx, ky, kz = self._factors  # 1/2 rho C_d A per axis
+        c = self._damping
+        return (-kx * vx * abs(vx), -ky * vy * abs(vy), -kz * vz * abs(vz),
+                -c * wx * abs(wx), -c * wy * abs(wy), -c * wz * abs(wz))  # fmt: skip
 
     def reset(self) -> None:
         """Nothing to reset: drag has no state."""

@@ -17,22 +17,22 @@ not necessarily orthogonal), maximum angles ``k_a``, ``k_b`` and a time constant
 * The gimbal rotation is ``R = R_a @ R_b`` (paper): a vector is first rotated about
   ``c_b``, then about ``c_a``, both axes fixed in the body frame.
 
-Typical use is thrust vectoring: :func:`rotate_axes` turns each booster's or motor's
-nominal thrust axis into the vectored one passed to the propulsion loads.
+Typical use is thrust vectoring: :func:`rotate_vector_scalar` turns a booster's or a
+motor's nominal thrust axis into the vectored one its group then pushes along.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from pyflyt_engine import exact
-from pyflyt_engine.components import AirVelocity
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.routing import clamp
 
 _UNIT_TOL = 1e-6
 
@@ -147,67 +147,6 @@ class GimbalParams:
         return np.stack([self.max_angle_a, self.max_angle_b], axis=1)
 
 
-def _check_angles(params: GimbalParams, name: str, value) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != (params.n, 2):
-        raise ValueError(f"{name} has shape {arr.shape}, expected ({params.n}, 2): [a, b] per gimbal.")
-    return arr
-
-
-def gimbal_step(params: GimbalParams, angles: np.ndarray, command: np.ndarray, dt: float) -> np.ndarray:
-    """Advance the servo angles by one physics step (:func:`gimbal_step_scalar` per gimbal).
-
-    Args:
-        params: gimbal parameters.
-        angles: (n, 2) rad, current angles [eps_a, eps_b].
-        command: (n, 2) normalised setpoints [xi_a, xi_b]; clipped to [-1, 1].
-        dt: physics step in s (> 0).
-
-    Returns:
-        (n, 2) rad, angles after one step toward ``command * max_angle``.
-    """
-    angles = _check_angles(params, "angles", angles)
-    command = _check_angles(params, "command", command)
-    return np.array(
-        [
-            gimbal_step_scalar(k, *eps, *xi)
-            for k, eps, xi in zip(gimbal_constants(params, dt), angles.tolist(), command.tolist())
-        ]
-    ).reshape(params.n, 2)
-
-
-def gimbal_rotation(params: GimbalParams, angles: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) rotation matrices ``R = R_a @ R_b`` for the given (n, 2) angles in rad
-    (column j is :func:`rotate_vector_scalar` of the unit vector e_j)."""
-    angles = _check_angles(params, "angles", angles)
-    constants = gimbal_constants(params, 1.0)  # the rotation does not depend on the step
-    basis = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    return np.array(
-        [[rotate_vector_scalar(k, *eps, e) for e in basis] for k, eps in zip(constants, angles.tolist())]
-    ).transpose(0, 2, 1)
-
-
-def rotate_axes(params: GimbalParams, angles: np.ndarray, axes: np.ndarray) -> np.ndarray:
-    """Rotate one (n, 3) body-frame axis per gimbal by that gimbal's rotation.
-
-    Args:
-        params: gimbal parameters.
-        angles: (n, 2) rad, gimbal angles.
-        axes: (n, 3) vectors in the body frame (e.g. nominal thrust axes).
-
-    Returns:
-        (n, 3) rotated vectors ``R_i @ axes_i`` (:func:`rotate_vector_scalar`; unit length preserved).
-    """
-    angles = _check_angles(params, "angles", angles)
-    axes = np.asarray(axes, dtype=np.float64)
-    if axes.shape != (params.n, 3):
-        raise ValueError(f"axes has shape {axes.shape}, expected ({params.n}, 3).")
-    constants = gimbal_constants(params, 1.0)
-    return np.array(
-        [rotate_vector_scalar(k, *eps, tuple(v)) for k, eps, v in zip(constants, angles.tolist(), axes.tolist())]
-    ).reshape(params.n, 3)
-
-
 class GimbalConstants(NamedTuple):
     """One gimbal's parameters for a fixed physics step, as plain floats (see
     :func:`gimbal_constants`): what :func:`gimbal_step_scalar` and
@@ -238,8 +177,8 @@ def gimbal_constants(params: GimbalParams, dt: float) -> list[GimbalConstants]:
 
 
 def gimbal_step_scalar(k: GimbalConstants, eps_a: float, eps_b: float, xi_a: float, xi_b: float) -> tuple[float, float]:
-    """:func:`gimbal_step` for one gimbal on plain floats: angles [rad] after one step
-    toward ``clip(xi, -1, 1) * max_angle``."""
+    """One gimbal's servo angles [rad] after one physics step toward ``clip(xi, -1, 1) * max_angle``
+    (the first-order lag of the module docstring, coefficient ``k.lag``)."""
     target_a = min(max(xi_a, -1.0), 1.0) * k.max_angle_a
     target_b = min(max(xi_b, -1.0), 1.0) * k.max_angle_b
     return eps_a + k.lag * (target_a - eps_a), eps_b + k.lag * (target_b - eps_b)
@@ -265,15 +204,19 @@ def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tupl
 class Gimbals:
     """The gimbals of one vehicle as an actuator group: servo angles and commands.
 
-    A gimbal applies no load of its own: each physics step it moves its servos, then
-    turns its target's thrust axis (``turn(axis)`` of a motor or booster group), before
-    those groups step.
+    A gimbal applies no load of its own: each physics step it moves its servos and
+    returns, per gimbal, its target's thrust axis turned by the new angles; the vehicle
+    points the target motor or booster along it (``turn``) before those groups step.
 
     Args:
         params: the gimbals.
         physics_dt: physics step [s].
-        targets: per gimbal, ``(turn, nominal_axis)``: the function that points the
-            target's thrust along a new axis, and the axis the gimbal rotates (body frame).
+        nominal_axes: per gimbal, the axis it turns (its target's nominal thrust axis,
+            body frame).
+        channels: per gimbal, the indices of its (a, b) command channels, or (-1, -1) for
+            a gimbal the mixer flies (default: (-1, -1) for every gimbal).
+        mixer_outputs: gimbal index -> the mixer output that commands its axis a (axis b
+            centred), for the gimbals the mixer flies.
 
     Attributes:
         angles: per gimbal, (eps_a, eps_b) [rad] (the state).
@@ -284,20 +227,38 @@ class Gimbals:
         self,
         params: GimbalParams,
         physics_dt: float,
-        targets: Sequence[tuple[Callable[[tuple[float, float, float]], None], tuple[float, float, float]]],
+        nominal_axes: Sequence[tuple[float, float, float]],
+        channels: Sequence[tuple[int, int]] | None = None,
+        mixer_outputs: dict[int, int] | None = None,
     ) -> None:
         self.params = params
         self._constants = gimbal_constants(params, physics_dt)
-        self._targets = list(targets)
+        self._nominal = [tuple(float(v) for v in axis) for axis in nominal_axes]
+        self._channels = [tuple(c) for c in channels] if channels is not None else [(-1, -1)] * params.n
+        self._mixer_outputs = dict(mixer_outputs or {})
         self._scale = [(max(a, 1e-12), max(b, 1e-12)) for a, b in params.max_angles.tolist()]
         self.reset()
 
-    def step(self, air: AirVelocity) -> None:
-        """One physics step: servos toward their commands, targets turned.  Returns None: no load."""
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None:
+        """Commands from the channels (each axis its channel, limited to [-1, 1]; (0, 0) for
+        a gimbal without channels) and, for a gimbal the mixer flies, the mixer's output
+        on axis a (0, centred, when there is none this tick)."""
+        self.command = [
+            (clamp(channels[i], -1.0, 1.0), clamp(channels[j], -1.0, 1.0)) if i >= 0 else (0.0, 0.0)
+            for i, j in self._channels
+        ]
+        for g, k in self._mixer_outputs.items():
+            self.command[g] = (clamp(outputs[k], -1.0, 1.0) if outputs is not None else 0.0, 0.0)
+
+    def step(self) -> list[tuple[float, float, float]]:
+        """One physics step: servos toward their commands; returns, per gimbal, its target's
+        thrust axis turned by the new angles (:func:`rotate_vector_scalar`)."""
         angles, command = self.angles, self.command
-        for g, (k, (turn, base)) in enumerate(zip(self._constants, self._targets)):
+        axes = []
+        for g, (k, nominal) in enumerate(zip(self._constants, self._nominal)):
             eps_a, eps_b = angles[g] = gimbal_step_scalar(k, *angles[g], *command[g])
-            turn(rotate_vector_scalar(k, eps_a, eps_b, base))
+            axes.append(rotate_vector_scalar(k, eps_a, eps_b, nominal))
+        return axes
 
     def reset(self) -> None:
         """Servos centred, commands zero."""

@@ -30,7 +30,7 @@ falls from 1.19 to 0.46 at +14 deg).  Everywhere else the curves are continuous.
 Reverse flow (|alpha| > 90 deg, air arriving from the trailing edge), which Khan & Nahon
 do not cover: the surface is seen as the same plate turned 180 deg about its span axis,
 so the profile is evaluated at ``alpha -+ 180 deg`` (lift and drag keep their directions,
-see :func:`surface_loads`), and the pitching moment is moved from that plate's quarter
+see :func:`surface_wrench`), and the pitching moment is moved from that plate's quarter
 chord, which lies half a chord behind the real aerodynamic centre, back to the real one:
 ``C_M = C_N (0.5 - arm)`` instead of ``-C_N arm`` (``arm`` the centre-of-pressure lever
 of the formulas above).  C_L, C_D and C_M are then continuous at +-90 deg and at
@@ -58,6 +58,7 @@ import numpy as np
 from pyflyt_engine import exact
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.routing import MixRow, clamp, mixed
 from pyflyt_engine.constants import AIR_DENSITY
 
 
@@ -73,9 +74,9 @@ _CN_AR_GAIN = 0.41  # finite-aspect-ratio reduction of the post-stall normal for
 _CN_AR_SCALE = 17.0  # aspect-ratio scale of that reduction
 _CT_STALL = 0.5  # post-stall tangential force as a fraction of C_D0
 
+_TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
 _TWO_OVER_PI = 2.0 / math.pi
-_TWO_PI = 2.0 * math.pi
 _AXIS_TOL = 1e-6  # tolerance on axis norms and on chord . normal
 
 
@@ -294,10 +295,9 @@ def _shifted_angles(k: SurfaceConstants, deflection: float) -> tuple[float, floa
 
 
 def _coefficients(k: SurfaceConstants, alpha: float, deflection: float) -> tuple[float, float, float]:
-    cl_alpha, pi_ar = k[15:17]
-    cd_0, cn_ar = k[22:24]
+    cl_alpha, pi_ar, _, _, _, _, _, cd_0, cn_ar = k[15:24]
     alpha_0, stall_pos, stall_neg = _shifted_angles(k, deflection)
-    alpha = math.remainder(alpha, 2.0 * math.pi)  # wrap into [-pi, pi]
+    alpha = math.remainder(alpha, _TWO_PI)  # wrap into [-pi, pi]
     reverse = abs(alpha) > _HALF_PI
     if reverse:
         alpha = alpha - math.pi if alpha > 0.0 else alpha + math.pi
@@ -412,84 +412,20 @@ def plot_coefficient_curves(
     return path
 
 
-def flap_step(params: LiftingSurfaceParams, deflection: float, command: float, dt: float) -> float:
-    """Advance the flap one step toward ``command * max_deflection`` with a first-order lag.
-
-    Args:
-        params: the surface.
-        deflection: current flap deflection [rad].
-        command: normalised command nu, clipped to [-1, 1].
-        dt: step length [s].
-
-    Returns:
-        The new deflection [rad], ``delta + k (nu delta_max - delta)`` with
-        ``k = lag_coefficient(dt, tau)``.
-    """
-    return flap_deflection(deflection, float(command), float(lag_coefficient(dt, params.tau)), params.max_deflection)
-
-
 def flap_deflection(deflection: float, command: float, lag: float, max_deflection: float) -> float:
-    """:func:`flap_step` with the lag coefficient computed once: ``delta + k (clip(nu) delta_max - delta)``."""
-    return deflection + lag * (min(max(command, -1.0), 1.0) * max_deflection - deflection)
-
-
-def _floats3(vector) -> list[float]:
-    """Three Python floats from a (3,) array or sequence (cheaper than numpy scalars)."""
-    if isinstance(vector, np.ndarray):
-        return vector.tolist()
-    return [float(vector[0]), float(vector[1]), float(vector[2])]
-
-
-def surface_loads(
-    params: LiftingSurfaceParams,
-    deflection: float,
-    velocity_body: np.ndarray,
-    angular_velocity_body: np.ndarray,
-    air_density: float = AIR_DENSITY,
-    wind_body: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Aerodynamic force and torque of the surface on the body, in the body frame.
-
-    The surface moves through the air at ``v = velocity + omega x position - wind``
-    (body frame).  The model is 2-D: only the part of ``v`` in the chord-normal plane
-    counts (``u = v . c``, ``w = v . n``); the spanwise part is ignored for alpha and for
-    the dynamic pressure, so pure spanwise flow gives no load.  Then
-
-        alpha = atan2(-w, u),   V^2 = u^2 + w^2,   Q = rho V^2 / 2
-        lift  = C_L Q S along s x v_hat (= n at alpha = 0, tilted forward for alpha > 0;
-                toward n whenever |alpha| < 90 deg),
-        drag  = C_D Q S along -v_hat,
-        M     = C_M Q S c about the span axis s (positive nose-up).
+    """The flap one step on, toward ``command * max_deflection`` with a first-order lag.
 
     Args:
-        params: the surface.
-        deflection: actual flap deflection [rad].
-        velocity_body: body linear velocity over ground, body frame, (3,) [m/s].
-        angular_velocity_body: body angular velocity, body frame, (3,) [rad/s].
-        air_density: rho [kg/m^3].
-        wind_body: wind velocity in the body frame, (3,) [m/s]; None = still air.
+        deflection: current flap deflection delta [rad].
+        command: normalised command nu, clipped to [-1, 1].
+        lag: ``lag_coefficient(dt, tau)`` for the step length dt and the flap's tau.
+        max_deflection: the flap's limit delta_max [rad].
 
     Returns:
-        ``(force, torque)``, each shape (3,), body frame: force [N] and torque about the
-        body origin [N m] (``position x force + M s``).  Zero airspeed gives zeros.
+        The new deflection [rad], ``delta + k (clip(nu) delta_max - delta)``.
     """
-    vx, vy, vz = _floats3(velocity_body)
-    if wind_body is not None:
-        # the wind enters after the rotation term, as v + omega x r - wind
-        wx, wy, wz = _floats3(angular_velocity_body)
-        k = params.constants
-        vx += wy * k.pz - wz * k.py
-        vy += wz * k.px - wx * k.pz
-        vz += wx * k.py - wy * k.px
-        gx, gy, gz = _floats3(wind_body)
-        fx, fy, fz, tx, ty, tz = surface_wrench(
-            k, deflection, vx - gx, vy - gy, vz - gz, 0.0, 0.0, 0.0, air_density
-        )
-    else:
-        fx, fy, fz, tx, ty, tz = surface_wrench(
-            params.constants, deflection, vx, vy, vz, *_floats3(angular_velocity_body), air_density
-        )
-    return np.array((fx, fy, fz)), np.array((tx, ty, tz))
+    clipped = -1.0 if command < -1.0 else 1.0 if command > 1.0 else command  # min(max(nu, -1), 1), NaN kept
+    return deflection + lag * (clipped * max_deflection - deflection)
 
 
 def surface_wrench(
@@ -503,18 +439,30 @@ def surface_wrench(
     wz: float,
     air_density: float = AIR_DENSITY,
 ) -> tuple[float, float, float, float, float, float]:
-    """:func:`surface_loads` on plain floats, for the per-physics-step path.
+    """Aerodynamic force and torque of one surface on the body, in the body frame.
+
+    The surface moves through the air at ``v = velocity + omega x position`` (body frame,
+    ``velocity`` the body's velocity through the air: the wind already subtracted).  The
+    model is 2-D: only the part of ``v`` in the chord-normal plane counts (``u = v . c``,
+    ``w = v . n``); the spanwise part is ignored for alpha and for the dynamic pressure,
+    so pure spanwise flow gives no load.  Then
+
+        alpha = atan2(-w, u),   V^2 = u^2 + w^2,   Q = rho V^2 / 2
+        lift  = C_L Q S along s x v_hat (= n at alpha = 0, tilted forward for alpha > 0;
+                toward n whenever |alpha| < 90 deg),
+        drag  = C_D Q S along -v_hat,
+        M     = C_M Q S c about the span axis s (positive nose-up).
 
     Args:
         k: the surface's :attr:`LiftingSurfaceParams.constants`.
         deflection: actual flap deflection [rad].
-        vx, vy, vz: body linear velocity, body frame [m/s] (minus the wind, if any).
-        wx, wy, wz: body angular velocity, body frame [rad/s].
+        vx, vy, vz: the body's velocity through the air, body frame [m/s].
+        wx, wy, wz: its angular velocity through the air, body frame [rad/s].
         air_density: rho [kg/m^3].
 
     Returns:
-        ``(fx, fy, fz, tx, ty, tz)``: force [N] and torque about the body origin [N m],
-        body frame (zeros at zero airspeed).
+        ``(fx, fy, fz, tx, ty, tz)``: force [N] and torque about the body origin [N m]
+        (``position x force + M s``), body frame; zeros at zero airspeed.
     """
     px, py, pz, cx, cy, cz, nx, ny, nz, sx, sy, sz, area, chord = k[:14]
     vx += wy * pz - wz * py
@@ -552,107 +500,46 @@ class Surfaces:
     Args:
         params: the surfaces, in the centre-of-mass body frame.
         physics_dt: physics step [s].
+        mix: per surface, the channels that drive its flap
+            (:mod:`~pyflyt_engine.components.routing`; default none).
 
     Attributes:
         deflection: per surface, the flap deflection [rad] (the state).
         command: per surface, the normalised flap command in [-1, 1] (set at the control rate).
     """
 
-    def __init__(self, params: Sequence[LiftingSurfaceParams], physics_dt: float) -> None:
+    def __init__(
+        self, params: Sequence[LiftingSurfaceParams], physics_dt: float, mix: Sequence[MixRow] | None = None
+    ) -> None:
         self.params = tuple(params)
-        self._constants = [surface.constants for surface in self.params]
-        self._lag = [float(lag_coefficient(physics_dt, surface.tau)) for surface in self.params]
-        #: per surface, its constants followed by its flap lag coefficient (the step's loop)
-        self._fused = [(*k, lag) for k, lag in zip(self._constants, self._lag)]
+        self._mix = list(mix) if mix is not None else [()] * len(self.params)
+        #: per surface, its constants, its flap's lag coefficient for one physics step and its flap limit
+        self._surfaces = [
+            (surface.constants, float(lag_coefficient(physics_dt, surface.tau)), surface.constants.max_deflection)
+            for surface in self.params
+        ]
         self._scale = [surface.max_deflection or 1.0 for surface in self.params]
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
 
-    def step(self, air: AirVelocity) -> Wrench:
-        """One physics step: every flap follows its command, then the surfaces' summed wrench
-        at the body's air-relative velocity.
+    def route(self, channels: Sequence[float]) -> None:
+        """Flap commands from the channels (each surface's mix), limited to [-1, 1]."""
+        self.command = [clamp(mixed(channels, row), -1.0, 1.0) for row in self._mix]
 
-        This is :func:`flap_deflection` followed by :func:`surface_wrench` (with
-        :func:`_coefficients` and :func:`_shifted_angles`) per surface, written out in one
-        loop: the same floating-point operations in the same order, so bit for bit the same
-        result (tests/components/test_lifting_surface.py checks it exactly), without the
-        four function calls and the tuple packing per surface per physics step that
-        dominated a fixed-wing's step.  Change the equations there and here together.
-        """
+    def step(self, air: AirVelocity) -> Wrench:
+        """One physics step: every flap follows its command (:func:`flap_deflection`), then
+        the surfaces' summed wrench (:func:`surface_wrench` per surface) at the body's
+        air-relative velocity ``air``."""
         (vx, vy, vz), (wx, wy, wz) = air
-        deflection, command = self.deflection, self.command
-        atan2, cos, sin, sqrt, remainder = math.atan2, math.cos, math.sin, math.sqrt, math.remainder
-        half_area_density = 0.5 * AIR_DENSITY
+        deflection = []
         fx = fy = fz = tx = ty = tz = 0.0
-        i = 0
-        for (
-            px, py, pz, cx, cy, cz, nx, ny, nz, sx, sy, sz, area, chord, _, cl_alpha, pi_ar,
-            delta_cl_per_rad, flap_to_chord, cl_max_pos_base, cl_max_neg_base, alpha_0_base,
-            cd_0, cn_ar, max_deflection, lag,
-        ) in self._fused:  # fmt: skip
-            # flap_deflection
-            d = deflection[i]
-            c = command[i]
-            # min(max(c, -1), 1) as comparisons (same value, NaN passes through as there)
-            d = deflection[i] = d + lag * ((-1.0 if c < -1.0 else 1.0 if c > 1.0 else c) * max_deflection - d)  # noqa: FURB136
-            i += 1
-            # surface_wrench: velocity of the aerodynamic centre, chord and normal parts
-            svx = vx + (wy * pz - wz * py)
-            svy = vy + (wz * px - wx * pz)
-            svz = vz + (wx * py - wy * px)
-            u = svx * cx + svy * cy + svz * cz
-            w = svx * nx + svy * ny + svz * nz
-            speed_sq = u * u + w * w
-            if speed_sq == 0.0:
-                continue
-            # _shifted_angles
-            delta_cl = delta_cl_per_rad * d
-            delta_cl_max = flap_to_chord * delta_cl
-            cl_max_pos = cl_max_pos_base + delta_cl_max
-            cl_max_neg = cl_max_neg_base + delta_cl_max
-            alpha_0 = alpha_0_base - delta_cl / cl_alpha
-            stall_pos = alpha_0 + cl_max_pos / cl_alpha
-            stall_neg = alpha_0 + cl_max_neg / cl_alpha
-            # _coefficients
-            alpha = remainder(atan2(-w, u), _TWO_PI)
-            reverse = abs(alpha) > _HALF_PI
-            if reverse:
-                alpha = alpha - math.pi if alpha > 0.0 else alpha + math.pi
-            if stall_neg < alpha < stall_pos:
-                cl = cl_alpha * (alpha - alpha_0)
-                alpha_eff = alpha - alpha_0 - cl / pi_ar
-                cos_e, sin_e = cos(alpha_eff), sin(alpha_eff)
-                ct = cd_0 * cos_e
-                cn = (cl + ct * sin_e) / cos_e
-                lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * alpha_eff)
-            else:
-                if alpha >= stall_pos:
-                    alpha_i = cl_alpha * (stall_pos - alpha_0) / pi_ar * (_HALF_PI - alpha) / (_HALF_PI - stall_pos)
-                else:
-                    alpha_i = cl_alpha * (stall_neg - alpha_0) / pi_ar * (_HALF_PI + alpha) / (_HALF_PI + stall_neg)
-                alpha_eff = alpha - alpha_0 - alpha_i
-                cos_e, sin_e = cos(alpha_eff), sin(alpha_eff)
-                cd_90 = _CD90_QUAD * d * d + _CD90_LIN * d + _CD90_ZERO
-                shape = 1.0 / (_CN_BASE + _CN_SIN * abs(sin_e)) - cn_ar
-                cn = cd_90 * sin_e * shape
-                ct = _CT_STALL * cd_0 * cos_e
-                cl = cn * cos_e - ct * sin_e
-                lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * abs(alpha_eff))
-            cd = cn * sin_e + ct * cos_e
-            cm = cn * (0.5 - lever) if reverse else -cn * lever
-            # surface_wrench: loads
-            q_area = half_area_density * speed_sq * area
-            scale = q_area / sqrt(speed_sq)
-            f_c = -scale * (cl * w + cd * u)
-            f_n = scale * (cl * u - cd * w)
-            sfx = f_c * cx + f_n * nx
-            sfy = f_c * cy + f_n * ny
-            sfz = f_c * cz + f_n * nz
-            moment = cm * q_area * chord
+        for (k, lag, max_deflection), d, c in zip(self._surfaces, self.deflection, self.command):
+            d = flap_deflection(d, c, lag, max_deflection)
+            deflection.append(d)
+            sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz)
             fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
-            tx = tx + (py * sfz - pz * sfy + moment * sx)
-            ty = ty + (pz * sfx - px * sfz + moment * sy)
-            tz = tz + (px * sfy - py * sfx + moment * sz)
+            tx, ty, tz = tx + stx, ty + sty, tz + stz
+        self.deflection = deflection
         return fx, fy, fz, tx, ty, tz
 
     def reset(self) -> None:

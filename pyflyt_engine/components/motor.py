@@ -17,8 +17,8 @@ models and keeps reversed props (negative throttle) pushing the other way.  See
 The body-frame wrench of all motors together is linear in ``x * |x|``: column ``i`` of
 :func:`motor_wrench_matrix` is motor ``i``'s wrench at full throttle, computed once (and
 again by a gimbal that turns the motor), so a physics step costs one multiply-add per
-motor and wrench component (:func:`motor_step`).  :class:`Motors` holds the state of a
-vehicle's motors and steps them.
+motor and wrench component.  :class:`Motors` holds the state of a vehicle's motors and
+steps them (:meth:`Motors.step`: this law, on plain floats).
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components import Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
+from pyflyt_engine.components.routing import MixRow, mixed
 
 
 @dataclass(frozen=True)
@@ -91,62 +92,9 @@ def motor_lag(params: MotorParams, dt: float) -> np.ndarray:
     return np.asarray(lag_coefficient(dt, params.tau))
 
 
-def clip_command(command: np.ndarray) -> np.ndarray:
-    """Throttle commands limited to the motors' range [-1, 1]."""
-    return np.clip(command, -1.0, 1.0)
-
-
 def noise_factors(params: MotorParams, eta: np.ndarray) -> np.ndarray:
     """Multiplicative noise ``1 + noise_ratio * eta`` for standard normals ``eta`` (..., n)."""
     return 1.0 + params.noise_ratio * eta
-
-
-def motor_step(
-    throttle: list[float],
-    command: list[float],
-    lag: list[float],
-    noise_factor: Sequence[float],
-    wrench_columns: Sequence[tuple[float, float, float, float, float, float]],
-) -> tuple[list[float], tuple[float, float, float, float, float, float]]:
-    """Advance every motor one physics step and sum their body wrench (the module docstring).
-
-    Plain Python floats: for the handful of motors of one vehicle, stepped at the physics
-    rate, they beat NumPy's per-call overhead.
-
-    Args:
-        throttle: per motor, the normalised throttle x[t].
-        command: per motor, the commanded throttle zeta, already in [-1, 1] (see
-            :func:`clip_command`).
-        lag: per motor, ``lag_coefficient(dt, tau)`` (see :func:`motor_lag`).
-        noise_factor: per motor, ``1 + noise_ratio * eta`` with eta standard normal (see
-            :func:`noise_factors`), or 1.0 for no noise.
-        wrench_columns: per motor, its column of :func:`motor_wrench_matrix`: the body
-            wrench at full throttle.
-
-    Returns:
-        (new throttle list x[t+1], body wrench (Fx, Fy, Fz, Tx, Ty, Tz) in N and N m about
-        the centre of mass).
-    """
-    new = []
-    fx = fy = fz = tx = ty = tz = 0.0
-    for x, c, a, z, (wx, wy, wz, wl, wm, wn) in zip(throttle, command, lag, noise_factor, wrench_columns):
-        x = (x + a * (c - x)) * z  # lag towards the command, then the noise factor
-        new.append(x)
-        f = x * abs(x)  # thrust and torque go as throttle squared, signed
-        fx += wx * f
-        fy += wy * f
-        fz += wz * f
-        tx += wl * f
-        ty += wm * f
-        tz += wn * f
-    return new, (fx, fy, fz, tx, ty, tz)
-
-
-def motor_outputs(params: MotorParams, throttle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Thrust [N] and reaction-torque magnitude [N m] of every motor at ``throttle``."""
-    omega = throttle * params.max_rpm
-    omega_sq = omega * np.abs(omega)
-    return params.kf * omega_sq, params.kt * omega_sq
 
 
 def motor_wrench_matrix(params: MotorParams) -> np.ndarray:
@@ -192,15 +140,24 @@ class Motors:
         params: the motors, in the centre-of-mass body frame.
         physics_dt: physics step [s].
         noise: the vehicle's noise generator (per-motor factors are drawn from it in blocks).
+        mix: per motor, the channels that drive it (:mod:`~pyflyt_engine.components.routing`;
+            default none).
+        mixer_outputs: per motor, the index of the mixer output that drives it, or None
+            for a motor driven by its ``mix`` (default: None for every motor).
 
     Attributes:
         throttle: per motor, the normalised throttle x in [-1, 1] (the state).
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
-        thrust_scale: per motor, a factor on its thrust (and the thrust's moment; the
-            reaction torque is left alone), e.g. ground effect; None (default): 1 for all.
     """
 
-    def __init__(self, params: MotorParams, physics_dt: float, noise: NoiseSource) -> None:
+    def __init__(
+        self,
+        params: MotorParams,
+        physics_dt: float,
+        noise: NoiseSource,
+        mix: Sequence[MixRow] | None = None,
+        mixer_outputs: Sequence[int | None] | None = None,
+    ) -> None:
         self.physics_dt = physics_dt
         self.set_params(params)
         n = params.count
@@ -209,18 +166,49 @@ class Motors:
         self._ones = [1.0] * n
         self._noisy = bool(np.any(params.noise_ratio > 0))
         self._noise = NoiseBlocks(noise, n, lambda eta: noise_factors(params, eta))
-        self.thrust_scale: list[float] | None = None
+        #: per motor, (mixer output index or None, channel mix row): where its command comes from
+        self._sources = list(zip(mixer_outputs or [None] * n, mix or [()] * n))
 
-    def step(self, air: AirVelocity) -> Wrench:
-        """One physics step: throttles follow their commands (lag and noise); returns the motors' wrench.
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None:
+        """Commands from the channels and the mixer's ``outputs`` (None: none this tick):
+        a motor the mixer flies takes its output (0 without), any other its channel mix;
+        limited to [-1, 1]."""
+        values = [
+            (outputs[k] if outputs is not None else 0.0) if k is not None else mixed(channels, row)
+            for k, row in self._sources
+        ]
+        self.command = [1.0 if v > 1.0 else -1.0 if v < -1.0 else v for v in values]  # clamp(v, -1, 1)
 
-        ``air`` (the body's air-relative velocity) does not enter this model: static thrust.
+    def step(self, thrust_ratio: Sequence[float] | None = None) -> Wrench:
+        """One physics step of every motor (the module docstring): the throttle lags toward its
+        command and takes its noise factor, ``x' = (x + a (zeta - x)) (1 + sigma eta)``; returns
+        the motors' wrench, column i of :func:`motor_wrench_matrix` times ``x'_i |x'_i|``
+        summed over the motors, in N and N m about the centre of mass, body frame.
+
+        Args:
+            thrust_ratio: per motor, a factor on its thrust and the thrust's moment (the
+                reaction torque is left alone) from the air around it, e.g. ground effect
+                (:func:`pyflyt_engine.atmosphere.rotors.ground_effect_ratios`); None: 1
+                for every motor.  The air's velocity does not enter this model (static thrust).
         """
-        factors = self._noise.next() if self._noisy else self._ones
-        scale = self.thrust_scale
-        columns = self.columns if scale is None else self._scaled_columns(scale)
-        self.throttle, wrench = motor_step(self.throttle, self.command, self.lag, factors, columns)
-        return wrench
+        factors = self._noise.next() if self._noisy else self._ones  # z = 1 + sigma eta, per motor
+        columns = self.columns if thrust_ratio is None else self._scaled_columns(thrust_ratio)
+        new = []
+        fx = fy = fz = tx = ty = tz = 0.0
+        # Plain Python floats: for the handful of motors of one vehicle, stepped at the
+        # physics rate, they beat NumPy's per-call overhead.
+        for x, c, a, z, (wx, wy, wz, wl, wm, wn) in zip(self.throttle, self.command, self.lag, factors, columns):
+            x = (x + a * (c - x)) * z  # lag towards the command, then the noise factor
+            new.append(x)
+            f = x * abs(x)  # thrust and torque go as throttle squared, signed
+            fx += wx * f
+            fy += wy * f
+            fz += wz * f
+            tx += wl * f
+            ty += wm * f
+            tz += wn * f
+        self.throttle = new
+        return fx, fy, fz, tx, ty, tz
 
     def _scaled_columns(self, scale: Sequence[float]) -> list[tuple[float, float, float, float, float, float]]:
         """The wrench columns with each motor's thrust (force and its moment) times ``scale``;

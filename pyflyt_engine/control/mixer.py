@@ -6,7 +6,9 @@ maps motor thrusts to [collective thrust along body z, roll, pitch, yaw torque]:
 
     A[:, i] = [a_i,z, (p_i x a_i - s_i kappa_i a_i)]       kappa_i = k_T,i / k_F,i
 
-The mixer is its pseudo-inverse ``A^T (A A^T)^-1`` (``A`` has full row rank: checked),
+(:func:`pyflyt_engine.allocation.allocation_matrix`, where it is defined for the spec's
+check too).  The mixer is its pseudo-inverse ``A^T (A A^T)^-1`` (``A`` has full row rank:
+checked by :func:`~pyflyt_engine.allocation.require_controllable`),
 so any airframe whose motors can produce all four outputs independently (quad, hexa,
 octo, Y6, ...) needs no hand-written mixing table.  It is computed in Python floats
 (:func:`pyflyt_engine.exact.pinv`), not by LAPACK, whose last bits depend on the CPU.
@@ -29,45 +31,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from math import atan2, cos, sqrt
-from typing import NamedTuple
 
 import numpy as np
 
 from pyflyt_engine import exact
+from pyflyt_engine.allocation import Tilt, require_controllable, tilted_allocation
 from pyflyt_engine.components.motor import MotorParams
-from pyflyt_engine.errors import ConfigError
-
-
-def allocation_matrix(
-    positions: np.ndarray, thrust_axes: np.ndarray, spin: np.ndarray, kf: np.ndarray, kt: np.ndarray
-) -> np.ndarray:
-    """The 4 x n allocation matrix ``A`` of the module docstring.
-
-    Args:
-        positions: (n, 3) motor positions relative to the centre of mass, body frame [m].
-        thrust_axes: (n, 3) unit thrust directions, body frame.
-        spin: (n,) +1 counter-clockwise / -1 clockwise about the thrust axis.
-        kf, kt: (n,) thrust [N/RPM^2] and torque [N m/RPM^2] coefficients.
-
-    Returns:
-        Rows [collective thrust along body z, roll, pitch, yaw torque] per newton of
-        each motor's thrust.
-    """
-    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
-    axes = np.asarray(thrust_axes, dtype=float).reshape(-1, 3)
-    kappa = np.asarray(kt, dtype=float) / np.asarray(kf, dtype=float)
-    torque = np.cross(positions, axes) - (np.asarray(spin, dtype=float) * kappa)[:, None] * axes
-    return np.vstack([axes[:, 2], torque.T])
-
-
-def allocation_rank(allocation: np.ndarray) -> int:
-    """Numerical rank of an allocation matrix: 4 when thrust, roll, pitch and yaw are independently reachable.
-
-    Counted as the pivots above ``1e-9 max(1, largest |entry|)`` in Gaussian elimination
-    with complete pivoting (:func:`pyflyt_engine.exact.rank`)."""
-    if allocation.size == 0:
-        return 0
-    return exact.rank(allocation, tol=1e-9 * max(1.0, float(np.abs(allocation).max())))
 
 
 def _lower(current: float, candidate: float) -> float:
@@ -81,29 +50,6 @@ def _throttle(force: float, full: float) -> float:
     return 0.0 if force <= 0.0 else 1.0 if force >= full else sqrt(force / full)
 
 
-class Tilt(NamedTuple):
-    """A mixer motor on a servo the mixer flies (see the module docstring)."""
-
-    #: index among the mixer's motors
-    motor: int
-    #: the servo's rotation axis ``c``, unit, perpendicular to the motor's thrust axis (body frame)
-    axis: tuple[float, float, float]
-    #: servo deflection limit [rad]; the mixer's output is the angle over this, in [-1, 1]
-    max_angle: float
-
-
-def tilted_allocation(motors: MotorParams, tilts: Sequence[Tilt]) -> np.ndarray:
-    """The allocation matrix with one more column per tilting motor: its thrust along
-    ``c x n`` (the lateral virtual input of the module docstring)."""
-    base = allocation_matrix(motors.positions, motors.thrust_axes, motors.spin, motors.kf, motors.kt)
-    if not tilts:
-        return base
-    idx = [t.motor for t in tilts]
-    lateral = np.cross(np.asarray([t.axis for t in tilts], dtype=float), motors.thrust_axes[idx])
-    extra = allocation_matrix(motors.positions[idx], lateral, motors.spin[idx], motors.kf[idx], motors.kt[idx])
-    return np.hstack([base, extra])
-
-
 class Mixer:
     """Maps [thrust, tau_x, tau_y, tau_z] (N, N m; body frame) to motor throttles (and,
     with ``tilts``, then one normalised servo command per tilting motor)."""
@@ -111,14 +57,8 @@ class Mixer:
     def __init__(self, motors: MotorParams, tilts: Sequence[Tilt] = ()) -> None:
         axes = motors.thrust_axes
         self.tilts = tuple(tilts)
-        self.allocation = tilted_allocation(motors, self.tilts)
-        rank = allocation_rank(self.allocation)
-        if rank < 4:
-            raise ConfigError(
-                f"the motors cannot control this vehicle: their allocation matrix has rank {rank} < 4 "
-                "(collective thrust, roll, pitch and yaw must be independently reachable); "
-                "check motor positions, thrust axes and spin directions"
-            )
+        self.allocation = tilted_allocation(motors.positions, axes, motors.spin, motors.kf, motors.kt, self.tilts)
+        require_controllable(self.allocation, range(len(axes)), tilted=bool(self.tilts))
         self._inverse_rows = exact.pinv(self.allocation)
         self.inverse = np.array(self._inverse_rows, dtype=np.float64)
         self.max_thrust = motors.max_thrust.tolist()

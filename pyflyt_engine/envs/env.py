@@ -324,12 +324,11 @@ class UAVEnv(gymnasium.Env):
 
     def _observe(self, state: KinematicState) -> Any:
         angles = state.quaternion if self._quaternion else state.ang_pos
-        attitude = np.concatenate(
-            (
-                np.array((*state.ang_vel, *angles, *state.lin_vel, *state.lin_pos), dtype=np.float64),
-                self._action,
-                self.vehicle.aux_state,
-            )
+        # one array from one flat tuple: [body rates, attitude, body velocity, position, last action, aux]
+        attitude = np.array(
+            (*state.ang_vel, *angles, *state.lin_vel, *state.lin_pos, *self._action.tolist(),
+             *self.vehicle.aux_values()),  # fmt: skip
+            dtype=np.float64,
         )
         observation = self.task.observe(attitude, state)
         if self._camera is None:

@@ -272,3 +272,27 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
         reward_terms=terms,
         events=events,
     )
+
+
+def waypoint_markers(episode: Episode) -> list[tuple[float, np.ndarray]]:
+    """Per ``/scene`` message that shows waypoint markers: (time [s], the marker centres, (n, 3))."""
+    out = []
+    for m in episode.contents.messages:
+        if m.topic != "/scene" or not isinstance(m.data, dict):
+            continue
+        for entity in m.data.get("entities", []):
+            if entity.get("id") == "waypoints":
+                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
+                out.append((m.log_time * 1e-9, np.array([[q["x"], q["y"], q["z"]] for q in pts]).reshape(-1, 3)))
+    return out
+
+
+def waypoint_radius(episode: Episode) -> float:
+    """The radius [m] of the first waypoint marker the ``/scene`` channel shows (0.05 without one)."""
+    for m in episode.contents.messages:
+        if m.topic == "/scene" and isinstance(m.data, dict):
+            for entity in m.data.get("entities", []):
+                if entity.get("id") == "waypoints":
+                    for sphere in entity.get("spheres", []):
+                        return float(sphere["size"]["x"]) / 2
+    return 0.05

@@ -1,25 +1,27 @@
-"""Pictures of a recorded episode: :func:`plot_episode` (PNG/PDF/SVG), :func:`write_video` (MP4/GIF).
+"""Pictures of a recorded episode: :func:`plot_episode` (PNG/PDF/SVG).
 
-Flight videos themselves are drawn by :mod:`pyflyt_engine.telemetry.video` (``render_video``).
+Flight videos are drawn and written by :mod:`pyflyt_engine.telemetry.video`
+(``render_video``, ``write_video``); this module only reads from it (``VIDEO_SUFFIXES``).
 """
 
 from __future__ import annotations
 
-import errno
 from pathlib import Path
 
 import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.telemetry.episode import Episode
-from pyflyt_engine.telemetry.video import VIDEO_SUFFIXES, render_video
+from pyflyt_engine.telemetry.episode import Episode, waypoint_markers
+from pyflyt_engine.telemetry.video import VIDEO_SUFFIXES
+
+__all__ = ["PLOT_SUFFIXES", "VIDEO_SUFFIXES", "plot_episode"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def _waypoints(episode: Episode) -> np.ndarray:
     """Every marker point the ``/scene`` channel showed at the reset (e.g. all waypoints)."""
-    frames = _marker_frames(episode)
+    frames = waypoint_markers(episode)
     return frames[0][1] if frames else np.zeros((0, 3))
 
 
@@ -85,83 +87,3 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
     fig.savefig(out, dpi=100)
     plt.close(fig)
     return out
-
-
-def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
-    """Write RGB(A) frames to ``out`` (``.gif`` or ``.mp4``, by its suffix) at ``fps``.
-
-    Raises:
-        TelemetryError: MP4 without a working imageio-ffmpeg.
-        OSError: the file could not be written completely (an MP4 is checked: ffmpeg's
-            own failures are not reported by imageio).
-    """
-    import imageio.v2 as imageio
-
-    frames = [np.asarray(f)[..., :3] for f in frames]
-    if Path(out).suffix.lower() == ".gif":
-        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
-        return
-    try:
-        writer = imageio.get_writer(
-            out, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=1, pixelformat="yuv420p"
-        )
-    except Exception as exc:  # noqa: BLE001 - imageio-ffmpeg missing or broken
-        raise TelemetryError(f"cannot write {Path(out).name}: MP4 needs imageio-ffmpeg ({exc}); try a .gif") from None
-    with writer:
-        for frame in frames:
-            writer.append_data(frame)
-    _check_mp4(Path(out))
-
-
-def _check_mp4(path: Path) -> None:
-    """Raise OSError unless ``path`` is a complete MP4: its top-level boxes fill the file
-    exactly and include the index (``moov``).
-
-    The encoder runs in an ffmpeg process whose failure (a full disk, a file-size limit)
-    imageio does not report: without this check a cut-off video would pass for a good one.
-    """
-    size = path.stat().st_size
-    kinds = []
-    with path.open("rb") as handle:
-        offset = 0
-        while offset < size:
-            handle.seek(offset)
-            header = handle.read(16)
-            if len(header) < 8:
-                break
-            length, kind = int.from_bytes(header[:4], "big"), header[4:8]
-            if length == 1 and len(header) == 16:  # 64-bit box size
-                length = int.from_bytes(header[8:16], "big")
-            elif length == 0:  # the last box, to the end of the file
-                length = size - offset
-            if length < 8:
-                break
-            kinds.append(kind)
-            offset += length
-    if offset != size or b"moov" not in kinds:
-        raise OSError(
-            errno.EIO,
-            "the video encoder (ffmpeg) stopped before the video was complete (a full disk or a file-size limit?)",
-        )
-
-
-def _marker_frames(episode: Episode) -> list[tuple[float, np.ndarray]]:
-    out = []
-    for m in episode.contents.messages:
-        if m.topic != "/scene" or not isinstance(m.data, dict):
-            continue
-        for entity in m.data.get("entities", []):
-            if entity.get("id") == "waypoints":
-                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
-                out.append((m.log_time * 1e-9, np.array([[q["x"], q["y"], q["z"]] for q in pts]).reshape(-1, 3)))
-    return out
-
-
-def _marker_radius(episode: Episode) -> float:
-    for m in episode.contents.messages:
-        if m.topic == "/scene" and isinstance(m.data, dict):
-            for entity in m.data.get("entities", []):
-                if entity.get("id") == "waypoints":
-                    for sphere in entity.get("spheres", []):
-                        return float(sphere["size"]["x"]) / 2
-    return 0.05

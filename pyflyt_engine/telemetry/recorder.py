@@ -27,6 +27,7 @@ import numpy as np
 
 from pyflyt_engine import numerics
 from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.frames import matrix_to_quaternion
 from pyflyt_engine.telemetry import scene, schemas
 from pyflyt_engine.telemetry._io import DEFAULT_CHUNK_SIZE, McapFileWriter, to_ns
 
@@ -304,7 +305,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     cams.append(f.channel(f"/uav/{i}/camera/{k}", "foxglove.CompressedImage", schemas.COMPRESSED_IMAGE))
             self._ch_camera.append(cams)
         self._ch_wind = []
-        if any(v.wind is not None for v in world.vehicles):  # wind or downwash
+        if world.atmosphere.moving:  # wind or downwash
             for i in range(len(world.vehicles)):
                 self._ch_wind.append(
                     f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
@@ -385,7 +386,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 for k, params in enumerate(cameras):
                     _eye, forward, up = camera_pose(params, s.lin_pos, s.quaternion)
                     rot = np.column_stack([forward, np.cross(up, forward), up])
-                    relative = scene.matrix_to_quaternion(body.T @ rot)
+                    relative = matrix_to_quaternion(body.T @ rot)
                     f.write(
                         self._ch_tf,
                         ns,
@@ -400,7 +401,7 @@ class RecordEpisode(gymnasium.Wrapper):
         """The wind at vehicle ``i`` (channel ``/uav/<i>/wind``) and its arrow in the scene."""
         s = vehicle.state
         wind = self._base.world.wind_at(i)
-        (u, v, w), (p, q, r) = vehicle.air_velocity
+        (u, v, w), (p, q, r) = self._base.world.air_velocity(i)
         self._file.write(
             self._ch_wind[i],
             ns,

@@ -86,7 +86,9 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
     config["reward"] = episode.reward_preset
     recorded_wind = episode.env_info.get("wind")
     if recorded_wind:  # the resolved atmosphere, not a preset name that may have changed since
-        config["wind"] = json_data(recorded_wind, source=f"{episode.path}: metadata 'wind'", error=TelemetryError)
+        config["wind"] = _wind_as_recorded(
+            json_data(recorded_wind, source=f"{episode.path}: metadata 'wind'", error=TelemetryError)
+        )
     _check_named_files(episode, config)
     specs = [s if isinstance(s, dict) else {} for s in episode.uav_specs]
     flown = [i for i, s in enumerate(specs) if s == episode.airframe_spec]
@@ -109,6 +111,18 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
         raise TelemetryError(
             f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}"
         ) from None
+
+
+def _wind_as_recorded(wind: Any) -> Any:
+    """The recorded atmosphere with the defaults of the version that recorded it.
+
+    ``turbulence.rotary_min_span`` (no rotary gusts below that span, default 1 m) came
+    later than the first recordings: a recorded turbulence without it flew the rotary
+    gusts on every vehicle, which is ``rotary_min_span: 0``.
+    """
+    if isinstance(wind, dict) and isinstance(wind.get("turbulence"), dict):
+        wind["turbulence"].setdefault("rotary_min_span", 0.0)
+    return wind
 
 
 def _cannot_replay(episode: Episode, why: str) -> TelemetryError:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_matrix
+from pyflyt_engine.frames import euler_to_quaternion, matrix_to_quaternion, quaternion_to_matrix
 
 WORLD_FRAME = "world"
 
@@ -50,24 +50,6 @@ def camera_frame(index: int, camera: int) -> str:
 def stamp(ns: int) -> dict[str, int]:
     """MCAP nanoseconds -> Foxglove ``time`` {sec, nsec}."""
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
-
-
-def matrix_to_quaternion(m: np.ndarray) -> tuple[float, float, float, float]:
-    """Rotation matrix -> unit quaternion (x, y, z, w) (Shepperd's method)."""
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0:
-        s = math.sqrt(trace + 1.0) * 2
-        w, x, y, z = 0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
-        w, x, y, z = (m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s
-    elif m[1, 1] > m[2, 2]:
-        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
-        w, x, y, z = (m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s
-    else:
-        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
-        w, x, y, z = (m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s
-    return (float(x), float(y), float(z), float(w))
 
 
 def _xyz(v: Any) -> dict[str, float]:

@@ -18,6 +18,7 @@ replays look the same and any recording can be filmed again:
 
 from __future__ import annotations
 
+import errno
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.telemetry.episode import Episode
+from pyflyt_engine.telemetry.episode import Episode, waypoint_markers, waypoint_radius
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 #: Trail colours per vehicle (RGB), cycled.
@@ -146,7 +147,6 @@ def episode_frames(
     from pyflyt_engine.bullet import pybullet as p
     from pyflyt_engine.envs.render import Markers
     from pyflyt_engine.spec import parse_uav_spec
-    from pyflyt_engine.telemetry.plots import _marker_frames, _marker_radius
     from pyflyt_engine.telemetry.replay import rebuild_env
 
     style = style or VideoStyle()
@@ -166,9 +166,9 @@ def episode_frames(
         for i in range(len(bodies), len(tracks)):  # vehicles the env does not build itself
             spec = parse_uav_spec(episode.uav_specs[i], source=f"{episode.path} (vehicle {i})")
             bodies.append(world.vehicles[world.add_vehicle(spec, tuple(tracks[i].states["lin_pos"][0]))].body_id)
-        marker_frames = _marker_frames(episode)
+        marker_frames = waypoint_markers(episode)
         most = max((len(points) for _, points in marker_frames), default=0)
-        markers = Markers(client, most, _marker_radius(episode)) if most else None
+        markers = Markers(client, most, waypoint_radius(episode)) if most else None
         translucent = _translucent_bodies(client, set(bodies))
         span = max(vehicle_span(client, b) for b in bodies)
         dt = 1.0 / episode.agent_hz
@@ -313,8 +313,6 @@ def render_video(
     ``size`` is (width, height) in pixels (default: the first episode's render
     resolution); ``fps`` defaults to the agent rate (real time).
     """
-    from pyflyt_engine.telemetry.plots import write_video
-
     out = Path(out)
     if out.suffix.lower() not in VIDEO_SUFFIXES:
         raise TelemetryError(f"a video file must end in one of {', '.join(VIDEO_SUFFIXES)}, got {out.name}")
@@ -329,3 +327,61 @@ def render_video(
     out.parent.mkdir(parents=True, exist_ok=True)
     write_video(out, frames, float(fps or episodes[0].agent_hz))
     return out
+
+
+def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
+    """Write RGB(A) frames to ``out`` (``.gif`` or ``.mp4``, by its suffix) at ``fps``.
+
+    Raises:
+        TelemetryError: MP4 without a working imageio-ffmpeg.
+        OSError: the file could not be written completely (an MP4 is checked: ffmpeg's
+            own failures are not reported by imageio).
+    """
+    import imageio.v2 as imageio
+
+    frames = [np.asarray(f)[..., :3] for f in frames]
+    if Path(out).suffix.lower() == ".gif":
+        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
+        return
+    try:
+        writer = imageio.get_writer(
+            out, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=1, pixelformat="yuv420p"
+        )
+    except Exception as exc:  # noqa: BLE001 - imageio-ffmpeg missing or broken
+        raise TelemetryError(f"cannot write {Path(out).name}: MP4 needs imageio-ffmpeg ({exc}); try a .gif") from None
+    with writer:
+        for frame in frames:
+            writer.append_data(frame)
+    _check_mp4(Path(out))
+
+
+def _check_mp4(path: Path) -> None:
+    """Raise OSError unless ``path`` is a complete MP4: its top-level boxes fill the file
+    exactly and include the index (``moov``).
+
+    The encoder runs in an ffmpeg process whose failure (a full disk, a file-size limit)
+    imageio does not report: without this check a cut-off video would pass for a good one.
+    """
+    size = path.stat().st_size
+    kinds = []
+    with path.open("rb") as handle:
+        offset = 0
+        while offset < size:
+            handle.seek(offset)
+            header = handle.read(16)
+            if len(header) < 8:
+                break
+            length, kind = int.from_bytes(header[:4], "big"), header[4:8]
+            if length == 1 and len(header) == 16:  # 64-bit box size
+                length = int.from_bytes(header[8:16], "big")
+            elif length == 0:  # the last box, to the end of the file
+                length = size - offset
+            if length < 8:
+                break
+            kinds.append(kind)
+            offset += length
+    if offset != size or b"moov" not in kinds:
+        raise OSError(
+            errno.EIO,
+            "the video encoder (ffmpeg) stopped before the video was complete (a full disk or a file-size limit?)",
+        )

@@ -85,8 +85,8 @@ def test_the_sampled_airframe_is_the_one_that_flies():
     hover = vehicle.hover_throttle()  # nominal mass and kf
     motors.throttle = [hover] * 4
     motors.command = [hover] * 4
-    vehicle.read_state()
-    vehicle.apply_loads()
+    state = vehicle.read_state()
+    vehicle.apply_loads((state.lin_vel, state.ang_vel))  # still air
     p.stepSimulation(physicsClientId=base.world.client)
     vz = p.getBaseVelocity(vehicle.body_id, physicsClientId=base.world.client)[0][2]
     assert vz / base.world.physics_dt == pytest.approx(GRAVITY * (0.9 / 1.2 - 1.0), rel=1e-3)

@@ -38,12 +38,13 @@ def _acceleration(z: float, ground_effect: bool) -> tuple[float, float, list[flo
     motors.throttle = [hover] * 4
     motors.command = [hover] * 4
     vehicle.read_state()
-    vehicle.apply_loads()
+    air, ratio = world.atmosphere.at_state(0, vehicle)  # what the world hands the loads
+    vehicle.apply_loads(air, ratio)
     import pybullet as p
 
     p.stepSimulation(physicsClientId=world.client)
     vz = p.getBaseVelocity(vehicle.body_id, physicsClientId=world.client)[0][2]
-    scale = list(motors.thrust_scale or [1.0] * 4)
+    scale = list(ratio or [1.0] * 4)
     world.close()
     return vz / world.physics_dt, hover, scale
 
@@ -87,13 +88,14 @@ def test_the_vehicle_below_feels_the_wake_and_the_one_above_does_not():
         world.step()
     interactions = world.rotor_interactions
     top, low, far = (world.state(i).lin_pos for i in range(3))
+    thrust = interactions.thrust(0, world.vehicles[0].actuators.motors.throttle)
     expected = downwash_velocity(
-        top[2] - low[2], math.hypot(low[0] - top[0], low[1] - top[1]), interactions.thrust(0), 4 * math.pi * R_CF2X**2
+        top[2] - low[2], math.hypot(low[0] - top[0], low[1] - top[1]), thrust, 4 * math.pi * R_CF2X**2
     )
     assert expected > 0.5  # a wake of the order of metres per second
-    assert world.vehicles[1].wind(low)[2] == pytest.approx(-expected)
-    assert world.vehicles[0].wind(top) == (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    assert abs(world.vehicles[2].wind(far)[2]) < 1e-6
+    assert world.wind_at(1)[2] == pytest.approx(-expected)
+    assert world.wind_at(0) == (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert abs(world.wind_at(2)[2]) < 1e-6
     # through the body drag, the wake pushes the lower vehicle: it needs more thrust to hold
     assert sum(world.vehicles[1].motor_throttle) > sum(world.vehicles[2].motor_throttle)
     world.close()
@@ -148,7 +150,7 @@ def test_prop_radius_is_validated_with_the_airframe():
         parse_uav_spec(data)
 
 
-def test_thrust_scale_scales_the_thrust_and_its_moment_not_the_reaction_torque():
+def test_thrust_ratio_scales_the_thrust_and_its_moment_not_the_reaction_torque():
     import numpy as np
 
     from pyflyt_engine.components.motor import MotorParams, Motors
@@ -160,9 +162,8 @@ def test_thrust_scale_scales_the_thrust_and_its_moment_not_the_reaction_torque()
     )  # fmt: skip
     motors = Motors(params, 1 / 240, NoiseSource(np.random.default_rng(0)))
     motors.command = [1.0]
-    plain = np.array(motors.step(((0, 0, 0), (0, 0, 0))))
-    motors.thrust_scale = [1.5]
-    scaled = np.array(motors.step(((0, 0, 0), (0, 0, 0))))
+    plain = np.array(motors.step())
+    scaled = np.array(motors.step([1.5]))
     thrust, reaction = 1e-6 * 1000.0**2, -1e-8 * 1000.0**2
     x2 = motors.throttle[0] ** 2  # the lag has settled: the same throttle both steps
     assert plain == pytest.approx([0, 0, thrust * x2, 0.2 * thrust * x2, -0.1 * thrust * x2, reaction * x2], rel=1e-6)

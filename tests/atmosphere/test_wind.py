@@ -236,8 +236,9 @@ def test_a_body_at_rest_in_wind_feels_what_it_feels_flying_through_still_air(uav
         vehicle.reset((0, 0, 50), (0.0, 0.05, 0.1), lin_vel=lin_vel)
         vehicle.control_step()
         before = np.array(p.getBaseVelocity(vehicle.body_id, physicsClientId=world.client)[0])
-        vehicle.read_velocity()
-        vehicle.apply_loads()
+        pos, r, lin, ang = vehicle.read_motion()
+        air, _ = world.atmosphere.at_motion(0, pos, r, lin, ang)  # what the world hands the loads
+        vehicle.apply_loads(air)
         p.stepSimulation(physicsClientId=world.client)
         after = np.array(p.getBaseVelocity(vehicle.body_id, physicsClientId=world.client)[0])
         world.close()

@@ -176,7 +176,7 @@ def test_replay_output_past_a_file_size_limit_leaves_nothing_and_a_retry_succeed
 def test_a_cut_off_mp4_is_recognised(tmp_path):
     import imageio.v2 as imageio
 
-    from pyflyt_engine.telemetry.plots import _check_mp4
+    from pyflyt_engine.telemetry.video import _check_mp4
 
     good = tmp_path / "good.mp4"
     frames = [np.full((48, 64, 3), 10 * i, dtype=np.uint8) for i in range(20)]

@@ -451,7 +451,7 @@ def test_fixed_wing_mixing_follows_the_documented_sign_convention(airframe):
     """Positive roll / pitch / yaw channels give positive torque about body x / y / z
     (right wing down, nose down, nose left): the guide's example and every shipped fixed-wing."""
     from pyflyt_engine.assembly import assemble
-    from pyflyt_engine.components.lifting_surface import surface_loads
+    from pyflyt_engine.components.lifting_surface import surface_wrench
 
     if airframe.startswith("docs: "):
         spec = parse_uav_spec(yaml.safe_load(_doc_examples()[airframe.removeprefix("docs: ")]))
@@ -459,14 +459,14 @@ def test_fixed_wing_mixing_follows_the_documented_sign_convention(airframe):
         spec = load_uav_spec(airframe)
     control = spec.control
     parts = assemble(spec)
-    airspeed = np.array([15.0, 0.0, 0.0])
+    airspeed = (15.0, 0.0, 0.0)
     for channel, axis in ((control.roll_channel, 0), (control.pitch_channel, 1), (control.yaw_channel, 2)):
         j = parts.channels.index(channel)
         torque = np.zeros(3)
         for surface, weights in zip(parts.surfaces, parts.surface_mix):
             deflection = float(np.clip(weights[j], -1, 1)) * surface.max_deflection
-            torque += surface_loads(surface, deflection, airspeed, np.zeros(3))[1]
-            torque -= surface_loads(surface, 0.0, airspeed, np.zeros(3))[1]
+            torque += surface_wrench(surface.constants, deflection, *airspeed, 0.0, 0.0, 0.0)[3:]
+            torque -= surface_wrench(surface.constants, 0.0, *airspeed, 0.0, 0.0, 0.0)[3:]
         assert torque[axis] > 0, (channel, torque)
         others = max(abs(torque[k]) for k in range(3) if k != axis)
         assert torque[axis] > others or axis == 2, (channel, torque)  # a fin above the axis also rolls

@@ -10,11 +10,11 @@ import pytest
 from pyflyt_engine.components.booster import (
     BoosterParams,
     BoosterState,
-    booster_loads,
-    booster_step,
+    Boosters,
     initial_booster_state,
     tank_mass_properties,
 )
+from pyflyt_engine.components.noise import NoiseSource
 
 DT = 1.0 / 240.0
 
@@ -38,12 +38,35 @@ def make_params(n: int = 1, **overrides) -> BoosterParams:
     return BoosterParams(**kwargs)
 
 
-def run(params, state, ignition, throttle, steps, noise=None):
+def group(params, state, seed=0) -> Boosters:
+    """The boosters as the vehicle steps them, in ``state``, noise drawn from a seeded generator."""
+    boosters = Boosters(params, DT, NoiseSource(np.random.default_rng(seed)), 1.0)
+    boosters.state = state
+    return boosters
+
+
+def step(boosters, ignition, throttle):
+    """One physics step of the group with these commands: (new state, per-booster thrust [N], wrench)."""
+    n = boosters.params.n
+    boosters.ignition = np.broadcast_to(np.asarray(ignition, dtype=bool), (n,)).tolist()
+    boosters.throttle = np.broadcast_to(np.asarray(throttle, dtype=np.float64), (n,)).tolist()
+    wrench = boosters.step()
+    thrust = np.array(boosters.duty) * boosters.params.max_thrust  # T = duty * max_thrust
+    return boosters.state, thrust, wrench
+
+
+def booster_step(params, state, ignition, throttle):
+    """One physics step from ``state`` without noise: (new state, per-booster thrust [N])."""
+    new, thrust, _ = step(group(params, state), ignition, throttle)
+    return new, thrust
+
+
+def run(params, state, ignition, throttle, steps, seed=0):
     """Step ``steps`` times with constant commands; return final state and thrust history."""
+    boosters = group(params, state, seed)
     thrusts = np.empty((steps, params.n))
     for k in range(steps):
-        eta = np.zeros(params.n) if noise is None else noise[k]
-        state, thrusts[k] = booster_step(params, state, ignition, throttle, DT, eta)
+        state, thrusts[k], _ = step(boosters, ignition, throttle)
     return state, thrusts
 
 
@@ -54,7 +77,7 @@ def test_fuel_runs_out_after_total_fuel_over_max_rate():
     state = initial_booster_state(params)
     steps_lit = 0
     for _ in range(int(2 * expected_burn_time / DT)):
-        state, thrust = booster_step(params, state, True, 1.0, DT, np.zeros(1))
+        state, thrust = booster_step(params, state, True, 1.0)
         if thrust[0] > 0.0:
             steps_lit += 1
         if state.fuel[0] == 0.0:
@@ -62,14 +85,14 @@ def test_fuel_runs_out_after_total_fuel_over_max_rate():
     assert state.fuel[0] == 0.0
     assert steps_lit * DT == pytest.approx(expected_burn_time, rel=0.01)
     # Once empty, the booster stays dark even though it is commanded on.
-    state, thrust = booster_step(params, state, True, 1.0, DT, np.zeros(1))
+    state, thrust = booster_step(params, state, True, 1.0)
     assert thrust[0] == 0.0 and state.fuel[0] == 0.0
 
 
 def test_non_reignitable_booster_stays_lit():
     params = make_params(reignitable=False)
     state = initial_booster_state(params)
-    state, _ = booster_step(params, state, True, 0.5, DT, np.zeros(1))
+    state, _ = booster_step(params, state, True, 0.5)
     assert state.ignited[0]
     state, thrusts = run(params, state, False, 0.5, 120)
     assert state.ignited[0]
@@ -96,7 +119,7 @@ def test_reignitable_booster_goes_out_and_relights():
 def test_mixed_reignitability_is_per_booster():
     params = make_params(n=2, reignitable=[False, True])
     state = initial_booster_state(params, ignited=True)
-    state, thrusts = booster_step(params, state, [False, False], 1.0, DT, np.zeros(2))
+    state, thrusts = booster_step(params, state, [False, False], 1.0)
     assert state.ignited.tolist() == [True, False]
     assert thrusts[0] > 0.0 and thrusts[1] == 0.0
 
@@ -145,12 +168,11 @@ def test_min_duty_is_min_over_max_thrust():
 def test_noise_is_zero_mean_and_independent_per_booster():
     params = make_params(n=2, noise_ratio=0.01, total_fuel=1.0e6)
     steps = 10_000
-    noise = np.random.default_rng(0).standard_normal((steps, 2))
     throttle = 0.5
     noiseless = 2966.7 + throttle * (7607.0 - 2966.7)
     # Start at the noiseless steady state so every sample is comparable.
     state = BoosterState(ignited=np.ones(2, bool), duty=np.full(2, noiseless / 7607.0), fuel=np.full(2, 1.0e6))
-    _, thrusts = run(params, state, True, throttle, steps, noise=noise)
+    _, thrusts = run(params, state, True, throttle, steps, seed=0)
     np.testing.assert_allclose(thrusts.mean(axis=0), noiseless, rtol=0.005)
     assert np.all(thrusts.std(axis=0) > 0.001 * noiseless)  # the noise is actually applied
     corr = np.corrcoef(thrusts[:, 0], thrusts[:, 1])[0, 1]
@@ -159,8 +181,7 @@ def test_noise_is_zero_mean_and_independent_per_booster():
 
 def test_noisy_duty_is_clipped_to_zero_one():
     params = make_params(n=2, noise_ratio=0.5)
-    noise = np.random.default_rng(1).standard_normal((500, 2))
-    _, thrusts = run(params, initial_booster_state(params), True, 1.0, 500, noise=noise)
+    _, thrusts = run(params, initial_booster_state(params), True, 1.0, 500, seed=1)
     assert thrusts.max() == 7607.0  # upward noise at full throttle saturates at T_max
     assert thrusts.min() >= 0.0
 
@@ -173,6 +194,16 @@ def test_duty_reaches_63_percent_of_step_after_tau():
     assert thrusts[-1, 0] / 7607.0 == pytest.approx(1.0 - math.exp(-1.0), abs=1e-9)
 
 
+def loads(params, turned=None):
+    """The group's wrench after one step at full throttle, no lag, no minimum thrust (each
+    booster pushes its max_thrust), axes turned to ``turned`` first (as a gimbal does)."""
+    boosters = group(params, initial_booster_state(params))
+    for i, axis in enumerate(turned or []):
+        boosters.turn(i, axis)
+    _, _, wrench = step(boosters, True, 1.0)
+    return np.array(wrench[:3]), np.array(wrench[3:])
+
+
 def test_loads_equal_hand_computed_cross_product():
     # Booster 0 at (1, 2, -3) m thrusting along +Z at 100 N; booster 1 at (0, -1, 0) m
     # thrusting along +X at 50 N.
@@ -181,8 +212,11 @@ def test_loads_equal_hand_computed_cross_product():
         n=2,
         positions=[[1.0, 2.0, -3.0], [0.0, -1.0, 0.0]],
         thrust_axes=[[0.0, 0.0, 1.0], axis1],
+        max_thrust=[100.0, 50.0],
+        min_thrust=0.0,
+        tau=0.0,
     )
-    force, torque = booster_loads(params, np.array([100.0, 50.0]))
+    force, torque = loads(params)
     # F0 = (0, 0, 100): r x F = (2*100 - (-3)*0, (-3)*0 - 1*100, 0) = (200, -100, 0)
     # F1 = (50, 0, 0):  r x F = ((-1)*0 - 0*0, 0*50 - 0*0, 0*0 - (-1)*50) = (0, 0, 50)
     np.testing.assert_allclose(force, [50.0, 0.0, 100.0], atol=1e-12)
@@ -190,11 +224,10 @@ def test_loads_equal_hand_computed_cross_product():
 
 
 def test_loads_with_overridden_axes():
-    params = make_params(positions=[[0.0, 0.0, -2.0]])
+    params = make_params(positions=[[0.0, 0.0, -2.0]], max_thrust=10.0, min_thrust=0.0, tau=0.0)
     s = math.sin(0.1)
     c = math.cos(0.1)
-    tilted = np.array([[s, 0.0, c]])  # tilted toward +X
-    force, torque = booster_loads(params, np.array([10.0]), thrust_axes=tilted)
+    force, torque = loads(params, turned=[(s, 0.0, c)])  # tilted toward +X
     np.testing.assert_allclose(force, [10 * s, 0.0, 10 * c], atol=1e-12)
     # r = (0, 0, -2), F = (10s, 0, 10c): r x F = (0*10c - (-2)*0, (-2)*10s - 0*10c, 0) = (0, -20s, 0)
     np.testing.assert_allclose(torque, [0.0, -20 * s, 0.0], atol=1e-12)
@@ -223,12 +256,6 @@ def test_validation_errors(overrides, message):
 def test_thrust_axis_message_says_normalise():
     with pytest.raises(ValueError, match="normalise"):
         make_params(thrust_axes=[[1.0, 1.0, 0.0]])
-
-
-def test_step_rejects_shared_scalar_noise():
-    params = make_params(n=2)
-    with pytest.raises(ValueError, match="one standard-normal sample per booster"):
-        booster_step(params, initial_booster_state(params), True, 1.0, DT, np.float64(0.0))
 
 
 def test_params_are_read_only_float_arrays():

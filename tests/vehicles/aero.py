@@ -15,8 +15,8 @@ import numpy as np
 from scipy.optimize import fsolve
 
 from pyflyt_engine.assembly import Assembly, assemble
-from pyflyt_engine.components.drag import DragParams, drag_wrench
-from pyflyt_engine.components.lifting_surface import surface_loads
+from pyflyt_engine.components.drag import BodyDrag, DragParams
+from pyflyt_engine.components.lifting_surface import surface_wrench
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.spec import UAVSpec
 
@@ -29,11 +29,12 @@ def aero_wrench(spec: UAVSpec, parts: Assembly, velocity_body, channels) -> tupl
     commands = np.clip(parts.surface_mix @ np.asarray(channels, dtype=float), -1.0, 1.0)
     force, torque = np.zeros(3), np.zeros(3)
     for surface, command in zip(parts.surfaces, commands):
-        f, t = surface_loads(surface, command * surface.max_deflection, np.asarray(velocity_body), np.zeros(3))
-        force += f
-        torque += t
+        u, v, w = (float(x) for x in velocity_body)
+        wrench = surface_wrench(surface.constants, float(command) * surface.max_deflection, u, v, w, 0.0, 0.0, 0.0)
+        force += wrench[:3]
+        torque += wrench[3:]
     drag = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
-    d = drag_wrench(drag.factors, 0.0, tuple(velocity_body), (0.0, 0.0, 0.0))
+    d = np.array(BodyDrag(drag).step((tuple(float(v) for v in velocity_body), (0.0, 0.0, 0.0))))
     return force + d[:3], torque + d[3:]
 
 

@@ -459,15 +459,8 @@ class Aviary:
             raise AssertionError("`wind_field` function must be callable.")
         WindFieldClass._check_wind_field_validity(wind_field)
         self.wind_field = wind_field
-        world = self.world
-
-        def probe(position: Sequence[float]) -> tuple[float, ...]:
-            w = np.asarray(wind_field(world.elapsed, np.asarray(position, dtype=np.float64).reshape(1, 3)))
-            return (float(w[0, 0]), float(w[0, 1]), float(w[0, 2]), 0.0, 0.0, 0.0)
-
-        for vehicle in world.vehicles:
-            vehicle.wind = probe
-            vehicle.needs_velocity = True
+        self.world.atmosphere.field = _FunctionWind(wind_field, self.world)
+        for vehicle in self.world.vehicles:
             vehicle.state_changed()
 
     def state(self, index: int) -> np.ndarray:
@@ -552,3 +545,27 @@ def _hold_controller(vehicle: Any, hold: int) -> None:
         original_reset(*args, **kwargs)
 
     vehicle.reset = reset
+
+
+class _FunctionWind:
+    """A wind function in the place of the world's wind field (the part of
+    :class:`~pyflyt_engine.atmosphere.WindField` the atmosphere uses): each vehicle's probe
+    calls ``function(time, position (1, 3))`` at the world's elapsed time; no rotary gust."""
+
+    static = False  # the function may change with time: sampled at every read
+
+    def __init__(self, function: Callable[[float, np.ndarray], np.ndarray], world: Any) -> None:
+        self.function, self.world = function, world
+
+    def add_vehicle(self, span: float) -> Callable[[Sequence[float]], tuple[float, ...]]:
+        def probe(position: Sequence[float]) -> tuple[float, ...]:
+            w = np.asarray(self.function(self.world.elapsed, np.asarray(position, dtype=np.float64).reshape(1, 3)))
+            return (float(w[0, 0]), float(w[0, 1]), float(w[0, 2]), 0.0, 0.0, 0.0)
+
+        return probe
+
+    def advance(self) -> None:
+        """Nothing to move on: the function is called with the time."""
+
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Nothing to redraw: the function holds its own state."""

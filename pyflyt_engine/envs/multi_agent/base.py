@@ -1,7 +1,7 @@
 """The multi-agent loop: several vehicles in one World, one PettingZoo ``ParallelEnv``.
 
 :class:`MultiAgentUAVEnv` runs what every multi-agent task shares -- build the world from
-a :class:`~pyflyt_engine.envs.multi_agent.config.MultiAgentEnvConfig`, spawn each agent in
+a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawn each agent in
 its region, apply each live agent's action, step the physics once for everybody, detect
 contacts and dome exits, evaluate the reward preset per agent, retire agents whose
 episode ended -- and leaves three hooks to the task subclasses (:mod:`.hover`,
@@ -29,8 +29,14 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from pyflyt_engine.envs.config import RewardPreset, load_env_config, load_reward_preset
-from pyflyt_engine.envs.multi_agent.config import PROVIDES, MultiAgentEnvConfig, ResolvedAgent
+from pyflyt_engine.envs.config import (
+    MultiAgentEnvConfig,
+    ResolvedAgent,
+    RewardPreset,
+    load_env_config,
+    load_reward_preset,
+)
+from pyflyt_engine.envs.multi_agent.config import PROVIDES
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec

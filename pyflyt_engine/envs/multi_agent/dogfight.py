@@ -8,8 +8,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.config import DogfightOptions
 from pyflyt_engine.envs.multi_agent.base import AgentSignals, MultiAgentUAVEnv
-from pyflyt_engine.envs.multi_agent.config import DogfightOptions
 from pyflyt_engine.state import KinematicState
 
 #: entries per other agent in the observation

@@ -1,0 +1,147 @@
+"""Inside the engine, imports point one way: down the layers, and never in a circle.
+
+Read from the source (every ``import`` of a ``pyflyt_engine`` module, at the top of a file
+or inside a function; imports under ``if TYPE_CHECKING:`` are for annotations only and
+do not count), so nothing is imported to check it.
+
+The layers, lowest first (``LAYERS``): the foundations (errors, exact arithmetic,
+frames, the allocation matrix ...), the airframe spec, the models built from a spec
+(URDF, actuator components, payloads), the atmosphere, the controller and the assembly,
+the vehicle, the world, the environments and the flight API, telemetry, and the
+compatibility layer for the reference's API.  A module
+may import anything in its own layer or a lower one, never a higher one; within a layer
+the circle check keeps the direction one way.  So the spec never imports a
+component or the controller (the mixer's rank check it repeats at load lives in
+``allocation``), and payloads never import telemetry.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ENGINE = Path(__file__).resolve().parents[2] / "pyflyt_engine"
+
+#: Top-level modules and packages of pyflyt_engine, lowest layer first.
+LAYERS: tuple[frozenset[str], ...] = (
+    frozenset({"errors", "exact", "constants", "numerics", "paths", "safe_load", "frames", "state", "bullet", "allocation", "loading"}),
+    frozenset({"spec"}),
+    frozenset({"urdf", "components", "payloads"}),
+    frozenset({"atmosphere", "assembly", "control"}),
+    frozenset({"vehicle"}),
+    frozenset({"world"}),
+    frozenset({"envs", "flight"}),
+    frozenset({"telemetry"}),
+    frozenset({"compat"}),  # the reference's API, built on everything below
+)
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for path in ENGINE.rglob("*.py"):
+        parts = path.relative_to(ENGINE.parent).with_suffix("").parts
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return out
+
+
+def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
+    """The engine modules ``path`` imports at run time."""
+    tree = ast.parse(path.read_text())
+    annotation_only = {
+        id(node)
+        for branch in ast.walk(tree)
+        if isinstance(branch, ast.If) and "TYPE_CHECKING" in ast.unparse(branch.test)
+        for statement in branch.body
+        for node in ast.walk(statement)
+    }
+    out = set()
+    for node in ast.walk(tree):
+        if id(node) in annotation_only:
+            continue
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names if a.name in modules}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in modules:
+            # ``from pyflyt_engine import exact`` imports the module pyflyt_engine.exact
+            out |= {f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else node.module for a in node.names}
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = _modules()
+    return {name: _imports(path, modules) - {name} for name, path in modules.items()}
+
+
+def _part(module: str) -> str:
+    """The top-level module or package of pyflyt_engine a module belongs to."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _layer(part: str) -> int:
+    for i, layer in enumerate(LAYERS):
+        if part in layer:
+            return i
+    raise AssertionError(f"pyflyt_engine.{part} is in no layer: add it to LAYERS in {Path(__file__).name}")
+
+
+def test_every_engine_module_has_a_layer():
+    for module in _modules():
+        if _part(module):
+            _layer(_part(module))
+
+
+def test_imports_point_down_the_layers():
+    wrong = []
+    for module, targets in sorted(_graph().items()):
+        part = _part(module)
+        if not part:  # the package itself: imports what it exposes
+            continue
+        for target in sorted(targets):
+            other = _part(target)
+            if other and _layer(other) > _layer(part):
+                wrong.append(f"{module} imports {target} (layer {_layer(other)} above {_layer(part)})")
+    assert not wrong, "imports against the layers:\n" + "\n".join(wrong)
+
+
+def test_spec_and_payloads_stand_below_components_control_and_telemetry():
+    graph = _graph()
+    assert not {t for t in graph["pyflyt_engine.spec"] if _part(t) in {"components", "control", "assembly"}}
+    payloads = {t for m, ts in graph.items() if _part(m) == "payloads" for t in ts}
+    assert not {t for t in payloads if _part(t) == "telemetry"}
+
+
+def test_no_import_circles():
+    graph = _graph()
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    circles: list[list[str]] = []
+
+    def visit(v: str) -> None:  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    assert not circles, "modules that import each other (directly or round a circle):\n" + "\n".join(
+        " <-> ".join(c) for c in circles
+    )
