@@ -5,7 +5,7 @@ in turn (the kernels are chosen when the libraries load), alternating the two fo
 ``--rounds`` rounds so that the machine's load falls on both alike; it prints the median
 CPU time of each figure per mode and the ratio pinned / native::
 
-    python experiments/numerics_cost.py             # 3 rounds, ~4 min
+    python experiments/numerics_cost.py             # 3 rounds (36 min at load 5-8 on 2 cores)
     python experiments/numerics_cost.py --rounds 5
 
 Figures (CPU time of this process, one torch thread as training uses):

@@ -20,6 +20,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+from tests.test_layers import cycles
+
 ENGINE = Path(__file__).resolve().parents[2] / "pyflyt_engine"
 
 #: Top-level modules and packages of pyflyt_engine, lowest layer first.
@@ -111,37 +113,7 @@ def test_spec_and_payloads_stand_below_components_control_and_telemetry():
 
 
 def test_no_import_circles():
-    graph = _graph()
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on_stack: set[str] = set()
-    circles: list[list[str]] = []
-
-    def visit(v: str) -> None:  # Tarjan's strongly connected components
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on_stack.add(v)
-        for w in graph[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on_stack:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            component = []
-            while True:
-                w = stack.pop()
-                on_stack.discard(w)
-                component.append(w)
-                if w == v:
-                    break
-            if len(component) > 1:
-                circles.append(sorted(component))
-
-    for v in sorted(graph):
-        if v not in index:
-            visit(v)
+    circles = cycles(_graph())
     assert not circles, "modules that import each other (directly or round a circle):\n" + "\n".join(
         " <-> ".join(c) for c in circles
     )
