@@ -244,7 +244,8 @@ def _composition_message(text: str, config_name: str) -> str:
         key = first.split("'")[1] if "'" in first else first
         full = [line.split("full_key:", 1)[1].strip() for line in text.splitlines() if "full_key:" in line]
         key = full[0] if full and full[0] else key
-        return f"unknown key '{key}' for `{config_name}`: check the spelling, or add a new key with +{key}=value"
+        # no `+key=value` hint: every config is validated against its schema, which refuses a new key
+        return f"unknown key '{key}' for `{config_name}`: check the spelling"
     return first
 
 

@@ -263,6 +263,51 @@ def load_spec(experiment: str, bench_overrides: Sequence[str], run_overrides: Se
     )
 
 
+#: fewest evaluations a run needs for its learning curve to be read as a curve
+MIN_EVALUATIONS = 3
+
+
+def expected_evaluations(config: dict[str, Any]) -> int:
+    """How many ``/eval`` records a run of this (validated train) configuration writes from scratch."""
+    return len(evaluation_steps(config))
+
+
+def evaluation_steps(config: dict[str, Any]) -> list[int]:
+    """The steps a run of this (validated train) configuration is evaluated at, from scratch:
+    the first rollout start at or after every multiple of ``train.eval_freq``, and the end
+    (the final weights)."""
+    from pyflyt_cli.training.multi_agent import agents_per_env
+    from pyflyt_cli.training.schema import parse_train_config
+
+    cfg = parse_train_config(config)
+    if cfg.train.eval_freq <= 0:
+        return []
+    per_round = getattr(cfg.algo, "n_steps", None) or getattr(cfg.algo, "train_freq", 1)
+    chunk = per_round * cfg.train.n_envs * agents_per_env(cfg.env)
+    end = -(-cfg.train.total_timesteps // chunk) * chunk
+    steps, next_eval = [], cfg.train.eval_freq
+    while next_eval < end:  # the rollout start at or after each scheduled step
+        start = -(-next_eval // chunk) * chunk
+        if start >= end:
+            break
+        steps.append(start)
+        while next_eval <= start:
+            next_eval += cfg.train.eval_freq
+    return steps + [end]
+
+
+def few_evaluations_note(plan: Plan) -> str | None:
+    """A warning naming the runs that would be evaluated fewer than :data:`MIN_EVALUATIONS` times."""
+    few = [(job, n) for job in plan.jobs if (n := expected_evaluations(job.config)) < MIN_EVALUATIONS]
+    if not few:
+        return None
+    listed = ", ".join(f"{job.id} ({n})" for job, n in few[:4]) + (", ..." if len(few) > 4 else "")
+    return (
+        f"note: {len(few)} run(s) will be evaluated fewer than {MIN_EVALUATIONS} times, so their learning "
+        f"curves have too few points to read: {listed}; lower train.eval_freq or raise train.total_timesteps"
+    )
+
+
 def plan_benchmark(experiment: str, overrides: Sequence[str] = (), command: Sequence[str] | None = None) -> Plan:
     """Every run of ``experiment``'s benchmark, each composed and validated; nothing is written.
 

@@ -217,12 +217,15 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
     failed: set[str] = set()
     total = len(jobs)
     env = {**os.environ, PARENT_ENV: str(os.getpid())}
+    #: each run's number in the order runs start: its `started` and its end line share it
+    number: dict[str, int] = {}
 
     def start(job: Job) -> None:
         path, log = open_log(plan, job)
         proc = subprocess.Popen(worker_command(plan, job), stdout=log, stderr=subprocess.STDOUT, env=env)
         running[job.id] = (job, proc, time.monotonic(), log)
-        echo(f"[{len(outcomes) + len(running)}/{total}] started  {job.id}  (log: {path})")
+        number[job.id] = len(number) + 1
+        echo(f"[{number[job.id]}/{total}] started  {job.id}  (log: {path})")
 
     def source_ready(job: Job) -> bool | None:
         """True: can start; False: wait; None: its source failed or cannot complete."""
@@ -268,9 +271,11 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
                 outcomes[job_id] = out
                 if out.status != "complete":
                     failed.add(job_id)
+                ended = sum(1 for o in outcomes.values() if o.status != "blocked")
                 echo(
-                    f"[{len(outcomes)}/{total}] {out.status:<8} {job_id}  {_duration(out.seconds)}"
+                    f"[{number[job_id]}/{total}] {out.status:<8} {job_id}  {_duration(out.seconds)}"
                     + (f"  {out.detail}" if out.status != "complete" else "")
+                    + f"  ({ended}/{total} ended)"
                 )
     except KeyboardInterrupt:
         echo(f"stopping {len(running)} run(s): each saves a checkpoint (rerun the same command to resume)")

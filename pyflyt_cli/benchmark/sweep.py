@@ -208,6 +208,7 @@ def run_benchmark(plan: Plan, *, restart_changed: bool = False, log: Echo = _sil
     from pyflyt_cli.benchmark.launch import run_hydra
     from pyflyt_cli.benchmark.launchers import launcher_name
     from pyflyt_cli.benchmark.normalise import update_normalisation
+    from pyflyt_cli.benchmark.plan import few_evaluations_note
     from pyflyt_cli.benchmark.run import move_aside, run_local, summary
     from pyflyt_cli.training.rundir import atomic_write
 
@@ -217,6 +218,9 @@ def run_benchmark(plan: Plan, *, restart_changed: bool = False, log: Echo = _sil
         check_restarts(plan, found, restart_changed)
         log(found.headline(plan))
         note = platform_note(plan, found)
+        if note:
+            log(note)
+        note = few_evaluations_note(plan)
         if note:
             log(note)
         if found.restart:

@@ -9,6 +9,8 @@ environment (``env=``, ``env.*``, ``uav=``, ``reward=``), ``train.output_dir`` a
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
 
 from pyflyt_cli.commands import parse_overrides
@@ -29,6 +31,7 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
 
         shipped = agent(run_dir[len("zoo:") :])
         run_dir = str(materialise(shipped.name))
+    _refuse_a_folder_of_runs(run_dir)
     check_run_dir(run_dir)  # a missing run directory is reported before anything else
     options = parse_eval_options(to_container(compose("eval", parse_overrides(overrides))))
     report = evaluate_run(run_dir, options)
@@ -53,6 +56,64 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
             f"{recorded.get('seed')} ({words})"
         )
     return report
+
+
+#: how deep below a folder `pyflyt eval <folder>` looks for runs (runs/<env>/<algo>/<run>: 3)
+RUN_SEARCH_DEPTH = 4
+#: how many of the runs found it lists
+RUNS_LISTED = 20
+
+
+def runs_inside(folder: Path, depth: int = RUN_SEARCH_DEPTH) -> list[Path]:
+    """The run directories (holding ``config.yaml``) at most ``depth`` levels below ``folder``,
+    sorted by path; links are not followed, nor are runs' own checkpoint and episode folders."""
+    import os
+
+    from pyflyt_cli.training.rundir import CONFIG_FILE
+
+    found = []
+    root_depth = len(folder.parts)
+    for here, dirs, files in os.walk(folder, followlinks=False):
+        path = Path(here)
+        if CONFIG_FILE in files and path != folder:
+            found.append(path)
+            dirs[:] = []  # nothing below a run is another run
+            continue
+        if len(path.parts) - root_depth >= depth:
+            dirs[:] = []
+        dirs.sort()
+    return sorted(found)
+
+
+def _refuse_a_folder_of_runs(run_dir: str) -> None:
+    """A directory without ``config.yaml`` that holds runs: :class:`UsageError` listing them
+    (one line each: path, status, steps) and how to pick one."""
+    from pyflyt_cli.errors import UsageError
+    from pyflyt_cli.training.rundir import CONFIG_FILE, RunDirError, read_state
+
+    folder = Path(run_dir).expanduser()
+    if not folder.is_dir() or folder.is_symlink() or (folder / CONFIG_FILE).exists():
+        return
+    runs = runs_inside(folder)
+    if not runs:
+        return
+    lines = []
+    for run in runs[:RUNS_LISTED]:
+        try:
+            state = read_state(run)
+        except RunDirError:
+            state = {}
+        about = [str(state.get("status", "?"))]
+        if "num_timesteps" in state:
+            about.append(f"{state['num_timesteps']} steps")
+        lines.append(f"  {run}  ({', '.join(about)})")
+    if len(runs) > RUNS_LISTED:
+        lines.append(f"  ... and {len(runs) - RUNS_LISTED} more")
+    raise UsageError(
+        f"{folder} is a folder of {len(runs)} run(s), not a run directory (it has no {CONFIG_FILE}):\n"
+        + "\n".join(lines)
+        + f"\npick one, e.g. pyflyt eval {runs[-1]}"
+    )
 
 
 #: eval keys that name a trained policy's file or sampling: an oracle has neither

@@ -28,15 +28,44 @@ FROM_CONFIG_KEYS = ("run_dir", "train.output_dir", "train.progress_bar", "trust_
 INTERRUPTED = 130
 
 
+#: what a group left unset in conf/train.yaml's defaults means
+UNSET_GROUP = {
+    "uav": "none (the env's own airframe)",
+    "reward": "none (the env's own reward)",
+    "experiment": "none",
+}
+
+
+def _group_defaults() -> dict[str, str | None]:
+    """{group: its option in conf/train.yaml's defaults list (None: unset)}."""
+    import yaml
+
+    from pyflyt_engine.paths import conf_dir
+
+    data = yaml.safe_load((conf_dir() / "train.yaml").read_text())
+    found: dict[str, str | None] = {}
+    for item in data.get("defaults", []):
+        if isinstance(item, dict):
+            for key, value in item.items():
+                found[key.removeprefix("optional ")] = value
+    return found
+
+
 def train_help() -> str:
     """``pyflyt train --help``: usage, the config groups and their choices, the main keys."""
     import textwrap
 
     try:
+        defaults = _group_defaults()
         rows = []
         for g in USER_GROUPS:
-            text = ", ".join(group_choices(g)) or "(none)"
-            rows.append(textwrap.fill(text, 62, initial_indent=f"  {g + '=':<12}", subsequent_indent=" " * 14))
+            default = defaults.get(g)
+            names = [f"{c}\x00(default)" if c == default else c for c in group_choices(g)]  # \x00: kept together
+            if default is None:
+                names.append(f"default: {UNSET_GROUP.get(g, 'none')}")
+            text = ", ".join(names) or "(none)"
+            filled = textwrap.fill(text, 62, initial_indent=f"  {g + '=':<12}", subsequent_indent=" " * 14)
+            rows.append(filled.replace("\x00", " "))
         groups = "\n".join(rows)
     except FileNotFoundError:  # pragma: no cover - broken install
         groups = "  (configuration directory not found)"

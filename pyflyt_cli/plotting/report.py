@@ -179,7 +179,7 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path, skipped: 
         for ax, (title, est, x) in zip(axes[0], panels):
             for algo in (a for a in bench.algos if a in est):
                 e = est[algo]
-                ax.plot(x, e.value, color=colors[algo], label=algo)
+                ax.plot(x, e.value, color=colors[algo], label=algo, marker="o" if len(x) <= 3 else None, markersize=3)
                 ax.fill_between(x, e.low, e.high, color=colors[algo], alpha=0.2, linewidth=0)
             ax.set_title(title)
             ax.set_xlabel("environment steps" if title != "all envs" else "evaluation index")
@@ -190,6 +190,7 @@ def _figures(bench: Benchmark, numbers: dict[str, Any], out_dir: Path, skipped: 
         axes[0][0].set_ylabel("IQM normalised score")
         if full:
             axes[0][0].legend(loc="best")
+        fig.tight_layout()  # each panel's tick labels clear of the panel before
         paths += _save(fig, out_dir, "learning_curves")
 
         # aggregate metrics with intervals

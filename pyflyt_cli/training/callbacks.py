@@ -306,10 +306,16 @@ class PeriodicEvaluation(EventCallback):
         if self.log is not None:
             of = f"/{self.total}" if self.total else ""
             label = "step" if self.unit == "steps" else self.unit
+            rate = trained / elapsed if elapsed > 0 else 0.0
+            eta = ""
+            if self.total and step < self.total and rate > 0:
+                from pyflyt_cli.training.timing import format_duration
+
+                eta = f", ETA {format_duration((self.total - step) / rate)}"
             self.log(
                 f"{label} {step}{of}: eval return {summary['mean_return']:.2f} ± {summary['std_return']:.2f}, "
                 f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
-                f"({trained / elapsed if elapsed > 0 else 0:.0f} {self.unit}/s)"
+                f"({rate:.0f} {self.unit}/s{eta})"
             )
         if better_evaluation(summary, self.best_mean_reward, self.best_success_rate, self.best_by):
             self.best_mean_reward = summary["mean_return"]

@@ -196,5 +196,15 @@ def _suggest_key(message: str, overrides: list[str]) -> str:
         return message
     keys = [str(k) for k in node]
     close = difflib.get_close_matches(leaf, keys, n=1)
-    hint = f" Did you mean '{(parent + '.' if parent else '') + close[0]}'?" if close else ""
-    return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}. Check the spelling", 1)
+    if close:
+        meant = (parent + "." if parent else "") + close[0]
+        given = [o.partition("=")[2] for o in overrides if o.lstrip("+~").partition("=")[0] == key]
+        hint = f" Did you mean '{meant}'? Use {meant}={given[0] if given else '<value>'}."
+    else:
+        hint = ""
+    return message.replace(
+        ": check the spelling",
+        f":{hint} Keys here: {', '.join(keys)}. `pyflyt train --cfg` prints every key with its value",
+        1,
+    )
+

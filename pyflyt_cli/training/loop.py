@@ -606,7 +606,7 @@ class _Run:
                 opts.eval_deterministic,
                 next_eval=opts.eval_freq,
                 callback_after_eval=child,
-                log=None if show_bar else self.log,  # without a bar, one line per evaluation
+                log=_above_bar(self.log) if show_bar else self.log,  # one line per evaluation
                 total=opts.total_timesteps,
                 stop=stop,
                 best_by=opts.best_by or "return",
@@ -816,6 +816,23 @@ def _summary(result: RunResult, unit: str = "steps") -> str:
             f"success {100 * e['success_rate']:.0f} %, length {e['mean_length']:.0f}"
         )
     return text + f"\nrun: {result.run_dir}\nevaluate it: pyflyt eval {result.run_dir}"
+
+
+def _above_bar(log: Log) -> Log:
+    """``log``, with any tqdm bar on stderr cleared while it writes and redrawn after
+    (so a line printed during a run with a progress bar sits above the bar)."""
+    if log is _silent:
+        return log
+
+    def write(message: str) -> None:
+        import sys
+
+        from tqdm import tqdm
+
+        with tqdm.external_write_mode(file=sys.stderr):
+            log(message)
+
+    return write
 
 
 def _is_terminal() -> bool:

@@ -5,12 +5,18 @@ their recorded states in the rebuilt world, no physics), so evaluation videos an
 replays look the same and any recording can be filmed again:
 
 * a **chase camera** that frames the vehicles: centred on the vehicle, behind its
-  (smoothed) heading, above it at a fixed elevation, at a distance scaled to its span;
-  with several vehicles it looks at their centroid from far enough to keep all in view;
-* **translucent** target markers and scenery (gates): PyBullet's TinyRenderer draws every
-  body opaque (it ignores the alpha of a colour), so a frame with translucent bodies is
-  rendered twice, with and without them, and the two images are blended where the
-  segmentation mask shows such a body, with that body's own alpha;
+  (smoothed) heading, 35 degrees above the horizon looking down, at a distance scaled to its
+  span (at least 1.2 m); with several vehicles it looks at their centroid from far enough
+  to keep all in view;
+* the **ground and sky** drawn in NumPy (one ray per pixel of a half-size image) where no
+  body shows, with each vehicle's **shadow** and a **drop line** to it; PyBullet's ground
+  plane is parked out of view, as TinyRenderer spent most of each frame drawing it;
+* the task's markers as **wireframe spheres** of the reach radius drawn over the image,
+  so a vehicle inside one stays visible;
+* **translucent** scenery (gates): PyBullet's TinyRenderer draws every body opaque (it
+  ignores the alpha of a colour), so a frame with translucent bodies is rendered twice,
+  with and without them, and the two images are blended where the segmentation mask
+  shows such a body, with that body's own alpha;
 * a **trail** of each vehicle's recent path, fading with age, drawn over the image;
 * an **overlay** with the time, the step, the step reward, the return and, at the end,
   the episode's outcome (held on screen for a second).
@@ -42,10 +48,12 @@ class VideoStyle:
 
     #: chase distance, in vehicle spans (the largest horizontal extent of the airframe)
     distance_spans: float = 3.0
-    #: the camera never comes closer than this [m]
-    min_distance: float = 0.4
-    #: camera elevation above the horizon, looking down at the vehicle [deg]
-    elevation_deg: float = 20.0
+    #: the camera never comes closer than this [m]: far enough that, at the elevation below,
+    #: the ground under a vehicle flying 1 m up is in the frame
+    min_distance: float = 1.2
+    #: camera elevation above the horizon, looking down at the vehicle from above and
+    #: behind [deg]: steep enough that the vehicle's height over its shadow shows
+    elevation_deg: float = 35.0
     #: time constant of the camera's smoothing of the heading and the vehicles' spread [s]
     smoothing: float = 0.3
     #: vertical field of view [deg]
@@ -54,6 +62,10 @@ class VideoStyle:
     trail_seconds: float = 3.0
     #: the last frame is held this long, showing the outcome [s]
     hold_seconds: float = 1.0
+    #: width of the trail, as a fraction of the frame width (480 px: 4 px)
+    trail_width: float = 1 / 120
+    #: height of the overlay's text, as a fraction of the frame width (480 px: 21 px)
+    text_size: float = 1 / 23
 
 
 def vehicle_span(client: int, body: int) -> float:
@@ -145,7 +157,6 @@ def episode_frames(
     from PIL import Image, ImageDraw
 
     from pyflyt_engine.bullet import pybullet as p
-    from pyflyt_engine.envs.render import Markers
     from pyflyt_engine.spec import parse_uav_spec
     from pyflyt_engine.telemetry.replay import rebuild_env
 
@@ -167,10 +178,13 @@ def episode_frames(
             spec = parse_uav_spec(episode.uav_specs[i], source=f"{episode.path} (vehicle {i})")
             bodies.append(world.vehicles[world.add_vehicle(spec, tuple(tracks[i].states["lin_pos"][0]))].body_id)
         marker_frames = waypoint_markers(episode)
-        most = max((len(points) for _, points in marker_frames), default=0)
-        markers = Markers(client, most, waypoint_radius(episode)) if most else None
+        reach = waypoint_radius(episode)
+        ground = getattr(world, "ground_id", None)
+        if ground is not None:  # drawn by _ground_image instead: TinyRenderer spends most of a frame on it
+            p.resetBasePositionAndOrientation(ground, _PARKED, (0.0, 0.0, 0.0, 1.0), physicsClientId=client)
         translucent = _translucent_bodies(client, set(bodies))
-        span = max(vehicle_span(client, b) for b in bodies)
+        spans = [vehicle_span(client, b) for b in bodies]
+        span = max(spans)
         dt = 1.0 / episode.agent_hz
         camera = ChaseCamera(style, span, dt)
         projection = p.computeProjectionMatrixFOV(style.fov, width / height, 0.02, 500.0, physicsClientId=client)
@@ -178,7 +192,7 @@ def episode_frames(
         outcome, outcome_color = outcome_text(episode)
         trail_steps = max(2, round(style.trail_seconds / dt))
         n_steps = len(tracks[0].time)
-        marker_index = -1
+        marker_points = np.zeros((0, 3))
         frame = None
         for step in range(n_steps):
             t = float(tracks[0].time[step])
@@ -189,29 +203,38 @@ def episode_frames(
                     bodies[i], track.states["lin_pos"][step].tolist(), track.states["quaternion"][step].tolist(),
                     physicsClientId=client,
                 )  # fmt: skip
-            if markers is not None:
-                current = max((k for k, (mt, _) in enumerate(marker_frames) if mt <= t + 1e-9), default=-1)
-                if current != marker_index and current >= 0:
-                    markers.show(marker_frames[current][1])
-                    marker_index = current
-                    translucent = _translucent_bodies(client, set(bodies))
+            current = max((k for k, (mt, _) in enumerate(marker_frames) if mt <= t + 1e-9), default=-1)
+            if current >= 0:
+                marker_points = marker_frames[current][1]
             positions = np.array([tracks[i].states["lin_pos"][step] for i in live])
             yaw = float(tracks[0].states["ang_pos"][step][2]) if len(tracks) == 1 else None
             eye, target = camera.update(positions, yaw)
             view = p.computeViewMatrix(eye, target, (0.0, 0.0, 1.0), physicsClientId=client)
-            image = _render_blended(client, width, height, view, projection, translucent)
+            clip = _matrices(view, projection)
+            image, segmentation = _render_blended(client, width, height, view, projection, translucent)
+            if ground is not None:  # the ground, with each vehicle's shadow, where no body is drawn
+                backdrop = _ground_image(clip, np.asarray(eye), width, height)
+                _draw_shadows(backdrop, clip, positions, [spans[i] for i in live], width, height)
+                empty = segmentation < 0
+                image = np.where(empty[:, :, None], np.asarray(backdrop), image)
             canvas = Image.fromarray(image).convert("RGBA")
             overlay = Image.new("RGBA", canvas.size, (0, 0, 0, 0))
             draw = ImageDraw.Draw(overlay)
-            clip = _matrices(view, projection)
+            line = max(2, round(width * style.trail_width))
+            if ground is not None:
+                for position in positions:  # a drop line from each vehicle to its shadow: its height
+                    ends = project(clip, np.array([position, [position[0], position[1], 0.0]]), width, height)
+                    if not np.isnan(ends).any():
+                        draw.line([tuple(ends[0]), tuple(ends[1])], fill=(255, 255, 255, 150), width=max(1, line // 2))
+            _draw_targets(draw, clip, marker_points, reach, width, height, max(1, line // 2))
             for i in live:
                 start = max(0, step - trail_steps)
                 path = project(clip, tracks[i].states["lin_pos"][start : step + 1], width, height)
-                _draw_trail(draw, path, TRAIL_COLORS[i % len(TRAIL_COLORS)], max(2, width // 200))
+                _draw_trail(draw, path, TRAIL_COLORS[i % len(TRAIL_COLORS)], line)
             reward = float(episode.rewards[step - 1]) if 0 < step <= len(episode.rewards) else 0.0
             lines = [f"t {t - float(tracks[0].time[0]):6.2f} s   step {step}", f"reward {reward:+.3f}   return {returns[min(step, len(returns) - 1)]:+.2f}"]
             ended = step == n_steps - 1
-            _draw_text(draw, lines, outcome if ended else None, outcome_color, width, height)
+            _draw_text(draw, lines, outcome if ended else None, outcome_color, width, height, style.text_size)
             frame = np.asarray(Image.alpha_composite(canvas, overlay).convert("RGB"))
             yield frame
         for _ in range(round(style.hold_seconds / dt)):
@@ -246,8 +269,11 @@ def _camera(client: int, width: int, height: int, view, projection) -> tuple[np.
     return rgb, np.asarray(segmentation).reshape(height, width)
 
 
-def _render_blended(client: int, width: int, height: int, view, projection, translucent: dict[int, float]) -> np.ndarray:
-    """The frame with every translucent body blended in with its alpha (see the module docstring)."""
+def _render_blended(
+    client: int, width: int, height: int, view, projection, translucent: dict[int, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The frame with every translucent body blended in with its alpha (see the module docstring),
+    and its segmentation mask (-1: no body)."""
     from pyflyt_engine.bullet import pybullet as p
 
     with_them, segmentation = _camera(client, width, height, view, projection)
@@ -255,17 +281,101 @@ def _render_blended(client: int, width: int, height: int, view, projection, tran
     for body, a in translucent.items():
         alpha[segmentation == body] = a
     if not alpha.any():
-        return with_them
+        return with_them, segmentation
     poses = {b: p.getBasePositionAndOrientation(b, physicsClientId=client) for b in translucent}
     for body in translucent:
         p.resetBasePositionAndOrientation(body, _PARKED, (0.0, 0.0, 0.0, 1.0), physicsClientId=client)
     try:
-        behind, _ = _camera(client, width, height, view, projection)
+        behind, segmentation_behind = _camera(client, width, height, view, projection)
     finally:
         for body, (position, orientation) in poses.items():
             p.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=client)
     blended = behind + alpha[:, :, None] * (with_them.astype(float) - behind)
-    return np.clip(np.rint(blended), 0, 255).astype(np.uint8)
+    # the pixels showing nothing but translucent bodies and the empty background count as empty
+    segmentation = np.where(alpha > 0, segmentation_behind, segmentation)
+    return np.clip(np.rint(blended), 0, 255).astype(np.uint8), segmentation
+
+
+#: the backdrop's colours (RGB): sky at the horizon and overhead, the two ground tiles, grid lines
+SKY_HORIZON, SKY_TOP = np.array([205, 220, 235]), np.array([120, 160, 210])
+GROUND_LIGHT, GROUND_DARK, GROUND_LINE = np.array([170, 175, 160]), np.array([150, 156, 140]), np.array([95, 100, 90])
+#: tile size of the ground's checker [m] (a grid line every tile)
+GROUND_TILE = 1.0
+
+
+def _ground_image(clip_from_world: np.ndarray, eye: np.ndarray, width: int, height: int):
+    """The sky and the ground plane (z = 0: 1 m checker tiles and grid lines, fading into the
+    haze with distance) as seen by the camera, a PIL image: one ray per pixel of a half-size
+    image, intersected with the plane in NumPy and scaled up, in milliseconds where
+    TinyRenderer takes most of a frame to draw the ground."""
+    from PIL import Image
+
+    full = (width, height)
+    width, height = max(1, width // 2), max(1, height // 2)
+
+    m = np.linalg.inv(clip_from_world).astype(np.float32)
+    u = ((np.arange(width, dtype=np.float32) + 0.5) / width * 2.0 - 1.0)[None, :, None]
+    v = (1.0 - (np.arange(height, dtype=np.float32) + 0.5) / height * 2.0)[:, None, None]
+    far = u * m[:, 0] + v * m[:, 1] + (m[:, 2] + m[:, 3])  # the far-plane point of each pixel's ray (homogeneous)
+    ray = far[..., :3] / far[..., 3:4] - eye.astype(np.float32)
+    ray /= np.sqrt(np.einsum("...i,...i", ray, ray))[..., None]
+    rz = ray[..., 2]
+    down = rz < -1e-6
+    reach = np.where(down, -float(eye[2]) / np.where(down, rz, -1.0), np.float32(1e6))
+    hx = float(eye[0]) + reach * ray[..., 0]
+    hy = float(eye[1]) + reach * ray[..., 1]
+    tile = (np.floor(hx / GROUND_TILE) + np.floor(hy / GROUND_TILE)) % 2
+    # a grid line where the hit point lies within ~1 pixel of a tile edge (wider far away)
+    edge = np.minimum(np.abs(hx - np.round(hx)), np.abs(hy - np.round(hy)))
+    line = edge < np.maximum(0.01, 1.2 * reach / height)
+    ground = np.where(tile[..., None] == 0, GROUND_LIGHT, GROUND_DARK).astype(np.float32)
+    ground[line] = GROUND_LINE
+    haze = np.minimum(reach / 40.0, 1.0)[..., None] ** 0.7  # far ground fades into the horizon's colour
+    ground += (SKY_HORIZON - ground) * haze
+    up = np.sqrt(np.clip(rz, 0.0, 1.0))[..., None]
+    sky = SKY_HORIZON + (SKY_TOP - SKY_HORIZON) * up
+    image = np.where(down[..., None], ground, sky)
+    return Image.fromarray(image.astype(np.uint8)).resize(full, Image.BILINEAR)
+
+
+def _circle(centre: np.ndarray, radius: float, axes: tuple[int, int], n: int = 40) -> np.ndarray:
+    """(n + 1, 3) points of a circle around ``centre`` in the plane of two world axes."""
+    angles = np.linspace(0.0, 2 * np.pi, n + 1)
+    points = np.repeat(np.asarray(centre, dtype=float)[None, :], n + 1, axis=0)
+    points[:, axes[0]] += radius * np.cos(angles)
+    points[:, axes[1]] += radius * np.sin(angles)
+    return points
+
+
+def _draw_shadows(
+    backdrop, clip_from_world: np.ndarray, positions: np.ndarray, spans: Sequence[float], width: int, height: int
+) -> None:
+    """A dark disc on the ground under each vehicle, its span across (drawn on the backdrop,
+    so it never covers a body)."""
+    from PIL import ImageDraw
+
+    shade = ImageDraw.Draw(backdrop, "RGBA")
+    for position, span in zip(positions, spans):
+        if position[2] < 0:
+            continue
+        ring = project(clip_from_world, _circle((position[0], position[1], 0.0), span / 2, (0, 1)), width, height)
+        if not np.isnan(ring).any():
+            shade.polygon([tuple(q) for q in ring], fill=(20, 20, 20, 110))
+
+
+def _draw_targets(
+    draw, clip_from_world: np.ndarray, points: np.ndarray, radius: float, width: int, height: int, line: int
+) -> None:
+    """The task's markers as wireframe spheres of the reach radius (three great circles): the
+    next one bright green, later ones fainter, so a vehicle inside one stays visible."""
+    n = len(points)
+    for i in reversed(range(n)):  # the next target drawn last, on top
+        alpha = 235 if i == 0 else max(60, 160 - 30 * i)
+        color = (40, 230, 60, alpha) if i == 0 else (60, 170, 70, alpha)
+        for axes in ((0, 1), (0, 2), (1, 2)):
+            ring = project(clip_from_world, _circle(points[i], radius, axes), width, height)
+            if not np.isnan(ring).any():
+                draw.line([tuple(q) for q in ring], fill=color, width=line + (1 if i == 0 else 0))
 
 
 def _draw_trail(draw, pixels: np.ndarray, color: tuple[int, int, int], width: int) -> None:
@@ -280,12 +390,18 @@ def _draw_trail(draw, pixels: np.ndarray, color: tuple[int, int, int], width: in
 
 
 def _draw_text(
-    draw, lines: list[str], outcome: str | None, outcome_color: tuple[int, int, int], width: int, height: int
+    draw,
+    lines: list[str],
+    outcome: str | None,
+    outcome_color: tuple[int, int, int],
+    width: int,
+    height: int,
+    text_size: float = VideoStyle.text_size,
 ) -> None:
     """The time/step/reward box (top left) and, at the end, the outcome (bottom centre)."""
     from PIL import ImageFont
 
-    size = max(11, width // 34)
+    size = max(11, round(width * text_size))
     font = ImageFont.load_default(size=size)
     pad = size // 3
     text = "\n".join(lines)
@@ -319,11 +435,22 @@ def render_video(
     episodes = [episodes] if isinstance(episodes, Episode) else list(episodes)
     if not episodes:
         raise TelemetryError("no episodes to film")
+    import sys
+
+    from tqdm import tqdm
+
     frames: list[np.ndarray] = []
-    for episode in episodes:
-        frames.extend(episode_frames(episode, size, style))
-        if size is None:  # every episode at the first one's size
-            size = (frames[0].shape[1], frames[0].shape[0])
+    total = sum(len(e.vehicles[0].time) if e.vehicles else 0 for e in episodes)
+    # a progress bar on a terminal (tqdm's disable=None: none when stderr is not one)
+    bar = tqdm(total=total, unit="frame", desc=f"rendering {out.name}", file=sys.stderr, disable=None, leave=False)
+    with bar:
+        for episode in episodes:
+            for frame in episode_frames(episode, size, style):
+                frames.append(frame)
+                if bar.n < total:
+                    bar.update(1)
+            if size is None:  # every episode at the first one's size
+                size = (frames[0].shape[1], frames[0].shape[0])
     out.parent.mkdir(parents=True, exist_ok=True)
     write_video(out, frames, float(fps or episodes[0].agent_hz))
     return out

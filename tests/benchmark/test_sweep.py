@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from pyflyt_engine.telemetry.metrics import read_metrics
 from tests.train.conftest import cli_env, pyflyt
 
 SMOKE = ["experiment=smoke_benchmark", "jobs=2"]
@@ -43,6 +45,13 @@ def test_tiny_sweep_runs_reruns_as_skips_and_plots(tmp_path: Path) -> None:
     assert all(s["status"] == "complete" and s["num_timesteps"] >= 256 for s in done.values())
     assert "0 skipped (complete before), 6 complete" in first.stderr
     assert (root / "summary.md").read_text().count("| complete |") == 6
+    started = dict(re.findall(r"\[(\d)/6\] started  (\S+)", first.stderr))
+    ended = re.findall(r"\[(\d)/6\] complete (\S+) .*\((\d)/6 ended\)", first.stderr)
+    assert sorted(started) == list("123456") and len(ended) == 6
+    assert all(started[k] == run for k, run, _ in ended)  # a run's start and end lines share its number
+    assert [m for _, _, m in ended] == list("123456")
+    for run in done:  # every run evaluated at least 3 times (a readable learning curve)
+        assert len(read_metrics(root / "runs" / run)["/eval"]) >= 3
     for log in (root / "logs").glob("*.log"):
         assert "run directory:" in log.read_text()
     norm = (root / "normalisation.yaml").read_text()
@@ -63,7 +72,7 @@ def test_tiny_sweep_runs_reruns_as_skips_and_plots(tmp_path: Path) -> None:
     assert report.benchmark.seeds[("quadx_hover", "ppo")] == [0, 1, 2]
     text = report.markdown.read_text()
     assert "a perfect hover" in text  # the reference score and its source
-    assert "quadx_waypoints: no reference score given" in text
+    assert "zoo:quadx_waypoints_ppo" in text and "no reference score given" not in text  # every task has one
     assert all(p.is_file() for p in report.figures)
 
 

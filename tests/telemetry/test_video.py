@@ -63,7 +63,7 @@ def test_translucent_bodies_are_the_alpha_blend_of_two_renders():
         translucent = _translucent_bodies(client, {vehicle})
         assert translucent == {sphere: pytest.approx(0.4)}
         view, projection = _view(client, (-1.2, 0.0, 1.0), (0.0, 0.0, 1.0))
-        blended = _render_blended(client, W, H, view, projection, translucent)
+        blended, blended_segmentation = _render_blended(client, W, H, view, projection, translucent)
         with_it, segmentation = _camera(client, W, H, view, projection)
         p.resetBasePositionAndOrientation(sphere, (0, 0, -50), (0, 0, 0, 1), physicsClientId=client)
         without, behind_segmentation = _camera(client, W, H, view, projection)
@@ -75,6 +75,9 @@ def test_translucent_bodies_are_the_alpha_blend_of_two_renders():
     vehicle_behind = covered & (behind_segmentation == vehicle)
     assert vehicle_behind.sum() > 20
     assert np.abs(blended[vehicle_behind].astype(int) - with_it[vehicle_behind]).max() > 20  # not the opaque sphere
+    # the mask of the blend: what is behind a translucent body (the vehicle, or nothing)
+    np.testing.assert_array_equal(blended_segmentation[covered], behind_segmentation[covered])
+    np.testing.assert_array_equal(blended_segmentation[~covered], segmentation[~covered])
 
 
 def test_chase_distance_is_scaled_to_the_span_and_all_vehicles_stay_in_view():
@@ -152,3 +155,38 @@ def test_replay_video_is_the_flight_then_the_outcome_held(recorded_hover, tmp_pa
 def recorded_hover(tmp_path):
     env, _ = record("PyFlyt/QuadX-Hover-v0", tmp_path / "rec", max_steps=12)
     return env.paths[0]
+
+
+def test_a_frame_shows_the_ground_the_shadow_and_the_target_as_a_wireframe(tmp_path):
+    """The ground is drawn behind the vehicle (PyBullet's plane parked out of view), the
+    vehicle's shadow darkens it below, and the hover point is a green wireframe, not a
+    solid sphere: pixels inside the ring keep the ground's colours."""
+    from pyflyt_engine.telemetry import video
+
+    env, _ = record("PyFlyt/QuadX-Hover-v0", tmp_path / "rec", max_steps=6)
+    episode = load_episode(env.paths[0])
+    frames = list(episode_frames(episode, (240, 240), VideoStyle(hold_seconds=0.0)))
+    frame = frames[3].astype(int)
+    tiles = [video.GROUND_LIGHT, video.GROUND_DARK]
+    bottom = frame[200:, :, :]  # the ground in front of the camera, below the vehicle
+    near_tile = min(np.abs(bottom - t).sum(axis=-1).min() for t in tiles)
+    assert near_tile < 30
+    dark = (frame.sum(axis=-1) < 250).sum()  # the shadow (and the vehicle)
+    assert dark > 30
+    green = (frame[..., 1] > 180) & (frame[..., 0] < 120) & (frame[..., 2] < 140)
+    assert 20 < green.sum() < 2000, green.sum()  # thin rings, not a filled disc
+
+
+def test_videos_render_with_a_progress_bar_on_a_terminal(recorded_hover, tmp_path, monkeypatch):
+    import io
+
+    from pyflyt_engine.telemetry.video import render_video
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    err = Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    render_video(load_episode(recorded_hover), tmp_path / "v.gif", size=(64, 48))
+    assert "rendering v.gif" in err.getvalue() and "frame" in err.getvalue()
