@@ -19,6 +19,7 @@ remains a body others can hit).  The episode is over when ``agents`` is empty.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +37,9 @@ from pyflyt_engine.envs.config import (
     load_env_config,
     load_reward_preset,
 )
+from pyflyt_engine.envs.env import _task_changes
 from pyflyt_engine.envs.multi_agent.config import PROVIDES
+from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction, StepContext
 from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -83,6 +86,10 @@ class MultiAgentUAVEnv(ParallelEnv):
     }
     config_name: ClassVar[str | None] = None
     task_name: ClassVar[str] = ""
+    #: any contact of an agent's vehicle (ground or another agent) ends its episode as a
+    #: crash, as :attr:`Task.crash_on_contact <pyflyt_engine.envs.tasks.base.Task.crash_on_contact>`
+    #: for a single agent; a task where touching is part of the job sets False
+    crash_on_contact: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -140,6 +147,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             agent_hz=cfg.agent_hz,
             render=render_mode == "human",
             drag=cfg.drag,
+            wind=cfg.wind,
+            ground_effect=cfg.ground_effect,
+            downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
         n_act = len(cfg.action.names)
@@ -178,6 +188,10 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
+        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
+        self.randomizer: Randomizer | None = Randomizer(cfg.randomize, self.world) if cfg.randomize else None  # type: ignore[arg-type]
+        #: the values drawn at the last reset (empty without randomisation)
+        self.last_randomization: dict[str, float] = {}
         self._markers = None
         if render_mode is not None and len(self.markers()):
             from pyflyt_engine.envs.render import Markers
@@ -201,16 +215,46 @@ class MultiAgentUAVEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode: every agent alive, spawned in its region (drawn in agent order)."""
+        """Start an episode: every agent alive, spawned in its region (drawn in agent order).
+
+        With ``config.randomize``, its entries are drawn first (as in the single-agent env),
+        once per reset, and applied to every agent: the airframe factors to each vehicle's
+        own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
+        one atmosphere.  ``options``: ``None``, or ``{"task": {...}}`` with options the task
+        lets an episode change; the multi-agent tasks declare none, so any change is refused
+        (``ValueError``) rather than ignored.  Other keys (PettingZoo's API test passes
+        ``{"options": 1}``) are ignored with a warning.
+        """
+        if options:
+            if not isinstance(options, Mapping):
+                raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
+            changes = _task_changes({"task": options["task"]}) if "task" in options else None
+            if changes:
+                raise ValueError(
+                    f"task '{self.config.task.name}' cannot change {', '.join(sorted(changes))} per episode "
+                    "(options an episode may set: none)"
+                )
+            other = sorted(str(k) for k in options if k != "task")
+            if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
+                warnings.warn(
+                    f"{type(self).__name__}.reset: options {', '.join(other)} mean nothing to this env and are "
+                    'ignored (it takes {"task": {...}} only)',
+                    stacklevel=2,
+                )
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
         self.world.reset(seed)
         rng = self.np_random
+        drawn = self.randomizer.sample(rng) if self.randomizer is not None else None
+        self.last_randomization = dict(drawn) if drawn is not None else {}
         for agent, vehicle in zip(self.agent_list, self.vehicles):
             s = agent.spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
             da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            vehicle.reset(np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist(), lin_vel=s.lin_vel)
+            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
+            if drawn is not None:
+                position, orientation = Randomizer.spawn(drawn, position, orientation)
+            vehicle.reset(position, orientation, lin_vel=s.lin_vel)
         self.agents = list(self.possible_agents)
         self._alive[:] = True
         self._actions[:] = 0.0
@@ -266,7 +310,7 @@ class MultiAgentUAVEnv(ParallelEnv):
             collision = collisions[i]
             x, y, z = state.lin_pos
             out_of_bounds = x * x + y * y + z * z > self._dome2
-            crashed = collision or out_of_bounds or sig.failed
+            crashed = (collision and self.crash_on_contact) or out_of_bounds or sig.failed
             ctx = StepContext(
                 state,
                 self._actions[i],
@@ -357,7 +401,10 @@ class MultiAgentUAVEnv(ParallelEnv):
         )
 
     def _reset_info(self, i: int) -> dict[str, Any]:
-        return {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        if self.randomizer is not None:
+            info["randomization"] = dict(self.last_randomization)
+        return info
 
     def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
         bad = np.flatnonzero(~np.isfinite(obs)).tolist()

@@ -101,6 +101,11 @@ class SharedPolicyEnv(gymnasium.Env):
         self.parallel.np_random = value
 
     @property
+    def last_randomization(self) -> dict[str, float]:
+        """The values ``config.randomize`` drew at the last reset, applied to every agent (empty without)."""
+        return dict(self.parallel.last_randomization)
+
+    @property
     def last_action(self) -> np.ndarray:
         """The stacked clipped actions the vehicles received at the last step, flattened (N * A,)."""
         return self.parallel.last_actions.reshape(-1)
@@ -122,13 +127,16 @@ class SharedPolicyEnv(gymnasium.Env):
         observations, infos = self.parallel.reset(seed=seed, options=options)
         self._terms = {}
         self._successes[:] = False
-        return self._stack(observations), {
+        info: dict[str, Any] = {
             "success": False,
             "collision": False,
             "out_of_bounds": False,
             "env_complete": False,
             "agent_infos": infos,
         }
+        if self.parallel.randomizer is not None:
+            info["randomization"] = dict(self.parallel.last_randomization)
+        return self._stack(observations), info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         env = self.parallel
