@@ -18,7 +18,6 @@ remains a body others can hit).  The episode is over when ``agents`` is empty.
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -30,18 +29,12 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from pyflyt_engine.envs.config import (
-    MultiAgentEnvConfig,
-    ResolvedAgent,
-    RewardPreset,
-    load_env_config,
-    load_reward_preset,
-)
-from pyflyt_engine.envs.env import _task_changes
+from pyflyt_engine.envs import core
+from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.multi_agent.config import PROVIDES
 from pyflyt_engine.envs.randomization import Randomizer
-from pyflyt_engine.envs.rewards import RewardFunction, StepContext
-from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
@@ -102,11 +95,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         airframes: Mapping[str, UAVSpec] | None = None,
         **overrides: Any,
     ) -> None:
-        if sparse_reward is not None:
-            if "reward" in overrides:
-                raise ConfigError("give either sparse_reward or reward, not both")
-            overrides["reward"] = "sparse" if sparse_reward else "dense"
-        cfg = load_env_config(config if config is not None else self.config_name).with_overrides(**overrides)
+        cfg = core.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
         if not isinstance(cfg, MultiAgentEnvConfig):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
@@ -115,10 +104,7 @@ class MultiAgentUAVEnv(ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
             )
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError(
-                f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None"
-            )
+        core.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -171,7 +157,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._low = np.array(cfg.action.low, dtype=np.float64)
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
-        self.attitude_size = 3 + (4 if self._quaternion else 3) + 3 + 3 + n_act + aux.pop()
+        self.attitude_size = core.attitude_size(self._quaternion, n_act, aux.pop())
         size = self.attitude_size + self._extra_size()
         obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
@@ -228,7 +214,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         if options:
             if not isinstance(options, Mapping):
                 raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
-            changes = _task_changes({"task": options["task"]}) if "task" in options else None
+            changes = core.task_changes({"task": options["task"]}) if "task" in options else None
             if changes:
                 raise ValueError(
                     f"task '{self.config.task.name}' cannot change {', '.join(sorted(changes))} per episode "
@@ -283,10 +269,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 raw = actions[name]
             except KeyError:
                 raise ValueError(f"no action for live agent '{name}' (live: {', '.join(self.agents)})") from None
-            a = np.asarray(raw, dtype=np.float64).reshape(-1)
-            if a.shape != low.shape:
-                raise ValueError(f"agent '{name}': action must have {low.size} values, got {a.size}")
-            a = np.minimum(np.maximum(a, low), high)
+            a = core.clip_action(raw, low, high, self.config.action.names, agent=name)
             self.vehicles[i].set_setpoint(a)
             self._actions[i] = a
         world = self.world
@@ -308,21 +291,18 @@ class MultiAgentUAVEnv(ParallelEnv):
             state = states[i]
             sig = signals[i]
             collision = collisions[i]
-            x, y, z = state.lin_pos
-            out_of_bounds = x * x + y * y + z * z > self._dome2
+            out_of_bounds = core.outside_dome(state, self._dome2)
             crashed = (collision and self.crash_on_contact) or out_of_bounds or sig.failed
-            ctx = StepContext(
+            ctx = core.step_context(
+                world,
+                i,
                 state,
                 self._actions[i],
                 collision,
-                world.collided_with_ground(i) if collision else False,
                 out_of_bounds,
                 crashed,
-                sig.complete,
-                sig.target_distance,
-                sig.target_distance_rate,
+                sig,
                 False,
-                sig.extras,
                 max(self._max_steps - self._steps, 0),
                 self._agent_dt,
             )
@@ -348,7 +328,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         for i in live:
             name = self.possible_agents[i]
             observations[name] = obs = self._observe(i, states)
-            if not (math.isfinite(rewards[name]) and math.isfinite(obs.dot(np.zeros(obs.size)))):
+            if not core.all_finite(rewards[name], obs):
                 self._diverged(i, obs, rewards[name], states[i])
         for i in ended:
             self._alive[i] = False
@@ -389,16 +369,10 @@ class MultiAgentUAVEnv(ParallelEnv):
     # ------------------------------------------------------------- helpers
 
     def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        s = states[i]
-        angles = s.quaternion if self._quaternion else s.ang_pos
-        return np.concatenate(
-            (
-                np.array((*s.ang_vel, *angles, *s.lin_vel, *s.lin_pos), dtype=np.float64),
-                self._actions[i],
-                self.vehicles[i].aux_state,
-                self._task_observe(i, states),
-            )
+        attitude = core.attitude_vector(
+            states[i], self._quaternion, self._actions[i].tolist(), self.vehicles[i].aux_state.tolist()
         )
+        return np.concatenate((attitude, self._task_observe(i, states)))
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
@@ -407,12 +381,9 @@ class MultiAgentUAVEnv(ParallelEnv):
         return info
 
     def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
-        bad = np.flatnonzero(~np.isfinite(obs)).tolist()
-        raise SimulationError(
-            f"{self.config.id or self.config.source}: the simulation diverged at step {self._steps}: agent "
-            f"'{self.possible_agents[i]}' has a non-finite observation (entries {bad}) or reward ({reward}); "
-            f"position {[round(v, 4) for v in state.lin_pos]} m, last action {self._actions[i].round(4).tolist()}. "
-            "Check the airframes' parameters"
+        where = self.config.id or self.config.source or "the environment"
+        raise core.divergence_error(
+            where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]
         )
 
     def _succeeds_at_time_limit(self) -> bool:
