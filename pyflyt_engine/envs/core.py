@@ -14,7 +14,8 @@ reward context of a step and the divergence report exist once:
 * :func:`step_context` -- the :class:`~pyflyt_engine.envs.rewards.StepContext` of one
   agent's step;
 * :func:`all_finite`, :func:`divergence_error` -- the never-NaN guard and its report;
-* :func:`task_changes` -- the ``reset(options={"task": ...})`` mapping.
+* :func:`task_changes` -- the ``reset(options={"task": ...})`` mapping;
+* :class:`RecordableEnv` -- what an env shows of itself to the recorder and replay.
 
 Everything here is plain arithmetic on floats and tuples, in the same order as the loops
 computed it before (the golden trajectories hold it bit for bit).
@@ -26,7 +27,7 @@ import functools
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -204,3 +205,54 @@ def task_changes(options: dict[str, Any] | None) -> dict[str, Any] | None:
     if not isinstance(options, dict) or set(options) - {"task"} or not isinstance(options.get("task", {}), dict):
         raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
     return options.get("task")
+
+
+@runtime_checkable
+class RecordableEnv(Protocol):
+    """The public face of an env that :class:`~pyflyt_engine.telemetry.RecordEpisode` records
+    and :func:`~pyflyt_engine.telemetry.replay.verify` re-simulates: nothing else of an env is
+    read from outside.  :class:`~pyflyt_engine.envs.env.UAVEnv` and
+    :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv` implement it.
+
+    Attributes:
+        world: the :class:`~pyflyt_engine.world.World` (vehicles, contacts, wind, RNG state).
+        config: the resolved env config.
+        airframe: the airframe flown before a task adjusts it.
+        reward_preset: the resolved reward preset.
+        np_random: the env's generator (its state is recorded at each reset).
+        payloads: the env's :class:`~pyflyt_engine.payloads.PayloadSet`, or None.
+        action_names: the names of the recorded action vector's entries.
+        last_action: the action the vehicles received at the last step (flat).
+        last_reward_terms: the reward breakdown of the last step.
+        last_randomization: the values domain randomisation drew at the last reset.
+    """
+
+    world: Any
+    config: Any
+    airframe: Any
+    reward_preset: Any
+    np_random: np.random.Generator
+    payloads: Any
+
+    @property
+    def action_names(self) -> list[str]: ...
+
+    @property
+    def last_action(self) -> np.ndarray: ...
+
+    @property
+    def last_reward_terms(self) -> dict[str, float]: ...
+
+    @property
+    def last_randomization(self) -> dict[str, float]: ...
+
+    def scene_markers(self) -> tuple[np.ndarray, float]:
+        """The points drawn in the scene now, ``(n, 3)`` ground frame, and their radius [m]."""
+        ...
+
+
+#: the members of :class:`RecordableEnv`, for messages naming what an env lacks
+RECORDABLE = (
+    "world", "config", "airframe", "reward_preset", "np_random", "payloads", "action_names",
+    "last_action", "last_reward_terms", "last_randomization", "scene_markers",
+)  # fmt: skip

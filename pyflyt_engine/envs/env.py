@@ -333,6 +333,15 @@ class UAVEnv(gymnasium.Env):
         return dict(self._reward_terms)
 
     @property
+    def action_names(self) -> list[str]:
+        """The names of the action's entries (``config.action.names``), as recorded."""
+        return list(self.config.action.names)
+
+    def scene_markers(self) -> tuple[np.ndarray, float]:
+        """The task's marker points, ``(n, 3)`` ground frame, and their radius [m] (recorded in the scene)."""
+        return np.asarray(self.task.markers(), dtype=float).reshape(-1, 3), float(self.task.marker_style()[1])
+
+    @property
     def last_action(self) -> np.ndarray:
         """The action the vehicle received at the last step, after clipping to the bounds
         (zeros after a reset), a copy: what a recording must re-apply to re-run the episode."""
