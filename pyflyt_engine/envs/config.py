@@ -30,6 +30,7 @@ from pydantic import (
 )
 
 from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
