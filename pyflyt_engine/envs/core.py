@@ -11,6 +11,8 @@ reward context of a step and the divergence report exist once:
 * :func:`attitude_size`, :func:`attitude_vector` -- the shared observation layout
   ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]``;
 * :func:`outside_dome` -- the flight-dome check;
+* :func:`termination` -- how a step ends an agent's episode (what a task's
+  ``termination`` returns by default);
 * :func:`step_context` -- the :class:`~pyflyt_engine.envs.rewards.StepContext` of one
   agent's step;
 * :func:`all_finite`, :func:`divergence_error` -- the never-NaN guard and its report;
@@ -33,6 +35,7 @@ import numpy as np
 
 from pyflyt_engine.envs.config import EnvConfig, load_env_config
 from pyflyt_engine.envs.rewards import StepContext
+from pyflyt_engine.envs.tasks.base import termination
 from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.state import KinematicState
 

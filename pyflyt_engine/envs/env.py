@@ -234,9 +234,10 @@ class UAVEnv(gymnasium.Env):
         collision = world.collided(0)
         out_of_bounds = core.outside_dome(state, self._dome2)
         signals = self.task.update(state)
-        crashed = out_of_bounds or signals.failed or (collision and self.task.crash_on_contact)
+        crashed, terminated = self.task.termination(collision, out_of_bounds, signals)
         payload_ground = self.payloads is not None and self.payloads.ground_failure()
-        crashed = crashed or payload_ground
+        if payload_ground:  # a payload the config says must not touch the ground did
+            crashed = terminated = True
         ctx = core.step_context(
             world,
             0,
@@ -254,7 +255,6 @@ class UAVEnv(gymnasium.Env):
         self._reward_terms = terms
         self._steps += 1
 
-        terminated = crashed or signals.complete
         truncated = not terminated and self._steps >= self._max_steps
         success = (signals.complete and not crashed) or (truncated and self.task.succeeds_at_time_limit)
         if self._markers is not None and signals.waypoint_reached:

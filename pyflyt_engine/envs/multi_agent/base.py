@@ -292,7 +292,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             sig = signals[i]
             collision = collisions[i]
             out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed = (collision and self.crash_on_contact) or out_of_bounds or sig.failed
+            crashed, terminated = core.termination(
+                collision, out_of_bounds, sig.failed, sig.complete, self.crash_on_contact
+            )
             ctx = core.step_context(
                 world,
                 i,
@@ -308,7 +310,6 @@ class MultiAgentUAVEnv(ParallelEnv):
             )
             reward, terms = self.reward_function(ctx)
             self._reward_terms[i] = terms
-            terminated = crashed or sig.complete
             truncated = not terminated and time_up
             info = {
                 "collision": collision,
