@@ -30,6 +30,7 @@ from pydantic import (
 )
 
 from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
@@ -396,6 +397,21 @@ class MultiAgentEnvConfig(EnvConfig):
     task: SerializeAsAny[MATaskOptions] = Field(description="multi-agent task name and options")  # type: ignore[assignment]
 
     multi_agent: ClassVar[bool] = True
+
+    @model_validator(mode="after")
+    def _single_agent_only(self) -> MultiAgentEnvConfig:
+        # keys of EnvConfig a multi-agent env cannot fly yet: refused, never accepted and ignored
+        if self.payloads:
+            raise ValueError(
+                "payloads: a multi-agent env cannot carry payloads yet (each would need an owner agent and a "
+                "per-agent ground-contact failure); remove the key, or fly the payload task single-agent"
+            )
+        if self.camera_observation is not None:
+            raise ValueError(
+                "camera_observation: a multi-agent env cannot observe camera images yet (its per-agent "
+                "observations are flat Boxes, stacked for a shared policy); remove the key"
+            )
+        return self
 
     @field_validator("agents")
     @classmethod

@@ -8,8 +8,6 @@ named terms (see :mod:`pyflyt_engine.envs.rewards`).
 
 from __future__ import annotations
 
-import functools
-import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
@@ -18,24 +16,16 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, load_reward_preset
+from pyflyt_engine.envs import core
+from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.randomization import Randomizer
-from pyflyt_engine.envs.rewards import RewardFunction, StepContext
+from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks import Task, get_task
-from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
-
-
-def _task_changes(options: dict[str, Any] | None) -> dict[str, Any] | None:
-    """The task option changes in a ``reset(options=...)`` mapping (see :meth:`UAVEnv.reset`)."""
-    if not options:
-        return None
-    if not isinstance(options, dict) or set(options) - {"task"} or not isinstance(options.get("task", {}), dict):
-        raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
-    return options.get("task")
 
 
 class UAVEnv(gymnasium.Env):
@@ -114,17 +104,8 @@ class UAVEnv(gymnasium.Env):
         airframe: UAVSpec | None = None,
         **overrides: Any,
     ) -> None:
-        if config is None:
-            if self.config_name is None:
-                raise ConfigError(f"{type(self).__name__} needs an env config (a name in conf/env, a path or a mapping)")
-            config = self.config_name
-        if sparse_reward is not None:
-            if "reward" in overrides:
-                raise ConfigError("give either sparse_reward or reward, not both")
-            overrides["reward"] = "sparse" if sparse_reward else "dense"
-        cfg = load_env_config(config).with_overrides(**overrides)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError(f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None")
+        cfg = core.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
+        core.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: EnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -178,7 +159,7 @@ class UAVEnv(gymnasium.Env):
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
-        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + self.world.aux_state(0).size
+        size = core.attitude_size(self._quaternion, self._low.size, self.world.aux_state(0).size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
@@ -211,7 +192,7 @@ class UAVEnv(gymnasium.Env):
         wider ``goal_reach_distance`` early in training); the next reset without them
         flies the configured task again.  Anything else raises ``ValueError``.
         """
-        self.task.set_episode_options(_task_changes(options))
+        self.task.set_episode_options(core.task_changes(options))
         super().reset(seed=seed)
         self.world.reset(seed)
         drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None
@@ -237,16 +218,13 @@ class UAVEnv(gymnasium.Env):
             info["payload_ground_contact"] = False
         info.update(self.task.info())
         observation = self._observe(state)
-        if not _all_finite(0.0, observation):
+        if not core.all_finite(0.0, observation):
             self._diverged(observation, 0.0, state)
         return observation, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one agent step (``physics_hz / agent_hz`` physics steps)."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != self._low.shape:
-            raise ValueError(f"action must have {self._low.size} values ({', '.join(self.config.action.names)}), got {a.size}")
-        a = np.minimum(np.maximum(a, self._low), self._high)
+        a = core.clip_action(action, self._low, self._high, self.config.action.names)
         self.vehicle.set_setpoint(a)
         self._action = a.copy()
         self.world.step()
@@ -254,24 +232,22 @@ class UAVEnv(gymnasium.Env):
         state = self.vehicle.state
         world = self.world
         collision = world.collided(0)
-        x, y, z = state.lin_pos
-        out_of_bounds = x * x + y * y + z * z > self._dome2
+        out_of_bounds = core.outside_dome(state, self._dome2)
         signals = self.task.update(state)
-        crashed = out_of_bounds or signals.failed or (collision and self.task.crash_on_contact)
+        crashed, terminated = self.task.termination(collision, out_of_bounds, signals)
         payload_ground = self.payloads is not None and self.payloads.ground_failure()
-        crashed = crashed or payload_ground
-        ctx = StepContext(
+        if payload_ground:  # a payload the config says must not touch the ground did
+            crashed = terminated = True
+        ctx = core.step_context(
+            world,
+            0,
             state,
             a,
             collision,
-            world.collided_with_ground(0) if collision else False,
             out_of_bounds,
             crashed,
-            signals.complete,
-            signals.target_distance,
-            signals.target_distance_rate,
+            signals,
             signals.waypoint_reached,
-            signals.extras,
             max(self._max_steps - self._steps - 1, 0),
             self._agent_dt,
         )
@@ -279,7 +255,6 @@ class UAVEnv(gymnasium.Env):
         self._reward_terms = terms
         self._steps += 1
 
-        terminated = crashed or signals.complete
         truncated = not terminated and self._steps >= self._max_steps
         success = (signals.complete and not crashed) or (truncated and self.task.succeeds_at_time_limit)
         if self._markers is not None and signals.waypoint_reached:
@@ -296,7 +271,7 @@ class UAVEnv(gymnasium.Env):
             info["reward_terms"] = terms
         info.update(self.task.info())
         observation = self._observe(state)
-        if not _all_finite(reward, observation):
+        if not core.all_finite(reward, observation):
             self._diverged(observation, reward, state)
         return observation, reward, terminated, truncated, info
 
@@ -323,13 +298,7 @@ class UAVEnv(gymnasium.Env):
     # ------------------------------------------------------------------ helpers
 
     def _observe(self, state: KinematicState) -> Any:
-        angles = state.quaternion if self._quaternion else state.ang_pos
-        # one array from one flat tuple: [body rates, attitude, body velocity, position, last action, aux]
-        attitude = np.array(
-            (*state.ang_vel, *angles, *state.lin_vel, *state.lin_pos, *self._action.tolist(),
-             *self.vehicle.aux_values()),  # fmt: skip
-            dtype=np.float64,
-        )
+        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), self.vehicle.aux_values())
         observation = self.task.observe(attitude, state)
         if self._camera is None:
             return observation
@@ -343,23 +312,8 @@ class UAVEnv(gymnasium.Env):
 
     def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
-        parts = observation.items() if isinstance(observation, Mapping) else [("observation", observation)]
-        bad = [
-            f"{name}[{', '.join(map(str, np.flatnonzero(~np.isfinite(np.asarray(value, dtype=np.float64)))))}]"
-            for name, value in parts
-            if not np.isfinite(np.asarray(value, dtype=np.float64)).all()
-        ]
-        if not math.isfinite(reward):
-            bad.append(f"reward ({reward})")
         where = self.config.id or self.config.source or "the environment"
-        raise SimulationError(
-            f"{where}: the simulation diverged at step {self._steps} of the episode: not finite: {', '.join(bad)}. "
-            f"Vehicle '{self.vehicle.spec.name}': position {_rounded(state.lin_pos)} m, attitude "
-            f"{_rounded(state.ang_pos)} rad, body velocity {_rounded(state.lin_vel)} m/s, body rates "
-            f"{_rounded(state.ang_vel)} rad/s, aux {_rounded(self.vehicle.aux_state)}; last action "
-            f"{_rounded(self._action)}. Check the airframe's parameters (mass, inertia, motor, drag and surface "
-            "coefficients) and anything that moved the vehicle from outside the environment"
-        )
+        raise core.divergence_error(where, self._steps, observation, reward, state, self.vehicle, self._action)
 
     @property
     def state(self) -> KinematicState:
@@ -377,6 +331,15 @@ class UAVEnv(gymnasium.Env):
         the reward (empty after a reset), a copy; also ``info["reward_terms"]`` unless
         ``info_reward_terms=False``."""
         return dict(self._reward_terms)
+
+    @property
+    def action_names(self) -> list[str]:
+        """The names of the action's entries (``config.action.names``), as recorded."""
+        return list(self.config.action.names)
+
+    def scene_markers(self) -> tuple[np.ndarray, float]:
+        """The task's marker points, ``(n, 3)`` ground frame, and their radius [m] (recorded in the scene)."""
+        return np.asarray(self.task.markers(), dtype=float).reshape(-1, 3), float(self.task.marker_style()[1])
 
     @property
     def last_action(self) -> np.ndarray:
@@ -405,31 +368,3 @@ def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
     if isinstance(space, spaces.Dict):
         return spaces.Dict({**space.spaces, obs.key: image})
     return spaces.Dict({"attitude": space, obs.key: image})
-
-
-@functools.lru_cache(maxsize=16)
-def _zeros(size: int) -> np.ndarray:
-    zeros = np.zeros(size)
-    zeros.flags.writeable = False
-    return zeros
-
-
-def _all_finite(reward: float, observation: Any) -> bool:
-    """Whether ``reward`` and every number in ``observation`` (an array or a mapping of arrays) are finite.
-
-    One dot product with zeros per array: it is 0 unless an entry is NaN or infinite
-    (0 * inf is NaN), so a finite observation can never be mistaken for a bad one.
-    """
-    if isinstance(observation, np.ndarray) and observation.ndim == 1:  # a flat Box: the common case
-        return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
-    total = reward
-    for value in observation.values() if isinstance(observation, Mapping) else (observation,):
-        if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
-            continue
-        flat = np.ravel(np.asarray(value, dtype=np.float64))
-        total += flat.dot(_zeros(flat.size))
-    return math.isfinite(total)
-
-
-def _rounded(values: Any) -> list[float]:
-    return [round(float(v), 4) for v in values]

@@ -120,45 +120,53 @@ class Randomizer:
 
     Args:
         entries: name -> :class:`Distribution` (validated, in declaration order).
-        world: the env's world (vehicle 0 is randomised).
+        world: the env's world; every vehicle in it is randomised with the same draws (one
+            vehicle in a single-agent env, every agent's in a multi-agent env).
     """
 
     def __init__(self, entries: Mapping[str, Distribution], world: Any) -> None:
         self.entries = dict(entries)
         self.world = world
-        vehicle = world.vehicles[0]
-        self.vehicle = vehicle
-        self.mass = vehicle.parts.mass
-        self.inertia = np.diag(vehicle.parts.inertia).copy()
-        motors = vehicle.actuators.motors
-        self.motor_params = motors.params if motors is not None else None
-        drag = vehicle.actuators.drag
-        self.drag_params = drag.params if drag is not None else None
+        #: per vehicle of the world: its nominal (mass, inertia diagonal, motor and drag parameters)
+        self._nominal = []
+        for vehicle in world.vehicles:
+            motors = vehicle.actuators.motors
+            drag = vehicle.actuators.drag
+            self._nominal.append(
+                (
+                    vehicle,
+                    vehicle.parts.mass,
+                    np.diag(vehicle.parts.inertia).copy(),
+                    motors.params if motors is not None else None,
+                    drag.params if drag is not None else None,
+                )
+            )
         self.wind = world.wind_config.model_dump(mode="json")
 
     def sample(self, rng: np.random.Generator) -> dict[str, float]:
-        """Draw every entry (declaration order), apply the airframe and wind ones; returns the values."""
+        """Draw every entry (declaration order), apply the airframe ones to every vehicle (each
+        from its own nominal values) and the wind ones to the world; returns the values."""
         values = {name: dist.sample(rng) for name, dist in self.entries.items()}
-        v = self.vehicle
-        if "mass" in values or "inertia" in values:
-            v.set_mass_properties(self.mass * values.get("mass", 1.0), self.inertia * values.get("inertia", 1.0))
-        if self.motor_params is not None and any(k in values for k in ("motor_kf", "motor_kt", "motor_tau")):
-            m = self.motor_params
-            v.actuators.motors.set_params(
-                dataclasses.replace(
-                    m,
-                    kf=m.kf * values.get("motor_kf", 1.0),
-                    kt=m.kt * values.get("motor_kt", 1.0),
-                    tau=m.tau * values.get("motor_tau", 1.0),
+        for v, mass, inertia, motor_params, drag_params in self._nominal:
+            if "mass" in values or "inertia" in values:
+                v.set_mass_properties(mass * values.get("mass", 1.0), inertia * values.get("inertia", 1.0))
+            if motor_params is not None and any(k in values for k in ("motor_kf", "motor_kt", "motor_tau")):
+                m = motor_params
+                v.actuators.motors.set_params(
+                    dataclasses.replace(
+                        m,
+                        kf=m.kf * values.get("motor_kf", 1.0),
+                        kt=m.kt * values.get("motor_kt", 1.0),
+                        tau=m.tau * values.get("motor_tau", 1.0),
+                    )
                 )
-            )
-        if self.drag_params is not None and "drag" in values:
-            d, f = self.drag_params, values["drag"]
-            v.actuators.drag.set_params(
-                dataclasses.replace(
-                    d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+            if drag_params is not None and "drag" in values:
+                d, f = drag_params, values["drag"]
+                v.actuators.drag.set_params(
+                    dataclasses.replace(
+                        d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+                    )
                 )
-            )
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
         if winds:
             import copy

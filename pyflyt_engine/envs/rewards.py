@@ -14,9 +14,12 @@ terms reported as 0.0) that goes into ``info["reward_terms"]``.
 
 Every condition ``X`` also exists as ``not_X``.
 
-Adding a term: write ``def my_term(ctx, **params) -> float`` with a docstring, register
-it in :data:`TERMS` with the task signals it reads (``requires``); presets can then
-name it.  Task signals are the optional :class:`StepContext` fields (``target_distance``,
+Adding a term: write ``def my_term(ctx, **params) -> float`` with a docstring and
+register it with :func:`register_term` and the task signals it reads (``requires``); presets
+can then name it.  This module holds the generic terms and conditions (of the vehicle state,
+the action, the target distance, contacts); a term or condition that reads one task's own
+signals lives in that task's module, which registers it (``tasks/pole.py``,
+``tasks/ball_in_cup.py``, ``tasks/landing.py``, ``multi_agent/dogfight_rewards.py``).  Task signals are the optional :class:`StepContext` fields (``target_distance``,
 ``target_distance_rate``, ``waypoint_reached``) plus anything a task puts in
 ``ctx.extras``.
 """
@@ -211,11 +214,6 @@ def yaw_rate_squared(ctx: StepContext) -> float:
     return r * r
 
 
-def pole_lean(ctx: StepContext) -> float:
-    """Lean of the pole in [0, 1]: sine of its tilt while upright, 1 once fallen (pole tasks)."""
-    return ctx.extras["pole_lean"]
-
-
 def state_error(ctx: StepContext, point: Sequence[float] = (0.0, 0.0, 1.0)) -> float:
     """||omega||^2 + ||[roll, pitch, yaw]||^2 + ||v||^2 + ||p - point||^2: the reference ball-in-cup's state error [SI^2]."""
     s = ctx.state
@@ -224,26 +222,6 @@ def state_error(ctx: StepContext, point: Sequence[float] = (0.0, 0.0, 1.0)) -> f
         total += row[0] * row[0] + row[1] * row[1] + row[2] * row[2]
     x, y, z = s.lin_pos
     return total + (x - point[0]) ** 2 + (y - point[1]) ** 2 + (z - point[2]) ** 2
-
-
-def ball_distance_log(ctx: StepContext, scale: float = 0.45, offset: float = 0.01) -> float:
-    """ln(scale * d + offset), d the vehicle-to-ball distance [m] (ball-in-cup; the reference's 0.45, 0.01)."""
-    return math.log(scale * ctx.extras["ball_distance"] + offset)
-
-
-def ball_height(ctx: StepContext) -> float:
-    """Height of the ball's centre above the vehicle's centre of mass [m] (ball-in-cup)."""
-    return ctx.extras["ball_height"]
-
-
-def inverse_hover_error(ctx: StepContext, offset: float = 0.1) -> float:
-    """1 / (e + offset), e the squared distance of the vehicle from the task's hover point [1/m^2] (ball-in-cup)."""
-    return 1.0 / (ctx.extras["hover_error"] + offset)
-
-
-def hover_error_decrease(ctx: StepContext) -> float:
-    """Decrease over the step of the squared distance from the task's hover point [m^2] (ball-in-cup)."""
-    return ctx.extras["hover_error_decrease"]
 
 
 def floor_margin(ctx: StepContext, scale: float = 0.1) -> float:
@@ -257,45 +235,9 @@ def dome_proximity(ctx: StepContext, scale: float = 0.0025) -> float:
     return math.tanh(scale * math.sqrt(x * x + y * y + z * z) - 1.0)
 
 
-# dogfight signals (pyflyt_engine.envs.multi_agent.dogfight): read from ctx.extras
 
-
-def hits_dealt(ctx: StepContext) -> float:
-    """Opponents this agent holds inside its gun cone and range this step [count] (dogfight)."""
-    return ctx.extras["hits_dealt"]
-
-
-def hits_taken(ctx: StepContext) -> float:
-    """Opponents holding this agent inside their gun cone and range this step [count] (dogfight)."""
-    return ctx.extras["hits_taken"]
-
-
-def kills(ctx: StepContext) -> float:
-    """Opponents whose health this agent's fire brought to zero this step [count] (dogfight)."""
-    return ctx.extras["kills"]
-
-
-def health(ctx: StepContext) -> float:
-    """Own health after the step, 1 at spawn, 0 dead [-] (dogfight)."""
-    return ctx.extras["health"]
-
-
-def pursuit(ctx: StepContext) -> float:
-    """Distance closed this step on opponents ahead but out of gun range, summed [m] (dogfight)."""
-    return ctx.extras["pursuit"]
-
-
-def aim(ctx: StepContext) -> float:
-    """Sum over opponents ahead and in range of 1 / (angle off the nose + 0.1) [1/rad] (dogfight)."""
-    return ctx.extras["aim"]
-
-
-def aimed_at(ctx: StepContext) -> float:
-    """Sum over opponents that have this agent ahead and in range of 1 / (their angle off + 0.1) [1/rad] (dogfight)."""
-    return ctx.extras["aimed_at"]
-
-
-#: Every reward term a preset may name.
+#: Every reward term a preset may name: the generic ones here, and those each task registers
+#: from its own module (:func:`register_term`).
 TERMS: dict[str, RewardTerm] = {
     "constant": RewardTerm(constant, "1"),
     "tilt": RewardTerm(tilt, "rad"),
@@ -316,21 +258,9 @@ TERMS: dict[str, RewardTerm] = {
     "altitude": RewardTerm(altitude, "m"),
     "action_magnitude": RewardTerm(action_magnitude, "action units"),
     "yaw_rate_squared": RewardTerm(yaw_rate_squared, "rad^2/s^2"),
-    "pole_lean": RewardTerm(pole_lean, "1", ("pole",)),
     "state_error": RewardTerm(state_error, "SI^2"),
-    "ball_distance_log": RewardTerm(ball_distance_log, "1", ("ball_in_cup",)),
-    "ball_height": RewardTerm(ball_height, "m", ("ball_in_cup",)),
-    "inverse_hover_error": RewardTerm(inverse_hover_error, "1/m^2", ("ball_in_cup",)),
-    "hover_error_decrease": RewardTerm(hover_error_decrease, "m^2", ("ball_in_cup",)),
     "floor_margin": RewardTerm(floor_margin, "1"),
     "dome_proximity": RewardTerm(dome_proximity, "1"),
-    "hits_dealt": RewardTerm(hits_dealt, "count", ("dogfight",)),
-    "hits_taken": RewardTerm(hits_taken, "count", ("dogfight",)),
-    "kills": RewardTerm(kills, "count", ("dogfight",)),
-    "health": RewardTerm(health, "1", ("dogfight",)),
-    "pursuit": RewardTerm(pursuit, "m", ("dogfight",)),
-    "aim": RewardTerm(aim, "1/rad", ("dogfight",)),
-    "aimed_at": RewardTerm(aimed_at, "1/rad", ("dogfight",)),
 }
 
 
@@ -377,42 +307,8 @@ def task_complete(ctx: StepContext) -> bool:
     return ctx.task_complete
 
 
-def pad_contact(ctx: StepContext) -> bool:
-    """The vehicle touched the landing pad during the step (landing task)."""
-    return ctx.extras.get("pad_contact", 0.0) > 0.5
-
-
-def safe_landing(ctx: StepContext) -> bool:
-    """A safe landing was completed this step: gentle touchdown on the pad, then an upright halt (landing task)."""
-    return ctx.extras.get("safe_landing", 0.0) > 0.5
-
-
-def fatal_landing(ctx: StepContext) -> bool:
-    """A fatal landing happened this step: pad touchdown too fast, or tipped over on the pad (landing task)."""
-    return ctx.extras.get("fatal_landing", 0.0) > 0.5
-
-
-def ball_above(ctx: StepContext) -> bool:
-    """The ball's centre is above the vehicle's centre of mass (ball-in-cup)."""
-    return ctx.extras.get("ball_above", 0.0) > 0.5
-
-
-def ball_in_cup(ctx: StepContext) -> bool:
-    """The ball touched the cup during the step with its centre above the vehicle's (ball-in-cup)."""
-    return ctx.extras.get("ball_cup_contact", 0.0) > 0.5
-
-
-def ball_hit_vehicle(ctx: StepContext) -> bool:
-    """The ball struck the vehicle itself during the step (ball-in-cup)."""
-    return ctx.extras.get("ball_hit_vehicle", 0.0) > 0.5
-
-
-def team_win(ctx: StepContext) -> bool:
-    """This agent's team has just shot down or outlasted every opponent (dogfight)."""
-    return ctx.extras.get("team_win", 0.0) > 0.5
-
-
-#: Every condition a preset may name (each also as ``not_<name>``).
+#: Every condition a preset may name (each also as ``not_<name>``): the generic ones here,
+#: and those each task registers from its own module (:func:`register_condition`).
 CONDITIONS: dict[str, Condition] = {
     "always": Condition(always),
     "crash": Condition(crash),
@@ -422,14 +318,24 @@ CONDITIONS: dict[str, Condition] = {
     "waypoint_reached": Condition(waypoint_reached, ("waypoints",)),
     "approaching": Condition(approaching, ("target_distance_rate",)),
     "task_complete": Condition(task_complete),
-    "pad_contact": Condition(pad_contact, ("landing",)),
-    "safe_landing": Condition(safe_landing, ("landing",)),
-    "fatal_landing": Condition(fatal_landing, ("landing",)),
-    "ball_above": Condition(ball_above, ("ball_in_cup",)),
-    "ball_in_cup": Condition(ball_in_cup, ("ball_in_cup",)),
-    "ball_hit_vehicle": Condition(ball_hit_vehicle, ("ball_in_cup",)),
-    "team_win": Condition(team_win, ("dogfight",)),
 }
+
+
+def register_term(name: str, term: RewardTerm) -> None:
+    """Make ``term`` available to reward presets as ``name``: a task registers the terms that
+    read its own signals from its own module (e.g. the pole task's ``pole_lean``)."""
+    if name in TERMS and TERMS[name] != term:
+        raise ValueError(f"reward term '{name}' is registered already, by another function")
+    TERMS[name] = term
+
+
+def register_condition(name: str, condition: Condition) -> None:
+    """Make ``condition`` available to reward presets as ``name`` (and ``not_<name>``)."""
+    if name == "always" or name.startswith("not_"):
+        raise ValueError(f"'{name}' cannot name a condition (reserved)")
+    if name in CONDITIONS and CONDITIONS[name] != condition:
+        raise ValueError(f"condition '{name}' is registered already, by another function")
+    CONDITIONS[name] = condition
 
 
 def condition_names() -> list[str]:

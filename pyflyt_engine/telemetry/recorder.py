@@ -26,6 +26,7 @@ import gymnasium
 import numpy as np
 
 from pyflyt_engine import numerics
+from pyflyt_engine.envs.core import RECORDABLE, RecordableEnv
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.frames import matrix_to_quaternion
 from pyflyt_engine.telemetry import scene, schemas
@@ -78,13 +79,6 @@ def _scalar_info(info: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _action_names(base: Any) -> list[str]:
-    """Names of the recorded action vector: the env's own list if it has one (a multi-agent
-    env's stacked actions, ``<agent>.<entry>``), else its config's action names."""
-    names = getattr(base, "action_names", None)
-    return list(names) if names is not None else list(base.config.action.names)
-
-
 def end_reason(terminated: bool, truncated: bool, info: dict[str, Any]) -> str:
     """Why an episode ended, from its last step's flags and info."""
     if info.get("env_complete") and terminated:
@@ -116,8 +110,9 @@ class RecordEpisode(gymnasium.Wrapper):
     needs to re-simulate the episode.
 
     Args:
-        env: a pyflyt environment (``env.unwrapped`` a :class:`~pyflyt_engine.envs.env.UAVEnv`),
-            possibly wrapped.  Put this wrapper outermost or innermost: the actions it
+        env: a pyflyt environment, possibly wrapped: ``env.unwrapped`` implements
+            :class:`~pyflyt_engine.envs.core.RecordableEnv` (a :class:`~pyflyt_engine.envs.env.UAVEnv`,
+            or a multi-agent env's shared-policy view), and nothing else of it is read.  Put this wrapper outermost or innermost: the actions it
             re-simulates are those the vehicle received (after any action wrappers).
         directory: folder for the files (created if missing).
         prefix: file name prefix.
@@ -143,13 +138,12 @@ class RecordEpisode(gymnasium.Wrapper):
     ) -> None:
         super().__init__(env)
         base = env.unwrapped
-        needed = ("world", "config", "task", "vehicle", "airframe", "reward_preset", "last_action", "last_reward_terms")
-        for attr in needed:
-            if not hasattr(base, attr):
-                raise TelemetryError(
-                    f"RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.UAVEnv); "
-                    f"{type(base).__name__} has no '{attr}'"
-                )
+        if not isinstance(base, RecordableEnv):
+            missing = [name for name in RECORDABLE if not hasattr(base, name)]
+            raise TelemetryError(
+                "RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.core.RecordableEnv, e.g. a "
+                f"UAVEnv); {type(base).__name__} has no {', '.join(repr(m) for m in missing)}"
+            )
         if not re.fullmatch(r"[A-Za-z0-9_.-]+", prefix):
             raise TelemetryError(f"prefix must be letters, digits, '_', '-' or '.', got {prefix!r}")
         if not chunk_seconds > 0:
@@ -219,7 +213,7 @@ class RecordEpisode(gymnasium.Wrapper):
                     "uav_specs": json.dumps(specs),
                     "airframe_spec": airframe,
                     "uav_names": json.dumps([v.spec.name for v in world.vehicles]),
-                    "action_names": json.dumps(_action_names(base)),
+                    "action_names": json.dumps(list(base.action_names)),
                     "physics_hz": repr(world.physics_hz),
                     "control_hz": repr(world.control_hz),
                     "agent_hz": repr(world.agent_hz),
@@ -234,7 +228,7 @@ class RecordEpisode(gymnasium.Wrapper):
 
     def _base_payloads(self) -> Any:
         """The env's :class:`~pyflyt_engine.payloads.PayloadSet` (an empty tuple without payloads)."""
-        payloads = getattr(self._base, "payloads", None)
+        payloads = self._base.payloads
         return payloads if payloads is not None else ()
 
     def _airframe_prims(self) -> list[tuple[str, dict[str, list[dict[str, Any]]]]]:
@@ -273,7 +267,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 "options": json.dumps(_jsonable(options)),
                 "rng_state": json.dumps(rng_state),
                 # domain randomisation: the values drawn at this reset (JSON; {} without)
-                "randomization": json.dumps(dict(getattr(self._base, "last_randomization", {}) or {})),
+                "randomization": json.dumps(dict(self._base.last_randomization)),
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             },
             flush=False,
@@ -310,7 +304,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 self._ch_wind.append(
                     f.channel(f"/uav/{i}/wind", "pyflyt.Wind", schemas.WIND, {"frame_id": scene.WORLD_FRAME})
                 )
-        names = json.dumps(_action_names(base))
+        names = json.dumps(list(base.action_names))
         self._ch_action = f.channel("/uav/0/action", "pyflyt.Action", schemas.ACTION, {"names": names})
         self._ch_reward = f.channel(
             "/reward", "pyflyt.Reward", schemas.REWARD, {"terms": json.dumps(list(base.reward_preset.terms))}
@@ -442,13 +436,11 @@ class RecordEpisode(gymnasium.Wrapper):
         )
 
     def _write_markers(self, ns: int, force: bool) -> None:
-        task = self._base.task
-        points = np.asarray(task.markers(), dtype=float).reshape(-1, 3)
+        points, radius = self._base.scene_markers()
         key = points.tobytes()
         if not force and key == self._markers:
             return
         self._markers = key
-        radius = float(task.marker_style()[1])
         self._file.write(self._ch_scene, ns, scene.scene_update([scene.waypoints_entity(ns, points, radius)]))
 
     def _write_reset(self, info: dict[str, Any], seed: int | None) -> None:

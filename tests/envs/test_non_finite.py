@@ -10,7 +10,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pyflyt_engine.envs.env import _all_finite
+from pyflyt_engine.envs.core import all_finite as _all_finite
 from pyflyt_engine.errors import PyFlytError, SimulationError
 
 
@@ -56,3 +56,21 @@ def test_the_check_sees_every_entry_of_box_and_dict_observations():
             assert not _all_finite(0.0, broken)
             assert not _all_finite(0.0, {"attitude": flat, "target_deltas": broken.reshape(-1, 2)})
         assert not _all_finite(bad, flat)
+
+
+def test_a_multi_agent_divergence_names_the_agent_and_its_vehicle():
+    from pyflyt_engine.envs.multi_agent import ma_quadx_hover_v0
+    from pyflyt_engine.errors import SimulationError
+
+    env = ma_quadx_hover_v0.parallel_env(agents=2)
+    try:
+        observations, _ = env.reset(seed=0)
+        broken = observations["uav_1"].copy()
+        broken[2] = np.nan
+        with pytest.raises(SimulationError) as raised:
+            env._diverged(1, broken, 0.0, env.vehicles[1].state)
+        message = str(raised.value)
+        assert "ma_quadx_hover_v0: the simulation diverged at step 0 of the episode" in message
+        assert "not finite: observation[2]" in message and "Agent 'uav_1', vehicle 'quadx_cf2x'" in message
+    finally:
+        env.close()

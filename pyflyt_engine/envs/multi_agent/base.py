@@ -18,7 +18,7 @@ remains a body others can hit).  The episode is over when ``agents`` is empty.
 
 from __future__ import annotations
 
-import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,16 +29,12 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from pyflyt_engine.envs.config import (
-    MultiAgentEnvConfig,
-    ResolvedAgent,
-    RewardPreset,
-    load_env_config,
-    load_reward_preset,
-)
+from pyflyt_engine.envs import core
+from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.multi_agent.config import PROVIDES
-from pyflyt_engine.envs.rewards import RewardFunction, StepContext
-from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.envs.randomization import Randomizer
+from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
@@ -83,6 +79,10 @@ class MultiAgentUAVEnv(ParallelEnv):
     }
     config_name: ClassVar[str | None] = None
     task_name: ClassVar[str] = ""
+    #: any contact of an agent's vehicle (ground or another agent) ends its episode as a
+    #: crash, as :attr:`Task.crash_on_contact <pyflyt_engine.envs.tasks.base.Task.crash_on_contact>`
+    #: for a single agent; a task where touching is part of the job sets False
+    crash_on_contact: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -95,11 +95,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         airframes: Mapping[str, UAVSpec] | None = None,
         **overrides: Any,
     ) -> None:
-        if sparse_reward is not None:
-            if "reward" in overrides:
-                raise ConfigError("give either sparse_reward or reward, not both")
-            overrides["reward"] = "sparse" if sparse_reward else "dense"
-        cfg = load_env_config(config if config is not None else self.config_name).with_overrides(**overrides)
+        cfg = core.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
         if not isinstance(cfg, MultiAgentEnvConfig):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
@@ -108,10 +104,7 @@ class MultiAgentUAVEnv(ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
             )
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ConfigError(
-                f"unknown render_mode '{render_mode}': use one of {self.metadata['render_modes']} or None"
-            )
+        core.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -140,6 +133,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             agent_hz=cfg.agent_hz,
             render=render_mode == "human",
             drag=cfg.drag,
+            wind=cfg.wind,
+            ground_effect=cfg.ground_effect,
+            downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
         n_act = len(cfg.action.names)
@@ -161,7 +157,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._low = np.array(cfg.action.low, dtype=np.float64)
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
-        self.attitude_size = 3 + (4 if self._quaternion else 3) + 3 + 3 + n_act + aux.pop()
+        self.attitude_size = core.attitude_size(self._quaternion, n_act, aux.pop())
         size = self.attitude_size + self._extra_size()
         obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
@@ -178,6 +174,10 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
+        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
+        self.randomizer: Randomizer | None = Randomizer(cfg.randomize, self.world) if cfg.randomize else None  # type: ignore[arg-type]
+        #: the values drawn at the last reset (empty without randomisation)
+        self.last_randomization: dict[str, float] = {}
         self._markers = None
         if render_mode is not None and len(self.markers()):
             from pyflyt_engine.envs.render import Markers
@@ -201,16 +201,46 @@ class MultiAgentUAVEnv(ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode: every agent alive, spawned in its region (drawn in agent order)."""
+        """Start an episode: every agent alive, spawned in its region (drawn in agent order).
+
+        With ``config.randomize``, its entries are drawn first (as in the single-agent env),
+        once per reset, and applied to every agent: the airframe factors to each vehicle's
+        own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
+        one atmosphere.  ``options``: ``None``, or ``{"task": {...}}`` with options the task
+        lets an episode change; the multi-agent tasks declare none, so any change is refused
+        (``ValueError``) rather than ignored.  Other keys (PettingZoo's API test passes
+        ``{"options": 1}``) are ignored with a warning.
+        """
+        if options:
+            if not isinstance(options, Mapping):
+                raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
+            changes = core.task_changes({"task": options["task"]}) if "task" in options else None
+            if changes:
+                raise ValueError(
+                    f"task '{self.config.task.name}' cannot change {', '.join(sorted(changes))} per episode "
+                    "(options an episode may set: none)"
+                )
+            other = sorted(str(k) for k in options if k != "task")
+            if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
+                warnings.warn(
+                    f"{type(self).__name__}.reset: options {', '.join(other)} mean nothing to this env and are "
+                    'ignored (it takes {"task": {...}} only)',
+                    stacklevel=2,
+                )
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
         self.world.reset(seed)
         rng = self.np_random
+        drawn = self.randomizer.sample(rng) if self.randomizer is not None else None
+        self.last_randomization = dict(drawn) if drawn is not None else {}
         for agent, vehicle in zip(self.agent_list, self.vehicles):
             s = agent.spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
             da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            vehicle.reset(np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist(), lin_vel=s.lin_vel)
+            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
+            if drawn is not None:
+                position, orientation = Randomizer.spawn(drawn, position, orientation)
+            vehicle.reset(position, orientation, lin_vel=s.lin_vel)
         self.agents = list(self.possible_agents)
         self._alive[:] = True
         self._actions[:] = 0.0
@@ -239,10 +269,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 raw = actions[name]
             except KeyError:
                 raise ValueError(f"no action for live agent '{name}' (live: {', '.join(self.agents)})") from None
-            a = np.asarray(raw, dtype=np.float64).reshape(-1)
-            if a.shape != low.shape:
-                raise ValueError(f"agent '{name}': action must have {low.size} values, got {a.size}")
-            a = np.minimum(np.maximum(a, low), high)
+            a = core.clip_action(raw, low, high, self.config.action.names, agent=name)
             self.vehicles[i].set_setpoint(a)
             self._actions[i] = a
         world = self.world
@@ -264,27 +291,25 @@ class MultiAgentUAVEnv(ParallelEnv):
             state = states[i]
             sig = signals[i]
             collision = collisions[i]
-            x, y, z = state.lin_pos
-            out_of_bounds = x * x + y * y + z * z > self._dome2
-            crashed = collision or out_of_bounds or sig.failed
-            ctx = StepContext(
+            out_of_bounds = core.outside_dome(state, self._dome2)
+            crashed, terminated = core.termination(
+                collision, out_of_bounds, sig.failed, sig.complete, self.crash_on_contact
+            )
+            ctx = core.step_context(
+                world,
+                i,
                 state,
                 self._actions[i],
                 collision,
-                world.collided_with_ground(i) if collision else False,
                 out_of_bounds,
                 crashed,
-                sig.complete,
-                sig.target_distance,
-                sig.target_distance_rate,
+                sig,
                 False,
-                sig.extras,
                 max(self._max_steps - self._steps, 0),
                 self._agent_dt,
             )
             reward, terms = self.reward_function(ctx)
             self._reward_terms[i] = terms
-            terminated = crashed or sig.complete
             truncated = not terminated and time_up
             info = {
                 "collision": collision,
@@ -304,7 +329,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         for i in live:
             name = self.possible_agents[i]
             observations[name] = obs = self._observe(i, states)
-            if not (math.isfinite(rewards[name]) and math.isfinite(obs.dot(np.zeros(obs.size)))):
+            if not core.all_finite(rewards[name], obs):
                 self._diverged(i, obs, rewards[name], states[i])
         for i in ended:
             self._alive[i] = False
@@ -345,27 +370,21 @@ class MultiAgentUAVEnv(ParallelEnv):
     # ------------------------------------------------------------- helpers
 
     def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        s = states[i]
-        angles = s.quaternion if self._quaternion else s.ang_pos
-        return np.concatenate(
-            (
-                np.array((*s.ang_vel, *angles, *s.lin_vel, *s.lin_pos), dtype=np.float64),
-                self._actions[i],
-                self.vehicles[i].aux_state,
-                self._task_observe(i, states),
-            )
+        attitude = core.attitude_vector(
+            states[i], self._quaternion, self._actions[i].tolist(), self.vehicles[i].aux_state.tolist()
         )
+        return np.concatenate((attitude, self._task_observe(i, states)))
 
     def _reset_info(self, i: int) -> dict[str, Any]:
-        return {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        if self.randomizer is not None:
+            info["randomization"] = dict(self.last_randomization)
+        return info
 
     def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
-        bad = np.flatnonzero(~np.isfinite(obs)).tolist()
-        raise SimulationError(
-            f"{self.config.id or self.config.source}: the simulation diverged at step {self._steps}: agent "
-            f"'{self.possible_agents[i]}' has a non-finite observation (entries {bad}) or reward ({reward}); "
-            f"position {[round(v, 4) for v in state.lin_pos]} m, last action {self._actions[i].round(4).tolist()}. "
-            "Check the airframes' parameters"
+        where = self.config.id or self.config.source or "the environment"
+        raise core.divergence_error(
+            where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]
         )
 
     def _succeeds_at_time_limit(self) -> bool:

@@ -34,19 +34,6 @@ import numpy as np
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
 
 
-class _SceneMarkers:
-    """The ``task`` read-outs the recorder draws: every agent's marker points."""
-
-    def __init__(self, env: MultiAgentUAVEnv) -> None:
-        self._env = env
-
-    def markers(self) -> np.ndarray:
-        return self._env.markers()
-
-    def marker_style(self) -> tuple[int, float]:
-        return len(self._env.markers()), 0.05
-
-
 class SharedPolicyEnv(gymnasium.Env):
     """A parallel multi-agent env as one Gymnasium env for a shared policy (see the module docstring).
 
@@ -67,11 +54,17 @@ class SharedPolicyEnv(gymnasium.Env):
         names = list(env.config.action.names)
         #: names of the flattened stacked action (``<agent>.<entry>``), as recorded
         self.action_names = [f"{agent}.{n}" for agent in env.possible_agents for n in names]
-        self.task = _SceneMarkers(env)
         self._terms: dict[str, float] = {}
         self._successes = np.zeros(self.num_agents, dtype=bool)
 
-    # the pieces of a pyflyt env the recorder, replay and resume read
+    # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
+    #: a multi-agent env carries no payloads (refused at load)
+    payloads = None
+
+    def scene_markers(self) -> tuple[np.ndarray, float]:
+        """Every agent's marker points, ``(n, 3)`` ground frame, and their radius [m]."""
+        return np.asarray(self.parallel.markers(), dtype=float).reshape(-1, 3), 0.05
+
     @property
     def world(self) -> Any:
         return self.parallel.world
@@ -101,6 +94,11 @@ class SharedPolicyEnv(gymnasium.Env):
         self.parallel.np_random = value
 
     @property
+    def last_randomization(self) -> dict[str, float]:
+        """The values ``config.randomize`` drew at the last reset, applied to every agent (empty without)."""
+        return dict(self.parallel.last_randomization)
+
+    @property
     def last_action(self) -> np.ndarray:
         """The stacked clipped actions the vehicles received at the last step, flattened (N * A,)."""
         return self.parallel.last_actions.reshape(-1)
@@ -122,13 +120,16 @@ class SharedPolicyEnv(gymnasium.Env):
         observations, infos = self.parallel.reset(seed=seed, options=options)
         self._terms = {}
         self._successes[:] = False
-        return self._stack(observations), {
+        info: dict[str, Any] = {
             "success": False,
             "collision": False,
             "out_of_bounds": False,
             "env_complete": False,
             "agent_infos": infos,
         }
+        if self.parallel.randomizer is not None:
+            info["randomization"] = dict(self.parallel.last_randomization)
+        return self._stack(observations), info
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         env = self.parallel

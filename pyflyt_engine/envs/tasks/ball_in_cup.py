@@ -35,6 +35,7 @@ from gymnasium import spaces
 from pydantic import Field
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.rewards import Condition, RewardTerm, StepContext, register_condition, register_term
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import quaternion_to_rows
@@ -138,3 +139,50 @@ class BallInCupTask(Task):
 
     def markers(self) -> np.ndarray:
         return np.array([self.options.hover_point], dtype=np.float64)
+
+
+# ------------------------------------------------ reward terms and conditions of this task
+
+
+def ball_distance_log(ctx: StepContext, scale: float = 0.45, offset: float = 0.01) -> float:
+    """ln(scale * d + offset), d the vehicle-to-ball distance [m] (ball-in-cup; the reference's 0.45, 0.01)."""
+    return math.log(scale * ctx.extras["ball_distance"] + offset)
+
+
+def ball_height(ctx: StepContext) -> float:
+    """Height of the ball's centre above the vehicle's centre of mass [m] (ball-in-cup)."""
+    return ctx.extras["ball_height"]
+
+
+def inverse_hover_error(ctx: StepContext, offset: float = 0.1) -> float:
+    """1 / (e + offset), e the squared distance of the vehicle from the task's hover point [1/m^2] (ball-in-cup)."""
+    return 1.0 / (ctx.extras["hover_error"] + offset)
+
+
+def hover_error_decrease(ctx: StepContext) -> float:
+    """Decrease over the step of the squared distance from the task's hover point [m^2] (ball-in-cup)."""
+    return ctx.extras["hover_error_decrease"]
+
+
+def ball_above(ctx: StepContext) -> bool:
+    """The ball's centre is above the vehicle's centre of mass (ball-in-cup)."""
+    return ctx.extras.get("ball_above", 0.0) > 0.5
+
+
+def ball_in_cup(ctx: StepContext) -> bool:
+    """The ball touched the cup during the step with its centre above the vehicle's (ball-in-cup)."""
+    return ctx.extras.get("ball_cup_contact", 0.0) > 0.5
+
+
+def ball_hit_vehicle(ctx: StepContext) -> bool:
+    """The ball struck the vehicle itself during the step (ball-in-cup)."""
+    return ctx.extras.get("ball_hit_vehicle", 0.0) > 0.5
+
+
+register_term("ball_distance_log", RewardTerm(ball_distance_log, "1", ("ball_in_cup",)))
+register_term("ball_height", RewardTerm(ball_height, "m", ("ball_in_cup",)))
+register_term("inverse_hover_error", RewardTerm(inverse_hover_error, "1/m^2", ("ball_in_cup",)))
+register_term("hover_error_decrease", RewardTerm(hover_error_decrease, "m^2", ("ball_in_cup",)))
+register_condition("ball_above", Condition(ball_above, ("ball_in_cup",)))
+register_condition("ball_in_cup", Condition(ball_in_cup, ("ball_in_cup",)))
+register_condition("ball_hit_vehicle", Condition(ball_hit_vehicle, ("ball_in_cup",)))

@@ -17,6 +17,7 @@ the environment calls, in order::
     observe(attitude, state)       # the first observation
     then per agent step:
     update(state) -> TaskSignals   # advance the task, report reward signals
+    termination(collision, out_of_bounds, signals) -> (crashed, terminated)
     observe(attitude, state)
     info()                         # task entries for the step's info dict
 
@@ -91,6 +92,18 @@ class TaskSignals:
     #: the task declares failure (e.g. a fatal landing): terminate as a crash
     failed: bool = False
     extras: dict[str, float] = field(default_factory=dict)
+
+
+def termination(
+    collision: bool, out_of_bounds: bool, failed: bool, complete: bool, crash_on_contact: bool
+) -> tuple[bool, bool]:
+    """``(crashed, terminated)`` of one agent's step: a crash is leaving the dome, a failure
+    the task declares, or a contact when contacts are crashes; the episode terminates on a
+    crash or when the task is complete (dm_control's ``get_termination`` is the model).
+    Every loop uses it, through :meth:`Task.termination` or
+    :func:`pyflyt_engine.envs.core.termination`."""
+    crashed = out_of_bounds or failed or (collision and crash_on_contact)
+    return crashed, crashed or complete
 
 
 class Task:
@@ -207,6 +220,13 @@ class Task:
     def update(self, state: KinematicState) -> TaskSignals:
         """Advance one agent step with the vehicle now in ``state``."""
         return TaskSignals()
+
+    def termination(self, collision: bool, out_of_bounds: bool, signals: TaskSignals) -> tuple[bool, bool]:
+        """``(crashed, terminated)`` after a step, asked by the environment: by default a crash
+        is leaving the dome, :attr:`TaskSignals.failed` or (with :attr:`crash_on_contact`) any
+        contact, and the episode terminates on a crash or :attr:`TaskSignals.complete`.  A
+        task with other rules overrides this (a payload failure the env adds to the crash)."""
+        return termination(collision, out_of_bounds, signals.failed, signals.complete, self.crash_on_contact)
 
     def info(self) -> dict[str, Any]:
         """Task entries of the info dict."""

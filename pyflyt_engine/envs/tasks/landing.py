@@ -39,6 +39,7 @@ from gymnasium import spaces
 from pydantic import Field, model_validator
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.rewards import Condition, StepContext, register_condition
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.frames import ground_to_body_matrix
 from pyflyt_engine.state import KinematicState
@@ -287,3 +288,26 @@ def _norm(v: tuple[float, float, float]) -> float:
 
 def _floats(v: np.ndarray) -> Vec3:
     return (float(v[0]), float(v[1]), float(v[2]))
+
+
+# ------------------------------------------------ reward terms and conditions of this task
+
+
+def pad_contact(ctx: StepContext) -> bool:
+    """The vehicle touched the landing pad during the step (landing task)."""
+    return ctx.extras.get("pad_contact", 0.0) > 0.5
+
+
+def safe_landing(ctx: StepContext) -> bool:
+    """A safe landing was completed this step: gentle touchdown on the pad, then an upright halt (landing task)."""
+    return ctx.extras.get("safe_landing", 0.0) > 0.5
+
+
+def fatal_landing(ctx: StepContext) -> bool:
+    """A fatal landing happened this step: pad touchdown too fast, or tipped over on the pad (landing task)."""
+    return ctx.extras.get("fatal_landing", 0.0) > 0.5
+
+
+register_condition("pad_contact", Condition(pad_contact, ("landing",)))
+register_condition("safe_landing", Condition(safe_landing, ("landing",)))
+register_condition("fatal_landing", Condition(fatal_landing, ("landing",)))

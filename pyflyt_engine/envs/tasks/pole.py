@@ -29,6 +29,7 @@ from gymnasium import spaces
 from pydantic import Field
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.rewards import RewardTerm, StepContext, register_term
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
@@ -196,3 +197,14 @@ class PoleWaypointsTask(WaypointsTask):
 
     def info(self) -> dict[str, Any]:
         return {**super().info(), "pole_lean": self.pole.lean, "pole_fallen": self.pole.fallen}
+
+
+# ------------------------------------------------ reward terms and conditions of this task
+
+
+def pole_lean_term(ctx: StepContext) -> float:
+    """Lean of the pole in [0, 1]: sine of its tilt while upright, 1 once fallen (pole tasks)."""
+    return ctx.extras["pole_lean"]
+
+
+register_term("pole_lean", RewardTerm(pole_lean_term, "1", ("pole",)))

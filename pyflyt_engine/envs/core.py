@@ -1,0 +1,261 @@
+"""The episode core: what every env loop does the same way, for one agent or N.
+
+The single-agent loop (:class:`~pyflyt_engine.envs.env.UAVEnv`) and the multi-agent loop
+(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) both call these, so the
+config loading, the action clipping, the observation layout, the flight-dome check, the
+reward context of a step and the divergence report exist once:
+
+* :func:`load_config` -- the env config from a name, path, mapping or model, with the
+  ``sparse_reward`` shortcut and overrides, and the render-mode check;
+* :func:`clip_action` -- one agent's action checked for size and clipped to its bounds;
+* :func:`attitude_size`, :func:`attitude_vector` -- the shared observation layout
+  ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]``;
+* :func:`outside_dome` -- the flight-dome check;
+* :func:`termination` -- how a step ends an agent's episode (what a task's
+  ``termination`` returns by default);
+* :func:`step_context` -- the :class:`~pyflyt_engine.envs.rewards.StepContext` of one
+  agent's step;
+* :func:`all_finite`, :func:`divergence_error` -- the never-NaN guard and its report;
+* :func:`task_changes` -- the ``reset(options={"task": ...})`` mapping;
+* :class:`RecordableEnv` -- what an env shows of itself to the recorder and replay.
+
+Everything here is plain arithmetic on floats and tuples, in the same order as the loops
+computed it before (the golden trajectories hold it bit for bit).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from pyflyt_engine.envs.config import EnvConfig, load_env_config
+from pyflyt_engine.envs.rewards import StepContext
+from pyflyt_engine.envs.tasks.base import termination
+from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.state import KinematicState
+
+
+def load_config(
+    config: str | Path | Mapping[str, Any] | EnvConfig | None,
+    default: str | None,
+    owner: str,
+    sparse_reward: bool | None,
+    overrides: dict[str, Any],
+) -> EnvConfig:
+    """The env config an env is built from: ``config`` (or ``default``) with ``overrides``.
+
+    ``sparse_reward`` is the shortcut for ``reward="sparse"`` / ``"dense"``; ``owner`` (the
+    env class's name) words the error when neither ``config`` nor ``default`` is given.
+    """
+    if config is None:
+        if default is None:
+            raise ConfigError(f"{owner} needs an env config (a name in conf/env, a path or a mapping)")
+        config = default
+    if sparse_reward is not None:
+        if "reward" in overrides:
+            raise ConfigError("give either sparse_reward or reward, not both")
+        overrides = {**overrides, "reward": "sparse" if sparse_reward else "dense"}
+    return load_env_config(config).with_overrides(**overrides)
+
+
+def check_render_mode(render_mode: str | None, modes: Sequence[str]) -> None:
+    """ConfigError unless ``render_mode`` is None or one of ``modes``."""
+    if render_mode is not None and render_mode not in modes:
+        raise ConfigError(f"unknown render_mode '{render_mode}': use one of {list(modes)} or None")
+
+
+def clip_action(action: Any, low: np.ndarray, high: np.ndarray, names: Sequence[str], agent: str | None = None) -> np.ndarray:
+    """``action`` as a flat float64 array clipped to ``[low, high]``.
+
+    Raises:
+        ValueError: the action has another number of entries than ``names`` (naming
+            ``agent`` when given).
+    """
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    if a.shape != low.shape:
+        if agent is None:
+            raise ValueError(f"action must have {low.size} values ({', '.join(names)}), got {a.size}")
+        raise ValueError(f"agent '{agent}': action must have {low.size} values, got {a.size}")
+    return np.minimum(np.maximum(a, low), high)
+
+
+def attitude_size(quaternion: bool, actions: int, aux: int) -> int:
+    """Entries of the attitude vector: rates 3, attitude 4 (quaternion) or 3, velocity 3,
+    position 3, the previous action and the auxiliary state."""
+    return 3 + (4 if quaternion else 3) + 3 + 3 + actions + aux
+
+
+def attitude_vector(state: KinematicState, quaternion: bool, action: Sequence[float], aux: Sequence[float]) -> np.ndarray:
+    """``[ang_vel (3, body), attitude (quaternion xyzw | Euler), lin_vel (3, body),
+    lin_pos (3, ground), previous action, aux]`` as one float64 array (one flat tuple)."""
+    angles = state.quaternion if quaternion else state.ang_pos
+    return np.array(
+        (*state.ang_vel, *angles, *state.lin_vel, *state.lin_pos, *action, *aux),
+        dtype=np.float64,
+    )
+
+
+def outside_dome(state: KinematicState, dome_squared: float) -> bool:
+    """Whether the centre of mass is farther from the origin than the flight dome's radius."""
+    x, y, z = state.lin_pos
+    return x * x + y * y + z * z > dome_squared
+
+
+def step_context(
+    world: Any,
+    index: int,
+    state: KinematicState,
+    action: np.ndarray,
+    collision: bool,
+    out_of_bounds: bool,
+    crashed: bool,
+    signals: Any,
+    waypoint_reached: bool,
+    steps_remaining: int,
+    agent_dt: float,
+) -> StepContext:
+    """The reward context of vehicle ``index``'s step; ``signals`` the task's (``complete``,
+    ``target_distance``, ``target_distance_rate``, ``extras``)."""
+    return StepContext(
+        state,
+        action,
+        collision,
+        world.collided_with_ground(index) if collision else False,
+        out_of_bounds,
+        crashed,
+        signals.complete,
+        signals.target_distance,
+        signals.target_distance_rate,
+        waypoint_reached,
+        signals.extras,
+        steps_remaining,
+        agent_dt,
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _zeros(size: int) -> np.ndarray:
+    zeros = np.zeros(size)
+    zeros.flags.writeable = False
+    return zeros
+
+
+def all_finite(reward: float, observation: Any) -> bool:
+    """Whether ``reward`` and every number in ``observation`` (an array or a mapping of arrays) are finite.
+
+    One dot product with zeros per array: it is 0 unless an entry is NaN or infinite
+    (0 * inf is NaN), so a finite observation can never be mistaken for a bad one.
+    """
+    if isinstance(observation, np.ndarray) and observation.ndim == 1:  # a flat Box: the common case
+        return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
+    total = reward
+    for value in observation.values() if isinstance(observation, Mapping) else (observation,):
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
+            continue
+        flat = np.ravel(np.asarray(value, dtype=np.float64))
+        total += flat.dot(_zeros(flat.size))
+    return math.isfinite(total)
+
+
+def _rounded(values: Any) -> list[float]:
+    return [round(float(v), 4) for v in values]
+
+
+def divergence_error(
+    where: str,
+    step: int,
+    observation: Any,
+    reward: float,
+    state: KinematicState,
+    vehicle: Any,
+    action: Any,
+    agent: str | None = None,
+) -> SimulationError:
+    """The :class:`SimulationError` describing a non-finite observation or reward at ``step``:
+    which entries, the vehicle's state and the last action (and the agent, when several fly)."""
+    parts = observation.items() if isinstance(observation, Mapping) else [("observation", observation)]
+    bad = [
+        f"{name}[{', '.join(map(str, np.flatnonzero(~np.isfinite(np.asarray(value, dtype=np.float64)))))}]"
+        for name, value in parts
+        if not np.isfinite(np.asarray(value, dtype=np.float64)).all()
+    ]
+    if not math.isfinite(reward):
+        bad.append(f"reward ({reward})")
+    who = f"Agent '{agent}', vehicle" if agent is not None else "Vehicle"
+    return SimulationError(
+        f"{where}: the simulation diverged at step {step} of the episode: not finite: {', '.join(bad)}. "
+        f"{who} '{vehicle.spec.name}': position {_rounded(state.lin_pos)} m, attitude "
+        f"{_rounded(state.ang_pos)} rad, body velocity {_rounded(state.lin_vel)} m/s, body rates "
+        f"{_rounded(state.ang_vel)} rad/s, aux {_rounded(vehicle.aux_state)}; last action "
+        f"{_rounded(action)}. Check the airframe's parameters (mass, inertia, motor, drag and surface "
+        "coefficients) and anything that moved the vehicle from outside the environment"
+    )
+
+
+def task_changes(options: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The task option changes in a ``reset(options=...)`` mapping: ``None`` or ``{"task": {...}}``.
+
+    Raises:
+        ValueError: anything else.
+    """
+    if not options:
+        return None
+    if not isinstance(options, dict) or set(options) - {"task"} or not isinstance(options.get("task", {}), dict):
+        raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
+    return options.get("task")
+
+
+@runtime_checkable
+class RecordableEnv(Protocol):
+    """The public face of an env that :class:`~pyflyt_engine.telemetry.RecordEpisode` records
+    and :func:`~pyflyt_engine.telemetry.replay.verify` re-simulates: nothing else of an env is
+    read from outside.  :class:`~pyflyt_engine.envs.env.UAVEnv` and
+    :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv` implement it.
+
+    Attributes:
+        world: the :class:`~pyflyt_engine.world.World` (vehicles, contacts, wind, RNG state).
+        config: the resolved env config.
+        airframe: the airframe flown before a task adjusts it.
+        reward_preset: the resolved reward preset.
+        np_random: the env's generator (its state is recorded at each reset).
+        payloads: the env's :class:`~pyflyt_engine.payloads.PayloadSet`, or None.
+        action_names: the names of the recorded action vector's entries.
+        last_action: the action the vehicles received at the last step (flat).
+        last_reward_terms: the reward breakdown of the last step.
+        last_randomization: the values domain randomisation drew at the last reset.
+    """
+
+    world: Any
+    config: Any
+    airframe: Any
+    reward_preset: Any
+    np_random: np.random.Generator
+    payloads: Any
+
+    @property
+    def action_names(self) -> list[str]: ...
+
+    @property
+    def last_action(self) -> np.ndarray: ...
+
+    @property
+    def last_reward_terms(self) -> dict[str, float]: ...
+
+    @property
+    def last_randomization(self) -> dict[str, float]: ...
+
+    def scene_markers(self) -> tuple[np.ndarray, float]:
+        """The points drawn in the scene now, ``(n, 3)`` ground frame, and their radius [m]."""
+        ...
+
+
+#: the members of :class:`RecordableEnv`, for messages naming what an env lacks
+RECORDABLE = (
+    "world", "config", "airframe", "reward_preset", "np_random", "payloads", "action_names",
+    "last_action", "last_reward_terms", "last_randomization", "scene_markers",
+)  # fmt: skip
