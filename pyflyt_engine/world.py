@@ -341,6 +341,8 @@ class World:
         step_simulation, contact_points = p.stepSimulation, p.getContactPoints
         wind = self.atmosphere.field
         wind = wind if wind is not None and not wind.static else None
+        if rotors:  # the downwash's wake grid: every vehicle binned now, then each as it is read
+            self.atmosphere.stepping(True)
         for tick, sample in self._schedule(self.physics_steps):
             if tick:  # control tick
                 for i, vehicle in ticking:
@@ -370,6 +372,8 @@ class World:
                 wind.advance()
             if sample:  # the end of a control period or of the agent step
                 record(contact_points(-1, -1, -2, -2, cid))
+        if rotors:
+            self.atmosphere.stepping(False)
         for vehicle in vehicles:  # read again when asked for (Vehicle.state)
             vehicle.state_changed()
 

@@ -24,6 +24,7 @@ recorded trajectory depends on their last bits.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -96,6 +97,9 @@ class Atmosphere:
     def __init__(self, field: WindField | None, rotors: RotorInteractions | None, vehicles: list[Vehicle]) -> None:
         self.rotors = rotors
         self.vehicles = vehicles
+        #: inside :meth:`stepping`: the world reads each vehicle right before asking for its
+        #: air, so the wake grid stays current by rebinning the vehicle asked about
+        self._stepping = False
         self._spans: list[float] = []
         self._probes: list = []
         self.field = field
@@ -130,16 +134,49 @@ class Atmosphere:
                 radii = spec.to_array("prop_radius").tolist()
             self.rotors.add_vehicle(hubs, radii, motors.max_thrust.tolist() if motors is not None else [])
 
+    def refresh_wakes(self) -> None:
+        """Rebin, in the downwash's wake grid, every vehicle read since it was last binned
+        (O(vehicles); nothing without downwash)."""
+        rotors = self.rotors
+        if rotors is None or not rotors.downwash:
+            return
+        placed = rotors.wakes.placed
+        for j, vehicle in enumerate(self.vehicles):
+            position = vehicle.position
+            if placed.get(j) is not position:
+                rotors.place(j, position)
+        wakes = rotors.wakes
+        wakes.top = max((placed[j][2] for j in wakes.where), default=-math.inf)  # type: ignore[index]
+
+    def stepping(self, on: bool) -> None:
+        """The world enters (True, after :meth:`refresh_wakes`) or leaves (False) its physics loop."""
+        if on:
+            self.refresh_wakes()
+        self._stepping = on
+
     def wind_at(self, index: int, position: Sequence[float]) -> WindSample | None:
         """The wind at vehicle ``index`` at ``position``: the field's plus the downwash of the
-        others (None: the air does not move)."""
+        others (None: the air does not move).
+
+        The downwash sums only the wakes that can reach ``position``
+        (:meth:`RotorInteractions.sources`): the other vehicles at their latest reads,
+        exactly as the all-pairs :meth:`RotorInteractions.downwash_at`."""
         sample = self._probes[index](position) if self._field is not None else None
         rotors = self.rotors
         if rotors is None or not rotors.downwash:
             return sample
         vehicles = self.vehicles
-        throttles = [v.actuators.motors.throttle if v.actuators.motors is not None else None for v in vehicles]
-        w = rotors.downwash_at(index, position, [v.position for v in vehicles], throttles)
+        if self._stepping:  # only this vehicle has been read since the wakes were last binned
+            rotors.place(index, vehicles[index].position)
+        else:  # asked from outside the loop: any vehicle may have been read since
+            self.refresh_wakes()
+        sources = rotors.sources(index, position)
+        w = 0.0
+        if sources:
+            near = [vehicles[j] for j in sources]
+            w = rotors.downwash_near(
+                index, position, sources, [v.position for v in near], [v.actuators.motors.throttle for v in near]
+            )
         if sample is None:
             return (0.0, 0.0, w, 0.0, 0.0, 0.0)
         wx, wy, wz, p, q, r = sample

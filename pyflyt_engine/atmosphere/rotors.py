@@ -32,6 +32,19 @@ other wind.  Limits: the jet is vertical whatever the upper vehicle's attitude; 
 of a rotor's thrust in the descending air of the wake (inflow) is not modelled; positions
 of the other vehicles are their latest reads (at most one physics step old), and their
 thrust is that of their current throttles.
+
+**Which pairs are evaluated.** The wake is Gaussian across, so every rotorcraft above
+reaches every vehicle below in principle; but beyond ``r = WAKE_REACH * r_half`` (about
+33 half-widths) the factor ``exp(-ln 2 (r / r_half)^2)`` is below ``exp(-760)``, which
+IEEE double arithmetic rounds to exactly 0.0 (the least subnormal number is about
+``exp(-744.4)``), so the term it would add is exactly 0.0 and leaving it out changes no
+bit of the sum.  :class:`WakeGrid` bins the rotorcraft by horizontal position in square
+cells; a vehicle's downwash (:meth:`RotorInteractions.downwash_near`) visits only the
+cells within the reach of the highest rotorcraft, and of those only the vehicles above it
+whose own reach covers it, in index order -- the same terms, summed in the same order,
+as the all-pairs definition :meth:`RotorInteractions.downwash_at`.  In a swarm flying at
+one height the reach is about 3 m for Crazyflie-class vehicles, so the work per vehicle
+is bounded by the neighbours within it, not by the size of the swarm.
 """
 
 from __future__ import annotations
@@ -45,6 +58,12 @@ from pyflyt_engine.constants import AIR_DENSITY
 JET_DECAY = 5.8  # B, round jet centreline decay constant (Pope 2000, table 5.1, Hussein et al. 1994)
 JET_SPREAD = 0.094  # S, round jet spreading rate (Pope 2000, table 5.1, Hussein et al. 1994)
 _LN2 = math.log(2.0)
+#: exp(-x) is exactly 0.0 in double precision for x > 745.14 (IEEE 754: the least subnormal,
+#: 2^-1074, is exp(-744.44), and smaller results round to 0); 760 leaves a margin far above
+#: any rounding of the reach test
+_UNDERFLOW = 760.0
+#: in half-widths: a wake's Gaussian factor is exactly 0.0 beyond this distance off its axis
+WAKE_REACH = math.sqrt(_UNDERFLOW / _LN2)
 
 
 def ground_effect_ratio(height: float, radius: float, min_height: float = 0.5) -> float:
@@ -76,6 +95,76 @@ class _Rotorcraft:
     max_thrust: list[float]
     disc_area: float
 
+    @property
+    def jet_diameter(self) -> float:
+        """``d = sqrt(2 A / pi)``, the diameter of the fully developed wake [m]."""
+        return math.sqrt(2.0 * self.disc_area / math.pi)
+
+
+class WakeGrid:
+    """The rotorcraft of a world binned by horizontal position, to find the wakes that can reach a point.
+
+    Square cells of side ``cell`` [m] keyed by ``(floor(x / cell), floor(y / cell))``.
+    :meth:`place` (re)bins one vehicle, O(1); :meth:`near` lists, in index order, the
+    vehicles in the cells that a disc of a given radius touches -- O(cells touched +
+    vehicles found), or O(vehicles) when the disc covers more cells than are occupied.
+    :attr:`top` is at least the height of every vehicle placed since :meth:`clear`.
+    """
+
+    def __init__(self, cell: float) -> None:
+        if not cell > 0.0:
+            raise ValueError(f"wake grid cell must be > 0 m, got {cell}")
+        self.cell = cell
+        self.cells: dict[tuple[int, int], list[int]] = {}
+        self.where: dict[int, tuple[int, int]] = {}
+        #: per vehicle, the position object it was binned from (to notice a newer read)
+        self.placed: dict[int, object] = {}
+        self.top = -math.inf
+
+    def clear(self) -> None:
+        self.cells.clear()
+        self.where.clear()
+        self.placed.clear()
+        self.top = -math.inf
+
+    def place(self, index: int, position: Sequence[float]) -> None:
+        """Bin vehicle ``index`` at ``position`` (moving it out of its old cell)."""
+        self.placed[index] = position
+        z = position[2]
+        if z > self.top:
+            self.top = z
+        key = (math.floor(position[0] / self.cell), math.floor(position[1] / self.cell))
+        old = self.where.get(index)
+        if old == key:
+            return
+        if old is not None:
+            members = self.cells[old]
+            members.remove(index)
+            if not members:
+                del self.cells[old]
+        self.where[index] = key
+        self.cells.setdefault(key, []).append(index)
+
+    def near(self, x: float, y: float, radius: float) -> list[int]:
+        """Vehicles binned in the cells the disc of ``radius`` about ``(x, y)`` touches, ascending."""
+        c = self.cell
+        x0, x1 = math.floor((x - radius) / c), math.floor((x + radius) / c)
+        y0, y1 = math.floor((y - radius) / c), math.floor((y + radius) / c)
+        cells = self.cells
+        found: list[int] = []
+        if (x1 - x0 + 1) * (y1 - y0 + 1) > len(cells):
+            for (cx, cy), members in cells.items():
+                if x0 <= cx <= x1 and y0 <= cy <= y1:
+                    found.extend(members)
+        else:
+            for cx in range(x0, x1 + 1):
+                for cy in range(y0, y1 + 1):
+                    members = cells.get((cx, cy))
+                    if members:
+                        found.extend(members)
+        found.sort()
+        return found
+
 
 class RotorInteractions:
     """Ground effect and downwash for the vehicles of one world (see the module docstring).
@@ -94,6 +183,10 @@ class RotorInteractions:
         self.downwash = downwash
         self.min_height = min_height
         self.vehicles: list[_Rotorcraft | None] = []
+        #: the rotorcraft with a disc area binned by position (:meth:`downwash_near`)
+        self.wakes = WakeGrid(1.0)
+        self._jet_diameters: list[float] = []
+        self._widest = 0.0
 
     def add_vehicle(
         self, positions: Sequence[Sequence[float]], radii: Sequence[float | None], max_thrust: Sequence[float]
@@ -102,11 +195,20 @@ class RotorInteractions:
         radii (None: not a rotor) and full thrusts [N]; no motors: empty sequences."""
         if not len(positions):
             self.vehicles.append(None)
+            self._jet_diameters.append(0.0)
             return
         radii = list(radii)
         area = sum(math.pi * r * r for r in radii if r)
         hubs = [tuple(float(v) for v in p) for p in positions]
-        self.vehicles.append(_Rotorcraft(hubs, radii, [float(t) for t in max_thrust], area))  # type: ignore[arg-type]
+        craft = _Rotorcraft(hubs, radii, [float(t) for t in max_thrust], area)  # type: ignore[arg-type]
+        self.vehicles.append(craft)
+        d = craft.jet_diameter if area > 0.0 else 0.0
+        self._jet_diameters.append(d)
+        if d > self._widest:
+            self._widest = d
+            # a cell as wide as the reach of the widest wake at its own height: a swarm at one
+            # height then looks at the 3 x 3 cells about each vehicle
+            self.wakes = WakeGrid(max(WAKE_REACH * JET_SPREAD * JET_DECAY * d, 0.05))
 
     def ground_effect_ratios(self, index: int, position: Sequence[float], r: Sequence[float]) -> list[float] | None:
         """Per motor of vehicle ``index``, at ``position`` with body-to-ground matrix ``r``
@@ -152,4 +254,54 @@ class RotorInteractions:
                 continue
             thrust = self.thrust(j, throttles[j])  # type: ignore[arg-type]
             w -= downwash_velocity(cz - z, math.hypot(x - cx, y - cy), thrust, craft.disc_area)
+        return w
+
+    def place(self, index: int, position: Sequence[float]) -> None:
+        """Bin vehicle ``index`` at its latest read ``position`` in :attr:`wakes` (rotorcraft only)."""
+        craft = self.vehicles[index]
+        if craft is not None and craft.disc_area > 0.0:
+            self.wakes.place(index, position)
+
+    def sources(self, index: int, position: Sequence[float]) -> list[int]:
+        """The vehicles whose wake can add a non-zero term at ``position`` of vehicle ``index``:
+        binned in :attr:`wakes` within the reach of the highest one, above it, and within
+        their own reach (``WAKE_REACH`` half-widths at that depth), in index order."""
+        wakes = self.wakes
+        x, y, z = position[0], position[1], position[2]
+        if wakes.top <= z:
+            return []
+        reach = WAKE_REACH * JET_SPREAD
+        found = wakes.near(x, y, reach * (wakes.top - z + JET_DECAY * self._widest))
+        out = []
+        placed, diameters = wakes.placed, self._jet_diameters
+        for j in found:
+            if j == index:
+                continue
+            cx, cy, cz = placed[j]  # type: ignore[misc]
+            if cz <= z:
+                continue
+            r = reach * (cz - z + JET_DECAY * diameters[j])
+            dx, dy = x - cx, y - cy
+            if dx * dx + dy * dy <= r * r:
+                out.append(j)
+        return out
+
+    def downwash_near(
+        self,
+        index: int,
+        position: Sequence[float],
+        sources: Sequence[int],
+        positions: Sequence[Sequence[float]],
+        throttles: Sequence[Sequence[float]],
+    ) -> float:
+        """:meth:`downwash_at` over the vehicles ``sources`` only (from :meth:`sources`; their
+        ``positions`` and ``throttles`` in the same order): the same number, bit for bit,
+        when every other vehicle's term is exactly zero (see the module docstring)."""
+        x, y, z = position[0], position[1], position[2]
+        w = 0.0
+        vehicles = self.vehicles
+        for j, (cx, cy, cz), throttle in zip(sources, positions, throttles):
+            craft = vehicles[j]
+            thrust = self.thrust(j, throttle)
+            w -= downwash_velocity(cz - z, math.hypot(x - cx, y - cy), thrust, craft.disc_area)  # type: ignore[union-attr]
         return w
