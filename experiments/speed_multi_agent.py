@@ -1,111 +1,98 @@
-"""Steps per second of the multi-agent envs, beside the reference PyFlyt's, on this machine.
+"""Agent-steps per second of the multi-agent envs against the number of agents, beside the reference PyFlyt's.
 
-Cases: MAQuadX-Hover with N = 2, 4, 8 agents and MAFixedwing-Dogfight 1 v 1 and 2 v 2.
-Each env is stepped with uniformly random actions for every live agent (agent rate
-30 Hz in both packages, i.e. 8 physics steps per env step), resetting whenever the
-episode ends (resets included in the timing, as in training).  Figures:
+Cases: MAQuadX-Hover with N = 1, 2, 4, ..., 128 agents on a square grid 1 m apart at 1 m
+(the ``grid`` layout; the reference's ``MAQuadXHoverEnvV2`` is given the same start
+positions), MAFixedwing-Dogfight 1 v 1 and 2 v 2 (the reference's
+``MAFixedwingDogfightEnvV2`` with ``team_size`` 1 and 2), and MAQuadX-Formation (ours
+only: the reference has no swarm task; downwash on).  Both packages are timed by the same
+protocol, :func:`pyflyt_cli.speed.protocols.time_parallel_env` (the file needs only the
+standard library, so the reference's interpreter loads it by its path): every live agent
+takes a uniformly random action from its own action space, the env resets when no agent is
+left (resets included, as in training), agent rate 30 Hz in both.  Figures per case:
 
-* env steps/s -- parallel ``step`` calls per second;
-* agent-steps/s -- live agents stepped per second (the unit training counts);
-* the ratio ours / reference per agent-step.
+* agent-steps/s -- live agents stepped per wall second (the unit training counts), and per
+  CPU second of the timing process (``--cpu-time`` ratios: on a machine other jobs load,
+  wall time counts their share too);
+* RTF -- simulated seconds per wall second;
+* ours / reference per agent-step.
 
-The reference (PyFlyt 0.29.0: ``MAQuadXHoverEnv``, ``MAFixedwingDogfightEnv`` with
-``team_size`` 1 and 2, agent_hz set to 30) runs in its own interpreter, given by
-``--reference-python`` (default ``/work/refvenv/bin/python`` when it exists, or
-$PYFLYT_REFERENCE_PYTHON); without one, only our figures are printed.  Each case is
-timed ``--repeats`` times alternately in both packages; the median is kept.  With
-``--cpu-time`` the timings are the CPU time of the timing process (``time.process_time``)
-instead of wall time: on a machine other jobs load, wall time counts their share too, the
-process's own CPU time much less so.  ``--cases`` picks some cases (e.g. ``dogfight:2``);
-``--no-reference`` times only this package (e.g. two checkouts before and after a change).
+The reference (PyFlyt 0.29.0) runs in its own interpreter (it pins numpy < 2), given by
+``--reference-python`` (default $PYFLYT_REFERENCE_PYTHON, or ``/work/refvenv/bin/python``
+when it exists); this script runs itself there with ``--case``.  Without one, only our
+figures are printed.  Each case is timed ``--repeats`` times, ours then the reference's,
+alternately; the median is kept.  Each N times about ``--agent-steps`` agent-steps (at
+least ``--min-steps`` env steps).
 
-    python experiments/speed_multi_agent.py [--steps 1500] [--repeats 3] [--markdown] [--cpu-time]
+    python experiments/speed_multi_agent.py [--agent-steps 3000] [--repeats 3] [--markdown] [--cases hover:8 dogfight:2]
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import platform
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-import numpy as np
-
-CASES = [("hover", 2), ("hover", 4), ("hover", 8), ("dogfight", 1), ("dogfight", 2)]
+ROOT = Path(__file__).resolve().parents[1]
+PROTOCOLS = ROOT / "pyflyt_cli" / "speed" / "protocols.py"
+SIZES = (1, 2, 4, 8, 16, 32, 64, 128)
+CASES = [("hover", n) for n in SIZES] + [("dogfight", 1), ("dogfight", 2)] + [("formation", n) for n in SIZES]
 DEFAULT_REFERENCE = "/work/refvenv/bin/python"
+AGENT_HZ = 30
+
+
+def _protocols():
+    spec = importlib.util.spec_from_file_location("speed_protocols", PROTOCOLS)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
 
 
 def _label(kind: str, size: int) -> str:
-    return f"MAQuadX-Hover N={size}" if kind == "hover" else f"MAFixedwing-Dogfight {size}v{size}"
+    if kind == "dogfight":
+        return f"MAFixedwing-Dogfight {size}v{size}"
+    return f"MAQuadX-{'Hover' if kind == 'hover' else 'Formation'} N={size}"
 
 
-CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
+def _agents(kind: str, size: int) -> int:
+    return 2 * size if kind == "dogfight" else size
 
 
-def time_env(env, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
-    """(env steps/s, agent-steps/s) over ``steps`` parallel steps with random actions,
-    timed by the ``clock`` named in :data:`CLOCKS`."""
-    now = CLOCKS[clock]
-    rng = np.random.default_rng(seed)
-    env.reset(seed=seed)
-    first = env.possible_agents[0]
-    low, high = env.action_space(first).low, env.action_space(first).high
-    low = np.where(np.isfinite(low), low, -1.0)
-    high = np.where(np.isfinite(high), high, 1.0)
+def ours(kind: str, size: int, steps: int, seed: int) -> dict:
+    sys.path.insert(0, str(ROOT))
+    from pyflyt_cli.speed import probes
 
-    def run(n: int) -> int:
-        agent_steps = 0
-        for _ in range(n):
-            if not env.agents:
-                env.reset()
-            agent_steps += len(env.agents)
-            env.step({a: rng.uniform(low, high) for a in env.agents})
-        return agent_steps
-
-    run(50)  # warm up
-    start = now()
-    agent_steps = run(steps)
-    elapsed = now() - start
-    return steps / elapsed, agent_steps / elapsed
-
-
-def ours(kind: str, size: int, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
-    from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0, ma_quadx_hover_v0
-
-    env = (
-        ma_quadx_hover_v0.parallel_env(agents=size)
-        if kind == "hover"
-        else ma_fixedwing_dogfight_v0.parallel_env(agents=2 * size)
-    )
+    env = probes.swarm_env(kind, _agents(kind, size))
     try:
-        return time_env(env, steps, seed, clock)
+        return probes.protocols.time_parallel_env(env, AGENT_HZ, steps, warmup=max(2, steps // 10), seed=seed)
     finally:
         env.close()
 
 
-def reference(kind: str, size: int, steps: int, seed: int, clock: str = "wall") -> tuple[float, float]:
+def reference(kind: str, size: int, steps: int, seed: int) -> dict:
     """Runs inside the reference interpreter (``--case``)."""
+    import numpy as np
+
+    protocols = _protocols()
     if kind == "hover":
         from PyFlyt.pz_envs import MAQuadXHoverEnvV2
 
-        angles = 2 * np.pi * np.arange(size) / size
-        start = (
-            np.stack((np.cos(angles), np.sin(angles), np.ones(size)), axis=1)
-            if size > 1
-            else np.array([[0.0, 0.0, 1.0]])
-        )
-        env = MAQuadXHoverEnvV2(start_pos=start, start_orn=np.zeros((size, 3)), agent_hz=30)
-    else:
+        start = np.array(protocols.centred_grid(size, protocols.GRID_SPACING, 1.0))
+        env = MAQuadXHoverEnvV2(start_pos=start, start_orn=np.zeros((size, 3)), agent_hz=AGENT_HZ)
+    elif kind == "dogfight":
         from PyFlyt.pz_envs import MAFixedwingDogfightEnvV2
 
-        env = MAFixedwingDogfightEnvV2(team_size=size, agent_hz=30)
+        env = MAFixedwingDogfightEnvV2(team_size=size, agent_hz=AGENT_HZ)
+    else:
+        raise SystemExit(f"the reference has no {kind} env")
     try:
-        return time_env(env, steps, seed, clock)
+        return protocols.time_parallel_env(env, AGENT_HZ, steps, warmup=max(2, steps // 10), seed=seed)
     finally:
         env.close()
 
@@ -117,37 +104,39 @@ def _reference_python(given: str | None) -> str | None:
     return None
 
 
-def _run_reference(python: str, kind: str, size: int, steps: int, seed: int, clock: str) -> tuple[float, float]:
-    code = [python, str(Path(__file__).resolve()), "--case", kind, str(size), str(steps), str(seed), clock]
+def _run_reference(python: str, kind: str, size: int, steps: int, seed: int) -> dict:
+    code = [python, str(Path(__file__).resolve()), "--case", kind, str(size), str(steps), str(seed)]
     out = subprocess.run(code, capture_output=True, text=True, check=True, cwd="/")
-    return tuple(json.loads(out.stdout.strip().splitlines()[-1]))  # type: ignore[return-value]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _run_ours(kind: str, size: int, steps: int, seed: int) -> dict:
+    """Ours in a fresh process too, so neither side inherits the other's warm caches or memory."""
+    code = [sys.executable, str(Path(__file__).resolve()), "--ours", kind, str(size), str(steps), str(seed)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+    out = subprocess.run(code, capture_output=True, text=True, check=True, cwd=ROOT, env=env)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=1500, help="parallel env steps per timing")
+    parser.add_argument("--agent-steps", type=int, default=3000, help="agent-steps timed per case (about)")
+    parser.add_argument("--min-steps", type=int, default=20, help="env steps timed per case at least")
     parser.add_argument("--repeats", type=int, default=3, help="timings per case and package (median kept)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--reference-python", default=None, help="interpreter with PyFlyt 0.29.0 installed")
     parser.add_argument("--no-reference", action="store_true", help="time only this package")
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
-    parser.add_argument("--cpu-time", action="store_true", help="time with process CPU time instead of wall time")
     parser.add_argument("--cases", nargs="+", default=None, help="only these cases, KIND:SIZE (hover:4 dogfight:2)")
-    parser.add_argument("--case", nargs=5, metavar=("KIND", "SIZE", "STEPS", "SEED", "CLOCK"), help=argparse.SUPPRESS)
+    parser.add_argument("--case", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
+    parser.add_argument("--ours", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    if args.case:  # inside the reference interpreter
-        kind, size, steps, seed, clock = (
-            args.case[0],
-            int(args.case[1]),
-            int(args.case[2]),
-            int(args.case[3]),
-            args.case[4],
-        )
-        print(json.dumps(reference(kind, size, steps, seed, clock)))
+    if args.case or args.ours:  # one timing, in its own process
+        kind, size, steps, seed = (args.case or args.ours)[0], *map(int, (args.case or args.ours)[1:])
+        print(json.dumps((reference if args.case else ours)(kind, size, steps, seed)))
         return 0
-    if args.steps < 1 or args.repeats < 1:
-        parser.error("--steps and --repeats must be >= 1")
-    clock = "cpu" if args.cpu_time else "wall"
+    if args.agent_steps < 1 or args.repeats < 1 or args.min_steps < 1:
+        parser.error("--agent-steps, --min-steps and --repeats must be >= 1")
     cases = CASES
     if args.cases:
         try:
@@ -157,50 +146,59 @@ def main(argv: list[str] | None = None) -> int:
         unknown = [c for c in cases if c not in CASES]
         if unknown:
             parser.error(f"unknown case(s) {unknown}; known: {' '.join(f'{k}:{n}' for k, n in CASES)}")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     python = None if args.no_reference else _reference_python(args.reference_python)
+    load_before = os.getloadavg()
     rows = []
     for kind, size in cases:
+        steps = max(args.min_steps, -(-args.agent_steps // _agents(kind, size)))
         mine, theirs = [], []
         for r in range(args.repeats):
-            mine.append(ours(kind, size, args.steps, args.seed + r, clock))
-            if python:
-                theirs.append(_run_reference(python, kind, size, args.steps, args.seed + r, clock))
-        m_env = statistics.median(x[0] for x in mine)
-        m_agent = statistics.median(x[1] for x in mine)
-        r_env = statistics.median(x[0] for x in theirs) if theirs else None
-        r_agent = statistics.median(x[1] for x in theirs) if theirs else None
-        rows.append((_label(kind, size), m_env, m_agent, r_env, r_agent))
+            mine.append(_run_ours(kind, size, steps, args.seed + r))
+            if python and kind != "formation":
+                theirs.append(_run_reference(python, kind, size, steps, args.seed + r))
+            print(f"{_label(kind, size)} repeat {r + 1}/{args.repeats}", file=sys.stderr, flush=True)
 
-    def fmt(v: float | None) -> str:
-        return "-" if v is None else f"{v:,.0f}"
+        def med(results: list[dict], key: str) -> float | None:
+            return statistics.median(x[key] for x in results) if results else None
 
-    head = [
-        "case",
-        "ours env steps/s",
-        "ours agent-steps/s",
-        "reference env steps/s",
-        "reference agent-steps/s",
-        "ratio per agent-step",
-    ]
+        rows.append(
+            (
+                _label(kind, size),
+                _agents(kind, size),
+                {k: med(mine, k) for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")},
+                {k: med(theirs, k) for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")},
+            )
+        )
+
+    def fmt(v: float | None, digits: int = 0) -> str:
+        return "-" if v is None else f"{v:,.{digits}f}"
+
+    def ratio(a: float | None, b: float | None) -> str:
+        return f"{a / b:.1f}x" if a and b else "-"
+
+    head = ["case", "agents", "ours agent-steps/s", "ours us/agent-step", "ours RTF", "ours live",
+            "reference agent-steps/s", "reference RTF", "ratio (wall)", "ratio (CPU)"]  # fmt: skip
     lines = []
     if args.markdown:
-        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    else:
-        lines.append(f"{head[0]:<28}" + "".join(f"{h:>26}" for h in head[1:]))
-    for label, m_env, m_agent, r_env, r_agent in rows:
-        ratio = f"{m_agent / r_agent:.1f}x" if r_agent else "-"
-        cells = [label, fmt(m_env), fmt(m_agent), fmt(r_env), fmt(r_agent), ratio]
-        lines.append(
-            "| " + " | ".join(cells) + " |"
-            if args.markdown
-            else f"{cells[0]:<28}" + "".join(f"{c:>26}" for c in cells[1:])
-        )
+        lines += ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
+    for label, agents, m, t in rows:
+        cells = [label, str(agents), fmt(m["agent_steps_per_s"]), fmt(1e6 / m["agent_steps_per_s"]), fmt(m["rtf"], 2),
+                 f"{100 * m['live_fraction']:.0f}%", fmt(t["agent_steps_per_s"]), fmt(t["rtf"], 2),
+                 ratio(m["agent_steps_per_s"], t["agent_steps_per_s"]),
+                 ratio(m["agent_steps_per_cpu_s"], t["agent_steps_per_cpu_s"])]  # fmt: skip
+        lines.append("| " + " | ".join(cells) + " |" if args.markdown else "  ".join(f"{c:>14}" for c in cells))
     print("\n".join(lines))
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as info:
+            cpu = next(line.split(":", 1)[1].strip() for line in info if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
     print(
-        f"\n{platform.processor() or platform.machine()}, {os.cpu_count()} cores; random actions, agent 30 Hz, "
-        f"{args.steps} steps x {args.repeats} repeats (median), {'CPU' if args.cpu_time else 'wall'} time; "
-        f"reference: {python or 'not available'}; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}"
+        f"\n{cpu}, {os.cpu_count()} cores; random actions for every live agent, agent 30 Hz, about "
+        f"{args.agent_steps} agent-steps (at least {args.min_steps} env steps) x {args.repeats} repeats (median), "
+        f"each timing in a fresh process; reference: {python or 'not available'}; load average "
+        f"{' '.join(f'{x:.1f}' for x in load_before)} at start, {' '.join(f'{x:.1f}' for x in os.getloadavg())} at end"
     )
     return 0
 

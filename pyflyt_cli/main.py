@@ -172,7 +172,8 @@ def replay(
 
 @app.command(
     help="Measure speed and memory on this machine: env steps/s, resets, real-time factor and peak memory of "
-    "every env; worlds of 1, 8 and 64 QuadX; a 128x128 camera capture; the bare-PyBullet floor; optionally "
+    "every env; worlds of 1, 8 and 64 QuadX; the multi-agent envs' agent-steps/s and real-time factor against "
+    "the number of agents (1 to 128); a 128x128 camera capture; the bare-PyBullet floor; optionally "
     "vector envs (--vector).  Every case runs in a fresh process; figures are medians of --repeats runs.\n\n"
     "  pyflyt speed --vector --markdown",
 )
@@ -185,12 +186,14 @@ def speed(
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
     env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all)"),
     vehicles: Optional[str] = typer.Option(None, "--vehicles", help="world sizes, comma-separated (default 1,8,64)"),
+    agents: Optional[str] = typer.Option(None, "--agents", help="swarm sizes of the multi-agent curve, comma-separated "
+                                         "(default 1,2,4,8,16,32,64,128; 0 skips it)"),
     json_path: Optional[Path] = typer.Option(None, "--json", help="also write the full results to this JSON file"),
 ) -> None:
     from pyflyt_cli.commands.speed import speed_command
 
     typer.echo(speed_command(repeats=repeats, quick=quick, vector=vector, markdown=markdown, envs=env,
-                             vehicles=vehicles, json_path=json_path, progress=lambda message: typer.echo(message, err=True)))
+                             vehicles=vehicles, agents=agents, json_path=json_path, progress=lambda message: typer.echo(message, err=True)))
 
 
 @app.command(

@@ -19,6 +19,7 @@ def speed_command(
     markdown: bool = False,
     envs: Sequence[str] | None = None,
     vehicles: str | None = None,
+    agents: str | None = None,
     json_path: Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> str:
@@ -28,6 +29,8 @@ def speed_command(
         overrides["envs"] = tuple(envs)
     if vehicles:
         overrides["vehicles"] = parse_counts(vehicles)
+    if agents is not None:
+        overrides["swarm"] = () if agents.strip() in ("", "0", "none") else parse_counts(agents, "--agents")
     settings = SpeedSettings.quick(**overrides) if quick else SpeedSettings(repeats=repeats, **overrides)
     report = run_speed(settings, progress=progress)
     if json_path is not None:
@@ -37,12 +40,21 @@ def speed_command(
     return format_report(report, markdown=markdown)
 
 
-def parse_counts(text: str) -> tuple[int, ...]:
-    """``--vehicles 1,8,64`` as world sizes."""
+def parse_counts(text: str, option: str = "--vehicles") -> tuple[int, ...]:
+    """``--vehicles 1,8,64`` as world sizes (``--agents 1,2,4``: swarm sizes, at most 128)."""
     try:
         counts = tuple(int(v) for v in text.split(",") if v.strip())
     except ValueError:
         counts = ()
+    if option == "--agents":
+        from pyflyt_engine.envs.config import MAX_AGENTS
+
+        if not counts or min(counts) < 1 or max(counts) > MAX_AGENTS:
+            raise UsageError(
+                f"--agents takes swarm sizes, comma-separated integers 1 to {MAX_AGENTS} (e.g. 1,2,4,8), or 0 to "
+                f"skip the swarm section; got {text!r}"
+            )
+        return counts
     if not counts or min(counts) < 1:
         raise UsageError(f"--vehicles takes world sizes, comma-separated positive integers (e.g. 1,8,64), got {text!r}")
     return counts

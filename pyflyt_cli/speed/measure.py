@@ -48,6 +48,10 @@ class SpeedSettings:
         vector: also measure subprocess vector envs with 1 and 2 workers.
         vector_steps: vector steps timed per run.
         parallel_seconds: CPU work per process of the machine-scaling measurement.
+        swarm: agent counts of the multi-agent curve (MAQuadX-Hover on a grid and
+            MAQuadX-Formation at each count, MAFixedwing-Dogfight 2 v 2 once); () skips it.
+        swarm_agent_steps: agent-steps timed per swarm case (at least ``swarm_min_steps``
+            env steps), so every count takes about the same time.
     """
 
     repeats: int = 5
@@ -61,6 +65,13 @@ class SpeedSettings:
     vector: bool = False
     vector_steps: int = 1000
     parallel_seconds: float = 0.5
+    swarm: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
+    swarm_agent_steps: int = 4000
+    swarm_min_steps: int = 30
+
+    def swarm_steps(self, agents: int) -> int:
+        """Env steps timed for a swarm of ``agents``."""
+        return max(self.swarm_min_steps, -(-self.swarm_agent_steps // agents))
 
     @classmethod
     def quick(cls, **overrides: Any) -> SpeedSettings:
@@ -74,6 +85,8 @@ class SpeedSettings:
             "camera_captures": 2,
             "vector_steps": 20,
             "parallel_seconds": 0.02,
+            "swarm_agent_steps": 8,
+            "swarm_min_steps": 2,
         }
         values.update(overrides)
         return cls(**values)
@@ -110,6 +123,11 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
         raise SpeedError(f"unknown env id(s) {', '.join(unknown)}; registered: {', '.join(ENVS)}")
     if settings.repeats < 1:
         raise SpeedError(f"repeats must be >= 1, got {settings.repeats}")
+    from pyflyt_engine.envs.config import MAX_AGENTS
+
+    bad = [n for n in settings.swarm if not 1 <= n <= MAX_AGENTS]
+    if bad:
+        raise SpeedError(f"swarm agent counts must be 1 to {MAX_AGENTS}, got {', '.join(map(str, bad))}")
 
     env_case = {"steps": settings.env_steps, "resets": settings.resets, "warmup": settings.warmup}
     cases = [Case("envs", env_id, {"probe": "env", "env_id": env_id, **env_case}) for env_id in env_ids]
@@ -118,6 +136,11 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
     for n in settings.vehicles:
         world = {"n": n, "seconds": settings.seconds_for(n)}
         cases += [Case("worlds", n, {"probe": "world", **world}), Case("floors", n, {"probe": "floor", **world})]
+    for key in swarm_keys(settings):
+        env, agents = key
+        probe = {"probe": "swarm", "env": env, "agents": agents, "steps": settings.swarm_steps(agents),
+                 "warmup": max(2, settings.swarm_steps(agents) // 10)}  # fmt: skip
+        cases.append(Case("swarm", key, probe))
     for key, channels in CAMERA_CASES.items():
         camera = {"probe": "camera", "captures": settings.camera_captures, "repeats": 5, "channels": channels}
         cases.append(Case("camera", key, camera))
@@ -136,6 +159,13 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
                                  "stand_in": stand_in}  # fmt: skip
                         cases.append(Case("vector", (env_id, backend, stand_in, workers), probe))
     return cases
+
+
+def swarm_keys(settings: SpeedSettings) -> list[tuple[str, int]]:
+    """The swarm rows: (env, agents) -- hover and formation at every count, then dogfight 2 v 2."""
+    if not settings.swarm:
+        return []
+    return [(env, n) for env in ("hover", "formation") for n in settings.swarm] + [("dogfight", 4)]
 
 
 # ------------------------------------------------------------------- processes
@@ -230,6 +260,7 @@ def run_speed(
         "env_floor": med("env_floor", 1),
         "worlds": [{**med("worlds", n), "floor": med("floors", n)} for n in settings.vehicles],
         "camera": {key: med("camera", key) for key in CAMERA_CASES},
+        "swarm": [med("swarm", key) for key in swarm_keys(settings)],
         "vector": None,
         "parallel": None,
     }

@@ -10,6 +10,10 @@ functions too, for tests and ``experiments/``.
   set after import, make, the steps and the resets.
 * **world** -- ``n`` QuadX (cf2x) on a square grid 1 m apart at 1 m, each holding its
   spawn point in ``position_yaw`` mode, timed by :func:`~pyflyt_cli.speed.protocols.time_world`.
+* **swarm** -- a multi-agent env with ``agents`` agents (``hover``: MAQuadX-Hover on the
+  ``grid`` layout 1 m apart at 1 m; ``formation``: MAQuadX-Formation as shipped, downwash
+  on; ``dogfight``: MAFixedwing-Dogfight, ``agents / 2`` a side), timed by
+  :func:`~pyflyt_cli.speed.protocols.time_parallel_env`: agent-steps/s and real-time factor.
 * **floor** -- bare PyBullet doing the physical work of ``n`` hovering QuadX with
   nothing around it: per body one pose and one velocity read, four motor forces and one
   torque; one ``stepSimulation``; client ids passed positionally.
@@ -53,6 +57,32 @@ def measure_env(env_id: str, steps: int = 2000, resets: int = 10, warmup: int = 
     finally:
         env.close()
     return {"id": env_id, **timing}
+
+
+#: swarm cases: name -> (module of pyflyt_engine.envs.multi_agent, keyword arguments)
+SWARM_ENVS = {
+    "hover": ("ma_quadx_hover_v0", {"layout": "grid", "layout_spacing": protocols.GRID_SPACING, "layout_height": 1.0}),
+    "formation": ("ma_quadx_formation_v0", {}),
+    "dogfight": ("ma_fixedwing_dogfight_v0", {}),
+}
+
+
+def swarm_env(env: str, agents: int):
+    """The parallel env of swarm case ``env`` with ``agents`` agents (see :data:`SWARM_ENVS`)."""
+    import importlib
+
+    module, kwargs = SWARM_ENVS[env]
+    return importlib.import_module(f"pyflyt_engine.envs.multi_agent.{module}").parallel_env(agents=agents, **kwargs)
+
+
+def measure_swarm(env: str, agents: int, steps: int = 300, warmup: int = 20) -> dict:
+    """Agent-steps per second and real-time factor of a multi-agent env with ``agents`` agents."""
+    parallel = swarm_env(env, agents)
+    try:
+        timing = protocols.time_parallel_env(parallel, parallel.config.agent_hz, steps, warmup)
+    finally:
+        parallel.close()
+    return {"env": env, **timing}
 
 
 def hover_grid(n: int):
@@ -337,6 +367,7 @@ PROBES = {
     "env": measure_env,
     "world": measure_world,
     "floor": measure_floor,
+    "swarm": measure_swarm,
     "camera": measure_camera,
     "vector": measure_vector,
     "parallel": measure_parallel,

@@ -77,6 +77,58 @@ def time_env(env, agent_hz: float, steps: int = 2000, resets: int = 10, warmup: 
     }
 
 
+def time_parallel_env(env, agent_hz: float, steps: int, warmup: int = 20, seed: int = 0) -> dict:
+    """Env steps and agent-steps per second of a PettingZoo parallel env.
+
+    Seeded reset, ``warmup`` steps, then ``steps`` steps in which every live agent takes a
+    uniformly random action from its action space (seeded), resetting when no agent is
+    left (those resets are part of the timing, as in training).  Agent-steps count the
+    live agents stepped; real-time factor = simulated seconds per wall second.
+    """
+    env.reset(seed=seed)
+    spaces = {name: env.action_space(name) for name in env.possible_agents}
+    for offset, space in enumerate(spaces.values()):
+        space.seed(seed + offset)
+
+    def run(count: int) -> tuple[int, int]:
+        agent_steps = episodes = 0
+        for _ in range(count):
+            if not env.agents:
+                env.reset()
+                episodes += 1
+            agent_steps += len(env.agents)
+            env.step({name: spaces[name].sample() for name in env.agents})
+        return agent_steps, episodes
+
+    run(warmup)
+    start, start_cpu = time.perf_counter(), time.process_time()
+    agent_steps, episodes = run(steps)
+    wall = time.perf_counter() - start
+    cpu = time.process_time() - start_cpu
+    return {
+        "agents": len(env.possible_agents),
+        "env_steps_per_s": steps / wall,
+        "agent_steps_per_s": agent_steps / wall,
+        "agent_steps_per_cpu_s": agent_steps / max(cpu, 1e-9),
+        "live_fraction": agent_steps / (steps * len(env.possible_agents)),
+        "rtf": steps / (wall * agent_hz),
+        "cpu_rtf": steps / (max(cpu, 1e-9) * agent_hz),
+        "episodes": episodes,
+        "peak_rss_mb": peak_rss_mb(),
+    }
+
+
+def centred_grid(n: int, spacing: float = 1.0, height: float = 1.0) -> list[tuple[float, float, float]]:
+    """``n`` points on a square grid ``spacing`` apart at ``height``, centred on the z axis:
+    ``ceil(sqrt(n))`` columns filled row by row (the ``grid`` layout of the multi-agent envs)."""
+    columns = math.ceil(math.sqrt(n))
+    rows = math.ceil(n / columns)
+    return [
+        ((i % columns - (columns - 1) / 2.0) * spacing, (i // columns - (rows - 1) / 2.0) * spacing, height)
+        for i in range(n)
+    ] if n > 1 else [(0.0, 0.0, height)]
+
+
 def time_world(step: Callable[[], object], period: float, seconds: float) -> dict:
     """Wall and CPU time of ``step`` (advancing ``period`` simulated seconds) over ``seconds``
     of simulated time, after a quarter-second warm-up; RTF = simulated s per wall s."""

@@ -62,6 +62,10 @@ def titles(settings: dict) -> dict[str, str]:
         "set of the process",
         "worlds": "Worlds of N QuadX (cf2x) holding position 1 m apart: real-time factor (simulated s per wall s), "
         "floor = bare PyBullet doing the same physical work for N bodies",
+        "swarm": "Multi-agent envs against the number of agents: random actions for every live agent, resets "
+        "when none is left included (agent 30 Hz); agent-steps/s = live agents stepped per wall second; us per "
+        "agent-step = its inverse (flat when the cost grows linearly with the agents); RTF = simulated s per wall s; "
+        "hover = MAQuadX-Hover on a 1 m grid, formation = MAQuadX-Formation (1 m grid, downwash on)",
         "camera": "Camera: one 128 x 128 onboard capture (QuadX at 1 m; mounted on its front-right propeller, "
         "90 deg field of view, pitched 20 deg down), ms wall (ms CPU)",
         "vector": f"Vector envs: env steps/s summed over subprocess workers ({settings['vector_steps']} vector "
@@ -79,6 +83,27 @@ def floor_steps_per_s(floor: dict) -> float:
 def capture_ms(camera: dict) -> str:
     """``2.84 (2.80)``: ms of wall (and CPU) time per capture."""
     return f"{camera['capture_s'] * 1e3:.2f} ({camera['capture_cpu_s'] * 1e3:.2f})"
+
+
+SWARM_LABELS = {"hover": "MAQuadX-Hover", "formation": "MAQuadX-Formation", "dogfight": "MAFixedwing-Dogfight"}
+
+
+def swarm_table(rows: list[dict], markdown: bool, reference: dict | None = None) -> list[str]:
+    """The swarm rows; with ``reference`` ((env, agents) -> its result), its agent-steps/s and ours over it."""
+    header = ["env", "agents", "agent-steps/s", "us / agent-step", "env steps/s", "RTF", "live"]
+    if reference is not None:
+        header += ["reference agent-steps/s", "ours / reference"]
+    body = []
+    for row in rows:
+        cells = [SWARM_LABELS.get(row["env"], row["env"]), str(row["agents"]), number(row["agent_steps_per_s"]),
+                 number(1e6 / row["agent_steps_per_s"]), number(row["env_steps_per_s"], 1), number(row["rtf"], 2),
+                 f"{100 * row['live_fraction']:.0f}%"]  # fmt: skip
+        if reference is not None:
+            ref = reference.get((row["env"], row["agents"]))
+            theirs = ref["agent_steps_per_s"] if ref else None
+            cells += [number(theirs), ratio(row["agent_steps_per_s"] / theirs) if theirs else "-"]
+        body.append(cells)
+    return table(header, body, markdown)
 
 
 def format_report(report: dict, markdown: bool = False) -> str:
@@ -108,6 +133,11 @@ def format_report(report: dict, markdown: bool = False) -> str:
             for row in report["worlds"]]  # fmt: skip
     out += table(["vehicles", "RTF", "floor RTF", "floor / ours"], rows, markdown)
     out.append("")
+
+    if report.get("swarm"):
+        title("swarm")
+        out += swarm_table(report["swarm"], markdown)
+        out.append("")
 
     title("camera")
     rows = [[CAMERA_LABELS[key], capture_ms(row)] for key, row in report["camera"].items()]

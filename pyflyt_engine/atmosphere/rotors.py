@@ -38,8 +38,8 @@ reaches every vehicle below in principle; but beyond ``r = WAKE_REACH * r_half``
 33 half-widths) the factor ``exp(-ln 2 (r / r_half)^2)`` is below ``exp(-760)``, which
 IEEE double arithmetic rounds to exactly 0.0 (the least subnormal number is about
 ``exp(-744.4)``), so the term it would add is exactly 0.0 and leaving it out changes no
-bit of the sum.  :class:`WakeGrid` bins the rotorcraft by horizontal position in square
-cells; a vehicle's downwash (:meth:`RotorInteractions.downwash_near`) visits only the
+bit of the sum.  A :class:`~pyflyt_engine.spatial.PlanarGrid` bins the rotorcraft by
+horizontal position in square cells; a vehicle's downwash (:meth:`RotorInteractions.downwash_near`) visits only the
 cells within the reach of the highest rotorcraft, and of those only the vehicles above it
 whose own reach covers it, in index order -- the same terms, summed in the same order,
 as the all-pairs definition :meth:`RotorInteractions.downwash_at`.  In a swarm flying at
@@ -54,6 +54,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pyflyt_engine.constants import AIR_DENSITY
+from pyflyt_engine.spatial import PlanarGrid
 
 JET_DECAY = 5.8  # B, round jet centreline decay constant (Pope 2000, table 5.1, Hussein et al. 1994)
 JET_SPREAD = 0.094  # S, round jet spreading rate (Pope 2000, table 5.1, Hussein et al. 1994)
@@ -101,71 +102,6 @@ class _Rotorcraft:
         return math.sqrt(2.0 * self.disc_area / math.pi)
 
 
-class WakeGrid:
-    """The rotorcraft of a world binned by horizontal position, to find the wakes that can reach a point.
-
-    Square cells of side ``cell`` [m] keyed by ``(floor(x / cell), floor(y / cell))``.
-    :meth:`place` (re)bins one vehicle, O(1); :meth:`near` lists, in index order, the
-    vehicles in the cells that a disc of a given radius touches -- O(cells touched +
-    vehicles found), or O(vehicles) when the disc covers more cells than are occupied.
-    :attr:`top` is at least the height of every vehicle placed since :meth:`clear`.
-    """
-
-    def __init__(self, cell: float) -> None:
-        if not cell > 0.0:
-            raise ValueError(f"wake grid cell must be > 0 m, got {cell}")
-        self.cell = cell
-        self.cells: dict[tuple[int, int], list[int]] = {}
-        self.where: dict[int, tuple[int, int]] = {}
-        #: per vehicle, the position object it was binned from (to notice a newer read)
-        self.placed: dict[int, object] = {}
-        self.top = -math.inf
-
-    def clear(self) -> None:
-        self.cells.clear()
-        self.where.clear()
-        self.placed.clear()
-        self.top = -math.inf
-
-    def place(self, index: int, position: Sequence[float]) -> None:
-        """Bin vehicle ``index`` at ``position`` (moving it out of its old cell)."""
-        self.placed[index] = position
-        z = position[2]
-        if z > self.top:
-            self.top = z
-        key = (math.floor(position[0] / self.cell), math.floor(position[1] / self.cell))
-        old = self.where.get(index)
-        if old == key:
-            return
-        if old is not None:
-            members = self.cells[old]
-            members.remove(index)
-            if not members:
-                del self.cells[old]
-        self.where[index] = key
-        self.cells.setdefault(key, []).append(index)
-
-    def near(self, x: float, y: float, radius: float) -> list[int]:
-        """Vehicles binned in the cells the disc of ``radius`` about ``(x, y)`` touches, ascending."""
-        c = self.cell
-        x0, x1 = math.floor((x - radius) / c), math.floor((x + radius) / c)
-        y0, y1 = math.floor((y - radius) / c), math.floor((y + radius) / c)
-        cells = self.cells
-        found: list[int] = []
-        if (x1 - x0 + 1) * (y1 - y0 + 1) > len(cells):
-            for (cx, cy), members in cells.items():
-                if x0 <= cx <= x1 and y0 <= cy <= y1:
-                    found.extend(members)
-        else:
-            for cx in range(x0, x1 + 1):
-                for cy in range(y0, y1 + 1):
-                    members = cells.get((cx, cy))
-                    if members:
-                        found.extend(members)
-        found.sort()
-        return found
-
-
 class RotorInteractions:
     """Ground effect and downwash for the vehicles of one world (see the module docstring).
 
@@ -184,7 +120,7 @@ class RotorInteractions:
         self.min_height = min_height
         self.vehicles: list[_Rotorcraft | None] = []
         #: the rotorcraft with a disc area binned by position (:meth:`downwash_near`)
-        self.wakes = WakeGrid(1.0)
+        self.wakes = PlanarGrid(1.0)
         self._jet_diameters: list[float] = []
         self._widest = 0.0
 
@@ -208,7 +144,7 @@ class RotorInteractions:
             self._widest = d
             # a cell as wide as the reach of the widest wake at its own height: a swarm at one
             # height then looks at the 3 x 3 cells about each vehicle
-            self.wakes = WakeGrid(max(WAKE_REACH * JET_SPREAD * JET_DECAY * d, 0.05))
+            self.wakes = PlanarGrid(max(WAKE_REACH * JET_SPREAD * JET_DECAY * d, 0.05))
 
     def ground_effect_ratios(self, index: int, position: Sequence[float], r: Sequence[float]) -> list[float] | None:
         """Per motor of vehicle ``index``, at ``position`` with body-to-ground matrix ``r``

@@ -31,6 +31,7 @@ from pydantic import (
 
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
+from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
@@ -295,6 +296,19 @@ def _unknown_randomize(name: Any) -> str:
 
 Vec3 = tuple[float, float, float]
 
+#: The most agents one world takes: the range the swarm envs are tested and measured over
+#: (``pyflyt speed`` times 1 to 128; docs/multi_agent.md).
+MAX_AGENTS = 128
+
+
+def grid_layout(index: int, count: int, spacing: float, height: float) -> Vec3:
+    """Slot ``index`` of ``count`` on a square grid ``spacing`` [m] apart at ``height`` [m],
+    centred on the z axis: ``ceil(sqrt(count))`` columns, filled row by row along +x."""
+    columns = math.ceil(math.sqrt(count))
+    rows = math.ceil(count / columns)
+    column, row = index % columns, index // columns
+    return ((column - (columns - 1) / 2.0) * spacing, (row - (rows - 1) / 2.0) * spacing, height)
+
 
 class SpawnConfig(_Config):
     """Where one agent starts: a box around ``position`` and a range of attitudes (the spawn region)."""
@@ -313,30 +327,50 @@ class AgentConfig(_Config):
     uav: str | None = Field(None, description="airframe (conf/uav name or YAML path); default: the env's uav")
     team: int | None = Field(None, ge=0, le=1, description="team 0 or 1 (dogfight; default: first half 0)")
     spawn: SpawnConfig | None = Field(None, description="spawn region; default: the task's layout for this index")
-    hover_point: Vec3 | None = Field(None, description="hover task: the point to hold [m]; default: spawn position")
+    hover_point: Vec3 | None = Field(
+        None,
+        description="hover task: the point to hold; formation task: the agent's slot at the start [m]; "
+        "default: spawn position",
+    )
 
 
 class MATaskOptions(_Config):
     """Options common to the multi-agent tasks."""
 
-    name: str = Field(description="multi-agent task: ma_hover or dogfight")
+    name: str = Field(description="multi-agent task: ma_hover, ma_formation or dogfight")
 
 
 class MAHoverOptions(MATaskOptions):
     """``task:`` of MAQuadX-Hover: every agent holds its own point."""
 
     name: Literal["ma_hover"] = "ma_hover"
-    layout_radius: float = Field(
-        1.0, ge=0, description="agents given by count spawn on a ring of this radius about the z axis [m]"
+    layout: Literal["ring", "grid"] = Field(
+        "ring", description="how agents given by count are placed: on a ring about the z axis, or on a square grid"
     )
-    layout_height: float = Field(1.0, gt=0, description="height of that ring [m]")
+    layout_radius: float = Field(
+        1.0, ge=0, description="ring layout: agents given by count spawn on a ring of this radius about the z axis [m]"
+    )
+    layout_spacing: float = Field(
+        1.0, gt=0, description="grid layout: distance between neighbouring agents on the square grid [m]"
+    )
+    layout_height: float = Field(1.0, gt=0, description="height of the ring or grid [m]")
     position_noise: float = Field(0.1, ge=0, description="layout spawn: U(-noise, noise) per coordinate [m]")
     orientation_noise: float = Field(0.1, ge=0, description="layout spawn: U(-noise, noise) per Euler angle [rad]")
 
-    def layout(self, index: int, count: int) -> SpawnConfig:
-        """Agent ``index`` of ``count`` on the ring (the centre for a single agent), level, at rest."""
+    def layout_gap(self, count: int) -> float | None:
+        """The distance between the closest two layout spawn centres (None for one agent)."""
+        if count < 2:
+            return None
+        if self.layout == "grid":
+            return self.layout_spacing
+        return 2.0 * self.layout_radius * math.sin(math.pi / count)  # the chord between ring neighbours
+
+    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
+        """Agent ``index`` of ``count`` on the ring or grid (the centre for a single agent), level, at rest."""
         if count == 1:
             position = (0.0, 0.0, self.layout_height)
+        elif self.layout == "grid":
+            position = grid_layout(index, count, self.layout_spacing, self.layout_height)
         else:
             angle = 2.0 * math.pi * index / count
             r = self.layout_radius
@@ -367,7 +401,7 @@ class DogfightOptions(MATaskOptions):
     heading_noise: float = Field(0.2, ge=0, description="layout: U(-noise, noise) on each Euler angle [rad]")
     spawn_speed: float = Field(14.0, ge=0, description="layout: initial airspeed along the nose [m/s]")
 
-    def layout(self, index: int, count: int) -> SpawnConfig:
+    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
         """Team 0 (first half) at x = -separation/2 heading +x, team 1 facing it; teammates side by side."""
         half = count // 2
         team = 0 if index < half else 1
@@ -384,8 +418,49 @@ class DogfightOptions(MATaskOptions):
         )
 
 
+class MAFormationOptions(MATaskOptions):
+    """``task:`` of MAQuadX-Formation: a swarm keeps a grid formation that moves at a set velocity."""
+
+    name: Literal["ma_formation"] = "ma_formation"
+    layout_spacing: float = Field(
+        1.0, gt=0, description="distance between neighbouring slots of the square grid formation [m]"
+    )
+    layout_height: float = Field(1.5, gt=0, description="height of the formation at the start [m]")
+    velocity: Vec3 = Field(
+        (0.2, 0.0, 0.0), description="the formation's velocity (x, y, z) [m/s], ground frame: every slot moves with it"
+    )
+    neighbours: int = Field(3, ge=0, le=16, description="nearest other live agents each agent observes")
+    neighbour_radius: float = Field(
+        3.0, gt=0, description="an agent observes the neighbours within this distance only [m]"
+    )
+    separation: float = Field(
+        0.5, gt=0, description="closer to another live agent than this is crowding (the crowding term) [m]"
+    )
+    tolerance: float = Field(
+        0.25, gt=0, description="in formation: within this distance of both the slot and the shape (sparse reward) [m]"
+    )
+    position_noise: float = Field(0.05, ge=0, description="layout spawn: U(-noise, noise) per coordinate [m]")
+    orientation_noise: float = Field(0.05, ge=0, description="layout spawn: U(-noise, noise) per Euler angle [rad]")
+
+    def layout_gap(self, count: int) -> float | None:
+        """The distance between the closest two layout spawn centres (None for one agent)."""
+        return self.layout_spacing if count > 1 else None
+
+    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
+        """Agent ``index`` of ``count`` on the grid formation, level, at rest."""
+        return SpawnConfig(
+            position=grid_layout(index, count, self.layout_spacing, self.layout_height),
+            position_noise=self.position_noise,
+            orientation_noise=self.orientation_noise,
+        )
+
+
 #: multi-agent task name -> its options model
-MA_TASKS: dict[str, type[MATaskOptions]] = {"ma_hover": MAHoverOptions, "dogfight": DogfightOptions}
+MA_TASKS: dict[str, type[MATaskOptions]] = {
+    "ma_hover": MAHoverOptions,
+    "ma_formation": MAFormationOptions,
+    "dogfight": DogfightOptions,
+}
 
 
 class MultiAgentEnvConfig(EnvConfig):
@@ -419,11 +494,13 @@ class MultiAgentEnvConfig(EnvConfig):
         if isinstance(value, int):
             if value < 1:
                 raise ValueError(f"agents must be a count >= 1 or a list of agents, got {value}")
-            if value > 64:
-                raise ValueError(f"agents: {value} is more than the 64 agents one world is meant for")
+            if value > MAX_AGENTS:
+                raise ValueError(f"agents: {value} is more than the {MAX_AGENTS} agents one world is meant for")
             return value
         if not value:
             raise ValueError("agents: the list is empty; give at least one agent (or a count)")
+        if len(value) > MAX_AGENTS:
+            raise ValueError(f"agents: {len(value)} listed, more than the {MAX_AGENTS} agents one world is meant for")
         names = [a.name or f"uav_{i}" for i, a in enumerate(value)]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
@@ -443,7 +520,7 @@ class MultiAgentEnvConfig(EnvConfig):
         dogfight = isinstance(task, DogfightOptions)
         out = []
         for i, entry in enumerate(entries):
-            spawn = entry.spawn or task.layout(i, count)  # type: ignore[attr-defined]
+            spawn = entry.spawn or task.layout_spawn(i, count)  # type: ignore[attr-defined]
             team = entry.team if entry.team is not None else (0 if i < count // 2 else 1) if dogfight else 0
             hover = entry.hover_point if entry.hover_point is not None else spawn.position
             out.append(ResolvedAgent(entry.name or f"uav_{i}", entry.uav or self.uav, team, spawn, tuple(hover)))

@@ -20,9 +20,9 @@ from pyflyt_engine.atmosphere.rotors import (
     JET_SPREAD,
     WAKE_REACH,
     RotorInteractions,
-    WakeGrid,
     downwash_velocity,
 )
+from pyflyt_engine.spatial import PlanarGrid
 from pyflyt_engine.world import VehicleConfig, World
 
 R = 0.0225  # conf/uav/quadx_cf2x.yaml prop_radius
@@ -98,7 +98,7 @@ def test_vehicles_at_the_edge_of_the_reach():
 
 
 def test_the_grid_moves_vehicles_between_cells_and_lists_them_in_order():
-    grid = WakeGrid(1.0)
+    grid = PlanarGrid(1.0)
     grid.place(3, (0.5, 0.5, 1.0))
     grid.place(1, (0.6, 0.2, 2.0))
     grid.place(2, (5.5, 0.5, 1.0))
@@ -110,7 +110,7 @@ def test_the_grid_moves_vehicles_between_cells_and_lists_them_in_order():
     assert grid.top == 2.0
     assert len(grid.cells) == 2
     with pytest.raises(ValueError, match="cell"):
-        WakeGrid(0.0)
+        PlanarGrid(0.0)
 
 
 def _all_pairs_wind_at(self, index, position):

@@ -94,7 +94,9 @@ MULTI: dict[str, tuple[dict[str, Any], Any]] = {
     "downwash": ({"agents": STACKED}, True),
     "agents": ({}, 3),
     # task options (the layout places agents given by count)
+    "layout": ({}, "grid"),
     "layout_radius": ({}, 0.5),
+    "layout_spacing": ({"layout": "grid"}, 1.5),
     "layout_height": ({}, 1.5),
     "position_noise": ({}, 0.0),
     "orientation_noise": ({}, 0.0),

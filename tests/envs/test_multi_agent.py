@@ -14,7 +14,7 @@ import pytest
 
 from pyflyt_engine.envs import make_env
 from pyflyt_engine.envs.config import load_env_config
-from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0, ma_quadx_hover_v0
+from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0, ma_quadx_formation_v0, ma_quadx_hover_v0
 from pyflyt_engine.errors import ConfigError
 
 HOVER_ACTION = np.array([0.0, 0.0, 0.0, 0.125])  # level, thrust = weight for the 8:1 cf2x
@@ -26,8 +26,8 @@ def _close(env) -> None:
 
 @pytest.mark.parametrize(
     ("module", "kwargs"),
-    [(ma_quadx_hover_v0, {}), (ma_fixedwing_dogfight_v0, {"agents": 4})],
-    ids=["hover", "dogfight2v2"],
+    [(ma_quadx_hover_v0, {}), (ma_fixedwing_dogfight_v0, {"agents": 4}), (ma_quadx_formation_v0, {"agents": 5})],
+    ids=["hover", "dogfight2v2", "formation5"],
 )
 def test_pettingzoo_api(module, kwargs):
     from pettingzoo.test import api_test, parallel_api_test
@@ -70,8 +70,9 @@ def _trajectory_digest(module_name: str, kwargs: dict, seed: int, steps: int) ->
     [
         ("pyflyt_engine.envs.multi_agent.ma_quadx_hover_v0", {}),
         ("pyflyt_engine.envs.multi_agent.ma_fixedwing_dogfight_v0", {}),
+        ("pyflyt_engine.envs.multi_agent.ma_quadx_formation_v0", {"agents": 6}),
     ],
-    ids=["hover", "dogfight"],
+    ids=["hover", "dogfight", "formation"],
 )
 def test_same_seed_same_trajectory_across_processes(module, kwargs):
     here = _trajectory_digest(module, kwargs, 7, 40)
@@ -221,7 +222,7 @@ def test_teammates_never_hit_each_other():
             {"agents": [{"uav": "quadx_cf2x"}, {"uav": "fixedwing"}]},
             "unknown mode .rates_thrust. for vehicle .fixedwing.",
         ),
-        ({"task": {"name": "hover"}}, "needs task.name one of: ma_hover, dogfight"),
+        ({"task": {"name": "hover"}}, "needs task.name one of: ma_hover, ma_formation, dogfight"),
         ({"layout_radius": -1.0}, "task.layout_radius"),
         (
             {"agents": [{"spawn": {"position": [0.0, 0.0, float("nan")]}}]},

@@ -48,6 +48,10 @@ class Canned:
             return {"n": probe["n"], "physics_step_s": 5e-6, "rtf": 800.0 / probe["n"], "peak_rss_mb": 94.0}
         if kind == "world":
             return {"n": probe["n"], "rtf": 400.0 / probe["n"], "contacts": False, "peak_rss_mb": 96.0}
+        if kind == "swarm":  # 400 agent-steps/s at any size: a linear cost
+            n = probe["agents"]
+            return {"env": probe["env"], "agents": n, "agent_steps_per_s": 400.0, "env_steps_per_s": 400.0 / n,
+                    "rtf": 400.0 / n / 30, "live_fraction": 1.0, "agent_steps_per_cpu_s": 500.0}  # fmt: skip
         if kind == "camera":
             return {"capture_s": 3e-3, "capture_cpu_s": 2e-3, "channels": probe["channels"]}
         if kind == "parallel":
@@ -186,3 +190,30 @@ def test_reference_comparison_script_runs_without_the_reference(tmp_path):
     assert row.split()[1:3] != ["-", "-"] and row.split()[2] == "-"  # ours measured, the reference's blank
     data = json.loads(out.read_text())
     assert data["ours"]["envs"][0]["id"] == HOVER and data["reference"]["envs"] == {HOVER: None}
+
+
+def test_swarm_section_has_a_row_per_env_and_size_and_refuses_bad_sizes():
+    report = run_speed(SpeedSettings.quick(envs=(HOVER,), vehicles=(1,), swarm=(1, 8)), measure=Canned())
+    assert [(row["env"], row["agents"]) for row in report["swarm"]] == [
+        ("hover", 1), ("hover", 8), ("formation", 1), ("formation", 8), ("dogfight", 4)
+    ]
+    text = format_report(report, markdown=True)
+    assert "| MAQuadX-Hover | 8 | 400 | 2,500 | 50.0 | 1.67 | 100% |" in text
+    assert "Multi-agent envs against the number of agents" in text
+    assert run_speed(SpeedSettings.quick(envs=(HOVER,), vehicles=(1,), swarm=()), measure=Canned())["swarm"] == []
+    result = runner.invoke(app, ["speed", "--quick", "--agents", "1,129"])
+    assert result.exit_code == 2 and "--agents takes swarm sizes" in result.output
+
+
+def test_the_swarm_probe_times_live_agent_steps():
+    result = probes.measure_swarm("formation", agents=3, steps=4, warmup=1)
+    assert result["agents"] == 3 and result["agent_steps_per_s"] > 0 and result["rtf"] > 0
+    assert 0 < result["live_fraction"] <= 1
+    assert result["agent_steps_per_s"] == pytest.approx(result["env_steps_per_s"] * 3 * result["live_fraction"])
+
+
+def test_the_protocols_grid_is_the_envs_grid_layout():
+    from pyflyt_engine.envs.config import grid_layout
+
+    for n in (1, 2, 5, 64, 128):
+        assert protocols.centred_grid(n, 0.7, 1.2) == [grid_layout(i, n, 0.7, 1.2) for i in range(n)]

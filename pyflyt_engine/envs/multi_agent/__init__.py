@@ -5,6 +5,8 @@ One module per environment, in PettingZoo's layout (``parallel_env(**kwargs)``,
 
 * :mod:`.ma_quadx_hover_v0` -- N quadrotors, each holding its own hover point
   (:class:`~.hover.MAQuadXHoverEnv`);
+* :mod:`.ma_quadx_formation_v0` -- a swarm of 2 to 128 quadrotors keeping a moving grid
+  formation (:class:`~.formation.MAQuadXFormationEnv`);
 * :mod:`.ma_fixedwing_dogfight_v0` -- two teams of fixed-wings with forward guns
   (:class:`~.dogfight.MAFixedwingDogfightEnv`).
 
@@ -36,6 +38,11 @@ MA_ENVS: dict[str, MultiAgentEntry] = {
         "pyflyt_engine.envs.multi_agent.hover:MAQuadXHoverEnv",
         "ma_quadx_hover",
     ),
+    "ma_quadx_formation_v0": MultiAgentEntry(
+        "pyflyt_engine.envs.multi_agent.ma_quadx_formation_v0",
+        "pyflyt_engine.envs.multi_agent.formation:MAQuadXFormationEnv",
+        "ma_quadx_formation",
+    ),
     "ma_fixedwing_dogfight_v0": MultiAgentEntry(
         "pyflyt_engine.envs.multi_agent.ma_fixedwing_dogfight_v0",
         "pyflyt_engine.envs.multi_agent.dogfight:MAFixedwingDogfightEnv",
@@ -46,6 +53,7 @@ MA_ENVS: dict[str, MultiAgentEntry] = {
 #: multi-agent task name -> the class running it
 TASK_CLASSES: dict[str, str] = {
     "ma_hover": "pyflyt_engine.envs.multi_agent.hover:MAQuadXHoverEnv",
+    "ma_formation": "pyflyt_engine.envs.multi_agent.formation:MAQuadXFormationEnv",
     "dogfight": "pyflyt_engine.envs.multi_agent.dogfight:MAFixedwingDogfightEnv",
 }
 

@@ -18,6 +18,7 @@ remains a body others can hit).  The episode is over when ``agents`` is empty.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -154,6 +155,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 f"auxiliary states differ in size ({', '.join(f'{v.spec.name}: {v.aux_state.size}' for v in self.vehicles)}); "
                 "mix airframes of the same kind (e.g. quadrotors)"
             )
+        self._check_layout_spacing()
         self._low = np.array(cfg.action.low, dtype=np.float64)
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
@@ -183,6 +185,51 @@ class MultiAgentUAVEnv(ParallelEnv):
             from pyflyt_engine.envs.render import Markers
 
             self._markers = Markers(self.world.client, len(self.markers()), 0.05)
+
+    def _check_layout_spacing(self) -> None:
+        """Agents the task's layout places (``agents`` given by count) must spawn clear of each other.
+
+        The rule: the closest two layout centres are at least ``2 rho + 2 sqrt(3) noise``
+        apart, with ``rho`` the largest distance from an agent's centre of mass to a corner
+        of its collision bounding box (PyBullet, at the level spawn attitude) and ``noise``
+        the layout's ``position_noise`` (each agent can move ``sqrt(3) noise`` off its
+        centre).  Listed agents are placed by the user and not checked.
+        """
+        cfg = self.config
+        gap_of = getattr(cfg.task, "layout_gap", None)
+        if gap_of is None or not isinstance(cfg.agents, int):
+            return
+        gap = gap_of(cfg.agents)
+        if gap is None:
+            return
+        from pyflyt_engine.bullet import pybullet as p
+
+        radius = 0.0
+        cid = self.world.client
+        for vehicle in self.vehicles:
+            links = range(-1, p.getNumJoints(vehicle.body_id, physicsClientId=cid))
+            boxes = [p.getAABB(vehicle.body_id, link, physicsClientId=cid) for link in links]
+            centre = vehicle.spawn_position
+            corner = [max(abs(b[k][axis] - centre[axis]) for b in boxes for k in (0, 1)) for axis in range(3)]
+            radius = max(radius, math.sqrt(corner[0] ** 2 + corner[1] ** 2 + corner[2] ** 2))
+        noise = float(getattr(cfg.task, "position_noise", 0.0))
+        need = 2.0 * radius + 2.0 * math.sqrt(3.0) * noise
+        if gap < need:
+            self.world.close()
+            layout = getattr(cfg.task, "layout", "grid")
+            layout = layout if isinstance(layout, str) else "grid"
+            if layout == "ring":
+                fix = (
+                    f"raise task.layout_radius to at least {need / (2.0 * math.sin(math.pi / cfg.agents)):.3f} m, "
+                    f"or use task.layout: grid with task.layout_spacing >= {need:.3f} m"
+                )
+            else:
+                fix = f"raise task.layout_spacing to at least {need:.3f} m"
+            raise ConfigError(
+                f"agents: {cfg.agents} agents on the {layout} layout spawn {gap:.3f} m apart, but they need "
+                f"{need:.3f} m not to touch (2 x {radius:.3f} m airframe bounding radius + 2 sqrt(3) x "
+                f"task.position_noise {noise:g} m); {fix}, or lower task.position_noise"
+            )
 
     # --------------------------------------------------------------- spaces
 

@@ -15,6 +15,7 @@ from pyflyt_engine.spec import load_uav_spec
 #: reward signals each multi-agent task provides (checked against the reward preset)
 PROVIDES: dict[str, frozenset[str]] = {
     "ma_hover": frozenset({"target_distance", "target_distance_rate"}),
+    "ma_formation": frozenset({"target_distance", "target_distance_rate", "formation"}),
     "dogfight": frozenset({"dogfight"}),
 }
 
