@@ -77,3 +77,51 @@ class PlanarGrid:
                         found.extend(members)
         found.sort()
         return found
+
+    def nearest(
+        self, x: float, y: float, z: float, positions: dict[int, Sequence[float]], count: int, radius: float, skip: int
+    ) -> list[tuple[float, int]]:
+        """The ``count`` points nearest to ``(x, y, z)`` within ``radius`` [m] (3-D distance),
+        ``skip`` excluded, as ``(squared distance, index)`` ascending (ties by index).
+
+        Searches rings of cells outwards from the point's cell and stops once the rings
+        searched cover a disc holding ``count`` points nearer than its radius (or the whole
+        ``radius``): the answer of an all-pairs search, from the cells near the point.
+        ``positions`` gives each binned point's position.
+        """
+        c = self.cell
+        cells = self.cells
+        kx, ky = math.floor(x / c), math.floor(y / c)
+        r2 = radius * radius
+        found: list[tuple[float, int]] = []
+        ring = 0
+        limit = math.ceil(radius / c) + 1
+        while ring <= limit:
+            if ring == 0:
+                keys = [(kx, ky)]
+            else:
+                keys = [(kx + dx, ky - ring) for dx in range(-ring, ring + 1)]
+                keys += [(kx + dx, ky + ring) for dx in range(-ring, ring + 1)]
+                keys += [(kx - ring, ky + dy) for dy in range(-ring + 1, ring)]
+                keys += [(kx + ring, ky + dy) for dy in range(-ring + 1, ring)]
+            for key in keys:
+                members = cells.get(key)
+                if members:
+                    for j in members:
+                        if j == skip:
+                            continue
+                        px, py, pz = positions[j]
+                        d2 = (px - x) ** 2 + (py - y) ** 2 + (pz - z) ** 2
+                        if d2 <= r2:
+                            found.append((d2, j))
+            # every point within ring * c of (x, y) horizontally lies in the rings searched
+            covered = ring * c
+            if covered >= radius:
+                break
+            if count and len(found) >= count:
+                found.sort()
+                if found[count - 1][0] < covered * covered:
+                    break
+            ring += 1
+        found.sort()
+        return found[:count]

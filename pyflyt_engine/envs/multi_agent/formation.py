@@ -105,7 +105,9 @@ class MAQuadXFormationEnv(MultiAgentUAVEnv):
         self._slots0 = [tuple(a.hover_point) for a in self.agent_list]
         self._velocity = tuple(float(v) for v in opts.velocity)
         self._reach = max(opts.neighbour_radius, opts.separation)
-        self._grid = PlanarGrid(self._reach)
+        # cells a little narrower than the formation's spacing: the nearest few agents are
+        # found within two or three rings of cells
+        self._grid = PlanarGrid(min(self._reach, 0.75 * opts.layout_spacing))
         everyone = list(range(len(self.agent_list)))
         self._slots = self._slots_at(0.0)
         self._distances = [self._distance(i, states[i]) for i in everyone]
@@ -140,15 +142,7 @@ class MAQuadXFormationEnv(MultiAgentUAVEnv):
         self._shape: dict[int, float] = {}
         for i in live:
             x, y, z = positions[i]
-            close = []
-            for j in grid.near(x, y, reach):
-                if j == i:
-                    continue
-                px, py, pz = positions[j]
-                d2 = (px - x) ** 2 + (py - y) ** 2 + (pz - z) ** 2
-                if d2 <= reach * reach:
-                    close.append((d2, j))
-            close.sort()
+            close = grid.nearest(x, y, z, positions, max(k, 1), reach, i)
             self._nearest[i] = math.sqrt(close[0][0]) if close else math.inf
             self._neighbours[i] = [(d2, j) for d2, j in close if d2 <= radius2][:k]
             ox, oy, oz = self._slots0[i]
