@@ -197,7 +197,29 @@ def test_a_bad_multi_agent_config_is_one_message_exit_2(tmp_path):
     assert done.returncode == 2 and "cannot form two equal teams" in done.stderr
 
 
-@pytest.mark.parametrize("name", ["ma_quadx_hover", "ma_fixedwing_dogfight"])
+def test_a_swarm_trains_one_shared_policy_evaluates_and_replays_exactly(tmp_path):
+    overrides = [
+        "env=ma_quadx_formation",
+        "algo=ppo",
+        "env.agents=9",
+        "env.task.layout_spacing=0.8",
+        "train.total_timesteps=576",  # 9 agents x 64 steps
+        "algo.n_steps=64",
+        "algo.batch_size=64",
+        "algo.n_epochs=1",
+        "train.eval_freq=576",
+        "train.eval_episodes=1",
+        "env.max_duration_seconds=1",
+        "train.progress_bar=false",
+    ]
+    result = train(load(overrides, tmp_path))
+    assert result.num_timesteps == 576 and result.last_eval is not None
+    report = evaluate_run(result.run_dir, {"episodes": 1})
+    episode = load_episode(report.recordings[0])
+    assert verify(episode).ok  # nine vehicles with downwash re-simulated exactly
+
+
+@pytest.mark.parametrize("name", ["ma_quadx_hover", "ma_fixedwing_dogfight", "ma_quadx_formation"])
 def test_the_shipped_configs_compose(name, tmp_path):
     cfg = load([f"env={name}", "algo=ppo"], tmp_path)
     assert cfg.env.multi_agent and cfg.env_name == name
