@@ -64,6 +64,7 @@ CASES: list[str] = [
     "gym:PyFlyt/QuadX-Hover-v0?wind=dryden_moderate",
     "gym:PyFlyt/QuadX-Waypoints-v0?randomize=moderate",
     "ma:ma_quadx_hover_v0?downwash=true&wind=dryden_light",
+    "ma:ma_quadx_formation_v0?agents=9&layout_spacing=0.5",
 ]
 
 MULTIROTOR_SETPOINTS = {
@@ -333,6 +334,7 @@ def test_nothing_on_the_simulated_path_calls_cpu_dispatched_numpy(monkeypatch):
     _step_env("PyFlyt/Rocket-Landing-v0", wind="shear", randomize="moderate")
     _step_ma("ma_quadx_hover_v0", downwash=True, wind="dryden_moderate")
     _step_ma("ma_fixedwing_dogfight_v0", wind="dryden_light")
+    _step_ma("ma_quadx_formation_v0", agents=9, layout_spacing=0.5)
 
     import gymnasium
 
