@@ -97,6 +97,56 @@ def reference(kind: str, size: int, steps: int, seed: int) -> dict:
         env.close()
 
 
+def level(size: int, downwash: bool, steps: int) -> dict:
+    """MAQuadX-Formation with every agent holding its slot height level (a proportional
+    attitude and height hold instead of random actions: the swarm stays at one height, as a
+    formation flies), downwash on or off: process CPU time per agent-step and the wake
+    sources visited per vehicle read."""
+    import time
+
+    sys.path.insert(0, str(ROOT))
+    from pyflyt_engine.envs.multi_agent import ma_quadx_formation_v0
+
+    env = ma_quadx_formation_v0.parallel_env(agents=size, downwash=downwash, velocity=(0.0, 0.0, 0.0))
+    env.reset(seed=0)
+    index, vehicles, height = env.agent_index, env.vehicles, env.config.task.layout_height
+
+    def hold() -> dict:
+        actions = {}
+        for name in env.agents:
+            state = vehicles[index[name]].state
+            roll, pitch, _ = state.ang_pos
+            thrust = 0.125 + 0.3 * (height - state.lin_pos[2]) - 0.15 * state.lin_vel_ground[2]  # 0.125: cf2x hover
+            actions[name] = [-3.0 * roll, -3.0 * pitch, 0.0, min(max(thrust, 0.0), 1.0)]
+        return actions
+
+    rotors = env.world.rotor_interactions
+    visited = [0]
+    if rotors is not None:
+        sources = rotors.sources
+
+        def counting(index, position):
+            found = sources(index, position)
+            visited[0] += len(found)
+            return found
+
+        rotors.sources = counting
+    for _ in range(5):
+        env.step(hold())
+    visited[0] = 0
+    start = time.process_time()
+    agent_steps = 0
+    for _ in range(steps):
+        if not env.agents:
+            env.reset()
+        agent_steps += len(env.agents)
+        env.step(hold())
+    cpu = time.process_time() - start
+    env.close()
+    return {"agents": size, "downwash": downwash, "cpu_us_per_agent_step": 1e6 * cpu / agent_steps,
+            "sources_per_vehicle_read": visited[0] / (agent_steps * 8), "live_fraction": agent_steps / (steps * size)}
+
+
 def _reference_python(given: str | None) -> str | None:
     for candidate in (given, os.environ.get("PYFLYT_REFERENCE_PYTHON"), DEFAULT_REFERENCE):
         if candidate and Path(candidate).is_file():
@@ -130,7 +180,29 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", nargs="+", default=None, help="only these cases, KIND:SIZE (hover:4 dogfight:2)")
     parser.add_argument("--case", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
     parser.add_argument("--ours", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
+    parser.add_argument("--level", action="store_true", help="instead: a level formation with and without "
+                        "downwash, CPU us per agent-step and wake sources visited, against N (ours only)")
+    parser.add_argument("--level-run", nargs=3, metavar=("SIZE", "DOWNWASH", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.level_run:
+        print(json.dumps(level(int(args.level_run[0]), args.level_run[1] == "1", int(args.level_run[2]))))
+        return 0
+    if args.level:
+        print("| agents | downwash | CPU us / agent-step | wake sources per vehicle read | live |")
+        print("|---:|---|---:|---:|---:|")
+        for size in SIZES[1:]:
+            for downwash in (False, True):
+                steps = min(150, max(args.min_steps, -(-args.agent_steps // size)))  # 5 s at most: level flight
+                code = [sys.executable, str(Path(__file__).resolve()), "--level-run", str(size), str(int(downwash)), str(steps)]
+                env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+                runs = [json.loads(subprocess.run(code, capture_output=True, text=True, check=True, cwd=ROOT, env=env)
+                                   .stdout.strip().splitlines()[-1]) for _ in range(args.repeats)]  # fmt: skip
+                us = statistics.median(r["cpu_us_per_agent_step"] for r in runs)
+                print(f"| {size} | {'on' if downwash else 'off'} | {us:,.0f} | {runs[0]['sources_per_vehicle_read']:.2f} | "
+                      f"{100 * runs[0]['live_fraction']:.0f}% |", flush=True)
+        print(f"\nlevel formation 1 m apart at 1.5 m, hover thrust; about {args.agent_steps} agent-steps x {args.repeats} "
+              f"repeats (median), process CPU time; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
+        return 0
     if args.case or args.ours:  # one timing, in its own process
         kind, size, steps, seed = (args.case or args.ours)[0], *map(int, (args.case or args.ours)[1:])
         print(json.dumps((reference if args.case else ours)(kind, size, steps, seed)))
@@ -176,13 +248,13 @@ def main(argv: list[str] | None = None) -> int:
     def ratio(a: float | None, b: float | None) -> str:
         return f"{a / b:.1f}x" if a and b else "-"
 
-    head = ["case", "agents", "ours agent-steps/s", "ours us/agent-step", "ours RTF", "ours live",
+    head = ["case", "agents", "ours agent-steps/s", "ours us/agent-step", "ours RTF", "ours RTF (CPU)", "ours live",
             "reference agent-steps/s", "reference RTF", "ratio (wall)", "ratio (CPU)"]  # fmt: skip
     lines = []
     if args.markdown:
         lines += ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
     for label, agents, m, t in rows:
-        cells = [label, str(agents), fmt(m["agent_steps_per_s"]), fmt(1e6 / m["agent_steps_per_s"]), fmt(m["rtf"], 2),
+        cells = [label, str(agents), fmt(m["agent_steps_per_s"]), fmt(1e6 / m["agent_steps_per_s"]), fmt(m["rtf"], 2), fmt(m["cpu_rtf"], 2),
                  f"{100 * m['live_fraction']:.0f}%", fmt(t["agent_steps_per_s"]), fmt(t["rtf"], 2),
                  ratio(m["agent_steps_per_s"], t["agent_steps_per_s"]),
                  ratio(m["agent_steps_per_cpu_s"], t["agent_steps_per_cpu_s"])]  # fmt: skip

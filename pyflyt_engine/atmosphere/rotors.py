@@ -43,7 +43,7 @@ horizontal position in square cells; a vehicle's downwash (:meth:`RotorInteracti
 cells within the reach of the highest rotorcraft, and of those only the vehicles above it
 whose own reach covers it, in index order -- the same terms, summed in the same order,
 as the all-pairs definition :meth:`RotorInteractions.downwash_at`.  In a swarm flying at
-one height the reach is about 3 m for Crazyflie-class vehicles, so the work per vehicle
+one height the reach is 1.1 to 3 m for Crazyflie-class vehicles, so the work per vehicle
 is bounded by the neighbours within it, not by the size of the swarm.
 """
 
