@@ -41,13 +41,14 @@ from pyflyt_cli.speed.tables import (
     floor_steps_per_s,
     number,
     ratio,
+    swarm_table,
     table,
     titles,
 )
 
 REFERENCE_PROBE = Path(__file__).resolve().with_name("reference_probe.py")
 #: our cases the reference has a counterpart of: (section, key); key None: every key
-COUNTERPARTS = {("machine", None), ("envs", None), ("worlds", None), ("camera", "all")}
+COUNTERPARTS = {("machine", None), ("envs", None), ("worlds", None), ("camera", "all"), ("swarm", None)}
 
 
 class Reference:
@@ -82,6 +83,8 @@ class Reference:
             "envs": {row["id"]: self.get("envs", row["id"]) for row in report["envs"]},
             "worlds": {str(row["n"]): self.get("worlds", row["n"]) for row in report["worlds"]},
             "camera": {"all": self.get("camera", "all")},
+            "swarm": {f"{row['env']} {row['agents']}": self.get("swarm", (row["env"], row["agents"]))
+                      for row in report.get("swarm", [])},  # fmt: skip
             "errors": {f"{section} {key}": message for (section, key), message in self.errors.items()},
         }
 
@@ -144,6 +147,12 @@ def format_comparison(report: dict, ref: Reference, markdown: bool = False) -> s
     out += table(["vehicles", "RTF", "ref RTF", "x ref", "floor RTF", "floor / ours"], rows, markdown)
     out.append("")
 
+    if report.get("swarm"):
+        title("swarm")
+        theirs = {(row["env"], row["agents"]): ref.get("swarm", (row["env"], row["agents"])) for row in report["swarm"]}
+        out += swarm_table(report["swarm"], markdown, reference=theirs)
+        out.append("")
+
     title("camera")
     rows = []
     for key, row in report["camera"].items():
@@ -170,12 +179,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--markdown", action="store_true", help="print Markdown tables")
     parser.add_argument("--env", action="append", help="env id to measure (repeatable; default: all)")
     parser.add_argument("--vehicles", type=_counts, default=(1, 8, 64), help="world sizes, comma-separated")
+    parser.add_argument("--agents", type=_counts, default=(1, 2, 4, 8, 16, 32, 64, 128),
+                        help="swarm sizes of the multi-agent curve, comma-separated")  # fmt: skip
     parser.add_argument("--json", type=Path, help="also write every figure, both sides, to this file")
     args = parser.parse_args(argv)
     if args.reference_python and not Path(args.reference_python).exists():
         parser.error(f"--reference-python {args.reference_python} does not exist")
 
-    chosen: dict[str, Any] = {"envs": tuple(args.env) if args.env else None, "vehicles": args.vehicles}
+    chosen: dict[str, Any] = {"envs": tuple(args.env) if args.env else None, "vehicles": args.vehicles,
+                              "swarm": args.agents}  # fmt: skip
     settings = SpeedSettings.quick(**chosen) if args.quick else SpeedSettings(repeats=args.repeats, **chosen)
     ref = Reference(args.reference_python)
     try:

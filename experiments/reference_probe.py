@@ -10,6 +10,8 @@ standard library), on the reference's counterparts:
 * **env** -- the reference's newest version of the env's name, ``gymnasium.make(id, agent_hz=30)``;
 * **world** -- its ``Aviary`` with ``n`` QuadX on the same grid, in its mode 7 (x, y,
   yaw, z) holding their spawn points;
+* **swarm** -- ``MAQuadXHoverEnvV2`` on the same grid, ``MAFixedwingDogfightEnvV2`` (no
+  formation task), by the same parallel-env protocol;
 * **camera** -- its QuadX's default camera at 128 x 128 (on its front-right propeller
   link, 90 deg field of view, pitched 20 deg down: where ``pyflyt speed`` mounts ours).
 
@@ -94,10 +96,34 @@ def measure_camera(captures: int = 50, repeats: int = 5, channels: list[str] | N
     return {**timing, "channels": None}
 
 
+def measure_swarm(env: str, agents: int, steps: int = 300, warmup: int = 20) -> dict:
+    """The reference's counterpart of a swarm case: ``MAQuadXHoverEnvV2`` with the agents on
+    the same centred grid, or ``MAFixedwingDogfightEnvV2`` with ``agents / 2`` a side (it
+    has no formation task), timed by the same protocol."""
+    import numpy as np
+
+    if env == "hover":
+        from PyFlyt.pz_envs import MAQuadXHoverEnvV2
+
+        start = np.array(protocols.centred_grid(agents, protocols.GRID_SPACING, 1.0))
+        parallel = MAQuadXHoverEnvV2(start_pos=start, start_orn=np.zeros((agents, 3)), agent_hz=protocols.AGENT_HZ)
+    elif env == "dogfight":
+        from PyFlyt.pz_envs import MAFixedwingDogfightEnvV2
+
+        parallel = MAFixedwingDogfightEnvV2(team_size=agents // 2, agent_hz=protocols.AGENT_HZ)
+    else:
+        raise KeyError(f"the reference has no {env} env")
+    try:
+        timing = protocols.time_parallel_env(parallel, protocols.AGENT_HZ, steps, warmup)
+    finally:
+        parallel.close()
+    return {"env": env, **timing}
+
+
 def machine() -> dict:
     return protocols.machine(("numpy", "pybullet", "gymnasium", "PyFlyt"))
 
 
 if __name__ == "__main__":
     sys.exit(protocols.main(sys.argv[1:], {"env": measure_env, "world": measure_world, "camera": measure_camera,
-                                           "machine": machine}))  # fmt: skip
+                                           "swarm": measure_swarm, "machine": machine}))  # fmt: skip
