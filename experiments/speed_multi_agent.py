@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
                 us = statistics.median(r["cpu_us_per_agent_step"] for r in runs)
                 print(f"| {size} | {'on' if downwash else 'off'} | {us:,.0f} | {runs[0]['sources_per_vehicle_read']:.2f} | "
                       f"{100 * runs[0]['live_fraction']:.0f}% |", flush=True)
-        print(f"\nlevel formation 1 m apart at 1.5 m, hover thrust; about {args.agent_steps} agent-steps x {args.repeats} "
+        print(f"\nlevel formation 1 m apart at 1.5 m, attitude and height hold; about {args.agent_steps} agent-steps x {args.repeats} "
               f"repeats (median), process CPU time; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
         return 0
     if args.case or args.ours:  # one timing, in its own process
