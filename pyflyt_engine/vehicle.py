@@ -41,12 +41,14 @@ from pyflyt_engine import exact
 from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components.battery import Battery
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
 from pyflyt_engine.components.motor import MotorParams, Motors
+from pyflyt_engine.components.motor_models import ModelledMotors
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import GRAVITY
@@ -107,6 +109,11 @@ def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
         kf=motors.kf[idx],
         kt=motors.kt[idx],
         noise_ratio=motors.noise_ratio[idx],
+        **{
+            name: (getattr(motors, name)[idx] if getattr(motors, name) is not None else None)
+            for name in ("tau_fall", "rotor_drag", "prop_radius")
+        },
+        inflow=motors.inflow,
     )
 
 
@@ -182,7 +189,13 @@ class Vehicle:
         if parts.motors is not None:
             slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
             outputs = [slots.get(i) for i in range(parts.motors.count)]
-            motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
+            if parts.motors.modelled or parts.battery is not None:  # the optional motor models: their own group
+                battery = Battery(parts.battery, physics_dt) if parts.battery is not None else None
+                motors = ModelledMotors(
+                    parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs, battery
+                )
+            else:
+                motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
         if parts.surfaces:
             surfaces = Surfaces(parts.surfaces, physics_dt, mix_rows(parts.surface_mix))
         if parts.boosters is not None:
@@ -213,6 +226,13 @@ class Vehicle:
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
         self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
+        #: the battery driving the motors (None: an ideal supply)
+        self.battery: Battery | None = motors.battery if isinstance(motors, ModelledMotors) else None
+        if isinstance(motors, ModelledMotors):
+            # chosen here, once: the motors take the air too (a vehicle without the optional
+            # motor models keeps the plain apply_loads)
+            self.needs_air = self.needs_air or motors.needs_air
+            self.apply_loads = self._apply_loads_modelled  # type: ignore[method-assign]
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
         self._n_channels = len(parts.channels)
@@ -437,6 +457,11 @@ class Vehicle:
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
 
+    def _apply_loads_modelled(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """:meth:`apply_loads` for motors with the optional models, which take the air too."""
+        self.actuators.motors.set_air(air)  # type: ignore[union-attr]
+        Vehicle.apply_loads(self, air, thrust_ratio)
+
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
 
@@ -568,7 +593,8 @@ class Vehicle:
     def aux_state(self) -> np.ndarray:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
-        ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        ignition (0/1); gimbal angles normalised by their limits [-1, 1]; with a battery,
+        its state of charge [0, 1] last."""
         return np.array(self.aux_values(), dtype=np.float64)
 
     def aux_values(self) -> list[float]:
@@ -578,6 +604,8 @@ class Vehicle:
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
             if group is not None:
                 values += group.aux()
+        if self.battery is not None:
+            values.append(self.battery.charge)
         return values
 
     @property
