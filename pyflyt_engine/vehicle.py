@@ -31,6 +31,7 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -325,6 +326,64 @@ class Vehicle:
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
 
+    # -------------------------------------------------------------- latency
+
+    def set_latency(self, action_steps: int, observation_steps: int) -> None:
+        """Delay the setpoint and the observed state by whole physics steps (docs/engine.md,
+        "Latency"); set once, after the vehicle is built (0 and 0: nothing changes).
+
+        A setpoint given with :meth:`set_setpoint` reaches the flight controller
+        ``action_steps`` physics steps later: at the first control tick at or after that.
+        :meth:`delayed_observation` is the state and auxiliary state of
+        ``observation_steps`` physics steps ago.  Both count the vehicle's own physics steps
+        since its last reset.  Chosen here, once: a vehicle without latency keeps the plain
+        methods, and one with it gets wrappers around them.
+        """
+        if action_steps < 0 or observation_steps < 0:
+            raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
+        self.latency = (int(action_steps), int(observation_steps))
+        if not (action_steps or observation_steps):
+            return
+        self._clock = 0  # physics steps since the last reset
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=max(observation_steps, 1))
+        loads = self.apply_loads
+        delay, watch = int(action_steps), int(observation_steps)
+
+        def set_setpoint(setpoint: Sequence[float] | np.ndarray) -> None:
+            current = self.setpoint
+            Vehicle.set_setpoint(self, setpoint)  # checks it
+            self._pending.append((self._clock + delay, self.setpoint))
+            self.setpoint = current
+
+        def control_step() -> None:
+            pending = self._pending
+            while pending and pending[0][0] <= self._clock:
+                self.setpoint = pending.popleft()[1]
+            Vehicle.control_step(self)
+
+        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+            if watch:  # the state at the start of this physics step, for the delayed observation
+                self._history.append((self.read_state(), self.aux_values()))
+            loads(air, thrust_ratio)
+            self._clock += 1
+
+        if delay:
+            self.set_setpoint = set_setpoint  # type: ignore[method-assign]
+        self.control_step = control_step  # type: ignore[method-assign]
+        self.apply_loads = apply_loads  # type: ignore[method-assign]
+
+    def delayed_observation(self) -> tuple[KinematicState, list[float]]:
+        """The state and auxiliary state ``observation_steps`` physics steps ago (the
+        spawn's until that much time has passed since the reset); without observation
+        latency, or right after a reset, the current ones."""
+        history = getattr(self, "_history", None)
+        if not history:
+            return self.state, self.aux_values()
+        # the history holds the states at the start of the last `observation_steps` physics
+        # steps, oldest first: its first entry is the one that far back (or the spawn's)
+        return history[0]
+
     def register_controller(
         self,
         name: str,
@@ -549,6 +608,10 @@ class Vehicle:
         ang = exact.rotate(rotation, [float(v) for v in ang_vel] if ang_vel is not None else (0.0, 0.0, 0.0))
         p.resetBaseVelocity(self.body_id, list(lin), list(ang), physicsClientId=cid)
         self.setpoint[:] = 0.0
+        if getattr(self, "_pending", None) is not None:  # latency: nothing in flight, time 0
+            self._pending.clear()
+            self._history.clear()
+            self._clock = 0
         self.channels = self._idle_channels.copy()
         a = self.actuators
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals, a.cameras):
