@@ -317,7 +317,7 @@ def _drop_unset(data: Any, keys: tuple[str, ...]) -> Any:
 
 class InflowSpec(_Spec):
     """Blade-element parameters of the rotors for the axial-inflow model (docs/engine.md,
-    "Rotor inflow"): thrust coefficient ``C_T = (sigma a / 4)(theta_tip - lambda)`` of an
+    "Motor models and battery"): thrust coefficient ``C_T = (sigma a / 4)(theta_tip - lambda)`` of an
     ideally twisted blade (Leishman, Principles of Helicopter Aerodynamics, 2nd ed., 2006,
     section 3.3), closed with momentum theory."""
 
@@ -691,7 +691,7 @@ ControlSpec = Annotated[
 
 class BatterySpec(_Spec):
     """The battery that drives the motors: an internal-resistance (Rint) equivalent circuit
-    (docs/engine.md, "Battery").  Its terminal voltage sets the rotors' top speed: a motor at
+    (docs/engine.md, "Motor models and battery").  Its terminal voltage sets the rotors' top speed: a motor at
     throttle ``x`` turns at ``x * max_rpm * V / V_full``."""
 
     capacity_mah: float = Field(gt=0, description="charge when full [mAh], > 0")

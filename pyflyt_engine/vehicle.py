@@ -259,6 +259,8 @@ class Vehicle:
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
+        #: (action, observation) delays in physics steps (:meth:`set_latency`)
+        self.latency: tuple[int, int] = (0, 0)
         if mode is not None:
             self.set_mode(mode)
         self._update_mass()
@@ -341,6 +343,8 @@ class Vehicle:
         """
         if action_steps < 0 or observation_steps < 0:
             raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
+        if self.latency != (0, 0):
+            raise ConfigError(f"vehicle '{self.spec.name}' already has a latency {self.latency}: it is set once")
         self.latency = (int(action_steps), int(observation_steps))
         if not (action_steps or observation_steps):
             return
@@ -359,7 +363,9 @@ class Vehicle:
         def control_step() -> None:
             pending = self._pending
             while pending and pending[0][0] <= self._clock:
-                self.setpoint = pending.popleft()[1]
+                value = pending.popleft()[1]
+                if value.shape == self.setpoint.shape:  # one sent before a change of mode is dropped
+                    self.setpoint = value
             Vehicle.control_step(self)
 
         def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:

@@ -69,6 +69,8 @@ from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import MotorParams, Motors
+from pyflyt_engine.components.noise import NoiseSource
+from pyflyt_engine.components.routing import MixRow
 from pyflyt_engine.constants import AIR_DENSITY
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0  # 1 RPM in rad/s
@@ -129,9 +131,9 @@ class ModelledMotors(Motors):
         self,
         params: MotorParams,
         physics_dt: float,
-        noise,
-        mix=None,
-        mixer_outputs=None,
+        noise: NoiseSource,
+        mix: Sequence[MixRow] | None = None,
+        mixer_outputs: Sequence[int | None] | None = None,
         battery: Battery | None = None,
     ) -> None:
         self.battery = battery
