@@ -356,7 +356,9 @@ def test_the_example_airframe_flies_its_models_and_reports_its_charge():
 
 
 def test_the_models_stay_off_the_cpu_dispatched_numpy(monkeypatch):
-    from tests.engine.test_numeric_kernels import _guard_numerics, _import_everything
+    """The motor models, the battery, their randomisation and latency, flown with NumPy's
+    CPU-dispatched kernels replaced by functions that fail (tests/engine/test_numeric_kernels.py)."""
+    from tests.engine.test_numeric_kernels import _guard_numerics, _import_everything, _step_env
 
     _import_everything()
     spec = load_uav_spec(EXAMPLE)
@@ -369,3 +371,14 @@ def test_the_models_stay_off_the_cpu_dispatched_numpy(monkeypatch):
         world.step()
     assert all(math.isfinite(v) for v in world.state(0).lin_pos)
     world.close()
+    _step_env(
+        "PyFlyt/QuadX-Hover-v0",
+        uav=str(EXAMPLE),
+        wind="dryden_light",
+        latency={"action_delay": 0.01, "observation_delay": 0.02},
+        randomize={
+            "battery_charge": {"distribution": "uniform", "low": 0.3, "high": 1.0},
+            "motor_rotor_drag": {"distribution": "log_uniform", "low": 0.5, "high": 2.0},
+            "motor_tau": {"distribution": "uniform", "low": 0.8, "high": 1.2},
+        },
+    )
