@@ -31,6 +31,7 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -41,12 +42,14 @@ from pyflyt_engine import exact
 from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components.battery import Battery
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
 from pyflyt_engine.components.motor import MotorParams, Motors
+from pyflyt_engine.components.motor_models import ModelledMotors
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import GRAVITY
@@ -107,6 +110,11 @@ def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
         kf=motors.kf[idx],
         kt=motors.kt[idx],
         noise_ratio=motors.noise_ratio[idx],
+        **{
+            name: (getattr(motors, name)[idx] if getattr(motors, name) is not None else None)
+            for name in ("tau_fall", "rotor_drag", "prop_radius")
+        },
+        inflow=motors.inflow,
     )
 
 
@@ -182,7 +190,13 @@ class Vehicle:
         if parts.motors is not None:
             slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
             outputs = [slots.get(i) for i in range(parts.motors.count)]
-            motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
+            if parts.motors.modelled or parts.battery is not None:  # the optional motor models: their own group
+                battery = Battery(parts.battery, physics_dt) if parts.battery is not None else None
+                motors = ModelledMotors(
+                    parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs, battery
+                )
+            else:
+                motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
         if parts.surfaces:
             surfaces = Surfaces(parts.surfaces, physics_dt, mix_rows(parts.surface_mix))
         if parts.boosters is not None:
@@ -213,6 +227,13 @@ class Vehicle:
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
         self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
+        #: the battery driving the motors (None: an ideal supply)
+        self.battery: Battery | None = motors.battery if isinstance(motors, ModelledMotors) else None
+        if isinstance(motors, ModelledMotors):
+            # chosen here, once: the motors take the air too (a vehicle without the optional
+            # motor models keeps the plain apply_loads)
+            self.needs_air = self.needs_air or motors.needs_air
+            self.apply_loads = self._apply_loads_modelled  # type: ignore[method-assign]
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
         self._n_channels = len(parts.channels)
@@ -238,6 +259,8 @@ class Vehicle:
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
+        #: (action, observation) delays in physics steps (:meth:`set_latency`)
+        self.latency: tuple[int, int] = (0, 0)
         if mode is not None:
             self.set_mode(mode)
         self._update_mass()
@@ -304,6 +327,68 @@ class Vehicle:
         if not all(map(math.isfinite, value.tolist())):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
+
+    # -------------------------------------------------------------- latency
+
+    def set_latency(self, action_steps: int, observation_steps: int) -> None:
+        """Delay the setpoint and the observed state by whole physics steps (docs/engine.md,
+        "Latency"); set once, after the vehicle is built (0 and 0: nothing changes).
+
+        A setpoint given with :meth:`set_setpoint` reaches the flight controller
+        ``action_steps`` physics steps later: at the first control tick at or after that.
+        :meth:`delayed_observation` is the state and auxiliary state of
+        ``observation_steps`` physics steps ago.  Both count the vehicle's own physics steps
+        since its last reset.  Chosen here, once: a vehicle without latency keeps the plain
+        methods, and one with it gets wrappers around them.
+        """
+        if action_steps < 0 or observation_steps < 0:
+            raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
+        if self.latency != (0, 0):
+            raise ConfigError(f"vehicle '{self.spec.name}' already has a latency {self.latency}: it is set once")
+        self.latency = (int(action_steps), int(observation_steps))
+        if not (action_steps or observation_steps):
+            return
+        self._clock = 0  # physics steps since the last reset
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=max(observation_steps, 1))
+        loads = self.apply_loads
+        delay, watch = int(action_steps), int(observation_steps)
+
+        def set_setpoint(setpoint: Sequence[float] | np.ndarray) -> None:
+            current = self.setpoint
+            Vehicle.set_setpoint(self, setpoint)  # checks it
+            self._pending.append((self._clock + delay, self.setpoint))
+            self.setpoint = current
+
+        def control_step() -> None:
+            pending = self._pending
+            while pending and pending[0][0] <= self._clock:
+                value = pending.popleft()[1]
+                if value.shape == self.setpoint.shape:  # one sent before a change of mode is dropped
+                    self.setpoint = value
+            Vehicle.control_step(self)
+
+        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+            if watch:  # the state at the start of this physics step, for the delayed observation
+                self._history.append((self.read_state(), self.aux_values()))
+            loads(air, thrust_ratio)
+            self._clock += 1
+
+        if delay:
+            self.set_setpoint = set_setpoint  # type: ignore[method-assign]
+        self.control_step = control_step  # type: ignore[method-assign]
+        self.apply_loads = apply_loads  # type: ignore[method-assign]
+
+    def delayed_observation(self) -> tuple[KinematicState, list[float]]:
+        """The state and auxiliary state ``observation_steps`` physics steps ago (the
+        spawn's until that much time has passed since the reset); without observation
+        latency, or right after a reset, the current ones."""
+        history = getattr(self, "_history", None)
+        if not history:
+            return self.state, self.aux_values()
+        # the history holds the states at the start of the last `observation_steps` physics
+        # steps, oldest first: its first entry is the one that far back (or the spawn's)
+        return history[0]
 
     def register_controller(
         self,
@@ -437,6 +522,11 @@ class Vehicle:
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
 
+    def _apply_loads_modelled(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """:meth:`apply_loads` for motors with the optional models, which take the air too."""
+        self.actuators.motors.set_air(air)  # type: ignore[union-attr]
+        Vehicle.apply_loads(self, air, thrust_ratio)
+
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
 
@@ -524,6 +614,10 @@ class Vehicle:
         ang = exact.rotate(rotation, [float(v) for v in ang_vel] if ang_vel is not None else (0.0, 0.0, 0.0))
         p.resetBaseVelocity(self.body_id, list(lin), list(ang), physicsClientId=cid)
         self.setpoint[:] = 0.0
+        if getattr(self, "_pending", None) is not None:  # latency: nothing in flight, time 0
+            self._pending.clear()
+            self._history.clear()
+            self._clock = 0
         self.channels = self._idle_channels.copy()
         a = self.actuators
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals, a.cameras):
@@ -568,7 +662,8 @@ class Vehicle:
     def aux_state(self) -> np.ndarray:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
-        ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        ignition (0/1); gimbal angles normalised by their limits [-1, 1]; with a battery,
+        its state of charge [0, 1] last."""
         return np.array(self.aux_values(), dtype=np.float64)
 
     def aux_values(self) -> list[float]:
@@ -578,6 +673,8 @@ class Vehicle:
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
             if group is not None:
                 values += group.aux()
+        if self.battery is not None:
+            values.append(self.battery.charge)
         return values
 
     @property

@@ -25,7 +25,9 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializeAsAny,
+    SerializerFunctionWrapHandler,
     field_validator,
+    model_serializer,
     model_validator,
 )
 
@@ -138,6 +140,22 @@ class CameraObservationConfig(_Config):
         return value
 
 
+class LatencyConfig(_Config):
+    """Delays between the agent and each vehicle (docs/engine.md, "Latency"), in seconds,
+    applied at physics resolution: each is rounded to the nearest whole number of physics
+    steps (halves up), ``round(delay * physics_hz)``."""
+
+    action_delay: float = Field(
+        0.0, ge=0, description="from an action to the vehicle's flight controller [s] (it takes it at its next tick)"
+    )
+    observation_delay: float = Field(0.0, ge=0, description="age of the state in the observation [s]")
+
+    def steps(self, physics_hz: float) -> tuple[int, int]:
+        """(action, observation) delays in physics steps: each rounded to the nearest step, halves up."""
+        # the 1e-9 absorbs the binary rounding of delay * rate (0.0125 s * 240 Hz = 3.0000000000000004)
+        return tuple(int(math.floor(d * physics_hz + 0.5 + 1e-9)) for d in (self.action_delay, self.observation_delay))  # type: ignore[return-value]
+
+
 class EnvConfig(_Config):
     """An environment: vehicle, loop rates, episode limits, action, task and reward."""
 
@@ -190,6 +208,30 @@ class EnvConfig(_Config):
         description="domain randomisation: parameter -> bounded distribution, drawn at every reset "
         "(pyflyt_engine.envs.randomization); a name loads a preset of conf/randomize",
     )
+    latency: LatencyConfig | None = Field(
+        None,
+        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); null: none",
+    )
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        data = handler(self)
+        if isinstance(data, dict) and data.get("latency", 0) is None:
+            del data["latency"]  # a config without latency dumps, and is recorded, as before it existed
+        return data
+
+    @model_validator(mode="after")
+    def _latency(self) -> EnvConfig:
+        if self.latency is not None:
+            for name in ("action_delay", "observation_delay"):
+                delay = getattr(self.latency, name)
+                if delay >= self.max_duration_seconds:
+                    raise ValueError(
+                        f"latency.{name}: {delay:g} s is not shorter than the episode (max_duration_seconds "
+                        f"{self.max_duration_seconds:g} s): nothing the agent does would reach the vehicle; give a "
+                        "delay of a few physics steps"
+                    )
+        return self
 
     @field_validator("randomize", mode="before")
     @classmethod

@@ -41,7 +41,10 @@ class UAVEnv(gymnasium.Env):
         [ang_vel (3, body, rad/s), attitude (3 Euler rad | 4 quaternion xyzw, ground),
          lin_vel (3, body, m/s), lin_pos (3, ground ENU, m), previous action (A), aux (n)]
 
-    where aux is the vehicle's auxiliary state (motor throttles for a multirotor).
+    where aux is the vehicle's auxiliary state (motor throttles for a multirotor).  With
+    ``config.latency``, the action reaches the flight controller ``action_delay`` later and
+    the observation shows the vehicle as it was ``observation_delay`` ago (both rounded to
+    physics steps); rewards and episode ends use the true state.
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
@@ -142,6 +145,9 @@ class UAVEnv(gymnasium.Env):
             downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
+        #: action and observation delays in physics steps (docs/engine.md, "Latency")
+        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
+        self.vehicle.set_latency(*self.latency_steps)
         #: the config's payloads, built around the vehicle (None without payloads)
         self.payloads: PayloadSet | None = None
         if cfg.payloads:
@@ -298,7 +304,11 @@ class UAVEnv(gymnasium.Env):
     # ------------------------------------------------------------------ helpers
 
     def _observe(self, state: KinematicState) -> Any:
-        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), self.vehicle.aux_values())
+        if self.latency_steps[1]:  # the agent sees the vehicle as it was observation_delay ago
+            state, aux = self.vehicle.delayed_observation()
+        else:
+            aux = self.vehicle.aux_values()
+        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
         observation = self.task.observe(attitude, state)
         if self._camera is None:
             return observation

@@ -77,6 +77,7 @@ SINGLE: dict[str, tuple[dict[str, Any], Any]] = {
     "payloads": ({}, PAYLOAD),
     "ground_effect": ({}, True),
     "randomize": ({}, "moderate"),
+    "latency": ({}, {"action_delay": 0.02, "observation_delay": 0.02}),
     # task options
     "start_position": ({}, (0.0, 0.0, 1.5)),
     "start_position_noise": ({}, 0.0),
