@@ -149,11 +149,6 @@ def deployed_policy(source: str | Path, model: str = "auto") -> DeployedPolicy:
             f"{path}: a recurrent_ppo policy carries an LSTM state from step to step; the exporters write "
             "feed-forward policies only (one observation in, one action out). Train with algo=ppo to deploy"
         )
-    if getattr(cfg.env, "camera_observation", None) is not None:
-        raise ExportError(
-            f"{path}: its policy sees camera images (env.camera_observation, a Dict observation with a CNN); "
-            "the exporters write policies of one flat observation vector only"
-        )
     model_path, which = rundir.find_model(path, model)
     from pyflyt_cli.training.envs import EnvFactory
     from pyflyt_cli.training.models import load_policy, read_policy
@@ -175,9 +170,13 @@ def _assemble(
     algo = cfg.algo.name
     obs_space = env.observation_space
     if not (isinstance(obs_space, spaces.Box) and len(obs_space.shape) == 1):
+        from pyflyt_cli.training.envs import is_image
+
+        entries = obs_space.spaces.values() if isinstance(obs_space, spaces.Dict) else [obs_space]
+        seen = "camera images (a CNN over env.camera_observation)" if any(is_image(s) for s in entries) else str(obs_space)
         raise ExportError(
-            f"{run}: the policy's observation is {obs_space}; the exporters write policies of one flat "
-            "observation vector only (no images, no Dict observations)"
+            f"{run}: its policy sees {seen}; the exporters write policies of one flat observation vector "
+            "only (no images, no Dict observations)"
         )
     act_space = env.action_space
     if not (isinstance(act_space, spaces.Box) and len(act_space.shape) == 1):
