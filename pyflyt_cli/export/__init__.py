@@ -112,8 +112,10 @@ def probe_observations(policy: Any, count: int = PROBES, seed: int = 0) -> Any:
 
     rng = np.random.default_rng(seed)
     z = rng.normal(size=(count, policy.obs_dim))
+    from pyflyt_cli.export.policy import Standardize
+
     first = policy.network[0]
-    if type(first).__name__ == "Standardize":
+    if isinstance(first, Standardize):
         return (first.mean.numpy() + 2.0 * z * first.std.numpy()).astype(np.float32)
     return z.astype(np.float32)
 

@@ -38,15 +38,8 @@ class ExportError(UsageError):
     """A policy that cannot be exported, or an export request that cannot be carried out as given."""
 
 
-#: activation modules the exporters write (class name -> ONNX needs nothing more; C: :mod:`.c_source`)
+#: activation modules the exporters write (by class name; :mod:`.c_source` writes each in C)
 ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "GELU", "SiLU", "Sigmoid", "Hardtanh")
-
-#: algorithms whose policy is Gaussian with a separate action head (``mlp_extractor.policy_net`` + ``action_net``)
-ACTOR_CRITIC = frozenset({"ppo", "a2c", "trpo"})
-#: algorithms whose ``policy.actor`` is a squashed Gaussian (``latent_pi`` + ``mu`` + tanh)
-SQUASHED = frozenset({"sac", "tqc", "awac", "ccge", "crossq"})
-#: algorithms whose ``policy.actor.mu`` is the whole deterministic actor (ending in tanh)
-DETERMINISTIC = frozenset({"td3", "ddpg"})
 
 
 class Standardize(torch.nn.Module):
@@ -85,11 +78,6 @@ class Clamp(torch.nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return torch.minimum(torch.maximum(x, self.low), self.high)
-
-
-def layer_kind(layer: torch.nn.Module) -> str:
-    """``Standardize``, ``Affine``, ``Clamp``, ``Linear`` or an activation's class name."""
-    return type(layer).__name__
 
 
 @dataclass(frozen=True)
@@ -143,12 +131,6 @@ def deployed_policy(source: str | Path, model: str = "auto") -> DeployedPolicy:
 
     path = rundir.check_run_dir(resolve_source(source))
     cfg = rundir.load_run_config(path)
-    name = cfg.algo.name
-    if name == "recurrent_ppo":
-        raise ExportError(
-            f"{path}: a recurrent_ppo policy carries an LSTM state from step to step; the exporters write "
-            "feed-forward policies only (one observation in, one action out). Train with algo=ppo to deploy"
-        )
     model_path, which = rundir.find_model(path, model)
     from pyflyt_cli.training.envs import EnvFactory
     from pyflyt_cli.training.models import load_policy, read_policy
@@ -183,7 +165,10 @@ def _assemble(
         raise ExportError(f"{run}: the policy's action is {act_space}; the exporters write continuous (Box) actions only")
     policy = sb3.policy
     if hasattr(policy, "lstm_actor"):
-        raise ExportError(f"{run}: a recurrent policy (LSTM): the exporters write feed-forward policies only")
+        raise ExportError(
+            f"{run}: a {algo} policy carries an LSTM state from step to step; the exporters write feed-forward "
+            "policies only (one observation in, one action out): train with algo=ppo to deploy"
+        )
 
     layers: list[Any] = []
     steps: list[str] = []
@@ -204,7 +189,9 @@ def _assemble(
     if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
         raise ExportError(f"{run}: the policy's action space {sb3.action_space} is unbounded: nothing to clip or rescale to")
 
-    if algo in ACTOR_CRITIC or (algo not in SQUASHED | DETERMINISTIC and hasattr(policy, "action_net")):
+    # the actor's layout, read from the policy itself: PPO, A2C, TRPO (a Gaussian over an action head);
+    # SAC, TQC, AWAC, CCGE (a squashed Gaussian); TD3, DDPG (a deterministic actor ending in tanh)
+    if hasattr(policy, "action_net") and hasattr(policy, "mlp_extractor"):
         _flat_features(run, policy.pi_features_extractor if hasattr(policy, "pi_features_extractor") else policy.features_extractor)
         layers += _actor_layers(run, algo, [policy.mlp_extractor.policy_net, policy.action_net])
         steps.append(f"{algo} actor: the Gaussian's mean (deterministic action)")

@@ -191,7 +191,7 @@ def refused_runs(tmp_path_factory):
 
 @pytest.mark.parametrize(
     "kind, message",
-    [("recurrent", "recurrent_ppo policy carries an LSTM state"), ("camera", "its policy sees camera images")],
+    [("recurrent", "a recurrent_ppo policy carries an LSTM state"), ("camera", "its policy sees camera images")],
 )
 def test_recurrent_and_image_policies_are_refused(refused_runs, tmp_path, kind, message):
     for fmt in ("onnx", "c"):
@@ -234,3 +234,53 @@ def test_an_existing_output_is_replaced_only_with_force(tmp_path, monkeypatch):
     assert "wrote:   policy.c" in result.output and "observation normaliser" in result.output
     assert "policy_forward" in Path("policy.h").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["policy.c", "policy.h"]  # no temporary file left
+
+
+# ------------------------------------------------------------------ the other actor layouts
+
+#: tiny runs of the other actor layouts: their chains match SB3's deterministic actions (and compile)
+LAYOUTS = {
+    # TD3: a deterministic actor ending in tanh, on the waypoint env (normaliser on, the flattened Dict)
+    "td3": ["env=quadx_waypoints", "algo=td3", "algo.normalize.observation=true"],
+    # TQC: a squashed Gaussian as SAC's, with an ELU actor
+    "tqc": ["env=quadx_hover", "algo=tqc", "algo.policy_kwargs.n_quantiles=5", "algo.policy_kwargs.activation_fn=elu"],
+    # PPO with gSDE and a tanh network: the mean clipped, as without gSDE
+    "ppo_sde": ["env=rocket_landing", "algo=ppo", "algo.use_sde=true", "algo.policy_kwargs.activation_fn=tanh"],
+}
+OFF_POLICY = ["train.total_timesteps=64", "algo.buffer_size=200", "algo.learning_starts=32", "algo.batch_size=16"]
+ON_POLICY = ["train.total_timesteps=32", "algo.n_steps=32", "algo.batch_size=16", "algo.n_epochs=1"]
+
+
+@pytest.mark.parametrize("layout", sorted(LAYOUTS))
+def test_other_actor_layouts_export_as_the_policy_acts(tmp_path, layout):
+    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training import train
+
+    overrides = [*LAYOUTS[layout], *(ON_POLICY if layout.startswith("ppo") else OFF_POLICY),
+                 "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
+                 "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
+                 f"train.output_dir={tmp_path}"]
+    run = train(load_train_config(overrides), run_dir=tmp_path / layout).run_dir
+    policy = deployed_policy(run, "final")
+    obs = record(str(run), policy, steps=64)
+    obs = np.concatenate([obs, obs + np.random.default_rng(2).normal(size=obs.shape).astype(np.float32)])
+    reference = policy.reference(obs)
+    assert np.max(np.abs(policy.forward(obs) - reference)) < TOLERANCE
+    result = export_policy(run, "c", tmp_path / "policy.c")
+    program = compile_c(result.files[0], tmp_path)
+    assert np.max(np.abs(run_c(program, obs, policy.act_dim, tmp_path) - reference)) < TOLERANCE
+
+
+def test_a_layer_the_exporters_do_not_know_is_refused_by_name(tmp_path):
+    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training import train
+
+    overrides = ["env=quadx_hover", "algo=crossq", "algo.policy_kwargs.batch_norm_momentum=0.05", *OFF_POLICY,
+                 "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
+                 "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
+                 f"train.output_dir={tmp_path}"]
+    run = train(load_train_config(overrides), run_dir=tmp_path / "crossq").run_dir
+    result = runner.invoke(app, ["export", str(run), "format=onnx", f"out={tmp_path / 'p.onnx'}"])
+    assert result.exit_code == 2, result.output
+    assert "the crossq actor holds a BatchRenorm" in result.output and "Linear layers and the activations" in result.output
+    assert not (tmp_path / "p.onnx").exists()
