@@ -354,3 +354,29 @@ def _about(
         },
         "steps": steps,
     }
+
+
+def flown_observations(source: str | Path, policy: DeployedPolicy, steps: int = 1000, seed: int = 0) -> np.ndarray:
+    """``(steps, obs_dim)`` float32 observations met by flying ``policy``'s reference actions in the
+    run's env (episode ``i`` from ``reset(seed=seed + i)``): realistic inputs to check an exported
+    file against (:func:`DeployedPolicy.reference`)."""
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.envs import EnvFactory
+
+    cfg = rundir.load_run_config(resolve_source(source))
+    env = EnvFactory(cfg.env, monitor=False)()
+    rescale = _rescaler(env)
+    below = rescale.env if rescale is not None else env  # takes the action in the env's units
+    seen: list[np.ndarray] = []
+    episode = 0
+    try:
+        obs, _ = below.reset(seed=seed)
+        while len(seen) < steps:
+            seen.append(np.asarray(obs, dtype=np.float32))
+            obs, _, terminated, truncated, _ = below.step(policy.reference(obs)[0])
+            if terminated or truncated:
+                episode += 1
+                obs, _ = below.reset(seed=seed + episode)
+    finally:
+        env.close()
+    return np.stack(seen)

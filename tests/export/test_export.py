@@ -15,10 +15,8 @@ from typer.testing import CliRunner
 
 from pyflyt_cli.export import export_policy
 from pyflyt_cli.export.onnx_model import run_onnx
-from pyflyt_cli.export.policy import _rescaler, deployed_policy, resolve_source
+from pyflyt_cli.export.policy import deployed_policy, flown_observations
 from pyflyt_cli.main import app
-from pyflyt_cli.training import rundir
-from pyflyt_cli.training.envs import EnvFactory
 
 #: the shipped agents exported: an MLP from PPO (with an observation normaliser) and one from SAC (without)
 AGENTS = {"ppo": "zoo:quadx_hover_ppo", "sac": "zoo:fixedwing_waypoints_sac"}
@@ -54,23 +52,9 @@ int main(int argc, char **argv)
 """
 
 
-def record(source: str, policy, steps: int = RECORDED, seed: int = 0) -> np.ndarray:
-    """``steps`` raw observations met by flying the policy's reference action (episodes from seed, seed+1, ...)."""
-    cfg = rundir.load_run_config(resolve_source(source))
-    env = EnvFactory(cfg.env, monitor=False)()
-    below = _rescaler(env).env  # takes the action in the env's units, gives the agent's observation
-    seen, episode = [], 0
-    try:
-        obs, _ = below.reset(seed=seed)
-        while len(seen) < steps:
-            seen.append(np.asarray(obs, dtype=np.float32))
-            obs, _, terminated, truncated, _ = below.step(policy.reference(obs)[0])
-            if terminated or truncated:
-                episode += 1
-                obs, _ = below.reset(seed=seed + episode)
-    finally:
-        env.close()
-    return np.stack(seen)
+def record(source, policy, steps: int = RECORDED, seed: int = 0) -> np.ndarray:
+    """``steps`` raw observations met by flying the policy (episodes from seed, seed + 1, ...)."""
+    return flown_observations(source, policy, steps, seed)
 
 
 @pytest.fixture(scope="module", params=sorted(AGENTS))
