@@ -41,7 +41,7 @@ def parse_export_args(overrides: list[str]) -> dict[str, str]:
 
 def run_export(source: str, overrides: list[str], *, force: bool = False) -> object:
     """Export ``source`` as the ``key=value`` overrides say; print the files and what they hold."""
-    from pyflyt_cli.export import export_policy
+    from pyflyt_cli.export import PROBES, export_policy
 
     options = parse_export_args(overrides)
     result = export_policy(source, options["format"], options.get("out"), model=options.get("model", "auto"), force=force)
@@ -55,5 +55,5 @@ def run_export(source: str, overrides: list[str], *, force: bool = False) -> obj
     for path in result.files:
         typer.echo(f"wrote:   {path}")
     if result.check is not None:
-        typer.echo(f"checked: onnxruntime gives the PyTorch chain's actions within {result.check:.2g} on 256 probe observations")
+        typer.echo(f"checked: onnxruntime gives the PyTorch chain's actions within {result.check:.2g} on {PROBES} probe observations")
     return result

@@ -133,4 +133,4 @@ def _check_onnx(policy: Any, path: Path) -> float | None:
     return float(np.max(np.abs(run_onnx(path, obs) - policy.forward(obs))))
 
 
-__all__ = ["FORMATS", "ExportError", "ExportResult", "export_policy", "output_files", "probe_observations"]
+__all__ = ["FORMATS", "PROBES", "ExportError", "ExportResult", "export_policy", "output_files", "probe_observations"]

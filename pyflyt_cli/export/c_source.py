@@ -54,7 +54,8 @@ def _guard(header: str) -> str:
 
 
 def _comment(lines: list[str]) -> str:
-    safe = [line.replace("*/", "* /") for line in lines]
+    """A C comment of ``lines``, in ASCII (a path or name outside it is escaped) and never closed early."""
+    safe = [line.replace("*/", "* /").encode("ascii", "backslashreplace").decode("ascii") for line in lines]
     return "/*\n" + "".join(f" * {line}".rstrip() + "\n" for line in safe) + " */\n"
 
 

@@ -180,7 +180,7 @@ def _assemble(
         std = np.sqrt(rms["var"].numpy().astype(np.float64) + float(normalizer["epsilon"]))
         clip = float(normalizer["clip_obs"])
         layers.append(Standardize(mean, std, clip))
-        steps.append(f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {normalizer['epsilon']:g}), ±{clip:g})")
+        steps.append(f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {normalizer['epsilon']:g}), -{clip:g}, {clip:g})")
     else:
         steps.append("no observation normaliser (the run trained on raw observations)")
 

@@ -135,6 +135,7 @@ def test_the_compiled_c_reproduces_the_policy(flown, tmp_path):
     header = (tmp_path / "policy.h").read_text()
     assert f"#define POLICY_OBS_DIM {policy.obs_dim}" in header and "void policy_forward(const float *obs, float *action);" in header
     assert "#include" not in header  # dependency-free: the header needs nothing
+    assert header.isascii() and (tmp_path / "policy.c").read_text().isascii()  # any compiler's source charset
     program = compile_c(tmp_path / "policy.c", tmp_path)
     actions = run_c(program, obs, policy.act_dim, tmp_path)
     reference = policy.reference(obs)
@@ -268,3 +269,14 @@ def test_a_layer_the_exporters_do_not_know_is_refused_by_name(tmp_path):
     assert result.exit_code == 2, result.output
     assert "the crossq actor holds a BatchRenorm" in result.output and "Linear layers and the activations" in result.output
     assert not (tmp_path / "p.onnx").exists()
+
+
+def test_the_command_writes_onnx_and_checks_it(tmp_path, monkeypatch):
+    pytest.importorskip("onnxruntime")
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["export", "zoo:fixedwing_waypoints_sac", "out=fw.onnx"])  # format from the suffix
+    assert result.exit_code == 0, result.output
+    assert "wrote:   fw.onnx" in result.output and "tanh of the Gaussian's mean" in result.output
+    check = float(result.output.split("actions within ")[1].split()[0])
+    assert check < TOLERANCE
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fw.onnx"]
