@@ -5,7 +5,9 @@ For each shipped agent below: fly its policy for 1,000 agent steps (episodes fro
 ``gcc -std=c99 -Wall -Werror -O2``, and print the largest absolute difference between
 the actions of each and the run's PyTorch policy (SB3's deterministic action, rescaled
 and clipped as the env receives it), in the env's units.  Needs the ``[export]`` extra
-and gcc.
+and gcc.  Where ``arm-none-eabi-gcc`` is installed (Debian: gcc-arm-none-eabi), it also
+compiles each C export for a Cortex-M4 with its single-precision FPU and reports the
+flash it takes and the double-precision library calls in it (none expected).
 
     python experiments/export_precision.py [--steps 1000]
 """
@@ -60,6 +62,23 @@ def c_actions(source: str, obs: np.ndarray, act_dim: int, folder: Path) -> np.nd
     return np.frombuffer((folder / "act.bin").read_bytes(), dtype="<f4").reshape(-1, act_dim)
 
 
+ARM = ["-std=c99", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-Wall", "-Wextra",
+       "-Wdouble-promotion", "-Werror", "-O2", "-c", "policy.c", "-o", "policy.o"]
+
+
+def cortex_m4(folder: Path) -> str | None:
+    """``flash bytes, double calls`` of ``folder/policy.c`` built for a Cortex-M4F, or None without the compiler."""
+    gcc = shutil.which("arm-none-eabi-gcc")
+    if gcc is None:
+        return None
+    subprocess.run([gcc, *ARM], cwd=folder, check=True)
+    size = subprocess.run(["arm-none-eabi-size", "policy.o"], cwd=folder, check=True, capture_output=True, text=True)
+    text = int(size.stdout.splitlines()[1].split()[0])
+    dump = subprocess.run(["arm-none-eabi-objdump", "-d", "policy.o"], cwd=folder, check=True, capture_output=True, text=True)
+    doubles = sum("__aeabi_d" in line for line in dump.stdout.splitlines())
+    return f"{text / 1024:.1f} KiB flash, {doubles} double-precision calls"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=1000, help="observations flown per agent")
@@ -75,10 +94,12 @@ def main() -> None:
             export_policy(source, "onnx", folder / "policy.onnx")
             onnx = np.max(np.abs(run_onnx(folder / "policy.onnx", obs) - reference))
             c = np.max(np.abs(c_actions(source, obs, policy.act_dim, folder) - reference))
-        rows.append(f"| `{source}` | {onnx:.1e} | {c:.1e} |")
+            arm = cortex_m4(folder)
+        rows.append(f"| `{source}` | {onnx:.1e} | {c:.1e} |" + (f" {arm} |" if arm else ""))
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
     print(f"largest absolute difference over {args.steps} flown observations, in the env's units\n")
-    print("| policy | ONNX (onnxruntime) | C (gcc -O2) |\n|---|---|---|")
+    arm = " Cortex-M4F (arm-none-eabi-gcc -O2) |" if shutil.which("arm-none-eabi-gcc") else ""
+    print("| policy | ONNX (onnxruntime) | C (gcc -O2) |" + arm + "\n|---|---|---|" + ("---|" if arm else ""))
     print("\n".join(rows))
 
 
