@@ -57,13 +57,15 @@ def write_onnx(policy: DeployedPolicy, path: Path) -> None:
                 dynamic_shapes=({0: batch},),
                 external_data=False,
             )
+    except Exception as exc:  # noqa: BLE001 - any failure of the exporter is reported, not raised
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ExportError(f"out={path}: PyTorch's ONNX exporter failed ({first}); format=c writes the same chain") from None
     finally:
         quiet.setLevel(level)
     if program is None:  # pragma: no cover - the dynamo exporter always returns its program
         raise ExportError("torch.onnx.export returned no program")
     model = program.model_proto
-    about = {k: v for k, v in policy.about.items()}
-    onnx.helper.set_model_props(model, {"pyflyt": json.dumps(about, sort_keys=True)})
+    onnx.helper.set_model_props(model, {"pyflyt": json.dumps(policy.about, sort_keys=True)})
     model.doc_string = "pyflyt policy: " + "; ".join(policy.about["steps"])
     onnx.checker.check_model(model)
     with atomic_output(path, "out=") as tmp:

@@ -280,3 +280,18 @@ def test_the_command_writes_onnx_and_checks_it(tmp_path, monkeypatch):
     check = float(result.output.split("actions within ")[1].split()[0])
     assert check < TOLERANCE
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fw.onnx"]
+
+
+def test_a_failing_onnx_exporter_is_reported_and_writes_nothing(tmp_path, monkeypatch):
+    pytest.importorskip("onnxscript")
+    import torch
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("unsupported operator aten::something\nmore detail")
+
+    monkeypatch.setattr(torch.onnx, "export", broken)
+    out = tmp_path / "policy.onnx"
+    result = runner.invoke(app, ["export", "zoo:quadx_hover_ppo", "format=onnx", f"out={out}"])
+    assert result.exit_code == 2, result.output
+    assert "PyTorch's ONNX exporter failed (unsupported operator aten::something)" in result.output
+    assert list(tmp_path.iterdir()) == []
