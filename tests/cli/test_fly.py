@@ -67,3 +67,6 @@ def test_modes_lists_names_and_pyflyt_numbers():
     assert result.exit_code == 0
     assert re.search(r"position_yaw\s+7\s+\[x, y, yaw, z\]", result.output)
     assert re.search(r"motors\s+-1", result.output)
+    assert re.search(r"velocity\s+\[vx, vy, vz, ignition\]", result.output)
+    assert re.search(r"attitude_thrust\s+\[tilt_x, tilt_y, roll_rate, throttle, ignition\]", result.output)
+    assert re.search(r"attitude_airspeed\s+\[roll, pitch, yaw_rate, airspeed\]", result.output)
