@@ -267,38 +267,37 @@ class RocketAutopilot:
                     q = along * along
                     mx, my, mz = mx + q * gx, my + q * gy, mz + q * gz
             columns.append((channel, (mx, my, mz), lag))
-        # gains from the authority-weighted lag, available angular acceleration per axis
-        jx, jy, jz = inertia
-        total = weighted = 0.0
-        avail = [0.0, 0.0, 0.0]
-        for _, m, lag in columns:
-            size = math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+        # gains from the authority-weighted lag, available angular acceleration per axis, and
+        # the allocation's Gram matrix B B^T + lambda I (its six distinct entries)
+        total = weighted = ax = ay = 0.0
+        gxx = gyy = gzz = _DAMPING
+        gxy = gxz = gyz = 0.0
+        for _, (mx, my, mz), lag in columns:
+            size = math.sqrt(mx * mx + my * my + mz * mz)
             total += size
             weighted += size * lag
-            avail[0] += abs(m[0])
-            avail[1] += abs(m[1])
-            avail[2] += abs(m[2])
+            ax += abs(mx)
+            ay += abs(my)
+            gxx, gyy, gzz = gxx + mx * mx, gyy + my * my, gzz + mz * mz
+            gxy, gxz, gyz = gxy + mx * my, gxz + mx * mz, gyz + my * mz
         if total == 0.0:
             return out
+        jx, jy, jz = inertia
         k_rate = 1.0 / (2.0 * (weighted / total + self.dt))
         k_att = k_rate / 4.0
         p, q, r = state.ang_vel
         rates = []
-        for e, a, j in ((ex, avail[0], jx), (ey, avail[1], jy)):
+        for e, a, j in ((ex, ax, jx), (ey, ay, jy)):
             linear = k_att * abs(e)
             braking = math.sqrt(a / j * abs(e))
             rate = linear if linear < braking else braking
             rates.append(rate if e >= 0.0 else -rate)
         moment = (jx * k_rate * (rates[0] - p), jy * k_rate * (rates[1] - q), jz * k_rate * (roll_rate - r))
-        gram = [[_DAMPING if i == k else 0.0 for k in range(3)] for i in range(3)]
-        for _, m, _ in columns:
-            for i in range(3):
-                for k in range(3):
-                    gram[i][k] += m[i] * m[k]
-        y = _solve3(gram, moment)
-        for channel, m, _ in columns:
-            value = m[0] * y[0] + m[1] * y[1] + m[2] * y[2]
-            lo, hi = self.low[channel], self.high[channel]
+        y0, y1, y2 = _solve3([[gxx, gxy, gxz], [gxy, gyy, gyz], [gxz, gyz, gzz]], moment)
+        low, high = self.low, self.high
+        for channel, (mx, my, mz), _ in columns:
+            value = mx * y0 + my * y1 + mz * y2
+            lo, hi = low[channel], high[channel]
             out[channel] = lo if value < lo else hi if value > hi else value
         return out
 
