@@ -170,3 +170,21 @@ def test_ignition_rule_pulses_where_the_minimum_thrust_exceeds_the_weight_and_ob
         assert vehicle.state.lin_vel_ground[2] == pytest.approx(-GRAVITY, rel=0.02)
     finally:
         world.close()
+
+
+def test_fins_alone_hold_the_lean_and_the_roll_rate_in_descent():
+    """Booster out, falling at 50-70 m/s: the fins steer.  The loops are proportional, so
+    the fins' aerodynamic damping and restoring moments leave a steady error (stated)."""
+    world = World([VehicleConfig(ROCKET, (0.0, 0.0, 400.0), mode="attitude_thrust")], seed=0)
+    vehicle = world.vehicles[0]
+    try:
+        vehicle.reset(lin_vel=(0.0, 0.0, -50.0))
+        world.set_setpoint(0, [0.05, 0.0, 0.3, 0.0, 0.0])
+        for _ in range(int(1.5 * world.agent_hz)):
+            world.step()
+        assert not vehicle.actuators.boosters.ignited[0]
+        assert vehicle.state.ang_vel[2] == pytest.approx(0.3, rel=0.15)  # 0.27 rad/s measured
+        assert _tilt(vehicle) == pytest.approx(0.05, rel=0.15)  # 0.045 rad measured
+        assert vehicle.rotation[2] > 0.0  # leaning toward +x
+    finally:
+        world.close()
