@@ -18,6 +18,8 @@ Both act on the observation alone (``pyflyt_engine/envs/oracles.py``, their docs
 describe them).  Each episode is flown once under each reward preset (the paper's dense
 reward, the sparse one and the braking-envelope shaping) from the same seed; the script
 checks that the flights are identical, so the presets' returns compare one flight.
+`pyflyt eval oracle:rocket_velocity_lander episodes=50 seed=0` (or `oracle:rocket_lander`)
+flies the same landings from the command line (recorded to MCAP; `video=` films them).
 
     python experiments/rocket_scripted_landing.py [--seeds 50] [--write]
 
