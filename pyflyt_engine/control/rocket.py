@@ -43,10 +43,13 @@ channels in use (``sum_j |B_j| tau_j / sum_j |B_j|``) plus one control period,
 ``k_att = k_rate / 4``.  For the shipped Rocket: gimbal and booster lag 0.01 s, fins
 0.05 s, so ``k_rate`` runs from 8.6 /s (fins only) to 27 /s (gimbal only).
 
-**Velocity loop** (mode ``velocity``): ``a = (k_h (vx_sp - vx), k_h (vy_sp - vy), k_v (vz_sp - vz))``
-with ``k_h = k_att,slow / 3`` (a third of the slowest attitude loop, that of the
-slowest actuator) and ``k_v = 1 / (4 (tau_booster + dt))`` (the booster's thrust follows
-its command through its own lag only).  The specific force ``f = a + g z_hat`` (its
+**Velocity loop** (mode ``velocity``): ``a = (k_h (vx_sp - vx), k_h (vy_sp - vy), k_v (vz_sp - vz)) - d / m``
+with ``k_h = k_att,slow / 6`` (a sixth of the slowest attitude loop, that of the slowest
+actuator: 0.36 /s for the shipped Rocket; a third of it limit-cycles with a full tank,
+whose gimbal gives only 0.36 rad/s^2), ``k_v = 1 / (4 (tau_booster + dt))`` (the
+booster's thrust follows its command through its own lag only; 13.6 /s) and ``d`` the
+body drag at the current velocity (feed-forward; still air).  The specific force
+``f = a + g z_hat`` (its
 vertical part at least 0.1 g, its lean at most :data:`MAX_TILT`) sets the target axis,
 and the thrust asked is ``T = m f_z / max(u_z, 0.5)`` (the vertical part held as the
 long axis tilts), throttle ``(T - T_min) / (T_max - T_min)`` clipped to [0, 1].
@@ -194,7 +197,7 @@ class RocketAutopilot:
         self._fin_columns = tuple(fin_columns)
         lags = [lag for *_, lag in self._gimbal_columns] + [lag for *_, lag in self._fin_columns]
         slowest = max(lags) + dt
-        #: velocity-loop gains [1/s]: horizontal (a third of the slowest attitude loop), vertical
+        #: velocity-loop gains [1/s]: horizontal (a sixth of the slowest attitude loop), vertical
         self.k_horizontal = 1.0 / (2.0 * slowest) / 4.0 / 6.0
         self.k_vertical = 1.0 / (4.0 * (booster_lag + dt))
         self._mode = "channels"
