@@ -25,7 +25,10 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
   mixer, e.g. a quadplane's pusher and control surfaces);
 * ``channels``: one value per declared channel (the spec's ``channels`` section), which
   drive motors, flaps, boosters and gimbals through their ``mix`` weights;
-* ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed].
+* ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed];
+* ``attitude_thrust`` and ``velocity`` (rocket autopilot, on any airframe without a
+  multirotor controller whose booster a gimbal vectors, :mod:`pyflyt_engine.control.rocket`):
+  [tilt_x, tilt_y, roll rate, throttle, ignition] and [vx, vy, vz, ignition].
 """
 
 from __future__ import annotations
@@ -55,8 +58,9 @@ from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
-from pyflyt_engine.control.modes import FlightMode, resolve_mode
+from pyflyt_engine.control.modes import MULTIROTOR_MODES, FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
+from pyflyt_engine.control.rocket import ROCKET_MODES, RocketAutopilot, has_rocket_modes
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
@@ -243,6 +247,8 @@ class Vehicle:
         self._idle_channels = self.channels.copy()
         self.controller: MultirotorController | None = None
         self.autopilot: FixedwingAutopilot | None = None
+        #: the rocket autopilot (modes attitude_thrust, velocity), on airframes with a gimballed booster
+        self.rocket: RocketAutopilot | None = None
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
@@ -254,6 +260,11 @@ class Vehicle:
             self.mode = self.controller.mode
         else:
             self._modes = dict(FIXEDWING_MODES) if isinstance(spec.control, FixedwingControlSpec) else {"channels": FIXEDWING_MODES["channels"]}
+            if has_rocket_modes(parts):
+                assert boosters is not None
+                factors = drag_params.factors if body_drag is not None else (0.0, 0.0, 0.0)
+                self.rocket = RocketAutopilot(parts, boosters, control_dt, factors)
+                self._modes.update({k: v for k, v in ROCKET_MODES.items() if k != "channels"})
             if isinstance(spec.control, FixedwingControlSpec):
                 self.autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt)
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
@@ -284,6 +295,13 @@ class Vehicle:
             return len(self.parts.mixer_motors) + len(self.parts.mixer_tilts) + len(self.parts.channels)
         extra = len(self.parts.channels) if self.controller is not None else 0
         return len(mode.setpoint) + extra
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """The names of the flight modes this vehicle accepts (aliases and PyFlyt integers aside)."""
+        if self.controller is not None:
+            return tuple(MULTIROTOR_MODES) + tuple(self._custom_modes)
+        return tuple(self._modes)
 
     @property
     def dry_mass(self) -> float:
@@ -475,6 +493,8 @@ class Vehicle:
             throttles = self.controller.law(self.state, head)  # the mode's control law (what calling the controller runs)
         elif self.mode.name == "channels":
             self.channels = np.clip(self.setpoint, parts.channel_low, parts.channel_high)
+        elif self.rocket is not None and self.mode.name in ROCKET_MODES:
+            self.channels = self.rocket(self.state, self.setpoint.tolist(), self.mode.name)
         else:  # fixed-wing autopilot
             self.channels = self.autopilot(self.state, self.setpoint.tolist())  # type: ignore[misc]
         self._route(throttles)

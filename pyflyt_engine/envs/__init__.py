@@ -45,6 +45,9 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.fixedwing:FixedwingWaypointsEnv", "fixedwing_waypoints"
     ),
     "PyFlyt/Rocket-Landing-v0": EnvEntry("pyflyt_engine.envs.rocket:RocketLandingEnv", "rocket_landing"),
+    "PyFlyt/Rocket-Landing-Velocity-v0": EnvEntry(
+        "pyflyt_engine.envs.rocket:RocketLandingVelocityEnv", "rocket_landing_velocity"
+    ),
     "PyFlyt/QuadX-Pole-Balance-v0": EnvEntry(
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleBalanceEnv", "quadx_pole_balance"
     ),
@@ -98,6 +101,7 @@ def __getattr__(name: str) -> Any:
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
+        "RocketLandingVelocityEnv": "pyflyt_engine.envs.rocket",
         "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
@@ -131,6 +135,7 @@ __all__ = [
     "QuadXWaypointsEnv",
     "RewardPreset",
     "RocketLandingEnv",
+    "RocketLandingVelocityEnv",
     "UAVEnv",
     "load_env_config",
     "load_reward_preset",

@@ -158,7 +158,8 @@ class UAVEnv(gymnasium.Env):
             self.world.close()
             raise ConfigError(
                 f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
-                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size}"
+                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size} "
+                f"({', '.join(self.vehicle.setpoint_layout)}): give action.names, low and high in that layout"
             )
 
         self._low = np.array(cfg.action.low, dtype=np.float64)
