@@ -43,7 +43,7 @@ from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras
-from pyflyt_engine.components.range_sensor import RangeSensor
+from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
@@ -171,6 +171,9 @@ class Vehicle:
         )
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
+        if spec.range_sensors:  # its own rays pass through it (components/range_sensor.py)
+            for link in range(-1, p.getNumJoints(self.body_id, physicsClientId=client)):
+                p.setCollisionFilterGroupMask(self.body_id, link, RAY_SKIP_GROUP, -1, physicsClientId=client)
         self._dry_inertia = np.diag(parts.inertia).copy()
         self._dry_mass = parts.mass
 

@@ -4,7 +4,10 @@ Both cast one ray per beam or pixel with ``pybullet.rayTestBatch`` against the c
 shapes of the world (the ground, obstacles, payloads, other vehicles); nothing is
 rendered.  A ray starts ``min_range`` from the sensor's origin (so the airframe carrying
 it is never seen: choose ``min_range`` beyond its collision shape) and ends at
-``max_range``.
+``max_range``.  The rays of a vehicle's sensors skip every body in collision filter group
+:data:`RAY_SKIP_GROUP` -- the vehicles carrying range sensors, which the vehicle puts in
+that group (their collision mask stays "everything", so they collide as before) -- so a
+sensor never sees its own airframe, nor another sensor-carrying vehicle.
 
 Frames: the sensor's frame follows the body convention (x forward, y left, z up) and is
 mounted on the body at ``position`` (relative to the body origin, the centre of mass) and
@@ -47,6 +50,13 @@ if TYPE_CHECKING:
 
 #: most rays PyBullet casts in one ``rayTestBatch`` call
 MAX_BATCH = 16384
+#: collision filter group of a vehicle carrying range sensors (its collision mask stays
+#: "everything", so it collides as any body); its sensors' rays skip this group: every ray
+#: starts inside the vehicle's bounding box, and testing each against its shape would cost
+#: ~4 us a ray (docs/obstacles_and_sensors.md)
+RAY_SKIP_GROUP = 1 << 20
+#: the rays' collision mask: every group but :data:`RAY_SKIP_GROUP`
+RAY_MASK = -1 ^ RAY_SKIP_GROUP
 
 
 def lidar_directions(spec: LidarSpec) -> tuple[list[tuple[float, float, float]], tuple[int, int]]:
@@ -104,25 +114,25 @@ class RangeSensor:
             self._axial = np.array(cosines)
         mount = quaternion_to_rows(euler_to_quaternion(*(math.radians(a) for a in spec.orientation_deg)))
         body = [exact.rotate(mount, d) for d in directions]  # beam directions in the body frame
-        self._dx = np.array([d[0] for d in body])
-        self._dy = np.array([d[1] for d in body])
-        self._dz = np.array([d[2] for d in body])
+        #: (n, 3): the body-frame beam directions, one row per beam, and its columns (n, 1)
+        self._directions = np.array(body)
+        self._columns = [self._directions[:, i : i + 1].copy() for i in range(3)]
         self.rng = rng
         self._last: tuple[float, np.ndarray] | None = None
 
     @property
     def count(self) -> int:
         """Rays per scan."""
-        return int(self._dx.size)
+        return int(self._directions.shape[0])
 
     def rays(self, position: Sequence[float], quaternion: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """Ground-frame ray starts and ends, ``(n, 3)`` each, for a body at ``position``, ``quaternion``."""
         r = quaternion_to_rows(quaternion)
-        origin = np.array([float(a) for a in exact.rotate(r, self.offset)]) + np.asarray(position, dtype=np.float64)
-        dx, dy, dz = self._dx, self._dy, self._dz
-        ground = np.empty((dx.size, 3))
-        for i in range(3):  # row i of R times each direction: exact elementwise products and sums
-            ground[:, i] = r[i][0] * dx + r[i][1] * dy + r[i][2] * dz
+        origin = np.array(exact.rotate(r, self.offset)) + np.asarray(position, dtype=np.float64)
+        rt = np.array(r).T  # rt[j] = column j of R
+        dx, dy, dz = self._columns
+        # R d for every beam as elementwise products and sums in a fixed order: exact, no BLAS
+        ground = dx * rt[0] + dy * rt[1] + dz * rt[2]
         return origin + self.min_range * ground, origin + self.max_range * ground
 
     def scan(
@@ -133,14 +143,16 @@ class RangeSensor:
         if time is not None and cached is not None and time - cached[0] < 1.0 / self.spec.rate_hz - 1e-9:
             return cached[1].copy()
         starts, ends = self.rays(position, quaternion)
-        fractions = np.empty(self.count)
-        hit = np.empty(self.count, dtype=bool)
-        for a in range(0, self.count, MAX_BATCH):
-            b = min(a + MAX_BATCH, self.count)
-            results = p.rayTestBatch(starts[a:b].tolist(), ends[a:b].tolist(), physicsClientId=client)
-            for i, result in enumerate(results, start=a):
-                hit[i] = result[0] >= 0
-                fractions[i] = result[2] if hit[i] else 1.0
+        n = self.count
+        results: list = []
+        for a in range(0, n, MAX_BATCH):
+            b = min(a + MAX_BATCH, n)
+            results += p.rayTestBatch(
+                starts[a:b].tolist(), ends[a:b].tolist(), collisionFilterMask=RAY_MASK, physicsClientId=client
+            )
+        # PyBullet reports fraction 1 for a ray that hits nothing: its reading is max_range
+        fractions = np.array([r[2] for r in results])
+        hit = fractions < 1.0
         ranges = self.min_range + fractions * (self.max_range - self.min_range)
         if self.spec.noise_std > 0:
             eta = self.rng.standard_normal(self.count)
