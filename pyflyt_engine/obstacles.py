@@ -344,18 +344,6 @@ def room_walls(g: RoomGenerator) -> list[BoxObstacle]:
 # ------------------------------------------------------------------- meshes
 
 
-def box_mesh(size: Sequence[float]) -> tuple[list[list[float]], list[int]]:
-    """A box of full extents ``size`` centred on the origin as 8 vertices and 12 outward triangles."""
-    hx, hy, hz = (0.5 * float(v) for v in size)
-    vertices = [[sx * hx, sy * hy, sz * hz] for sz in (-1.0, 1.0) for sy in (-1.0, 1.0) for sx in (-1.0, 1.0)]
-    # vertex index = 4 * top + 2 * (y > 0) + (x > 0)
-    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
-    indices: list[int] = []
-    for a, b, c, d in quads:
-        indices += [a, b, c, a, c, d]
-    return vertices, indices
-
-
 def prism_mesh(radius: float, height: float, sides: int) -> tuple[list[list[float]], list[int]]:
     """The upright ``sides``-gon prism inscribed in the cylinder of ``radius`` and ``height``
     centred on the origin (vertices on the circle), as vertices and outward triangles."""
@@ -466,13 +454,13 @@ class ObstacleField:
         if cached is not None:
             return cached
         cid = self.world.client
-        # boxes and cylinders collide as static triangle meshes: Bullet casts a ray against a
-        # mesh's tree in ~2 us, against its native cylinder in ~13 us and box in ~3 us
-        # (experiments/speed_range_sensors.py, docs/obstacles_and_sensors.md)
+        # a cylinder collides as a static triangle mesh: Bullet casts a ray against a mesh's tree
+        # in ~2 us, against its native cylinder in ~13 us (docs/obstacles_and_sensors.md); a box
+        # keeps Bullet's box (~3 us a ray), which a fast vehicle cannot tunnel through as it can
+        # through a thin slab of triangles
         if isinstance(o, BoxObstacle):
             half = [0.5 * s for s in o.size]
-            vertices, indices = box_mesh(o.size)
-            collision = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, indices=indices, physicsClientId=cid)
+            collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
             visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=list(o.color), physicsClientId=cid)
         elif isinstance(o, CylinderObstacle):
             vertices, indices = prism_mesh(o.radius, o.height, self.config.cylinder_facets)
