@@ -22,7 +22,8 @@ Readings (float32, ``max_range`` where nothing is hit):
 sensor       shape                    value
 ===========  =======================  ================================================
 ``lidar``    (vertical, horizontal)   distance along the beam [m]; row 0 the lowest
-                                      elevation, column 0 the most clockwise azimuth
+             or (horizontal,) for     elevation, column 0 the most clockwise azimuth
+             one scan line
 ``depth``    (height, width)          distance along the optical axis (+x) [m]; row 0
                                       the top of the image, column 0 its left
 ===========  =======================  ================================================
@@ -108,6 +109,8 @@ class RangeSensor:
         self.min_range, self.max_range = float(spec.min_range), float(spec.max_range)
         if self.kind == "lidar":
             directions, self.shape = lidar_directions(spec)
+            if self.shape[0] == 1:  # one scan line: a vector of the horizontal beams
+                self.shape = (self.shape[1],)
             self._axial = None
         else:
             directions, self.shape, cosines = depth_directions(spec)

@@ -32,7 +32,7 @@ class QuadXObstaclesEnv(UAVEnv):
       :class:`~pyflyt_engine.envs.quadx.QuadXHoverEnv`;
     * ``goal_delta``: ``Box(3,)`` float64, the vector from the vehicle to the goal in
       the body frame [m] (zeros once reached);
-    * ``lidar``: ``Box(0, 5, (1, 64))`` float32, a planar LiDAR at the body centre:
+    * ``lidar``: ``Box(0, 5, (64,))`` float32, a planar LiDAR at the body centre:
       64 beams over 360 deg, beam k at azimuth ``-180 + (k + 1/2) * 5.625`` deg about the
       body z axis (0 = forward, counter-clockwise), the distance [m] along the beam to the
       first surface between 0.1 and 5 m, 5 where nothing is hit; Gaussian noise of

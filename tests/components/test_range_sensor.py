@@ -50,7 +50,7 @@ def _azimuths(n: int, fov_deg: float = 360.0) -> np.ndarray:
 def test_lidar_reads_the_analytic_range_of_a_wall_and_max_range_elsewhere(yaw):
     world = _world([LIDAR], yaw=yaw, boxes=[WALL])
     readings = world.scan(0, 0)
-    assert readings.shape == (1, 64) and readings.dtype == np.float32
+    assert readings.shape == (64,) and readings.dtype == np.float32  # one scan line: a vector
     # the wall's face x = 2 seen from the body at the origin turned by yaw: a beam at azimuth a
     # (body frame) points at ground bearing a + yaw and meets x = 2 at range 2 / cos(a + yaw)
     # if it crosses the face within |y| <= 1
@@ -61,8 +61,8 @@ def test_lidar_reads_the_analytic_range_of_a_wall_and_max_range_elsewhere(yaw):
     hits = forward & (np.abs(y_at_face) < 1.0 - 1e-3)
     misses = ~forward | (np.abs(y_at_face) > 1.0 + 1e-3)
     assert hits.sum() >= 8 and misses.sum() >= 40
-    np.testing.assert_allclose(readings[0, hits], analytic[hits], rtol=0, atol=TOL)
-    np.testing.assert_array_equal(readings[0, misses], 5.0)
+    np.testing.assert_allclose(readings[hits], analytic[hits], rtol=0, atol=TOL)
+    np.testing.assert_array_equal(readings[misses], 5.0)
 
 
 def test_vertical_beams_and_a_mounted_sensor_follow_the_geometry():
@@ -107,12 +107,12 @@ def test_depth_camera_image_rows_and_columns_follow_the_camera_convention():
 def test_noise_has_the_configured_statistics_and_misses_stay_at_max_range():
     sigma = 0.05
     world = _world([{**LIDAR, "noise_std": sigma}], boxes=[WALL])
-    clean = _world([LIDAR], boxes=[WALL]).scan(0, 0)[0]
+    clean = _world([LIDAR], boxes=[WALL]).scan(0, 0)
     hits = clean < 5.0
     errors, misses = [], []
     sensor, state = world.vehicles[0].range_sensors[0], world.state(0)
     for _ in range(300):  # the vehicle held still: a new scan at each call (no time given)
-        readings = sensor.scan(world.client, state.lin_pos, state.quaternion)[0]
+        readings = sensor.scan(world.client, state.lin_pos, state.quaternion)
         errors.append(readings[hits] - clean[hits])
         misses.append(readings[~hits])
     e = np.concatenate(errors)

@@ -147,8 +147,8 @@ def test_a_mesh_obstacle_is_loaded_validated_and_seen(tmp_path):
         # the scaled cube's face is the plane x = 2 (|y| <= 1): the two beams nearest ahead
         # (+-2.8 deg) read 2 / cos(2.8 deg)
         a = math.radians(180.0 / 64)
-        np.testing.assert_allclose(obs["lidar"][0, 31:33], 2.0 / math.cos(a), atol=2e-6)
-        assert obs["lidar"][0, 0] == 5.0  # behind: nothing
+        np.testing.assert_allclose(obs["lidar"][31:33], 2.0 / math.cos(a), atol=2e-6)
+        assert obs["lidar"][0] == 5.0  # behind: nothing
     finally:
         env.close()
     (tmp_path / "notes.txt").write_text("v 0 0 0")
@@ -205,7 +205,7 @@ def test_cylinders_collide_as_the_inscribed_prism():
     try:
         obs, _ = env.reset(seed=0)
         com_x = env.state.lin_pos[0]
-        assert abs(obs["lidar"][0, 0] - (2.0 - 0.2 - com_x)) < 2e-6  # the vertex at angle 180 deg
+        assert abs(obs["lidar"][0] - (2.0 - 0.2 - com_x)) < 2e-6  # the vertex at angle 180 deg
     finally:
         env.close()
 
@@ -267,7 +267,7 @@ def test_gate_observations_match_the_gate_geometry(make, kind):
     ref, _ = deltas.reset(seed=5)
     centre = ref["target_deltas"][0]  # body-frame vector to the next gate's centre
     if kind == "corners":
-        corners = obs["gate"]
+        corners = obs["gate"].reshape(4, 3)
         np.testing.assert_allclose(corners.mean(axis=0), centre, atol=1e-12)
         sides = [np.linalg.norm(corners[i] - corners[(i + 1) % 4]) for i in range(4)]
         np.testing.assert_allclose(sides, env.task.options.opening, atol=1e-12)
@@ -285,3 +285,18 @@ def test_gate_observations_match_the_gate_geometry(make, kind):
         r_body = quaternion_to_matrix(tuple(env.state.quaternion))
         r_rel = quaternion_to_matrix(tuple(obs["gate"][3:]))
         np.testing.assert_allclose(r_body @ r_rel, env.task.rotations[0], atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["corners", "relative_pose"])
+def test_gate_observation_options_pass_the_env_checkers(make, kind):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = make("PyFlyt/QuadX-Gates-v0", observation=kind)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # as tests/envs/test_contract.py: only the action box and infinities
+        warnings.filterwarnings("ignore", message=".*(symmetric|float32|float64|infinity).*")
+        check_env(env, skip_render_check=True)
+        sb3_check_env(env, warn=True)  # the Dict of Boxes and the image as it is

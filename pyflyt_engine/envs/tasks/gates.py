@@ -25,9 +25,10 @@ Observation (task option ``observation``), env configs adding the camera image w
 * ``deltas`` (default): ``Dict(attitude=Box, target_deltas=Sequence(Box(3,), stack=True))``:
   body-frame vectors [m] from the vehicle to the centre of every gate not yet passed,
   next first (as the waypoint tasks);
-* ``corners``: ``Dict(attitude=Box, gate=Box(4, 3))``: body-frame vectors [m] from the
-  vehicle to the 4 corners of the next gate's opening, seen along the gate's +x: top
-  left, top right, bottom right, bottom left (zeros once every gate is passed);
+* ``corners``: ``Dict(attitude=Box, gate=Box(12,))``: body-frame vectors [m] from the
+  vehicle to the 4 corners of the next gate's opening, (x, y, z) of each in turn, seen
+  along the gate's +x: top left, top right, bottom right, bottom left (zeros once every
+  gate is passed);
 * ``relative_pose``: ``Dict(attitude=Box, gate=Box(7,))``: the next gate's centre in the
   body frame [m], then its attitude relative to the body as a quaternion (x, y, z, w) of
   ``R_body^T R_gate`` (zeros once every gate is passed).
@@ -218,7 +219,7 @@ class GatesTask(Task):
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         kind = self.options.observation
         if kind == "corners":
-            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(4, 3), dtype=np.float64)})
+            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(12,), dtype=np.float64)})
         if kind == "relative_pose":
             return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(7,), dtype=np.float64)})
         deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
@@ -233,9 +234,10 @@ class GatesTask(Task):
             }
         i = self.num_passed
         if i >= len(self.options.gates):  # the course is flown: nothing ahead
-            return {"attitude": attitude, "gate": np.zeros((4, 3) if kind == "corners" else 7)}
+            return {"attitude": attitude, "gate": np.zeros(12 if kind == "corners" else 7)}
         if kind == "corners":
-            return {"attitude": attitude, "gate": body_frame_deltas(self.corners(i), state.lin_pos, state.quaternion)}
+            corners = body_frame_deltas(self.corners(i), state.lin_pos, state.quaternion)
+            return {"attitude": attitude, "gate": np.ascontiguousarray(corners).reshape(12)}
         centre = body_frame_deltas(self.centres[i : i + 1], state.lin_pos, state.quaternion)[0]
         body = quaternion_to_rows(state.quaternion)
         relative = np.array(exact.matmul(exact.transpose(body), self.rotations[i]))  # gate -> body rotation
