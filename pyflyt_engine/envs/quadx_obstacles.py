@@ -67,6 +67,8 @@ class QuadXObstaclesEnv(UAVEnv):
     Determinism: the forest, the goal, the spawn and the LiDAR noise follow the reset's
     seed, bit for bit across processes; a recording of an episode re-simulates exactly
     (``pyflyt replay --verify``).
+
+    **Version history**: v0 — first version.
     """
 
     config_name: ClassVar[str | None] = "quadx_obstacles"
