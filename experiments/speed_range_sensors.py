@@ -7,7 +7,8 @@ variant ``--repeats`` times, interleaved round-robin with the others so a change
 hits every variant alike, and the median kept.  Variants:
 
 * the plain env (no sensor), the reference of every ratio;
-* a 64-beam planar LiDAR (``range_sensors``, 5 m range, refreshed every agent step);
+* a 64-beam planar LiDAR (``range_sensors``, 5 m range), refreshed every agent step and
+  at 10 Hz;
 * ray-cast depth cameras (``range_sensors`` of ``type: depth``) at several resolutions;
 * the rendered camera (``camera_observation``, PyBullet's TinyRenderer, RGB) at the same
   resolutions, the engine's other way to see depth (its ``depth`` image comes from the
@@ -65,6 +66,8 @@ def variants() -> dict[str, dict]:
     out = {"plain": base}
     lidar = {"name": "lidar", "type": "lidar", "horizontal_beams": 64, "max_range": 5.0, "min_range": 0.1}
     out["LiDAR 64 beams"] = {**base, "range_sensors": [lidar]}
+    # a spinning LiDAR's usual 10 Hz (every third agent step; the last scan in between)
+    out["LiDAR 64 beams, 10 Hz"] = {**base, "range_sensors": [{**lidar, "rate_hz": 10.0}]}
     for w, h in RESOLUTIONS:
         depth = {"name": "depth", "type": "depth", "width": w, "height": h, "fov": 90.0, "max_range": 10.0, "min_range": 0.1}
         out[f"ray-cast depth {w} x {h}"] = {**base, "range_sensors": [depth]}

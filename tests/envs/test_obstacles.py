@@ -300,3 +300,60 @@ def test_gate_observation_options_pass_the_env_checkers(make, kind):
         warnings.filterwarnings("ignore", message=".*(symmetric|float32|float64|infinity).*")
         check_env(env, skip_render_check=True)
         sb3_check_env(env, warn=True)  # the Dict of Boxes and the image as it is
+
+
+def test_cylinder_facets_set_the_collision_prism():
+    # 33 facets: the facet facing the vehicle (at 180 deg) has its middle on the beam, so
+    # the beam reads the apothem r cos(pi / 33); 32: a vertex faces it and it reads r
+    def reading(facets: int) -> float:
+        env = QuadXHoverEnv(
+            obstacles={"items": [{"type": "cylinder", "radius": 0.2, "height": 3.0, "position": [2.0, 0.0, 1.5]}],
+                       "cylinder_facets": facets},
+            range_sensors=[{"name": "lidar", "type": "lidar", "horizontal_beams": 1, "horizontal_fov_deg": 1.0,
+                            "max_range": 5.0}],
+            start_position_noise=0.0,
+            start_orientation_noise=0.0,
+        )
+        try:
+            obs, _ = env.reset(seed=0)
+            return float(obs["lidar"][0]) + env.state.lin_pos[0]
+        finally:
+            env.close()
+
+    assert abs(reading(33) - (2.0 - 0.2 * math.cos(math.pi / 33))) < 2e-6
+    assert abs(reading(32) - (2.0 - 0.2)) < 2e-6
+
+
+def test_replay_refuses_a_recording_whose_obstacles_draw_a_mesh_file(tmp_path):
+    from pyflyt_engine.errors import TelemetryError
+    from pyflyt_engine.telemetry import RecordEpisode, load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    obj = tmp_path / "cube.obj"
+    obj.write_text(CUBE_OBJ)
+    env = RecordEpisode(
+        QuadXHoverEnv(obstacles={"items": [{"type": "mesh", "file": str(obj), "position": [2.0, 0.0, 1.0]}]}),
+        tmp_path / "runs",
+    )
+    env.reset(seed=0)
+    env.step(np.array([0.0, 0.0, 0.0, 0.125]))
+    env.close()
+    with pytest.raises(TelemetryError, match="obstacle draws a mesh file"):
+        verify(load_episode(env.paths[0]))
+
+
+def test_a_recorded_forest_episode_replays_exactly(tmp_path):
+    from pyflyt_engine.telemetry import RecordEpisode, load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    env = RecordEpisode(QuadXObstaclesEnv(), tmp_path)
+    rng = np.random.default_rng(0)
+    for seed in (3, None):  # a seeded episode and the one after it
+        env.reset(seed=seed)
+        for _ in range(40):
+            if any(env.step(np.array([*rng.uniform(-0.5, 0.5, 3), rng.uniform(0.1, 0.16)]))[2:4]):
+                break
+    env.close()
+    for path in env.paths:
+        result = verify(load_episode(path), tolerance=0.0)
+        assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0, result
