@@ -14,8 +14,8 @@
 Every obstacle is a static PyBullet body (mass 0) tracked by the world's contacts
 (:meth:`~pyflyt_engine.world.World.add_body`).  A generated layout is rebuilt at each
 reset: the previous bodies are removed (last first, so PyBullet hands the same body ids
-out again) and the new ones created, which drops the world's saved state so the next
-reset saves one with the new bodies.  Collision and visual shapes are cached by their
+out again) and the new ones created, and the world's saved state is replaced by one
+holding them (:meth:`~pyflyt_engine.world.World.replace_bodies`).  Collision and visual shapes are cached by their
 dimensions, and drawn dimensions are rounded to ``size_resolution``, so a long run
 creates a bounded number of shapes.
 
@@ -26,6 +26,7 @@ scene at each reset (``scenery/<body id>`` entities of ``/scene``).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -360,6 +361,13 @@ def prism_mesh(radius: float, height: float, sides: int) -> tuple[list[list[floa
     return vertices, indices
 
 
+@functools.lru_cache(maxsize=None)
+def _unit_prism(sides: int) -> tuple[tuple[tuple[float, float, float], ...], tuple[int, ...]]:
+    """:func:`prism_mesh` of radius 1 and height 1 as tuples, made once per number of sides."""
+    vertices, indices = prism_mesh(1.0, 1.0, sides)
+    return tuple(tuple(v) for v in vertices), tuple(indices)  # type: ignore[return-value]
+
+
 # ------------------------------------------------------------------- bodies
 
 
@@ -374,7 +382,9 @@ class ObstacleField:
     def __init__(self, world: World, config: ObstaclesConfig) -> None:
         self.world = world
         self.config = config
-        self._shapes: dict[tuple, tuple[int, int]] = {}
+        #: (collision, visual) shape ids by dimensions: bounded by the distinct sizes drawn
+        #: (``size_resolution``), so a long run creates a bounded number of shapes
+        self._shapes: dict[str, tuple[int, int]] = {}
         fixed: list[Obstacle] = list(config.items)
         for g in config.generators:
             if isinstance(g, RoomGenerator) and g.walls:
@@ -449,7 +459,8 @@ class ObstacleField:
             key = ("sphere", o.radius)
         else:
             key = ("mesh", o.file, o.scale)
-        key = (*key, o.color)
+        # a text key: the cache is never walked by the cyclic garbage collector
+        key = repr((*key, o.color))
         cached = self._shapes.get(key)
         if cached is not None:
             return cached
@@ -463,8 +474,16 @@ class ObstacleField:
             collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
             visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=list(o.color), physicsClientId=cid)
         elif isinstance(o, CylinderObstacle):
-            vertices, indices = prism_mesh(o.radius, o.height, self.config.cylinder_facets)
-            collision = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, indices=indices, physicsClientId=cid)
+            # the unit prism scaled: PyBullet keeps a reference to every vertex it is given,
+            # so every cylinder hands it the same immutable vertices
+            vertices, indices = _unit_prism(self.config.cylinder_facets)
+            collision = p.createCollisionShape(
+                p.GEOM_MESH,
+                vertices=vertices,
+                indices=indices,
+                meshScale=[o.radius, o.radius, o.height],
+                physicsClientId=cid,
+            )
             visual = p.createVisualShape(
                 p.GEOM_CYLINDER, radius=o.radius, length=o.height, rgbaColor=list(o.color), physicsClientId=cid
             )
@@ -483,6 +502,6 @@ class ObstacleField:
                 p.GEOM_MESH, fileName=o.file, meshScale=list(o.scale), rgbaColor=list(o.color), physicsClientId=cid
             )
         if collision < 0:
-            raise ConfigError(f"obstacles: PyBullet could not build the {key[0]} obstacle {o.model_dump()}")
+            raise ConfigError(f"obstacles: PyBullet could not build the {o.type} obstacle {o.model_dump()}")
         self._shapes[key] = (collision, visual)
         return collision, visual

@@ -296,8 +296,9 @@ class World:
 
     def replace_bodies(self, old: Sequence[int], new: Sequence[int]) -> None:
         """Stop tracking ``old`` (bodies already removed from PyBullet) and track ``new``
-        instead (scenery rebuilt at a reset: generated obstacles).  Drops the saved state:
-        the next :meth:`reset` saves one holding the new bodies."""
+        instead (scenery rebuilt at a reset: generated obstacles).  The saved state is
+        replaced by one holding the new bodies, which the next :meth:`reset` restores (it
+        puts every vehicle back at its spawn pose after restoring)."""
         contacts = self._contacts
         gone = set(old)
         contacts.body_ids = [b for b in contacts.body_ids if b not in gone]
@@ -306,6 +307,7 @@ class World:
         contacts.index = {b: i for i, b in enumerate(contacts.body_ids)}
         contacts.clear()
         self._drop_snapshot()
+        self._snapshot = p.saveState(physicsClientId=self.client)
 
     def _drop_snapshot(self) -> None:
         # the saved state no longer covers every body: free it (PyBullet keeps every

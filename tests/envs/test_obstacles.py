@@ -357,3 +357,14 @@ def test_a_recorded_forest_episode_replays_exactly(tmp_path):
     for path in env.paths:
         result = verify(load_episode(path), tolerance=0.0)
         assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0, result
+
+
+def test_a_forest_keeps_clear_of_the_gates(make):
+    forest = {"generators": [{**FOREST, "x_range": [-8.0, 8.0], "y_range": [-8.0, 8.0], "density": 0.3, "keep_out": 0.8}]}
+    env = make("PyFlyt/QuadX-Gates-v0", obstacles=forest)
+    env.reset(seed=1)
+    trunks = [o for o in env.obstacles.generated if o is not None]
+    assert len(trunks) > 50
+    for centre in env.task.centres:
+        for o in trunks:
+            assert math.hypot(o.position[0] - centre[0], o.position[1] - centre[1]) - o.radius >= 0.8

@@ -243,6 +243,10 @@ class GatesTask(Task):
         relative = np.array(exact.matmul(exact.transpose(body), self.rotations[i]))  # gate -> body rotation
         return {"attitude": attitude, "gate": np.array([*centre, *matrix_to_quaternion(relative)])}
 
+    def keep_clear(self) -> np.ndarray:
+        """The gate centres: generated obstacles keep clear of them."""
+        return self.centres.copy()
+
     def corners(self, index: int) -> np.ndarray:
         """Ground-frame corners of gate ``index``'s opening, ``(4, 3)`` [m]: seen along the
         gate's +x (the way it is passed), top left, top right, bottom right, bottom left."""
