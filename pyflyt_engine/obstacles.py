@@ -429,6 +429,8 @@ class ObstacleField:
     def touched(self, vehicle: int = 0) -> bool:
         """Whether vehicle ``vehicle`` touched any obstacle during the last world step."""
         world = self.world
+        if not world.collided(vehicle):  # touched nothing at all: the common case, one look-up
+            return False
         return any(world.collided_with_body(vehicle, body) for body in self.body_ids)
 
     def _create(self, obstacle: Obstacle | None) -> int:
