@@ -591,6 +591,63 @@ class CameraSpec(_Spec):
         return self
 
 
+class _RangeSensorSpec(_Spec):
+    name: Identifier = Field(description="identifier; also the sensor's observation key")
+    position: Vec3 = Field((0.0, 0.0, 0.0), description="sensor origin in the spec's coordinates [m]")
+    orientation_deg: Vec3 = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw relative to the body [deg]")
+    min_range: float = Field(
+        0.05, gt=0, description="rays start this far from the origin [m] (outside the airframe: it never sees itself)"
+    )
+    max_range: float = Field(10.0, gt=0, description="reading where nothing is hit [m]")
+    noise_std: float = Field(0.0, ge=0, description="standard deviation of the zero-mean Gaussian added to each hit [m]")
+    rate_hz: float = Field(30.0, gt=0, description="scan refresh rate [Hz] (the last scan is returned in between)")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> _RangeSensorSpec:
+        if not self.min_range < self.max_range:
+            raise ValueError(f"need min_range < max_range, got {self.min_range} and {self.max_range}")
+        return self
+
+
+class LidarSpec(_RangeSensorSpec):
+    """A scanning range finder: ``vertical_beams`` x ``horizontal_beams`` rays (ray casting).
+
+    Beam centres split each field of view into equal sectors: azimuth ``-h/2 + (k + 1/2) h / n``
+    (counter-clockwise about the sensor's z, 0 along its +x), elevation
+    ``-v/2 + (j + 1/2) v / m`` (up positive).  Reading: distance along the ray [m].
+    """
+
+    type: Literal["lidar"] = "lidar"
+    horizontal_beams: int = Field(64, ge=1, le=4096, description="beams per revolution / sweep")
+    vertical_beams: int = Field(1, ge=1, le=128, description="scan lines")
+    horizontal_fov_deg: float = Field(360.0, gt=0, le=360, description="horizontal field of view [deg]")
+    vertical_fov_deg: float = Field(0.0, ge=0, lt=180, description="vertical field of view [deg] (0: one plane)")
+
+    @model_validator(mode="after")
+    def _lines(self) -> LidarSpec:
+        if self.vertical_beams > 1 and self.vertical_fov_deg == 0:
+            raise ValueError(f"{self.vertical_beams} vertical_beams need a vertical_fov_deg > 0")
+        return self
+
+
+class DepthSensorSpec(_RangeSensorSpec):
+    """A low-resolution depth camera computed by ray casting (one ray through each pixel centre).
+
+    Camera convention of :mod:`pyflyt_engine.components.camera`: looks along its +x, row 0
+    is the top, column 0 the left.  Reading: depth along the optical axis [m] (as the
+    rendered camera's ``depth``), ``max_range`` where nothing is hit within ``max_range``
+    along the ray.
+    """
+
+    type: Literal["depth"] = "depth"
+    width: int = Field(16, ge=1, le=256, description="pixels")
+    height: int = Field(12, ge=1, le=256, description="pixels")
+    fov: float = Field(90.0, gt=0, lt=180, description="vertical field of view [deg]")
+
+
+RangeSensorSpec = Annotated[Union[LidarSpec, DepthSensorSpec], Field(discriminator="type")]
+
+
 # ------------------------------------------------------------------------ control
 
 
@@ -741,6 +798,9 @@ class UAVSpec(_Spec):
     boosters: BoostersSpec | None = None
     gimbals: list[GimbalSpec] = Field(default_factory=list)
     cameras: list[CameraSpec] = Field(default_factory=list)
+    range_sensors: list[RangeSensorSpec] = Field(
+        default_factory=list, description="LiDARs and ray-cast depth cameras (docs/obstacles_and_sensors.md)"
+    )
     control: ControlSpec = Field(default_factory=NoControlSpec)
     battery: BatterySpec | None = Field(
         None, description="the battery driving the motors (voltage sag, state of charge); null: an ideal supply"
@@ -771,7 +831,8 @@ class UAVSpec(_Spec):
             if channel not in self.channels:
                 declared = ", ".join(self.channels) or "none"
                 raise ValueError(f"{where} uses channel '{channel}', which is not declared in 'channels' (declared: {declared})")
-        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras)):
+        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras),
+                            ("range_sensors", self.range_sensors)):
             names = [i.name for i in items]
             if len(set(names)) != len(names):
                 raise ValueError(f"{kind}: names must be unique, got {names}")

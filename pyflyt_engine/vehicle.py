@@ -48,6 +48,7 @@ from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
 from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
 from pyflyt_engine.components.camera import Cameras
+from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
@@ -182,6 +183,9 @@ class Vehicle:
         )
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
+        if spec.range_sensors:  # its own rays pass through it (components/range_sensor.py)
+            for link in range(-1, p.getNumJoints(self.body_id, physicsClientId=client)):
+                p.setCollisionFilterGroupMask(self.body_id, link, RAY_SKIP_GROUP, -1, physicsClientId=client)
         self._dry_inertia = np.diag(parts.inertia).copy()
         self._dry_mass = parts.mass
 
@@ -229,6 +233,12 @@ class Vehicle:
         drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
         body_drag = BodyDrag(drag_params) if drag and drag_params.active else None
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
+        #: ray-cast range sensors (LiDARs, depth cameras), in spec order; their noise
+        #: streams are the world's to seed (:meth:`seed_sensors`)
+        self.range_sensors: list[RangeSensor] = [
+            RangeSensor(r, tuple(float(a) - float(c) for a, c in zip(r.position, parts.com)), np.random.default_rng(0))
+            for r in spec.range_sensors
+        ]
         self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
         #: the battery driving the motors (None: an ideal supply)
@@ -605,6 +615,23 @@ class Vehicle:
             raise ConfigError(f"vehicle '{self.spec.name}' has {len(cameras.params)} camera(s); no camera {camera}")
         return cameras.capture(self._client, camera, self.state.lin_pos, self.state.quaternion, time)
 
+    # --------------------------------------------------------- range sensors
+
+    def scan(self, sensor: int = 0, time: float | None = None) -> np.ndarray:
+        """Readings of range sensor ``sensor`` (:mod:`pyflyt_engine.components.range_sensor`);
+        with ``time`` (simulated seconds) a scan younger than ``1 / rate_hz`` is returned again."""
+        if not 0 <= sensor < len(self.range_sensors):
+            raise ConfigError(
+                f"vehicle '{self.spec.name}' has {len(self.range_sensors)} range sensor(s); no range sensor {sensor}"
+            )
+        state = self.state
+        return self.range_sensors[sensor].scan(self._client, state.lin_pos, state.quaternion, time)
+
+    def seed_sensors(self, rngs: Sequence[np.random.Generator]) -> None:
+        """Give each range sensor its noise stream (the world does, per seed)."""
+        for sensor, rng in zip(self.range_sensors, rngs):
+            sensor.rng = rng
+
     # --------------------------------------------------------------- resets
 
     def reset(
@@ -643,6 +670,8 @@ class Vehicle:
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals, a.cameras):
             if group is not None:
                 group.reset()
+        for sensor in self.range_sensors:
+            sensor.reset()
         if a.boosters is not None:
             self._update_mass()
         if self.controller is not None:

@@ -56,6 +56,7 @@ ENVS: dict[str, EnvEntry] = {
     ),
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
     "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXGatesEnv", "quadx_gates"),
+    "PyFlyt/QuadX-Obstacles-v0": EnvEntry("pyflyt_engine.envs.quadx_obstacles:QuadXObstaclesEnv", "quadx_obstacles"),
 }
 
 
@@ -104,6 +105,7 @@ def __getattr__(name: str) -> Any:
         "RocketLandingVelocityEnv": "pyflyt_engine.envs.rocket",
         "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXObstaclesEnv": "pyflyt_engine.envs.quadx_obstacles",
         "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
@@ -130,6 +132,7 @@ __all__ = [
     "QuadXBallInCupEnv",
     "QuadXGatesEnv",
     "QuadXHoverEnv",
+    "QuadXObstaclesEnv",
     "QuadXPoleBalanceEnv",
     "QuadXPoleWaypointsEnv",
     "QuadXWaypointsEnv",

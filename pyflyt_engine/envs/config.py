@@ -36,10 +36,11 @@ from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (regi
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
 from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
 from pyflyt_engine.safe_load import load_yaml_file
-from pyflyt_engine.spec import CameraSpec, check_finite
+from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, check_finite
 
 
 class _Config(BaseModel):
@@ -135,7 +136,7 @@ class CameraObservationConfig(_Config):
     @field_validator("key")
     @classmethod
     def _key(cls, value: str) -> str:
-        if value in ("attitude", "target_deltas"):
+        if value in ("attitude", "target_deltas", "goal_delta", "gate"):
             raise ValueError(f"'{value}' is an observation key of the tasks: choose another key for the image")
         return value
 
@@ -195,6 +196,15 @@ class EnvConfig(_Config):
     payloads: list[PayloadSpec] = Field(
         default_factory=list,
         description="rigid bodies attached to the vehicle or the world (see pyflyt_engine.payloads)",
+    )
+    obstacles: ObstaclesConfig | None = Field(
+        None,
+        description="static obstacles: fixed items and seeded layouts drawn at every reset (docs/obstacles_and_sensors.md)",
+    )
+    range_sensors: list[RangeSensorSpec] = Field(
+        default_factory=list,
+        description="LiDARs and ray-cast depth cameras added to the airframe for this env; each reading is an "
+        "observation entry under the sensor's name (docs/obstacles_and_sensors.md)",
     )
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
 
@@ -452,6 +462,16 @@ class MultiAgentEnvConfig(EnvConfig):
             raise ValueError(
                 "camera_observation: a multi-agent env cannot observe camera images yet (its per-agent "
                 "observations are flat Boxes, stacked for a shared policy); remove the key"
+            )
+        if self.obstacles is not None:
+            raise ValueError(
+                "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "
+                "contact and no keep-out around every agent's spawn); remove the key, or fly single-agent"
+            )
+        if self.range_sensors:
+            raise ValueError(
+                "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
+                "are flat Boxes, stacked for a shared policy); remove the key"
             )
         return self
 

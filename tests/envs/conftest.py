@@ -94,6 +94,11 @@ PROFILES: dict[str, EnvProfile] = {
     ),
     # the attitude vector as QuadX-Waypoints; the image and the gate deltas are separate keys
     "PyFlyt/QuadX-Gates-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
+    # the attitude vector as QuadX-Waypoints; the goal vector and the LiDAR are separate keys;
+    # spawn 4 m behind the forest
+    "PyFlyt/QuadX-Obstacles-v0": EnvProfile(
+        4, 0, (-4.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy
+    ),
 }
 
 
