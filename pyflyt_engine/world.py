@@ -434,6 +434,12 @@ class World:
         """Whether vehicles ``index`` and ``other`` touched each other in the last step."""
         return self._touched(self._vehicle(index).body_id, self._vehicle(other).body_id)
 
+    def bodies_touched(self, body_a: int, body_b: int) -> bool:
+        """Whether two tracked bodies (PyBullet ids, e.g. a vehicle's ``body_id`` and a body
+        given to :meth:`add_body`) touched each other in the last step: one entry of
+        :attr:`contact_array`, without building the matrix."""
+        return self._touched(body_a, body_b)
+
     def _touched(self, body_a: int, body_b: int) -> bool:
         a, b = self._contacts.index[body_a], self._contacts.index[body_b]
         return ((a, b) if a <= b else (b, a)) in self._contacts.pairs
