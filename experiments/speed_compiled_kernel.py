@@ -117,7 +117,8 @@ def check_bit_identity(vehicle, group_step, checks: int, seed: int = 0) -> int:
     from pyflyt_engine.vehicle import _summed
 
     motors, drag = vehicle.actuators.motors, vehicle.actuators.drag
-    saved = (list(motors.throttle), list(motors.command), [tuple(c) for c in motors.columns], motors._noise._rows, motors._noisy)
+    columns = [tuple(c) for c in motors.columns]
+    saved = (list(motors.throttle), list(motors.command), columns, motors._noise._rows, motors._noisy)
     rng = np.random.default_rng(seed)
     lag = np.array(motors.lag)
     drag_k, damping = np.array(drag._factors), float(drag._damping)
@@ -141,7 +142,9 @@ def check_bit_identity(vehicle, group_step, checks: int, seed: int = 0) -> int:
         motors._noise._rows = iter([tuple(factors)])
         python = _summed(motors.step(None), drag.step((lin, ang)))
         x = np.array(throttle)
-        kernel = group_step(x, np.array(command), lag, np.array([factors]), 0, np.array(motors.columns), drag_k, damping, lin, ang)
+        kernel = group_step(
+            x, np.array(command), lag, np.array([factors]), 0, np.array(motors.columns), drag_k, damping, lin, ang
+        )
         if _bits(python) != _bits(kernel) or _bits(motors.throttle) != _bits(x.tolist()):
             mismatches += 1
     motors.throttle, motors.command, motors.columns, motors._noise._rows, motors._noisy = saved
@@ -158,7 +161,9 @@ def main() -> None:
     try:
         group_step, empty, compile_s, numba_version = compile_kernels()
     except ImportError:
-        raise SystemExit("numba is not installed: pip install --target /tmp/numba_pkgs numba, then PYTHONPATH=/tmp/numba_pkgs") from None
+        raise SystemExit(
+            "numba is not installed: pip install --target /tmp/numba_pkgs numba, then PYTHONPATH=/tmp/numba_pkgs"
+        ) from None
     from pyflyt_engine.vehicle import _summed
 
     substep = _load("speed_substep", ROOT / "experiments" / "speed_substep.py")
@@ -219,7 +224,8 @@ def main() -> None:
                 s = raw.state
                 (pr, q, rr), (roll, pitch, _) = s.ang_vel, s.ang_pos
                 z, vz = s.lin_pos[2], s.lin_vel_ground[2]
-                env.step(np.array([-4 * roll - 0.5 * pr, -4 * pitch - 0.5 * q, -0.5 * rr, 0.125 + 0.1 * (1 - z) - 0.05 * vz]))
+                thrust = 0.125 + 0.1 * (1 - z) - 0.05 * vz
+                env.step(np.array([-4 * roll - 0.5 * pr, -4 * pitch - 0.5 * q, -0.5 * rr, thrust]))
             total += clock() - start
             count += 6
         return total / count
@@ -240,15 +246,18 @@ def main() -> None:
     floor8 = 8 * us["floor"]
     estimate = us["env step"] - 8 * (us["Python laws"] - us["kernel"])
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, numba {numba_version}; load {load}")
-    print(f"CPU time of this thread, median of {args.rounds} rounds of {args.steps} calls; first-call compile {compile_s:.2f} s")
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+          f"numba {numba_version}; load {load}")  # fmt: skip
+    print(f"CPU time of this thread, median of {args.rounds} rounds of {args.steps} calls; "
+          f"first-call compile {compile_s:.2f} s")  # fmt: skip
     print(f"bit-identity, kernel vs Python laws over {args.checks} random inputs: "
           f"{'identical' if mismatches == 0 else f'{mismatches} differ'}")  # fmt: skip
     print(f"  {'per physics step':<34}{'us':>8}{'x floor step':>14}")
     for name in ("floor", *variants):
         print(f"  {name:<34}{us[name]:>8.2f}{us[name] / us['floor']:>14.2f}")
     print(f"  {'saved per physics step':<34}{us['Python laws'] - us['kernel']:>8.2f}")
-    print(f"QuadX-Hover env step: measured {us['env step']:.1f} us = {us['env step'] / floor8:.2f} x the floor of its 8 physics steps "
+    print(f"QuadX-Hover env step: measured {us['env step']:.1f} us = {us['env step'] / floor8:.2f} x the floor "
+          f"of its 8 physics steps "
           f"({floor8:.1f} us); with the kernel (estimate) {estimate:.1f} us = {estimate / floor8:.2f} x (target 2.5)")  # fmt: skip
     bound = us["env step"] - 8 * us["Python laws"]
     print(f"  bound: these laws at no cost at all: {bound:.1f} us = {bound / floor8:.2f} x the floor")
