@@ -46,7 +46,7 @@ from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
-from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
+from pyflyt_engine.components.booster import BoosterState, Boosters
 from pyflyt_engine.components.camera import Cameras
 from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.drag import BodyDrag, DragParams
@@ -77,6 +77,15 @@ _apply_force, _apply_torque = p.applyExternalForce, p.applyExternalTorque
 _new_state = tuple.__new__  # builds a KinematicState from its fields in order, without keyword parsing
 # Hot-path PyBullet calls pass the client id positionally: keyword parsing in the
 # binding costs a few tenths of a microsecond per call, at the physics rate.
+
+
+def _summed(total: Wrench | None, load: Wrench) -> Wrench:
+    """``total + load`` component by component (``load`` itself when there is no total yet)."""
+    if total is None:
+        return load
+    fx, fy, fz, tx, ty, tz = total
+    gx, gy, gz, hx, hy, hz = load
+    return fx + gx, fy + gy, fz + gz, tx + hx, ty + hy, tz + hz
 
 
 class Controller(Protocol):
@@ -495,14 +504,14 @@ class Vehicle:
             setpoint = self.setpoint
             k = len(setpoint) - self._n_channels
             if self._n_channels:
-                self.channels = np.clip(setpoint[k:], parts.channel_low, parts.channel_high)
+                self.channels = setpoint[k:].clip(parts.channel_low, parts.channel_high)
             head = setpoint[:k].tolist() if self._n_channels else setpoint.tolist()
             custom = self._custom_modes.get(self.mode.name) if self._custom_modes else None
             if custom is not None:
                 head = np.asarray(custom.controller(self.state, np.asarray(head)), dtype=np.float64).tolist()
             throttles = self.controller.law(self.state, head)  # the mode's control law (what calling the controller runs)
         elif self.mode.name == "channels":
-            self.channels = np.clip(self.setpoint, parts.channel_low, parts.channel_high)
+            self.channels = self.setpoint.clip(parts.channel_low, parts.channel_high)
         elif self.rocket is not None and self.mode.name in ROCKET_MODES:
             self.channels = self.rocket(self.state, self.setpoint.tolist(), self.mode.name)
         else:  # fixed-wing autopilot
@@ -535,19 +544,16 @@ class Vehicle:
         if gimbals is not None:  # servos first: they turn their targets' thrust axes
             for (group, index), axis in zip(self._gimbal_targets, gimbals.step()):
                 group.turn(index, axis)
-        loads = []  # summed in this order: motors, surfaces, boosters, drag
-        if motors is not None:
-            loads.append(motors.step(thrust_ratio))
+        # Summed in this order: motors, surfaces, boosters, drag; the first group's wrench
+        # is taken as it is (not added to zeros, which would turn a -0.0 into 0.0).
+        load = motors.step(thrust_ratio) if motors is not None else None
         if surfaces is not None:
-            loads.append(surfaces.step(air))
+            load = _summed(load, surfaces.step(air))
         if boosters is not None:
-            loads.append(boosters.step())
+            load = _summed(load, boosters.step())
         if drag is not None:
-            loads.append(drag.step(air))
-        fx, fy, fz, tx, ty, tz = loads[0] if loads else _NO_LOAD
-        for gx, gy, gz, hx, hy, hz in loads[1:]:
-            fx, fy, fz = fx + gx, fy + gy, fz + gz
-            tx, ty, tz = tx + hx, ty + hy, tz + hz
+            load = _summed(load, drag.step(air))
+        fx, fy, fz, tx, ty, tz = load if load is not None else _NO_LOAD
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
@@ -572,13 +578,12 @@ class Vehicle:
         if fuel == self._mass_fuel:  # no fuel burnt since the last update: nothing changes
             return
         self._mass_fuel = fuel
-        b = boosters.params
-        fuel_mass, tank_inertia = tank_mass_properties(b, np.array(fuel))
-        r = b.fuel_tank_positions
-        parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
-        inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
-        mass = self._dry_mass + float(fuel_mass.sum())
-        p.changeDynamics(self.body_id, -1, mass=mass, localInertiaDiagonal=inertia.tolist(), physicsClientId=self._client)
+        fuel_mass, (jx, jy, jz) = boosters.fuel_mass_properties()  # plain floats: at the control rate
+        dx, dy, dz = self._dry_inertia.tolist()
+        mass = self._dry_mass + fuel_mass
+        p.changeDynamics(
+            self.body_id, -1, mass=mass, localInertiaDiagonal=[dx + jx, dy + jy, dz + jz], physicsClientId=self._client
+        )
         self.mass = mass
 
     def set_mass_properties(self, mass: float, inertia_diagonal: Sequence[float]) -> None:

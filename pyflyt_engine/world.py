@@ -463,7 +463,13 @@ class World:
 
     def collided_with_body(self, index: int, body_id: int) -> bool:
         """Whether vehicle ``index`` touched the tracked body ``body_id`` (:meth:`add_body`) in the last step."""
-        return self._touched(self._vehicle(index).body_id, body_id)
+        return self.bodies_touched(self._vehicle(index).body_id, body_id)
+
+    def bodies_touched(self, body_a: int, body_b: int) -> bool:
+        """Whether two tracked bodies (PyBullet ids, e.g. a vehicle's ``body_id`` and a body
+        given to :meth:`add_body`) touched each other in the last step: one entry of
+        :attr:`contact_array`, without building the matrix."""
+        return self._touched(body_a, body_b)
 
     def _touched(self, body_a: int, body_b: int) -> bool:
         a, b = self._contacts.index[body_a], self._contacts.index[body_b]
