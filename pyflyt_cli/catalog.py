@@ -2,7 +2,7 @@
 
 :func:`list_envs`: every Gymnasium environment, its spaces, reward presets and defaults,
 then the multi-agent (PettingZoo) ones (:func:`list_multi_agent_envs`);
-:func:`list_modes`: the multirotor flight modes, their PyFlyt numbers and setpoint layouts.
+:func:`list_modes`: the flight modes (multirotor, with their PyFlyt numbers; fixed-wing; rocket) and setpoint layouts.
 """
 
 from __future__ import annotations
@@ -128,13 +128,24 @@ def list_multi_agent_envs() -> list[str]:
 
 
 def list_modes() -> str:
-    """A table of the multirotor flight modes: name, PyFlyt number, setpoint layout, meaning; then the aliases."""
+    """A table of the flight modes: the multirotor modes (name, PyFlyt number, setpoint layout,
+    meaning) and their aliases, then the fixed-wing and rocket autopilots' modes."""
+    from pyflyt_engine.control.fixedwing import FIXEDWING_MODES
     from pyflyt_engine.control.modes import MODE_ALIASES, MULTIROTOR_MODES
+    from pyflyt_engine.control.rocket import ROCKET_MODES
 
-    lines = [f"{'mode':<22}{'PyFlyt':>7}  setpoint"]
+    lines = ["multirotors (control.type multirotor):", f"{'mode':<22}{'PyFlyt':>7}  setpoint"]
     for mode in MULTIROTOR_MODES.values():
         pid = "" if mode.pyflyt_id is None else str(mode.pyflyt_id)
         layout = "one throttle per motor" if mode.name == "motors" else ", ".join(mode.setpoint)
         lines.append(f"{mode.name:<22}{pid:>7}  [{layout}]  {mode.description}")
-    lines.append("aliases: " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
+    lines.append("aliases (multirotors): " + ", ".join(f"{k} -> {v}" for k, v in MODE_ALIASES.items()))
+    for title, table in (
+        ("fixed-wing airframes (control.type fixedwing):", FIXEDWING_MODES),
+        ("airframes with a gimballed booster (a rocket; any control.type but multirotor):", ROCKET_MODES),
+    ):
+        lines += ["", title]
+        for mode in table.values():
+            layout = "one value per channel" if mode.name == "channels" else ", ".join(mode.setpoint)
+            lines.append(f"{mode.name:<22}{'':>7}  [{layout}]  {mode.description}")
     return "\n".join(lines)

@@ -147,6 +147,29 @@ def eval_(
 
 
 @app.command(
+    "export",
+    help="Write a trained run's deterministic policy for a flight controller: an ONNX file (format=onnx) or a "
+    "dependency-free C99 source and header (format=c: float32 weights and "
+    "void policy_forward(const float *obs, float *action)).  The observation normaliser, the squashing or "
+    "clipping and the rescaling to the env's action bounds are inside: the function takes the env's raw "
+    "observation and returns the action the env receives (docs/deploy.md).  An existing output is replaced "
+    "only with --force.  Recurrent and image policies are refused.\n\n"
+    "Keys: format=onnx|c  out=<file.onnx | file.c> (default policy.onnx / policy.c)  model=auto|best|final|latest\n\n"
+    "  pyflyt export zoo:quadx_hover_ppo format=c out=hover_policy.c\n\n"
+    "  pyflyt export runs/quadx_hover/ppo/<time>-seed0 format=onnx out=hover.onnx",
+)
+@user_errors
+def export_(
+    source: str = typer.Argument(..., help="run directory written by pyflyt train, or zoo:<name> (pyflyt zoo)"),
+    overrides: Optional[list[str]] = typer.Argument(None, help="format=onnx|c out=<path> model=auto|best|final|latest"),
+    force: bool = typer.Option(False, "--force", help="replace output files that exist"),
+) -> None:
+    from pyflyt_cli.commands.export import run_export
+
+    run_export(source, overrides or [], force=force)
+
+
+@app.command(
     help="Summarise a recorded episode (.mcap); optionally re-simulate it, render a video, plot it.\n\n"
     "Prints vehicles, duration, return, success and per-term reward totals.  --verify rebuilds the env "
     "from the file's metadata, re-applies the recorded actions and reports the largest state deviation "

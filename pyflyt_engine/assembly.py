@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pyflyt_engine.allocation import Tilt
+from pyflyt_engine.components.battery import BatteryParams
 from pyflyt_engine.components.booster import BoosterParams
 from pyflyt_engine.components.camera import CameraParams
 from pyflyt_engine.components.gimbal import GimbalParams
@@ -38,6 +39,7 @@ class Assembly:
         mixer_tilts: per gimbal the mixer flies, (gimbal index, its
             :class:`~pyflyt_engine.allocation.Tilt`), in gimbal order.
         cameras: camera parameters, in spec order.
+        battery: the battery driving the motors (None: an ideal supply).
     """
 
     com: np.ndarray
@@ -59,6 +61,7 @@ class Assembly:
     gimbal_targets: tuple[tuple[str, int], ...]
     cameras: tuple[CameraParams, ...]
     mixer_tilts: tuple[tuple[int, Tilt], ...] = ()
+    battery: BatteryParams | None = None
 
 
 def _mix_matrix(rows: list[dict[str, float] | None], channels: tuple[str, ...]) -> np.ndarray:
@@ -88,6 +91,10 @@ def assemble(spec: UAVSpec) -> Assembly:
             kf=m.to_array("kf"),
             kt=m.to_array("kt"),
             noise_ratio=m.to_array("noise_ratio"),
+            tau_fall=m.to_array("tau_fall") if m.tau_fall is not None else None,
+            rotor_drag=m.to_array("rotor_drag") if m.rotor_drag is not None else None,
+            prop_radius=m.to_array("prop_radius") if m.prop_radius is not None else None,
+            inflow=(m.inflow.solidity, m.inflow.lift_slope) if m.inflow is not None else None,
         )
         mixes = list(m.mix) if m.mix is not None else [None] * motors.count
         motor_mix = _mix_matrix(mixes, channels)
@@ -173,7 +180,20 @@ def assemble(spec: UAVSpec) -> Assembly:
         for c in spec.cameras
     )
 
+    battery = None
+    if spec.battery is not None:
+        b = spec.battery
+        battery = BatteryParams(
+            capacity_mah=b.capacity_mah,
+            internal_resistance=b.internal_resistance,
+            open_circuit_voltage=tuple((float(q), float(v)) for q, v in b.open_circuit_voltage),
+            efficiency=b.efficiency,
+            avionics_power=b.avionics_power,
+            initial_charge=b.initial_charge,
+        )
+
     return Assembly(
+        battery=battery,
         com=com,
         mass=spec.total_mass(),
         inertia=spec.inertia_matrix(),

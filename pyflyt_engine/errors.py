@@ -20,3 +20,21 @@ class TelemetryError(PyFlytError, ValueError):
 class SimulationError(PyFlytError):
     """The simulation produced a non-finite observation or reward (the physics blew up):
     the message names the episode step, the vehicle's state and the action."""
+
+
+class MissingExtraError(PyFlytError, ImportError):
+    """A feature needs a package of an optional extra that is not installed: the message
+    names the package and the ``pip install`` that brings it."""
+
+
+def require(module: str, extra: str, feature: str):
+    """Import ``module`` for ``feature``, or raise :class:`MissingExtraError` naming the extra."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as error:
+        raise MissingExtraError(
+            f"{feature} needs the package '{(error.name or module).split('.')[0]}', which is not installed: "
+            f"install the '{extra}' extra, e.g. pip install \"pyflyt-toolkit[{extra}]\" (or \".[{extra}]\" in a checkout)"
+        ) from None

@@ -65,7 +65,10 @@ def hover_setpoint(vehicle: Vehicle, altitude: float) -> list[float]:
     current horizontal position: in the attitude modes the airframe's trim attitude (a
     tricopter's tilted tail), in climb-rate modes no climb (see :class:`HoverPilot`, which
     steers the modes that hold no height or position themselves), in ``motors`` and
-    ``rates_thrust`` the level trim (throttles that balance the weight with no torque)."""
+    ``rates_thrust`` the level trim (throttles that balance the weight with no torque); in
+    the rocket modes the booster lit, upright at the throttle whose thrust is the weight
+    (``attitude_thrust``) or at no speed (``velocity``).  A rocket holds its spawn height,
+    as its modes hold no altitude."""
     mode = vehicle.mode.name
     layout = vehicle.setpoint_layout
     controller = vehicle.controller
@@ -80,6 +83,9 @@ def hover_setpoint(vehicle: Vehicle, altitude: float) -> list[float]:
         values["roll"], values["pitch"] = controller.trim
     if mode == "rates_thrust":
         values["thrust"] = vehicle.hover_throttle() ** 2
+    if vehicle.rocket is not None and mode != "channels":  # the rocket modes: hold still on thrust
+        values["ignition"] = 1.0
+        values["throttle"] = vehicle.rocket.throttle_for(vehicle.mass * GRAVITY)
     return [values.get(name, 0.0) for name in layout]
 
 

@@ -25,8 +25,10 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    SerializerFunctionWrapHandler,
     ValidationInfo,
     field_validator,
+    model_serializer,
     model_validator,
 )
 
@@ -303,6 +305,32 @@ UnitVec3 = Annotated[Vec3, AfterValidator(_unit_field)]
 ScalarOrList = Annotated[Union[float, list[float]], BeforeValidator(check_finite)]
 
 
+def _drop_unset(data: Any, keys: tuple[str, ...]) -> Any:
+    """A dumped spec without the optional models in ``keys`` that are off (None): a spec that
+    does not use them dumps, and is recorded, exactly as before they existed."""
+    if isinstance(data, dict):
+        for key in keys:
+            if data.get(key, 0) is None:
+                del data[key]
+    return data
+
+
+class InflowSpec(_Spec):
+    """Blade-element parameters of the rotors for the axial-inflow model (docs/engine.md,
+    "Motor models and battery"): thrust coefficient ``C_T = (sigma a / 4)(theta_tip - lambda)`` of an
+    ideally twisted blade (Leishman, Principles of Helicopter Aerodynamics, 2nd ed., 2006,
+    section 3.3), closed with momentum theory."""
+
+    solidity: float = Field(gt=0, lt=1, description="rotor solidity sigma = blades * chord / (pi * radius)")
+    lift_slope: float = Field(
+        2 * math.pi, gt=0, le=2 * math.pi, description="blade-section lift-curve slope a [1/rad] (thin aerofoil: 2 pi)"
+    )
+
+
+#: the optional motor models: off (absent from the spec and its dump) unless given
+_MOTOR_MODELS = ("tau_fall", "rotor_drag", "inflow")
+
+
 class MotorsSpec(_Spec):
     """Motor-driven propellers.  One entry per motor in every list; scalars apply to all."""
 
@@ -326,14 +354,32 @@ class MotorsSpec(_Spec):
         description="per motor: channel weights driving it directly (e.g. {thrust: 1.0} for a pusher), "
         "or null for motors flown by the multirotor controller",
     )
+    tau_fall: ScalarOrList | None = Field(
+        None,
+        description="time constant while the rotor slows down [s] ('tau' is then the spin-up one); null: 'tau' both ways",
+    )
+    rotor_drag: ScalarOrList | None = Field(
+        None,
+        description="rotor drag (H-force) per rotor at full speed [N / (m/s)]: force -rotor_drag * |x| * v_inplane "
+        "at the hub; null: none",
+    )
+    inflow: InflowSpec | None = Field(
+        None, description="thrust and torque respond to the axial air speed through the disc (needs prop_radius); null: static"
+    )
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        return _drop_unset(handler(self), _MOTOR_MODELS)
 
     @model_validator(mode="after")
     def _consistent(self) -> MotorsSpec:
         n = len(self.positions)
         if n == 0:
             raise ValueError("motors.positions is empty: list one [x, y, z] per motor")
+        if self.inflow is not None and self.prop_radius is None:
+            raise ValueError("motors.inflow needs motors.prop_radius (the rotor radius sets the inflow ratio)")
         lists = {"spin": self.spin, "thrust_axes": self.thrust_axes, "mix": self.mix}
-        for name in ("tau", "max_rpm", "kf", "kt", "noise_ratio", "prop_radius"):
+        for name in ("tau", "max_rpm", "kf", "kt", "noise_ratio", "prop_radius", "tau_fall", "rotor_drag"):
             value = getattr(self, name)
             if isinstance(value, list):
                 lists[name] = value
@@ -351,6 +397,8 @@ class MotorsSpec(_Spec):
             ("kt", 0.0, False),
             ("noise_ratio", 0.0, False),
             ("prop_radius", 0.0, True),
+            ("tau_fall", 0.0, False),
+            ("rotor_drag", 0.0, False),
         ):
             if getattr(self, name) is None:
                 continue
@@ -543,6 +591,63 @@ class CameraSpec(_Spec):
         return self
 
 
+class _RangeSensorSpec(_Spec):
+    name: Identifier = Field(description="identifier; also the sensor's observation key")
+    position: Vec3 = Field((0.0, 0.0, 0.0), description="sensor origin in the spec's coordinates [m]")
+    orientation_deg: Vec3 = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw relative to the body [deg]")
+    min_range: float = Field(
+        0.05, gt=0, description="rays start this far from the origin [m] (outside the airframe: it never sees itself)"
+    )
+    max_range: float = Field(10.0, gt=0, description="reading where nothing is hit [m]")
+    noise_std: float = Field(0.0, ge=0, description="standard deviation of the zero-mean Gaussian added to each hit [m]")
+    rate_hz: float = Field(30.0, gt=0, description="scan refresh rate [Hz] (the last scan is returned in between)")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> _RangeSensorSpec:
+        if not self.min_range < self.max_range:
+            raise ValueError(f"need min_range < max_range, got {self.min_range} and {self.max_range}")
+        return self
+
+
+class LidarSpec(_RangeSensorSpec):
+    """A scanning range finder: ``vertical_beams`` x ``horizontal_beams`` rays (ray casting).
+
+    Beam centres split each field of view into equal sectors: azimuth ``-h/2 + (k + 1/2) h / n``
+    (counter-clockwise about the sensor's z, 0 along its +x), elevation
+    ``-v/2 + (j + 1/2) v / m`` (up positive).  Reading: distance along the ray [m].
+    """
+
+    type: Literal["lidar"] = "lidar"
+    horizontal_beams: int = Field(64, ge=1, le=4096, description="beams per revolution / sweep")
+    vertical_beams: int = Field(1, ge=1, le=128, description="scan lines")
+    horizontal_fov_deg: float = Field(360.0, gt=0, le=360, description="horizontal field of view [deg]")
+    vertical_fov_deg: float = Field(0.0, ge=0, lt=180, description="vertical field of view [deg] (0: one plane)")
+
+    @model_validator(mode="after")
+    def _lines(self) -> LidarSpec:
+        if self.vertical_beams > 1 and self.vertical_fov_deg == 0:
+            raise ValueError(f"{self.vertical_beams} vertical_beams need a vertical_fov_deg > 0")
+        return self
+
+
+class DepthSensorSpec(_RangeSensorSpec):
+    """A low-resolution depth camera computed by ray casting (one ray through each pixel centre).
+
+    Camera convention of :mod:`pyflyt_engine.components.camera`: looks along its +x, row 0
+    is the top, column 0 the left.  Reading: depth along the optical axis [m] (as the
+    rendered camera's ``depth``), ``max_range`` where nothing is hit within ``max_range``
+    along the ray.
+    """
+
+    type: Literal["depth"] = "depth"
+    width: int = Field(16, ge=1, le=256, description="pixels")
+    height: int = Field(12, ge=1, le=256, description="pixels")
+    fov: float = Field(90.0, gt=0, lt=180, description="vertical field of view [deg]")
+
+
+RangeSensorSpec = Annotated[Union[LidarSpec, DepthSensorSpec], Field(discriminator="type")]
+
+
 # ------------------------------------------------------------------------ control
 
 
@@ -638,6 +743,40 @@ ControlSpec = Annotated[
 ]
 
 
+# ------------------------------------------------------------------------ battery
+
+
+class BatterySpec(_Spec):
+    """The battery that drives the motors: an internal-resistance (Rint) equivalent circuit
+    (docs/engine.md, "Motor models and battery").  Its terminal voltage sets the rotors' top speed: a motor at
+    throttle ``x`` turns at ``x * max_rpm * V / V_full``."""
+
+    capacity_mah: float = Field(gt=0, description="charge when full [mAh], > 0")
+    internal_resistance: float = Field(ge=0, description="series resistance of the pack [ohm]")
+    open_circuit_voltage: list[tuple[float, float]] = Field(
+        description="[[state of charge, volts], ...] from charge 0 to 1, linearly interpolated; the voltage at "
+        "charge 1 is V_full, at which the motors reach max_rpm"
+    )
+    efficiency: float = Field(1.0, gt=0, le=1, description="motors and speed controllers: shaft power / electrical power")
+    avionics_power: float = Field(0.0, ge=0, description="constant draw of everything but the motors [W]")
+    initial_charge: float = Field(1.0, gt=0, le=1, description="state of charge at spawn (0, 1]")
+
+    @field_validator("open_circuit_voltage")
+    @classmethod
+    def _curve(cls, value: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        if len(value) < 2:
+            raise ValueError("open_circuit_voltage needs at least two points [[0, V_empty], [1, V_full]]")
+        charges = [c for c, _ in value]
+        if charges[0] != 0 or charges[-1] != 1 or any(b <= a for a, b in zip(charges, charges[1:])):
+            raise ValueError(
+                f"open_circuit_voltage: the states of charge must rise strictly from 0 to 1, got {charges}"
+            )
+        volts = [v for _, v in value]
+        if volts[0] <= 0 or any(b < a for a, b in zip(volts, volts[1:])):
+            raise ValueError(f"open_circuit_voltage: the voltages must be > 0 and never fall as the charge rises, got {volts}")
+        return value
+
+
 # ------------------------------------------------------------------------ vehicle
 
 
@@ -659,8 +798,18 @@ class UAVSpec(_Spec):
     boosters: BoostersSpec | None = None
     gimbals: list[GimbalSpec] = Field(default_factory=list)
     cameras: list[CameraSpec] = Field(default_factory=list)
+    range_sensors: list[RangeSensorSpec] = Field(
+        default_factory=list, description="LiDARs and ray-cast depth cameras (docs/obstacles_and_sensors.md)"
+    )
     control: ControlSpec = Field(default_factory=NoControlSpec)
+    battery: BatterySpec | None = Field(
+        None, description="the battery driving the motors (voltage sag, state of charge); null: an ideal supply"
+    )
     source: str | None = Field(None, exclude=True, description="file the spec was loaded from")
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        return _drop_unset(handler(self), ("battery",))
 
     @model_validator(mode="after")
     def _cross_checks(self) -> UAVSpec:
@@ -682,7 +831,8 @@ class UAVSpec(_Spec):
             if channel not in self.channels:
                 declared = ", ".join(self.channels) or "none"
                 raise ValueError(f"{where} uses channel '{channel}', which is not declared in 'channels' (declared: {declared})")
-        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras)):
+        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras),
+                            ("range_sensors", self.range_sensors)):
             names = [i.name for i in items]
             if len(set(names)) != len(names):
                 raise ValueError(f"{kind}: names must be unique, got {names}")
@@ -698,6 +848,8 @@ class UAVSpec(_Spec):
             for index in self.control.mixer_motors or []:
                 if not 0 <= index < n:
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
+        if self.battery is not None and self.motors is None:
+            raise ValueError("battery: it drives motors, and the airframe has no 'motors' section; remove it or add motors")
         self._check_mixer_gimbals()
         if self.body.inertia is None or self.body.mass is None:
             _check_inertia(self.inertia_matrix())

@@ -25,12 +25,16 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
   mixer, e.g. a quadplane's pusher and control surfaces);
 * ``channels``: one value per declared channel (the spec's ``channels`` section), which
   drive motors, flaps, boosters and gimbals through their ``mix`` weights;
-* ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed].
+* ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed];
+* ``attitude_thrust`` and ``velocity`` (rocket autopilot, on any airframe without a
+  multirotor controller whose booster a gimbal vectors, :mod:`pyflyt_engine.control.rocket`):
+  [tilt_x, tilt_y, roll rate, throttle, ignition] and [vx, vy, vz, ignition].
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -41,19 +45,23 @@ from pyflyt_engine import exact
 from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
-from pyflyt_engine.components.booster import BoosterState, Boosters, tank_mass_properties
+from pyflyt_engine.components.battery import Battery
+from pyflyt_engine.components.booster import BoosterState, Boosters
 from pyflyt_engine.components.camera import Cameras
+from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components.gimbal import Gimbals
 from pyflyt_engine.components.lifting_surface import Surfaces
 from pyflyt_engine.components.motor import MotorParams, Motors
+from pyflyt_engine.components.motor_models import ModelledMotors
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
-from pyflyt_engine.control.modes import FlightMode, resolve_mode
+from pyflyt_engine.control.modes import MULTIROTOR_MODES, FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
+from pyflyt_engine.control.rocket import ROCKET_MODES, RocketAutopilot, has_rocket_modes
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
@@ -69,6 +77,15 @@ _apply_force, _apply_torque = p.applyExternalForce, p.applyExternalTorque
 _new_state = tuple.__new__  # builds a KinematicState from its fields in order, without keyword parsing
 # Hot-path PyBullet calls pass the client id positionally: keyword parsing in the
 # binding costs a few tenths of a microsecond per call, at the physics rate.
+
+
+def _summed(total: Wrench | None, load: Wrench) -> Wrench:
+    """``total + load`` component by component (``load`` itself when there is no total yet)."""
+    if total is None:
+        return load
+    fx, fy, fz, tx, ty, tz = total
+    gx, gy, gz, hx, hy, hz = load
+    return fx + gx, fy + gy, fz + gz, tx + hx, ty + hy, tz + hz
 
 
 class Controller(Protocol):
@@ -107,6 +124,11 @@ def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
         kf=motors.kf[idx],
         kt=motors.kt[idx],
         noise_ratio=motors.noise_ratio[idx],
+        **{
+            name: (getattr(motors, name)[idx] if getattr(motors, name) is not None else None)
+            for name in ("tau_fall", "rotor_drag", "prop_radius")
+        },
+        inflow=motors.inflow,
     )
 
 
@@ -170,6 +192,9 @@ class Vehicle:
         )
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
+        if spec.range_sensors:  # its own rays pass through it (components/range_sensor.py)
+            for link in range(-1, p.getNumJoints(self.body_id, physicsClientId=client)):
+                p.setCollisionFilterGroupMask(self.body_id, link, RAY_SKIP_GROUP, -1, physicsClientId=client)
         self._dry_inertia = np.diag(parts.inertia).copy()
         self._dry_mass = parts.mass
 
@@ -182,7 +207,13 @@ class Vehicle:
         if parts.motors is not None:
             slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
             outputs = [slots.get(i) for i in range(parts.motors.count)]
-            motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
+            if parts.motors.modelled or parts.battery is not None:  # the optional motor models: their own group
+                battery = Battery(parts.battery, physics_dt) if parts.battery is not None else None
+                motors = ModelledMotors(
+                    parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs, battery
+                )
+            else:
+                motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
         if parts.surfaces:
             surfaces = Surfaces(parts.surfaces, physics_dt, mix_rows(parts.surface_mix))
         if parts.boosters is not None:
@@ -211,8 +242,21 @@ class Vehicle:
         drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
         body_drag = BodyDrag(drag_params) if drag and drag_params.active else None
         self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
+        #: ray-cast range sensors (LiDARs, depth cameras), in spec order; their noise
+        #: streams are the world's to seed (:meth:`seed_sensors`)
+        self.range_sensors: list[RangeSensor] = [
+            RangeSensor(r, tuple(float(a) - float(c) for a, c in zip(r.position, parts.com)), np.random.default_rng(0))
+            for r in spec.range_sensors
+        ]
         self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
+        #: the battery driving the motors (None: an ideal supply)
+        self.battery: Battery | None = motors.battery if isinstance(motors, ModelledMotors) else None
+        if isinstance(motors, ModelledMotors):
+            # chosen here, once: the motors take the air too (a vehicle without the optional
+            # motor models keeps the plain apply_loads)
+            self.needs_air = self.needs_air or motors.needs_air
+            self.apply_loads = self._apply_loads_modelled  # type: ignore[method-assign]
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
         self._n_channels = len(parts.channels)
@@ -222,6 +266,8 @@ class Vehicle:
         self._idle_channels = self.channels.copy()
         self.controller: MultirotorController | None = None
         self.autopilot: FixedwingAutopilot | None = None
+        #: the rocket autopilot (modes attitude_thrust, velocity), on airframes with a gimballed booster
+        self.rocket: RocketAutopilot | None = None
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
@@ -233,11 +279,18 @@ class Vehicle:
             self.mode = self.controller.mode
         else:
             self._modes = dict(FIXEDWING_MODES) if isinstance(spec.control, FixedwingControlSpec) else {"channels": FIXEDWING_MODES["channels"]}
+            if has_rocket_modes(parts):
+                assert boosters is not None
+                factors = drag_params.factors if body_drag is not None else (0.0, 0.0, 0.0)
+                self.rocket = RocketAutopilot(parts, boosters, control_dt, factors)
+                self._modes.update({k: v for k, v in ROCKET_MODES.items() if k != "channels"})
             if isinstance(spec.control, FixedwingControlSpec):
                 self.autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt)
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
+        #: (action, observation) delays in physics steps (:meth:`set_latency`)
+        self.latency: tuple[int, int] = (0, 0)
         if mode is not None:
             self.set_mode(mode)
         self._update_mass()
@@ -261,6 +314,13 @@ class Vehicle:
             return len(self.parts.mixer_motors) + len(self.parts.mixer_tilts) + len(self.parts.channels)
         extra = len(self.parts.channels) if self.controller is not None else 0
         return len(mode.setpoint) + extra
+
+    @property
+    def mode_names(self) -> tuple[str, ...]:
+        """The names of the flight modes this vehicle accepts (aliases and PyFlyt integers aside)."""
+        if self.controller is not None:
+            return tuple(MULTIROTOR_MODES) + tuple(self._custom_modes)
+        return tuple(self._modes)
 
     @property
     def dry_mass(self) -> float:
@@ -304,6 +364,68 @@ class Vehicle:
         if not all(map(math.isfinite, value.tolist())):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
         self.setpoint = value
+
+    # -------------------------------------------------------------- latency
+
+    def set_latency(self, action_steps: int, observation_steps: int) -> None:
+        """Delay the setpoint and the observed state by whole physics steps (docs/engine.md,
+        "Latency"); set once, after the vehicle is built (0 and 0: nothing changes).
+
+        A setpoint given with :meth:`set_setpoint` reaches the flight controller
+        ``action_steps`` physics steps later: at the first control tick at or after that.
+        :meth:`delayed_observation` is the state and auxiliary state of
+        ``observation_steps`` physics steps ago.  Both count the vehicle's own physics steps
+        since its last reset.  Chosen here, once: a vehicle without latency keeps the plain
+        methods, and one with it gets wrappers around them.
+        """
+        if action_steps < 0 or observation_steps < 0:
+            raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
+        if self.latency != (0, 0):
+            raise ConfigError(f"vehicle '{self.spec.name}' already has a latency {self.latency}: it is set once")
+        self.latency = (int(action_steps), int(observation_steps))
+        if not (action_steps or observation_steps):
+            return
+        self._clock = 0  # physics steps since the last reset
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=max(observation_steps, 1))
+        loads = self.apply_loads
+        delay, watch = int(action_steps), int(observation_steps)
+
+        def set_setpoint(setpoint: Sequence[float] | np.ndarray) -> None:
+            current = self.setpoint
+            Vehicle.set_setpoint(self, setpoint)  # checks it
+            self._pending.append((self._clock + delay, self.setpoint))
+            self.setpoint = current
+
+        def control_step() -> None:
+            pending = self._pending
+            while pending and pending[0][0] <= self._clock:
+                value = pending.popleft()[1]
+                if value.shape == self.setpoint.shape:  # one sent before a change of mode is dropped
+                    self.setpoint = value
+            Vehicle.control_step(self)
+
+        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+            if watch:  # the state at the start of this physics step, for the delayed observation
+                self._history.append((self.read_state(), self.aux_values()))
+            loads(air, thrust_ratio)
+            self._clock += 1
+
+        if delay:
+            self.set_setpoint = set_setpoint  # type: ignore[method-assign]
+        self.control_step = control_step  # type: ignore[method-assign]
+        self.apply_loads = apply_loads  # type: ignore[method-assign]
+
+    def delayed_observation(self) -> tuple[KinematicState, list[float]]:
+        """The state and auxiliary state ``observation_steps`` physics steps ago (the
+        spawn's until that much time has passed since the reset); without observation
+        latency, or right after a reset, the current ones."""
+        history = getattr(self, "_history", None)
+        if not history:
+            return self.state, self.aux_values()
+        # the history holds the states at the start of the last `observation_steps` physics
+        # steps, oldest first: its first entry is the one that far back (or the spawn's)
+        return history[0]
 
     def register_controller(
         self,
@@ -382,14 +504,16 @@ class Vehicle:
             setpoint = self.setpoint
             k = len(setpoint) - self._n_channels
             if self._n_channels:
-                self.channels = np.clip(setpoint[k:], parts.channel_low, parts.channel_high)
+                self.channels = setpoint[k:].clip(parts.channel_low, parts.channel_high)
             head = setpoint[:k].tolist() if self._n_channels else setpoint.tolist()
             custom = self._custom_modes.get(self.mode.name) if self._custom_modes else None
             if custom is not None:
                 head = np.asarray(custom.controller(self.state, np.asarray(head)), dtype=np.float64).tolist()
             throttles = self.controller.law(self.state, head)  # the mode's control law (what calling the controller runs)
         elif self.mode.name == "channels":
-            self.channels = np.clip(self.setpoint, parts.channel_low, parts.channel_high)
+            self.channels = self.setpoint.clip(parts.channel_low, parts.channel_high)
+        elif self.rocket is not None and self.mode.name in ROCKET_MODES:
+            self.channels = self.rocket(self.state, self.setpoint.tolist(), self.mode.name)
         else:  # fixed-wing autopilot
             self.channels = self.autopilot(self.state, self.setpoint.tolist())  # type: ignore[misc]
         self._route(throttles)
@@ -420,22 +544,24 @@ class Vehicle:
         if gimbals is not None:  # servos first: they turn their targets' thrust axes
             for (group, index), axis in zip(self._gimbal_targets, gimbals.step()):
                 group.turn(index, axis)
-        loads = []  # summed in this order: motors, surfaces, boosters, drag
-        if motors is not None:
-            loads.append(motors.step(thrust_ratio))
+        # Summed in this order: motors, surfaces, boosters, drag; the first group's wrench
+        # is taken as it is (not added to zeros, which would turn a -0.0 into 0.0).
+        load = motors.step(thrust_ratio) if motors is not None else None
         if surfaces is not None:
-            loads.append(surfaces.step(air))
+            load = _summed(load, surfaces.step(air))
         if boosters is not None:
-            loads.append(boosters.step())
+            load = _summed(load, boosters.step())
         if drag is not None:
-            loads.append(drag.step(air))
-        fx, fy, fz, tx, ty, tz = loads[0] if loads else _NO_LOAD
-        for gx, gy, gz, hx, hy, hz in loads[1:]:
-            fx, fy, fz = fx + gx, fy + gy, fz + gz
-            tx, ty, tz = tx + hx, ty + hy, tz + hz
+            load = _summed(load, drag.step(air))
+        fx, fy, fz, tx, ty, tz = load if load is not None else _NO_LOAD
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
+
+    def _apply_loads_modelled(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """:meth:`apply_loads` for motors with the optional models, which take the air too."""
+        self.actuators.motors.set_air(air)  # type: ignore[union-attr]
+        Vehicle.apply_loads(self, air, thrust_ratio)
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
@@ -452,13 +578,12 @@ class Vehicle:
         if fuel == self._mass_fuel:  # no fuel burnt since the last update: nothing changes
             return
         self._mass_fuel = fuel
-        b = boosters.params
-        fuel_mass, tank_inertia = tank_mass_properties(b, np.array(fuel))
-        r = b.fuel_tank_positions
-        parallel = fuel_mass[:, None] * (np.sum(r * r, axis=1)[:, None] - r * r)
-        inertia = self._dry_inertia + (tank_inertia + parallel).sum(axis=0)
-        mass = self._dry_mass + float(fuel_mass.sum())
-        p.changeDynamics(self.body_id, -1, mass=mass, localInertiaDiagonal=inertia.tolist(), physicsClientId=self._client)
+        fuel_mass, (jx, jy, jz) = boosters.fuel_mass_properties()  # plain floats: at the control rate
+        dx, dy, dz = self._dry_inertia.tolist()
+        mass = self._dry_mass + fuel_mass
+        p.changeDynamics(
+            self.body_id, -1, mass=mass, localInertiaDiagonal=[dx + jx, dy + jy, dz + jz], physicsClientId=self._client
+        )
         self.mass = mass
 
     def set_mass_properties(self, mass: float, inertia_diagonal: Sequence[float]) -> None:
@@ -495,6 +620,23 @@ class Vehicle:
             raise ConfigError(f"vehicle '{self.spec.name}' has {len(cameras.params)} camera(s); no camera {camera}")
         return cameras.capture(self._client, camera, self.state.lin_pos, self.state.quaternion, time)
 
+    # --------------------------------------------------------- range sensors
+
+    def scan(self, sensor: int = 0, time: float | None = None) -> np.ndarray:
+        """Readings of range sensor ``sensor`` (:mod:`pyflyt_engine.components.range_sensor`);
+        with ``time`` (simulated seconds) a scan younger than ``1 / rate_hz`` is returned again."""
+        if not 0 <= sensor < len(self.range_sensors):
+            raise ConfigError(
+                f"vehicle '{self.spec.name}' has {len(self.range_sensors)} range sensor(s); no range sensor {sensor}"
+            )
+        state = self.state
+        return self.range_sensors[sensor].scan(self._client, state.lin_pos, state.quaternion, time)
+
+    def seed_sensors(self, rngs: Sequence[np.random.Generator]) -> None:
+        """Give each range sensor its noise stream (the world does, per seed)."""
+        for sensor, rng in zip(self.range_sensors, rngs):
+            sensor.rng = rng
+
     # --------------------------------------------------------------- resets
 
     def reset(
@@ -524,11 +666,17 @@ class Vehicle:
         ang = exact.rotate(rotation, [float(v) for v in ang_vel] if ang_vel is not None else (0.0, 0.0, 0.0))
         p.resetBaseVelocity(self.body_id, list(lin), list(ang), physicsClientId=cid)
         self.setpoint[:] = 0.0
+        if getattr(self, "_pending", None) is not None:  # latency: nothing in flight, time 0
+            self._pending.clear()
+            self._history.clear()
+            self._clock = 0
         self.channels = self._idle_channels.copy()
         a = self.actuators
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals, a.cameras):
             if group is not None:
                 group.reset()
+        for sensor in self.range_sensors:
+            sensor.reset()
         if a.boosters is not None:
             self._update_mass()
         if self.controller is not None:
@@ -568,7 +716,8 @@ class Vehicle:
     def aux_state(self) -> np.ndarray:
         """Auxiliary state, concatenated: motor throttles [-1, 1]; flap deflections
         normalised by their limits [-1, 1]; per booster fuel fraction, duty [0, 1] and
-        ignition (0/1); gimbal angles normalised by their limits [-1, 1]."""
+        ignition (0/1); gimbal angles normalised by their limits [-1, 1]; with a battery,
+        its state of charge [0, 1] last."""
         return np.array(self.aux_values(), dtype=np.float64)
 
     def aux_values(self) -> list[float]:
@@ -578,6 +727,8 @@ class Vehicle:
         for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
             if group is not None:
                 values += group.aux()
+        if self.battery is not None:
+            values.append(self.battery.charge)
         return values
 
     @property

@@ -224,6 +224,13 @@ class World:
         # the wind's own stream, apart from np_random and the vehicles' (spawn key 2)
         return np.random.default_rng(np.random.SeedSequence(self._seed_sequence.entropy, spawn_key=(2,)))
 
+    def _sensor_rngs(self, index: int) -> list[np.random.Generator]:
+        # one stream per range sensor of vehicle slot ``index`` (spawn key 3): sensors never
+        # draw from the physics' streams, so adding one leaves the flight unchanged
+        n = len(self.vehicles[index].range_sensors)
+        entropy = self._seed_sequence.entropy
+        return [np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(3, index, k))) for k in range(n)]
+
     def _vehicle_rng(self, index: int) -> np.random.Generator:
         # one independent stream per vehicle slot, the same for a given seed and index
         return np.random.default_rng(np.random.SeedSequence(self._vehicle_seeds.entropy, spawn_key=(1, index)))
@@ -256,6 +263,7 @@ class World:
             drag=self.drag,
         )
         self.vehicles.append(vehicle)
+        vehicle.seed_sensors(self._sensor_rngs(index))
         self.atmosphere.add_vehicle(vehicle)
         self._airs.append(((vehicle.state.lin_vel, vehicle.state.ang_vel), None))
         self._contacts.add(vehicle.body_id)
@@ -285,6 +293,21 @@ class World:
         self._contacts.add(body_id)
         self._drop_snapshot()
         return self._contacts.index[body_id]
+
+    def replace_bodies(self, old: Sequence[int], new: Sequence[int]) -> None:
+        """Stop tracking ``old`` (bodies already removed from PyBullet) and track ``new``
+        instead (scenery rebuilt at a reset: generated obstacles).  The saved state is
+        replaced by one holding the new bodies, which the next :meth:`reset` restores (it
+        puts every vehicle back at its spawn pose after restoring)."""
+        contacts = self._contacts
+        gone = set(old)
+        contacts.body_ids = [b for b in contacts.body_ids if b not in gone]
+        for body in new:
+            contacts.body_ids.append(body)
+        contacts.index = {b: i for i, b in enumerate(contacts.body_ids)}
+        contacts.clear()
+        self._drop_snapshot()
+        self._snapshot = p.saveState(physicsClientId=self.client)
 
     def _drop_snapshot(self) -> None:
         # the saved state no longer covers every body: free it (PyBullet keeps every
@@ -397,6 +420,10 @@ class World:
         """The latest :class:`KinematicState` of vehicle ``index``."""
         return self._vehicle(index).state
 
+    def scan(self, index: int, sensor: int = 0) -> np.ndarray:
+        """Readings of range sensor ``sensor`` of vehicle ``index``, refreshed at its rate."""
+        return self._vehicle(index).scan(sensor, time=self.elapsed)
+
     def capture(self, index: int, camera: int = 0) -> dict[str, np.ndarray]:
         """Images of camera ``camera`` of vehicle ``index``, refreshed at its capture rate."""
         return self._vehicle(index).capture(camera, time=self.elapsed)
@@ -438,6 +465,16 @@ class World:
         """Whether vehicles ``index`` and ``other`` touched each other in the last step."""
         return self._touched(self._vehicle(index).body_id, self._vehicle(other).body_id)
 
+    def collided_with_body(self, index: int, body_id: int) -> bool:
+        """Whether vehicle ``index`` touched the tracked body ``body_id`` (:meth:`add_body`) in the last step."""
+        return self.bodies_touched(self._vehicle(index).body_id, body_id)
+
+    def bodies_touched(self, body_a: int, body_b: int) -> bool:
+        """Whether two tracked bodies (PyBullet ids, e.g. a vehicle's ``body_id`` and a body
+        given to :meth:`add_body`) touched each other in the last step: one entry of
+        :attr:`contact_array`, without building the matrix."""
+        return self._touched(body_a, body_b)
+
     def _touched(self, body_a: int, body_b: int) -> bool:
         a, b = self._contacts.index[body_a], self._contacts.index[body_b]
         return ((a, b) if a <= b else (b, a)) in self._contacts.pairs
@@ -464,6 +501,7 @@ class World:
         for index, vehicle in enumerate(self.vehicles):
             if seed is not None:
                 vehicle.reseed(self._vehicle_rng(index))
+                vehicle.seed_sensors(self._sensor_rngs(index))
             vehicle.reset()
             vehicle.armed = True
         self._contacts.clear()
@@ -494,6 +532,8 @@ class World:
         """
         state = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
         state["wind"] = self._wind_generator.bit_generator.state
+        if any(v.range_sensors for v in self.vehicles):
+            state["sensors"] = [[s.rng.bit_generator.state for s in v.range_sensors] for v in self.vehicles]
         return state
 
     def set_rng_state(self, state: dict) -> None:
@@ -513,6 +553,8 @@ class World:
         self.np_random = generator(state["world"])
         for vehicle, bit_state in zip(self.vehicles, vehicles):
             vehicle.reseed(generator(bit_state))
+        for vehicle, streams in zip(self.vehicles, state.get("sensors") or []):
+            vehicle.seed_sensors([generator(s) for s in streams])
         if "wind" in state:  # recordings made before the atmosphere have none
             self._wind_generator = generator(state["wind"])
             if self.wind is not None:

@@ -21,6 +21,7 @@ LIBRARIES = (
     "pyflyt_cli.airframes",
     "pyflyt_cli.speed",
     "pyflyt_cli.zoo",
+    "pyflyt_cli.export",
     "pyflyt_cli.catalog",
     "pyflyt_cli.compose",
     "pyflyt_cli.errors",

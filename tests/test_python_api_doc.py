@@ -40,7 +40,7 @@ def test_every_python_block_of_the_page_runs(tmp_path: Path, monkeypatch: pytest
     missing = [old for old in TINY if old not in text]
     assert not missing, f"docs/python_api.md no longer says {missing}: update TINY"
     blocks = python_blocks(text)
-    assert len(blocks) == 9
+    assert len(blocks) == 10
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("PYTHONPATH", cli_env()["PYTHONPATH"])  # the benchmark's worker processes
     namespace: dict = {}
@@ -55,4 +55,7 @@ def test_every_python_block_of_the_page_runs(tmp_path: Path, monkeypatch: pytest
     assert [o.status for o in namespace["outcome"].outcomes] == ["complete", "complete"]
     assert (tmp_path / "f450.png").stat().st_size > 0 and (tmp_path / "flight.png").stat().st_size > 0
     assert namespace["check"].ok
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["benchmarks", "f450.png", "flight.png", "recordings", "runs"]
+    assert [p.name for p in namespace["exported"].files] == ["policy.c", "policy.h"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "benchmarks", "f450.png", "flight.png", "policy.c", "policy.h", "recordings", "runs"
+    ]

@@ -85,8 +85,16 @@ def run_fly(overrides: list[str]) -> Trajectory:
     traj = fly(spec, wind=wind, **{key: value for key, value in options if key not in ("uav", "rows", "wind")})
     print_summary(spec.name, traj, options.rows)
     if not wind.calm:
-        typer.echo(f"wind: {wind.name} ({wind.description or 'custom'})")
+        changed = _wind_overrides(overrides)
+        # the preset's description no longer holds once one of its values is overridden
+        about = f"with {' '.join(changed)}" if changed else (wind.description or "custom")
+        typer.echo(f"wind: {wind.name} ({about})")
     return traj
+
+
+def _wind_overrides(overrides: list[str]) -> list[str]:
+    """The command line's changes to the chosen wind preset (``wind.<key>=<value>``)."""
+    return [item.lstrip("+") for item in overrides if item.lstrip("+").startswith("wind.")]
 
 
 def _chosen_wind(overrides: list[str]) -> str:

@@ -274,6 +274,14 @@ def booster_step_scalar(
     return ignited, duty, fuel, duty * k.max_thrust
 
 
+def tank_inertia(fuel: float, total_fuel: float, inertia_full: Sequence[float]) -> tuple[float, float, float]:
+    """One tank's diagonal inertia about its own centre [kg m^2] with ``fuel`` kg left:
+    ``fuel / total_fuel * inertia_full`` (item 5 of the module docstring)."""
+    ratio = fuel / total_fuel
+    jx, jy, jz = inertia_full
+    return ratio * jx, ratio * jy, ratio * jz
+
+
 def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mass and diagonal inertia of each fuel tank for the remaining fuel.
 
@@ -289,9 +297,9 @@ def tank_mass_properties(params: BoosterParams, fuel: np.ndarray) -> tuple[np.nd
     fuel = np.asarray(fuel, dtype=np.float64)
     if fuel.shape != (params.n,):
         raise ValueError(f"fuel has shape {fuel.shape}, expected ({params.n},).")
-    mass = fuel.copy()
-    inertia = (fuel / params.total_fuel)[:, None] * params.inertia_full
-    return mass, inertia
+    rows = zip(fuel.tolist(), params.total_fuel.tolist(), params.inertia_full.tolist())
+    inertia = np.array([tank_inertia(f, total, full) for f, total, full in rows], dtype=np.float64).reshape(-1, 3)
+    return fuel.copy(), inertia
 
 
 class Boosters:
@@ -328,6 +336,10 @@ class Boosters:
         self._positions = [tuple(p) for p in params.positions.tolist()]
         self._nominal_axes = [tuple(a) for a in params.thrust_axes.tolist()]
         self._total_fuel = params.total_fuel.tolist()
+        self._inertia_full = [tuple(j) for j in params.inertia_full.tolist()]
+        # per tank, the parallel-axis factors |r|^2 - r_i^2 of its offset r from the centre of mass
+        r = params.fuel_tank_positions
+        self._tank_offsets = [tuple(o) for o in (np.sum(r * r, axis=1)[:, None] - r * r).tolist()]
         self._noisy = bool(np.any(params.noise_ratio > 0))
         self._zeros = [0.0] * params.n
         self._noise = NoiseBlocks(noise, params.n)
@@ -372,6 +384,23 @@ class Boosters:
                 tx, ty, tz = tx + (py * ffz - pz * ffy), ty + (pz * ffx - px * ffz), tz + (px * ffy - py * ffx)
         self._state = None
         return fx, fy, fz, tx, ty, tz
+
+    def fuel_mass_properties(self) -> tuple[float, tuple[float, float, float]]:
+        """The remaining fuel's mass [kg] and inertia diagonal [kg m^2] about the body origin
+        (the centre of mass): per tank :func:`tank_inertia` plus the parallel-axis term of
+        its offset ``r``, ``fuel * (|r|^2 - r_i^2)`` on axis i.  Summed over the tanks in
+        their order, first tank first: NumPy's order for the sums over fewer than 8 tanks,
+        with which the recorded trajectories were made."""
+        mass = inertia = None
+        for f, total, full, (ox, oy, oz) in zip(self.fuel, self._total_fuel, self._inertia_full, self._tank_offsets):
+            jx, jy, jz = tank_inertia(f, total, full)
+            jx, jy, jz = jx + f * ox, jy + f * oy, jz + f * oz
+            if inertia is None:
+                mass, inertia = f, (jx, jy, jz)
+            else:
+                mass, inertia = mass + f, (inertia[0] + jx, inertia[1] + jy, inertia[2] + jz)
+        assert mass is not None and inertia is not None  # BoosterParams has n >= 1
+        return mass, inertia
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point booster ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

@@ -49,6 +49,13 @@ class MotorParams:
         kf: (n,) thrust coefficient [N / RPM^2].
         kt: (n,) torque coefficient [N m / RPM^2].
         noise_ratio: (n,) standard deviation of the multiplicative throttle noise.
+        tau_fall: (n,) time constant while a rotor slows down [s] (``tau`` is then the
+            spin-up one); None: ``tau`` both ways.
+        rotor_drag: (n,) rotor drag coefficient at full speed [N / (m/s)]; None: no rotor drag.
+        prop_radius: (n,) propeller radius [m] (None: not given).
+        inflow: (solidity, lift slope [1/rad]) of the blades for the axial-inflow model;
+            None: static thrust.  The optional models are stepped by
+            :class:`pyflyt_engine.components.motor_models.ModelledMotors`.
     """
 
     positions: np.ndarray
@@ -59,10 +66,16 @@ class MotorParams:
     kf: np.ndarray
     kt: np.ndarray
     noise_ratio: np.ndarray
+    tau_fall: np.ndarray | None = None
+    rotor_drag: np.ndarray | None = None
+    prop_radius: np.ndarray | None = None
+    inflow: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.positions)
-        for name in ("spin", "tau", "max_rpm", "kf", "kt", "noise_ratio"):
+        for name in ("spin", "tau", "max_rpm", "kf", "kt", "noise_ratio", "tau_fall", "rotor_drag", "prop_radius"):
+            if getattr(self, name) is None:
+                continue
             value = np.broadcast_to(np.asarray(getattr(self, name), dtype=np.float64), (n,)).copy()
             value.setflags(write=False)
             object.__setattr__(self, name, value)
@@ -70,6 +83,11 @@ class MotorParams:
             value = np.asarray(getattr(self, name), dtype=np.float64).reshape(n, 3).copy()
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+
+    @property
+    def modelled(self) -> bool:
+        """Whether any optional motor model (asymmetric lag, rotor drag, inflow) is on."""
+        return self.tau_fall is not None or self.rotor_drag is not None or self.inflow is not None
 
     @property
     def count(self) -> int:

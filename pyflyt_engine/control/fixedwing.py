@@ -76,4 +76,4 @@ class FixedwingAutopilot:
         out[i_pitch] = self._pitch(pitch_sp - pitch, q)
         out[i_yaw] = self._yaw(yaw_rate_sp - r, 0.0)
         out[i_thrust] = self.gains.cruise_thrust + self._speed(speed_sp - state.lin_vel[0], 0.0)
-        return np.clip(out, self.low, self.high)
+        return out.clip(self.low, self.high)  # np.clip's own call, without its wrapper

@@ -45,6 +45,9 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.fixedwing:FixedwingWaypointsEnv", "fixedwing_waypoints"
     ),
     "PyFlyt/Rocket-Landing-v0": EnvEntry("pyflyt_engine.envs.rocket:RocketLandingEnv", "rocket_landing"),
+    "PyFlyt/Rocket-Landing-Velocity-v0": EnvEntry(
+        "pyflyt_engine.envs.rocket:RocketLandingVelocityEnv", "rocket_landing_velocity"
+    ),
     "PyFlyt/QuadX-Pole-Balance-v0": EnvEntry(
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleBalanceEnv", "quadx_pole_balance"
     ),
@@ -53,6 +56,7 @@ ENVS: dict[str, EnvEntry] = {
     ),
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
     "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXGatesEnv", "quadx_gates"),
+    "PyFlyt/QuadX-Obstacles-v0": EnvEntry("pyflyt_engine.envs.quadx_obstacles:QuadXObstaclesEnv", "quadx_obstacles"),
 }
 
 
@@ -98,8 +102,10 @@ def __getattr__(name: str) -> Any:
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
+        "RocketLandingVelocityEnv": "pyflyt_engine.envs.rocket",
         "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
+        "QuadXObstaclesEnv": "pyflyt_engine.envs.quadx_obstacles",
         "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
@@ -126,11 +132,13 @@ __all__ = [
     "QuadXBallInCupEnv",
     "QuadXGatesEnv",
     "QuadXHoverEnv",
+    "QuadXObstaclesEnv",
     "QuadXPoleBalanceEnv",
     "QuadXPoleWaypointsEnv",
     "QuadXWaypointsEnv",
     "RewardPreset",
     "RocketLandingEnv",
+    "RocketLandingVelocityEnv",
     "UAVEnv",
     "load_env_config",
     "load_reward_preset",

@@ -25,7 +25,9 @@ from pydantic import (
     ConfigDict,
     Field,
     SerializeAsAny,
+    SerializerFunctionWrapHandler,
     field_validator,
+    model_serializer,
     model_validator,
 )
 
@@ -35,10 +37,11 @@ from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (reg
 from pyflyt_engine.envs.randomization import Distribution, check_names
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
 from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
 from pyflyt_engine.safe_load import load_yaml_file
-from pyflyt_engine.spec import CameraSpec, check_finite
+from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, check_finite
 
 
 class _Config(BaseModel):
@@ -134,9 +137,25 @@ class CameraObservationConfig(_Config):
     @field_validator("key")
     @classmethod
     def _key(cls, value: str) -> str:
-        if value in ("attitude", "target_deltas"):
+        if value in ("attitude", "target_deltas", "goal_delta", "gate"):
             raise ValueError(f"'{value}' is an observation key of the tasks: choose another key for the image")
         return value
+
+
+class LatencyConfig(_Config):
+    """Delays between the agent and each vehicle (docs/engine.md, "Latency"), in seconds,
+    applied at physics resolution: each is rounded to the nearest whole number of physics
+    steps (halves up), ``round(delay * physics_hz)``."""
+
+    action_delay: float = Field(
+        0.0, ge=0, description="from an action to the vehicle's flight controller [s] (it takes it at its next tick)"
+    )
+    observation_delay: float = Field(0.0, ge=0, description="age of the state in the observation [s]")
+
+    def steps(self, physics_hz: float) -> tuple[int, int]:
+        """(action, observation) delays in physics steps: each rounded to the nearest step, halves up."""
+        # the 1e-9 absorbs the binary rounding of delay * rate (0.0125 s * 240 Hz = 3.0000000000000004)
+        return tuple(int(math.floor(d * physics_hz + 0.5 + 1e-9)) for d in (self.action_delay, self.observation_delay))  # type: ignore[return-value]
 
 
 class EnvConfig(_Config):
@@ -179,6 +198,15 @@ class EnvConfig(_Config):
         default_factory=list,
         description="rigid bodies attached to the vehicle or the world (see pyflyt_engine.payloads)",
     )
+    obstacles: ObstaclesConfig | None = Field(
+        None,
+        description="static obstacles: fixed items and seeded layouts drawn at every reset (docs/obstacles_and_sensors.md)",
+    )
+    range_sensors: list[RangeSensorSpec] = Field(
+        default_factory=list,
+        description="LiDARs and ray-cast depth cameras added to the airframe for this env; each reading is an "
+        "observation entry under the sensor's name (docs/obstacles_and_sensors.md)",
+    )
     source: str | None = Field(None, exclude=True, description="file the config was loaded from")
 
     ground_effect: bool = Field(
@@ -191,6 +219,30 @@ class EnvConfig(_Config):
         description="domain randomisation: parameter -> bounded distribution, drawn at every reset "
         "(pyflyt_engine.envs.randomization); a name loads a preset of conf/randomize",
     )
+    latency: LatencyConfig | None = Field(
+        None,
+        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); null: none",
+    )
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        data = handler(self)
+        if isinstance(data, dict) and data.get("latency", 0) is None:
+            del data["latency"]  # a config without latency dumps, and is recorded, as before it existed
+        return data
+
+    @model_validator(mode="after")
+    def _latency(self) -> EnvConfig:
+        if self.latency is not None:
+            for name in ("action_delay", "observation_delay"):
+                delay = getattr(self.latency, name)
+                if delay >= self.max_duration_seconds:
+                    raise ValueError(
+                        f"latency.{name}: {delay:g} s is not shorter than the episode (max_duration_seconds "
+                        f"{self.max_duration_seconds:g} s): nothing the agent does would reach the vehicle; give a "
+                        "delay of a few physics steps"
+                    )
+        return self
 
     @field_validator("randomize", mode="before")
     @classmethod
@@ -485,6 +537,16 @@ class MultiAgentEnvConfig(EnvConfig):
             raise ValueError(
                 "camera_observation: a multi-agent env cannot observe camera images yet (its per-agent "
                 "observations are flat Boxes, stacked for a shared policy); remove the key"
+            )
+        if self.obstacles is not None:
+            raise ValueError(
+                "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "
+                "contact and no keep-out around every agent's spawn); remove the key, or fly single-agent"
+            )
+        if self.range_sensors:
+            raise ValueError(
+                "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
+                "are flat Boxes, stacked for a shared policy); remove the key"
             )
         return self
 

@@ -157,7 +157,7 @@ def all_finite(reward: float, observation: Any) -> bool:
     for value in observation.values() if isinstance(observation, Mapping) else (observation,):
         if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
             continue
-        flat = np.ravel(np.asarray(value, dtype=np.float64))
+        flat = np.asarray(value, dtype=np.float64).ravel()  # np.ravel's own method, without its wrapper
         total += flat.dot(_zeros(flat.size))
     return math.isfinite(total)
 

@@ -22,6 +22,7 @@ from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
@@ -41,7 +42,10 @@ class UAVEnv(gymnasium.Env):
         [ang_vel (3, body, rad/s), attitude (3 Euler rad | 4 quaternion xyzw, ground),
          lin_vel (3, body, m/s), lin_pos (3, ground ENU, m), previous action (A), aux (n)]
 
-    where aux is the vehicle's auxiliary state (motor throttles for a multirotor).
+    where aux is the vehicle's auxiliary state (motor throttles for a multirotor).  With
+    ``config.latency``, the action reaches the flight controller ``action_delay`` later and
+    the observation shows the vehicle as it was ``observation_delay`` ago (both rounded to
+    physics steps); rewards and episode ends use the true state.
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
@@ -123,6 +127,8 @@ class UAVEnv(gymnasium.Env):
         self._camera: int | None = None
         if cfg.camera_observation is not None:
             flown, self._camera = _with_observation_camera(flown, cfg.camera_observation)
+        if cfg.range_sensors:
+            flown = _with_range_sensors(flown, cfg.range_sensors)
         self.world = World(
             [
                 VehicleConfig(
@@ -142,17 +148,25 @@ class UAVEnv(gymnasium.Env):
             downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
+        #: action and observation delays in physics steps (docs/engine.md, "Latency")
+        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
+        self.vehicle.set_latency(*self.latency_steps)
         #: the config's payloads, built around the vehicle (None without payloads)
         self.payloads: PayloadSet | None = None
         if cfg.payloads:
             self.payloads = PayloadSet(self.world, self.vehicle, list(cfg.payloads))
         self.task.payloads = self.payloads
+        #: the config's obstacles (None without): fixed ones built here, layouts drawn at each reset
+        self.obstacles: ObstacleField | None = None
+        if cfg.obstacles is not None:
+            self.obstacles = ObstacleField(self.world, cfg.obstacles)
         self.task.setup(self.world)
         if self.vehicle.setpoint.size != len(cfg.action.names):
             self.world.close()
             raise ConfigError(
                 f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
-                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size}"
+                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size} "
+                f"({', '.join(self.vehicle.setpoint_layout)}): give action.names, low and high in that layout"
             )
 
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -164,6 +178,10 @@ class UAVEnv(gymnasium.Env):
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
             self.observation_space = _with_image_space(self.observation_space, cfg.camera_observation)
+        #: the range sensors observed (every one the flown airframe carries), in spec order
+        self._range_sensors = list(self.vehicle.range_sensors)
+        if self._range_sensors:
+            self.observation_space = _with_range_spaces(self.observation_space, self._range_sensors)
 
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
@@ -206,6 +224,8 @@ class UAVEnv(gymnasium.Env):
             self.payloads.place()
         state = self.vehicle.state
         self.task.reset(state, self.np_random)
+        if self.obstacles is not None:  # this episode's layouts, clear of the spawn point and the goals
+            self.obstacles.generate(self.np_random, [state.lin_pos, *np.asarray(self.task.keep_clear()).reshape(-1, 3)])
         self._action = np.zeros_like(self._low)
         self._steps = 0
         self._reward_terms = {}
@@ -216,6 +236,9 @@ class UAVEnv(gymnasium.Env):
             info["randomization"] = dict(drawn)
         if self.payloads is not None:
             info["payload_ground_contact"] = False
+        if self.obstacles is not None:
+            info["obstacle_contact"] = False
+            info["obstacles_parked"] = self.obstacles.parked
         info.update(self.task.info())
         observation = self._observe(state)
         if not core.all_finite(0.0, observation):
@@ -237,6 +260,9 @@ class UAVEnv(gymnasium.Env):
         crashed, terminated = self.task.termination(collision, out_of_bounds, signals)
         payload_ground = self.payloads is not None and self.payloads.ground_failure()
         if payload_ground:  # a payload the config says must not touch the ground did
+            crashed = terminated = True
+        obstacle_contact = self.obstacles is not None and self.obstacles.touched(0)
+        if obstacle_contact and self.config.obstacles.crash_on_contact:  # type: ignore[union-attr]
             crashed = terminated = True
         ctx = core.step_context(
             world,
@@ -267,6 +293,9 @@ class UAVEnv(gymnasium.Env):
         }
         if self.payloads is not None:
             info["payload_ground_contact"] = payload_ground
+        if self.obstacles is not None:
+            info["obstacle_contact"] = obstacle_contact
+            info["obstacles_parked"] = self.obstacles.parked
         if self.info_reward_terms:
             info["reward_terms"] = terms
         info.update(self.task.info())
@@ -298,8 +327,17 @@ class UAVEnv(gymnasium.Env):
     # ------------------------------------------------------------------ helpers
 
     def _observe(self, state: KinematicState) -> Any:
-        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), self.vehicle.aux_values())
+        if self.latency_steps[1]:  # the agent sees the vehicle as it was observation_delay ago
+            state, aux = self.vehicle.delayed_observation()
+        else:
+            aux = self.vehicle.aux_values()
+        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
         observation = self.task.observe(attitude, state)
+        if self._range_sensors:
+            if not isinstance(observation, dict):
+                observation = {"attitude": observation}
+            for k, sensor in enumerate(self._range_sensors):
+                observation[sensor.name] = self.world.scan(0, k)
         if self._camera is None:
             return observation
         c = self.config.camera_observation
@@ -368,3 +406,30 @@ def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
     if isinstance(space, spaces.Dict):
         return spaces.Dict({**space.spaces, obs.key: image})
     return spaces.Dict({"attitude": space, obs.key: image})
+
+
+#: observation keys the tasks and the env use themselves
+_TAKEN_KEYS = ("attitude", "target_deltas", "goal_delta", "gate")
+
+
+def _with_range_sensors(spec: UAVSpec, sensors: list[Any]) -> UAVSpec:
+    """The airframe with the env config's range sensors appended."""
+    have = {s.name for s in spec.range_sensors}
+    for sensor in sensors:
+        if sensor.name in have:
+            raise ConfigError(
+                f"range_sensors: '{sensor.name}' is already a range sensor of airframe '{spec.name}': give it another name"
+            )
+    return spec.model_copy(update={"range_sensors": [*spec.range_sensors, *sensors]})
+
+
+def _with_range_spaces(space: spaces.Space, sensors: list[Any]) -> spaces.Dict:
+    """``space`` as a Dict with one float32 Box of readings in [0, max_range] per sensor."""
+    entries = dict(space.spaces) if isinstance(space, spaces.Dict) else {"attitude": space}
+    for sensor in sensors:
+        if sensor.name in entries or sensor.name in _TAKEN_KEYS:
+            raise ConfigError(
+                f"range sensor '{sensor.name}': its name is already an observation key ({', '.join(entries)}); rename it"
+            )
+        entries[sensor.name] = spaces.Box(0.0, sensor.max_range, shape=sensor.shape, dtype=np.float32)
+    return spaces.Dict(entries)

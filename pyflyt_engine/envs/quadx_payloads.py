@@ -236,8 +236,17 @@ class QuadXGatesEnv(UAVEnv):
     * ``target_deltas``: ``Sequence(Box(3,), stack=True)``: ``(n, 3)`` float64, body-frame
       vectors [m] from the vehicle to the centre of every gate not yet passed, next first.
 
+    With the task option ``observation`` (default ``deltas``: the above), a fixed-size
+    ``gate`` entry replaces ``target_deltas``: ``corners`` gives ``Box(12,)``, the
+    body-frame vectors [m] to the 4 corners of the next gate's opening, (x, y, z) each,
+    seen along the gate's +x: top left, top right, bottom right, bottom left;
+    ``relative_pose`` gives ``Box(7,)``, the next gate's centre in the body frame [m] then
+    the quaternion (x, y, z, w) of its attitude relative to the body, R_body^T R_gate.
+    Both are zeros once every gate is passed.
+
     Stable-Baselines3: ``pyflyt train`` flattens ``attitude`` and ``target_deltas`` (next 2)
-    into one Box and keeps ``image``, training a ``MultiInputPolicy`` (CNN on the image).
+    into one Box and keeps ``image``, training a ``MultiInputPolicy`` (CNN on the image);
+    with ``corners`` or ``relative_pose`` the Dict passes SB3's ``check_env`` as it is.
 
     **Passing a gate**: the centre of mass crosses the gate's plane in its forward direction
     within the opening during an agent step (segment test): +100, next gate.
@@ -255,7 +264,7 @@ class QuadXGatesEnv(UAVEnv):
     **Arguments**: as :class:`~pyflyt_engine.envs.quadx.QuadXHoverEnv` plus the task's
     (``course`` random | fixed, ``opening``, ``clearance``, ``min_gate_distance``,
     ``max_gate_distance``, ``max_turn``, ``max_climb``, ``min_gate_height``,
-    ``max_gate_height``) and ``camera_observation``.
+    ``max_gate_height``, ``observation``) and ``camera_observation``.
 
     **Differences from the reference** (PyFlyt 0.29.0, whose env cannot load its gate
     model): a gate counts when flown through (the reference: within 0.21 m of its centre);

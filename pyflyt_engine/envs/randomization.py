@@ -9,7 +9,12 @@ Parameters (a fixed list; anything else is refused at load):
 
 * ``mass``, ``inertia``: factors on the airframe's dry mass and inertia (all three axes);
 * ``motor_kf``, ``motor_kt``, ``motor_tau``: factors on every motor's thrust coefficient,
-  torque coefficient and time constant;
+  torque coefficient and time constants (``tau`` and, when declared, ``tau_fall``);
+* ``motor_rotor_drag``: factor on the rotors' drag coefficients (an airframe declaring
+  ``motors.rotor_drag``);
+* ``battery_capacity``, ``battery_resistance``: factors on the battery's capacity and
+  internal resistance; ``battery_charge``: its state of charge at the reset, in (0, 1]
+  (an airframe declaring a ``battery``);
 * ``drag``: factor on the body-drag coefficients (translational and rotational);
 * ``spawn_x``, ``spawn_y``, ``spawn_z`` [m], ``spawn_roll``, ``spawn_pitch``,
   ``spawn_yaw`` [rad]: offsets added to the task's spawn pose;
@@ -37,8 +42,16 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pyflyt_engine.errors import ConfigError
 
 AIRFRAME = ("mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag")
+#: factors on the optional airframe models, and what the airframe must declare for them
+MODELS = {
+    "motor_rotor_drag": "motors.rotor_drag",
+    "battery_capacity": "battery",
+    "battery_resistance": "battery",
+}
+#: values (not factors) of the optional models: name -> (what the airframe must declare, low, high)
+MODEL_VALUES = {"battery_charge": ("battery", 0.0, 1.0)}
 SPAWN = ("spawn_x", "spawn_y", "spawn_z", "spawn_roll", "spawn_pitch", "spawn_yaw")
-PARAMETERS = AIRFRAME + SPAWN
+PARAMETERS = AIRFRAME + tuple(MODELS) + tuple(MODEL_VALUES) + SPAWN
 
 
 class Distribution(BaseModel):
@@ -93,8 +106,12 @@ def check_names(entries: Mapping[str, Any], wind: Any) -> None:
             close = difflib.get_close_matches(name, PARAMETERS, n=1)
             hint = f" Did you mean '{close[0]}'?" if close else ""
             raise ValueError(f"unknown parameter '{name}'.{hint} Known: {', '.join(PARAMETERS)}, wind.<path>")
-        elif name in AIRFRAME and (dist.low is None or dist.low <= 0):
+        elif name in AIRFRAME + tuple(MODELS) and (dist.low is None or dist.low <= 0):
             raise ValueError(f"'{name}' is a factor on the nominal value: give it a lower bound low > 0")
+        elif name in MODEL_VALUES:
+            _, low, high = MODEL_VALUES[name]
+            if dist.low is None or dist.high is None or not (low < dist.low and dist.high <= high):
+                raise ValueError(f"'{name}' must stay in ({low:g}, {high:g}]: give it bounds {low:g} < low <= high <= {high:g}")
 
 
 def _wind_number(data: dict[str, Any], name: str) -> tuple[dict[str, Any], str]:
@@ -129,6 +146,20 @@ class Randomizer:
         self.world = world
         #: per vehicle of the world: its nominal (mass, inertia diagonal, motor and drag parameters)
         self._nominal = []
+        for name in self.entries:
+            needs = MODELS.get(name) or MODEL_VALUES.get(name, (None,))[0]
+            if needs is None:
+                continue
+            has = [
+                (v.battery is not None) if needs == "battery" else (v.motors is not None and v.motors.rotor_drag is not None)
+                for v in world.vehicles
+            ]
+            if not all(has):
+                raise ConfigError(
+                    f"randomize.{name}: the airframe has no '{needs}' to randomise; declare it in the airframe "
+                    "(docs/uav_authoring.md) or remove the entry"
+                )
+        self._battery = [v.battery.params if v.battery is not None else None for v in world.vehicles]
         for vehicle in world.vehicles:
             motors = vehicle.actuators.motors
             drag = vehicle.actuators.drag
@@ -158,13 +189,26 @@ class Randomizer:
                         kf=m.kf * values.get("motor_kf", 1.0),
                         kt=m.kt * values.get("motor_kt", 1.0),
                         tau=m.tau * values.get("motor_tau", 1.0),
+                        **self._model_factors(m, values),
                     )
                 )
+            elif motor_params is not None and "motor_rotor_drag" in values:
+                v.actuators.motors.set_params(dataclasses.replace(motor_params, **self._model_factors(motor_params, values)))
             if drag_params is not None and "drag" in values:
                 d, f = drag_params, values["drag"]
                 v.actuators.drag.set_params(
                     dataclasses.replace(
                         d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+                    )
+                )
+        for v, battery in zip(self.world.vehicles, self._battery):
+            if battery is not None and any(k.startswith("battery_") for k in values):
+                v.battery.set_params(  # the vehicle's reset, which follows, starts it at this charge
+                    dataclasses.replace(
+                        battery,
+                        capacity_mah=battery.capacity_mah * values.get("battery_capacity", 1.0),
+                        internal_resistance=battery.internal_resistance * values.get("battery_resistance", 1.0),
+                        initial_charge=values.get("battery_charge", battery.initial_charge),
                     )
                 )
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
@@ -182,6 +226,16 @@ class Randomizer:
                     f"randomize: the sampled wind {winds} is invalid ({exc}); bound the distributions (low/high)"
                 ) from None
         return values
+
+    @staticmethod
+    def _model_factors(m: Any, values: Mapping[str, float]) -> dict[str, Any]:
+        """The optional motor models' randomised fields: tau_fall with motor_tau, rotor_drag."""
+        out: dict[str, Any] = {}
+        if m.tau_fall is not None:
+            out["tau_fall"] = m.tau_fall * values.get("motor_tau", 1.0)
+        if m.rotor_drag is not None:
+            out["rotor_drag"] = m.rotor_drag * values.get("motor_rotor_drag", 1.0)
+        return out
 
     @staticmethod
     def spawn(

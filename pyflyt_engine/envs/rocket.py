@@ -1,4 +1,4 @@
-"""The Rocket environment of the paper: ``PyFlyt/Rocket-Landing-v0``.
+"""The Rocket environments: the paper's ``PyFlyt/Rocket-Landing-v0`` and its velocity-mode variant.
 
 The class is the generic :class:`~pyflyt_engine.envs.env.UAVEnv` bound to its shipped
 config (``conf/env/rocket_landing.yaml``) and the landing task
@@ -149,3 +149,47 @@ class RocketLandingEnv(UAVEnv):
     """
 
     config_name: ClassVar[str | None] = "rocket_landing"
+
+
+class RocketLandingVelocityEnv(RocketLandingEnv):
+    """``PyFlyt/Rocket-Landing-Velocity-v0``: Rocket-Landing flown through the rocket autopilot's ``velocity`` mode.
+
+    The task, start states, landing outcome, episode end and rewards (dense, sparse, and
+    the ``rocket_landing_envelope`` preset) are those of ``PyFlyt/Rocket-Landing-v0``
+    (:class:`RocketLandingEnv`).  Only the action differs: the agent commands a ground
+    velocity and an ignition permission, which the vehicle's rocket autopilot
+    (:mod:`pyflyt_engine.control.rocket`, flight mode ``velocity``) holds by thrust vectoring
+    and the grid fins.  Config: ``conf/env/rocket_landing_velocity.yaml``.
+
+    **Action space** ``Box(4,)``, float64, clipped to its bounds:
+
+    ====  ==========  ============  ==================================================
+    idx   name        bounds        meaning
+    ====  ==========  ============  ==================================================
+    0     vx          [-10, 10]     ground-frame velocity setpoint, east [m/s]
+    1     vy          [-10, 10]     north [m/s]
+    2     vz          [-100, 10]    up [m/s]
+    3     ignition    [0, 1]        > 0.5 lets the autopilot light the booster: it is lit
+                                    while the velocity loop asks for at least half the
+                                    minimum thrust (2 967 N); <= 0.5 keeps it out
+    ====  ==========  ============  ==================================================
+
+    The autopilot leans the long axis along the velocity loop's specific force (at most 20
+    deg), steering it with the fins (in descent) and the gimbal (while lit), and sets the
+    throttle for the asked vertical acceleration; the booster's minimum thrust exceeds the
+    weight, so holding a slow descent is pulsing at the control rate (120 Hz).  To land,
+    the booster must be out on the pad: ignition <= 0.5, or a velocity setpoint that asks
+    for less than half the minimum thrust (e.g. vz <= 0 at rest).
+
+    **Observation space** as ``PyFlyt/Rocket-Landing-v0``'s, with the previous action's 4
+    entries in place of 7: ``Box(27,)`` (quaternion) or ``Box(26,)`` (Euler).  The aux
+    state (fins, booster fuel, duty and ignition, gimbal) and the pad-contact flag follow.
+
+    **Arguments**: as ``PyFlyt/Rocket-Landing-v0``.  The ``rocket_velocity_lander`` oracle
+    (:mod:`pyflyt_engine.envs.oracles`) lands 49 of the first 50 seeded starts
+    (``experiments/results/rocket_landing_scripted.md``).
+
+    **Version history**: v0 — first version.
+    """
+
+    config_name: ClassVar[str | None] = "rocket_landing_velocity"

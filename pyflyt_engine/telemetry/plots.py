@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.errors import TelemetryError, require
 from pyflyt_engine.telemetry.episode import Episode, waypoint_markers
 from pyflyt_engine.telemetry.video import VIDEO_SUFFIXES
 
@@ -62,8 +62,7 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
     out = Path(out)
     if out.suffix.lower() not in PLOT_SUFFIXES:
         raise TelemetryError(f"--plot file must end in one of {', '.join(PLOT_SUFFIXES)}, got {out.name}")
-    import matplotlib
-
+    matplotlib = require("matplotlib", "plots", "plotting an episode")
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 

@@ -283,6 +283,7 @@ class RecordEpisode(gymnasium.Wrapper):
         self._ch_scene = f.channel("/scene", "foxglove.SceneUpdate", schemas.SCENE_UPDATE)
         self._ch_state = []
         self._ch_camera: list[list[int]] = []
+        self._ch_scans: list[list[int]] = []
         self._frames = [scene.vehicle_frame(i) for i in range(len(world.vehicles))]
         for i, vehicle in enumerate(world.vehicles):
             self._ch_state.append(
@@ -298,6 +299,17 @@ class RecordEpisode(gymnasium.Wrapper):
                 for k in range(len(vehicle.parts.cameras)):
                     cams.append(f.channel(f"/uav/{i}/camera/{k}", "foxglove.CompressedImage", schemas.COMPRESSED_IMAGE))
             self._ch_camera.append(cams)
+            self._ch_scans.append(
+                [
+                    f.channel(
+                        f"/uav/{i}/range/{sensor.name}",
+                        "foxglove.PointCloud",
+                        schemas.POINT_CLOUD,
+                        {"frame_id": scene.WORLD_FRAME, "sensor": sensor.kind, "max_range": repr(sensor.max_range)},
+                    )
+                    for sensor in vehicle.range_sensors
+                ]
+            )
         self._ch_wind = []
         if world.atmosphere.moving:  # wind or downwash
             for i in range(len(world.vehicles)):
@@ -372,6 +384,8 @@ class RecordEpisode(gymnasium.Wrapper):
             )
             if self._ch_wind:
                 self._write_wind(ns, stamp, time_s, i, vehicle)
+            for k, channel in enumerate(self._ch_scans[i]):
+                self._write_scan(ns, channel, i, k)
             cameras = vehicle.parts.cameras
             if cameras:
                 from pyflyt_engine.components.camera import camera_pose
@@ -390,6 +404,33 @@ class RecordEpisode(gymnasium.Wrapper):
                     )
                     if self._ch_camera[i]:
                         self._write_image(ns, i, k)
+
+    def _write_scan(self, ns: int, channel: int, i: int, k: int) -> None:
+        """Range sensor ``k`` of vehicle ``i``: its hit points as a point cloud in the world frame."""
+        import base64
+
+        from pyflyt_engine.components.range_sensor import points
+
+        world = self._base.world
+        vehicle = world.vehicles[i]
+        s = vehicle.state
+        cloud = points(vehicle.range_sensors[k], world.scan(i, k), s.lin_pos, s.quaternion).astype("<f4")
+        self._file.write(
+            channel,
+            ns,
+            {
+                "timestamp": scene.stamp(ns),
+                "frame_id": scene.WORLD_FRAME,
+                "pose": scene.pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+                "point_stride": 12,
+                "fields": [
+                    {"name": "x", "offset": 0, "type": 7},
+                    {"name": "y", "offset": 4, "type": 7},
+                    {"name": "z", "offset": 8, "type": 7},
+                ],
+                "data": base64.b64encode(np.ascontiguousarray(cloud).tobytes()).decode(),
+            },
+        )
 
     def _write_wind(self, ns: int, stamp: dict[str, int], time_s: float, i: int, vehicle: Any) -> None:
         """The wind at vehicle ``i`` (channel ``/uav/<i>/wind``) and its arrow in the scene."""

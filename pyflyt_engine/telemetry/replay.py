@@ -143,6 +143,10 @@ def _check_named_files(episode: Episode, config: dict[str, Any]) -> None:
     randomize = config.get("randomize")
     if isinstance(randomize, str) and not plain_name(randomize):
         raise _cannot_replay(episode, f"its randomisation names {randomize!r}, not a shipped preset")
+    obstacles = config.get("obstacles")
+    items = (obstacles.get("items") or []) if isinstance(obstacles, dict) else []
+    if any(isinstance(o, dict) and o.get("type") == "mesh" for o in items):
+        raise _cannot_replay(episode, "an obstacle draws a mesh file, which the recording does not hold")
     for payload in config.get("payloads") or []:
         shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
         if any(isinstance(s, dict) and s.get("type") == "mesh" for s in shapes):

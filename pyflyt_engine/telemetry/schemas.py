@@ -390,6 +390,60 @@ COMPRESSED_IMAGE: dict[str, Any] = {
     },
 }
 
+POINT_CLOUD: dict[str, Any] = {
+    "title": "foxglove.PointCloud",
+    "description": "A collection of N-dimensional points, which may contain additional fields with information like normals, intensity, etc.",
+    "$comment": "Follows https://github.com/foxglove/schemas (schemas/jsonschema/PointCloud.json)",
+    "type": "object",
+    "properties": {
+        "timestamp": _described(_TIME, "Timestamp of point cloud"),
+        "frame_id": {"type": "string", "description": "Frame of reference"},
+        "pose": _pose("The origin of the point cloud relative to the frame of reference"),
+        "point_stride": {
+            "type": "integer",
+            "minimum": 0,
+            "description": "Number of bytes between points in the `data`",
+        },
+        "fields": {
+            "type": "array",
+            "items": {
+                "title": "foxglove.PackedElementField",
+                "description": "A field present within each element in a byte array of packed elements.",
+                "type": "object",
+                "properties": {
+                    "name": {"type": "string", "description": "Name of the field"},
+                    "offset": {
+                        "type": "integer",
+                        "minimum": 0,
+                        "description": "Byte offset from start of data buffer",
+                    },
+                    "type": _enum(
+                        "foxglove.NumericType",
+                        "Type of data in the field. Integers are stored using little-endian byte order.",
+                        [
+                            ("UNKNOWN", 0, "Unknown type"),
+                            ("UINT8", 1, "Unsigned 8-bit integer"),
+                            ("INT8", 2, "Signed 8-bit integer"),
+                            ("UINT16", 3, "Unsigned 16-bit integer"),
+                            ("INT16", 4, "Signed 16-bit integer"),
+                            ("UINT32", 5, "Unsigned 32-bit integer"),
+                            ("INT32", 6, "Signed 32-bit integer"),
+                            ("FLOAT32", 7, "32-bit floating-point number"),
+                            ("FLOAT64", 8, "64-bit floating-point number"),
+                        ],
+                    ),
+                },
+            },
+            "description": "Fields in `data`. At least 2 coordinate fields from `x`, `y`, and `z` are required for each point's position; `red`, `green`, `blue`, and `alpha` are optional for customizing each point's color.",
+        },
+        "data": {
+            "type": "string",
+            "contentEncoding": "base64",
+            "description": "Point data, interpreted using `fields`",
+        },
+    },
+}
+
 # ------------------------------------------------------------------------ pyflyt messages
 
 _STAMP = {**_TIME, "required": ["sec", "nsec"], "additionalProperties": False}
@@ -510,5 +564,7 @@ EPISODE_EVENT = _strict(
 #: schema name -> schema, for every channel kind a recording uses
 ALL: dict[str, dict[str, Any]] = {
     s["title"]: s
-    for s in (FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, VEHICLE_STATE, WIND, ACTION, REWARD, EPISODE_EVENT)
+    for s in (
+        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, ACTION, REWARD, EPISODE_EVENT
+    )
 }

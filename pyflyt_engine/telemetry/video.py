@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pyflyt_engine.errors import TelemetryError
+from pyflyt_engine.errors import TelemetryError, require
 from pyflyt_engine.telemetry.episode import Episode, waypoint_markers, waypoint_radius
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -464,8 +464,7 @@ def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
         OSError: the file could not be written completely (an MP4 is checked: ffmpeg's
             own failures are not reported by imageio).
     """
-    import imageio.v2 as imageio
-
+    imageio = require("imageio.v2", "plots", "writing a video")
     frames = [np.asarray(f)[..., :3] for f in frames]
     if Path(out).suffix.lower() == ".gif":
         imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)

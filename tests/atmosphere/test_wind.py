@@ -75,7 +75,11 @@ def test_cli_bad_wind_exits_2(args):
 def test_cli_flies_in_wind():
     result = runner.invoke(app, ["fly", "wind=constant", "wind.mean.speed=4", "duration=1", "rows=2"])
     assert result.exit_code == 0, result.output
-    assert "wind: constant" in result.output
+    # the preset's own description (3 m/s) would be wrong once its speed is overridden
+    assert "wind: constant (with wind.mean.speed=4)" in result.output
+    plain = runner.invoke(app, ["fly", "wind=constant", "duration=0.1", "rows=2"])
+    assert plain.exit_code == 0, plain.output
+    assert "wind: constant (steady uniform wind, 3 m/s toward +x)" in plain.output
 
 
 # ------------------------------------------------------------------ profiles

@@ -21,6 +21,22 @@ def test_fly_defaults_hover_one_metre_and_prints_summary():
     assert abs(z - 1.0) < 0.05 and abs(x) < 0.05 and abs(y) < 0.05
 
 
+@pytest.mark.parametrize("mode", ["velocity", "attitude_thrust"])
+def test_fly_a_rocket_mode_holds_the_spawn_height_and_flies_a_setpoint(mode):
+    """The shipped rocket spawns with a full tank: it can hover on thrust."""
+    result = runner.invoke(app, ["fly", "uav=rocket", f"mode={mode}", "position=[0,0,100]", "duration=3", "rows=2"])
+    assert result.exit_code == 0, result.output
+    assert f"rocket in mode {mode}" in result.output
+    final = re.search(r"final position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", result.output)
+    assert abs(float(final.group(3)) - 100.0) < 0.5
+    if mode == "velocity":
+        result = runner.invoke(
+            app, ["fly", "uav=rocket", "mode=velocity", "setpoint={vz:2,ignition:1}", "position=[0,0,100]", "duration=3"]
+        )
+        final = re.search(r"final position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", result.output)
+        assert 104.0 < float(final.group(3)) < 106.0  # 2 m/s up, reached within a fraction of a second
+
+
 def test_fly_with_named_setpoint_and_other_airframe():
     result = runner.invoke(app, ["fly", "uav=quadx_f450", "mode=7", "setpoint={x:1,z:2}", "duration=5", "rows=2"])
     assert result.exit_code == 0, result.output
@@ -67,3 +83,6 @@ def test_modes_lists_names_and_pyflyt_numbers():
     assert result.exit_code == 0
     assert re.search(r"position_yaw\s+7\s+\[x, y, yaw, z\]", result.output)
     assert re.search(r"motors\s+-1", result.output)
+    assert re.search(r"velocity\s+\[vx, vy, vz, ignition\]", result.output)
+    assert re.search(r"attitude_thrust\s+\[tilt_x, tilt_y, roll_rate, throttle, ignition\]", result.output)
+    assert re.search(r"attitude_airspeed\s+\[roll, pitch, yaw_rate, airspeed\]", result.output)

@@ -70,7 +70,7 @@ def _invoke(*args: str):
     return CliRunner().invoke(app, list(args), terminal_width=120)
 
 
-@pytest.mark.parametrize("command", [["train"], ["replay"], ["benchmark"], ["speed"], ["uav", "show"]])
+@pytest.mark.parametrize("command", [["train"], ["replay"], ["benchmark"], ["speed"], ["export"], ["uav", "show"]])
 def test_help_lists_flags_without_a_value_type(command):
     """`--verify` is a switch: no `<bool>` beside it, as if it took a value; options that
     take one keep their type."""

@@ -6,7 +6,7 @@ do not count), so nothing is imported to check it.
 
 The layers, lowest first (``LAYERS``): the foundations (errors, exact arithmetic,
 frames, the allocation matrix ...), the airframe spec, the models built from a spec
-(URDF, actuator components, payloads), the atmosphere, the controller and the assembly,
+(URDF, actuator components, payloads, obstacles), the atmosphere, the controller and the assembly,
 the vehicle, the world, the environments and the flight API, telemetry, and the
 compatibility layer for the reference's API.  A module
 may import anything in its own layer or a lower one, never a higher one; within a layer
@@ -28,7 +28,7 @@ ENGINE = Path(__file__).resolve().parents[2] / "pyflyt_engine"
 LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "exact", "constants", "numerics", "paths", "safe_load", "frames", "state", "bullet", "allocation", "loading", "spatial"}),
     frozenset({"spec"}),
-    frozenset({"urdf", "components", "payloads"}),
+    frozenset({"urdf", "components", "payloads", "obstacles"}),
     frozenset({"atmosphere", "assembly", "control"}),
     frozenset({"vehicle"}),
     frozenset({"world"}),

@@ -57,6 +57,8 @@ CASES: list[str] = [
     "fly:flying_wing/attitude_airspeed",
     "fly:flying_wing/channels",
     "fly:rocket/channels",
+    "fly:rocket/velocity",
+    "fly:rocket/attitude_thrust",
     "gym:PyFlyt/QuadX-Hover-v0",
     "gym:PyFlyt/QuadX-Waypoints-v0",
     "gym:PyFlyt/Fixedwing-Waypoints-v0",
@@ -72,6 +74,12 @@ MULTIROTOR_SETPOINTS = {
     "velocity_yaw": [-0.3, 0.5, -0.4, 0.2],
     "attitude_z": [-0.1, 0.1, 0.3, 2.5],
     "heading_velocity_z": [0.5, -0.3, 0.2, 2.5],
+}
+
+#: the rocket autopilot's modes, from 5 m with a full tank (it can hover)
+ROCKET_SETPOINTS = {
+    "velocity": [0.5, -0.3, 0.5, 1.0],
+    "attitude_thrust": [0.05, -0.05, 0.1, 0.6, 1.0],
 }
 
 
@@ -100,6 +108,8 @@ def _fly(uav: str, mode: str, steps: int = 60) -> list[list[float]]:
             ]
         elif mode == "attitude_airspeed":
             setpoint = [0.2 * math.sin(0.1 * step), 0.05, 0.1, 18.0]
+        elif mode in ROCKET_SETPOINTS:
+            setpoint = ROCKET_SETPOINTS[mode]
         elif mode == "motors":
             hover = vehicle.hover_throttle()
             n = len(vehicle.parts.mixer_motors)
@@ -277,9 +287,10 @@ def _fly_every_mode(uav: str) -> None:
 
     spec = load_uav_spec(uav)
     kind = spec.control.type
-    modes = {"multirotor": list(MULTIROTOR_MODES), "fixedwing": list(FIXEDWING_MODES)}.get(kind, ["channels"])
     world = World(seed=1, wind="dryden_light", ground_effect=True)
     vehicle = world.vehicles[world.add_vehicle(spec, (0.0, 0.0, 3.0), (0.0, 0.0, 0.0))]
+    modes = {"multirotor": list(MULTIROTOR_MODES), "fixedwing": list(FIXEDWING_MODES)}.get(kind, ["channels"])
+    modes += [m for m in vehicle.mode_names if m not in modes]  # e.g. the rocket autopilot's
     world.reset(seed=1)
     for mode in modes:
         vehicle.set_mode(mode)
@@ -341,6 +352,12 @@ def test_nothing_on_the_simulated_path_calls_cpu_dispatched_numpy(monkeypatch):
     env = gymnasium.make("PyFlyt/Rocket-Landing-v0", disable_env_checker=True)
     observation, _ = env.reset(seed=0)
     oracle = make_oracle("rocket_lander", env)
+    for _ in range(5):
+        observation, *_ = env.step(oracle(observation).astype(env.action_space.dtype))
+    env.close()
+    env = gymnasium.make("PyFlyt/Rocket-Landing-Velocity-v0", disable_env_checker=True)
+    observation, _ = env.reset(seed=0)
+    oracle = make_oracle("rocket_velocity_lander", env)
     for _ in range(5):
         observation, *_ = env.step(oracle(observation).astype(env.action_space.dtype))
     env.close()

@@ -53,6 +53,10 @@ def _rocket_policy(rng: np.random.Generator) -> np.ndarray:
     return np.array([*rng.uniform(-1, 1, 3), rng.uniform(0, 1), rng.uniform(0, 1), *rng.uniform(-1, 1, 2)])
 
 
+def _rocket_velocity_policy(rng: np.random.Generator) -> np.ndarray:
+    return np.array([*rng.uniform(-3, 3, 2), rng.uniform(-20, 5), rng.uniform(0, 1)])
+
+
 def _motors_policy(rng: np.random.Generator) -> np.ndarray:
     # around the pole-carrying f450's hover throttle ((1.2 kg g / 40 N)^0.5 = 0.54)
     return 0.54 + rng.uniform(-0.03, 0.03, 4)
@@ -75,6 +79,10 @@ PROFILES: dict[str, EnvProfile] = {
     # 4 fins + booster (fuel, duty, ignition) + 2 gimbal angles; then the pad contact flag;
     # dropped from 450 m, +-20 m sideways
     "PyFlyt/Rocket-Landing-v0": EnvProfile(9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 7, _rocket_policy),
+    # the same vehicle and task, flown by the velocity mode (ignition 0: free fall)
+    "PyFlyt/Rocket-Landing-Velocity-v0": EnvProfile(
+        9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 4, _rocket_velocity_policy
+    ),
     # 4 motor throttles; then 12 pole values (tip, base positions and velocities, body frame)
     "PyFlyt/QuadX-Pole-Balance-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),
     "PyFlyt/QuadX-Pole-Waypoints-v0": EnvProfile(
@@ -86,6 +94,11 @@ PROFILES: dict[str, EnvProfile] = {
     ),
     # the attitude vector as QuadX-Waypoints; the image and the gate deltas are separate keys
     "PyFlyt/QuadX-Gates-v0": EnvProfile(4, 0, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy),
+    # the attitude vector as QuadX-Waypoints; the goal vector and the LiDAR are separate keys;
+    # spawn 4 m behind the forest
+    "PyFlyt/QuadX-Obstacles-v0": EnvProfile(
+        4, 0, (-4.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.125), _quadx_policy
+    ),
 }
 
 

@@ -32,6 +32,8 @@ PAYLOAD = [
     }
 ]
 CAMERA = {"camera": {"name": "eye", "width": 16, "height": 12}}
+OBSTACLES = {"items": [{"type": "box", "size": [2.0, 2.0, 0.1], "position": [0.0, 0.0, 1.4]}]}
+RANGE_SENSORS = [{"name": "lidar", "type": "lidar", "horizontal_beams": 8}]
 STACKED = [
     {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
     {"spawn": {"position": [0.0, 0.0, 1.6], "position_noise": 0.0, "orientation_noise": 0.0}},
@@ -75,8 +77,12 @@ SINGLE: dict[str, tuple[dict[str, Any], Any]] = {
     ),
     "camera_observation": ({}, CAMERA),
     "payloads": ({}, PAYLOAD),
+    # a slab 0.4 m above the spawn point: the climbing vehicle hits it (a crash)
+    "obstacles": ({}, OBSTACLES),
+    "range_sensors": ({}, RANGE_SENSORS),
     "ground_effect": ({}, True),
     "randomize": ({}, "moderate"),
+    "latency": ({}, {"action_delay": 0.02, "observation_delay": 0.02}),
     # task options
     "start_position": ({}, (0.0, 0.0, 1.5)),
     "start_position_noise": ({}, 0.0),
@@ -102,7 +108,7 @@ MULTI: dict[str, tuple[dict[str, Any], Any]] = {
     "orientation_noise": ({}, 0.0),
 }
 #: multi-agent keys refused at load (tests/envs/test_multi_agent_parity.py says why)
-REFUSED_MULTI = {"payloads", "camera_observation"}
+REFUSED_MULTI = {"payloads", "camera_observation", "obstacles", "range_sensors"}
 
 
 def _fields(config_model: type, options_model: type) -> set[str]:

@@ -146,6 +146,8 @@ def test_crash_on_contact_false_keeps_touching_agents_in_the_episode():
             ],
         ),
         ("camera_observation", {"camera": {"name": "eye"}}),
+        ("obstacles", {"items": [{"type": "sphere", "radius": 0.2, "position": [2.0, 0.0, 1.0]}]}),
+        ("range_sensors", [{"name": "lidar", "type": "lidar"}]),
     ],
 )
 def test_keys_a_multi_agent_env_cannot_fly_are_refused_at_load_by_name(key, value):

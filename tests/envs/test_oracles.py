@@ -14,6 +14,7 @@ from pyflyt_engine.envs.oracles import ORACLES, make_oracle
 from pyflyt_engine.errors import ConfigError
 
 ROCKET = "PyFlyt/Rocket-Landing-v0"
+VELOCITY = "PyFlyt/Rocket-Landing-Velocity-v0"
 
 
 @pytest.mark.parametrize("seed", [0, 7])
@@ -81,3 +82,38 @@ def test_an_oracle_refuses_another_env_and_unknown_names_are_listed(make):
         make_oracle("lander", None)
     with pytest.raises(ConfigError, match="quaternion"):
         make_oracle("rocket_lander", make(ROCKET, angle_representation="euler"))
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_the_velocity_lander_lands_seeded_drops_through_the_autopilot(make, seed):
+    """The guidance alone (a velocity setpoint and an ignition permission); the rocket
+    autopilot does the attitude, the thrust vectoring and the booster's timing."""
+    env = make(VELOCITY)
+    oracle = make_oracle("rocket_velocity_lander", env)
+    obs, _ = env.reset(seed=seed)
+    start = obs.copy()
+    done, lit = False, 0
+    while not done:
+        action = oracle(obs)
+        assert env.action_space.contains(action)
+        obs, _, terminated, truncated, info = env.step(action)
+        lit += obs[-4] == 1.0  # the booster's ignited flag (aux)
+        done = terminated or truncated
+    assert np.linalg.norm(start[10:12]) > 1.0
+    assert lit > 0  # the autopilot lit the booster on its own rule
+    assert info["safe_landing"] and info["success"] and terminated
+    assert 0.0 <= info["touchdown_speed"] < 1.0 and info["pad_distance"] < 2.0
+
+
+def test_the_velocity_lander_is_a_function_of_the_observation_and_refuses_the_raw_env(make):
+    env = make(VELOCITY)
+    first, second = make_oracle("rocket_velocity_lander", env), make_oracle("rocket_velocity_lander", env)
+    obs, _ = env.reset(seed=3)
+    seen = []
+    for _ in range(100):
+        seen.append(obs.copy())
+        obs, *_ = env.step(first(obs))
+    for o in reversed(seen):
+        np.testing.assert_array_equal(second(o), first(o))
+    with pytest.raises(ConfigError, match="flies PyFlyt/Rocket-Landing-Velocity-v0, not PyFlyt/Rocket-Landing-v0"):
+        make_oracle("rocket_velocity_lander", make(ROCKET))

@@ -348,3 +348,15 @@ def test_a_scripted_hoverslam_lands_from_the_450_m_drop_and_the_envelope_reward_
     assert landing - crash > 300.0
     landing, crash = returns["rocket_landing_dense"]
     assert abs(landing - crash) < 0.01 * abs(crash)
+
+
+def test_a_mode_without_a_matching_action_layout_is_refused_with_the_layout():
+    """``env.action.mode=velocity`` on the raw-channel config: the message names the mode's layout."""
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.envs.config import load_env_config
+    from pyflyt_engine.errors import ConfigError
+
+    data = load_env_config("rocket_landing").model_dump(exclude={"source"})
+    data["action"]["mode"] = "velocity"
+    with pytest.raises(ConfigError, match=r"takes 4 \(vx, vy, vz, ignition\): give action.names, low and high"):
+        make_env(data)

@@ -139,6 +139,10 @@ class MultiAgentUAVEnv(ParallelEnv):
             downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
+        #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency")
+        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
+        for vehicle in self.vehicles:
+            vehicle.set_latency(*self.latency_steps)
         n_act = len(cfg.action.names)
         aux = {v.aux_state.size for v in self.vehicles}
         for agent, vehicle in zip(self.agent_list, self.vehicles):
@@ -417,9 +421,11 @@ class MultiAgentUAVEnv(ParallelEnv):
     # ------------------------------------------------------------- helpers
 
     def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        attitude = core.attitude_vector(
-            states[i], self._quaternion, self._actions[i].tolist(), self.vehicles[i].aux_state.tolist()
-        )
+        aux = self.vehicles[i].aux_state.tolist()
+        if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
+            delayed = [v.delayed_observation() for v in self.vehicles]
+            states, aux = [state for state, _ in delayed], delayed[i][1]
+        attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
         return np.concatenate((attitude, self._task_observe(i, states)))
 
     def _reset_info(self, i: int) -> dict[str, Any]:

@@ -11,6 +11,7 @@ import difflib
 from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.gates import GatesOptions, GatesTask
+from pyflyt_engine.envs.tasks.goal import GoalOptions, GoalTask
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
 from pyflyt_engine.envs.tasks.pole import PoleBalanceOptions, PoleBalanceTask, PoleWaypointsOptions, PoleWaypointsTask
@@ -25,6 +26,7 @@ TASKS: dict[str, type[Task]] = {
     PoleWaypointsTask.name: PoleWaypointsTask,
     BallInCupTask.name: BallInCupTask,
     GatesTask.name: GatesTask,
+    GoalTask.name: GoalTask,
 }
 
 
@@ -51,6 +53,8 @@ __all__ = [
     "BallInCupTask",
     "GatesOptions",
     "GatesTask",
+    "GoalOptions",
+    "GoalTask",
     "HoverOptions",
     "HoverTask",
     "LandingOptions",

@@ -236,6 +236,11 @@ class Task:
         """Ground-frame points to draw when rendering, ``(n, 3)`` (none by default)."""
         return np.zeros((0, 3))
 
+    def keep_clear(self) -> np.ndarray:
+        """Ground-frame points generated obstacles keep clear of, ``(n, 3)``, besides the spawn
+        point (called after :meth:`reset`; default: the :meth:`markers`, the goals)."""
+        return self.markers()
+
     def marker_style(self) -> tuple[int, float]:
         """(most markers ever drawn at once, sphere radius [m]), for the renderer."""
         return len(self.markers()), 0.05

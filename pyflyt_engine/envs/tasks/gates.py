@@ -19,9 +19,23 @@ nothing.
 Signals: ``target_distance`` [m] and ``target_distance_rate`` [m/s] to the next gate's
 centre, ``waypoint_reached`` when a gate is passed.
 
-Observation: ``Dict(attitude=Box, target_deltas=Sequence(Box(3,), stack=True))``: body-frame
-vectors [m] from the vehicle to the centre of every gate not yet passed, next first
-(as the waypoint tasks); env configs add the camera image with ``camera_observation``.
+Observation (task option ``observation``), env configs adding the camera image with
+``camera_observation``:
+
+* ``deltas`` (default): ``Dict(attitude=Box, target_deltas=Sequence(Box(3,), stack=True))``:
+  body-frame vectors [m] from the vehicle to the centre of every gate not yet passed,
+  next first (as the waypoint tasks);
+* ``corners``: ``Dict(attitude=Box, gate=Box(12,))``: body-frame vectors [m] from the
+  vehicle to the 4 corners of the next gate's opening, (x, y, z) of each in turn, seen
+  along the gate's +x: top left, top right, bottom right, bottom left (zeros once every
+  gate is passed);
+* ``relative_pose``: ``Dict(attitude=Box, gate=Box(7,))``: the next gate's centre in the
+  body frame [m], then its attitude relative to the body as a quaternion (x, y, z, w) of
+  ``R_body^T R_gate`` (zeros once every gate is passed).
+
+``corners`` and ``relative_pose`` are fixed-size, so Stable-Baselines3 takes them as they
+are (``MultiInputPolicy`` with the image); the training wrappers flatten ``deltas`` to
+the next gates (:class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`).
 """
 
 from __future__ import annotations
@@ -37,7 +51,7 @@ from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.waypoints import body_frame_deltas
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_matrix, quaternion_to_rows
+from pyflyt_engine.frames import euler_to_quaternion, matrix_to_quaternion, quaternion_to_matrix, quaternion_to_rows
 from pyflyt_engine.state import KinematicState
 
 
@@ -56,6 +70,12 @@ class GatesOptions(TaskOptions):
     max_turn: float = Field(1.0, ge=0, le=math.pi, description="random course: largest heading change per gate [rad]")
     max_climb: float = Field(
         0.3, ge=0, lt=math.pi / 2, description="random course: largest climb or dive angle between gates [rad]"
+    )
+    observation: Literal["deltas", "corners", "relative_pose"] = Field(
+        "deltas",
+        description="what the agent sees of the course besides the image: deltas (target_deltas, every gate left), "
+        "corners (gate: the next gate's 4 opening corners, body frame) or relative_pose (gate: the next gate's "
+        "centre and attitude relative to the body)",
     )
     min_gate_height: float = Field(1.0, ge=0, description="random course: lowest gate centre [m]")
     max_gate_height: float = Field(3.0, gt=0, description="random course: highest gate centre [m]")
@@ -197,14 +217,43 @@ class GatesTask(Task):
         return self.centres[self.num_passed :]
 
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
+        kind = self.options.observation
+        if kind == "corners":
+            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(12,), dtype=np.float64)})
+        if kind == "relative_pose":
+            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(7,), dtype=np.float64)})
         deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
         return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
-        return {
-            "attitude": attitude,
-            "target_deltas": body_frame_deltas(self.remaining, state.lin_pos, state.quaternion),
-        }
+        kind = self.options.observation
+        if kind == "deltas":
+            return {
+                "attitude": attitude,
+                "target_deltas": body_frame_deltas(self.remaining, state.lin_pos, state.quaternion),
+            }
+        i = self.num_passed
+        if i >= len(self.options.gates):  # the course is flown: nothing ahead
+            return {"attitude": attitude, "gate": np.zeros(12 if kind == "corners" else 7)}
+        if kind == "corners":
+            corners = body_frame_deltas(self.corners(i), state.lin_pos, state.quaternion)
+            return {"attitude": attitude, "gate": np.ascontiguousarray(corners).reshape(12)}
+        centre = body_frame_deltas(self.centres[i : i + 1], state.lin_pos, state.quaternion)[0]
+        body = quaternion_to_rows(state.quaternion)
+        relative = np.array(exact.matmul(exact.transpose(body), self.rotations[i]))  # gate -> body rotation
+        return {"attitude": attitude, "gate": np.array([*centre, *matrix_to_quaternion(relative)])}
+
+    def keep_clear(self) -> np.ndarray:
+        """The gate centres: generated obstacles keep clear of them."""
+        return self.centres.copy()
+
+    def corners(self, index: int) -> np.ndarray:
+        """Ground-frame corners of gate ``index``'s opening, ``(4, 3)`` [m]: seen along the
+        gate's +x (the way it is passed), top left, top right, bottom right, bottom left."""
+        h = 0.5 * self.options.opening
+        rotation = self.rotations[index]
+        local = ((0.0, h, h), (0.0, -h, h), (0.0, -h, -h), (0.0, h, -h))
+        return np.array([[c + d for c, d in zip(self.centres[index], exact.rotate(rotation, p))] for p in local])
 
     def update(self, state: KinematicState) -> TaskSignals:
         o = self.options

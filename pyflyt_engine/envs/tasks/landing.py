@@ -179,8 +179,7 @@ class LandingTask(Task):
         self.pad_id = p.createMultiBody(
             0.0, collision, visual, basePosition=(0.0, 0.0, 0.5 * o.pad_height), physicsClientId=cid
         )
-        self._pad_row = world.add_body(self.pad_id)
-        self._vehicle_row = world.contact_bodies.index(world.vehicles[0].body_id)
+        world.add_body(self.pad_id)  # its contacts tracked (World.bodies_touched)
         self.world = world
 
     # ------------------------------------------------------------- episode
@@ -229,13 +228,12 @@ class LandingTask(Task):
         return spaces.Box(low, high, dtype=np.float64)
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> np.ndarray:
-        return np.append(attitude, 1.0 if self._signals[0] else 0.0)
+        return np.concatenate((attitude, (1.0 if self._signals[0] else 0.0,)))  # np.append without its wrapper
 
     def update(self, state: KinematicState) -> TaskSignals:
         assert self.world is not None, "LandingTask.setup(world) was not called"
         o = self.options
-        contacts = self.world.contact_array
-        on_pad = bool(contacts[self._vehicle_row, self._pad_row])
+        on_pad = self.world.bodies_touched(self.world.vehicles[0].body_id, self.pad_id)
         ground = self.world.collided_with_ground(0)
         speed = _norm(state.lin_vel)
         tilt = tilt_angle(state.quaternion)

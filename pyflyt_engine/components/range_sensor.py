@@ -1,0 +1,195 @@
+"""Range sensors by ray casting: a scanning LiDAR and a low-resolution depth camera.
+
+Both cast one ray per beam or pixel with ``pybullet.rayTestBatch`` against the collision
+shapes of the world (the ground, obstacles, payloads, other vehicles); nothing is
+rendered.  A ray starts ``min_range`` from the sensor's origin (so the airframe carrying
+it is never seen: choose ``min_range`` beyond its collision shape) and ends at
+``max_range``.  The rays of a vehicle's sensors skip every body in collision filter group
+:data:`RAY_SKIP_GROUP` -- the vehicles carrying range sensors, which the vehicle puts in
+that group (their collision mask stays "everything", so they collide as before) -- so a
+sensor never sees its own airframe, nor another sensor-carrying vehicle.
+
+Frames: the sensor's frame follows the body convention (x forward, y left, z up) and is
+mounted on the body at ``position`` (relative to the body origin, the centre of mass) and
+``orientation`` (roll, pitch, yaw, the camera's convention: positive pitch looks down).
+The beam directions are fixed in the body frame when the vehicle is built; each scan
+turns them into the ground frame with the body's rotation by elementwise NumPy
+products and sums (exact, no BLAS).
+
+Readings (float32, ``max_range`` where nothing is hit):
+
+===========  =======================  ================================================
+sensor       shape                    value
+===========  =======================  ================================================
+``lidar``    (vertical, horizontal)   distance along the beam [m]; row 0 the lowest
+             or (horizontal,) for     elevation, column 0 the most clockwise azimuth
+             one scan line
+``depth``    (height, width)          distance along the optical axis (+x) [m]; row 0
+                                      the top of the image, column 0 its left
+===========  =======================  ================================================
+
+Noise: each reading of a hit gets ``noise_std * eta``, ``eta ~ N(0, 1)`` from the
+sensor's own seeded stream (apart from the physics' streams), clipped to
+``[min_range, max_range]``; readings of rays that hit nothing stay ``max_range``.
+A scan is refreshed at most once per ``1 / rate_hz`` of simulated time.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pyflyt_engine import exact
+from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_rows
+
+if TYPE_CHECKING:
+    from pyflyt_engine.spec import DepthSensorSpec, LidarSpec
+
+#: most rays PyBullet casts in one ``rayTestBatch`` call
+MAX_BATCH = 16384
+#: collision filter group of a vehicle carrying range sensors (its collision mask stays
+#: "everything", so it collides as any body); its sensors' rays skip this group: every ray
+#: starts inside the vehicle's bounding box, and testing each against its shape would cost
+#: ~4 us a ray (docs/obstacles_and_sensors.md)
+RAY_SKIP_GROUP = 1 << 20
+#: the rays' collision mask: every group but :data:`RAY_SKIP_GROUP`
+RAY_MASK = -1 ^ RAY_SKIP_GROUP
+
+
+def lidar_directions(spec: LidarSpec) -> tuple[list[tuple[float, float, float]], tuple[int, int]]:
+    """Unit beam directions in the sensor frame, row-major over (vertical, horizontal)."""
+    h, v = math.radians(spec.horizontal_fov_deg), math.radians(spec.vertical_fov_deg)
+    n, m = spec.horizontal_beams, spec.vertical_beams
+    out = []
+    for j in range(m):
+        elevation = -0.5 * v + (j + 0.5) * v / m
+        ce, se = math.cos(elevation), math.sin(elevation)
+        for k in range(n):
+            azimuth = -0.5 * h + (k + 0.5) * h / n
+            out.append((ce * math.cos(azimuth), ce * math.sin(azimuth), se))
+    return out, (m, n)
+
+
+def depth_directions(spec: DepthSensorSpec) -> tuple[list[tuple[float, float, float]], tuple[int, int], list[float]]:
+    """Unit pixel-centre directions in the sensor frame (row-major, row 0 the top), the
+    shape, and per pixel the cosine to the optical axis (range -> depth)."""
+    w, hgt = spec.width, spec.height
+    tv = math.tan(math.radians(spec.fov) / 2.0)
+    th = tv * w / hgt  # the horizontal half-angle's tangent follows from the aspect ratio
+    out, cosines = [], []
+    for r in range(hgt):
+        z = tv * (1.0 - 2.0 * (r + 0.5) / hgt)
+        for c in range(w):
+            y = th * (1.0 - 2.0 * (c + 0.5) / w)  # column 0 is the left: +y
+            norm = math.sqrt(1.0 + y * y + z * z)
+            out.append((1.0 / norm, y / norm, z / norm))
+            cosines.append(1.0 / norm)
+    return out, (hgt, w), cosines
+
+
+class RangeSensor:
+    """One ray-cast sensor on a vehicle.
+
+    Args:
+        spec: the sensor's :class:`~pyflyt_engine.spec.LidarSpec` or
+            :class:`~pyflyt_engine.spec.DepthSensorSpec`.
+        offset: mount point relative to the body origin (centre of mass), body frame [m].
+        rng: the sensor's noise stream.
+    """
+
+    def __init__(self, spec: Any, offset: Sequence[float], rng: np.random.Generator) -> None:
+        self.spec = spec
+        self.name: str = spec.name
+        self.kind: str = spec.type
+        self.offset = tuple(float(v) for v in offset)
+        self.min_range, self.max_range = float(spec.min_range), float(spec.max_range)
+        if self.kind == "lidar":
+            directions, self.shape = lidar_directions(spec)
+            if self.shape[0] == 1:  # one scan line: a vector of the horizontal beams
+                self.shape = (self.shape[1],)
+            self._axial = None
+        else:
+            directions, self.shape, cosines = depth_directions(spec)
+            self._axial = np.array(cosines)
+        mount = quaternion_to_rows(euler_to_quaternion(*(math.radians(a) for a in spec.orientation_deg)))
+        body = [exact.rotate(mount, d) for d in directions]  # beam directions in the body frame
+        #: (n, 3): the body-frame beam directions, one row per beam, and its columns (n, 1)
+        self._directions = np.array(body)
+        self._columns = [self._directions[:, i : i + 1].copy() for i in range(3)]
+        self.rng = rng
+        self._last: tuple[float, np.ndarray] | None = None
+
+    @property
+    def count(self) -> int:
+        """Rays per scan."""
+        return int(self._directions.shape[0])
+
+    def rays(self, position: Sequence[float], quaternion: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Ground-frame ray starts and ends, ``(n, 3)`` each, for a body at ``position``, ``quaternion``."""
+        r = quaternion_to_rows(quaternion)
+        origin = np.array(exact.rotate(r, self.offset)) + np.asarray(position, dtype=np.float64)
+        rt = np.array(r).T  # rt[j] = column j of R
+        dx, dy, dz = self._columns
+        # R d for every beam as elementwise products and sums in a fixed order: exact, no BLAS
+        ground = dx * rt[0] + dy * rt[1] + dz * rt[2]
+        return origin + self.min_range * ground, origin + self.max_range * ground
+
+    def scan(
+        self, client: int, position: Sequence[float], quaternion: Sequence[float], time: float | None = None
+    ) -> np.ndarray:
+        """The readings (module docstring), cast again when ``1 / rate_hz`` has passed since the last."""
+        cached = self._last
+        if time is not None and cached is not None and time - cached[0] < 1.0 / self.spec.rate_hz - 1e-9:
+            return cached[1].copy()
+        starts, ends = self.rays(position, quaternion)
+        n = self.count
+        results: list = []
+        # the ray lists and PyBullet's result tuples are thousands of small containers: with
+        # the cyclic garbage collector on, their allocation sets off collections that walk
+        # every live object of the process (for a 64 x 48 image: ~11 ms a scan instead of
+        # ~4); none of them can form a cycle, so collection waits until they are freed
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            for a in range(0, n, MAX_BATCH):
+                b = min(a + MAX_BATCH, n)
+                results += p.rayTestBatch(
+                    starts[a:b].tolist(), ends[a:b].tolist(), collisionFilterMask=RAY_MASK, physicsClientId=client
+                )
+            # PyBullet reports fraction 1 for a ray that hits nothing: its reading is max_range
+            fractions = np.array([r[2] for r in results])
+            del results
+        finally:
+            if collecting:
+                gc.enable()
+        hit = fractions < 1.0
+        ranges = self.min_range + fractions * (self.max_range - self.min_range)
+        if self.spec.noise_std > 0:
+            eta = self.rng.standard_normal(self.count)
+            ranges = np.where(hit, np.clip(ranges + self.spec.noise_std * eta, self.min_range, self.max_range), ranges)
+        if self._axial is not None:  # depth camera: along the optical axis
+            ranges = np.where(hit, ranges * self._axial, self.max_range)
+        readings = ranges.reshape(self.shape).astype(np.float32)
+        self._last = (time if time is not None else float("nan"), readings)
+        return readings.copy()
+
+    def reset(self) -> None:
+        """Forget the last scan."""
+        self._last = None
+
+
+def points(sensor: RangeSensor, readings: np.ndarray, position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
+    """The hit points of a scan in the ground frame, ``(k, 3)`` (rays that hit nothing left out)."""
+    starts, ends = sensor.rays(position, quaternion)
+    values = np.asarray(readings, dtype=np.float64).reshape(-1)
+    if sensor._axial is not None:
+        values = values / sensor._axial
+    unit = (ends - starts) / (sensor.max_range - sensor.min_range)
+    origin = starts - sensor.min_range * unit
+    keep = values < sensor.max_range - 1e-6
+    return origin[keep] + values[keep, None] * unit[keep]

@@ -1,0 +1,129 @@
+"""Goal: reach one goal point, drawn at every reset, typically through obstacles.
+
+The goal is drawn uniformly in the box ``goal_x_range`` x ``goal_y_range`` x
+``goal_z_range`` from the env's seeded RNG (3 numbers), after the spawn; it is reached
+when the vehicle's centre of mass comes within ``goal_reach_distance`` of it during an
+agent step (on the segment between the step's start and end positions, as the waypoint
+tasks: :mod:`pyflyt_engine.envs.waypoints`).  Reaching it completes the task.
+
+The env config's obstacles (``obstacles:``) keep their keep-out radius around the spawn
+point and the goal (:meth:`Task.keep_clear`), and touching one is a crash.
+
+Signals: ``target_distance`` [m] and ``target_distance_rate`` [m/s] to the goal,
+``waypoint_reached`` on the step the goal is reached.
+
+Observation: ``Dict(attitude=Box, goal_delta=Box(3,))``: the body-frame vector [m] from
+the vehicle to the goal (zeros once it is reached), plus the range sensors and camera
+the env config adds under their own keys.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from gymnasium import spaces
+from pydantic import Field, model_validator
+
+from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.state import KinematicState
+
+Range = tuple[float, float]
+
+
+class GoalOptions(TaskOptions):
+    """Options of the goal task (``task:`` in the env YAML)."""
+
+    name: Literal["goal"] = "goal"
+    goal_x_range: Range = Field((4.0, 4.0), description="goal x drawn uniformly in [min, max] [m]")
+    goal_y_range: Range = Field((-2.0, 2.0), description="goal y drawn uniformly in [min, max] [m]")
+    goal_z_range: Range = Field((1.0, 2.0), description="goal height drawn uniformly in [min, max] [m]")
+    goal_reach_distance: float = Field(0.3, gt=0, description="the goal is reached within this distance [m]")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> GoalOptions:
+        for name in ("goal_x_range", "goal_y_range", "goal_z_range"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"{name}: need min <= max, got [{low}, {high}]")
+        if self.goal_z_range[0] < 0:
+            raise ValueError(f"goal_z_range: the goal must be above the ground, got {list(self.goal_z_range)}")
+        return self
+
+
+class GoalTask(Task):
+    """Reach one random goal (module docstring)."""
+
+    name: ClassVar[str] = "goal"
+    Options: ClassVar[type[TaskOptions]] = GoalOptions
+    provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
+    # read at every reset (the draw, the spawn) or step (the reach test)
+    episode_options: ClassVar[frozenset[str]] = frozenset(
+        {"goal_x_range", "goal_y_range", "goal_z_range", "goal_reach_distance", "start_position_noise",
+         "start_orientation_noise"}
+    )
+
+    options: GoalOptions
+
+    def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
+        super().__init__(options, flight_dome_size=flight_dome_size, agent_hz=agent_hz)
+        self.check_options(self.options)
+        self.tracker = WaypointTracker(self.options.goal_reach_distance)
+
+    def check_options(self, options: TaskOptions) -> None:
+        o: GoalOptions = options  # type: ignore[assignment]
+        corner = max(
+            (x * x + y * y + z * z) ** 0.5 for x in o.goal_x_range for y in o.goal_y_range for z in o.goal_z_range
+        )
+        if corner > self.flight_dome_size:
+            raise ConfigError(
+                f"task: a goal may be drawn {corner:.3g} m from the origin, outside the flight dome "
+                f"({self.flight_dome_size:g} m): narrow goal_x/y/z_range or enlarge flight_dome_size"
+            )
+
+    def options_changed(self) -> None:
+        self.tracker.reach_distance = float(self.options.goal_reach_distance)
+
+    def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
+        o = self.options
+        u = [float(v) for v in rng.random(3)]
+        goal = [lo + (hi - lo) * t for (lo, hi), t in zip((o.goal_x_range, o.goal_y_range, o.goal_z_range), u)]
+        self.tracker.reset(np.array([goal]), state.lin_pos)
+
+    def observation_space(self, attitude: spaces.Box) -> spaces.Space:
+        return spaces.Dict({"attitude": attitude, "goal_delta": spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)})
+
+    def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
+        remaining = self.tracker.remaining
+        if len(remaining):
+            delta = body_frame_deltas(remaining[:1], state.lin_pos, state.quaternion)[0]
+        else:
+            delta = np.zeros(3)
+        return {"attitude": attitude, "goal_delta": np.array(delta, dtype=np.float64)}
+
+    def update(self, state: KinematicState) -> TaskSignals:
+        distance, rate, reached = self.tracker.step(state.lin_pos, self.agent_dt)
+        return TaskSignals(
+            target_distance=distance, target_distance_rate=rate, waypoint_reached=reached, complete=reached
+        )
+
+    def info(self) -> dict[str, Any]:
+        return {"goal_reached": bool(self.tracker.all_reached)}
+
+    def markers(self) -> np.ndarray:
+        return self.tracker.targets.copy()
+
+    def marker_style(self) -> tuple[int, float]:
+        return 1, self.options.goal_reach_distance
+
+    @property
+    def goal(self) -> np.ndarray:
+        """The episode's goal, ``(3,)`` ground frame [m] (a copy)."""
+        return self.tracker.targets[0].copy()
+
+    @property
+    def targets(self) -> np.ndarray:
+        """The goal as a ``(1, 3)`` array (the waypoint tasks' name for their targets)."""
+        return self.tracker.targets.copy()
