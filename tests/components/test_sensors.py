@@ -325,3 +325,29 @@ def test_a_seeded_episode_is_bit_identical_across_processes():
                            env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
     assert other.returncode == 0, other.stderr[-2000:]
     assert other.stdout.strip().splitlines()[-1] == here["h"]
+
+
+@pytest.mark.parametrize("env_id", ["PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Waypoints-v0"])
+@pytest.mark.parametrize("angles", ["euler", "quaternion"])
+def test_the_sensor_observation_passes_the_env_checkers(env_id, angles):
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    from pyflyt_engine.envs.wrappers import FlattenWaypointEnv
+
+    options = dict(uav=EXAMPLE, sensors={"observe": True}, angle_representation=angles)
+    env = gymnasium.make(env_id, **options)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*symmetric and normalized.*")
+        warnings.filterwarnings("ignore", message=".*infinity.*")
+        check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+    env = gymnasium.make(env_id, **options)
+    if env_id.endswith("Waypoints-v0"):
+        env = FlattenWaypointEnv(env, context_length=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*(symmetric|float32|float64).*")
+        sb3_check_env(env, warn=True)
+    env.close()
