@@ -64,8 +64,7 @@ class InertialTriad:
         self._taken = 0  # samples taken since the reset (index of the next one)
 
     def reset(self, rng: np.random.Generator) -> None:
-        normal = rng.standard_normal
-        self.bias = [self.bias0 + self.bias_initial_std * float(normal()) for _ in range(3)]
+        self.bias = [self.bias0 + self.bias_initial_std * eta for eta in rng.standard_normal(3).tolist()]
         self._taken = 0
         self.reading = (0.0, 0.0, 0.0)
 
@@ -75,17 +74,20 @@ class InertialTriad:
 
     def sample(self, value: tuple[float, float, float], n: int, rng: np.random.Generator) -> None:
         """Take the last of ``n`` due samples of the true ``value``."""
-        normal = rng.standard_normal
+        # six draws in one call (walk x, y, z, then white x, y, z), as Python floats
+        wx, wy, wz, ex, ey, ez = rng.standard_normal(6).tolist()
         period = 1.0 / self.rate_hz
         walk = self.bias_random_walk * math.sqrt(n * period)
         white = self.noise_density / math.sqrt(period)
         s, r, bias = self.scale, self.range, self.bias
-        out = []
-        for i in range(3):
-            bias[i] += walk * float(normal())
-            y = s * value[i] + bias[i] + white * float(normal())
-            out.append(r if y > r else -r if y < -r else y)
-        self.reading = (out[0], out[1], out[2])
+        bx, by, bz = bias[0] + walk * wx, bias[1] + walk * wy, bias[2] + walk * wz
+        self.bias = [bx, by, bz]
+        x, y, z = s * value[0] + bx + white * ex, s * value[1] + by + white * ey, s * value[2] + bz + white * ez
+        self.reading = (
+            r if x > r else -r if x < -r else x,
+            r if y > r else -r if y < -r else y,
+            r if z > r else -r if z < -r else z,
+        )
         self._taken += n
 
 
@@ -189,7 +191,7 @@ class SensorSuite:
                 self.fixes += due - self._pos_taken
                 self._pos_taken = due
                 lost = float(rng.random()) < self._dropout
-                noise = [float(rng.standard_normal()) for _ in range(3)]
+                noise = rng.standard_normal(3).tolist()
                 if lost:
                     self.fixes_lost += 1
                     self.position_valid = 0.0
