@@ -47,7 +47,12 @@ class UAVEnv(gymnasium.Env):
     where aux is the vehicle's auxiliary state (motor throttles for a multirotor).  With
     ``config.latency``, the action reaches the flight controller ``action_delay`` later and
     the observation shows the vehicle as it was ``observation_delay`` ago (both rounded to
-    physics steps); rewards and episode ends use the true state.
+    physics steps); rewards and episode ends use the true state.  With
+    ``config.sensors`` (``observe: true``), ``ang_vel`` is the noisy gyro's reading,
+    ``lin_pos`` the position fix's (its z the barometer's, when there is one), attitude
+    and velocity stay true, and the fix's validity flag (0/1) follows aux
+    (docs/environments.md, "Sensor observation"); rewards and episode ends use the true
+    state.
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
