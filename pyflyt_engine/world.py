@@ -542,7 +542,9 @@ class World:
         if any(v.range_sensors for v in self.vehicles):
             state["sensors"] = [[s.rng.bit_generator.state for s in v.range_sensors] for v in self.vehicles]
         if any(v.sensors is not None for v in self.vehicles):  # the noisy sensors' streams
-            state["suites"] = [v.sensors.rng.bit_generator.state if v.sensors is not None else None for v in self.vehicles]
+            state["suites"] = [
+                v.sensors.rng.bit_generator.state if v.sensors is not None else None for v in self.vehicles
+            ]
         return state
 
     def set_rng_state(self, state: dict) -> None:

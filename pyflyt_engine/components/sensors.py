@@ -206,7 +206,8 @@ class SensorSuite:
             due = math.floor(time * self._baro_rate + 1e-9) + 1
             if due > self._baro_taken:
                 self._baro_taken = due
-                self.altitude = position[2] + self.baro_bias + float(self._baro.noise_std) * float(rng.standard_normal())
+                eta = float(rng.standard_normal())
+                self.altitude = position[2] + self.baro_bias + float(self._baro.noise_std) * eta
         self._steps += 1
 
     def values(self) -> list[float]:

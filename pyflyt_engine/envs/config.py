@@ -149,7 +149,9 @@ class EnvSensorsConfig(SensorsSpec):
     from the barometer (attitude and velocity stay true), and the position fix's validity
     flag is appended after the auxiliary state."""
 
-    observe: bool = Field(True, description="build the observation from the sensors' readings instead of the true state")
+    observe: bool = Field(
+        True, description="build the observation from the sensors' readings instead of the true state"
+    )
 
 
 class LatencyConfig(_Config):

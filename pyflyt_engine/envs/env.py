@@ -345,7 +345,9 @@ class UAVEnv(gymnasium.Env):
         else:
             aux = self.vehicle.aux_values()
         if self._sensed is not None:  # the sensors' readings in place of the true rates and position
-            state, aux = _sensed_state(state, self._sensed), [*aux, self._sensed.position_valid] if self._fix_flag else aux
+            state = _sensed_state(state, self._sensed)
+            if self._fix_flag:
+                aux = [*aux, self._sensed.position_valid]
         attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
         observation = self.task.observe(attitude, state)
         if self._range_sensors:

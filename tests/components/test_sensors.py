@@ -24,7 +24,7 @@ from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.errors import PyFlytError
 from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import SensorsSpec, load_uav_spec
-from pyflyt_engine.telemetry import RecordEpisode, load_episode
+from pyflyt_engine.telemetry import RecordEpisode, load_episode, read_mcap, schemas
 from pyflyt_engine.telemetry.replay import verify
 from pyflyt_engine.world import World
 
@@ -297,6 +297,9 @@ def test_episodes_with_sensors_record_them_and_verify_exactly(tmp_path):
         assert track.sensors.shape == (len(track.time), 11) and track.sensors[-1].tolist() == last
         result = verify(episode, tolerance=0.0)
         assert result.ok and result.max_deviation == 0.0 and result.per_field["sensors"] == 0.0, result
+        jsonschema = pytest.importorskip("jsonschema")
+        for message in [m.data for m in read_mcap(path).messages if m.topic == "/uav/0/sensors"][:5]:
+            jsonschema.validate(message, schemas.SENSORS)
         tampered = track.sensors.copy()
         tampered[3, 0] += 1e-9
         track.sensors = tampered

@@ -34,7 +34,11 @@ PAYLOAD = [
 CAMERA = {"camera": {"name": "eye", "width": 16, "height": 12}}
 OBSTACLES = {"items": [{"type": "box", "size": [2.0, 2.0, 0.1], "position": [0.0, 0.0, 1.4]}]}
 RANGE_SENSORS = [{"name": "lidar", "type": "lidar", "horizontal_beams": 8}]
-SENSORS = {"imu": {"gyro": {"noise_density": 1e-3}}, "position": {"noise_std": [0.01, 0.01, 0.01]}, "barometer": {"noise_std": 0.1}}
+SENSORS = {
+    "imu": {"gyro": {"noise_density": 1e-3}},
+    "position": {"noise_std": [0.01, 0.01, 0.01]},
+    "barometer": {"noise_std": 0.1},
+}
 STACKED = [
     {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
     {"spawn": {"position": [0.0, 0.0, 1.6], "position_noise": 0.0, "orientation_noise": 0.0}},
