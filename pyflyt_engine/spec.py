@@ -648,6 +648,71 @@ class DepthSensorSpec(_RangeSensorSpec):
 RangeSensorSpec = Annotated[Union[LidarSpec, DepthSensorSpec], Field(discriminator="type")]
 
 
+class InertialAxisSpec(_Spec):
+    """One triad of an IMU (gyroscope or accelerometer), the same for its three axes
+    (docs/engine.md, "Sensors").  Output per axis, at each sample:
+    ``clip(scale * x + b + (noise_density * sqrt(rate_hz)) * eta, -range, range)``, the bias
+    ``b`` starting at ``bias + bias_initial_std * eta0`` (drawn per episode) and walking
+    ``b += bias_random_walk * sqrt(1 / rate_hz) * eta`` per sample (``eta`` ~ N(0, 1))."""
+
+    noise_density: float = Field(
+        0.0, ge=0, description="white noise density N [unit/sqrt(Hz)] (gyro rad/s/sqrt(Hz), accel m/s^2/sqrt(Hz))"
+    )
+    bias_random_walk: float = Field(
+        0.0, ge=0, description="bias random walk K [unit/s/sqrt(Hz)] (rate of the bias's diffusion)"
+    )
+    bias: float = Field(0.0, description="constant bias on every axis [unit]")
+    bias_initial_std: float = Field(
+        0.0, ge=0, description="standard deviation of the bias drawn per axis at each episode start [unit]"
+    )
+    scale: float = Field(1.0, gt=0, description="scale factor on the true value [-] (1: none)")
+    range: float = Field(1.0e9, gt=0, description="saturation: readings are clipped to [-range, range] [unit]")
+    rate_hz: float = Field(1000.0, gt=0, description="sample rate [Hz]; the reading is held between samples")
+
+
+class ImuSpec(_Spec):
+    """A 6-axis IMU at the centre of mass, axes along the body's (x forward, y left, z up)."""
+
+    gyro: InertialAxisSpec = Field(default_factory=InertialAxisSpec, description="angular rate [rad/s]")
+    accel: InertialAxisSpec = Field(
+        default_factory=InertialAxisSpec, description="specific force (acceleration minus gravity) [m/s^2]"
+    )
+
+
+class PositionSensorSpec(_Spec):
+    """A position fix (GPS-like or motion capture), ground frame."""
+
+    noise_std: Vec3 = Field((0.0, 0.0, 0.0), description="standard deviation of the Gaussian noise per axis [m]")
+    rate_hz: float = Field(10.0, gt=0, description="fix rate [Hz]; the reading is held between fixes")
+    dropout: float = Field(
+        0.0, ge=0, lt=1, description="probability that a fix is lost (the last reading is held, valid = 0)"
+    )
+
+    @field_validator("noise_std")
+    @classmethod
+    def _noise(cls, value: tuple[float, float, float]) -> tuple[float, float, float]:
+        if any(v < 0 for v in value):
+            raise ValueError(f"noise_std must be >= 0 on every axis, got {list(value)}")
+        return value
+
+
+class BarometerSpec(_Spec):
+    """A barometric altimeter: the height above the ground plane (z) with bias and noise."""
+
+    noise_std: float = Field(0.0, ge=0, description="standard deviation of the Gaussian noise [m]")
+    bias: float = Field(0.0, description="constant offset [m]")
+    bias_initial_std: float = Field(0.0, ge=0, description="standard deviation of an offset drawn per episode [m]")
+    rate_hz: float = Field(50.0, gt=0, description="sample rate [Hz]; the reading is held between samples")
+
+
+class SensorsSpec(_Spec):
+    """Onboard sensors with noise (docs/engine.md, "Sensors"); each is absent unless given."""
+
+    imu: ImuSpec | None = None
+    position: PositionSensorSpec | None = None
+    barometer: BarometerSpec | None = None
+
+
 # ------------------------------------------------------------------------ control
 
 
@@ -805,11 +870,14 @@ class UAVSpec(_Spec):
     battery: BatterySpec | None = Field(
         None, description="the battery driving the motors (voltage sag, state of charge); null: an ideal supply"
     )
+    sensors: SensorsSpec | None = Field(
+        None, description="IMU, position sensor and barometer with noise (docs/engine.md, 'Sensors'); null: none"
+    )
     source: str | None = Field(None, exclude=True, description="file the spec was loaded from")
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
-        return _drop_unset(handler(self), ("battery",))
+        return _drop_unset(handler(self), ("battery", "sensors"))
 
     @model_validator(mode="after")
     def _cross_checks(self) -> UAVSpec:

@@ -56,6 +56,7 @@ from pyflyt_engine.components.motor import MotorParams, Motors
 from pyflyt_engine.components.motor_models import ModelledMotors
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.routing import mix_rows
+from pyflyt_engine.components.sensors import SensorSuite
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
@@ -248,6 +249,9 @@ class Vehicle:
             RangeSensor(r, tuple(float(a) - float(c) for a, c in zip(r.position, parts.com)), np.random.default_rng(0))
             for r in spec.range_sensors
         ]
+        #: the noisy IMU, position sensor and barometer (None without a ``sensors`` section);
+        #: the world attaches them (:meth:`attach_sensors`)
+        self.sensors: SensorSuite | None = None
         self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
         self.needs_air = body_drag is not None or surfaces is not None
         #: the battery driving the motors (None: an ideal supply)
@@ -637,6 +641,42 @@ class Vehicle:
         for sensor, rng in zip(self.range_sensors, rngs):
             sensor.rng = rng
 
+    # ------------------------------------------------------- noisy sensors
+
+    def attach_sensors(self, gravity: float, rng: np.random.Generator) -> None:
+        """Build the spec's ``sensors`` (:mod:`pyflyt_engine.components.sensors`), fed the
+        body's motion at the start of every physics step; the world calls this once, after
+        building the vehicle.  Chosen here, once: a vehicle without sensors keeps the plain
+        :meth:`apply_loads`."""
+        spec = self.spec.sensors
+        if spec is None or self.sensors is not None:
+            return
+        physics_hz = 1.0 / self.physics_dt
+        # an IMU faster than the physics keeps the last sample of each step (its bias walks
+        # over all of them); a position fix or altitude is one draw per sample: at most one a step
+        for where, part in (("position", spec.position), ("barometer", spec.barometer)):
+            if part is not None and part.rate_hz > physics_hz * (1.0 + 1e-12):
+                raise ConfigError(
+                    f"sensors.{where}.rate_hz: {part.rate_hz:g} Hz is faster than the physics ({physics_hz:g} Hz); "
+                    "give at most physics_hz"
+                )
+        self.sensors = suite = SensorSuite(spec, self.physics_dt, gravity, rng)
+        loads = self.apply_loads
+        read = self.read_motion
+        sample = suite.step
+
+        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+            sample(*read())
+            loads(air, thrust_ratio)
+
+        self.apply_loads = apply_loads  # type: ignore[method-assign]
+        state = self.state
+        suite.reset(state.lin_pos, state.lin_vel_ground)
+
+    def sensor_readings(self) -> dict[str, np.ndarray]:
+        """The latest readings of the noisy sensors by name (empty without sensors)."""
+        return self.sensors.readings() if self.sensors is not None else {}
+
     # --------------------------------------------------------------- resets
 
     def reset(
@@ -683,7 +723,9 @@ class Vehicle:
             self.controller.reset()
         if self.autopilot is not None:
             self.autopilot.reset()
-        self.read_state()
+        state = self.read_state()
+        if self.sensors is not None:  # time 0: new initial biases
+            self.sensors.reset(state.lin_pos, state.lin_vel_ground)
 
     def reseed(self, rng: np.random.Generator) -> None:
         """Use a new noise stream (on a seeded world reset)."""

@@ -178,6 +178,8 @@ class World:
         self.physics_per_agent = _ratio(self.physics_hz, self.agent_hz, "physics_hz / agent_hz")
         self.physics_dt = 1.0 / self.physics_hz
         self.drag = drag
+        #: the gravitational acceleration [m/s^2] (along -z)
+        self.gravity = float(gravity)
 
         self.client = p.connect(p.GUI if render else p.DIRECT)
         if self.client < 0:
@@ -231,6 +233,11 @@ class World:
         entropy = self._seed_sequence.entropy
         return [np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(3, index, k))) for k in range(n)]
 
+    def _suite_rng(self, index: int) -> np.random.Generator:
+        # the noisy sensors' stream of vehicle slot ``index`` (spawn key 4), apart from the
+        # physics' and the range sensors' (components/sensors.py)
+        return np.random.default_rng(np.random.SeedSequence(self._seed_sequence.entropy, spawn_key=(4, index)))
+
     def _vehicle_rng(self, index: int) -> np.random.Generator:
         # one independent stream per vehicle slot, the same for a given seed and index
         return np.random.default_rng(np.random.SeedSequence(self._vehicle_seeds.entropy, spawn_key=(1, index)))
@@ -264,6 +271,8 @@ class World:
         )
         self.vehicles.append(vehicle)
         vehicle.seed_sensors(self._sensor_rngs(index))
+        if spec.sensors is not None:
+            vehicle.attach_sensors(self.gravity, self._suite_rng(index))
         self.atmosphere.add_vehicle(vehicle)
         self._airs.append(((vehicle.state.lin_vel, vehicle.state.ang_vel), None))
         self._contacts.add(vehicle.body_id)
@@ -502,6 +511,8 @@ class World:
             if seed is not None:
                 vehicle.reseed(self._vehicle_rng(index))
                 vehicle.seed_sensors(self._sensor_rngs(index))
+                if vehicle.sensors is not None:
+                    vehicle.sensors.reseed(self._suite_rng(index))
             vehicle.reset()
             vehicle.armed = True
         self._contacts.clear()
@@ -534,6 +545,10 @@ class World:
         state["wind"] = self._wind_generator.bit_generator.state
         if any(v.range_sensors for v in self.vehicles):
             state["sensors"] = [[s.rng.bit_generator.state for s in v.range_sensors] for v in self.vehicles]
+        if any(v.sensors is not None for v in self.vehicles):  # the noisy sensors' streams
+            state["suites"] = [
+                v.sensors.rng.bit_generator.state if v.sensors is not None else None for v in self.vehicles
+            ]
         return state
 
     def set_rng_state(self, state: dict) -> None:
@@ -555,6 +570,9 @@ class World:
             vehicle.reseed(generator(bit_state))
         for vehicle, streams in zip(self.vehicles, state.get("sensors") or []):
             vehicle.seed_sensors([generator(s) for s in streams])
+        for vehicle, stream in zip(self.vehicles, state.get("suites") or []):
+            if vehicle.sensors is not None and stream is not None:
+                vehicle.sensors.reseed(generator(stream))
         if "wind" in state:  # recordings made before the atmosphere have none
             self._wind_generator = generator(state["wind"])
             if self.wind is not None:

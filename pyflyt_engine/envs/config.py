@@ -41,7 +41,7 @@ from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
 from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
 from pyflyt_engine.safe_load import load_yaml_file
-from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, check_finite
+from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, SensorsSpec, check_finite
 
 
 class _Config(BaseModel):
@@ -142,6 +142,19 @@ class CameraObservationConfig(_Config):
         return value
 
 
+class EnvSensorsConfig(SensorsSpec):
+    """Noisy sensors for this env (docs/environments.md, "Sensor observation"): any of
+    ``imu``, ``position``, ``barometer`` given here replace the airframe's ``sensors``
+    section; none given keeps the airframe's own.  With ``observe`` the observation is built
+    from their readings: body rates from the gyro, position from the position sensor, height
+    from the barometer (attitude and velocity stay true), and the position fix's validity
+    flag is appended after the auxiliary state."""
+
+    observe: bool = Field(
+        True, description="build the observation from the sensors' readings instead of the true state"
+    )
+
+
 class LatencyConfig(_Config):
     """Delays between the agent and each vehicle (docs/engine.md, "Latency"), in seconds,
     applied at physics resolution: each is rounded to the nearest whole number of physics
@@ -223,12 +236,18 @@ class EnvConfig(_Config):
         None,
         description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); null: none",
     )
+    sensors: EnvSensorsConfig | None = Field(
+        None,
+        description="noisy IMU, position sensor and barometer, and whether the observation is built from them "
+        "(docs/environments.md); null: the true state",
+    )
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
         data = handler(self)
-        if isinstance(data, dict) and data.get("latency", 0) is None:
-            del data["latency"]  # a config without latency dumps, and is recorded, as before it existed
+        for key in ("latency", "sensors"):  # a config without them dumps, and is recorded, as before they existed
+            if isinstance(data, dict) and data.get(key, 0) is None:
+                del data[key]
         return data
 
     @model_validator(mode="after")
@@ -547,6 +566,11 @@ class MultiAgentEnvConfig(EnvConfig):
             raise ValueError(
                 "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
                 "are flat Boxes, stacked for a shared policy); remove the key"
+            )
+        if self.sensors is not None:
+            raise ValueError(
+                "sensors: a multi-agent env cannot observe noisy sensors yet (its observations are built per "
+                "agent from the true states); remove the key, or give the sensors in the airframe"
             )
         return self
 

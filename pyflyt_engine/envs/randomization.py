@@ -15,6 +15,9 @@ Parameters (a fixed list; anything else is refused at load):
 * ``battery_capacity``, ``battery_resistance``: factors on the battery's capacity and
   internal resistance; ``battery_charge``: its state of charge at the reset, in (0, 1]
   (an airframe declaring a ``battery``);
+* ``gyro_scale``, ``accel_scale``: factors on the IMU's gyroscope and accelerometer scale
+  factors (an airframe, or env, declaring ``sensors.imu``; their initial biases are drawn
+  per episode by the sensors themselves, ``bias_initial_std``);
 * ``drag``: factor on the body-drag coefficients (translational and rotational);
 * ``spawn_x``, ``spawn_y``, ``spawn_z`` [m], ``spawn_roll``, ``spawn_pitch``,
   ``spawn_yaw`` [rad]: offsets added to the task's spawn pose;
@@ -47,6 +50,8 @@ MODELS = {
     "motor_rotor_drag": "motors.rotor_drag",
     "battery_capacity": "battery",
     "battery_resistance": "battery",
+    "gyro_scale": "sensors.imu",
+    "accel_scale": "sensors.imu",
 }
 #: values (not factors) of the optional models: name -> (what the airframe must declare, low, high)
 MODEL_VALUES = {"battery_charge": ("battery", 0.0, 1.0)}
@@ -151,7 +156,9 @@ class Randomizer:
             if needs is None:
                 continue
             has = [
-                (v.battery is not None) if needs == "battery" else (v.motors is not None and v.motors.rotor_drag is not None)
+                (v.battery is not None) if needs == "battery"
+                else (v.sensors is not None and v.sensors.gyro is not None) if needs == "sensors.imu"
+                else (v.motors is not None and v.motors.rotor_drag is not None)
                 for v in world.vehicles
             ]
             if not all(has):
@@ -173,6 +180,12 @@ class Randomizer:
                 )
             )
         self.wind = world.wind_config.model_dump(mode="json")
+        #: per vehicle with an IMU, its nominal (gyro, accel) scale factors
+        self._imu = [
+            (v.sensors, v.sensors.gyro.scale, v.sensors.accel.scale)
+            for v in world.vehicles
+            if v.sensors is not None and v.sensors.gyro is not None and v.sensors.accel is not None
+        ]
 
     def sample(self, rng: np.random.Generator) -> dict[str, float]:
         """Draw every entry (declaration order), apply the airframe ones to every vehicle (each
@@ -211,6 +224,10 @@ class Randomizer:
                         initial_charge=values.get("battery_charge", battery.initial_charge),
                     )
                 )
+        if "gyro_scale" in values or "accel_scale" in values:
+            for suite, gyro, accel in self._imu:
+                suite.gyro.scale = gyro * values.get("gyro_scale", 1.0)
+                suite.accel.scale = accel * values.get("accel_scale", 1.0)
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
         if winds:
             import copy

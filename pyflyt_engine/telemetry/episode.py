@@ -6,6 +6,7 @@ Built on :func:`pyflyt_engine.telemetry.reader.read_mcap`; used by ``pyflyt repl
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +44,11 @@ class VehicleTrack:
     #: (T, 6) wind (x, y, z) [m/s] and rotary gust (p, q, r) [rad/s] at the vehicle, ground
     #: frame, from ``/uav/<i>/wind`` ((0, 6) when the recording has no wind channel)
     wind: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    #: (T, n) the noisy sensors' readings from ``/uav/<i>/sensors``, flat in the order
+    #: :attr:`sensor_layout` gives ((0, 0) when the airframe has no sensors)
+    sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    #: (name, size) of each reading in :attr:`sensors` (components/sensors.py)
+    sensor_layout: list[tuple[str, int]] = field(default_factory=list)
 
 
 @dataclass
@@ -229,6 +235,8 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
                 aux=rows(topic, "aux", None),
                 collision=scalars(topic, "collision", bool),
                 wind=np.hstack([rows(f"/uav/{i}/wind", "velocity", 3), rows(f"/uav/{i}/wind", "rotary", 3)]),
+                sensors=rows(f"/uav/{i}/sensors", "values", None),
+                sensor_layout=_sensor_layout(contents, f"/uav/{i}/sensors"),
             )
         )
     actions = rows("/uav/0/action", "applied", len(action_names))
@@ -296,3 +304,15 @@ def waypoint_radius(episode: Episode) -> float:
                     for sphere in entity.get("spheres", []):
                         return float(sphere["size"]["x"]) / 2
     return 0.05
+
+
+def _sensor_layout(contents: Any, topic: str) -> list[tuple[str, int]]:
+    """The ``layout`` metadata of a ``pyflyt.Sensors`` channel as (name, size) pairs ([] without it)."""
+    for channel in contents.channels.values():
+        if channel.topic == topic:
+            try:
+                items = json.loads(channel.metadata.get("layout") or "[]")
+                return [(str(n), int(k)) for n, k in (str(item).split(":") for item in items)]
+            except (TypeError, ValueError):
+                raise TelemetryError(f"{contents.path}: channel {topic} has a malformed 'layout'") from None
+    return []

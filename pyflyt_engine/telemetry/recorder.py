@@ -26,6 +26,7 @@ import gymnasium
 import numpy as np
 
 from pyflyt_engine import numerics
+from pyflyt_engine.components.sensors import READING_SIZES
 from pyflyt_engine.envs.core import RECORDABLE, RecordableEnv
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.frames import matrix_to_quaternion
@@ -310,6 +311,16 @@ class RecordEpisode(gymnasium.Wrapper):
                     for sensor in vehicle.range_sensors
                 ]
             )
+        #: per vehicle, its noisy sensors' channel (None without sensors)
+        self._ch_sensors: list[int | None] = []
+        for i, vehicle in enumerate(world.vehicles):
+            suite = vehicle.sensors
+            layout = json.dumps([f"{n}:{READING_SIZES[n]}" for n in suite.names]) if suite is not None else ""
+            self._ch_sensors.append(
+                f.channel(f"/uav/{i}/sensors", "pyflyt.Sensors", schemas.SENSORS, {"layout": layout})
+                if suite is not None
+                else None
+            )
         self._ch_wind = []
         if world.atmosphere.moving:  # wind or downwash
             for i in range(len(world.vehicles)):
@@ -384,6 +395,12 @@ class RecordEpisode(gymnasium.Wrapper):
             )
             if self._ch_wind:
                 self._write_wind(ns, stamp, time_s, i, vehicle)
+            if self._ch_sensors[i] is not None:
+                f.write(
+                    self._ch_sensors[i],  # type: ignore[arg-type]
+                    ns,
+                    {"timestamp": stamp, "step": self._length, "time": time_s, "values": vehicle.sensors.values()},
+                )
             for k, channel in enumerate(self._ch_scans[i]):
                 self._write_scan(ns, channel, i, k)
             cameras = vehicle.parts.cameras

@@ -248,7 +248,7 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
             env.reset(seed=0)
             env.reset(seed=episode.seed, options=episode.options)
         n = episode.length
-        per_field = {k: 0.0 for k in (*STATE_FIELDS, "aux", "wind")}
+        per_field = {k: 0.0 for k in (*STATE_FIELDS, "aux", "wind", "sensors")}
         worst = (0.0, 0, "")
         reward_dev = 0.0
         diverged = ""
@@ -279,6 +279,13 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
                     per_field["wind"] = max(per_field["wind"], d)
                     if d > worst[0]:
                         worst = (d, step, f"uav {i} wind")
+                if step < len(track.sensors):  # the noisy sensors' readings (components/sensors.py)
+                    values = np.asarray(vehicle.sensors.values() if vehicle.sensors is not None else [])
+                    same = values.shape == track.sensors[step].shape
+                    d = _deviation("sensors", values, track.sensors[step]) if same else float("inf")
+                    per_field["sensors"] = max(per_field["sensors"], d)
+                    if d > worst[0]:
+                        worst = (d, step, f"uav {i} sensors")
 
         compare(0)
         for k in range(n):

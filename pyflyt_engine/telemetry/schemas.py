@@ -507,6 +507,21 @@ WIND = _strict(
     },
 )
 
+SENSORS = _strict(
+    "pyflyt.Sensors",
+    "The noisy sensors' readings of one vehicle after a reset or an agent step (pyflyt_engine.components.sensors; "
+    "recorded when the airframe has a 'sensors' section)",
+    {
+        **_COMMON,
+        "values": _vec(
+            None,
+            "the readings, flat, in the channel's 'layout' order (name:size): gyro (p, q, r) [rad/s] and accel "
+            "(specific force, x, y, z) [m/s^2] body frame, position (x, y, z) [m] ground frame, position_valid "
+            "(0/1), altitude [m]",
+        ),
+    },
+)
+
 ACTION = _strict(
     "pyflyt.Action",
     "The agent's action for one step; 'applied' (clipped to the action bounds) is what the vehicle received and what re-simulation replays",
@@ -565,6 +580,7 @@ EPISODE_EVENT = _strict(
 ALL: dict[str, dict[str, Any]] = {
     s["title"]: s
     for s in (
-        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, ACTION, REWARD, EPISODE_EVENT
+        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, SENSORS, ACTION, REWARD,
+        EPISODE_EVENT,
     )
 }

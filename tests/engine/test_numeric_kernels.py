@@ -67,6 +67,9 @@ CASES: list[str] = [
     "gym:PyFlyt/QuadX-Waypoints-v0?randomize=moderate",
     "ma:ma_quadx_hover_v0?downwash=true&wind=dryden_light",
     "ma:ma_quadx_formation_v0?agents=9&layout_spacing=0.5",
+    # the noisy sensors (components/sensors.py) in the observation, their scale randomised
+    "gym:PyFlyt/QuadX-Hover-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml&sensors={\"observe\": true}"
+    "&randomize={\"gyro_scale\": {\"distribution\": \"uniform\", \"low\": 0.9, \"high\": 1.1}}",
 ]
 
 MULTIROTOR_SETPOINTS = {
@@ -129,7 +132,7 @@ def _options(query: str) -> dict:
     out: dict = {}
     for item in filter(None, query.split("&")):
         key, _, value = item.partition("=")
-        out[key] = {"true": True, "false": False}.get(value, value)
+        out[key] = json.loads(value) if value.startswith("{") else {"true": True, "false": False}.get(value, value)
     return out
 
 
@@ -343,6 +346,12 @@ def test_nothing_on_the_simulated_path_calls_cpu_dispatched_numpy(monkeypatch):
     _step_env("PyFlyt/QuadX-Hover-v0", wind="gust", randomize="moderate", ground_effect=True)
     _step_env("PyFlyt/Fixedwing-Waypoints-v0", wind="dryden_severe", randomize="moderate")
     _step_env("PyFlyt/Rocket-Landing-v0", wind="shear", randomize="moderate")
+    _step_env(
+        "PyFlyt/QuadX-Hover-v0",
+        uav=str(ROOT / "conf" / "uav" / "examples" / "quadx_cf2x_sensors.yaml"),
+        sensors={"observe": True},
+        randomize={"gyro_scale": {"distribution": "uniform", "low": 0.9, "high": 1.1}},
+    )
     _step_ma("ma_quadx_hover_v0", downwash=True, wind="dryden_moderate")
     _step_ma("ma_fixedwing_dogfight_v0", wind="dryden_light")
     _step_ma("ma_quadx_formation_v0", agents=9, layout_spacing=0.5)

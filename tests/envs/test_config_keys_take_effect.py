@@ -34,6 +34,11 @@ PAYLOAD = [
 CAMERA = {"camera": {"name": "eye", "width": 16, "height": 12}}
 OBSTACLES = {"items": [{"type": "box", "size": [2.0, 2.0, 0.1], "position": [0.0, 0.0, 1.4]}]}
 RANGE_SENSORS = [{"name": "lidar", "type": "lidar", "horizontal_beams": 8}]
+SENSORS = {
+    "imu": {"gyro": {"noise_density": 1e-3}},
+    "position": {"noise_std": [0.01, 0.01, 0.01]},
+    "barometer": {"noise_std": 0.1},
+}
 STACKED = [
     {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
     {"spawn": {"position": [0.0, 0.0, 1.6], "position_noise": 0.0, "orientation_noise": 0.0}},
@@ -83,6 +88,8 @@ SINGLE: dict[str, tuple[dict[str, Any], Any]] = {
     "ground_effect": ({}, True),
     "randomize": ({}, "moderate"),
     "latency": ({}, {"action_delay": 0.02, "observation_delay": 0.02}),
+    # the observation built from a noisy gyro, position fix and barometer
+    "sensors": ({}, SENSORS),
     # task options
     "start_position": ({}, (0.0, 0.0, 1.5)),
     "start_position_noise": ({}, 0.0),
@@ -108,7 +115,7 @@ MULTI: dict[str, tuple[dict[str, Any], Any]] = {
     "orientation_noise": ({}, 0.0),
 }
 #: multi-agent keys refused at load (tests/envs/test_multi_agent_parity.py says why)
-REFUSED_MULTI = {"payloads", "camera_observation", "obstacles", "range_sensors"}
+REFUSED_MULTI = {"payloads", "camera_observation", "obstacles", "range_sensors", "sensors"}
 
 
 def _fields(config_model: type, options_model: type) -> set[str]:
