@@ -14,6 +14,7 @@ OWNERS = {
     "ball_in_cup": "pyflyt_engine.envs.tasks.ball_in_cup",
     "landing": "pyflyt_engine.envs.tasks.landing",
     "dogfight": "pyflyt_engine.envs.multi_agent.dogfight_rewards",
+    "formation": "pyflyt_engine.envs.multi_agent.formation_rewards",
 }
 
 
