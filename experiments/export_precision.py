@@ -24,37 +24,18 @@ from pathlib import Path
 
 import numpy as np
 
+from pyflyt_cli.export.c_source import HOST_RUNNER
 from pyflyt_cli.export import export_policy
 from pyflyt_cli.export.onnx_model import run_onnx
 from pyflyt_cli.export.policy import deployed_policy, flown_observations
 
 AGENTS = ("quadx_hover_ppo", "fixedwing_waypoints_sac")
 
-MAIN = r"""
-#include <stdio.h>
-#include "policy.h"
-int main(int argc, char **argv)
-{
-    float obs[POLICY_OBS_DIM], act[POLICY_ACT_DIM];
-    FILE *in, *out;
-    if (argc != 3) return 2;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (in == NULL || out == NULL) return 1;
-    while (fread(obs, sizeof(float), POLICY_OBS_DIM, in) == POLICY_OBS_DIM) {
-        policy_forward(obs, act);
-        if (fwrite(act, sizeof(float), POLICY_ACT_DIM, out) != POLICY_ACT_DIM) return 1;
-    }
-    fclose(in);
-    fclose(out);
-    return 0;
-}
-"""
 
 
 def c_actions(source: str, obs: np.ndarray, act_dim: int, folder: Path) -> np.ndarray:
     export_policy(source, "c", folder / "policy.c", force=True)
-    (folder / "main.c").write_text(MAIN)
+    (folder / "main.c").write_text(HOST_RUNNER)
     gcc = shutil.which("gcc") or "gcc"
     subprocess.run([gcc, "-std=c99", "-Wall", "-Werror", "-O2", "-o", "run", "main.c", "policy.c", "-lm"], cwd=folder, check=True)
     (folder / "obs.bin").write_bytes(np.ascontiguousarray(obs, dtype="<f4").tobytes())

@@ -30,6 +30,32 @@ from pyflyt_cli.export.policy import Affine, Clamp, DeployedPolicy, ExportError,
 #: values per line in the weight arrays
 PER_LINE = 6
 
+#: a C99 ``main`` for checking an exported policy on a host: it reads float32 observation
+#: rows from one file and writes the policy's action rows to another (tests,
+#: ``experiments/export_precision.py``); not part of what a firmware needs
+HOST_RUNNER = r"""
+#include <stdio.h>
+#include "policy.h"
+
+/* argv[1]: float32 observations, POLICY_OBS_DIM per row; argv[2]: the actions written, POLICY_ACT_DIM per row */
+int main(int argc, char **argv)
+{
+    float obs[POLICY_OBS_DIM], act[POLICY_ACT_DIM];
+    FILE *in, *out;
+    if (argc != 3) return 2;
+    in = fopen(argv[1], "rb");
+    out = fopen(argv[2], "wb");
+    if (in == NULL || out == NULL) return 1;
+    while (fread(obs, sizeof(float), POLICY_OBS_DIM, in) == POLICY_OBS_DIM) {
+        policy_forward(obs, act);
+        if (fwrite(act, sizeof(float), POLICY_ACT_DIM, out) != POLICY_ACT_DIM) return 1;
+    }
+    fclose(in);
+    fclose(out);
+    return 0;
+}
+"""
+
 
 def literal(value: float) -> str:
     """``value`` as a C float literal that reads back as the same float32 (``1.0f``, ``-2.5e-05f``)."""

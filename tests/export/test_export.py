@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from pyflyt_cli.export.c_source import HOST_RUNNER
 from pyflyt_cli.export import export_policy
 from pyflyt_cli.export.onnx_model import run_onnx
 from pyflyt_cli.export.policy import deployed_policy, flown_observations
@@ -28,28 +29,6 @@ WILD_TOLERANCE = 1e-4
 
 runner = CliRunner()
 
-HARNESS = r"""
-#include <stdio.h>
-#include "policy.h"
-
-/* argv[1]: float32 observations, POLICY_OBS_DIM per row; argv[2]: the actions written, POLICY_ACT_DIM per row */
-int main(int argc, char **argv)
-{
-    float obs[POLICY_OBS_DIM], act[POLICY_ACT_DIM];
-    FILE *in, *out;
-    if (argc != 3) return 2;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (in == NULL || out == NULL) return 1;
-    while (fread(obs, sizeof(float), POLICY_OBS_DIM, in) == POLICY_OBS_DIM) {
-        policy_forward(obs, act);
-        if (fwrite(act, sizeof(float), POLICY_ACT_DIM, out) != POLICY_ACT_DIM) return 1;
-    }
-    fclose(in);
-    fclose(out);
-    return 0;
-}
-"""
 
 
 def record(source, policy, steps: int = RECORDED, seed: int = 0) -> np.ndarray:
@@ -75,7 +54,7 @@ def compile_c(source_file: Path, workdir: Path) -> Path:
     gcc = shutil.which("gcc")
     if gcc is None:
         pytest.skip("gcc is not installed")
-    (workdir / "main.c").write_text(HARNESS)
+    (workdir / "main.c").write_text(HOST_RUNNER)
     program = workdir / "policy_run"
     built = subprocess.run(
         [gcc, "-std=c99", "-Wall", "-Werror", "-O2", "-o", str(program), "main.c", source_file.name, "-lm"],
