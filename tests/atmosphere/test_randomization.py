@@ -148,3 +148,32 @@ def test_train_selects_a_preset_with_env_randomize():
 
     cfg = compose_config(overrides=["env.randomize=moderate"])
     assert set(cfg.env.randomize) >= {"mass", "inertia", "motor_kf", "drag"}
+
+
+def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
+    """conf/randomize/sim2real.yaml through `pyflyt train env.randomize=sim2real`: its
+    entries, each draw within its bounds, two seeds give two airframes, a seed gives the
+    same one again, and the drawn mass and thrust coefficient are the ones the simulated
+    vehicle has (that those fly is test_the_sampled_airframe_is_the_one_that_flies)."""
+    from pyflyt_cli.training.compose import compose_config
+
+    cfg = compose_config(env="quadx_hover", overrides=["env.randomize=sim2real"])
+    preset = cfg.env.randomize
+    assert list(preset) == ["mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag"]
+    env = make(randomize="sim2real")
+    draws = []
+    for seed in (0, 1):
+        _, info = env.reset(seed=seed)
+        drawn = info["randomization"]
+        draws.append(drawn)
+        for name, value in drawn.items():
+            assert preset[name].low <= value <= preset[name].high, name
+        base = env.unwrapped
+        vehicle = base.vehicle
+        mass = p.getDynamicsInfo(vehicle.body_id, -1, physicsClientId=base.world.client)[0]
+        assert mass == pytest.approx(drawn["mass"] * vehicle.parts.mass)
+        assert vehicle.actuators.motors.params.kf == pytest.approx(drawn["motor_kf"] * vehicle.motors.kf)
+        assert vehicle.actuators.motors.params.tau == pytest.approx(drawn["motor_tau"] * vehicle.motors.tau)
+    assert draws[0]["mass"] != draws[1]["mass"] and draws[0]["motor_tau"] != draws[1]["motor_tau"]
+    assert env.reset(seed=0)[1]["randomization"] == draws[0]  # the seed reproduces the airframe
+    env.close()
