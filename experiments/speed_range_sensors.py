@@ -9,6 +9,10 @@ hits every variant alike, and the median kept.  Variants:
 * the plain env (no sensor), the reference of every ratio;
 * a 64-beam planar LiDAR (``range_sensors``, 5 m range), refreshed every agent step and
   at 10 Hz;
+* the same LiDAR cast the previous way (:func:`previous_scan`: the rays handed to PyBullet
+  as lists of lists, every result tuple read into a list), kept here only to measure the
+  engine's cast against it in the same run; before timing, both are stepped through the
+  same seeded episodes and their readings compared bit for bit;
 * ray-cast depth cameras (``range_sensors`` of ``type: depth``) at several resolutions;
 * the rendered camera (``camera_observation``, PyBullet's TinyRenderer, RGB) at the same
   resolutions, the engine's other way to see depth (its ``depth`` image comes from the
@@ -26,6 +30,7 @@ the added cost as a percentage of the plain step.
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import platform
 import statistics
@@ -35,10 +40,77 @@ import warnings
 import numpy as np
 
 import pyflyt_engine  # noqa: F401  (registers the ids)
+from pyflyt_engine import exact
+from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.components.range_sensor import RAY_MASK, RangeSensor
 from pyflyt_engine.envs import make_env
 from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.frames import quaternion_to_rows
 
 RESOLUTIONS = ((8, 6), (16, 12), (32, 24), (64, 48))
+PREVIOUS = "LiDAR 64 beams, previous cast"
+
+
+def previous_scan(self: RangeSensor, client, position, quaternion, time=None) -> np.ndarray:
+    """The engine's cast before the ray arrays went to PyBullet as they are (a reference for
+    this benchmark only; a LiDAR below 16 384 rays, one ``rayTestBatch`` call)."""
+    cached = self._last
+    if time is not None and cached is not None and time - cached[0] < 1.0 / self.spec.rate_hz - 1e-9:
+        return cached[1].copy()
+    r = quaternion_to_rows(quaternion)
+    origin = np.array(exact.rotate(r, self.offset)) + np.asarray(position, dtype=np.float64)
+    rt = np.array(r).T
+    dx, dy, dz = self._columns
+    ground = dx * rt[0] + dy * rt[1] + dz * rt[2]
+    starts, ends = origin + self.min_range * ground, origin + self.max_range * ground
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        results = p.rayTestBatch(starts.tolist(), ends.tolist(), collisionFilterMask=RAY_MASK, physicsClientId=client)
+        fractions = np.array([r[2] for r in results])
+        del results
+    finally:
+        if collecting:
+            gc.enable()
+    hit = fractions < 1.0
+    ranges = self.min_range + fractions * (self.max_range - self.min_range)
+    if self.spec.noise_std > 0:
+        eta = self.rng.standard_normal(self.count)
+        ranges = np.where(hit, np.clip(ranges + self.spec.noise_std * eta, self.min_range, self.max_range), ranges)
+    readings = ranges.reshape(self.shape).astype(np.float32)
+    self._last = (time if time is not None else float("nan"), readings)
+    return readings.copy()
+
+
+def use_previous_scan(env) -> None:
+    """Make ``env``'s LiDAR cast the previous way."""
+    for sensor in env.unwrapped.world.vehicles[0].range_sensors:
+        sensor.scan = previous_scan.__get__(sensor)
+
+
+def check_identical(current, previous, steps: int) -> int:
+    """Step both envs with the same seeded actions; every LiDAR reading must be the same bit
+    for bit (noisy readings: the noise stream is drawn alike), and most scans must see an
+    obstacle. Returns the scans compared."""
+    rng = np.random.default_rng(7)
+    compared = hits = 0
+    for env in (current, previous):
+        env.reset(seed=7)
+    for _ in range(steps):
+        a = np.array([*rng.uniform(-0.6, 0.6, 3), 0.125 + 0.03 * rng.standard_normal()])
+        a = a.clip(current.action_space.low, current.action_space.high)
+        out = [env.step(a) for env in (current, previous)]
+        x, y = out[0][0]["lidar"], out[1][0]["lidar"]
+        if x.tobytes() != y.tobytes():
+            raise SystemExit(f"the engine's LiDAR readings differ from the previous cast after {compared} steps")
+        compared += 1
+        hits += bool((x < 5.0).any())  # the LiDAR's max_range: something was hit
+        if any(out[0][2:4]):
+            for env in (current, previous):
+                env.reset()
+    if hits < compared // 2:
+        raise SystemExit(f"only {hits} of {compared} scans saw an obstacle: the comparison would prove little")
+    return compared
 
 
 def cpu_ms_per_step(env, steps: int, seed: int) -> float:
@@ -66,6 +138,7 @@ def variants() -> dict[str, dict]:
     out = {"plain": base}
     lidar = {"name": "lidar", "type": "lidar", "horizontal_beams": 64, "max_range": 5.0, "min_range": 0.1}
     out["LiDAR 64 beams"] = {**base, "range_sensors": [lidar]}
+    out[PREVIOUS] = {**base, "range_sensors": [lidar]}
     # a spinning LiDAR's usual 10 Hz (every third agent step; the last scan in between)
     out["LiDAR 64 beams, 10 Hz"] = {**base, "range_sensors": [{**lidar, "rate_hz": 10.0}]}
     for w, h in RESOLUTIONS:
@@ -88,6 +161,15 @@ def main() -> None:
         warnings.simplefilter("ignore")
         for name, config in variants().items():
             envs[name] = make_env(config)
+        use_previous_scan(envs[PREVIOUS])
+        noisy = {**variants()["LiDAR 64 beams"]}
+        noisy["range_sensors"] = [{**noisy["range_sensors"][0], "noise_std": 0.01}]
+        pair = [make_env(noisy) for _ in range(2)]
+    use_previous_scan(pair[1])
+    compared = check_identical(envs["LiDAR 64 beams"], envs[PREVIOUS], 500)
+    compared += check_identical(*pair, 500)
+    for env in pair:
+        env.close()
     times: dict[str, list[float]] = {name: [] for name in envs}
     for repeat in range(args.repeats):
         for name, env in envs.items():
@@ -100,6 +182,7 @@ def main() -> None:
         f"QuadX-Hover-v0 + 12-trunk forest, agent 30 Hz, {args.steps} steps x {args.repeats} repeats (median), "
         f"{platform.processor() or platform.machine()}, load average {os.getloadavg()[0]:.1f} at the end"
     )
+    print(f"LiDAR readings of the engine and the previous cast: {compared} scans compared, identical bit for bit")
     print()
     print("| observation | CPU ms/step | added ms/step | added % of plain step |")
     print("|---|---:|---:|---:|")

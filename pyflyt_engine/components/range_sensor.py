@@ -14,7 +14,8 @@ mounted on the body at ``position`` (relative to the body origin, the centre of 
 ``orientation`` (roll, pitch, yaw, the camera's convention: positive pitch looks down).
 The beam directions are fixed in the body frame when the vehicle is built; each scan
 turns them into the ground frame with the body's rotation by elementwise NumPy
-products and sums (exact, no BLAS).
+products and sums (exact, no BLAS), and hands PyBullet the ray starts and ends as
+float64 arrays (read in one block; lists of lists are read ray by ray).
 
 Readings (float32, ``max_range`` where nothing is hit):
 
@@ -39,6 +40,7 @@ from __future__ import annotations
 import gc
 import math
 from collections.abc import Sequence
+from operator import itemgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,8 +52,12 @@ from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_rows
 if TYPE_CHECKING:
     from pyflyt_engine.spec import DepthSensorSpec, LidarSpec
 
-#: most rays PyBullet casts in one ``rayTestBatch`` call
-MAX_BATCH = 16384
+#: most rays cast in one ``rayTestBatch`` call.  PyBullet streams a batch only while it
+#: holds fewer than MAX_RAY_INTERSECTION_BATCH_SIZE_STREAMING rays (16 * 1024 on Linux and
+#: Windows, 4 * 1024 on macOS; bullet3 examples/SharedMemory/SharedMemoryPublic.h and
+#: PhysicsDirect::uploadRaysToSharedMemory) and silently drops the rest; every ray is cast on
+#: its own, so the split does not change a reading
+MAX_BATCH = 4 * 1024 - 1
 #: collision filter group of a vehicle carrying range sensors (its collision mask stays
 #: "everything", so it collides as any body); its sensors' rays skip this group: every ray
 #: starts inside the vehicle's bounding box, and testing each against its shape would cost
@@ -59,6 +65,8 @@ MAX_BATCH = 16384
 RAY_SKIP_GROUP = 1 << 20
 #: the rays' collision mask: every group but :data:`RAY_SKIP_GROUP`
 RAY_MASK = -1 ^ RAY_SKIP_GROUP
+#: the hit fraction of one of ``rayTestBatch``'s result tuples
+_FRACTION = itemgetter(2)
 
 
 def lidar_directions(spec: LidarSpec) -> tuple[list[tuple[float, float, float]], tuple[int, int]]:
@@ -121,59 +129,78 @@ class RangeSensor:
         #: (n, 3): the body-frame beam directions, one row per beam, and its columns (n, 1)
         self._directions = np.array(body)
         self._columns = [self._directions[:, i : i + 1].copy() for i in range(3)]
+        self._count = len(body)
+        #: (2, 1, 1): the distances of a ray's start and end from the sensor
+        self._reach = np.array([self.min_range, self.max_range]).reshape(2, 1, 1)
+        self._span = self.max_range - self.min_range
+        self._period = 1.0 / spec.rate_hz - 1e-9  # a scan younger than this is returned again
         self.rng = rng
         self._last: tuple[float, np.ndarray] | None = None
 
     @property
     def count(self) -> int:
         """Rays per scan."""
-        return int(self._directions.shape[0])
+        return self._count
 
     def rays(self, position: Sequence[float], quaternion: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """Ground-frame ray starts and ends, ``(n, 3)`` each, for a body at ``position``, ``quaternion``."""
-        r = quaternion_to_rows(quaternion)
-        origin = np.array(exact.rotate(r, self.offset)) + np.asarray(position, dtype=np.float64)
-        rt = np.array(r).T  # rt[j] = column j of R
+        """Ground-frame ray starts and ends, ``(n, 3)`` each, for a body at ``position``, ``quaternion``
+        (C-contiguous float64 views of one ``(2, n, 3)`` array)."""
+        (a, b, c), (d, e, f), (g, h, i) = quaternion_to_rows(quaternion)
+        x, y, z = self.offset
+        px, py, pz = (float(v) for v in position)
+        # the mount point in the ground frame: R offset + position
+        origin = np.array((a * x + b * y + c * z + px, d * x + e * y + f * z + py, g * x + h * y + i * z + pz))
+        rt = np.array(((a, d, g), (b, e, h), (c, f, i)))  # rt[j] = column j of R
         dx, dy, dz = self._columns
         # R d for every beam as elementwise products and sums in a fixed order: exact, no BLAS
-        ground = dx * rt[0] + dy * rt[1] + dz * rt[2]
-        return origin + self.min_range * ground, origin + self.max_range * ground
+        ground = dx * rt[0]
+        ground += dy * rt[1]
+        ground += dz * rt[2]
+        ends = self._reach * ground  # (2, n, 3): min_range R d, max_range R d
+        ends += origin
+        return ends[0], ends[1]
 
     def scan(
         self, client: int, position: Sequence[float], quaternion: Sequence[float], time: float | None = None
     ) -> np.ndarray:
         """The readings (module docstring), cast again when ``1 / rate_hz`` has passed since the last."""
         cached = self._last
-        if time is not None and cached is not None and time - cached[0] < 1.0 / self.spec.rate_hz - 1e-9:
+        if time is not None and cached is not None and time - cached[0] < self._period:
             return cached[1].copy()
         starts, ends = self.rays(position, quaternion)
-        n = self.count
-        results: list = []
-        # the ray lists and PyBullet's result tuples are thousands of small containers: with
+        n = self._count
+        # PyBullet's result tuples are thousands of small containers for a large sensor: with
         # the cyclic garbage collector on, their allocation sets off collections that walk
         # every live object of the process (for a 64 x 48 image: ~11 ms a scan instead of
         # ~4); none of them can form a cycle, so collection waits until they are freed
         collecting = gc.isenabled()
         gc.disable()
         try:
-            for a in range(0, n, MAX_BATCH):
-                b = min(a + MAX_BATCH, n)
-                results += p.rayTestBatch(
-                    starts[a:b].tolist(), ends[a:b].tolist(), collisionFilterMask=RAY_MASK, physicsClientId=client
-                )
             # PyBullet reports fraction 1 for a ray that hits nothing: its reading is max_range
-            fractions = np.array([r[2] for r in results])
+            if n <= MAX_BATCH:
+                results = p.rayTestBatch(starts, ends, collisionFilterMask=RAY_MASK, physicsClientId=client)
+                fractions = np.fromiter(map(_FRACTION, results), np.float64, n)
+            else:
+                fractions = np.empty(n)
+                for a in range(0, n, MAX_BATCH):
+                    b = min(a + MAX_BATCH, n)
+                    results = p.rayTestBatch(
+                        starts[a:b], ends[a:b], collisionFilterMask=RAY_MASK, physicsClientId=client
+                    )
+                    fractions[a:b] = np.fromiter(map(_FRACTION, results), np.float64, b - a)
             del results
         finally:
             if collecting:
                 gc.enable()
-        hit = fractions < 1.0
-        ranges = self.min_range + fractions * (self.max_range - self.min_range)
-        if self.spec.noise_std > 0:
-            eta = self.rng.standard_normal(self.count)
+        noisy, axial = self.spec.noise_std > 0, self._axial
+        hit = fractions < 1.0 if noisy or axial is not None else None
+        ranges = fractions * self._span
+        ranges += self.min_range
+        if noisy:
+            eta = self.rng.standard_normal(n)
             ranges = np.where(hit, np.clip(ranges + self.spec.noise_std * eta, self.min_range, self.max_range), ranges)
-        if self._axial is not None:  # depth camera: along the optical axis
-            ranges = np.where(hit, ranges * self._axial, self.max_range)
+        if axial is not None:  # depth camera: along the optical axis
+            ranges = np.where(hit, ranges * axial, self.max_range)
         readings = ranges.reshape(self.shape).astype(np.float32)
         self._last = (time if time is not None else float("nan"), readings)
         return readings.copy()

@@ -90,6 +90,20 @@ def test_depth_camera_reads_the_axial_depth_of_a_wall_filling_its_view():
     np.testing.assert_allclose(image, 2.0, rtol=0, atol=TOL)
 
 
+@pytest.mark.parametrize("width, height", [(128, 128), (130, 127)])
+def test_a_large_image_is_cast_in_several_batches_in_order(width, height):
+    # 16 384 and 16 510 rays: PyBullet casts fewer than 16 * 1024 rays a call and silently
+    # drops the rest, so the sensor splits the rays; a wall filling the left half (+y) of the
+    # view reads 2 m in every left column and max range in every right one
+    depth = {"name": "depth", "type": "depth", "width": width, "height": height, "fov": 60.0, "max_range": 10.0}
+    world = _world([depth], boxes=[{"size": [1.0, 8.0, 8.0], "position": [2.5, 4.0, 1.0]}])
+    image = world.scan(0, 0)
+    assert image.shape == (height, width)
+    # the fraction of a 10 m ray at the image's corners is off by up to ~6e-7 (5.5e-6 m seen)
+    np.testing.assert_allclose(image[:, : width // 2], 2.0, rtol=0, atol=1e-5)
+    np.testing.assert_array_equal(image[:, width // 2 :], 10.0)
+
+
 def test_depth_camera_image_rows_and_columns_follow_the_camera_convention():
     # a wall on the left (+y) only: column 0 (left) hits, the last column misses;
     # looking down at the ground from 1 m: the bottom row hits, the top row misses
