@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import subprocess
 import sys
 import warnings
@@ -306,28 +307,27 @@ def test_episodes_with_sensors_record_them_and_verify_exactly(tmp_path):
         assert verify(episode, tolerance=0.0).worst_field == "uav 0 sensors"
 
 
-_HASH = (
-    "import hashlib, warnings, gymnasium, numpy as np, pyflyt_engine.envs\n"
-    "warnings.simplefilter('ignore')\n"
-    "env = gymnasium.make('PyFlyt/QuadX-Hover-v0', uav={uav!r}, sensors={{'observe': True}})\n"
-    "h = hashlib.sha256()\n"
-    "obs, _ = env.reset(seed=9)\n"
-    "h.update(obs.tobytes())\n"
-    "for k in range(30):\n"
-    "    obs, *_ = env.step(np.array([0.1, 0.0, -0.1, 0.45]))\n"
-    "    h.update(obs.tobytes()); h.update(np.array(env.unwrapped.vehicle.sensors.values()).tobytes())\n"
-    "print(h.hexdigest())\n"
-)
+def episode_hash(uav: str) -> str:
+    """SHA-256 of the observations and sensor readings of a seeded 30-step episode."""
+    warnings.simplefilter("ignore")
+    env = gymnasium.make("PyFlyt/QuadX-Hover-v0", uav=uav, sensors={"observe": True})
+    h = hashlib.sha256()
+    obs, _ = env.reset(seed=9)
+    h.update(obs.tobytes())
+    for _ in range(30):
+        obs, *_ = env.step(np.array([0.1, 0.0, -0.1, 0.45]))
+        h.update(obs.tobytes())
+        h.update(np.array(env.unwrapped.vehicle.sensors.values()).tobytes())
+    env.close()
+    return h.hexdigest()
 
 
 def test_a_seeded_episode_is_bit_identical_across_processes():
-    code = _HASH.format(uav=EXAMPLE)
-    here: dict = {}
-    exec(compile(code.replace("print(h.hexdigest())", "here['h'] = h.hexdigest()"), "<hash>", "exec"), {"here": here})
+    code = f"from tests.components.test_sensors import episode_hash; print(episode_hash({str(EXAMPLE)!r}))"
     other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                           env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
+                           env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert other.returncode == 0, other.stderr[-2000:]
-    assert other.stdout.strip().splitlines()[-1] == here["h"]
+    assert other.stdout.strip().splitlines()[-1] == episode_hash(str(EXAMPLE))
 
 
 @pytest.mark.parametrize("env_id", ["PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Waypoints-v0"])
