@@ -114,7 +114,12 @@ def test_bad_randomisation_is_one_clear_message(randomize, message):
 def test_randomised_windy_episodes_record_their_draws_and_verify(tmp_path):
     env = RecordEpisode(
         make(
-            randomize={**WINDY, "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2}},
+            randomize={
+                **WINDY,
+                "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2},
+                "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.04},
+                "observation_delay": {"distribution": "normal", "mean": 0.02, "std": 0.01, "low": 0.0, "high": 0.04},
+            },
             wind={"preset": "dryden_light", "mean": {"speed": 1.0}},
         ),
         tmp_path,
@@ -123,6 +128,9 @@ def test_randomised_windy_episodes_record_their_draws_and_verify(tmp_path):
     for episode in range(2):
         _, info = env.reset(seed=5 if episode == 0 else None)
         draws.append(info["randomization"])
+        assert env.unwrapped.vehicle.latency == tuple(
+            math.floor(info["randomization"][k] * 240.0 + 0.5) for k in ("action_delay", "observation_delay")
+        )
         for _ in range(30):
             env.step(np.array([0.05, -0.05, 0.0, 0.14]))
     env.close()
