@@ -235,8 +235,8 @@ class EnvConfig(_Config):
     )
     latency: LatencyConfig | None = Field(
         None,
-        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); null: none; "
-        "a randomize entry action_delay / observation_delay replaces that delay per episode",
+        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); "
+        "null: none; a randomize entry action_delay / observation_delay replaces that delay per episode",
     )
     sensors: EnvSensorsConfig | None = Field(
         None,

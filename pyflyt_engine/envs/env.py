@@ -208,7 +208,9 @@ class UAVEnv(gymnasium.Env):
         self._reward_terms: dict[str, float] = {}
         #: samples and applies ``config.randomize`` at each reset (None without)
         self.randomizer: Randomizer | None = (
-            Randomizer(cfg.randomize, self.world, self.latency_steps) if cfg.randomize else None  # type: ignore[arg-type]
+            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
+            if cfg.randomize
+            else None
         )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}

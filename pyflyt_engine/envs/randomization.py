@@ -136,12 +136,14 @@ def check_names(entries: Mapping[str, Any], wind: Any, episode: float | None = N
         elif name in DELAYS:
             if dist.low is None or dist.high is None or dist.low < 0:
                 raise ValueError(
-                    f"'{name}' is a delay [s]: give it bounds 0 <= low <= high (a normal distribution is clipped to them)"
+                    f"'{name}' is a delay [s]: give it bounds 0 <= low <= high "
+                    "(a normal distribution is clipped to them)"
                 )
             if episode is not None and dist.high >= episode:
                 raise ValueError(
                     f"'{name}': high {dist.high:g} s is not shorter than the episode (max_duration_seconds "
-                    f"{episode:g} s): nothing the agent does would reach the vehicle; give a delay of a few physics steps"
+                    f"{episode:g} s): nothing the agent does would reach the vehicle; give a delay of a few "
+                    "physics steps"
                 )
 
 

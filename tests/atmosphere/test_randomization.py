@@ -161,13 +161,15 @@ def test_train_selects_a_preset_with_env_randomize():
 def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
     """conf/randomize/sim2real.yaml through `pyflyt train env.randomize=sim2real`: its
     entries, each draw within its bounds, two seeds give two airframes, a seed gives the
-    same one again, and the drawn mass and thrust coefficient are the ones the simulated
+    same one again, and the drawn mass, thrust coefficient and delays are the ones the simulated
     vehicle has (that those fly is test_the_sampled_airframe_is_the_one_that_flies)."""
     from pyflyt_cli.training.compose import compose_config
 
     cfg = compose_config(env="quadx_hover", overrides=["env.randomize=sim2real"])
     preset = cfg.env.randomize
-    assert list(preset) == ["mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag"]
+    assert list(preset) == [
+        "mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag", "action_delay", "observation_delay"
+    ]
     env = make(randomize="sim2real")
     draws = []
     for seed in (0, 1):
@@ -182,6 +184,8 @@ def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
         assert mass == pytest.approx(drawn["mass"] * vehicle.parts.mass)
         assert vehicle.actuators.motors.params.kf == pytest.approx(drawn["motor_kf"] * vehicle.motors.kf)
         assert vehicle.actuators.motors.params.tau == pytest.approx(drawn["motor_tau"] * vehicle.motors.tau)
+        delays = (drawn["action_delay"], drawn["observation_delay"])
+        assert vehicle.latency == base.latency_steps == tuple(math.floor(d * 240.0 + 0.5) for d in delays)
     assert draws[0]["mass"] != draws[1]["mass"] and draws[0]["motor_tau"] != draws[1]["motor_tau"]
     assert env.reset(seed=0)[1]["randomization"] == draws[0]  # the seed reproduces the airframe
     env.close()

@@ -177,7 +177,8 @@ def _drawn_steps(env, name: str) -> int:
 
 def _throttle_episode(seed: int, delay: dict, n: int = 30) -> tuple[np.ndarray, dict]:
     """Motor throttles after each agent (= physics) step of a throttle step sent from the reset."""
-    env = QuadXHoverEnv(airframe=spec_variant(**{"motors.noise_ratio": 0.0}), randomize={"action_delay": delay}, **MOTORS)
+    quiet = spec_variant(**{"motors.noise_ratio": 0.0})
+    env = QuadXHoverEnv(airframe=quiet, randomize={"action_delay": delay}, **MOTORS)
     _, info = env.reset(seed=seed)
     out = []
     for _ in range(n):
@@ -252,15 +253,17 @@ def test_a_seed_reproduces_its_delays_across_processes_and_seeds_differ():
     assert first != latency_draws(7)
     (a, steps_a), (b, steps_b) = json.loads(first)
     assert list(a) == ["action_delay", "observation_delay"]  # declaration order
-    assert a != b and steps_a == [delay_steps(a[k], 240.0) for k in a] and steps_b == [delay_steps(b[k], 240.0) for k in b]
+    assert a != b
+    assert steps_a == [delay_steps(a[k], 240.0) for k in a] and steps_b == [delay_steps(b[k], 240.0) for k in b]
 
 
 def test_a_drawn_delay_replaces_the_fixed_one_and_the_other_stays():
-    env = make(latency={"action_delay": 0.025, "observation_delay": 0.0125}, randomize={"observation_delay": _uniform(0.05, 0.05)})
+    fixed = {"action_delay": 0.025, "observation_delay": 0.0125}  # 6 and 3 physics steps
+    env = make(latency=fixed, randomize={"observation_delay": _uniform(0.05, 0.05)})
     env.reset(seed=0)
     assert env.unwrapped.vehicle.latency == (6, 12) and env.unwrapped.latency_steps == (6, 12)
     env.close()
-    env = make(latency={"action_delay": 0.025, "observation_delay": 0.0125}, randomize={"action_delay": _uniform(0.0, 0.0)})
+    env = make(latency=fixed, randomize={"action_delay": _uniform(0.0, 0.0)})
     env.reset(seed=0)
     vehicle = env.unwrapped.vehicle
     assert vehicle.latency == (0, 3) and "set_setpoint" not in vehicle.__dict__  # no action delay: the plain method
@@ -305,7 +308,8 @@ def test_a_vehicle_changes_its_delays_between_resets():
     late = run()
     assert np.array_equal(late[6:], plain[:-6]) and not late[:6].any()
     vehicle.set_latency(0, 0)
-    assert vehicle.latency == (0, 0) and not {"set_setpoint", "control_step", "apply_loads", "_clock"} & set(vehicle.__dict__)
+    assert vehicle.latency == (0, 0)
+    assert not {"set_setpoint", "control_step", "apply_loads", "_clock"} & set(vehicle.__dict__)
     assert np.array_equal(run(), plain)
     world.close()
 
@@ -314,7 +318,7 @@ def test_a_vehicle_changes_its_delays_between_resets():
     ("randomize", "message"),
     [
         ({"action_delay": _uniform(-0.01, 0.02)}, "'action_delay' is a delay"),
-        ({"observation_delay": {"distribution": "normal", "mean": 0.01, "std": 0.01}}, "'observation_delay' is a delay"),
+        ({"observation_delay": {"distribution": "normal", "mean": 0.01, "std": 0.01}}, "'observation_delay' is a del"),
         ({"action_delay": _uniform(0.0, 10.0)}, "'action_delay': high 10 s is not shorter than the episode"),
         ({"observation_delay": _uniform(0.0, 12.0)}, "'observation_delay': high 12 s is not shorter than the episode"),
         ({"action_delay": _uniform(0.02, 0.01)}, "low must not exceed high"),
@@ -331,7 +335,8 @@ def test_impossible_randomised_delays_are_refused_naming_the_key(randomize, mess
 
 def test_the_episode_length_bounds_a_randomised_delay():
     make(randomize={"action_delay": _uniform(0.0, 1.9)}, max_duration_seconds=2.0).close()
-    with pytest.raises(ConfigError, match="'action_delay': high 2 s is not shorter than the episode \\(max_duration_seconds 2 s\\)"):
+    message = "'action_delay': high 2 s is not shorter than the episode \\(max_duration_seconds 2 s\\)"
+    with pytest.raises(ConfigError, match=message):
         make(randomize={"action_delay": _uniform(0.0, 2.0)}, max_duration_seconds=2.0)
 
 

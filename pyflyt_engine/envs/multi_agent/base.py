@@ -183,7 +183,9 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.np_random, _ = seeding.np_random(None)
         #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
         self.randomizer: Randomizer | None = (
-            Randomizer(cfg.randomize, self.world, self.latency_steps) if cfg.randomize else None  # type: ignore[arg-type]
+            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
+            if cfg.randomize
+            else None
         )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
@@ -260,11 +262,12 @@ class MultiAgentUAVEnv(ParallelEnv):
         With ``config.randomize``, its entries are drawn first (as in the single-agent env),
         once per reset, and applied to every agent: the airframe factors to each vehicle's
         own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
-        one atmosphere, ``action_delay`` / ``observation_delay`` to every vehicle (the agents
-        share one draw of each delay, as of every other parameter).  ``options``: ``None``, or ``{"task": {...}}`` with options the task
-        lets an episode change; the multi-agent tasks declare none, so any change is refused
-        (``ValueError``) rather than ignored.  Other keys (PettingZoo's API test passes
-        ``{"options": 1}``) are ignored with a warning.
+        one atmosphere, ``action_delay`` / ``observation_delay`` to every vehicle (the
+        agents share one draw of each delay, as of every other parameter).  ``options``:
+        ``None``, or ``{"task": {...}}`` with options the task lets an episode change; the
+        multi-agent tasks declare none, so any change is refused (``ValueError``) rather
+        than ignored.  Other keys (PettingZoo's API test passes ``{"options": 1}``) are
+        ignored with a warning.
         """
         if options:
             if not isinstance(options, Mapping):
