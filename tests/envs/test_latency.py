@@ -385,3 +385,9 @@ def test_episodes_with_randomised_latency_record_it_and_verify_exactly(tmp_path)
         assert json.loads(episode.contents.require_metadata("episode")["randomization"]) == drawn
         result = verify(episode, tolerance=0.0)
         assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0, result
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+
+    cli = CliRunner().invoke(app, ["replay", str(env.paths[1]), "--verify", "--tolerance", "0"])
+    assert cli.exit_code == 0 and "verify    OK" in cli.output, cli.output
