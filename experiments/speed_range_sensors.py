@@ -15,6 +15,8 @@ hits every variant alike, and the median kept.  Variants:
   cast against it in the same run; before timing, both are stepped through the same seeded
   episodes (with and without noise) and their readings compared (the count of readings that
   differ and the largest difference are printed; more than 1e-6 m stops the script);
+* with ``--lidar-only``: the LiDAR env with its scan replaced by a constant, and the plain
+  env with its vehicle in the rays' skip group (what the step costs around the scan);
 * ray-cast depth cameras (``range_sensors`` of ``type: depth``) at several resolutions;
 * the rendered camera (``camera_observation``, PyBullet's TinyRenderer, RGB) at the same
   resolutions, the engine's other way to see depth (its ``depth`` image comes from the
@@ -23,7 +25,7 @@ hits every variant alike, and the median kept.  Variants:
 The world holds the QuadX-Obstacles-v0 forest (12 trunks) in every variant, so the rays
 have something to hit and the plain step pays for the same bodies.
 
-    python experiments/speed_range_sensors.py [--steps 1000] [--repeats 5] [--rounds-table]
+    python experiments/speed_range_sensors.py [--steps 1000] [--repeats 5] [--rounds-table] [--lidar-only]
 
 Prints a Markdown table: CPU ms per step, the added ms per step over the plain env, and
 the added cost as a percentage of the plain step (with ``--rounds-table`` also each round's
@@ -46,13 +48,15 @@ import numpy as np
 
 import pyflyt_engine  # noqa: F401  (registers the ids)
 from pyflyt_engine.bullet import pybullet as p
-from pyflyt_engine.components.range_sensor import RAY_MASK
+from pyflyt_engine.components.range_sensor import RAY_MASK, RAY_SKIP_GROUP
 from pyflyt_engine.envs import make_env
 from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.envs.core import all_finite
 
 RESOLUTIONS = ((8, 6), (16, 12), (32, 24), (64, 48))
 PREVIOUS = "LiDAR 64 beams, previous cast"
+STUB = "LiDAR 64 beams, scan replaced by a constant"
+GROUP = "plain, vehicle in the rays' skip group"
 
 
 def use_previous_scan(env) -> None:
@@ -63,14 +67,30 @@ def use_previous_scan(env) -> None:
         sensor.body = None
 
 
-def check_identical(current, previous, steps: int) -> tuple[int, int, float]:
+def fraction_gap(env) -> float:
+    """The largest difference of the 64 hit fractions PyBullet returns for ``env``'s LiDAR at
+    its vehicle's present pose, cast from the body frame and placed in the ground frame."""
+    vehicle = env.unwrapped.world.vehicles[0]
+    sensor, client, state = vehicle.range_sensors[0], env.unwrapped.world.client, vehicle.state
+    ground = p.rayTestBatch(
+        *sensor.rays(state.lin_pos, state.quaternion), collisionFilterMask=RAY_MASK, physicsClientId=client
+    )
+    body = p.rayTestBatch(
+        *sensor._local, parentObjectUniqueId=vehicle.body_id, parentLinkIndex=-1,
+        collisionFilterMask=RAY_MASK, physicsClientId=client,
+    )
+    return max(abs(a[2] - b[2]) for a, b in zip(ground, body))
+
+
+def check_identical(current, previous, steps: int) -> tuple[int, int, float, float]:
     """Step both envs with the same seeded actions and compare every LiDAR reading (noisy
     readings: the noise stream is drawn alike); most scans must see an obstacle. Returns the
-    scans compared, the readings that differ and the largest difference [m] (exits if one
-    differs by more than 1e-6 m: more than rounding)."""
+    scans compared, the readings that differ, the largest difference [m] (exits if one
+    differs by more than 1e-6 m: more than rounding) and the largest difference of a hit
+    fraction between the two placements (:func:`fraction_gap`)."""
     rng = np.random.default_rng(7)
     compared = hits = differ = 0
-    worst = 0.0
+    worst = gap = 0.0
     for env in (current, previous):
         env.reset(seed=7)
     for _ in range(steps):
@@ -82,6 +102,7 @@ def check_identical(current, previous, steps: int) -> tuple[int, int, float]:
         worst = max(worst, float(np.abs(x.astype(np.float64) - y).max()))
         if worst > 1e-6:
             raise SystemExit(f"the LiDAR readings of the two casts differ by {worst} m after {compared} steps")
+        gap = max(gap, fraction_gap(current))
         compared += 1
         hits += bool((x < 5.0).any())  # the LiDAR's max_range: something was hit
         if any(out[0][2:4]):
@@ -89,7 +110,7 @@ def check_identical(current, previous, steps: int) -> tuple[int, int, float]:
                 env.reset()
     if hits < compared // 2:
         raise SystemExit(f"only {hits} of {compared} scans saw an obstacle: the comparison would prove little")
-    return compared, differ, worst
+    return compared, differ, worst, gap
 
 
 def thread_us(call, repeats: int, rounds: int = 15) -> float:
@@ -101,6 +122,53 @@ def thread_us(call, repeats: int, rounds: int = 15) -> float:
             call()
         out.append(1e6 * (time.thread_time() - t) / repeats)
     return statistics.median(out)
+
+
+def in_step(plain, lidar, steps: int, rounds: int) -> tuple[float, float, float, float]:
+    """The 64-beam scan as it runs inside env steps (caches cold after the physics steps):
+    ``(plain step, LiDAR step, scan, rayTestBatch)`` in CPU µs, the steps the median of
+    ``rounds`` alternating rounds of ``steps`` steps each, the scan and its ``rayTestBatch``
+    call the thread CPU time they took in the LiDAR rounds per scan."""
+    import pyflyt_engine.components.range_sensor as module
+
+    sensor = lidar.unwrapped.world.vehicles[0].range_sensors[0]
+    spent = {"scan": 0.0, "cast": 0.0, "scans": 0}
+    bullet = module.p
+
+    class TimedBullet:
+        def __getattr__(self, name):
+            return getattr(bullet, name)
+
+        def rayTestBatch(self, *args, **kwargs):  # noqa: N802 (PyBullet's name)
+            t = time.thread_time()
+            out = bullet.rayTestBatch(*args, **kwargs)
+            spent["cast"] += time.thread_time() - t
+            return out
+
+    def timed_scan(*args, **kwargs):
+        t = time.thread_time()
+        out = scan(*args, **kwargs)
+        spent["scan"] += time.thread_time() - t
+        spent["scans"] += 1
+        return out
+
+    scan = sensor.scan
+    module.p, sensor.scan = TimedBullet(), timed_scan
+    try:
+        steps_us: dict[str, list[float]] = {"plain": [], "lidar": []}
+        for k in range(rounds):
+            for name, env in (("plain", plain), ("lidar", lidar)):
+                steps_us[name].append(1000.0 * cpu_ms_per_step(env, steps, 100 + k))
+    finally:
+        module.p = bullet
+        del sensor.scan
+    n = spent["scans"]
+    return (
+        statistics.median(steps_us["plain"]),
+        statistics.median(steps_us["lidar"]),
+        1e6 * spent["scan"] / n,
+        1e6 * spent["cast"] / n,
+    )
 
 
 def breakdown(plain, lidar, steps: int) -> list[tuple[str, float]]:
@@ -198,6 +266,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--rounds-table", action="store_true", help="also print each round of plain and LiDAR 64")
+    parser.add_argument(
+        "--lidar-only",
+        action="store_true",
+        help="time only the plain env and the 64-beam LiDAR both ways: short rounds, so a round's variants share its load",
+    )
     args = parser.parse_args()
     if args.steps < 1 or args.repeats < 1:
         parser.error("--steps and --repeats must be >= 1")
@@ -205,7 +278,15 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, config in variants().items():
-            envs[name] = make_env(config)
+            if not args.lidar_only or name in ("plain", "LiDAR 64 beams", PREVIOUS):
+                envs[name] = make_env(config)
+        if args.lidar_only:  # what the step costs around the scan: the scan replaced, the skip group alone
+            envs[STUB] = make_env(variants()["LiDAR 64 beams"])
+            constant = np.full(64, 5.0, np.float32)
+            envs[STUB].unwrapped.world.vehicles[0].range_sensors[0].scan = lambda *_, **__: constant.copy()
+            envs[GROUP] = make_env(variants()["plain"])
+            world = envs[GROUP].unwrapped.world
+            p.setCollisionFilterGroupMask(world.vehicles[0].body_id, -1, RAY_SKIP_GROUP, -1, physicsClientId=world.client)
         use_previous_scan(envs[PREVIOUS])
         noisy = {**variants()["LiDAR 64 beams"]}
         noisy["range_sensors"] = [{**noisy["range_sensors"][0], "noise_std": 0.01}]
@@ -214,7 +295,8 @@ def main() -> None:
     checks = [check_identical(envs["LiDAR 64 beams"], envs[PREVIOUS], 500), check_identical(*pair, 500)]
     for env in pair:
         env.close()
-    compared, differ, worst = (sum(c[0] for c in checks), sum(c[1] for c in checks), max(c[2] for c in checks))
+    compared, differ = sum(c[0] for c in checks), sum(c[1] for c in checks)
+    worst, gap = max(c[2] for c in checks), max(c[3] for c in checks)
     loads = [os.getloadavg()[0]]
     times: dict[str, list[float]] = {name: [] for name in envs}
     for repeat in range(args.repeats):
@@ -222,6 +304,7 @@ def main() -> None:
             times[name].append(cpu_ms_per_step(env, args.steps, repeat))
         loads.append(os.getloadavg()[0])
     rows = breakdown(envs["plain"], envs["LiDAR 64 beams"], 200)
+    steps_plain, steps_lidar, scan_us, cast_us = in_step(envs["plain"], envs["LiDAR 64 beams"], 300, 10)
     for env in envs.values():
         env.close()
     median = {name: statistics.median(t) for name, t in times.items()}
@@ -234,6 +317,7 @@ def main() -> None:
     print(
         f"LiDAR readings, body-frame cast against the previous cast: {compared} scans compared, "
         + ("identical bit for bit" if differ == 0 else f"{differ} readings differ, by at most {worst:.2e} m")
+        + f"; hit fractions of the two placements differ by at most {gap:.1e}"
     )
     print()
     print("| observation | CPU ms/step | added ms/step | added % of plain step |")
@@ -241,6 +325,13 @@ def main() -> None:
     for name, ms in median.items():
         added = ms - plain
         print(f"| {name} | {ms:.3f} | {added:+.3f} | {100 * added / plain:+.0f} % |")
+    added = [100 * (b - a) / a for a, b in zip(times["plain"], times["LiDAR 64 beams"])]
+    fastest = 100 * (min(times["LiDAR 64 beams"]) - min(times["plain"])) / min(times["plain"])
+    print()
+    print(
+        f"LiDAR 64 beams, added % of the plain step per round: median {statistics.median(added):+.0f} % "
+        f"(range {min(added):+.0f} to {max(added):+.0f} %); fastest round of each: {fastest:+.0f} %"
+    )
     if args.rounds_table:
         print()
         print("| round | plain ms/step | LiDAR 64 ms/step | added % |")
@@ -255,6 +346,18 @@ def main() -> None:
     step_us = rows[0][1]
     for name, us in rows:
         print(f"| {name} | {us:.1f} | {100 * us / step_us:.0f} % |")
+    print()
+    print(f"Inside env steps (10 alternating rounds of 300 steps; load {os.getloadavg()[0]:.1f}):")
+    print()
+    print("| what | µs | % of the plain step |")
+    print("|---|---:|---:|")
+    for name, us in (
+        ("plain env step (median round)", steps_plain),
+        ("LiDAR 64 env step (median round)", steps_lidar),
+        ("  its scan (RangeSensor.scan), per step", scan_us),
+        ("  of which rayTestBatch", cast_us),
+    ):
+        print(f"| {name} | {us:.1f} | {100 * us / steps_plain:.0f} % |")
 
 
 if __name__ == "__main__":

@@ -21,8 +21,8 @@ without a body turns them into the ground frame for the pose it is given by elem
 NumPy products and sums (exact, no BLAS; :meth:`RangeSensor.rays`, which the recorder's
 point clouds also use).  Both hand PyBullet float64 arrays (read in one block; lists of
 lists are read ray by ray).  The two placements differ by rounding only: hit fractions
-agree to ~3e-15 and the float32 readings were the same bit for bit in the 64 000 scans
-``experiments/speed_range_sensors.py`` compares (docs/obstacles_and_sensors.md).
+differ by ~1e-15 and the float32 readings were the same bit for bit in every comparison
+of ``experiments/speed_range_sensors.py`` (docs/obstacles_and_sensors.md).
 
 Readings (float32, ``max_range`` where nothing is hit):
 
