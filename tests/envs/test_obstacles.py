@@ -470,3 +470,29 @@ def test_a_forest_keeps_clear_of_the_gates(make):
     for centre in env.task.centres:
         for o in trunks:
             assert math.hypot(o.position[0] - centre[0], o.position[1] - centre[1]) - o.radius >= 0.8
+
+
+def test_scenery_of_another_mesh_format_is_drawn_as_its_embedded_file(tmp_path):
+    # a body a task adds with an STL visual: not an OBJ, so the file itself goes in as a model
+    import base64
+
+    from pyflyt_engine.telemetry.scene import body_entity
+
+    stl = tmp_path / "plate.stl"
+    stl.write_text(
+        "solid plate\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n"
+        "  endloop\n endfacet\nendsolid plate\n"
+    )
+    client = p.connect(p.DIRECT)
+    try:
+        visual = p.createVisualShape(p.GEOM_MESH, fileName=str(stl), meshScale=[2.0, 3.0, 4.0], physicsClientId=client)
+        body = p.createMultiBody(0.0, -1, visual, [1.0, 2.0, 3.0], physicsClientId=client)
+        e = body_entity(0, client, body)
+    finally:
+        p.disconnect(client)
+    assert e is not None and not e["triangles"] and len(e["models"]) == 1
+    model = e["models"][0]
+    assert model["media_type"] == "model/stl" and base64.b64decode(model["data"]) == stl.read_bytes()
+    assert [model["scale"][k] for k in "xyz"] == [2.0, 3.0, 4.0]
+    assert [model["pose"]["position"][k] for k in "xyz"] == [1.0, 2.0, 3.0]
+    assert e["metadata"] == [{"key": "mesh", "value": "plate.stl"}]
