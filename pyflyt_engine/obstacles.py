@@ -21,7 +21,8 @@ creates a bounded number of shapes.
 
 Placement is plain Python floats (``rng.random()`` draws and ``math``), so a seed gives
 the same layout on every machine; the recorder writes every obstacle into the MCAP
-scene at each reset (``scenery/<body id>`` entities of ``/scene``).
+scene at each reset (``scenery/<body id>`` entities of ``/scene``; a mesh as the triangles
+:func:`read_obj` reads from its file, at its scale).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -108,7 +109,8 @@ class SphereObstacle(_Placed):
 
 
 class MeshObstacle(_Placed):
-    """A triangle mesh from a Wavefront OBJ file (static, so it may be concave)."""
+    """A triangle mesh from a Wavefront OBJ file (static, so it may be concave); the file is
+    read whole at load (:func:`read_obj`) and refused, by name, if it is not one."""
 
     type: Literal["mesh"] = "mesh"
     file: str = Field(description="path to a .obj file (relative paths: from the working directory)")
@@ -122,8 +124,7 @@ class MeshObstacle(_Placed):
             raise ValueError(f"file: a mesh obstacle needs a Wavefront .obj file, got {value!r}")
         if not path.is_file():
             raise ValueError(f"file: no such mesh file {value!r} (resolved to {path.resolve()})")
-        if not _obj_has_faces(path):
-            raise ValueError(f"file: {value!r} holds no vertices and faces ('v' and 'f' lines) of an OBJ mesh")
+        read_obj(path.resolve())  # the whole file, so a malformed or cut-off one is refused here
         return str(path.resolve())
 
     @field_validator("scale")
@@ -134,20 +135,103 @@ class MeshObstacle(_Placed):
         return value
 
 
-def _obj_has_faces(path: Path, limit: int = 64 * 1024 * 1024) -> bool:
-    """Whether ``path`` reads as an OBJ text with at least 3 vertices and one face."""
-    if path.stat().st_size > limit:
-        raise ValueError(f"file: {path} is larger than {limit // (1024 * 1024)} MiB")
-    vertices = faces = 0
-    with path.open("r", encoding="utf-8", errors="replace") as handle:
-        for line in handle:
-            if line.startswith("v "):
-                vertices += 1
-            elif line.startswith("f "):
-                faces += 1
-            if vertices >= 3 and faces >= 1:
-                return True
-    return False
+#: the largest mesh file read [bytes]
+MAX_MESH_BYTES = 64 * 1024 * 1024
+
+
+class ObjMesh(NamedTuple):
+    """The triangles of a Wavefront OBJ file (:func:`read_obj`), in the file's own coordinates."""
+
+    #: every vertex (``v`` line) in file order: (x, y, z)
+    vertices: tuple[tuple[float, float, float], ...]
+    #: three 0-based vertex indices per triangle; a face of k > 3 corners is fanned from its
+    #: first corner into k - 2 triangles
+    indices: tuple[int, ...]
+
+
+def read_obj(path: str | Path) -> ObjMesh:
+    """The vertices and triangles of the Wavefront OBJ text at ``path``; ``ValueError`` naming
+    the file (and the line) when it is not one.
+
+    Read as data, at most :data:`MAX_MESH_BYTES`: ``v`` lines give the vertices (the first
+    three numbers; a fourth ``w`` or a vertex colour is allowed and left out), ``f`` lines the
+    faces (each corner ``i``, ``i/t``, ``i//n`` or ``i/t/n``, 1-based, negative counting back
+    from the last vertex read); every other statement (normals, texture coordinates, groups,
+    materials, comments) is skipped.  Refused: a binary file, a vertex without three finite
+    numbers, a face of fewer than three corners or naming a vertex the file does not hold (what
+    a file cut short typically shows), and a file without a face.  Cached by path, size and
+    modification time, so the env's check at load and the recorder read a file once.
+    """
+    path = Path(path)
+    try:
+        stat = path.stat()
+    except OSError as exc:
+        raise ValueError(f"file: cannot read mesh file {str(path)!r}: {exc.strerror or exc}") from None
+    return _read_obj(str(path), stat.st_size, stat.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _read_obj(name: str, size: int, _mtime_ns: int) -> ObjMesh:
+    if size > MAX_MESH_BYTES:
+        raise ValueError(f"file: {name!r} is larger than {MAX_MESH_BYTES // (1024 * 1024)} MiB")
+    try:
+        data = Path(name).read_bytes()
+    except OSError as exc:
+        raise ValueError(f"file: cannot read mesh file {name!r}: {exc.strerror or exc}") from None
+    if b"\0" in data:
+        raise ValueError(f"file: {name!r} is binary, not the text of a Wavefront OBJ mesh")
+    vertices: list[tuple[float, float, float]] = []
+    indices: list[int] = []
+    last_line: dict[int, int] = {}  # the highest 1-based vertex a face names -> that face's line
+    for number, line in enumerate(data.decode("utf-8", errors="replace").splitlines(), start=1):
+        fields = line.split()
+        if not fields:
+            continue
+        if fields[0] == "v":
+            try:
+                xyz = tuple(float(v) for v in fields[1:])
+            except ValueError:
+                xyz = ()
+            if len(xyz) < 3 or not all(math.isfinite(v) for v in xyz):
+                raise ValueError(
+                    f"file: {name!r} line {number}: a vertex needs three finite numbers, got {line.strip()!r}"
+                )
+            vertices.append(xyz[:3])  # type: ignore[arg-type]
+        elif fields[0] == "f":
+            corners = []
+            for corner in fields[1:]:
+                try:
+                    i = int(corner.split("/", 1)[0])
+                except ValueError:
+                    i = 0
+                if i == 0 or (i < 0 and -i > len(vertices)):
+                    raise ValueError(
+                        f"file: {name!r} line {number}: face corner {corner!r} names no vertex "
+                        f"({len(vertices)} read so far)"
+                    )
+                if i > 0:
+                    if i > len(vertices):
+                        last_line.setdefault(i, number)
+                    corners.append(i - 1)
+                else:
+                    corners.append(len(vertices) + i)
+            if len(corners) < 3:
+                raise ValueError(
+                    f"file: {name!r} line {number}: a face needs at least three corners, got {line.strip()!r} "
+                    "(is the file cut short?)"
+                )
+            for k in range(2, len(corners)):
+                indices += (corners[0], corners[k - 1], corners[k])
+    if len(vertices) < 3 or not indices:
+        raise ValueError(f"file: {name!r} holds no vertices and faces ('v' and 'f' lines) of an OBJ mesh")
+    beyond = [i for i in last_line if i > len(vertices)]
+    if beyond:
+        worst = max(beyond)
+        raise ValueError(
+            f"file: {name!r} line {last_line[worst]}: a face names vertex {worst}, the file holds {len(vertices)} "
+            "(is the file cut short?)"
+        )
+    return ObjMesh(tuple(vertices), tuple(indices))
 
 
 Obstacle = Annotated[

@@ -246,7 +246,12 @@ class Vehicle:
         #: ray-cast range sensors (LiDARs, depth cameras), in spec order; their noise
         #: streams are the world's to seed (:meth:`seed_sensors`)
         self.range_sensors: list[RangeSensor] = [
-            RangeSensor(r, tuple(float(a) - float(c) for a, c in zip(r.position, parts.com)), np.random.default_rng(0))
+            RangeSensor(
+                r,
+                tuple(float(a) - float(c) for a, c in zip(r.position, parts.com)),
+                np.random.default_rng(0),
+                body=self.body_id,
+            )
             for r in spec.range_sensors
         ]
         #: the noisy IMU, position sensor and barometer (None without a ``sensors`` section);

@@ -12,10 +12,17 @@ sensor never sees its own airframe, nor another sensor-carrying vehicle.
 Frames: the sensor's frame follows the body convention (x forward, y left, z up) and is
 mounted on the body at ``position`` (relative to the body origin, the centre of mass) and
 ``orientation`` (roll, pitch, yaw, the camera's convention: positive pitch looks down).
-The beam directions are fixed in the body frame when the vehicle is built; each scan
-turns them into the ground frame with the body's rotation by elementwise NumPy
-products and sums (exact, no BLAS), and hands PyBullet the ray starts and ends as
-float64 arrays (read in one block; lists of lists are read ray by ray).
+The beam directions, and so the rays' starts and ends, are fixed in the body frame when the
+vehicle is built.  A vehicle's sensor (built with its ``body``) hands PyBullet these
+body-frame rays with the body as their parent (``rayTestBatch``'s ``parentObjectUniqueId``,
+base link): PyBullet places them at the body's pose (its centre-of-mass frame, the pose the
+vehicle's state reads) in C++, so a scan does no per-ray arithmetic in Python.  A sensor
+without a body turns them into the ground frame for the pose it is given by elementwise
+NumPy products and sums (exact, no BLAS; :meth:`RangeSensor.rays`, which the recorder's
+point clouds also use).  Both hand PyBullet float64 arrays (read in one block; lists of
+lists are read ray by ray).  The two placements differ by rounding only: hit fractions
+differ by ~1e-15 and the float32 readings were the same bit for bit in every comparison
+of ``experiments/speed_range_sensors.py`` (docs/obstacles_and_sensors.md).
 
 Readings (float32, ``max_range`` where nothing is hit):
 
@@ -108,9 +115,13 @@ class RangeSensor:
             :class:`~pyflyt_engine.spec.DepthSensorSpec`.
         offset: mount point relative to the body origin (centre of mass), body frame [m].
         rng: the sensor's noise stream.
+        body: the PyBullet body carrying the sensor: its rays are then cast from its frame
+            (module docstring) and :meth:`scan` reads the pose from PyBullet, not its arguments.
     """
 
-    def __init__(self, spec: Any, offset: Sequence[float], rng: np.random.Generator) -> None:
+    def __init__(
+        self, spec: Any, offset: Sequence[float], rng: np.random.Generator, body: int | None = None
+    ) -> None:
         self.spec = spec
         self.name: str = spec.name
         self.kind: str = spec.type
@@ -125,15 +136,21 @@ class RangeSensor:
             directions, self.shape, cosines = depth_directions(spec)
             self._axial = np.array(cosines)
         mount = quaternion_to_rows(euler_to_quaternion(*(math.radians(a) for a in spec.orientation_deg)))
-        body = [exact.rotate(mount, d) for d in directions]  # beam directions in the body frame
+        in_body = [exact.rotate(mount, d) for d in directions]  # beam directions in the body frame
         #: (n, 3): the body-frame beam directions, one row per beam, and its columns (n, 1)
-        self._directions = np.array(body)
+        self._directions = np.array(in_body)
         self._columns = [self._directions[:, i : i + 1].copy() for i in range(3)]
-        self._count = len(body)
+        self._count = len(in_body)
         #: (2, 1, 1): the distances of a ray's start and end from the sensor
         self._reach = np.array([self.min_range, self.max_range]).reshape(2, 1, 1)
         self._span = self.max_range - self.min_range
         self._period = 1.0 / spec.rate_hz - 1e-9  # a scan younger than this is returned again
+        #: the carrying body, or None (the rays are then placed by :meth:`rays`)
+        self.body = body
+        # the body-frame rays: starts offset + min_range d, ends offset + max_range d, (n, 3) each
+        local = self._reach * self._directions
+        local += np.array(self.offset)
+        self._local = (np.ascontiguousarray(local[0]), np.ascontiguousarray(local[1]))
         self.rng = rng
         self._last: tuple[float, np.ndarray] | None = None
 
@@ -167,7 +184,13 @@ class RangeSensor:
         cached = self._last
         if time is not None and cached is not None and time - cached[0] < self._period:
             return cached[1].copy()
-        starts, ends = self.rays(position, quaternion)
+        body = self.body
+        if body is None:
+            starts, ends = self.rays(position, quaternion)
+            parent = {}
+        else:  # PyBullet places the body-frame rays at the body's pose
+            starts, ends = self._local
+            parent = {"parentObjectUniqueId": body, "parentLinkIndex": -1}
         n = self._count
         # PyBullet's result tuples are thousands of small containers for a large sensor: with
         # the cyclic garbage collector on, their allocation sets off collections that walk
@@ -178,14 +201,14 @@ class RangeSensor:
         try:
             # PyBullet reports fraction 1 for a ray that hits nothing: its reading is max_range
             if n <= MAX_BATCH:
-                results = p.rayTestBatch(starts, ends, collisionFilterMask=RAY_MASK, physicsClientId=client)
+                results = p.rayTestBatch(starts, ends, collisionFilterMask=RAY_MASK, physicsClientId=client, **parent)
                 fractions = np.fromiter(map(_FRACTION, results), np.float64, n)
             else:
                 fractions = np.empty(n)
                 for a in range(0, n, MAX_BATCH):
                     b = min(a + MAX_BATCH, n)
                     results = p.rayTestBatch(
-                        starts[a:b], ends[a:b], collisionFilterMask=RAY_MASK, physicsClientId=client
+                        starts[a:b], ends[a:b], collisionFilterMask=RAY_MASK, physicsClientId=client, **parent
                     )
                     fractions[a:b] = np.fromiter(map(_FRACTION, results), np.float64, b - a)
             del results

@@ -154,8 +154,9 @@ def all_finite(reward: float, observation: Any) -> bool:
     if isinstance(observation, np.ndarray) and observation.ndim == 1:  # a flat Box: the common case
         return math.isfinite(reward + observation.dot(_zeros(observation.shape[0])))
     total = reward
-    for value in observation.values() if isinstance(observation, Mapping) else (observation,):
-        if isinstance(value, np.ndarray) and value.dtype.kind in "biu":  # integers (images) are always finite
+    mapping = type(observation) is dict or isinstance(observation, Mapping)
+    for value in observation.values() if mapping else (observation,):
+        if type(value) is np.ndarray and value.dtype.kind in "biu":  # integers (images) are always finite
             continue
         flat = np.asarray(value, dtype=np.float64).ravel()  # np.ravel's own method, without its wrapper
         total += flat.dot(_zeros(flat.size))

@@ -5,7 +5,8 @@ its centre of mass, x forward, y left, z up) and ``uav_<i>/camera_<k>`` (on-boar
 ``k``: x along the optical axis, z image-up, the project's camera convention).
 
 Entities: ``ground`` (plate, grid of 1, 10, 100 ... m and the flight-dome circle), ``scenery/<body>`` (bodies
-a task added to the world, e.g. a landing pad, from their PyBullet visual shapes),
+a task added to the world, e.g. a landing pad, and the obstacles, from their PyBullet visual shapes: a
+mesh from an OBJ file as a triangle list of its vertices at the mesh scale, another mesh format as a model),
 ``uav_<i>/airframe`` (the airframe's visual primitives from its URDF, locked to
 ``uav_<i>``) and ``waypoints`` (the task's markers, replaced whenever they change).
 """
@@ -21,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.frames import euler_to_quaternion, matrix_to_quaternion, quaternion_to_matrix
+from pyflyt_engine.obstacles import read_obj
 
 WORLD_FRAME = "world"
 
@@ -171,24 +173,49 @@ def airframe_primitives(
             path = Path(filename.removeprefix("file://"))
             if not path.is_absolute() and base_dir is not None:
                 path = base_dir / path
-            model: dict[str, Any] = {
-                "pose": p,
-                "scale": _xyz(_floats(shape.get("scale"), (1.0, 1.0, 1.0))),
-                "color": _color(rgba),
-                "override_color": False,
-                "url": "",
-                "media_type": _MESH_TYPES.get(path.suffix.lower(), ""),
-                "data": "",
-            }
-            try:
-                if path.stat().st_size <= _MAX_EMBEDDED_MESH:
-                    model["data"] = base64.b64encode(path.read_bytes()).decode()
-                else:
-                    model["url"] = path.resolve().as_uri()
-            except OSError:
-                model["url"] = path.resolve().as_uri() if path.is_absolute() else filename
-            out["models"].append(model)
+            out["models"].append(
+                model_primitive(path, filename, p, _floats(shape.get("scale"), (1.0, 1.0, 1.0)), rgba)
+            )
     return out
+
+
+def model_primitive(path: Path, filename: str, p: dict[str, Any], scale: Any, rgba: Any) -> dict[str, Any]:
+    """A ``foxglove.ModelPrimitive`` of the mesh file at ``path``: its bytes embedded when it is
+    readable and at most 4 MiB, else referenced by ``file://`` URL (``filename`` as given when
+    the path is relative and unreadable)."""
+    model: dict[str, Any] = {
+        "pose": p,
+        "scale": _xyz(scale),
+        "color": _color(rgba),
+        "override_color": False,
+        "url": "",
+        "media_type": _MESH_TYPES.get(path.suffix.lower(), ""),
+        "data": "",
+    }
+    try:
+        if path.stat().st_size <= _MAX_EMBEDDED_MESH:
+            model["data"] = base64.b64encode(path.read_bytes()).decode()
+        else:
+            model["url"] = path.resolve().as_uri()
+    except OSError:
+        model["url"] = path.resolve().as_uri() if path.is_absolute() else filename
+    return model
+
+
+def obj_triangles(path: Path, scale: Any, p: dict[str, Any], rgba: Any) -> dict[str, Any]:
+    """A ``foxglove.TriangleListPrimitive`` of the Wavefront OBJ file at ``path``, its vertices
+    multiplied by ``scale`` per axis (as PyBullet's ``meshScale``), one point per vertex and
+    three indices per triangle (:func:`pyflyt_engine.obstacles.read_obj`, which the env's
+    check at load already ran on an obstacle's file); ``ValueError`` if it is not one."""
+    mesh = read_obj(path)
+    sx, sy, sz = (float(v) for v in scale)
+    return {
+        "pose": p,
+        "points": [{"x": x * sx, "y": y * sy, "z": z * sz} for x, y, z in mesh.vertices],
+        "color": _color(rgba),
+        "colors": [],
+        "indices": list(mesh.indices),
+    }
 
 
 # --------------------------------------------------------------------- world scenery
@@ -248,7 +275,8 @@ def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
 
     base_pos, base_orn = p.getBasePositionAndOrientation(body_id, physicsClientId=client)
     rotation = quaternion_to_matrix(base_orn)
-    prims: dict[str, list[dict[str, Any]]] = {"cubes": [], "cylinders": [], "spheres": []}
+    prims: dict[str, list[dict[str, Any]]] = {"cubes": [], "cylinders": [], "spheres": [], "triangles": [], "models": []}
+    meshes: list[str] = []
     for shape in p.getVisualShapeData(body_id, physicsClientId=client):
         link, kind, dims, local_pos, local_orn, rgba = shape[1], shape[2], shape[3], shape[5], shape[6], shape[7]
         if link != -1:
@@ -272,9 +300,20 @@ def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
         elif kind == p.GEOM_SPHERE:
             d = 2 * dims[0]
             prims["spheres"].append({"pose": pp, "size": {"x": d, "y": d, "z": d}, "color": _color(rgba)})
+        elif kind == p.GEOM_MESH and shape[4]:  # dims: the mesh scale; shape[4]: the file PyBullet read
+            filename = shape[4].decode("utf-8", errors="replace")
+            path = Path(filename)
+            meshes.append(path.name)
+            try:
+                if path.suffix.lower() != ".obj":
+                    raise ValueError("not an OBJ file")
+                prims["triangles"].append(obj_triangles(path, dims, pp, rgba))
+            except ValueError:  # another format (or gone since the load): the file itself, as a model
+                prims["models"].append(model_primitive(path, filename, pp, dims, rgba))
     if not any(prims.values()):
         return None
-    return entity(ns, f"scenery/{body_id}", WORLD_FRAME, **prims)
+    metadata = {"mesh": ", ".join(meshes)} if meshes else None
+    return entity(ns, f"scenery/{body_id}", WORLD_FRAME, metadata=metadata, **prims)
 
 
 def wind_entity(ns: int, index: int, position: Any, wind: Any, metres_per_mps: float = 0.2) -> dict[str, Any]:

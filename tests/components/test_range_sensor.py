@@ -187,3 +187,31 @@ def test_bad_sensor_specs_are_refused_by_name():
         load_uav_spec({**load_uav_spec("quadx_cf2x").model_dump(), "range_sensors": [{**LIDAR, "vertical_beams": 4}]})
     with pytest.raises(PyFlytError, match="range_sensors"):
         load_uav_spec({**load_uav_spec("quadx_cf2x").model_dump(), "range_sensors": [LIDAR, LIDAR]})
+
+
+def test_rays_cast_from_the_body_frame_read_as_rays_placed_in_the_ground_frame():
+    # a vehicle's sensor hands PyBullet body-frame rays with the body as their parent; the
+    # same sensor without a body places them by the state's pose in NumPy: both must read
+    # the same (bit for bit here; the hit fractions differ by rounding only) on a tilted,
+    # turning flight past a wall, with a mounted, pitched scanner of several lines
+    sensor = {**LIDAR, "vertical_beams": 3, "vertical_fov_deg": 20.0, "position": [0.03, -0.02, 0.01],
+              "orientation_deg": [5.0, 10.0, 30.0]}
+    world = _world([sensor], yaw=0.3, ground=True, boxes=[WALL])
+    world.set_mode(0, "rates_thrust")
+    lidar = world.vehicles[0].range_sensors[0]
+    assert lidar.body == world.vehicles[0].body_id
+    rng = np.random.default_rng(1)
+    hits = 0
+    for _ in range(30):
+        world.set_setpoint(0, [*rng.uniform(-1.0, 1.0, 3), rng.uniform(0.1, 0.16)])
+        world.step()
+        state = world.state(0)
+        from_body = lidar.scan(world.client, state.lin_pos, state.quaternion)
+        lidar.body = None
+        try:
+            placed = lidar.scan(world.client, state.lin_pos, state.quaternion)
+        finally:
+            lidar.body = world.vehicles[0].body_id
+        np.testing.assert_array_equal(from_body, placed)
+        hits += int((from_body < 5.0).sum())
+    assert hits > 100  # the wall and the ground were seen

@@ -324,6 +324,108 @@ def test_cylinder_facets_set_the_collision_prism():
     assert abs(reading(32) - (2.0 - 0.2)) < 2e-6
 
 
+# a wedge on a 2 x 1 rectangle, 0.5 high over its edge x = 0, sloping down to x = 2; three
+# faces are quads (fanned into 2 triangles each): 6 vertices, 8 triangles
+WEDGE_OBJ = """# wedge
+o wedge
+v 0 0 0
+v 2 0 0
+v 2 1 0
+v 0 1 0
+v 0 0 0.5
+vn 0 0 1
+v 0 1 0.5
+f 1 4 3 2
+f 1/1/1 2/1/1 5/1/1
+f 4//1 6//1 3//1
+f 1 5 6 4
+f -5 -4 -1 -2
+"""
+
+
+def test_a_recorded_mesh_obstacle_is_drawn_from_its_file(tmp_path):
+    import json
+
+    import jsonschema
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+    from pyflyt_engine.frames import euler_to_quaternion
+    from pyflyt_engine.telemetry import RecordEpisode, read_mcap
+
+    obj = tmp_path / "wedge.obj"
+    obj.write_text(WEDGE_OBJ)
+    position, yaw, scale = (3.0, 1.0, 0.2), 0.3, (1.5, 2.0, 4.0)
+    mesh = {"type": "mesh", "file": str(obj), "scale": list(scale), "position": list(position),
+            "orientation": [0.0, 0.0, yaw], "color": [0.2, 0.4, 0.6, 1.0]}
+    env = RecordEpisode(QuadXHoverEnv(obstacles={"items": [mesh]}), tmp_path / "runs")
+    env.reset(seed=0)
+    env.step(np.array([0.0, 0.0, 0.0, 0.125]))
+    # what collides is what the file says at the scale: a ray straight down at local (x, 0.5)
+    # meets the slope 2 (1 - x / 3) above the base (scaled: 3 long, 2 high)
+    c, s = math.cos(yaw), math.sin(yaw)
+    for x in (0.5, 1.5, 2.5):
+        wx, wy = position[0] + c * x - s * 1.0, position[1] + s * x + c * 1.0
+        hit = p.rayTest([wx, wy, 5.0], [wx, wy, -1.0], physicsClientId=env.unwrapped.world.client)[0]
+        assert hit[0] == env.unwrapped.obstacles.fixed_ids[0]
+        assert abs(hit[3][2] - (position[2] + 2.0 * (1.0 - x / 3.0))) < 1e-5
+    env.reset(seed=1)
+    env.close()
+
+    scenes = []
+    with open(env.paths[0], "rb") as f:
+        from mcap.reader import make_reader
+
+        for schema, channel, message in make_reader(f, validate_crcs=True).iter_messages():
+            if channel.topic == "/scene":
+                data = json.loads(message.data)
+                errors = list(jsonschema.Draft202012Validator(json.loads(schema.data)).iter_errors(data))
+                assert not errors, errors[0].message
+                scenes.append(data)
+    drawn = [e for m in scenes for e in m["entities"] if e["id"].startswith("scenery/")]
+    assert len(drawn) == 1  # the reset of this episode (the next reset starts a new file)
+    wedge = drawn[0]
+    assert wedge["metadata"] == [{"key": "mesh", "value": "wedge.obj"}]
+    assert not wedge["cubes"] and not wedge["models"] and len(wedge["triangles"]) == 1
+    tri = wedge["triangles"][0]
+    points = np.array([[q["x"], q["y"], q["z"]] for q in tri["points"]])
+    assert points.shape == (6, 3)  # one point per vertex of the file
+    np.testing.assert_array_equal(points.min(axis=0), [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(points.max(axis=0), [2.0 * 1.5, 1.0 * 2.0, 0.5 * 4.0])
+    assert len(tri["indices"]) == 3 * 8 and set(tri["indices"]) == set(range(6))
+    np.testing.assert_allclose([tri["color"][k] for k in "rgba"], [0.2, 0.4, 0.6, 1.0], atol=1e-7)  # float32 in PyBullet
+    np.testing.assert_allclose([tri["pose"]["position"][k] for k in "xyz"], position, atol=1e-12)
+    q = [tri["pose"]["orientation"][k] for k in "xyzw"]
+    np.testing.assert_allclose(np.abs(np.dot(q, euler_to_quaternion(0.0, 0.0, yaw))), 1.0, atol=1e-9)
+    # the recording stays readable by the project's own tools; --verify refuses it by name
+    assert read_mcap(env.paths[0]).messages
+    runner = CliRunner()
+    result = runner.invoke(app, ["replay", str(env.paths[0])])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["replay", str(env.paths[0]), "--verify"])
+    assert result.exit_code != 0 and "obstacle draws a mesh file" in result.output
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2", "line 5: a face needs at least three corners"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1", "line 3: a vertex needs three finite numbers"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "line 4: a face names vertex 4, the file holds 3"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", "line 4: face corner '-4' names no vertex"),
+        ("v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", "line 2: a vertex needs three finite numbers"),
+        ("v 0 0 0\nv 1 0 inf\nv 0 1 0\nf 1 2 3\n", "line 2: a vertex needs three finite numbers"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\0\n", "binary"),
+    ],
+)
+def test_a_malformed_or_cut_mesh_file_is_refused_at_load_by_name(tmp_path, text, message):
+    obj = tmp_path / "bad_mesh.obj"
+    obj.write_text(text)
+    with pytest.raises(ConfigError, match=message) as caught:
+        QuadXHoverEnv(obstacles={"items": [{"type": "mesh", "file": str(obj), "position": [2.0, 0.0, 1.0]}]})
+    assert str(obj) in str(caught.value)
+
+
 def test_replay_refuses_a_recording_whose_obstacles_draw_a_mesh_file(tmp_path):
     from pyflyt_engine.errors import TelemetryError
     from pyflyt_engine.telemetry import RecordEpisode, load_episode
@@ -368,3 +470,29 @@ def test_a_forest_keeps_clear_of_the_gates(make):
     for centre in env.task.centres:
         for o in trunks:
             assert math.hypot(o.position[0] - centre[0], o.position[1] - centre[1]) - o.radius >= 0.8
+
+
+def test_scenery_of_another_mesh_format_is_drawn_as_its_embedded_file(tmp_path):
+    # a body a task adds with an STL visual: not an OBJ, so the file itself goes in as a model
+    import base64
+
+    from pyflyt_engine.telemetry.scene import body_entity
+
+    stl = tmp_path / "plate.stl"
+    stl.write_text(
+        "solid plate\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n"
+        "  endloop\n endfacet\nendsolid plate\n"
+    )
+    client = p.connect(p.DIRECT)
+    try:
+        visual = p.createVisualShape(p.GEOM_MESH, fileName=str(stl), meshScale=[2.0, 3.0, 4.0], physicsClientId=client)
+        body = p.createMultiBody(0.0, -1, visual, [1.0, 2.0, 3.0], physicsClientId=client)
+        e = body_entity(0, client, body)
+    finally:
+        p.disconnect(client)
+    assert e is not None and not e["triangles"] and len(e["models"]) == 1
+    model = e["models"][0]
+    assert model["media_type"] == "model/stl" and base64.b64decode(model["data"]) == stl.read_bytes()
+    assert [model["scale"][k] for k in "xyz"] == [2.0, 3.0, 4.0]
+    assert [model["pose"]["position"][k] for k in "xyz"] == [1.0, 2.0, 3.0]
+    assert e["metadata"] == [{"key": "mesh", "value": "plate.stl"}]
