@@ -22,12 +22,15 @@ creates a bounded number of shapes.
 Placement is plain Python floats (``rng.random()`` draws and ``math``), so a seed gives
 the same layout on every machine; the recorder writes every obstacle into the MCAP
 scene at each reset (``scenery/<body id>`` entities of ``/scene``; a mesh as the triangles
-:func:`read_obj` reads from its file, at its scale).
+:func:`read_obj` reads from its file, at its scale) and embeds each mesh file (with the
+digest :attr:`ObstacleField.mesh_digests` kept at load), so ``pyflyt replay --verify``
+flies the recording's copy (checked by :func:`parse_obj`) instead of the file.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -178,6 +181,14 @@ def _read_obj(name: str, size: int, _mtime_ns: int) -> ObjMesh:
         data = Path(name).read_bytes()
     except OSError as exc:
         raise ValueError(f"file: cannot read mesh file {name!r}: {exc.strerror or exc}") from None
+    return parse_obj(data, name)
+
+
+def parse_obj(data: bytes, name: str) -> ObjMesh:
+    """:func:`read_obj` of the bytes ``data`` (a mesh file's content; ``name`` names it in a
+    refusal): the same checks, the same result."""
+    if len(data) > MAX_MESH_BYTES:
+        raise ValueError(f"file: {name!r} is larger than {MAX_MESH_BYTES // (1024 * 1024)} MiB")
     if b"\0" in data:
         raise ValueError(f"file: {name!r} is binary, not the text of a Wavefront OBJ mesh")
     vertices: list[tuple[float, float, float]] = []
@@ -469,6 +480,9 @@ class ObstacleField:
         #: (collision, visual) shape ids by dimensions: bounded by the distinct sizes drawn
         #: (``size_resolution``), so a long run creates a bounded number of shapes
         self._shapes: dict[str, tuple[int, int]] = {}
+        #: sha256 (hex) of each mesh file's content, read as its shape was built: the recorder
+        #: embeds the file only if it still holds exactly that (so a recording flies what was flown)
+        self.mesh_digests: dict[str, str] = {}
         fixed: list[Obstacle] = list(config.items)
         for g in config.generators:
             if isinstance(g, RoomGenerator) and g.walls:
@@ -577,6 +591,10 @@ class ObstacleField:
             collision = p.createCollisionShape(p.GEOM_SPHERE, radius=o.radius, physicsClientId=cid)
             visual = p.createVisualShape(p.GEOM_SPHERE, radius=o.radius, rgbaColor=list(o.color), physicsClientId=cid)
         else:
+            try:
+                self.mesh_digests[o.file] = hashlib.sha256(Path(o.file).read_bytes()).hexdigest()
+            except OSError as exc:
+                raise ConfigError(f"obstacles: cannot read mesh file {o.file!r}: {exc.strerror or exc}") from None
             collision = p.createCollisionShape(
                 p.GEOM_MESH,
                 fileName=o.file,

@@ -210,9 +210,15 @@ def cached_urdf(text: str) -> Path:
     Named by the digest of the text alone; a cached file is used only if its content is
     exactly ``text`` (see :func:`urdf_path`).
     """
-    data = text.encode()
+    return cached_file(text.encode(), ".urdf")
+
+
+def cached_file(data: bytes, suffix: str) -> Path:
+    """Path of a cached file holding exactly ``data``, named by its digest and ``suffix``
+    (``.urdf``: a generated or recorded URDF; ``.obj``: a mesh a recording holds), written
+    if needed; a cached file is used only if its content is exactly ``data``."""
     directory = cache_dir()
-    path = directory / f"{hashlib.sha256(data).hexdigest()[:32]}.urdf"
+    path = directory / f"{hashlib.sha256(data).hexdigest()[:32]}{suffix}"
     if not _holds(path, data):
         # write-then-rename so concurrent processes never read a half-written file
         fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
