@@ -225,6 +225,8 @@ class RecordableEnv(Protocol):
         reward_preset: the resolved reward preset.
         np_random: the env's generator (its state is recorded at each reset).
         payloads: the env's :class:`~pyflyt_engine.payloads.PayloadSet`, or None.
+        obstacles: the env's :class:`~pyflyt_engine.obstacles.ObstacleField`, or None (its mesh
+            files are embedded in a recording).
         action_names: the names of the recorded action vector's entries.
         last_action: the action the vehicles received at the last step (flat).
         last_reward_terms: the reward breakdown of the last step.
@@ -237,6 +239,7 @@ class RecordableEnv(Protocol):
     reward_preset: Any
     np_random: np.random.Generator
     payloads: Any
+    obstacles: Any
 
     @property
     def action_names(self) -> list[str]: ...
@@ -257,6 +260,6 @@ class RecordableEnv(Protocol):
 
 #: the members of :class:`RecordableEnv`, for messages naming what an env lacks
 RECORDABLE = (
-    "world", "config", "airframe", "reward_preset", "np_random", "payloads", "action_names",
+    "world", "config", "airframe", "reward_preset", "np_random", "payloads", "obstacles", "action_names",
     "last_action", "last_reward_terms", "last_randomization", "scene_markers",
 )  # fmt: skip

@@ -163,6 +163,7 @@ class RecordEpisode(gymnasium.Wrapper):
         self._file: McapFileWriter | None = None
         self._static_metadata: dict[str, dict[str, str]] | None = None
         self._airframes: list[tuple[str, dict[str, list[dict[str, Any]]]]] | None = None
+        self._meshes: list[tuple[str, str, str, bytes]] | None = None
         self._static_entities: tuple[int, list[dict[str, Any]]] | None = None
         if self.cameras and not any(v.parts.cameras for v in base.world.vehicles):
             gymnasium.logger.warn("RecordEpisode(cameras=True): no vehicle has an on-board camera; nothing to record")
@@ -221,6 +222,16 @@ class RecordEpisode(gymnasium.Wrapper):
                     "flight_dome_size": repr(float(base.config.flight_dome_size)),
                     # the resolved atmosphere (a preset file may change; the recording may not)
                     "wind": json.dumps(world.wind_config.model_dump(mode="json")),
+                    # only with mesh obstacles: which attachment holds each mesh file, and its digest
+                    **(
+                        {
+                            "obstacle_meshes": json.dumps(
+                                [{"file": m, "attachment": a, "sha256": d} for m, a, d, _ in self._obstacle_meshes()]
+                            )
+                        }
+                        if self._obstacle_meshes()
+                        else {}
+                    ),
                 },
                 VERSIONS: package_versions(),
                 numerics.MCAP_RECORD: numerics.mcap_record(),
@@ -231,6 +242,30 @@ class RecordEpisode(gymnasium.Wrapper):
         """The env's :class:`~pyflyt_engine.payloads.PayloadSet` (an empty tuple without payloads)."""
         payloads = self._base.payloads
         return payloads if payloads is not None else ()
+
+    def _obstacle_meshes(self) -> list[tuple[str, str, str, bytes]]:
+        """``(file, attachment name, sha256 hex, content)`` of each mesh file the env's obstacles
+        draw, read once; refused if a file no longer holds what the env was built from."""
+        if self._meshes is None:
+            import hashlib
+
+            field = self._base.obstacles
+            meshes = []
+            for k, (name, digest) in enumerate((field.mesh_digests if field is not None else {}).items()):
+                try:
+                    data = Path(name).read_bytes()
+                except OSError as exc:
+                    raise TelemetryError(
+                        f"cannot embed the obstacle mesh file {name!r}: {exc.strerror or exc}"
+                    ) from None
+                if hashlib.sha256(data).hexdigest() != digest:
+                    raise TelemetryError(
+                        f"the obstacle mesh file {name!r} changed since the environment was built from it: "
+                        "the recording could not re-simulate the episode (build the environment again)"
+                    )
+                meshes.append((name, f"obstacle_mesh_{k}.obj", digest, data))
+            self._meshes = meshes
+        return self._meshes
 
     def _airframe_prims(self) -> list[tuple[str, dict[str, list[dict[str, Any]]]]]:
         if self._airframes is None:
@@ -244,6 +279,7 @@ class RecordEpisode(gymnasium.Wrapper):
         return self._airframes
 
     def _open(self, seed: int | None, options: dict[str, Any] | None, rng_state: dict[str, Any]) -> None:
+        metadata = self._file_metadata()  # before any file is made: it may refuse (a mesh file changed)
         while True:
             path = self.directory / f"{self.prefix}_{self._next_index:04d}.mcap"
             self._next_index += 1
@@ -258,7 +294,7 @@ class RecordEpisode(gymnasium.Wrapper):
             break
         self._file = f
         self.paths.append(path)
-        for name, data in self._file_metadata().items():
+        for name, data in metadata.items():
             f.metadata(name, data, flush=False)
         f.metadata(
             EPISODE_INFO,
@@ -278,6 +314,8 @@ class RecordEpisode(gymnasium.Wrapper):
         payloads = self._base_payloads()
         for payload in payloads:
             f.attachment(f"payload_{payload.spec.name}.urdf", "text/xml", payload.urdf_text.encode())
+        for _, attachment, _, data in self._obstacle_meshes():
+            f.attachment(attachment, "model/obj", data)
         base = self._base
         world = base.world
         self._ch_tf = f.channel("/tf", "foxglove.FrameTransform", schemas.FRAME_TRANSFORM)

@@ -75,9 +75,11 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
     like any config; the agents of a multi-agent env each fly their vehicle's recorded
     spec); an airframe given by its own URDF flies the URDF the recording holds
     (``uav_<i>.urdf``), checked before PyBullet parses it (:func:`pyflyt_engine.urdf.urdf_problem`).
-    A recording whose airframes or payloads draw mesh files, or whose config names a wind
-    or randomisation file, is refused: it cannot be re-simulated from its content.  Nothing
-    is written but the checked URDF, to the private URDF cache.  ``overrides`` go to the env
+    A mesh obstacle flies the copy of its OBJ file the recording holds, checked against its
+    recorded digest and read as any mesh file (:func:`_recorded_meshes`).  A recording whose
+    airframes or payloads draw mesh files, or whose config names a wind or randomisation
+    file, is refused: it cannot be re-simulated from its content.  Nothing is written but
+    the checked URDF and mesh copies, to the private cache.  ``overrides`` go to the env
     constructor (e.g. ``render_mode``).
     """
     from pyflyt_engine.envs import make_env
@@ -143,14 +145,68 @@ def _check_named_files(episode: Episode, config: dict[str, Any]) -> None:
     randomize = config.get("randomize")
     if isinstance(randomize, str) and not plain_name(randomize):
         raise _cannot_replay(episode, f"its randomisation names {randomize!r}, not a shipped preset")
-    obstacles = config.get("obstacles")
-    items = (obstacles.get("items") or []) if isinstance(obstacles, dict) else []
-    if any(isinstance(o, dict) and o.get("type") == "mesh" for o in items):
-        raise _cannot_replay(episode, "an obstacle draws a mesh file, which the recording does not hold")
+    _recorded_meshes(episode, config)
     for payload in config.get("payloads") or []:
         shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
         if any(isinstance(s, dict) and s.get("type") == "mesh" for s in shapes):
             raise _cannot_replay(episode, "a payload draws a mesh file, which the recording does not hold")
+
+
+def _recorded_meshes(episode: Episode, config: dict[str, Any]) -> None:
+    """Point every mesh obstacle of the recorded ``config`` at the recording's copy of its file.
+
+    The recording names each mesh file's attachment and the sha256 of its content (``env``
+    metadata ``obstacle_meshes``); the copy is used only if it is there and has that digest,
+    is read as a Wavefront OBJ by the same checks as a file at load
+    (:func:`pyflyt_engine.obstacles.parse_obj`), and is written, named by its digest, to the
+    private cache (:func:`pyflyt_engine.urdf.cached_file`): the file the config names is never
+    opened.
+    """
+    import hashlib
+
+    from pyflyt_engine.obstacles import parse_obj
+    from pyflyt_engine.urdf import cached_file
+
+    obstacles = config.get("obstacles")
+    items = (obstacles.get("items") or []) if isinstance(obstacles, dict) else []
+    meshes = [o for o in items if isinstance(o, dict) and o.get("type") == "mesh"]
+    if not meshes:
+        return
+    source = f"{episode.path}: metadata 'obstacle_meshes'"
+    raw = episode.env_info.get("obstacle_meshes")
+    try:
+        table = json_data(raw, source=source, error=TelemetryError) if raw is not None else []
+    except ValueError as exc:
+        raise TelemetryError(f"{source} is not JSON ({exc})") from None
+    if not isinstance(table, list) or not all(
+        isinstance(e, dict) and all(isinstance(e.get(k), str) for k in ("file", "attachment", "sha256")) for e in table
+    ):
+        raise TelemetryError(f"{source} is not a list of {{file, attachment, sha256}} entries")
+    entries = {e["file"]: e for e in table}
+    for item in meshes:
+        name = item.get("file")
+        entry = entries.get(name) if isinstance(name, str) else None
+        if entry is None:
+            raise _cannot_replay(
+                episode, f"an obstacle draws the mesh file {name!r} and the recording holds no copy of it"
+            )
+        copies = [a for a in episode.contents.attachments if a.name == entry["attachment"]]
+        if not copies:
+            raise _cannot_replay(
+                episode,
+                f"the copy of the obstacle mesh file {name!r} (attachment {entry['attachment']!r}) is missing",
+            )
+        data = copies[-1].data
+        if hashlib.sha256(data).hexdigest() != entry["sha256"]:
+            raise TelemetryError(
+                f"{episode.path}: the copy of the obstacle mesh file {name!r} (attachment {entry['attachment']!r}) "
+                "does not match its recorded sha256: the recording was altered or damaged, and is not re-simulated"
+            )
+        try:
+            parse_obj(data, f"{entry['attachment']} (the recorded copy of {name})")
+        except ValueError as exc:
+            raise TelemetryError(f"{episode.path}: the recorded obstacle mesh is refused: {exc}") from None
+        item["file"] = str(cached_file(data, ".obj"))
 
 
 def _recorded_airframe(episode: Episode, recorded: dict[str, Any], index: int) -> Any:

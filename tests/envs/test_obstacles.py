@@ -397,13 +397,12 @@ def test_a_recorded_mesh_obstacle_is_drawn_from_its_file(tmp_path):
     np.testing.assert_allclose([tri["pose"]["position"][k] for k in "xyz"], position, atol=1e-12)
     q = [tri["pose"]["orientation"][k] for k in "xyzw"]
     np.testing.assert_allclose(np.abs(np.dot(q, euler_to_quaternion(0.0, 0.0, yaw))), 1.0, atol=1e-9)
-    # the recording stays readable by the project's own tools; --verify refuses it by name
-    assert read_mcap(env.paths[0]).messages
-    runner = CliRunner()
-    result = runner.invoke(app, ["replay", str(env.paths[0])])
+    # the recording stays readable by the project's own tools, and holds the file it drew
+    contents = read_mcap(env.paths[0])
+    assert contents.messages
+    assert [a.data for a in contents.attachments if a.name == "obstacle_mesh_0.obj"] == [WEDGE_OBJ.encode()]
+    result = CliRunner().invoke(app, ["replay", str(env.paths[0])])
     assert result.exit_code == 0, result.output
-    result = runner.invoke(app, ["replay", str(env.paths[0]), "--verify"])
-    assert result.exit_code != 0 and "obstacle draws a mesh file" in result.output
 
 
 @pytest.mark.parametrize(
@@ -426,10 +425,167 @@ def test_a_malformed_or_cut_mesh_file_is_refused_at_load_by_name(tmp_path, text,
     assert str(obj) in str(caught.value)
 
 
-def test_replay_refuses_a_recording_whose_obstacles_draw_a_mesh_file(tmp_path):
-    from pyflyt_engine.errors import TelemetryError
-    from pyflyt_engine.telemetry import RecordEpisode, load_episode
+def _record_into_the_cube(directory, obj):
+    """One episode flown into the unit-cube mesh 0.6 m ahead until it touches it (a crash)."""
+    from pyflyt_engine.telemetry import RecordEpisode
+
+    mesh = {"type": "mesh", "file": str(obj), "scale": [1.0, 1.0, 1.5], "position": [0.6, 0.0, 1.0]}
+    env = RecordEpisode(QuadXHoverEnv(obstacles={"items": [mesh]}), directory)
+    env.reset(seed=0)
+    info = {}
+    for _ in range(100):
+        _, _, terminated, truncated, info = env.step(np.array([0.3, 0.0, 0.0, 0.13]))
+        if terminated or truncated:
+            break
+    env.close()
+    assert info.get("collision"), info  # the episode's end depends on the mesh
+    return env.paths[0]
+
+
+@pytest.fixture
+def private_cache(tmp_path, monkeypatch):
+    """Recorded files are cached in a folder of tmp_path."""
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("PYFLYT_CACHE_DIR", str(cache))
+    return cache
+
+
+def test_a_recording_with_a_mesh_obstacle_replays_exactly_without_its_file(tmp_path, private_cache):
+    """The recording holds the OBJ file (attachment and digest); --verify flies that copy,
+    written to the private cache, once the original is gone."""
+    import hashlib
+    import json
+
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+    from pyflyt_engine.telemetry import load_episode
     from pyflyt_engine.telemetry.replay import verify
+
+    obj = tmp_path / "meshes" / "cube.obj"
+    obj.parent.mkdir()
+    obj.write_text(CUBE_OBJ)
+    path = _record_into_the_cube(tmp_path / "runs", obj)
+    episode = load_episode(path)
+    assert json.loads(episode.env_info["obstacle_meshes"]) == [
+        {"file": str(obj), "attachment": "obstacle_mesh_0.obj", "sha256": hashlib.sha256(CUBE_OBJ.encode()).hexdigest()}
+    ]
+    obj.rename(tmp_path / "elsewhere.obj")  # the original file is gone
+    result = verify(episode, tolerance=0.0)
+    assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0, result
+    assert not obj.exists()
+    cached = [f for f in private_cache.iterdir() if f.suffix == ".obj"]
+    assert [f.read_text() for f in cached] == [CUBE_OBJ]
+    result = CliRunner().invoke(app, ["replay", str(path), "--verify", "--tolerance", "0"])
+    assert result.exit_code == 0, result.output
+    assert "verify    OK" in result.output and "largest state deviation 0," in result.output
+    assert not obj.exists()
+
+
+def test_a_missing_altered_or_malformed_mesh_copy_is_refused_by_name(tmp_path, private_cache):
+    import hashlib
+    import json
+
+    from typer.testing import CliRunner
+
+    from pyflyt_cli.main import app
+    from pyflyt_engine.errors import TelemetryError
+    from pyflyt_engine.telemetry import load_episode
+    from pyflyt_engine.telemetry.replay import verify
+    from tests.telemetry.conftest import rewrite_mcap
+
+    obj = tmp_path / "cube.obj"
+    obj.write_text(CUBE_OBJ)
+    path = _record_into_the_cube(tmp_path / "runs", obj)
+    obj.unlink()
+
+    def keep(topic, data):  # messages copied as they are
+        return None
+
+    def table(change):
+        def metadata(name, record):
+            if name == "env":
+                entries = json.loads(record["obstacle_meshes"])
+                change(entries[0])
+                record["obstacle_meshes"] = json.dumps(entries)
+            return record
+
+        return metadata
+
+    def refused(recording, *phrases):
+        with pytest.raises(TelemetryError) as caught:
+            verify(load_episode(recording))
+        for phrase in (str(recording), *phrases):
+            assert phrase in str(caught.value)
+        result = CliRunner().invoke(app, ["replay", str(recording), "--verify"])
+        assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+        for phrase in (str(recording), *phrases):
+            assert phrase in " ".join(result.output.split()), result.output
+
+    # one byte of the copy changed (a vertex moved): its digest no longer matches
+    altered = tmp_path / "altered.mcap"
+    rewrite_mcap(path, altered, keep, attachments=lambda n, d: d.replace(b"v 0.5 0.5 0.5", b"v 0.5 0.5 0.6"))
+    refused(altered, str(obj), "obstacle_mesh_0.obj", "does not match its recorded sha256")
+    # the metadata points at an attachment the file does not hold
+    missing = tmp_path / "missing.mcap"
+    rewrite_mcap(path, missing, keep, table(lambda e: e.update(attachment="obstacle_mesh_7.obj")))
+    refused(missing, str(obj), "obstacle_mesh_7.obj", "is missing")
+    # a recording from before meshes were embedded
+    older = tmp_path / "older.mcap"
+
+    def drop(name, record):
+        record.pop("obstacle_meshes", None)
+        return record
+
+    rewrite_mcap(path, older, keep, drop)
+    refused(older, str(obj), "holds no copy")
+    # a copy that is not an OBJ mesh, its digest made to match: refused by the load's checks
+    cut = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"
+    malformed = tmp_path / "malformed.mcap"
+    rewrite_mcap(
+        path,
+        malformed,
+        keep,
+        table(lambda e: e.update(sha256=hashlib.sha256(cut).hexdigest())),
+        attachments=lambda n, d: cut if n == "obstacle_mesh_0.obj" else d,
+    )
+    refused(malformed, "obstacle_mesh_0.obj", "a face names vertex 4, the file holds 3")
+    assert not [f for f in private_cache.iterdir() if f.suffix == ".obj"]  # nothing refused was written
+
+
+def test_the_recorded_copy_is_what_verify_flies(tmp_path, private_cache):
+    """Another mesh in the attachment (its digest made to match) re-simulates another episode:
+    the copy, not the file the config names, is flown."""
+    import hashlib
+    import json
+
+    from pyflyt_engine.telemetry import load_episode
+    from pyflyt_engine.telemetry.replay import verify
+    from tests.telemetry.conftest import rewrite_mcap
+
+    obj = tmp_path / "cube.obj"
+    obj.write_text(CUBE_OBJ)
+    path = _record_into_the_cube(tmp_path / "runs", obj)
+    far = CUBE_OBJ.replace("v -0.5", "v 5.5").replace("v 0.5", "v 6.5").encode()  # the cube moved 6 m along x
+
+    def metadata(name, record):
+        if name == "env":
+            entries = json.loads(record["obstacle_meshes"])
+            entries[0]["sha256"] = hashlib.sha256(far).hexdigest()
+            record["obstacle_meshes"] = json.dumps(entries)
+        return record
+
+    swapped = tmp_path / "swapped.mcap"
+    rewrite_mcap(
+        path, swapped, lambda topic, data: None, metadata, attachments=lambda n, d: far if n.endswith(".obj") else d
+    )
+    result = verify(load_episode(swapped), tolerance=0.0)  # the original file is still there, and not read
+    assert not result.ok and "did not" in result.diverged_termination, result
+
+
+def test_a_mesh_file_changed_after_the_env_was_built_is_not_recorded(tmp_path):
+    from pyflyt_engine.errors import TelemetryError
+    from pyflyt_engine.telemetry import RecordEpisode
 
     obj = tmp_path / "cube.obj"
     obj.write_text(CUBE_OBJ)
@@ -437,11 +593,11 @@ def test_replay_refuses_a_recording_whose_obstacles_draw_a_mesh_file(tmp_path):
         QuadXHoverEnv(obstacles={"items": [{"type": "mesh", "file": str(obj), "position": [2.0, 0.0, 1.0]}]}),
         tmp_path / "runs",
     )
-    env.reset(seed=0)
-    env.step(np.array([0.0, 0.0, 0.0, 0.125]))
+    obj.write_text(CUBE_OBJ.replace("v 0.5 0.5 0.5", "v 0.5 0.5 0.7"))
+    with pytest.raises(TelemetryError, match="changed since the environment was built"):
+        env.reset(seed=0)
     env.close()
-    with pytest.raises(TelemetryError, match="obstacle draws a mesh file"):
-        verify(load_episode(env.paths[0]))
+    assert not list((tmp_path / "runs").glob("*.mcap"))  # refused before any file was made
 
 
 def test_a_recorded_forest_episode_replays_exactly(tmp_path):

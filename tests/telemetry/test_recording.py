@@ -109,6 +109,8 @@ def test_metadata_holds_what_a_rebuild_needs(recorded):
     for key in ("python", "numpy", "pybullet", "gymnasium", "pyflyt_engine"):
         assert meta["versions"][key]
     assert attachments["uav_0.urdf"].data.startswith(b"<?xml")
+    # without mesh obstacles, no mesh table and no mesh copy (such files are as they were before)
+    assert "obstacle_meshes" not in meta["env"] and set(attachments) == {"uav_0.urdf"}
     assert summary.statistics.message_count > 0
 
 

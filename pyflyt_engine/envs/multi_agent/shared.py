@@ -60,6 +60,8 @@ class SharedPolicyEnv(gymnasium.Env):
     # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
     #: a multi-agent env carries no payloads (refused at load)
     payloads = None
+    #: nor obstacles (refused at load)
+    obstacles = None
 
     def scene_markers(self) -> tuple[np.ndarray, float]:
         """Every agent's marker points, ``(n, 3)`` ground frame, and their radius [m]."""
