@@ -158,7 +158,8 @@ def _recorded_meshes(episode: Episode, config: dict[str, Any]) -> None:
     The recording names each mesh file's attachment and the sha256 of its content (``env``
     metadata ``obstacle_meshes``); the copy is used only if it is there and has that digest,
     is read as a Wavefront OBJ by the same checks as a file at load
-    (:func:`pyflyt_engine.obstacles.parse_obj`), and is written, named by its digest, to the
+    (:func:`pyflyt_engine.obstacles.parse_obj`) and names no material library by a path,
+    and is written, named by its digest, to the
     private cache (:func:`pyflyt_engine.urdf.cached_file`): the file the config names is never
     opened.
     """
@@ -206,6 +207,15 @@ def _recorded_meshes(episode: Episode, config: dict[str, Any]) -> None:
             parse_obj(data, f"{entry['attachment']} (the recorded copy of {name})")
         except ValueError as exc:
             raise TelemetryError(f"{episode.path}: the recorded obstacle mesh is refused: {exc}") from None
+        # PyBullet opens a material library an OBJ names from the OBJ's folder (the private
+        # cache, which holds none): a name with a path could reach a file outside it
+        for line in data.decode("utf-8", errors="replace").splitlines():
+            fields = line.split()
+            if fields[:1] == ["mtllib"] and any("/" in f or "\\" in f for f in fields[1:]):
+                raise TelemetryError(
+                    f"{episode.path}: the recorded obstacle mesh ({entry['attachment']}, the copy of {name!r}) is "
+                    f"refused: its {line.strip()!r} names a file by a path, and a file is not part of the recording"
+                )
         item["file"] = str(cached_file(data, ".obj"))
 
 

@@ -464,18 +464,19 @@ def test_a_recording_with_a_mesh_obstacle_replays_exactly_without_its_file(tmp_p
 
     obj = tmp_path / "meshes" / "cube.obj"
     obj.parent.mkdir()
-    obj.write_text(CUBE_OBJ)
+    text = "mtllib cube.mtl\n" + CUBE_OBJ  # a material library by plain name (none in the cache): flown
+    obj.write_text(text)
     path = _record_into_the_cube(tmp_path / "runs", obj)
     episode = load_episode(path)
     assert json.loads(episode.env_info["obstacle_meshes"]) == [
-        {"file": str(obj), "attachment": "obstacle_mesh_0.obj", "sha256": hashlib.sha256(CUBE_OBJ.encode()).hexdigest()}
+        {"file": str(obj), "attachment": "obstacle_mesh_0.obj", "sha256": hashlib.sha256(text.encode()).hexdigest()}
     ]
     obj.rename(tmp_path / "elsewhere.obj")  # the original file is gone
     result = verify(episode, tolerance=0.0)
     assert result.ok and result.max_deviation == 0.0 and result.max_reward_deviation == 0.0, result
     assert not obj.exists()
     cached = [f for f in private_cache.iterdir() if f.suffix == ".obj"]
-    assert [f.read_text() for f in cached] == [CUBE_OBJ]
+    assert [f.read_text() for f in cached] == [text]
     result = CliRunner().invoke(app, ["replay", str(path), "--verify", "--tolerance", "0"])
     assert result.exit_code == 0, result.output
     assert "verify    OK" in result.output and "largest state deviation 0," in result.output
@@ -550,6 +551,18 @@ def test_a_missing_altered_or_malformed_mesh_copy_is_refused_by_name(tmp_path, p
         attachments=lambda n, d: cut if n == "obstacle_mesh_0.obj" else d,
     )
     refused(malformed, "obstacle_mesh_0.obj", "a face names vertex 4, the file holds 3")
+    # a copy naming a material library by a path (PyBullet would open it from the cache's folder)
+    for library in ("../../../etc/some.mtl", "sub\\some.mtl"):
+        reaching = f"mtllib {library}\n{CUBE_OBJ}".encode()
+        named = tmp_path / f"mtllib_{len(library)}.mcap"
+        rewrite_mcap(
+            path,
+            named,
+            keep,
+            table(lambda e, d=reaching: e.update(sha256=hashlib.sha256(d).hexdigest())),
+            attachments=lambda n, d, r=reaching: r if n == "obstacle_mesh_0.obj" else d,
+        )
+        refused(named, "obstacle_mesh_0.obj", "'mtllib ", "some.mtl", "names a file by a path")
     assert not [f for f in private_cache.iterdir() if f.suffix == ".obj"]  # nothing refused was written
 
 
