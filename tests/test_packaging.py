@@ -27,6 +27,7 @@ def _run(args, cwd, env=None):
     return subprocess.run(args, cwd=cwd, capture_output=True, text=True, env=env, timeout=600)
 
 
+@pytest.mark.long
 def test_wheel_installs_and_runs_from_another_directory(tmp_path):
     pytest.importorskip("hatchling", reason="building the wheel needs hatchling (pip install hatchling)")
     wheel_dir = tmp_path / "wheel"

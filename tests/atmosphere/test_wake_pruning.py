@@ -149,6 +149,7 @@ def _fly_swarm(steps: int = 20) -> bytes:
     return b"".join(np.asarray(r, dtype=np.float64).tobytes() for r in rows)
 
 
+@pytest.mark.long
 def test_a_swarm_flies_bit_identically_with_the_pruned_and_the_all_pairs_downwash(monkeypatch):
     pruned = _fly_swarm()
     with monkeypatch.context() as m:

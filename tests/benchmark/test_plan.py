@@ -44,6 +44,7 @@ def test_overrides_reach_every_run_and_seed_lists(tmp_path: Path) -> None:
     assert {j.total_timesteps for j in plan.jobs} == {512}
 
 
+@pytest.mark.long
 def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Path) -> None:
     plan, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}"])
     assert plan.root.name == "paper_rl_laptop"
@@ -114,6 +115,7 @@ def test_train_refuses_a_benchmark_experiment() -> None:
         load_train_config(["experiment=smoke_benchmark"])
 
 
+@pytest.mark.long
 def test_init_from_checkpoint_must_exist_in_the_source_run(tmp_path: Path) -> None:
     base = [f"benchmark.output_dir={tmp_path}"]
     with pytest.raises(UsageError, match="multiple of train.checkpoint_freq"):
@@ -298,6 +300,7 @@ def dry_run_lines(stdout: str) -> dict[str, list[str]]:
     return lines
 
 
+@pytest.mark.long
 def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
     """Each printed `pyflyt train` line, composed as pyflyt train composes it, is its run: same digest, same directory."""
     from tests.train.conftest import pyflyt
@@ -332,6 +335,7 @@ def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Pat
         benchmark_command(["experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"])
 
 
+@pytest.mark.long
 def test_a_setting_that_interpolates_the_seed_is_composed_per_run(tmp_path: Path) -> None:
     from pyflyt_engine.paths import conf_dir
 

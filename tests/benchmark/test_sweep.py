@@ -306,6 +306,7 @@ def _start(args: list[str], cwd: Path, ready: str) -> subprocess.Popen:
     raise AssertionError(f"exited ({proc.returncode}) before printing {ready!r}:\n{''.join(seen)}")
 
 
+@pytest.mark.long
 def test_a_second_benchmark_on_the_same_directory_is_refused_untouched(tmp_path: Path) -> None:
     args = [
         "benchmark",

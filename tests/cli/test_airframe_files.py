@@ -112,6 +112,7 @@ def test_uav_show_and_validate_take_relative_paths(workdir):
     assert "ok: airframes/y6.yaml: my_hexa" in checked.output and "airframes/y7.yaml" in checked.output
 
 
+@pytest.mark.long
 def test_train_eval_and_replay_an_airframe_file(workdir, tmp_path_factory):
     """Train on a relative file; the run keeps a copy, so it evaluates, records and replays after
     the file and the run have moved, from another working directory."""

@@ -97,6 +97,7 @@ def test_atomic_output_replaces_the_file_only_when_the_write_completes(tmp_path)
 # ------------------------------------------------------------------ pyflyt uav show
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("option, writer, code", [
     ("--png", "PIL.Image.Image.save", errno.ENOSPC),
     ("--curves", "matplotlib.figure.Figure.savefig", errno.EROFS),
@@ -144,6 +145,7 @@ def _limited(limit: int):
     return apply
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("option, name, reason", [
     ("--plot", "plot.png", "File too large"),
     ("--video", "video.mp4", "the video encoder (ffmpeg) stopped before the video was complete"),
@@ -208,6 +210,7 @@ def bench(tmp_path) -> Path:
     return root
 
 
+@pytest.mark.long
 def test_plot_write_failure_is_one_message_and_a_retry_succeeds(bench, tmp_path, monkeypatch):
     out = tmp_path / "report"
     calls = []

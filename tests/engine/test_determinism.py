@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -60,6 +61,7 @@ def test_same_seed_twice_in_one_process():
     assert trajectory(5) != trajectory(6)
 
 
+@pytest.mark.long
 def test_actuator_noise_does_not_depend_on_how_the_stream_is_cut_into_blocks(monkeypatch):
     """Noise is drawn in blocks that grow after every reset (16, 32, ... 1 024 rows): an
     episode from a given noise-stream position must fly the trajectory that drawing

@@ -112,6 +112,7 @@ def test_curves_of_unequal_length_are_interpolated_on_a_common_grid(tmp_path):
     assert any("observed min and max" in n for n in b.notes)
 
 
+@pytest.mark.long
 def test_plot_end_to_end_writes_figures_and_a_reproducible_report(bench, tmp_path):
     report = plot_benchmark(bench, tmp_path / "out", reps=REPS, seed=5)
     for name in ("learning_curves", "aggregates", "performance_profiles", "probability_of_improvement"):
@@ -179,6 +180,7 @@ PAPER_GRID = {
 }
 
 
+@pytest.mark.long
 def test_a_partial_grid_with_disjoint_envs_is_loaded_and_plotted(tmp_path):
     root = _partial_bench(tmp_path / "paper", PAPER_GRID, {"sac": 3, "awac": 4})
     b = load_benchmark(root)
@@ -220,6 +222,7 @@ def test_a_partial_grid_with_disjoint_envs_is_loaded_and_plotted(tmp_path):
     assert again.markdown.read_text() == text and again.json.read_text() == report.json.read_text()
 
 
+@pytest.mark.long
 @pytest.mark.filterwarnings("ignore::FutureWarning")  # arch deprecates rliable's random_state
 def test_a_shared_env_is_compared_by_probability_of_improvement_on_it_alone(tmp_path):
     from rliable import library as rly

@@ -23,6 +23,10 @@ from gymnasium import spaces
 
 import pyflyt_engine  # noqa: F401  (registers the ids)
 from pyflyt_engine.envs import ENVS, FlattenWaypointEnv
+from tests.conftest import default_subset
+
+#: kept in the default suite: a fixed-size and a variable-size observation
+DEFAULT = ("PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Waypoints-v0")
 
 STEPS = 5
 SEED = 7
@@ -65,7 +69,7 @@ def assert_same(a, b) -> None:
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
-@pytest.mark.parametrize("env_id", list(ENVS))
+@pytest.mark.parametrize("env_id", default_subset(ENVS, lambda e: e in DEFAULT))
 def test_make_vec_async_matches_sync(env_id):
     kwargs = {"shared_memory": False} if variable_size(env_id) else {}
     with warnings.catch_warnings():
@@ -109,7 +113,7 @@ def rollout_sb3(vec_env) -> list:
     return out
 
 
-@pytest.mark.parametrize("env_id", list(ENVS))
+@pytest.mark.parametrize("env_id", default_subset(ENVS, lambda e: e == "PyFlyt/QuadX-Hover-v0"))
 def test_sb3_subproc_vec_env_matches_dummy(env_id):
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 

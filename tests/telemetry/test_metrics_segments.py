@@ -287,6 +287,7 @@ class _Stream:
         return call
 
 
+@pytest.mark.long
 def test_a_kill_at_any_step_of_creating_a_resumed_segment_leaves_before_or_after(tmp_path, monkeypatch, uninterrupted):
     run = tmp_path / "run"
     _segment(run, range(1, 11))

@@ -124,6 +124,7 @@ def test_supervision_pulls_the_actor_to_the_oracle_where_the_critic_is_unsure(su
     assert mean_action > 0.5 if supervise else mean_action < -0.5
 
 
+@pytest.mark.long
 def test_pyflyt_train_ccge_bootstraps_from_a_sac_run_and_resumes_exactly(tmp_path):
     sac_run = train(load(TINY_SAC, tmp_path / "sac")).run_dir
     sac_policy = read_policy(sac_run / "best_model.pt").policy

@@ -20,11 +20,19 @@ from pyflyt_cli.training.schema import PPOConfig, SACConfig, parse_train_config
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 
+from tests.conftest import default_subset
+
 from .conftest import ROOT, pyflyt
 
 ENVS = sorted(p.stem for p in (conf_dir() / "env").glob("*.yaml"))
 ALGOS = sorted(p.stem for p in (conf_dir() / "algo").glob("*.yaml"))
 EXPERIMENTS = sorted(p.stem for p in (conf_dir() / "experiment").glob("*.yaml"))
+#: every (env, algo) pair: in the default suite those with a per-pair tuning, every env with
+#: PPO and every algorithm on the hover task; the rest are marked long
+PAIRS = default_subset(
+    [(env, algo) for env in ENVS for algo in ALGOS],
+    lambda pair: pair[1] == "ppo" or pair[0] == "quadx_hover" or (conf_dir() / "hparams" / f"{pair[0]}_{pair[1]}.yaml").is_file(),
+)
 
 
 def test_defaults_are_a_short_ppo_run_on_hover():
@@ -50,8 +58,7 @@ def test_uav_and_reward_groups_override_the_env():
     assert set(cfg.env.reward["terms"]) == {"crash", "time_penalty"}
 
 
-@pytest.mark.parametrize("env", ENVS)
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize(("env", "algo"), PAIRS)
 def test_every_env_and_algo_composes_and_validates(env, algo):
     # CCGE's oracle is the policy init_from names; it is refused without one (test_ccge.py)
     oracle = ["init_from=sac_run/best_model.pt"] if algo == "ccge" else []
@@ -378,8 +385,7 @@ def test_the_schema_writes_no_default_values():
     assert restated == []
 
 
-@pytest.mark.parametrize("env", ENVS)
-@pytest.mark.parametrize("algo", ALGOS)
+@pytest.mark.parametrize(("env", "algo"), PAIRS)
 def test_python_and_the_cli_compose_the_same_configuration(env, algo):
     import yaml
 

@@ -110,6 +110,7 @@ def test_a_vector_start_of_the_wrong_length_is_refused(tmp_path):
         load(["env=rocket_landing", "train.curriculum={start_position:{start:[0,50],steps:10}}"], tmp_path)
 
 
+@pytest.mark.long
 def test_the_curriculum_reaches_envs_in_subprocesses(tmp_path):
     overrides = [
         "env=quadx_waypoints",

@@ -26,6 +26,7 @@ def _limit_file_size(limit: int):
     return lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
 
+@pytest.mark.long
 def test_a_write_failure_stops_the_command_with_one_message_and_the_run_resumes(tmp_path):
     root = tmp_path / "runs"
     overrides = [*TINY_PPO, f"train.output_dir={root}"]

@@ -124,6 +124,7 @@ def test_the_fit_brings_the_policy_to_the_oracle_on_the_states_flown(algo):
     assert after < 0.3 * before, (before, after)
 
 
+@pytest.mark.long
 def test_a_run_imitates_then_learns_records_each_round_and_repeats_exactly(tmp_path):
     first = train(load(TINY_IMITATION, tmp_path / "a"))
     second = train(load(TINY_IMITATION, tmp_path / "b"))
@@ -143,6 +144,7 @@ def test_a_run_imitates_then_learns_records_each_round_and_repeats_exactly(tmp_p
         assert th.equal(b["policy"][key], value), key
 
 
+@pytest.mark.long
 def test_a_resumed_run_does_not_imitate_again_and_ends_as_the_uninterrupted_one(tmp_path, tmp_path_factory):
     overrides = [*TINY_IMITATION, "train.total_timesteps=512", "algo.normalize.observation=true"]
     reference = _final(train(load(overrides, tmp_path_factory.mktemp("reference"))).run_dir)

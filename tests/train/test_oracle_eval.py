@@ -13,6 +13,7 @@ import json
 
 import gymnasium
 import numpy as np
+import pytest
 import yaml
 
 import pyflyt_engine.envs  # noqa: F401  (registers the ids)
@@ -59,6 +60,7 @@ def test_the_rocket_lander_flies_its_seeded_drops_as_by_hand_and_its_recordings_
     assert "largest state deviation 0," in replay.stdout
 
 
+@pytest.mark.long
 def test_env_keys_change_the_flight_and_run_dir_names_the_directory(tmp_path):
     """From 300 m above the pad without sideways offset (the default: 450 m, +-20 m): a shorter flight."""
     out = tmp_path / "lander"
@@ -82,6 +84,7 @@ def test_env_keys_change_the_flight_and_run_dir_names_the_directory(tmp_path):
     assert json.loads((out / "eval.json").read_text()) == report
 
 
+@pytest.mark.long
 def test_bad_oracle_evaluations_name_the_problem_and_leave_nothing(tmp_path):
     runs = f"train.output_dir={tmp_path / 'runs'}"
     cases = {

@@ -10,6 +10,8 @@ import subprocess
 import sys
 import termios
 
+import pytest
+
 from tests.train.conftest import ROOT, TINY_PPO, cli_env
 
 
@@ -37,6 +39,7 @@ def _on_a_terminal(args: list[str], cwd, timeout: float = 300) -> tuple[int, str
     return proc.wait(timeout=timeout), b"".join(chunks).decode(errors="replace")
 
 
+@pytest.mark.long
 def test_evaluations_are_printed_above_the_progress_bar_on_a_terminal(tmp_path):
     args = ["train", *[o for o in TINY_PPO if not o.startswith("train.progress_bar")], f"train.output_dir={tmp_path}"]
     code, shown = _on_a_terminal(args, ROOT)

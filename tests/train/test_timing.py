@@ -155,6 +155,7 @@ def test_costs_are_measured_on_the_runs_envs_when_they_run_in_this_process(tmp_p
     assert seen == [(2, 64)]
 
 
+@pytest.mark.long
 def test_the_command_prints_budget_eta_and_time_split_without_a_terminal(tmp_path):
     result = pyflyt(["train", *TINY_SAC, f"train.output_dir={tmp_path / 'runs'}"], cwd=tmp_path)
     assert result.returncode == 0, result.stderr

@@ -92,6 +92,7 @@ def test_eval_of_a_run_records_episodes_and_summarises(tmp_path):
     assert len(list((run / "episodes").glob("*.mcap"))) == 3  # record=false writes none; none overwritten
 
 
+@pytest.mark.long
 def test_eval_writes_a_gif(tmp_path):
     pytest.importorskip("imageio")
     run = train(load(TINY_PPO, tmp_path / "runs")).run_dir
