@@ -13,6 +13,7 @@ import pytest
 
 from pyflyt_engine.envs.multi_agent import ma_quadx_hover_v0
 from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
+from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
 from pyflyt_engine.envs.quadx import QuadXHoverEnv
 from pyflyt_engine.errors import ConfigError
 
@@ -108,8 +109,12 @@ def test_downwash_reaches_the_agent_below_and_leaves_a_lone_vehicle_alone():
     np.testing.assert_array_equal(multi(downwash=True)[:, 0], single(downwash=True))
 
 
-class _TouchingHover(MAQuadXHoverEnv):
+class _TouchingHoverTask(MAHoverTask):
     crash_on_contact = False
+
+
+class _TouchingHover(MAQuadXHoverEnv):
+    task_class = _TouchingHoverTask
 
 
 def test_crash_on_contact_false_keeps_touching_agents_in_the_episode():

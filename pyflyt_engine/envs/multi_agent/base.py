@@ -4,10 +4,12 @@
 a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawn each agent in
 its region, apply each live agent's action, step the physics once for everybody, detect
 contacts and dome exits, evaluate the reward preset per agent, retire agents whose
-episode ended -- and leaves three hooks to the task subclasses (:mod:`.hover`,
-:mod:`.dogfight`): ``_extra_size`` (observation entries beyond the shared attitude
-vector), ``_task_reset`` and ``_task_update`` (per-agent reward signals and outcomes),
-``_task_observe``.
+episode ended -- and asks its task object (a
+:class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`: :mod:`.hover_task`,
+:mod:`.formation_task`, :mod:`.dogfight_task`) for everything the episode means: the
+observation entries beyond the shared attitude vector, the per-agent reward signals,
+termination, info entries and success.  The env classes of the registered ids
+(:mod:`.hover`, :mod:`.formation`, :mod:`.dogfight`) only name their task and config.
 
 PettingZoo conventions: ``possible_agents`` never changes; ``agents`` lists the live
 ones; ``step`` takes an action for every live agent and returns observations, rewards,
@@ -21,7 +23,6 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -32,7 +33,8 @@ from pettingzoo import ParallelEnv
 
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
-from pyflyt_engine.envs.multi_agent.config import PROVIDES
+from pyflyt_engine.envs.multi_agent.config import get_ma_task
+from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.errors import ConfigError
@@ -41,18 +43,7 @@ from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
 
-@dataclass
-class AgentSignals:
-    """What a task reports for one live agent after a step."""
-
-    target_distance: float | None = None
-    target_distance_rate: float | None = None
-    #: the agent's job is done: terminate it with success
-    complete: bool = False
-    #: the task declares the agent lost (e.g. shot down): terminate it as a crash
-    failed: bool = False
-    extras: dict[str, float] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)
+__all__ = ["AgentSignals", "MultiAgentUAVEnv"]
 
 
 class MultiAgentUAVEnv(ParallelEnv):
@@ -79,11 +70,9 @@ class MultiAgentUAVEnv(ParallelEnv):
         "render_fps": 30,
     }
     config_name: ClassVar[str | None] = None
-    task_name: ClassVar[str] = ""
-    #: any contact of an agent's vehicle (ground or another agent) ends its episode as a
-    #: crash, as :attr:`Task.crash_on_contact <pyflyt_engine.envs.tasks.base.Task.crash_on_contact>`
-    #: for a single agent; a task where touching is part of the job sets False
-    crash_on_contact: ClassVar[bool] = True
+    #: the task this env runs (None: the one the config names, from the registry of
+    #: :mod:`pyflyt_engine.envs.multi_agent.task`)
+    task_class: ClassVar[type[MultiAgentTask] | None] = None
 
     def __init__(
         self,
@@ -101,9 +90,10 @@ class MultiAgentUAVEnv(ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
             )
-        if self.task_name and cfg.task.name != self.task_name:
+        task_cls = self.task_class if self.task_class is not None else get_ma_task(cfg.task.name)
+        if cfg.task.name != task_cls.name:
             raise ConfigError(
-                f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
+                f"{type(self).__name__} runs task '{task_cls.name}', the config declares '{cfg.task.name}'"
             )
         core.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
@@ -117,7 +107,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.teams = np.array([a.team for a in self.agent_list], dtype=np.int64)
 
         self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
-        self.reward_function: RewardFunction = self.reward_preset.compile(PROVIDES[cfg.task.name], cfg.task.name)
+        self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, cfg.task.name)
         #: the airframe of ``config.uav`` (agents naming no airframe of their own fly it)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
         specs: dict[str, UAVSpec] = {**(airframes or {}), cfg.uav: self.airframe}
@@ -164,16 +154,25 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
         self.attitude_size = core.attitude_size(self._quaternion, n_act, aux.pop())
-        size = self.attitude_size + self._extra_size()
+        n = len(self.possible_agents)
+        self._alive = np.zeros(n, dtype=bool)
+        #: the task object: observation entries, signals, termination, info, success
+        self.task: MultiAgentTask = task_cls(
+            cfg.task,
+            self.agent_list,
+            self._alive,
+            flight_dome_size=cfg.flight_dome_size,
+            agent_hz=cfg.agent_hz,
+            max_steps=cfg.max_steps,
+        )
+        size = self.attitude_size + self.task.extra_size()
         obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
         self.action_spaces = {name: act_space for name in self.possible_agents}
 
-        n = len(self.possible_agents)
         self._actions = np.zeros((n, n_act))
-        self._alive = np.zeros(n, dtype=bool)
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
         self._steps = 0
@@ -298,7 +297,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._steps = 0
         self._reward_terms = [{} for _ in self.possible_agents]
         states = [v.state for v in self.vehicles]
-        self._task_reset(states)
+        self.task.reset(states)
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -328,7 +327,8 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._steps += 1
         states = [v.state for v in self.vehicles]
         collisions = {i: world.collided(i) for i in live}
-        signals = self._task_update(states, live, collisions)
+        task = self.task
+        signals = task.update(states, live, collisions, self._steps)
 
         observations: dict[str, Any] = {}
         rewards: dict[str, float] = {}
@@ -343,9 +343,7 @@ class MultiAgentUAVEnv(ParallelEnv):
             sig = signals[i]
             collision = collisions[i]
             out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed, terminated = core.termination(
-                collision, out_of_bounds, sig.failed, sig.complete, self.crash_on_contact
-            )
+            crashed, terminated = task.termination(collision, out_of_bounds, sig)
             ctx = core.step_context(
                 world,
                 i,
@@ -366,7 +364,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 "collision": collision,
                 "out_of_bounds": out_of_bounds,
                 "env_complete": sig.complete,
-                "success": (sig.complete and not crashed) or (truncated and self._succeeds_at_time_limit()),
+                "success": (sig.complete and not crashed) or (truncated and task.succeeds_at_time_limit),
                 **sig.info,
             }
             if self.info_reward_terms:
@@ -426,12 +424,13 @@ class MultiAgentUAVEnv(ParallelEnv):
             delayed = [v.delayed_observation() for v in self.vehicles]
             states, aux = [state for state, _ in delayed], delayed[i][1]
         attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        return np.concatenate((attitude, self._task_observe(i, states)))
+        return np.concatenate((attitude, self.task.observe(i, states)))
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         if self.randomizer is not None:
             info["randomization"] = dict(self.last_randomization)
+        info.update(self.task.reset_info(i))
         return info
 
     def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
@@ -440,12 +439,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]
         )
 
-    def _succeeds_at_time_limit(self) -> bool:
-        return False
-
     def episode_success(self, successes: np.ndarray) -> bool:
-        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded: all of them."""
-        return bool(successes.all())
+        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded (the task decides)."""
+        return self.task.episode_success(successes)
 
     @property
     def elapsed_steps(self) -> int:
@@ -468,21 +464,5 @@ class MultiAgentUAVEnv(ParallelEnv):
         return [dict(t) for t in self._reward_terms]
 
     def markers(self) -> np.ndarray:
-        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)``."""
-        return np.zeros((0, 3))
-
-    # ---------------------------------------------------------- task hooks
-
-    def _extra_size(self) -> int:
-        return 0
-
-    def _task_reset(self, states: list[KinematicState]) -> None:
-        pass
-
-    def _task_update(
-        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool]
-    ) -> dict[int, AgentSignals]:
-        return {i: AgentSignals() for i in live}
-
-    def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        return np.zeros(0)
+        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)`` (the task's)."""
+        return self.task.markers()
