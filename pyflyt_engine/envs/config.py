@@ -567,11 +567,6 @@ class MultiAgentEnvConfig(EnvConfig):
                 "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
                 "are flat Boxes, stacked for a shared policy); remove the key"
             )
-        if self.sensors is not None:
-            raise ValueError(
-                "sensors: a multi-agent env cannot observe noisy sensors yet (its observations are built per "
-                "agent from the true states); remove the key, or give the sensors in the airframe"
-            )
         return self
 
     @field_validator("agents")

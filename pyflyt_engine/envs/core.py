@@ -17,6 +17,8 @@ reward context of a step and the divergence report exist once:
   agent's step;
 * :func:`all_finite`, :func:`divergence_error` -- the never-NaN guard and its report;
 * :func:`task_changes` -- the ``reset(options={"task": ...})`` mapping;
+* :func:`with_sensors`, :func:`sensed_state` -- an agent's noisy sensors (env ``sensors``)
+  and its state as they see it;
 * :class:`RecordableEnv` -- what an env shows of itself to the recorder and replay.
 
 Everything here is plain arithmetic on floats and tuples, in the same order as the loops
@@ -33,10 +35,13 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from pyflyt_engine import exact
 from pyflyt_engine.envs.config import EnvConfig, load_env_config
 from pyflyt_engine.envs.rewards import StepContext
 from pyflyt_engine.envs.tasks.base import termination
 from pyflyt_engine.errors import ConfigError, SimulationError
+from pyflyt_engine.frames import quaternion_to_rows
+from pyflyt_engine.spec import SensorsSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 
 
@@ -208,6 +213,40 @@ def task_changes(options: dict[str, Any] | None) -> dict[str, Any] | None:
     if not isinstance(options, dict) or set(options) - {"task"} or not isinstance(options.get("task", {}), dict):
         raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
     return options.get("task")
+
+
+def with_sensors(spec: UAVSpec, sensors: Any) -> UAVSpec:
+    """The airframe with the env's noisy sensors (``config.sensors``): the ones it gives
+    replace the airframe's section; none given keeps the airframe's own."""
+    if sensors is None:
+        return spec
+    given = {k: getattr(sensors, k) for k in ("imu", "position", "barometer")}
+    if any(v is not None for v in given.values()):
+        spec = spec.model_copy(update={"sensors": SensorsSpec(**given)})
+    if sensors.observe and spec.sensors is None:
+        raise ConfigError(
+            f"sensors.observe: airframe '{spec.name}' has no 'sensors' section to observe; give sensors.imu, "
+            "sensors.position or sensors.barometer, or fly an airframe with sensors"
+        )
+    return spec
+
+
+def sensed_state(state: KinematicState, suite: Any) -> KinematicState:
+    """``state`` as the sensors see it: body rates from the gyro (their ground-frame copy
+    turned with the true attitude), position from the position sensor, height from the
+    barometer; attitude and velocity stay true (docs/environments.md, "Sensor observation")."""
+    ang_vel, lin_pos, ang_ground = state.ang_vel, state.lin_pos, state.ang_vel_ground
+    if suite.gyro is not None:
+        ang_vel = suite.gyro.reading
+        r = quaternion_to_rows(state.quaternion)
+        ang_ground = tuple(exact.rotate(r, ang_vel))
+    names = suite.names
+    if "position" in names:
+        lin_pos = suite.position
+    if "altitude" in names:
+        lin_pos = (lin_pos[0], lin_pos[1], suite.altitude)
+    return state._replace(ang_vel=ang_vel, lin_pos=lin_pos, ang_vel_ground=ang_ground)
+
 
 
 @runtime_checkable

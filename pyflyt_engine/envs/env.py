@@ -16,7 +16,6 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine import exact
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.randomization import Randomizer
@@ -25,8 +24,7 @@ from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet
-from pyflyt_engine.frames import quaternion_to_rows
-from pyflyt_engine.spec import SensorsSpec, UAVSpec, load_uav_spec
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -136,7 +134,7 @@ class UAVEnv(gymnasium.Env):
             flown, self._camera = _with_observation_camera(flown, cfg.camera_observation)
         if cfg.range_sensors:
             flown = _with_range_sensors(flown, cfg.range_sensors)
-        flown = _with_sensors(flown, cfg.sensors)
+        flown = core.with_sensors(flown, cfg.sensors)
         self.world = World(
             [
                 VehicleConfig(
@@ -345,7 +343,7 @@ class UAVEnv(gymnasium.Env):
         else:
             aux = self.vehicle.aux_values()
         if self._sensed is not None:  # the sensors' readings in place of the true rates and position
-            state = _sensed_state(state, self._sensed)
+            state = core.sensed_state(state, self._sensed)
             if self._fix_flag:
                 aux = [*aux, self._sensed.position_valid]
         attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
@@ -427,39 +425,6 @@ def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
 
 #: observation keys the tasks and the env use themselves
 _TAKEN_KEYS = ("attitude", "target_deltas", "goal_delta", "gate")
-
-
-def _with_sensors(spec: UAVSpec, sensors: Any) -> UAVSpec:
-    """The airframe with the env's noisy sensors (``config.sensors``): the ones it gives
-    replace the airframe's section; none given keeps the airframe's own."""
-    if sensors is None:
-        return spec
-    given = {k: getattr(sensors, k) for k in ("imu", "position", "barometer")}
-    if any(v is not None for v in given.values()):
-        spec = spec.model_copy(update={"sensors": SensorsSpec(**given)})
-    if sensors.observe and spec.sensors is None:
-        raise ConfigError(
-            f"sensors.observe: airframe '{spec.name}' has no 'sensors' section to observe; give sensors.imu, "
-            "sensors.position or sensors.barometer, or fly an airframe with sensors"
-        )
-    return spec
-
-
-def _sensed_state(state: KinematicState, suite: Any) -> KinematicState:
-    """``state`` as the sensors see it: body rates from the gyro (their ground-frame copy
-    turned with the true attitude), position from the position sensor, height from the
-    barometer; attitude and velocity stay true (docs/environments.md, "Sensor observation")."""
-    ang_vel, lin_pos, ang_ground = state.ang_vel, state.lin_pos, state.ang_vel_ground
-    if suite.gyro is not None:
-        ang_vel = suite.gyro.reading
-        r = quaternion_to_rows(state.quaternion)
-        ang_ground = tuple(exact.rotate(r, ang_vel))
-    names = suite.names
-    if "position" in names:
-        lin_pos = suite.position
-    if "altitude" in names:
-        lin_pos = (lin_pos[0], lin_pos[1], suite.altitude)
-    return state._replace(ang_vel=ang_vel, lin_pos=lin_pos, ang_vel_ground=ang_ground)
 
 
 def _with_range_sensors(spec: UAVSpec, sensors: list[Any]) -> UAVSpec:

@@ -93,6 +93,58 @@ def test_randomisation_applies_the_same_draws_to_every_agent_and_reports_them():
         env.close()
 
 
+SENSORS = {
+    "imu": {"gyro": {"noise_density": 1e-3}},
+    "position": {"noise_std": [0.01, 0.01, 0.01]},
+    "barometer": {"noise_std": 0.1},
+}
+
+
+def _observations(env, steps: int, multi_agent: bool) -> list[np.ndarray]:
+    """The observations of one episode of ``steps`` steps (the first agent's when several fly)."""
+    obs, _ = env.reset(seed=3)
+    out = [obs[env.possible_agents[0]] if multi_agent else obs]
+    for _ in range(steps):
+        if multi_agent:
+            obs, *_ = env.step({name: ACTION for name in env.agents})
+            out.append(obs[env.possible_agents[0]])
+        else:
+            obs, *_ = env.step(ACTION)
+            out.append(obs)
+    return out
+
+
+def test_noisy_sensors_build_one_agents_observation_as_the_single_agent_envs():
+    """``sensors`` flies both loops alike: the one agent observes the gyro, the position fix
+    and the barometer with the same draws as the single-agent env (its attitude vector, and
+    the fix flag after its aux, bit for bit), and the observation differs from the true one."""
+    flights = {}
+    for sensors in (None, SENSORS):
+        extra = {} if sensors is None else {"sensors": sensors}
+        alone_env, multi_env = QuadXHoverEnv(**extra), ma_quadx_hover_v0.parallel_env(agents=1, **extra)
+        try:
+            alone = _observations(alone_env, STEPS, False)
+            together = _observations(multi_env, STEPS, True)
+            assert multi_env.observation_space(multi_env.possible_agents[0]).shape[0] == alone[0].size + 3
+        finally:
+            alone_env.close()
+            multi_env.close()
+        for a, m in zip(alone, together):
+            np.testing.assert_array_equal(m[:-3], a)
+        flights[sensors is None] = np.array(alone)
+    true, sensed = flights[True], flights[False]
+    assert sensed.shape[1] == true.shape[1] + 1  # the position fix's validity flag
+    assert not np.array_equal(sensed[:, :3], true[:, :3]), "the gyro does not reach the observation"
+    # a multi-agent observation with sensors keeps the layout: every agent its own sensors
+    env = ma_quadx_hover_v0.parallel_env(agents=3, sensors=SENSORS)
+    try:
+        obs, _ = env.reset(seed=0)
+        assert all(env.observation_space(n).contains(obs[n]) for n in env.possible_agents)
+        assert all(v.sensors is not None for v in env.vehicles)
+    finally:
+        env.close()
+
+
 STACKED = [
     {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
     {"spawn": {"position": [0.0, 0.0, 1.6], "position_noise": 0.0, "orientation_noise": 0.0}},

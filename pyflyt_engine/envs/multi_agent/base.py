@@ -114,9 +114,11 @@ class MultiAgentUAVEnv(ParallelEnv):
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)
+        # what each agent flies: the env's noisy sensors added, as for a single agent
+        flown = {name: core.with_sensors(spec, cfg.sensors) for name, spec in specs.items()}
         self.world = World(
             [
-                VehicleConfig(specs[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
+                VehicleConfig(flown[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
                 for a in self.agent_list
             ],
             physics_hz=cfg.physics_hz,
@@ -134,7 +136,14 @@ class MultiAgentUAVEnv(ParallelEnv):
         for vehicle in self.vehicles:
             vehicle.set_latency(*self.latency_steps)
         n_act = len(cfg.action.names)
-        aux = {v.aux_state.size for v in self.vehicles}
+        #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
+        self._sensed = [v.sensors for v in self.vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+        #: per agent, whether its position fix's validity flag follows its auxiliary state
+        self._fix_flag = [
+            self._sensed is not None and v.spec.sensors is not None and v.spec.sensors.position is not None
+            for v in self.vehicles
+        ]
+        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
         for agent, vehicle in zip(self.agent_list, self.vehicles):
             if vehicle.setpoint.size != n_act:
                 self.world.close()
@@ -144,10 +153,11 @@ class MultiAgentUAVEnv(ParallelEnv):
                 )
         if len(aux) > 1:
             self.world.close()
+            sizes = ", ".join(f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag))
             raise ConfigError(
                 "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
-                f"auxiliary states differ in size ({', '.join(f'{v.spec.name}: {v.aux_state.size}' for v in self.vehicles)}); "
-                "mix airframes of the same kind (e.g. quadrotors)"
+                f"auxiliary states differ in size ({sizes}); "
+                "mix airframes of the same kind (e.g. quadrotors) and sensors (a position fix adds its validity flag)"
             )
         self._check_layout_spacing()
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -423,6 +433,12 @@ class MultiAgentUAVEnv(ParallelEnv):
         if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
             delayed = [v.delayed_observation() for v in self.vehicles]
             states, aux = [state for state, _ in delayed], delayed[i][1]
+        if self._sensed is not None:  # its own rates and position as its sensors read them
+            suite = self._sensed[i]
+            states = [*states]
+            states[i] = core.sensed_state(states[i], suite)
+            if self._fix_flag[i]:
+                aux = [*aux, suite.position_valid]
         attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
         return np.concatenate((attitude, self.task.observe(i, states)))
 
