@@ -708,6 +708,13 @@ def check_env_references(env: EnvConfig) -> None:
             check_references(env)  # type: ignore[arg-type]
         except PyFlytError as exc:
             raise ConfigError(f"env: {exc}") from None
+        dict_keys = [k for k in ("camera_observation", "range_sensors") if getattr(env, k)]
+        if dict_keys:  # the agent slots stack one flat observation row per agent
+            raise ConfigError(
+                f"env.{dict_keys[0]}: a shared policy trains on flat per-agent observations; a multi-agent env "
+                "with camera images or range sensors (a Dict observation) flies, records and replays, but "
+                f"cannot be trained with pyflyt train yet: remove env.{dict_keys[0]}"
+            )
         return
     try:
         task = get_task(env.task.name)

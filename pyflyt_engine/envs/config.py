@@ -552,20 +552,10 @@ class MultiAgentEnvConfig(EnvConfig):
                 "payloads: a multi-agent env cannot carry payloads yet (each would need an owner agent and a "
                 "per-agent ground-contact failure); remove the key, or fly the payload task single-agent"
             )
-        if self.camera_observation is not None:
-            raise ValueError(
-                "camera_observation: a multi-agent env cannot observe camera images yet (its per-agent "
-                "observations are flat Boxes, stacked for a shared policy); remove the key"
-            )
         if self.obstacles is not None:
             raise ValueError(
                 "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "
                 "contact and no keep-out around every agent's spawn); remove the key, or fly single-agent"
-            )
-        if self.range_sensors:
-            raise ValueError(
-                "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
-                "are flat Boxes, stacked for a shared policy); remove the key"
             )
         return self
 

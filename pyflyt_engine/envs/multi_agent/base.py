@@ -114,8 +114,19 @@ class MultiAgentUAVEnv(ParallelEnv):
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)
-        # what each agent flies: the env's noisy sensors added, as for a single agent
-        flown = {name: core.with_sensors(spec, cfg.sensors) for name, spec in specs.items()}
+        # what each agent flies: the env's observation camera, range sensors and noisy
+        # sensors added, as for a single agent
+        flown: dict[str, UAVSpec] = {}
+        cameras: dict[str, int | None] = {}
+        for name, spec in specs.items():
+            cameras[name] = None
+            if cfg.camera_observation is not None:
+                spec, cameras[name] = core.with_observation_camera(spec, cfg.camera_observation)
+            if cfg.range_sensors:
+                spec = core.with_range_sensors(spec, cfg.range_sensors)
+            flown[name] = core.with_sensors(spec, cfg.sensors)
+        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
+        self._cameras = [cameras[a.uav] for a in self.agent_list]
         self.world = World(
             [
                 VehicleConfig(flown[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
@@ -153,7 +164,9 @@ class MultiAgentUAVEnv(ParallelEnv):
                 )
         if len(aux) > 1:
             self.world.close()
-            sizes = ", ".join(f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag))
+            sizes = ", ".join(
+                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag)
+            )
             raise ConfigError(
                 "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
                 f"auxiliary states differ in size ({sizes}); "
@@ -176,7 +189,21 @@ class MultiAgentUAVEnv(ParallelEnv):
             max_steps=cfg.max_steps,
         )
         size = self.attitude_size + self.task.extra_size()
-        obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        if cfg.camera_observation is not None:
+            obs_space = core.with_image_space(obs_space, cfg.camera_observation)
+        #: per agent, the range sensors observed (every one its airframe carries), in spec order
+        self._range_sensors = [list(v.range_sensors) for v in self.vehicles]
+        if any(self._range_sensors):
+            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
+            if len(layouts) > 1:
+                self.world.close()
+                raise ConfigError(
+                    "agents: every agent must observe the same range sensors (one policy is shared): their airframes "
+                    "carry different ones; give the range sensors in the env config's range_sensors only"
+                )
+            obs_space = core.with_range_spaces(obs_space, self._range_sensors[0])
+        self._readings = cfg.camera_observation is not None or any(self._range_sensors)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
@@ -246,7 +273,7 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # --------------------------------------------------------------- spaces
 
-    def observation_space(self, agent: str) -> spaces.Box:
+    def observation_space(self, agent: str) -> spaces.Space:
         return self.observation_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Box:
@@ -428,7 +455,7 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # ------------------------------------------------------------- helpers
 
-    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
+    def _observe(self, i: int, states: list[KinematicState]) -> Any:
         aux = self.vehicles[i].aux_state.tolist()
         if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
             delayed = [v.delayed_observation() for v in self.vehicles]
@@ -440,7 +467,12 @@ class MultiAgentUAVEnv(ParallelEnv):
             if self._fix_flag[i]:
                 aux = [*aux, suite.position_valid]
         attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        return np.concatenate((attitude, self.task.observe(i, states)))
+        observation = np.concatenate((attitude, self.task.observe(i, states)))
+        if not self._readings:
+            return observation
+        return core.with_readings(
+            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
+        )
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
@@ -449,7 +481,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         info.update(self.task.reset_info(i))
         return info
 
-    def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
+    def _diverged(self, i: int, obs: Any, reward: float, state: KinematicState) -> None:
         where = self.config.id or self.config.source or "the environment"
         raise core.divergence_error(
             where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]

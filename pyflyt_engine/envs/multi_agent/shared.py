@@ -15,6 +15,8 @@ runs a shared policy on it unchanged:
   so an episode's return is the mean of the agents' returns;
 * the episode ends when no agent is left: *truncated* if any agent reached the time
   limit at the last step, else *terminated*;
+* with a ``Dict`` observation (``camera_observation``, ``range_sensors``) the stacked
+  observation is a dict of arrays, ``(N, *shape)`` per key;
 * ``info`` holds per agent ``agent_rewards``, ``agent_terminated``, ``agent_truncated``
   (this step), ``agent_active`` (acted this step), ``agent_infos`` (by name), and
   ``success`` (hover: every agent survived; dogfight: a team won by shooting down opponents), ``success_rate``
@@ -30,6 +32,7 @@ from typing import Any
 
 import gymnasium
 import numpy as np
+from gymnasium import spaces
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
 
@@ -180,9 +183,17 @@ class SharedPolicyEnv(gymnasium.Env):
     def close(self) -> None:
         self.parallel.close()
 
-    def _stack(self, observations: dict[str, np.ndarray]) -> np.ndarray:
-        out = np.zeros((self.num_agents, *self._obs_shape))
+    def _stack(self, observations: dict[str, Any]) -> Any:
         index = self.parallel.agent_index
+        space = self.observation_space
+        if isinstance(space, spaces.Dict):  # camera images, range sensors: one stacked array per key
+            n = self.num_agents
+            stacked = {key: np.zeros((n, *sub.shape), dtype=sub.dtype) for key, sub in space.spaces.items()}
+            for name, obs in observations.items():
+                for key, value in obs.items():
+                    stacked[key][index[name]] = value
+            return stacked
+        out = np.zeros((self.num_agents, *self._obs_shape))
         for name, obs in observations.items():
             out[index[name]] = obs
         return out
