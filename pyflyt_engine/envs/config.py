@@ -547,11 +547,13 @@ class MultiAgentEnvConfig(EnvConfig):
     @model_validator(mode="after")
     def _single_agent_only(self) -> MultiAgentEnvConfig:
         # keys of EnvConfig a multi-agent env cannot fly yet: refused, never accepted and ignored
-        if self.payloads:
-            raise ValueError(
-                "payloads: a multi-agent env cannot carry payloads yet (each would need an owner agent and a "
-                "per-agent ground-contact failure); remove the key, or fly the payload task single-agent"
-            )
+        for payload in self.payloads or ():
+            if payload.attach.to != "vehicle":
+                raise ValueError(
+                    f"payloads: '{payload.name}' is attached to the {payload.attach.to}; in a multi-agent env every "
+                    "agent carries its own copy of each payload, so a payload must attach to the vehicle "
+                    "(attach.to: vehicle)"
+                )
         if self.obstacles is not None:
             raise ValueError(
                 "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "

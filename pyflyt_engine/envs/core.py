@@ -337,7 +337,8 @@ class RecordableEnv(Protocol):
         airframe: the airframe flown before a task adjusts it.
         reward_preset: the resolved reward preset.
         np_random: the env's generator (its state is recorded at each reset).
-        payloads: the env's :class:`~pyflyt_engine.payloads.PayloadSet`, or None.
+        payloads: the env's :class:`~pyflyt_engine.payloads.PayloadSet` (every agent's as one
+            :class:`~pyflyt_engine.payloads.PayloadSets` in a multi-agent env), or None.
         action_names: the names of the recorded action vector's entries.
         last_action: the action the vehicles received at the last step (flat).
         last_reward_terms: the reward breakdown of the last step.

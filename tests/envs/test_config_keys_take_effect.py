@@ -115,7 +115,7 @@ MULTI: dict[str, tuple[dict[str, Any], Any]] = {
     "orientation_noise": ({}, 0.0),
 }
 #: multi-agent keys refused at load (tests/envs/test_multi_agent_parity.py says why)
-REFUSED_MULTI = {"payloads", "obstacles"}
+REFUSED_MULTI = {"obstacles"}
 
 
 def _fields(config_model: type, options_model: type) -> set[str]:

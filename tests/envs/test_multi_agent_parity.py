@@ -270,16 +270,6 @@ def test_crash_on_contact_false_keeps_touching_agents_in_the_episode():
 @pytest.mark.parametrize(
     "key, value",
     [
-        (
-            "payloads",
-            [
-                {
-                    "name": "pole",
-                    "body": {"shapes": [{"type": "sphere", "radius": 0.02, "mass": 0.01}]},
-                    "attach": {"to": "vehicle", "joint": "fixed"},
-                }
-            ],
-        ),
         ("obstacles", {"items": [{"type": "sphere", "radius": 0.2, "position": [2.0, 0.0, 1.0]}]}),
     ],
 )
@@ -319,4 +309,80 @@ def test_a_recording_in_wind_with_randomisation_replays_exactly(tmp_path):
     episode = load_episode(env.paths[0])
     assert episode.env_info["wind"] and "turbulence" in episode.env_info["wind"]
     result = verify(episode)
+    assert result.ok and result.max_deviation == 0.0
+
+
+BALL = [
+    {
+        "name": "ball",
+        "body": {"shapes": [{"type": "sphere", "radius": 0.02, "mass": 0.01}]},
+        "attach": {"to": "vehicle", "joint": "fixed"},
+        "position": [0.0, 0.0, 0.05],
+    }
+]
+
+
+def test_payloads_change_one_agent_exactly_as_the_single_agent_env():
+    alone = single(payloads=BALL)
+    assert not np.array_equal(alone, single()), "the payload does not change the single-agent flight"
+    np.testing.assert_array_equal(multi(payloads=BALL)[:, 0], alone)
+
+
+def test_every_agent_carries_its_own_payloads_and_fails_on_its_own_ground_contact():
+    hanging = [
+        {
+            "name": "weight",
+            "body": {"shapes": [{"type": "sphere", "radius": 0.03, "mass": 0.005}]},
+            "attach": {"to": "vehicle", "joint": "fixed"},
+            "position": [0.0, 0.0, -0.25],
+            "ground_contact_fails": True,
+        }
+    ]
+    low_and_high = [
+        {"spawn": {"position": [0.0, 0.0, 0.4], "position_noise": 0.0, "orientation_noise": 0.0}},
+        {"spawn": {"position": [2.0, 0.0, 3.0], "position_noise": 0.0, "orientation_noise": 0.0}},
+    ]
+    env = ma_quadx_hover_v0.parallel_env(agents=low_and_high, payloads=hanging)
+    try:
+        _, infos = env.reset(seed=0)
+        assert [p.spec.name for p in env.payloads] == ["uav_0-weight", "uav_1-weight"]
+        assert all(info["payload_ground_contact"] is False for info in infos.values())
+        for _ in range(30):  # motors off: both fall, the low one's weight reaches the ground first
+            _, _, terminated, _, infos = env.step({name: np.zeros(4) for name in env.agents})
+            if terminated.get("uav_0"):
+                break
+        assert terminated["uav_0"] and infos["uav_0"]["payload_ground_contact"]
+        assert not infos["uav_0"]["collision"], "the vehicle itself touched the ground first"
+        assert not terminated["uav_1"] and not infos["uav_1"]["payload_ground_contact"]
+        assert env.agents == ["uav_1"]
+    finally:
+        env.close()
+
+
+def test_a_payload_attached_to_the_world_is_refused_by_name():
+    gate = [
+        {
+            "name": "post",
+            "body": {"shapes": [{"type": "box", "size": [0.1, 0.1, 0.1], "mass": 0.1}]},
+            "attach": {"to": "world", "joint": "fixed"},
+            "position": [3.0, 0.0, 0.5],
+        }
+    ]
+    with pytest.raises(ConfigError, match="payloads: 'post' is attached to the world"):
+        ma_quadx_hover_v0.parallel_env(payloads=gate)
+
+
+def test_a_recording_with_payloads_replays_exactly(tmp_path):
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.telemetry import RecordEpisode, load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    env = RecordEpisode(make_env("ma_quadx_hover", agents=2, payloads=BALL), tmp_path)
+    env.reset(seed=4)
+    for _ in range(10):
+        *_, terminated, truncated, _ = env.step(np.tile(ACTION, (2, 1)))
+        if terminated or truncated:
+            break
+    env.close()
+    result = verify(load_episode(env.paths[0]))
     assert result.ok and result.max_deviation == 0.0

@@ -38,7 +38,8 @@ from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.payloads import PayloadSet, PayloadSets
+from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -142,6 +143,15 @@ class MultiAgentUAVEnv(ParallelEnv):
             downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
+        #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
+        #: around its vehicle; empty without payloads
+        self.agent_payloads: list[PayloadSet] = []
+        if cfg.payloads:
+            for i, (agent, vehicle) in enumerate(zip(self.agent_list, self.vehicles)):
+                renamed = [p.model_copy(update={"name": _payload_name(agent.name, i, p.name)}) for p in cfg.payloads]
+                self.agent_payloads.append(PayloadSet(self.world, vehicle, renamed))
+        #: every agent's payloads as one (what the recorder reads; None without payloads)
+        self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
         #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency")
         self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
         for vehicle in self.vehicles:
@@ -328,6 +338,8 @@ class MultiAgentUAVEnv(ParallelEnv):
             if drawn is not None:
                 position, orientation = Randomizer.spawn(drawn, position, orientation)
             vehicle.reset(position, orientation, lin_vel=s.lin_vel)
+        for payloads in self.agent_payloads:  # after every vehicle is placed
+            payloads.place()
         self.agents = list(self.possible_agents)
         self._alive[:] = True
         self._actions[:] = 0.0
@@ -381,6 +393,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             collision = collisions[i]
             out_of_bounds = core.outside_dome(state, self._dome2)
             crashed, terminated = task.termination(collision, out_of_bounds, sig)
+            payload_ground = bool(self.agent_payloads) and self.agent_payloads[i].ground_failure()
+            if payload_ground:  # a payload the config says must not touch the ground did
+                crashed = terminated = True
             ctx = core.step_context(
                 world,
                 i,
@@ -404,6 +419,8 @@ class MultiAgentUAVEnv(ParallelEnv):
                 "success": (sig.complete and not crashed) or (truncated and task.succeeds_at_time_limit),
                 **sig.info,
             }
+            if self.agent_payloads:
+                info["payload_ground_contact"] = payload_ground
             if self.info_reward_terms:
                 info["reward_terms"] = terms
             rewards[name] = reward
@@ -478,6 +495,8 @@ class MultiAgentUAVEnv(ParallelEnv):
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         if self.randomizer is not None:
             info["randomization"] = dict(self.last_randomization)
+        if self.agent_payloads:
+            info["payload_ground_contact"] = False
         info.update(self.task.reset_info(i))
         return info
 
@@ -514,3 +533,12 @@ class MultiAgentUAVEnv(ParallelEnv):
     def markers(self) -> np.ndarray:
         """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)`` (the task's)."""
         return self.task.markers()
+
+
+def _payload_name(agent: str, index: int, payload: str) -> str:
+    """Agent ``index``'s copy of payload ``payload``: ``<agent>-<payload>`` when that is an
+    identifier (every default name), else ``agent<index>-<payload>``."""
+    try:
+        return check_identifier(f"{agent}-{payload}")
+    except ValueError:
+        return f"agent{index}-{payload}"

@@ -61,8 +61,10 @@ class SharedPolicyEnv(gymnasium.Env):
         self._successes = np.zeros(self.num_agents, dtype=bool)
 
     # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
-    #: a multi-agent env carries no payloads (refused at load)
-    payloads = None
+    @property
+    def payloads(self) -> Any:
+        """Every agent's payloads as one (:class:`~pyflyt_engine.payloads.PayloadSets`), or None."""
+        return self.parallel.payloads
 
     def scene_markers(self) -> tuple[np.ndarray, float]:
         """Every agent's marker points, ``(n, 3)`` ground frame, and their radius [m]."""
