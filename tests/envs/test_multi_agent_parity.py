@@ -386,3 +386,33 @@ def test_a_recording_with_payloads_replays_exactly(tmp_path):
     env.close()
     result = verify(load_episode(env.paths[0]))
     assert result.ok and result.max_deviation == 0.0
+
+
+def test_a_dogfight_episode_flies_the_gun_options_a_curriculum_sets_then_the_configured_ones():
+    """``reset(options={"task": ...})`` changes a multi-agent task's episode options as it
+    changes a single-agent task's: a wide, long-range gun hits from the first steps (the
+    teams spawn 100 m apart, facing each other); the next reset without options flies the
+    configured 20 m, 0.07 rad gun, which hits nobody that far away."""
+    from pyflyt_engine.envs.multi_agent import ma_fixedwing_dogfight_v0
+
+    env = ma_fixedwing_dogfight_v0.parallel_env()
+    cruise = np.array([0.0, 0.0, 0.0, 0.6])
+
+    def hits(options=None) -> int:
+        env.reset(seed=0, options=options)
+        total = 0
+        for _ in range(3):
+            _, _, _, _, infos = env.step({name: cruise for name in env.agents})
+            total += sum(info["hits_dealt"] for info in infos.values())
+        return total
+
+    try:
+        assert hits({"task": {"lethal_distance": 300.0, "lethal_angle": 1.2}}) > 0
+        assert env.task.options.lethal_distance == 300.0 and env.task.configured.lethal_distance == 20.0
+        assert hits() == 0 and env.task.options.lethal_distance == 20.0
+        with pytest.raises(ValueError, match="lethal_angle"):
+            env.reset(seed=0, options={"task": {"lethal_angle": 2.0}})  # at most pi / 2
+        with pytest.raises(ValueError, match="team_separation"):
+            env.reset(seed=0, options={"task": {"team_separation": 50.0}})  # shapes the spawn: not per episode
+    finally:
+        env.close()

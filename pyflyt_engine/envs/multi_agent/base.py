@@ -304,19 +304,17 @@ class MultiAgentUAVEnv(ParallelEnv):
         once per reset, and applied to every agent: the airframe factors to each vehicle's
         own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
         one atmosphere.  ``options``: ``None``, or ``{"task": {...}}`` with options the task
-        lets an episode change; the multi-agent tasks declare none, so any change is refused
-        (``ValueError``) rather than ignored.  Other keys (PettingZoo's API test passes
+        lets an episode change (its ``episode_options``: dogfight ``lethal_distance``,
+        ``lethal_angle``, ``damage_per_second``; formation ``tolerance``, ``separation``;
+        hover none), as a single-agent env's; any other change is refused (``ValueError``)
+        rather than ignored, and the next reset without them flies the configured task.  Other keys (PettingZoo's API test passes
         ``{"options": 1}``) are ignored with a warning.
         """
+        changes = None
         if options:
             if not isinstance(options, Mapping):
                 raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
             changes = core.task_changes({"task": options["task"]}) if "task" in options else None
-            if changes:
-                raise ValueError(
-                    f"task '{self.config.task.name}' cannot change {', '.join(sorted(changes))} per episode "
-                    "(options an episode may set: none)"
-                )
             other = sorted(str(k) for k in options if k != "task")
             if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
                 warnings.warn(
@@ -324,6 +322,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                     'ignored (it takes {"task": {...}} only)',
                     stacklevel=2,
                 )
+        self.task.set_episode_options(changes)
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
         self.world.reset(seed)

@@ -42,6 +42,8 @@ class DogfightTask(MultiAgentTask):
 
     name: ClassVar[str] = "dogfight"
     provides: ClassVar[frozenset[str]] = frozenset({"dogfight"})
+    #: the guns, read at every step: a curriculum may widen the cone or the range early
+    episode_options: ClassVar[frozenset[str]] = frozenset({"lethal_distance", "lethal_angle", "damage_per_second"})
 
     def __init__(self, *args: Any, agent_hz: float, **kwargs: Any) -> None:
         super().__init__(*args, agent_hz=agent_hz, **kwargs)

@@ -27,6 +27,8 @@ class MAFormationTask(MultiAgentTask):
     name: ClassVar[str] = "ma_formation"
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "formation"})
     succeeds_at_time_limit: ClassVar[bool] = True
+    #: read at every reset and step: a curriculum may loosen the formation early
+    episode_options: ClassVar[frozenset[str]] = frozenset({"tolerance", "separation"})
 
     def extra_size(self) -> int:
         return 6 + 4 * self.options.neighbours  # type: ignore[attr-defined]

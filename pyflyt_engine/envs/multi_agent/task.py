@@ -63,7 +63,9 @@ class MultiAgentTask:
         crash_on_contact: any contact of an agent's vehicle (ground or another agent) ends
             its episode as a crash; a task where touching is part of the job sets False.
         episode_options: options an episode may fly with other values through
-            ``reset(options={"task": {...}})`` (none for the shipped tasks).
+            ``reset(options={"task": {...}})`` (a training curriculum); only options the
+            task reads afresh at every reset or step, never one that shaped the world,
+            the spawn layout or the spaces.
 
     Args:
         options: the config's ``task`` options.
@@ -91,6 +93,9 @@ class MultiAgentTask:
         max_steps: int,
     ) -> None:
         self.options = options
+        #: the options of the env config; :attr:`options` are the ones of the episode
+        self.configured = options
+        self._episode_changes: dict[str, Any] = {}
         self.agents = list(agents)
         self.alive = alive
         self.teams = np.array([a.team for a in self.agents], dtype=np.int64)
@@ -98,6 +103,27 @@ class MultiAgentTask:
         self.dome_squared = self.flight_dome_size**2
         self.agent_dt = 1.0 / float(agent_hz)
         self.max_steps = int(max_steps)
+
+    def set_episode_options(self, changes: dict[str, Any] | None) -> None:
+        """Fly the next episodes with ``changes`` to the configured options (None or ``{}``: as
+        configured); called by the loop before the agents are placed.
+
+        Raises:
+            ValueError: an option not in :attr:`episode_options`, or a value the options'
+                model rejects (the message names it).
+        """
+        changes = dict(changes or {})
+        if changes == self._episode_changes:
+            return
+        unknown = sorted(set(changes) - self.episode_options)
+        if unknown:
+            allowed = ", ".join(sorted(self.episode_options)) or "none"
+            raise ValueError(
+                f"task '{self.name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {allowed})"
+            )
+        model = type(self.configured)
+        self.options = model.model_validate({**self.configured.model_dump(), **changes}) if changes else self.configured
+        self._episode_changes = changes
 
     def extra_size(self) -> int:
         """Observation entries each agent gets after the shared attitude vector."""
