@@ -48,7 +48,16 @@ __all__ = ["AgentSignals", "MultiAgentUAVEnv"]
 
 
 class MultiAgentUAVEnv(ParallelEnv):
-    """Base of the multi-agent environments (see the module docstring and each subclass's manual).
+    """The multi-agent loop (see the module docstring and each registered env's manual).
+
+    Runs the task its class names (:attr:`task_class`) or, for this class itself, the one
+    the config names (``MultiAgentUAVEnv("my_swarm.yaml")``).  Every agent flies the
+    config's keys as the single-agent env does (docs/multi_agent.md): with
+    ``sensors`` (``observe``) its own rates and position are its sensors' readings; with
+    ``camera_observation`` or ``range_sensors`` its observation is a ``Dict`` (the vector
+    under ``attitude``, its own image and scans under their keys); with ``payloads`` it
+    carries its own copy of each (``agent_payloads``; one failing on the ground ends its
+    episode, ``info["payload_ground_contact"]``).
 
     Args:
         config: env config name (``conf/env``), YAML path, mapping or config object; default
