@@ -545,8 +545,8 @@ class MultiAgentEnvConfig(EnvConfig):
     multi_agent: ClassVar[bool] = True
 
     @model_validator(mode="after")
-    def _single_agent_only(self) -> MultiAgentEnvConfig:
-        # keys of EnvConfig a multi-agent env cannot fly yet: refused, never accepted and ignored
+    def _payloads_on_vehicles(self) -> MultiAgentEnvConfig:
+        # every agent carries its own payloads: one attached to the world would be built N times in one place
         for payload in self.payloads or ():
             if payload.attach.to != "vehicle":
                 raise ValueError(
@@ -554,11 +554,6 @@ class MultiAgentEnvConfig(EnvConfig):
                     "agent carries its own copy of each payload, so a payload must attach to the vehicle "
                     "(attach.to: vehicle)"
                 )
-        if self.obstacles is not None:
-            raise ValueError(
-                "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "
-                "contact and no keep-out around every agent's spawn); remove the key, or fly single-agent"
-            )
         return self
 
     @field_validator("agents")

@@ -267,15 +267,60 @@ def test_crash_on_contact_false_keeps_touching_agents_in_the_episode():
             env.close()
 
 
-@pytest.mark.parametrize(
-    "key, value",
-    [
-        ("obstacles", {"items": [{"type": "sphere", "radius": 0.2, "position": [2.0, 0.0, 1.0]}]}),
-    ],
-)
-def test_keys_a_multi_agent_env_cannot_fly_are_refused_at_load_by_name(key, value):
-    with pytest.raises(ConfigError, match=key):
-        ma_quadx_hover_v0.parallel_env(**{key: value})
+SLAB = {"items": [{"type": "box", "size": [2.0, 2.0, 0.1], "position": [0.0, 0.0, 1.4]}]}
+
+
+def test_obstacles_stop_one_agent_exactly_as_the_single_agent_env():
+    """A slab 0.4 m above the spawn point: the climbing vehicle hits it and crashes, in both
+    loops alike (the same states at every step, the same last step), with
+    ``info["obstacle_contact"]`` (the rewards differ: each env has its own preset)."""
+    climb = np.array([0.0, 0.0, 0.0, 0.8])
+    outcomes = []
+    builds = (
+        (lambda: QuadXHoverEnv(obstacles=SLAB), False),
+        (lambda: ma_quadx_hover_v0.parallel_env(agents=1, obstacles=SLAB), True),
+    )
+    for build, multi_agent in builds:
+        env = build()
+        try:
+            env.reset(seed=3)
+            rows = []
+            for _ in range(40):
+                if multi_agent:
+                    _, _, terminated, _, infos = env.step({"uav_0": climb})
+                    ended, info = terminated["uav_0"], infos["uav_0"]
+                    vehicle = env.vehicles[0]
+                else:
+                    _, _, ended, _, info = env.step(climb)
+                    vehicle = env.vehicle
+                rows.append([*vehicle.state.lin_pos, *vehicle.state.quaternion, *vehicle.state.lin_vel])
+                if ended:
+                    break
+            outcomes.append((np.array(rows), info["obstacle_contact"], ended))
+        finally:
+            env.close()
+    (alone, touched_alone, ended_alone), (together, touched_together, ended_together) = outcomes
+    assert touched_alone and ended_alone and touched_together and ended_together
+    np.testing.assert_array_equal(together, alone)
+
+
+def test_an_obstacle_ends_only_the_episode_of_the_agent_that_touches_it():
+    apart = [
+        {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
+        {"spawn": {"position": [4.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
+    ]
+    env = ma_quadx_hover_v0.parallel_env(agents=apart, obstacles=SLAB)  # the slab is above agent 0 only
+    try:
+        _, infos = env.reset(seed=0)
+        assert infos["uav_1"]["obstacle_contact"] is False
+        for _ in range(40):
+            _, _, terminated, _, infos = env.step({name: np.array([0.0, 0.0, 0.0, 0.8]) for name in env.agents})
+            if terminated.get("uav_0"):
+                break
+        assert terminated["uav_0"] and infos["uav_0"]["obstacle_contact"]
+        assert not terminated["uav_1"] and not infos["uav_1"]["obstacle_contact"]
+    finally:
+        env.close()
 
 
 def test_episode_options_are_refused_not_ignored():
@@ -372,12 +417,15 @@ def test_a_payload_attached_to_the_world_is_refused_by_name():
         ma_quadx_hover_v0.parallel_env(payloads=gate)
 
 
-def test_a_recording_with_payloads_replays_exactly(tmp_path):
+def test_a_recording_with_payloads_and_an_obstacle_layout_replays_exactly(tmp_path):
     from pyflyt_engine.envs import make_env
     from pyflyt_engine.telemetry import RecordEpisode, load_episode
     from pyflyt_engine.telemetry.replay import verify
 
-    env = RecordEpisode(make_env("ma_quadx_hover", agents=2, payloads=BALL), tmp_path)
+    forest = {"kind": "forest", "x_range": [-3.0, 3.0], "y_range": [-3.0, 3.0], "density": 0.5, "keep_out": 1.0}
+    env = RecordEpisode(
+        make_env("ma_quadx_hover", agents=2, payloads=BALL, obstacles={"generators": [forest]}), tmp_path
+    )
     env.reset(seed=4)
     for _ in range(10):
         *_, terminated, truncated, _ = env.step(np.tile(ACTION, (2, 1)))

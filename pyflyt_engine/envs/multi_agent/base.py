@@ -38,6 +38,7 @@ from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
 from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
@@ -161,6 +162,11 @@ class MultiAgentUAVEnv(ParallelEnv):
                 self.agent_payloads.append(PayloadSet(self.world, vehicle, renamed))
         #: every agent's payloads as one (what the recorder reads; None without payloads)
         self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
+        #: the config's obstacles (None without): fixed ones built here, layouts drawn at each
+        #: reset clear of every agent's spawn point and the task's markers
+        self.obstacles: ObstacleField | None = None
+        if cfg.obstacles is not None:
+            self.obstacles = ObstacleField(self.world, cfg.obstacles)
         #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency")
         self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
         for vehicle in self.vehicles:
@@ -355,6 +361,9 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._reward_terms = [{} for _ in self.possible_agents]
         states = [v.state for v in self.vehicles]
         self.task.reset(states)
+        if self.obstacles is not None:  # this episode's layouts, clear of every agent and the task's points
+            keep_out = [state.lin_pos for state in states]
+            self.obstacles.generate(rng, [*keep_out, *np.asarray(self.task.markers()).reshape(-1, 3)])
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -404,6 +413,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             payload_ground = bool(self.agent_payloads) and self.agent_payloads[i].ground_failure()
             if payload_ground:  # a payload the config says must not touch the ground did
                 crashed = terminated = True
+            obstacle_contact = self.obstacles is not None and self.obstacles.touched(i)
+            if obstacle_contact and self.config.obstacles.crash_on_contact:  # type: ignore[union-attr]
+                crashed = terminated = True
             ctx = core.step_context(
                 world,
                 i,
@@ -429,6 +441,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             }
             if self.agent_payloads:
                 info["payload_ground_contact"] = payload_ground
+            if self.obstacles is not None:
+                info["obstacle_contact"] = obstacle_contact
+                info["obstacles_parked"] = self.obstacles.parked
             if self.info_reward_terms:
                 info["reward_terms"] = terms
             rewards[name] = reward
@@ -505,6 +520,9 @@ class MultiAgentUAVEnv(ParallelEnv):
             info["randomization"] = dict(self.last_randomization)
         if self.agent_payloads:
             info["payload_ground_contact"] = False
+        if self.obstacles is not None:
+            info["obstacle_contact"] = False
+            info["obstacles_parked"] = self.obstacles.parked
         info.update(self.task.reset_info(i))
         return info
 
