@@ -499,3 +499,23 @@ class PayloadSet:
 
     def __len__(self) -> int:
         return len(self.payloads)
+
+
+class PayloadSets:
+    """Several :class:`PayloadSet` seen as one (every agent's payloads in a multi-agent env):
+    iterating gives every payload, :meth:`state` finds one by its (unique) name.  What the
+    recorder reads of an env's payloads."""
+
+    def __init__(self, sets: list[PayloadSet]) -> None:
+        self.sets = list(sets)
+        self._owner = {payload.spec.name: s for s in self.sets for payload in s}
+
+    def state(self, name: str) -> PayloadState:
+        """The current :class:`PayloadState` of the payload named ``name``."""
+        return self._owner[name].state(name)
+
+    def __iter__(self) -> Any:
+        return (payload for s in self.sets for payload in s)
+
+    def __len__(self) -> int:
+        return sum(len(s) for s in self.sets)

@@ -103,7 +103,7 @@ class LocalEnv:
         return self._result
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> Any:
-        return getattr(self.env, name)(*args, **kwargs)
+        return self.get(name)(*args, **kwargs)
 
     def call_packed(self, name: str, args: tuple, kwargs: dict) -> Any:
         return self.call(name, *args, **kwargs)
@@ -112,7 +112,8 @@ class LocalEnv:
         return int(self.env.unwrapped.num_agents)
 
     def get(self, name: str) -> Any:
-        return getattr(self.env, name)
+        """The attribute of the outermost wrapper (or the env) that has it, as SB3's vector envs find it."""
+        return self.env.get_wrapper_attr(name)
 
     def set(self, name: str, value: Any) -> None:
         setattr(self.env, name, value)

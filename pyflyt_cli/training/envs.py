@@ -272,7 +272,9 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
         from pyflyt_cli.training.multi_agent import AgentSlotsVecEnv
 
         subproc = kind == "subproc"
-        factories = [EnvFactory(config, in_subprocess=subproc, resumable=True) for _ in range(n_envs)]
+        factories = [
+            EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)
+        ]
         return AgentSlotsVecEnv(factories, subprocess=subproc)
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
     factories = [EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)]

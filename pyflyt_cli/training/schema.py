@@ -607,12 +607,16 @@ def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> 
 
 def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]) -> None:
     """Every option of ``train.curriculum`` can change per episode, and its start value is valid."""
-    if getattr(env, "multi_agent", False):
-        raise ValueError("train.curriculum: the multi-agent envs take no per-episode task options; remove it")
     from pyflyt_engine.envs.tasks import get_task
     from pyflyt_engine.errors import PyFlytError
 
-    task_cls = get_task(env.task.name)
+    multi_agent = getattr(env, "multi_agent", False)
+    if multi_agent:
+        from pyflyt_engine.envs.multi_agent.config import get_ma_task
+
+        task_cls: Any = get_ma_task(env.task.name)
+    else:
+        task_cls = get_task(env.task.name)
     unknown = sorted(set(curriculum) - task_cls.episode_options)
     if unknown:
         allowed = ", ".join(sorted(task_cls.episode_options)) or "none"
@@ -620,12 +624,25 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
             f"train.curriculum: task '{env.task.name}' cannot change {', '.join(unknown)} per episode "
             f"(options a curriculum may move: {allowed})"
         )
-    task = task_cls(env.task, flight_dome_size=env.flight_dome_size, agent_hz=env.agent_hz)
+    if multi_agent:
+        import numpy as np
+
+        agents = env.resolved_agents()  # type: ignore[attr-defined]
+        task = task_cls(
+            env.task,
+            agents,
+            np.zeros(len(agents), dtype=bool),
+            flight_dome_size=env.flight_dome_size,
+            agent_hz=env.agent_hz,
+            max_steps=env.max_steps,
+        )
+    else:
+        task = task_cls(env.task, flight_dome_size=env.flight_dome_size, agent_hz=env.agent_hz)
     try:
         task.set_episode_options({name: option.start for name, option in curriculum.items()})
     except ValidationError as exc:  # one line per rejected value, named as the user wrote it
         wrong = "; ".join(
-            describe_error(task_cls.Options, {**e, "loc": (e["loc"][0], "start", *e["loc"][1:])}, "train.curriculum.")
+            describe_error(type(env.task), {**e, "loc": (e["loc"][0], "start", *e["loc"][1:])}, "train.curriculum.")
             for e in exc.errors()
         )
         raise ValueError(f"the curriculum's start values are not a valid task: {wrong}") from None
@@ -708,6 +725,13 @@ def check_env_references(env: EnvConfig) -> None:
             check_references(env)  # type: ignore[arg-type]
         except PyFlytError as exc:
             raise ConfigError(f"env: {exc}") from None
+        dict_keys = [k for k in ("camera_observation", "range_sensors") if getattr(env, k)]
+        if dict_keys:  # the agent slots stack one flat observation row per agent
+            raise ConfigError(
+                f"env.{dict_keys[0]}: a shared policy trains on flat per-agent observations; a multi-agent env "
+                "with camera images or range sensors (a Dict observation) flies, records and replays, but "
+                f"cannot be trained with pyflyt train yet: remove env.{dict_keys[0]}"
+            )
         return
     try:
         task = get_task(env.task.name)

@@ -216,7 +216,7 @@ class MAFixedwingDogfightEnvV2(_NativeDogfight):
     def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         s = states[i]
         own = np.array((*s.ang_vel, *s.ang_pos, *s.lin_vel, *s.lin_pos), dtype=np.float64)
-        rot = self._rot[i]  # body of i -> ground
+        rot = self.task._rot[i]  # body of i -> ground
         blocks = []
         for j in range(len(self.possible_agents)):
             if j == i or not self._alive[j]:
@@ -229,13 +229,14 @@ class MAFixedwingDogfightEnvV2(_NativeDogfight):
                         np.subtract(o.ang_pos, s.ang_pos),
                         rot.T @ np.asarray(o.lin_vel_ground) - np.asarray(s.lin_vel),
                         rot.T @ (np.asarray(o.lin_pos) - np.asarray(s.lin_pos)),
-                        (self.health[j], float(self.teams[j] == self.teams[i])),
+                        (self.task.health[j], float(self.teams[j] == self.teams[i])),
                     )
                 )
             )
         self._active_others[i] = len(blocks)
         flat = np.zeros(self._flat_size)
-        flat[: self._self_size] = np.concatenate((own, self.vehicles[i].aux_state, (self.health[i],), self._actions[i]))
+        health = (self.task.health[i],)
+        flat[: self._self_size] = np.concatenate((own, self.vehicles[i].aux_state, health, self._actions[i]))
         if blocks:
             flat[self._self_size : self._self_size + _OTHER * len(blocks)] = np.concatenate(blocks)
         return flat

@@ -547,33 +547,15 @@ class MultiAgentEnvConfig(EnvConfig):
     multi_agent: ClassVar[bool] = True
 
     @model_validator(mode="after")
-    def _single_agent_only(self) -> MultiAgentEnvConfig:
-        # keys of EnvConfig a multi-agent env cannot fly yet: refused, never accepted and ignored
-        if self.payloads:
-            raise ValueError(
-                "payloads: a multi-agent env cannot carry payloads yet (each would need an owner agent and a "
-                "per-agent ground-contact failure); remove the key, or fly the payload task single-agent"
-            )
-        if self.camera_observation is not None:
-            raise ValueError(
-                "camera_observation: a multi-agent env cannot observe camera images yet (its per-agent "
-                "observations are flat Boxes, stacked for a shared policy); remove the key"
-            )
-        if self.obstacles is not None:
-            raise ValueError(
-                "obstacles: a multi-agent env cannot fly among obstacles yet (its loop has no per-agent obstacle "
-                "contact and no keep-out around every agent's spawn); remove the key, or fly single-agent"
-            )
-        if self.range_sensors:
-            raise ValueError(
-                "range_sensors: a multi-agent env cannot observe range sensors yet (its per-agent observations "
-                "are flat Boxes, stacked for a shared policy); remove the key"
-            )
-        if self.sensors is not None:
-            raise ValueError(
-                "sensors: a multi-agent env cannot observe noisy sensors yet (its observations are built per "
-                "agent from the true states); remove the key, or give the sensors in the airframe"
-            )
+    def _payloads_on_vehicles(self) -> MultiAgentEnvConfig:
+        # every agent carries its own payloads: one attached to the world would be built N times in one place
+        for payload in self.payloads or ():
+            if payload.attach.to != "vehicle":
+                raise ValueError(
+                    f"payloads: '{payload.name}' is attached to the {payload.attach.to}; in a multi-agent env every "
+                    "agent carries its own copy of each payload, so a payload must attach to the vehicle "
+                    "(attach.to: vehicle)"
+                )
         return self
 
     @field_validator("agents")

@@ -16,7 +16,6 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine import exact
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.randomization import Randomizer
@@ -25,8 +24,7 @@ from pyflyt_engine.envs.tasks import Task, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet
-from pyflyt_engine.frames import quaternion_to_rows
-from pyflyt_engine.spec import SensorsSpec, UAVSpec, load_uav_spec
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
@@ -135,10 +133,10 @@ class UAVEnv(gymnasium.Env):
         flown = self.task.vehicle_spec(self.airframe)
         self._camera: int | None = None
         if cfg.camera_observation is not None:
-            flown, self._camera = _with_observation_camera(flown, cfg.camera_observation)
+            flown, self._camera = core.with_observation_camera(flown, cfg.camera_observation)
         if cfg.range_sensors:
-            flown = _with_range_sensors(flown, cfg.range_sensors)
-        flown = _with_sensors(flown, cfg.sensors)
+            flown = core.with_range_sensors(flown, cfg.range_sensors)
+        flown = core.with_sensors(flown, cfg.sensors)
         self.world = World(
             [
                 VehicleConfig(
@@ -193,11 +191,11 @@ class UAVEnv(gymnasium.Env):
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
-            self.observation_space = _with_image_space(self.observation_space, cfg.camera_observation)
+            self.observation_space = core.with_image_space(self.observation_space, cfg.camera_observation)
         #: the range sensors observed (every one the flown airframe carries), in spec order
         self._range_sensors = list(self.vehicle.range_sensors)
         if self._range_sensors:
-            self.observation_space = _with_range_spaces(self.observation_space, self._range_sensors)
+            self.observation_space = core.with_range_spaces(self.observation_space, self._range_sensors)
 
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
@@ -353,25 +351,16 @@ class UAVEnv(gymnasium.Env):
         else:
             aux = self.vehicle.aux_values()
         if self._sensed is not None:  # the sensors' readings in place of the true rates and position
-            state = _sensed_state(state, self._sensed)
+            state = core.sensed_state(state, self._sensed)
             if self._fix_flag:
                 aux = [*aux, self._sensed.position_valid]
         attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
         observation = self.task.observe(attitude, state)
-        if self._range_sensors:
-            if not isinstance(observation, dict):
-                observation = {"attitude": observation}
-            for k, sensor in enumerate(self._range_sensors):
-                observation[sensor.name] = self.world.scan(0, k)
-        if self._camera is None:
+        if not self._range_sensors and self._camera is None:
             return observation
-        c = self.config.camera_observation
-        rgba = self.vehicle.capture(self._camera)["rgba"]
-        image = rgba[:, :, :3] if c.channels == "rgb" else rgba  # type: ignore[union-attr]
-        image = np.ascontiguousarray(image.transpose(2, 0, 1) if c.channel_first else image)  # type: ignore[union-attr]
-        if isinstance(observation, dict):
-            return {**observation, c.key: image}  # type: ignore[union-attr]
-        return {"attitude": observation, c.key: image}  # type: ignore[union-attr]
+        return core.with_readings(
+            observation, self.world, 0, self._range_sensors, self._camera, self.config.camera_observation
+        )
 
     def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
@@ -409,85 +398,3 @@ class UAVEnv(gymnasium.Env):
         """The action the vehicle received at the last step, after clipping to the bounds
         (zeros after a reset), a copy: what a recording must re-apply to re-run the episode."""
         return self._action.copy()
-
-
-def _with_observation_camera(spec: UAVSpec, obs: Any) -> tuple[UAVSpec, int]:
-    """The airframe with the observation camera appended, and its index."""
-    if any(c.name == obs.camera.name for c in spec.cameras):
-        raise ConfigError(
-            f"camera_observation.camera.name '{obs.camera.name}' is already a camera of airframe '{spec.name}': "
-            "give the observation camera another name"
-        )
-    camera = obs.camera.model_copy(update={"outputs": ["rgba"]})
-    return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
-
-
-def _with_image_space(space: spaces.Space, obs: Any) -> spaces.Dict:
-    """``space`` as a Dict with the camera image Box (uint8) under ``obs.key``."""
-    cam = obs.camera
-    depth = 3 if obs.channels == "rgb" else 4
-    shape = (depth, cam.height, cam.width) if obs.channel_first else (cam.height, cam.width, depth)
-    image = spaces.Box(0, 255, shape=shape, dtype=np.uint8)
-    if isinstance(space, spaces.Dict):
-        return spaces.Dict({**space.spaces, obs.key: image})
-    return spaces.Dict({"attitude": space, obs.key: image})
-
-
-#: observation keys the tasks and the env use themselves
-_TAKEN_KEYS = ("attitude", "target_deltas", "goal_delta", "gate")
-
-
-def _with_sensors(spec: UAVSpec, sensors: Any) -> UAVSpec:
-    """The airframe with the env's noisy sensors (``config.sensors``): the ones it gives
-    replace the airframe's section; none given keeps the airframe's own."""
-    if sensors is None:
-        return spec
-    given = {k: getattr(sensors, k) for k in ("imu", "position", "barometer")}
-    if any(v is not None for v in given.values()):
-        spec = spec.model_copy(update={"sensors": SensorsSpec(**given)})
-    if sensors.observe and spec.sensors is None:
-        raise ConfigError(
-            f"sensors.observe: airframe '{spec.name}' has no 'sensors' section to observe; give sensors.imu, "
-            "sensors.position or sensors.barometer, or fly an airframe with sensors"
-        )
-    return spec
-
-
-def _sensed_state(state: KinematicState, suite: Any) -> KinematicState:
-    """``state`` as the sensors see it: body rates from the gyro (their ground-frame copy
-    turned with the true attitude), position from the position sensor, height from the
-    barometer; attitude and velocity stay true (docs/environments.md, "Sensor observation")."""
-    ang_vel, lin_pos, ang_ground = state.ang_vel, state.lin_pos, state.ang_vel_ground
-    if suite.gyro is not None:
-        ang_vel = suite.gyro.reading
-        r = quaternion_to_rows(state.quaternion)
-        ang_ground = tuple(exact.rotate(r, ang_vel))
-    names = suite.names
-    if "position" in names:
-        lin_pos = suite.position
-    if "altitude" in names:
-        lin_pos = (lin_pos[0], lin_pos[1], suite.altitude)
-    return state._replace(ang_vel=ang_vel, lin_pos=lin_pos, ang_vel_ground=ang_ground)
-
-
-def _with_range_sensors(spec: UAVSpec, sensors: list[Any]) -> UAVSpec:
-    """The airframe with the env config's range sensors appended."""
-    have = {s.name for s in spec.range_sensors}
-    for sensor in sensors:
-        if sensor.name in have:
-            raise ConfigError(
-                f"range_sensors: '{sensor.name}' is already a range sensor of airframe '{spec.name}': give it another name"
-            )
-    return spec.model_copy(update={"range_sensors": [*spec.range_sensors, *sensors]})
-
-
-def _with_range_spaces(space: spaces.Space, sensors: list[Any]) -> spaces.Dict:
-    """``space`` as a Dict with one float32 Box of readings in [0, max_range] per sensor."""
-    entries = dict(space.spaces) if isinstance(space, spaces.Dict) else {"attitude": space}
-    for sensor in sensors:
-        if sensor.name in entries or sensor.name in _TAKEN_KEYS:
-            raise ConfigError(
-                f"range sensor '{sensor.name}': its name is already an observation key ({', '.join(entries)}); rename it"
-            )
-        entries[sensor.name] = spaces.Box(0.0, sensor.max_range, shape=sensor.shape, dtype=np.float32)
-    return spaces.Dict(entries)

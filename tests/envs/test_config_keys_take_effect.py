@@ -114,8 +114,8 @@ MULTI: dict[str, tuple[dict[str, Any], Any]] = {
     "position_noise": ({}, 0.0),
     "orientation_noise": ({}, 0.0),
 }
-#: multi-agent keys refused at load (tests/envs/test_multi_agent_parity.py says why)
-REFUSED_MULTI = {"payloads", "camera_observation", "obstacles", "range_sensors", "sensors"}
+#: multi-agent keys refused at load (none: every key flies both loops, tests/envs/test_multi_agent_parity.py)
+REFUSED_MULTI: set[str] = set()
 
 
 def _fields(config_model: type, options_model: type) -> set[str]:

@@ -86,10 +86,10 @@ def test_outcome_precedence(args, expected):
     env = ma_fixedwing_dogfight_v0.parallel_env()
     env.reset(seed=0)
     shot_down, crashed, out, won, time_up = args
-    assert env._outcome(shot_down, crashed, out, won, 0, time_up) == expected
-    env._team_kills = [0, 0]
-    assert env._outcome(False, False, False, True, 0, False) == "win_by_default"
-    env._team_kills = [1, 0]
-    assert env._outcome(False, False, False, True, 0, False) == "win_by_kill"
-    assert env._outcome(False, False, False, True, 1, False) == "win_by_default"
+    assert env.task._outcome(shot_down, crashed, out, won, 0, time_up) == expected
+    env.task._team_kills = [0, 0]
+    assert env.task._outcome(False, False, False, True, 0, False) == "win_by_default"
+    env.task._team_kills = [1, 0]
+    assert env.task._outcome(False, False, False, True, 0, False) == "win_by_kill"
+    assert env.task._outcome(False, False, False, True, 1, False) == "win_by_default"
     env.close()

@@ -272,3 +272,32 @@ def test_rgb_array_render_follows_a_live_agent():
     image = env.render()
     assert image.shape == (480, 480, 3) and image.dtype == np.uint8 and image.std() > 0
     env.close()
+
+
+def test_the_generic_front_runs_the_task_the_config_names():
+    """A registered env class only names its task: the base class given the same config
+    flies the same task object and the same episode, bit for bit."""
+    from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+    from pyflyt_engine.envs.multi_agent.config import get_ma_task
+    from pyflyt_engine.envs.multi_agent.formation_task import MAFormationTask
+    from pyflyt_engine.errors import ConfigError
+
+    assert get_ma_task("ma_formation") is MAFormationTask
+    with pytest.raises(ConfigError, match="ma_formation"):
+        get_ma_task("ma_formaton")
+    runs = []
+    builds = (lambda: ma_quadx_formation_v0.parallel_env(agents=4), lambda: MultiAgentUAVEnv("ma_quadx_formation", agents=4))
+    for build in builds:
+        env = build()
+        try:
+            assert isinstance(env.task, MAFormationTask)
+            obs, _ = env.reset(seed=5)
+            out = [np.concatenate([obs[a] for a in env.possible_agents])]
+            for _ in range(5):
+                obs, rewards, *_ = env.step({a: np.array([0.1, 0.0, -0.1, 0.5]) for a in env.agents})
+                out.append(np.concatenate([obs[a] for a in env.agents] + [np.array(list(rewards.values()))]))
+            runs.append(out)
+        finally:
+            env.close()
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)

@@ -182,11 +182,19 @@ def test_bad_obstacle_configs_are_refused_by_name(obstacles, message):
         QuadXHoverEnv(obstacles=obstacles)
 
 
-def test_a_multi_agent_config_refuses_obstacles():
+def test_a_multi_agent_env_draws_layouts_clear_of_every_agent():
     from pyflyt_engine.envs.multi_agent import ma_quadx_hover_v0
 
-    with pytest.raises(ConfigError, match="obstacles"):
-        ma_quadx_hover_v0.parallel_env(obstacles={"generators": [FOREST]})
+    env = ma_quadx_hover_v0.parallel_env(agents=4, obstacles={"generators": [FOREST]})
+    try:
+        for seed in range(3):
+            env.reset(seed=seed)
+            spawns = [v.state.lin_pos for v in env.vehicles]
+            for body in env.obstacles.body_ids:
+                (x, y, _), _ = p.getBasePositionAndOrientation(body, physicsClientId=env.world.client)
+                assert all(math.hypot(x - sx, y - sy) > 1.0 for sx, sy, _ in spawns)  # FOREST keep_out
+    finally:
+        env.close()
 
 
 def test_cylinders_collide_as_the_inscribed_prism():

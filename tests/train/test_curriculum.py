@@ -141,3 +141,22 @@ def test_a_curriculum_on_the_command_line_replaces_the_tunings_and_a_field_chang
     field = load(["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.start=3.0"], tmp_path)
     assert (field.train.curriculum["goal_reach_distance"].start, field.train.curriculum["goal_reach_distance"].steps) == (3.0, 600000)
     assert not load(["env=quadx_waypoints", "algo=sac", "train.curriculum=null"], tmp_path).train.curriculum
+
+
+def test_a_multi_agent_curriculum_is_checked_and_reaches_the_task_of_every_training_env(tmp_path):
+    from pyflyt_cli.training.envs import make_vec_env
+
+    with pytest.raises(ConfigError, match="options a curriculum may move: separation, tolerance"):
+        load(["env=ma_quadx_formation", "train.curriculum={layout_spacing:{start:2,steps:10}}"], tmp_path)
+    with pytest.raises(ConfigError, match="tolerance"):
+        load(["env=ma_quadx_formation", "train.curriculum={tolerance:{start:-1,steps:10}}"], tmp_path)
+    cfg = load(["env=ma_quadx_formation", "env.agents=4", "train.curriculum={tolerance:{start:2.0,steps:10}}"], tmp_path)
+    vec = make_vec_env(cfg.env, 2, curriculum=True)
+    try:
+        vec.env_method("set_task_changes", {"tolerance": 2.0})
+        vec.reset()
+        tasks = [env.env.get_wrapper_attr("unwrapped").parallel.task for env in vec.envs]
+        assert [t.options.tolerance for t in tasks] == [2.0, 2.0]
+        assert all(t.configured.tolerance == cfg.env.task.tolerance for t in tasks)
+    finally:
+        vec.close()

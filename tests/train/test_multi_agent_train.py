@@ -195,6 +195,8 @@ def test_a_bad_multi_agent_config_is_one_message_exit_2(tmp_path):
     assert "unknown key 'wings'" in done.stderr and "Traceback" not in done.stderr
     done = pyflyt(["train", "env=ma_fixedwing_dogfight", "env.agents=3"], cwd=tmp_path)
     assert done.returncode == 2 and "cannot form two equal teams" in done.stderr
+    done = pyflyt(["train", "env=ma_quadx_hover", "+env.range_sensors=[{name: lidar, type: lidar}]"], cwd=tmp_path)
+    assert done.returncode == 2 and "env.range_sensors" in done.stderr and "Traceback" not in done.stderr
 
 
 def test_a_swarm_trains_one_shared_policy_evaluates_and_replays_exactly(tmp_path):

@@ -10,8 +10,11 @@ One module per environment, in PettingZoo's layout (``parallel_env(**kwargs)``,
 * :mod:`.ma_fixedwing_dogfight_v0` -- two teams of fixed-wings with forward guns
   (:class:`~.dogfight.MAFixedwingDogfightEnv`).
 
-Configs are declared in ``conf/env/ma_*.yaml`` (:mod:`.config`: the agents, their airframes,
-teams and spawn regions); rewards are named terms in ``conf/reward/`` as for every env.
+Configs are declared in ``conf/env/ma_*.yaml`` (the agents, their airframes, teams and
+spawn regions); rewards are named terms in ``conf/reward/`` as for every env.  Each
+env runs a task object (:mod:`.task`: :class:`~.task.MultiAgentTask`; the shipped ones in
+:mod:`.hover_task`, :mod:`.formation_task`, :mod:`.dogfight_task`, registered by
+:mod:`.config`), over one loop (:class:`~.base.MultiAgentUAVEnv`).
 :class:`~.shared.SharedPolicyEnv` presents a parallel env to one policy shared by all
 agents (training with ``pyflyt train env=ma_quadx_hover``).  The package is imported on
 demand: ``import pyflyt_engine`` does not import PettingZoo.

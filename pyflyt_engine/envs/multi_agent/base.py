@@ -4,10 +4,12 @@
 a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawn each agent in
 its region, apply each live agent's action, step the physics once for everybody, detect
 contacts and dome exits, evaluate the reward preset per agent, retire agents whose
-episode ended -- and leaves three hooks to the task subclasses (:mod:`.hover`,
-:mod:`.dogfight`): ``_extra_size`` (observation entries beyond the shared attitude
-vector), ``_task_reset`` and ``_task_update`` (per-agent reward signals and outcomes),
-``_task_observe``.
+episode ended -- and asks its task object (a
+:class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`: :mod:`.hover_task`,
+:mod:`.formation_task`, :mod:`.dogfight_task`) for everything the episode means: the
+observation entries beyond the shared attitude vector, the per-agent reward signals,
+termination, info entries and success.  The env classes of the registered ids
+(:mod:`.hover`, :mod:`.formation`, :mod:`.dogfight`) only name their task and config.
 
 PettingZoo conventions: ``possible_agents`` never changes; ``agents`` lists the live
 ones; ``step`` takes an action for every live agent and returns observations, rewards,
@@ -21,7 +23,6 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -32,31 +33,32 @@ from pettingzoo import ParallelEnv
 
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
-from pyflyt_engine.envs.multi_agent.config import PROVIDES
+from pyflyt_engine.envs.multi_agent.config import get_ma_task
+from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.obstacles import ObstacleField
+from pyflyt_engine.payloads import PayloadSet, PayloadSets
+from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import VehicleConfig, World
 
 
-@dataclass
-class AgentSignals:
-    """What a task reports for one live agent after a step."""
-
-    target_distance: float | None = None
-    target_distance_rate: float | None = None
-    #: the agent's job is done: terminate it with success
-    complete: bool = False
-    #: the task declares the agent lost (e.g. shot down): terminate it as a crash
-    failed: bool = False
-    extras: dict[str, float] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)
+__all__ = ["AgentSignals", "MultiAgentUAVEnv"]
 
 
 class MultiAgentUAVEnv(ParallelEnv):
-    """Base of the multi-agent environments (see the module docstring and each subclass's manual).
+    """The multi-agent loop (see the module docstring and each registered env's manual).
+
+    Runs the task its class names (:attr:`task_class`) or, for this class itself, the one
+    the config names (``MultiAgentUAVEnv("my_swarm.yaml")``).  Every agent flies the
+    config's keys as the single-agent env does (docs/multi_agent.md): with
+    ``sensors`` (``observe``) its own rates and position are its sensors' readings; with
+    ``camera_observation`` or ``range_sensors`` its observation is a ``Dict`` (the vector
+    under ``attitude``, its own image and scans under their keys); with ``payloads`` it
+    carries its own copy of each (``agent_payloads``; one failing on the ground ends its
+    episode, ``info["payload_ground_contact"]``).
 
     Args:
         config: env config name (``conf/env``), YAML path, mapping or config object; default
@@ -79,11 +81,9 @@ class MultiAgentUAVEnv(ParallelEnv):
         "render_fps": 30,
     }
     config_name: ClassVar[str | None] = None
-    task_name: ClassVar[str] = ""
-    #: any contact of an agent's vehicle (ground or another agent) ends its episode as a
-    #: crash, as :attr:`Task.crash_on_contact <pyflyt_engine.envs.tasks.base.Task.crash_on_contact>`
-    #: for a single agent; a task where touching is part of the job sets False
-    crash_on_contact: ClassVar[bool] = True
+    #: the task this env runs (None: the one the config names, from the registry of
+    #: :mod:`pyflyt_engine.envs.multi_agent.task`)
+    task_class: ClassVar[type[MultiAgentTask] | None] = None
 
     def __init__(
         self,
@@ -101,9 +101,10 @@ class MultiAgentUAVEnv(ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
             )
-        if self.task_name and cfg.task.name != self.task_name:
+        task_cls = self.task_class if self.task_class is not None else get_ma_task(cfg.task.name)
+        if cfg.task.name != task_cls.name:
             raise ConfigError(
-                f"{type(self).__name__} runs task '{self.task_name}', the config declares '{cfg.task.name}'"
+                f"{type(self).__name__} runs task '{task_cls.name}', the config declares '{cfg.task.name}'"
             )
         core.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
@@ -117,16 +118,29 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.teams = np.array([a.team for a in self.agent_list], dtype=np.int64)
 
         self.reward_preset: RewardPreset = load_reward_preset(cfg.reward_preset_name())
-        self.reward_function: RewardFunction = self.reward_preset.compile(PROVIDES[cfg.task.name], cfg.task.name)
+        self.reward_function: RewardFunction = self.reward_preset.compile(task_cls.provides, cfg.task.name)
         #: the airframe of ``config.uav`` (agents naming no airframe of their own fly it)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
         specs: dict[str, UAVSpec] = {**(airframes or {}), cfg.uav: self.airframe}
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)
+        # what each agent flies: the env's observation camera, range sensors and noisy
+        # sensors added, as for a single agent
+        flown: dict[str, UAVSpec] = {}
+        cameras: dict[str, int | None] = {}
+        for name, spec in specs.items():
+            cameras[name] = None
+            if cfg.camera_observation is not None:
+                spec, cameras[name] = core.with_observation_camera(spec, cfg.camera_observation)
+            if cfg.range_sensors:
+                spec = core.with_range_sensors(spec, cfg.range_sensors)
+            flown[name] = core.with_sensors(spec, cfg.sensors)
+        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
+        self._cameras = [cameras[a.uav] for a in self.agent_list]
         self.world = World(
             [
-                VehicleConfig(specs[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
+                VehicleConfig(flown[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
                 for a in self.agent_list
             ],
             physics_hz=cfg.physics_hz,
@@ -139,13 +153,34 @@ class MultiAgentUAVEnv(ParallelEnv):
             downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
+        #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
+        #: around its vehicle; empty without payloads
+        self.agent_payloads: list[PayloadSet] = []
+        if cfg.payloads:
+            for i, (agent, vehicle) in enumerate(zip(self.agent_list, self.vehicles)):
+                renamed = [p.model_copy(update={"name": _payload_name(agent.name, i, p.name)}) for p in cfg.payloads]
+                self.agent_payloads.append(PayloadSet(self.world, vehicle, renamed))
+        #: every agent's payloads as one (what the recorder reads; None without payloads)
+        self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
+        #: the config's obstacles (None without): fixed ones built here, layouts drawn at each
+        #: reset clear of every agent's spawn point and the task's markers
+        self.obstacles: ObstacleField | None = None
+        if cfg.obstacles is not None:
+            self.obstacles = ObstacleField(self.world, cfg.obstacles)
         #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
         #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
         self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
         for vehicle in self.vehicles:
             vehicle.set_latency(*self.latency_steps)
         n_act = len(cfg.action.names)
-        aux = {v.aux_state.size for v in self.vehicles}
+        #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
+        self._sensed = [v.sensors for v in self.vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+        #: per agent, whether its position fix's validity flag follows its auxiliary state
+        self._fix_flag = [
+            self._sensed is not None and v.spec.sensors is not None and v.spec.sensors.position is not None
+            for v in self.vehicles
+        ]
+        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
         for agent, vehicle in zip(self.agent_list, self.vehicles):
             if vehicle.setpoint.size != n_act:
                 self.world.close()
@@ -155,26 +190,52 @@ class MultiAgentUAVEnv(ParallelEnv):
                 )
         if len(aux) > 1:
             self.world.close()
+            sizes = ", ".join(
+                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag)
+            )
             raise ConfigError(
                 "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
-                f"auxiliary states differ in size ({', '.join(f'{v.spec.name}: {v.aux_state.size}' for v in self.vehicles)}); "
-                "mix airframes of the same kind (e.g. quadrotors)"
+                f"auxiliary states differ in size ({sizes}); "
+                "mix airframes of the same kind (e.g. quadrotors) and sensors (a position fix adds its validity flag)"
             )
         self._check_layout_spacing()
         self._low = np.array(cfg.action.low, dtype=np.float64)
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
         self.attitude_size = core.attitude_size(self._quaternion, n_act, aux.pop())
-        size = self.attitude_size + self._extra_size()
-        obs_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        n = len(self.possible_agents)
+        self._alive = np.zeros(n, dtype=bool)
+        #: the task object: observation entries, signals, termination, info, success
+        self.task: MultiAgentTask = task_cls(
+            cfg.task,
+            self.agent_list,
+            self._alive,
+            flight_dome_size=cfg.flight_dome_size,
+            agent_hz=cfg.agent_hz,
+            max_steps=cfg.max_steps,
+        )
+        size = self.attitude_size + self.task.extra_size()
+        obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        if cfg.camera_observation is not None:
+            obs_space = core.with_image_space(obs_space, cfg.camera_observation)
+        #: per agent, the range sensors observed (every one its airframe carries), in spec order
+        self._range_sensors = [list(v.range_sensors) for v in self.vehicles]
+        if any(self._range_sensors):
+            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
+            if len(layouts) > 1:
+                self.world.close()
+                raise ConfigError(
+                    "agents: every agent must observe the same range sensors (one policy is shared): their airframes "
+                    "carry different ones; give the range sensors in the env config's range_sensors only"
+                )
+            obs_space = core.with_range_spaces(obs_space, self._range_sensors[0])
+        self._readings = cfg.camera_observation is not None or any(self._range_sensors)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
         self.action_spaces = {name: act_space for name in self.possible_agents}
 
-        n = len(self.possible_agents)
         self._actions = np.zeros((n, n_act))
-        self._alive = np.zeros(n, dtype=bool)
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
         self._steps = 0
@@ -242,7 +303,7 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # --------------------------------------------------------------- spaces
 
-    def observation_space(self, agent: str) -> spaces.Box:
+    def observation_space(self, agent: str) -> spaces.Space:
         return self.observation_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Box:
@@ -262,22 +323,20 @@ class MultiAgentUAVEnv(ParallelEnv):
         With ``config.randomize``, its entries are drawn first (as in the single-agent env),
         once per reset, and applied to every agent: the airframe factors to each vehicle's
         own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
-        one atmosphere, ``action_delay`` / ``observation_delay`` to every vehicle (the
-        agents share one draw of each delay, as of every other parameter).  ``options``:
-        ``None``, or ``{"task": {...}}`` with options the task lets an episode change; the
-        multi-agent tasks declare none, so any change is refused (``ValueError``) rather
-        than ignored.  Other keys (PettingZoo's API test passes ``{"options": 1}``) are
-        ignored with a warning.
+        one atmosphere.  ``options``: ``None``, or ``{"task": {...}}`` with options the task
+        lets an episode change (its ``episode_options``: dogfight ``lethal_distance``,
+        ``lethal_angle``, ``damage_per_second``; formation ``tolerance``, ``separation``;
+        hover none), as a single-agent env's; any other change is refused (``ValueError``)
+        rather than ignored, and the next reset without them flies the configured task.
+        ``action_delay`` / ``observation_delay`` apply to every vehicle (the agents share one
+        draw of each delay, as of every other parameter).  Other keys (PettingZoo's API test
+        passes ``{"options": 1}``) are ignored with a warning.
         """
+        changes = None
         if options:
             if not isinstance(options, Mapping):
                 raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
             changes = core.task_changes({"task": options["task"]}) if "task" in options else None
-            if changes:
-                raise ValueError(
-                    f"task '{self.config.task.name}' cannot change {', '.join(sorted(changes))} per episode "
-                    "(options an episode may set: none)"
-                )
             other = sorted(str(k) for k in options if k != "task")
             if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
                 warnings.warn(
@@ -285,6 +344,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                     'ignored (it takes {"task": {...}} only)',
                     stacklevel=2,
                 )
+        self.task.set_episode_options(changes)
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
         self.world.reset(seed)
@@ -300,13 +360,18 @@ class MultiAgentUAVEnv(ParallelEnv):
             if drawn is not None:
                 position, orientation = Randomizer.spawn(drawn, position, orientation)
             vehicle.reset(position, orientation, lin_vel=s.lin_vel)
+        for payloads in self.agent_payloads:  # after every vehicle is placed
+            payloads.place()
         self.agents = list(self.possible_agents)
         self._alive[:] = True
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self.possible_agents]
         states = [v.state for v in self.vehicles]
-        self._task_reset(states)
+        self.task.reset(states)
+        if self.obstacles is not None:  # this episode's layouts, clear of every agent and the task's points
+            keep_out = [state.lin_pos for state in states]
+            self.obstacles.generate(rng, [*keep_out, *np.asarray(self.task.markers()).reshape(-1, 3)])
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -336,7 +401,8 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._steps += 1
         states = [v.state for v in self.vehicles]
         collisions = {i: world.collided(i) for i in live}
-        signals = self._task_update(states, live, collisions)
+        task = self.task
+        signals = task.update(states, live, collisions, self._steps)
 
         observations: dict[str, Any] = {}
         rewards: dict[str, float] = {}
@@ -351,9 +417,13 @@ class MultiAgentUAVEnv(ParallelEnv):
             sig = signals[i]
             collision = collisions[i]
             out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed, terminated = core.termination(
-                collision, out_of_bounds, sig.failed, sig.complete, self.crash_on_contact
-            )
+            crashed, terminated = task.termination(collision, out_of_bounds, sig)
+            payload_ground = bool(self.agent_payloads) and self.agent_payloads[i].ground_failure()
+            if payload_ground:  # a payload the config says must not touch the ground did
+                crashed = terminated = True
+            obstacle_contact = self.obstacles is not None and self.obstacles.touched(i)
+            if obstacle_contact and self.config.obstacles.crash_on_contact:  # type: ignore[union-attr]
+                crashed = terminated = True
             ctx = core.step_context(
                 world,
                 i,
@@ -374,9 +444,14 @@ class MultiAgentUAVEnv(ParallelEnv):
                 "collision": collision,
                 "out_of_bounds": out_of_bounds,
                 "env_complete": sig.complete,
-                "success": (sig.complete and not crashed) or (truncated and self._succeeds_at_time_limit()),
+                "success": (sig.complete and not crashed) or (truncated and task.succeeds_at_time_limit),
                 **sig.info,
             }
+            if self.agent_payloads:
+                info["payload_ground_contact"] = payload_ground
+            if self.obstacles is not None:
+                info["obstacle_contact"] = obstacle_contact
+                info["obstacles_parked"] = self.obstacles.parked
             if self.info_reward_terms:
                 info["reward_terms"] = terms
             rewards[name] = reward
@@ -428,32 +503,46 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # ------------------------------------------------------------- helpers
 
-    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
+    def _observe(self, i: int, states: list[KinematicState]) -> Any:
         aux = self.vehicles[i].aux_state.tolist()
         if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
             delayed = [v.delayed_observation() for v in self.vehicles]
             states, aux = [state for state, _ in delayed], delayed[i][1]
+        if self._sensed is not None:  # its own rates and position as its sensors read them
+            suite = self._sensed[i]
+            states = [*states]
+            states[i] = core.sensed_state(states[i], suite)
+            if self._fix_flag[i]:
+                aux = [*aux, suite.position_valid]
         attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        return np.concatenate((attitude, self._task_observe(i, states)))
+        observation = np.concatenate((attitude, self.task.observe(i, states)))
+        if not self._readings:
+            return observation
+        return core.with_readings(
+            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
+        )
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         if self.randomizer is not None:
             info["randomization"] = dict(self.last_randomization)
+        if self.agent_payloads:
+            info["payload_ground_contact"] = False
+        if self.obstacles is not None:
+            info["obstacle_contact"] = False
+            info["obstacles_parked"] = self.obstacles.parked
+        info.update(self.task.reset_info(i))
         return info
 
-    def _diverged(self, i: int, obs: np.ndarray, reward: float, state: KinematicState) -> None:
+    def _diverged(self, i: int, obs: Any, reward: float, state: KinematicState) -> None:
         where = self.config.id or self.config.source or "the environment"
         raise core.divergence_error(
             where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]
         )
 
-    def _succeeds_at_time_limit(self) -> bool:
-        return False
-
     def episode_success(self, successes: np.ndarray) -> bool:
-        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded: all of them."""
-        return bool(successes.all())
+        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded (the task decides)."""
+        return self.task.episode_success(successes)
 
     @property
     def elapsed_steps(self) -> int:
@@ -476,21 +565,14 @@ class MultiAgentUAVEnv(ParallelEnv):
         return [dict(t) for t in self._reward_terms]
 
     def markers(self) -> np.ndarray:
-        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)``."""
-        return np.zeros((0, 3))
+        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)`` (the task's)."""
+        return self.task.markers()
 
-    # ---------------------------------------------------------- task hooks
 
-    def _extra_size(self) -> int:
-        return 0
-
-    def _task_reset(self, states: list[KinematicState]) -> None:
-        pass
-
-    def _task_update(
-        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool]
-    ) -> dict[int, AgentSignals]:
-        return {i: AgentSignals() for i in live}
-
-    def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        return np.zeros(0)
+def _payload_name(agent: str, index: int, payload: str) -> str:
+    """Agent ``index``'s copy of payload ``payload``: ``<agent>-<payload>`` when that is an
+    identifier (every default name), else ``agent<index>-<payload>``."""
+    try:
+        return check_identifier(f"{agent}-{payload}")
+    except ValueError:
+        return f"agent{index}-{payload}"

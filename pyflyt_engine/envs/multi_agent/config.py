@@ -1,27 +1,41 @@
-"""What the multi-agent tasks provide beyond their configs, and the check of a config's references.
+"""The shipped multi-agent tasks, registered, and the check of a config's references.
 
 The multi-agent config models (:class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`,
 its agents, spawns and task options) live with the other env configs in
-:mod:`pyflyt_engine.envs.config`, whose loaders accept both kinds; this module adds the
-reward signals each multi-agent task provides (:data:`PROVIDES`) and
-:func:`check_references`.
+:mod:`pyflyt_engine.envs.config`, whose loaders accept both kinds.  This module registers
+the task objects that run the shipped multi-agent tasks (each declares the reward
+signals it provides and registers its own reward terms) and has :func:`check_references`.
+It imports no PettingZoo.
 """
 
 from __future__ import annotations
 
+import difflib
+
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, load_reward_preset
+from pyflyt_engine.envs.multi_agent.dogfight_task import DogfightTask
+from pyflyt_engine.envs.multi_agent.formation_task import MAFormationTask
+from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
+from pyflyt_engine.envs.multi_agent.task import MA_TASK_CLASSES, MultiAgentTask, register_ma_task
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import load_uav_spec
 
-#: reward signals each multi-agent task provides (checked against the reward preset)
-PROVIDES: dict[str, frozenset[str]] = {
-    "ma_hover": frozenset({"target_distance", "target_distance_rate"}),
-    "ma_formation": frozenset({"target_distance", "target_distance_rate", "formation"}),
-    "dogfight": frozenset({"dogfight"}),
-}
+for _task in (MAHoverTask, MAFormationTask, DogfightTask):
+    register_ma_task(_task)
+
+
+def get_ma_task(name: str) -> type[MultiAgentTask]:
+    """The task class registered as ``name``. Raises ConfigError listing the valid ones."""
+    try:
+        return MA_TASK_CLASSES[name]
+    except KeyError:
+        close = difflib.get_close_matches(str(name), list(MA_TASK_CLASSES), n=1)
+        hint = f" Did you mean '{close[0]}'?" if close else ""
+        raise ConfigError(f"unknown multi-agent task '{name}'.{hint} Valid: {', '.join(MA_TASK_CLASSES)}") from None
 
 
 def check_references(config: MultiAgentEnvConfig) -> None:
     """Load the reward preset and every airframe the config names, so a wrong name fails now."""
-    load_reward_preset(config.reward_preset_name()).compile(PROVIDES[config.task.name], config.task.name)
+    load_reward_preset(config.reward_preset_name()).compile(get_ma_task(config.task.name).provides, config.task.name)
     for uav in dict.fromkeys(a.uav for a in config.resolved_agents()):
         load_uav_spec(uav)

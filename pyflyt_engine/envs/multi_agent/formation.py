@@ -1,16 +1,13 @@
-"""MAQuadX-Formation: a swarm of quadrotors keeping a grid formation that moves."""
+"""MAQuadX-Formation: a swarm of quadrotors keeping a grid formation that moves (the task:
+:class:`~pyflyt_engine.envs.multi_agent.formation_task.MAFormationTask`)."""
 
 from __future__ import annotations
 
-import math
 from typing import ClassVar
 
-import numpy as np
-
-from pyflyt_engine.envs.config import MAFormationOptions
-from pyflyt_engine.envs.multi_agent.base import AgentSignals, MultiAgentUAVEnv
-from pyflyt_engine.spatial import PlanarGrid
-from pyflyt_engine.state import KinematicState
+from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+from pyflyt_engine.envs.multi_agent.formation_task import MAFormationTask
+from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
 
 
 class MAQuadXFormationEnv(MultiAgentUAVEnv):
@@ -89,113 +86,4 @@ class MAQuadXFormationEnv(MultiAgentUAVEnv):
 
     metadata: ClassVar[dict] = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_formation_v0"}
     config_name: ClassVar[str | None] = "ma_quadx_formation"
-    task_name: ClassVar[str] = "ma_formation"
-
-    @property
-    def options(self) -> MAFormationOptions:
-        return self.config.task  # type: ignore[return-value]
-
-    def _extra_size(self) -> int:
-        return 6 + 4 * self.options.neighbours
-
-    # ------------------------------------------------------------- the task
-
-    def _task_reset(self, states: list[KinematicState]) -> None:
-        opts = self.options
-        self._slots0 = [tuple(a.hover_point) for a in self.agent_list]
-        self._velocity = tuple(float(v) for v in opts.velocity)
-        self._reach = max(opts.neighbour_radius, opts.separation)
-        # cells a little narrower than the formation's spacing: the nearest few agents are
-        # found within two or three rings of cells
-        self._grid = PlanarGrid(min(self._reach, 0.75 * opts.layout_spacing))
-        everyone = list(range(len(self.agent_list)))
-        self._slots = self._slots_at(0.0)
-        self._distances = [self._distance(i, states[i]) for i in everyone]
-        self._survey(states, everyone)
-
-    def _slots_at(self, t: float) -> list[tuple[float, float, float]]:
-        vx, vy, vz = self._velocity
-        return [(x + vx * t, y + vy * t, z + vz * t) for x, y, z in self._slots0]
-
-    def _distance(self, i: int, state: KinematicState) -> float:
-        x, y, z = state.lin_pos
-        sx, sy, sz = self._slots[i]
-        return math.sqrt((x - sx) ** 2 + (y - sy) ** 2 + (z - sz) ** 2)
-
-    def _survey(self, states: list[KinematicState], live: list[int]) -> None:
-        """Per live agent: its neighbours (nearest first), nearest distance and shape error."""
-        grid, reach, k = self._grid, self._reach, self.options.neighbours
-        radius2 = self.options.neighbour_radius ** 2
-        grid.clear()
-        positions = {i: tuple(states[i].lin_pos) for i in live}
-        for i in live:
-            grid.place(i, positions[i])
-        n = len(live)
-        cx = math.fsum(positions[i][0] for i in live) / n
-        cy = math.fsum(positions[i][1] for i in live) / n
-        cz = math.fsum(positions[i][2] for i in live) / n
-        sx = math.fsum(self._slots0[i][0] for i in live) / n
-        sy = math.fsum(self._slots0[i][1] for i in live) / n
-        sz = math.fsum(self._slots0[i][2] for i in live) / n
-        self._neighbours: dict[int, list[tuple[float, int]]] = {}
-        self._nearest: dict[int, float] = {}
-        self._shape: dict[int, float] = {}
-        for i in live:
-            x, y, z = positions[i]
-            close = grid.nearest(x, y, z, positions, max(k, 1), reach, i)
-            self._nearest[i] = math.sqrt(close[0][0]) if close else math.inf
-            self._neighbours[i] = [(d2, j) for d2, j in close if d2 <= radius2][:k]
-            ox, oy, oz = self._slots0[i]
-            self._shape[i] = math.sqrt(
-                ((x - cx) - (ox - sx)) ** 2 + ((y - cy) - (oy - sy)) ** 2 + ((z - cz) - (oz - sz)) ** 2
-            )
-
-    def _task_update(
-        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool]
-    ) -> dict[int, AgentSignals]:
-        opts = self.options
-        self._slots = self._slots_at(self._steps * self._agent_dt)
-        self._survey(states, live)
-        out = {}
-        for i in live:
-            distance = self._distance(i, states[i])
-            rate = (distance - self._distances[i]) / self._agent_dt
-            self._distances[i] = distance
-            shape, nearest = self._shape[i], self._nearest[i]
-            crowding = max(0.0, 1.0 - nearest / opts.separation)
-            formed = distance <= opts.tolerance and shape <= opts.tolerance
-            out[i] = AgentSignals(
-                target_distance=distance,
-                target_distance_rate=rate,
-                extras={"formation_error": shape, "crowding": crowding, "in_formation": 1.0 if formed else 0.0},
-                info={"target_distance": distance, "formation_error": shape, "nearest_neighbour": nearest},
-            )
-        return out
-
-    def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        x, y, z = states[i].lin_pos
-        sx, sy, sz = self._slots[i]
-        values = [sx - x, sy - y, sz - z, *self._velocity]
-        for _, j in self._neighbours.get(i, ()):
-            px, py, pz = states[j].lin_pos
-            values += [px - x, py - y, pz - z, 1.0]
-        values += [0.0] * (self._extra_size() - len(values))
-        return np.array(values, dtype=np.float64)
-
-    def _reset_info(self, i: int) -> dict:
-        return {
-            **super()._reset_info(i),
-            "target_distance": self._distances[i],
-            "formation_error": self._shape[i],
-            "nearest_neighbour": self._nearest[i],
-        }
-
-    def _succeeds_at_time_limit(self) -> bool:
-        return True
-
-    def markers(self) -> np.ndarray:
-        """The slots now, ``(N, 3)``."""
-        slots = getattr(self, "_slots", None)
-        if slots is None:
-            return np.array([a.hover_point for a in self.agent_list], dtype=np.float64)
-        return np.array(slots, dtype=np.float64)
+    task_class: ClassVar[type[MultiAgentTask] | None] = MAFormationTask

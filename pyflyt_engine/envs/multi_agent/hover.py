@@ -1,14 +1,13 @@
-"""MAQuadX-Hover: N quadrotors in one world, each holding its own point."""
+"""MAQuadX-Hover: N quadrotors in one world, each holding its own point (the task:
+:class:`~pyflyt_engine.envs.multi_agent.hover_task.MAHoverTask`)."""
 
 from __future__ import annotations
 
-import math
 from typing import ClassVar
 
-import numpy as np
-
-from pyflyt_engine.envs.multi_agent.base import AgentSignals, MultiAgentUAVEnv
-from pyflyt_engine.state import KinematicState
+from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
+from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
 
 
 class MAQuadXHoverEnv(MultiAgentUAVEnv):
@@ -70,42 +69,4 @@ class MAQuadXHoverEnv(MultiAgentUAVEnv):
 
     metadata: ClassVar[dict] = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_hover_v0"}
     config_name: ClassVar[str | None] = "ma_quadx_hover"
-    task_name: ClassVar[str] = "ma_hover"
-
-    def _extra_size(self) -> int:
-        return 3
-
-    def _task_reset(self, states: list[KinematicState]) -> None:
-        self._points = np.array([a.hover_point for a in self.agent_list], dtype=np.float64)
-        self._distances = [self._distance(i, s) for i, s in enumerate(states)]
-
-    def _distance(self, i: int, state: KinematicState) -> float:
-        x, y, z = state.lin_pos
-        hx, hy, hz = self.agent_list[i].hover_point
-        return math.sqrt((x - hx) ** 2 + (y - hy) ** 2 + (z - hz) ** 2)
-
-    def _task_update(
-        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool]
-    ) -> dict[int, AgentSignals]:
-        out = {}
-        dt = 1.0 / self.config.agent_hz
-        for i in live:
-            distance = self._distance(i, states[i])
-            rate = (distance - self._distances[i]) / dt
-            self._distances[i] = distance
-            out[i] = AgentSignals(
-                target_distance=distance, target_distance_rate=rate, info={"target_distance": distance}
-            )
-        return out
-
-    def _task_observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        return self._points[i] - states[i].lin_pos
-
-    def _reset_info(self, i: int) -> dict:
-        return {**super()._reset_info(i), "target_distance": self._distances[i]}
-
-    def _succeeds_at_time_limit(self) -> bool:
-        return True
-
-    def markers(self) -> np.ndarray:
-        return np.array([a.hover_point for a in self.agent_list], dtype=np.float64)
+    task_class: ClassVar[type[MultiAgentTask] | None] = MAHoverTask

@@ -15,6 +15,8 @@ runs a shared policy on it unchanged:
   so an episode's return is the mean of the agents' returns;
 * the episode ends when no agent is left: *truncated* if any agent reached the time
   limit at the last step, else *terminated*;
+* with a ``Dict`` observation (``camera_observation``, ``range_sensors``) the stacked
+  observation is a dict of arrays, ``(N, *shape)`` per key;
 * ``info`` holds per agent ``agent_rewards``, ``agent_terminated``, ``agent_truncated``
   (this step), ``agent_active`` (acted this step), ``agent_infos`` (by name), and
   ``success`` (hover: every agent survived; dogfight: a team won by shooting down opponents), ``success_rate``
@@ -30,6 +32,7 @@ from typing import Any
 
 import gymnasium
 import numpy as np
+from gymnasium import spaces
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
 
@@ -58,10 +61,15 @@ class SharedPolicyEnv(gymnasium.Env):
         self._successes = np.zeros(self.num_agents, dtype=bool)
 
     # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
-    #: a multi-agent env carries no payloads (refused at load)
-    payloads = None
-    #: nor obstacles (refused at load)
-    obstacles = None
+    @property
+    def payloads(self) -> Any:
+        """Every agent's payloads as one (:class:`~pyflyt_engine.payloads.PayloadSets`), or None."""
+        return self.parallel.payloads
+
+    @property
+    def obstacles(self) -> Any:
+        """The obstacle field every agent flies among (:class:`~pyflyt_engine.obstacles.ObstacleField`), or None."""
+        return self.parallel.obstacles
 
     def scene_markers(self) -> tuple[np.ndarray, float]:
         """Every agent's marker points, ``(n, 3)`` ground frame, and their radius [m]."""
@@ -182,9 +190,17 @@ class SharedPolicyEnv(gymnasium.Env):
     def close(self) -> None:
         self.parallel.close()
 
-    def _stack(self, observations: dict[str, np.ndarray]) -> np.ndarray:
-        out = np.zeros((self.num_agents, *self._obs_shape))
+    def _stack(self, observations: dict[str, Any]) -> Any:
         index = self.parallel.agent_index
+        space = self.observation_space
+        if isinstance(space, spaces.Dict):  # camera images, range sensors: one stacked array per key
+            n = self.num_agents
+            stacked = {key: np.zeros((n, *sub.shape), dtype=sub.dtype) for key, sub in space.spaces.items()}
+            for name, obs in observations.items():
+                for key, value in obs.items():
+                    stacked[key][index[name]] = value
+            return stacked
+        out = np.zeros((self.num_agents, *self._obs_shape))
         for name, obs in observations.items():
             out[index[name]] = obs
         return out

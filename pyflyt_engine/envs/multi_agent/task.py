@@ -1,0 +1,175 @@
+"""The multi-agent task interface: what a task decides for N agents, and the hooks the loop calls.
+
+A multi-agent task is an object, as a single-agent :class:`~pyflyt_engine.envs.tasks.base.Task`
+is: it owns the episode's meaning for every agent -- the observation entries beyond the
+shared attitude vector, the reward signals (:attr:`MultiAgentTask.provides`, checked
+against the reward preset; its own reward terms are registered by its module), the info
+entries, termination and success -- and never talks to PyBullet.  The loop
+(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) builds the world, spawns
+the agents, steps the physics, reads contacts and the dome and evaluates the reward
+preset; the env classes of the registered ids only name their task and config.
+
+Once, when the env is built: ``MultiAgentTask(options, agents, ...)`` with the resolved
+agents (names, teams, spawns, hover points) and ``alive``, the loop's live-agent flags
+(updated in place; the task only reads them).  Per episode, in order::
+
+    reset(states)                           # after every agent is placed
+    reset_info(i)                           # each agent's entries of the reset info
+    observe(i, states)                      # each agent's first task observation
+    then per agent step (``live``: the agents that acted):
+    update(states, live, collisions, step)  # -> {i: AgentSignals}
+    termination(collision, out_of_bounds, signals) -> (crashed, terminated), per live agent
+    observe(i, states)
+
+This module imports no PettingZoo, so configs and reward presets are checked without it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from pyflyt_engine.envs.tasks.base import termination
+from pyflyt_engine.state import KinematicState
+
+if TYPE_CHECKING:
+    from pyflyt_engine.envs.config import MATaskOptions, ResolvedAgent
+
+
+@dataclass
+class AgentSignals:
+    """What a task reports for one live agent after a step."""
+
+    target_distance: float | None = None
+    target_distance_rate: float | None = None
+    #: the agent's job is done: terminate it with success
+    complete: bool = False
+    #: the task declares the agent lost (e.g. shot down): terminate it as a crash
+    failed: bool = False
+    extras: dict[str, float] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class MultiAgentTask:
+    """Base multi-agent task: no observation entries, no signals, crash on any contact.
+
+    Class attributes (as :class:`~pyflyt_engine.envs.tasks.base.Task`'s):
+        name: the registry key (``task.name`` of a multi-agent env config).
+        provides: names of the reward signals :meth:`update` fills in.
+        succeeds_at_time_limit: an agent alive at the time limit succeeded (survival tasks).
+        crash_on_contact: any contact of an agent's vehicle (ground or another agent) ends
+            its episode as a crash; a task where touching is part of the job sets False.
+        episode_options: options an episode may fly with other values through
+            ``reset(options={"task": {...}})`` (a training curriculum); only options the
+            task reads afresh at every reset or step, never one that shaped the world,
+            the spawn layout or the spaces.
+
+    Args:
+        options: the config's ``task`` options.
+        agents: every agent, resolved (name, airframe, team, spawn, hover point).
+        alive: the loop's (N,) live flags, updated in place by the loop.
+        flight_dome_size: the dome's radius [m].
+        agent_hz: the agent rate [Hz].
+        max_steps: agent steps of an episode.
+    """
+
+    name: ClassVar[str] = "base"
+    provides: ClassVar[frozenset[str]] = frozenset()
+    succeeds_at_time_limit: ClassVar[bool] = False
+    crash_on_contact: ClassVar[bool] = True
+    episode_options: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(
+        self,
+        options: MATaskOptions,
+        agents: Sequence[ResolvedAgent],
+        alive: np.ndarray,
+        *,
+        flight_dome_size: float,
+        agent_hz: float,
+        max_steps: int,
+    ) -> None:
+        self.options = options
+        #: the options of the env config; :attr:`options` are the ones of the episode
+        self.configured = options
+        self._episode_changes: dict[str, Any] = {}
+        self.agents = list(agents)
+        self.alive = alive
+        self.teams = np.array([a.team for a in self.agents], dtype=np.int64)
+        self.flight_dome_size = float(flight_dome_size)
+        self.dome_squared = self.flight_dome_size**2
+        self.agent_dt = 1.0 / float(agent_hz)
+        self.max_steps = int(max_steps)
+
+    def set_episode_options(self, changes: dict[str, Any] | None) -> None:
+        """Fly the next episodes with ``changes`` to the configured options (None or ``{}``: as
+        configured); called by the loop before the agents are placed.
+
+        Raises:
+            ValueError: an option not in :attr:`episode_options`, or a value the options'
+                model rejects (the message names it).
+        """
+        changes = dict(changes or {})
+        if changes == self._episode_changes:
+            return
+        unknown = sorted(set(changes) - self.episode_options)
+        if unknown:
+            allowed = ", ".join(sorted(self.episode_options)) or "none"
+            raise ValueError(
+                f"task '{self.name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {allowed})"
+            )
+        model = type(self.configured)
+        self.options = model.model_validate({**self.configured.model_dump(), **changes}) if changes else self.configured
+        self._episode_changes = changes
+
+    def extra_size(self) -> int:
+        """Observation entries each agent gets after the shared attitude vector."""
+        return 0
+
+    def reset(self, states: list[KinematicState]) -> None:
+        """Start an episode with every agent placed in ``states``."""
+
+    def update(
+        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
+    ) -> dict[int, AgentSignals]:
+        """Advance one agent step (``step`` agent steps since the reset, this one included)."""
+        return {i: AgentSignals() for i in live}
+
+    def termination(self, collision: bool, out_of_bounds: bool, signals: AgentSignals) -> tuple[bool, bool]:
+        """``(crashed, terminated)`` of one live agent's step (the rule of every loop:
+        :func:`~pyflyt_engine.envs.tasks.base.termination`, with :attr:`crash_on_contact`)."""
+        return termination(collision, out_of_bounds, signals.failed, signals.complete, self.crash_on_contact)
+
+    def observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
+        """Agent ``i``'s entries after its attitude vector (:meth:`extra_size` of them)."""
+        return np.zeros(0)
+
+    def reset_info(self, i: int) -> dict[str, Any]:
+        """Agent ``i``'s task entries of the reset info."""
+        return {}
+
+    def markers(self) -> np.ndarray:
+        """Ground-frame points drawn when rendering and recorded in the scene, ``(n, 3)``."""
+        return np.zeros((0, 3))
+
+    def episode_success(self, successes: np.ndarray) -> bool:
+        """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded: all of them."""
+        return bool(successes.all())
+
+
+#: multi-agent task name -> task class (filled by :func:`register_ma_task`; the shipped
+#: tasks are registered by :mod:`pyflyt_engine.envs.multi_agent.config`, whose
+#: ``get_ma_task`` looks them up)
+MA_TASK_CLASSES: dict[str, type[MultiAgentTask]] = {}
+
+
+def register_ma_task(task: type[MultiAgentTask]) -> type[MultiAgentTask]:
+    """Make ``task`` the class that runs ``task.name`` (its options model must be in
+    :data:`pyflyt_engine.envs.config.MA_TASKS`); returns it, so it can decorate."""
+    if not (isinstance(task, type) and issubclass(task, MultiAgentTask)):
+        raise TypeError(f"register_ma_task needs a MultiAgentTask subclass, got {task!r}")
+    MA_TASK_CLASSES[task.name] = task
+    return task
