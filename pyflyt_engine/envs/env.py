@@ -185,6 +185,10 @@ class UAVEnv(gymnasium.Env):
         self._sensed = self.vehicle.sensors if cfg.sensors is not None and cfg.sensors.observe else None
         #: the position fix's validity flag follows the auxiliary state in the observation
         self._fix_flag = self._sensed is not None and flown.sensors.position is not None  # type: ignore[union-attr]
+        #: the flight controller's state estimator the observation is built from (None: none)
+        self.estimator = None
+        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
+            self.estimator = self._sensed.attach_estimator(cfg.sensors.estimator)  # type: ignore[union-attr]
         aux_size = self.world.aux_state(0).size + int(self._fix_flag)
         size = core.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
@@ -344,7 +348,11 @@ class UAVEnv(gymnasium.Env):
             state, aux = self.vehicle.delayed_observation()
         else:
             aux = self.vehicle.aux_values()
-        if self._sensed is not None:  # the sensors' readings in place of the true rates and position
+        if self.estimator is not None:  # the estimator's attitude, velocity and position, the gyro's rates
+            state = _estimated_state(state, self._sensed, self.estimator)
+            if self._fix_flag:
+                aux = [*aux, self._sensed.position_valid]  # type: ignore[union-attr]
+        elif self._sensed is not None:  # the sensors' readings in place of the true rates and position
             state = _sensed_state(state, self._sensed)
             if self._fix_flag:
                 aux = [*aux, self._sensed.position_valid]
@@ -442,6 +450,15 @@ def _with_sensors(spec: UAVSpec, sensors: Any) -> UAVSpec:
             f"sensors.observe: airframe '{spec.name}' has no 'sensors' section to observe; give sensors.imu, "
             "sensors.position or sensors.barometer, or fly an airframe with sensors"
         )
+    if sensors.estimator.active:
+        for part, what in (("imu", "the attitude filter integrates the gyro and takes the accelerometer as 'up'"),
+                           ("position", "the velocity filter corrects with the position fixes")):  # fmt: skip
+            if getattr(spec.sensors, part) is None:
+                raise ConfigError(
+                    f"sensors.estimator: '{sensors.estimator.type}' needs an IMU and a position fix ({what}), and "
+                    f"airframe '{spec.name}' has no sensors.{part}: give sensors.{part} in the env config, fly an "
+                    "airframe with one, or set estimator: none"
+                )
     return spec
 
 
@@ -460,6 +477,26 @@ def _sensed_state(state: KinematicState, suite: Any) -> KinematicState:
     if "altitude" in names:
         lin_pos = (lin_pos[0], lin_pos[1], suite.altitude)
     return state._replace(ang_vel=ang_vel, lin_pos=lin_pos, ang_vel_ground=ang_ground)
+
+
+def _estimated_state(state: KinematicState, suite: Any, estimator: Any) -> KinematicState:
+    """``state`` as the flight controller's estimator sees it: body rates from the gyro,
+    attitude, velocity and position estimated (:mod:`pyflyt_engine.components.estimator`);
+    the body-frame velocity and the ground-frame rates turned with the estimated attitude
+    (docs/environments.md, "Estimated state")."""
+    ang_vel = suite.gyro.reading
+    q = estimator.quaternion
+    r = quaternion_to_rows(q)
+    velocity = estimator.velocity
+    return state._replace(
+        ang_vel=ang_vel,
+        ang_pos=estimator.euler,
+        lin_vel=exact.rotate_t(r, velocity),
+        lin_pos=estimator.position,
+        quaternion=q,
+        lin_vel_ground=velocity,
+        ang_vel_ground=exact.rotate(r, ang_vel),
+    )
 
 
 def _with_range_sensors(spec: UAVSpec, sensors: list[Any]) -> UAVSpec:
