@@ -186,6 +186,18 @@ def test_constant_velocity_is_tracked_with_zero_steady_state_error():
     assert np.abs(errors[-1, :3]).max() < 1e-8
 
 
+def test_a_constant_acceleration_error_leaves_the_analytic_steady_state_offsets():
+    """Estimated acceleration off by d (truth at rest): the fixed point of the error
+    recursion is, just before a fix, position d T^2 / beta and velocity d T (alpha / beta + 1/2)."""
+    d, fix_hz, alpha, beta = 0.3, 100.0, 0.2708671189926285, 0.042694639037219054
+    est = _estimator(alpha=alpha, beta=beta, fix_hz=fix_hz)
+    est.reset((0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+    errors = _run(est, lambda t: (0.0, 0.0, 1.0), 8.0, fix_hz=fix_hz, accel=(0.0, 0.0, d))
+    period = 1.0 / fix_hz
+    assert errors[-1, 2] == pytest.approx(d * period**2 / beta, rel=1e-6)
+    assert errors[-1, 5] == pytest.approx(d * period * (alpha / beta + 0.5), rel=1e-6)
+
+
 def test_a_sustained_horizontal_acceleration_tilts_the_estimate_toward_the_specific_force():
     """The accelerometer measures specific force, not gravity: held level while accelerating
     at a_x, the filter settles where its "up" is along f, a pitch of -atan(a_x / (g + a_z))."""
