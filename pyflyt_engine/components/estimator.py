@@ -166,11 +166,13 @@ class ComplementaryEstimator:
             n = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
             qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
             self.quaternion = (qx, qy, qz, qw)
-        # specific force to the ground frame with the estimated attitude, gravity added back
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = rows((qx, qy, qz, qw))
-        ax = r0 * fx + r1 * fy + r2 * fz
-        ay = r3 * fx + r4 * fy + r5 * fz
-        az = r6 * fx + r7 * fy + r8 * fz - self.gravity
+        # specific force to the ground frame with the estimated attitude (the rows of
+        # :func:`rows`, written out), gravity added back
+        xx, yy, zz = qx * qx, qy * qy, qz * qz
+        xy, xz, yz, xw, yw, zw = qx * qy, qx * qz, qy * qz, qx * qw, qy * qw, qz * qw
+        ax = (1.0 - 2.0 * (yy + zz)) * fx + 2.0 * (xy - zw) * fy + 2.0 * (xz + yw) * fz
+        ay = 2.0 * (xy + zw) * fx + (1.0 - 2.0 * (xx + zz)) * fy + 2.0 * (yz - xw) * fz
+        az = 2.0 * (xz - yw) * fx + 2.0 * (yz + xw) * fy + (1.0 - 2.0 * (xx + yy)) * fz - self.gravity
         px, py, pz = self.position
         ux, uy, uz = self.velocity
         h = 0.5 * dt * dt
