@@ -11,7 +11,9 @@ episodes) on
   x1.3, thrust coefficient x0.85, motor time constant x2, body drag x1.5; the sim2real
   preset reaches at most x1.15, x0.9, x1.5, x1.3),
 
-reporting survival and the mean distance to the hover point.  Hovering (as in
+reporting survival and the mean distance to the hover point.  The preset also draws the
+action and observation delays (training and its probes fly them); both evaluation
+airframes fly without latency (:func:`airframe_env` replaces the randomisation).  Hovering (as in
 ``learn_hover_ppo.md``) = every episode reaches the time limit without a crash and its
 mean distance is below 0.1 m.  IQM over seeds with 95 % stratified-bootstrap CIs
 (rliable, ``pyflyt_cli.plotting.stats``).  Appends to ``experiments/results/learn_sim2real.md``

@@ -373,22 +373,36 @@ class Vehicle:
 
     def set_latency(self, action_steps: int, observation_steps: int) -> None:
         """Delay the setpoint and the observed state by whole physics steps (docs/engine.md,
-        "Latency"); set once, after the vehicle is built (0 and 0: nothing changes).
+        "Latency"); after the vehicle is built, and again before any reset to change them
+        (an env with randomised delays does so at every reset; 0 and 0: no delay).
 
         A setpoint given with :meth:`set_setpoint` reaches the flight controller
         ``action_steps`` physics steps later: at the first control tick at or after that.
         :meth:`delayed_observation` is the state and auxiliary state of
         ``observation_steps`` physics steps ago.  Both count the vehicle's own physics steps
-        since its last reset.  Chosen here, once: a vehicle without latency keeps the plain
-        methods, and one with it gets wrappers around them.
+        since its last reset.  A vehicle without latency keeps the plain methods, and one
+        with it gets wrappers around them; a change removes the previous wrappers (back to
+        the plain methods at 0 and 0) and drops the setpoints in flight and the observed
+        history, as a reset does.  The same delays again change nothing.
         """
         if action_steps < 0 or observation_steps < 0:
             raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
-        if self.latency != (0, 0):
-            raise ConfigError(f"vehicle '{self.spec.name}' already has a latency {self.latency}: it is set once")
-        self.latency = (int(action_steps), int(observation_steps))
-        if not (action_steps or observation_steps):
+        latency = (int(action_steps), int(observation_steps))
+        if latency == self.latency:
             return
+        if self.latency != (0, 0):  # undo the previous delays: the methods they wrapped, no clock
+            for name, method in self._unwrapped.items():
+                if method is None:
+                    self.__dict__.pop(name, None)
+                else:
+                    setattr(self, name, method)
+            for name in ("_clock", "_pending", "_history", "_unwrapped"):
+                self.__dict__.pop(name, None)
+        self.latency = latency
+        if latency == (0, 0):
+            return
+        #: what the wrappers wrap: the instance's own method, or None for the class's
+        self._unwrapped = {name: self.__dict__.get(name) for name in ("set_setpoint", "control_step", "apply_loads")}
         self._clock = 0  # physics steps since the last reset
         self._pending: deque[tuple[int, np.ndarray]] = deque()
         self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=max(observation_steps, 1))

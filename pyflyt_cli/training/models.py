@@ -67,7 +67,7 @@ def build_model(
     # a Dict observation (a camera image next to the state vector) needs SB3's multi-input
     # policy; everything else is one Box
     policy = "MultiInputPolicy" if isinstance(vec.observation_space, spaces.Dict) else algo.policy
-    return cls(
+    model = cls(
         policy,
         vec,
         seed=cfg.seed,
@@ -76,6 +76,20 @@ def build_model(
         tensorboard_log=tensorboard_log,
         **kwargs,
     )
+    if tensorboard_log is None:
+        model.set_logger(_logger_without_folder(model.verbose))
+    return model
+
+
+def _logger_without_folder(verbose: int) -> Any:
+    """SB3's logger for a run without TensorBoard: the same table on stdout when ``verbose``,
+    and no folder.  Left to itself, ``learn()`` makes an empty ``SB3-<date>`` folder in the
+    system's temporary directory at every call."""
+    import sys
+
+    from stable_baselines3.common.logger import HumanOutputFormat, Logger
+
+    return Logger(folder=None, output_formats=[HumanOutputFormat(sys.stdout)] if verbose >= 1 else [])
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from pyflyt_engine import exact
 
@@ -145,6 +144,11 @@ class DrydenProcess:
         rng: np.random.Generator,
         block: int = 240,
     ) -> None:
+        # imported here, not with the module: scipy.signal takes ~2 s to import, and only an
+        # atmosphere with turbulence needs it
+        from scipy.signal import lfilter
+
+        self._lfilter = lfilter
         self.scales, self.airspeed, self.spans, self.dt, self.block = scales, airspeed, tuple(spans), dt, block
         self.rng = rng
         A, B, C = self._system()
@@ -211,7 +215,7 @@ class DrydenProcess:
             for j in self._lower[i]:
                 f += self.Phi[i, j] * X[j, :N]
             a = self._diag[i]
-            X[i, 1:] = signal.lfilter([1.0], [1.0, -a], f, zi=[a * X[i, 0]])[0]
+            X[i, 1:] = self._lfilter([1.0], [1.0, -a], f, zi=[a * X[i, 0]])[0]
         self.state = X[:, N].copy()
         return exact.array_matmul(self.C, X[:, :N])
 

@@ -35,7 +35,7 @@ from pyflyt_engine.components.estimator import alpha_beta_gains
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
-from pyflyt_engine.envs.randomization import Distribution, check_names
+from pyflyt_engine.envs.randomization import Distribution, check_names, delay_steps
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstaclesConfig
@@ -250,7 +250,9 @@ class EnvSensorsConfig(SensorsSpec):
 class LatencyConfig(_Config):
     """Delays between the agent and each vehicle (docs/engine.md, "Latency"), in seconds,
     applied at physics resolution: each is rounded to the nearest whole number of physics
-    steps (halves up), ``round(delay * physics_hz)``."""
+    steps (halves up), ``round(delay * physics_hz)``
+    (:func:`pyflyt_engine.envs.randomization.delay_steps`).  A ``randomize`` entry
+    ``action_delay`` / ``observation_delay`` replaces that delay in every episode."""
 
     action_delay: float = Field(
         0.0, ge=0, description="from an action to the vehicle's flight controller [s] (it takes it at its next tick)"
@@ -259,8 +261,7 @@ class LatencyConfig(_Config):
 
     def steps(self, physics_hz: float) -> tuple[int, int]:
         """(action, observation) delays in physics steps: each rounded to the nearest step, halves up."""
-        # the 1e-9 absorbs the binary rounding of delay * rate (0.0125 s * 240 Hz = 3.0000000000000004)
-        return tuple(int(math.floor(d * physics_hz + 0.5 + 1e-9)) for d in (self.action_delay, self.observation_delay))  # type: ignore[return-value]
+        return delay_steps(self.action_delay, physics_hz), delay_steps(self.observation_delay, physics_hz)
 
 
 class EnvConfig(_Config):
@@ -326,7 +327,8 @@ class EnvConfig(_Config):
     )
     latency: LatencyConfig | None = Field(
         None,
-        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); null: none",
+        description="action and observation delays per vehicle [s], rounded to physics steps (docs/engine.md); "
+        "null: none; a randomize entry action_delay / observation_delay replaces that delay per episode",
     )
     sensors: EnvSensorsConfig | None = Field(
         None,
@@ -370,7 +372,7 @@ class EnvConfig(_Config):
     def _randomize_names(self) -> EnvConfig:
         if self.randomize:
             try:
-                check_names(self.randomize, self.wind)
+                check_names(self.randomize, self.wind, episode=self.max_duration_seconds)
             except ValueError as exc:
                 raise ValueError(f"randomize: {exc}") from None
         return self

@@ -47,7 +47,9 @@ class UAVEnv(gymnasium.Env):
     where aux is the vehicle's auxiliary state (motor throttles for a multirotor).  With
     ``config.latency``, the action reaches the flight controller ``action_delay`` later and
     the observation shows the vehicle as it was ``observation_delay`` ago (both rounded to
-    physics steps); rewards and episode ends use the true state.  With
+    physics steps); rewards and episode ends use the true state.  ``config.randomize``
+    entries ``action_delay`` / ``observation_delay`` draw those delays at every reset
+    instead (each replacing its ``latency`` entry; in ``info["randomization"]``).  With
     ``config.sensors`` (``observe: true``), ``ang_vel`` is the noisy gyro's reading,
     ``lin_pos`` the position fix's (its z the barometer's, when there is one), attitude
     and velocity stay true, and the fix's validity flag (0/1) follows aux
@@ -156,7 +158,8 @@ class UAVEnv(gymnasium.Env):
             downwash=cfg.downwash,
         )
         self.vehicle = self.world.vehicles[0]
-        #: action and observation delays in physics steps (docs/engine.md, "Latency")
+        #: action and observation delays in physics steps (docs/engine.md, "Latency"); with
+        #: ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
         self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
         self.vehicle.set_latency(*self.latency_steps)
         #: the config's payloads, built around the vehicle (None without payloads)
@@ -208,7 +211,11 @@ class UAVEnv(gymnasium.Env):
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: dict[str, float] = {}
         #: samples and applies ``config.randomize`` at each reset (None without)
-        self.randomizer: Randomizer | None = Randomizer(cfg.randomize, self.world) if cfg.randomize else None  # type: ignore[arg-type]
+        self.randomizer: Randomizer | None = (
+            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
+            if cfg.randomize
+            else None
+        )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
         self._markers = None
@@ -231,6 +238,7 @@ class UAVEnv(gymnasium.Env):
         super().reset(seed=seed)
         self.world.reset(seed)
         drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None
+        self.latency_steps = self.vehicle.latency  # this episode's, with randomised delays drawn
         spawn = self.task.spawn(self.np_random)
         position, orientation = spawn.position, spawn.orientation
         if drawn is not None:

@@ -21,6 +21,11 @@ Parameters (a fixed list; anything else is refused at load):
 * ``drag``: factor on the body-drag coefficients (translational and rotational);
 * ``spawn_x``, ``spawn_y``, ``spawn_z`` [m], ``spawn_roll``, ``spawn_pitch``,
   ``spawn_yaw`` [rad]: offsets added to the task's spawn pose;
+* ``action_delay``, ``observation_delay`` [s]: the vehicles' action and observation
+  delays (values, not factors; docs/engine.md, "Latency"), each rounded to whole physics
+  steps by :func:`delay_steps`, the rule of the env's fixed ``latency``.  A drawn delay
+  replaces that delay of ``latency`` for the episode (the other one keeps its fixed
+  value); bounds ``0 <= low <= high <`` ``max_duration_seconds``, checked at load;
 * ``wind.<path>``: the value of a number of the env's wind config, e.g.
   ``wind.mean.speed`` [m/s] or ``wind.turbulence.wind_speed_20ft`` [m/s].
 
@@ -55,8 +60,18 @@ MODELS = {
 }
 #: values (not factors) of the optional models: name -> (what the airframe must declare, low, high)
 MODEL_VALUES = {"battery_charge": ("battery", 0.0, 1.0)}
+#: delays [s] between the agent and every vehicle, in the order of ``Vehicle.set_latency``
+DELAYS = ("action_delay", "observation_delay")
 SPAWN = ("spawn_x", "spawn_y", "spawn_z", "spawn_roll", "spawn_pitch", "spawn_yaw")
-PARAMETERS = AIRFRAME + tuple(MODELS) + tuple(MODEL_VALUES) + SPAWN
+PARAMETERS = AIRFRAME + tuple(MODELS) + tuple(MODEL_VALUES) + DELAYS + SPAWN
+
+
+def delay_steps(delay: float, physics_hz: float) -> int:
+    """A delay [s] in whole physics steps: rounded to the nearest step, halves up,
+    ``floor(delay * physics_hz + 1/2)``.  The one rule for the env's fixed ``latency`` and
+    the randomised ``action_delay`` / ``observation_delay``."""
+    # the 1e-9 absorbs the binary rounding of delay * rate (0.0125 s * 240 Hz = 3.0000000000000004)
+    return int(math.floor(delay * physics_hz + 0.5 + 1e-9))
 
 
 class Distribution(BaseModel):
@@ -99,9 +114,10 @@ class Distribution(BaseModel):
         return value
 
 
-def check_names(entries: Mapping[str, Any], wind: Any) -> None:
-    """ValueError naming an unknown parameter, a factor that could reach 0, or a wind path
-    the env's wind config lacks."""
+def check_names(entries: Mapping[str, Any], wind: Any, episode: float | None = None) -> None:
+    """ValueError naming an unknown parameter, a factor that could reach 0, a wind path
+    the env's wind config lacks, or a delay that could be negative or, with ``episode``
+    (the episode length [s]), not shorter than the episode."""
     from pyflyt_engine.atmosphere import load_wind_config
 
     for name, dist in entries.items():
@@ -117,6 +133,18 @@ def check_names(entries: Mapping[str, Any], wind: Any) -> None:
             _, low, high = MODEL_VALUES[name]
             if dist.low is None or dist.high is None or not (low < dist.low and dist.high <= high):
                 raise ValueError(f"'{name}' must stay in ({low:g}, {high:g}]: give it bounds {low:g} < low <= high <= {high:g}")
+        elif name in DELAYS:
+            if dist.low is None or dist.high is None or dist.low < 0:
+                raise ValueError(
+                    f"'{name}' is a delay [s]: give it bounds 0 <= low <= high "
+                    "(a normal distribution is clipped to them)"
+                )
+            if episode is not None and dist.high >= episode:
+                raise ValueError(
+                    f"'{name}': high {dist.high:g} s is not shorter than the episode (max_duration_seconds "
+                    f"{episode:g} s): nothing the agent does would reach the vehicle; give a delay of a few "
+                    "physics steps"
+                )
 
 
 def _wind_number(data: dict[str, Any], name: str) -> tuple[dict[str, Any], str]:
@@ -143,12 +171,16 @@ class Randomizer:
     Args:
         entries: name -> :class:`Distribution` (validated, in declaration order).
         world: the env's world; every vehicle in it is randomised with the same draws (one
-            vehicle in a single-agent env, every agent's in a multi-agent env).
+            vehicle in a single-agent env, every agent's in a multi-agent env: the agents
+            share one draw of each parameter, the delays included).
+        latency: the env's fixed (action, observation) delays in physics steps; a drawn
+            ``action_delay`` / ``observation_delay`` replaces its own entry, the other stays.
     """
 
-    def __init__(self, entries: Mapping[str, Distribution], world: Any) -> None:
+    def __init__(self, entries: Mapping[str, Distribution], world: Any, latency: tuple[int, int] = (0, 0)) -> None:
         self.entries = dict(entries)
         self.world = world
+        self.latency = (int(latency[0]), int(latency[1]))
         #: per vehicle of the world: its nominal (mass, inertia diagonal, motor and drag parameters)
         self._nominal = []
         for name in self.entries:
@@ -189,8 +221,17 @@ class Randomizer:
 
     def sample(self, rng: np.random.Generator) -> dict[str, float]:
         """Draw every entry (declaration order), apply the airframe ones to every vehicle (each
-        from its own nominal values) and the wind ones to the world; returns the values."""
+        from its own nominal values), the delays to every vehicle (``Vehicle.set_latency``,
+        before the vehicles' reset that follows) and the wind ones to the world; returns the
+        values (delays in seconds, as drawn)."""
         values = {name: dist.sample(rng) for name, dist in self.entries.items()}
+        if any(name in values for name in DELAYS):
+            hz = self.world.physics_hz
+            steps = tuple(
+                delay_steps(values[name], hz) if name in values else fixed for name, fixed in zip(DELAYS, self.latency)
+            )
+            for v in self.world.vehicles:
+                v.set_latency(*steps)
         for v, mass, inertia, motor_params, drag_params in self._nominal:
             if "mass" in values or "inertia" in values:
                 v.set_mass_properties(mass * values.get("mass", 1.0), inertia * values.get("inertia", 1.0))

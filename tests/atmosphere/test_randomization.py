@@ -114,7 +114,12 @@ def test_bad_randomisation_is_one_clear_message(randomize, message):
 def test_randomised_windy_episodes_record_their_draws_and_verify(tmp_path):
     env = RecordEpisode(
         make(
-            randomize={**WINDY, "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2}},
+            randomize={
+                **WINDY,
+                "inertia": {"distribution": "uniform", "low": 0.8, "high": 1.2},
+                "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.04},
+                "observation_delay": {"distribution": "normal", "mean": 0.02, "std": 0.01, "low": 0.0, "high": 0.04},
+            },
             wind={"preset": "dryden_light", "mean": {"speed": 1.0}},
         ),
         tmp_path,
@@ -123,6 +128,9 @@ def test_randomised_windy_episodes_record_their_draws_and_verify(tmp_path):
     for episode in range(2):
         _, info = env.reset(seed=5 if episode == 0 else None)
         draws.append(info["randomization"])
+        assert env.unwrapped.vehicle.latency == tuple(
+            math.floor(info["randomization"][k] * 240.0 + 0.5) for k in ("action_delay", "observation_delay")
+        )
         for _ in range(30):
             env.step(np.array([0.05, -0.05, 0.0, 0.14]))
     env.close()
@@ -153,13 +161,15 @@ def test_train_selects_a_preset_with_env_randomize():
 def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
     """conf/randomize/sim2real.yaml through `pyflyt train env.randomize=sim2real`: its
     entries, each draw within its bounds, two seeds give two airframes, a seed gives the
-    same one again, and the drawn mass and thrust coefficient are the ones the simulated
+    same one again, and the drawn mass, thrust coefficient and delays are the ones the simulated
     vehicle has (that those fly is test_the_sampled_airframe_is_the_one_that_flies)."""
     from pyflyt_cli.training.compose import compose_config
 
     cfg = compose_config(env="quadx_hover", overrides=["env.randomize=sim2real"])
     preset = cfg.env.randomize
-    assert list(preset) == ["mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag"]
+    assert list(preset) == [
+        "mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag", "action_delay", "observation_delay"
+    ]
     env = make(randomize="sim2real")
     draws = []
     for seed in (0, 1):
@@ -174,6 +184,8 @@ def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
         assert mass == pytest.approx(drawn["mass"] * vehicle.parts.mass)
         assert vehicle.actuators.motors.params.kf == pytest.approx(drawn["motor_kf"] * vehicle.motors.kf)
         assert vehicle.actuators.motors.params.tau == pytest.approx(drawn["motor_tau"] * vehicle.motors.tau)
+        delays = (drawn["action_delay"], drawn["observation_delay"])
+        assert vehicle.latency == base.latency_steps == tuple(math.floor(d * 240.0 + 0.5) for d in delays)
     assert draws[0]["mass"] != draws[1]["mass"] and draws[0]["motor_tau"] != draws[1]["motor_tau"]
     assert env.reset(seed=0)[1]["randomization"] == draws[0]  # the seed reproduces the airframe
     env.close()

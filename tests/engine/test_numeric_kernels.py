@@ -65,6 +65,7 @@ CASES: list[str] = [
     "gym:PyFlyt/Rocket-Landing-v0",
     "gym:PyFlyt/QuadX-Hover-v0?wind=dryden_moderate",
     "gym:PyFlyt/QuadX-Waypoints-v0?randomize=moderate",
+    "gym:PyFlyt/QuadX-Hover-v0?randomize=sim2real",  # airframe factors and randomised delays
     "ma:ma_quadx_hover_v0?downwash=true&wind=dryden_light",
     "ma:ma_quadx_formation_v0?agents=9&layout_spacing=0.5",
     # the noisy sensors (components/sensors.py) in the observation, their scale randomised
@@ -361,7 +362,9 @@ def test_nothing_on_the_simulated_path_calls_cpu_dispatched_numpy(monkeypatch):
         sensors={"observe": True, "estimator": "complementary"},
         angle_representation="euler",
     )
+    _step_env("PyFlyt/QuadX-Hover-v0", randomize="sim2real")  # with randomised delays
     _step_ma("ma_quadx_hover_v0", downwash=True, wind="dryden_moderate")
+    _step_ma("ma_quadx_hover_v0", randomize="sim2real")
     _step_ma("ma_fixedwing_dogfight_v0", wind="dryden_light")
     _step_ma("ma_quadx_formation_v0", agents=9, layout_spacing=0.5)
 

@@ -61,6 +61,7 @@ def multi(agents=1, seed: int = 3, **overrides) -> np.ndarray:
         ("randomize", "moderate"),
         ("randomize", {"mass": {"distribution": "uniform", "low": 1.2, "high": 1.3}}),
         ("randomize", {"spawn_z": {"distribution": "uniform", "low": 0.2, "high": 0.3}}),
+        ("randomize", {"action_delay": {"distribution": "uniform", "low": 0.02, "high": 0.05}}),
         ("ground_effect", True),
         ("drag", False),
     ],
@@ -167,13 +168,25 @@ def test_episode_options_are_refused_not_ignored():
         env.close()
 
 
-def test_a_recording_in_wind_with_randomisation_replays_exactly(tmp_path):
+@pytest.mark.parametrize(
+    "randomize",
+    [
+        "moderate",
+        {
+            "mass": {"distribution": "uniform", "low": 0.9, "high": 1.1},
+            "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05},
+            "observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05},
+        },
+    ],
+    ids=["moderate", "latency"],
+)
+def test_a_recording_in_wind_with_randomisation_replays_exactly(tmp_path, randomize):
     from pyflyt_engine.envs import make_env
     from pyflyt_engine.telemetry import RecordEpisode, load_episode
     from pyflyt_engine.telemetry.replay import verify
 
     env = RecordEpisode(
-        make_env("ma_quadx_hover", agents=STACKED, wind="dryden_moderate", randomize="moderate", downwash=True),
+        make_env("ma_quadx_hover", agents=STACKED, wind="dryden_moderate", randomize=randomize, downwash=True),
         tmp_path,
     )
     _, info = env.reset(seed=2)

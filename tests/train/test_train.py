@@ -26,7 +26,18 @@ def _metrics(run_dir: Path) -> dict:
         return read_metrics(run_dir)
 
 
-def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path):
+def _system_temp(tmp_path, monkeypatch) -> Path:
+    """An empty stand-in for the system's temporary directory."""
+    import tempfile
+
+    temp = tmp_path / "system-temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    return temp
+
+
+def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path, monkeypatch):
+    temp = _system_temp(tmp_path, monkeypatch)
     result = train(load(TINY_PPO, tmp_path / "runs"), command=["pyflyt", "train"], overrides=TINY_PPO)
     run = result.run_dir
     assert run.parent == (tmp_path / "runs" / "quadx_hover" / "ppo").resolve()
@@ -62,6 +73,7 @@ def test_tiny_ppo_run_leaves_a_complete_run_directory(tmp_path):
     assert [e["step"] for e in evals] == [256, 512]
     assert {"mean_return", "std_return", "success_rate", "mean_length"} <= set(evals[0])
     assert result.last_eval == {k: evals[-1][k] for k in result.last_eval}
+    assert not list(temp.glob("SB3-*"))  # no logger folder left outside the run directory
 
 
 def test_eval_of_a_run_records_episodes_and_summarises(tmp_path):
@@ -145,7 +157,8 @@ def test_off_policy_run_checkpoints_its_replay_buffer_and_extends(tmp_path):
 
 
 @pytest.mark.parametrize("algo", ["td3", "a2c", "ddpg"])
-def test_other_algorithms_train(tmp_path, algo):
+def test_other_algorithms_train(tmp_path, monkeypatch, algo):
+    temp = _system_temp(tmp_path, monkeypatch)
     overrides = [
         f"algo={algo}",
         "train.total_timesteps=300",
@@ -158,6 +171,7 @@ def test_other_algorithms_train(tmp_path, algo):
         overrides += ["algo.buffer_size=1000", "algo.learning_starts=100", "algo.batch_size=32"]
     result = train(load(overrides, tmp_path / "runs"))
     assert result.num_timesteps >= 300 and read_policy(result.run_dir / "model.pt").algo == algo
+    assert not list(temp.glob("SB3-*"))
 
 
 def test_parallel_environments(tmp_path):

@@ -139,7 +139,8 @@ class MultiAgentUAVEnv(ParallelEnv):
             downwash=cfg.downwash,
         )
         self.vehicles = self.world.vehicles
-        #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency")
+        #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
+        #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
         self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
         for vehicle in self.vehicles:
             vehicle.set_latency(*self.latency_steps)
@@ -181,7 +182,11 @@ class MultiAgentUAVEnv(ParallelEnv):
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
         #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
-        self.randomizer: Randomizer | None = Randomizer(cfg.randomize, self.world) if cfg.randomize else None  # type: ignore[arg-type]
+        self.randomizer: Randomizer | None = (
+            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
+            if cfg.randomize
+            else None
+        )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
         self._markers = None
@@ -257,10 +262,12 @@ class MultiAgentUAVEnv(ParallelEnv):
         With ``config.randomize``, its entries are drawn first (as in the single-agent env),
         once per reset, and applied to every agent: the airframe factors to each vehicle's
         own nominal values, the ``spawn_*`` offsets to each agent's spawn, ``wind.*`` to the
-        one atmosphere.  ``options``: ``None``, or ``{"task": {...}}`` with options the task
-        lets an episode change; the multi-agent tasks declare none, so any change is refused
-        (``ValueError``) rather than ignored.  Other keys (PettingZoo's API test passes
-        ``{"options": 1}``) are ignored with a warning.
+        one atmosphere, ``action_delay`` / ``observation_delay`` to every vehicle (the
+        agents share one draw of each delay, as of every other parameter).  ``options``:
+        ``None``, or ``{"task": {...}}`` with options the task lets an episode change; the
+        multi-agent tasks declare none, so any change is refused (``ValueError``) rather
+        than ignored.  Other keys (PettingZoo's API test passes ``{"options": 1}``) are
+        ignored with a warning.
         """
         if options:
             if not isinstance(options, Mapping):
@@ -284,6 +291,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         rng = self.np_random
         drawn = self.randomizer.sample(rng) if self.randomizer is not None else None
         self.last_randomization = dict(drawn) if drawn is not None else {}
+        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
         for agent, vehicle in zip(self.agent_list, self.vehicles):
             s = agent.spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
