@@ -67,7 +67,7 @@ def run(variant: str, seed: int, budget: int | None, every: int, episodes: int, 
         "wall": wall,
         "load_before": load_before,
         "load_after": os.getloadavg(),
-        "started": time.strftime("%Y-%m-%d %H:%M"),
+        "finished": time.strftime("%Y-%m-%d %H:%M"),
         "machine": f"{platform.machine()}, Python {platform.python_version()}",
         "hover_at": probe.hover_at,
         "history": probe.history,
@@ -84,19 +84,23 @@ def report() -> str:
     rows = [json.loads(p.read_text()) for p in sorted(RUNS.glob("*.json"))]
     if not rows:
         raise SystemExit(f"no runs in {RUNS}")
+    ends = [r.get("finished", r.get("started", "")) for r in rows]  # the first runs named it "started"
     lines = [
-        f"\n## {min(r['started'] for r in rows)} — {rows[0]['machine']}, {rows[0]['episodes']} evaluation "
+        f"\n## runs finished {min(ends)} to {max(ends)} — {rows[0]['machine']}, {rows[0]['episodes']} evaluation "
         f"episodes (seeds {EVAL_SEED}+) on the estimated observation\n",
-        "| trained on | seed | steps | wall-clock [s] | load (1 min) before / after | survived | mean / worst "
-        "distance [m] | return |",
+        "| trained on | seed | steps | wall-clock [s] | load (1 min) before / after | on its training env: "
+        "survived, mean / worst distance [m] | on the estimated observation: survived, mean / worst distance [m] "
+        "| return |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        e = r["eval"]
+        e, own = r["eval"], r["history"][-1][2]  # the last probe flies the training env
         lines.append(
             f"| {r['variant']} | {r['seed']} | {r['steps']} | {r['wall']:.0f} | {r['load_before'][0]:.1f} / "
-            f"{r['load_after'][0]:.1f} | {100 * e['survived']:.0f} % | {e['mean_distance']:.3f} / "
-            f"{e['worst_distance']:.3f}{' (hovers)' if hovers(e) else ''} | {e['mean_return']:.1f} |"
+            f"{r['load_after'][0]:.1f} | {100 * own['survived']:.0f} %, {own['mean_distance']:.3f} / "
+            f"{own['worst_distance']:.3f}{' (hovers)' if hovers(own) else ''} | {100 * e['survived']:.0f} %, "
+            f"{e['mean_distance']:.3f} / {e['worst_distance']:.3f}{' (hovers)' if hovers(e) else ''} | "
+            f"{e['mean_return']:.1f} |"
         )
     return "\n".join(lines) + "\n"
 
