@@ -54,7 +54,9 @@ class UAVEnv(gymnasium.Env):
     ``lin_pos`` the position fix's (its z the barometer's, when there is one), attitude
     and velocity stay true, and the fix's validity flag (0/1) follows aux
     (docs/environments.md, "Sensor observation"); rewards and episode ends use the true
-    state.
+    state.  With ``sensors.estimator: complementary`` attitude, velocity and position come
+    from the flight controller's estimator instead (:attr:`estimator`,
+    :mod:`pyflyt_engine.components.estimator`; docs/environments.md, "Estimated state").
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
