@@ -690,7 +690,7 @@ class Vehicle:
 
         self.apply_loads = apply_loads  # type: ignore[method-assign]
         state = self.state
-        suite.reset(state.lin_pos, state.lin_vel_ground)
+        suite.reset(state.lin_pos, state.lin_vel_ground, state.quaternion)
 
     def sensor_readings(self) -> dict[str, np.ndarray]:
         """The latest readings of the noisy sensors by name (empty without sensors)."""
@@ -744,7 +744,7 @@ class Vehicle:
             self.autopilot.reset()
         state = self.read_state()
         if self.sensors is not None:  # time 0: new initial biases
-            self.sensors.reset(state.lin_pos, state.lin_vel_ground)
+            self.sensors.reset(state.lin_pos, state.lin_vel_ground, state.quaternion)
 
     def reseed(self, rng: np.random.Generator) -> None:
         """Use a new noise stream (on a seeded world reset)."""

@@ -30,6 +30,11 @@ physics' streams: adding a sensor leaves the flight unchanged):
   lost: the last reading is held and ``valid`` is 0 (1 after a fix that arrived).  Before
   the first fix arrives the reading is the spawn position, valid 0.
 * Barometer: ``z + b + sigma eta``, ``b`` = ``bias + bias_initial_std eta`` per episode.
+* An optional state estimator (:mod:`pyflyt_engine.components.estimator`,
+  :meth:`SensorSuite.attach_estimator`) takes every gyro sample (one update per sample:
+  a sensor faster than the physics gives its held reading to each of the samples due in
+  one physics step; the sample at time 0 only starts it) and then every valid position
+  fix of the step.
 
 Everything on the simulated path is Python floats and :mod:`math` (bit-identical across
 processes and CPUs); random numbers are drawn one by one in a fixed order, every draw
@@ -43,6 +48,8 @@ import math
 from typing import Any
 
 import numpy as np
+
+from pyflyt_engine.components.estimator import ComplementaryEstimator
 
 #: names and sizes of the readings, in the order of :meth:`SensorSuite.values`
 READING_SIZES = {"gyro": 3, "accel": 3, "position": 3, "position_valid": 1, "altitude": 1}
@@ -125,6 +132,20 @@ class SensorSuite:
         self._pos_taken = self._baro_taken = 0
         #: fixes lost and fixes due since the reset (for the dropout statistics)
         self.fixes_lost = self.fixes = 0
+        #: the state estimator fed by these sensors (None: none, :meth:`attach_estimator`)
+        self.estimator: ComplementaryEstimator | None = None
+        self._quaternion: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0)
+
+    def attach_estimator(self, spec: Any) -> ComplementaryEstimator:
+        """Feed a :class:`ComplementaryEstimator` with the gains of ``spec`` (``k_p``, ``k_i``,
+        ``alpha``, ``beta``) from now on; it needs the IMU and the position fix.  It starts
+        at the pose and velocity of the last reset."""
+        if self.gyro is None or self._pos_sigma is None:
+            missing = "imu" if self.gyro is None else "position"
+            raise ValueError(f"the estimator needs sensors.{missing}")
+        self.estimator = ComplementaryEstimator(spec, self.gyro.rate_hz, self._pos_rate, self.gravity)
+        self.estimator.reset(self._quaternion, self.position, self._last_velocity)
+        return self.estimator
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -141,9 +162,16 @@ class SensorSuite:
     def reseed(self, rng: np.random.Generator) -> None:
         self.rng = rng
 
-    def reset(self, position: tuple[float, ...], velocity: tuple[float, ...]) -> None:
-        """Time 0: new initial biases (IMU, then barometer), readings at the spawn."""
+    def reset(
+        self,
+        position: tuple[float, ...],
+        velocity: tuple[float, ...],
+        quaternion: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0),
+    ) -> None:
+        """Time 0: new initial biases (IMU, then barometer), readings at the spawn; the
+        estimator (if any) at the spawn's pose (``quaternion``, body to ground) and velocity."""
         rng = self.rng
+        self._quaternion = tuple(quaternion)
         self._steps = 0
         self._last_velocity = tuple(velocity)  # type: ignore[assignment]
         if self.gyro is not None and self.accel is not None:
@@ -156,6 +184,8 @@ class SensorSuite:
         if self._baro is not None:
             self.baro_bias = float(self._baro.bias) + float(self._baro.bias_initial_std) * float(rng.standard_normal())
             self.altitude = float(position[2]) + self.baro_bias
+        if self.estimator is not None:
+            self.estimator.reset(quaternion, position, velocity)
 
     def step(
         self,
@@ -169,6 +199,8 @@ class SensorSuite:
         rng = self.rng
         time = self._steps * self.physics_dt
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = rotation
+        updates = 0  # gyro samples that move the estimator on
+        fix = False  # a valid position fix arrived
         if self.gyro is not None and self.accel is not None:
             lx, ly, lz = velocity
             px, py, pz = self._last_velocity
@@ -177,6 +209,7 @@ class SensorSuite:
             self._last_velocity = (lx, ly, lz)
             n = self.gyro.due(time)
             if n:
+                updates = n if self.gyro._taken else n - 1  # the sample at time 0 only starts the estimator
                 wx, wy, wz = angular_velocity
                 body = (r0 * wx + r3 * wy + r6 * wz, r1 * wx + r4 * wy + r7 * wz, r2 * wx + r5 * wy + r8 * wz)
                 self.gyro.sample(body, n, rng)
@@ -202,12 +235,20 @@ class SensorSuite:
                         position[2] + sigma[2] * noise[2],
                     )
                     self.position_valid = 1.0
+                    fix = True
         if self._baro is not None:
             due = math.floor(time * self._baro_rate + 1e-9) + 1
             if due > self._baro_taken:
                 self._baro_taken = due
                 eta = float(rng.standard_normal())
                 self.altitude = position[2] + self.baro_bias + float(self._baro.noise_std) * eta
+        estimator = self.estimator
+        if estimator is not None:
+            gyro, accel = self.gyro.reading, self.accel.reading  # type: ignore[union-attr]
+            for _ in range(updates):
+                estimator.imu(gyro, accel)
+            if fix:
+                estimator.fix(self.position)
         self._steps += 1
 
     def values(self) -> list[float]:

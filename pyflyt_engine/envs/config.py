@@ -31,6 +31,7 @@ from pydantic import (
     model_validator,
 )
 
+from pyflyt_engine.components.estimator import alpha_beta_gains
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
@@ -142,17 +143,108 @@ class CameraObservationConfig(_Config):
         return value
 
 
+#: default velocity-filter gains: the steady-state Kalman gains at Kalata's tracking index
+#: lambda = sigma_a T_f^2 / sigma_p = 0.05 (components/estimator.py, alpha_beta_gains), e.g.
+#: sigma_a = 0.5 m/s^2 of acceleration error (a 3 deg tilt error is 0.51 m/s^2) with
+#: 1 mm motion-capture fixes at 100 Hz: 0.5 * 0.01^2 / 0.001 = 0.05 (this project's choice)
+DEFAULT_TRACKING_INDEX = 0.05
+_DEFAULT_ALPHA, _DEFAULT_BETA = alpha_beta_gains(DEFAULT_TRACKING_INDEX)
+
+
+def _estimator_name(value: Any) -> Any:
+    # `estimator: complementary` is short for `estimator: {type: complementary}`
+    return {"type": value} if isinstance(value, str) else value
+
+
+class EstimatorConfig(_Config):
+    """The flight controller's state estimator the observation is built from
+    (docs/environments.md, "Estimated state"; :mod:`pyflyt_engine.components.estimator`).
+    ``none``: attitude and velocity stay true.  ``complementary``: attitude from Mahony's
+    explicit complementary filter (gains ``k_p``, ``k_i``), velocity and position from a
+    fixed-gain position-velocity filter on the accelerometer and the position fixes
+    (gains ``alpha``, ``beta``)."""
+
+    type: Literal["none", "complementary"] = Field("none", description="none | complementary")
+    k_p: float = Field(
+        1.0,
+        gt=0,
+        description="attitude gain [rad/s]: the accelerometer pulls the tilt estimate with time constant 1 / k_p "
+        "(this project's choice: 1 s, long against a manoeuvre's accelerations)",
+    )
+    k_i: float = Field(
+        0.25,
+        ge=0,
+        description="gyro-bias gain [rad/s^2]; 0 learns no bias.  Default k_p^2 / 4: the linearised attitude "
+        "error is critically damped",
+    )
+    alpha: float = Field(
+        _DEFAULT_ALPHA,
+        gt=0,
+        description="position gain per fix [-] (default: the steady-state Kalman gain at tracking index 0.05)",
+    )
+    beta: float = Field(
+        _DEFAULT_BETA,
+        gt=0,
+        description="velocity gain per fix [-]; the velocity moves by beta * fix_rate * error "
+        "(default: the steady-state Kalman gain at tracking index 0.05)",
+    )
+
+    @model_validator(mode="after")
+    def _stable(self) -> EstimatorConfig:
+        gains = sorted(self.model_fields_set - {"type"})
+        if self.type == "none" and gains:
+            raise ValueError(
+                f"sensors.estimator: {', '.join(gains)} given with type none, which has no gains; "
+                "set type: complementary, or remove them"
+            )
+        if 2.0 * self.alpha + self.beta >= 4.0:
+            raise ValueError(
+                f"alpha = {self.alpha:g}, beta = {self.beta:g}: the position-velocity filter is unstable unless "
+                "2 alpha + beta < 4 (Jury's test); lower them, e.g. the defaults "
+                f"alpha = {_DEFAULT_ALPHA:.6g}, beta = {_DEFAULT_BETA:.6g}"
+            )
+        return self
+
+    @property
+    def active(self) -> bool:
+        return self.type != "none"
+
+
 class EnvSensorsConfig(SensorsSpec):
     """Noisy sensors for this env (docs/environments.md, "Sensor observation"): any of
     ``imu``, ``position``, ``barometer`` given here replace the airframe's ``sensors``
     section; none given keeps the airframe's own.  With ``observe`` the observation is built
     from their readings: body rates from the gyro, position from the position sensor, height
     from the barometer (attitude and velocity stay true), and the position fix's validity
-    flag is appended after the auxiliary state."""
+    flag is appended after the auxiliary state.  With ``estimator: complementary`` (needs
+    ``observe``, an IMU and a position fix) attitude, velocity and position come from the
+    flight controller's estimator instead (docs/environments.md, "Estimated state")."""
 
     observe: bool = Field(
         True, description="build the observation from the sensors' readings instead of the true state"
     )
+    estimator: Annotated[EstimatorConfig, BeforeValidator(_estimator_name)] = Field(
+        default_factory=EstimatorConfig,
+        description="none (attitude and velocity true) | complementary (estimated from the IMU and the "
+        "position fix), or a mapping with 'type' and the gains",
+    )
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
+        data = handler(self)
+        # without an estimator the sensors dump, and are recorded, as before it existed
+        if isinstance(data, dict) and not self.estimator.active:
+            data.pop("estimator", None)
+        return data
+
+    @model_validator(mode="after")
+    def _estimator_observed(self) -> EnvSensorsConfig:
+        if self.estimator.active and not self.observe:
+            raise ValueError(
+                f"sensors.estimator: '{self.estimator.type}' builds the observation, but sensors.observe is false; "
+                "set sensors.observe: true, or estimator: none"
+            )
+        return self
 
 
 class LatencyConfig(_Config):

@@ -233,6 +233,15 @@ def with_sensors(spec: UAVSpec, sensors: Any) -> UAVSpec:
             f"sensors.observe: airframe '{spec.name}' has no 'sensors' section to observe; give sensors.imu, "
             "sensors.position or sensors.barometer, or fly an airframe with sensors"
         )
+    if sensors.estimator.active:
+        for part, what in (("imu", "the attitude filter integrates the gyro and takes the accelerometer as 'up'"),
+                           ("position", "the velocity filter corrects with the position fixes")):  # fmt: skip
+            if getattr(spec.sensors, part) is None:
+                raise ConfigError(
+                    f"sensors.estimator: '{sensors.estimator.type}' needs an IMU and a position fix ({what}), and "
+                    f"airframe '{spec.name}' has no sensors.{part}: give sensors.{part} in the env config, fly an "
+                    "airframe with one, or set estimator: none"
+                )
     return spec
 
 
@@ -251,6 +260,26 @@ def sensed_state(state: KinematicState, suite: Any) -> KinematicState:
     if "altitude" in names:
         lin_pos = (lin_pos[0], lin_pos[1], suite.altitude)
     return state._replace(ang_vel=ang_vel, lin_pos=lin_pos, ang_vel_ground=ang_ground)
+
+
+def estimated_state(state: KinematicState, suite: Any, estimator: Any) -> KinematicState:
+    """``state`` as the flight controller's estimator sees it: body rates from the gyro,
+    attitude, velocity and position estimated (:mod:`pyflyt_engine.components.estimator`);
+    the body-frame velocity and the ground-frame rates turned with the estimated attitude
+    (docs/environments.md, "Estimated state")."""
+    ang_vel = suite.gyro.reading
+    q = estimator.quaternion
+    r = quaternion_to_rows(q)
+    velocity = estimator.velocity
+    return state._replace(
+        ang_vel=ang_vel,
+        ang_pos=estimator.euler,
+        lin_vel=exact.rotate_t(r, velocity),
+        lin_pos=estimator.position,
+        quaternion=q,
+        lin_vel_ground=velocity,
+        ang_vel_ground=exact.rotate(r, ang_vel),
+    )
 
 
 

@@ -52,7 +52,9 @@ class UAVEnv(gymnasium.Env):
     ``lin_pos`` the position fix's (its z the barometer's, when there is one), attitude
     and velocity stay true, and the fix's validity flag (0/1) follows aux
     (docs/environments.md, "Sensor observation"); rewards and episode ends use the true
-    state.
+    state.  With ``sensors.estimator: complementary`` attitude, velocity and position come
+    from the flight controller's estimator instead (:attr:`estimator`,
+    :mod:`pyflyt_engine.components.estimator`; docs/environments.md, "Estimated state").
 
     Action: ``config.action``, a Box sent (after clipping to its bounds) as the setpoint
     of the vehicle's flight mode ``config.action.mode``.
@@ -186,6 +188,10 @@ class UAVEnv(gymnasium.Env):
         self._sensed = self.vehicle.sensors if cfg.sensors is not None and cfg.sensors.observe else None
         #: the position fix's validity flag follows the auxiliary state in the observation
         self._fix_flag = self._sensed is not None and flown.sensors.position is not None  # type: ignore[union-attr]
+        #: the flight controller's state estimator the observation is built from (None: none)
+        self.estimator = None
+        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
+            self.estimator = self._sensed.attach_estimator(cfg.sensors.estimator)  # type: ignore[union-attr]
         aux_size = self.world.aux_state(0).size + int(self._fix_flag)
         size = core.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
@@ -350,7 +356,11 @@ class UAVEnv(gymnasium.Env):
             state, aux = self.vehicle.delayed_observation()
         else:
             aux = self.vehicle.aux_values()
-        if self._sensed is not None:  # the sensors' readings in place of the true rates and position
+        if self.estimator is not None:  # the estimator's attitude, velocity and position, the gyro's rates
+            state = core.estimated_state(state, self._sensed, self.estimator)
+            if self._fix_flag:
+                aux = [*aux, self._sensed.position_valid]  # type: ignore[union-attr]
+        elif self._sensed is not None:  # the sensors' readings in place of the true rates and position
             state = core.sensed_state(state, self._sensed)
             if self._fix_flag:
                 aux = [*aux, self._sensed.position_valid]

@@ -31,6 +31,10 @@ STATE_FIELDS = {
 }
 
 
+#: the fields of a ``pyflyt.Estimate`` message and their widths, in :meth:`ComplementaryEstimator.values` order
+ESTIMATE_FIELDS = {"quaternion": 4, "ang_pos": 3, "lin_vel_ground": 3, "lin_pos": 3, "gyro_bias": 3}
+
+
 @dataclass
 class VehicleTrack:
     """One vehicle's recorded states: ``time`` (T,) [s] and per field a (T, width) array."""
@@ -49,6 +53,9 @@ class VehicleTrack:
     sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     #: (name, size) of each reading in :attr:`sensors` (components/sensors.py)
     sensor_layout: list[tuple[str, int]] = field(default_factory=list)
+    #: the state estimate from ``/uav/<i>/estimate`` per field (:data:`ESTIMATE_FIELDS`),
+    #: (T, width) arrays; empty without an estimator (components/estimator.py)
+    estimate: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
@@ -237,6 +244,11 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
                 wind=np.hstack([rows(f"/uav/{i}/wind", "velocity", 3), rows(f"/uav/{i}/wind", "rotary", 3)]),
                 sensors=rows(f"/uav/{i}/sensors", "values", None),
                 sensor_layout=_sensor_layout(contents, f"/uav/{i}/sensors"),
+                estimate=(
+                    {k: rows(f"/uav/{i}/estimate", k, w) for k, w in ESTIMATE_FIELDS.items()}
+                    if f"/uav/{i}/estimate" in by_topic
+                    else {}
+                ),
             )
         )
     actions = rows("/uav/0/action", "applied", len(action_names))

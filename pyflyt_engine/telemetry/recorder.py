@@ -104,7 +104,8 @@ class RecordEpisode(gymnasium.Wrapper):
     ``reset()`` or at ``close()`` (then marked ``stopped``), and at interpreter exit.
 
     Channels (see ``docs/mcap.md``): ``/tf``, ``/scene``, ``/uav/<i>/state``,
-    ``/uav/0/action``, ``/reward``, ``/episode``, in wind ``/uav/<i>/wind`` (and a wind
+    ``/uav/0/action``, ``/reward``, ``/episode``, with sensors ``/uav/<i>/sensors`` (and with an
+    estimator ``/uav/<i>/estimate``), in wind ``/uav/<i>/wind`` (and a wind
     arrow per vehicle in ``/scene``) and, with ``cameras=True``, ``/uav/<i>/camera/<k>``.  Log time is the simulation time since the reset.  Metadata
     records hold the resolved env config, reward preset, airframe specs, the reset's seed,
     options and RNG state, and package versions: everything ``pyflyt replay --verify``
@@ -359,6 +360,13 @@ class RecordEpisode(gymnasium.Wrapper):
                 if suite is not None
                 else None
             )
+        #: per vehicle, its state estimate's channel (None without an estimator)
+        self._ch_estimate: list[int | None] = [
+            f.channel(f"/uav/{i}/estimate", "pyflyt.Estimate", schemas.ESTIMATE, {"frame_id": scene.WORLD_FRAME})
+            if vehicle.sensors is not None and vehicle.sensors.estimator is not None
+            else None
+            for i, vehicle in enumerate(world.vehicles)
+        ]
         self._ch_wind = []
         if world.atmosphere.moving:  # wind or downwash
             for i in range(len(world.vehicles)):
@@ -438,6 +446,22 @@ class RecordEpisode(gymnasium.Wrapper):
                     self._ch_sensors[i],  # type: ignore[arg-type]
                     ns,
                     {"timestamp": stamp, "step": self._length, "time": time_s, "values": vehicle.sensors.values()},
+                )
+            if self._ch_estimate[i] is not None:
+                est = vehicle.sensors.estimator
+                f.write(
+                    self._ch_estimate[i],  # type: ignore[arg-type]
+                    ns,
+                    {
+                        "timestamp": stamp,
+                        "step": self._length,
+                        "time": time_s,
+                        "quaternion": est.quaternion,
+                        "ang_pos": est.euler,
+                        "lin_vel_ground": est.velocity,
+                        "lin_pos": est.position,
+                        "gyro_bias": est.bias,
+                    },
                 )
             for k, channel in enumerate(self._ch_scans[i]):
                 self._write_scan(ns, channel, i, k)

@@ -17,7 +17,7 @@ import numpy as np
 
 from pyflyt_engine.errors import PyFlytError, TelemetryError
 from pyflyt_engine.safe_load import json_data
-from pyflyt_engine.telemetry.episode import STATE_FIELDS, Episode
+from pyflyt_engine.telemetry.episode import ESTIMATE_FIELDS, STATE_FIELDS, Episode
 from pyflyt_engine.telemetry.recorder import package_versions
 
 
@@ -352,6 +352,15 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
                     per_field["sensors"] = max(per_field["sensors"], d)
                     if d > worst[0]:
                         worst = (d, step, f"uav {i} sensors")
+                if track.estimate and step < len(track.estimate["lin_pos"]):  # the state estimate
+                    est = vehicle.sensors.estimator if vehicle.sensors is not None else None
+                    values = np.asarray(est.values() if est is not None else [])
+                    recorded = np.concatenate([track.estimate[k][step] for k in ESTIMATE_FIELDS])
+                    same = values.shape == recorded.shape
+                    d = _deviation("estimate", values, recorded) if same else float("inf")
+                    per_field["estimate"] = max(per_field.get("estimate", 0.0), d)
+                    if d > worst[0]:
+                        worst = (d, step, f"uav {i} estimate")
 
         compare(0)
         for k in range(n):

@@ -522,6 +522,20 @@ SENSORS = _strict(
     },
 )
 
+ESTIMATE = _strict(
+    "pyflyt.Estimate",
+    "The flight controller's state estimate of one vehicle after a reset or an agent step "
+    "(pyflyt_engine.components.estimator; recorded when the env's sensors.estimator is not none)",
+    {
+        **_COMMON,
+        "quaternion": _vec(4, "estimated attitude (x, y, z, w), body to ground"),
+        "ang_pos": _vec(3, "estimated (roll, pitch, yaw) [rad]"),
+        "lin_vel_ground": _vec(3, "estimated velocity (x, y, z) [m/s], ground frame (ENU)"),
+        "lin_pos": _vec(3, "estimated position (x, y, z) [m], ground frame (ENU)"),
+        "gyro_bias": _vec(3, "estimated gyro bias (p, q, r) [rad/s], body frame"),
+    },
+)
+
 ACTION = _strict(
     "pyflyt.Action",
     "The agent's action for one step; 'applied' (clipped to the action bounds) is what the vehicle received and what re-simulation replays",
@@ -580,7 +594,7 @@ EPISODE_EVENT = _strict(
 ALL: dict[str, dict[str, Any]] = {
     s["title"]: s
     for s in (
-        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, SENSORS, ACTION, REWARD,
-        EPISODE_EVENT,
+        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, SENSORS, ESTIMATE, ACTION,
+        REWARD, EPISODE_EVENT,
     )
 }

@@ -71,6 +71,9 @@ CASES: list[str] = [
     # the noisy sensors (components/sensors.py) in the observation, their scale randomised
     "gym:PyFlyt/QuadX-Hover-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml&sensors={\"observe\": true}"
     "&randomize={\"gyro_scale\": {\"distribution\": \"uniform\", \"low\": 0.9, \"high\": 1.1}}",
+    # the flight controller's estimator (components/estimator.py) building the observation
+    "gym:PyFlyt/QuadX-Waypoints-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml"
+    "&sensors={\"observe\": true, \"estimator\": \"complementary\"}",
 ]
 
 MULTIROTOR_SETPOINTS = {
@@ -352,6 +355,12 @@ def test_nothing_on_the_simulated_path_calls_cpu_dispatched_numpy(monkeypatch):
         uav=str(ROOT / "conf" / "uav" / "examples" / "quadx_cf2x_sensors.yaml"),
         sensors={"observe": True},
         randomize={"gyro_scale": {"distribution": "uniform", "low": 0.9, "high": 1.1}},
+    )
+    _step_env(
+        "PyFlyt/QuadX-Hover-v0",
+        uav=str(ROOT / "conf" / "uav" / "examples" / "quadx_cf2x_sensors.yaml"),
+        sensors={"observe": True, "estimator": "complementary"},
+        angle_representation="euler",
     )
     _step_env("PyFlyt/QuadX-Hover-v0", randomize="sim2real")  # with randomised delays
     _step_ma("ma_quadx_hover_v0", downwash=True, wind="dryden_moderate")

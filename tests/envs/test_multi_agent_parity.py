@@ -146,6 +146,35 @@ def test_noisy_sensors_build_one_agents_observation_as_the_single_agent_envs():
         env.close()
 
 
+def test_the_estimator_builds_one_agents_observation_as_the_single_agent_envs():
+    """``sensors.estimator`` flies both loops alike: the one agent observes its estimator's
+    attitude, velocity and position bit for bit as the single-agent env does, which differ
+    from the sensed-only observation; with several agents each has its own estimator."""
+    estimated = {**SENSORS, "estimator": {"type": "complementary"}}
+    flights = {}
+    for sensors in (SENSORS, estimated):
+        alone_env = QuadXHoverEnv(sensors=sensors)
+        multi_env = ma_quadx_hover_v0.parallel_env(agents=1, sensors=sensors)
+        try:
+            alone = _observations(alone_env, STEPS, False)
+            together = _observations(multi_env, STEPS, True)
+        finally:
+            alone_env.close()
+            multi_env.close()
+        for a, m in zip(alone, together):
+            np.testing.assert_array_equal(m[:-3], a)
+        flights[sensors is estimated] = np.array(alone)
+    # attitude (quaternion) and velocity: estimated, not true
+    assert not np.array_equal(flights[True][1:, 3:10], flights[False][1:, 3:10])
+    env = ma_quadx_hover_v0.parallel_env(agents=3, sensors=estimated)
+    try:
+        env.reset(seed=0)
+        assert env.estimators is not None and len({id(e) for e in env.estimators}) == 3
+        assert all(v.sensors.estimator is e for v, e in zip(env.vehicles, env.estimators))
+    finally:
+        env.close()
+
+
 CAMERA = {"camera": {"name": "eye", "width": 16, "height": 12}}
 LIDAR = [{"name": "lidar", "type": "lidar", "horizontal_beams": 8, "vertical_beams": 3, "vertical_fov_deg": 120.0}]
 

@@ -81,7 +81,9 @@ def test_experiment_files_are_override_only_and_compose(experiment):
 def test_hparams_follow_the_chosen_env_and_algo():
     """conf/hparams/<env>_<algo>.yaml is picked from the final choices (incl. an experiment's)."""
     for path in (conf_dir() / "hparams").glob("*.yaml"):
-        env, algo = next((e, path.stem[len(e) + 1 :]) for e in ENVS if path.stem.startswith(e + "_"))
+        # the longest env name that prefixes the file (quadx_hover_sensors_ppo is not quadx_hover's)
+        env = max((e for e in ENVS if path.stem.startswith(e + "_") and path.stem[len(e) + 1 :] in ALGOS), key=len)
+        algo = path.stem[len(env) + 1 :]
         assert algo in ALGOS, path
         load_train_config([f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])])
 

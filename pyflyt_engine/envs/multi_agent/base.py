@@ -175,6 +175,11 @@ class MultiAgentUAVEnv(ParallelEnv):
         n_act = len(cfg.action.names)
         #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
         self._sensed = [v.sensors for v in self.vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+        #: per agent, its flight controller's state estimator its observation is built from
+        #: (``config.sensors.estimator``; None: none)
+        self.estimators = None
+        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
+            self.estimators = [suite.attach_estimator(cfg.sensors.estimator) for suite in self._sensed]  # type: ignore[union-attr]
         #: per agent, whether its position fix's validity flag follows its auxiliary state
         self._fix_flag = [
             self._sensed is not None and v.spec.sensors is not None and v.spec.sensors.position is not None
@@ -511,7 +516,10 @@ class MultiAgentUAVEnv(ParallelEnv):
         if self._sensed is not None:  # its own rates and position as its sensors read them
             suite = self._sensed[i]
             states = [*states]
-            states[i] = core.sensed_state(states[i], suite)
+            if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
+                states[i] = core.estimated_state(states[i], suite, self.estimators[i])
+            else:
+                states[i] = core.sensed_state(states[i], suite)
             if self._fix_flag[i]:
                 aux = [*aux, suite.position_valid]
         attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
