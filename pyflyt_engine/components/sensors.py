@@ -117,7 +117,8 @@ class SensorSuite:
         self.gyro = InertialTriad(imu.gyro) if imu is not None else None
         self.accel = InertialTriad(imu.accel) if imu is not None else None
         pos = spec.position
-        self._pos_sigma = tuple(float(v) for v in pos.noise_std) if pos is not None else None
+        #: the position sensor's noise [m] per axis (None without one; domain randomisation may scale it)
+        self.position_noise_std = tuple(float(v) for v in pos.noise_std) if pos is not None else None
         self._pos_rate = float(pos.rate_hz) if pos is not None else 0.0
         self._dropout = float(pos.dropout) if pos is not None else 0.0
         baro = spec.barometer
@@ -140,7 +141,7 @@ class SensorSuite:
         """Feed a :class:`ComplementaryEstimator` with the gains of ``spec`` (``k_p``, ``k_i``,
         ``alpha``, ``beta``) from now on; it needs the IMU and the position fix.  It starts
         at the pose and velocity of the last reset."""
-        if self.gyro is None or self._pos_sigma is None:
+        if self.gyro is None or self.position_noise_std is None:
             missing = "imu" if self.gyro is None else "position"
             raise ValueError(f"the estimator needs sensors.{missing}")
         self.estimator = ComplementaryEstimator(spec, self.gyro.rate_hz, self._pos_rate, self.gravity)
@@ -153,7 +154,7 @@ class SensorSuite:
         out: tuple[str, ...] = ()
         if self.gyro is not None:
             out += ("gyro", "accel")
-        if self._pos_sigma is not None:
+        if self.position_noise_std is not None:
             out += ("position", "position_valid")
         if self._baro is not None:
             out += ("altitude",)
@@ -217,7 +218,7 @@ class SensorSuite:
             if n:
                 body = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
                 self.accel.sample(body, n, rng)
-        sigma = self._pos_sigma
+        sigma = self.position_noise_std
         if sigma is not None:
             due = math.floor(time * self._pos_rate + 1e-9) + 1
             if due > self._pos_taken:
@@ -257,7 +258,7 @@ class SensorSuite:
         if self.gyro is not None and self.accel is not None:
             out += self.gyro.reading
             out += self.accel.reading
-        if self._pos_sigma is not None:
+        if self.position_noise_std is not None:
             out += self.position
             out.append(self.position_valid)
         if self._baro is not None:

@@ -15,6 +15,9 @@ Parameters (a fixed list; anything else is refused at load):
 * ``battery_capacity``, ``battery_resistance``: factors on the battery's capacity and
   internal resistance; ``battery_charge``: its state of charge at the reset, in (0, 1]
   (an airframe declaring a ``battery``);
+* ``gyro_noise``, ``accel_noise``: factors on the IMU's gyroscope and accelerometer white
+  noise densities and bias random walks; ``position_noise``: factor on the position
+  sensor's noise (an airframe, or env, declaring ``sensors.imu`` / ``sensors.position``);
 * ``gyro_scale``, ``accel_scale``: factors on the IMU's gyroscope and accelerometer scale
   factors (an airframe, or env, declaring ``sensors.imu``; their initial biases are drawn
   per episode by the sensors themselves, ``bias_initial_std``);
@@ -57,6 +60,9 @@ MODELS = {
     "battery_resistance": "battery",
     "gyro_scale": "sensors.imu",
     "accel_scale": "sensors.imu",
+    "gyro_noise": "sensors.imu",
+    "accel_noise": "sensors.imu",
+    "position_noise": "sensors.position",
 }
 #: values (not factors) of the optional models: name -> (what the airframe must declare, low, high)
 MODEL_VALUES = {"battery_charge": ("battery", 0.0, 1.0)}
@@ -190,6 +196,7 @@ class Randomizer:
             has = [
                 (v.battery is not None) if needs == "battery"
                 else (v.sensors is not None and v.sensors.gyro is not None) if needs == "sensors.imu"
+                else (v.sensors is not None and v.sensors.position_noise_std is not None) if needs == "sensors.position"
                 else (v.motors is not None and v.motors.rotor_drag is not None)
                 for v in world.vehicles
             ]
@@ -212,11 +219,18 @@ class Randomizer:
                 )
             )
         self.wind = world.wind_config.model_dump(mode="json")
-        #: per vehicle with an IMU, its nominal (gyro, accel) scale factors
+        #: per vehicle with an IMU, its gyro and accelerometer and their nominal (scale factor,
+        #: noise density, bias random walk)
         self._imu = [
-            (v.sensors, v.sensors.gyro.scale, v.sensors.accel.scale)
+            [(t, (t.scale, t.noise_density, t.bias_random_walk)) for t in (v.sensors.gyro, v.sensors.accel)]
             for v in world.vehicles
             if v.sensors is not None and v.sensors.gyro is not None and v.sensors.accel is not None
+        ]
+        #: per vehicle with a position sensor, its suite and nominal noise [m] per axis
+        self._position = [
+            (v.sensors, v.sensors.position_noise_std)
+            for v in world.vehicles
+            if v.sensors is not None and v.sensors.position_noise_std is not None
         ]
 
     def sample(self, rng: np.random.Generator) -> dict[str, float]:
@@ -265,10 +279,15 @@ class Randomizer:
                         initial_charge=values.get("battery_charge", battery.initial_charge),
                     )
                 )
-        if "gyro_scale" in values or "accel_scale" in values:
-            for suite, gyro, accel in self._imu:
-                suite.gyro.scale = gyro * values.get("gyro_scale", 1.0)
-                suite.accel.scale = accel * values.get("accel_scale", 1.0)
+        if any(f"{t}_{k}" in values for t in ("gyro", "accel") for k in ("scale", "noise")):
+            for triads in self._imu:
+                for (triad, (scale, density, walk)), kind in zip(triads, ("gyro", "accel")):
+                    noise = values.get(f"{kind}_noise", 1.0)
+                    triad.scale = scale * values.get(f"{kind}_scale", 1.0)
+                    triad.noise_density, triad.bias_random_walk = density * noise, walk * noise
+        if "position_noise" in values:
+            for suite, sigma in self._position:
+                suite.position_noise_std = tuple(s * values["position_noise"] for s in sigma)
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
         if winds:
             import copy

@@ -279,6 +279,40 @@ def test_gyro_scale_is_randomised():
         make(randomize={"gyro_scale": {"distribution": "uniform", "low": 0.8, "high": 1.2}})
 
 
+def _readings(factor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gyro, accelerometer and position readings of one seeded episode with every noise
+    scaled by ``factor`` through domain randomisation (fixed actions: the flight is the same)."""
+    fixed = {"distribution": "uniform", "low": factor, "high": factor}
+    names = ("gyro_noise", "accel_noise", "position_noise")
+    sensors = {**ALL, "position": {**ALL["position"], "dropout": 0.0}}
+    sensors["imu"] = {k: {**v, "bias_random_walk": 1e-3} for k, v in ALL["imu"].items()}
+    env = make(sensors=sensors, randomize={name: fixed for name in names})
+    _, info = env.reset(seed=5)
+    assert [info["randomization"][name] for name in names] == [factor] * 3
+    suite, rows = env.unwrapped.vehicle.sensors, []
+    for _ in range(30):
+        env.step(np.array([0.1, -0.1, 0.0, 0.5]))
+        rows.append((suite.gyro.reading, suite.accel.reading, suite.position))
+    env.close()
+    return tuple(np.array([r[k] for r in rows]) for k in range(3))  # type: ignore[return-value]
+
+
+def test_sensor_noise_is_randomised_as_a_factor_on_every_noise_term():
+    """A reading is scale x truth + bias + noise, with the noise terms (white noise, bias walk,
+    position noise) linear in the drawn factor: factors 1, 2, 3 give equally spaced readings."""
+    one, two, three = _readings(1.0), _readings(2.0), _readings(3.0)
+    for a, b, c in zip(one, two, three):
+        step = b - a
+        assert np.abs(step).max() > 0.0  # the noise is there and is scaled
+        np.testing.assert_allclose(c - b, step, rtol=0, atol=1e-9 * (1 + np.abs(c).max()))
+    with pytest.raises(PyFlytError, match="randomize.position_noise: the airframe has no 'sensors.position'"):
+        make(
+            uav=EXAMPLE,
+            sensors={"imu": ALL["imu"]},
+            randomize={"position_noise": {"distribution": "uniform", "low": 0.8, "high": 1.2}},
+        )
+
+
 def test_episodes_with_sensors_record_them_and_verify_exactly(tmp_path):
     env = RecordEpisode(make(uav=EXAMPLE, sensors={**ALL, "observe": True}, wind="dryden_light"), tmp_path)
     readings = []
