@@ -269,6 +269,8 @@ def _import_everything() -> None:
 
     for module in pkgutil.walk_packages(pyflyt_engine.__path__, "pyflyt_engine."):
         importlib.import_module(module.name)
+    # and what the engine imports only when it needs it (the Dryden process: scipy.signal)
+    import scipy.signal  # noqa: F401
 
 
 def _guard_numerics(monkeypatch: pytest.MonkeyPatch) -> None:
