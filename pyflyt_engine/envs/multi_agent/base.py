@@ -42,7 +42,6 @@ from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
 from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
-from pyflyt_engine.world import VehicleConfig, World
 
 
 __all__ = ["AgentSignals", "MultiAgentUAVEnv"]
@@ -125,74 +124,44 @@ class MultiAgentUAVEnv(ParallelEnv):
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)
-        # what each agent flies: the env's observation camera, range sensors and noisy
-        # sensors added, as for a single agent
-        flown: dict[str, UAVSpec] = {}
-        cameras: dict[str, int | None] = {}
-        for name, spec in specs.items():
-            cameras[name] = None
-            if cfg.camera_observation is not None:
-                spec, cameras[name] = core.with_observation_camera(spec, cfg.camera_observation)
-            if cfg.range_sensors:
-                spec = core.with_range_sensors(spec, cfg.range_sensors)
-            flown[name] = core.with_sensors(spec, cfg.sensors)
-        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
-        self._cameras = [cameras[a.uav] for a in self.agent_list]
-        self.world = World(
-            [
-                VehicleConfig(flown[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
-                for a in self.agent_list
-            ],
-            physics_hz=cfg.physics_hz,
-            control_hz=cfg.control_hz,
-            agent_hz=cfg.agent_hz,
+        # the World, each agent's payloads (each named ``<agent>-<payload>``), the obstacles,
+        # latency, sensors, estimators, range sensors and randomiser: as for a single agent
+        parts = core.build_episode(
+            cfg,
+            [specs[a.uav] for a in self.agent_list],
+            [(a.spawn.position, a.spawn.orientation) for a in self.agent_list],
             render=render_mode == "human",
-            drag=cfg.drag,
-            wind=cfg.wind,
-            ground_effect=cfg.ground_effect,
-            downwash=cfg.downwash,
+            agent_names=self.possible_agents,
+            payload_name=lambda i, payload: _payload_name(self.possible_agents[i], i, payload),
         )
+        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
+        self._cameras = parts.cameras
+        self.world = parts.world
         self.vehicles = self.world.vehicles
         #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
         #: around its vehicle; empty without payloads
-        self.agent_payloads: list[PayloadSet] = []
-        if cfg.payloads:
-            for i, (agent, vehicle) in enumerate(zip(self.agent_list, self.vehicles)):
-                renamed = [p.model_copy(update={"name": _payload_name(agent.name, i, p.name)}) for p in cfg.payloads]
-                self.agent_payloads.append(PayloadSet(self.world, vehicle, renamed))
+        self.agent_payloads: list[PayloadSet] = parts.payloads
         #: every agent's payloads as one (what the recorder reads; None without payloads)
         self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
         #: the config's obstacles (None without): fixed ones built here, layouts drawn at each
         #: reset clear of every agent's spawn point and the task's markers
-        self.obstacles: ObstacleField | None = None
-        if cfg.obstacles is not None:
-            self.obstacles = ObstacleField(self.world, cfg.obstacles)
+        self.obstacles: ObstacleField | None = parts.obstacles
         #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
         #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
-        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
-        for vehicle in self.vehicles:
-            vehicle.set_latency(*self.latency_steps)
+        self.latency_steps = parts.latency_steps
         n_act = len(cfg.action.names)
         #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
-        self._sensed = [v.sensors for v in self.vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+        self._sensed = parts.sensed
         #: per agent, its flight controller's state estimator its observation is built from
         #: (``config.sensors.estimator``; None: none)
-        self.estimators = None
-        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
-            self.estimators = [suite.attach_estimator(cfg.sensors.estimator) for suite in self._sensed]  # type: ignore[union-attr]
+        self.estimators = parts.estimators
         #: per agent, whether its position fix's validity flag follows its auxiliary state
-        self._fix_flag = [
-            self._sensed is not None and v.spec.sensors is not None and v.spec.sensors.position is not None
-            for v in self.vehicles
-        ]
+        self._fix_flag = parts.fix_flag
+        #: per agent, the range sensors observed (every one its airframe carries), in spec order
+        self._range_sensors = parts.range_sensors
+        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
+        self.randomizer: Randomizer | None = parts.randomizer
         aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
-        for agent, vehicle in zip(self.agent_list, self.vehicles):
-            if vehicle.setpoint.size != n_act:
-                self.world.close()
-                raise ConfigError(
-                    f"agent '{agent.name}': action has {n_act} entries ({', '.join(cfg.action.names)}) but flight mode "
-                    f"'{cfg.action.mode}' of '{vehicle.spec.name}' takes {vehicle.setpoint.size}"
-                )
         if len(aux) > 1:
             self.world.close()
             sizes = ", ".join(
@@ -223,8 +192,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         if cfg.camera_observation is not None:
             obs_space = core.with_image_space(obs_space, cfg.camera_observation)
-        #: per agent, the range sensors observed (every one its airframe carries), in spec order
-        self._range_sensors = [list(v.range_sensors) for v in self.vehicles]
         if any(self._range_sensors):
             layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
             if len(layouts) > 1:
@@ -247,12 +214,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
-        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
-        self.randomizer: Randomizer | None = (
-            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
-            if cfg.randomize
-            else None
-        )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
         self._markers = None
