@@ -10,6 +10,8 @@ flight-dome check, the reward context of a step and the divergence report exist 
 * :func:`build_episode` -- what an episode flies (:class:`EpisodeParts`): the World with
   one vehicle per agent, each agent's payloads, the obstacle field, the latency, the
   observed sensors and estimators, the range sensors and the randomiser;
+* :func:`reset_episode` -- the start of an episode: World reset, randomiser draw, each
+  vehicle's spawn, payloads, the task's start, obstacle layouts;
 * :func:`clip_action` -- one agent's action checked for size and clipped to its bounds;
 * :func:`attitude_size`, :func:`attitude_vector` -- the shared observation layout
   ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]``;
@@ -368,7 +370,8 @@ class EpisodeParts:
 
     Attributes:
         world: the :class:`~pyflyt_engine.world.World`, one vehicle per agent in agent order.
-        vehicles: ``world.vehicles``.
+        vehicles: the vehicles built for the agents (``world.vehicles`` as built; the episode
+            resets these, a vehicle added to the world later only by the world's own reset).
         cameras: per vehicle, the index of its observation camera (None without ``camera_observation``).
         payloads: per vehicle, its :class:`~pyflyt_engine.payloads.PayloadSet` (empty without payloads).
         obstacles: the config's :class:`~pyflyt_engine.obstacles.ObstacleField` (None without).
@@ -445,7 +448,7 @@ def build_episode(
         ground_effect=cfg.ground_effect,
         downwash=cfg.downwash,
     )
-    vehicles = world.vehicles
+    vehicles = list(world.vehicles)  # the episode's own (a caller may add more vehicles to the world)
     payloads: list[PayloadSet] = []
     if cfg.payloads:
         for i, vehicle in enumerate(vehicles):
@@ -494,6 +497,43 @@ def build_episode(
         range_sensors=[list(v.range_sensors) for v in vehicles],
         randomizer=randomizer,
     )
+
+
+def reset_episode(
+    parts: EpisodeParts,
+    seed: int | None,
+    rng: np.random.Generator,
+    spawn: Callable[[int], Any],
+    start_task: Callable[[list[KinematicState]], Any],
+) -> tuple[dict[str, float] | None, list[KinematicState]]:
+    """Start an episode of what :func:`build_episode` built, in one order for one agent or N.
+
+    The World is reset (restoring its first snapshot, reseeding its own streams with
+    ``seed``), the randomiser draws this episode's values from ``rng``, then, vehicle by
+    vehicle in agent order, ``spawn(i)`` gives its :class:`~pyflyt_engine.envs.tasks.base.Spawn`
+    (drawing from ``rng`` if it draws), the drawn spawn offsets move it and the vehicle is
+    put there; then every payload is placed, ``start_task(states)`` starts the task on the
+    vehicles' states and returns the points obstacles must keep clear of besides the
+    vehicles, and the obstacle layouts are drawn from ``rng``.
+
+    Returns:
+        the values drawn (None without randomisation) and the vehicles' states.
+    """
+    parts.world.reset(seed)
+    drawn = parts.randomizer.sample(rng) if parts.randomizer is not None else None
+    for i, vehicle in enumerate(parts.vehicles):
+        s = spawn(i)
+        position, orientation = s.position, s.orientation
+        if drawn is not None:
+            position, orientation = Randomizer.spawn(drawn, position, orientation)
+        vehicle.reset(position, orientation, lin_vel=s.lin_vel, ang_vel=s.ang_vel)
+    for payloads in parts.payloads:  # after every vehicle is placed
+        payloads.place()
+    states = [v.state for v in parts.vehicles]
+    keep_clear = start_task(states)
+    if parts.obstacles is not None:  # this episode's layouts, clear of every spawn point and the task's points
+        parts.obstacles.generate(rng, [*(state.lin_pos for state in states), *np.asarray(keep_clear).reshape(-1, 3)])
+    return drawn, states
 
 
 @runtime_checkable

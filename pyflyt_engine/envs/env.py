@@ -138,6 +138,8 @@ class UAVEnv(gymnasium.Env):
             render=render_mode == "human",
             setup=self._setup_task,
         )
+        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        self._parts = parts
         self.world = parts.world
         self.vehicle = self.world.vehicles[0]
         self._camera: int | None = parts.cameras[0]
@@ -187,6 +189,11 @@ class UAVEnv(gymnasium.Env):
 
             self._markers = Markers(self.world.client, *self.task.marker_style())
 
+    def _start_task(self, state: KinematicState, rng: np.random.Generator) -> Any:
+        """Start the task on the spawned vehicle; the goals obstacles must keep clear of."""
+        self.task.reset(state, rng)
+        return self.task.keep_clear()
+
     def _setup_task(self, world: World, payloads: list[PayloadSet]) -> None:
         """The task's scenery and payload checks, once the payloads and obstacles are built."""
         self.task.payloads = payloads[0] if payloads else None
@@ -204,21 +211,13 @@ class UAVEnv(gymnasium.Env):
         """
         self.task.set_episode_options(core.task_changes(options))
         super().reset(seed=seed)
-        self.world.reset(seed)
-        drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None
+        rng = self.np_random
+        drawn, (state,) = core.reset_episode(
+            self._parts, seed, rng, lambda _: self.task.spawn(rng), lambda states: self._start_task(states[0], rng)
+        )
         self.latency_steps = self.vehicle.latency  # this episode's, with randomised delays drawn
-        spawn = self.task.spawn(self.np_random)
-        position, orientation = spawn.position, spawn.orientation
         if drawn is not None:
             self.last_randomization = drawn
-            position, orientation = Randomizer.spawn(drawn, position, orientation)
-        self.vehicle.reset(position, orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
-        if self.payloads is not None:
-            self.payloads.place()
-        state = self.vehicle.state
-        self.task.reset(state, self.np_random)
-        if self.obstacles is not None:  # this episode's layouts, clear of the spawn point and the goals
-            self.obstacles.generate(self.np_random, [state.lin_pos, *np.asarray(self.task.keep_clear()).reshape(-1, 3)])
         self._action = np.zeros_like(self._low)
         self._steps = 0
         self._reward_terms = {}

@@ -37,6 +37,7 @@ from pyflyt_engine.envs.multi_agent.config import get_ma_task
 from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.envs.tasks.base import Spawn
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
@@ -136,6 +137,8 @@ class MultiAgentUAVEnv(ParallelEnv):
         )
         #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
         self._cameras = parts.cameras
+        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        self._parts = parts
         self.world = parts.world
         self.vehicles = self.world.vehicles
         #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
@@ -313,31 +316,12 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.task.set_episode_options(changes)
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
-        self.world.reset(seed)
-        rng = self.np_random
-        drawn = self.randomizer.sample(rng) if self.randomizer is not None else None
-        self.last_randomization = dict(drawn) if drawn is not None else {}
-        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
-        for agent, vehicle in zip(self.agent_list, self.vehicles):
-            s = agent.spawn
-            dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
-            da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
-            if drawn is not None:
-                position, orientation = Randomizer.spawn(drawn, position, orientation)
-            vehicle.reset(position, orientation, lin_vel=s.lin_vel)
-        for payloads in self.agent_payloads:  # after every vehicle is placed
-            payloads.place()
-        self.agents = list(self.possible_agents)
-        self._alive[:] = True
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self.possible_agents]
-        states = [v.state for v in self.vehicles]
-        self.task.reset(states)
-        if self.obstacles is not None:  # this episode's layouts, clear of every agent and the task's points
-            keep_out = [state.lin_pos for state in states]
-            self.obstacles.generate(rng, [*keep_out, *np.asarray(self.task.markers()).reshape(-1, 3)])
+        drawn, states = core.reset_episode(self._parts, seed, self.np_random, self._spawn, self._start_task)
+        self.last_randomization = dict(drawn) if drawn is not None else {}
+        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -490,6 +474,20 @@ class MultiAgentUAVEnv(ParallelEnv):
         return core.with_readings(
             observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
         )
+
+    def _spawn(self, i: int) -> Spawn:
+        """Agent ``i``'s spawn this episode: its region's centre and the noise drawn around it."""
+        s, rng = self.agent_list[i].spawn, self.np_random
+        dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
+        da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
+        return Spawn(np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist(), lin_vel=s.lin_vel)
+
+    def _start_task(self, states: list[KinematicState]) -> np.ndarray:
+        """Every agent alive, the task started on their states; its markers, which obstacles keep clear of."""
+        self.agents = list(self.possible_agents)
+        self._alive[:] = True
+        self.task.reset(states)
+        return self.task.markers()
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
