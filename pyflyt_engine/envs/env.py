@@ -1,9 +1,11 @@
 """The generic environment: one vehicle in a :class:`World`, a task, a reward preset.
 
-The loop lives here and nowhere else; the vehicle is the model (named state read-outs,
-a flight mode that takes the action as its setpoint), the task decides spawn, targets,
-extra observations and completion, and the reward is the weighted sum of the preset's
-named terms (see :mod:`pyflyt_engine.envs.rewards`).
+The step is sequenced here; what an episode flies and how it starts are built by the
+episode core shared with the multi-agent loop (:func:`~pyflyt_engine.envs.core.build_episode`,
+:func:`~pyflyt_engine.envs.core.reset_episode`), this env being its one-agent case.  The
+vehicle is the model (named state read-outs, a flight mode that takes the action as its
+setpoint), the task decides spawn, targets, extra observations and completion, and the
+reward is the weighted sum of the preset's named terms (see :mod:`pyflyt_engine.envs.rewards`).
 """
 
 from __future__ import annotations

@@ -1,10 +1,12 @@
 """The multi-agent loop: several vehicles in one World, one PettingZoo ``ParallelEnv``.
 
 :class:`MultiAgentUAVEnv` runs what every multi-agent task shares -- build the world from
-a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawn each agent in
-its region, apply each live agent's action, step the physics once for everybody, detect
-contacts and dome exits, evaluate the reward preset per agent, retire agents whose
-episode ended -- and asks its task object (a
+a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig` and spawn each agent in its
+region (both by the episode core shared with the single-agent env,
+:func:`~pyflyt_engine.envs.core.build_episode` and
+:func:`~pyflyt_engine.envs.core.reset_episode`), apply each live agent's action, step the
+physics once for everybody, detect contacts and dome exits, evaluate the reward preset per
+agent, retire agents whose episode ended -- and asks its task object (a
 :class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`: :mod:`.hover_task`,
 :mod:`.formation_task`, :mod:`.dogfight_task`) for everything the episode means: the
 observation entries beyond the shared attitude vector, the per-agent reward signals,
