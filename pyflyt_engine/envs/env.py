@@ -1,9 +1,11 @@
 """The generic environment: one vehicle in a :class:`World`, a task, a reward preset.
 
-The loop lives here and nowhere else; the vehicle is the model (named state read-outs,
-a flight mode that takes the action as its setpoint), the task decides spawn, targets,
-extra observations and completion, and the reward is the weighted sum of the preset's
-named terms (see :mod:`pyflyt_engine.envs.rewards`).
+The step is sequenced here; what an episode flies and how it starts are built by the
+episode core shared with the multi-agent loop (:func:`~pyflyt_engine.envs.core.build_episode`,
+:func:`~pyflyt_engine.envs.core.reset_episode`), this env being its one-agent case.  The
+vehicle is the model (named state read-outs, a flight mode that takes the action as its
+setpoint), the task decides spawn, targets, extra observations and completion, and the
+reward is the weighted sum of the preset's named terms (see :mod:`pyflyt_engine.envs.rewards`).
 """
 
 from __future__ import annotations
@@ -21,12 +23,11 @@ from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_prese
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks import Task, get_task
-from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
-from pyflyt_engine.world import VehicleConfig, World
+from pyflyt_engine.world import World
 
 
 class UAVEnv(gymnasium.Env):
@@ -132,74 +133,46 @@ class UAVEnv(gymnasium.Env):
         #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
-        flown = self.task.vehicle_spec(self.airframe)
-        self._camera: int | None = None
-        if cfg.camera_observation is not None:
-            flown, self._camera = core.with_observation_camera(flown, cfg.camera_observation)
-        if cfg.range_sensors:
-            flown = core.with_range_sensors(flown, cfg.range_sensors)
-        flown = core.with_sensors(flown, cfg.sensors)
-        self.world = World(
-            [
-                VehicleConfig(
-                    flown,
-                    cfg.task.start_position,
-                    cfg.task.start_orientation,
-                    mode=cfg.action.mode,
-                )
-            ],
-            physics_hz=cfg.physics_hz,
-            control_hz=cfg.control_hz,
-            agent_hz=cfg.agent_hz,
+        parts = core.build_episode(
+            cfg,
+            [self.task.vehicle_spec(self.airframe)],
+            [(cfg.task.start_position, cfg.task.start_orientation)],
             render=render_mode == "human",
-            drag=cfg.drag,
-            wind=cfg.wind,
-            ground_effect=cfg.ground_effect,
-            downwash=cfg.downwash,
+            setup=self._setup_task,
         )
+        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        self._parts = parts
+        self.world = parts.world
         self.vehicle = self.world.vehicles[0]
+        self._camera: int | None = parts.cameras[0]
         #: action and observation delays in physics steps (docs/engine.md, "Latency"); with
         #: ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
-        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
-        self.vehicle.set_latency(*self.latency_steps)
+        self.latency_steps = parts.latency_steps
         #: the config's payloads, built around the vehicle (None without payloads)
-        self.payloads: PayloadSet | None = None
-        if cfg.payloads:
-            self.payloads = PayloadSet(self.world, self.vehicle, list(cfg.payloads))
-        self.task.payloads = self.payloads
+        self.payloads: PayloadSet | None = parts.payloads[0] if parts.payloads else None
         #: the config's obstacles (None without): fixed ones built here, layouts drawn at each reset
-        self.obstacles: ObstacleField | None = None
-        if cfg.obstacles is not None:
-            self.obstacles = ObstacleField(self.world, cfg.obstacles)
-        self.task.setup(self.world)
-        if self.vehicle.setpoint.size != len(cfg.action.names):
-            self.world.close()
-            raise ConfigError(
-                f"action has {len(cfg.action.names)} entries ({', '.join(cfg.action.names)}) but flight mode "
-                f"'{cfg.action.mode}' of '{self.airframe.name}' takes {self.vehicle.setpoint.size} "
-                f"({', '.join(self.vehicle.setpoint_layout)}): give action.names, low and high in that layout"
-            )
+        self.obstacles: ObstacleField | None = parts.obstacles
+        #: the observation is built from the noisy sensors (``config.sensors.observe``)
+        self._sensed = parts.sensed[0] if parts.sensed is not None else None
+        #: the position fix's validity flag follows the auxiliary state in the observation
+        self._fix_flag = parts.fix_flag[0]
+        #: the flight controller's state estimator the observation is built from (None: none)
+        self.estimator = parts.estimators[0] if parts.estimators is not None else None
+        #: the range sensors observed (every one the flown airframe carries), in spec order
+        self._range_sensors = parts.range_sensors[0]
+        #: samples and applies ``config.randomize`` at each reset (None without)
+        self.randomizer: Randomizer | None = parts.randomizer
 
         self._low = np.array(cfg.action.low, dtype=np.float64)
         self._high = np.array(cfg.action.high, dtype=np.float64)
         self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self._quaternion = cfg.angle_representation == "quaternion"
-        #: the observation is built from the noisy sensors (``config.sensors.observe``)
-        self._sensed = self.vehicle.sensors if cfg.sensors is not None and cfg.sensors.observe else None
-        #: the position fix's validity flag follows the auxiliary state in the observation
-        self._fix_flag = self._sensed is not None and flown.sensors.position is not None  # type: ignore[union-attr]
-        #: the flight controller's state estimator the observation is built from (None: none)
-        self.estimator = None
-        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
-            self.estimator = self._sensed.attach_estimator(cfg.sensors.estimator)  # type: ignore[union-attr]
         aux_size = self.world.aux_state(0).size + int(self._fix_flag)
         size = core.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
             self.observation_space = core.with_image_space(self.observation_space, cfg.camera_observation)
-        #: the range sensors observed (every one the flown airframe carries), in spec order
-        self._range_sensors = list(self.vehicle.range_sensors)
         if self._range_sensors:
             self.observation_space = core.with_range_spaces(self.observation_space, self._range_sensors)
 
@@ -210,12 +183,6 @@ class UAVEnv(gymnasium.Env):
         #: put ``reward_terms`` into every step's info (see the class docstring)
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: dict[str, float] = {}
-        #: samples and applies ``config.randomize`` at each reset (None without)
-        self.randomizer: Randomizer | None = (
-            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
-            if cfg.randomize
-            else None
-        )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
         self._markers = None
@@ -223,6 +190,16 @@ class UAVEnv(gymnasium.Env):
             from pyflyt_engine.envs.render import Markers
 
             self._markers = Markers(self.world.client, *self.task.marker_style())
+
+    def _start_task(self, state: KinematicState, rng: np.random.Generator) -> Any:
+        """Start the task on the spawned vehicle; the goals obstacles must keep clear of."""
+        self.task.reset(state, rng)
+        return self.task.keep_clear()
+
+    def _setup_task(self, world: World, payloads: list[PayloadSet]) -> None:
+        """The task's scenery and payload checks, once the payloads and obstacles are built."""
+        self.task.payloads = payloads[0] if payloads else None
+        self.task.setup(world)
 
     # ----------------------------------------------------------------- gymnasium
 
@@ -236,21 +213,13 @@ class UAVEnv(gymnasium.Env):
         """
         self.task.set_episode_options(core.task_changes(options))
         super().reset(seed=seed)
-        self.world.reset(seed)
-        drawn = self.randomizer.sample(self.np_random) if self.randomizer is not None else None
+        rng = self.np_random
+        drawn, (state,) = core.reset_episode(
+            self._parts, seed, rng, lambda _: self.task.spawn(rng), lambda states: self._start_task(states[0], rng)
+        )
         self.latency_steps = self.vehicle.latency  # this episode's, with randomised delays drawn
-        spawn = self.task.spawn(self.np_random)
-        position, orientation = spawn.position, spawn.orientation
         if drawn is not None:
             self.last_randomization = drawn
-            position, orientation = Randomizer.spawn(drawn, position, orientation)
-        self.vehicle.reset(position, orientation, lin_vel=spawn.lin_vel, ang_vel=spawn.ang_vel)
-        if self.payloads is not None:
-            self.payloads.place()
-        state = self.vehicle.state
-        self.task.reset(state, self.np_random)
-        if self.obstacles is not None:  # this episode's layouts, clear of the spawn point and the goals
-            self.obstacles.generate(self.np_random, [state.lin_pos, *np.asarray(self.task.keep_clear()).reshape(-1, 3)])
         self._action = np.zeros_like(self._low)
         self._steps = 0
         self._reward_terms = {}

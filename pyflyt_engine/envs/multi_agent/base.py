@@ -1,10 +1,12 @@
 """The multi-agent loop: several vehicles in one World, one PettingZoo ``ParallelEnv``.
 
 :class:`MultiAgentUAVEnv` runs what every multi-agent task shares -- build the world from
-a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawn each agent in
-its region, apply each live agent's action, step the physics once for everybody, detect
-contacts and dome exits, evaluate the reward preset per agent, retire agents whose
-episode ended -- and asks its task object (a
+a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig` and spawn each agent in its
+region (both by the episode core shared with the single-agent env,
+:func:`~pyflyt_engine.envs.core.build_episode` and
+:func:`~pyflyt_engine.envs.core.reset_episode`), apply each live agent's action, step the
+physics once for everybody, detect contacts and dome exits, evaluate the reward preset per
+agent, retire agents whose episode ended -- and asks its task object (a
 :class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`: :mod:`.hover_task`,
 :mod:`.formation_task`, :mod:`.dogfight_task`) for everything the episode means: the
 observation entries beyond the shared attitude vector, the per-agent reward signals,
@@ -37,12 +39,12 @@ from pyflyt_engine.envs.multi_agent.config import get_ma_task
 from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.envs.tasks.base import Spawn
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
 from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
-from pyflyt_engine.world import VehicleConfig, World
 
 
 __all__ = ["AgentSignals", "MultiAgentUAVEnv"]
@@ -125,74 +127,46 @@ class MultiAgentUAVEnv(ParallelEnv):
         for agent in self.agent_list:
             if agent.uav not in specs:
                 specs[agent.uav] = load_uav_spec(agent.uav)
-        # what each agent flies: the env's observation camera, range sensors and noisy
-        # sensors added, as for a single agent
-        flown: dict[str, UAVSpec] = {}
-        cameras: dict[str, int | None] = {}
-        for name, spec in specs.items():
-            cameras[name] = None
-            if cfg.camera_observation is not None:
-                spec, cameras[name] = core.with_observation_camera(spec, cfg.camera_observation)
-            if cfg.range_sensors:
-                spec = core.with_range_sensors(spec, cfg.range_sensors)
-            flown[name] = core.with_sensors(spec, cfg.sensors)
-        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
-        self._cameras = [cameras[a.uav] for a in self.agent_list]
-        self.world = World(
-            [
-                VehicleConfig(flown[a.uav], a.spawn.position, a.spawn.orientation, mode=cfg.action.mode)
-                for a in self.agent_list
-            ],
-            physics_hz=cfg.physics_hz,
-            control_hz=cfg.control_hz,
-            agent_hz=cfg.agent_hz,
+        # the World, each agent's payloads (each named ``<agent>-<payload>``), the obstacles,
+        # latency, sensors, estimators, range sensors and randomiser: as for a single agent
+        parts = core.build_episode(
+            cfg,
+            [specs[a.uav] for a in self.agent_list],
+            [(a.spawn.position, a.spawn.orientation) for a in self.agent_list],
             render=render_mode == "human",
-            drag=cfg.drag,
-            wind=cfg.wind,
-            ground_effect=cfg.ground_effect,
-            downwash=cfg.downwash,
+            agent_names=self.possible_agents,
+            payload_name=lambda i, payload: _payload_name(self.possible_agents[i], i, payload),
         )
+        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
+        self._cameras = parts.cameras
+        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        self._parts = parts
+        self.world = parts.world
         self.vehicles = self.world.vehicles
         #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
         #: around its vehicle; empty without payloads
-        self.agent_payloads: list[PayloadSet] = []
-        if cfg.payloads:
-            for i, (agent, vehicle) in enumerate(zip(self.agent_list, self.vehicles)):
-                renamed = [p.model_copy(update={"name": _payload_name(agent.name, i, p.name)}) for p in cfg.payloads]
-                self.agent_payloads.append(PayloadSet(self.world, vehicle, renamed))
+        self.agent_payloads: list[PayloadSet] = parts.payloads
         #: every agent's payloads as one (what the recorder reads; None without payloads)
         self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
         #: the config's obstacles (None without): fixed ones built here, layouts drawn at each
         #: reset clear of every agent's spawn point and the task's markers
-        self.obstacles: ObstacleField | None = None
-        if cfg.obstacles is not None:
-            self.obstacles = ObstacleField(self.world, cfg.obstacles)
+        self.obstacles: ObstacleField | None = parts.obstacles
         #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
         #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
-        self.latency_steps = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
-        for vehicle in self.vehicles:
-            vehicle.set_latency(*self.latency_steps)
+        self.latency_steps = parts.latency_steps
         n_act = len(cfg.action.names)
         #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
-        self._sensed = [v.sensors for v in self.vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+        self._sensed = parts.sensed
         #: per agent, its flight controller's state estimator its observation is built from
         #: (``config.sensors.estimator``; None: none)
-        self.estimators = None
-        if self._sensed is not None and cfg.sensors.estimator.active:  # type: ignore[union-attr]
-            self.estimators = [suite.attach_estimator(cfg.sensors.estimator) for suite in self._sensed]  # type: ignore[union-attr]
+        self.estimators = parts.estimators
         #: per agent, whether its position fix's validity flag follows its auxiliary state
-        self._fix_flag = [
-            self._sensed is not None and v.spec.sensors is not None and v.spec.sensors.position is not None
-            for v in self.vehicles
-        ]
+        self._fix_flag = parts.fix_flag
+        #: per agent, the range sensors observed (every one its airframe carries), in spec order
+        self._range_sensors = parts.range_sensors
+        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
+        self.randomizer: Randomizer | None = parts.randomizer
         aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
-        for agent, vehicle in zip(self.agent_list, self.vehicles):
-            if vehicle.setpoint.size != n_act:
-                self.world.close()
-                raise ConfigError(
-                    f"agent '{agent.name}': action has {n_act} entries ({', '.join(cfg.action.names)}) but flight mode "
-                    f"'{cfg.action.mode}' of '{vehicle.spec.name}' takes {vehicle.setpoint.size}"
-                )
         if len(aux) > 1:
             self.world.close()
             sizes = ", ".join(
@@ -223,8 +197,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         if cfg.camera_observation is not None:
             obs_space = core.with_image_space(obs_space, cfg.camera_observation)
-        #: per agent, the range sensors observed (every one its airframe carries), in spec order
-        self._range_sensors = [list(v.range_sensors) for v in self.vehicles]
         if any(self._range_sensors):
             layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
             if len(layouts) > 1:
@@ -247,12 +219,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.info_reward_terms = bool(info_reward_terms)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
-        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
-        self.randomizer: Randomizer | None = (
-            Randomizer(cfg.randomize, self.world, self.latency_steps)  # type: ignore[arg-type]
-            if cfg.randomize
-            else None
-        )
         #: the values drawn at the last reset (empty without randomisation)
         self.last_randomization: dict[str, float] = {}
         self._markers = None
@@ -352,31 +318,12 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.task.set_episode_options(changes)
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
-        self.world.reset(seed)
-        rng = self.np_random
-        drawn = self.randomizer.sample(rng) if self.randomizer is not None else None
-        self.last_randomization = dict(drawn) if drawn is not None else {}
-        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
-        for agent, vehicle in zip(self.agent_list, self.vehicles):
-            s = agent.spawn
-            dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
-            da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
-            if drawn is not None:
-                position, orientation = Randomizer.spawn(drawn, position, orientation)
-            vehicle.reset(position, orientation, lin_vel=s.lin_vel)
-        for payloads in self.agent_payloads:  # after every vehicle is placed
-            payloads.place()
-        self.agents = list(self.possible_agents)
-        self._alive[:] = True
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self.possible_agents]
-        states = [v.state for v in self.vehicles]
-        self.task.reset(states)
-        if self.obstacles is not None:  # this episode's layouts, clear of every agent and the task's points
-            keep_out = [state.lin_pos for state in states]
-            self.obstacles.generate(rng, [*keep_out, *np.asarray(self.task.markers()).reshape(-1, 3)])
+        drawn, states = core.reset_episode(self._parts, seed, self.np_random, self._spawn, self._start_task)
+        self.last_randomization = dict(drawn) if drawn is not None else {}
+        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -529,6 +476,20 @@ class MultiAgentUAVEnv(ParallelEnv):
         return core.with_readings(
             observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
         )
+
+    def _spawn(self, i: int) -> Spawn:
+        """Agent ``i``'s spawn this episode: its region's centre and the noise drawn around it."""
+        s, rng = self.agent_list[i].spawn, self.np_random
+        dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
+        da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
+        return Spawn(np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist(), lin_vel=s.lin_vel)
+
+    def _start_task(self, states: list[KinematicState]) -> np.ndarray:
+        """Every agent alive, the task started on their states; its markers, which obstacles keep clear of."""
+        self.agents = list(self.possible_agents)
+        self._alive[:] = True
+        self.task.reset(states)
+        return self.task.markers()
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
