@@ -29,10 +29,12 @@ ALGOS = sorted(p.stem for p in (conf_dir() / "algo").glob("*.yaml"))
 EXPERIMENTS = sorted(p.stem for p in (conf_dir() / "experiment").glob("*.yaml"))
 #: every (env, algo) pair: in the default suite those with a per-pair tuning, every env with
 #: PPO and every algorithm on the hover task; the rest are marked long
-PAIRS = default_subset(
-    [(env, algo) for env in ENVS for algo in ALGOS],
-    lambda pair: pair[1] == "ppo" or pair[0] == "quadx_hover" or (conf_dir() / "hparams" / f"{pair[0]}_{pair[1]}.yaml").is_file(),
-)
+def _in_default_suite(pair: tuple[str, str]) -> bool:
+    env, algo = pair
+    return algo == "ppo" or env == "quadx_hover" or (conf_dir() / "hparams" / f"{env}_{algo}.yaml").is_file()
+
+
+PAIRS = default_subset([(env, algo) for env in ENVS for algo in ALGOS], _in_default_suite)
 
 
 def test_defaults_are_a_short_ppo_run_on_hover():

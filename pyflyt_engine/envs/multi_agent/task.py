@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pyflyt_engine.envs.tasks.base import termination
+from pyflyt_engine.envs.tasks.base import episode_options, termination
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
@@ -115,14 +115,7 @@ class MultiAgentTask:
         changes = dict(changes or {})
         if changes == self._episode_changes:
             return
-        unknown = sorted(set(changes) - self.episode_options)
-        if unknown:
-            allowed = ", ".join(sorted(self.episode_options)) or "none"
-            raise ValueError(
-                f"task '{self.name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {allowed})"
-            )
-        model = type(self.configured)
-        self.options = model.model_validate({**self.configured.model_dump(), **changes}) if changes else self.configured
+        self.options = episode_options(self.name, self.episode_options, type(self.configured), self.configured, changes)
         self._episode_changes = changes
 
     def extra_size(self) -> int:

@@ -94,6 +94,24 @@ class TaskSignals:
     extras: dict[str, float] = field(default_factory=dict)
 
 
+def episode_options(
+    name: str, allowed: frozenset[str], model: type[BaseModel], configured: BaseModel, changes: dict[str, Any]
+) -> Any:
+    """Task ``name``'s ``configured`` options with an episode's ``changes``, validated by
+    ``model`` (``configured`` itself without changes).
+
+    Raises:
+        ValueError: an option not in ``allowed``, or a value ``model`` rejects (the message names it).
+    """
+    unknown = sorted(set(changes) - allowed)
+    if unknown:
+        names = ", ".join(sorted(allowed)) or "none"
+        raise ValueError(
+            f"task '{name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {names})"
+        )
+    return model.model_validate({**configured.model_dump(), **changes}) if changes else configured
+
+
 def termination(
     collision: bool, out_of_bounds: bool, failed: bool, complete: bool, crash_on_contact: bool
 ) -> tuple[bool, bool]:
@@ -173,13 +191,7 @@ class Task:
         changes = dict(changes or {})
         if changes == self._episode_changes:
             return
-        unknown = sorted(set(changes) - self.episode_options)
-        if unknown:
-            allowed = ", ".join(sorted(self.episode_options)) or "none"
-            raise ValueError(
-                f"task '{self.name}' cannot change {', '.join(unknown)} per episode (options an episode may set: {allowed})"
-            )
-        options = self.Options.model_validate({**self.configured.model_dump(), **changes}) if changes else self.configured
+        options = episode_options(self.name, self.episode_options, self.Options, self.configured, changes)
         self.check_options(options)
         self.options = options
         self._episode_changes = changes
