@@ -20,17 +20,20 @@ from gymnasium import spaces
 
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_preset
-from pyflyt_engine.envs.randomization import Randomizer
+from pyflyt_engine.envs.episode import EpisodeCore, OneAgentTask
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks import Task, get_task
-from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
 
 
-class UAVEnv(gymnasium.Env):
+#: the live agents of every step: the one agent
+_ONE = [0]
+
+
+class UAVEnv(EpisodeCore, gymnasium.Env):
     """A single-vehicle UAV task as a Gymnasium environment, built from an env config.
 
     Prefer the registered ids (``gymnasium.make("PyFlyt/QuadX-Hover-v0")``), whose
@@ -123,7 +126,6 @@ class UAVEnv(gymnasium.Env):
         self.config: EnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
-        self._agent_dt = 1.0 / cfg.agent_hz
 
         # task and reward first: a bad config fails before PyBullet starts
         task_cls = get_task(cfg.task.name)
@@ -140,56 +142,38 @@ class UAVEnv(gymnasium.Env):
             render=render_mode == "human",
             setup=self._setup_task,
         )
-        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
-        self._parts = parts
-        self.world = parts.world
-        self.vehicle = self.world.vehicles[0]
-        self._camera: int | None = parts.cameras[0]
-        #: action and observation delays in physics steps (docs/engine.md, "Latency"); with
-        #: ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
-        self.latency_steps = parts.latency_steps
+        # the episode core (pyflyt_engine.envs.episode) runs the step; this env is its N = 1 case
+        self._init_core(
+            cfg, parts, OneAgentTask(self.task), self.reward_function, info_reward_terms=info_reward_terms
+        )
         #: the config's payloads, built around the vehicle (None without payloads)
         self.payloads: PayloadSet | None = parts.payloads[0] if parts.payloads else None
-        #: the config's obstacles (None without): fixed ones built here, layouts drawn at each reset
-        self.obstacles: ObstacleField | None = parts.obstacles
-        #: the observation is built from the noisy sensors (``config.sensors.observe``)
-        self._sensed = parts.sensed[0] if parts.sensed is not None else None
-        #: the position fix's validity flag follows the auxiliary state in the observation
-        self._fix_flag = parts.fix_flag[0]
         #: the flight controller's state estimator the observation is built from (None: none)
         self.estimator = parts.estimators[0] if parts.estimators is not None else None
-        #: the range sensors observed (every one the flown airframe carries), in spec order
-        self._range_sensors = parts.range_sensors[0]
-        #: samples and applies ``config.randomize`` at each reset (None without)
-        self.randomizer: Randomizer | None = parts.randomizer
 
-        self._low = np.array(cfg.action.low, dtype=np.float64)
-        self._high = np.array(cfg.action.high, dtype=np.float64)
         self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
-        self._quaternion = cfg.angle_representation == "quaternion"
-        aux_size = self.world.aux_state(0).size + int(self._fix_flag)
+        aux_size = self.world.aux_state(0).size + int(self._fix_flag[0])
         size = core.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
             self.observation_space = core.with_image_space(self.observation_space, cfg.camera_observation)
-        if self._range_sensors:
-            self.observation_space = core.with_range_spaces(self.observation_space, self._range_sensors)
-
-        self._dome2 = cfg.flight_dome_size**2
-        self._max_steps = cfg.max_steps
-        self._action = np.zeros_like(self._low)
-        self._steps = 0
-        #: put ``reward_terms`` into every step's info (see the class docstring)
-        self.info_reward_terms = bool(info_reward_terms)
-        self._reward_terms: dict[str, float] = {}
-        #: the values drawn at the last reset (empty without randomisation)
-        self.last_randomization: dict[str, float] = {}
+        if self._range_sensors[0]:
+            self.observation_space = core.with_range_spaces(self.observation_space, self._range_sensors[0])
         self._markers = None
         if render_mode is not None:
             from pyflyt_engine.envs.render import Markers
 
             self._markers = Markers(self.world.client, *self.task.marker_style())
+
+    @property
+    def vehicle(self) -> Any:
+        """The vehicle flown (:class:`~pyflyt_engine.vehicle.Vehicle`)."""
+        return self.vehicles[0]
+
+    @vehicle.setter
+    def vehicle(self, vehicle: Any) -> None:  # a front may wrap it (the compat envs' command meanings)
+        self.vehicles[0] = vehicle
 
     def _start_task(self, state: KinematicState, rng: np.random.Generator) -> Any:
         """Start the task on the spawned vehicle; the goals obstacles must keep clear of."""
@@ -214,88 +198,25 @@ class UAVEnv(gymnasium.Env):
         self.task.set_episode_options(core.task_changes(options))
         super().reset(seed=seed)
         rng = self.np_random
-        drawn, (state,) = core.reset_episode(
-            self._parts, seed, rng, lambda _: self.task.spawn(rng), lambda states: self._start_task(states[0], rng)
+        (state,) = self._reset_core(
+            seed, rng, lambda _: self.task.spawn(rng), lambda states: self._start_task(states[0], rng)
         )
-        self.latency_steps = self.vehicle.latency  # this episode's, with randomised delays drawn
-        if drawn is not None:
-            self.last_randomization = drawn
-        self._action = np.zeros_like(self._low)
-        self._steps = 0
-        self._reward_terms = {}
         if self._markers is not None:
             self._markers.show(self.task.markers())
-        info = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
-        if drawn is not None:
-            info["randomization"] = dict(drawn)
-        if self.payloads is not None:
-            info["payload_ground_contact"] = False
-        if self.obstacles is not None:
-            info["obstacle_contact"] = False
-            info["obstacles_parked"] = self.obstacles.parked
-        info.update(self.task.info())
-        observation = self._observe(state)
-        if not core.all_finite(0.0, observation):
-            self._diverged(observation, 0.0, state)
+        info = self._reset_info(0)
+        observation = self._observe(0, [state])
+        self._check(0, observation, 0.0, state)
         return observation, info
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one agent step (``physics_hz / agent_hz`` physics steps)."""
-        a = core.clip_action(action, self._low, self._high, self.config.action.names)
-        self.vehicle.set_setpoint(a)
-        self._action = a.copy()
-        self.world.step()
-
-        state = self.vehicle.state
-        world = self.world
-        collision = world.collided(0)
-        out_of_bounds = core.outside_dome(state, self._dome2)
-        signals = self.task.update(state)
-        crashed, terminated = self.task.termination(collision, out_of_bounds, signals)
-        payload_ground = self.payloads is not None and self.payloads.ground_failure()
-        if payload_ground:  # a payload the config says must not touch the ground did
-            crashed = terminated = True
-        obstacle_contact = self.obstacles is not None and self.obstacles.touched(0)
-        if obstacle_contact and self.config.obstacles.crash_on_contact:  # type: ignore[union-attr]
-            crashed = terminated = True
-        ctx = core.step_context(
-            world,
-            0,
-            state,
-            a,
-            collision,
-            out_of_bounds,
-            crashed,
-            signals,
-            signals.waypoint_reached,
-            max(self._max_steps - self._steps - 1, 0),
-            self._agent_dt,
-        )
-        reward, terms = self.reward_function(ctx)
-        self._reward_terms = terms
-        self._steps += 1
-
-        truncated = not terminated and self._steps >= self._max_steps
-        success = (signals.complete and not crashed) or (truncated and self.task.succeeds_at_time_limit)
-        if self._markers is not None and signals.waypoint_reached:
+        self._act(0, action)
+        states = self._advance()
+        ((reward, terminated, truncated, info),) = self._judge(_ONE, states)
+        if self._markers is not None:  # the task's targets as they are now (a reached one moves on)
             self._markers.show(self.task.markers())
-        info = {
-            "collision": collision,
-            "out_of_bounds": out_of_bounds,
-            "env_complete": signals.complete,
-            "success": success,
-        }
-        if self.payloads is not None:
-            info["payload_ground_contact"] = payload_ground
-        if self.obstacles is not None:
-            info["obstacle_contact"] = obstacle_contact
-            info["obstacles_parked"] = self.obstacles.parked
-        if self.info_reward_terms:
-            info["reward_terms"] = terms
-        info.update(self.task.info())
-        observation = self._observe(state)
-        if not core.all_finite(reward, observation):
-            self._diverged(observation, reward, state)
+        observation = self._observe(0, states)
+        self._check(0, observation, reward, states[0])
         return observation, reward, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
@@ -320,48 +241,17 @@ class UAVEnv(gymnasium.Env):
 
     # ------------------------------------------------------------------ helpers
 
-    def _observe(self, state: KinematicState) -> Any:
-        if self.latency_steps[1]:  # the agent sees the vehicle as it was observation_delay ago
-            state, aux = self.vehicle.delayed_observation()
-        else:
-            aux = self.vehicle.aux_values()
-        if self.estimator is not None:  # the estimator's attitude, velocity and position, the gyro's rates
-            state = core.estimated_state(state, self._sensed, self.estimator)
-            if self._fix_flag:
-                aux = [*aux, self._sensed.position_valid]  # type: ignore[union-attr]
-        elif self._sensed is not None:  # the sensors' readings in place of the true rates and position
-            state = core.sensed_state(state, self._sensed)
-            if self._fix_flag:
-                aux = [*aux, self._sensed.position_valid]
-        attitude = core.attitude_vector(state, self._quaternion, self._action.tolist(), aux)
-        observation = self.task.observe(attitude, state)
-        if not self._range_sensors and self._camera is None:
-            return observation
-        return core.with_readings(
-            observation, self.world, 0, self._range_sensors, self._camera, self.config.camera_observation
-        )
-
-    def _diverged(self, observation: Any, reward: float, state: KinematicState) -> None:
-        """Raise :class:`SimulationError` describing a non-finite observation or reward."""
-        where = self.config.id or self.config.source or "the environment"
-        raise core.divergence_error(where, self._steps, observation, reward, state, self.vehicle, self._action)
-
     @property
     def state(self) -> KinematicState:
         """The vehicle's current :class:`KinematicState`."""
         return self.vehicle.state
 
     @property
-    def elapsed_steps(self) -> int:
-        """Agent steps since the last reset."""
-        return self._steps
-
-    @property
     def last_reward_terms(self) -> dict[str, float]:
         """The reward breakdown of the last step: entry name -> weighted value, summing to
         the reward (empty after a reset), a copy; also ``info["reward_terms"]`` unless
         ``info_reward_terms=False``."""
-        return dict(self._reward_terms)
+        return dict(self._reward_terms[0])
 
     @property
     def action_names(self) -> list[str]:
@@ -376,4 +266,4 @@ class UAVEnv(gymnasium.Env):
     def last_action(self) -> np.ndarray:
         """The action the vehicle received at the last step, after clipping to the bounds
         (zeros after a reset), a copy: what a recording must re-apply to re-run the episode."""
-        return self._action.copy()
+        return self._actions[0].copy()

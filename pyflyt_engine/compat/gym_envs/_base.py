@@ -217,7 +217,7 @@ class ReferenceEnv:
         if self._markers is not None:  # type: ignore[attr-defined]
             self._markers.show(self.task.markers())  # type: ignore[attr-defined]
         info.update(self.task.info())  # type: ignore[attr-defined]
-        return self._observe(state), self._reference_info(info)  # type: ignore[attr-defined]
+        return self._observe(0, [state]), self._reference_info(info)  # type: ignore[attr-defined]
 
     def _after_spawn(self) -> None:
         """Change the spawned state before settling (the rocket's drop velocity)."""

@@ -35,13 +35,12 @@ from pettingzoo import ParallelEnv
 
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
+from pyflyt_engine.envs.episode import EpisodeCore
 from pyflyt_engine.envs.multi_agent.config import get_ma_task
 from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
-from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks.base import Spawn
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.obstacles import ObstacleField
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
 from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
 from pyflyt_engine.state import KinematicState
@@ -50,7 +49,7 @@ from pyflyt_engine.state import KinematicState
 __all__ = ["AgentSignals", "MultiAgentUAVEnv"]
 
 
-class MultiAgentUAVEnv(ParallelEnv):
+class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
     """The multi-agent loop (see the module docstring and each registered env's manual).
 
     Runs the task its class names (:attr:`task_class`) or, for this class itself, the one
@@ -112,7 +111,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
-        self._agent_dt = 1.0 / cfg.agent_hz
         self.agent_list: list[ResolvedAgent] = cfg.resolved_agents()
         self.possible_agents: list[str] = [a.name for a in self.agent_list]
         self.agents: list[str] = []
@@ -137,35 +135,32 @@ class MultiAgentUAVEnv(ParallelEnv):
             agent_names=self.possible_agents,
             payload_name=lambda i, payload: _payload_name(self.possible_agents[i], i, payload),
         )
-        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
-        self._cameras = parts.cameras
-        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
-        self._parts = parts
-        self.world = parts.world
-        self.vehicles = self.world.vehicles
         #: per agent, its copy of the config's payloads (each named ``<agent>-<payload>``), built
         #: around its vehicle; empty without payloads
         self.agent_payloads: list[PayloadSet] = parts.payloads
         #: every agent's payloads as one (what the recorder reads; None without payloads)
         self.payloads: PayloadSets | None = PayloadSets(self.agent_payloads) if self.agent_payloads else None
-        #: the config's obstacles (None without): fixed ones built here, layouts drawn at each
-        #: reset clear of every agent's spawn point and the task's markers
-        self.obstacles: ObstacleField | None = parts.obstacles
-        #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
-        #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
-        self.latency_steps = parts.latency_steps
-        n_act = len(cfg.action.names)
-        #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
-        self._sensed = parts.sensed
-        #: per agent, its flight controller's state estimator its observation is built from
-        #: (``config.sensors.estimator``; None: none)
-        self.estimators = parts.estimators
-        #: per agent, whether its position fix's validity flag follows its auxiliary state
-        self._fix_flag = parts.fix_flag
-        #: per agent, the range sensors observed (every one its airframe carries), in spec order
-        self._range_sensors = parts.range_sensors
-        #: samples ``config.randomize`` at each reset and applies it to every agent (None without)
-        self.randomizer: Randomizer | None = parts.randomizer
+        # the task, then the episode core (pyflyt_engine.envs.episode), which runs the step
+        n = len(self.possible_agents)
+        self._alive = np.zeros(n, dtype=bool)
+        #: the task object: observation entries, signals, termination, info, success
+        self.task: MultiAgentTask = task_cls(
+            cfg.task,
+            self.agent_list,
+            self._alive,
+            flight_dome_size=cfg.flight_dome_size,
+            agent_hz=cfg.agent_hz,
+            max_steps=cfg.max_steps,
+        )
+        self._init_core(
+            cfg,
+            parts,
+            self.task,
+            self.reward_function,
+            info_reward_terms=info_reward_terms,
+            agent_names=self.possible_agents,
+            alive=self._alive,
+        )
         aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
         if len(aux) > 1:
             self.world.close()
@@ -178,21 +173,7 @@ class MultiAgentUAVEnv(ParallelEnv):
                 "mix airframes of the same kind (e.g. quadrotors) and sensors (a position fix adds its validity flag)"
             )
         self._check_layout_spacing()
-        self._low = np.array(cfg.action.low, dtype=np.float64)
-        self._high = np.array(cfg.action.high, dtype=np.float64)
-        self._quaternion = cfg.angle_representation == "quaternion"
-        self.attitude_size = core.attitude_size(self._quaternion, n_act, aux.pop())
-        n = len(self.possible_agents)
-        self._alive = np.zeros(n, dtype=bool)
-        #: the task object: observation entries, signals, termination, info, success
-        self.task: MultiAgentTask = task_cls(
-            cfg.task,
-            self.agent_list,
-            self._alive,
-            flight_dome_size=cfg.flight_dome_size,
-            agent_hz=cfg.agent_hz,
-            max_steps=cfg.max_steps,
-        )
+        self.attitude_size = core.attitude_size(self._quaternion, len(cfg.action.names), aux.pop())
         size = self.attitude_size + self.task.extra_size()
         obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         if cfg.camera_observation is not None:
@@ -206,21 +187,12 @@ class MultiAgentUAVEnv(ParallelEnv):
                     "carry different ones; give the range sensors in the env config's range_sensors only"
                 )
             obs_space = core.with_range_spaces(obs_space, self._range_sensors[0])
-        self._readings = cfg.camera_observation is not None or any(self._range_sensors)
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
         self.action_spaces = {name: act_space for name in self.possible_agents}
 
-        self._actions = np.zeros((n, n_act))
-        self._dome2 = cfg.flight_dome_size**2
-        self._max_steps = cfg.max_steps
-        self._steps = 0
-        self.info_reward_terms = bool(info_reward_terms)
-        self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
         self.np_random, _ = seeding.np_random(None)
-        #: the values drawn at the last reset (empty without randomisation)
-        self.last_randomization: dict[str, float] = {}
         self._markers = None
         if render_mode is not None and len(self.markers()):
             from pyflyt_engine.envs.render import Markers
@@ -318,12 +290,7 @@ class MultiAgentUAVEnv(ParallelEnv):
         self.task.set_episode_options(changes)
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
-        self._actions[:] = 0.0
-        self._steps = 0
-        self._reward_terms = [{} for _ in self.possible_agents]
-        drawn, states = core.reset_episode(self._parts, seed, self.np_random, self._spawn, self._start_task)
-        self.last_randomization = dict(drawn) if drawn is not None else {}
-        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
+        states = self._reset_core(seed, self.np_random, self._spawn, self._start_task)
         if self._markers is not None:
             self._markers.show(self.markers())
         observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
@@ -337,7 +304,6 @@ class MultiAgentUAVEnv(ParallelEnv):
         live = [self.agent_index[name] for name in self.agents]
         if not live:
             raise RuntimeError("step() after the episode ended (no live agents): call reset()")
-        low, high = self._low, self._high
         self._actions[~self._alive] = 0.0  # retired agents receive nothing
         for i in live:
             name = self.possible_agents[i]
@@ -345,67 +311,18 @@ class MultiAgentUAVEnv(ParallelEnv):
                 raw = actions[name]
             except KeyError:
                 raise ValueError(f"no action for live agent '{name}' (live: {', '.join(self.agents)})") from None
-            a = core.clip_action(raw, low, high, self.config.action.names, agent=name)
-            self.vehicles[i].set_setpoint(a)
-            self._actions[i] = a
-        world = self.world
-        world.step()
-        self._steps += 1
-        states = [v.state for v in self.vehicles]
-        collisions = {i: world.collided(i) for i in live}
-        task = self.task
-        signals = task.update(states, live, collisions, self._steps)
+            self._act(i, raw)
+        states = self._advance()
+        results = self._judge(live, states)
 
         observations: dict[str, Any] = {}
         rewards: dict[str, float] = {}
         terminations: dict[str, bool] = {}
         truncations: dict[str, bool] = {}
         infos: dict[str, dict[str, Any]] = {}
-        time_up = self._steps >= self._max_steps
         ended = []
-        for i in live:
+        for i, (reward, terminated, truncated, info) in zip(live, results):
             name = self.possible_agents[i]
-            state = states[i]
-            sig = signals[i]
-            collision = collisions[i]
-            out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed, terminated = task.termination(collision, out_of_bounds, sig)
-            payload_ground = bool(self.agent_payloads) and self.agent_payloads[i].ground_failure()
-            if payload_ground:  # a payload the config says must not touch the ground did
-                crashed = terminated = True
-            obstacle_contact = self.obstacles is not None and self.obstacles.touched(i)
-            if obstacle_contact and self.config.obstacles.crash_on_contact:  # type: ignore[union-attr]
-                crashed = terminated = True
-            ctx = core.step_context(
-                world,
-                i,
-                state,
-                self._actions[i],
-                collision,
-                out_of_bounds,
-                crashed,
-                sig,
-                False,
-                max(self._max_steps - self._steps, 0),
-                self._agent_dt,
-            )
-            reward, terms = self.reward_function(ctx)
-            self._reward_terms[i] = terms
-            truncated = not terminated and time_up
-            info = {
-                "collision": collision,
-                "out_of_bounds": out_of_bounds,
-                "env_complete": sig.complete,
-                "success": (sig.complete and not crashed) or (truncated and task.succeeds_at_time_limit),
-                **sig.info,
-            }
-            if self.agent_payloads:
-                info["payload_ground_contact"] = payload_ground
-            if self.obstacles is not None:
-                info["obstacle_contact"] = obstacle_contact
-                info["obstacles_parked"] = self.obstacles.parked
-            if self.info_reward_terms:
-                info["reward_terms"] = terms
             rewards[name] = reward
             terminations[name] = terminated
             truncations[name] = truncated
@@ -415,11 +332,10 @@ class MultiAgentUAVEnv(ParallelEnv):
         for i in live:
             name = self.possible_agents[i]
             observations[name] = obs = self._observe(i, states)
-            if not core.all_finite(rewards[name], obs):
-                self._diverged(i, obs, rewards[name], states[i])
-        for i in ended:
+            self._check(i, obs, rewards[name], states[i])
+        for i in ended:  # PettingZoo's way: an agent whose episode ended leaves the episode
             self._alive[i] = False
-            world.set_armed(i, False)  # a retired vehicle cuts its actuators and falls
+            self.world.set_armed(i, False)  # a retired vehicle cuts its actuators and falls
         if ended:
             self.agents = [name for name in self.agents if self._alive[self.agent_index[name]]]
         if self._markers is not None:
@@ -455,28 +371,6 @@ class MultiAgentUAVEnv(ParallelEnv):
 
     # ------------------------------------------------------------- helpers
 
-    def _observe(self, i: int, states: list[KinematicState]) -> Any:
-        aux = self.vehicles[i].aux_state.tolist()
-        if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
-            delayed = [v.delayed_observation() for v in self.vehicles]
-            states, aux = [state for state, _ in delayed], delayed[i][1]
-        if self._sensed is not None:  # its own rates and position as its sensors read them
-            suite = self._sensed[i]
-            states = [*states]
-            if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
-                states[i] = core.estimated_state(states[i], suite, self.estimators[i])
-            else:
-                states[i] = core.sensed_state(states[i], suite)
-            if self._fix_flag[i]:
-                aux = [*aux, suite.position_valid]
-        attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        observation = np.concatenate((attitude, self.task.observe(i, states)))
-        if not self._readings:
-            return observation
-        return core.with_readings(
-            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
-        )
-
     def _spawn(self, i: int) -> Spawn:
         """Agent ``i``'s spawn this episode: its region's centre and the noise drawn around it."""
         s, rng = self.agent_list[i].spawn, self.np_random
@@ -487,36 +381,12 @@ class MultiAgentUAVEnv(ParallelEnv):
     def _start_task(self, states: list[KinematicState]) -> np.ndarray:
         """Every agent alive, the task started on their states; its markers, which obstacles keep clear of."""
         self.agents = list(self.possible_agents)
-        self._alive[:] = True
         self.task.reset(states)
         return self.task.markers()
-
-    def _reset_info(self, i: int) -> dict[str, Any]:
-        info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
-        if self.randomizer is not None:
-            info["randomization"] = dict(self.last_randomization)
-        if self.agent_payloads:
-            info["payload_ground_contact"] = False
-        if self.obstacles is not None:
-            info["obstacle_contact"] = False
-            info["obstacles_parked"] = self.obstacles.parked
-        info.update(self.task.reset_info(i))
-        return info
-
-    def _diverged(self, i: int, obs: Any, reward: float, state: KinematicState) -> None:
-        where = self.config.id or self.config.source or "the environment"
-        raise core.divergence_error(
-            where, self._steps, obs, reward, state, self.vehicles[i], self._actions[i], agent=self.possible_agents[i]
-        )
 
     def episode_success(self, successes: np.ndarray) -> bool:
         """Whether an episode whose agents' own outcomes were ``successes`` (N,) succeeded (the task decides)."""
         return self.task.episode_success(successes)
-
-    @property
-    def elapsed_steps(self) -> int:
-        """Agent steps since the last reset."""
-        return self._steps
 
     @property
     def alive(self) -> np.ndarray:

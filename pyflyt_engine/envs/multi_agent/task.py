@@ -4,8 +4,9 @@ A multi-agent task is an object, as a single-agent :class:`~pyflyt_engine.envs.t
 is: it owns the episode's meaning for every agent -- the observation entries beyond the
 shared attitude vector, the reward signals (:attr:`MultiAgentTask.provides`, checked
 against the reward preset; its own reward terms are registered by its module), the info
-entries, termination and success -- and never talks to PyBullet.  The loop
-(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) builds the world, spawns
+entries, termination and success -- and never talks to PyBullet.  The episode core
+(:class:`~pyflyt_engine.envs.episode.EpisodeCore`, through the PettingZoo front
+:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) builds the world, spawns
 the agents, steps the physics, reads contacts and the dome and evaluates the reward
 preset; the env classes of the registered ids only name their task and config.
 
@@ -19,7 +20,11 @@ agents (names, teams, spawns, hover points) and ``alive``, the loop's live-agent
     then per agent step (``live``: the agents that acted):
     update(states, live, collisions, step)  # -> {i: AgentSignals}
     termination(collision, out_of_bounds, signals) -> (crashed, terminated), per live agent
+    step_info(i, signals)                   # its entries of the agent's info
     observe(i, states)
+
+This is the episode core's per-agent protocol (:class:`~pyflyt_engine.envs.episode.AgentTasks`),
+which a single-agent task meets through :class:`~pyflyt_engine.envs.episode.OneAgentTask`.
 
 This module imports no PettingZoo, so configs and reward presets are checked without it.
 """
@@ -45,6 +50,8 @@ class AgentSignals:
 
     target_distance: float | None = None
     target_distance_rate: float | None = None
+    #: the agent passed a waypoint of its own this step (the reward context's ``waypoint_reached``)
+    waypoint_reached: bool = False
     #: the agent's job is done: terminate it with success
     complete: bool = False
     #: the task declares the agent lost (e.g. shot down): terminate it as a crash
@@ -139,6 +146,15 @@ class MultiAgentTask:
     def observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         """Agent ``i``'s entries after its attitude vector (:meth:`extra_size` of them)."""
         return np.zeros(0)
+
+    def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
+        """Agent ``i``'s whole observation: its attitude vector, then :meth:`observe`'s entries
+        (what the episode core asks, :class:`~pyflyt_engine.envs.episode.AgentTasks`)."""
+        return np.concatenate((attitude, self.observe(i, states)))
+
+    def step_info(self, i: int, signals: AgentSignals) -> dict[str, Any]:
+        """Agent ``i``'s task entries of a step's info: its signals' ``info``."""
+        return signals.info
 
     def reset_info(self, i: int) -> dict[str, Any]:
         """Agent ``i``'s task entries of the reset info."""

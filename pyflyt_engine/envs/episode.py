@@ -1,0 +1,330 @@
+"""The episode core: the one loop every env runs, for one agent or N.
+
+An env's *front* -- the Gymnasium :class:`~pyflyt_engine.envs.env.UAVEnv` (one agent) or
+the PettingZoo :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv` (N agents)
+-- builds the episode (:func:`~pyflyt_engine.envs.core.build_episode`), starts it
+(:func:`~pyflyt_engine.envs.core.reset_episode`) and speaks its API; everything between
+an action and the next observation is here, once::
+
+    act(i, action)            each acting agent: clip to the bounds, set the flight mode's setpoint
+    advance()                 step the physics once for everybody; count the agent step
+    judge(live, states)       per acting agent, in agent order: contacts, the dome, the task's
+                              signals and termination, payload and obstacle failures, the
+                              reward preset, the time limit, success, the info
+    observe(i, states)        per acting agent: latency, sensors or estimator, the attitude
+                              vector, the task's observation, camera image and range scans
+    check(...)                never NaN: a non-finite observation or reward raises
+
+The task is asked through one per-agent protocol, :class:`AgentTasks`: a multi-agent
+task (:class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`) implements it for
+its N agents, and a single-agent :class:`~pyflyt_engine.envs.tasks.base.Task` is seen
+through it by :class:`OneAgentTask`, the N = 1 case.  What stays with the fronts is what
+their APIs differ in: Gymnasium returns one agent's tuple and lets the caller reset;
+PettingZoo returns dicts of the live agents and retires an agent whose episode ended
+(its vehicle is disarmed and falls).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from pyflyt_engine.envs import core
+from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.envs.tasks.base import Task
+from pyflyt_engine.state import KinematicState
+
+
+class AgentTasks(Protocol):
+    """What the episode core asks of the task, agent by agent.
+
+    ``signals`` are the task's per-agent step quantities: ``target_distance``,
+    ``target_distance_rate``, ``waypoint_reached``, ``complete``, ``failed``, ``extras``
+    (the reward context reads them).
+    """
+
+    #: an agent alive at the time limit succeeded (survival tasks)
+    succeeds_at_time_limit: bool
+
+    def update(
+        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
+    ) -> dict[int, Any]:
+        """Advance one agent step (``step`` agent steps since the reset, this one included);
+        the signals of every agent in ``live``."""
+        ...
+
+    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
+        """``(crashed, terminated)`` of one agent's step."""
+        ...
+
+    def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
+        """Agent ``i``'s observation built on its attitude vector."""
+        ...
+
+    def step_info(self, i: int, signals: Any) -> dict[str, Any]:
+        """Agent ``i``'s task entries of a step's info."""
+        ...
+
+    def reset_info(self, i: int) -> dict[str, Any]:
+        """Agent ``i``'s task entries of the reset info."""
+        ...
+
+
+class OneAgentTask:
+    """A single-agent :class:`~pyflyt_engine.envs.tasks.base.Task` as the core's per-agent
+    protocol (:class:`AgentTasks`) with one agent, index 0."""
+
+    __slots__ = ("task",)
+
+    def __init__(self, task: Task) -> None:
+        self.task = task
+
+    @property
+    def succeeds_at_time_limit(self) -> bool:
+        return self.task.succeeds_at_time_limit
+
+    def update(
+        self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
+    ) -> dict[int, Any]:
+        return {0: self.task.update(states[0])}
+
+    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
+        return self.task.termination(collision, out_of_bounds, signals)
+
+    def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
+        return self.task.observe(attitude, states[0])
+
+    def step_info(self, i: int, signals: Any) -> dict[str, Any]:
+        return self.task.info()
+
+    def reset_info(self, i: int) -> dict[str, Any]:
+        return self.task.info()
+
+
+class EpisodeCore:
+    """The loop both fronts inherit (see the module docstring); a front calls
+    :meth:`_init_core` once its episode is built, :meth:`_reset_core` at each reset and
+    :meth:`_act`, :meth:`_advance`, :meth:`_judge`, :meth:`_observe` at each step.
+
+    Attributes the fronts and recorders share (per agent ``i`` in agent order):
+    ``world``, ``vehicles``, ``task``, ``reward_function``, ``randomizer``,
+    ``payloads``/``obstacles`` and ``last_randomization``; the core's own state is
+    ``_actions`` (N, A), ``_steps``, ``_reward_terms`` and ``_alive``.
+    """
+
+    config: Any
+    world: Any
+    vehicles: list[Any]
+    reward_function: RewardFunction
+    #: the agent names errors give (None: one agent, the single-agent wording)
+    _agent_names: Sequence[str] | None = None
+
+    def _init_core(
+        self,
+        cfg: Any,
+        parts: core.EpisodeParts,
+        tasks: AgentTasks,
+        reward_function: RewardFunction,
+        *,
+        info_reward_terms: bool,
+        agent_names: Sequence[str] | None = None,
+        alive: np.ndarray | None = None,
+    ) -> None:
+        """Take over what :func:`~pyflyt_engine.envs.core.build_episode` built; ``alive``: the
+        (N,) live flags to keep up to date (a multi-agent task reads them), else new ones."""
+        self.config = cfg
+        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        self._parts = parts
+        self.world = parts.world
+        #: the agents' vehicles, in agent order (a front may wrap them: the core drives these)
+        self.vehicles = list(parts.vehicles)
+        self._tasks = tasks
+        self.reward_function = reward_function
+        self._agent_names = agent_names
+        self._agent_dt = 1.0 / cfg.agent_hz
+        self._low = np.array(cfg.action.low, dtype=np.float64)
+        self._high = np.array(cfg.action.high, dtype=np.float64)
+        self._quaternion = cfg.angle_representation == "quaternion"
+        self._dome2 = cfg.flight_dome_size**2
+        self._max_steps = cfg.max_steps
+        n = len(self.vehicles)
+        self._actions = np.zeros((n, self._low.size))
+        self._steps = 0
+        self._alive = alive if alive is not None else np.zeros(n, dtype=bool)
+        self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
+        #: put each agent's reward breakdown into its step info as ``reward_terms``
+        self.info_reward_terms = bool(info_reward_terms)
+        #: the values drawn at the last reset (empty without randomisation)
+        self.last_randomization: dict[str, float] = {}
+        #: action and observation delays in physics steps, every vehicle (docs/engine.md, "Latency");
+        #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
+        self.latency_steps = parts.latency_steps
+        #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
+        self._cameras = parts.cameras
+        #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
+        self._sensed = parts.sensed
+        #: per agent, its flight controller's state estimator its observation is built from (None: none)
+        self.estimators = parts.estimators
+        #: per agent, whether its position fix's validity flag follows its auxiliary state
+        self._fix_flag = parts.fix_flag
+        #: per agent, the range sensors observed (every one its airframe carries), in spec order
+        self._range_sensors = parts.range_sensors
+        self._readings = cfg.camera_observation is not None or any(parts.range_sensors)
+        #: per agent, its copy of the config's payloads; empty without payloads
+        self._agent_payloads = parts.payloads
+        #: the config's obstacles (None without): fixed ones built with the world, layouts drawn at each reset
+        self.obstacles = parts.obstacles
+        #: samples and applies ``config.randomize`` at each reset (None without)
+        self.randomizer = parts.randomizer
+
+    # ------------------------------------------------------------------ reset
+
+    def _reset_core(
+        self, seed: int | None, rng: np.random.Generator, spawn: Any, start_task: Any
+    ) -> list[KinematicState]:
+        """Start an episode (:func:`~pyflyt_engine.envs.core.reset_episode`): every agent
+        alive, no action yet, step 0; the vehicles' states."""
+        self._actions[:] = 0.0
+        self._steps = 0
+        self._reward_terms = [{} for _ in self._reward_terms]
+        self._alive[:] = True
+        drawn, states = core.reset_episode(self._parts, seed, rng, spawn, start_task)
+        self.last_randomization = dict(drawn) if drawn is not None else {}
+        self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
+        return states
+
+    def _reset_info(self, i: int) -> dict[str, Any]:
+        """Agent ``i``'s info at a reset."""
+        info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
+        if self.randomizer is not None:
+            info["randomization"] = dict(self.last_randomization)
+        if self._agent_payloads:
+            info["payload_ground_contact"] = False
+        if self.obstacles is not None:
+            info["obstacle_contact"] = False
+            info["obstacles_parked"] = self.obstacles.parked
+        info.update(self._tasks.reset_info(i))
+        return info
+
+    # ------------------------------------------------------------------- step
+
+    def _act(self, i: int, action: Any) -> None:
+        """Agent ``i``'s action, clipped to the bounds, as its flight mode's setpoint."""
+        agent = self._agent_names[i] if self._agent_names is not None else None
+        a = core.clip_action(action, self._low, self._high, self.config.action.names, agent=agent)
+        self.vehicles[i].set_setpoint(a)
+        self._actions[i] = a
+
+    def _advance(self) -> list[KinematicState]:
+        """One agent step of the physics for every vehicle; their states after it."""
+        self.world.step()
+        self._steps += 1
+        return [v.state for v in self.vehicles]
+
+    def _judge(self, live: list[int], states: list[KinematicState]) -> list[tuple[float, bool, bool, dict[str, Any]]]:
+        """``(reward, terminated, truncated, info)`` of each agent in ``live`` (in that order)
+        after :meth:`_advance`.
+
+        Episode end: *terminated* on a crash -- a contact (unless the task's
+        ``crash_on_contact`` is False), leaving the dome, a failure the task declares, a
+        payload failing on the ground, touching an obstacle (``obstacles.crash_on_contact``)
+        -- or when the task completes; *truncated* at the time limit.
+        """
+        world = self.world
+        tasks = self._tasks
+        collisions = {i: world.collided(i) for i in live}
+        signals = tasks.update(states, live, collisions, self._steps)
+        remaining = max(self._max_steps - self._steps, 0)
+        time_up = self._steps >= self._max_steps
+        obstacles = self.obstacles
+        results = []
+        for i in live:
+            state = states[i]
+            sig = signals[i]
+            collision = collisions[i]
+            out_of_bounds = core.outside_dome(state, self._dome2)
+            crashed, terminated = tasks.termination(collision, out_of_bounds, sig)
+            payload_ground = bool(self._agent_payloads) and self._agent_payloads[i].ground_failure()
+            if payload_ground:  # a payload the config says must not touch the ground did
+                crashed = terminated = True
+            obstacle_contact = obstacles is not None and obstacles.touched(i)
+            if obstacle_contact and self.config.obstacles.crash_on_contact:
+                crashed = terminated = True
+            ctx = core.step_context(
+                world,
+                i,
+                state,
+                self._actions[i],
+                collision,
+                out_of_bounds,
+                crashed,
+                sig,
+                sig.waypoint_reached,
+                remaining,
+                self._agent_dt,
+            )
+            reward, terms = self.reward_function(ctx)
+            self._reward_terms[i] = terms
+            truncated = not terminated and time_up
+            info = {
+                "collision": collision,
+                "out_of_bounds": out_of_bounds,
+                "env_complete": sig.complete,
+                "success": (sig.complete and not crashed) or (truncated and tasks.succeeds_at_time_limit),
+                **tasks.step_info(i, sig),
+            }
+            if self._agent_payloads:
+                info["payload_ground_contact"] = payload_ground
+            if obstacles is not None:
+                info["obstacle_contact"] = obstacle_contact
+                info["obstacles_parked"] = obstacles.parked
+            if self.info_reward_terms:
+                info["reward_terms"] = terms
+            results.append((reward, terminated, truncated, info))
+        return results
+
+    def _observe(self, i: int, states: list[KinematicState]) -> Any:
+        """Agent ``i``'s observation of ``states`` (every agent's, in agent order)."""
+        vehicle = self.vehicles[i]
+        if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
+            delayed = [v.delayed_observation() for v in self.vehicles]
+            states, aux = [state for state, _ in delayed], delayed[i][1]
+        else:
+            aux = vehicle.aux_values()
+        if self._sensed is not None:  # its own rates and position as its sensors read them
+            suite = self._sensed[i]
+            states = [*states]
+            if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
+                states[i] = core.estimated_state(states[i], suite, self.estimators[i])
+            else:
+                states[i] = core.sensed_state(states[i], suite)
+            if self._fix_flag[i]:
+                aux = [*aux, suite.position_valid]
+        attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
+        observation = self._tasks.observation(i, attitude, states)
+        if not self._readings:
+            return observation
+        return core.with_readings(
+            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
+        )
+
+    def _check(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
+        """Never NaN: raise :class:`~pyflyt_engine.errors.SimulationError` if agent ``i``'s
+        observation or reward is not finite."""
+        if not core.all_finite(reward, observation):
+            self._diverged(i, observation, reward, state)
+
+    def _diverged(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
+        """Raise :class:`SimulationError` describing a non-finite observation or reward."""
+        where = self.config.id or self.config.source or "the environment"
+        agent = self._agent_names[i] if self._agent_names is not None else None
+        raise core.divergence_error(
+            where, self._steps, observation, reward, state, self.vehicles[i], self._actions[i], agent=agent
+        )
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Agent steps since the last reset."""
+        return self._steps
