@@ -1,11 +1,14 @@
 """The generic environment: one vehicle in a :class:`World`, a task, a reward preset.
 
-The step is sequenced here; what an episode flies and how it starts are built by the
-episode core shared with the multi-agent loop (:func:`~pyflyt_engine.envs.core.build_episode`,
-:func:`~pyflyt_engine.envs.core.reset_episode`), this env being its one-agent case.  The
-vehicle is the model (named state read-outs, a flight mode that takes the action as its
-setpoint), the task decides spawn, targets, extra observations and completion, and the
-reward is the weighted sum of the preset's named terms (see :mod:`pyflyt_engine.envs.rewards`).
+:class:`UAVEnv` is the one-agent front of the episode core
+(:class:`~pyflyt_engine.envs.episode.EpisodeCore`), the loop every env runs: what an
+episode flies and how it starts (:func:`~pyflyt_engine.envs.core.build_episode`,
+:func:`~pyflyt_engine.envs.core.reset_episode`) and each step (act, advance, judge,
+observe) are the core's, the same code as for N agents; this front speaks Gymnasium.
+The vehicle is the model (named state read-outs, a flight mode that takes the action as
+its setpoint), the task decides spawn, targets, extra observations and completion, and
+the reward is the weighted sum of the preset's named terms (see
+:mod:`pyflyt_engine.envs.rewards`).
 """
 
 from __future__ import annotations

@@ -60,3 +60,65 @@ def test_build_refuses_an_action_the_flight_mode_does_not_take_naming_the_agent(
                            agent_names=["uav_0", "uav_1"])  # fmt: skip
     with pytest.raises(ConfigError, match="action has 2 entries .* give action.names"):
         core.build_episode(cfg, [spec], [((0, 0, 1), (0, 0, 0))], render=False)
+
+
+# ------------------------------------------------------------ the one step loop
+
+
+def test_both_fronts_run_the_one_episode_core():
+    """The Gymnasium env and the PettingZoo env inherit the one step loop; the single-agent
+    task is asked through the per-agent protocol as agent 0."""
+    from pyflyt_engine.envs.env import UAVEnv
+    from pyflyt_engine.envs.episode import EpisodeCore, OneAgentTask
+    from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+
+    assert issubclass(UAVEnv, EpisodeCore) and issubclass(MultiAgentUAVEnv, EpisodeCore)
+    for front in (UAVEnv, MultiAgentUAVEnv):  # the step's pieces are the core's, not redefined by a front
+        for piece in ("_act", "_advance", "_judge", "_observe", "_check", "_reset_core", "_reset_info"):
+            assert getattr(front, piece) is getattr(EpisodeCore, piece), (front.__name__, piece)
+    env = UAVEnv("quadx_hover")
+    try:
+        assert isinstance(env._tasks, OneAgentTask) and env._tasks.task is env.task
+        env.reset(seed=3)
+        env.step(np.array([0.0, 0.0, 0.0, 0.5]))
+        assert env.elapsed_steps == 1 and env.vehicles == [env.vehicle]
+    finally:
+        env.close()
+
+
+def test_a_multi_agent_task_reaching_a_waypoint_is_paid_as_in_a_single_agent_task(tmp_path):
+    """One reward context for every front: a multi-agent task's ``waypoint_reached`` signal
+    reaches the preset's ``waypoint_reached`` condition for that agent only, at that step."""
+    from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
+    from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
+
+    class CheckpointTask(MAHoverTask):
+        provides = MAHoverTask.provides | {"waypoints"}
+
+        def update(self, states, live, collisions, step):
+            signals = super().update(states, live, collisions, step)
+            if step == 2 and 1 in signals:
+                signals[1].waypoint_reached = True
+            return signals
+
+    class CheckpointEnv(MAQuadXHoverEnv):
+        task_class = CheckpointTask
+
+    preset = tmp_path / "checkpoint.yaml"
+    preset.write_text(
+        "description: a bonus per waypoint\n"
+        "terms:\n"
+        "  bonus: {term: constant, weight: 50.0, when: waypoint_reached}\n"
+        "  alive: {term: constant, weight: 1.0, when: not_crash}\n"
+    )
+    env = CheckpointEnv(reward=str(preset), agents=2)
+    try:
+        env.reset(seed=0)
+        hover = [np.array([0.0, 0.0, 0.0, 0.0]) for _ in env.agents]
+        paid = []
+        for _ in range(3):
+            _, rewards, *_ = env.step(dict(zip(env.agents, hover)))
+            paid.append([rewards[name] for name in env.possible_agents])
+        assert paid == [[1.0, 1.0], [1.0, 51.0], [1.0, 1.0]]
+    finally:
+        env.close()

@@ -1,16 +1,16 @@
-"""The multi-agent loop: several vehicles in one World, one PettingZoo ``ParallelEnv``.
+"""The multi-agent front: several vehicles in one World, one PettingZoo ``ParallelEnv``.
 
-:class:`MultiAgentUAVEnv` runs what every multi-agent task shares -- build the world from
-a :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig` and spawn each agent in its
-region (both by the episode core shared with the single-agent env,
-:func:`~pyflyt_engine.envs.core.build_episode` and
-:func:`~pyflyt_engine.envs.core.reset_episode`), apply each live agent's action, step the
-physics once for everybody, detect contacts and dome exits, evaluate the reward preset per
-agent, retire agents whose episode ended -- and asks its task object (a
-:class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`: :mod:`.hover_task`,
-:mod:`.formation_task`, :mod:`.dogfight_task`) for everything the episode means: the
-observation entries beyond the shared attitude vector, the per-agent reward signals,
-termination, info entries and success.  The env classes of the registered ids
+:class:`MultiAgentUAVEnv` is the N-agent front of the episode core
+(:class:`~pyflyt_engine.envs.episode.EpisodeCore`, whose one-agent front is the Gymnasium
+:class:`~pyflyt_engine.envs.env.UAVEnv`): the core builds the world from a
+:class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawns each agent in its region,
+applies each live agent's action, steps the physics once for everybody, detects contacts
+and dome exits, evaluates the reward preset per agent and builds the observations -- and
+asks the task object (a :class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`:
+:mod:`.hover_task`, :mod:`.formation_task`, :mod:`.dogfight_task`) for everything the
+episode means: the observation entries beyond the shared attitude vector, the per-agent
+reward signals, termination, info entries and success.  This front speaks PettingZoo's
+API and retires agents whose episode ended.  The env classes of the registered ids
 (:mod:`.hover`, :mod:`.formation`, :mod:`.dogfight`) only name their task and config.
 
 PettingZoo conventions: ``possible_agents`` never changes; ``agents`` lists the live
@@ -50,7 +50,7 @@ __all__ = ["AgentSignals", "MultiAgentUAVEnv"]
 
 
 class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
-    """The multi-agent loop (see the module docstring and each registered env's manual).
+    """The multi-agent front of the episode core (see the module docstring and each registered env's manual).
 
     Runs the task its class names (:attr:`task_class`) or, for this class itself, the one
     the config names (``MultiAgentUAVEnv("my_swarm.yaml")``).  Every agent flies the
