@@ -73,7 +73,8 @@ def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
 
 class HoverProbe(BaseCallback):
     """Every ``every`` steps: fly ``probe_fn`` (default :func:`hover_probe`) on a fresh env of
-    ``cfg``; remember the first step whose probe hovers (every episode survived, worst mean
+    ``cfg`` (or of ``probe_env``, an env config, when the policy is probed on another env than
+    it trains on); remember the first step whose probe hovers (every episode survived, worst mean
     distance below ``max_distance``).  ``unit`` names the steps in the printed lines
     (``learn_ma_hover_ppo.py`` probes all agents and counts agent-steps)."""
 
@@ -87,11 +88,12 @@ class HoverProbe(BaseCallback):
         max_distance: float = MAX_DISTANCE,
         probe_fn=hover_probe,
         unit: str = "steps",
+        probe_env=None,
     ) -> None:
         super().__init__()
         self.stop_on_hover = stop_on_hover
         self.max_distance, self.probe_fn, self.unit = max_distance, probe_fn, unit
-        self.env = EnvFactory(cfg.env, monitor=False)()
+        self.env = EnvFactory(cfg.env if probe_env is None else probe_env, monitor=False)()
         self.every, self.episodes = every, episodes
         self.next = every
         self.started = time.perf_counter()

@@ -11,6 +11,9 @@ flight dome (around the origin; the agents start 1.41 m from it), so that each a
 learns what one single-agent run learns.  ``--reference-limits`` keeps the shipped
 MAQuadX-Hover dome instead (the reference's 10 m; episodes stay 10 s): a drifting agent
 then flies far before it is out, and the shared policy needs more agent-steps.
+``--shipped`` changes nothing: ``pyflyt train env=ma_quadx_hover`` as shipped (the env
+config with the shipped tuning's changes, if it makes any), the policy probed on the env
+exactly as ``conf/env/ma_quadx_hover.yaml`` declares it (30 s episodes, 10 m dome).
 
 **Hovering** means, for every agent of every probe episode: no crash for the whole 10 s
 and a mean distance to its own hover point below ``--max-distance`` (0.2 m).
@@ -27,7 +30,7 @@ with 95 % intervals, the single-agent figures four times one run's.  Results are
 to try a tuning: ``--set algo.n_steps=256 algo.n_epochs=10``).
 
     python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--max-distance 0.2]
-        [--reference-limits] [--compare-single 0 1 2 3] [--set KEY=VALUE ...]
+        [--reference-limits | --shipped] [--compare-single 0 1 2 3] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -58,6 +61,13 @@ def single_agent_limits() -> dict[str, float]:
     """Episode length [s] and flight dome [m] of the single-agent QuadX-Hover task."""
     env = compose_config(env="quadx_hover", algo="ppo").env
     return {"max_duration_seconds": float(env.max_duration_seconds), "flight_dome_size": float(env.flight_dome_size)}
+
+
+def declared_env():
+    """``conf/env/ma_quadx_hover.yaml`` as declared: no tuning file's changes."""
+    from pyflyt_engine.envs.config import load_env_config
+
+    return load_env_config("ma_quadx_hover")
 
 
 def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
@@ -102,8 +112,9 @@ def run(
     extra: list[str],
     max_distance: float = MAX_DISTANCE,
     limits: dict[str, float] | None = None,
+    probe_env=None,
 ) -> dict:
-    limits = limits or {"max_duration_seconds": EPISODE_SECONDS}
+    limits = {"max_duration_seconds": EPISODE_SECONDS} if limits is None else limits
     overrides = [
         *(f"env.{key}={value}" for key, value in limits.items()),
         *extra,
@@ -114,7 +125,9 @@ def run(
         "train.eval_freq=0",
     ]
     cfg = compose_config(env="ma_quadx_hover", algo="ppo", overrides=overrides)
-    probe = HoverProbe(cfg, every, episodes, max_distance=max_distance, probe_fn=hover_probe, unit="agent-steps")
+    probe = HoverProbe(
+        cfg, every, episodes, max_distance=max_distance, probe_fn=hover_probe, unit="agent-steps", probe_env=probe_env
+    )
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe])
     total = time.perf_counter() - start
@@ -214,12 +227,24 @@ def main() -> None:
         action="store_true",
         help="keep the shipped 10 m flight dome instead of the single-agent task's 3 m",
     )
+    parser.add_argument(
+        "--shipped",
+        action="store_true",
+        help="train as shipped and probe the env as conf/env/ma_quadx_hover.yaml declares it (30 s, 10 m dome)",
+    )
     args = parser.parse_args()
 
     from pyflyt_cli.plotting.stats import iqm
 
-    limits = {"max_duration_seconds": EPISODE_SECONDS} if args.reference_limits else single_agent_limits()
-    dome = limits.get("flight_dome_size", compose_config(env="ma_quadx_hover", algo="ppo").env.flight_dome_size)
+    shipped = declared_env()
+    if args.shipped:
+        limits = {}
+    elif args.reference_limits:
+        limits = {"max_duration_seconds": EPISODE_SECONDS}
+    else:
+        limits = single_agent_limits()
+    dome = limits.get("flight_dome_size", shipped.flight_dome_size)
+    seconds = limits.get("max_duration_seconds", shipped.max_duration_seconds)
 
     load_before = os.getloadavg()[0]
     rows = []
@@ -227,7 +252,17 @@ def main() -> None:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
             rows.append(
-                run(seed, args.budget, args.probe_every, args.episodes, Path(tmp), args.set, args.max_distance, limits)
+                run(
+                    seed,
+                    args.budget,
+                    args.probe_every,
+                    args.episodes,
+                    Path(tmp),
+                    args.set,
+                    args.max_distance,
+                    limits,
+                    probe_env=declared_env() if args.shipped else None,
+                )
             )
         singles = []
         for seed in args.compare_single:
@@ -250,7 +285,7 @@ def main() -> None:
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
             f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes, "
-            f"hovering below {args.max_distance} m, {limits['max_duration_seconds']:g} s episodes, "
+            f"hovering below {args.max_distance} m, {seconds:g} s episodes, "
             f"{dome:g} m flight dome\n"
         ),
         (
