@@ -65,7 +65,11 @@ def outcome(info: dict) -> str:
 
 
 #: height bands [m] of the comparison with the oracle: its aim, its approach, the last 10 m
-BANDS = (("aim (> 120 m)", AIM_HEIGHT, float("inf")), ("approach (10-120 m)", 10.0, AIM_HEIGHT), ("last 10 m", -float("inf"), 10.0))
+BANDS = (
+    ("aim (> 120 m)", AIM_HEIGHT, float("inf")),
+    ("approach (10-120 m)", 10.0, AIM_HEIGHT),
+    ("last 10 m", -float("inf"), 10.0),
+)
 
 
 def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED, oracle=None) -> dict:
@@ -75,7 +79,8 @@ def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED,
     ``oracle`` (the ``rocket_velocity_lander`` built for ``env``): also compare, on the states
     the policy flies, its setpoint with the oracle's, per height band (:data:`BANDS`): the RMS
     difference of vx, vy, vz [m/s] and how often the two disagree on the ignition permission."""
-    low, span = env.unwrapped.action_space.low.astype(float), (env.unwrapped.action_space.high - env.unwrapped.action_space.low).astype(float)
+    space = env.unwrapped.action_space
+    low, span = space.low.astype(float), (space.high - space.low).astype(float)
     diffs: dict[str, list[np.ndarray]] = {name: [] for name, _, _ in BANDS}
     flights = []
     for i in range(episodes):
@@ -109,9 +114,10 @@ def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED,
     for name, rows in diffs.items():
         if rows:
             d = np.asarray(rows)
-            versus[name] = {"steps": len(d), "rms_vx": float(np.sqrt(np.mean(d[:, 0] ** 2))),
-                            "rms_vy": float(np.sqrt(np.mean(d[:, 1] ** 2))), "rms_vz": float(np.sqrt(np.mean(d[:, 2] ** 2))),
+            rms = np.sqrt(np.mean(d[:, :3] ** 2, axis=0))
+            versus[name] = {"steps": len(d), "rms_vx": float(rms[0]), "rms_vy": float(rms[1]), "rms_vz": float(rms[2]),
                             "ignition_disagrees": float(np.mean(d[:, 3]))}
+    offsets = [f["offset_at_aim_height"] for f in flights if f["offset_at_aim_height"] is not None]
     touchdowns = [f["touchdown_speed"] for f in flights if f["touchdown_speed"] >= 0.0]
     return {
         "safe": float(np.mean([e == "safe" for e in ends])),
@@ -119,7 +125,7 @@ def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED,
         "touchdown_speed_median": float(np.median(touchdowns)) if touchdowns else None,
         "pad_distance_median": float(np.median([f["pad_distance"] for f in flights])),
         "fuel_left_kg_mean": float(np.mean([f["fuel_left_kg"] for f in flights])),
-        "offset_at_aim_height_median": float(np.median([f["offset_at_aim_height"] for f in flights if f["offset_at_aim_height"] is not None] or [np.nan])),
+        "offset_at_aim_height_median": float(np.median(offsets)) if offsets else None,
         "mean_return": float(np.mean([f["return"] for f in flights])),
         "versus_oracle": versus,
         "flights": flights,
@@ -127,12 +133,12 @@ def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED,
 
 
 def describe(probe: dict) -> str:
-    speed = probe["touchdown_speed_median"]
+    speed, offset = probe["touchdown_speed_median"], probe["offset_at_aim_height_median"]
     return (
         f"safe {100 * probe['safe']:3.0f} %  endings {probe['outcomes']}  touchdown (median) "
         + (f"{speed:.1f} m/s" if speed is not None else "-")
-        + f"  off the pad axis at {AIM_HEIGHT:.0f} m (median) {probe['offset_at_aim_height_median']:.1f} m"
-        f"  pad distance (median) {probe['pad_distance_median']:.1f} m  fuel left {probe['fuel_left_kg_mean']:.2f} kg"
+        + (f"  off the pad axis at {AIM_HEIGHT:.0f} m (median) {offset:.1f} m" if offset is not None else "")
+        + f"  pad distance (median) {probe['pad_distance_median']:.1f} m  fuel left {probe['fuel_left_kg_mean']:.2f} kg"
         f"  return {probe['mean_return']:.0f}"
     )
 
@@ -186,7 +192,8 @@ class RocketProbe(BaseCallback):
         self.history.append(point)
         if self.target_at is None and probe["safe"] >= TARGET:
             self.target_at = {"step": point["step"], "cpu_minutes": point["cpu_minutes"]}
-        print(f"  {point['step']:>8} steps  {point['cpu_minutes']:5.1f} CPU-min  load {load:.1f}  {describe(probe)}", flush=True)
+        print(f"  {point['step']:>8} steps  {point['cpu_minutes']:5.1f} CPU-min  load {load:.1f}  {describe(probe)}",
+              flush=True)
 
 
 def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, extra: list[str]) -> dict:
@@ -194,8 +201,6 @@ def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, 
     cfg = compose_config(env=ENV, algo="ppo", overrides=overrides)
     probe = RocketProbe(cfg, every, episodes, cpu_minutes * 60.0)
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
-    for point in probe.history:  # the per-episode records stay in the JSON, not the table
-        point.setdefault("flights", [])
     return {
         "seed": seed,
         "overrides": extra,
@@ -246,13 +251,13 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> list[str]:
         "",
         "| measure | IQM [95 % CI] |",
         "|---|---|",
-        f"| safe landings (fraction of {len(final[0]['flights']) or '?'} probe episodes) | {fmt([f['safe'] for f in final], 2)} |",
+        f"| safe landings (fraction of {len(final[0]['flights'])} probe episodes) | "
+        f"{fmt([f['safe'] for f in final], 2)} |",
         f"| probe return | {fmt([f['mean_return'] for f in final], 0)} |",
     ]
 
 
 def table(rows: list[dict]) -> list[str]:
-    points = sorted({p["step"] for r in rows for p in r["history"]})
     lines = [
         "| seed | steps | CPU-min (training) | safe landings at each probe [%] (step) | final endings | "
         f">= {100 * TARGET:.0f} % safe at | load |",
@@ -266,14 +271,15 @@ def table(rows: list[dict]) -> list[str]:
             + (f"{t['step']} steps, {t['cpu_minutes']:.1f} CPU-min" if t else "not within budget")
             + f" | {r['load'][0]:.1f}-{r['load'][1]:.1f} |"
         )
-    del points
     return lines
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cpu-minutes", type=float, default=60.0, help="CPU budget of each run (its process, all threads)")
+    parser.add_argument(
+        "--cpu-minutes", type=float, default=60.0, help="CPU budget of each run (its process, all threads)"
+    )
     parser.add_argument("--probe-every", type=int, default=100_000)
     parser.add_argument("--episodes", type=int, default=20, help="episodes per probe")
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
@@ -289,12 +295,15 @@ def main() -> None:
         probe = probe_model(args.probe_model, args.model, args.episodes)
         print(describe(probe))
         for f in probe["flights"]:
-            print(f"  seed {f['seed']}: {f['outcome']:10s} {f['steps']:4d} steps  touchdown {f['touchdown_speed']:5.1f} m/s  "
-                  f"off axis at {AIM_HEIGHT:.0f} m {f['offset_at_aim_height'] if f['offset_at_aim_height'] is not None else float('nan'):5.1f} m  "
-                  f"pad distance {f['pad_distance']:6.1f} m  fuel left {f['fuel_left_kg']:.2f} kg  return {f['return']:.0f}")
+            offset = f["offset_at_aim_height"] if f["offset_at_aim_height"] is not None else float("nan")
+            print(f"  seed {f['seed']}: {f['outcome']:10s} {f['steps']:4d} steps  "
+                  f"touchdown {f['touchdown_speed']:5.1f} m/s  off axis at {AIM_HEIGHT:.0f} m {offset:5.1f} m  "
+                  f"pad distance {f['pad_distance']:6.1f} m  fuel left {f['fuel_left_kg']:.2f} kg  "
+                  f"return {f['return']:.0f}")
         print("the policy's setpoint against the oracle's on the states it flies (RMS [m/s]; ignition: disagreements):")
         for name, v in probe["versus_oracle"].items():
-            print(f"  {name:20s} {v['steps']:6d} steps  vx {v['rms_vx']:5.2f}  vy {v['rms_vy']:5.2f}  vz {v['rms_vz']:6.2f}  "
+            print(f"  {name:20s} {v['steps']:6d} steps  "
+                  f"vx {v['rms_vx']:5.2f}  vy {v['rms_vy']:5.2f}  vz {v['rms_vz']:6.2f}  "
                   f"ignition {100 * v['ignition_disagrees']:3.0f} %")
         return
 
@@ -314,8 +323,9 @@ def main() -> None:
     command = "python experiments/learn_rocket_velocity.py " + " ".join(sys.argv[1:])
     lines = [
         (
-            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — Rocket-Landing, velocity mode, ppo, {rows[0]['cpu_minutes_budget']:.0f} "
-            f"CPU-minutes per seed, probes of {args.episodes} episodes ({platform.machine()}, {os.cpu_count()} cores, "
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — Rocket-Landing, velocity mode, ppo, "
+            f"{rows[0]['cpu_minutes_budget']:.0f} CPU-minutes per seed, probes of {args.episodes} episodes "
+            f"({platform.machine()}, {os.cpu_count()} cores, "
             f"Python {platform.python_version()})\n"
         ),
         f"```bash\n{command}\n```\n",
@@ -325,7 +335,8 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        RESULTS.with_name("learn_rocket_velocity.json").write_text(json.dumps({"command": command, "rows": rows}, indent=1) + "\n")
+        raw = RESULTS.with_name("learn_rocket_velocity.json")
+        raw.write_text(json.dumps({"command": command, "rows": rows}, indent=1) + "\n")
         with RESULTS.open("a") as fh:
             fh.write(text)
 

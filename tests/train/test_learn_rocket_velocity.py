@@ -17,7 +17,8 @@ from .conftest import ROOT
 
 
 def _experiment():
-    spec = importlib.util.spec_from_file_location("learn_rocket_velocity", ROOT / "experiments" / "learn_rocket_velocity.py")
+    path = ROOT / "experiments" / "learn_rocket_velocity.py"
+    spec = importlib.util.spec_from_file_location("learn_rocket_velocity", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -69,3 +70,29 @@ def test_outcome_names_the_first_ending_that_applies(exp):
     assert exp.outcome({"ground_contact": True}) == "ground"
     assert exp.outcome({"out_of_bounds": True}) == "dome exit"
     assert exp.outcome({}) == "time limit"
+
+
+TINY = [
+    "reward=rocket_landing_envelope",
+    "train.total_timesteps=256",
+    "algo.n_steps=256",
+    "algo.batch_size=64",
+    "algo.n_epochs=1",
+    "train.eval_freq=0",
+    "train.checkpoint_freq=0",
+]
+
+
+def test_a_run_is_probed_at_its_start_and_end_and_stops_at_its_cpu_budget(exp, tmp_path):
+    """No budget problem: probes after the start (step 0) and at the end; a zero CPU budget
+    stops the run at its first step, which is then probed as the final policy; the report
+    tables and the rliable summary take both rows."""
+    full = exp.run(0, every=10**9, episodes=1, cpu_minutes=60.0, output=tmp_path / "a", extra=TINY)
+    assert [p["step"] for p in full["history"]] == [0, 256] and full["steps"] == 256
+    assert not full["stopped_by_budget"] and full["final"] is full["history"][-1]
+    cut = exp.run(1, every=10**9, episodes=1, cpu_minutes=0.0, output=tmp_path / "b", extra=TINY)
+    assert cut["stopped_by_budget"] and cut["steps"] == 1
+    assert [p["step"] for p in cut["history"]] == [0, 1]
+    lines = exp.table([full, cut]) + exp.rliable_summary([full, cut], reps=50)
+    assert len([line for line in lines if line.startswith("| 0 |") or line.startswith("| 1 |")]) == 2
+    assert any(line.startswith("| safe landings") for line in lines)
