@@ -83,6 +83,7 @@ TINY = [
 ]
 
 
+@pytest.mark.long  # two short training runs, ~12 s
 def test_a_run_is_probed_at_its_start_and_end_and_stops_at_its_cpu_budget(exp, tmp_path):
     """No budget problem: probes after the start (step 0) and at the end; a zero CPU budget
     stops the run at its first step, which is then probed as the final policy; the report
