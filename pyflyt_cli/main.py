@@ -132,6 +132,9 @@ def train(
     "Overrides of conf/eval.yaml: episodes=10 seed=<run seed + 1000> deterministic=true "
     "model=auto|best|final|latest record=true video=out.gif\n\n"
     "  pyflyt eval runs/quadx_hover/ppo/<time>-seed0 episodes=20 video=hover.gif\n\n"
+    "env.<key>=value and env.task.<option>=value fly the run's policy in its env with that changed "
+    "(spaces unchanged):\n\n"
+    "  pyflyt eval <run> env.wind=dryden_severe env.max_duration_seconds=30\n\n"
     "oracle:<name> flies a scripted controller (rocket_lander) in its env instead, into a new "
     "runs/<env>/oracle_<name>/<time>-seed<k>; other keys set the env as in pyflyt train:\n\n"
     "  pyflyt eval oracle:rocket_lander episodes=50 seed=0 env.task.start_position_noise=0",

@@ -1,5 +1,8 @@
 """``pyflyt eval <run dir> [key=value ...]``: compose ``conf/eval.yaml``, evaluate, print the table.
 
+``env.<key>=value`` and ``env.task.<option>=value`` fly the run's policy in its env with
+that changed (e.g. in wind, or for longer episodes), when the policy's spaces stay the same.
+
 ``pyflyt eval oracle:<name> [key=value ...]`` flies a scripted oracle instead
 (:mod:`pyflyt_engine.envs.oracles`): the keys of ``conf/eval.yaml`` go to the evaluation,
 every other key composes ``conf/train.yaml`` as ``pyflyt train`` would, for the
@@ -33,15 +36,17 @@ def run_eval(run_dir: str, overrides: list[str]) -> object:
         run_dir = str(materialise(shipped.name))
     _refuse_a_folder_of_runs(run_dir)
     check_run_dir(run_dir)  # a missing run directory is reported before anything else
-    options = parse_eval_options(to_container(compose("eval", parse_overrides(overrides))))
-    report = evaluate_run(run_dir, options)
+    evaluation, env = env_changes(parse_overrides(overrides))
+    options = parse_eval_options(to_container(compose("eval", evaluation)))
+    report = evaluate_run(run_dir, options, env=env)
     typer.echo(report.table())
     if shipped is not None:
         from pyflyt_cli.zoo import compare
 
         recorded = shipped.summary.get("evaluation", {})
         same = (
-            options.episodes == recorded.get("episodes")
+            not env
+            and options.episodes == recorded.get("episodes")
             and report.seed == recorded.get("seed")
             and options.deterministic
         )
@@ -114,6 +119,45 @@ def _refuse_a_folder_of_runs(run_dir: str) -> None:
         + "\n".join(lines)
         + f"\npick one, e.g. pyflyt eval {runs[-1]}"
     )
+
+
+def env_changes(overrides: list[str]) -> tuple[list[str], dict[str, object]]:
+    """Split ``pyflyt eval <run>`` overrides into those of ``conf/eval.yaml`` and changes to
+    the run's env: ``env.<key>=value`` (a top-level env key) and ``env.task.<option>=value``
+    (a task option); values are read as YAML data (numbers, lists, names)."""
+    import yaml
+
+    from pyflyt_cli.errors import UsageError
+
+    evaluation: list[str] = []
+    env: dict[str, object] = {}
+    task: dict[str, object] = {}
+    for item in overrides:
+        key, _, value = item.lstrip("+").partition("=")
+        if key == "env":
+            raise UsageError(
+                f"{item}: a trained run flies the env it was trained in; change one of its keys with env.<key>=value"
+            )
+        if not key.startswith("env."):
+            evaluation.append(item)
+            continue
+        path = key.split(".")[1:]
+        try:
+            parsed = yaml.safe_load(value) if value else None
+        except yaml.YAMLError as error:
+            raise UsageError(f"{item}: the value is not YAML data ({error.__class__.__name__})") from None
+        if len(path) == 1 and path[0] != "task":
+            env[path[0]] = parsed
+        elif len(path) == 2 and path[0] == "task":
+            task[path[1]] = parsed
+        else:
+            raise UsageError(
+                f"{item}: at evaluation a run's env takes env.<key>=value (a top-level key, e.g. env.wind=gust) "
+                "or env.task.<option>=value; nested keys cannot be changed here"
+            )
+    if task:
+        env["task"] = task
+    return evaluation, env
 
 
 #: eval keys that name a trained policy's file or sampling: an oracle has neither

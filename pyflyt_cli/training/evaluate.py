@@ -36,6 +36,8 @@ class EvalReport:
     video: Path | None
     #: the scripted oracle flown (``pyflyt eval oracle:<name>``), None for a trained policy
     oracle: str | None = None
+    #: changes to the run's environment these episodes flew (``pyflyt eval <run> env.<key>=...``)
+    env_changes: dict[str, Any] | None = None
 
     def table(self) -> str:
         """The printed report: one row per episode, then mean ± std."""
@@ -47,9 +49,11 @@ class EvalReport:
             else f"model:  {self.model.name if self.model else '-'} ({self.which}), "
             f"{'deterministic' if self.deterministic else 'stochastic'} actions, {seeds}"
         )
-        lines = [
-            f"run:    {self.run_dir}",
-            flown,
+        lines = [f"run:    {self.run_dir}", flown]
+        if self.env_changes:
+            changed = ", ".join(f"{k}={v}" for k, v in self.env_changes.items())
+            lines.append(f"env:    the run's, with {changed}")
+        lines += [
             "",
             f"{'episode':>7}  {'seed':>6}  {'return':>10}  {'length':>6}  success",
         ]
@@ -68,16 +72,28 @@ class EvalReport:
         return "\n".join(lines)
 
 
-def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] | None = None) -> EvalReport:
+def evaluate_run(
+    run_dir: str | Path,
+    options: EvalOptions | Mapping[str, Any] | None = None,
+    env: Mapping[str, Any] | None = None,
+) -> EvalReport:
     """Evaluate a run's model for ``options.episodes`` episodes (see :class:`EvalOptions`).
 
-    Writes ``<run_dir>/episodes/ep_<NNNN>.mcap`` (``record``), ``<run_dir>/eval.json`` and,
-    with ``video``, an animation of the first ``video_episodes`` episodes.
+    ``env``: changes to the run's environment for these episodes -- top-level env keys and
+    task options by name, as :meth:`~pyflyt_engine.envs.config.EnvConfig.with_overrides`
+    takes them (``{"max_duration_seconds": 30, "wind": "dryden_severe"}``); a change that
+    alters the observation or action space the policy was trained on is refused
+    (:class:`ConfigError`), as is an unknown key, before anything is written.
+
+    Writes ``<run_dir>/episodes/ep_<NNNN>.mcap`` (``record``), ``<run_dir>/eval.json`` (with
+    the env changes, if any) and, with ``video``, an animation of the first
+    ``video_episodes`` episodes.
     """
     opts = parse_eval_options(options or {})
     trust = opts.trust_pickle
     path = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(path)
+    env_config = _changed_env(cfg, dict(env)) if env else cfg.env
     model_path, which = rundir.find_model(path, opts.model, legacy=trust)
     import torch
 
@@ -94,7 +110,31 @@ def evaluate_run(run_dir: str | Path, options: EvalOptions | Mapping[str, Any] |
         model.set_random_seed(seed)
         return policy_predict(model), normalize
 
-    return _fly(path, cfg.env, load, opts, seed, model=model_path, which=which)
+    return _fly(path, env_config, load, opts, seed, model=model_path, which=which, env_changes=dict(env or {}))
+
+
+def _changed_env(cfg: TrainConfig, changes: dict[str, Any]) -> Any:
+    """The run's env with ``changes``; refused if the policy's spaces would change."""
+    from pyflyt_cli.training.envs import EnvFactory
+
+    changed = cfg.env.with_overrides(**changes)  # unknown keys and bad values are named here
+    spaces = []
+    for config in (cfg.env, changed):
+        env = EnvFactory(config, monitor=False)()
+        try:
+            spaces.append((env.observation_space, env.action_space))
+        finally:
+            env.close()
+    (trained_obs, trained_act), (obs, act) = spaces
+    keys = ", ".join(f"env.{k}" for k in changes)
+    for what, trained, now in (("observation", trained_obs, obs), ("action", trained_act, act)):
+        if trained != now:
+            raise ConfigError(
+                f"{keys}: changes the {what} space the policy was trained on ({trained} -> {now}); "
+                "a trained policy flies only changes that keep its spaces (e.g. wind, randomize, episode length, "
+                "task options that do not resize the observation)"
+            )
+    return changed
 
 
 def evaluate_oracle(
@@ -167,9 +207,11 @@ def _fly(
     model: Path | None,
     which: str,
     oracle: str | None = None,
+    env_changes: dict[str, Any] | None = None,
 ) -> EvalReport:
     """Fly ``opts.episodes`` episodes of ``env_config`` with the policy ``load(env)`` returns
-    (``(predict, normalize_obs)``); record, film, write ``eval.json``; the report."""
+    (``(predict, normalize_obs)``); record, film, write ``eval.json`` (``env_changes``: the
+    changes to the run's env flown, recorded there); the report."""
     video = Path(opts.video).expanduser().resolve() if opts.video else None
     if video is not None:
         _check_video_writer(video)
@@ -210,7 +252,9 @@ def _fly(
         if scratch is not None:
             recordings = []
             scratch.cleanup()
-    report = EvalReport(path, model, which, seed, opts.deterministic, episodes, summary, recordings, video, oracle)
+    report = EvalReport(
+        path, model, which, seed, opts.deterministic, episodes, summary, recordings, video, oracle, env_changes or None
+    )
     flown = {"oracle": oracle} if oracle is not None else {"model": model.name if model else None}
     rundir.atomic_write(
         path / "eval.json",
@@ -221,6 +265,7 @@ def _fly(
                 "which": which,
                 "seed": seed,
                 "deterministic": opts.deterministic,
+                **({"env_changes": env_changes} if env_changes else {}),
                 **summary,
                 "episodes": [
                     {"seed": e.seed, "return": e.ret, "length": e.length, "success": e.success} for e in episodes
