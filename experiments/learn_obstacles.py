@@ -208,7 +208,7 @@ def run(seed: int, cpu_minutes: float | None, every: int, episodes: int, output:
     if split:  # the probes run inside the collection phase (from a callback's on_step): take them out
         collect = split.get("collect", 0.0) - probe.probe_time
         split = {"env": probe.env_time, "collect_other": collect - probe.env_time, "update": split.get("update", 0.0)}
-    status = "cpu budget" if probe.stopped_by_budget else "step budget"
+    status = "cpu budget" if probe.stopped_by_budget else "stopped" if result.interrupted else "step budget"
     out = row(
         probe, seed, every, episodes, extra, cpu_minutes, status,
         wall=wall, process_cpu=process_cpu, step_budget=cfg.train.total_timesteps, split=split,
@@ -263,14 +263,17 @@ def table(rows: list[dict]) -> list[str]:
     lines = [
         "| seed | ended by | steps | training CPU [min] | wall-clock [min] | load min / mean / max | steps per CPU-s | "
         f"final success [%] | final endings | best success [%] | first >= {100 * TARGET:.0f} % [steps, CPU min] | "
-        "env / other collect / update [CPU-share of wall, s] |",
+        "env / other collect / update, wall-clock [s] |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         f, t, s = r["final"], r["target_at"], r.get("split") or {}
+        status = r["status"]
+        if status == "step budget" and r["steps"] < r.get("step_budget", 0):  # SIGTERM before the label existed
+            status = "stopped"
         cpu = r["training_cpu"]
         lines.append(
-            f"| {r['seed']} | {r['status']} | {r['steps']} | {cpu / 60:.1f} | {r.get('wall', 0) / 60:.1f} | "
+            f"| {r['seed']} | {status} | {r['steps']} | {cpu / 60:.1f} | {r.get('wall', 0) / 60:.1f} | "
             f"{r['load'][0]:.1f} / {r['load'][1]:.1f} / {r['load'][2]:.1f} | {r['steps'] / max(cpu, 1e-9):.0f} | "
             f"{100 * f.get('success', 0):.0f} | {', '.join(f'{k} {v}' for k, v in f.get('endings', {}).items())} | "
             f"{100 * r['best_success']:.0f} | {f'{t[0]}, {t[2] / 60:.1f}' if t else 'not reached'} | "
