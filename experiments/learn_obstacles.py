@@ -209,13 +209,45 @@ def run(seed: int, cpu_minutes: float | None, every: int, episodes: int, output:
         collect = split.get("collect", 0.0) - probe.probe_time
         split = {"env": probe.env_time, "collect_other": collect - probe.env_time, "update": split.get("update", 0.0)}
     status = "cpu budget" if probe.stopped_by_budget else "stopped" if result.interrupted else "step budget"
+    training = training_success(Path(result.run_dir), every)
     out = row(
         probe, seed, every, episodes, extra, cpu_minutes, status,
         wall=wall, process_cpu=process_cpu, step_budget=cfg.train.total_timesteps, split=split,
         cpu_steps_per_second=result.num_timesteps / max(probe.training_cpu(), 1e-9),
+        run_dir=str(result.run_dir), training=training,
     )
     if save is not None:
         save(out)
+    return out
+
+
+def training_success(run_dir: Path, every: int) -> list[dict]:
+    """The run's own training episodes (``/train/episode`` of its metrics: the curriculum's task,
+    stochastic actions) per window of ``every`` steps: episodes ended, success fraction, mean
+    length [steps], and the curriculum's goal x and reach sphere at the window's end."""
+    import warnings
+
+    from pyflyt_engine.telemetry import read_metrics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        metrics = read_metrics(run_dir)
+    episodes = [dict(e) for e in metrics.get("/train/episode", [])]
+    stages = [dict(c) for c in metrics.get("/train/curriculum", [])]
+    out = []
+    for end in range(every, (max((e["step"] for e in episodes), default=0) // every + 1) * every + 1, every):
+        window = [e for e in episodes if end - every < e["step"] <= end]
+        if not window:
+            continue
+        stage = [c for c in stages if c["step"] <= end]
+        out.append({
+            "step": end,
+            "episodes": len(window),
+            "success": sum(bool(e["success"]) for e in window) / len(window),
+            "length": sum(e["length"] for e in window) / len(window),
+            "goal_x": stage[-1].get("goal_x_range[0]") if stage else None,
+            "reach": stage[-1].get("goal_reach_distance") if stage else None,
+        })
     return out
 
 
@@ -292,6 +324,16 @@ def probes_text(rows: list[dict]) -> list[str]:
             for h in r["history"]
         ]
         lines.append(f"- seed {r['seed']}: " + "; ".join(parts))
+    if any(r.get("training") for r in rows):
+        lines += ["", "Training episodes per window (the curriculum's task, stochastic actions; steps: success % "
+                  "of the episodes ended in the window / mean length in steps / goal x m / reach sphere m):", ""]
+        for r in rows:
+            parts = [
+                f"{t['step'] // 1000}k: {100 * t['success']:.0f} / {t['length']:.0f} / "
+                + (f"{t['goal_x']:.2f} / {t['reach']:.2f}" if t["goal_x"] is not None else "- / -")
+                for t in r.get("training", [])
+            ]
+            lines.append(f"- seed {r['seed']}: " + "; ".join(parts))
     lines.append("")
     lines.append("(endings: " + ", ".join(f"{v} = {k}" for k, v in SHORT.items()) + "; raw: `learn_obstacles.json`)")
     return lines
@@ -306,7 +348,10 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
     parser.add_argument("--save-rows", type=Path, help="write each run's results here (JSON) at every probe")
-    parser.add_argument("--keep-runs", type=Path, help="keep the run directories here (default: a temporary folder)")
+    parser.add_argument(
+        "--keep-runs", type=Path,
+        help="keep the run directories here (default: a temporary folder); with --from-rows: read them from here",
+    )
     parser.add_argument("--from-rows", type=Path, nargs="+", help="no training: report the runs saved by --save-rows")
     parser.add_argument("--title", default="", help="a few words for the results section's heading")
     args = parser.parse_args()
@@ -317,6 +362,11 @@ def main() -> None:
         for path in args.from_rows:
             rows += json.loads(path.read_text())
         rows.sort(key=lambda r: r["seed"])
+        for r in rows:  # runs saved before they finished: their training episodes from the kept run directory
+            if not r.get("training") and args.keep_runs:
+                found = sorted((args.keep_runs / ENV / "ppo").glob(f"*-seed{r['seed']}"))
+                if found:
+                    r["run_dir"], r["training"] = str(found[-1]), training_success(found[-1], r["probe_every"])
     else:
         with tempfile.TemporaryDirectory() as tmp:
             output = args.keep_runs or Path(tmp)

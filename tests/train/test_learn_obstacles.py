@@ -101,6 +101,10 @@ def test_cpu_budget_stops_training_and_saves_every_probe(exp, tmp_path):
     assert [r["status"] for r in saved[:-1]] == ["running"] * (len(saved) - 1) and saved[-1]["status"] == "cpu budget"
     assert [h[0] for h in saved[-1]["history"]] == [h[0] for h in row["history"]]
     assert all(h[0] % 64 == 0 for h in row["history"][:-1])
+    # the run's own training episodes, per 64-step window, on the curriculum's first stage
+    # (goal at x = -1 m, 1 m reach sphere: conf/hparams/quadx_obstacles_ppo.yaml)
+    assert row["training"] and all(t["step"] % 64 == 0 and 0.0 <= t["success"] <= 1.0 for t in row["training"])
+    assert {(t["goal_x"], t["reach"]) for t in row["training"]} == {(-1.0, 1.0)}
 
 
 def test_curve_uses_the_probe_steps_every_seed_reached(exp):
