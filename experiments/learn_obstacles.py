@@ -31,7 +31,8 @@ it (``.json``, ``.png``).
 
     python experiments/learn_obstacles.py [--seeds 0 1 2] [--cpu-minutes 30] [--probe-every 100000] \\
         [--episodes 10] [--set KEY=VALUE ...] [--save-rows FILE] [--keep-runs DIR] [--write]
-    python experiments/learn_obstacles.py --from-rows rows_0.json rows_1.json ... [--write]
+    python experiments/learn_obstacles.py --from-rows rows_0.json rows_1.json ... [--keep-runs DIR] [--write]
+    python experiments/learn_obstacles.py --diagnose RUN_DIR ... [--episodes 10]
 """
 
 from __future__ import annotations
@@ -75,20 +76,21 @@ def ending(info: dict, truncated: bool) -> str:
     return "time" if truncated else "ground"
 
 
-def obstacle_probe(model, env, episodes: int, seed: int) -> dict:
-    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...): success fraction,
+def obstacle_probe(model, env, episodes: int, seed: int, task: dict | None = None, deterministic: bool = True) -> dict:
+    """Fly ``episodes`` episodes (seeds ``seed``, ``seed + 1``, ...; deterministic actions unless told;
+    the configured task, or other values of its episode options ``task``): success fraction,
     endings, closest approach to the goal [m], mean speed [m/s], episode length [s] and return."""
     vec = model.get_vec_normalize_env()
     base = env.unwrapped
     successes, endings, closest, speeds, lengths, returns = [], [], [], [], [], []
     for i in range(episodes):
-        obs, _ = env.reset(seed=seed + i)
+        obs, _ = env.reset(seed=seed + i, options={"task": task} if task else None)
         goal = [float(v) for v in base.task.goal]
         done, total, info, truncated, steps = False, 0.0, {}, False, 0
         nearest, speed_sum = math.inf, 0.0
         while not done:
             x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
-            action, _ = model.predict(x, deterministic=True)
+            action, _ = model.predict(x, deterministic=deterministic)
             obs, reward, terminated, truncated, info = env.step(action)
             total += float(reward)
             steps += 1
@@ -251,6 +253,48 @@ def training_success(run_dir: Path, every: int) -> list[dict]:
     return out
 
 
+def diagnose(run_dir: Path, episodes: int) -> list[str]:
+    """The run's newest checkpoint flown on the probe episodes four ways: the full task and the
+    curriculum's task where the run stopped, each with deterministic and with sampled actions
+    (sampling from seed 0 of torch's generator): is a gap between the probes and the training
+    episodes the distance to the goal or the action noise?"""
+    import warnings
+
+    import torch
+    from learn_waypoints import _checkpoint_policies, _SavedPolicy
+
+    from pyflyt_engine.telemetry import read_metrics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stages = read_metrics(run_dir).get("/train/curriculum", [])
+    last = dict(stages[-1]) if stages else {}
+    eased = {"goal_reach_distance": last["goal_reach_distance"]} if "goal_reach_distance" in last else {}
+    if "goal_x_range[0]" in last:
+        eased["goal_x_range"] = [last["goal_x_range[0]"], last["goal_x_range[1]"]]
+    from pyflyt_cli.training import rundir
+
+    newest = max(c.step for c in rundir.checkpoints(run_dir))
+    lines = []
+    for step, model, normalize, _, env in _checkpoint_policies(run_dir, after=newest - 1):  # the newest alone
+        policy = _SavedPolicy(model, normalize)
+        lines += [
+            f"{run_dir.name}, checkpoint at {step} steps, {episodes} episodes (seeds {PROBE_SEED}+):", "",
+            "| task | actions | success [%] | endings | closest [m] | speed [m/s] | length [s] |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for name, task in (("full", None), (f"curriculum at the stop: {eased}", eased)):
+            for deterministic in (True, False):
+                torch.manual_seed(0)
+                p = obstacle_probe(policy, env, episodes, PROBE_SEED, task=task, deterministic=deterministic)
+                lines.append(
+                    f"| {name} | {'deterministic' if deterministic else 'sampled'} | {100 * p['success']:.0f} | "
+                    f"{', '.join(f'{k} {v}' for k, v in p['endings'].items())} | {p['mean_closest']:.2f} | "
+                    f"{p['mean_speed']:.2f} | {p['mean_length']:.2f} |"
+                )
+    return lines
+
+
 def common_prefix(rows: list[dict]) -> list[dict]:
     """The rows with their histories cut to the probe steps every run shares (runs stopped by a
     CPU budget stop at different steps; the regular probes are at the same multiples)."""
@@ -354,8 +398,13 @@ def main() -> None:
     )
     parser.add_argument("--from-rows", type=Path, nargs="+", help="no training: report the runs saved by --save-rows")
     parser.add_argument("--title", default="", help="a few words for the results section's heading")
+    parser.add_argument("--diagnose", type=Path, nargs="+", help="no training: fly these runs' newest checkpoints four ways")
     args = parser.parse_args()
     cpu_minutes = args.cpu_minutes or None
+    if args.diagnose:
+        for run_dir in args.diagnose:
+            print("\n".join(diagnose(run_dir, args.episodes)) + "\n", flush=True)
+        return
 
     rows: list[dict] = []
     if args.from_rows:
