@@ -52,7 +52,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from learn_hover_ppo import plot_curve, probe_curve  # this folder: the IQM curve and its plot
-from learn_waypoints import PROBE_SEED, WaypointProbe, _phase_split  # probe schedule, env timing
+from learn_waypoints import PROBE_SEED, WaypointProbe, _phase_split, iqm_cell  # probe schedule, env timing, IQM cells
 
 from pyflyt_cli.training import compose_config, train
 
@@ -308,14 +308,6 @@ def common_prefix(rows: list[dict]) -> list[dict]:
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     """IQM over seeds with 95 % stratified-bootstrap CIs of the final probe's measures, and the
     success curve over the probe steps every seed reached."""
-    from pyflyt_cli.plotting import stats
-
-    def iqm(values: list[float]) -> stats.Estimate:
-        return stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
-
-    def fmt(e: stats.Estimate, digits: int) -> str:
-        return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
-
     final = [r["final"] for r in rows]
     lines = [
         "",
@@ -323,10 +315,10 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict
         "",
         "| measure | IQM [95 % CI] |",
         "|---|---|",
-        f"| success fraction (goal reached without contact) | {fmt(iqm([f['success'] for f in final]), 2)} |",
-        f"| best probe's success fraction | {fmt(iqm([r['best_success'] for r in rows]), 2)} |",
-        f"| closest approach to the goal [m] (0 when reached) | {fmt(iqm([f['mean_closest'] for f in final]), 2)} |",
-        f"| probe return | {fmt(iqm([f['mean_return'] for f in final]), 1)} |",
+        f"| success fraction (goal reached without contact) | {iqm_cell([f['success'] for f in final], 2, reps)} |",
+        f"| best probe's success fraction | {iqm_cell([r['best_success'] for r in rows], 2, reps)} |",
+        f"| closest approach to the goal [m] (0 when reached) | {iqm_cell([f['mean_closest'] for f in final], 2, reps)} |",
+        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
     ]
     data: dict = {"rows": rows}
     curve = probe_curve(common_prefix(rows), "success", reps)

@@ -290,17 +290,18 @@ def run(
     }
 
 
+def iqm_cell(values: list[float], digits: int, reps: int = 2000) -> str:
+    """``IQM [low, high]`` over seeds of one value per seed: rliable's interquartile mean with its
+    95 % stratified-bootstrap interval (``reps`` replicates, seed 0), to ``digits`` decimals."""
+    from pyflyt_cli.plotting import stats
+
+    e = stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
+    return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
+
+
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     """IQM over seeds with 95 % stratified-bootstrap CIs of the final probe's waypoint measures,
     and of the mean-waypoints-reached curve when every seed was probed at the same steps."""
-    from pyflyt_cli.plotting import stats
-
-    def iqm(values: list[float]) -> stats.Estimate:
-        return stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
-
-    def fmt(e: stats.Estimate, digits: int) -> str:
-        return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
-
     final = [r["final"] for r in rows]
     lines = [
         "",
@@ -308,10 +309,10 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict
         "",
         "| measure | IQM [95 % CI] |",
         "|---|---|",
-        f"| mean waypoints reached (of 5) | {fmt(iqm([f['mean_reached'] for f in final]), 2)} |",
-        f"| fraction reaching >= 1 waypoint | {fmt(iqm([f['at_least'][0] for f in final]), 2)} |",
-        f"| fraction reaching all 5 | {fmt(iqm([f['all'] for f in final]), 2)} |",
-        f"| probe return | {fmt(iqm([f['mean_return'] for f in final]), 1)} |",
+        f"| mean waypoints reached (of 5) | {iqm_cell([f['mean_reached'] for f in final], 2, reps)} |",
+        f"| fraction reaching >= 1 waypoint | {iqm_cell([f['at_least'][0] for f in final], 2, reps)} |",
+        f"| fraction reaching all 5 | {iqm_cell([f['all'] for f in final], 2, reps)} |",
+        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
     ]
     data: dict = {"rows": rows}
     curve = probe_curve(rows, "mean_reached", reps)

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -106,3 +107,17 @@ def initial_policy_probe() -> tuple[object, dict]:
             return True
 
     return Capture(), seen
+
+
+class FixedAction:
+    """A policy that always returns ``action`` (in the agent's [-1, 1] units): what the
+    experiments' probes fly, without training."""
+
+    def __init__(self, action):
+        self.action = np.asarray(action, dtype=np.float32)
+
+    def get_vec_normalize_env(self):
+        return None
+
+    def predict(self, obs, deterministic=True):
+        return self.action, None

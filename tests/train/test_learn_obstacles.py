@@ -13,11 +13,10 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 
-from .conftest import ROOT
+from .conftest import ROOT, FixedAction
 
 
 @pytest.fixture(scope="module")
@@ -30,19 +29,6 @@ def exp():
     finally:
         sys.path.remove(str(ROOT / "experiments"))
     return module
-
-
-class _FixedAction:
-    """A policy that always returns ``action`` (in the agent's [-1, 1] units)."""
-
-    def __init__(self, action):
-        self.action = np.asarray(action, dtype=np.float32)
-
-    def get_vec_normalize_env(self):
-        return None
-
-    def predict(self, obs, deterministic=True):
-        return self.action, None
 
 
 def _env(task=None, obstacles=None):
@@ -58,7 +44,7 @@ def _env(task=None, obstacles=None):
 
 def _probe(exp, env, action, episodes=2):
     try:
-        return exp.obstacle_probe(_FixedAction(action), env, episodes=episodes, seed=0)
+        return exp.obstacle_probe(FixedAction(action), env, episodes=episodes, seed=0)
     finally:
         env.close()
 

@@ -11,11 +11,10 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 
-from .conftest import ROOT
+from .conftest import ROOT, FixedAction
 
 
 def _experiment():
@@ -23,19 +22,6 @@ def _experiment():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-class _FixedAction:
-    """A policy that always returns ``action`` (in the agent's [-1, 1] units)."""
-
-    def __init__(self, action):
-        self.action = np.asarray(action, dtype=np.float32)
-
-    def get_vec_normalize_env(self):
-        return None
-
-    def predict(self, obs, deterministic=True):
-        return self.action, None
 
 
 def _env(num_targets: int, reach: float):
@@ -55,7 +41,7 @@ def exp():
 def test_every_waypoint_counted_when_each_step_reaches_one(exp):
     env = _env(num_targets=3, reach=20.0)  # wider than the 5 m dome: reached at once, one per step
     try:
-        probe = exp.waypoint_probe(_FixedAction([0, 0, 0, -0.7]), env, episodes=2, seed=0)
+        probe = exp.waypoint_probe(FixedAction([0, 0, 0, -0.7]), env, episodes=2, seed=0)
     finally:
         env.close()
     assert probe["reached"] == [3, 3]
@@ -66,7 +52,7 @@ def test_every_waypoint_counted_when_each_step_reaches_one(exp):
 def test_nothing_counted_when_the_vehicle_falls(exp):
     env = _env(num_targets=5, reach=1e-4)
     try:
-        probe = exp.waypoint_probe(_FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)  # no thrust
+        probe = exp.waypoint_probe(FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)  # no thrust
     finally:
         env.close()
     assert probe["reached"] == [0, 0]
