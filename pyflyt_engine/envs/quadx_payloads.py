@@ -253,9 +253,10 @@ class QuadXGatesEnv(UAVEnv):
 
     **Reward**: sparse (preset ``quadx_gates_sparse``, the reference's only reward): -0.1
     per step, +100 per gate, -100 on a crash.  Dense (``quadx_gates_dense``, ours): the
-    sparse terms plus 0.1 / max(delta, 0.2) - 3 delta_dot while approaching the next gate's
-    centre (delta [m], delta_dot [m/s]; the paper's QuadX-Waypoints shaping).  Terms:
-    ``crash``, ``gate_bonus``, ``time_penalty``, ``proximity``, ``approach``.
+    sparse terms plus 3 x the progress towards the next gate's centre over the agent step
+    (the decrease of delta [m]: paid approaching, charged receding; the racing reward of
+    Song et al., IROS 2021): a loop away and back nets nothing.  Terms:
+    ``crash``, ``gate_bonus``, ``time_penalty``, ``progress``.
 
     **Episode end**: terminated on a crash (any contact: the ground or a gate; leaving the
     dome) or when the last gate is passed (``env_complete``, ``success``); truncated after

@@ -70,12 +70,15 @@ def test_gates_presets_match_their_formulas():
 
     def ctx(**kw):
         crashed = kw.pop("crashed", False)
-        return StepContext(state, np.zeros(4), crashed, False, False, crashed, **kw)
+        return StepContext(state, np.zeros(4), crashed, False, False, crashed, agent_dt=1 / 40, **kw)
 
     dense = load_reward_preset("quadx_gates_dense").compile(provides)
     sparse = load_reward_preset("quadx_gates_sparse").compile(provides)
-    assert dense(ctx(target_distance=2.0, target_distance_rate=-1.5))[0] == pytest.approx(-0.1 + 0.05 + 4.5)
-    assert dense(ctx(target_distance=0.05, target_distance_rate=1.0))[0] == pytest.approx(-0.1 + 0.1 / 0.2)  # floor
+    # progress: approaching at 1.5 m/s for one 40 Hz step is 0.0375 m, paid 3 per metre;
+    # receding as fast is charged as much (a loop away and back nets nothing)
+    assert dense(ctx(target_distance=2.0, target_distance_rate=-1.5))[0] == pytest.approx(-0.1 + 3 * 1.5 / 40)
+    assert dense(ctx(target_distance=2.0, target_distance_rate=1.5))[0] == pytest.approx(-0.1 - 3 * 1.5 / 40)
+    assert dense(ctx(target_distance=0.05, target_distance_rate=0.0))[0] == pytest.approx(-0.1)  # hovering pays nothing
     assert dense(ctx(target_distance=0.3, target_distance_rate=-1.0, waypoint_reached=True))[0] == pytest.approx(99.9)
     assert dense(ctx(crashed=True, target_distance=1.0, target_distance_rate=-1.0))[0] == -100.0
     assert sparse(ctx(target_distance=2.0, target_distance_rate=-1.5))[0] == pytest.approx(-0.1)
@@ -140,6 +143,22 @@ def test_passing_gates_out_of_order_counts_nothing_and_the_frame_is_a_crash():
         if terminated:
             break
     assert terminated and info["collision"] and reward == -100.0 and info["num_targets_reached"] == 0
+    env.close()
+
+
+def test_negative_clearance_counts_crossings_beside_the_gate_for_one_episode():
+    """A curriculum's easing: clearance -0.8 counts a crossing 0.6 m beside the opening (outside
+    the frame), for the episode it is set for; the configured task does not."""
+    env = gates_env(course="fixed")
+    for clearance, counted in ((-0.8, 1), (None, 0)):
+        env.reset(seed=0, options={"task": {"clearance": clearance}} if clearance is not None else None)
+        assert env.task.options.clearance == (clearance if clearance is not None else 0.0)
+        _fly_through(env, 0, offset=(0.6, 0.0))  # 0.35 m clear of the side bar's outer face
+        _, reward, _, _, info = env.step([0.0, 0.0, 0.0, 0.125])
+        assert info["num_targets_reached"] == counted and not info["collision"]
+        assert info["reward_terms"]["gate_bonus"] == 100.0 * counted
+    with pytest.raises(ValueError, match="clearance"):
+        env.reset(seed=0, options={"task": {"clearance": 0.2}})  # leaves no opening
     env.close()
 
 

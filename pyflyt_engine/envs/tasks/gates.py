@@ -14,7 +14,11 @@ A gate is **passed** when the vehicle's centre of mass crosses the gate's plane 
 start and end positions) at a point within the opening: ``|y|, |z| <= opening / 2 -
 clearance`` in the gate's frame.  Then the next gate becomes the target; passing the last
 completes the task.  Gates must be passed in order: crossing another gate's plane does
-nothing.
+nothing.  A negative ``clearance`` also counts crossings up to ``-clearance`` outside the
+opening (beside the gate; the gate itself stays solid): an easier task for a training
+curriculum (``train.curriculum: {clearance: {start: -0.8, steps: N}}`` counts crossings
+within 1 m of the centre at first, then only through the opening), as the waypoint tasks
+ease their reach sphere.
 
 Signals: ``target_distance`` [m] and ``target_distance_rate`` [m/s] to the next gate's
 centre, ``waypoint_reached`` when a gate is passed.
@@ -64,7 +68,11 @@ class GatesOptions(TaskOptions):
         "random", description="random: a new course at every reset; fixed: the payloads' declared poses"
     )
     opening: float = Field(0.4, gt=0, description="inner width and height of a gate's square opening [m]")
-    clearance: float = Field(0.0, ge=0, description="margin kept from the opening's edges for a pass to count [m]")
+    clearance: float = Field(
+        0.0,
+        description="margin kept from the opening's edges for a pass to count [m]; negative: crossings that far "
+        "outside the opening count too (a curriculum's easing)",
+    )
     min_gate_distance: float = Field(1.0, gt=0, description="random course: closest spacing of gates [m]")
     max_gate_distance: float = Field(3.0, gt=0, description="random course: farthest spacing of gates [m]")
     max_turn: float = Field(1.0, ge=0, le=math.pi, description="random course: largest heading change per gate [rad]")
@@ -150,6 +158,8 @@ class GatesTask(Task):
     name: ClassVar[str] = "gates"
     Options: ClassVar[type[TaskOptions]] = GatesOptions
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
+    # read at every step (the crossing test): a curriculum may ease it
+    episode_options: ClassVar[frozenset[str]] = frozenset({"clearance"})
 
     options: GatesOptions
 
