@@ -64,6 +64,7 @@ def list_envs() -> str:
                         f"{pl.name} ({pl.mass():.3g} kg, {pl.attach.joint} to {pl.attach.to})" for pl in cfg.payloads
                     )
                 )
+            lines += [f"  variant:     {line}" for line in _variants(env_id, entry.config)]
             lines.append("")
         finally:
             env.close()
@@ -74,6 +75,34 @@ def list_envs() -> str:
         "make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine"
     )
     return "\n".join(lines)
+
+
+def _variants(env_id: str, registered: str) -> list[str]:
+    """The other env configs of ``conf/env`` declaring ``env_id`` (e.g. another flight mode or
+    observation of the same task): ``name: description; observation, action mode`` each, for
+    ``pyflyt train env=<name>``."""
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.envs.config import load_env_config
+    from pyflyt_engine.paths import conf_dir
+
+    out = []
+    for path in sorted((conf_dir() / "env").glob("*.yaml")):
+        if path.stem == registered:
+            continue
+        cfg = load_env_config(path)
+        if cfg.id != env_id:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            env = make_env(cfg)
+        try:
+            out.append(
+                f"{path.stem}: {cfg.description}; observation {describe_space(env.observation_space)}, "
+                f"action mode {cfg.action.mode} (pyflyt train env={path.stem})"
+            )
+        finally:
+            env.close()
+    return out
 
 
 def _task_value(cfg: Any, key: str, value: Any) -> str:

@@ -22,6 +22,19 @@ def test_list_envs_table():
     assert "num_targets=5, goal_reach_distance=0.2" in table
 
 
+def test_config_variants_are_listed_under_their_env():
+    """Env configs declaring a registered id (another observation or flight mode of the task)
+    are listed under it, with what differs, and nowhere else."""
+    table = list_envs()
+    block = table.split("PyFlyt/QuadX-Gates-v0", 1)[1].split("\n\n", 1)[0]
+    assert "variant:     quadx_gates_state:" in block
+    assert "observation Dict(attitude: Box(21,), gate: Box(12,)), action mode rates_thrust" in block
+    assert "(pyflyt train env=quadx_gates_state)" in block
+    waypoints = table.split("PyFlyt/QuadX-Waypoints-v0", 1)[1].split("\n\n", 1)[0]
+    assert "quadx_waypoints_velocity:" in waypoints and "action mode velocity_yawrate" in waypoints
+    assert table.count("variant:     quadx_gates_state:") == 1 and "variant:     quadx_gates:" not in table
+
+
 def test_envs_command():
     result = CliRunner().invoke(app, ["envs"])
     assert result.exit_code == 0, result.output
