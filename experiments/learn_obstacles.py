@@ -125,6 +125,7 @@ class ObstacleProbe(WaypointProbe):
         super().__init__(cfg, every, episodes, target)
         self.probe_fn = obstacle_probe
         self.cpu_budget, self.save = cpu_budget, save
+        self.env_name = cfg.env_name
         self.cpu_started = time.process_time()
         self.probe_cpu = 0.0
         self.stopped_by_budget = False
@@ -145,6 +146,14 @@ class ObstacleProbe(WaypointProbe):
             return False
         return True
 
+    def describe(self, probe: dict) -> str:
+        """The task's measures of one probe, for its progress line."""
+        return (
+            f"success {100 * probe['success']:3.0f} %  endings {probe['endings']}  "
+            f"closest {probe['mean_closest']:.2f} m  speed {probe['mean_speed']:.2f} m/s  "
+            f"length {probe['mean_length']:.1f} s  return {probe['mean_return']:8.1f}"
+        )
+
     def probe(self) -> None:
         t0, c0 = time.perf_counter(), time.process_time()
         probe = self.probe_fn(self.model, self.env, self.episodes, seed=PROBE_SEED)
@@ -158,9 +167,7 @@ class ObstacleProbe(WaypointProbe):
         self.history.append((self.num_timesteps, wall, probe))
         print(
             f"  {self.num_timesteps:>8} steps  CPU {cpu / 60:5.1f} min  wall {wall / 60:5.1f} min (load {load:.1f})  "
-            f"success {100 * probe['success']:3.0f} %  endings {probe['endings']}  "
-            f"closest {probe['mean_closest']:.2f} m  speed {probe['mean_speed']:.2f} m/s  "
-            f"length {probe['mean_length']:.1f} s  return {probe['mean_return']:8.1f}",
+            + self.describe(probe),
             flush=True,
         )
         if self.hover_at is None and probe["success"] >= self.target:
@@ -173,7 +180,7 @@ def row(probe: ObstacleProbe, seed: int, every: int, episodes: int, extra, cpu_m
     """One seed's results from its probe callback (partial while ``status`` is ``running``)."""
     history = probe.history
     return {
-        "env": ENV,
+        "env": probe.env_name,
         "seed": seed,
         "overrides": list(extra),
         "cpu_minutes": cpu_minutes,
@@ -193,16 +200,22 @@ def row(probe: ObstacleProbe, seed: int, every: int, episodes: int, extra, cpu_m
     }
 
 
-def run(seed: int, cpu_minutes: float | None, every: int, episodes: int, output: Path, extra=(), save=None) -> dict:
+def run(
+    seed: int, cpu_minutes: float | None, every: int, episodes: int, output: Path, extra=(), save=None,
+    env: str = ENV, target: float = TARGET, probe_cls: type[ObstacleProbe] | None = None,
+) -> dict:
+    """Train one seed of ``env`` (PPO, its shipped tuning and ``extra`` overrides) under the CPU
+    budget, probing with ``probe_cls`` (default :class:`ObstacleProbe`); ``save`` gets the row
+    after every probe."""
     overrides = [*extra, f"seed={seed}", f"train.output_dir={output}", "train.progress_bar=false", "train.eval_freq=0"]
-    cfg = compose_config(env=ENV, algo="ppo", overrides=overrides)
+    cfg = compose_config(env=env, algo="ppo", overrides=overrides)
     budget = None if cpu_minutes is None else 60.0 * cpu_minutes
 
     def partial(p: ObstacleProbe) -> None:
         if save is not None:
             save(row(p, seed, every, episodes, extra, cpu_minutes, "running", wall=time.perf_counter() - start))
 
-    probe = ObstacleProbe(cfg, every, episodes, TARGET, budget, save=partial)
+    probe = (probe_cls or ObstacleProbe)(cfg, every, episodes, target, budget, save=partial)
     start, cpu0 = time.perf_counter(), time.process_time()
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     wall, process_cpu = time.perf_counter() - start, time.process_time() - cpu0

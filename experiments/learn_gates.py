@@ -1,0 +1,215 @@
+"""How many gates in a row does a QuadX-Gates agent fly from state, within a CPU-time budget?
+
+Trains what ``pyflyt train env=quadx_gates_state`` trains (``conf/train.yaml`` with the
+env's tuning ``conf/hparams/quadx_gates_state_ppo.yaml``; the only overrides are the seed,
+the output folder, no progress bar, the run's own evaluations off, and ``--set key=value``
+when given) and every ``--probe-every`` steps flies the current policy (deterministic) for
+``--episodes`` seeded episodes (seeds 10 000+, the same courses for every run), counting
+per episode the gates passed in order (``info["num_targets_reached"]``; gates count only in
+order, so this is the run of consecutive gates from the start) and how it ended (every
+gate passed, a crash on a gate or the ground, out of the flight dome, the 10 s limit).
+
+**The target** (a stretch target of the project): >= 3 consecutive gates in >= 50 % of the
+evaluation episodes within 60 minutes of training on 2 cores, from the state observation.
+A probe's ``success`` is the fraction of its episodes passing at least ``--gates`` (3) gates.
+
+**CPU-time budget** (``--cpu-minutes M``, default 60): as ``experiments/learn_obstacles.py``
+(the training process's CPU time, every thread, minus the probes'; a conservative reading
+of "M minutes on 2 cores" on a shared machine).  Every probe is written to ``--save-rows``
+as it comes; ``--from-rows`` reports saved runs (one file per seed when seeds run side by
+side).  Across seeds: IQM with 95 % stratified-bootstrap intervals (rliable, through
+``pyflyt_cli.plotting.stats``) of the final probe's fraction and mean gates passed.
+``--write`` appends a section to ``experiments/results/learn_gates.md`` and writes the raw
+probes and the curve beside it (``.json``, ``.png``).
+
+    python experiments/learn_gates.py [--seeds 0 1 2] [--cpu-minutes 60] [--probe-every 250000] \\
+        [--episodes 20] [--gates 3] [--set KEY=VALUE ...] [--save-rows FILE] [--keep-runs DIR] [--write]
+    python experiments/learn_gates.py --from-rows rows_0.json rows_1.json ... [--write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from learn_hover_ppo import plot_curve, probe_curve  # this folder: the IQM curve and its plot
+from learn_obstacles import ObstacleProbe, common_prefix, run  # CPU budget, saves, the run
+from learn_waypoints import ending, iqm_cell, summarize_probe
+
+ENV = "quadx_gates_state"
+RESULTS = Path(__file__).resolve().parent / "results" / "learn_gates.md"
+TARGET = 0.5  # the issue's target: >= 50 % of the episodes ...
+GATES = 3  # ... pass at least 3 gates in a row
+ENDINGS = ("complete", "crash", "out", "time")
+
+
+def gates_probe(model, env, episodes: int, seed: int, gates: int = GATES) -> dict:
+    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...): gates passed
+    per episode, the fractions passing at least 1..n, their mean, the endings and the return;
+    ``success`` is the fraction passing at least ``gates``."""
+    vec = model.get_vec_normalize_env()
+    count = len(env.unwrapped.task.options.gates)
+    passed, endings, returns = [], [], []
+    for i in range(episodes):
+        obs, _ = env.reset(seed=seed + i)
+        done, total, info, truncated = False, 0.0, {}, False
+        while not done:
+            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
+            action, _ = model.predict(x, deterministic=True)
+            obs, reward, terminated, truncated, info = env.step(action)
+            total += float(reward)
+            done = terminated or truncated
+        passed.append(int(info["num_targets_reached"]))
+        endings.append(ending(info, truncated))
+        returns.append(total)
+    out = summarize_probe(passed, endings, returns, count)
+    out["success"] = out["at_least"][gates - 1]
+    return out
+
+
+class GatesProbe(ObstacleProbe):
+    """:class:`learn_obstacles.ObstacleProbe` (CPU budget, saves, schedule) flying :func:`gates_probe`."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.probe_fn = gates_probe
+
+    def describe(self, probe: dict) -> str:
+        at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
+        return (
+            f">= k gates [%]: {at_least}  mean {probe['mean_reached']:.2f}  endings {probe['endings']}  "
+            f"return {probe['mean_return']:8.1f}"
+        )
+
+
+def table(rows: list[dict]) -> list[str]:
+    lines = [
+        "| seed | ended by | steps | training CPU [min] | wall-clock [min] | load min / mean / max | steps per CPU-s | "
+        f"final >= {GATES} gates [%] | final >= 1..5 gates [%] | final mean gates | final endings | "
+        f"best >= {GATES} gates [%] | first >= {100 * TARGET:.0f} % [steps, CPU min] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        f, t = r["final"], r["target_at"]
+        cpu = r["training_cpu"]
+        lines.append(
+            f"| {r['seed']} | {r['status']} | {r['steps']} | {cpu / 60:.1f} | {r.get('wall', 0) / 60:.1f} | "
+            f"{r['load'][0]:.1f} / {r['load'][1]:.1f} / {r['load'][2]:.1f} | {r['steps'] / max(cpu, 1e-9):.0f} | "
+            f"{100 * f.get('success', 0):.0f} | {' / '.join(f'{100 * a:.0f}' for a in f.get('at_least', []))} | "
+            f"{f.get('mean_reached', 0):.2f} | {', '.join(f'{k} {v}' for k, v in f.get('endings', {}).items())} | "
+            f"{100 * r['best_success']:.0f} | {f'{t[0]}, {t[2] / 60:.1f}' if t else 'not reached'} |"
+        )
+    return lines
+
+
+def summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
+    final = [r["final"] for r in rows]
+    lines = [
+        "",
+        f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
+        "",
+        "| measure | IQM [95 % CI] |",
+        "|---|---|",
+        f"| fraction passing >= {GATES} gates | {iqm_cell([f['success'] for f in final], 2, reps)} |",
+        f"| best probe's fraction passing >= {GATES} gates | {iqm_cell([r['best_success'] for r in rows], 2, reps)} |",
+        f"| mean gates passed (of 5) | {iqm_cell([f['mean_reached'] for f in final], 2, reps)} |",
+        f"| fraction passing all 5 | {iqm_cell([f['all'] for f in final], 2, reps)} |",
+        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
+    ]
+    data: dict = {"rows": rows}
+    curve = probe_curve(common_prefix(rows), "success", reps)
+    if curve is not None:
+        data["curve"] = curve
+    return lines, data
+
+
+def probes_text(rows: list[dict]) -> list[str]:
+    lines = ["", "Probes per seed (steps: % passing >= 1..5 gates / endings):", ""]
+    for r in rows:
+        parts = [
+            f"{h[0] // 1000}k: " + "/".join(f"{100 * a:.0f}" for a in h[2]["at_least"]) + " "
+            + " ".join(f"{k} {v}" for k, v in h[2]["endings"].items())
+            for h in r["history"]
+        ]
+        lines.append(f"- seed {r['seed']}: " + "; ".join(parts))
+    return lines + ["", "(raw: `learn_gates.json`)"]
+
+
+def main() -> None:
+    global GATES
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--cpu-minutes", type=float, default=60.0, help="training CPU-time budget per run [min] (0: none)")
+    parser.add_argument("--probe-every", type=int, default=250_000)
+    parser.add_argument("--episodes", type=int, default=20, help="episodes per probe")
+    parser.add_argument("--gates", type=int, default=GATES, help="a probe episode succeeds from this many gates passed")
+    parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
+    parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
+    parser.add_argument("--save-rows", type=Path, help="write each run's results here (JSON) at every probe")
+    parser.add_argument("--keep-runs", type=Path, help="keep the run directories here (default: a temporary folder)")
+    parser.add_argument("--from-rows", type=Path, nargs="+", help="no training: report the runs saved by --save-rows")
+    parser.add_argument("--title", default="", help="a few words for the results section's heading")
+    args = parser.parse_args()
+    GATES = args.gates
+    cpu_minutes = args.cpu_minutes or None
+
+    rows: list[dict] = []
+    if args.from_rows:
+        for path in args.from_rows:
+            rows += json.loads(path.read_text())
+        rows.sort(key=lambda r: r["seed"])
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            output = args.keep_runs or Path(tmp)
+            for seed in args.seeds:
+                print(f"seed {seed}:", flush=True)
+
+                def save(current: dict, done: list[dict] = list(rows)) -> None:
+                    if args.save_rows:  # every probe: a stopped run keeps what it measured
+                        args.save_rows.write_text(json.dumps([*done, current], indent=1) + "\n")
+
+                rows.append(run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save,
+                                env=ENV, target=TARGET, probe_cls=GatesProbe))
+
+    command = "python experiments/learn_gates.py " + " ".join(sys.argv[1:])
+    r0 = rows[0]
+    lines = [
+        (
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.title + ', ' if args.title else ''}PPO, "
+            f"{r0['cpu_minutes']} CPU-minutes per seed, probe every {r0['probe_every']} steps x {r0['episodes']} "
+            f"episodes ({platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()})\n"
+        ),
+        f"```bash\n{command}\n```\n",
+        f"Overrides beyond the shipped tuning: {', '.join(r0['overrides']) or 'none'}.\n",
+        *table(rows),
+    ]
+    more, data = summary(rows)
+    lines += more + probes_text(rows)
+    if args.write and "curve" in data:
+        png = RESULTS.with_suffix(".png")
+        plot_curve(
+            data, png, f"QuadX-Gates from state, PPO, seeds {', '.join(str(r['seed']) for r in rows)}",
+            key="success", ylabel=f"fraction passing >= {GATES} gates, probe", legend="upper left",
+        )
+        lines.append(f"\nCurve: `{png.name}` (IQM and 95 % CI of the probe fraction; grey: each seed).")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.write:
+        data["command"] = command
+        RESULTS.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
+        if not RESULTS.exists():
+            RESULTS.write_text("# QuadX-Gates from state: how many gates in a row (experiments/learn_gates.py)\n")
+        with RESULTS.open("a") as fh:
+            fh.write(text)
+
+
+if __name__ == "__main__":
+    main()
