@@ -463,3 +463,11 @@ def test_init_from_a_step_of_a_missing_run_names_the_run(tmp_path):
     with pytest.raises(ConfigError, match=r"write <run dir>@<step> with a whole number of steps"):
         run_train([f"init_from={tmp_path}@five"], show_config=True)
     assert not (tmp_path / "runs").exists()
+
+
+def test_gate_observation_option_is_a_documented_override():
+    """docs/environments.md: `pyflyt train env=quadx_gates env.task.observation=corners`."""
+    assert load_train_config(["env=quadx_gates", "env.task.observation=corners"]).env.task.observation == "corners"
+    assert load_train_config(["env=quadx_gates_state"]).env.task.observation == "corners"
+    with pytest.raises(ConfigError, match="observation"):  # a value the option does not take
+        load_train_config(["env=quadx_gates", "env.task.observation=pixels"])
