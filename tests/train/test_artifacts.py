@@ -183,3 +183,17 @@ def test_awac_refuses_a_pickled_offline_buffer_from_the_command_line(tmp_path):
     with pytest.raises(ConfigError, match="trust_pickle"):
         train(load([*TINY_AWAC, f"algo.offline_buffer={buffer}", "algo.offline_steps=5"], tmp_path))
     assert not marker.exists()
+
+
+def test_a_model_built_directly_logs_into_the_test_folder_not_the_system_temp():
+    """tests/conftest.py: SB3's own logger folder of a directly built model is the test's
+    temporary folder, not a new ``SB3-<date>`` one in the system's temporary directory."""
+    import os
+    import tempfile
+
+    from stable_baselines3 import PPO
+
+    model = PPO("MlpPolicy", "Pendulum-v1", n_steps=64, batch_size=64, device="cpu").learn(64)
+    folder = Path(model.logger.get_dir())
+    assert folder == Path(os.environ["SB3_LOGDIR"]) and folder.is_dir()
+    assert folder.parent != Path(tempfile.gettempdir())  # pytest's own base folder, not the system's temp
