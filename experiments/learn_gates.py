@@ -40,37 +40,22 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from learn_hover_ppo import plot_curve, probe_curve  # this folder: the IQM curve and its plot
-from learn_obstacles import ObstacleProbe, common_prefix, run  # CPU budget, saves, the run
-from learn_waypoints import ending, iqm_cell, summarize_probe
+from learn_hover_ppo import plot_curve  # this folder: the curve's plot
+from learn_obstacles import ObstacleProbe, iqm_summary, run  # CPU budget, saves, the run, IQM table
+from learn_waypoints import waypoint_probe
 
 ENV = "quadx_gates_state"
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_gates.md"
 TARGET = 0.5  # the issue's target: >= 50 % of the episodes ...
 GATES = 3  # ... pass at least 3 gates in a row
-ENDINGS = ("complete", "crash", "out", "time")
 
 
 def gates_probe(model, env, episodes: int, seed: int, gates: int = GATES) -> dict:
-    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...): gates passed
-    per episode, the fractions passing at least 1..n, their mean, the endings and the return;
-    ``success`` is the fraction passing at least ``gates``."""
-    vec = model.get_vec_normalize_env()
-    count = len(env.unwrapped.task.options.gates)
-    passed, endings, returns = [], [], []
-    for i in range(episodes):
-        obs, _ = env.reset(seed=seed + i)
-        done, total, info, truncated = False, 0.0, {}, False
-        while not done:
-            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
-            action, _ = model.predict(x, deterministic=True)
-            obs, reward, terminated, truncated, info = env.step(action)
-            total += float(reward)
-            done = terminated or truncated
-        passed.append(int(info["num_targets_reached"]))
-        endings.append(ending(info, truncated))
-        returns.append(total)
-    out = summarize_probe(passed, endings, returns, count)
+    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...):
+    :func:`learn_waypoints.waypoint_probe`'s counts (gates passed per episode, the fractions
+    passing at least 1..n, their mean, the endings, the return), and ``success``, the fraction
+    passing at least ``gates``."""
+    out = waypoint_probe(model, env, episodes, seed)
     out["success"] = out["at_least"][gates - 1]
     return out
 
@@ -112,23 +97,13 @@ def table(rows: list[dict]) -> list[str]:
 
 def summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     final = [r["final"] for r in rows]
-    lines = [
-        "",
-        f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
-        "",
-        "| measure | IQM [95 % CI] |",
-        "|---|---|",
-        f"| fraction passing >= {GATES} gates | {iqm_cell([f['success'] for f in final], 2, reps)} |",
-        f"| best probe's fraction passing >= {GATES} gates | {iqm_cell([r['best_success'] for r in rows], 2, reps)} |",
-        f"| mean gates passed (of 5) | {iqm_cell([f['mean_reached'] for f in final], 2, reps)} |",
-        f"| fraction passing all 5 | {iqm_cell([f['all'] for f in final], 2, reps)} |",
-        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
-    ]
-    data: dict = {"rows": rows}
-    curve = probe_curve(common_prefix(rows), "success", reps)
-    if curve is not None:
-        data["curve"] = curve
-    return lines, data
+    return iqm_summary(rows, [
+        (f"fraction passing >= {GATES} gates", [f["success"] for f in final], 2),
+        (f"best probe's fraction passing >= {GATES} gates", [r["best_success"] for r in rows], 2),
+        ("mean gates passed (of 5)", [f["mean_reached"] for f in final], 2),
+        ("fraction passing all 5", [f["all"] for f in final], 2),
+        ("probe return", [f["mean_return"] for f in final], 1),
+    ], reps)
 
 
 def probes_text(rows: list[dict]) -> list[str]:

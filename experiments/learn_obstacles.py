@@ -318,26 +318,33 @@ def common_prefix(rows: list[dict]) -> list[dict]:
     return [{**r, "history": r["history"][:n]} for r in rows]
 
 
-def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
-    """IQM over seeds with 95 % stratified-bootstrap CIs of the final probe's measures, and the
-    success curve over the probe steps every seed reached."""
-    final = [r["final"] for r in rows]
+def iqm_summary(rows: list[dict], measures: list[tuple[str, list[float], int]], reps: int = 2000) -> tuple[list[str], dict]:
+    """IQM over seeds with 95 % stratified-bootstrap CIs of each measure ``(label, one value per
+    seed, decimals)``, and the probe ``success`` curve over the probe steps every seed reached."""
     lines = [
         "",
         f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
         "",
         "| measure | IQM [95 % CI] |",
         "|---|---|",
-        f"| success fraction (goal reached without contact) | {iqm_cell([f['success'] for f in final], 2, reps)} |",
-        f"| best probe's success fraction | {iqm_cell([r['best_success'] for r in rows], 2, reps)} |",
-        f"| closest approach to the goal [m] (0 when reached) | {iqm_cell([f['mean_closest'] for f in final], 2, reps)} |",
-        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
+        *(f"| {label} | {iqm_cell(values, digits, reps)} |" for label, values, digits in measures),
     ]
     data: dict = {"rows": rows}
     curve = probe_curve(common_prefix(rows), "success", reps)
     if curve is not None:
         data["curve"] = curve
     return lines, data
+
+
+def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
+    """:func:`iqm_summary` of the final probe's success, closest approach and return."""
+    final = [r["final"] for r in rows]
+    return iqm_summary(rows, [
+        ("success fraction (goal reached without contact)", [f["success"] for f in final], 2),
+        ("best probe's success fraction", [r["best_success"] for r in rows], 2),
+        ("closest approach to the goal [m] (0 when reached)", [f["mean_closest"] for f in final], 2),
+        ("probe return", [f["mean_return"] for f in final], 1),
+    ], reps)
 
 
 def table(rows: list[dict]) -> list[str]:

@@ -83,9 +83,11 @@ def summarize_probe(reached: list[int], endings: list[str], returns: list[float]
 
 
 def waypoint_probe(model, env, episodes: int, seed: int) -> dict:
-    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...); see :func:`summarize_probe`."""
+    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...); see :func:`summarize_probe`
+    (waypoints reached, or gates passed, in order: ``info["num_targets_reached"]``)."""
     vec = model.get_vec_normalize_env()
-    num_targets = env.unwrapped.task.options.num_targets
+    options = env.unwrapped.task.options
+    num_targets = options.num_targets if hasattr(options, "num_targets") else len(options.gates)  # waypoints or gates
     reached, endings, returns = [], [], []
     for i in range(episodes):
         obs, _ = env.reset(seed=seed + i)

@@ -12,6 +12,21 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
+
+def experiment(name: str):
+    """The script ``experiments/<name>.py`` as a module (its sibling imports resolved from
+    ``experiments/``), for tests of the experiments' measuring code."""
+    import importlib.util
+
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        spec = importlib.util.spec_from_file_location(name, ROOT / "experiments" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    return module
+
 #: a PPO run that finishes in a few seconds: 2 rollouts of 256 steps, evaluation and
 #: checkpoints at every rollout, 2 short evaluation episodes
 TINY_PPO = [

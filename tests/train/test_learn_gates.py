@@ -5,9 +5,7 @@ constructed cases with known answers, one training of ~1 s).
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from types import SimpleNamespace
 
 import gymnasium
@@ -15,19 +13,12 @@ import numpy as np
 import pytest
 import yaml
 
-from .conftest import ROOT, FixedAction
+from .conftest import ROOT, FixedAction, experiment
 
 
 @pytest.fixture(scope="module")
 def exp():
-    sys.path.insert(0, str(ROOT / "experiments"))  # its sibling imports
-    try:
-        spec = importlib.util.spec_from_file_location("learn_gates", ROOT / "experiments" / "learn_gates.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "experiments"))
-    return module
+    return experiment("learn_gates")
 
 
 class _Scripted(gymnasium.Env):

@@ -8,27 +8,17 @@ standing on the spawn point is touched at once.
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import pytest
 import yaml
 
-from .conftest import ROOT, FixedAction
+from .conftest import ROOT, FixedAction, experiment
 
 
 @pytest.fixture(scope="module")
 def exp():
-    sys.path.insert(0, str(ROOT / "experiments"))  # its sibling imports
-    try:
-        spec = importlib.util.spec_from_file_location("learn_obstacles", ROOT / "experiments" / "learn_obstacles.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "experiments"))
-    return module
+    return experiment("learn_obstacles")
 
 
 def _env(task=None, obstacles=None):

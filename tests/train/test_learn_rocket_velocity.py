@@ -8,20 +8,14 @@ never lit, so every drop falls from 450 m and hits at tens of m/s with the fuel 
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
 
-from .conftest import ROOT
+from .conftest import experiment
 
 
 def _experiment():
-    path = ROOT / "experiments" / "learn_rocket_velocity.py"
-    spec = importlib.util.spec_from_file_location("learn_rocket_velocity", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return experiment("learn_rocket_velocity")
 
 
 @pytest.fixture(scope="module")

@@ -8,20 +8,16 @@ the vehicle from 1 m onto the ground before anything is reached.
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 import yaml
 
-from .conftest import ROOT, FixedAction
+from .conftest import ROOT, FixedAction, experiment
 
 
 def _experiment():
-    spec = importlib.util.spec_from_file_location("learn_waypoints", ROOT / "experiments" / "learn_waypoints.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return experiment("learn_waypoints")
 
 
 def _env(num_targets: int, reach: float):

@@ -9,18 +9,13 @@ The multi-seed study with timings is experiments/learn_hover_ppo.py.
 
 from __future__ import annotations
 
-import importlib.util
-
 import pytest
 
-from .conftest import ROOT
+from .conftest import experiment
 
 
 def _experiment():
-    spec = importlib.util.spec_from_file_location("learn_hover_ppo", ROOT / "experiments" / "learn_hover_ppo.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return experiment("learn_hover_ppo")
 
 
 @pytest.mark.slow
@@ -32,13 +27,10 @@ def test_ppo_defaults_learn_to_hover(tmp_path):
     assert final["worst_distance"] < exp.MAX_DISTANCE, final
 
 
-def test_shared_policy_comparison_counts_missed_runs_and_scales_single_runs(monkeypatch):
+def test_shared_policy_comparison_counts_missed_runs_and_scales_single_runs():
     """The learning check's comparison table: N single-agent runs cost N x one run's IQM; a run
     that never hovered counts at its whole run and is flagged (cheap: constructed rows)."""
-    monkeypatch.syspath_prepend(str(ROOT / "experiments"))  # its sibling import of learn_hover_ppo
-    spec = importlib.util.spec_from_file_location("learn_ma_hover_ppo", ROOT / "experiments" / "learn_ma_hover_ppo.py")
-    exp = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(exp)
+    exp = experiment("learn_ma_hover_ppo")
     from pyflyt_cli.plotting.stats import iqm
 
     def row(seed, hover, steps=100_000, rate=1000.0):
