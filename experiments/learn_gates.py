@@ -31,17 +31,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from learn_hover_ppo import plot_curve  # this folder: the curve's plot
-from learn_obstacles import ObstacleProbe, iqm_summary, run  # CPU budget, saves, the run, IQM table
+from learn_obstacles import ObstacleProbe, iqm_summary, run_seeds, section_head  # CPU budget, saves, report
 from learn_waypoints import waypoint_probe
 
 ENV = "quadx_gates_state"
@@ -136,36 +132,11 @@ def main() -> None:
     GATES = args.gates
     cpu_minutes = args.cpu_minutes or None
 
-    rows: list[dict] = []
     if args.from_rows:
-        for path in args.from_rows:
-            rows += json.loads(path.read_text())
-        rows.sort(key=lambda r: r["seed"])
+        rows = sorted((r for path in args.from_rows for r in json.loads(path.read_text())), key=lambda r: r["seed"])
     else:
-        with tempfile.TemporaryDirectory() as tmp:
-            output = args.keep_runs or Path(tmp)
-            for seed in args.seeds:
-                print(f"seed {seed}:", flush=True)
-
-                def save(current: dict, done: list[dict] = list(rows)) -> None:
-                    if args.save_rows:  # every probe: a stopped run keeps what it measured
-                        args.save_rows.write_text(json.dumps([*done, current], indent=1) + "\n")
-
-                rows.append(run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save,
-                                env=ENV, target=TARGET, probe_cls=GatesProbe))
-
-    command = "python experiments/learn_gates.py " + " ".join(sys.argv[1:])
-    r0 = rows[0]
-    lines = [
-        (
-            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.title + ', ' if args.title else ''}PPO, "
-            f"{r0['cpu_minutes']} CPU-minutes per seed, probe every {r0['probe_every']} steps x {r0['episodes']} "
-            f"episodes ({platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()})\n"
-        ),
-        f"```bash\n{command}\n```\n",
-        f"Overrides beyond the shipped tuning: {', '.join(r0['overrides']) or 'none'}.\n",
-        *table(rows),
-    ]
+        rows = run_seeds(args, cpu_minutes, env=ENV, target=TARGET, probe_cls=GatesProbe)
+    lines = [*section_head("learn_gates.py", args, rows), *table(rows)]
     more, data = summary(rows)
     lines += more + probes_text(rows)
     if args.write and "curve" in data:
@@ -178,7 +149,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        data["command"] = command
+        data["command"] = "python experiments/learn_gates.py " + " ".join(sys.argv[1:])
         RESULTS.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
         if not RESULTS.exists():
             RESULTS.write_text("# QuadX-Gates from state: how many gates in a row (experiments/learn_gates.py)\n")

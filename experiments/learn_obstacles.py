@@ -395,6 +395,38 @@ def probes_text(rows: list[dict]) -> list[str]:
     return lines
 
 
+def run_seeds(args: argparse.Namespace, cpu_minutes: float | None, **run_kwargs) -> list[dict]:
+    """:func:`run` for every seed of ``args.seeds`` in turn (run folders in ``args.keep_runs`` or a
+    temporary one), each seed's row written to ``args.save_rows`` after every probe."""
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        output = args.keep_runs or Path(tmp)
+        for seed in args.seeds:
+            print(f"seed {seed}:", flush=True)
+
+            def save(current: dict, done: list[dict] = list(rows)) -> None:
+                if args.save_rows:  # every probe: a stopped run keeps what it measured
+                    args.save_rows.write_text(json.dumps([*done, current], indent=1) + "\n")
+
+            rows.append(run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save, **run_kwargs))
+    return rows
+
+
+def section_head(script: str, args: argparse.Namespace, rows: list[dict]) -> list[str]:
+    """A results section's heading (date, budget, probes, machine), the command and the overrides."""
+    command = f"python experiments/{script} " + " ".join(sys.argv[1:])
+    r0 = rows[0]
+    return [
+        (
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.title + ', ' if args.title else ''}PPO, "
+            f"{r0['cpu_minutes']} CPU-minutes per seed, probe every {r0['probe_every']} steps x {r0['episodes']} "
+            f"episodes ({platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()})\n"
+        ),
+        f"```bash\n{command}\n```\n",
+        f"Overrides beyond the shipped tuning: {', '.join(r0['overrides']) or 'none'}.\n",
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
@@ -429,29 +461,8 @@ def main() -> None:
                 if found:
                     r["run_dir"], r["training"] = str(found[-1]), training_success(found[-1], r["probe_every"])
     else:
-        with tempfile.TemporaryDirectory() as tmp:
-            output = args.keep_runs or Path(tmp)
-            for seed in args.seeds:
-                print(f"seed {seed}:", flush=True)
-
-                def save(current: dict, done: list[dict] = list(rows)) -> None:
-                    if args.save_rows:  # every probe: a stopped run keeps what it measured
-                        args.save_rows.write_text(json.dumps([*done, current], indent=1) + "\n")
-
-                rows.append(run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save))
-
-    command = "python experiments/learn_obstacles.py " + " ".join(sys.argv[1:])
-    r0 = rows[0]
-    lines = [
-        (
-            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {args.title + ', ' if args.title else ''}PPO, "
-            f"{r0['cpu_minutes']} CPU-minutes per seed, probe every {r0['probe_every']} steps x {r0['episodes']} "
-            f"episodes ({platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()})\n"
-        ),
-        f"```bash\n{command}\n```\n",
-        f"Overrides beyond the shipped tuning: {', '.join(r0['overrides']) or 'none'}.\n",
-        *table(rows),
-    ]
+        rows = run_seeds(args, cpu_minutes)
+    lines = [*section_head("learn_obstacles.py", args, rows), *table(rows)]
     summary, data = rliable_summary(rows)
     lines += summary
     lines += probes_text(rows)
@@ -465,7 +476,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        data["command"] = command
+        data["command"] = "python experiments/learn_obstacles.py " + " ".join(sys.argv[1:])
         RESULTS.with_suffix(".json").write_text(json.dumps(data, indent=1) + "\n")
         if not RESULTS.exists():
             RESULTS.write_text(
