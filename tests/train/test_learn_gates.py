@@ -77,8 +77,9 @@ def test_cpu_budget_stops_training_of_the_state_env(exp, tmp_path):
         "train.n_envs=1", "algo.n_steps=64", "algo.batch_size=64", "algo.n_epochs=1",
         "train.total_timesteps=100000000", "train.checkpoint_freq=0",
     ]
-    row = exp.run(0, 0.02, 64, 1, tmp_path, tiny, save=lambda r: saved.append(json.loads(json.dumps(r))),
-                  env=exp.ENV, target=exp.TARGET, probe_cls=exp.GatesProbe)
+    run = experiment("learn_obstacles").run  # the budgeted run learn_gates.run_seeds calls per seed
+    row = run(0, 0.02, 64, 1, tmp_path, tiny, save=lambda r: saved.append(json.loads(json.dumps(r))),
+              env=exp.ENV, target=exp.TARGET, probe_cls=exp.GatesProbe)
     assert row["env"] == "quadx_gates_state" and row["status"] == "cpu budget" and row["steps"] < 100_000_000
     assert row["training_cpu"] >= 0.02 * 60
     assert saved[-1]["status"] == "cpu budget" and [h[0] for h in saved[-1]["history"]] == [h[0] for h in row["history"]]
