@@ -11,7 +11,7 @@ gate passed, a crash on a gate or the ground, out of the flight dome, the 10 s l
 
 **The target** (a stretch target of the project): >= 3 consecutive gates in >= 50 % of the
 evaluation episodes within 60 minutes of training on 2 cores, from the state observation.
-A probe's ``success`` is the fraction of its episodes passing at least ``--gates`` (3) gates.
+A probe's ``success`` is the fraction of its episodes passing at least 3 gates (:data:`GATES`).
 
 **CPU-time budget** (``--cpu-minutes M``, default 60): as ``experiments/learn_obstacles.py``
 (the training process's CPU time, every thread, minus the probes'; a conservative reading
@@ -23,7 +23,7 @@ side).  Across seeds: IQM with 95 % stratified-bootstrap intervals (rliable, thr
 probes and the curve beside it (``.json``, ``.png``).
 
     python experiments/learn_gates.py [--seeds 0 1 2] [--cpu-minutes 60] [--probe-every 250000] \\
-        [--episodes 20] [--gates 3] [--set KEY=VALUE ...] [--save-rows FILE] [--keep-runs DIR] [--write]
+        [--episodes 20] [--set KEY=VALUE ...] [--save-rows FILE] [--keep-runs DIR] [--write]
     python experiments/learn_gates.py --from-rows rows_0.json rows_1.json ... [--write]
 """
 
@@ -115,13 +115,11 @@ def probes_text(rows: list[dict]) -> list[str]:
 
 
 def main() -> None:
-    global GATES
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--cpu-minutes", type=float, default=60.0, help="training CPU-time budget per run [min] (0: none)")
     parser.add_argument("--probe-every", type=int, default=250_000)
     parser.add_argument("--episodes", type=int, default=20, help="episodes per probe")
-    parser.add_argument("--gates", type=int, default=GATES, help="a probe episode succeeds from this many gates passed")
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
     parser.add_argument("--save-rows", type=Path, help="write each run's results here (JSON) at every probe")
@@ -129,7 +127,6 @@ def main() -> None:
     parser.add_argument("--from-rows", type=Path, nargs="+", help="no training: report the runs saved by --save-rows")
     parser.add_argument("--title", default="", help="a few words for the results section's heading")
     args = parser.parse_args()
-    GATES = args.gates
     cpu_minutes = args.cpu_minutes or None
 
     if args.from_rows:

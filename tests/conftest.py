@@ -13,12 +13,14 @@ from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import UAVSpec, parse_uav_spec
 
 
-@pytest.fixture(autouse=True)
-def _sb3_logs_in_the_test_folder(tmp_path_factory, monkeypatch):
+@pytest.fixture(autouse=True, scope="session")
+def _sb3_logs_in_the_test_folder(tmp_path_factory):
     """A model a test builds with SB3 directly (not through the training library, which gives
     it a logger without a folder) makes an empty ``SB3-<date>`` folder at every ``learn()``:
-    in the test's own temporary folder (``SB3_LOGDIR``), not the system's."""
-    monkeypatch.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
+    in one folder of the session's temporary tree (``SB3_LOGDIR``), not the system's."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
+        yield
 
 
 def default_subset(values, keep) -> list:
