@@ -1,8 +1,9 @@
-"""Does an agent learn Rocket-Landing through the rocket velocity mode, within 60 CPU-minutes?
+"""Does an agent learn Rocket-Landing through a rocket autopilot mode, within 60 CPU-minutes?
 
-Trains what ``pyflyt train env=rocket_landing_velocity algo=ppo`` trains (``conf/train.yaml``
-with the shipped tuning ``conf/hparams/rocket_landing_velocity_ppo.yaml`` when there is
-one; ``--set key=value ...`` adds overrides), and at fixed points flies the current policy
+Trains what ``pyflyt train env=<env> algo=ppo`` trains (``--env``: ``rocket_landing_velocity``,
+the velocity mode, or ``rocket_landing_descent``, the descent mode; ``conf/train.yaml`` with
+the shipped tuning ``conf/hparams/<env>_ppo.yaml`` when there is one; ``--set key=value
+...`` adds overrides), and at fixed points flies the current policy
 (deterministic) for ``--episodes`` seeded drops (seeds 10 000+): after the run's start
 (the imitation stage, if the tuning has one, is then done), every ``--probe-every``
 steps and at the end.  Progress is the fraction of safe landings (the paper's criterion,
@@ -18,9 +19,9 @@ is shared, so the CPU-time budget of one process is conservative against it.  Ac
 seeds: IQM with 95 % stratified-bootstrap intervals (rliable, through
 ``pyflyt_cli.plotting.stats``) of the final probe's safe-landing fraction.  ``--write``
 appends a section to ``experiments/results/learn_rocket_landing.md`` and writes the raw
-probes beside it (``learn_rocket_velocity.json``).
+probes beside it (``learn_<env>.json``).
 
-    python experiments/learn_rocket_velocity.py [--seeds 0 1 2] [--cpu-minutes 60] [--probe-every 100000] \\
+    python experiments/learn_rocket_velocity.py [--env rocket_landing_descent] [--seeds 0 1 2] [--cpu-minutes 60] [--probe-every 100000] \\
         [--episodes 20] [--set KEY=VALUE ...] [--save-rows FILE] [--keep-runs DIR] [--write]
     python experiments/learn_rocket_velocity.py --from-rows FILE [FILE ...] [--write]   # report saved runs
     python experiments/learn_rocket_velocity.py --probe-model RUN_DIR [--model best|final|latest] [--episodes 20]
@@ -43,7 +44,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from pyflyt_cli.training import compose_config, train
 from pyflyt_cli.training.envs import EnvFactory
 
-ENV = "rocket_landing_velocity"
+#: the envs this script trains, each with the oracle its probes compare the policy with
+ORACLE = {"rocket_landing_velocity": "rocket_velocity_lander", "rocket_landing_descent": "rocket_descent_lander"}
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_rocket_landing.md"
 PROBE_SEED = 10_000
 TARGET = 0.5
@@ -196,13 +198,15 @@ class RocketProbe(BaseCallback):
               flush=True)
 
 
-def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, extra: list[str]) -> dict:
+def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, extra: list[str],
+        env: str = "rocket_landing_velocity") -> dict:
     overrides = [*extra, f"seed={seed}", f"train.output_dir={output}", "train.progress_bar=false"]
-    cfg = compose_config(env=ENV, algo="ppo", overrides=overrides)
+    cfg = compose_config(env=env, algo="ppo", overrides=overrides)
     probe = RocketProbe(cfg, every, episodes, cpu_minutes * 60.0)
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     return {
         "seed": seed,
+        "env": env,
         "overrides": extra,
         "budget_steps": cfg.train.total_timesteps,
         "cpu_minutes_budget": cpu_minutes,
@@ -220,8 +224,8 @@ def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, 
 
 def probe_model(run_dir: Path, which: str, episodes: int) -> dict:
     """Probe a saved policy of a run directory (``auto``, ``best``, ``final`` or ``latest``) on the env
-    it trained on, compared with the ``rocket_velocity_lander`` oracle on the states it flies."""
-    from pyflyt_engine.envs.oracles import make_oracle
+    it trained on, compared with that env's oracle (:data:`ORACLE`) on the states it flies."""
+    from pyflyt_engine.envs.oracles import ORACLES, make_oracle
 
     from pyflyt_cli.training import rundir
     from pyflyt_cli.training.models import load_policy
@@ -231,7 +235,9 @@ def probe_model(run_dir: Path, which: str, episodes: int) -> dict:
     path, _ = rundir.find_model(run_dir, which)
     model, normalize = load_policy(path, cfg, env)
     try:
-        return rocket_probe(model.predict, normalize, env, episodes, oracle=make_oracle("rocket_velocity_lander", env))
+        name = next(n for n, cls in ORACLES.items() if cfg.env.id in cls.env_ids and n in ORACLE.values())
+        oracle = make_oracle(name, env)
+        return rocket_probe(model.predict, normalize, env, episodes, oracle=oracle)
     finally:
         env.close()
 
@@ -276,6 +282,7 @@ def table(rows: list[dict]) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--env", choices=sorted(ORACLE), default="rocket_landing_velocity")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument(
         "--cpu-minutes", type=float, default=60.0, help="CPU budget of each run (its process, all threads)"
@@ -316,14 +323,14 @@ def main() -> None:
             output = args.keep_runs or Path(tmp)
             for seed in args.seeds:
                 print(f"seed {seed}:", flush=True)
-                rows.append(run(seed, args.probe_every, args.episodes, args.cpu_minutes, output, args.set))
+                rows.append(run(seed, args.probe_every, args.episodes, args.cpu_minutes, output, args.set, args.env))
                 if args.save_rows:
                     args.save_rows.write_text(json.dumps(rows, indent=1) + "\n")
 
     command = "python experiments/learn_rocket_velocity.py " + " ".join(sys.argv[1:])
     lines = [
         (
-            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — Rocket-Landing, velocity mode, ppo, "
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} — Rocket-Landing, {rows[0].get('env', 'rocket_landing_velocity')}, ppo, "
             f"{rows[0]['cpu_minutes_budget']:.0f} CPU-minutes per seed, probes of {args.episodes} episodes "
             f"({platform.machine()}, {os.cpu_count()} cores, "
             f"Python {platform.python_version()})\n"
@@ -335,7 +342,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        raw = RESULTS.with_name("learn_rocket_velocity.json")
+        raw = RESULTS.with_name("learn_rocket_velocity.json" if args.env == "rocket_landing_velocity" else f"learn_{args.env}.json")
         raw.write_text(json.dumps({"command": command, "rows": rows}, indent=1) + "\n")
         with RESULTS.open("a") as fh:
             fh.write(text)

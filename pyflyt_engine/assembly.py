@@ -40,6 +40,8 @@ class Assembly:
             :class:`~pyflyt_engine.allocation.Tilt`), in gimbal order.
         cameras: camera parameters, in spec order.
         battery: the battery driving the motors (None: an ideal supply).
+        lowest_point: the collision geometry's lowest point along body z, from the centre
+            of mass [m] (negative: below it; None for mesh or URDF geometry).
     """
 
     com: np.ndarray
@@ -62,6 +64,7 @@ class Assembly:
     cameras: tuple[CameraParams, ...]
     mixer_tilts: tuple[tuple[int, Tilt], ...] = ()
     battery: BatteryParams | None = None
+    lowest_point: float | None = None
 
 
 def _mix_matrix(rows: list[dict[str, float] | None], channels: tuple[str, ...]) -> np.ndarray:
@@ -213,4 +216,5 @@ def assemble(spec: UAVSpec) -> Assembly:
         gimbal_targets=gimbal_targets,
         cameras=cameras,
         mixer_tilts=mixer_tilts,
+        lowest_point=None if (low_z := spec.body.lowest_point()) is None else low_z - float(com[2]),
     )

@@ -196,6 +196,32 @@ class BodySpec(_Spec):
         total = math.fsum(masses)
         return np.array([exact.dot(masses, [s.position[axis] for s in parts]) / total for axis in range(3)])
 
+    def lowest_point(self) -> float | None:
+        """The lowest point of the collision primitives along body z [m], in the body's
+        coordinates (what the airframe stands on when upright), or None when the collision
+        geometry is not all boxes, cylinders and spheres (a mesh or a URDF)."""
+        if self.urdf is not None:
+            return None
+        lows = []
+        for shape in self.shapes:
+            if not shape.collision:
+                continue
+            if shape.type == "mesh":
+                return None
+            z = shape.position[2]
+            if shape.type == "sphere":
+                lows.append(z - shape.radius)  # type: ignore[operator]
+                continue
+            row = rpy_matrix(shape.rpy)[2].tolist()  # the body z of each of the shape's axes
+            if shape.type == "box":
+                sx, sy, sz = shape.size  # type: ignore[misc]
+                lows.append(z - 0.5 * (abs(row[0]) * sx + abs(row[1]) * sy + abs(row[2]) * sz))
+            else:  # cylinder along its local z: the end disc's rim
+                az = row[2]
+                rim = math.sqrt(max(0.0, 1.0 - az * az))
+                lows.append(z - 0.5 * shape.length * abs(az) - shape.radius * rim)  # type: ignore[operator]
+        return min(lows) if lows else None
+
     def inertia_matrix(self) -> np.ndarray:
         """3 x 3 inertia about the centre of mass, body axes [kg m^2]: ``inertia`` when
         given, else the shapes' own inertias moved there (parallel-axis theorem)."""

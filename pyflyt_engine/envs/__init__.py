@@ -48,6 +48,9 @@ ENVS: dict[str, EnvEntry] = {
     "PyFlyt/Rocket-Landing-Velocity-v0": EnvEntry(
         "pyflyt_engine.envs.rocket:RocketLandingVelocityEnv", "rocket_landing_velocity"
     ),
+    "PyFlyt/Rocket-Landing-Descent-v0": EnvEntry(
+        "pyflyt_engine.envs.rocket:RocketLandingDescentEnv", "rocket_landing_descent"
+    ),
     "PyFlyt/QuadX-Pole-Balance-v0": EnvEntry(
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleBalanceEnv", "quadx_pole_balance"
     ),
@@ -103,6 +106,7 @@ def __getattr__(name: str) -> Any:
         "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
         "RocketLandingEnv": "pyflyt_engine.envs.rocket",
         "RocketLandingVelocityEnv": "pyflyt_engine.envs.rocket",
+        "RocketLandingDescentEnv": "pyflyt_engine.envs.rocket",
         "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
         "QuadXObstaclesEnv": "pyflyt_engine.envs.quadx_obstacles",
@@ -137,6 +141,7 @@ __all__ = [
     "QuadXPoleWaypointsEnv",
     "QuadXWaypointsEnv",
     "RewardPreset",
+    "RocketLandingDescentEnv",
     "RocketLandingEnv",
     "RocketLandingVelocityEnv",
     "UAVEnv",

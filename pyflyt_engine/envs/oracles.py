@@ -11,7 +11,9 @@ Oracles:
 
 * ``rocket_lander`` (``PyFlyt/Rocket-Landing-v0``, raw channels): :class:`RocketLander`;
 * ``rocket_velocity_lander`` (``PyFlyt/Rocket-Landing-Velocity-v0``, the rocket
-  autopilot's ``velocity`` mode): :class:`RocketVelocityLander`.
+  autopilot's ``velocity`` mode): :class:`RocketVelocityLander`;
+* ``rocket_descent_lander`` (``PyFlyt/Rocket-Landing-Descent-v0``, the rocket autopilot's
+  ``descent`` mode): :class:`RocketDescentLander`.
 """
 
 from __future__ import annotations
@@ -212,8 +214,53 @@ class RocketVelocityLander:
         return np.clip(np.array(setpoint), self.low, self.high)
 
 
+class RocketDescentLander:
+    """Land the Rocket through the autopilot's ``descent`` mode (``PyFlyt/Rocket-Landing-Descent-v0``).
+
+    The mode brakes on its envelope and pulses the booster to aim; what is left is the
+    guidance, from the observation alone (quaternion attitude, ground frame):
+
+    * sideways, while higher than ``h_aim`` above the height at which the envelope's
+      braking starts (``vz^2 / (2 a_brake)``): ``-p_xy / t_go``, the velocity that carries
+      the Rocket over the pad in the time ``t_go`` it takes to fall there at its present
+      vertical speed (at least ``v_min``), plus 1 s; below, ``-k_pad p_xy - k_damp v_xy``
+      (the autopilot's velocity loop then acts as a damped position loop over the pad);
+    * descent 1 (the envelope), ignition 1 until the Rocket touches the pad, then 0.
+    """
+
+    env_ids = ("PyFlyt/Rocket-Landing-Descent-v0",)
+
+    def __init__(self, env: Any, a_brake: float = 29.0, h_aim: float = 30.0, v_min: float = 5.0,
+                 k_pad: float = 1.5, k_damp: float = 2.0) -> None:
+        base = env.unwrapped
+        if base.config.angle_representation != "quaternion":
+            raise ConfigError(
+                "oracle rocket_descent_lander reads the attitude as a quaternion: set env.angle_representation=quaternion"
+            )
+        self.low, self.high = base.action_space.low, base.action_space.high
+        self.a_brake, self.h_aim, self.v_min, self.k_pad, self.k_damp = a_brake, h_aim, v_min, k_pad, k_damp
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The setpoint for ``obs``, within the action space."""
+        if obs[-1] == 1.0:  # on the pad: booster out
+            return np.clip(np.array([0.0, 0.0, 1.0, 0.0]), self.low, self.high)
+        vx, vy, vz = exact.rotate(quaternion_to_rows(obs[3:7].tolist()), obs[7:10].tolist())
+        x, y, z = obs[10:13].tolist()
+        h_end = vz * vz / (2.0 * self.a_brake) + self.h_aim
+        if z > h_end:
+            t_go = (z - h_end) / max(-vz, self.v_min) + 1.0
+            sx, sy = -x / t_go, -y / t_go
+        else:
+            sx, sy = -self.k_pad * x - self.k_damp * vx, -self.k_pad * y - self.k_damp * vy
+        return np.clip(np.array([sx, sy, 1.0, 1.0]), self.low, self.high)
+
+
 #: name -> oracle class (each names the env ids it flies in ``env_ids``)
-ORACLES: dict[str, type] = {"rocket_lander": RocketLander, "rocket_velocity_lander": RocketVelocityLander}
+ORACLES: dict[str, type] = {
+    "rocket_lander": RocketLander,
+    "rocket_velocity_lander": RocketVelocityLander,
+    "rocket_descent_lander": RocketDescentLander,
+}
 
 
 def make_oracle(name: str, env: Any) -> Callable[[np.ndarray], np.ndarray]:

@@ -193,3 +193,53 @@ class RocketLandingVelocityEnv(RocketLandingEnv):
     """
 
     config_name: ClassVar[str | None] = "rocket_landing_velocity"
+
+
+class RocketLandingDescentEnv(RocketLandingEnv):
+    """``PyFlyt/Rocket-Landing-Descent-v0``: Rocket-Landing flown through the rocket autopilot's ``descent`` mode.
+
+    The task, start states, landing outcome, episode end and rewards (dense, sparse, and
+    the ``rocket_landing_envelope`` preset) are those of ``PyFlyt/Rocket-Landing-v0``
+    (:class:`RocketLandingEnv`).  Only the action differs: the agent commands a ground
+    velocity sideways, a descent speed relative to the autopilot's braking envelope and an
+    ignition permission; the vehicle's rocket autopilot (:mod:`pyflyt_engine.control.rocket`,
+    flight mode ``descent``) holds them by thrust vectoring and the grid fins, and fires
+    short booster pulses to change the horizontal velocity while the Rocket falls.
+    Config: ``conf/env/rocket_landing_descent.yaml``.
+
+    **Action space** ``Box(4,)``, float64, clipped to its bounds:
+
+    ====  ==========  ============  ==================================================
+    idx   name        bounds        meaning
+    ====  ==========  ============  ==================================================
+    0     vx          [-10, 10]     ground-frame velocity setpoint, east [m/s]
+    1     vy          [-10, 10]     north [m/s]
+    2     descent     [0, 2]        the vertical speed setpoint as a multiple of the
+                                    braking envelope's descent speed
+                                    ``max(0.35, sqrt(2 a (h - 2)))`` m/s (``h`` the feet's
+                                    height above the ground, ``a`` two thirds of the
+                                    booster's full-thrust deceleration, ~29 m/s^2): 1
+                                    follows it to a 0.35 m/s touchdown, 0 holds the
+                                    height
+    3     ignition    [0, 1]        > 0.5 lets the autopilot light the booster (for the
+                                    vertical loop, or for an aim pulse); <= 0.5 keeps
+                                    it out
+    ====  ==========  ============  ==================================================
+
+    What is left to the agent is the guidance: where to steer (the pad is 2 m in radius,
+    the drop 0-28 m off its axis and drifting up to 7 m/s), how fast to come down (fuel:
+    4.1 kg, 2.8 s at full thrust) and when to put the booster out (its minimum thrust
+    exceeds the weight: a safe landing needs it out on the pad).  A constant action does
+    not land: zero sideways velocity leaves the drift's miss, and the ignition must be
+    permitted to brake and then withheld on the pad.
+
+    **Observation space** as ``PyFlyt/Rocket-Landing-v0``'s, with the previous action's 4
+    entries in place of 7: ``Box(27,)`` (quaternion) or ``Box(26,)`` (Euler).
+
+    **Arguments**: as ``PyFlyt/Rocket-Landing-v0``.  The ``rocket_descent_lander`` oracle
+    (:mod:`pyflyt_engine.envs.oracles`) flies it (``experiments/results/rocket_landing_scripted.md``).
+
+    **Version history**: v0 — first version.
+    """
+
+    config_name: ClassVar[str | None] = "rocket_landing_descent"
