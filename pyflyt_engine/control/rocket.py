@@ -13,7 +13,7 @@ Modes (setpoint layouts; the ground frame is ENU, the body's long axis is body z
 | ``channels`` | the airframe's channels | raw channels (the paper's action) |
 | ``attitude_thrust`` | tilt_x, tilt_y, roll_rate, throttle, ignition | lean the long axis by ``hypot(tilt_x, tilt_y)`` [rad] toward the ground direction (tilt_x, tilt_y); roll rate about the long axis [rad/s]; booster throttle [0, 1] (min to max thrust); ignition > 0.5 lights the booster |
 | ``velocity`` | vx, vy, vz, ignition | hold a ground velocity [m/s]; ignition > 0.5 lets the autopilot light the booster (the rule below), <= 0.5 keeps it out |
-| ``descent`` | vx, vy, descent, ignition | hold a ground velocity horizontally [m/s] and a descent speed of ``descent`` times the braking envelope's (below); the autopilot lights the booster for the vertical loop and pulses it to aim (the rule below) |
+| ``descent`` | vx, vy, descent, ignition | hold a ground velocity horizontally [m/s] and descend on a braking envelope of ``descent`` times the full-thrust deceleration (below); the autopilot lights the booster for the vertical loop and pulses it to aim (the rule below) |
 
 **Attitude loop** (both modes).  The attitude error is the rotation that takes the long
 axis ``u`` onto the target axis ``t``: about ``u x t`` (in the body frame) by the angle
@@ -65,18 +65,19 @@ continuous thrust, the throttle falling as the fuel burns.
 **Descent mode** (``descent``): the velocity loop above with a vertical setpoint that
 scales with the height, so a constant command lands:
 
-    vz_sp = -descent * max(v_floor, sqrt(2 a_env max(h - h_floor, 0)))
+    vz_sp = -max(v_floor, sqrt(2 descent a_max max(h - h_floor, 0)))
 
-with ``h`` the height of the airframe's lowest collision point above the ground plane
-(z = 0) when upright (the centre of mass's height for mesh or URDF geometry),
-``a_env = ENVELOPE_SHARE (T_max / m - g)`` (two thirds of the deceleration the boosters
-give at full thrust with the fuel left: 29 m/s^2 for the shipped Rocket with 1 % fuel),
-``v_floor`` = :data:`TOUCHDOWN_SPEED` and ``h_floor`` = :data:`FLOOR_HEIGHT`.  ``descent``
-= 1 follows the envelope down to a touchdown at 0.35 m/s (a third of the landing task's
-1 m/s limit); 0 holds the height; 2 falls twice as fast and brakes later and harder.
+the descent speed from which braking at ``descent`` times ``a_max = T_max / m - g`` (the
+deceleration the boosters give at full thrust with the fuel left: 43.7 m/s^2 for the
+shipped Rocket with 1 % fuel) stops at ``h_floor`` = :data:`FLOOR_HEIGHT`, below which it
+is ``v_floor`` = :data:`TOUCHDOWN_SPEED`.  ``h`` is the height of the airframe's lowest
+collision point above the ground plane (z = 0) when upright (the centre of mass's height
+for mesh or URDF geometry).  ``descent`` in (0, 1]: any constant value lands (fuel
+permitting) at ``v_floor``; 2/3 brakes at 29 m/s^2 leaving a third of the thrust for the
+lean and the lag, 1 leaves none; 0 descends at ``v_floor`` all the way.
 Horizontal velocity changes need thrust, and in a fall above the envelope the vertical
 loop asks for none: there the autopilot **pulses to aim**.  While the ignition is
-permitted, the Rocket falls faster than :data:`AIM_FALL` and the vertical loop leaves the
+permitted, the vehicle falls faster than :data:`AIM_FALL` and the vertical loop leaves the
 booster out, one control period at minimum thrust is fired whenever the horizontal
 velocity error exceeds :data:`AIM_ERROR` and the long axis (which the attitude loop leans
 toward that error) leans its way by more than :data:`AIM_LEAN` (the sine of the lean
@@ -108,9 +109,6 @@ MAX_TILT = 0.35
 #: Tikhonov damping of the allocation [N^2 m^2] (see the module docstring)
 _DAMPING = 1.0
 _MIN_LIFT = 0.1 * GRAVITY
-#: mode ``descent``: the share of the boosters' full-thrust deceleration its braking envelope
-#: plans on (the rest is margin for the lean, the thrust's lag and the fuel burning)
-ENVELOPE_SHARE = 2.0 / 3.0
 #: mode ``descent``: the envelope's floor [m/s] (a third of the landing task's 1 m/s limit)
 TOUCHDOWN_SPEED = 0.4
 #: mode ``descent``: the height above the ground [m] below which the envelope is its floor
@@ -141,8 +139,8 @@ ROCKET_MODES: dict[str, FlightMode] = {
             "descent",
             None,
             ("vx", "vy", "descent", "ignition"),
-            "rocket: ground velocity [m/s] sideways, descent as a multiple of the braking envelope's speed; "
-            "the autopilot pulses the booster to aim",
+            "rocket: ground velocity [m/s] sideways, descent on a braking envelope at this fraction of the "
+            "full-thrust deceleration; the autopilot pulses the booster to aim",
         ),
     )
 }
@@ -393,20 +391,19 @@ class RocketAutopilot:
         target, thrust, lit = self.velocity_command(state, setpoint)
         return self._channels(state, target, 0.0, lit, self.throttle_for(thrust), self.mass_properties()[1])
 
-    def envelope_speed(self, state: KinematicState) -> float:
-        """Mode ``descent``'s braking envelope at this state: the descent speed [m/s] that
-        ``descent`` = 1 asks (the module docstring)."""
+    def envelope_speed(self, state: KinematicState, descent: float) -> float:
+        """Mode ``descent``'s braking envelope at this state: the descent speed [m/s] the
+        setpoint ``descent`` asks (the module docstring)."""
         mass, _ = self.mass_properties()
-        a_env = ENVELOPE_SHARE * (self.max_thrust / mass - GRAVITY)
+        a = descent * (self.max_thrust / mass - GRAVITY)
         h = state.lin_pos[2] + self.lowest_point - FLOOR_HEIGHT
-        speed = math.sqrt(2.0 * a_env * h) if h > 0.0 and a_env > 0.0 else 0.0
+        speed = math.sqrt(2.0 * a * h) if h > 0.0 and a > 0.0 else 0.0
         return speed if speed > TOUCHDOWN_SPEED else TOUCHDOWN_SPEED
 
     def descent(self, state: KinematicState, setpoint: Sequence[float]) -> list[float]:
         """[vx, vy, descent, ignition]: the velocity loop on the envelope, aim pulses in the fall."""
         vx_sp, vy_sp, descent, ignition = setpoint
-        descent = descent if descent > 0.0 else 0.0
-        vz_sp = -descent * self.envelope_speed(state)
+        vz_sp = -self.envelope_speed(state, descent)
         target, thrust, lit = self.velocity_command(state, (vx_sp, vy_sp, vz_sp, ignition))
         vx, vy, vz = state.lin_vel_ground
         if not lit and ignition > 0.5 and vz < -AIM_FALL and any(f > 0.0 for f in self.boosters.fuel):

@@ -225,12 +225,13 @@ class RocketDescentLander:
       the Rocket over the pad in the time ``t_go`` it takes to fall there at its present
       vertical speed (at least ``v_min``), plus 1 s; below, ``-k_pad p_xy - k_damp v_xy``
       (the autopilot's velocity loop then acts as a damped position loop over the pad);
-    * descent 1 (the envelope), ignition 1 until the Rocket touches the pad, then 0.
+    * descent ``share`` (2/3: braking at two thirds of the full-thrust deceleration), ignition
+      1 until the Rocket touches the pad, then 0.
     """
 
     env_ids = ("PyFlyt/Rocket-Landing-Descent-v0",)
 
-    def __init__(self, env: Any, a_brake: float = 29.0, h_aim: float = 30.0, v_min: float = 5.0,
+    def __init__(self, env: Any, share: float = 2.0 / 3.0, h_aim: float = 30.0, v_min: float = 5.0,
                  k_pad: float = 1.5, k_damp: float = 2.0) -> None:
         base = env.unwrapped
         if base.config.angle_representation != "quaternion":
@@ -238,12 +239,16 @@ class RocketDescentLander:
                 "oracle rocket_descent_lander reads the attitude as a quaternion: set env.angle_representation=quaternion"
             )
         self.low, self.high = base.action_space.low, base.action_space.high
-        self.a_brake, self.h_aim, self.v_min, self.k_pad, self.k_damp = a_brake, h_aim, v_min, k_pad, k_damp
+        vehicle = base.vehicle
+        # the deceleration ``share`` asks, with the fuel the episode starts with (a_brake, for the aim's end)
+        a_max = vehicle.rocket.max_thrust / vehicle.mass - GRAVITY
+        self.share, self.a_brake = share, share * a_max
+        self.h_aim, self.v_min, self.k_pad, self.k_damp = h_aim, v_min, k_pad, k_damp
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The setpoint for ``obs``, within the action space."""
         if obs[-1] == 1.0:  # on the pad: booster out
-            return np.clip(np.array([0.0, 0.0, 1.0, 0.0]), self.low, self.high)
+            return np.clip(np.array([0.0, 0.0, self.share, 0.0]), self.low, self.high)
         vx, vy, vz = exact.rotate(quaternion_to_rows(obs[3:7].tolist()), obs[7:10].tolist())
         x, y, z = obs[10:13].tolist()
         h_end = vz * vz / (2.0 * self.a_brake) + self.h_aim
@@ -252,7 +257,7 @@ class RocketDescentLander:
             sx, sy = -x / t_go, -y / t_go
         else:
             sx, sy = -self.k_pad * x - self.k_damp * vx, -self.k_pad * y - self.k_damp * vy
-        return np.clip(np.array([sx, sy, 1.0, 1.0]), self.low, self.high)
+        return np.clip(np.array([sx, sy, self.share, 1.0]), self.low, self.high)
 
 
 #: name -> oracle class (each names the env ids it flies in ``env_ids``)

@@ -10,7 +10,13 @@ import pytest
 
 from pyflyt_engine.components.lifting_surface import surface_wrench
 from pyflyt_engine.constants import GRAVITY
-from pyflyt_engine.control.rocket import MAX_TILT, ROCKET_MODES
+from pyflyt_engine.control.rocket import (
+    AIM_FALL,
+    FLOOR_HEIGHT,
+    MAX_TILT,
+    ROCKET_MODES,
+    TOUCHDOWN_SPEED,
+)
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.world import VehicleConfig, World
@@ -45,9 +51,11 @@ def test_rocket_modes_are_offered_on_gimballed_boosters_only():
         assert vehicle.setpoint_layout == ("vx", "vy", "vz", "ignition")
         vehicle.set_mode("attitude_thrust")
         assert vehicle.setpoint_layout == ("tilt_x", "tilt_y", "roll_rate", "throttle", "ignition")
+        vehicle.set_mode("descent")
+        assert vehicle.setpoint_layout == ("vx", "vy", "descent", "ignition")
     finally:
         world.close()
-    assert set(ROCKET_MODES) == {"channels", "attitude_thrust", "velocity"}
+    assert set(ROCKET_MODES) == {"channels", "attitude_thrust", "velocity", "descent"}
     with pytest.raises(ConfigError, match="attitude_airspeed"):  # the fixed-wing has no gimballed booster
         World([VehicleConfig("fixedwing", (0.0, 0.0, 10.0), mode="attitude_thrust")], seed=0)
 
@@ -188,3 +196,104 @@ def test_fins_alone_hold_the_lean_and_the_roll_rate_in_descent():
         assert vehicle.rotation[2] > 0.0  # leaning toward +x
     finally:
         world.close()
+
+
+# ------------------------------------------------------------------ descent mode
+
+#: the shipped rocket's feet below its dry centre of mass [m], by hand from conf/uav/rocket.yaml:
+#: a leg box 1.122 x 0.04 x 0.04 m at z = 0.3 m, pitched 0.9309 rad, reaches down
+#: 0.5 (1.122 sin 0.9309 + 0.04 cos 0.9309) = 0.4520 m; the dry centre of mass is at 1.5584 m
+FEET_BELOW_COM = 1.5584058 - (0.3 - 0.5 * (1.122 * math.sin(0.9309) + 0.04 * math.cos(0.9309)))
+
+
+def test_descent_envelope_is_the_stated_formula_from_the_airframe():
+    world = _world(0.01, "descent", [0.0, 0.0, 2.0 / 3.0, 1.0], height=100.0)
+    vehicle = world.vehicles[0]
+    try:
+        assert -vehicle.parts.lowest_point == pytest.approx(FEET_BELOW_COM, abs=1e-6)
+        mass = vehicle.mass
+        assert mass == pytest.approx(138.0 + 0.01 * 410.9)
+        a_max = T_MAX / mass - GRAVITY
+        assert a_max == pytest.approx(43.7, abs=0.05)  # the figure the docstring quotes
+        h = 100.0 - FEET_BELOW_COM  # the feet's height at the spawn
+        for descent in (2.0 / 3.0, 1.0, 0.25):
+            expected = math.sqrt(2.0 * descent * a_max * (h - FLOOR_HEIGHT))
+            assert vehicle.rocket.envelope_speed(vehicle.state, descent) == pytest.approx(expected, rel=1e-9)
+        assert vehicle.rocket.envelope_speed(vehicle.state, 0.0) == TOUCHDOWN_SPEED
+        vehicle.reset(position=(0.0, 0.0, FEET_BELOW_COM + 0.5 * FLOOR_HEIGHT))
+        assert vehicle.rocket.envelope_speed(vehicle.state, 1.0) == TOUCHDOWN_SPEED  # the floor
+    finally:
+        world.close()
+
+
+@pytest.mark.parametrize("descent", [2.0 / 3.0, 0.4])
+def test_descent_along_the_envelope_touches_down_slowly(descent):
+    """Dropped upright from 150 m with 1 % fuel, a constant setpoint (no sideways speed,
+    an envelope at ``descent`` of the full-thrust deceleration) falls, brakes on the
+    envelope and touches the ground under the landing task's 1 m/s limit."""
+    world = _world(0.01, "descent", [0.0, 0.0, descent, 1.0], height=150.0)
+    vehicle = world.vehicles[0]
+    try:
+        speeds, tracked = [], []
+        for _ in range(int(20 * world.agent_hz)):
+            world.step()
+            vz = vehicle.state.lin_vel_ground[2]
+            feet = vehicle.state.lin_pos[2] - FEET_BELOW_COM
+            if feet < 0.02:
+                break
+            envelope = vehicle.rocket.envelope_speed(vehicle.state, descent)
+            if vehicle.actuators.boosters.ignited[0] and feet > 5.0:
+                tracked.append(abs(-vz - envelope) / envelope)
+            speeds.append(-vz)
+        assert feet < 0.02, "did not reach the ground in 20 s"
+        assert max(speeds) > 30.0  # it fell freely before braking
+        assert speeds[-1] < 0.7  # the last agent step before touchdown: the floor 0.4 m/s and the pulses' ripple
+        assert tracked and np.median(tracked) < 0.1  # braking follows the envelope within 10 % (median)
+        assert _tilt(vehicle) < 0.02
+    finally:
+        world.close()
+
+
+def test_descent_zero_comes_down_at_the_floor_speed():
+    world = _world(0.01, "descent", [0.0, 0.0, 0.0, 1.0], height=50.0)
+    vehicle = world.vehicles[0]
+    try:
+        for _ in range(int(world.agent_hz)):
+            world.step()
+        vz = []
+        for _ in range(int(2 * world.agent_hz)):
+            world.step()
+            vz.append(vehicle.state.lin_vel_ground[2])
+        # minimum-thrust pulses (T_min > weight) hold it with a ripple: mean 0.47 m/s measured
+        assert np.mean(vz) == pytest.approx(-TOUCHDOWN_SPEED, abs=0.1)
+        assert max(abs(v + TOUCHDOWN_SPEED) for v in vz) < 0.3
+    finally:
+        world.close()
+
+
+def test_descent_aim_pulses_change_the_sideways_speed_in_the_fall_only_when_permitted():
+    """Falling at 40 m/s far above the envelope (no thrust asked), a sideways setpoint of
+    3 m/s: the attitude loop leans the long axis toward it and the autopilot fires
+    minimum-thrust pulses; the sideways speed grows toward the setpoint.  With the ignition
+    withheld: no pulse; the lean alone (booster out) moves it by the body's and the fins'
+    aerodynamic force, and the other way (-0.85 against +2.8 m/s measured)."""
+    results = {}
+    for ignition in (1.0, 0.0):
+        world = _world(0.01, "descent", [3.0, 0.0, 1.0, ignition], height=400.0)
+        vehicle = world.vehicles[0]
+        try:
+            vehicle.reset(lin_vel=(0.0, 0.0, -40.0))
+            world.set_setpoint(0, [3.0, 0.0, 1.0, ignition])  # (a reset clears the setpoint)
+            pulses = 0
+            for _ in range(int(2 * world.agent_hz)):
+                world.step()
+                pulses += vehicle.actuators.boosters.ignited[0]
+                assert -vehicle.state.lin_vel_ground[2] > AIM_FALL
+            results[ignition] = (pulses, vehicle.state.lin_vel_ground[0], vehicle.state.lin_pos[2])
+        finally:
+            world.close()
+    pulses, vx_aimed, _ = results[1.0]
+    assert pulses > 0 and 2.0 < vx_aimed < 3.3
+    pulses, vx, _ = results[0.0]
+    assert pulses == 0 and abs(vx) < vx_aimed / 3.0
+    assert results[1.0][2] > results[0.0][2]  # the pulses' thrust also slowed the fall
