@@ -4,6 +4,11 @@ Scripted controllers (no learning) fly the Rocket-Landing task from its seeded s
 states (450 m drop, +-20 m sideways, +-5 m/s, +-0.3 rad, +-0.5 rad/s, 1 % fuel), and,
 for comparison, the same starts with the booster never lit (a free fall):
 
+* ``descent lander``: the ``rocket_descent_lander`` oracle on
+  ``PyFlyt/Rocket-Landing-Descent-v0``, the task flown through the rocket autopilot's
+  ``descent`` mode, which brakes on its envelope and pulses the booster to aim: the
+  oracle is guidance only (a sideways velocity toward the pad, a constant descent
+  setpoint, ignition off on the pad).
 * ``velocity lander``: the ``rocket_velocity_lander`` oracle on
   ``PyFlyt/Rocket-Landing-Velocity-v0``, the task flown through the rocket autopilot's
   ``velocity`` mode (``pyflyt_engine/control/rocket.py``): a velocity setpoint on a
@@ -18,7 +23,8 @@ Both act on the observation alone (``pyflyt_engine/envs/oracles.py``, their docs
 describe them).  Each episode is flown once under each reward preset (the paper's dense
 reward, the sparse one and the braking-envelope shaping) from the same seed; the script
 checks that the flights are identical, so the presets' returns compare one flight.
-`pyflyt eval oracle:rocket_velocity_lander episodes=50 seed=0` (or `oracle:rocket_lander`)
+`pyflyt eval oracle:rocket_descent_lander episodes=50 seed=0` (or `oracle:rocket_velocity_lander`,
+`oracle:rocket_lander`)
 flies the same landings from the command line (recorded to MCAP; `video=` films them).
 
     python experiments/rocket_scripted_landing.py [--seeds 50] [--write]
@@ -44,6 +50,7 @@ from pyflyt_engine.envs.oracles import make_oracle
 
 #: policy -> (env id, oracle; None: a free fall, every action 0)
 POLICIES = {
+    "descent lander": ("PyFlyt/Rocket-Landing-Descent-v0", "rocket_descent_lander"),
     "velocity lander": ("PyFlyt/Rocket-Landing-Velocity-v0", "rocket_velocity_lander"),
     "raw-channel lander": ("PyFlyt/Rocket-Landing-v0", "rocket_lander"),
     "free fall": ("PyFlyt/Rocket-Landing-v0", None),
@@ -113,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
                      + " | ".join(f"{x.mean():.1f} ± {x.std():.1f}" for x in returns) + " |")
     # the same start, a lander and the free fall: how often does each preset rank the landing higher?
     lines.append("")
-    for policy in ("velocity lander", "raw-channel lander"):
+    for policy in ("descent lander", "velocity lander", "raw-channel lander"):
         for p in PRESETS:
             better = sum(a["returns"][p] > b["returns"][p] for a, b in zip(rows[policy], rows["free fall"]))
             lines.append(f"- `{p}`: the {policy} returns more than the free fall from the same start in {better} of {args.seeds} starts")
