@@ -67,8 +67,8 @@ def hover_setpoint(vehicle: Vehicle, altitude: float) -> list[float]:
     steers the modes that hold no height or position themselves), in ``motors`` and
     ``rates_thrust`` the level trim (throttles that balance the weight with no torque); in
     the rocket modes the booster lit, upright at the throttle whose thrust is the weight
-    (``attitude_thrust``) or at no speed (``velocity``).  A rocket holds its spawn height,
-    as its modes hold no altitude."""
+    (``attitude_thrust``) or at no speed (``velocity``; ``descent`` comes down at its floor
+    speed, 0.4 m/s).  A rocket holds its spawn height, as its modes hold no altitude."""
     mode = vehicle.mode.name
     layout = vehicle.setpoint_layout
     controller = vehicle.controller

@@ -26,9 +26,10 @@ Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 * ``channels``: one value per declared channel (the spec's ``channels`` section), which
   drive motors, flaps, boosters and gimbals through their ``mix`` weights;
 * ``attitude_airspeed`` (fixed-wing autopilot): [roll, pitch, yaw rate, airspeed];
-* ``attitude_thrust`` and ``velocity`` (rocket autopilot, on any airframe without a
-  multirotor controller whose booster a gimbal vectors, :mod:`pyflyt_engine.control.rocket`):
-  [tilt_x, tilt_y, roll rate, throttle, ignition] and [vx, vy, vz, ignition].
+* ``attitude_thrust``, ``velocity`` and ``descent`` (rocket autopilot, on any airframe
+  without a multirotor controller whose booster a gimbal vectors,
+  :mod:`pyflyt_engine.control.rocket`): [tilt_x, tilt_y, roll rate, throttle, ignition],
+  [vx, vy, vz, ignition] and [vx, vy, descent, ignition].
 """
 
 from __future__ import annotations
@@ -275,7 +276,7 @@ class Vehicle:
         self._idle_channels = self.channels.copy()
         self.controller: MultirotorController | None = None
         self.autopilot: FixedwingAutopilot | None = None
-        #: the rocket autopilot (modes attitude_thrust, velocity), on airframes with a gimballed booster
+        #: the rocket autopilot (modes attitude_thrust, velocity, descent), on airframes with a gimballed booster
         self.rocket: RocketAutopilot | None = None
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec):

@@ -221,7 +221,8 @@ class RocketDescentLander:
     guidance, from the observation alone (quaternion attitude, ground frame):
 
     * sideways, while higher than ``h_aim`` above the height at which the envelope's
-      braking starts (``vz^2 / (2 a_brake)``): ``-p_xy / t_go``, the velocity that carries
+      braking starts (``vz^2 / (2 a_brake)``, ``a_brake = share (T_max / m - g)`` with the
+      mass ``m`` of the fuel left): ``-p_xy / t_go``, the velocity that carries
       the Rocket over the pad in the time ``t_go`` it takes to fall there at its present
       vertical speed (at least ``v_min``), plus 1 s; below, ``-k_pad p_xy - k_damp v_xy``
       (the autopilot's velocity loop then acts as a damped position loop over the pad);
@@ -239,10 +240,12 @@ class RocketDescentLander:
                 "oracle rocket_descent_lander reads the attitude as a quaternion: set env.angle_representation=quaternion"
             )
         self.low, self.high = base.action_space.low, base.action_space.high
-        vehicle = base.vehicle
-        # the deceleration ``share`` asks, with the fuel the episode starts with (a_brake, for the aim's end)
-        a_max = vehicle.rocket.max_thrust / vehicle.mass - GRAVITY
-        self.share, self.a_brake = share, share * a_max
+        if base.vehicle.rocket is None:
+            raise ConfigError("oracle rocket_descent_lander needs a vehicle with a gimballed booster (the rocket airframe)")
+        self.vehicle = base.vehicle  # its dry mass is read at every call: randomisation may change it per episode
+        self.total_fuel = float(np.ravel(base.vehicle.spec.boosters.total_fuel)[0])
+        self.max_thrust = base.vehicle.rocket.max_thrust
+        self.share = share
         self.h_aim, self.v_min, self.k_pad, self.k_damp = h_aim, v_min, k_pad, k_damp
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
@@ -251,7 +254,9 @@ class RocketDescentLander:
             return np.clip(np.array([0.0, 0.0, self.share, 0.0]), self.low, self.high)
         vx, vy, vz = exact.rotate(quaternion_to_rows(obs[3:7].tolist()), obs[7:10].tolist())
         x, y, z = obs[10:13].tolist()
-        h_end = vz * vz / (2.0 * self.a_brake) + self.h_aim
+        mass = self.vehicle.dry_mass + float(obs[-6]) * self.total_fuel  # the fuel left, from the observation
+        a_brake = self.share * (self.max_thrust / mass - GRAVITY)  # the envelope's deceleration (the mode's law)
+        h_end = vz * vz / (2.0 * a_brake) + self.h_aim
         if z > h_end:
             t_go = (z - h_end) / max(-vz, self.v_min) + 1.0
             sx, sy = -x / t_go, -y / t_go

@@ -57,6 +57,10 @@ def _rocket_velocity_policy(rng: np.random.Generator) -> np.ndarray:
     return np.array([*rng.uniform(-3, 3, 2), rng.uniform(-20, 5), rng.uniform(0, 1)])
 
 
+def _rocket_descent_policy(rng: np.random.Generator) -> np.ndarray:
+    return np.array([*rng.uniform(-3, 3, 2), rng.uniform(0, 1), rng.uniform(0, 1)])
+
+
 def _motors_policy(rng: np.random.Generator) -> np.ndarray:
     # around the pole-carrying f450's hover throttle ((1.2 kg g / 40 N)^0.5 = 0.54)
     return 0.54 + rng.uniform(-0.03, 0.03, 4)
@@ -82,6 +86,10 @@ PROFILES: dict[str, EnvProfile] = {
     # the same vehicle and task, flown by the velocity mode (ignition 0: free fall)
     "PyFlyt/Rocket-Landing-Velocity-v0": EnvProfile(
         9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 4, _rocket_velocity_policy
+    ),
+    # flown by the descent mode (ignition 0: free fall)
+    "PyFlyt/Rocket-Landing-Descent-v0": EnvProfile(
+        9, 1, (0.0, 0.0, 450.0), (20.0, 20.0, 0.0), (0.0,) * 4, _rocket_descent_policy
     ),
     # 4 motor throttles; then 12 pole values (tip, base positions and velocities, body frame)
     "PyFlyt/QuadX-Pole-Balance-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),

@@ -15,6 +15,9 @@ from pyflyt_engine.errors import ConfigError
 
 ROCKET = "PyFlyt/Rocket-Landing-v0"
 VELOCITY = "PyFlyt/Rocket-Landing-Velocity-v0"
+DESCENT = "PyFlyt/Rocket-Landing-Descent-v0"
+#: the oracles that fly a rocket autopilot mode: the guidance alone
+MODE_LANDERS = [(VELOCITY, "rocket_velocity_lander"), (DESCENT, "rocket_descent_lander")]
 
 
 @pytest.mark.parametrize("seed", [0, 7])
@@ -85,11 +88,12 @@ def test_an_oracle_refuses_another_env_and_unknown_names_are_listed(make):
 
 
 @pytest.mark.parametrize("seed", [0, 7])
-def test_the_velocity_lander_lands_seeded_drops_through_the_autopilot(make, seed):
-    """The guidance alone (a velocity setpoint and an ignition permission); the rocket
-    autopilot does the attitude, the thrust vectoring and the booster's timing."""
-    env = make(VELOCITY)
-    oracle = make_oracle("rocket_velocity_lander", env)
+@pytest.mark.parametrize(("env_id", "name"), MODE_LANDERS)
+def test_the_mode_landers_land_seeded_drops_through_the_autopilot(make, env_id, name, seed):
+    """The guidance alone (a velocity or descent setpoint and an ignition permission); the
+    rocket autopilot does the attitude, the thrust vectoring and the booster's timing."""
+    env = make(env_id)
+    oracle = make_oracle(name, env)
     obs, _ = env.reset(seed=seed)
     start = obs.copy()
     done, lit = False, 0
@@ -105,15 +109,17 @@ def test_the_velocity_lander_lands_seeded_drops_through_the_autopilot(make, seed
     assert 0.0 <= info["touchdown_speed"] < 1.0 and info["pad_distance"] < 2.0
 
 
-def test_the_velocity_lander_is_a_function_of_the_observation_and_refuses_the_raw_env(make):
-    env = make(VELOCITY)
-    first, second = make_oracle("rocket_velocity_lander", env), make_oracle("rocket_velocity_lander", env)
+@pytest.mark.parametrize(("env_id", "name"), MODE_LANDERS)
+def test_the_mode_landers_are_functions_of_the_observation_and_refuse_the_raw_env(make, env_id, name):
+    env = make(env_id)
+    first = make_oracle(name, env)
     obs, _ = env.reset(seed=3)
     seen = []
     for _ in range(100):
         seen.append(obs.copy())
         obs, *_ = env.step(first(obs))
+    second = make_oracle(name, env)  # built 100 steps (and some fuel) later
     for o in reversed(seen):
         np.testing.assert_array_equal(second(o), first(o))
-    with pytest.raises(ConfigError, match="flies PyFlyt/Rocket-Landing-Velocity-v0, not PyFlyt/Rocket-Landing-v0"):
-        make_oracle("rocket_velocity_lander", make(ROCKET))
+    with pytest.raises(ConfigError, match=f"flies {env_id}, not PyFlyt/Rocket-Landing-v0"):
+        make_oracle(name, make(ROCKET))
