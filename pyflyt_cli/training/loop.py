@@ -604,7 +604,9 @@ class _Run:
                 opts.eval_episodes,
                 cfg.seed + EVAL_SEED_OFFSET,
                 opts.eval_deterministic,
-                next_eval=opts.eval_freq,
+                # after an imitation stage the imitated policy is evaluated before learning
+                # starts (step 0), so best_model.pt keeps it if learning only makes it worse
+                next_eval=0 if restored is None and opts.imitation is not None else opts.eval_freq,
                 callback_after_eval=child,
                 log=_above_bar(self.log) if show_bar else self.log,  # one line per evaluation
                 total=opts.total_timesteps,
