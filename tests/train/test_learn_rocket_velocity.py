@@ -1,8 +1,8 @@
 """The landing probe of experiments/learn_rocket_velocity.py counts what it should (no training).
 
-Known answers: the ``rocket_velocity_lander`` oracle lands the probe's first seeded drops
-safely (it lands 49 of 50 seeded drops, experiments/results/rocket_landing_scripted.md;
-the two used here are among them), and with the ignition permission 0 the booster is
+Known answers: the mode landers (``rocket_velocity_lander``, ``rocket_descent_lander``) land
+the probe's first seeded drops safely (experiments/results/rocket_landing_scripted.md;
+the two used here are among their landings), and with the ignition permission 0 the booster is
 never lit, so every drop falls from 450 m and hits at tens of m/s with the fuel untouched.
 """
 
@@ -23,12 +23,16 @@ def exp():
     return _experiment()
 
 
-@pytest.fixture()
-def env(exp):
+ENVS = ["rocket_landing_velocity", "rocket_landing_descent"]
+
+
+@pytest.fixture(params=ENVS)
+def env(request):
     from pyflyt_cli.training import compose_config
     from pyflyt_cli.training.envs import EnvFactory
 
-    env = EnvFactory(compose_config(env=exp.ENV, algo="ppo").env, monitor=False)()
+    env = EnvFactory(compose_config(env=request.param, algo="ppo").env, monitor=False)()
+    env.config_name = request.param
     yield env
     env.close()
 
@@ -37,7 +41,7 @@ def test_the_oracle_s_drops_count_as_safe_landings(exp, env):
     from pyflyt_cli.training.imitation import agent_units
     from pyflyt_engine.envs.oracles import make_oracle
 
-    oracle, to_agent = make_oracle("rocket_velocity_lander", env), agent_units(env)
+    oracle, to_agent = make_oracle(exp.ORACLE[env.config_name], env), agent_units(env)
     probe = exp.rocket_probe(lambda obs, deterministic: (to_agent(oracle(obs)), None), None, env, episodes=2)
     assert probe["safe"] == 1.0 and probe["outcomes"] == {"safe": 2}
     for flight in probe["flights"]:
