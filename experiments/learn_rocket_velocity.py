@@ -243,7 +243,8 @@ def probe_model(run_dir: Path, which: str, episodes: int) -> dict:
 
 
 def rliable_summary(rows: list[dict], reps: int = 2000) -> list[str]:
-    """IQM over seeds, 95 % stratified-bootstrap CI, of the final probe's safe-landing fraction and return."""
+    """IQM over seeds, 95 % stratified-bootstrap CI, of the final probe's safe-landing fraction and
+    return, and of each run's best probe's safe-landing fraction."""
     from pyflyt_cli.plotting import stats
 
     def fmt(values: list[float], digits: int) -> str:
@@ -260,6 +261,7 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> list[str]:
         f"| safe landings (fraction of {len(final[0]['flights'])} probe episodes) | "
         f"{fmt([f['safe'] for f in final], 2)} |",
         f"| probe return | {fmt([f['mean_return'] for f in final], 0)} |",
+        f"| safe landings at each run's best probe | {fmt([max(p['safe'] for p in r['history']) for r in rows], 2)} |",
     ]
 
 
