@@ -109,7 +109,8 @@ MAX_TILT = 0.35
 #: Tikhonov damping of the allocation [N^2 m^2] (see the module docstring)
 _DAMPING = 1.0
 _MIN_LIFT = 0.1 * GRAVITY
-#: mode ``descent``: the envelope's floor [m/s] (a third of the landing task's 1 m/s limit)
+#: mode ``descent``: the envelope's floor [m/s] (well under the landing task's 1 m/s limit:
+#: with minimum thrust above the weight, holding it is pulsing, ~0.1 m/s of ripple)
 TOUCHDOWN_SPEED = 0.4
 #: mode ``descent``: the height above the ground [m] below which the envelope is its floor
 FLOOR_HEIGHT = 1.0
