@@ -12,8 +12,10 @@ ground touched, out of the flight dome, the 20 s limit), the closest approach to
 the mean speed and the return.
 
 **CPU-time budget** (``--cpu-minutes M``): training stops once the training process's
-CPU time (``time.process_time()``, every thread) since the start of learning, minus the
-CPU time of the probes, reaches M minutes.  On a shared machine (2 cores, other jobs) M
+CPU time (``time.process_time()``, every thread) since training was called (a tuning's
+imitation stage included), minus the CPU time of the probes, reaches M minutes.  A run
+whose tuning imitates an oracle first (``train.imitation``) is also probed when
+reinforcement learning starts (step 0: the imitated policy).  On a shared machine (2 cores, other jobs) M
 CPU-minutes are at most what one run alone on the 2 cores would get in M minutes of
 wall-clock (training uses one torch thread; the environments step in the same process),
 so a target "within M minutes" met on CPU time is met conservatively.  Wall-clock, CPU
@@ -126,13 +128,20 @@ class ObstacleProbe(WaypointProbe):
         self.probe_fn = obstacle_probe
         self.cpu_budget, self.save = cpu_budget, save
         self.env_name = cfg.env_name
+        self.imitates = cfg.train.imitation is not None and cfg.train.imitation.oracle is not None
+        # the clocks start here, just before `train`: a tuning's imitation stage (DAgger, run
+        # before learning starts) is part of the budget and of the wall-clock
         self.cpu_started = time.process_time()
+        self.started = time.perf_counter()
         self.probe_cpu = 0.0
         self.stopped_by_budget = False
 
     def _on_training_start(self) -> None:
+        started = self.started
         super()._on_training_start()
-        self.cpu_started = time.process_time()
+        self.started = started
+        if self.imitates:
+            self.probe()  # the policy the imitation stage left, before reinforcement learning
 
     def training_cpu(self) -> float:
         """CPU seconds of this process since learning started, without the probes'."""

@@ -435,3 +435,56 @@ class ProgressBar(BaseCallback):
         if self.bar is not None:
             self.bar.close()
             self.bar = None
+
+
+class ValueWarmup(BaseCallback):
+    """``train.imitation.value_warmup``: hold the imitated policy while the value function learns.
+
+    Until the run has collected ``steps`` learning steps, every update (the one after each
+    rollout) leaves the actor's parameters -- its network, action head and log standard
+    deviation -- as they are: they take no gradient (``requires_grad`` off), so the
+    optimiser skips them, and the probability ratio and the KL stay at 1 and 0.  The value
+    network (and a features extractor the two share) learns.  After the first rollout
+    that ends past ``steps``, the actor learns too.  Whether it is held follows from the
+    step count alone, so a resumed run holds it exactly as the uninterrupted one did.
+    (PPO and A2C: one optimiser over an SB3 ``ActorCriticPolicy``.)
+    """
+
+    def __init__(self, steps: int, log) -> None:
+        super().__init__()
+        self.steps, self.log = steps, log
+        self.holding: bool | None = None
+
+    @staticmethod
+    def actor_parameters(policy: Any) -> list[Any]:
+        """The parameters that decide the action and nothing else: the actor's network, its
+        action head, its own features extractor and the log standard deviation."""
+        import torch as th
+
+        parts = [policy.mlp_extractor.policy_net, policy.action_net]
+        if not policy.share_features_extractor:
+            parts.append(policy.pi_features_extractor)
+        params = [p for part in parts for p in part.parameters()]
+        if isinstance(getattr(policy, "log_std", None), th.nn.Parameter):
+            params.append(policy.log_std)
+        return params
+
+    def hold(self, hold: bool) -> None:
+        if hold == self.holding:
+            return
+        for p in self.actor_parameters(self.model.policy):
+            p.requires_grad_(not hold)
+        if hold:
+            self.log(f"value warm-up: the policy is held until step {self.steps}; the value function learns")
+        elif self.holding:
+            self.log(f"value warm-up done at step {self.num_timesteps}: the policy learns too")
+        self.holding = hold
+
+    def _on_training_start(self) -> None:
+        self.hold(self.num_timesteps < self.steps)
+
+    def _on_rollout_end(self) -> None:  # before the update of the rollout just collected
+        self.hold(self.num_timesteps <= self.steps)
+
+    def _on_step(self) -> bool:
+        return True

@@ -11,7 +11,11 @@ oracle's action and added to one data set, and after every round the policy is f
 to the whole set for ``epochs`` passes (mean squared error between the policy's
 deterministic action and the oracle's, in the policy's own action units: the env's for
 PPO/A2C/TRPO, [-1, 1] for the squashed off-policy actors).  Reinforcement learning then
-starts from the fitted policy; the value functions and critics start untrained.
+starts from the fitted policy; the value functions and critics start untrained, unless
+``value_warmup`` (PPO, A2C) gives the value function that many learning steps to fit the
+fitted policy's returns before the policy itself is updated
+(:class:`pyflyt_cli.training.callbacks.ValueWarmup`): an
+untrained critic's advantages are noise, and updating a good policy on them unlearns it.
 
 With ``algo.normalize.observation``, the normaliser's statistics are updated with every
 round's observations before the fit, so the policy learns on the inputs it will see.
@@ -33,6 +37,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 #: episode i of the imitation stage is reset with seed + IMITATION_SEED_OFFSET + i (away from
 #: the training envs' seed + i and the evaluations' seed + 1000 + i)
@@ -196,3 +201,37 @@ def _fit(
         last = total / batches
     policy.set_training_mode(False)
     return last
+
+
+
+def hold_observation_statistics(normalizer: Any) -> bool:
+    """``train.imitation.hold_normalizer``: from now on the observation normaliser's running
+    statistics stay as they are (the reward's still update).
+
+    The imitation stage fits the policy on observations scaled by the statistics of the
+    states it flew; statistics that go on moving with the learner's own (noisier) states
+    change what the same weights do, and unlearned imitated policies in QuadX-Obstacles
+    even while the policy itself was held (``value_warmup``).  Each running mean/std of
+    ``normalizer.obs_rms`` becomes a :class:`HeldStatistics` with the same values; returns
+    whether there was one to hold."""
+    if normalizer is None or not normalizer.norm_obs:
+        return False
+    rms = normalizer.obs_rms
+    if isinstance(rms, dict):
+        normalizer.obs_rms = {key: HeldStatistics.of(value) for key, value in rms.items()}
+    else:
+        normalizer.obs_rms = HeldStatistics.of(rms)
+    return True
+
+
+class HeldStatistics(RunningMeanStd):
+    """An SB3 ``RunningMeanStd`` whose ``update`` leaves it unchanged (saved and restored as any)."""
+
+    @classmethod
+    def of(cls, rms: Any) -> "HeldStatistics":
+        held = cls(shape=rms.mean.shape)
+        held.mean, held.var, held.count = rms.mean.copy(), rms.var.copy(), rms.count
+        return held
+
+    def update(self, arr: np.ndarray) -> None:
+        return None

@@ -420,8 +420,11 @@ class _Run:
                 self._open_metrics(cleanup, checkpoint)
                 if checkpoint is None and self.cfg.train.imitation is not None:
                     self._imitate(model)
+                self._hold_normalizer(model)
                 stop = StopRequest()
-                callbacks = self._callbacks(cleanup, stop, restored, [*self._curriculum(model), *extra_callbacks])
+                callbacks = self._callbacks(
+                    cleanup, stop, restored, [*self._curriculum(model), *self._value_warmup(), *extra_callbacks]
+                )
                 self._write_state("running", start_step, checkpoint=checkpoint.step if checkpoint else None)
                 elapsed = self._learn(model, callbacks, stop)
                 return self._finish(model, stop, start_step, elapsed)
@@ -644,6 +647,27 @@ class _Run:
             )
         callbacks.extend(extra)
         return RunCallbacks(callbacks, stop)
+
+    def _hold_normalizer(self, model: Any) -> None:
+        """``train.imitation.hold_normalizer``: the observation statistics the imitation stage left
+        (restored from the checkpoint on a resume) stay fixed for the rest of the run."""
+        options = self.cfg.train.imitation
+        if options is None or options.oracle is None or not options.hold_normalizer:
+            return
+        from pyflyt_cli.training.imitation import hold_observation_statistics
+
+        if hold_observation_statistics(model.get_vec_normalize_env()):
+            self.log("observation statistics held as the imitation stage left them")
+
+    def _value_warmup(self) -> list[Any]:
+        """``train.imitation.value_warmup``: the callback holding the imitated policy while the value
+        function learns (also on a resume, which holds it as the uninterrupted run did)."""
+        options = self.cfg.train.imitation
+        if options is None or options.oracle is None or not options.value_warmup:
+            return []
+        from pyflyt_cli.training.callbacks import ValueWarmup
+
+        return [ValueWarmup(options.value_warmup, self.log)]
 
     def _curriculum(self, model: Any) -> list[Any]:
         """``train.curriculum``: its callback, the training envs already told the current values."""

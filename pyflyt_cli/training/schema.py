@@ -412,6 +412,17 @@ class ImitationOptions(_Strict):
     epochs: int = Field(ge=1, description="passes over the aggregated data set after every round")
     batch_size: int = Field(ge=1, description="minibatch of the fit")
     learning_rate: float = Field(gt=0.0, description="Adam step size of the fit")
+    value_warmup: int = Field(
+        0,
+        ge=0,
+        description="PPO, A2C: the first this many learning steps after the stage update the value function "
+        "only, the fitted policy held (0: none)",
+    )
+    hold_normalizer: bool = Field(
+        False,
+        description="keep the observation normaliser's statistics as the stage left them for the whole run "
+        "(the inputs the policy was fitted on); false: they go on updating",
+    )
 
     @field_validator("oracle")
     @classmethod
@@ -575,6 +586,11 @@ class TrainConfig(_Strict):
             _check_curriculum(self.env, opts.curriculum)
         if opts.imitation is not None:
             _check_imitation(self.env, algo.name, opts.imitation)
+            if opts.imitation.hold_normalizer and not algo.normalize.observation:
+                raise ValueError(
+                    "train.imitation.hold_normalizer holds the observation normaliser's statistics, and "
+                    "algo.normalize.observation is false: set one of them differently"
+                )
         if isinstance(algo, (PPOConfig, RecurrentPPOConfig, TRPOConfig)):
             from pyflyt_cli.training.multi_agent import agents_per_env
 
@@ -591,6 +607,11 @@ class TrainConfig(_Strict):
         return self
 
 
+#: algorithms whose policy ``train.imitation.value_warmup`` can hold while the value function learns
+#: (one optimiser over the actor and the critic, updated by gradient; TRPO's actor step is not)
+VALUE_WARMUP_ALGORITHMS = ("ppo", "a2c")
+
+
 def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> None:
     """The oracle flies this env, and the algorithm's policy can be fitted state by state."""
     from pyflyt_engine.envs.oracles import ORACLES
@@ -600,6 +621,11 @@ def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> 
     fitted = [name for name, a in registry.ALGORITHMS.items() if a.imitation]
     if algo not in fitted:
         raise ValueError(f"train.imitation cannot fit a {algo} policy; algorithms: {', '.join(fitted)}")
+    if imitation.value_warmup and algo not in VALUE_WARMUP_ALGORITHMS:
+        raise ValueError(
+            f"train.imitation.value_warmup holds the policy of an actor-critic updated from its own rollouts "
+            f"({', '.join(VALUE_WARMUP_ALGORITHMS)}), not {algo}; set train.imitation.value_warmup=0"
+        )
     flies = ORACLES[imitation.oracle].env_ids
     if env.id not in flies:
         raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")

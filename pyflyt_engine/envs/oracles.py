@@ -19,7 +19,7 @@ Oracles:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -265,11 +265,218 @@ class RocketDescentLander:
         return np.clip(np.array([sx, sy, self.share, 1.0]), self.low, self.high)
 
 
+def _dict_observation(env: Any) -> Callable[[Any], dict[str, np.ndarray]]:
+    """The env's ``Dict`` observation from what an oracle is handed: the dict itself (the
+    env as made) or the flat vector an agent sees (Gymnasium's ``FlattenObservation``)."""
+    from gymnasium import spaces
+
+    space = env.unwrapped.observation_space
+
+    def unpack(obs: Any) -> dict[str, np.ndarray]:
+        if isinstance(obs, dict):
+            return obs
+        return spaces.unflatten(space, np.asarray(obs, dtype=np.float64))
+
+    return unpack
+
+
+class QuadXVelocityPilot:
+    """Body rates and thrust (``rates_thrust``) that fly a QuadX at a ground-frame velocity.
+
+    From the attitude vector of the QuadX envs (quaternion layout: body rates, attitude,
+    body velocity, position, ...) alone, with no state of its own:
+
+    * the wanted acceleration ``a = k_v (v_want - v)``, its horizontal part capped at
+      ``max_tilt`` worth (``g tan(max_tilt)``) and its vertical part at +-``max_climb_acc``;
+    * the specific force ``f = a + g z``: its component along the body's z axis, over the
+      full collective (``mass / max_collective`` of the airframe), is the thrust fraction;
+    * body rates turning the body's z axis toward ``f``: ``k_att`` times the axis of the
+      rotation that carries one to the other (in the body frame), and a yaw rate
+      ``k_yaw`` times the heading error to ``heading`` (none when ``heading`` is None).
+    """
+
+    def __init__(self, env: Any, k_v: float = 3.0, k_att: float = 6.0, k_yaw: float = 2.0,
+                 max_tilt: float = 0.35, max_climb_acc: float = 4.0) -> None:
+        base = env.unwrapped
+        if base.config.angle_representation != "quaternion":
+            raise ConfigError("the QuadX oracles read the attitude as a quaternion: set env.angle_representation=quaternion")
+        controller = base.vehicle.controller
+        if controller is None or base.config.action.mode != "rates_thrust":
+            raise ConfigError("the QuadX oracles fly a multirotor in flight mode rates_thrust (env.action.mode)")
+        self.per_newton = 1.0 / controller.mixer.max_collective  # thrust fraction per newton
+        self.mass = controller.mass
+        self.rate_limit = float(base.action_space.high[0])
+        self.k_v, self.k_att, self.k_yaw = k_v, k_att, k_yaw
+        self.max_horizontal = GRAVITY * math.tan(max_tilt)
+        self.max_climb_acc = max_climb_acc
+
+    @staticmethod
+    def state(attitude: np.ndarray) -> tuple[tuple[tuple[float, float, float], ...], list[float], list[float]]:
+        """(body-to-ground rows, ground-frame velocity, position) from the attitude vector."""
+        rows = quaternion_to_rows(attitude[3:7].tolist())
+        return rows, list(exact.rotate(rows, attitude[7:10].tolist())), attitude[10:13].tolist()
+
+    def __call__(self, attitude: np.ndarray, velocity: Sequence[float], heading: float | None = None) -> np.ndarray:
+        rows, v, _ = self.state(attitude)
+        ax, ay, az = (self.k_v * (w - u) for w, u in zip(velocity, v))
+        horizontal = math.hypot(ax, ay)
+        if horizontal > self.max_horizontal:
+            ax, ay = ax * self.max_horizontal / horizontal, ay * self.max_horizontal / horizontal
+        az = min(max(az, -self.max_climb_acc), self.max_climb_acc)
+        fx, fy, fz = exact.rotate_t(rows, (ax, ay, az + GRAVITY))  # the specific force, body frame
+        size = math.sqrt(fx * fx + fy * fy + fz * fz)
+        thrust = self.mass * fz * self.per_newton
+        # z_body x f / |f| = (-fy, fx, 0) / |f|: the rotation taking the body z axis to f
+        p, q = -self.k_att * fy / size, self.k_att * fx / size
+        r = 0.0
+        if heading is not None:
+            yaw = math.atan2(rows[1][0], rows[0][0])
+            r = self.k_yaw * math.remainder(heading - yaw, math.tau)
+        limit = self.rate_limit
+        rates = [min(max(c, -limit), limit) for c in (p, q, r)]
+        return np.array([*rates, min(max(thrust, 0.0), 1.0)])
+
+
+class QuadXForestNavigator:
+    """Fly the QuadX to the goal through the forest (``PyFlyt/QuadX-Obstacles-v0``) by its LiDAR.
+
+    From the observation alone (the attitude vector, the goal vector and the LiDAR ranges),
+    with no state of its own:
+
+    * every LiDAR return closer than the range limit is a point in the ground frame; returns
+      from the ground (below ``ground`` m) are dropped;
+    * of ``candidates`` horizontal headings, those whose corridor -- ``clearance`` m to
+      either side of a segment ``look`` m long (or to the goal, if nearer) -- holds no point
+      are free; the free heading scoring highest on ``cos(to the goal) + w_keep cos(to the
+      present velocity)`` is flown at ``speed`` m/s (slowing within 1 m of the goal), the
+      height steered to the goal's at ``k_z`` per second;
+    * no free heading: back away from the nearest point at 0.5 m/s;
+    * :class:`QuadXVelocityPilot` turns the velocity into body rates and thrust, holding
+      the heading at 0 (+x, the way through the forest).
+    """
+
+    env_ids = ("PyFlyt/QuadX-Obstacles-v0",)
+
+    def __init__(self, env: Any, speed: float = 1.2, look: float = 2.0, clearance: float = 0.4,
+                 candidates: int = 72, w_keep: float = 0.3, k_z: float = 1.0, ground: float = 0.15) -> None:
+        base = env.unwrapped
+        self.pilot = QuadXVelocityPilot(env)
+        self.unpack = _dict_observation(env)
+        sensors = [s for s in base.config.range_sensors if s.name == "lidar"]
+        if not sensors or sensors[0].vertical_beams != 1:
+            raise ConfigError("oracle quadx_forest_navigator reads a planar LiDAR named 'lidar' (env.range_sensors)")
+        lidar = sensors[0]
+        n = lidar.horizontal_beams
+        step = math.radians(lidar.horizontal_fov_deg) / n
+        start = -0.5 * math.radians(lidar.horizontal_fov_deg)
+        azimuths = [start + (k + 0.5) * step for k in range(n)]
+        self.beam_x = np.array([math.cos(a) for a in azimuths])
+        self.beam_y = np.array([math.sin(a) for a in azimuths])
+        self.max_range = float(lidar.max_range)
+        headings = [2.0 * math.pi * k / candidates for k in range(candidates)]
+        self.cand_x = np.array([math.cos(h) for h in headings])[:, None]
+        self.cand_y = np.array([math.sin(h) for h in headings])[:, None]
+        self.speed, self.look, self.clearance, self.w_keep = speed, look, clearance, w_keep
+        self.k_z, self.ground = k_z, ground
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        o = self.unpack(obs)
+        attitude = np.asarray(o["attitude"], dtype=np.float64)
+        rows, v, pos = self.pilot.state(attitude)
+        gx, gy, gz = exact.rotate(rows, np.asarray(o["goal_delta"], dtype=np.float64).tolist())  # ground frame
+        ranges = np.asarray(o["lidar"], dtype=np.float64)
+        # the returns in the ground frame, relative to the vehicle (planar beams along body x, y)
+        (a, b, _), (c, d, _), (e, f, _) = rows
+        hx, hy = ranges * (a * self.beam_x + b * self.beam_y), ranges * (c * self.beam_x + d * self.beam_y)
+        hz = pos[2] + ranges * (e * self.beam_x + f * self.beam_y)
+        keep = (ranges < self.max_range - 1e-6) & (hz > self.ground)
+        hx, hy = hx[keep][None, :], hy[keep][None, :]
+        distance = math.hypot(gx, gy)
+        length = min(self.look, distance)
+        along = hx * self.cand_x + hy * self.cand_y
+        side = np.abs(hx * self.cand_y - hy * self.cand_x)
+        blocked = ((along > 0.0) & (along < length + self.clearance) & (side < self.clearance)).any(axis=1)
+        vz = self.k_z * gz
+        if blocked.all():
+            if hx.size == 0:
+                return self.pilot(attitude, (0.0, 0.0, vz), heading=0.0)
+            near = int(np.argmin(hx[0] * hx[0] + hy[0] * hy[0]))
+            size = math.hypot(float(hx[0, near]), float(hy[0, near]))
+            return self.pilot(attitude, (-0.5 * float(hx[0, near]) / size, -0.5 * float(hy[0, near]) / size, vz), heading=0.0)
+        to_goal = (gx / distance, gy / distance) if distance > 1e-9 else (1.0, 0.0)
+        moving = math.hypot(v[0], v[1])
+        keep_x, keep_y = (v[0] / moving, v[1] / moving) if moving > 1e-6 else (0.0, 0.0)
+        score = (self.cand_x[:, 0] * to_goal[0] + self.cand_y[:, 0] * to_goal[1]
+                 + self.w_keep * (self.cand_x[:, 0] * keep_x + self.cand_y[:, 0] * keep_y))
+        score[blocked] = -np.inf
+        best = int(np.argmax(score))
+        speed = min(self.speed, max(distance, 0.3))
+        return self.pilot(
+            attitude, (speed * float(self.cand_x[best, 0]), speed * float(self.cand_y[best, 0]), vz), heading=0.0
+        )
+
+
+class QuadXGateRacer:
+    """Fly the QuadX through the gates in order (``PyFlyt/QuadX-Gates-v0`` with ``observation: corners``).
+
+    From the observation alone (the attitude vector and the next gate's 4 opening corners
+    in the body frame), with no state of its own: the gate's centre ``c`` and its passing
+    direction ``n`` (the opening's normal, from the corners' order) in the ground frame;
+    the vehicle's offset from the gate's axis (the line through ``c`` along ``n``) is
+    ``l``; the velocity flown is ``speed n - k_lat l`` (so the vehicle closes on the axis
+    while moving along it), slower (``k_far``) while more than ``far`` m off the axis, and
+    :class:`QuadXVelocityPilot` flies it, heading along ``n``.  After the last gate (the
+    corners are all zero) it holds still.
+    """
+
+    env_ids = ("PyFlyt/QuadX-Gates-v0",)
+
+    def __init__(self, env: Any, speed: float = 1.5, k_lat: float = 2.5, closing_speed: float = 0.5,
+                 cone_base: float = 0.08, cone_slope: float = 0.2, behind: float = 0.1) -> None:
+        base = env.unwrapped
+        if getattr(base.task.options, "observation", None) != "corners":
+            raise ConfigError("oracle quadx_gate_racer reads the next gate's corners: set env.task.observation=corners")
+        self.pilot = QuadXVelocityPilot(env)
+        self.unpack = _dict_observation(env)
+        self.speed, self.k_lat, self.closing_speed = speed, k_lat, closing_speed
+        self.cone_base, self.cone_slope, self.behind = cone_base, cone_slope, behind
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        o = self.unpack(obs)
+        attitude = np.asarray(o["attitude"], dtype=np.float64)
+        rows, _, _ = self.pilot.state(attitude)
+        gate = np.asarray(o["gate"], dtype=np.float64).reshape(4, 3)
+        if not gate.any():  # the course is flown
+            return self.pilot(attitude, (0.0, 0.0, 0.0))
+        corners = [exact.rotate(rows, g.tolist()) for g in gate]  # ground frame, from the vehicle
+        centre = [0.25 * (corners[0][i] + corners[1][i] + corners[2][i] + corners[3][i]) for i in range(3)]
+        # corners: top left, top right, bottom right, bottom left seen along +x; y = left, z = up
+        left = [corners[0][i] - corners[1][i] + corners[3][i] - corners[2][i] for i in range(3)]
+        up = [corners[0][i] - corners[3][i] + corners[1][i] - corners[2][i] for i in range(3)]
+        normal = exact.cross(left, up)
+        size = exact.norm(normal)
+        n = [c / size for c in normal]
+        offset = [-c for c in centre]  # the vehicle from the gate's centre
+        along = exact.dot(offset, n)
+        lateral = [offset[i] - along * n[i] for i in range(3)]
+        miss = exact.norm(lateral)
+        # inside the cone -- off the axis by less than cone_base + cone_slope x the distance to
+        # the gate's plane -- fly on at speed; outside it, slow to closing_speed until back in it
+        cone = self.cone_base + self.cone_slope * max(-along, 0.0)
+        forward = self.speed if miss <= cone else self.closing_speed
+        if along > -self.behind and miss > cone:  # beside the gate, past the plane: back off
+            forward = -self.closing_speed
+        want = [forward * n[i] - self.k_lat * lateral[i] for i in range(3)]
+        return self.pilot(attitude, want, heading=math.atan2(n[1], n[0]))
+
+
 #: name -> oracle class (each names the env ids it flies in ``env_ids``)
 ORACLES: dict[str, type] = {
     "rocket_lander": RocketLander,
     "rocket_velocity_lander": RocketVelocityLander,
     "rocket_descent_lander": RocketDescentLander,
+    "quadx_forest_navigator": QuadXForestNavigator,
+    "quadx_gate_racer": QuadXGateRacer,
 }
 
 

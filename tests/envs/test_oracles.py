@@ -123,3 +123,115 @@ def test_the_mode_landers_are_functions_of_the_observation_and_refuse_the_raw_en
         np.testing.assert_array_equal(second(o), first(o))
     with pytest.raises(ConfigError, match=f"flies {env_id}, not PyFlyt/Rocket-Landing-v0"):
         make_oracle(name, make(ROCKET))
+
+
+# ----------------------------------------------------------------- QuadX oracles (rates_thrust)
+
+OBSTACLES = "PyFlyt/QuadX-Obstacles-v0"
+
+
+@pytest.fixture
+def gates_state():
+    """QuadX-Gates from state (conf/env/quadx_gates_state.yaml: the next gate's corners)."""
+    from pyflyt_engine.envs import make_env
+
+    made = []
+
+    def _make(**overrides):
+        env = make_env("quadx_gates_state", **overrides)
+        made.append(env)
+        return env
+
+    yield _make
+    for env in made:
+        env.close()
+
+
+def test_the_quadx_pilot_holds_a_level_hover_with_the_weight(make):
+    """At rest and level, asked for no velocity, the pilot asks no rates and a thrust fraction
+    equal to the weight over the full collective (0.125 for the 8:1 cf2x)."""
+    from pyflyt_engine.constants import GRAVITY
+    from pyflyt_engine.envs.oracles import QuadXVelocityPilot
+
+    env = make(OBSTACLES)
+    pilot = QuadXVelocityPilot(env)
+    attitude = np.zeros(21)
+    attitude[6] = 1.0  # quaternion (0, 0, 0, 1): level, heading +x
+    attitude[10:13] = (0.0, 0.0, 1.0)
+    action = pilot(attitude, (0.0, 0.0, 0.0), heading=0.0)
+    controller = env.vehicle.controller
+    np.testing.assert_allclose(action[:3], 0.0, atol=1e-12)
+    assert action[3] == pytest.approx(controller.mass * GRAVITY / controller.mixer.max_collective, rel=1e-12)
+    assert action[3] == pytest.approx(0.125, rel=0.02)
+    # asked to move +x, level: pitch nose down (a positive body y rate tilts the thrust toward +x)
+    ahead = pilot(attitude, (1.0, 0.0, 0.0))
+    assert ahead[1] > 0.0 and ahead[0] == pytest.approx(0.0, abs=1e-12)
+    # asked to climb: more thrust than the weight, no rates
+    climb = pilot(attitude, (0.0, 0.0, 1.0))
+    assert climb[3] > action[3] and np.allclose(climb[:3], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 5])
+def test_the_forest_navigator_reaches_the_goal_without_contact(make, seed):
+    env = make(OBSTACLES)
+    oracle = make_oracle("quadx_forest_navigator", env)
+    obs, _ = env.reset(seed=seed)
+    assert len(env.obstacles.generated_ids) == 12  # a forest to cross
+    done, steps = False, 0
+    while not done:
+        action = oracle(obs)
+        assert env.action_space.contains(action.astype(np.float32))
+        obs, _, terminated, truncated, info = env.step(action)
+        steps += 1
+        done = terminated or truncated
+    assert info["success"] and terminated and not info["obstacle_contact"]
+    assert steps < 20 * 30  # before the time limit
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_the_gate_racer_passes_every_gate_in_order(gates_state, seed):
+    env = gates_state()
+    oracle = make_oracle("quadx_gate_racer", env)
+    obs, _ = env.reset(seed=seed)
+    done, passed = False, []
+    while not done:
+        obs, _, terminated, truncated, info = env.step(oracle(obs))
+        passed.append(info["num_targets_reached"])
+        done = terminated or truncated
+    assert passed == sorted(passed) and passed[-1] == 5  # one at a time, all five
+    assert info["success"] and terminated and not info["collision"]
+
+
+def test_the_quadx_oracles_read_the_flat_observation_as_the_dict(make, gates_state):
+    """An agent's flat vector (Gymnasium's FlattenObservation) and the env's Dict give the same
+    action (two copies of the env, the same seed and actions); the same observation gives the
+    same action whatever came before (no state)."""
+    import gymnasium
+
+    for pair, name in (
+        ((make(OBSTACLES), make(OBSTACLES)), "quadx_forest_navigator"),
+        ((gates_state(), gates_state()), "quadx_gate_racer"),
+    ):
+        as_dict, flat = pair[0], gymnasium.wrappers.FlattenObservation(pair[1])
+        first, second = make_oracle(name, as_dict), make_oracle(name, flat)
+        obs, _ = as_dict.reset(seed=2)
+        vector, _ = flat.reset(seed=2)
+        seen = []
+        for _ in range(60):
+            action = first(obs)
+            np.testing.assert_array_equal(second(vector), action)
+            seen.append((obs, action))
+            obs, *_ = as_dict.step(action)
+            vector, *_ = flat.step(action)
+        assert any(abs(a[0]) > 1e-3 or abs(a[1]) > 1e-3 for _, a in seen)  # it steered
+        for o, a in reversed(seen):
+            np.testing.assert_array_equal(second(flat.observation(o)), a)
+
+
+def test_the_quadx_oracles_refuse_envs_they_cannot_read(make, gates_state):
+    with pytest.raises(ConfigError, match="quadx_gate_racer reads the next gate's corners"):
+        make_oracle("quadx_gate_racer", gates_state(task={"observation": "relative_pose"}))
+    with pytest.raises(ConfigError, match="quaternion"):
+        make_oracle("quadx_forest_navigator", make(OBSTACLES, angle_representation="euler"))
+    with pytest.raises(ConfigError, match="flies PyFlyt/QuadX-Obstacles-v0, not PyFlyt/QuadX-Hover-v0"):
+        make_oracle("quadx_forest_navigator", make("PyFlyt/QuadX-Hover-v0"))

@@ -205,3 +205,153 @@ def test_no_oracle_no_imitation_and_the_same_identity_as_runs_made_before_the_ke
     del older["train"]["imitation"]
     assert identity(parse_train_config(older)) == identity(cfg)
     assert "/imitation" not in read_metrics(train(cfg).run_dir)
+
+
+class _Snapshots:
+    """Copies of the actor's and the value network's weights when learning starts and after each
+    update (at the start of the next rollout, and at the end)."""
+
+    def __init__(self) -> None:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        from pyflyt_cli.training.callbacks import ValueWarmup
+
+        taken: list[tuple[int, list[th.Tensor], list[th.Tensor]]] = []
+        self.taken = taken
+
+        class Take(BaseCallback):
+            def snap(self) -> None:
+                policy = self.model.policy
+                actor = [p.detach().clone() for p in ValueWarmup.actor_parameters(policy)]
+                value = [p.detach().clone() for p in policy.value_net.parameters()]
+                value += [p.detach().clone() for p in policy.mlp_extractor.value_net.parameters()]
+                taken.append((self.num_timesteps, actor, value))
+
+            def _on_training_start(self) -> None:
+                self.snap()
+
+            def _on_rollout_start(self) -> None:
+                if self.num_timesteps > 0:
+                    self.snap()
+
+            def _on_training_end(self) -> None:
+                self.snap()
+
+            def _on_step(self) -> bool:
+                return True
+
+        self.callback = Take()
+
+
+def _same(a: list[th.Tensor], b: list[th.Tensor]) -> bool:
+    return len(a) == len(b) and all(th.equal(x, y) for x, y in zip(a, b))
+
+
+@pytest.mark.long
+def test_the_value_warmup_holds_the_imitated_policy_while_the_value_function_learns(tmp_path):
+    """value_warmup=256 with 256-step rollouts: the first update (after step 256) changes the value
+    network and not the actor (network, action head, log std); the second (after 512) both."""
+    lines: list[str] = []
+    snapshots = _Snapshots()
+    overrides = [*TINY_IMITATION, "train.total_timesteps=512", "train.imitation.value_warmup=256"]
+    train(load(overrides, tmp_path), callbacks=[snapshots.callback], log=lines.append)
+    steps = [step for step, _, _ in snapshots.taken]
+    assert steps == [0, 256, 512], steps
+    (_, actor0, value0), (_, actor1, value1), (_, actor2, _) = snapshots.taken
+    assert len(actor0) > 2  # the actor's layers and the log std
+    assert _same(actor0, actor1) and not _same(value0, value1)
+    assert not _same(actor1, actor2)
+    assert any("value warm-up: the policy is held until step 256" in line for line in lines)
+    assert any("value warm-up done at step 512" in line for line in lines)
+
+
+def test_the_value_warmup_is_refused_where_it_cannot_hold_the_policy_and_is_no_change_at_zero(tmp_path):
+    from pyflyt_cli.training.rundir import config_dict, identity
+    from pyflyt_cli.training.schema import parse_train_config
+
+    for algo in ("sac", "trpo"):
+        with pytest.raises((UsageError, ConfigError)) as info:
+            load(["env=rocket_landing", f"algo={algo}", "train.imitation.oracle=rocket_lander",
+                  "train.imitation.value_warmup=100"], tmp_path)
+        assert "train.imitation.value_warmup" in str(info.value) and f"not {algo}" in str(info.value), str(info.value)
+    with pytest.raises((UsageError, ConfigError)) as info:
+        load([*TINY_IMITATION, "train.imitation.value_warmup=-1"], tmp_path)
+    assert "train.imitation.value_warmup" in str(info.value)
+    # a run made before the key (no value_warmup in its config) is the same run as value_warmup=0
+    cfg = load(TINY_IMITATION, tmp_path)
+    assert cfg.train.imitation.value_warmup == 0
+    older = config_dict(cfg)
+    del older["train"]["imitation"]["value_warmup"]
+    assert identity(parse_train_config(older)) == identity(cfg)
+    warm = load([*TINY_IMITATION, "train.imitation.value_warmup=256"], tmp_path)
+    assert identity(warm) != identity(cfg)
+
+
+class _Statistics:
+    """The observation normaliser's mean and count when learning starts and when it ends."""
+
+    def __init__(self) -> None:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        seen: list[tuple[np.ndarray, float]] = []
+        self.seen = seen
+
+        class Look(BaseCallback):
+            def look(self) -> None:
+                rms = self.model.get_vec_normalize_env().obs_rms
+                seen.append((rms.mean.copy(), float(rms.count)))
+
+            def _on_training_start(self) -> None:
+                self.look()
+
+            def _on_training_end(self) -> None:
+                self.look()
+
+            def _on_step(self) -> bool:
+                return True
+
+        self.callback = Look()
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("hold", [True, False])
+def test_hold_normalizer_keeps_the_imitations_observation_statistics(tmp_path, hold):
+    """With hold_normalizer the statistics the policy was fitted on (the imitation's ~2 000
+    observations) stay as they were through 512 learning steps; without it they take in the
+    learner's observations (the count grows by 512)."""
+    statistics = _Statistics()
+    overrides = [*TINY_IMITATION, "train.total_timesteps=512", "algo.normalize.observation=true",
+                 f"train.imitation.hold_normalizer={str(hold).lower()}"]
+    lines: list[str] = []
+    run = train(load(overrides, tmp_path), callbacks=[statistics.callback], log=lines.append)
+    (start_mean, start_count), (end_mean, end_count) = statistics.seen
+    assert start_count > 1000  # the imitation's observations
+    if hold:
+        assert end_count == start_count and np.array_equal(end_mean, start_mean)
+        assert any("observation statistics held" in line for line in lines)
+        saved = read_policy(run.run_dir / "model.pt").normalizer["obs_rms"]
+        assert saved["count"] == start_count  # what the model file keeps, and evaluations use
+    else:
+        assert end_count == pytest.approx(start_count + 512) and not np.array_equal(end_mean, start_mean)
+
+
+@pytest.mark.long
+def test_a_resumed_run_holds_the_statistics_and_the_policy_as_the_uninterrupted_one(tmp_path, tmp_path_factory):
+    overrides = [*TINY_IMITATION, "train.total_timesteps=768", "algo.normalize.observation=true",
+                 "train.imitation.hold_normalizer=true", "train.imitation.value_warmup=256"]
+    reference = _final(train(load(overrides, tmp_path_factory.mktemp("reference"))).run_dir)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(100)])
+    assert first.interrupted and first.num_timesteps == 256
+    resume(first.run_dir)
+    resumed = _final(first.run_dir)
+    assert resumed["evals"] == reference["evals"]
+    for part in ("policy", "obs_rms"):
+        for key, value in reference[part].items():
+            same = th.equal(resumed[part][key], value) if isinstance(value, th.Tensor) else resumed[part][key] == value
+            assert same, (part, key)
+
+
+def test_hold_normalizer_without_observation_normalisation_is_refused(tmp_path):
+    with pytest.raises((UsageError, ConfigError)) as info:
+        load([*TINY_IMITATION, "algo.normalize.observation=false", "train.imitation.hold_normalizer=true"], tmp_path)
+    assert "train.imitation.hold_normalizer" in str(info.value) and "algo.normalize.observation" in str(info.value)
