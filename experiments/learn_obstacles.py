@@ -224,8 +224,8 @@ def run(
         if save is not None:
             save(row(p, seed, every, episodes, extra, cpu_minutes, "running", wall=time.perf_counter() - start))
 
+    start, cpu0 = time.perf_counter(), time.process_time()  # before the probe's clocks start
     probe = (probe_cls or ObstacleProbe)(cfg, every, episodes, target, budget, save=partial)
-    start, cpu0 = time.perf_counter(), time.process_time()
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     wall, process_cpu = time.perf_counter() - start, time.process_time() - cpu0
     split = _phase_split(Path(result.run_dir))

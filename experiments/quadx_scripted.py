@@ -79,9 +79,11 @@ def report(results: list[tuple[str, str, dict]], episodes: int) -> list[str]:
     lines = [
         "# The scripted QuadX oracles on QuadX-Obstacles and QuadX-Gates (experiments/quadx_scripted.py)",
         "",
-        f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.machine()}, {os.cpu_count()} CPUs, "
-        f"Python {platform.python_version()}; {episodes} episodes each, seeds {PROBE_SEED}-{PROBE_SEED + episodes - 1} "
-        "(the learning runs' probe seeds), flown on the env as an agent sees it.",
+        (
+            f"{datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.machine()}, {os.cpu_count()} CPUs, "
+            f"Python {platform.python_version()}; {episodes} episodes each, seeds {PROBE_SEED}-"
+            f"{PROBE_SEED + episodes - 1} (the learning runs' probe seeds), flown on the env as an agent sees it."
+        ),
         "",
         "```bash",
         f"python experiments/quadx_scripted.py --episodes {episodes} --write",
@@ -99,8 +101,10 @@ def report(results: list[tuple[str, str, dict]], episodes: int) -> list[str]:
         )
     lines += [
         "",
-        "Success: QuadX-Obstacles, the goal reached without any contact; QuadX-Gates, at least 3 gates "
-        "passed in order (the learning target's measure; `>= 5` is the whole course).",
+        (
+            "Success: QuadX-Obstacles, the goal reached without any contact; QuadX-Gates, at least 3 gates "
+            "passed in order (the learning target's measure; `>= 5` is the whole course)."
+        ),
     ]
     return lines
 

@@ -182,7 +182,7 @@ def run_oracle_eval(name: str, overrides: list[str]) -> object:
             raise UsageError(f"{key}= applies to a trained run, not to oracle:{name} (a scripted controller)")
         (evaluation if key in EvalOptions.model_fields else training).append(item)
     if not any(item.lstrip("+").partition("=")[0] == "env" for item in training):
-        training.insert(0, f"env={ENVS[ORACLES[name].env_ids[0]].config}")
+        training.insert(0, f"env={getattr(ORACLES[name], 'env_config', None) or ENVS[ORACLES[name].env_ids[0]].config}")
     data, command = compose_train_data(training)
     if command.get("resume") is not None:
         raise UsageError(f"resume= continues a training run; oracle:{name} flies a scripted controller")

@@ -228,7 +228,7 @@ class HeldStatistics(RunningMeanStd):
     """An SB3 ``RunningMeanStd`` whose ``update`` leaves it unchanged (saved and restored as any)."""
 
     @classmethod
-    def of(cls, rms: Any) -> "HeldStatistics":
+    def of(cls, rms: Any) -> HeldStatistics:
         held = cls(shape=rms.mean.shape)
         held.mean, held.var, held.count = rms.mean.copy(), rms.var.copy(), rms.count
         return held

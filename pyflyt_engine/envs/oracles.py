@@ -430,6 +430,9 @@ class QuadXGateRacer:
     """
 
     env_ids = ("PyFlyt/QuadX-Gates-v0",)
+    #: the env config ``pyflyt eval oracle:quadx_gate_racer`` flies without ``env=`` (the id's
+    #: own, ``quadx_gates``, sees the camera image and the gate centres, not the corners)
+    env_config = "quadx_gates_state"
 
     def __init__(self, env: Any, speed: float = 1.5, k_lat: float = 2.5, closing_speed: float = 0.5,
                  cone_base: float = 0.08, cone_slope: float = 0.2, behind: float = 0.1) -> None:

@@ -73,14 +73,25 @@ def test_falling_passes_no_gate(exp):
 
 def test_cpu_budget_stops_training_of_the_state_env(exp, tmp_path):
     saved = []
-    tiny = [
-        "train.n_envs=1", "algo.n_steps=64", "algo.batch_size=64", "algo.n_epochs=1",
-        "train.total_timesteps=100000000", "train.checkpoint_freq=0",
-    ]
+    from .test_learn_obstacles import TINY
+
     run = experiment("learn_obstacles").run  # the budgeted run learn_gates.run_seeds calls per seed
-    row = run(0, 0.02, 64, 1, tmp_path, tiny, save=lambda r: saved.append(json.loads(json.dumps(r))),
+    row = run(0, 0.15, 64, 1, tmp_path, TINY, save=lambda r: saved.append(json.loads(json.dumps(r))),
               env=exp.ENV, target=exp.TARGET, probe_cls=exp.GatesProbe)
     assert row["env"] == "quadx_gates_state" and row["status"] == "cpu budget" and row["steps"] < 100_000_000
-    assert row["training_cpu"] >= 0.02 * 60
+    assert row["training_cpu"] >= 0.15 * 60
+    assert row["history"][0][0] == 0  # the imitated policy, probed before learning
     assert saved[-1]["status"] == "cpu budget" and [h[0] for h in saved[-1]["history"]] == [h[0] for h in row["history"]]
     assert all(len(h[2]["at_least"]) == 5 and 0.0 <= h[2]["success"] <= 1.0 for h in row["history"])
+
+
+def test_the_scripted_table_flies_the_oracles_through_the_probes():
+    """experiments/quadx_scripted.py: an oracle behind a policy's interface, in the agent's units,
+    measured by the learning runs' own probes (the first probe seed: every gate, the goal)."""
+    scripted = experiment("quadx_scripted")
+    gates = scripted.fly("quadx_gates_state", "quadx_gate_racer", scripted.gates_probe, 1)
+    assert gates["at_least"] == [1.0] * 5 and gates["success"] == 1.0
+    goal = scripted.fly("quadx_obstacles", "quadx_forest_navigator", scripted.obstacle_probe, 1)
+    assert goal["success"] == 1.0 and goal["endings"] == {"reached": 1}
+    lines = scripted.report([("quadx_gates_state", "quadx_gate_racer", gates)], 1)
+    assert "| quadx_gates_state | quadx_gate_racer | 100 | complete 1 | 100 / 100 / 100 / 100 / 100 | - |" in lines

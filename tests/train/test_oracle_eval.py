@@ -101,3 +101,15 @@ def test_bad_oracle_evaluations_name_the_problem_and_leave_nothing(tmp_path):
         assert "Traceback" not in result.stderr
     assert not [p for p in (tmp_path / "runs").rglob("*") if p.is_file()]
     assert not list((tmp_path / "runs").glob("*/*/*"))  # no run directory either
+
+
+@pytest.mark.parametrize(("name", "env_name"), [("quadx_gate_racer", "quadx_gates_state"),
+                                                ("quadx_forest_navigator", "quadx_obstacles")])
+def test_the_quadx_oracles_fly_their_state_env_by_default(tmp_path, name, env_name):
+    """Without env=, the gate racer flies the Gates env that shows the corners (the id's own
+    config sees the camera), the navigator the Obstacles env; both succeed on seed 0."""
+    out = tmp_path / name
+    result = pyflyt(["eval", f"oracle:{name}", "episodes=1", "seed=0", "record=false", f"run_dir={out}"], cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert yaml.safe_load((out / "oracle.yaml").read_text())["env_name"] == env_name
+    assert json.loads((out / "eval.json").read_text())["success_rate"] == 1.0
