@@ -15,7 +15,7 @@ starts from the fitted policy; the value functions and critics start untrained, 
 ``value_warmup`` (PPO, A2C) gives the value function that many learning steps to fit the
 fitted policy's returns before the policy itself is updated
 (:class:`pyflyt_cli.training.callbacks.ValueWarmup`): an
-untrained critic's advantages are noise, and updating a good policy on them unlearns it.
+untrained critic's advantages are noise, and updating a good policy on them can unlearn it.
 
 With ``algo.normalize.observation``, the normaliser's statistics are updated with every
 round's observations before the fit, so the policy learns on the inputs it will see.
@@ -210,8 +210,8 @@ def hold_observation_statistics(normalizer: Any) -> bool:
 
     The imitation stage fits the policy on observations scaled by the statistics of the
     states it flew; statistics that go on moving with the learner's own (noisier) states
-    change what the same weights do, and unlearned imitated policies in QuadX-Obstacles
-    even while the policy itself was held (``value_warmup``).  Each running mean/std of
+    change what the same weights do: in a QuadX-Obstacles pilot the policy, held by
+    ``value_warmup``, went from 9 of 10 probe episodes at the goal to 2 of 10 in 100k steps.  Each running mean/std of
     ``normalizer.obs_rms`` becomes a :class:`HeldStatistics` with the same values; returns
     whether there was one to hold."""
     if normalizer is None or not normalizer.norm_obs:

@@ -13,7 +13,15 @@ Oracles:
 * ``rocket_velocity_lander`` (``PyFlyt/Rocket-Landing-Velocity-v0``, the rocket
   autopilot's ``velocity`` mode): :class:`RocketVelocityLander`;
 * ``rocket_descent_lander`` (``PyFlyt/Rocket-Landing-Descent-v0``, the rocket autopilot's
-  ``descent`` mode): :class:`RocketDescentLander`.
+  ``descent`` mode): :class:`RocketDescentLander`;
+* ``quadx_forest_navigator`` (``PyFlyt/QuadX-Obstacles-v0``, from the LiDAR):
+  :class:`QuadXForestNavigator`;
+* ``quadx_gate_racer`` (``PyFlyt/QuadX-Gates-v0`` with ``task.observation: corners``,
+  ``conf/env/quadx_gates_state.yaml``): :class:`QuadXGateRacer`.
+
+The two QuadX oracles fly ``rates_thrust`` through :class:`QuadXVelocityPilot`, a stateless
+velocity-to-body-rates law; ``experiments/quadx_scripted.py`` measures them
+(``experiments/results/quadx_scripted.md``).
 """
 
 from __future__ import annotations
@@ -353,6 +361,9 @@ class QuadXForestNavigator:
     * no free heading: back away from the nearest point at 0.5 m/s;
     * :class:`QuadXVelocityPilot` turns the velocity into body rates and thrust, holding
       the heading at 0 (+x, the way through the forest).
+
+    Reaches the goal without contact in 50 of the first 50 probe episodes (seeds 10 000+;
+    7.6 s on average; ``experiments/results/quadx_scripted.md``).
     """
 
     env_ids = ("PyFlyt/QuadX-Obstacles-v0",)
@@ -427,6 +438,12 @@ class QuadXGateRacer:
     while moving along it), slower (``k_far``) while more than ``far`` m off the axis, and
     :class:`QuadXVelocityPilot` flies it, heading along ``n``.  After the last gate (the
     corners are all zero) it holds still.
+
+    The "cone": the vehicle flies on at ``speed`` while its offset from the axis is under
+    ``cone_base + cone_slope`` x its distance to the gate's plane; outside, at
+    ``closing_speed`` (backing off when already beside the gate).  Of the first 50 probe
+    courses (seeds 10 000+) it flies 47 whole and passes at least 3 gates in 49; the other
+    3 end on a gate's bar (``experiments/results/quadx_scripted.md``).
     """
 
     env_ids = ("PyFlyt/QuadX-Gates-v0",)
