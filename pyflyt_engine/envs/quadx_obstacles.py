@@ -68,6 +68,11 @@ class QuadXObstaclesEnv(UAVEnv):
     seed, bit for bit across processes; a recording of an episode re-simulates exactly
     (``pyflyt replay --verify``).
 
+    **Learning**: ``pyflyt train env=quadx_obstacles`` imitates the
+    ``quadx_forest_navigator`` oracle (DAgger) and then runs PPO; the imitated policy reaches
+    the goal in 90-100 % of probe episodes after ~4 CPU-minutes
+    (``experiments/results/learn_obstacles.md``, ``docs/environments.md``).
+
     **Version history**: v0 — first version.
     """
 
