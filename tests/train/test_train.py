@@ -291,6 +291,10 @@ def test_every_env_config_trains_and_evaluates(tmp_path, env):
         "train.eval_freq=0",
         "train.checkpoint_freq=0",
         "train.progress_bar=false",
+        # a tuning that imitates an oracle first (rocket_landing_descent, quadx_obstacles,
+        # quadx_gates_state): the oracle's own round of one episode, not 21 x 10 episodes
+        "train.imitation.rounds=0",
+        "train.imitation.episodes=1",
     ]
     run = train(load(overrides, tmp_path / "runs")).run_dir
     assert run.parent.parent.name == env
