@@ -412,16 +412,16 @@ class ImitationOptions(_Strict):
     epochs: int = Field(ge=1, description="passes over the aggregated data set after every round")
     batch_size: int = Field(ge=1, description="minibatch of the fit")
     learning_rate: float = Field(gt=0.0, description="Adam step size of the fit")
-    value_warmup: int = Field(
-        0,
+    value_warmup: int | None = Field(
+        None,
         ge=0,
         description="PPO, A2C: the first this many learning steps after the stage update the value function "
-        "only, the fitted policy held (0: none)",
+        "only, the fitted policy held (0 or unset: none)",
     )
-    hold_normalizer: bool = Field(
-        False,
+    hold_normalizer: bool | None = Field(
+        None,
         description="keep the observation normaliser's statistics as the stage left them for the whole run "
-        "(the inputs the policy was fitted on); false: they go on updating",
+        "(the inputs the policy was fitted on); false or unset: they go on updating",
     )
 
     @field_validator("oracle")
