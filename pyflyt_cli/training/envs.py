@@ -39,6 +39,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.envs.config import EnvConfig
+from pyflyt_engine.errors import ConfigError
 
 
 def _float32(space: spaces.Box) -> spaces.Box:
@@ -262,10 +263,20 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
     own process for ``"subproc"``.
 
     Seeds are set by the algorithm (``seed + i`` for env ``i``, at the first reset).
+    ``env.backend: batched`` gives a :class:`~pyflyt_cli.training.batched.BatchedVecEnv`
+    (the ``n_envs`` copies as arrays, seeded by the algorithm's seed).
     ``curriculum``: each env takes per-episode task options (:class:`EpisodeTaskOptions`).
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+    if getattr(config, "backend", "pybullet") == "batched":  # n_envs copies as arrays, in this process
+        from pyflyt_cli.training.batched import BatchedVecEnv
+
+        if curriculum:
+            raise ConfigError(
+                "train.curriculum needs env.backend=pybullet: the batched backend's episodes take no task options"
+            )
+        return BatchedVecEnv(config, n_envs)
     if getattr(config, "multi_agent", False):
         # one shared policy: a slot per agent; the envs run in this process unless asked for
         # subprocesses (kind="subproc"): an env of N agents already fills N slots

@@ -100,6 +100,8 @@ def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: An
 def __getattr__(name: str) -> Any:
     # lazy exports: the env classes import PyBullet, registration must not
     lazy = {
+        "make_batched_env": "pyflyt_engine.batched.env",
+        "BatchedUAVEnv": "pyflyt_engine.batched.env",
         "UAVEnv": "pyflyt_engine.envs.env",
         "QuadXHoverEnv": "pyflyt_engine.envs.quadx",
         "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",

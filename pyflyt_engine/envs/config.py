@@ -281,6 +281,12 @@ class EnvConfig(_Config):
         "quaternion", description="attitude in the observation: Euler (roll, pitch, yaw) or quaternion (x, y, z, w)"
     )
     drag: bool = Field(True, description="apply the airframe's body drag")
+    backend: Literal["pybullet", "batched"] = Field(
+        "pybullet",
+        description="what simulates training: pybullet (every config; one env per call) or batched (N multirotors "
+        "as arrays, one compiled call per step; refuses by name what it does not simulate, docs/batched.md); "
+        "evaluation, recordings and pyflyt eval always fly the PyBullet engine",
+    )
     wind: Union[str, dict[str, Any]] = Field(
         "calm",
         description="the atmosphere: a preset in conf/wind (calm, constant, shear, gust, dryden_light, "
@@ -342,6 +348,8 @@ class EnvConfig(_Config):
         for key in ("latency", "sensors"):  # a config without them dumps, and is recorded, as before they existed
             if isinstance(data, dict) and data.get(key, 0) is None:
                 del data[key]
+        if isinstance(data, dict) and data.get("backend") == "pybullet":  # the default, as before the key existed
+            del data["backend"]
         return data
 
     @model_validator(mode="after")
@@ -384,6 +392,17 @@ class EnvConfig(_Config):
 
         load_wind_config(wind)  # a bad preset, key or value fails here, at load
         return wind
+
+    @model_validator(mode="after")
+    def _backend(self) -> EnvConfig:
+        if self.backend == "batched":
+            from pyflyt_engine.batched.env import check_supported
+
+            try:
+                check_supported(self)
+            except ConfigError as exc:
+                raise ValueError(str(exc)) from None
+        return self
 
     @model_validator(mode="after")
     def _payloads(self) -> EnvConfig:

@@ -1,0 +1,153 @@
+"""The batched backend as an SB3 ``VecEnv``: what ``env.backend: batched`` trains on.
+
+:class:`BatchedVecEnv` adapts :class:`pyflyt_engine.batched.BatchedUAVEnv` (a Gymnasium
+vector env with same-step autoreset) to Stable-Baselines3's ``VecEnv``, and shows the agent
+what the PyBullet backend's training envs show it
+(:func:`pyflyt_cli.training.envs.wrap_for_agent`): float32 observations, actions in
+[-1, 1] rescaled to the env's units by Gymnasium's own rescaling, and ``Monitor``'s episode
+statistics (``info["episode"]`` with ``r``, ``l``, ``t`` and ``success``) plus
+``terminal_observation`` and ``TimeLimit.truncated`` at an episode's end.  So PPO, SAC,
+``VecNormalize``, the callbacks and checkpoints work on it unchanged.
+
+Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched state of
+that env (its arrays' rows and its random streams; env 0 also the batch's motor-noise
+stream) as plain data, and ``env_method("restore_episode", state)`` puts it back, so a
+resumed run continues bit for bit (the continuity module compares the observations).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.wrappers.utils import rescale_box
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+from pyflyt_engine.batched import BatchedUAVEnv
+from pyflyt_engine.envs.config import EnvConfig
+
+#: the per-env arrays a checkpoint carries (their rows), in this order
+_STATE_ARRAYS = (
+    "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
+    "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
+    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion",
+)
+
+
+class BatchedVecEnv(VecEnv):
+    """``n_envs`` copies of ``config``'s task on the batched backend, as an SB3 ``VecEnv``."""
+
+    def __init__(self, config: EnvConfig, n_envs: int) -> None:
+        self.env = BatchedUAVEnv(config, num_envs=n_envs)
+        single = self.env.single_observation_space
+        obs_space = spaces.Box(
+            np.asarray(single.low, dtype=np.float32), np.asarray(single.high, dtype=np.float32), dtype=np.float32
+        )
+        act = self.env.single_action_space
+        self._rescale = None
+        action_space = act
+        if not (np.allclose(act.low, -1.0) and np.allclose(act.high, 1.0)):
+            action_space, _, self._rescale = rescale_box(act, -1.0, 1.0)
+        self.render_mode = None
+        super().__init__(n_envs, obs_space, action_space)
+        self._actions: np.ndarray | None = None
+        self._started = time.perf_counter()
+
+    # ------------------------------------------------------------------ VecEnv
+
+    def reset(self) -> np.ndarray:
+        seed = self._seeds[0]
+        obs, _ = self.env.reset(seed=seed)
+        self._reset_seeds()
+        self._started = time.perf_counter()
+        return obs.astype(np.float32)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
+        assert self._actions is not None
+        a = self._actions.astype(np.float64)
+        if self._rescale is not None:
+            a = self._rescale(a)
+        obs, reward, terminated, truncated, info = self.env.step(a)
+        dones = terminated | truncated
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        if dones.any():
+            final = info["final_obs"]
+            episode = info["episode"]
+            elapsed = round(time.perf_counter() - self._started, 6)
+            for i in np.nonzero(dones)[0].tolist():
+                infos[i] = {
+                    "terminal_observation": final[i].astype(np.float32),
+                    "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
+                    "success": bool(info["success"][i]),
+                    "episode": {
+                        "r": round(float(episode["r"][i]), 6),
+                        "l": int(episode["l"][i]),
+                        "t": elapsed,
+                        "success": bool(info["success"][i]),
+                    },
+                }
+        return obs.astype(np.float32), reward.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        self.env.close()
+
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        value = getattr(self.env, attr_name)
+        return [value for _ in self._indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        raise AttributeError(f"the batched backend's envs have no settable attribute '{attr_name}'")
+
+    def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
+        if method_name == "episode_state":
+            return [self.episode_state(i) for i in self._indices(indices)]
+        if method_name == "restore_episode":
+            return [self.restore_episode(i, *method_args, **method_kwargs) for i in self._indices(indices)]
+        raise AttributeError(
+            f"the batched backend does not support '{method_name}' on its envs (a training curriculum, for one, "
+            "needs env.backend=pybullet)"
+        )
+
+    def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
+        # the statistics Monitor would add are added here (SB3 asks so as not to warn)
+        from stable_baselines3.common.monitor import Monitor
+
+        return [wrapper_class is Monitor for _ in self._indices(indices)]
+
+    def _indices(self, indices: Any) -> Sequence[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return list(indices)
+
+    # ------------------------------------------------------------- checkpoints
+
+    def episode_state(self, i: int) -> dict[str, Any]:
+        """Env ``i``'s whole state as plain data (and no actions: nothing is re-simulated)."""
+        env = self.env
+        state = {name: getattr(env, name)[i].tolist() for name in _STATE_ARRAYS}
+        streams: dict[str, Any] = {"env": env.env_rngs[i].bit_generator.state}
+        if i == 0:
+            streams["noise"] = env.noise_rng.bit_generator.state
+        shape = self.env.single_action_space.shape
+        return {"seed": None, "options": None, "rng": streams, "batched": state,
+                "actions": np.zeros((0, *shape), dtype=np.float32)}
+
+    def restore_episode(self, i: int, state: dict[str, Any]) -> np.ndarray:
+        """Put env ``i``'s state back (:meth:`episode_state`); returns its observation."""
+        env = self.env
+        saved = state["batched"]
+        for name in _STATE_ARRAYS:
+            row = getattr(env, name)
+            row[i] = np.asarray(saved[name], dtype=row.dtype)
+        env.env_rngs[i].bit_generator.state = state["rng"]["env"]
+        if "noise" in state["rng"]:
+            env.noise_rng.bit_generator.state = state["rng"]["noise"]
+        return env._observe()[i].astype(np.float32)

@@ -1,0 +1,440 @@
+"""N copies of a task as arrays, stepped by one call: a Gymnasium vector env.
+
+:class:`BatchedUAVEnv` flies an env config's task for ``num_envs`` independent vehicles,
+advanced together by the compiled laws (:mod:`pyflyt_engine.batched.kernels`).  It is a
+``gymnasium.vector.VectorEnv`` with same-step autoreset: when an env's episode ends, the
+returned observation is already the first of its next episode, and ``infos["final_obs"]``
+/ ``infos["final_info"]`` hold the last observation and info of the ended one (masked by
+``infos["_final_obs"]``).
+
+What an agent sees is what the PyBullet engine's env shows through the training wrappers
+(:func:`pyflyt_cli.training.envs.wrap_for_agent` minus the float32 cast and the action
+rescaling, which the learning library adds for both backends): the attitude vector
+``[ang_vel, attitude, lin_vel, lin_pos, previous action, motor throttles]`` (the PyBullet
+engine's :func:`~pyflyt_engine.envs.core.attitude_vector`), and for waypoints the
+next ``context_length`` waypoints' body-frame deltas and their mask
+(:class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`'s layout).
+
+Per episode, env ``i`` draws from its own generator (spawned from the seed, so its
+episodes do not depend on the other envs): the spawn (:meth:`Task.spawn`, the task's own
+law) and, for waypoints, the targets (:func:`~pyflyt_engine.envs.waypoints.sample_waypoints`).
+The motor noise of the whole batch comes from one generator per batch, seeded from the
+same seed: the same seed and ``num_envs`` give the same numbers, in any process.
+
+Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover and QuadX-Waypoints configs, their
+variants on any multirotor the model accepts).  Everything else a config can ask for that
+this backend does not simulate is refused when the env is built, by name
+(:func:`check_supported`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+
+from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
+from pyflyt_engine.envs.rewards import compile_reward
+from pyflyt_engine.envs.tasks import get_task
+from pyflyt_engine.envs.waypoints import sample_waypoints
+from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.frames import euler_to_quaternion
+from pyflyt_engine.spec import load_uav_spec
+
+#: tasks the batched backend runs
+BATCHED_TASKS = ("hover", "waypoints")
+#: upcoming waypoints in a waypoint observation (FlattenWaypointEnv's default)
+CONTEXT_LENGTH = 2
+
+
+def check_supported(config: EnvConfig) -> None:
+    """Refuse, by name, every key of ``config`` the batched backend does not simulate."""
+    from pyflyt_engine.envs.config import MultiAgentEnvConfig
+
+    if isinstance(config, MultiAgentEnvConfig):
+        raise refuse("multi-agent env configs (agents)")
+    if config.task.name not in BATCHED_TASKS:
+        raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
+    wind = config.wind
+    if not (wind == "calm" or (isinstance(wind, dict) and not wind)):
+        raise refuse(f"wind ({wind if isinstance(wind, str) else 'a wind mapping'})", "give env.wind=calm")
+    for key, present in (
+        ("ground_effect", config.ground_effect),
+        ("downwash", config.downwash),
+        ("randomize (domain randomisation)", bool(config.randomize)),
+        ("latency", config.latency is not None),
+        ("sensors", config.sensors is not None),
+        ("payloads", bool(config.payloads)),
+        ("obstacles", config.obstacles is not None),
+        ("range_sensors", bool(config.range_sensors)),
+        ("camera_observation", config.camera_observation is not None),
+    ):
+        if present:
+            raise refuse(f"env.{key}")
+    per_agent = config.physics_hz / config.agent_hz
+    per_control = config.physics_hz / config.control_hz
+    if abs(per_control - round(per_control)) > 1e-9 or abs(per_agent / round(per_control) - round(per_agent / round(per_control))) > 1e-9:
+        raise refuse(
+            f"control ticks out of step with the agent steps (physics_hz {config.physics_hz:g}, control_hz "
+            f"{config.control_hz:g}, agent_hz {config.agent_hz:g})",
+            "give control_hz a whole multiple of agent_hz that divides physics_hz",
+        )
+    model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    mode_code(config.action.mode)
+    del model
+
+
+class BatchedUAVEnv(gymnasium.vector.VectorEnv):
+    """``num_envs`` copies of an env config's task, one compiled call per step (module docstring).
+
+    Args:
+        config: an env config (a shipped name such as ``"quadx_hover"``, a YAML path, a
+            mapping or an :class:`EnvConfig`).
+        num_envs: how many envs.
+        seed: seeds the first reset (as ``reset(seed=...)`` would).
+        motor_noise: False switches the motors' noise off (the cross-checks).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(self, config: Any, num_envs: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
+        cfg = load_env_config(config)
+        check_supported(cfg)
+        if num_envs < 1:
+            raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
+        self.config = cfg
+        self.num_envs = n = int(num_envs)
+        self.spec_uav = load_uav_spec(cfg.uav)
+        self.physics_dt = 1.0 / cfg.physics_hz
+        self.control_dt = 1.0 / cfg.control_hz
+        self.agent_dt = 1.0 / cfg.agent_hz
+        self.per_agent = int(round(cfg.physics_hz / cfg.agent_hz))
+        self.per_control = int(round(cfg.physics_hz / cfg.control_hz))
+        self.model: BatchedModel = batched_model(self.spec_uav, self.physics_dt, self.control_dt, drag=cfg.drag)
+        self.mode = mode_code(cfg.action.mode)
+        if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self.model.motors:
+            raise ConfigError(f"mode motors takes {self.model.motors} values, the action has {len(cfg.action.low)}")
+        if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4:
+            raise ConfigError(f"mode rates_thrust takes 4 values, the action has {len(cfg.action.low)}")
+        self.task = get_task(cfg.task.name)(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
+        preset = load_reward_preset(cfg.reward_preset_name())
+        scalar = compile_reward(preset_name(cfg), preset.terms, self.task.provides, self.task.name)
+        self.reward_function = BatchedReward(scalar)
+        self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
+        self._quaternion = cfg.angle_representation == "quaternion"
+        self._low = np.array(cfg.action.low, dtype=np.float64)
+        self._high = np.array(cfg.action.high, dtype=np.float64)
+        self._dome2 = cfg.flight_dome_size**2
+        self._max_steps = cfg.max_steps
+        self._waypoints = cfg.task.name == "waypoints"
+
+        # parameters, one row per env
+        m = self.model
+        rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
+        self._mass = rows(m.mass)
+        self._inertia = rows(m.inertia)
+        self._control_inertia = rows(m.control_inertia)
+        self._gyro = rows(m.gyro)
+        self._lag = rows(m.lag)
+        self._columns = rows(m.columns)
+        self._mixer_rows = rows(m.mixer_rows)
+        self._max_collective = rows(m.max_collective)
+        self._rate_gains = rows(m.rate_gains)
+        self._drag_factors = rows(m.drag_factors)
+        self._damping = rows(m.angular_damping)
+        self._corners = rows(m.corners)
+        self._noise_ratio = m.noise_ratio
+
+        # state
+        nm = m.motors
+        self.pos = np.zeros((n, 3))
+        self.quat = np.zeros((n, 4))
+        self.quat[:, 3] = 1.0
+        self.vel = np.zeros((n, 3))
+        self.angvel = np.zeros((n, 3))
+        self.throttle = np.zeros((n, nm))
+        self.command = np.zeros((n, nm))
+        self.integral = np.zeros((n, 3))
+        self.previous = np.zeros((n, 3))
+        self.has_previous = np.zeros(n, dtype=bool)
+        self.contact = np.zeros(n, dtype=bool)
+        self.actions = np.zeros((n, self._low.size))
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.physics_steps = np.zeros(n, dtype=np.int64)  # per env: its control ticks' phase
+        self._ones = np.ones((n, self.per_agent, nm))
+        # read-outs
+        self.ang_vel_body = np.zeros((n, 3))
+        self.ang_pos = np.zeros((n, 3))
+        self.lin_vel_body = np.zeros((n, 3))
+        self.quaternion = np.zeros((n, 4))
+        # task state
+        self.hover_point = np.asarray(getattr(cfg.task, "hover_point", (0.0, 0.0, 0.0)), dtype=np.float64)
+        k = int(getattr(cfg.task, "num_targets", 0))
+        self.targets = np.zeros((n, k, 3))
+        self.num_reached = np.zeros(n, dtype=np.int64)
+        self._reach = float(getattr(cfg.task, "goal_reach_distance", 0.0))
+        self._last_distance = np.zeros(n)
+        self._last_position = np.zeros((n, 3))
+        self.episode_return = np.zeros(n)
+        self.episode_length = np.zeros(n, dtype=np.int64)
+
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size
+        self._attitude_size = size
+        if self._waypoints:
+            size += CONTEXT_LENGTH * 4
+        self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
+        self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
+        self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
+        self._seed_all(seed)
+        self._seeded_first = seed is not None
+
+    # ---------------------------------------------------------------- seeding
+
+    def _seed_all(self, seed: int | None) -> None:
+        sequence = np.random.SeedSequence(seed)
+        children = sequence.spawn(self.num_envs + 1)
+        self.noise_rng = np.random.default_rng(children[0])
+        self.env_rngs = [np.random.default_rng(c) for c in children[1:]]
+
+    # ------------------------------------------------------------------ reset
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        """Start an episode in every env (``seed``: reseed every generator first)."""
+        if options:
+            raise ConfigError(f"the batched env takes no reset options, got {sorted(options)}")
+        if seed is not None:
+            self._seed_all(seed)
+        self._reset_envs(np.arange(self.num_envs))
+        return self._observe(), {}
+
+    def _reset_envs(self, index: np.ndarray) -> None:
+        task = self.task
+        for i in index.tolist():
+            rng = self.env_rngs[i]
+            spawn = task.spawn(rng)
+            self.pos[i] = spawn.position
+            q = euler_to_quaternion(*spawn.orientation)
+            self.quat[i] = q
+            r = np.empty(9)
+            kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
+            rot = r.reshape(3, 3)
+            self.vel[i] = rot @ np.asarray(spawn.lin_vel, dtype=np.float64)
+            self.angvel[i] = rot @ np.asarray(spawn.ang_vel, dtype=np.float64)
+            if self._waypoints:
+                o = self.config.task
+                self.targets[i] = sample_waypoints(
+                    rng, o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
+                    o.min_target_height,
+                )
+        self.throttle[index] = 0.0
+        self.command[index] = 0.0
+        self.integral[index] = 0.0
+        self.previous[index] = 0.0
+        self.has_previous[index] = False
+        self.actions[index] = 0.0
+        self.steps[index] = 0
+        self.physics_steps[index] = 0
+        self.episode_return[index] = 0.0
+        self.episode_length[index] = 0
+        self.num_reached[index] = 0
+        self._read(index)
+        p = self.pos[index]
+        self._last_position[index] = p
+        self._last_distance[index] = self._target_distance(index, p)
+
+    def _target_distance(self, index: np.ndarray, p: np.ndarray) -> np.ndarray:
+        if self._waypoints:
+            k = self.targets.shape[1]
+            nxt = np.minimum(self.num_reached[index], k - 1)
+            t = self.targets[index, nxt]
+        else:
+            t = self.hover_point
+        d = p - t
+        return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+
+    def _read(self, index: np.ndarray | None = None) -> None:
+        if index is None:
+            kernels.read_out(self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
+                             self.lin_vel_body, self.quaternion)
+            return
+        a, b, c, d = (np.empty((len(index), 3)), np.empty((len(index), 3)), np.empty((len(index), 3)),
+                      np.empty((len(index), 4)))
+        kernels.read_out(self.pos[index], self.quat[index], self.vel[index], self.angvel[index], a, b, c, d)
+        self.ang_vel_body[index], self.ang_pos[index], self.lin_vel_body[index], self.quaternion[index] = a, b, c, d
+
+    # ------------------------------------------------------------------- step
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        a = np.asarray(actions, dtype=np.float64).reshape(n, -1)
+        if a.shape[1] != self._low.size:
+            raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
+        a = np.minimum(np.maximum(a, self._low), self._high)
+        self.actions[:] = a
+        if self.motor_noise:
+            eta = self.noise_rng.standard_normal((n, self.per_agent, self.model.motors))
+            factors = 1.0 + self._noise_ratio * eta
+        else:
+            factors = self._ones
+        self.advance(a, factors)
+        self.steps += 1
+        self.episode_length += 1
+        self._read()
+        reward, terminated, truncated, info = self._judge()
+        self.episode_return += reward
+        obs = self._observe()
+        done = terminated | truncated
+        if done.any():
+            index = np.nonzero(done)[0]
+            info["final_obs"] = np.where(done[:, None], obs, 0.0)
+            info["_final_obs"] = done
+            info["episode"] = {"r": np.where(done, self.episode_return, 0.0), "l": np.where(done, self.episode_length, 0)}
+            info["_episode"] = done
+            self._reset_envs(index)
+            obs = self._observe()
+        return obs, reward, terminated, truncated, info
+
+    def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
+        """One agent step of the physics for every env (setpoints already clipped)."""
+        m = self.model
+        # every env's physics steps stay in phase with its control ticks (all reset to 0
+        # at once or at an agent step boundary, and per_agent is a multiple of per_control
+        # whenever control_hz >= agent_hz); the phase of env 0 is used for all
+        start = int(self.physics_steps[0]) % self.per_control
+        kernels.advance(
+            self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
+            self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
+            self._columns, self._mixer_rows, self._max_collective, self._rate_gains, m.rate_derivative,
+            self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
+            self.physics_dt, self.control_dt, start, self.per_agent, self.per_control,
+        )
+        self.physics_steps += self.per_agent
+
+    def _judge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        p = self.pos
+        index = np.arange(n)
+        reached = np.zeros(n, dtype=bool)
+        complete = np.zeros(n, dtype=bool)
+        if self._waypoints:
+            k = self.targets.shape[1]
+            all_done = self.num_reached >= k
+            nxt = np.minimum(self.num_reached, k - 1)
+            target = self.targets[index, nxt]
+            distance = self._target_distance(index, p)
+            rate = (distance - self._last_distance) / self.agent_dt
+            reached = (_segment_distance(self._last_position, p, target) < self._reach) & ~all_done
+            self.num_reached += reached
+            complete = reached & (self.num_reached >= k)
+            moved_on = reached & ~complete
+            new_distance = np.where(moved_on, self._target_distance(index, p), distance)
+            self._last_distance = new_distance
+            distance = np.where(all_done, 0.0, distance)
+            rate = np.where(all_done, 0.0, rate)
+        else:
+            distance = self._target_distance(index, p)
+            rate = (distance - self._last_distance) / self.agent_dt
+            self._last_distance = distance
+        self._last_position = p.copy()
+        collision = self.contact.copy()
+        out = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2] > self._dome2
+        crash_on_contact = bool(getattr(self.task, "crash_on_contact", True))
+        crashed = out | (collision & crash_on_contact)
+        terminated = crashed | complete
+        time_up = self.steps >= self._max_steps
+        truncated = ~terminated & time_up
+        remaining = np.maximum(self._max_steps - self.steps, 0)
+        ctx = BatchContext(
+            ang_vel=self.ang_vel_body, ang_pos=self.ang_pos, lin_vel=self.lin_vel_body, lin_pos=p,
+            action=self.actions, collision=collision, ground_collision=collision, out_of_bounds=out,
+            crashed=crashed, task_complete=complete, target_distance=distance, target_distance_rate=rate,
+            waypoint_reached=reached, steps_remaining=remaining, agent_dt=self.agent_dt,
+        )
+        reward, _ = self.reward_function(ctx)
+        success = (complete & ~crashed) | (truncated & bool(self.task.succeeds_at_time_limit))
+        info: dict[str, Any] = {
+            "collision": collision, "out_of_bounds": out, "env_complete": complete, "success": success,
+        }
+        if self._waypoints:
+            info["num_targets_reached"] = self.num_reached.copy()
+        return reward, terminated, truncated, info
+
+    def _observe(self) -> np.ndarray:
+        n = self.num_envs
+        angles = self.quaternion if self._quaternion else self.ang_pos
+        parts = [self.ang_vel_body, angles, self.lin_vel_body, self.pos, self.actions, self.throttle]
+        if self._waypoints:
+            k = self.targets.shape[1]
+            r = np.empty((n, 9))
+            for i in range(n):  # the rotation of the quaternion PyBullet reports
+                q = self.quaternion[i]
+                kernels.rotation_rows(q[0], q[1], q[2], q[3], r[i])
+            deltas = np.zeros((n, CONTEXT_LENGTH, 3))
+            mask = np.zeros((n, CONTEXT_LENGTH))
+            for slot in range(CONTEXT_LENGTH):
+                j = self.num_reached + slot
+                valid = j < k
+                t = self.targets[np.arange(n), np.minimum(j, k - 1)]
+                d = t - self.pos
+                # R^T d, row by row
+                body = np.stack(
+                    [
+                        r[:, 0] * d[:, 0] + r[:, 3] * d[:, 1] + r[:, 6] * d[:, 2],
+                        r[:, 1] * d[:, 0] + r[:, 4] * d[:, 1] + r[:, 7] * d[:, 2],
+                        r[:, 2] * d[:, 0] + r[:, 5] * d[:, 1] + r[:, 8] * d[:, 2],
+                    ],
+                    axis=1,
+                )
+                deltas[:, slot] = np.where(valid[:, None], body, 0.0)
+                mask[:, slot] = valid
+            parts += [deltas.reshape(n, -1), mask]
+        return np.concatenate(parts, axis=1)
+
+    def close(self, **kwargs: Any) -> None:  # nothing to release: no PyBullet client
+        self.closed = True
+
+
+def _segment_distance(start: np.ndarray, end: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Row-wise :func:`~pyflyt_engine.envs.waypoints.segment_point_distance`."""
+    d = end - start
+    p = point - start
+    length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = (p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1] + p[:, 2] * d[:, 2]) / length2
+    t = np.where(length2 == 0.0, 0.0, np.minimum(np.maximum(t, 0.0), 1.0))
+    e = p - t[:, None] * d
+    return np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
+
+
+def preset_name(cfg: EnvConfig) -> str:
+    name = cfg.reward_preset_name()
+    return name if isinstance(name, str) else "inline"
+
+
+def make_batched_env(name: Any, n_envs: int = 1, seed: int | None = None, **env_overrides: Any) -> BatchedUAVEnv:
+    """``n_envs`` copies of an env config's task on the batched backend, as a Gymnasium vector env.
+
+    Args:
+        name: a shipped env config (``"quadx_hover"``), a registered id
+            (``"PyFlyt/QuadX-Hover-v0"``), a YAML path, a mapping or an :class:`EnvConfig`.
+        n_envs: how many copies.
+        seed: seeds the first reset.
+        **env_overrides: top-level keys or task options, as :meth:`EnvConfig.with_overrides`.
+    """
+    from pyflyt_engine.envs import ENVS
+
+    cfg = load_env_config(ENVS[name].config if isinstance(name, str) and name in ENVS else name)
+    if env_overrides:
+        cfg = cfg.with_overrides(**env_overrides)
+    return BatchedUAVEnv(cfg, num_envs=n_envs, seed=seed)
+
+
+__all__ = ["BATCHED_TASKS", "BatchedUAVEnv", "check_supported", "make_batched_env"]

@@ -1,0 +1,430 @@
+"""The batched backend's compiled laws: N multirotors advanced one agent step by one call.
+
+Every function here is compiled by numba (``nopython``, no fast-math: no reassociation,
+no contraction into fused multiply-adds), so each floating-point operation rounds exactly
+as the same expression in Python does.  The laws are the engine's own, written out in the
+same order of operations as their scalar forms, which ``tests/batched/test_laws.py``
+holds together bit for bit on random inputs for every airframe:
+
+* motors (:meth:`pyflyt_engine.components.motor.Motors.step`): first-order lag, the
+  multiplicative noise factor, the wrench columns times ``x |x|``;
+* body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
+* the body-rate loop (``MultirotorController._rate_loop``) and the mixer
+  (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
+* the state read-outs PyBullet gives the PyBullet engine (the quaternion from the body's
+  rotation matrix, Euler angles from the quaternion), written from Bullet's formulas.
+
+The rigid body is integrated as PyBullet integrates a free-floating single-link body
+under an external wrench (measured against it: ``tests/batched/test_crosscheck.py``),
+semi-implicit Euler with an exponential-map attitude update::
+
+    a      = R F_b / m + g                       (ground frame)
+    alpha  = J^-1 (tau_b - w_b x (J w_b))        (body frame, Euler's equations)
+    v'     = v + a dt,        w' = w + R alpha dt
+    p'     = p + v' dt,       q' = exp(w' dt / 2) q   (normalised)
+
+The exponential map limits the rotation per step to pi/4 as Bullet does
+(``ANGULAR_MOTION_THRESHOLD`` in Bullet's ``btMultiBody::stepPositionsMultiDof``) and
+uses the same Taylor form below 0.001 rad/s.  Only the last bits differ from PyBullet's
+(it works in the body frame and back), which is why the cross-check has a bound and not
+an equality.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Bullet: ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI (btMultiBody.cpp)
+_ANGULAR_MOTION_THRESHOLD = 0.5 * (0.5 * math.pi)
+
+#: mode codes of the compiled controller
+MODE_MOTORS = -1
+MODE_RATES_THRUST = 0
+
+
+@njit(cache=True)
+def rotation_rows(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
+    """Body-to-ground rotation matrix of a quaternion, row-major into ``out`` (9,):
+    Bullet's ``btMatrix3x3::setRotation`` (``s = 2 / |q|^2``), which PyBullet's
+    ``getMatrixFromQuaternion`` also runs."""
+    d = qx * qx + qy * qy + qz * qz + qw * qw
+    s = 2.0 / d
+    xs, ys, zs = qx * s, qy * s, qz * s
+    wx, wy, wz = qw * xs, qw * ys, qw * zs
+    xx, xy, xz = qx * xs, qx * ys, qx * zs
+    yy, yz, zz = qy * ys, qy * zs, qz * zs
+    out[0] = 1.0 - (yy + zz)
+    out[1] = xy - wz
+    out[2] = xz + wy
+    out[3] = xy + wz
+    out[4] = 1.0 - (xx + zz)
+    out[5] = yz - wx
+    out[6] = xz - wy
+    out[7] = yz + wx
+    out[8] = 1.0 - (xx + yy)
+
+
+@njit(cache=True)
+def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
+    """Quaternion (x, y, z, w) of a row-major rotation matrix: Bullet's
+    ``btMatrix3x3::getRotation``, what PyBullet returns as a body's orientation (so the
+    sign of the quaternion is the one it reports: w > 0 when the trace is positive, else
+    the component of the largest diagonal entry)."""
+    trace = r[0] + r[4] + r[8]
+    if trace > 0.0:
+        s = math.sqrt(trace + 1.0)
+        out[3] = s * 0.5
+        s = 0.5 / s
+        out[0] = (r[7] - r[5]) * s
+        out[1] = (r[2] - r[6]) * s
+        out[2] = (r[3] - r[1]) * s
+    else:
+        if r[0] < r[4]:
+            i = 2 if r[4] < r[8] else 1
+        else:
+            i = 2 if r[0] < r[8] else 0
+        j = (i + 1) % 3
+        k = (i + 2) % 3
+        s = math.sqrt(r[4 * i] - r[4 * j] - r[4 * k] + 1.0)
+        out[i] = s * 0.5
+        s = 0.5 / s
+        out[3] = (r[3 * k + j] - r[3 * j + k]) * s
+        out[j] = (r[3 * j + i] + r[3 * i + j]) * s
+        out[k] = (r[3 * k + i] + r[3 * i + k]) * s
+
+
+@njit(cache=True)
+def euler_from_quaternion(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
+    """(roll, pitch, yaw) of a quaternion as PyBullet's ``getEulerFromQuaternion`` computes
+    them (ZYX angles; at |sin(pitch)| >= 0.99999 the gimbal-lock branch)."""
+    squ, sqx, sqy, sqz = qw * qw, qx * qx, qy * qy, qz * qz
+    sarg = -2.0 * (qx * qz - qw * qy)
+    if sarg <= -0.99999:
+        out[0] = 0.0
+        out[1] = -0.5 * math.pi
+        out[2] = 2.0 * math.atan2(qx, -qy)
+    elif sarg >= 0.99999:
+        out[0] = 0.0
+        out[1] = 0.5 * math.pi
+        out[2] = 2.0 * math.atan2(-qx, qy)
+    else:
+        out[0] = math.atan2(2.0 * (qy * qz + qw * qx), squ - sqx - sqy + sqz)
+        out[1] = math.asin(sarg)
+        out[2] = math.atan2(2.0 * (qx * qy + qw * qz), squ + sqx - sqy - sqz)
+
+
+@njit(cache=True)
+def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray,
+                columns: np.ndarray):
+    """One physics step of a vehicle's motors (``Motors.step``): ``x' = (x + a (c - x)) z``;
+    ``throttle`` updated; returns the wrench ``sum_i column_i x'_i |x'_i|`` (6-tuple)."""
+    fx = fy = fz = tx = ty = tz = 0.0
+    for m in range(throttle.shape[0]):
+        x = throttle[m]
+        x = (x + lag[m] * (command[m] - x)) * factors[m]
+        throttle[m] = x
+        f = x * abs(x)
+        fx += columns[m, 0] * f
+        fy += columns[m, 1] * f
+        fz += columns[m, 2] * f
+        tx += columns[m, 3] * f
+        ty += columns[m, 4] * f
+        tz += columns[m, 5] * f
+    return fx, fy, fz, tx, ty, tz
+
+
+@njit(cache=True)
+def drag_wrench(vx: float, vy: float, vz: float, wx: float, wy: float, wz: float,
+                kx: float, ky: float, kz: float, damping: float):
+    """Body drag (``BodyDrag.step``) at body-frame air velocity (v, w): factors
+    ``k = 1/2 rho C_d A`` per axis and the rotational ``damping``; returns the 6-tuple."""
+    return (-kx * vx * abs(vx), -ky * vy * abs(vy), -kz * vz * abs(vz),
+            -damping * wx * abs(wx), -damping * wy * abs(wy), -damping * wz * abs(wz))
+
+
+@njit(cache=True)
+def summed(a, b):
+    """``a + b`` component by component (``vehicle._summed``)."""
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
+
+
+@njit(cache=True)
+def rate_loop(rates_sp: np.ndarray, rates: np.ndarray, previous: np.ndarray, integral: np.ndarray,
+              gains: np.ndarray, derivative: bool, inertia: np.ndarray, gyro: np.ndarray, dt: float,
+              out: np.ndarray) -> None:
+    """The body-rate loop (``MultirotorController._rate_loop``): torques [N m] into ``out``
+    (3,); ``integral`` advanced.  ``gains`` rows: kp, ki, kd, integral limit (per axis);
+    ``previous`` the rates of the last tick (the rates themselves on the first)."""
+    a0 = a1 = a2 = 0.0
+    for k in range(3):
+        kp, ki, kd, limit = gains[0, k], gains[1, k], gains[2, k], gains[3, k]
+        w = rates[k]
+        e = rates_sp[k] - w
+        i = integral[k] + e * dt
+        i = limit if i > limit else -limit if i < -limit else i
+        integral[k] = i
+        if derivative:
+            alpha = kp * e + ki * i - kd * (w - previous[k]) / dt
+        else:
+            alpha = kp * e + ki * i
+        if k == 0:
+            a0 = alpha
+        elif k == 1:
+            a1 = alpha
+        else:
+            a2 = alpha
+    wx, wy, wz = rates[0], rates[1], rates[2]
+    out[0] = inertia[0] * a0 + gyro[0] * wy * wz
+    out[1] = inertia[1] * a1 + gyro[1] * wz * wx
+    out[2] = inertia[2] * a2 + gyro[2] * wx * wy
+
+
+@njit(cache=True)
+def _lower(current: float, candidate: float) -> float:
+    candidate = candidate if candidate > 0.0 else 0.0
+    return candidate if candidate < current else current
+
+
+@njit(cache=True)
+def _throttle(force: float, full: float) -> float:
+    return 0.0 if force <= 0.0 else 1.0 if force >= full else math.sqrt(force / full)
+
+
+@njit(cache=True)
+def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts: np.ndarray, out: np.ndarray) -> None:
+    """Motor throttles for [thrust, tau_x, tau_y, tau_z] (``Mixer.throttles`` without tilting
+    motors) into ``out`` (n,).  ``rows`` (n, 5): the pseudo-inverse's row and the full
+    thrust per motor; ``parts`` (n, 4) scratch."""
+    n = rows.shape[0]
+    yaw_scale = 1.0
+    fits = True
+    for m in range(n):
+        r0, r1, r2, r3, fm = rows[m, 0], rows[m, 1], rows[m, 2], rows[m, 3], rows[m, 4]
+        ft = r0 * thrust
+        b = ft + r1 * tx + r2 * ty
+        y = r3 * tz
+        if y > 0.0 and b + y > fm:
+            yaw_scale = _lower(yaw_scale, (fm - b) / y)
+        elif y < 0.0 and b + y < 0.0:
+            yaw_scale = _lower(yaw_scale, -b / y)
+        from_roll_pitch = b - ft
+        f = ft + (from_roll_pitch + y)
+        if f > fm and ft > 0.0:
+            fits = False
+        parts[m, 0], parts[m, 1], parts[m, 2], parts[m, 3] = ft, from_roll_pitch, y, fm
+        out[m] = 0.0 if f <= 0.0 else 1.0 if f >= fm else math.sqrt(f / fm)
+    if fits and yaw_scale == 1.0:
+        return
+    scale = 1.0
+    for m in range(n):
+        ft, fq, fm = parts[m, 0], parts[m, 1] + yaw_scale * parts[m, 2], parts[m, 3]
+        parts[m, 1] = fq
+        if ft + fq > fm and ft > 0.0:
+            scale = _lower(scale, (fm - fq) / ft)
+    for m in range(n):
+        out[m] = _throttle(scale * parts[m, 0] + parts[m, 1], parts[m, 3])
+
+
+@njit(cache=True)
+def rotation_tuple(qx: float, qy: float, qz: float, qw: float):
+    """:func:`rotation_rows` as a 9-tuple (the hot loop keeps it in registers)."""
+    d = qx * qx + qy * qy + qz * qz + qw * qw
+    s = 2.0 / d
+    xs, ys, zs = qx * s, qy * s, qz * s
+    wx, wy, wz = qw * xs, qw * ys, qw * zs
+    xx, xy, xz = qx * xs, qx * ys, qx * zs
+    yy, yz, zz = qy * ys, qy * zs, qz * zs
+    return (1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy))
+
+
+@njit(cache=True)
+def integrate_state(p, q, v, w, r, load, mass, jx, jy, jz, gravity, dt):
+    """One physics step of the free rigid body (the module docstring) under the body-frame
+    wrench ``load`` (6-tuple) at the centre of mass and gravity along -z, on tuples:
+    ``p, v, w`` (3) ground frame, ``q`` (4) and ``r`` (9, the rotation of ``q`` at the
+    start of the step).  Returns the new ``(p, q, v, w)``."""
+    fx, fy, fz, tx, ty, tz = load
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    ax = (r0 * fx + r1 * fy + r2 * fz) / mass
+    ay = (r3 * fx + r4 * fy + r5 * fz) / mass
+    az = (r6 * fx + r7 * fy + r8 * fz) / mass - gravity
+    w0, w1, w2 = w
+    bx = r0 * w0 + r3 * w1 + r6 * w2
+    by = r1 * w0 + r4 * w1 + r7 * w2
+    bz = r2 * w0 + r5 * w1 + r8 * w2
+    # Euler's equations in the body frame: J alpha = tau - w x (J w)
+    gx = by * (jz * bz) - bz * (jy * by)
+    gy = bz * (jx * bx) - bx * (jz * bz)
+    gz = bx * (jy * by) - by * (jx * bx)
+    ex, ey, ez = (tx - gx) / jx, (ty - gy) / jy, (tz - gz) / jz
+    v0 = v[0] + ax * dt
+    v1 = v[1] + ay * dt
+    v2 = v[2] + az * dt
+    w0 = w0 + (r0 * ex + r1 * ey + r2 * ez) * dt
+    w1 = w1 + (r3 * ex + r4 * ey + r5 * ez) * dt
+    w2 = w2 + (r6 * ex + r7 * ey + r8 * ez) * dt
+    p0 = p[0] + v0 * dt
+    p1 = p[1] + v1 * dt
+    p2 = p[2] + v2 * dt
+    # exponential map, ground-frame angular velocity, left-multiplied
+    angle = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if angle * dt > _ANGULAR_MOTION_THRESHOLD:
+        angle = _ANGULAR_MOTION_THRESHOLD / dt
+    if angle < 0.001:
+        c = 0.5 * dt - (dt * dt * dt) * 0.020833333333 * angle * angle
+    else:
+        c = math.sin(0.5 * angle * dt) / angle
+    dx, dy, dz, dw = w0 * c, w1 * c, w2 * c, math.cos(angle * dt * 0.5)
+    qx, qy, qz, qw = q
+    nx = dw * qx + dx * qw + dy * qz - dz * qy
+    ny = dw * qy - dx * qz + dy * qw + dz * qx
+    nz = dw * qz + dx * qy - dy * qx + dz * qw
+    nw = dw * qw - dx * qx - dy * qy - dz * qz
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz + nw * nw)
+    return (p0, p1, p2), (nx / norm, ny / norm, nz / norm, nw / norm), (v0, v1, v2), (w0, w1, w2)
+
+
+@njit(cache=True)
+def integrate(pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray, r: np.ndarray,
+              load: np.ndarray, mass: float, inertia: np.ndarray, gravity: float, dt: float) -> None:
+    """:func:`integrate_state` on arrays (updates pos, quat, vel, angvel in place)."""
+    p, q, v, w = integrate_state(
+        (pos[0], pos[1], pos[2]), (quat[0], quat[1], quat[2], quat[3]), (vel[0], vel[1], vel[2]),
+        (angvel[0], angvel[1], angvel[2]), (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]),
+        (load[0], load[1], load[2], load[3], load[4], load[5]), mass, inertia[0], inertia[1], inertia[2],
+        gravity, dt,
+    )
+    pos[0], pos[1], pos[2] = p
+    quat[0], quat[1], quat[2], quat[3] = q
+    vel[0], vel[1], vel[2] = v
+    angvel[0], angvel[1], angvel[2] = w
+
+
+@njit(cache=True)
+def lowest_corner(pos: np.ndarray, r: np.ndarray, corners: np.ndarray) -> float:
+    """Lowest height [m] of the collision features (``BatchedModel.corners``: a point, less a
+    sphere's radius, less a disc's radius times the sine of its normal's tilt from vertical)."""
+    return _lowest(pos[2], r[6], r[7], r[8], corners)
+
+
+@njit(cache=True)
+def _lowest(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray) -> float:
+    low = math.inf
+    for c in range(corners.shape[0]):
+        x, y, z = corners[c, 0], corners[c, 1], corners[c, 2]
+        height = z0 + r6 * x + r7 * y + r8 * z - corners[c, 3]
+        disc = corners[c, 4]
+        if disc > 0.0:
+            nz = r6 * corners[c, 5] + r7 * corners[c, 6] + r8 * corners[c, 7]
+            rim = 1.0 - nz * nz
+            height -= disc * math.sqrt(rim if rim > 0.0 else 0.0)
+        if height < low:
+            low = height
+    return low
+
+
+@njit(cache=True)
+def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_previous, setpoint,
+            factors, mode, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows, max_collective,
+            rate_gains, derivative, drag_factors, damping, drag_on, corners, contact, gravity, physics_dt,
+            control_dt, start, count, per_control):
+    """Advance every vehicle ``count`` physics steps from physics step ``start`` (control
+    ticks where ``(start + s) % per_control == 0``).
+
+    Per vehicle i (rows of every array): state ``pos, quat, vel, angvel`` (ground frame,
+    the quaternion continuous, not PyBullet's canonical sign), motor ``throttle`` and
+    ``command``, the rate loop's ``integral``, ``previous`` rates and ``has_previous``;
+    ``setpoint`` (4 values in ``mode``: rates_thrust or motors), ``factors`` (N, count, n)
+    motor noise factors per physics step.  Parameters per vehicle: mass, inertia (the
+    body's) and the controller's inertia, gyroscopic coefficients, motor lag and wrench
+    columns, the mixer, rate gains (4, 3), drag factors and damping (drag_on), collision
+    ``corners``.  ``contact[i]`` is set when the lowest corner is below the ground at a
+    sample (the end of each control period or of the step), as the PyBullet engine
+    samples contacts.  Per physics step, in the PyBullet engine's order: on a control
+    tick the controller (rate loop, mixer) sets the motor commands; the motors step; the
+    drag at the body's velocity (still air); the rigid body integrates the sum.
+    """
+    n = pos.shape[0]
+    nm = throttle.shape[1]
+    rates = np.empty(3)
+    torques = np.empty(3)
+    out = np.empty(nm)
+    parts = np.empty((nm, 4))
+    for i in range(n):
+        contact[i] = False
+        p = (pos[i, 0], pos[i, 1], pos[i, 2])
+        q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+        v = (vel[i, 0], vel[i, 1], vel[i, 2])
+        w = (angvel[i, 0], angvel[i, 1], angvel[i, 2])
+        m_i, jx, jy, jz = mass[i], inertia[i, 0], inertia[i, 1], inertia[i, 2]
+        kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
+        x_i, cmd_i, lag_i, col_i = throttle[i], command[i], lag[i], columns[i]
+        for s in range(count):
+            step = start + s
+            r = rotation_tuple(q[0], q[1], q[2], q[3])
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+            w0, w1, w2 = w
+            bw0 = r0 * w0 + r3 * w1 + r6 * w2
+            bw1 = r1 * w0 + r4 * w1 + r7 * w2
+            bw2 = r2 * w0 + r5 * w1 + r8 * w2
+            if step % per_control == 0:  # control tick
+                if mode == MODE_RATES_THRUST:
+                    rates[0], rates[1], rates[2] = bw0, bw1, bw2
+                    if not has_previous[i]:
+                        previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
+                    rate_loop(setpoint[i, :3], rates, previous[i], integral[i], rate_gains[i], derivative,
+                              control_inertia[i], gyro[i], control_dt, torques)
+                    previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
+                    has_previous[i] = True
+                    mix(setpoint[i, 3] * max_collective[i], torques[0], torques[1], torques[2], mixer_rows[i],
+                        parts, out)
+                    for mo in range(nm):
+                        cmd_i[mo] = out[mo]
+                else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
+                    for mo in range(nm):
+                        c = setpoint[i, mo]
+                        cmd_i[mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
+            load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+            if drag_on:  # summed after the motors, as the PyBullet engine sums its groups
+                v0, v1, v2 = v
+                bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
+            p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity,
+                                         physics_dt)
+            if (step + 1) % per_control == 0 or s == count - 1:
+                rr = rotation_tuple(q[0], q[1], q[2], q[3])
+                if _lowest(p[2], rr[6], rr[7], rr[8], corners[i]) < 0.0:
+                    contact[i] = True
+        pos[i, 0], pos[i, 1], pos[i, 2] = p
+        quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
+        vel[i, 0], vel[i, 1], vel[i, 2] = v
+        angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
+
+
+@njit(cache=True)
+def read_out(pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion):
+    """The state read-outs of the PyBullet engine (``Vehicle.read_state``) for every vehicle:
+    body rates, Euler angles, body velocity, and PyBullet's quaternion (its sign)."""
+    r = np.empty(9)
+    q = np.empty(4)
+    e = np.empty(3)
+    for i in range(pos.shape[0]):
+        rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
+        matrix_quaternion(r, q)
+        rotation_rows(q[0], q[1], q[2], q[3], r)  # getMatrixFromQuaternion of what PyBullet reports
+        euler_from_quaternion(q[0], q[1], q[2], q[3], e)
+        w0, w1, w2 = angvel[i, 0], angvel[i, 1], angvel[i, 2]
+        v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
+        ang_vel_body[i, 0] = r[0] * w0 + r[3] * w1 + r[6] * w2
+        ang_vel_body[i, 1] = r[1] * w0 + r[4] * w1 + r[7] * w2
+        ang_vel_body[i, 2] = r[2] * w0 + r[5] * w1 + r[8] * w2
+        lin_vel_body[i, 0] = r[0] * v0 + r[3] * v1 + r[6] * v2
+        lin_vel_body[i, 1] = r[1] * v0 + r[4] * v1 + r[7] * v2
+        lin_vel_body[i, 2] = r[2] * v0 + r[5] * v1 + r[8] * v2
+        ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = e[0], e[1], e[2]
+        quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q[0], q[1], q[2], q[3]

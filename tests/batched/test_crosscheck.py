@@ -1,0 +1,207 @@
+"""The batched backend flies what the PyBullet engine flies: same airframe, mode, start and
+actions give the same trajectory, observations and rewards within a stated bound.
+
+The bound, and why it is not zero: the rigid body is integrated by the same scheme as
+PyBullet's (semi-implicit Euler, exponential-map attitude, Bullet's limits: see
+:mod:`pyflyt_engine.batched.kernels`) and every law is the engine's own (``test_laws.py``),
+so the two agree in exact arithmetic.  PyBullet computes in the body frame and rotates
+back, and reports the attitude through its rotation matrix, so the last bits differ at
+each step (~1e-16); the mixer's square root amplifies such a difference where a motor
+idles near zero thrust (``sqrt(f)`` at ``f ~ 1e-20``).  Over 2 s of random flight the
+largest position difference measured is ~1e-9 m (hexacopter) and ~1e-15 m (the quads);
+the tests hold it to 1e-6 m, and observations and rewards to 1e-6.
+
+Ground contact: the batched backend crashes when the collision geometry's lowest point is
+below the ground at the PyBullet engine's contact samples; PyBullet reports a contact
+from its contact threshold on, so the crash step may come one agent step earlier there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from pyflyt_engine.batched import BatchedUAVEnv, check_supported
+from pyflyt_engine.batched.model import UnsupportedByBatched, batched_model
+from pyflyt_engine.batched import kernels
+from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.envs import make_env
+from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.paths import uav_dir
+from pyflyt_engine.spec import load_uav_spec
+from pyflyt_engine.urdf import urdf_path
+
+from tests.batched.test_laws import FLOWN
+
+BOUND = 1e-6
+
+
+@pytest.fixture(scope="module")
+def quiet(tmp_path_factory):
+    """Each flown airframe with its motor noise off (the two backends draw their noise apart)."""
+    folder = tmp_path_factory.mktemp("quiet")
+    paths = {}
+    for name in FLOWN:
+        data = yaml.safe_load((uav_dir() / f"{name}.yaml").read_text())
+        data["motors"]["noise_ratio"] = 0.0
+        path = folder / f"{name}.yaml"
+        path.write_text(yaml.safe_dump(data))
+        paths[name] = str(path)
+    return paths
+
+
+@pytest.mark.parametrize("name", FLOWN)
+def test_the_free_body_integrates_as_pybullet(name):
+    """Random body-frame wrenches for 2 s on a spinning, moving body: position, attitude and
+    velocities within 1e-12 of PyBullet's."""
+    spec = load_uav_spec(name)
+    model = batched_model(spec, 1 / 240, 1 / 120)
+    cid = p.connect(p.DIRECT)
+    try:
+        p.setGravity(0, 0, -9.81, physicsClientId=cid)
+        p.setTimeStep(1 / 240, physicsClientId=cid)
+        body = p.loadURDF(str(urdf_path(spec)), [0, 0, 5], p.getQuaternionFromEuler([0.3, -0.2, 1.0]),
+                          flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        p.resetBaseVelocity(body, [1.0, -2.0, 0.5], [3.0, -5.0, 8.0], physicsClientId=cid)
+        pos, quat = (np.array(v, dtype=np.float64) for v in p.getBasePositionAndOrientation(body, physicsClientId=cid))
+        vel, ang = (np.array(v, dtype=np.float64) for v in p.getBaseVelocity(body, physicsClientId=cid))
+        scale = model.mass * 9.81
+        rng = np.random.default_rng(0)
+        r, q = np.empty(9), np.empty(4)
+        for _ in range(480):
+            load = np.r_[rng.normal(0, scale, 3), rng.normal(0, 20.0, 3) * model.inertia]  # ~20 rad/s^2
+            p.applyExternalForce(body, -1, load[:3].tolist(), [0, 0, 0], p.LINK_FRAME, physicsClientId=cid)
+            p.applyExternalTorque(body, -1, load[3:].tolist(), p.LINK_FRAME, physicsClientId=cid)
+            p.stepSimulation(cid)
+            kernels.rotation_rows(*quat, r)
+            kernels.integrate(pos, quat, vel, ang, r, load, model.mass, model.inertia, 9.81, 1 / 240)
+        expected_pos, expected_quat = p.getBasePositionAndOrientation(body, physicsClientId=cid)
+        expected_vel, expected_ang = p.getBaseVelocity(body, physicsClientId=cid)
+        kernels.rotation_rows(*quat, r)
+        kernels.matrix_quaternion(r, q)
+        for got, expected in ((pos, expected_pos), (q, expected_quat), (vel, expected_vel), (ang, expected_ang)):
+            assert np.max(np.abs(got - np.asarray(expected))) < 1e-12
+        assert np.linalg.norm(ang) > 1.0  # it spun the whole time
+    finally:
+        p.disconnect(cid)
+
+
+def _pair(env_name: str, uav: str, seed: int, **overrides):
+    cfg = load_env_config(env_name).with_overrides(uav=uav, **overrides)
+    pb = make_env(cfg)
+    pb.reset(seed=seed)
+    be = BatchedUAVEnv(cfg, num_envs=1)
+    be.reset(seed=seed)
+    vehicle = pb.unwrapped.world.vehicles[0]
+    pos, quat = p.getBasePositionAndOrientation(vehicle.body_id, physicsClientId=vehicle._client)
+    lin, ang = p.getBaseVelocity(vehicle.body_id, physicsClientId=vehicle._client)
+    be.pos[0], be.quat[0], be.vel[0], be.angvel[0] = pos, quat, lin, ang
+    if be._waypoints:
+        be.targets[0] = pb.unwrapped.task.targets
+    be._read()
+    be._last_position[:] = be.pos
+    be._last_distance[:] = be._target_distance(np.arange(1), be.pos)
+    return pb, be
+
+
+def _flat(obs) -> np.ndarray:
+    if isinstance(obs, dict):  # waypoints: FlattenWaypointEnv's layout for the next two
+        deltas = np.zeros((2, 3))
+        d = np.asarray(obs["target_deltas"]).reshape(-1, 3)[:2]
+        deltas[: len(d)] = d
+        mask = np.zeros(2)
+        mask[: len(d)] = 1.0
+        return np.r_[obs["attitude"], deltas.ravel(), mask]
+    return np.asarray(obs)
+
+
+def _motors_action(uav: str) -> dict:
+    n = batched_model(load_uav_spec(uav), 1 / 240, 1 / 120).motors
+    return {"mode": "motors", "names": [f"m{i}" for i in range(n)], "units": ["1"] * n,
+            "low": [0.0] * n, "high": [1.0] * n}
+
+
+@pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints"])
+@pytest.mark.parametrize("mode", ["rates_thrust", "motors"])
+@pytest.mark.parametrize("name", FLOWN)
+def test_trajectories_agree_with_the_pybullet_engine(quiet, name, mode, env_name):
+    """2 s of random actions around hover: positions, observations and rewards within 1e-6."""
+    overrides = {} if mode == "rates_thrust" else {"action": _motors_action(quiet[name])}
+    pb, be = _pair(env_name, quiet[name], seed=3, **overrides)
+    rng = np.random.default_rng(7)
+    hover = be.model.hover_thrust_fraction
+    worst = {"position": 0.0, "observation": 0.0, "reward": 0.0}
+    for steps in range(1, 61):
+        if mode == "rates_thrust":
+            action = np.r_[rng.uniform(-1.0, 1.0, 3), hover * rng.uniform(0.95, 1.15)]
+        else:
+            action = np.sqrt(hover) * rng.uniform(0.97, 1.05, be.model.motors)
+        o1, r1, t1, tr1, _ = pb.step(action)
+        o2, r2, t2, tr2, info = be.step(action[None])
+        assert (t1, tr1) == (bool(t2[0]), bool(tr2[0]))
+        final = info["final_obs"][0] if t2[0] or tr2[0] else o2[0]  # before the autoreset
+        worst["position"] = max(worst["position"], np.abs(_flat(o1)[10:13] - final[10:13]).max())
+        worst["observation"] = max(worst["observation"], np.abs(_flat(o1) - final).max())
+        worst["reward"] = max(worst["reward"], abs(r1 - r2[0]))
+        if t1:
+            break
+    assert max(worst.values()) < BOUND, worst
+    assert steps >= 15, "the flight crashed too soon to compare much"
+    pb.close()
+
+
+@pytest.mark.parametrize("name", FLOWN)
+def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
+    """Motors off from the spawn: both backends end the episode on a crash within one agent
+    step of each other (the module docstring), with the crash reward."""
+    ends = []
+    pb, be = _pair("quadx_hover", quiet[name], seed=0)
+    for backend in ("pybullet", "batched"):
+        for k in range(200):
+            if backend == "pybullet":
+                _, reward, terminated, _, info = pb.step(np.zeros(4))
+                collided = info["collision"]
+            else:
+                _, rewards, term, _, info = be.step(np.zeros((1, 4)))
+                reward, terminated, collided = rewards[0], bool(term[0]), bool(info["collision"][0])
+            if terminated:
+                ends.append((k, collided, reward))
+                break
+    (k1, c1, r1), (k2, c2, r2) = ends
+    assert c1 and c2 and r1 == r2 == -100.0
+    assert 0 <= k2 - k1 <= 1, ends
+    pb.close()
+
+
+@pytest.mark.parametrize(
+    ("env_name", "overrides", "named"),
+    [
+        ("quadx_hover", {"wind": "gust"}, "wind"),
+        ("quadx_hover", {"ground_effect": True}, "ground_effect"),
+        ("quadx_hover", {"randomize": "moderate"}, "randomize"),
+        ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
+        ("quadx_obstacles", {}, "obstacles"),
+        ("quadx_pole_balance", {}, "task"),
+        ("fixedwing_waypoints", {}, "fixedwing airframe"),
+        ("rocket_landing", {}, "task"),
+        ("ma_quadx_hover", {}, "multi-agent"),
+        ("quadx_waypoints_velocity", {}, "flight mode"),
+    ],
+)
+def test_what_it_cannot_simulate_is_refused_at_load_by_name(env_name, overrides, named):
+    with pytest.raises(ConfigError) as info:
+        load_env_config(env_name).with_overrides(backend="batched", **overrides)
+    message = str(info.value)
+    assert "env.backend=batched does not simulate" in message and named in message, message
+
+
+def test_the_shipped_batched_tasks_load():
+    for env_name in ("quadx_hover", "quadx_waypoints"):
+        cfg = load_env_config(env_name).with_overrides(backend="batched")
+        check_supported(cfg)
+        assert cfg.backend == "batched"
+    with pytest.raises(UnsupportedByBatched):
+        check_supported(load_env_config("quadx_hover").with_overrides(wind="constant"))

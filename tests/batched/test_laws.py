@@ -1,0 +1,207 @@
+"""The batched backend's compiled laws equal the PyBullet engine's scalar laws bit for bit.
+
+Each law is written twice -- once in plain Python floats for the PyBullet engine (its speed
+for one vehicle), once compiled for N vehicles -- so every pair is held together here on
+random inputs, for every airframe the batched backend flies: motors, body drag, the rate
+loop, the mixer (its clipping paths included), the state read-outs against PyBullet's own
+functions, and every vector reward term and condition against its registered scalar form.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched.model import UnsupportedByBatched, batched_model
+from pyflyt_engine.batched.terms import VECTOR_CONDITIONS, VECTOR_TERMS, BatchContext
+from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.components.drag import BodyDrag, DragParams
+from pyflyt_engine.components.motor import Motors
+from pyflyt_engine.components.noise import NoiseSource
+from pyflyt_engine.control.mixer import Mixer
+from pyflyt_engine.control.multirotor import MultirotorController
+from pyflyt_engine.assembly import assemble
+from pyflyt_engine.envs import rewards as r
+from pyflyt_engine.spec import available_uavs, load_uav_spec
+from pyflyt_engine.state import KinematicState
+
+DT, CONTROL_DT = 1 / 240, 1 / 120
+#: the shipped airframes the batched backend flies (every other one is refused: test below)
+FLOWN = ("hexacopter", "quadx_cf2x", "quadx_f450")
+
+
+def _accepted() -> list[str]:
+    names = []
+    for name in available_uavs():
+        try:
+            batched_model(load_uav_spec(name), DT, CONTROL_DT)
+        except UnsupportedByBatched:
+            continue
+        names.append(name)
+    return names
+
+
+def test_the_backend_flies_exactly_the_multirotors_it_claims():
+    assert _accepted() == list(FLOWN)
+
+
+@pytest.mark.parametrize("name", sorted(set(available_uavs()) - set(FLOWN)))
+def test_every_other_airframe_is_refused_by_name(name):
+    with pytest.raises(UnsupportedByBatched) as info:
+        batched_model(load_uav_spec(name), DT, CONTROL_DT)
+    message = str(info.value)
+    assert "env.backend=batched does not simulate" in message and "env.backend=pybullet" in message
+
+
+@pytest.mark.parametrize("name", FLOWN)
+def test_motors_step_equals_the_motor_group(name):
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    model = batched_model(spec, DT, CONTROL_DT)
+    group = Motors(parts.motors, DT, NoiseSource(np.random.default_rng(0)))
+    rng = np.random.default_rng(1)
+    n = parts.motors.count
+    throttle = rng.uniform(-0.2, 1.0, n)
+    group.throttle = throttle.tolist()
+    for _ in range(50):
+        command = rng.uniform(-1.0, 1.0, n)
+        factors = 1.0 + 0.05 * rng.standard_normal(n)
+        group.command = command.tolist()
+        group._noise.next = lambda f=factors: tuple(f.tolist())  # the same draws for both
+        group._noisy = True
+        expected = group.step()
+        got = kernels.motors_step(throttle, command, model.lag, factors, model.columns)
+        assert got == expected
+        assert throttle.tolist() == group.throttle
+
+
+@pytest.mark.parametrize("name", FLOWN)
+def test_drag_equals_body_drag(name):
+    spec = load_uav_spec(name)
+    drag = BodyDrag(DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping))
+    model = batched_model(spec, DT, CONTROL_DT)
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        v, w = rng.normal(0, 5, 3).tolist(), rng.normal(0, 10, 3).tolist()
+        expected = drag.step((tuple(v), tuple(w)))
+        kx, ky, kz = model.drag_factors.tolist()
+        assert kernels.drag_wrench(*v, *w, kx, ky, kz, model.angular_damping) == expected
+
+
+def _state(rng: np.random.Generator) -> KinematicState:
+    three = lambda s: tuple(rng.normal(0, s, 3).tolist())  # noqa: E731
+    return KinematicState(three(2.0), three(0.5), three(2.0), three(1.0), (0.0, 0.0, 0.0, 1.0), three(2.0), three(2.0))
+
+
+@pytest.mark.parametrize("name", FLOWN)
+def test_rate_loop_and_mixer_equal_the_controller(name):
+    """rates_thrust through the compiled rate loop and mixer gives the controller's throttles
+    bit for bit, over setpoints wide enough to reach the mixer's yaw and thrust give-way paths."""
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    mixer = Mixer(parts.motors)
+    controller = MultirotorController(spec.control, parts.mass, np.diag(parts.inertia), mixer, CONTROL_DT)
+    controller.set_mode(type(controller.mode)("rates_thrust", 0, ("p", "q", "r", "thrust"), ""))
+    model = batched_model(spec, DT, CONTROL_DT)
+    rng = np.random.default_rng(3)
+    integral, previous = np.zeros(3), np.zeros(3)
+    n = model.motors
+    out, scratch, torques = np.empty(n), np.empty((n, 4)), np.empty(3)
+    first = True
+    slow = 0
+    for _ in range(300):
+        state = _state(rng)
+        setpoint = [*rng.uniform(-6, 6, 3).tolist(), float(rng.uniform(0, 1.2))]
+        expected = controller._rates_thrust(state, setpoint)
+        rates = np.array(state.ang_vel)
+        if first:
+            previous[:] = rates
+            first = False
+        kernels.rate_loop(np.array(setpoint[:3]), rates, previous, integral, model.rate_gains, model.rate_derivative,
+                          model.control_inertia, model.gyro, CONTROL_DT, torques)
+        previous[:] = rates
+        assert integral.tolist() == list(controller._rate_integral)
+        kernels.mix(setpoint[3] * model.max_collective, *torques.tolist(), model.mixer_rows, scratch, out)
+        assert out.tolist() == expected
+        slow += any(v in (0.0, 1.0) for v in expected)
+    assert slow > 30  # the clipping paths ran
+
+
+def _random_quaternions(rng: np.random.Generator, count: int) -> np.ndarray:
+    q = rng.standard_normal((count, 4))
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def test_read_outs_equal_pybullets_functions():
+    """The rotation matrix, Euler angles and the quaternion PyBullet reports for a body: the
+    compiled forms equal PyBullet's own functions on random attitudes (within the last bit for
+    the quaternion read back from a body, which PyBullet rounds through its matrix)."""
+    rng = np.random.default_rng(4)
+    cid = p.connect(p.DIRECT)
+    try:
+        box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.1, 0.1, 0.1], physicsClientId=cid)
+        body = p.createMultiBody(1.0, box, physicsClientId=cid)
+        r, q, e = np.empty(9), np.empty(4), np.empty(3)
+        for quat in _random_quaternions(rng, 300).tolist():
+            kernels.rotation_rows(*quat, r)
+            assert r.tolist() == list(p.getMatrixFromQuaternion(quat, physicsClientId=cid))
+            kernels.euler_from_quaternion(*quat, e)
+            assert np.allclose(e, p.getEulerFromQuaternion(quat, physicsClientId=cid), rtol=0, atol=1e-15)
+            p.resetBasePositionAndOrientation(body, [0, 0, 1], quat, physicsClientId=cid)
+            reported = p.getBasePositionAndOrientation(body, physicsClientId=cid)[1]
+            kernels.matrix_quaternion(r, q)
+            assert np.allclose(q, reported, rtol=0, atol=2e-16)  # the same sign, the same number
+    finally:
+        p.disconnect(cid)
+
+
+def _context(rng: np.random.Generator, n: int) -> BatchContext:
+    flags = lambda: rng.random(n) < 0.5  # noqa: E731
+    distance = rng.uniform(0.0, 4.0, n)
+    distance[:3] = (0.0, 0.05, np.nan)
+    return BatchContext(
+        ang_vel=rng.normal(0, 2, (n, 3)), ang_pos=rng.normal(0, 1, (n, 3)), lin_vel=rng.normal(0, 2, (n, 3)),
+        lin_pos=rng.normal(0, 2, (n, 3)), action=rng.normal(0, 1, (n, 4)), collision=flags(),
+        ground_collision=flags(), out_of_bounds=flags(), crashed=flags(), task_complete=flags(),
+        target_distance=distance, target_distance_rate=rng.normal(0, 1, n), waypoint_reached=flags(),
+        steps_remaining=rng.integers(0, 300, n), agent_dt=1 / 30,
+    )
+
+
+def _scalar(ctx: BatchContext, i: int) -> r.StepContext:
+    state = KinematicState(
+        tuple(ctx.ang_vel[i].tolist()), tuple(ctx.ang_pos[i].tolist()), tuple(ctx.lin_vel[i].tolist()),
+        tuple(ctx.lin_pos[i].tolist()), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+    )
+    return r.StepContext(
+        state, ctx.action[i], bool(ctx.collision[i]), bool(ctx.ground_collision[i]), bool(ctx.out_of_bounds[i]),
+        bool(ctx.crashed[i]), bool(ctx.task_complete[i]), float(ctx.target_distance[i]),
+        float(ctx.target_distance_rate[i]), bool(ctx.waypoint_reached[i]), steps_remaining=int(ctx.steps_remaining[i]),
+        agent_dt=ctx.agent_dt,
+    )
+
+
+@pytest.mark.parametrize("term", list(VECTOR_TERMS), ids=lambda f: f.__name__)
+def test_vector_terms_equal_the_scalar_terms(term):
+    rng = np.random.default_rng(5)
+    ctx = _context(rng, 64)
+    params = {"floor": 0.1} if term is r.inverse_target_distance else {}
+    got = VECTOR_TERMS[term](ctx, **params)
+    for i in range(64):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            try:
+                expected = float(term(_scalar(ctx, i), **params))
+            except ZeroDivisionError:
+                expected = math.inf
+        assert (math.isnan(got[i]) and math.isnan(expected)) or got[i] == expected, (term.__name__, i)
+
+
+@pytest.mark.parametrize("condition", list(VECTOR_CONDITIONS), ids=lambda f: f.__name__)
+def test_vector_conditions_equal_the_scalar_conditions(condition):
+    rng = np.random.default_rng(6)
+    ctx = _context(rng, 64)
+    got = VECTOR_CONDITIONS[condition](ctx)
+    assert [bool(v) for v in got] == [condition(_scalar(ctx, i)) for i in range(64)]
