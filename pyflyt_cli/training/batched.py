@@ -146,7 +146,7 @@ class BatchedVecEnv(VecEnv):
         saved = state["batched"]
         for name in _STATE_ARRAYS:
             row = getattr(env, name)
-            row[i] = np.asarray(saved[name], dtype=row.dtype)
+            row[i] = np.asarray(saved[name], dtype=row.dtype).reshape(row[i].shape)
         env.env_rngs[i].bit_generator.state = state["rng"]["env"]
         if "noise" in state["rng"]:
             env.noise_rng.bit_generator.state = state["rng"]["noise"]

@@ -62,9 +62,12 @@ def check_supported(config: EnvConfig) -> None:
         raise refuse("multi-agent env configs (agents)")
     if config.task.name not in BATCHED_TASKS:
         raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
-    wind = config.wind
-    if not (wind == "calm" or (isinstance(wind, dict) and not wind)):
-        raise refuse(f"wind ({wind if isinstance(wind, str) else 'a wind mapping'})", "give env.wind=calm")
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    wind = load_wind_config(config.wind)
+    if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
+        what = config.wind if isinstance(config.wind, str) else "a wind mapping"
+        raise refuse(f"wind ({what}: a mean wind, gust or turbulence)", "give env.wind=calm")
     for key, present in (
         ("ground_effect", config.ground_effect),
         ("downwash", config.downwash),
@@ -174,6 +177,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.ang_pos = np.zeros((n, 3))
         self.lin_vel_body = np.zeros((n, 3))
         self.quaternion = np.zeros((n, 4))
+        self.quaternion[:, 3] = 1.0
         # task state
         self.hover_point = np.asarray(getattr(cfg.task, "hover_point", (0.0, 0.0, 0.0)), dtype=np.float64)
         k = int(getattr(cfg.task, "num_targets", 0))
@@ -374,9 +378,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self._waypoints:
             k = self.targets.shape[1]
             r = np.empty((n, 9))
-            for i in range(n):  # the rotation of the quaternion PyBullet reports
-                q = self.quaternion[i]
-                kernels.rotation_rows(q[0], q[1], q[2], q[3], r[i])
+            kernels.rotations(self.quaternion, r)  # of the quaternion PyBullet reports
             deltas = np.zeros((n, CONTEXT_LENGTH, 3))
             mask = np.zeros((n, CONTEXT_LENGTH))
             for slot in range(CONTEXT_LENGTH):

@@ -68,6 +68,14 @@ def rotation_rows(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -
 
 
 @njit(cache=True)
+def rotations(quaternions: np.ndarray, out: np.ndarray) -> None:
+    """:func:`rotation_rows` of every row of ``quaternions`` (N, 4) into ``out`` (N, 9)."""
+    for i in range(quaternions.shape[0]):
+        q = quaternions[i]
+        rotation_rows(q[0], q[1], q[2], q[3], out[i])
+
+
+@njit(cache=True)
 def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
     """Quaternion (x, y, z, w) of a row-major rotation matrix: Bullet's
     ``btMatrix3x3::getRotation``, what PyBullet returns as a body's orientation (so the

@@ -1,0 +1,147 @@
+"""Training on the batched backend: the SB3 adapter, the run's record, evaluation in the
+PyBullet engine, exact resume, determinism under a seed across processes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from stable_baselines3 import PPO
+
+from pyflyt_cli.training import resume, train
+from pyflyt_cli.training.batched import BatchedVecEnv
+from pyflyt_cli.training.envs import EnvFactory, make_vec_env
+from pyflyt_engine.batched import BatchedUAVEnv
+from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.errors import ConfigError
+
+from tests.conftest import default_subset
+from tests.train.conftest import load
+from tests.train.test_resume import SignalAt, _assert_same, _outcome, _reference
+
+PPO_BATCHED = [
+    "env=quadx_hover",
+    "algo=ppo",
+    "env.backend=batched",
+    "train.n_envs=8",
+    "train.total_timesteps=2000",
+    "algo.n_steps=64",
+    "algo.batch_size=128",
+    "algo.n_epochs=2",
+    "train.eval_freq=512",
+    "train.eval_episodes=1",
+    "train.checkpoint_freq=512",
+    "train.progress_bar=false",
+]
+SAC_BATCHED = [
+    "env=quadx_waypoints",
+    "algo=sac",
+    "env.backend=batched",
+    "train.curriculum=null",
+    "train.n_envs=4",
+    "train.total_timesteps=800",
+    "algo.buffer_size=5000",
+    "algo.learning_starts=100",
+    "algo.batch_size=32",
+    "algo.policy_kwargs.net_arch=[32,32]",
+    "train.eval_freq=200",
+    "train.eval_episodes=1",
+    "train.checkpoint_freq=200",
+    "train.progress_bar=false",
+]
+
+
+@pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints"])
+def test_the_adapter_shows_the_agent_what_the_pybullet_training_env_shows(env_name):
+    cfg = load_env_config(env_name).with_overrides(backend="batched")
+    vec = make_vec_env(cfg, 3)
+    assert isinstance(vec, BatchedVecEnv)
+    single = EnvFactory(cfg, monitor=False)()  # the PyBullet engine's env through the training wrappers
+    assert vec.observation_space == single.observation_space
+    assert vec.action_space == single.action_space
+    vec.seed(0)
+    obs = vec.reset()
+    assert obs.shape == (3, *single.observation_space.shape) and obs.dtype == np.float32
+    ended, sums = [], np.zeros(3)
+    for _ in range(400):
+        obs, rewards, dones, infos = vec.step(np.full((3, 4), -1.0))  # motors off: every env falls
+        sums += rewards
+        ended += [(info, sums[i]) for i, (info, done) in enumerate(zip(infos, dones)) if done]
+        sums[dones] = 0.0
+        if len(ended) >= 3:
+            break
+    assert len(ended) >= 3
+    for info, total in ended:
+        assert info["episode"]["l"] > 0 and info["episode"]["r"] < -90.0  # the crash pays -100
+        assert info["episode"]["r"] == pytest.approx(total, abs=1e-4)  # float32 rewards summed here
+        assert info["terminal_observation"].shape == single.observation_space.shape
+        assert info["TimeLimit.truncated"] is False and info["episode"]["success"] is False
+    single.close()
+
+
+def test_a_curriculum_is_refused_with_the_batched_backend():
+    cfg = load_env_config("quadx_waypoints").with_overrides(backend="batched")
+    with pytest.raises(ConfigError, match="curriculum needs env.backend=pybullet"):
+        make_vec_env(cfg, 2, curriculum=True)
+
+
+def test_same_seed_same_numbers_in_another_process():
+    code = (
+        "import numpy as np\n"
+        "from pyflyt_engine.envs import make_batched_env\n"
+        "env = make_batched_env('quadx_waypoints', n_envs=5, seed=11)\n"
+        "obs, _ = env.reset(seed=11)\n"
+        "rng = np.random.default_rng(0)\n"
+        "out = [obs]\n"
+        "for _ in range(120):\n"
+        "    o, r, t, tr, _ = env.step(np.c_[rng.uniform(-1, 1, (5, 3)), rng.uniform(0.1, 0.16, (5, 1))])\n"
+        "    out += [o, r[:, None]]\n"
+        "print(np.concatenate([x.ravel() for x in out]).tobytes().hex())\n"
+    )
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+            for _ in range(2)]
+    assert runs[0] == runs[1] and len(runs[0]) > 1000
+    other = BatchedUAVEnv("quadx_waypoints", num_envs=5)
+    first, _ = other.reset(seed=12)
+    assert np.frombuffer(bytes.fromhex(runs[0][: first.nbytes * 2])).tolist() != first.ravel().tolist()
+
+
+def test_ppo_learns_a_little_on_it():
+    vec = make_vec_env(load_env_config("quadx_hover").with_overrides(backend="batched"), 8)
+    model = PPO("MlpPolicy", vec, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(512)
+    assert model.num_timesteps == 512
+
+
+def test_a_run_records_its_backend_and_evaluates_in_the_pybullet_engine(tmp_path):
+    result = train(load(PPO_BATCHED, tmp_path))
+    config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched"
+    # the evaluations are the PyBullet engine's: fly the final policy there by hand, same seed
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    report = evaluate_run(result.run_dir, {"episodes": 2, "record": True})
+    recorded = sorted((result.run_dir / "episodes").glob("ep_*.mcap"))
+    assert len(recorded) == 2
+    # the recordings re-simulate in the PyBullet engine with no deviation: they were flown there
+    from pyflyt_engine.telemetry.episode import load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    for path in recorded:
+        check = verify(load_episode(path))
+        assert check.steps > 0 and check.max_deviation == 0.0 and check.max_reward_deviation == 0.0
+    assert len(report.episodes) == 2
+
+
+@pytest.mark.parametrize("run", default_subset(["ppo", "sac"], lambda name: name == "ppo"))
+def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory, run):
+    overrides = PPO_BATCHED if run == "ppo" else SAC_BATCHED
+    reference = _reference(overrides, tmp_path_factory)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(700 if run == "ppo" else 333)])
+    assert first.interrupted
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted
+    _assert_same(_outcome(first.run_dir), reference)
