@@ -215,11 +215,16 @@ def speed(
     agents: Optional[str] = typer.Option(None, "--agents", help="swarm sizes of the multi-agent curve, comma-separated "
                                          "(default 1,2,4,8,16,32,64,128; 0 skips it)"),
     json_path: Optional[Path] = typer.Option(None, "--json", help="also write the full results to this JSON file"),
+    backend: str = typer.Option("pybullet", "--backend", help="pybullet (the sections above), or batched: the batched "
+                                "backend's agent-steps/s against the number of envs, beside the PyBullet env"),
+    batch_sizes: Optional[str] = typer.Option(None, "--batch-sizes", help="with --backend batched: env counts, "
+                                              "comma-separated (default 1,16,64,256,1024,4096)"),
 ) -> None:
     from pyflyt_cli.commands.speed import speed_command
 
     typer.echo(speed_command(repeats=repeats, quick=quick, vector=vector, markdown=markdown, envs=env,
-                             vehicles=vehicles, agents=agents, json_path=json_path, progress=lambda message: typer.echo(message, err=True)))
+                             vehicles=vehicles, agents=agents, json_path=json_path, backend=backend,
+                             batch_sizes=batch_sizes, progress=lambda message: typer.echo(message, err=True)))
 
 
 @app.command(

@@ -22,9 +22,17 @@ def speed_command(
     agents: str | None = None,
     json_path: Path | None = None,
     progress: Callable[[str], None] | None = None,
+    backend: str = "pybullet",
+    batch_sizes: str | None = None,
 ) -> str:
     """What ``pyflyt speed`` does: measure, optionally save the JSON, return the printed report."""
-    overrides: dict[str, Any] = {"vector": vector}
+    if backend not in ("pybullet", "batched"):
+        raise UsageError(f"--backend takes pybullet or batched, got {backend!r}")
+    overrides: dict[str, Any] = {"vector": vector, "backend": backend}
+    if batch_sizes is not None:
+        if backend != "batched":
+            raise UsageError("--batch-sizes goes with --backend batched")
+        overrides["batch_sizes"] = parse_counts(batch_sizes, "--batch-sizes")
     if envs:
         overrides["envs"] = tuple(envs)
     if vehicles:
@@ -55,6 +63,8 @@ def parse_counts(text: str, option: str = "--vehicles") -> tuple[int, ...]:
                 f"skip the swarm section; got {text!r}"
             )
         return counts
+    if option == "--batch-sizes" and (not counts or min(counts) < 1):
+        raise UsageError(f"--batch-sizes takes env counts, comma-separated positive integers (e.g. 1,256,4096), got {text!r}")
     if not counts or min(counts) < 1:
         raise UsageError(f"--vehicles takes world sizes, comma-separated positive integers (e.g. 1,8,64), got {text!r}")
     return counts

@@ -52,6 +52,10 @@ class SpeedSettings:
             MAQuadX-Formation at each count, MAFixedwing-Dogfight 2 v 2 once); () skips it.
         swarm_agent_steps: agent-steps timed per swarm case (at least ``swarm_min_steps``
             env steps), so every count takes about the same time.
+        backend: ``pybullet`` (every section above), or ``batched``: the batched backend's
+            agent-steps/s at each of ``batch_sizes`` envs, beside the PyBullet env of the
+            same id (only the envs the batched backend runs; default QuadX-Hover and
+            QuadX-Waypoints), ``batched_agent_steps`` agent-steps timed per case.
     """
 
     repeats: int = 5
@@ -68,6 +72,9 @@ class SpeedSettings:
     swarm: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128)
     swarm_agent_steps: int = 4000
     swarm_min_steps: int = 30
+    backend: str = "pybullet"
+    batch_sizes: tuple[int, ...] = (1, 16, 64, 256, 1024, 4096)
+    batched_agent_steps: int = 200_000
 
     def swarm_steps(self, agents: int) -> int:
         """Env steps timed for a swarm of ``agents``."""
@@ -87,6 +94,7 @@ class SpeedSettings:
             "parallel_seconds": 0.02,
             "swarm_agent_steps": 8,
             "swarm_min_steps": 2,
+            "batched_agent_steps": 2000,
         }
         values.update(overrides)
         return cls(**values)
@@ -117,6 +125,10 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
     import pyflyt_engine  # noqa: F401  (registers the ids)
     from pyflyt_engine.envs import ENVS
 
+    if settings.backend not in ("pybullet", "batched"):
+        raise SpeedError(f"unknown backend '{settings.backend}': pybullet or batched")
+    if settings.backend == "batched":
+        return _batched_cases(settings)
     env_ids = list(settings.envs) if settings.envs else list(ENVS)
     unknown = [e for e in env_ids if e not in ENVS]
     if unknown:
@@ -158,6 +170,36 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
                                  "steps": settings.vector_steps, "warmup": max(5, settings.vector_steps // 10),
                                  "stand_in": stand_in}  # fmt: skip
                         cases.append(Case("vector", (env_id, backend, stand_in, workers), probe))
+    return cases
+
+
+#: what `--backend batched` measures by default
+BATCHED_IDS = ("PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Waypoints-v0")
+
+
+def _batched_cases(settings: SpeedSettings) -> list[Case]:
+    """The PyBullet env of each id, then the batched backend at every size (``--backend batched``)."""
+    from pyflyt_engine.batched import UnsupportedByBatched, check_supported
+    from pyflyt_engine.envs import ENVS
+    from pyflyt_engine.envs.config import load_env_config
+
+    env_ids = list(settings.envs) if settings.envs else list(BATCHED_IDS)
+    for env_id in env_ids:
+        if env_id not in ENVS:
+            raise SpeedError(f"unknown env id {env_id}; registered: {', '.join(ENVS)}")
+        try:
+            check_supported(load_env_config(ENVS[env_id].config))
+        except UnsupportedByBatched as exc:
+            raise SpeedError(f"{env_id}: {exc}") from None
+    bad = [n for n in settings.batch_sizes if n < 1]
+    if bad or not settings.batch_sizes:
+        raise SpeedError(f"batch sizes must be positive integers, got {', '.join(map(str, settings.batch_sizes))}")
+    env_case = {"steps": settings.env_steps, "resets": settings.resets, "warmup": settings.warmup}
+    cases = [Case("envs", env_id, {"probe": "env", "env_id": env_id, **env_case}) for env_id in env_ids]
+    for env_id in env_ids:
+        for n in settings.batch_sizes:
+            probe = {"probe": "batched", "env_id": env_id, "n": n, "agent_steps": settings.batched_agent_steps}
+            cases.append(Case("batched", (env_id, n), probe))
     return cases
 
 
@@ -253,6 +295,13 @@ def run_speed(
         return median(results[(section, key)])
 
     env_ids = [case.key for case in cases if case.section == "envs"]
+    if settings.backend == "batched":
+        return {
+            "machine": machine,
+            "settings": settings.as_dict(),
+            "envs": [med("envs", env_id) for env_id in env_ids],
+            "batched": [med("batched", case.key) for case in cases if case.section == "batched"],
+        }
     report: dict[str, Any] = {
         "machine": machine,
         "settings": settings.as_dict(),

@@ -27,6 +27,12 @@ functions too, for tests and ``experiments/``.
   no episode ends).
 * **parallel** -- ``processes`` processes of pure CPU work started together: the
   machine's own 1 -> 2 process scaling, next to which the vector figures are read.
+* **batched** -- ``n`` copies of an env on the batched backend
+  (:class:`pyflyt_engine.batched.BatchedUAVEnv`, motor noise on, autoreset), stepped with
+  random actions drawn beforehand: agent-steps per second (wall and CPU); the time to
+  build a first env and step it once (which loads, or the first time compiles, the laws)
+  apart; memory per env (the peak resident set beyond the process's after that first env,
+  over ``n``: the arrays, the actions drawn, the step's temporaries).
 """
 
 from __future__ import annotations
@@ -363,8 +369,48 @@ def _cpu_seconds(pids: list[int]) -> float:
     return total
 
 
+def measure_batched(env_id: str, n: int, agent_steps: int = 200_000, warmup: int = 20) -> dict:
+    """Agent-steps per second and memory per env of ``n`` copies of ``env_id`` on the batched backend."""
+    import numpy as np
+
+    from pyflyt_engine.batched import BatchedUAVEnv
+    from pyflyt_engine.envs import ENVS
+
+    started = time.perf_counter()
+    probe = BatchedUAVEnv(ENVS[env_id].config, num_envs=1, seed=0)  # loads (or compiles) the laws
+    probe.reset(seed=0)
+    probe.step(probe.action_space.sample())
+    first = time.perf_counter() - started
+    before = protocols.rss_mb()
+    env = BatchedUAVEnv(ENVS[env_id].config, num_envs=n, seed=0)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    low, high = env.single_action_space.low, env.single_action_space.high
+    steps = max(warmup + 5, -(-agent_steps // n))
+    actions = rng.uniform(low, high, (min(steps, 256), n, low.size))
+    env.step(actions[0])
+    for k in range(warmup):
+        env.step(actions[k % len(actions)])
+    timed = steps - warmup
+    wall, cpu = time.perf_counter(), time.process_time()
+    for k in range(timed):
+        env.step(actions[k % len(actions)])
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    env.close()
+    return {
+        "id": env_id,
+        "n": n,
+        "agent_steps": n * timed,
+        "steps_per_s": n * timed / wall,
+        "cpu_per_agent_step_s": cpu / (n * timed),
+        "first_step_s": first,
+        "memory_per_env_kb": max(peak_rss_mb() - before, 0.0) * 1024 / n,
+    }
+
+
 PROBES = {
     "env": measure_env,
+    "batched": measure_batched,
     "world": measure_world,
     "floor": measure_floor,
     "swarm": measure_swarm,

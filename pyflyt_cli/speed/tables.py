@@ -106,6 +106,25 @@ def swarm_table(rows: list[dict], markdown: bool, reference: dict | None = None)
     return table(header, body, markdown)
 
 
+def batched_table(report: dict, markdown: bool) -> list[str]:
+    """``--backend batched``: agent-steps/s against N, beside the PyBullet env of the same id."""
+    pybullet = {row["id"]: row for row in report["envs"]}
+    heading = "batched backend: N envs stepped by one call (motor noise on), beside the PyBullet env (one env per call)"
+    out = [f"**{heading}**", ""] if markdown else [heading]
+    rows = []
+    for row in report["batched"]:
+        env = pybullet.get(row["id"])
+        base = env["steps_per_s"] if env else None
+        rows.append([row["id"], str(row["n"]), number(row["steps_per_s"]), number(row["cpu_per_agent_step_s"] * 1e6, 2),
+                     ratio(row["steps_per_s"] / base) if base else "-", number(row["memory_per_env_kb"], 1),
+                     number(row["first_step_s"], 2)])  # fmt: skip
+    for env_id, env in pybullet.items():
+        rows.append([env_id, "PyBullet env", number(env["steps_per_s"]), "-", "1x", "-", "-"])
+    out += table(["env", "N", "agent-steps/s", "CPU us / agent-step", "vs PyBullet env", "KiB per env",
+                  "first step s"], rows, markdown)  # fmt: skip
+    return out
+
+
 def format_report(report: dict, markdown: bool = False) -> str:
     """The report as plain-text tables, or as Markdown (for docs/performance.md)."""
     settings = report["settings"]
@@ -118,6 +137,9 @@ def format_report(report: dict, markdown: bool = False) -> str:
 
     def title(section: str) -> None:
         out.extend([f"**{heading[section]}**", ""] if markdown else [heading[section]])
+
+    if "batched" in report:
+        return "\n".join(out + batched_table(report, markdown)) + "\n"
 
     title("envs")
     rows = [[row["id"], number(row["steps_per_s"]), number(row["rtf"], 1), number(row["reset_s"] * 1e3, 2),
