@@ -582,6 +582,8 @@ class TrainConfig(_Strict):
                 "algo=ccge needs init_from=<a SAC run, policy file or <run dir>@<step>>: that policy's actor is "
                 "CCGE's oracle; without one the oracle would be the random initial actor (docs/algorithms.md)"
             )
+        if getattr(self.env, "backend", "pybullet") == "batched":
+            _check_batched(self.env, opts)
         if opts.curriculum:
             _check_curriculum(self.env, opts.curriculum)
         if opts.imitation is not None:
@@ -629,6 +631,28 @@ def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> 
     flies = ORACLES[imitation.oracle].env_ids
     if env.id not in flies:
         raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")
+
+
+def _check_batched(env: EnvConfig, opts: TrainOptions) -> None:
+    """``env.backend: batched`` simulates this env (else the backend's refusal, by name) and
+    the run asks nothing of it that it lacks."""
+    from pyflyt_engine.batched import check_supported
+    from pyflyt_engine.errors import PyFlytError
+
+    try:
+        check_supported(env)
+    except PyFlytError as exc:
+        raise ValueError(str(exc)) from None
+    if opts.curriculum:
+        raise ValueError(
+            "train.curriculum needs env.backend=pybullet: the batched backend's episodes take no task options "
+            "(set train.curriculum=null or env.backend=pybullet)"
+        )
+    if opts.imitation is not None:
+        raise ValueError(
+            "train.imitation flies its oracle in the env one episode at a time: set env.backend=pybullet "
+            "(or train.imitation.oracle=null)"
+        )
 
 
 def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]) -> None:

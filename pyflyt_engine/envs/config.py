@@ -284,8 +284,8 @@ class EnvConfig(_Config):
     backend: Literal["pybullet", "batched"] = Field(
         "pybullet",
         description="what simulates training: pybullet (every config; one env per call) or batched (N multirotors "
-        "as arrays, one compiled call per step; refuses by name what it does not simulate, docs/batched.md); "
-        "evaluation, recordings and pyflyt eval always fly the PyBullet engine",
+        "as arrays, one compiled call per step; a training run and the batched env refuse by name what it does "
+        "not simulate, docs/batched.md); evaluation, recordings and pyflyt eval always fly the PyBullet engine",
     )
     wind: Union[str, dict[str, Any]] = Field(
         "calm",
@@ -392,17 +392,6 @@ class EnvConfig(_Config):
 
         load_wind_config(wind)  # a bad preset, key or value fails here, at load
         return wind
-
-    @model_validator(mode="after")
-    def _backend(self) -> EnvConfig:
-        if self.backend == "batched":
-            from pyflyt_engine.batched.env import check_supported
-
-            try:
-                check_supported(self)
-            except ConfigError as exc:
-                raise ValueError(str(exc)) from None
-        return self
 
     @model_validator(mode="after")
     def _payloads(self) -> EnvConfig:

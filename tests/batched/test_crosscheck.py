@@ -183,7 +183,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("quadx_hover", {"ground_effect": True}, "ground_effect"),
         ("quadx_hover", {"randomize": "moderate"}, "randomize"),
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
-        ("quadx_obstacles", {}, "obstacles"),
+        ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
         ("fixedwing_waypoints", {}, "fixedwing airframe"),
         ("rocket_landing", {}, "task"),
@@ -191,14 +191,22 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("quadx_waypoints_velocity", {}, "flight mode"),
     ],
 )
-def test_what_it_cannot_simulate_is_refused_at_load_by_name(env_name, overrides, named):
+def test_what_it_cannot_simulate_is_refused_by_name(env_name, overrides, named):
+    """By the batched env when it is built, and by a training run's configuration at load."""
+    cfg = load_env_config(env_name).with_overrides(backend="batched", **overrides)
     with pytest.raises(ConfigError) as info:
-        load_env_config(env_name).with_overrides(backend="batched", **overrides)
+        BatchedUAVEnv(cfg, num_envs=2)
     message = str(info.value)
     assert "env.backend=batched does not simulate" in message and named in message, message
+    if env_name == "quadx_hover":
+        from tests.train.conftest import load
+
+        with pytest.raises(ConfigError) as info:
+            load([f"env={env_name}", "env.backend=batched", *(f"env.{k}={v}" for k, v in overrides.items())], ".")
+        assert "env.backend=batched does not simulate" in str(info.value) and named in str(info.value)
 
 
-def test_the_shipped_batched_tasks_load():
+def test_the_shipped_batched_tasks_are_supported():
     for env_name in ("quadx_hover", "quadx_waypoints"):
         cfg = load_env_config(env_name).with_overrides(backend="batched")
         check_supported(cfg)

@@ -7,7 +7,7 @@ do not count), so nothing is imported to check it.
 The layers, lowest first (``LAYERS``): the foundations (errors, exact arithmetic,
 frames, the allocation matrix ...), the airframe spec, the models built from a spec
 (URDF, actuator components, payloads, obstacles), the atmosphere, the controller and the assembly,
-the vehicle, the world, the environments and the flight API, telemetry, and the
+the vehicle, the world, the environments and the flight API, the batched backend, telemetry, and the
 compatibility layer for the reference's API.  A module
 may import anything in its own layer or a lower one, never a higher one; within a layer
 the circle check keeps the direction one way.  So the spec never imports a
@@ -33,6 +33,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"vehicle"}),
     frozenset({"world"}),
     frozenset({"envs", "flight"}),
+    frozenset({"batched"}),  # the batched backend: the envs' configs, tasks and reward terms, compiled
     frozenset({"telemetry"}),
     frozenset({"compat"}),  # the reference's API, built on everything below
 )
