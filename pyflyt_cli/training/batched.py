@@ -7,7 +7,8 @@ what the PyBullet backend's training envs show it
 [-1, 1] rescaled to the env's units by Gymnasium's own rescaling, and ``Monitor``'s episode
 statistics (``info["episode"]`` with ``r``, ``l``, ``t`` and ``success``) plus
 ``terminal_observation`` and ``TimeLimit.truncated`` at an episode's end.  So PPO, SAC,
-``VecNormalize``, the callbacks and checkpoints work on it unchanged.
+``VecNormalize``, the callbacks (a training curriculum's ``set_task_changes`` included)
+and checkpoints work on it unchanged.
 
 Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched state of
 that env (its arrays' rows and its random streams; env 0 also the batch's motor-noise
@@ -33,7 +34,7 @@ from pyflyt_engine.envs.config import EnvConfig
 _STATE_ARRAYS = (
     "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
-    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion",
+    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach",
 )
 
 
@@ -109,10 +110,12 @@ class BatchedVecEnv(VecEnv):
             return [self.episode_state(i) for i in self._indices(indices)]
         if method_name == "restore_episode":
             return [self.restore_episode(i, *method_args, **method_kwargs) for i in self._indices(indices)]
-        raise AttributeError(
-            f"the batched backend does not support '{method_name}' on its envs (a training curriculum, for one, "
-            "needs env.backend=pybullet)"
-        )
+        if method_name == "set_task_changes":  # a training curriculum: every env at once
+            if indices is not None and list(self._indices(indices)) != list(range(self.num_envs)):
+                raise AttributeError("the batched envs take task changes all together")
+            self.env.set_task_changes(*method_args, **method_kwargs)
+            return [None] * self.num_envs
+        raise AttributeError(f"the batched backend does not support '{method_name}' on its envs")
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         # the statistics Monitor would add are added here (SB3 asks so as not to warn)

@@ -39,7 +39,6 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.envs.config import EnvConfig
-from pyflyt_engine.errors import ConfigError
 
 
 def _float32(space: spaces.Box) -> spaces.Box:
@@ -272,11 +271,7 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
     if getattr(config, "backend", "pybullet") == "batched":  # n_envs copies as arrays, in this process
         from pyflyt_cli.training.batched import BatchedVecEnv
 
-        if curriculum:
-            raise ConfigError(
-                "train.curriculum needs env.backend=pybullet: the batched backend's episodes take no task options"
-            )
-        return BatchedVecEnv(config, n_envs)
+        return BatchedVecEnv(config, n_envs)  # a curriculum's task changes go to every env at once
     if getattr(config, "multi_agent", False):
         # one shared policy: a slot per agent; the envs run in this process unless asked for
         # subprocesses (kind="subproc"): an env of N agents already fills N slots

@@ -643,11 +643,6 @@ def _check_batched(env: EnvConfig, opts: TrainOptions) -> None:
         check_supported(env)
     except PyFlytError as exc:
         raise ValueError(str(exc)) from None
-    if opts.curriculum:
-        raise ValueError(
-            "train.curriculum needs env.backend=pybullet: the batched backend's episodes take no task options "
-            "(set train.curriculum=null or env.backend=pybullet)"
-        )
     if opts.imitation is not None:
         raise ValueError(
             "train.imitation flies its oracle in the env one episode at a time: set env.backend=pybullet "

@@ -183,7 +183,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         k = int(getattr(cfg.task, "num_targets", 0))
         self.targets = np.zeros((n, k, 3))
         self.num_reached = np.zeros(n, dtype=np.int64)
-        self._reach = float(getattr(cfg.task, "goal_reach_distance", 0.0))
+        #: per env, the reach distance of its episode (a training curriculum may change it per episode)
+        self.reach = np.full(n, float(getattr(cfg.task, "goal_reach_distance", 0.0)))
+        #: task option values the episodes that start from now on take (set_task_changes); {}: as configured
+        self.task_changes: dict[str, Any] = {}
+        self._episode_task = self.task
         self._last_distance = np.zeros(n)
         self._last_position = np.zeros((n, 3))
         self.episode_return = np.zeros(n)
@@ -219,8 +223,32 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._reset_envs(np.arange(self.num_envs))
         return self._observe(), {}
 
+    def set_task_changes(self, changes: dict[str, Any]) -> None:
+        """The task option values of the episodes that start from now on ({}: as configured),
+        as :class:`pyflyt_cli.training.envs.EpisodeTaskOptions` gives them to a PyBullet env:
+        only the options the task lets an episode change (a training curriculum's)."""
+        allowed = self.task.episode_options
+        unknown = sorted(set(changes) - set(allowed))
+        if unknown:
+            raise ConfigError(
+                f"task option(s) {', '.join(unknown)} cannot change per episode; these can: {', '.join(sorted(allowed))}"
+            )
+        self.task_changes = dict(changes)
+        if changes:
+            options = self.config.task.model_copy(update=changes)
+            self._episode_task = get_task(options.name)(
+                type(self.config.task).model_validate(options.model_dump()),
+                flight_dome_size=self.config.flight_dome_size,
+                agent_hz=self.config.agent_hz,
+            )
+        else:
+            self._episode_task = self.task
+
     def _reset_envs(self, index: np.ndarray) -> None:
-        task = self.task
+        task = self._episode_task
+        o = task.options
+        if self._waypoints:
+            self.reach[index] = float(o.goal_reach_distance)
         for i in index.tolist():
             rng = self.env_rngs[i]
             spawn = task.spawn(rng)
@@ -233,7 +261,6 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.vel[i] = rot @ np.asarray(spawn.lin_vel, dtype=np.float64)
             self.angvel[i] = rot @ np.asarray(spawn.ang_vel, dtype=np.float64)
             if self._waypoints:
-                o = self.config.task
                 self.targets[i] = sample_waypoints(
                     rng, o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
                     o.min_target_height,
@@ -335,7 +362,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             target = self.targets[index, nxt]
             distance = self._target_distance(index, p)
             rate = (distance - self._last_distance) / self.agent_dt
-            reached = (_segment_distance(self._last_position, p, target) < self._reach) & ~all_done
+            reached = (_segment_distance(self._last_position, p, target) < self.reach) & ~all_done
             self.num_reached += reached
             complete = reached & (self.num_reached >= k)
             moved_on = reached & ~complete

@@ -39,8 +39,7 @@ PPO_BATCHED = [
 SAC_BATCHED = [
     "env=quadx_waypoints",
     "algo=sac",
-    "env.backend=batched",
-    "train.curriculum=null",
+    "env.backend=batched",  # with the waypoint SAC tuning's curriculum
     "train.n_envs=4",
     "train.total_timesteps=800",
     "algo.buffer_size=5000",
@@ -82,10 +81,24 @@ def test_the_adapter_shows_the_agent_what_the_pybullet_training_env_shows(env_na
     single.close()
 
 
-def test_a_curriculum_is_refused_with_the_batched_backend():
+def test_a_curriculum_changes_the_episodes_that_start_after_it():
+    """``set_task_changes`` (a training curriculum's) reaches every env's next episode; an
+    option the task does not let an episode change is refused by name."""
     cfg = load_env_config("quadx_waypoints").with_overrides(backend="batched")
-    with pytest.raises(ConfigError, match="curriculum needs env.backend=pybullet"):
-        make_vec_env(cfg, 2, curriculum=True)
+    vec = make_vec_env(cfg, 4, curriculum=True)
+    vec.seed(0)
+    vec.reset()
+    assert vec.env.reach.tolist() == [0.2] * 4
+    vec.env_method("set_task_changes", {"goal_reach_distance": 1.0, "start_position_noise": 0.0})
+    assert vec.env.reach.tolist() == [0.2] * 4  # episodes in progress keep theirs
+    for _ in range(300):
+        _, _, dones, _ = vec.step(np.full((4, 4), -1.0))  # motors off: every episode ends
+        if dones.all():
+            break
+    assert vec.env.reach.tolist() == [1.0] * 4
+    assert np.allclose(vec.env.pos[:, :2], 0.0) and np.allclose(vec.env.pos[:, 2], 1.0)  # no spawn noise
+    with pytest.raises(ConfigError, match="cannot change per episode"):
+        vec.env_method("set_task_changes", {"num_targets": 2})
 
 
 def test_same_seed_same_numbers_in_another_process():
