@@ -97,12 +97,16 @@ class HoverProbe(BaseCallback):
         self.every, self.episodes = every, episodes
         self.next = every
         self.started = time.perf_counter()
+        self.cpu_started = time.process_time()
         self.probe_time = 0.0
+        self.probe_cpu = 0.0
         self.history: list[tuple[int, float, dict[str, float]]] = []
-        self.hover_at: tuple[int, float, float] | None = None
+        #: (steps, wall-clock, wall-clock without the probes, CPU time of this process without the probes)
+        self.hover_at: tuple[int, float, float, float] | None = None
 
     def _on_training_start(self) -> None:
         self.started = time.perf_counter()
+        self.cpu_started = time.process_time()
 
     def _on_step(self) -> bool:
         if self.num_timesteps >= self.next:
@@ -117,9 +121,10 @@ class HoverProbe(BaseCallback):
             self.probe()  # the final policy
 
     def probe(self) -> None:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         probe = self.probe_fn(self.model, self.env, self.episodes, seed=10_000)
         self.probe_time += time.perf_counter() - t0
+        self.probe_cpu += time.process_time() - c0
         wall = time.perf_counter() - self.started
         self.history.append((self.num_timesteps, wall, probe))
         print(
@@ -129,7 +134,8 @@ class HoverProbe(BaseCallback):
             flush=True,
         )
         if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < self.max_distance:
-            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
+            cpu = time.process_time() - self.cpu_started - self.probe_cpu
+            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time, cpu)
 
 
 def run(
@@ -287,15 +293,16 @@ def main() -> None:
             f"probe every {args.probe_every} steps x {args.episodes} episodes, hovering below {args.max_distance} m\n"
         ),
         f"Shipped default budget (`pyflyt train`): {cfg.train.total_timesteps} steps.\n",
-        "| seed | hovers at [steps] | wall-clock then [s] | without probes [s] | final: survived | final: mean / worst distance [m] | training steps/s | run wall-clock [s] |",
-        "|---|---|---|---|---|---|---|---|",
+        "| seed | hovers at [steps] | wall-clock then [s] | without probes [s] | CPU time then, without probes [s] | final: survived | final: mean / worst distance [m] | training steps/s | run wall-clock [s] |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         h = r["hover_at"]
         f = r["final"]
         lines.append(
             f"| {r['seed']} | {h[0] if h else 'not within budget'} | {f'{h[1]:.0f}' if h else '-'} | "
-            f"{f'{h[2]:.0f}' if h else '-'} | {100 * f.get('survived', 0):.0f} % | "
+            f"{f'{h[2]:.0f}' if h else '-'} | {f'{h[3]:.1f}' if h and len(h) > 3 else '-'} | "
+            f"{100 * f.get('survived', 0):.0f} % | "
             f"{f.get('mean_distance', float('nan')):.3f} / {f.get('worst_distance', float('nan')):.3f} | "
             f"{r['steps_per_second']:.0f} | {r['wall']:.0f} |"
         )

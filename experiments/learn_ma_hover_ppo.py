@@ -146,7 +146,7 @@ def hover_cost(row: dict) -> tuple[float, float, bool]:
     """Steps and training wall-clock (probes excluded) until the run hovered, or its whole run if it
     never did (the last flag)."""
     if row["hover_at"] is not None:
-        steps, _, wall = row["hover_at"]
+        steps, _, wall = row["hover_at"][:3]
         return float(steps), float(wall), True
     return float(row["steps"]), float(row["steps"] / row["steps_per_second"]), False
 

@@ -125,6 +125,9 @@ class Costs:
 
     collect: float
     update: float
+    #: seconds per evaluation step when evaluations fly another engine than training does
+    #: (``env.backend: batched``: they fly PyBullet); None: a collected step's
+    evaluate: float | None = None
 
 
 def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
@@ -142,7 +145,7 @@ def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
 
         # an evaluation step moves every agent of the env: as many collected (agent-)steps
         evals = total // cfg.train.eval_freq - done // cfg.train.eval_freq
-        per_step = agents_per_env(cfg.env) * costs.collect
+        per_step = agents_per_env(cfg.env) * (costs.collect if costs.evaluate is None else costs.evaluate)
         seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * per_step
     return seconds
 
@@ -195,7 +198,8 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     (each env fills a slot per agent, as in training).
 
     The copy runs the run's envs when they live in this process (``train.vec_env`` dummy,
-    one env, or a multi-agent env under ``auto``): a batch of envs shares one policy forward
+    one env, a multi-agent env under ``auto``, or the batched backend, whose evaluations'
+    PyBullet steps are timed apart): a batch of envs shares one policy forward
     pass per step, so one env alone would overstate the cost of a step.  Subprocess envs are
     measured on one env in this process instead (on-policy: with the run's rollout size,
     ``n_steps x n_envs`` steps).  The copy learns with ``learning_starts`` 0 (off-policy)
@@ -228,7 +232,8 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     data["train"] = {**data["train"], "n_envs": n_envs}
     probe_cfg = parse_train_config(data)
     with _streams_kept():
-        if multi_agent:  # a slot per agent: costs per agent-step
+        batched = getattr(probe_cfg.env, "backend", "pybullet") == "batched"
+        if multi_agent or batched:  # a slot per agent (costs per agent-step); the batched envs as trained
             from pyflyt_cli.training.envs import make_vec_env
 
             vec: Any = make_vec_env(probe_cfg.env, n_envs, "dummy")
@@ -245,10 +250,29 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
             model.learn(budget, callback=[phases, stop], progress_bar=False)
         finally:
             vec.close()
+        evaluate = _evaluation_step(probe_cfg) if batched else None
     split = phases.split()
     if phases.collected <= 0 or split["update"] <= 0:
         return None
-    return Costs(split["collect"] / phases.collected, split["update"] / phases.collected)
+    return Costs(split["collect"] / phases.collected, split["update"] / phases.collected, evaluate)
+
+
+def _evaluation_step(cfg: Any, steps: int = 60) -> float:
+    """Seconds per step of the PyBullet env the evaluations fly (random actions, resets inside)."""
+    from pyflyt_cli.training.envs import EnvFactory
+
+    env = EnvFactory(cfg.env, monitor=False)()
+    try:
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        started = time.perf_counter()
+        for _ in range(steps):
+            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            if terminated or truncated:
+                env.reset()
+        return (time.perf_counter() - started) / steps
+    finally:
+        env.close()
 
 
 class ProgressLines(BaseCallback):
