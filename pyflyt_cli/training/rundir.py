@@ -4,7 +4,7 @@
 
     runs/<env>/<algo>/<YYYYmmdd-HHMMSS>-seed<k>[-<n>]/
         config.yaml          resolved, validated configuration (reload with load_run_config)
-        run.yaml             seed, config digest, command line, start time, host, package versions, resumes
+        run.yaml             seed, backend, config digest, command line, start time, host, package versions, resumes
         state.json           progress: status, steps, last checkpoint, best evaluation
         run.lock             the id of the process training it, while it trains
         metrics.mcap         /train/episode, /eval, /train/progress (metrics-<n>.mcap after a resume)
@@ -187,6 +187,8 @@ def run_record(cfg: TrainConfig, command: list[str] | None, overrides: list[str]
         "env": cfg.env_name,
         "env_id": cfg.env.id,
         "algo": cfg.algo.name,
+        # what simulated the training steps (evaluations always fly the PyBullet engine)
+        "backend": getattr(cfg.env, "backend", "pybullet"),
         "experiment": cfg.experiment,
         "init_from": cfg.init_from,
         "config_digest": config_digest(cfg),

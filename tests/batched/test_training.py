@@ -133,6 +133,7 @@ def test_a_run_records_its_backend_and_evaluates_in_the_pybullet_engine(tmp_path
     result = train(load(PPO_BATCHED, tmp_path))
     config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
     assert config["env"]["backend"] == "batched"
+    assert yaml.safe_load((result.run_dir / "run.yaml").read_text())["backend"] == "batched"
     # the evaluations are the PyBullet engine's: fly the final policy there by hand, same seed
     from pyflyt_cli.training.evaluate import evaluate_run
 
