@@ -257,6 +257,9 @@ class Vehicle:
         self._clock = 0  # physics steps since the last reset (counted with latency only)
         self._pending: deque[tuple[int, np.ndarray]] = deque()  # setpoints in flight: (due step, value)
         self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=1)
+        #: the flight controller runs on one control tick in this many (:meth:`set_control_hold`)
+        self.control_hold = 1
+        self._control_ticks = 0  # control ticks since the last reset (counted with a hold only)
         self._choose_stages()
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
@@ -395,6 +398,15 @@ class Vehicle:
         self._history = deque(maxlen=max(latency[1], 1))
         self._choose_stages()
 
+    def set_control_hold(self, hold: int) -> None:
+        """Run the flight controller on one control tick of the world in ``hold``, counted
+        from the last reset, and keep its commands in between (a vehicle whose controller
+        is slower than the world's control rate; 1: every tick)."""
+        if int(hold) != hold or hold < 1:
+            raise ConfigError(f"a control hold is a whole number of control ticks >= 1, got {hold}")
+        self.control_hold = int(hold)
+        self._control_ticks = 0
+
     # --------------------------------------------------------------- stages
 
     def _choose_stages(self) -> None:
@@ -530,6 +542,11 @@ class Vehicle:
         """Run the flight controller once (at the control rate) and route its outputs to the groups."""
         for stage in self._before_control:
             stage()
+        if self.control_hold != 1:  # a slower controller: its commands stand between its ticks
+            tick = self._control_ticks
+            self._control_ticks = tick + 1
+            if tick % self.control_hold:
+                return
         parts = self.parts
         throttles: Sequence[float] | None = None
         if not self.armed:
@@ -718,6 +735,7 @@ class Vehicle:
         self._pending.clear()  # latency: nothing in flight, time 0
         self._history.clear()
         self._clock = 0
+        self._control_ticks = 0
         self.channels = self._idle_channels.copy()
         for group in self.groups:
             group.reset()
