@@ -230,6 +230,8 @@ class Vehicle:
         self.actuators = Actuators(built)
         #: the groups, in kind order: routed, reset and read out in this order
         self.groups: tuple[ActuatorGroup, ...] = tuple(built.values())
+        self._routes = tuple(group.route for group in self.groups if group.commanded)
+        self._auxes = tuple(group.aux for group in self.groups)
         #: the steps of the groups the physics step runs, in step order (their wrenches summed in it)
         self._steps = tuple(group.step for _, group in stepped)
         #: whether the loads depend on the air's velocity: the world then reads the
@@ -406,6 +408,7 @@ class Vehicle:
             raise ConfigError(f"a control hold is a whole number of control ticks >= 1, got {hold}")
         self.control_hold = int(hold)
         self._control_ticks = 0
+        self._choose_stages()
 
     # --------------------------------------------------------------- stages
 
@@ -423,6 +426,7 @@ class Vehicle:
         )
         #: run at the end of every physics step, after the loads are applied
         self._after_loads: tuple[Callable[[], None], ...] = (self._count_step,) if latent else ()
+        self._control_gated = latent or self.control_hold != 1
 
     @property
     def stages(self) -> dict[str, tuple[str, ...]]:
@@ -540,13 +544,14 @@ class Vehicle:
 
     def control_step(self) -> None:
         """Run the flight controller once (at the control rate) and route its outputs to the groups."""
-        for stage in self._before_control:
-            stage()
-        if self.control_hold != 1:  # a slower controller: its commands stand between its ticks
-            tick = self._control_ticks
-            self._control_ticks = tick + 1
-            if tick % self.control_hold:
-                return
+        if self._control_gated:  # latency's stage, or a control hold
+            for stage in self._before_control:
+                stage()
+            if self.control_hold != 1:  # a slower controller: its commands stand between its ticks
+                tick = self._control_ticks
+                self._control_ticks = tick + 1
+                if tick % self.control_hold:
+                    return
         parts = self.parts
         throttles: Sequence[float] | None = None
         if not self.armed:
@@ -573,8 +578,8 @@ class Vehicle:
         """Hand the channel vector and the mixer's outputs (None: none this tick) to every
         group, which routes them to its commands (:mod:`pyflyt_engine.components.routing`)."""
         c = self.channels.tolist() if self._n_channels else []
-        for group in self.groups:
-            group.route(c, outputs)
+        for route in self._routes:  # the groups that take commands, in kind order
+            route(c, outputs)
 
     def apply_loads(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
         """One physics step: the stages before the loads, every stepped group in step order
@@ -586,21 +591,30 @@ class Vehicle:
                 surfaces; see :mod:`pyflyt_engine.atmosphere.air`).
             thrust_ratio: per motor, the air's factor on its thrust (ground effect); None: 1.
         """
-        for stage in self._before_loads:
-            stage()
-        # Summed in step order (motors, surfaces, boosters, drag); the first wrench is
-        # taken as it is (not added to zeros, which would turn a -0.0 into 0.0).
+        if self._before_loads:
+            for stage in self._before_loads:
+                stage()
+        # Summed in step order (motors, surfaces, boosters, drag), as _summed does (written
+        # out: this runs at the physics rate); the first wrench is taken as it is (not
+        # added to zeros, which would turn a -0.0 into 0.0).
         load = None
         for step in self._steps:
             wrench = step(air, thrust_ratio)
-            if wrench is not None:
-                load = wrench if load is None else _summed(load, wrench)
+            if wrench is None:
+                continue
+            if load is None:
+                load = wrench
+            else:
+                fx, fy, fz, tx, ty, tz = load
+                gx, gy, gz, hx, hy, hz = wrench
+                load = fx + gx, fy + gy, fz + gz, tx + hx, ty + hy, tz + hz
         fx, fy, fz, tx, ty, tz = load if load is not None else _NO_LOAD
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
-        for stage in self._after_loads:
-            stage()
+        if self._after_loads:
+            for stage in self._after_loads:
+                stage()
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
@@ -788,8 +802,8 @@ class Vehicle:
     def aux_values(self) -> list[float]:
         """:attr:`aux_state` as a list of floats: every group's read-outs, in kind order."""
         values: list[float] = []
-        for group in self.groups:
-            values += group.aux()
+        for aux in self._auxes:
+            values += aux()
         return values
 
     @property

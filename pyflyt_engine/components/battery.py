@@ -176,6 +176,7 @@ class BatteryGauge:
     step and reset it with theirs); the gauge commands, steps and resets nothing."""
 
     needs_air = False
+    commanded = False
 
     def __init__(self, battery: Battery) -> None:
         self.battery = battery

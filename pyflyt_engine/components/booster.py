@@ -323,6 +323,7 @@ class Boosters:
 
     #: the thrust does not depend on the air
     needs_air = False
+    commanded = True
 
     def __init__(
         self,

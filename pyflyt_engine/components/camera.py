@@ -335,6 +335,7 @@ class Cameras:
     """
 
     needs_air = False
+    commanded = False
 
     def __init__(self, params: Sequence[CameraParams]) -> None:
         self.params = tuple(params)

@@ -50,6 +50,7 @@ class BodyDrag:
     """A vehicle's body drag as a load group: no state, a wrench from the air-relative velocity."""
 
     needs_air = True
+    commanded = False
 
     def __init__(self, params: DragParams) -> None:
         self.set_params(params)

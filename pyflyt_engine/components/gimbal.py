@@ -231,6 +231,7 @@ class Gimbals:
     """
 
     needs_air = False
+    commanded = True
 
     def __init__(
         self,

@@ -25,7 +25,8 @@ Every group has the interface :class:`ActuatorGroup`:
 * ``reset()``: back to a fresh spawn; ``reseed()``: the vehicle's noise generator was
   replaced; ``aux()``: the read-outs appended to the auxiliary state;
 * ``needs_air``: whether ``step`` reads ``air`` (the world then reads the body's motion at
-  every physics step, not only at control ticks).
+  every physics step, not only at control ticks); ``commanded``: whether ``route`` sets
+  anything (the vehicle routes only the groups that take commands).
 
 The pure per-model law functions stay in their modules beside their groups; this module
 adds no physics.
@@ -51,6 +52,7 @@ class ActuatorGroup(Protocol):
     """What a vehicle asks of every component group (the module docstring)."""
 
     needs_air: bool
+    commanded: bool
 
     def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None: ...
 

@@ -512,6 +512,7 @@ class Surfaces:
 
     #: the loads depend on the air-relative velocity
     needs_air = True
+    commanded = True
 
     def __init__(
         self, params: Sequence[LiftingSurfaceParams], physics_dt: float, mix: Sequence[MixRow] | None = None

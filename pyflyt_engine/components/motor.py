@@ -170,6 +170,8 @@ class Motors:
 
     #: the static thrust model does not read the air (:class:`~pyflyt_engine.components.kinds.ActuatorGroup`)
     needs_air = False
+    #: its throttles follow the channels and the mixer
+    commanded = True
 
     def __init__(
         self,

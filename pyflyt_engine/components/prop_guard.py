@@ -70,6 +70,7 @@ class PropGuards:
     """The propeller guards of one vehicle as a group: no state, a wrench from the air."""
 
     needs_air = True
+    commanded = False
 
     def __init__(self, params: PropGuardParams) -> None:
         self.params = params

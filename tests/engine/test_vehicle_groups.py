@@ -44,6 +44,7 @@ def test_every_group_of_every_shipped_airframe_meets_the_protocol_in_kind_order(
     stepped = sorted((kinds[k].step_order, k) for k in present if kinds[k].step_order is not None)
     assert [step.__self__ for step in vehicle._steps] == [getattr(vehicle.actuators, k) for _, k in stepped]
     assert vehicle.needs_air == any(getattr(vehicle.actuators, k).needs_air for _, k in stepped)
+    assert [route.__self__ for route in vehicle._routes] == [g for g in vehicle.groups if g.commanded]
     assert vehicle.stages == NO_STAGES and not shadowed_methods(vehicle)
     world.close()
 
