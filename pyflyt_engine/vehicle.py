@@ -26,7 +26,7 @@ Stages.  What is not a component runs as a stage around the control step and the
 chosen from the vehicle's configuration (:attr:`Vehicle.stages`), never by replacing a
 method: the noisy sensors' sampling before the loads (:meth:`Vehicle.attach_sensors`),
 and latency's delivery of the setpoints in flight before the control step, its record of
-the observed state before the loads and its step count after them
+the observed state and its count of the physics step before the loads
 (:meth:`Vehicle.set_latency`).  A vehicle with neither runs no stage.
 
 Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
@@ -418,29 +418,28 @@ class Vehicle:
         latent = self.latency != (0, 0)
         #: run at the start of every control step
         self._before_control: tuple[Callable[[], None], ...] = (self._deliver_setpoints,) if latent else ()
-        #: run at the start of every physics step, before the groups step
+        #: run at the start of every physics step, before the groups step (the step count
+        #: too: nothing reads it before the next control step)
         self._before_loads: tuple[Callable[[], None], ...] = tuple(
             stage
-            for stage, wanted in ((self._record_observation, self.latency[1] > 0), (self._sample_sensors, self.sensors is not None))
+            for stage, wanted in (
+                (self._record_observation, self.latency[1] > 0),
+                (self._sample_sensors, self.sensors is not None),
+                (self._count_step, latent),
+            )
             if wanted
         )
-        #: run at the end of every physics step, after the loads are applied
-        self._after_loads: tuple[Callable[[], None], ...] = (self._count_step,) if latent else ()
         self._control_gated = latent or self.control_hold != 1
 
     @property
     def stages(self) -> dict[str, tuple[str, ...]]:
-        """The names of the stages the vehicle runs around its control step (``before_control``)
-        and its loads (``before_loads``, ``after_loads``), in order: ``deliver_setpoints``
-        and ``count_step`` with latency, ``record_observation`` with observation latency,
+        """The names of the stages the vehicle runs before its control step (``before_control``)
+        and before its loads (``before_loads``), in order: ``deliver_setpoints`` and
+        ``count_step`` with latency, ``record_observation`` with observation latency,
         ``sample_sensors`` with noisy sensors."""
         return {
             where: tuple(stage.__name__.lstrip("_") for stage in stages)
-            for where, stages in (
-                ("before_control", self._before_control),
-                ("before_loads", self._before_loads),
-                ("after_loads", self._after_loads),
-            )
+            for where, stages in (("before_control", self._before_control), ("before_loads", self._before_loads))
         }
 
     def _deliver_setpoints(self) -> None:
@@ -583,8 +582,8 @@ class Vehicle:
 
     def apply_loads(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
         """One physics step: the stages before the loads, every stepped group in step order
-        (the gimbals first: they turn their targets' thrust axes), the net wrench applied
-        to the body, then the stages after.
+        (the gimbals first: they turn their targets' thrust axes), and the net wrench
+        applied to the body.
 
         Args:
             air: the body's velocity through the air, body frame (for drag and lifting
@@ -612,9 +611,6 @@ class Vehicle:
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
-        if self._after_loads:
-            for stage in self._after_loads:
-                stage()
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.

@@ -84,8 +84,7 @@ def test_stages_are_chosen_from_latency_and_sensors_and_dropped_again():
     vehicle.set_latency(3, 2)
     assert vehicle.stages == {
         "before_control": ("deliver_setpoints",),
-        "before_loads": ("record_observation",),
-        "after_loads": ("count_step",),
+        "before_loads": ("record_observation", "count_step"),
     }
     vehicle.set_latency(0, 0)
     assert vehicle.stages == NO_STAGES
@@ -95,7 +94,7 @@ def test_stages_are_chosen_from_latency_and_sensors_and_dropped_again():
     vehicle = world.vehicles[0]
     assert vehicle.stages == {**NO_STAGES, "before_loads": ("sample_sensors",)}
     vehicle.set_latency(1, 1)  # the observed state is recorded before the sensors sample
-    assert vehicle.stages["before_loads"] == ("record_observation", "sample_sensors")
+    assert vehicle.stages["before_loads"] == ("record_observation", "sample_sensors", "count_step")
     assert not shadowed_methods(vehicle)
     world.step()
     assert np.isfinite(vehicle.sensors.values()).all()

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pyflyt_engine.vehicle import Vehicle
 
 #: the stages of a vehicle without latency and noisy sensors: none
-NO_STAGES = {"before_control": (), "before_loads": (), "after_loads": ()}
+NO_STAGES = {"before_control": (), "before_loads": ()}
 
 
 def shadowed_methods(vehicle: Vehicle) -> set[str]:
