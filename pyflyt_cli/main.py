@@ -22,25 +22,52 @@ except ImportError as exc:  # the simulator was installed without the command's 
 
 from pyflyt_engine.errors import PyFlytError
 
-def _flags_without_type() -> None:
-    """``--help`` lists an on/off flag without a value type: typer's rich help prints
-    ``<bool>`` beside every flag (``--verify <bool>``), which reads as if it took a value."""
-    from typer.core import TyperOption
-
-    typed = TyperOption.display_type_rich
-    if getattr(typed, "_pyflyt_flags", False):
-        return
-
-    def display_type_rich(self: TyperOption, ctx: Any) -> str | None:
-        return None if self.is_flag else typed(self, ctx)
-
-    display_type_rich._pyflyt_flags = True  # type: ignore[attr-defined]
-    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+def _untyped_flags(params: Any) -> None:
+    """Blank the metavar of every on/off flag in ``params``: it is what the type column of
+    typer's rich help shows, ``<bool>`` beside a flag (``--verify <bool>``), which reads as
+    if it took a value.  A flag takes no value, so no usage line or message shows it."""
+    for param in params:
+        if getattr(param, "is_flag", False) and param.metavar is None:
+            param.metavar = ""
 
 
-_flags_without_type()
+class _Command(typer.core.TyperCommand):
+    """A command whose ``--help`` lists its flags (``--help`` included) without a value type."""
 
-app = typer.Typer(
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        _untyped_flags(self.params)
+
+    def get_help_option(self, ctx: Any) -> Any:
+        option = super().get_help_option(ctx)
+        _untyped_flags([option])
+        return option
+
+
+class _Group(typer.core.TyperGroup):
+    """A command group whose ``--help`` lists its flags without a value type (:class:`_Command`)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        _untyped_flags(self.params)
+
+    def get_help_option(self, ctx: Any) -> Any:
+        option = super().get_help_option(ctx)
+        _untyped_flags([option])
+        return option
+
+
+class _App(typer.Typer):
+    """:class:`typer.Typer` building its group and its commands from :class:`_Group` and :class:`_Command`."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(cls=_Group, **kwargs)
+
+    def command(self, *args: Any, **kwargs: Any) -> Any:
+        return super().command(*args, **{"cls": _Command, **kwargs})
+
+
+app = _App(
     name="pyflyt",
     help="UAV simulation and reinforcement-learning toolkit (PyFlyt paper).",
     no_args_is_help=True,
@@ -333,7 +360,7 @@ def plot(
         typer.echo(f"not drawn: {name} ({why})")
 
 
-uav_app = typer.Typer(
+uav_app = _App(
     help="Check and inspect airframe (UAV) YAML files: shipped names (quadx_cf2x) or paths.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,

@@ -868,6 +868,22 @@ class BatterySpec(_Spec):
         return value
 
 
+# ------------------------------------------------------------------ propeller guards
+
+
+class PropGuardSpec(_Spec):
+    """Propeller guards: a ring (a duct's band) around each guarded rotor, whose drag opposes
+    the air crossing the rotor's disc (docs/uav_authoring.md, "Propeller guards").  The
+    guards' mass is the body's: include it in ``body`` (mass and inertia, or a shape)."""
+
+    radius: PositiveFloat = Field(description="ring radius [m]: the propeller's radius plus its clearance")
+    height: PositiveFloat = Field(description="ring height along the thrust axis [m]")
+    drag_coefficient: PositiveFloat = Field(
+        1.2, description="drag coefficient of the ring seen edge-on, on its projected area 2 * radius * height"
+    )
+    motors: list[int] | None = Field(None, description="indices of the guarded motors (null: every motor)")
+
+
 # ------------------------------------------------------------------------ vehicle
 
 
@@ -899,11 +915,14 @@ class UAVSpec(_Spec):
     sensors: SensorsSpec | None = Field(
         None, description="IMU, position sensor and barometer with noise (docs/engine.md, 'Sensors'); null: none"
     )
+    prop_guards: PropGuardSpec | None = Field(
+        None, description="rings around the rotors that add drag (docs/uav_authoring.md, 'Propeller guards'); null: none"
+    )
     source: str | None = Field(None, exclude=True, description="file the spec was loaded from")
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler) -> Any:
-        return _drop_unset(handler(self), ("battery", "sensors"))
+        return _drop_unset(handler(self), ("battery", "sensors", "prop_guards"))
 
     @model_validator(mode="after")
     def _cross_checks(self) -> UAVSpec:
@@ -944,6 +963,13 @@ class UAVSpec(_Spec):
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
         if self.battery is not None and self.motors is None:
             raise ValueError("battery: it drives motors, and the airframe has no 'motors' section; remove it or add motors")
+        if self.prop_guards is not None:
+            n = len(self.motors.positions) if self.motors is not None else 0
+            if n == 0:
+                raise ValueError("prop_guards: they ring rotors, and the airframe has no 'motors' section; remove it or add motors")
+            for index in self.prop_guards.motors or []:
+                if not 0 <= index < n:
+                    raise ValueError(f"prop_guards.motors: no motor {index} (there are {n}: 0 to {n - 1})")
         self._check_mixer_gimbals()
         if self.body.inertia is None or self.body.mass is None:
             _check_inertia(self.inertia_matrix())

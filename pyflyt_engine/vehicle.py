@@ -1,22 +1,33 @@
-"""A vehicle in the world: a rigid body, its actuator groups and its flight controller.
+"""A vehicle in the world: a rigid body, its component groups and its flight controller.
 
 A vehicle is a composition (:mod:`pyflyt_engine.components`): a PyBullet body built from
-the spec, one actuator group per kind of actuator it has -- :class:`Motors`,
-:class:`Surfaces` (lifting surfaces), :class:`Boosters`, :class:`Gimbals`, plus body drag
-and :class:`Cameras` -- and a controller that turns the setpoint into the groups'
-commands.  This module is the one adapter between the groups and PyBullet.
+the spec, one group per component kind the airframe declares -- motors, lifting surfaces,
+boosters, gimbals, body drag, cameras, the battery's gauge and any kind registered since
+(:mod:`pyflyt_engine.components.kinds`) -- and a controller that turns the setpoint into
+the groups' commands.  The vehicle names no kind to build, route, step, reset or read out
+its groups: it builds every registered kind in its order and keeps the groups it got as
+one ordered tuple behind one protocol (``route``/``step``/``reset``/``reseed``/``aux``).
+This module is the one adapter between the groups and PyBullet.
 
-Per physics step (:meth:`Vehicle.apply_loads`) every group advances from its commands
-and contributes its wrench, given what it needs of the air the world computed at the
-vehicle's last read (:mod:`pyflyt_engine.atmosphere.air`): drag and lifting surfaces
-the body's velocity through the air in the body frame, motors the ground-effect thrust
-ratio of each rotor, boosters nothing.  The vehicle sums the wrenches in a fixed order
-(motors, surfaces, boosters, drag) into one net force and one net torque about its
-centre of mass (the body origin) and applies them in the body frame: two PyBullet calls
-whatever the number of actuators.  Summing is exact for a rigid body: a force F at a
-point r is F at the centre of mass plus the torque r x F.  Gimbals apply no load of
-their own: the vehicle points each gimbal's target motor or booster along the axis the
-gimbal's step returns, before the loads.  Every airframe kind takes this same path.
+Per physics step (:meth:`Vehicle.apply_loads`) every stepped group advances from its
+commands in step order and returns its wrench (or None), given the air the world computed
+at the vehicle's last read (:mod:`pyflyt_engine.atmosphere.air`), of which each model takes
+what it needs: drag and lifting surfaces the body's velocity through the air in the body
+frame, motors the ground-effect thrust ratio of each rotor (and the air, with the optional
+rotor models), boosters nothing.  The gimbals step first and return no load: each points
+its target motor or booster along the axis its servos give.  The vehicle sums the wrenches
+in step order (motors, surfaces, boosters, drag) into one net force and one net torque
+about its centre of mass (the body origin) and applies them in the body frame: two
+PyBullet calls whatever the number of actuators.  Summing is exact for a rigid body: a
+force F at a point r is F at the centre of mass plus the torque r x F.  Every airframe
+kind takes this same path.
+
+Stages.  What is not a component runs as a stage around the control step and the loads,
+chosen from the vehicle's configuration (:attr:`Vehicle.stages`), never by replacing a
+method: the noisy sensors' sampling before the loads (:meth:`Vehicle.attach_sensors`),
+and latency's delivery of the setpoints in flight before the control step, its record of
+the observed state and its count of the physics step before the loads
+(:meth:`Vehicle.set_latency`).  A vehicle with neither runs no stage.
 
 Control inputs.  A vehicle's ``setpoint`` is interpreted by its flight mode:
 
@@ -38,7 +49,7 @@ import math
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -47,16 +58,11 @@ from pyflyt_engine.assembly import Assembly, assemble
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
-from pyflyt_engine.components.booster import BoosterState, Boosters
-from pyflyt_engine.components.camera import Cameras
-from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
-from pyflyt_engine.components.drag import BodyDrag, DragParams
-from pyflyt_engine.components.gimbal import Gimbals
-from pyflyt_engine.components.lifting_surface import Surfaces
-from pyflyt_engine.components.motor import MotorParams, Motors
-from pyflyt_engine.components.motor_models import ModelledMotors
+from pyflyt_engine.components.booster import BoosterState
+from pyflyt_engine.components.kinds import ActuatorGroup, BuildContext, component_kinds
+from pyflyt_engine.components.motor import MotorParams
 from pyflyt_engine.components.noise import NoiseSource
-from pyflyt_engine.components.routing import mix_rows
+from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.sensors import SensorSuite
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
@@ -103,16 +109,22 @@ class _CustomMode:
     base: FlightMode
 
 
-@dataclass(frozen=True)
 class Actuators:
-    """A vehicle's actuator groups (None where the airframe has none of that kind)."""
+    """A vehicle's component groups by kind (:mod:`pyflyt_engine.components.kinds`):
+    ``actuators.motors`` is the motors' group, None where the airframe has none of a
+    registered kind; iterating gives the groups it has, in kind order."""
 
-    motors: Motors | None
-    surfaces: Surfaces | None
-    boosters: Boosters | None
-    gimbals: Gimbals | None
-    cameras: Cameras
-    drag: BodyDrag | None
+    def __init__(self, groups: dict[str, ActuatorGroup]) -> None:
+        for kind in component_kinds():
+            setattr(self, kind.name, groups.get(kind.name))
+        self._groups = tuple(groups.values())
+
+    def __iter__(self) -> Any:
+        return iter(self._groups)
+
+    if TYPE_CHECKING:  # a kind's group, by its name
+
+        def __getattr__(self, name: str) -> Any: ...
 
 
 def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
@@ -149,7 +161,8 @@ class Vehicle:
     Attributes:
         spec: the validated airframe spec.
         parts: its components in the centre-of-mass frame (:class:`Assembly`).
-        actuators: its actuator groups (:class:`Actuators`).
+        actuators: its component groups by kind (:class:`Actuators`: ``actuators.motors`` ...).
+        groups: the same groups as one tuple, in kind order (:mod:`pyflyt_engine.components.kinds`).
         motors: the motors' parameters (None without motors).
         body_id: the PyBullet body id.
         state: the latest :class:`KinematicState`.
@@ -200,50 +213,32 @@ class Vehicle:
         self._dry_inertia = np.diag(parts.inertia).copy()
         self._dry_mass = parts.mass
 
-        # --- actuator groups, each with the tables that route the channels (and the
-        # mixer's outputs) to its commands
+        # --- component groups: every registered kind, in its order (components/kinds.py);
+        # each group holds the tables that route the channels (and the mixer's outputs) to it
         self._noise = NoiseSource(rng)
         self.motors: MotorParams | None = parts.motors
-        motors = surfaces = boosters = gimbals = None
-        n_mixer = len(parts.mixer_motors)
-        if parts.motors is not None:
-            slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
-            outputs = [slots.get(i) for i in range(parts.motors.count)]
-            if parts.motors.modelled or parts.battery is not None:  # the optional motor models: their own group
-                battery = Battery(parts.battery, physics_dt) if parts.battery is not None else None
-                motors = ModelledMotors(
-                    parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs, battery
-                )
-            else:
-                motors = Motors(parts.motors, physics_dt, self._noise, mix_rows(parts.motor_mix), outputs)
-        if parts.surfaces:
-            surfaces = Surfaces(parts.surfaces, physics_dt, mix_rows(parts.surface_mix))
-        if parts.boosters is not None:
-            boosters = Boosters(
-                parts.boosters,
-                physics_dt,
-                self._noise,
-                spec.boosters.initial_fuel,  # type: ignore[union-attr]
-                parts.ignition_index.tolist(),
-                parts.throttle_index.tolist(),
-            )
-        #: per gimbal, (the group of its target, the target's index): the vehicle turns it
-        self._gimbal_targets: list[tuple[Motors | Boosters, int]] = []
-        if parts.gimbals is not None:
-            nominal = []
-            for kind, index in parts.gimbal_targets:
-                group = motors if kind == "motor" else boosters
-                assert group is not None  # the spec validator checks every gimbal's target exists
-                self._gimbal_targets.append((group, index))
-                axes = (parts.motors if kind == "motor" else parts.boosters).thrust_axes  # type: ignore[union-attr]
-                nominal.append(tuple(axes[index].tolist()))
-            # a gimbal the mixer flies: its command is the mixer output after the motors' throttles
-            flown = {g: n_mixer + k for k, (g, _) in enumerate(parts.mixer_tilts)}
-            channels = [tuple(row) for row in parts.gimbal_channels.tolist()]
-            gimbals = Gimbals(parts.gimbals, physics_dt, nominal, channels, flown)
-        drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
-        body_drag = BodyDrag(drag_params) if drag and drag_params.active else None
-        self.actuators = Actuators(motors, surfaces, boosters, gimbals, Cameras(parts.cameras), body_drag)
+        built: dict[str, ActuatorGroup] = {}
+        context = BuildContext(spec, parts, physics_dt, self._noise, drag, built)
+        stepped: list[tuple[int, ActuatorGroup]] = []
+        for kind in component_kinds():
+            group = kind.build(context)
+            if group is not None:
+                built[kind.name] = group
+                if kind.step_order is not None:
+                    stepped.append((kind.step_order, group))
+        stepped.sort(key=lambda entry: entry[0])
+        self.actuators = Actuators(built)
+        #: the groups, in kind order: routed, reset and read out in this order
+        self.groups: tuple[ActuatorGroup, ...] = tuple(built.values())
+        self._routes = tuple(group.route for group in self.groups if group.commanded)
+        self._auxes = tuple(group.aux for group in self.groups)
+        #: the steps of the groups the physics step runs, in step order (their wrenches summed in it)
+        self._steps = tuple(group.step for _, group in stepped)
+        #: whether the loads depend on the air's velocity: the world then reads the
+        #: vehicle's motion at every physics step
+        self.needs_air = any(group.needs_air for _, group in stepped)
+        #: the battery driving the motors (None: an ideal supply)
+        self.battery: Battery | None = getattr(self.actuators.battery, "battery", None)
         #: ray-cast range sensors (LiDARs, depth cameras), in spec order; their noise
         #: streams are the world's to seed (:meth:`seed_sensors`)
         self.range_sensors: list[RangeSensor] = [
@@ -258,15 +253,16 @@ class Vehicle:
         #: the noisy IMU, position sensor and barometer (None without a ``sensors`` section);
         #: the world attaches them (:meth:`attach_sensors`)
         self.sensors: SensorSuite | None = None
-        self._groups = (motors, surfaces, boosters, body_drag, gimbals)  # what apply_loads steps
-        self.needs_air = body_drag is not None or surfaces is not None
-        #: the battery driving the motors (None: an ideal supply)
-        self.battery: Battery | None = motors.battery if isinstance(motors, ModelledMotors) else None
-        if isinstance(motors, ModelledMotors):
-            # chosen here, once: the motors take the air too (a vehicle without the optional
-            # motor models keeps the plain apply_loads)
-            self.needs_air = self.needs_air or motors.needs_air
-            self.apply_loads = self._apply_loads_modelled  # type: ignore[method-assign]
+        #: (action, observation) delays in physics steps (:meth:`set_latency`)
+        self.latency: tuple[int, int] = (0, 0)
+        self._action_delay = 0
+        self._clock = 0  # physics steps since the last reset (counted with latency only)
+        self._pending: deque[tuple[int, np.ndarray]] = deque()  # setpoints in flight: (due step, value)
+        self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=1)
+        #: the flight controller runs on one control tick in this many (:meth:`set_control_hold`)
+        self.control_hold = 1
+        self._control_ticks = 0  # control ticks since the last reset (counted with a hold only)
+        self._choose_stages()
         self.rotation: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         self._mass_fuel: tuple[float, ...] | None = None  # fuel the body's mass was last set for
         self._n_channels = len(parts.channels)
@@ -290,8 +286,9 @@ class Vehicle:
         else:
             self._modes = dict(FIXEDWING_MODES) if isinstance(spec.control, FixedwingControlSpec) else {"channels": FIXEDWING_MODES["channels"]}
             if has_rocket_modes(parts):
+                boosters, body_drag = self.actuators.boosters, self.actuators.drag
                 assert boosters is not None
-                factors = drag_params.factors if body_drag is not None else (0.0, 0.0, 0.0)
+                factors = body_drag.params.factors if body_drag is not None else (0.0, 0.0, 0.0)
                 self.rocket = RocketAutopilot(parts, boosters, control_dt, factors)
                 self._modes.update({k: v for k, v in ROCKET_MODES.items() if k != "channels"})
             if isinstance(spec.control, FixedwingControlSpec):
@@ -299,8 +296,6 @@ class Vehicle:
             self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
-        #: (action, observation) delays in physics steps (:meth:`set_latency`)
-        self.latency: tuple[int, int] = (0, 0)
         if mode is not None:
             self.set_mode(mode)
         self._update_mass()
@@ -373,7 +368,10 @@ class Vehicle:
             )
         if not all(map(math.isfinite, value.tolist())):
             raise ConfigError(f"setpoint contains non-finite values: {value.tolist()}")
-        self.setpoint = value
+        if self._action_delay:  # in flight until the flight controller gets it (set_latency)
+            self._pending.append((self._clock + self._action_delay, value))
+        else:
+            self.setpoint = value
 
     # -------------------------------------------------------------- latency
 
@@ -386,65 +384,90 @@ class Vehicle:
         ``action_steps`` physics steps later: at the first control tick at or after that.
         :meth:`delayed_observation` is the state and auxiliary state of
         ``observation_steps`` physics steps ago.  Both count the vehicle's own physics steps
-        since its last reset.  A vehicle without latency keeps the plain methods, and one
-        with it gets wrappers around them; a change removes the previous wrappers (back to
-        the plain methods at 0 and 0) and drops the setpoints in flight and the observed
-        history, as a reset does.  The same delays again change nothing.
+        since its last reset.  The delays choose the vehicle's stages (:attr:`stages`): a
+        vehicle without latency runs none of them.  A change drops the setpoints in flight
+        and the observed history, as a reset does; the same delays again change nothing.
         """
         if action_steps < 0 or observation_steps < 0:
             raise ConfigError(f"latency must be >= 0 physics steps, got {action_steps} and {observation_steps}")
         latency = (int(action_steps), int(observation_steps))
         if latency == self.latency:
             return
-        if self.latency != (0, 0):  # undo the previous delays: the methods they wrapped, no clock
-            for name, method in self._unwrapped.items():
-                if method is None:
-                    self.__dict__.pop(name, None)
-                else:
-                    setattr(self, name, method)
-            for name in ("_clock", "_pending", "_history", "_unwrapped"):
-                self.__dict__.pop(name, None)
         self.latency = latency
-        if latency == (0, 0):
-            return
-        #: what the wrappers wrap: the instance's own method, or None for the class's
-        self._unwrapped = {name: self.__dict__.get(name) for name in ("set_setpoint", "control_step", "apply_loads")}
-        self._clock = 0  # physics steps since the last reset
-        self._pending: deque[tuple[int, np.ndarray]] = deque()
-        self._history: deque[tuple[KinematicState, list[float]]] = deque(maxlen=max(observation_steps, 1))
-        loads = self.apply_loads
-        delay, watch = int(action_steps), int(observation_steps)
+        self._action_delay = latency[0]
+        self._clock = 0
+        self._pending.clear()
+        self._history = deque(maxlen=max(latency[1], 1))
+        self._choose_stages()
 
-        def set_setpoint(setpoint: Sequence[float] | np.ndarray) -> None:
-            current = self.setpoint
-            Vehicle.set_setpoint(self, setpoint)  # checks it
-            self._pending.append((self._clock + delay, self.setpoint))
-            self.setpoint = current
+    def set_control_hold(self, hold: int) -> None:
+        """Run the flight controller on one control tick of the world in ``hold``, counted
+        from the last reset, and keep its commands in between (a vehicle whose controller
+        is slower than the world's control rate; 1: every tick)."""
+        if int(hold) != hold or hold < 1:
+            raise ConfigError(f"a control hold is a whole number of control ticks >= 1, got {hold}")
+        self.control_hold = int(hold)
+        self._control_ticks = 0
+        self._choose_stages()
 
-        def control_step() -> None:
-            pending = self._pending
-            while pending and pending[0][0] <= self._clock:
-                value = pending.popleft()[1]
-                if value.shape == self.setpoint.shape:  # one sent before a change of mode is dropped
-                    self.setpoint = value
-            Vehicle.control_step(self)
+    # --------------------------------------------------------------- stages
 
-        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
-            if watch:  # the state at the start of this physics step, for the delayed observation
-                self._history.append((self.read_state(), self.aux_values()))
-            loads(air, thrust_ratio)
-            self._clock += 1
+    def _choose_stages(self) -> None:
+        """The stages around the control step and the loads, from the vehicle's latency and
+        sensors (run in this order; none for a vehicle with neither)."""
+        latent = self.latency != (0, 0)
+        #: run at the start of every control step
+        self._before_control: tuple[Callable[[], None], ...] = (self._deliver_setpoints,) if latent else ()
+        #: run at the start of every physics step, before the groups step (the step count
+        #: too: nothing reads it before the next control step)
+        self._before_loads: tuple[Callable[[], None], ...] = tuple(
+            stage
+            for stage, wanted in (
+                (self._record_observation, self.latency[1] > 0),
+                (self._sample_sensors, self.sensors is not None),
+                (self._count_step, latent),
+            )
+            if wanted
+        )
+        self._control_gated = latent or self.control_hold != 1
 
-        if delay:
-            self.set_setpoint = set_setpoint  # type: ignore[method-assign]
-        self.control_step = control_step  # type: ignore[method-assign]
-        self.apply_loads = apply_loads  # type: ignore[method-assign]
+    @property
+    def stages(self) -> dict[str, tuple[str, ...]]:
+        """The names of the stages the vehicle runs before its control step (``before_control``)
+        and before its loads (``before_loads``), in order: ``deliver_setpoints`` and
+        ``count_step`` with latency, ``record_observation`` with observation latency,
+        ``sample_sensors`` with noisy sensors."""
+        return {
+            where: tuple(stage.__name__.lstrip("_") for stage in stages)
+            for where, stages in (("before_control", self._before_control), ("before_loads", self._before_loads))
+        }
+
+    def _deliver_setpoints(self) -> None:
+        """Latency: the setpoints due by now reach the flight controller (one sent before a
+        change of mode, of another size, is dropped)."""
+        pending = self._pending
+        while pending and pending[0][0] <= self._clock:
+            value = pending.popleft()[1]
+            if value.shape == self.setpoint.shape:
+                self.setpoint = value
+
+    def _record_observation(self) -> None:
+        """Observation latency: the state at the start of this physics step, for :meth:`delayed_observation`."""
+        self._history.append((self.read_state(), self.aux_values()))
+
+    def _sample_sensors(self) -> None:
+        """Noisy sensors: one sample of the body's motion at the start of this physics step."""
+        self.sensors.step(*self.read_motion())  # type: ignore[union-attr]
+
+    def _count_step(self) -> None:
+        """Latency: one more physics step since the reset."""
+        self._clock += 1
 
     def delayed_observation(self) -> tuple[KinematicState, list[float]]:
         """The state and auxiliary state ``observation_steps`` physics steps ago (the
         spawn's until that much time has passed since the reset); without observation
         latency, or right after a reset, the current ones."""
-        history = getattr(self, "_history", None)
+        history = self._history
         if not history:
             return self.state, self.aux_values()
         # the history holds the states at the start of the last `observation_steps` physics
@@ -520,6 +543,14 @@ class Vehicle:
 
     def control_step(self) -> None:
         """Run the flight controller once (at the control rate) and route its outputs to the groups."""
+        if self._control_gated:  # latency's stage, or a control hold
+            for stage in self._before_control:
+                stage()
+            if self.control_hold != 1:  # a slower controller: its commands stand between its ticks
+                tick = self._control_ticks
+                self._control_ticks = tick + 1
+                if tick % self.control_hold:
+                    return
         parts = self.parts
         throttles: Sequence[float] | None = None
         if not self.armed:
@@ -546,46 +577,40 @@ class Vehicle:
         """Hand the channel vector and the mixer's outputs (None: none this tick) to every
         group, which routes them to its commands (:mod:`pyflyt_engine.components.routing`)."""
         c = self.channels.tolist() if self._n_channels else []
-        a = self.actuators
-        if a.motors is not None:
-            a.motors.route(c, outputs)
-        if a.surfaces is not None:
-            a.surfaces.route(c)
-        if a.boosters is not None:
-            a.boosters.route(c)
-        if a.gimbals is not None:
-            a.gimbals.route(c, outputs)
+        for route in self._routes:  # the groups that take commands, in kind order
+            route(c, outputs)
 
     def apply_loads(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
-        """Advance every actuator group one physics step and apply the net wrench to the body.
+        """One physics step: the stages before the loads, every stepped group in step order
+        (the gimbals first: they turn their targets' thrust axes), and the net wrench
+        applied to the body.
 
         Args:
             air: the body's velocity through the air, body frame (for drag and lifting
                 surfaces; see :mod:`pyflyt_engine.atmosphere.air`).
             thrust_ratio: per motor, the air's factor on its thrust (ground effect); None: 1.
         """
-        motors, surfaces, boosters, drag, gimbals = self._groups
-        if gimbals is not None:  # servos first: they turn their targets' thrust axes
-            for (group, index), axis in zip(self._gimbal_targets, gimbals.step()):
-                group.turn(index, axis)
-        # Summed in this order: motors, surfaces, boosters, drag; the first group's wrench
-        # is taken as it is (not added to zeros, which would turn a -0.0 into 0.0).
-        load = motors.step(thrust_ratio) if motors is not None else None
-        if surfaces is not None:
-            load = _summed(load, surfaces.step(air))
-        if boosters is not None:
-            load = _summed(load, boosters.step())
-        if drag is not None:
-            load = _summed(load, drag.step(air))
+        if self._before_loads:
+            for stage in self._before_loads:
+                stage()
+        # Summed in step order (motors, surfaces, boosters, drag), as _summed does (written
+        # out: this runs at the physics rate); the first wrench is taken as it is (not
+        # added to zeros, which would turn a -0.0 into 0.0).
+        load = None
+        for step in self._steps:
+            wrench = step(air, thrust_ratio)
+            if wrench is None:
+                continue
+            if load is None:
+                load = wrench
+            else:
+                fx, fy, fz, tx, ty, tz = load
+                gx, gy, gz, hx, hy, hz = wrench
+                load = fx + gx, fy + gy, fz + gz, tx + hx, ty + hy, tz + hz
         fx, fy, fz, tx, ty, tz = load if load is not None else _NO_LOAD
         cid = self._client
         _apply_force(self.body_id, -1, (fx, fy, fz), _ORIGIN, _LINK_FRAME, cid)
         _apply_torque(self.body_id, -1, (tx, ty, tz), _LINK_FRAME, cid)
-
-    def _apply_loads_modelled(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
-        """:meth:`apply_loads` for motors with the optional models, which take the air too."""
-        self.actuators.motors.set_air(air)  # type: ignore[union-attr]
-        Vehicle.apply_loads(self, air, thrust_ratio)
 
     def _update_mass(self) -> None:
         """Set the body's mass and inertia to the dry airframe plus remaining fuel.
@@ -666,8 +691,7 @@ class Vehicle:
     def attach_sensors(self, gravity: float, rng: np.random.Generator) -> None:
         """Build the spec's ``sensors`` (:mod:`pyflyt_engine.components.sensors`), fed the
         body's motion at the start of every physics step; the world calls this once, after
-        building the vehicle.  Chosen here, once: a vehicle without sensors keeps the plain
-        :meth:`apply_loads`."""
+        building the vehicle; sampling them is a stage before the loads (:attr:`stages`)."""
         spec = self.spec.sensors
         if spec is None or self.sensors is not None:
             return
@@ -681,15 +705,7 @@ class Vehicle:
                     "give at most physics_hz"
                 )
         self.sensors = suite = SensorSuite(spec, self.physics_dt, gravity, rng)
-        loads = self.apply_loads
-        read = self.read_motion
-        sample = suite.step
-
-        def apply_loads(air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
-            sample(*read())
-            loads(air, thrust_ratio)
-
-        self.apply_loads = apply_loads  # type: ignore[method-assign]
+        self._choose_stages()
         state = self.state
         suite.reset(state.lin_pos, state.lin_vel_ground, state.quaternion)
 
@@ -726,18 +742,16 @@ class Vehicle:
         ang = exact.rotate(rotation, [float(v) for v in ang_vel] if ang_vel is not None else (0.0, 0.0, 0.0))
         p.resetBaseVelocity(self.body_id, list(lin), list(ang), physicsClientId=cid)
         self.setpoint[:] = 0.0
-        if getattr(self, "_pending", None) is not None:  # latency: nothing in flight, time 0
-            self._pending.clear()
-            self._history.clear()
-            self._clock = 0
+        self._pending.clear()  # latency: nothing in flight, time 0
+        self._history.clear()
+        self._clock = 0
+        self._control_ticks = 0
         self.channels = self._idle_channels.copy()
-        a = self.actuators
-        for group in (a.motors, a.surfaces, a.boosters, a.gimbals, a.cameras):
-            if group is not None:
-                group.reset()
+        for group in self.groups:
+            group.reset()
         for sensor in self.range_sensors:
             sensor.reset()
-        if a.boosters is not None:
+        if self.actuators.boosters is not None:
             self._update_mass()
         if self.controller is not None:
             self.controller.reset()
@@ -750,9 +764,8 @@ class Vehicle:
     def reseed(self, rng: np.random.Generator) -> None:
         """Use a new noise stream (on a seeded world reset)."""
         self._noise.rng = rng
-        for group in (self.actuators.motors, self.actuators.boosters):
-            if group is not None:
-                group.reseed()
+        for group in self.groups:
+            group.reseed()
 
     @property
     def rng_state(self) -> dict:
@@ -783,14 +796,10 @@ class Vehicle:
         return np.array(self.aux_values(), dtype=np.float64)
 
     def aux_values(self) -> list[float]:
-        """:attr:`aux_state` as a list of floats."""
-        a = self.actuators
+        """:attr:`aux_state` as a list of floats: every group's read-outs, in kind order."""
         values: list[float] = []
-        for group in (a.motors, a.surfaces, a.boosters, a.gimbals):
-            if group is not None:
-                values += group.aux()
-        if self.battery is not None:
-            values.append(self.battery.charge)
+        for aux in self._auxes:
+            values += aux()
         return values
 
     @property

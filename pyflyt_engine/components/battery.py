@@ -45,6 +45,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from pyflyt_engine.components import AirVelocity
+from pyflyt_engine.components.kinds import BuildContext, register
+from pyflyt_engine.spec import BatterySpec
+
 
 @dataclass(frozen=True)
 class BatteryParams:
@@ -164,3 +168,41 @@ def supply(ocv: float, resistance: float, cubic: float, constant: float) -> tupl
     # no root: the most the pack delivers under this load, at g' = 0
     v = (math.sqrt(4.0 + 12.0 * c * ocv) - 2.0) / (6.0 * c) if c > 0.0 else 0.5 * ocv
     return v, (ocv - v) / resistance
+
+
+class BatteryGauge:
+    """The battery as a group of its vehicle: it reads the pack's state of charge out last
+    in the auxiliary state.  The motors own the pack (they draw on it at every physics
+    step and reset it with theirs); the gauge commands, steps and resets nothing."""
+
+    needs_air = False
+    commanded = False
+
+    def __init__(self, battery: Battery) -> None:
+        self.battery = battery
+
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None = None) -> None:
+        """Nothing commands the pack."""
+
+    def step(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """Not stepped (``step_order`` None): the motors step the pack."""
+
+    def reset(self) -> None:
+        """The motors reset the pack."""
+
+    def reseed(self) -> None:
+        """No noise: nothing to do."""
+
+    def aux(self) -> list[float]:
+        """The state of charge, in [0, 1]."""
+        return [self.battery.charge]
+
+
+def build_battery_gauge(ctx: BuildContext) -> BatteryGauge | None:
+    """The gauge of the pack the motors' group built (None for an ideal supply)."""
+    battery = getattr(ctx.groups.get("motors"), "battery", None)
+    return BatteryGauge(battery) if battery is not None else None
+
+
+# the last group: the charge closes the auxiliary state
+register("battery", section="battery", spec=BatterySpec, build=build_battery_gauge, order=70, step_order=None)

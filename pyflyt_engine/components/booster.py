@@ -54,10 +54,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pyflyt_engine.components import Wrench
+from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
 from pyflyt_engine.components.routing import clamp
+from pyflyt_engine.spec import BoostersSpec
 
 _UNIT_TOL = 1e-6
 
@@ -319,6 +321,10 @@ class Boosters:
         axes: per booster, the thrust axis in the body frame (a gimbal turns it).
     """
 
+    #: the thrust does not depend on the air
+    needs_air = False
+    commanded = True
+
     def __init__(
         self,
         params: BoosterParams,
@@ -357,13 +363,14 @@ class Boosters:
         self.ignited, self.duty, self.fuel = state.ignited.tolist(), state.duty.tolist(), state.fuel.tolist()
         self._state = state
 
-    def route(self, channels: Sequence[float]) -> None:
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None = None) -> None:
         """Commands from the channels: a booster is lit while its ignition channel is above
-        0.5; its throttle is its throttle channel limited to [0, 1]."""
+        0.5; its throttle is its throttle channel limited to [0, 1] (the mixer flies no
+        booster: ``outputs`` unused)."""
         self.ignition = [channels[j] > 0.5 for j in self._ignition_channels]
         self.throttle = [clamp(channels[j], 0.0, 1.0) for j in self._throttle_channels]
 
-    def step(self) -> Wrench:
+    def step(self, air: AirVelocity | None = None, thrust_ratio: Sequence[float] | None = None) -> Wrench:
         """One physics step of every booster (:func:`booster_step_scalar`); returns their summed
         thrust wrench (the module docstring, item 3).  The air does not enter this model."""
         noise = self._noise.next() if self._noisy else self._zeros
@@ -424,3 +431,21 @@ class Boosters:
         for fuel, total, duty, ignited in zip(self.fuel, self._total_fuel, self.duty, self.ignited):
             values += (fuel / total, duty, 1.0 if ignited else 0.0)
         return values
+
+
+def build_boosters(ctx: BuildContext) -> Boosters | None:
+    """The boosters' group (None without ``boosters``), lit and throttled by their channels."""
+    parts, spec = ctx.parts, ctx.spec.boosters
+    if parts.boosters is None or spec is None:
+        return None
+    return Boosters(
+        parts.boosters,
+        ctx.physics_dt,
+        ctx.noise,
+        spec.initial_fuel,
+        parts.ignition_index.tolist(),
+        parts.throttle_index.tolist(),
+    )
+
+
+register("boosters", section="boosters", spec=BoostersSpec, build=build_boosters, order=30, step_order=30)

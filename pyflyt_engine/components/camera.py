@@ -51,8 +51,11 @@ import numpy as np
 
 from pyflyt_engine import exact
 from pyflyt_engine.bullet import pybullet as p
+from pyflyt_engine.components import AirVelocity
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import ground_to_body_matrix, quaternion_to_rows
+from pyflyt_engine.spec import CameraSpec
 
 CHANNELS = ("rgba", "depth", "segmentation")
 """Every image channel a camera can return, in the order :func:`capture` fills them."""
@@ -327,8 +330,12 @@ class Cameras:
 
     Cameras are sensors: they are not stepped with the physics and apply no load; an
     image is rendered when asked for, at most once per ``1 / capture_hz`` of simulated
-    time (the last one is returned in between).
+    time (the last one is returned in between).  As a group of the vehicle they are
+    reset with it and otherwise left out of the control and physics steps.
     """
+
+    needs_air = False
+    commanded = False
 
     def __init__(self, params: Sequence[CameraParams]) -> None:
         self.params = tuple(params)
@@ -352,6 +359,27 @@ class Cameras:
         self._last[index] = (time if time is not None else float("nan"), images)
         return images
 
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None = None) -> None:
+        """Nothing commands a camera."""
+
+    def step(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> None:
+        """Not stepped (``step_order`` None): rendered when asked for."""
+
     def reset(self) -> None:
         """Forget the last images."""
         self._last.clear()
+
+    def reseed(self) -> None:
+        """No noise: nothing to do."""
+
+    def aux(self) -> list[float]:
+        """No read-outs (images are observations of their own)."""
+        return []
+
+
+def build_cameras(ctx: BuildContext) -> Cameras:
+    """The cameras' group, also without cameras (``Vehicle.capture`` names the count)."""
+    return Cameras(ctx.parts.cameras)
+
+
+register("cameras", section="cameras", spec=CameraSpec, build=build_cameras, order=60, step_order=None)

@@ -14,10 +14,13 @@ package, the damping applies whether or not the vehicle touches anything.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.constants import AIR_DENSITY
+from pyflyt_engine.spec import DragSpec
 
 
 @dataclass(frozen=True)
@@ -46,6 +49,9 @@ class DragParams:
 class BodyDrag:
     """A vehicle's body drag as a load group: no state, a wrench from the air-relative velocity."""
 
+    needs_air = True
+    commanded = False
+
     def __init__(self, params: DragParams) -> None:
         self.set_params(params)
 
@@ -55,7 +61,10 @@ class BodyDrag:
         self._factors = params.factors
         self._damping = params.angular_damping
 
-    def step(self, air: AirVelocity) -> Wrench:
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None = None) -> None:
+        """Nothing commands drag."""
+
+    def step(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> Wrench:
         """The drag force [N] and damping torque [N m], body frame, at the body's velocity
         through the air ``air`` (body frame, [m/s] and [rad/s]): the module docstring's law."""
         (vx, vy, vz), (wx, wy, wz) = air
@@ -67,6 +76,24 @@ class BodyDrag:
     def reset(self) -> None:
         """Nothing to reset: drag has no state."""
 
+    def reseed(self) -> None:
+        """No noise: nothing to do."""
+
     def aux(self) -> list[float]:
         """No read-outs."""
         return []
+
+
+def drag_params(spec: DragSpec) -> DragParams:
+    """The :class:`DragParams` of an airframe's ``drag`` section."""
+    return DragParams(spec.coefficients, spec.areas, spec.angular_damping)
+
+
+def build_drag(ctx: BuildContext) -> BodyDrag | None:
+    """The body drag's group: None when every term is zero, or with the vehicle's drag switched off."""
+    params = drag_params(ctx.spec.drag)
+    return BodyDrag(params) if ctx.drag and params.active else None
+
+
+# summed after the motors, surfaces and boosters
+register("drag", section="drag", spec=DragSpec, build=build_drag, order=50, step_order=50)

@@ -24,17 +24,22 @@ motor's nominal thrust axis into the vectored one its group then pushes along.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import NamedTuple, Protocol, cast
 
 import numpy as np
 
 from pyflyt_engine import exact
+from pyflyt_engine.components import AirVelocity
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.routing import clamp
+from pyflyt_engine.spec import GimbalSpec
 
 _UNIT_TOL = 1e-6
+#: a target group's ``turn(index, thrust_axis)``: point its actuator ``index`` along the axis
+Turn = Callable[[int, Sequence[float]], None]
 
 
 def skew(u: np.ndarray) -> np.ndarray:
@@ -204,9 +209,9 @@ def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tupl
 class Gimbals:
     """The gimbals of one vehicle as an actuator group: servo angles and commands.
 
-    A gimbal applies no load of its own: each physics step it moves its servos and
-    returns, per gimbal, its target's thrust axis turned by the new angles; the vehicle
-    points the target motor or booster along it (``turn``) before those groups step.
+    A gimbal applies no load of its own: each physics step it moves its servos and points
+    its target motor or booster along the thrust axis the new angles give (the target's
+    ``turn``, handed to it at build); it steps before every group that loads the body.
 
     Args:
         params: the gimbals.
@@ -217,11 +222,16 @@ class Gimbals:
             a gimbal the mixer flies (default: (-1, -1) for every gimbal).
         mixer_outputs: gimbal index -> the mixer output that commands its axis a (axis b
             centred), for the gimbals the mixer flies.
+        targets: per gimbal, (its target group's ``turn``, the target's index) (default:
+            none; :meth:`servo_step` alone then moves the servos).
 
     Attributes:
         angles: per gimbal, (eps_a, eps_b) [rad] (the state).
         command: per gimbal, normalised (xi_a, xi_b) in [-1, 1] (set at the control rate).
     """
+
+    needs_air = False
+    commanded = True
 
     def __init__(
         self,
@@ -230,8 +240,10 @@ class Gimbals:
         nominal_axes: Sequence[tuple[float, float, float]],
         channels: Sequence[tuple[int, int]] | None = None,
         mixer_outputs: dict[int, int] | None = None,
+        targets: Sequence[tuple[Turn, int]] = (),
     ) -> None:
         self.params = params
+        self._targets = list(targets)
         self._constants = gimbal_constants(params, physics_dt)
         self._nominal = [tuple(float(v) for v in axis) for axis in nominal_axes]
         self._channels = [tuple(c) for c in channels] if channels is not None else [(-1, -1)] * params.n
@@ -250,8 +262,14 @@ class Gimbals:
         for g, k in self._mixer_outputs.items():
             self.command[g] = (clamp(outputs[k], -1.0, 1.0) if outputs is not None else 0.0, 0.0)
 
-    def step(self) -> list[tuple[float, float, float]]:
-        """One physics step: servos toward their commands; returns, per gimbal, its target's
+    def step(self, air: AirVelocity | None = None, thrust_ratio: Sequence[float] | None = None) -> None:
+        """One physics step (:meth:`servo_step`), each target pointed along its turned axis;
+        no load of its own."""
+        for (turn, index), axis in zip(self._targets, self.servo_step()):
+            turn(index, axis)
+
+    def servo_step(self) -> list[tuple[float, float, float]]:
+        """Servos one physics step toward their commands; returns, per gimbal, its target's
         thrust axis turned by the new angles (:func:`rotate_vector_scalar`)."""
         angles, command = self.angles, self.command
         axes = []
@@ -265,9 +283,40 @@ class Gimbals:
         self.angles = [(0.0, 0.0)] * self.params.n
         self.command = [(0.0, 0.0)] * self.params.n
 
+    def reseed(self) -> None:
+        """No noise: nothing to do."""
+
     def aux(self) -> list[float]:
         """Servo angles normalised by their limits, in [-1, 1]."""
         values: list[float] = []
         for (eps_a, eps_b), (max_a, max_b) in zip(self.angles, self._scale):
             values += (eps_a / max_a, eps_b / max_b)
         return values
+
+
+class _Turnable(Protocol):  # what a gimbal's target group offers (Motors, Boosters)
+    turn: Turn
+
+
+def build_gimbals(ctx: BuildContext) -> Gimbals | None:
+    """The gimbals' group (None without ``gimbals``), each handed its target motor's or
+    booster's ``turn`` (those groups are built before it: lower order)."""
+    parts = ctx.parts
+    if parts.gimbals is None:
+        return None
+    targets, nominal = [], []
+    for kind, index in parts.gimbal_targets:
+        # the spec validator checks every gimbal's target exists
+        group = cast(_Turnable, ctx.groups["motors" if kind == "motor" else "boosters"])
+        targets.append((group.turn, index))
+        axes = (parts.motors if kind == "motor" else parts.boosters).thrust_axes  # type: ignore[union-attr]
+        nominal.append(tuple(axes[index].tolist()))
+    # a gimbal the mixer flies: its command is the mixer output after the motors' throttles
+    n_mixer = len(parts.mixer_motors)
+    flown = {g: n_mixer + k for k, (g, _) in enumerate(parts.mixer_tilts)}
+    channels = [tuple(row) for row in parts.gimbal_channels.tolist()]
+    return Gimbals(parts.gimbals, ctx.physics_dt, nominal, channels, flown, targets)
+
+
+# built after the motors and boosters it turns; stepped first, before any load
+register("gimbals", section="gimbals", spec=GimbalSpec, build=build_gimbals, order=40, step_order=0)

@@ -57,9 +57,11 @@ import numpy as np
 
 from pyflyt_engine import exact
 from pyflyt_engine.components import AirVelocity, Wrench
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.components.lag import lag_coefficient
-from pyflyt_engine.components.routing import MixRow, clamp, mixed
+from pyflyt_engine.components.routing import MixRow, clamp, mix_rows, mixed
 from pyflyt_engine.constants import AIR_DENSITY
+from pyflyt_engine.spec import SurfaceSpec
 
 
 # Dimensionless constants of the Khan & Nahon profile (ICUAS 2015; REFERENCE.md).
@@ -508,6 +510,10 @@ class Surfaces:
         command: per surface, the normalised flap command in [-1, 1] (set at the control rate).
     """
 
+    #: the loads depend on the air-relative velocity
+    needs_air = True
+    commanded = True
+
     def __init__(
         self, params: Sequence[LiftingSurfaceParams], physics_dt: float, mix: Sequence[MixRow] | None = None
     ) -> None:
@@ -522,14 +528,15 @@ class Surfaces:
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
 
-    def route(self, channels: Sequence[float]) -> None:
-        """Flap commands from the channels (each surface's mix), limited to [-1, 1]."""
+    def route(self, channels: Sequence[float], outputs: Sequence[float] | None = None) -> None:
+        """Flap commands from the channels (each surface's mix), limited to [-1, 1]; the
+        mixer flies no flap (``outputs`` unused)."""
         self.command = [clamp(mixed(channels, row), -1.0, 1.0) for row in self._mix]
 
-    def step(self, air: AirVelocity) -> Wrench:
+    def step(self, air: AirVelocity, thrust_ratio: Sequence[float] | None = None) -> Wrench:
         """One physics step: every flap follows its command (:func:`flap_deflection`), then
         the surfaces' summed wrench (:func:`surface_wrench` per surface) at the body's
-        air-relative velocity ``air``."""
+        air-relative velocity ``air`` (``thrust_ratio``, the rotors', unused)."""
         (vx, vy, vz), (wx, wy, wz) = air
         deflection = []
         fx = fy = fz = tx = ty = tz = 0.0
@@ -547,6 +554,18 @@ class Surfaces:
         self.deflection = [0.0] * len(self.params)
         self.command = [0.0] * len(self.params)
 
+    def reseed(self) -> None:
+        """No noise: nothing to do."""
+
     def aux(self) -> list[float]:
         """Flap deflections normalised by their limits, in [-1, 1]."""
         return [d / scale for d, scale in zip(self.deflection, self._scale)]
+
+
+def build_surfaces(ctx: BuildContext) -> Surfaces | None:
+    """The lifting surfaces' group (None without ``surfaces``), each flap driven by its mix."""
+    parts = ctx.parts
+    return Surfaces(parts.surfaces, ctx.physics_dt, mix_rows(parts.surface_mix)) if parts.surfaces else None
+
+
+register("surfaces", section="surfaces", spec=SurfaceSpec, build=build_surfaces, order=20, step_order=20)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pyflyt_engine.components import Wrench
+from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.noise import NoiseBlocks, NoiseSource
 from pyflyt_engine.components.routing import MixRow, mixed
@@ -168,6 +168,11 @@ class Motors:
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
     """
 
+    #: the static thrust model does not read the air (:class:`~pyflyt_engine.components.kinds.ActuatorGroup`)
+    needs_air = False
+    #: its throttles follow the channels and the mixer
+    commanded = True
+
     def __init__(
         self,
         params: MotorParams,
@@ -197,17 +202,18 @@ class Motors:
         ]
         self.command = [1.0 if v > 1.0 else -1.0 if v < -1.0 else v for v in values]  # clamp(v, -1, 1)
 
-    def step(self, thrust_ratio: Sequence[float] | None = None) -> Wrench:
+    def step(self, air: AirVelocity | None = None, thrust_ratio: Sequence[float] | None = None) -> Wrench:
         """One physics step of every motor (the module docstring): the throttle lags toward its
         command and takes its noise factor, ``x' = (x + a (zeta - x)) (1 + sigma eta)``; returns
         the motors' wrench, column i of :func:`motor_wrench_matrix` times ``x'_i |x'_i|``
         summed over the motors, in N and N m about the centre of mass, body frame.
 
         Args:
+            air: the body's velocity through the air; it does not enter this model (static thrust).
             thrust_ratio: per motor, a factor on its thrust and the thrust's moment (the
                 reaction torque is left alone) from the air around it, e.g. ground effect
                 (:func:`pyflyt_engine.atmosphere.rotors.ground_effect_ratios`); None: 1
-                for every motor.  The air's velocity does not enter this model (static thrust).
+                for every motor.
         """
         factors = self._noise.next() if self._noisy else self._ones  # z = 1 + sigma eta, per motor
         columns = self.columns if thrust_ratio is None else self._scaled_columns(thrust_ratio)

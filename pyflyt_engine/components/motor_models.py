@@ -67,11 +67,13 @@ from collections.abc import Sequence
 
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
+from pyflyt_engine.components.kinds import BuildContext, register
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import MotorParams, Motors
 from pyflyt_engine.components.noise import NoiseSource
-from pyflyt_engine.components.routing import MixRow
+from pyflyt_engine.components.routing import MixRow, mix_rows
 from pyflyt_engine.constants import AIR_DENSITY
+from pyflyt_engine.spec import MotorsSpec
 
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0  # 1 RPM in rad/s
 _STILL: AirVelocity = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -117,9 +119,8 @@ class InflowRotor:
 class ModelledMotors(Motors):
     """:class:`Motors` with the optional models of the module docstring.
 
-    The vehicle hands it the air with :meth:`set_air` before each :meth:`step` (the
-    body's velocity through the air, body frame); :meth:`step` keeps the signature of
-    :meth:`Motors.step`.
+    :meth:`step` takes the air (the body's velocity through the air, body frame) like every
+    group; :meth:`set_air` sets it for a :meth:`step` called without it.
 
     Args:
         params: the motors (with their optional models).
@@ -175,9 +176,12 @@ class ModelledMotors(Motors):
         if self.battery is not None:
             self.battery.reset()
 
-    def step(self, thrust_ratio: Sequence[float] | None = None) -> Wrench:
-        """One physics step with the optional models (the module docstring); returns the
-        motors' wrench about the centre of mass, body frame [N, N m]."""
+    def step(self, air: AirVelocity | None = None, thrust_ratio: Sequence[float] | None = None) -> Wrench:
+        """One physics step with the optional models (the module docstring) in the air
+        ``air`` (None: the one last given); returns the motors' wrench about the centre of
+        mass, body frame [N, N m]."""
+        if air is not None:
+            self.air = air
         factors = self._noise.next() if self._noisy else self._ones
         battery = self.battery
         volt = battery.speed_ratio if battery is not None else 1.0  # rotor speed per throttle, relative
@@ -225,3 +229,22 @@ class ModelledMotors(Motors):
     def aux(self) -> list[float]:
         """Throttles (the battery's charge is appended by the vehicle, after every group)."""
         return list(self.throttle)
+
+
+def build_motors(ctx: BuildContext) -> Motors | None:
+    """The motors' group of an airframe (None without ``motors``): :class:`ModelledMotors`
+    when it declares any of the optional models or a battery (which it builds), else the
+    plain :class:`Motors`.  A motor the mixer flies takes the mixer output of its slot."""
+    parts = ctx.parts
+    if parts.motors is None:
+        return None
+    slots = {motor: slot for slot, motor in enumerate(parts.mixer_motors)}
+    outputs = [slots.get(i) for i in range(parts.motors.count)]
+    if parts.motors.modelled or parts.battery is not None:
+        battery = Battery(parts.battery, ctx.physics_dt) if parts.battery is not None else None
+        return ModelledMotors(parts.motors, ctx.physics_dt, ctx.noise, mix_rows(parts.motor_mix), outputs, battery)
+    return Motors(parts.motors, ctx.physics_dt, ctx.noise, mix_rows(parts.motor_mix), outputs)
+
+
+# the motors are the first group, and the first load of the physics step
+register("motors", section="motors", spec=MotorsSpec, build=build_motors, order=10, step_order=10)

@@ -163,7 +163,7 @@ def test_thrust_ratio_scales_the_thrust_and_its_moment_not_the_reaction_torque()
     motors = Motors(params, 1 / 240, NoiseSource(np.random.default_rng(0)))
     motors.command = [1.0]
     plain = np.array(motors.step())
-    scaled = np.array(motors.step([1.5]))
+    scaled = np.array(motors.step(None, [1.5]))
     thrust, reaction = 1e-6 * 1000.0**2, -1e-8 * 1000.0**2
     x2 = motors.throttle[0] ** 2  # the lag has settled: the same throttle both steps
     assert plain == pytest.approx([0, 0, thrust * x2, 0.2 * thrust * x2, -0.1 * thrust * x2, reaction * x2], rel=1e-6)

@@ -20,6 +20,7 @@ from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.world import World
 from tests.conftest import spec_dict, spec_variant
+from tests.engine.vehicle_checks import NO_STAGES, shadowed_methods
 
 DT = 1.0 / 240.0
 EXAMPLE = uav_dir() / "examples" / "quadx_cf2x_battery.yaml"
@@ -334,7 +335,7 @@ def test_off_by_default_the_plain_motors_fly_and_the_dump_is_unchanged():
     world = World([dict(uav=spec, position=(0.0, 0.0, 1.0))], seed=0)
     vehicle = world.vehicles[0]
     assert type(vehicle.actuators.motors) is Motors
-    assert "apply_loads" not in vehicle.__dict__  # the plain method, nothing wrapped around it
+    assert vehicle.stages == NO_STAGES and not shadowed_methods(vehicle)  # nothing runs around the loads
     assert vehicle.battery is None and len(vehicle.aux_state) == 4
     world.close()
 

@@ -233,7 +233,7 @@ def test_off_by_default_the_spec_and_config_dump_as_before():
     assert "sensors" not in load_env_config("quadx_hover").model_dump(mode="json")
     env = make()
     vehicle = env.unwrapped.vehicle
-    assert vehicle.sensors is None and "apply_loads" not in vehicle.__dict__
+    assert vehicle.sensors is None and vehicle.stages["before_loads"] == ()
     env.close()
 
 

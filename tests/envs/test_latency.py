@@ -24,6 +24,7 @@ from pyflyt_engine.telemetry import RecordEpisode, load_episode
 from pyflyt_engine.telemetry.replay import verify
 from pyflyt_engine.world import World
 from tests.conftest import spec_variant
+from tests.engine.vehicle_checks import NO_STAGES, shadowed_methods
 
 
 def make(**kwargs):
@@ -124,7 +125,8 @@ def test_without_latency_the_config_dumps_as_before():
     config = load_env_config("quadx_hover")
     assert config.latency is None and "latency" not in config.model_dump(mode="json")
     env = make()
-    assert "set_setpoint" not in env.unwrapped.vehicle.__dict__ and "apply_loads" not in env.unwrapped.vehicle.__dict__
+    assert env.unwrapped.vehicle.stages == NO_STAGES
+    assert not shadowed_methods(env.unwrapped.vehicle)
     env.close()
 
 
@@ -266,7 +268,10 @@ def test_a_drawn_delay_replaces_the_fixed_one_and_the_other_stays():
     env = make(latency=fixed, randomize={"action_delay": _uniform(0.0, 0.0)})
     env.reset(seed=0)
     vehicle = env.unwrapped.vehicle
-    assert vehicle.latency == (0, 3) and "set_setpoint" not in vehicle.__dict__  # no action delay: the plain method
+    assert vehicle.latency == (0, 3)
+    assert vehicle.stages == {  # no action delay: nothing queues the setpoints
+        "before_control": ("deliver_setpoints",), "before_loads": ("record_observation", "count_step")
+    }
     env.close()
 
 
@@ -275,7 +280,7 @@ def _flight(randomize: dict) -> np.ndarray:
     rows = [env.reset(seed=1)[0]]
     for _ in range(15):
         rows.append(env.step(np.array([0.1, -0.05, 0.0, 0.14]))[0])
-    assert not {"set_setpoint", "control_step", "apply_loads"} & set(env.vehicle.__dict__)
+    assert env.vehicle.stages == NO_STAGES and not shadowed_methods(env.vehicle)
     env.close()
     return np.array(rows)
 
@@ -309,7 +314,7 @@ def test_a_vehicle_changes_its_delays_between_resets():
     assert np.array_equal(late[6:], plain[:-6]) and not late[:6].any()
     vehicle.set_latency(0, 0)
     assert vehicle.latency == (0, 0)
-    assert not {"set_setpoint", "control_step", "apply_loads", "_clock"} & set(vehicle.__dict__)
+    assert vehicle.stages == NO_STAGES and not shadowed_methods(vehicle)
     assert np.array_equal(run(), plain)
     world.close()
 

@@ -528,23 +528,9 @@ class Aviary:
 def _hold_controller(vehicle: Any, hold: int) -> None:
     """Run ``vehicle``'s controller on one control tick of the world in ``hold`` and keep its
     commands in between (a slower drone in a faster world, PyFlyt 0.29.0
-    ``DroneClass.update_control``: ``physics_step % physics_control_ratio``)."""
-    run = vehicle.control_step
-    ticks = [0]
-
-    def control_step() -> None:
-        if ticks[0] % hold == 0:
-            run()
-        ticks[0] += 1
-
-    vehicle.control_step = control_step
-    original_reset = vehicle.reset
-
-    def reset(*args: Any, **kwargs: Any) -> None:
-        ticks[0] = 0
-        original_reset(*args, **kwargs)
-
-    vehicle.reset = reset
+    ``DroneClass.update_control``: ``physics_step % physics_control_ratio``); the count
+    restarts at every reset of the vehicle."""
+    vehicle.set_control_hold(hold)
 
 
 class _FunctionWind:
