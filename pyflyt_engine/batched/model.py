@@ -24,6 +24,7 @@ import numpy as np
 
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.components.drag import DragParams
+from pyflyt_engine.components.kinds import component_kinds
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix
 from pyflyt_engine.control.mixer import Mixer
@@ -31,7 +32,13 @@ from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import rpy_matrix
-from pyflyt_engine.spec import MultirotorControlSpec, UAVSpec
+from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
+
+#: the component kinds (pyflyt_engine.components.kinds) the compiled laws simulate; any other
+#: kind an airframe declares is refused by its name
+SIMULATED_KINDS = frozenset({"motors", "drag"})
+#: how a refusal names a kind where its registered name says less
+KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motors)", "prop_guards": "propeller guards"}
 
 #: flight modes the compiled controller flies (name -> code in kernels)
 BATCHED_MODES = {"rates_thrust": 0, "motors": -1}
@@ -138,16 +145,15 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
     if spec.body.urdf is not None:
         raise refuse(f"a URDF body ({name})")
     if not isinstance(spec.control, MultirotorControlSpec):
-        raise refuse(f"the {type(spec.control).__name__.replace('ControlSpec', '').lower()} airframe {name}",
-                     "the batched backend flies multirotors")
+        what = "fixed-wing" if isinstance(spec.control, FixedwingControlSpec) else "channel-driven (no multirotor controller)"
+        raise refuse(f"the {what} airframe {name}", "the batched backend flies multirotors")
     parts = assemble(spec)
+    for kind in component_kinds():  # every registered kind but the ones compiled here, by its name
+        if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
+            raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
-        ("lifting surfaces", bool(parts.surfaces)),
-        ("boosters", parts.boosters is not None),
-        ("gimbals (tilting motors)", parts.gimbals is not None),
         ("the battery", parts.battery is not None),
         ("actuator channels", bool(parts.channels)),
-        ("cameras", bool(parts.cameras)),
         ("range sensors", bool(spec.range_sensors)),
         ("noisy sensors (the airframe's sensors section)", getattr(spec, "sensors", None) is not None),
     ):

@@ -185,7 +185,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
-        ("fixedwing_waypoints", {}, "fixedwing airframe"),
+        ("fixedwing_waypoints", {}, "fixed-wing airframe"),
         ("rocket_landing", {}, "task"),
         ("ma_quadx_hover", {}, "multi-agent"),
         ("quadx_waypoints_velocity", {}, "flight mode"),

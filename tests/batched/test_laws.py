@@ -56,6 +56,20 @@ def test_every_other_airframe_is_refused_by_name(name):
     assert "env.backend=batched does not simulate" in message and "env.backend=pybullet" in message
 
 
+def test_a_component_kind_it_does_not_compile_is_refused_by_its_name():
+    """Propeller guards on the cf2x: a registered kind the compiled laws leave out is refused,
+    not flown without its drag."""
+    import yaml
+
+    from pyflyt_engine.paths import uav_dir
+    from pyflyt_engine.spec import parse_uav_spec
+
+    data = yaml.safe_load((uav_dir() / "quadx_cf2x.yaml").read_text())
+    data["prop_guards"] = {"radius": 0.025, "height": 0.01}
+    with pytest.raises(UnsupportedByBatched, match="propeller guards"):
+        batched_model(parse_uav_spec(data), DT, CONTROL_DT)
+
+
 @pytest.mark.parametrize("name", FLOWN)
 def test_motors_step_equals_the_motor_group(name):
     spec = load_uav_spec(name)
