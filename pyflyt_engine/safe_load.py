@@ -328,6 +328,49 @@ def outside(root: str | os.PathLike[str], path: str | os.PathLike[str]) -> bool:
     return target != base and base not in target.parents
 
 
+def confined_file(
+    root: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    *,
+    what: str = "file",
+    source: str = "",
+    error: type[PyFlytError] = ConfigError,
+) -> Path:
+    """``path`` (a relative one from ``root``) as the absolute path of a regular file inside the
+    directory ``root``, reached through no symbolic link; else ``error``, one line naming it.
+
+    What a shared directory (a run) names is its own: an absolute path elsewhere, a ``..``
+    that climbs out, a link anywhere on the way (even one that stays inside: what it points to
+    can change between the check and the read), a FIFO, a device or a directory where a file
+    is expected are all refused, without opening anything.
+    """
+    base = Path(os.path.realpath(root))
+    given = Path(os.fspath(path)).expanduser()
+    where = f"{source}: " if source else ""
+    candidate = Path(os.path.normpath(given if given.is_absolute() else base / given))
+    if candidate == base or base not in candidate.parents:
+        raise error(
+            f"{where}the {what} {os.fspath(path)!r} is outside {base}: a shared directory names only its own files; "
+            "copy the file into it and name it by its relative path"
+        )
+    step = base
+    for part in candidate.relative_to(base).parts:
+        step = step / part
+        try:
+            mode = os.lstat(step).st_mode
+        except OSError as exc:
+            raise error(f"{where}the {what} {os.fspath(path)!r}: cannot read {step}: {exc.strerror or exc}") from None
+        if stat.S_ISLNK(mode):
+            raise error(
+                f"{where}the {what} {os.fspath(path)!r} goes through the link {step}: a shared directory's files are "
+                "read through no link; replace the link by a copy of what it points to"
+            )
+    kind = _kind(mode)
+    if kind is not None:
+        raise error(f"{where}the {what} {os.fspath(path)!r} ({candidate}) is {kind}, not a regular file")
+    return candidate
+
+
 _PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 
 

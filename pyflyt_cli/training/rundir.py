@@ -411,20 +411,25 @@ def check_run_dir(run_dir: str | Path) -> Path:
 
 
 def check_closed(
-    run_dir: Path, folders: tuple[str, ...] = (CHECKPOINTS, EPISODES), what: str = "run directory"
+    run_dir: Path, folders: tuple[str, ...] | None = None, what: str = "run directory"
 ) -> None:
-    """Refuse a directory that is not a closed world: an entry (of it, or of its ``folders``)
-    that is a link leading out of it, or a special file (a FIFO, a device, a socket).
+    """Refuse a directory that is not a closed world: an entry that is a link leading out of it, or
+    a special file (a FIFO, a device, a socket).
 
-    A run directory (or a benchmark directory, ``what``) can be shared, so no link inside it
-    may decide where a resume writes or what an evaluation reads.  Links that stay inside
-    are allowed.
+    ``folders=None`` (a run directory): every entry of every folder under it, however deep (links
+    to folders are checked, never walked into); otherwise the top level and the ``folders`` named
+    (a benchmark directory, ``what``, whose runs are checked each on their own).
+
+    A run directory (or a benchmark directory) can be shared, so no link inside it may decide
+    where a resume writes or what an evaluation reads.  Links that stay inside are allowed.
     """
     from pyflyt_engine.safe_load import outside
 
     root = Path(run_dir)
-    for folder in (root, *(root / name for name in folders)):
-        if folder != root and not folder.is_dir():
+    pending = [root] if folders is None else [root, *(root / name for name in folders)]
+    while pending:
+        folder = pending.pop(0)
+        if folder != root and not (folder.is_dir() and not folder.is_symlink()):
             continue
         try:
             entries = sorted(os.scandir(folder), key=lambda e: e.name)
@@ -438,7 +443,10 @@ def check_closed(
                         f"{path} is a link to {os.readlink(path)}, outside {root}: a shared {what} is "
                         "read and written only inside itself; replace the link by a copy of what it points to"
                     )
-            elif not (entry.is_dir(follow_symlinks=False) or entry.is_file(follow_symlinks=False)):
+            elif entry.is_dir(follow_symlinks=False):
+                if folders is None:
+                    pending.append(path)
+            elif not entry.is_file(follow_symlinks=False):
                 raise RunDirError(f"{path} is not a regular file or a folder (a FIFO or a device?): remove it")
 
 
@@ -450,7 +458,7 @@ def _confine(data: Any, root: Path, source: str) -> None:
     """Make the files a run's config names its own: airframes by a file name inside ``root`` (made
     absolute) or a shipped name; presets by a shipped name or inline.  Anything else is refused."""
     from pyflyt_engine.paths import uav_dir
-    from pyflyt_engine.safe_load import outside, plain_name
+    from pyflyt_engine.safe_load import confined_file, outside, plain_name
 
     env = data.get("env") if isinstance(data, dict) else None
     if not isinstance(env, dict):
@@ -485,17 +493,28 @@ def _confine(data: Any, root: Path, source: str) -> None:
                 f"{source}: {key}={name!r} names a file: a run directory keeps its presets inline or by a "
                 "shipped name, and names no file outside itself"
             )
-    for payload in env.get("payloads") or []:
+    # every mesh file the config names: a regular file of the run reached through no link (relative
+    # paths from the run directory), written back absolute so that nothing resolves it from elsewhere
+    for i, payload in enumerate(env.get("payloads") or []):
         shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
-        for shape in shapes:
-            if isinstance(shape, dict) and shape.get("type") == "mesh" and outside(root, Path(str(shape.get("mesh")))):
-                raise RunDirError(f"{source}: a payload's mesh {shape.get('mesh')!r} is outside the run directory")
+        for j, shape in enumerate(shapes):
+            if isinstance(shape, dict) and shape.get("type") == "mesh" and isinstance(shape.get("mesh"), str):
+                shape["mesh"] = str(confined_file(root, shape["mesh"], what=f"mesh of env.payloads[{i}].body.shapes[{j}]",
+                                                  source=source, error=RunDirError))
+    obstacles = env.get("obstacles")
+    items = obstacles.get("items") if isinstance(obstacles, dict) else None
+    for i, item in enumerate(items if isinstance(items, list) else []):
+        if isinstance(item, dict) and isinstance(item.get("file"), str):
+            item["file"] = str(confined_file(root, item["file"], what=f"env.obstacles.items[{i}].file", source=source,
+                                             error=RunDirError))
 
 
 def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
-    """Refuse an airframe file of the run whose URDF or meshes lie outside the run directory."""
-    from pyflyt_engine.safe_load import outside
+    """Refuse an airframe file of the run whose URDF, its meshes or the airframe's meshes are not
+    regular files of the run reached through no link -- before PyBullet or the recorder opens any."""
+    from pyflyt_engine.safe_load import confined_file, read_text
     from pyflyt_engine.spec import load_uav_spec
+    from pyflyt_engine.urdf import MAX_URDF_BYTES, urdf_files, urdf_problem
 
     agents = getattr(cfg.env, "agents", None)  # a multi-agent env: a count, or a list of agents
     names = [cfg.env.uav, *(a.uav for a in agents if a.uav)] if isinstance(agents, list) else [cfg.env.uav]
@@ -504,13 +523,19 @@ def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
             continue  # a shipped airframe
         spec = load_uav_spec(name)
         base = Path(name).parent
-        files = [spec.body.urdf] + [s.mesh for s in spec.body.shapes if s.type == "mesh"]
-        for file in files:
-            if file is not None and outside(root, base / file):
-                raise RunDirError(
-                    f"{source}: the airframe {Path(name).name} names {file!r}, outside the run directory: "
-                    "a shared run is read only from its own files"
-                )
+        label = f"{source}: the airframe {Path(name).name}"
+        for shape in spec.body.shapes:
+            if shape.type == "mesh" and shape.mesh is not None:
+                confined_file(root, base / shape.mesh, what="mesh it names", source=label, error=RunDirError)
+        if spec.body.urdf is None:
+            continue
+        urdf = confined_file(root, base / spec.body.urdf, what="URDF it names", source=label, error=RunDirError)
+        text = read_text(urdf, limit=MAX_URDF_BYTES, what="URDF", error=RunDirError)
+        problem = urdf_problem(text, allow_files=True)
+        if problem is not None:
+            raise RunDirError(f"{label} names the URDF {urdf.name}, which PyBullet is not given: {problem}")
+        for file in urdf_files(text):
+            confined_file(root, urdf.parent / file, what=f"mesh its URDF {urdf.name} names", source=label, error=RunDirError)
 
 
 def load_run_config(run_dir: str | Path) -> TrainConfig:
