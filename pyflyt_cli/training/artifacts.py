@@ -301,6 +301,15 @@ def load_checkpoint_into(model: Any, data: Mapping[str, Any], path: Path) -> tup
     load_policy_into(model, data, path)
     try:
         model.set_parameters({**data["optimizers"], "policy": data["policy"]}, exact_match=True)
+        # the variables SB3 saves besides the policy (SAC's log_ent_coef ...): only the names this model
+        # declares, never an attribute path taken from the file
+        declared = set(model._get_torch_save_params()[1])
+        unknown = sorted(str(name) for name in data["variables"] if name not in declared)
+        if unknown:
+            raise ArtifactError(
+                f"{path}: the checkpoint carries the variable {unknown[0]!r}, which this model does not save "
+                f"(its variables: {', '.join(sorted(declared)) or 'none'})"
+            )
         with torch.no_grad():
             for name, value in data["variables"].items():
                 attrgetter(name)(model).copy_(value)
