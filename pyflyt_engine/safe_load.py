@@ -191,6 +191,8 @@ def _check_nodes(root: yaml.Node, source: str, error: type[PyFlytError], max_nod
         key = id(node)
         if isinstance(node, yaml.MappingNode):
             children = [item for pair in node.value for item in pair]
+            if not done and key not in sizes:
+                _check_unique_keys(node, source, error)
         elif isinstance(node, yaml.SequenceNode):
             children = list(node.value)
         else:
@@ -219,6 +221,23 @@ def _check_nodes(root: yaml.Node, source: str, error: type[PyFlytError], max_nod
         if height > MAX_DEPTH:
             raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)")
         sizes[key] = (count, height)
+
+
+def _check_unique_keys(node: yaml.MappingNode, source: str, error: type[PyFlytError]) -> None:
+    """Refuse a mapping that gives a key twice (YAML says keys are unique; PyYAML keeps the last,
+    so a second entry could silently replace what a reader of the file sees first).  A merge
+    (``<<: *anchor``) is not a key of its own and may be overridden, as YAML intends."""
+    seen: dict[tuple[str, str], int] = {}
+    for key_node, _ in node.value:
+        if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+            continue
+        ident = (key_node.tag, key_node.value)
+        line = key_node.start_mark.line + 1
+        if ident in seen:
+            raise error(
+                f"{source}: the key {key_node.value!r} is given twice (lines {seen[ident]} and {line}); give each key once"
+            )
+        seen[ident] = line
 
 
 # ------------------------------------------------------------------------- JSON

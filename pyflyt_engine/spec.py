@@ -608,6 +608,10 @@ class CameraSpec(_Spec):
                 f"camera {info.field_name} must be at least 1 pixel, got {value}: an image needs a "
                 "non-zero resolution; give e.g. 128"
             )
+        if isinstance(value, (int, float)):
+            from pyflyt_engine import limits
+
+            limits.check("image_side", value, name=f"camera {info.field_name}")
         return value
 
     @model_validator(mode="after")

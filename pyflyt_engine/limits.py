@@ -1,0 +1,65 @@
+"""The largest values accepted where a number from a file or the command line costs time or memory.
+
+A run directory, a recording or an override may come from someone else (docs/reproducibility.md,
+"Safe to share"), and some numbers decide how much work a command does before it can report
+anything: ``env.physics_hz: 3e9`` made ``pyflyt eval`` allocate gigabytes before its first step,
+``env.render.resolution: [100000, 100000]`` asked the renderer for 40 GB, ``pyflyt fly rows=1e9``
+built a table of a billion rows.  Each such number is checked against this one table when the
+config holding it is validated (env configs, airframe cameras, ``pyflyt fly`` options), so the
+refusal is one line naming the key, the value and the limit, before any work starts.
+
+Every limit is far above what any shipped config, experiment or test uses (the largest in
+``conf/``: physics 240 Hz, 120 s episodes, 480 x 480 images), so no real use meets it; the table
+is printed in docs/reproducibility.md and each limit has a test in ``tests/engine/test_limits.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The largest value of one kind of key, its unit and what it bounds."""
+
+    high: float
+    unit: str
+    why: str
+
+
+#: key -> limit.  The keys name the config field (or the family of fields) they apply to.
+LIMITS: dict[str, Limit] = {
+    "physics_hz": Limit(10_000.0, "Hz", "physics steps per simulated second (the paper: 240)"),
+    "control_hz": Limit(10_000.0, "Hz", "controller updates per simulated second (the paper: 120)"),
+    "agent_hz": Limit(10_000.0, "Hz", "agent steps per simulated second (the paper: 30)"),
+    "max_duration_seconds": Limit(86_400.0, "s", "simulated length of one episode (one day)"),
+    # physics_hz x max_duration_seconds: the physics steps of one episode (about ten minutes of CPU)
+    "episode_physics_steps": Limit(1e7, "steps", "physics steps of one episode (physics_hz x max_duration_seconds)"),
+    "image_side": Limit(4096.0, "px", "height or width of a rendered or camera image"),
+    "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
+    "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
+}
+
+
+def problem(key: str, value: float, *, name: str | None = None) -> str | None:
+    """Why ``value`` of ``key`` (shown as ``name``) is above its limit; None when it is within.
+
+    ``value`` is a number the schema already took (finite, positive where it must be)."""
+    limit = LIMITS[key]
+    if value <= limit.high:
+        return None
+    return (
+        f"{name or key} {value:g} is above the limit of {limit.high:g} {limit.unit} ({limit.why}); "
+        "give a smaller value (the limits: docs/reproducibility.md, 'Bounded numbers')"
+    )
+
+
+def check(key: str, value: float, *, name: str | None = None) -> float:
+    """``value`` if it is within the limit of ``key``, else ``ValueError`` (for a pydantic validator)."""
+    why = problem(key, value, name=name)
+    if why is not None:
+        raise ValueError(why)
+    return value
+
+
+__all__ = ["LIMITS", "Limit", "check", "problem"]
