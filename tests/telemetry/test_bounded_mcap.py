@@ -79,3 +79,22 @@ def test_a_large_file_that_is_not_mcap_is_refused_without_being_read(tmp_path, m
     with pytest.raises(TelemetryError, match="does not start with the MCAP magic bytes"):
         read_mcap(path, warn=False)
     os.unlink(path)
+
+
+@pytest.mark.parametrize("key, values", [("lin_pos", 3_000_000), ("aux", 3_000_000)])
+def test_a_state_list_longer_than_its_schema_is_refused_before_it_is_converted(tmp_path, key, values):
+    """The reproduction: 3 M-element state lists hung replay (here in one message, which is enough)."""
+    from tests.telemetry.conftest import record, rewrite_mcap
+
+    env, _ = record("PyFlyt/QuadX-Hover-v0", tmp_path, episodes=1, max_steps=5)
+    long_list = [0.0] * values
+
+    def forge(topic, data):
+        return {**data, key: long_list} if topic == "/uav/0/state" and data.get("step") == 2 else None
+
+    forged = tmp_path / "long.mcap"
+    rewrite_mcap(env.paths[0], forged, forge)
+    code, output = pyflyt_forked(["replay", str(forged), "--verify"], timeout=120, memory=3 << 30)
+    assert code == 2 and "Traceback" not in output, output[-2000:]
+    expected = "expected 3" if key == "lin_pos" else "more than the 10000 any recorded row holds"
+    assert f"message 2 on /uav/0/state: '{key}' has {values} values" in output and expected in output
