@@ -194,3 +194,22 @@ def test_every_shipped_yaml_file_has_unique_keys():
     assert len(files) > 50
     for file in files:
         yaml_data(file.read_text(), source=str(file), limit=None)
+
+
+@pytest.mark.parametrize("what", ["vertices", "triangles"])
+def test_an_obj_mesh_beyond_the_vertex_or_triangle_limit_is_refused_in_seconds(what):
+    """The reproduction: an OBJ within the 64 MiB limit (8 M triangles) took about five CPU-minutes."""
+    import time
+
+    from pyflyt_engine.obstacles import MAX_OBJ_TRIANGLES, MAX_OBJ_VERTICES, parse_obj
+
+    if what == "vertices":
+        data = b"v 0 0 0\n" * (MAX_OBJ_VERTICES + 1) + b"f 1 2 3\n"
+    else:
+        data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * (4 * MAX_OBJ_TRIANGLES)
+    start = time.process_time()
+    with pytest.raises(ValueError, match=f"more than {MAX_OBJ_VERTICES if what == 'vertices' else MAX_OBJ_TRIANGLES} {what}"):
+        parse_obj(data, "big.obj")
+    assert time.process_time() - start < 10.0  # stops at the limit (about 1 s), not at the end of the file
+    at_limit = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * MAX_OBJ_TRIANGLES
+    assert len(parse_obj(at_limit, "ok.obj").indices) == 3 * MAX_OBJ_TRIANGLES
