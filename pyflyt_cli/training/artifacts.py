@@ -6,7 +6,8 @@ A run directory is meant to be shared, so nothing in it is a pickle:
   (``checkpoints/model_<N>_steps.pt``) are ``torch.save`` archives of a plain dict of
   tensors, numbers and strings, read back with ``torch.load(weights_only=True)``, which
   refuses anything else.  The SB3 model is rebuilt from the run's ``config.yaml`` and the
-  tensors are loaded into it.
+  tensors are loaded into it.  Each carries the SHA-256 of its content (``sha256``,
+  :func:`content_digest`), checked when it is read, so a damaged copy is refused.
 * **replay buffers** (``checkpoints/replay_buffer_<N>_steps.npz``) are NumPy archives of
   plain arrays, read with ``np.load(allow_pickle=False)``.
 * the observation/reward **normaliser** (SB3 ``VecNormalize``) is a few arrays inside
@@ -102,11 +103,49 @@ def _create_new(path: Path) -> None:
     os.close(fd)
 
 
+#: the key of a policy file or checkpoint that holds the SHA-256 of the rest of its content
+DIGEST_KEY = "sha256"
+
+
+def content_digest(data: Mapping[str, Any]) -> str:
+    """SHA-256 (hex) of a policy file's or checkpoint's content, ``DIGEST_KEY`` left out: every key,
+    and every value by its kind -- a tensor by its dtype, shape and bytes, a number or a string by
+    its type and ``repr`` -- in a fixed order, so the same content gives the same digest whatever
+    the archive's layout.  A flipped byte anywhere in the content changes it."""
+    import hashlib
+
+    import torch
+
+    h = hashlib.sha256()
+
+    def feed(value: Any) -> None:
+        if isinstance(value, torch.Tensor):
+            t = value.detach().cpu().contiguous()
+            h.update(f"t{t.dtype}{tuple(t.shape)}".encode())
+            h.update(t.reshape(-1).view(torch.uint8).numpy().tobytes() if t.numel() else b"")
+        elif isinstance(value, Mapping):
+            keys = sorted((k for k in value if not (value is data and k == DIGEST_KEY)), key=str)
+            h.update(f"d{len(keys)}".encode())
+            for key in keys:
+                h.update(f"k{len(str(key))}:{key}".encode())
+                feed(value[key])
+        elif isinstance(value, (list, tuple)):
+            h.update(f"l{len(value)}".encode())
+            for item in value:
+                feed(item)
+        else:
+            text = f"{type(value).__name__}:{value!r}"
+            h.update(f"v{len(text)}:{text}".encode())
+
+    feed(data)
+    return h.hexdigest()
+
+
 def _save_torch(data: dict[str, Any]) -> Callable[[Path], None]:
     def write(tmp: Path) -> None:
         import torch
 
-        torch.save(data, tmp)
+        torch.save({**data, DIGEST_KEY: content_digest(data)}, tmp)
 
     return write
 
@@ -142,6 +181,12 @@ def read_payload(path: Path, *, kinds: tuple[str, ...] = (POLICY_FORMAT, CHECKPO
         raise ArtifactError(f"{path}: not a pyflyt model file (expected format {' or '.join(kinds)})")
     if int(data.get("version", 0)) > FORMAT_VERSION:
         raise ArtifactError(f"{path}: written by a newer version (format {data.get('version')}); upgrade pyflyt")
+    # files written before the digest existed (the shipped agents among them) have none: read as before
+    if DIGEST_KEY in data and data[DIGEST_KEY] != content_digest(data):
+        raise ArtifactError(
+            f"{path}: its content does not match the SHA-256 it was written with: the file is damaged "
+            "(a flipped byte, a copy gone wrong); use another copy or checkpoint"
+        )
     return data
 
 

@@ -140,10 +140,13 @@ def test_a_hostile_env_id_never_reaches_the_compiled_code(shared_run, tmp_path, 
 
 
 def tamper_model(run: Path, edit) -> None:
+    """Edit a run's policy file as someone crafting it would: its content digest (if any) recomputed."""
+    from pyflyt_cli.training.artifacts import DIGEST_KEY, content_digest
+
     path = run / "model.pt"
     data = torch.load(path, weights_only=True)
     edit(data)
-    torch.save(data, path)
+    torch.save({**data, DIGEST_KEY: content_digest(data)}, path)
 
 
 def _short_mean(d):

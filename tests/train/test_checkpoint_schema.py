@@ -1,5 +1,6 @@
 """A checkpoint's trainer state is a schema, not attribute names: restoring sets a fixed list of counters,
-each of its type and range, and refuses anything else by name, before training starts.
+each of its type and range, and refuses anything else by name, before training starts.  Policy files and
+checkpoints carry the SHA-256 of their content, checked on load: a damaged copy is refused.
 
 Written from the reproduction: ``state["counters"]`` of ``checkpoints/model_*.pt`` was applied with
 ``setattr(model, name, value)`` for every key, so ``n_epochs: 1e9`` or ``num_timesteps: -1e12`` hung a resume
@@ -15,7 +16,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from pyflyt_cli.training import continuity, train
+from pyflyt_cli.training import artifacts, continuity, train
 
 from .conftest import TINY_PPO, load
 from .test_shared_runs import cli, interrupted_at_256, refused
@@ -34,13 +35,18 @@ def run(trained, tmp_path) -> Path:
     return copy
 
 
+def reseal(data: dict) -> dict:
+    """``data`` with its content digest recomputed, as someone crafting a file would do."""
+    return {**data, artifacts.DIGEST_KEY: artifacts.content_digest(data)}
+
+
 def tamper_state(run: Path, edit) -> None:
     path = run / "checkpoints" / "model_256_steps.pt"
     data = torch.load(path, weights_only=True)
     state = json.loads(data["state"])
     edit(state)
     data["state"] = json.dumps(state)
-    torch.save(data, path)
+    torch.save(reseal(data), path)
 
 
 def _set(name, value):
@@ -74,7 +80,7 @@ def test_a_variable_the_model_does_not_save_is_refused(run):
     path = run / "checkpoints" / "model_256_steps.pt"
     data = torch.load(path, weights_only=True)
     data["variables"] = {**data["variables"], "policy.action_net.weight": torch.zeros(4, 64)}
-    torch.save(data, path)
+    torch.save(reseal(data), path)
     refused(cli("train", f"resume={run}"), "the variable 'policy.action_net.weight'", "does not save")
 
 
@@ -88,3 +94,41 @@ def test_the_counters_a_checkpoint_writes_pass_the_schema(trained):
     checked = continuity.checked_counters(PPOLike(), counters)
     assert checked == counters and checked["num_timesteps"] == 256
     assert set(continuity.COUNTER_SCHEMA) >= {*continuity.COUNTERS, "offline_steps_done", "oracle_actions"}
+
+
+# ------------------------------------------------------------------ the content digest
+
+
+def flip_tensor_byte(path: Path) -> None:
+    """Flip one bit in the middle of the largest tensor stored in a torch archive (stored, not compressed)."""
+    import struct
+    import zipfile
+
+    with zipfile.ZipFile(path) as archive:
+        info = max(archive.infolist(), key=lambda i: i.file_size)
+    assert info.compress_type == zipfile.ZIP_STORED
+    raw = bytearray(path.read_bytes())
+    name_length, extra_length = struct.unpack_from("<HH", raw, info.header_offset + 26)
+    raw[info.header_offset + 30 + name_length + extra_length + info.file_size // 2] ^= 0x10
+    path.write_bytes(bytes(raw))
+
+
+def test_a_flipped_byte_in_a_model_file_is_refused_not_loaded(run):
+    """The reproduction: a flipped byte in best_model.pt was accepted silently (torch checks no CRC)."""
+    data = torch.load(run / "best_model.pt", weights_only=True)
+    assert data[artifacts.DIGEST_KEY] == artifacts.content_digest(data)  # written with its digest
+    flip_tensor_byte(run / "best_model.pt")
+    refused(cli("eval", str(run), "model=best", "episodes=1", "record=false"), "does not match the SHA-256")
+    flip_tensor_byte(run / "checkpoints" / "model_256_steps.pt")
+    refused(cli("train", f"resume={run}"), "model_256_steps.pt", "does not match the SHA-256")
+
+
+def test_a_file_without_a_digest_still_loads(run):
+    """Files written before the digest existed (the shipped agents among them) are read as before."""
+    from pyflyt_cli.zoo import agent
+
+    assert artifacts.DIGEST_KEY not in torch.load(agent("quadx_hover_ppo").path / "model.pt", weights_only=True)
+    data = torch.load(run / "best_model.pt", weights_only=True)
+    del data[artifacts.DIGEST_KEY]
+    torch.save(data, run / "best_model.pt")
+    assert artifacts.read_payload(run / "best_model.pt")["algo"] == "ppo"
