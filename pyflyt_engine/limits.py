@@ -36,6 +36,11 @@ LIMITS: dict[str, Limit] = {
     # physics_hz x max_duration_seconds: the physics steps of one episode (about ten minutes of CPU)
     "episode_physics_steps": Limit(1e7, "steps", "physics steps of one episode (physics_hz x max_duration_seconds)"),
     "image_side": Limit(4096.0, "px", "height or width of a rendered or camera image"),
+    "flight_dome_size": Limit(100_000.0, "m", "radius of the flight dome (its square must stay a finite number)"),
+    # NumPy's legacy seeding, which SB3 uses, takes 32 bits; half of that range leaves room for the
+    # offsets derived from a seed (an env per vector slot, evaluation episodes from seed + 1000 + i)
+    "seed": Limit(2**31 - 1, "", "a run's or an evaluation's seed"),
+    "eval.episodes": Limit(1_000_000.0, "episodes", "episodes `pyflyt eval` flies (seeds seed ... seed + episodes - 1)"),
     "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
     "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
 }
@@ -48,10 +53,18 @@ def problem(key: str, value: float, *, name: str | None = None) -> str | None:
     limit = LIMITS[key]
     if value <= limit.high:
         return None
+    unit = f" {limit.unit}" if limit.unit else ""
     return (
-        f"{name or key} {value:g} is above the limit of {limit.high:g} {limit.unit} ({limit.why}); "
+        f"{name or key} {number(value)} is above the limit of {number(limit.high)}{unit} ({limit.why}); "
         "give a smaller value (the limits: docs/reproducibility.md, 'Bounded numbers')"
     )
+
+
+def number(value: float) -> str:
+    """``value`` as a message shows it: a whole number of up to 12 digits exactly, anything else ``:g``."""
+    if float(value).is_integer() and abs(value) < 1e12:
+        return str(int(value))
+    return f"{value:g}"
 
 
 def check(key: str, value: float, *, name: str | None = None) -> float:
@@ -62,4 +75,4 @@ def check(key: str, value: float, *, name: str | None = None) -> float:
     return value
 
 
-__all__ = ["LIMITS", "Limit", "check", "problem"]
+__all__ = ["LIMITS", "Limit", "check", "number", "problem"]

@@ -356,7 +356,7 @@ class EnvConfig(_Config):
                 del data[key]
         return data
 
-    @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds")
+    @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds", "flight_dome_size")
     @classmethod
     def _bounded(cls, value: float, info: ValidationInfo) -> float:
         return limits.check(info.field_name, value)

@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 
 from pyflyt_cli.main import app
 from pyflyt_engine.errors import ConfigError, PyFlytError
-from pyflyt_engine.limits import LIMITS
+from pyflyt_engine.limits import LIMITS, number
 from tests.conftest import pyflyt_forked
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -77,21 +77,45 @@ def fly_problem(*overrides: str) -> str | None:
     return None
 
 
+def train_problem(*overrides: str) -> str | None:
+    from pyflyt_cli.commands.train import load_train_config
+
+    try:
+        load_train_config(list(overrides))
+    except PyFlytError as exc:
+        return str(exc)
+    return None
+
+
+def eval_problem(**options) -> str | None:
+    from pyflyt_cli.training.schema import parse_eval_options
+
+    try:
+        parse_eval_options(options)
+    except PyFlytError as exc:
+        return str(exc)
+    return None
+
+
 #: limit -> (a setting above it, one within it, what the refusal names); within values keep the
 #: config's other rules (physics_hz a whole multiple of agent_hz, the controller no faster than physics)
 CASES = {
-    "physics_hz": (lambda: env_problem(physics_hz=3e9), lambda: env_problem(physics_hz=9600.0), "physics_hz 3e+09"),
+    "physics_hz": (lambda: env_problem(physics_hz=3e9), lambda: env_problem(physics_hz=9600.0), "physics_hz 3000000000"),
     "control_hz": (lambda: env_problem(control_hz=2e4), lambda: env_problem(control_hz=240.0), "control_hz 20000"),
     "agent_hz": (lambda: env_problem(agent_hz=2e4, physics_hz=2e4), lambda: env_problem(agent_hz=240.0), "agent_hz 20000"),
     "max_duration_seconds": (lambda: env_problem(max_duration_seconds=1e9),
-                             lambda: env_problem(max_duration_seconds=3600.0), "max_duration_seconds 1e+09"),
+                             lambda: env_problem(max_duration_seconds=3600.0), "max_duration_seconds 1000000000"),
     "episode_physics_steps": (lambda: env_problem(physics_hz=9600.0, max_duration_seconds=2000.0),
                               lambda: env_problem(physics_hz=9600.0, max_duration_seconds=1000.0),
-                              "physics_hz x max_duration_seconds 1.92e+07"),
+                              "physics_hz x max_duration_seconds 19200000"),
     "image_side": (lambda: env_problem(**{"render.resolution": [100000, 100000]}),
                    lambda: env_problem(**{"render.resolution": [4096, 64]}), "resolution height 100000"),
-    "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1e+09"),
-    "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1e+09"),
+    "flight_dome_size": (lambda: env_problem(flight_dome_size=1e308), lambda: env_problem(flight_dome_size=800.0),
+                         "flight_dome_size 1e+308"),
+    "seed": (lambda: train_problem("seed=4294967296"), lambda: train_problem("seed=2147483647"), "seed 4294967296"),
+    "eval.episodes": (lambda: eval_problem(episodes=10**8), lambda: eval_problem(episodes=10**6), "episodes 100000000"),
+    "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
+    "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
 }
 
 
@@ -102,7 +126,7 @@ def test_every_limit_has_a_case_and_a_row_in_the_docs():
     for key, limit in LIMITS.items():
         row = re.search(rf"^\| `{re.escape(key)}` \| ([^|]+) \|", section, re.M)
         assert row is not None, key
-        assert f"{limit.high:,.0f}".replace(",", " ") in row.group(1) or f"{limit.high:g}" in row.group(1), (key, row.group(1))
+        assert f"{limit.high:,.0f}".replace(",", " ") in row.group(1) or number(limit.high) in row.group(1), (key, row.group(1))
 
 
 @pytest.mark.parametrize("key", sorted(CASES))
@@ -110,8 +134,13 @@ def test_a_value_above_its_limit_is_refused_naming_it_and_one_within_is_accepted
     above, within, fragment = CASES[key]
     message = above()
     assert message is not None and fragment in message and "above the limit" in message, message
-    assert f"{LIMITS[key].high:g}" in message
+    assert number(LIMITS[key].high) in message
     assert within() is None
+
+
+def test_an_evaluation_seed_beyond_32_bits_is_refused_not_a_traceback():
+    assert "seed 4294967296 is above the limit of 2147483647" in eval_problem(seed=2**32)
+    assert eval_problem(seed=2**31 - 1, episodes=10**6) is None  # the largest seed the episodes add to
 
 
 def test_a_camera_larger_than_the_limit_is_refused():
@@ -135,13 +164,13 @@ def test_eval_of_a_run_with_a_huge_physics_rate_is_refused_in_one_line(shared_ru
     path.write_text(yaml.safe_dump(data))
     code, output = pyflyt_forked(["eval", str(shared_run), "episodes=1", "record=false"], timeout=60, memory=1 << 30)
     assert code == 2 and "Traceback" not in output, output[-2000:]
-    assert "physics_hz 3e+09 is above the limit of 10000 Hz" in output
+    assert "physics_hz 3000000000 is above the limit of 10000 Hz" in output
 
 
 def test_eval_refuses_a_huge_rate_or_an_alias_bomb_on_the_command_line(shared_run):
     code, output = pyflyt_forked(["eval", str(shared_run), "episodes=1", "record=false", "env.physics_hz=3e9"],
                                  timeout=60, memory=1 << 30)
-    assert code == 2 and "physics_hz 3e+09 is above the limit" in output, output[-2000:]
+    assert code == 2 and "physics_hz 3000000000 is above the limit" in output, output[-2000:]
     # a few hundred bytes of flow YAML that expand to 10^9 values
     levels = ["&a0 [x, x, x, x, x, x, x, x, x, x]"] + [f"&a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]
     bomb = "[" + ", ".join(levels) + "]"
@@ -168,7 +197,7 @@ def test_replay_refuses_a_recording_whose_metadata_sets_a_huge_physics_rate(tmp_
     rewrite_mcap(env.paths[0], forged, lambda topic, data: None, metadata=forge)
     code, output = pyflyt_forked(["replay", str(forged), "--verify"], timeout=60, memory=1 << 30)
     assert code == 2 and "Traceback" not in output, output[-2000:]
-    assert "physics_hz 3e+09 is above the limit" in output
+    assert "physics_hz 3000000000 is above the limit" in output
 
 
 def test_a_yaml_key_given_twice_is_refused_wherever_the_bounded_reader_reads(shared_run):
