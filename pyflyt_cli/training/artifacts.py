@@ -205,11 +205,59 @@ def _rms_state(rms: Any) -> Any:
     }
 
 
+def _rms_problem(state: Any, shape: tuple[int, ...], where: str) -> str | None:
+    """Why running statistics from a file do not fit observations of ``shape`` (None: they do)."""
+    import torch
+
+    if not isinstance(state, Mapping) or not all(isinstance(state.get(k), torch.Tensor) for k in ("mean", "var")):
+        return f"{where} are not a mean and a variance"
+    for key, name in (("mean", "mean"), ("var", "variance")):
+        value = state[key]
+        if tuple(value.shape) != tuple(shape):
+            return f"{where}: the {name} has shape {list(value.shape)}, the observation {list(shape)}"
+        if not bool(torch.all(torch.isfinite(value))):
+            return f"{where}: the {name} holds NaN or inf"
+    if bool(torch.any(state["var"] < 0)):
+        return f"{where}: the variance is negative"
+    return None
+
+
+def check_normalizer(state: Any, space: Any, path: Path | str) -> None:
+    """Refuse observation-normaliser statistics (from ``path``) that do not fit the observation ``space``:
+    a wrong shape, NaN or inf, a negative variance, a clip or epsilon that is not a finite number
+    (a tampered file gave a NumPy broadcasting traceback, or NaN actions)."""
+    from gymnasium import spaces
+
+    if state is None or not isinstance(state, Mapping) or not state.get("norm_obs"):
+        return
+    for key in ("clip_obs", "epsilon"):
+        value = state.get(key)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value < 0:
+            raise ArtifactError(f"{path}: the observation normaliser's {key} is {value!r}, not a finite number >= 0")
+    rms = state.get("obs_rms")
+    if isinstance(space, spaces.Dict):
+        entries = rms.items() if isinstance(rms, Mapping) and "mean" not in rms else [("?", None)]
+        problems = [
+            f"the statistics of an observation entry {key!r} the env does not have"
+            if key not in space.spaces
+            else _rms_problem(value, space.spaces[key].shape, f"the statistics of {key!r}")
+            for key, value in entries
+        ]
+    else:
+        problems = [_rms_problem(rms, tuple(space.shape), "the observation statistics")]
+    problem = next((p for p in problems if p), None)
+    if problem is not None:
+        raise ArtifactError(f"{path}: its observation normaliser does not fit this run's env: {problem}")
+
+
 def _set_rms(rms: Any, state: Any) -> None:
     if isinstance(rms, Mapping):
         for key, value in rms.items():
             _set_rms(value, state[key])
         return
+    problem = _rms_problem(state, np.shape(rms.mean), "the saved normaliser statistics")
+    if problem is not None:
+        raise ArtifactError(f"{problem}: they are not this run's")
     rms.mean = state["mean"].numpy().astype(np.float64).copy()
     rms.var = state["var"].numpy().astype(np.float64).copy()
     rms.count = float(state["count"])

@@ -168,8 +168,9 @@ def _narrow_weight(d):
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (_short_mean, "the normaliser's mean has shape [2], the observation has 21 entries"),
-        (_nan_var, "the normaliser's variance holds non-finite values"),
+        (_short_mean, "its observation normaliser does not fit this run's env: the observation statistics: the mean "
+                      "has shape [2], the observation [21]"),
+        (_nan_var, "the observation statistics: the variance holds NaN or inf"),
         (_inf_weight, "non-finite"),
         (_narrow_weight, "its policy does not fit this model"),
     ],

@@ -132,3 +132,26 @@ def test_a_file_without_a_digest_still_loads(run):
     del data[artifacts.DIGEST_KEY]
     torch.save(data, run / "best_model.pt")
     assert artifacts.read_payload(run / "best_model.pt")["algo"] == "ppo"
+
+
+# ------------------------------------------------------------------ the normaliser's statistics
+
+
+@pytest.mark.parametrize("damage", ["short", "nan"])
+def test_tampered_normaliser_statistics_are_refused_by_eval_and_resume(run, damage):
+    """The reproduction: a normaliser mean of 2 values for 21 observations gave a NumPy broadcasting traceback."""
+
+    def tamper(data: dict) -> dict:
+        rms = data["normalizer"]["obs_rms"]
+        if damage == "short":
+            rms["mean"] = rms["mean"][:2]
+        else:
+            rms["var"][0] = float("nan")
+        return reseal(data)
+
+    fragment = "the mean has shape [2], the observation [21]" if damage == "short" else "the variance holds NaN or inf"
+    for name in ("best_model.pt", "checkpoints/model_256_steps.pt"):
+        path = run / name
+        torch.save(tamper(torch.load(path, weights_only=True)), path)
+    refused(cli("eval", str(run), "model=best", "episodes=1", "record=false"), "its observation normaliser does not fit", fragment)
+    refused(cli("train", f"resume={run}"), fragment)
