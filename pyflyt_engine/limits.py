@@ -41,6 +41,11 @@ LIMITS: dict[str, Limit] = {
     # offsets derived from a seed (an env per vector slot, evaluation episodes from seed + 1000 + i)
     "seed": Limit(2**31 - 1, "", "a run's or an evaluation's seed"),
     "eval.episodes": Limit(1_000_000.0, "episodes", "episodes `pyflyt eval` flies (seeds seed ... seed + episodes - 1)"),
+    # physical values that overflowed or flew a NaN trajectory with exit 0 (max_rpm 1e200, noise_ratio
+    # 1e10, wind 1e300): far above any real machine (hobby motors: tens of thousands of RPM)
+    "max_rpm": Limit(1e7, "RPM", "a motor's speed at full throttle"),
+    "noise_ratio": Limit(1.0, "", "the std of a motor's multiplicative throttle noise (1: 100 %)"),
+    "wind_speed": Limit(1000.0, "m/s", "a wind, gust or turbulence speed (three times the speed of sound)"),
     "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
     "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
 }

@@ -433,6 +433,10 @@ class MotorsSpec(_Spec):
             if bad.any():
                 relation = ">" if strict else ">="
                 raise ValueError(f"'{name}' must be {relation} {lower}, got {arr.tolist()}")
+        from pyflyt_engine import limits
+
+        for name in ("max_rpm", "noise_ratio"):
+            limits.check(name, float(np.max(self.to_array(name))), name=f"motors.{name}")
         return self
 
     def to_array(self, name: str) -> np.ndarray:

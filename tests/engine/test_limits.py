@@ -70,8 +70,13 @@ def fly_problem(*overrides: str) -> str | None:
     from pyflyt_cli.compose import compose, to_container
     from pyflyt_engine.loading import validate
 
-    try:
-        validate(FlyOptions, to_container(compose("fly", list(overrides))), "fly options", "pyflyt fly")
+    from pyflyt_engine.atmosphere import parse_wind_config
+    from pyflyt_engine.spec import parse_uav_spec
+
+    try:  # as run_fly does: the options, then the airframe and the wind they hold
+        options = validate(FlyOptions, to_container(compose("fly", list(overrides))), "fly options", "pyflyt fly")
+        parse_uav_spec(options.uav, source="uav")
+        parse_wind_config(options.wind, source="wind")
     except PyFlytError as exc:
         return str(exc)
     return None
@@ -114,6 +119,13 @@ CASES = {
                          "flight_dome_size 1e+308"),
     "seed": (lambda: train_problem("seed=4294967296"), lambda: train_problem("seed=2147483647"), "seed 4294967296"),
     "eval.episodes": (lambda: eval_problem(episodes=10**8), lambda: eval_problem(episodes=10**6), "episodes 100000000"),
+    # physical values: fly exited 0 with a NaN trajectory for each of these
+    "max_rpm": (lambda: fly_problem("uav.motors.max_rpm=1e200"), lambda: fly_problem("uav.motors.max_rpm=238667"),
+                "motors.max_rpm 1e+200"),
+    "noise_ratio": (lambda: fly_problem("uav.motors.noise_ratio=1e10"), lambda: fly_problem("uav.motors.noise_ratio=0.5"),
+                    "motors.noise_ratio 10000000000"),
+    "wind_speed": (lambda: fly_problem("wind=constant", "wind.mean.speed=1e300"),
+                   lambda: fly_problem("wind=constant", "wind.mean.speed=100"), "mean.speed 1e+300"),
     "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
 }
@@ -141,6 +153,20 @@ def test_a_value_above_its_limit_is_refused_naming_it_and_one_within_is_accepted
 def test_an_evaluation_seed_beyond_32_bits_is_refused_not_a_traceback():
     assert "seed 4294967296 is above the limit of 2147483647" in eval_problem(seed=2**32)
     assert eval_problem(seed=2**31 - 1, episodes=10**6) is None  # the largest seed the episodes add to
+
+
+@pytest.mark.parametrize(
+    "overrides, fragment",
+    [
+        (["wind=gust", "wind.gust.amplitude=[1e300,0,0]"], "gust.amplitude (its largest component) 1e+300"),
+        (["wind=gust", "wind.gust.speed=1e300"], "gust.speed 1e+300"),
+        (["wind=constant", "wind.mean.vertical=-1e300"], "mean.vertical (its size) 1e+300"),
+        (["wind=dryden_light", "wind.turbulence.wind_speed_20ft=1e300"], "turbulence.wind_speed_20ft 1e+300"),
+    ],
+)
+def test_every_wind_speed_is_bounded(overrides, fragment):
+    message = fly_problem(*overrides)
+    assert message is not None and fragment in message and "above the limit of 1000 m/s" in message, message
 
 
 def test_a_camera_larger_than_the_limit_is_refused():
