@@ -18,6 +18,7 @@
         init_policy.pt       copy of the policy init_from named (tensors only), if any
         airframe-<sha>.yaml  multi-agent envs: a copy of each airframe file an agent names by
                              path (<sha> = the first 12 hex digits of its SHA-256)
+        obstacle-<sha>.obj   a copy of each mesh obstacle's file
 
 Directories are created with ``mkdir(exist_ok=False)``: two runs started in the same
 second get ``...-seed0`` and ``...-seed0-1``, never the same directory.  Files are written
@@ -58,6 +59,8 @@ LEGACY_BEST_MODEL = "best_model.zip"
 CHECKPOINTS = "checkpoints"
 EPISODES = "episodes"
 AIRFRAME_COPY = "airframe.yaml"
+#: the copy of a mesh obstacle's file a run keeps: ``obstacle-<first 12 hex digits of its SHA-256>.obj``
+OBSTACLE_MESH_PREFIX = "obstacle-"
 #: a copy of the policy ``init_from`` named, kept so a restart never reads outside the run
 INIT_POLICY = "init_policy.pt"
 
@@ -243,13 +246,21 @@ def _agent_list(env: dict[str, Any]) -> list[dict[str, Any]]:
     return [a for a in agents if isinstance(a, dict)] if isinstance(agents, list) else []
 
 
+def _obstacle_items(env: dict[str, Any]) -> list[dict[str, Any]]:
+    """The fixed obstacles of an env's data (none without ``obstacles.items``)."""
+    obstacles = env.get("obstacles")
+    items = obstacles.get("items") if isinstance(obstacles, dict) else None
+    return [i for i in items if isinstance(i, dict)] if isinstance(items, list) else []
+
+
 def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with files the env names by path made part of the run directory.
 
     A reward preset or a wind config given as a path is inlined; an airframe given as a path is copied to
     ``airframe.yaml``, and each airframe a listed agent of a multi-agent env names by path
-    to ``airframe-<sha>.yaml`` (one copy per distinct file content); all are reloaded
-    relative to the run directory by :func:`load_run_config`.
+    to ``airframe-<sha>.yaml`` (one copy per distinct file content), each mesh obstacle's file
+    to ``obstacle-<sha>.obj``; all are reloaded relative to the run directory by
+    :func:`load_run_config`.
     """
     from pyflyt_engine.envs.config import load_reward_preset
 
@@ -278,6 +289,20 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
                     atomic_write(copy, data)
                 agent["uav"] = str(copy)
         update["agents"] = listed
+    obstacles = getattr(env, "obstacles", None)
+    if obstacles is not None and obstacles.meshes:
+        # a mesh obstacle's file is copied in, as the run reads only its own files (obstacle-<sha>.obj)
+        from pyflyt_engine.obstacles import MAX_MESH_BYTES
+
+        data = obstacles.model_dump(mode="json")
+        for item in data["items"]:
+            if item.get("type") == "mesh" and Path(item["file"]).parent != run_dir:
+                content = read_bytes(item["file"], limit=MAX_MESH_BYTES, what="mesh file")
+                copy = run_dir / f"{OBSTACLE_MESH_PREFIX}{hashlib.sha256(content).hexdigest()[:12]}.obj"
+                if not copy.exists():
+                    atomic_write(copy, content)
+                item["file"] = str(copy)
+        update["obstacles"] = data
     if not update:
         return cfg
     data = cfg.model_dump(mode="json")
@@ -348,6 +373,22 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
         flat["env.agents"] = [
             {**a, "uav": file_identity(a.get("uav"))} if isinstance(a, dict) else a for a in flat["env.agents"]
         ]
+    if isinstance(flat.get("env.obstacles.items"), list):  # a mesh obstacle counts by its file's content
+        from pyflyt_engine.obstacles import MAX_MESH_BYTES
+
+        def mesh_identity(file: Any) -> Any:
+            path = Path(str(file))
+            if not path.is_absolute() and run_dir is not None:
+                path = run_dir / path
+            try:
+                return "sha256:" + hashlib.sha256(read_bytes(path, limit=MAX_MESH_BYTES, what="mesh file")).hexdigest()
+            except PyFlytError:
+                return file
+
+        flat["env.obstacles.items"] = [
+            {**i, "file": mesh_identity(i["file"])} if isinstance(i, dict) and "file" in i else i
+            for i in flat["env.obstacles.items"]
+        ]
     return flat
 
 
@@ -388,6 +429,9 @@ def save_config(cfg: TrainConfig, run_dir: Path) -> None:
         if isinstance(agent.get("uav"), str) and Path(agent["uav"]).is_absolute():
             if Path(agent["uav"]).parent == run_dir:
                 agent["uav"] = Path(agent["uav"]).name
+    for item in _obstacle_items(data["env"]):
+        if isinstance(item.get("file"), str) and Path(item["file"]).parent == run_dir:
+            item["file"] = Path(item["file"]).name
     write_yaml(run_dir / CONFIG_FILE, data, header)
 
 

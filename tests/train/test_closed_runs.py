@@ -165,3 +165,32 @@ def test_a_payload_mesh_is_a_file_of_the_run_whatever_the_working_directory(run,
     set_config(run, lambda env: env.update(payloads=[payload]))
     monkeypatch.chdir(run)  # relative to the working directory, '../secret.obj' was outside; from the run too
     refused_by_load(run, "env.payloads[0].body.shapes[0]", "outside")
+
+
+def test_a_new_run_keeps_a_copy_of_its_obstacle_mesh_and_evaluates_and_resumes_from_it(tmp_path, monkeypatch):
+    """A run trained with a mesh obstacle from elsewhere reads only its own copy (``obstacle-<sha>.obj``),
+    named relative in its config, so it still evaluates and resumes when moved."""
+    from pyflyt_cli.main import app
+    from typer.testing import CliRunner
+
+    from .conftest import TINY_PPO, load
+
+    (tmp_path / "rock.obj").write_text(OBJ)
+    monkeypatch.chdir(tmp_path)
+    mesh = "env.obstacles={items: [{type: mesh, file: rock.obj, position: [3, 3, 0]}]}"
+    from pyflyt_cli.training import train
+
+    cfg = load([*TINY_PPO, "train.total_timesteps=256", "train.eval_episodes=1", f"+{mesh}"], tmp_path / "runs")
+    run = train(cfg).run_dir
+    copies = sorted(p.name for p in run.glob("obstacle-*.obj"))
+    assert len(copies) == 1 and (run / copies[0]).read_text() == OBJ
+    recorded = yaml.safe_load((run / "config.yaml").read_text())["env"]["obstacles"]["items"][0]["file"]
+    assert recorded == copies[0]  # by name: the run may move
+    moved = tmp_path / "moved"
+    shutil.move(run, moved)
+    (tmp_path / "rock.obj").unlink()  # the original is not needed any more
+    assert rundir.load_run_config(moved).env.obstacles.meshes == [str(moved / copies[0])]
+    result = CliRunner().invoke(app, ["eval", str(moved), "episodes=1", "record=false"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(app, ["train", f"resume={moved}", "train.total_timesteps=512"])
+    assert result.exit_code == 0, result.output  # the same digest: the mesh counts by its content
