@@ -191,6 +191,8 @@ def _check_nodes(root: yaml.Node, source: str, error: type[PyFlytError], max_nod
         key = id(node)
         if isinstance(node, yaml.MappingNode):
             children = [item for pair in node.value for item in pair]
+            if not done and key not in sizes:
+                _check_unique_keys(node, source, error)
         elif isinstance(node, yaml.SequenceNode):
             children = list(node.value)
         else:
@@ -219,6 +221,23 @@ def _check_nodes(root: yaml.Node, source: str, error: type[PyFlytError], max_nod
         if height > MAX_DEPTH:
             raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)")
         sizes[key] = (count, height)
+
+
+def _check_unique_keys(node: yaml.MappingNode, source: str, error: type[PyFlytError]) -> None:
+    """Refuse a mapping that gives a key twice (YAML says keys are unique; PyYAML keeps the last,
+    so a second entry could silently replace what a reader of the file sees first).  A merge
+    (``<<: *anchor``) is not a key of its own and may be overridden, as YAML intends."""
+    seen: dict[tuple[str, str], int] = {}
+    for key_node, _ in node.value:
+        if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+            continue
+        ident = (key_node.tag, key_node.value)
+        line = key_node.start_mark.line + 1
+        if ident in seen:
+            raise error(
+                f"{source}: the key {key_node.value!r} is given twice (lines {seen[ident]} and {line}); give each key once"
+            )
+        seen[ident] = line
 
 
 # ------------------------------------------------------------------------- JSON
@@ -326,6 +345,49 @@ def outside(root: str | os.PathLike[str], path: str | os.PathLike[str]) -> bool:
     base = Path(os.path.realpath(root))
     target = Path(os.path.realpath(path))
     return target != base and base not in target.parents
+
+
+def confined_file(
+    root: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    *,
+    what: str = "file",
+    source: str = "",
+    error: type[PyFlytError] = ConfigError,
+) -> Path:
+    """``path`` (a relative one from ``root``) as the absolute path of a regular file inside the
+    directory ``root``, reached through no symbolic link; else ``error``, one line naming it.
+
+    What a shared directory (a run) names is its own: an absolute path elsewhere, a ``..``
+    that climbs out, a link anywhere on the way (even one that stays inside: what it points to
+    can change between the check and the read), a FIFO, a device or a directory where a file
+    is expected are all refused, without opening anything.
+    """
+    base = Path(os.path.realpath(root))
+    given = Path(os.fspath(path)).expanduser()
+    where = f"{source}: " if source else ""
+    candidate = Path(os.path.normpath(given if given.is_absolute() else base / given))
+    if candidate == base or base not in candidate.parents:
+        raise error(
+            f"{where}the {what} {os.fspath(path)!r} is outside {base}: a shared directory names only its own files; "
+            "copy the file into it and name it by its relative path"
+        )
+    step = base
+    for part in candidate.relative_to(base).parts:
+        step = step / part
+        try:
+            mode = os.lstat(step).st_mode
+        except OSError as exc:
+            raise error(f"{where}the {what} {os.fspath(path)!r}: cannot read {step}: {exc.strerror or exc}") from None
+        if stat.S_ISLNK(mode):
+            raise error(
+                f"{where}the {what} {os.fspath(path)!r} goes through the link {step}: a shared directory's files are "
+                "read through no link; replace the link by a copy of what it points to"
+            )
+    kind = _kind(mode)
+    if kind is not None:
+        raise error(f"{where}the {what} {os.fspath(path)!r} ({candidate}) is {kind}, not a regular file")
+    return candidate
 
 
 _PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")

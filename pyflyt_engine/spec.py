@@ -433,6 +433,10 @@ class MotorsSpec(_Spec):
             if bad.any():
                 relation = ">" if strict else ">="
                 raise ValueError(f"'{name}' must be {relation} {lower}, got {arr.tolist()}")
+        from pyflyt_engine import limits
+
+        for name in ("max_rpm", "noise_ratio"):
+            limits.check(name, float(np.max(self.to_array(name))), name=f"motors.{name}")
         return self
 
     def to_array(self, name: str) -> np.ndarray:
@@ -608,6 +612,10 @@ class CameraSpec(_Spec):
                 f"camera {info.field_name} must be at least 1 pixel, got {value}: an image needs a "
                 "non-zero resolution; give e.g. 128"
             )
+        if isinstance(value, (int, float)):
+            from pyflyt_engine import limits
+
+            limits.check("image_side", value, name=f"camera {info.field_name}")
         return value
 
     @model_validator(mode="after")

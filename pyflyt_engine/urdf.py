@@ -15,6 +15,7 @@ import os
 import stat
 import tempfile
 from pathlib import Path
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -253,7 +254,7 @@ _NUMBERS = {
 }
 
 
-def urdf_problem(text: str) -> str | None:
+def urdf_problem(text: str, *, allow_files: bool = False) -> str | None:
     """What makes ``text`` unfit to hand to PyBullet as a URDF from someone else (None: fit).
 
     PyBullet parses a URDF in C++ and aborts the process (or prints errors and fails)
@@ -263,7 +264,11 @@ def urdf_problem(text: str) -> str | None:
     ``<link>``, at most :data:`MAX_URDF_ELEMENTS` elements nested at most
     :data:`MAX_URDF_DEPTH` deep, no attribute naming a file (``filename``: meshes,
     textures), and every number of an origin, a shape, a colour, a mass or an inertia
-    finite (sizes positive).
+    finite (sizes positive), and the links one tree: names unique, every joint joining two of
+    them, exactly one link that is no joint's child (PyBullet crashes on two roots).
+
+    ``allow_files``: a URDF a run directory carries may name mesh files (``<mesh filename=...>``);
+    the caller confines each (:func:`urdf_files`) before PyBullet reads any.
     """
     from xml.etree import ElementTree
 
@@ -291,7 +296,7 @@ def urdf_problem(text: str) -> str | None:
             return f"its elements nest more than {MAX_URDF_DEPTH} deep"
         links += element.tag == "link"
         for name, value in element.attrib.items():
-            if name == "filename":
+            if name == "filename" and not allow_files:
                 return f"<{element.tag}> names the file {value!r}, and a file is not part of the recording"
             if name in _NUMBERS:
                 n, positive = _NUMBERS[name]
@@ -305,4 +310,45 @@ def urdf_problem(text: str) -> str | None:
         stack.extend((child, depth + 1) for child in element)
     if not links:
         return "it has no <link>"
+    return _tree_problem(root)
+
+
+def _tree_problem(root: Any) -> str | None:
+    """Why the links and joints of a parsed ``<robot>`` are not one tree (None: they are)."""
+    names = [link.get("name") for link in root.iter("link")]
+    if any(not name for name in names):
+        return "a <link> has no name"
+    if len(set(names)) != len(names):
+        return "two <link>s share a name"
+    children: set[str] = set()
+    for joint in root.iter("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        ends = [None if e is None else e.get("link") for e in (parent, child)]
+        if any(end not in names for end in ends):
+            return f"the <joint> {joint.get('name')!r} does not join two of the URDF's links"
+        if ends[1] in children:
+            return f"the link {ends[1]!r} is the child of two joints"
+        children.add(ends[1])
+    roots = [name for name in names if name not in children]
+    if len(roots) != 1:
+        return f"its links form {len(roots) or 'no'} trees, not one (roots: {', '.join(roots) or 'none, a cycle'})"
+    below: dict[str, list[str]] = {}
+    for joint in root.iter("joint"):
+        below.setdefault(joint.find("parent").get("link"), []).append(joint.find("child").get("link"))
+    reached, stack = {roots[0]}, [roots[0]]
+    while stack:
+        for child in below.get(stack.pop(), []):
+            if child not in reached:
+                reached.add(child)
+                stack.append(child)
+    if len(reached) != len(names):
+        return "some of its links are joined in a cycle, apart from the tree of its root link"
     return None
+
+
+def urdf_files(text: str) -> list[str]:
+    """The files a URDF names (every ``filename`` attribute), in document order; for a text
+    :func:`urdf_problem` passed."""
+    from xml.etree import ElementTree
+
+    return [element.get("filename") for element in ElementTree.fromstring(text).iter() if element.get("filename") is not None]

@@ -124,10 +124,11 @@ def _refuse_a_folder_of_runs(run_dir: str) -> None:
 def env_changes(overrides: list[str]) -> tuple[list[str], dict[str, object]]:
     """Split ``pyflyt eval <run>`` overrides into those of ``conf/eval.yaml`` and changes to
     the run's env: ``env.<key>=value`` (a top-level env key) and ``env.task.<option>=value``
-    (a task option); values are read as YAML data (numbers, lists, names)."""
+    (a task option); values are read as YAML data (numbers, lists, names) by the bounded reader."""
     import yaml
 
     from pyflyt_cli.errors import UsageError
+    from pyflyt_engine.safe_load import yaml_data
 
     evaluation: list[str] = []
     env: dict[str, object] = {}
@@ -142,8 +143,8 @@ def env_changes(overrides: list[str]) -> tuple[list[str], dict[str, object]]:
             evaluation.append(item)
             continue
         path = key.split(".")[1:]
-        try:
-            parsed = yaml.safe_load(value) if value else None
+        try:  # the bounded reader: an alias bomb or a deep nesting in a value is refused, not expanded
+            parsed = yaml_data(value, source=f"{key}= (command line)", error=UsageError) if value else None
         except yaml.YAMLError as error:
             raise UsageError(f"{item}: the value is not YAML data ({error.__class__.__name__})") from None
         if len(path) == 1 and path[0] != "task":

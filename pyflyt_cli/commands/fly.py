@@ -13,10 +13,11 @@ from typing import Annotated, Any, Optional
 
 import numpy as np
 import typer
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from pyflyt_cli.commands import parse_overrides
 from pyflyt_cli.compose import compose, names_file, to_container
+from pyflyt_engine import limits
 from pyflyt_engine.atmosphere import parse_wind_config
 from pyflyt_engine.flight import Trajectory, fly
 from pyflyt_engine.loading import validate
@@ -67,6 +68,21 @@ class FlyOptions(BaseModel):
     render: bool = Field(description="open the PyBullet GUI (needs a display)")
     ground_effect: bool = Field(description="rotor thrust times the ground-effect ratio (docs/atmosphere.md)")
     downwash: bool = Field(description="wakes of rotorcraft above as wind (docs/atmosphere.md)")
+
+    @field_validator("rows", "duration")
+    @classmethod
+    def _bounded(cls, value: float, info: ValidationInfo) -> float:
+        return limits.check(f"fly.{info.field_name}", value, name=info.field_name)
+
+    @field_validator("physics_hz", "control_hz", "agent_hz")
+    @classmethod
+    def _rate(cls, value: float, info: ValidationInfo) -> float:
+        return limits.check(info.field_name, value)
+
+    @model_validator(mode="after")
+    def _steps(self) -> FlyOptions:
+        limits.check("episode_physics_steps", self.physics_hz * self.duration, name="physics_hz x duration")
+        return self
 
 
 def run_fly(overrides: list[str]) -> Trajectory:

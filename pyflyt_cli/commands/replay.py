@@ -1,7 +1,8 @@
 """``pyflyt replay FILE``: summary, re-simulation check, video and plot of a recorded episode.
 
 The CLI in :mod:`pyflyt_cli.main` only parses arguments; :func:`run_replay` does the work
-and returns the exit code (0 ok, 1 ``--verify`` found a deviation above the tolerance);
+and returns the exit code (0 ok, 1 ``--verify`` found a state or reward deviation above the tolerance,
+or an outcome -- return, termination, end reason, success -- the re-simulation does not reproduce);
 user errors raise :class:`~pyflyt_engine.errors.PyFlytError` (exit 2, one message).
 
 Nothing here writes over its input: outputs must be new files or files of the same kind,
@@ -75,6 +76,7 @@ def run_replay(
             "tolerance": tolerance,
             "per_field": result.per_field,
             "diverged_termination": result.diverged_termination,
+            "outcome_differences": result.outcome_differences,
             "version_notes": result.version_notes,
         }
         if not as_json:
@@ -87,6 +89,13 @@ def run_replay(
             )
             if result.diverged_termination:
                 typer.echo(f"          {result.diverged_termination}")
+            if result.max_reward_deviation > tolerance:
+                typer.echo(
+                    f"          the recorded rewards differ from the re-simulated ones by up to "
+                    f"{result.max_reward_deviation:.3g} (NaN or inf counts as differing), above the tolerance"
+                )
+            for difference in result.outcome_differences:
+                typer.echo(f"          {difference}")
             for note in result.version_notes:
                 typer.echo(f"          note: versions differ from the recording's: {note}")
         if not result.ok:

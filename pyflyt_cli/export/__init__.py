@@ -15,6 +15,7 @@ temporary name and renamed into place.  ``docs/deploy.md`` describes the interfa
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,8 @@ from pyflyt_cli.export.policy import ExportError
 FORMATS = {"onnx": ".onnx", "c": ".c"}
 #: ``model=`` choices (as ``pyflyt eval``)
 MODELS = ("auto", "best", "final", "latest")
+#: the file names ``format=c`` writes (the source names its header in ``#include "..."``)
+C_FILE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]*")
 #: probe observations the ONNX file is checked on after writing
 PROBES = 256
 
@@ -53,6 +56,9 @@ def output_files(fmt: str, out: str | Path | None) -> list[Path]:
         raise ExportError(f"out={path}: format={fmt} writes a file ending in {suffix} (e.g. out=policy{suffix})")
     if any(c in path.name for c in '"\\\n'):
         raise ExportError(f"out={path}: the file name may not hold quotes, backslashes or line breaks")
+    if fmt == "c" and not C_FILE_NAME.fullmatch(path.name):
+        # the header's name is written into the source (#include "<name>.h"): letters, digits, '_', '-', '.' only
+        raise ExportError(f"out={path}: a C file name is made of letters, digits, '_', '-' and '.' only (e.g. out=policy.c)")
     files = [path] if fmt == "onnx" else [path, path.with_suffix(".h")]
     for file in files:
         if file.is_dir():

@@ -79,32 +79,83 @@ def _guard(header: str) -> str:
     return re.sub(r"[^A-Za-z0-9]", "_", header).upper().lstrip("_0123456789") or "POLICY_H"
 
 
+#: characters free text (a path, an env id, an action's name or unit) keeps in a generated C comment;
+#: every other character is written as ``%XX``, one per byte of its UTF-8 form (:func:`comment_text`).
+#: Left out: the backslash (one before a line break splices the next line into the comment's),
+#: ``?`` (the trigraph ``??/`` is a backslash in C99), ``%`` (the escape itself), every control
+#: character and line break, and everything outside ASCII.  ``*`` is kept only where it cannot
+#: open or close a comment (see :func:`comment_text`).
+COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 !\"#$&'()+,-./:;<=>@[]^_`{|}~*")
+
+
+def _percent(char: str) -> str:
+    return "".join(f"%{b:02X}" for b in char.encode("utf-8", "surrogatepass"))
+
+
+def comment_text(value: object) -> str:
+    """``value`` (free text from a run's files or the command line) as text that is inert inside a
+    C comment: the one escaping function every such text in a generated file goes through.
+
+    Keeps the characters of :data:`COMMENT_SAFE`, writes any other as ``%XX`` (its UTF-8 bytes;
+    ``%`` itself as ``%25``, so the escape is reversible); a ``*`` next to a ``/``, or at either
+    end of the text (where the template's neighbour could be a ``/``), is written ``%2A``.  The
+    result is printable ASCII with no backslash, no ``?`` and no ``*/`` or ``/*``, whatever the
+    input, and it never ends a comment or splices a line.
+    """
+    text = str(value)
+    out: list[str] = []
+    last = len(text) - 1
+    for i, char in enumerate(text):
+        if char not in COMMENT_SAFE:
+            out.append(_percent(char))
+        elif char == "*" and (i == 0 or i == last or text[i - 1] == "/" or text[i + 1] == "/"):
+            out.append("%2A")
+        else:
+            out.append(char)
+    return "".join(out)
+
+
+#: what a line of a generated comment may not hold, however it was made (:func:`_comment` checks)
+_UNSAFE_IN_COMMENT = re.compile(r"[^\x20-\x7e]|\\|\?|\*/|/\*")
+
+
 def _comment(lines: list[str]) -> str:
-    """A C comment of ``lines``, in ASCII (a path or name outside it is escaped) and never closed early."""
-    safe = [line.replace("*/", "* /").encode("ascii", "backslashreplace").decode("ascii") for line in lines]
-    return "/*\n" + "".join(f" * {line}".rstrip() + "\n" for line in safe) + " */\n"
+    """A C comment of ``lines`` (the template's text, with free text already through :func:`comment_text`).
+
+    Every line is checked again before it is written: a line that could end the comment, splice a
+    line or hold a trigraph is refused (an exporter bug, never a file written).
+    """
+    for line in lines:
+        if _UNSAFE_IN_COMMENT.search(line):
+            raise ExportError(f"refusing to write a header comment line that is not inert C text: {line!r}")
+    return "/*\n" + "".join(f" * {line}".rstrip() + "\n" for line in lines) + " */\n"
 
 
 def describe(policy: DeployedPolicy) -> list[str]:
-    """The header comment: where the policy came from, its interface and what the function includes."""
+    """The header comment: where the policy came from, its interface and what the function includes.
+
+    Numbers are formatted here; every text from the run (its path, env id, algorithm, the action's
+    names, units and mode, ...) goes through :func:`comment_text`."""
     a = policy.about
     act = a["action"]
+    t = comment_text
+    hz = float(a["agent_hz"])
     lines = [
         "Policy exported by `pyflyt export` (see docs/deploy.md).",
         "",
-        f"run:        {a['run']}",
-        f"policy:     {a['model']} ({a['which']}), algo {a['algo']}, step {a['step']}",
-        f"env:        {a['env_id']} (env={a['env_name']}), one action per {1.0 / a['agent_hz']:.6g} s ({a['agent_hz']:g} Hz)",
+        f"run:        {t(a['run'])}",
+        f"policy:     {t(a['model'])} ({t(a['which'])}), algo {t(a['algo'])}, step {int(a['step'])}",
+        f"env:        {t(a['env_id'])} (env={t(a['env_name'])}), one action per {1.0 / hz:.6g} s ({hz:g} Hz)",
         "",
-        f"obs[{policy.obs_dim}]:    the env's observation, raw, in the env's units and frames",
-        f"            (attitude {a['observation']['angle_representation']}; layout in docs/environments.md)",
-        f"action[{policy.act_dim}]: what the env receives (flight mode {act['mode']}):",
+        f"obs[{int(policy.obs_dim)}]:    the env's observation, raw, in the env's units and frames",
+        f"            (attitude {t(a['observation']['angle_representation'])}; layout in docs/environments.md)",
+        f"action[{int(policy.act_dim)}]: what the env receives (flight mode {t(act['mode'])}):",
     ]
     for i, (name, unit, lo, hi) in enumerate(zip(act["names"], act["units"], act["low"], act["high"])):
         unit = "dimensionless" if unit in ("", "1") else unit
-        lines.append(f"  [{i}] {name} ({unit}) in [{lo:.9g}, {hi:.9g}]")
+        lines.append(f"  [{i}] {t(name)} ({t(unit)}) in [{float(lo):.9g}, {float(hi):.9g}]")
     lines += ["", "policy_forward computes, in float32:"]
-    lines += [f"  {i + 1}. {step}" for i, step in enumerate(a["steps"])]
+    lines += [f"  {i + 1}. {t(step)}" for i, step in enumerate(a["steps"])]
     lines += [
         "",
         "Not included: the flight mode's controller (the action is its setpoint), building the",

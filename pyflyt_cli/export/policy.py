@@ -176,11 +176,10 @@ def _assemble(
         rms = normalizer["obs_rms"]
         if "mean" not in rms:
             raise ExportError(f"{run}: its normaliser holds statistics per Dict entry; only a flat observation exports")
-        mean = rms["mean"].numpy().astype(np.float64)
-        std = np.sqrt(rms["var"].numpy().astype(np.float64) + float(normalizer["epsilon"]))
-        clip = float(normalizer["clip_obs"])
+        mean, var, epsilon, clip = _normaliser(run, model_path, rms, normalizer, int(obs_space.shape[0]))
+        std = np.sqrt(var + epsilon)
         layers.append(Standardize(mean, std, clip))
-        steps.append(f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {normalizer['epsilon']:g}), -{clip:g}, {clip:g})")
+        steps.append(f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {epsilon:g}), -{clip:g}, {clip:g})")
     else:
         steps.append("no observation normaliser (the run trained on raw observations)")
 
@@ -234,6 +233,7 @@ def _assemble(
     steps.append(f"clip to the env's action bounds, low {_bounds(env_low)}, high {_bounds(env_high)} (as the env does)")
 
     network = torch.nn.Sequential(*layers).to(torch.float32).eval()
+    check_chain(run, network, int(obs_space.shape[0]), int(act_space.shape[0]))
     for p in network.parameters():
         p.requires_grad_(False)
 
@@ -251,6 +251,81 @@ def _assemble(
     about["observation"]["size"] = int(obs_space.shape[0])
     about["action"]["size"] = int(act_space.shape[0])
     return DeployedPolicy(network, reference, about)
+
+
+def _numbers(run: Path, model_path: Path, what: str, value: Any) -> np.ndarray:
+    """``value`` (a tensor or number from a policy file) as float64, or an :class:`ExportError` naming it."""
+    try:
+        array = np.asarray(value.numpy() if isinstance(value, torch.Tensor) else value, dtype=np.float64)
+    except (TypeError, ValueError, RuntimeError):
+        raise ExportError(f"{model_path}: the normaliser's {what} is not numbers ({type(value).__name__}); the file is damaged") from None
+    if not np.all(np.isfinite(array)):
+        raise ExportError(f"{model_path}: the normaliser's {what} holds non-finite values (NaN or inf): nothing to export")
+    return array
+
+
+def _normaliser(run: Path, model_path: Path, rms: Any, normalizer: Any, obs_dim: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(mean, var, epsilon, clip) of a policy file's observation normaliser, checked against the observation:
+    ``obs_dim`` finite values each, var >= 0, epsilon >= 0, clip > 0; else an :class:`ExportError` naming it."""
+    mean = _numbers(run, model_path, "mean", rms.get("mean"))
+    var = _numbers(run, model_path, "variance", rms.get("var"))
+    for name, array in (("mean", mean), ("variance", var)):
+        if array.shape != (obs_dim,):
+            raise ExportError(
+                f"{model_path}: the normaliser's {name} has shape {list(array.shape)}, the observation has {obs_dim} "
+                "entries: the file is not this run's policy"
+            )
+    epsilon = _numbers(run, model_path, "epsilon", normalizer.get("epsilon"))
+    clip = _numbers(run, model_path, "clip_obs", normalizer.get("clip_obs"))
+    if epsilon.shape != () or clip.shape != ():
+        raise ExportError(f"{model_path}: the normaliser's epsilon and clip_obs are single numbers; the file is damaged")
+    if np.any(var < 0) or epsilon < 0 or not clip > 0 or not np.all(var + epsilon > 0):
+        raise ExportError(
+            f"{model_path}: the normaliser's variance and epsilon must be >= 0 (their sum > 0) and clip_obs > 0: the file is damaged"
+        )
+    return mean, var, float(epsilon), float(clip)
+
+
+#: per-element tensors of each layer kind, checked against the width the layer sees
+_ELEMENTWISE = {"Standardize": ("mean", "std"), "Affine": ("scale", "offset"), "Clamp": ("low", "high")}
+
+
+def check_chain(run: Path, network: Any, obs_dim: int, act_dim: int) -> None:
+    """Refuse a chain the exporters would write wrongly: a tensor whose shape does not fit the width
+    the layer sees (from ``obs_dim`` in, ``act_dim`` out), a non-finite weight, bias, statistic or
+    bound, a zero or negative std, low above high.  Called before anything is written, for every format."""
+    width = obs_dim
+    for index, layer in enumerate(network):
+        kind = type(layer).__name__
+        tensors: dict[str, Any] = {}
+        if isinstance(layer, torch.nn.Linear):
+            weight = layer.weight.detach()
+            if weight.dim() != 2 or weight.shape[1] != width:
+                raise ExportError(f"{run}: layer {index} (Linear) has weights of shape {list(weight.shape)}, it is fed {width} values")
+            bias = layer.bias
+            if bias is not None and tuple(bias.shape) != (weight.shape[0],):
+                raise ExportError(f"{run}: layer {index} (Linear) has a bias of shape {list(bias.shape)} for {weight.shape[0]} outputs")
+            tensors = {"weight": weight, **({"bias": bias.detach()} if bias is not None else {})}
+            width = int(weight.shape[0])
+        elif kind in _ELEMENTWISE:
+            for name in _ELEMENTWISE[kind]:
+                value = getattr(layer, name)
+                if tuple(value.shape) != (width,):
+                    raise ExportError(f"{run}: layer {index} ({kind}) has {name} of shape {list(value.shape)}, it is fed {width} values")
+                tensors[name] = value
+        else:
+            tensors = {k: torch.as_tensor(float(getattr(layer, k))) for k in ("alpha", "negative_slope", "min_val", "max_val") if hasattr(layer, k)}
+        if isinstance(layer, Standardize):
+            tensors["clip"] = torch.as_tensor(layer.clip)
+        for name, value in tensors.items():
+            if not bool(torch.all(torch.isfinite(value))):
+                raise ExportError(f"{run}: layer {index} ({kind}) has non-finite {name} (NaN or inf): nothing to export")
+        if isinstance(layer, Standardize) and not bool(torch.all(layer.std > 0)):
+            raise ExportError(f"{run}: layer {index} (observation normaliser) has a std of 0 or below")
+        if isinstance(layer, Clamp) and not bool(torch.all(layer.low <= layer.high)):
+            raise ExportError(f"{run}: layer {index} (clip) has a low bound above its high bound")
+    if width != act_dim:
+        raise ExportError(f"{run}: the chain ends with {width} values, the action has {act_dim}")
 
 
 def _flat_features(run: Path, extractor: Any) -> None:

@@ -6,7 +6,8 @@ A run directory is meant to be shared, so nothing in it is a pickle:
   (``checkpoints/model_<N>_steps.pt``) are ``torch.save`` archives of a plain dict of
   tensors, numbers and strings, read back with ``torch.load(weights_only=True)``, which
   refuses anything else.  The SB3 model is rebuilt from the run's ``config.yaml`` and the
-  tensors are loaded into it.
+  tensors are loaded into it.  Each carries the SHA-256 of its content (``sha256``,
+  :func:`content_digest`), checked when it is read, so a damaged copy is refused.
 * **replay buffers** (``checkpoints/replay_buffer_<N>_steps.npz``) are NumPy archives of
   plain arrays, read with ``np.load(allow_pickle=False)``.
 * the observation/reward **normaliser** (SB3 ``VecNormalize``) is a few arrays inside
@@ -102,11 +103,49 @@ def _create_new(path: Path) -> None:
     os.close(fd)
 
 
+#: the key of a policy file or checkpoint that holds the SHA-256 of the rest of its content
+DIGEST_KEY = "sha256"
+
+
+def content_digest(data: Mapping[str, Any]) -> str:
+    """SHA-256 (hex) of a policy file's or checkpoint's content, ``DIGEST_KEY`` left out: every key,
+    and every value by its kind -- a tensor by its dtype, shape and bytes, a number or a string by
+    its type and ``repr`` -- in a fixed order, so the same content gives the same digest whatever
+    the archive's layout.  A flipped byte anywhere in the content changes it."""
+    import hashlib
+
+    import torch
+
+    h = hashlib.sha256()
+
+    def feed(value: Any) -> None:
+        if isinstance(value, torch.Tensor):
+            t = value.detach().cpu().contiguous()
+            h.update(f"t{t.dtype}{tuple(t.shape)}".encode())
+            h.update(t.reshape(-1).view(torch.uint8).numpy().tobytes() if t.numel() else b"")
+        elif isinstance(value, Mapping):
+            keys = sorted((k for k in value if not (value is data and k == DIGEST_KEY)), key=str)
+            h.update(f"d{len(keys)}".encode())
+            for key in keys:
+                h.update(f"k{len(str(key))}:{key}".encode())
+                feed(value[key])
+        elif isinstance(value, (list, tuple)):
+            h.update(f"l{len(value)}".encode())
+            for item in value:
+                feed(item)
+        else:
+            text = f"{type(value).__name__}:{value!r}"
+            h.update(f"v{len(text)}:{text}".encode())
+
+    feed(data)
+    return h.hexdigest()
+
+
 def _save_torch(data: dict[str, Any]) -> Callable[[Path], None]:
     def write(tmp: Path) -> None:
         import torch
 
-        torch.save(data, tmp)
+        torch.save({**data, DIGEST_KEY: content_digest(data)}, tmp)
 
     return write
 
@@ -142,6 +181,12 @@ def read_payload(path: Path, *, kinds: tuple[str, ...] = (POLICY_FORMAT, CHECKPO
         raise ArtifactError(f"{path}: not a pyflyt model file (expected format {' or '.join(kinds)})")
     if int(data.get("version", 0)) > FORMAT_VERSION:
         raise ArtifactError(f"{path}: written by a newer version (format {data.get('version')}); upgrade pyflyt")
+    # files written before the digest existed (the shipped agents among them) have none: read as before
+    if DIGEST_KEY in data and data[DIGEST_KEY] != content_digest(data):
+        raise ArtifactError(
+            f"{path}: its content does not match the SHA-256 it was written with: the file is damaged "
+            "(a flipped byte, a copy gone wrong); use another copy or checkpoint"
+        )
     return data
 
 
@@ -160,11 +205,59 @@ def _rms_state(rms: Any) -> Any:
     }
 
 
+def _rms_problem(state: Any, shape: tuple[int, ...], where: str) -> str | None:
+    """Why running statistics from a file do not fit observations of ``shape`` (None: they do)."""
+    import torch
+
+    if not isinstance(state, Mapping) or not all(isinstance(state.get(k), torch.Tensor) for k in ("mean", "var")):
+        return f"{where} are not a mean and a variance"
+    for key, name in (("mean", "mean"), ("var", "variance")):
+        value = state[key]
+        if tuple(value.shape) != tuple(shape):
+            return f"{where}: the {name} has shape {list(value.shape)}, the observation {list(shape)}"
+        if not bool(torch.all(torch.isfinite(value))):
+            return f"{where}: the {name} holds NaN or inf"
+    if bool(torch.any(state["var"] < 0)):
+        return f"{where}: the variance is negative"
+    return None
+
+
+def check_normalizer(state: Any, space: Any, path: Path | str) -> None:
+    """Refuse observation-normaliser statistics (from ``path``) that do not fit the observation ``space``:
+    a wrong shape, NaN or inf, a negative variance, a clip or epsilon that is not a finite number
+    (a tampered file gave a NumPy broadcasting traceback, or NaN actions)."""
+    from gymnasium import spaces
+
+    if state is None or not isinstance(state, Mapping) or not state.get("norm_obs"):
+        return
+    for key in ("clip_obs", "epsilon"):
+        value = state.get(key)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value < 0:
+            raise ArtifactError(f"{path}: the observation normaliser's {key} is {value!r}, not a finite number >= 0")
+    rms = state.get("obs_rms")
+    if isinstance(space, spaces.Dict):
+        entries = rms.items() if isinstance(rms, Mapping) and "mean" not in rms else [("?", None)]
+        problems = [
+            f"the statistics of an observation entry {key!r} the env does not have"
+            if key not in space.spaces
+            else _rms_problem(value, space.spaces[key].shape, f"the statistics of {key!r}")
+            for key, value in entries
+        ]
+    else:
+        problems = [_rms_problem(rms, tuple(space.shape), "the observation statistics")]
+    problem = next((p for p in problems if p), None)
+    if problem is not None:
+        raise ArtifactError(f"{path}: its observation normaliser does not fit this run's env: {problem}")
+
+
 def _set_rms(rms: Any, state: Any) -> None:
     if isinstance(rms, Mapping):
         for key, value in rms.items():
             _set_rms(value, state[key])
         return
+    problem = _rms_problem(state, np.shape(rms.mean), "the saved normaliser statistics")
+    if problem is not None:
+        raise ArtifactError(f"{problem}: they are not this run's")
     rms.mean = state["mean"].numpy().astype(np.float64).copy()
     rms.var = state["var"].numpy().astype(np.float64).copy()
     rms.count = float(state["count"])
@@ -301,6 +394,15 @@ def load_checkpoint_into(model: Any, data: Mapping[str, Any], path: Path) -> tup
     load_policy_into(model, data, path)
     try:
         model.set_parameters({**data["optimizers"], "policy": data["policy"]}, exact_match=True)
+        # the variables SB3 saves besides the policy (SAC's log_ent_coef ...): only the names this model
+        # declares, never an attribute path taken from the file
+        declared = set(model._get_torch_save_params()[1])
+        unknown = sorted(str(name) for name in data["variables"] if name not in declared)
+        if unknown:
+            raise ArtifactError(
+                f"{path}: the checkpoint carries the variable {unknown[0]!r}, which this model does not save "
+                f"(its variables: {', '.join(sorted(declared)) or 'none'})"
+            )
         with torch.no_grad():
             for name, value in data["variables"].items():
                 attrgetter(name)(model).copy_(value)

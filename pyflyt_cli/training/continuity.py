@@ -37,6 +37,55 @@ from pyflyt_cli.training.artifacts import ArtifactError
 #: algorithm counters carried across a resume (plus an algorithm's own ``resume_attributes``)
 COUNTERS = ("num_timesteps", "_episode_num", "_n_updates", "_current_progress_remaining")
 
+#: the most any step, episode, update or action count of a checkpoint may be (10^12: a million
+#: steps a second for eleven days; far above any run, far below what makes a loop hang)
+MAX_COUNT = 10**12
+
+#: every counter a checkpoint may carry: its type and its range (inclusive).  Restoring reads these and
+#: nothing else: a name not listed (or not this algorithm's) is refused by name, never set on the model
+COUNTER_SCHEMA: dict[str, tuple[type, float, float]] = {
+    "num_timesteps": (int, 0, MAX_COUNT),
+    "_episode_num": (int, 0, MAX_COUNT),
+    "_n_updates": (int, 0, MAX_COUNT),
+    # 1 - steps / total steps (SB3's schedules' input), from the run that wrote the checkpoint
+    "_current_progress_remaining": (float, -1.0, 1.0),
+    "offline_steps_done": (int, 0, MAX_COUNT),  # AWAC
+    "oracle_actions": (int, 0, MAX_COUNT),  # CCGE
+    "policy_actions": (int, 0, MAX_COUNT),  # CCGE
+}
+
+
+def checked_counters(model: Any, counters: Any) -> dict[str, int | float]:
+    """The counters of a checkpoint's state, checked against :data:`COUNTER_SCHEMA` and this model's
+    algorithm: exactly its counters (:data:`COUNTERS` and its ``resume_attributes``), each of its type
+    and in its range; else an :class:`ArtifactError` naming the first that is not."""
+    expected = (*COUNTERS, *getattr(model, "resume_attributes", ()))
+    if not isinstance(counters, Mapping):
+        raise ArtifactError(f"the checkpoint's counters are a {type(counters).__name__}, not a mapping: the file is damaged")
+    unknown = [str(name) for name in counters if name not in expected]
+    if unknown:
+        raise ArtifactError(
+            f"the checkpoint carries the counter {unknown[0]!r}, which a {type(model).__name__} checkpoint does not "
+            f"hold (its counters: {', '.join(expected)}): the file was not written by this program"
+        )
+    missing = [name for name in expected if name not in counters]
+    if missing:
+        raise ArtifactError(f"the checkpoint lacks the counter {missing[0]!r}: the file is damaged or from another algorithm")
+    out: dict[str, int | float] = {}
+    for name in expected:
+        kind, low, high = COUNTER_SCHEMA[name]
+        value = counters[name]
+        fits = isinstance(value, int) and not isinstance(value, bool)
+        if kind is float:
+            fits = (fits or isinstance(value, float)) and np.isfinite(value)
+        if not fits or not low <= value <= high:
+            want = "a whole number" if kind is int else "a finite number"
+            raise ArtifactError(
+                f"the checkpoint's counter {name} is {value!r}: it must be {want} in [{low:g}, {high:g}]; the file is damaged"
+            )
+        out[name] = kind(value)
+    return out
+
 
 def _plain(value: Any) -> Any:
     """JSON-ready copy: numpy scalars and arrays as Python numbers and lists."""
@@ -164,7 +213,7 @@ def _recurrent_states(model: Any) -> dict[str, Any]:
 
 def restore_model(model: Any, state: Mapping[str, Any], tensors: Mapping[str, Any]) -> None:
     """Counters, last observation and episode statistics, before ``learn()`` (which then does not reset the envs)."""
-    for name, value in state["counters"].items():
+    for name, value in checked_counters(model, state.get("counters")).items():
         setattr(model, name, value)
     model._last_obs = _observation_from(tensors, "last_obs")
     model._last_episode_starts = tensors["last_episode_starts"].numpy().copy()

@@ -20,6 +20,7 @@ from pyflyt_cli.training import registry, rundir
 from pyflyt_cli.training.artifacts import (
     PICKLE_RISK,
     ArtifactError,
+    check_normalizer,
     load_legacy_model,
     load_legacy_normalizer,
     load_policy_into,
@@ -156,4 +157,5 @@ def load_policy(
         raise ArtifactError(f"{path}: holds a {source.algo} policy, but the run's config.yaml says algo {cfg.algo.name}")
     model = build_model(cfg, vec, inference=True)
     load_policy_into(model, {"policy": source.policy}, path)
+    check_normalizer(source.normalizer, env.observation_space, path)
     return model, observation_normalizer(source.normalizer)

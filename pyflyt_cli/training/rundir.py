@@ -18,6 +18,7 @@
         init_policy.pt       copy of the policy init_from named (tensors only), if any
         airframe-<sha>.yaml  multi-agent envs: a copy of each airframe file an agent names by
                              path (<sha> = the first 12 hex digits of its SHA-256)
+        obstacle-<sha>.obj   a copy of each mesh obstacle's file
 
 Directories are created with ``mkdir(exist_ok=False)``: two runs started in the same
 second get ``...-seed0`` and ``...-seed0-1``, never the same directory.  Files are written
@@ -58,6 +59,8 @@ LEGACY_BEST_MODEL = "best_model.zip"
 CHECKPOINTS = "checkpoints"
 EPISODES = "episodes"
 AIRFRAME_COPY = "airframe.yaml"
+#: the copy of a mesh obstacle's file a run keeps: ``obstacle-<first 12 hex digits of its SHA-256>.obj``
+OBSTACLE_MESH_PREFIX = "obstacle-"
 #: a copy of the policy ``init_from`` named, kept so a restart never reads outside the run
 INIT_POLICY = "init_policy.pt"
 
@@ -245,13 +248,21 @@ def _agent_list(env: dict[str, Any]) -> list[dict[str, Any]]:
     return [a for a in agents if isinstance(a, dict)] if isinstance(agents, list) else []
 
 
+def _obstacle_items(env: dict[str, Any]) -> list[dict[str, Any]]:
+    """The fixed obstacles of an env's data (none without ``obstacles.items``)."""
+    obstacles = env.get("obstacles")
+    items = obstacles.get("items") if isinstance(obstacles, dict) else None
+    return [i for i in items if isinstance(i, dict)] if isinstance(items, list) else []
+
+
 def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
     """``cfg`` with files the env names by path made part of the run directory.
 
     A reward preset or a wind config given as a path is inlined; an airframe given as a path is copied to
     ``airframe.yaml``, and each airframe a listed agent of a multi-agent env names by path
-    to ``airframe-<sha>.yaml`` (one copy per distinct file content); all are reloaded
-    relative to the run directory by :func:`load_run_config`.
+    to ``airframe-<sha>.yaml`` (one copy per distinct file content), each mesh obstacle's file
+    to ``obstacle-<sha>.obj``; all are reloaded relative to the run directory by
+    :func:`load_run_config`.
     """
     from pyflyt_engine.envs.config import load_reward_preset
 
@@ -280,6 +291,20 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
                     atomic_write(copy, data)
                 agent["uav"] = str(copy)
         update["agents"] = listed
+    obstacles = getattr(env, "obstacles", None)
+    if obstacles is not None and obstacles.meshes:
+        # a mesh obstacle's file is copied in, as the run reads only its own files (obstacle-<sha>.obj)
+        from pyflyt_engine.obstacles import MAX_MESH_BYTES
+
+        data = obstacles.model_dump(mode="json")
+        for item in data["items"]:
+            if item.get("type") == "mesh" and Path(item["file"]).parent != run_dir:
+                content = read_bytes(item["file"], limit=MAX_MESH_BYTES, what="mesh file")
+                copy = run_dir / f"{OBSTACLE_MESH_PREFIX}{hashlib.sha256(content).hexdigest()[:12]}.obj"
+                if not copy.exists():
+                    atomic_write(copy, content)
+                item["file"] = str(copy)
+        update["obstacles"] = data
     if not update:
         return cfg
     data = cfg.model_dump(mode="json")
@@ -350,6 +375,22 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
         flat["env.agents"] = [
             {**a, "uav": file_identity(a.get("uav"))} if isinstance(a, dict) else a for a in flat["env.agents"]
         ]
+    if isinstance(flat.get("env.obstacles.items"), list):  # a mesh obstacle counts by its file's content
+        from pyflyt_engine.obstacles import MAX_MESH_BYTES
+
+        def mesh_identity(file: Any) -> Any:
+            path = Path(str(file))
+            if not path.is_absolute() and run_dir is not None:
+                path = run_dir / path
+            try:
+                return "sha256:" + hashlib.sha256(read_bytes(path, limit=MAX_MESH_BYTES, what="mesh file")).hexdigest()
+            except PyFlytError:
+                return file
+
+        flat["env.obstacles.items"] = [
+            {**i, "file": mesh_identity(i["file"])} if isinstance(i, dict) and "file" in i else i
+            for i in flat["env.obstacles.items"]
+        ]
     return flat
 
 
@@ -390,6 +431,9 @@ def save_config(cfg: TrainConfig, run_dir: Path) -> None:
         if isinstance(agent.get("uav"), str) and Path(agent["uav"]).is_absolute():
             if Path(agent["uav"]).parent == run_dir:
                 agent["uav"] = Path(agent["uav"]).name
+    for item in _obstacle_items(data["env"]):
+        if isinstance(item.get("file"), str) and Path(item["file"]).parent == run_dir:
+            item["file"] = Path(item["file"]).name
     write_yaml(run_dir / CONFIG_FILE, data, header)
 
 
@@ -413,20 +457,25 @@ def check_run_dir(run_dir: str | Path) -> Path:
 
 
 def check_closed(
-    run_dir: Path, folders: tuple[str, ...] = (CHECKPOINTS, EPISODES), what: str = "run directory"
+    run_dir: Path, folders: tuple[str, ...] | None = None, what: str = "run directory"
 ) -> None:
-    """Refuse a directory that is not a closed world: an entry (of it, or of its ``folders``)
-    that is a link leading out of it, or a special file (a FIFO, a device, a socket).
+    """Refuse a directory that is not a closed world: an entry that is a link leading out of it, or
+    a special file (a FIFO, a device, a socket).
 
-    A run directory (or a benchmark directory, ``what``) can be shared, so no link inside it
-    may decide where a resume writes or what an evaluation reads.  Links that stay inside
-    are allowed.
+    ``folders=None`` (a run directory): every entry of every folder under it, however deep (links
+    to folders are checked, never walked into); otherwise the top level and the ``folders`` named
+    (a benchmark directory, ``what``, whose runs are checked each on their own).
+
+    A run directory (or a benchmark directory) can be shared, so no link inside it may decide
+    where a resume writes or what an evaluation reads.  Links that stay inside are allowed.
     """
     from pyflyt_engine.safe_load import outside
 
     root = Path(run_dir)
-    for folder in (root, *(root / name for name in folders)):
-        if folder != root and not folder.is_dir():
+    pending = [root] if folders is None else [root, *(root / name for name in folders)]
+    while pending:
+        folder = pending.pop(0)
+        if folder != root and not (folder.is_dir() and not folder.is_symlink()):
             continue
         try:
             entries = sorted(os.scandir(folder), key=lambda e: e.name)
@@ -440,7 +489,10 @@ def check_closed(
                         f"{path} is a link to {os.readlink(path)}, outside {root}: a shared {what} is "
                         "read and written only inside itself; replace the link by a copy of what it points to"
                     )
-            elif not (entry.is_dir(follow_symlinks=False) or entry.is_file(follow_symlinks=False)):
+            elif entry.is_dir(follow_symlinks=False):
+                if folders is None:
+                    pending.append(path)
+            elif not entry.is_file(follow_symlinks=False):
                 raise RunDirError(f"{path} is not a regular file or a folder (a FIFO or a device?): remove it")
 
 
@@ -452,7 +504,7 @@ def _confine(data: Any, root: Path, source: str) -> None:
     """Make the files a run's config names its own: airframes by a file name inside ``root`` (made
     absolute) or a shipped name; presets by a shipped name or inline.  Anything else is refused."""
     from pyflyt_engine.paths import uav_dir
-    from pyflyt_engine.safe_load import outside, plain_name
+    from pyflyt_engine.safe_load import confined_file, outside, plain_name
 
     env = data.get("env") if isinstance(data, dict) else None
     if not isinstance(env, dict):
@@ -487,17 +539,28 @@ def _confine(data: Any, root: Path, source: str) -> None:
                 f"{source}: {key}={name!r} names a file: a run directory keeps its presets inline or by a "
                 "shipped name, and names no file outside itself"
             )
-    for payload in env.get("payloads") or []:
+    # every mesh file the config names: a regular file of the run reached through no link (relative
+    # paths from the run directory), written back absolute so that nothing resolves it from elsewhere
+    for i, payload in enumerate(env.get("payloads") or []):
         shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
-        for shape in shapes:
-            if isinstance(shape, dict) and shape.get("type") == "mesh" and outside(root, Path(str(shape.get("mesh")))):
-                raise RunDirError(f"{source}: a payload's mesh {shape.get('mesh')!r} is outside the run directory")
+        for j, shape in enumerate(shapes):
+            if isinstance(shape, dict) and shape.get("type") == "mesh" and isinstance(shape.get("mesh"), str):
+                shape["mesh"] = str(confined_file(root, shape["mesh"], what=f"mesh of env.payloads[{i}].body.shapes[{j}]",
+                                                  source=source, error=RunDirError))
+    obstacles = env.get("obstacles")
+    items = obstacles.get("items") if isinstance(obstacles, dict) else None
+    for i, item in enumerate(items if isinstance(items, list) else []):
+        if isinstance(item, dict) and isinstance(item.get("file"), str):
+            item["file"] = str(confined_file(root, item["file"], what=f"env.obstacles.items[{i}].file", source=source,
+                                             error=RunDirError))
 
 
 def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
-    """Refuse an airframe file of the run whose URDF or meshes lie outside the run directory."""
-    from pyflyt_engine.safe_load import outside
+    """Refuse an airframe file of the run whose URDF, its meshes or the airframe's meshes are not
+    regular files of the run reached through no link -- before PyBullet or the recorder opens any."""
+    from pyflyt_engine.safe_load import confined_file, read_text
     from pyflyt_engine.spec import load_uav_spec
+    from pyflyt_engine.urdf import MAX_URDF_BYTES, urdf_files, urdf_problem
 
     agents = getattr(cfg.env, "agents", None)  # a multi-agent env: a count, or a list of agents
     names = [cfg.env.uav, *(a.uav for a in agents if a.uav)] if isinstance(agents, list) else [cfg.env.uav]
@@ -506,13 +569,19 @@ def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
             continue  # a shipped airframe
         spec = load_uav_spec(name)
         base = Path(name).parent
-        files = [spec.body.urdf] + [s.mesh for s in spec.body.shapes if s.type == "mesh"]
-        for file in files:
-            if file is not None and outside(root, base / file):
-                raise RunDirError(
-                    f"{source}: the airframe {Path(name).name} names {file!r}, outside the run directory: "
-                    "a shared run is read only from its own files"
-                )
+        label = f"{source}: the airframe {Path(name).name}"
+        for shape in spec.body.shapes:
+            if shape.type == "mesh" and shape.mesh is not None:
+                confined_file(root, base / shape.mesh, what="mesh it names", source=label, error=RunDirError)
+        if spec.body.urdf is None:
+            continue
+        urdf = confined_file(root, base / spec.body.urdf, what="URDF it names", source=label, error=RunDirError)
+        text = read_text(urdf, limit=MAX_URDF_BYTES, what="URDF", error=RunDirError)
+        problem = urdf_problem(text, allow_files=True)
+        if problem is not None:
+            raise RunDirError(f"{label} names the URDF {urdf.name}, which PyBullet is not given: {problem}")
+        for file in urdf_files(text):
+            confined_file(root, urdf.parent / file, what=f"mesh its URDF {urdf.name} names", source=label, error=RunDirError)
 
 
 def load_run_config(run_dir: str | Path) -> TrainConfig:

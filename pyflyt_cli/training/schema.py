@@ -32,6 +32,7 @@ from pydantic import (
 )
 
 from pyflyt_cli.training import registry
+from pyflyt_engine import limits
 from pyflyt_engine.envs.config import EnvConfig, parse_env_config
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.loading import describe_error, problem_list, problems
@@ -553,6 +554,11 @@ class TrainConfig(_Strict):
             return value
         return parse_env_config(value, source="env")
 
+    @field_validator("seed")
+    @classmethod
+    def _seed(cls, value: int) -> int:
+        return limits.check("seed", value)
+
     @field_validator("init_from")
     @classmethod
     def _init_from(cls, value: str | None) -> str | None:
@@ -814,6 +820,16 @@ class EvalOptions(_Strict):
         description="load legacy pickled files (SB3 .zip models, .pkl normalisers) of the run: unpickling can "
         "run arbitrary code; only for files you made yourself"
     )
+
+    @field_validator("seed")
+    @classmethod
+    def _seed(cls, value: int | None) -> int | None:
+        return value if value is None else limits.check("seed", value)
+
+    @field_validator("episodes")
+    @classmethod
+    def _episodes(cls, value: int) -> int:
+        return limits.check("eval.episodes", value, name="episodes")
 
     @field_validator("video")
     @classmethod

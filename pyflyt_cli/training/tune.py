@@ -37,13 +37,14 @@ import contextlib
 import json
 import multiprocessing
 import os
+import re
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from pyflyt_cli.compose import override_value
 from pyflyt_engine.errors import ConfigError
@@ -85,6 +86,17 @@ class TuneOptions(BaseModel):
     baseline: bool = Field(
         description="a new study's first trial trains the configuration as composed (when the space holds its values)"
     )
+
+    @field_validator("study_dir")
+    @classmethod
+    def _study_dir(cls, value: str | None) -> str | None:
+        # a database URL given where a directory is expected made a folder named 'sqlite:'
+        if value is not None and re.match(r"^[A-Za-z][A-Za-z0-9+.-]*://", value):
+            raise ValueError(
+                f"study_dir={value!r} looks like a database URL; give a directory (the study is kept in "
+                "<study_dir>/study.db, e.g. study_dir=tune/my_study)"
+            )
+        return value
 
 
 def tune_defaults() -> dict[str, Any]:

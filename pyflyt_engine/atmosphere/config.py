@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from pyflyt_engine import limits
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.loading import load, unknown_name, validate
@@ -57,6 +58,8 @@ class MeanWind(_Config):
     def _heights(self) -> MeanWind:
         if self.profile == "log" and not self.reference_height > self.roughness_length:
             raise ValueError("reference_height must be above roughness_length for the log profile")
+        limits.check("wind_speed", self.speed, name="mean.speed")
+        limits.check("wind_speed", abs(self.vertical), name="mean.vertical (its size)")
         return self
 
 
@@ -74,6 +77,12 @@ class Gust(_Config):
     speed: float = Field(gt=0, description="speed at which the gust front passes [m/s]")
     start: float = Field(0.0, ge=0, description="time the gust front arrives [s] after a reset")
     shape: Literal["step", "pulse"] = Field("step", description="step: hold the peak; pulse: back to 0 after 2 length")
+
+    @model_validator(mode="after")
+    def _bounded(self) -> Gust:
+        limits.check("wind_speed", max(abs(v) for v in self.amplitude), name="gust.amplitude (its largest component)")
+        limits.check("wind_speed", self.speed, name="gust.speed")
+        return self
 
 
 class Turbulence(_Config):
@@ -101,6 +110,12 @@ class Turbulence(_Config):
         description="vehicles of smaller span [m] get no rotary gusts: the MIL-F-8785C forms are for aeroplane "
         "spans and grow as b^(-2/3) below them (docs/atmosphere.md); 0: every vehicle",
     )
+
+    @model_validator(mode="after")
+    def _bounded(self) -> Turbulence:
+        limits.check("wind_speed", self.wind_speed_20ft, name="turbulence.wind_speed_20ft")
+        limits.check("wind_speed", self.advection_speed, name="turbulence.airspeed")
+        return self
 
     @property
     def advection_speed(self) -> float:

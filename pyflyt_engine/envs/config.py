@@ -26,12 +26,14 @@ from pydantic import (
     Field,
     SerializeAsAny,
     SerializerFunctionWrapHandler,
+    ValidationInfo,
     field_validator,
     model_serializer,
     model_validator,
 )
 
 from pyflyt_engine.components.estimator import alpha_beta_gains
+from pyflyt_engine import limits
 from pyflyt_engine.envs import rewards
 from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
@@ -115,6 +117,16 @@ class RenderConfig(_Config):
     """The ``rgb_array`` chase camera."""
 
     resolution: tuple[int, int] = Field((480, 480), description="image (height, width) [px]")
+
+    @field_validator("resolution")
+    @classmethod
+    def _resolution(cls, value: tuple[int, int]) -> tuple[int, int]:
+        if min(value) < 1:
+            raise ValueError(f"resolution: height and width must be at least 1 pixel, got {list(value)}")
+        for side, name in zip(value, ("height", "width")):
+            limits.check("image_side", side, name=f"resolution {name}")
+        return value
+
     camera_distance: float = Field(0.6, gt=0, description="camera distance behind the vehicle [m]")
     camera_height: float = Field(0.25, description="camera height above the vehicle [m]")
     fov: float = Field(60.0, gt=0, lt=180, description="vertical field of view [deg]")
@@ -351,6 +363,17 @@ class EnvConfig(_Config):
         if isinstance(data, dict) and data.get("backend") == "pybullet":  # the default, as before the key existed
             del data["backend"]
         return data
+
+    @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds", "flight_dome_size")
+    @classmethod
+    def _bounded(cls, value: float, info: ValidationInfo) -> float:
+        return limits.check(info.field_name, value)
+
+    @model_validator(mode="after")
+    def _episode_steps(self) -> EnvConfig:
+        limits.check("episode_physics_steps", self.physics_hz * self.max_duration_seconds,
+                     name="physics_hz x max_duration_seconds")
+        return self
 
     @model_validator(mode="after")
     def _latency(self) -> EnvConfig:

@@ -148,6 +148,10 @@ def _check_schema(contents: McapContents, topic: str, expected: str) -> None:
     raise TelemetryError(f"{contents.path}: no {topic} channel{cut}; not a complete pyflyt episode recording")
 
 
+#: the most values one recorded row of unfixed width may hold (aux state, sensor readings: a few dozen)
+MAX_ROW_VALUES = 10_000
+
+
 def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
     """Read an episode recording.
 
@@ -206,6 +210,15 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
     def rows(topic: str, key: str, width: int | None) -> np.ndarray:
         out = []
         for i, msg in enumerate(by_topic.get(topic, [])):
+            value = msg.get(key) if isinstance(msg, dict) else None
+            # the length first, against the schema (or the bound), before any value is converted
+            if isinstance(value, list) and width is not None and len(value) != width:
+                raise TelemetryError(f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, expected {width}")
+            if isinstance(value, list) and len(value) > MAX_ROW_VALUES:
+                raise TelemetryError(
+                    f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, more than the "
+                    f"{MAX_ROW_VALUES} any recorded row holds"
+                )
             try:
                 value = msg[key]
                 arr = np.asarray(

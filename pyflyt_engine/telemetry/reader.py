@@ -18,6 +18,7 @@ with a message naming the file and the problem.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -52,9 +53,13 @@ from mcap.records import (
 from mcap.stream_reader import breakup_chunk
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.safe_load import json_data, read_bytes
+from pyflyt_engine.safe_load import check_regular, json_data, read_bytes
 
 MAGIC = bytes([137, 77, 67, 65, 80, 48, 13, 10])
+#: the largest uncompressed chunk read [bytes]: a writer here closes a chunk at 256 KiB
+#: (``_io.DEFAULT_CHUNK_SIZE``) or holds one larger message in it (a ``/scene`` with an embedded
+#: mesh: a few MiB); the size a chunk declares is checked before it is decompressed
+MAX_CHUNK_BYTES = 64 << 20
 
 #: opcode -> reader of the record body (Message also needs the body length)
 _PARSERS: dict[int, Any] = {
@@ -213,9 +218,39 @@ def _parse(data: bytes, pos: int, *, exact: bool) -> tuple[int, Any, int]:
     return opcode, record, end
 
 
+def _decompressed(chunk: Chunk, pos: int) -> bytes:
+    """A chunk's records, decompressed, never more than the size it declares (itself at most
+    :data:`MAX_CHUNK_BYTES`): a few kB of zstd can declare, and expand to, gigabytes."""
+    size = chunk.uncompressed_size
+    if size > MAX_CHUNK_BYTES:
+        raise _Damage(
+            f"the chunk at byte {pos} declares {size} bytes uncompressed, more than the {MAX_CHUNK_BYTES >> 20} MiB "
+            "a recording's chunk may hold"
+        )
+    if chunk.compression in ("", "none"):
+        data = bytes(chunk.data)
+    elif chunk.compression == "zstd":
+        import zstandard
+
+        with zstandard.ZstdDecompressor().stream_reader(BytesIO(chunk.data)) as reader:
+            data = reader.read(size + 1)
+    elif chunk.compression == "lz4":
+        import lz4.frame
+
+        data = lz4.frame.LZ4FrameDecompressor().decompress(chunk.data, max_length=size + 1)
+    else:
+        raise _Damage(f"the chunk at byte {pos} is compressed with {chunk.compression!r}, which no writer here uses")
+    if len(data) != size:
+        raise _Damage(f"the chunk at byte {pos} decompresses to {'more' if len(data) > size else len(data)} bytes, not the {size} it declares")
+    return data
+
+
 def _chunk_records(chunk: Chunk, pos: int) -> list[Any]:
     try:
-        return breakup_chunk(chunk, validate_crc=True)
+        plain = dataclasses.replace(chunk, compression="", data=_decompressed(chunk, pos))
+        return breakup_chunk(plain, validate_crc=True)
+    except _Damage:
+        raise
     except Exception as exc:  # noqa: BLE001 - bad CRC, bad compression, inner records cut: damage
         raise _Damage(f"the chunk at byte {pos}: {exc}") from None
 
@@ -289,11 +324,20 @@ def read_mcap(
         raise TelemetryError(f"{path}: no such file")
     if path.is_dir():
         raise TelemetryError(f"{path} is a directory, not an .mcap file")
-    # a FIFO or a device is refused before it is opened: reading one may never end
-    data = read_bytes(path, limit=None, what="recording", error=TelemetryError)
-    if data[: len(MAGIC)] != MAGIC:
-        what = "it is empty" if not data else "it does not start with the MCAP magic bytes"
+    # a FIFO or a device is refused before it is opened: reading one may never end; the magic is
+    # read first, so a large file that is not MCAP is refused without being read
+    check_regular(path, what="recording", error=TelemetryError)
+    try:
+        with open(path, "rb") as head:
+            start = head.read(len(MAGIC))
+    except OSError as exc:
+        raise TelemetryError(f"{path}: cannot read the recording: {exc.strerror or exc}") from None
+    if start != MAGIC:
+        what = "it is empty" if not start else "it does not start with the MCAP magic bytes"
         raise TelemetryError(f"{path} is not an MCAP file ({what})")
+    data = read_bytes(path, limit=None, what="recording", error=TelemetryError)
+    if data[: len(MAGIC)] != MAGIC:  # replaced between the two reads
+        raise TelemetryError(f"{path} is not an MCAP file (it does not start with the MCAP magic bytes)")
     out = McapContents(path=path)
     statistics = None
     if skip_damage:  # channels defined in a damaged chunk are repeated there

@@ -269,10 +269,65 @@ class VerifyResult:
     same_versions: bool = True
     version_notes: list[str] = field(default_factory=list)
     diverged_termination: str = ""
+    #: what the recording says of the outcome that the re-simulation does not reproduce: the
+    #: return, termination, truncation, end reason, success (each a sentence; empty: all agree)
+    outcome_differences: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        return self.max_deviation <= self.tolerance and not self.diverged_termination
+        """Every state and every reward within the tolerance (a NaN counts as differing), the
+        episode ends where and as the recording says, with the same return and success."""
+        return (
+            self.max_deviation <= self.tolerance
+            and self.max_reward_deviation <= self.tolerance
+            and not self.diverged_termination
+            and not self.outcome_differences
+        )
+
+
+def _differs(recorded: Any, resimulated: float, tolerance: float) -> bool:
+    """Whether a recorded number differs from the re-simulated one by more than ``tolerance``
+    (a value that is not a finite number always differs)."""
+    try:
+        value = float(recorded)
+    except (TypeError, ValueError):
+        return True
+    return not (np.isfinite(value) and abs(value - resimulated) <= tolerance)
+
+
+def outcome_differences(
+    episode: Episode, rewards: list[float], terminated: bool, truncated: bool, info: dict[str, Any], tolerance: float
+) -> list[str]:
+    """What the recording claims of the episode's outcome that the re-simulation (its ``rewards``,
+    last flags and info) does not give: the return (the recorded rewards' sum, and the end event's),
+    within ``tolerance`` per step; the end event's terminated, truncated, reason and success."""
+    from pyflyt_engine.telemetry.recorder import end_reason
+
+    out: list[str] = []
+    total = 0.0
+    for reward in rewards:  # in the recorder's order (a running sum), so equal rewards give an equal sum
+        total += reward
+    allowed = tolerance * max(1, len(rewards))
+    recorded_sum = 0.0
+    for reward in episode.rewards[: len(rewards)]:
+        recorded_sum += float(reward)
+    if _differs(recorded_sum, total, allowed):
+        out.append(f"the recorded rewards sum to {recorded_sum:.6g}, the re-simulated ones to {total:.6g}")
+    end = episode.end
+    if end is None or end.get("event") != "end":
+        return out
+    if "return" in end and _differs(end.get("return"), total, allowed):
+        out.append(f"the recording's end event gives the return {end.get('return')!r}, the re-simulation {total:.6g}")
+    for name, value in (("terminated", terminated), ("truncated", truncated)):
+        if name in end and end.get(name) is not bool(value):
+            out.append(f"the recording's end event says {name}={end.get(name)!r}, the re-simulation {name}={bool(value)}")
+    reason = end_reason(terminated, truncated, info)
+    if "reason" in end and end.get("reason") != reason:
+        out.append(f"the recording's end event gives the reason {end.get('reason')!r}, the re-simulation {reason!r}")
+    success = bool(info.get("success", False))
+    if "success" in end and end.get("success") is not success:
+        out.append(f"the recording's end event says success={end.get('success')!r}, the re-simulation success={success}")
+    return out
 
 
 def _deviation(name: str, a: np.ndarray, b: np.ndarray) -> float:
@@ -363,9 +418,13 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
                         worst = (d, step, f"uav {i} estimate")
 
         compare(0)
+        rewards: list[float] = []
+        terminated = truncated = False
+        info: dict[str, Any] = {}
         for k in range(n):
-            _, reward, terminated, truncated, _ = env.step(episode.actions[k])
+            _, reward, terminated, truncated, info = env.step(episode.actions[k])
             if k < len(episode.rewards):
+                rewards.append(float(reward))
                 reward_dev = max(
                     reward_dev,
                     abs(float(reward) - float(episode.rewards[k])) if np.isfinite(episode.rewards[k]) else float("inf"),
@@ -394,6 +453,9 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
             same_versions=not notes,
             version_notes=notes,
             diverged_termination=diverged,
+            outcome_differences=[] if diverged else outcome_differences(
+                episode, rewards, bool(terminated), bool(truncated), info if isinstance(info, dict) else {}, tolerance
+            ),
         )
     finally:
         env.close()

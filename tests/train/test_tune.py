@@ -216,3 +216,12 @@ def test_a_new_study_starts_with_the_configuration_as_composed(tmp_path):
     messages.clear()
     tune("quadx_hover", "ppo", _options(tmp_path / "b", outside, trials=1), TRAIN, log=messages.append)
     assert any("baseline trial skipped" in m and "algo.gamma=0.95" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("url", ["sqlite:///study.db", "postgresql://host/db", "mysql+pymysql://u@h/d"])
+def test_a_study_dir_that_looks_like_a_database_url_is_refused_with_the_hint(tmp_path, monkeypatch, url):
+    """The reproduction: study_dir=sqlite:///... made a directory named 'sqlite:'."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError, match="looks like a database URL; give a directory"):
+        tune("quadx_hover", "ppo", {"study_dir": url}, TRAIN)
+    assert list(tmp_path.iterdir()) == []

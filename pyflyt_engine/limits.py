@@ -1,0 +1,83 @@
+"""The largest values accepted where a number from a file or the command line costs time or memory.
+
+A run directory, a recording or an override may come from someone else (docs/reproducibility.md,
+"Safe to share"), and some numbers decide how much work a command does before it can report
+anything: ``env.physics_hz: 3e9`` made ``pyflyt eval`` allocate gigabytes before its first step,
+``env.render.resolution: [100000, 100000]`` asked the renderer for 40 GB, ``pyflyt fly rows=1e9``
+built a table of a billion rows.  Each such number is checked against this one table when the
+config holding it is validated (env configs, airframe cameras, ``pyflyt fly`` options), so the
+refusal is one line naming the key, the value and the limit, before any work starts.
+
+Every limit is far above what any shipped config, experiment or test uses (the largest in
+``conf/``: physics 240 Hz, 120 s episodes, 480 x 480 images), so no real use meets it; the table
+is printed in docs/reproducibility.md and each limit has a test in ``tests/engine/test_limits.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The largest value of one kind of key, its unit and what it bounds."""
+
+    high: float
+    unit: str
+    why: str
+
+
+#: key -> limit.  The keys name the config field (or the family of fields) they apply to.
+LIMITS: dict[str, Limit] = {
+    "physics_hz": Limit(10_000.0, "Hz", "physics steps per simulated second (the paper: 240)"),
+    "control_hz": Limit(10_000.0, "Hz", "controller updates per simulated second (the paper: 120)"),
+    "agent_hz": Limit(10_000.0, "Hz", "agent steps per simulated second (the paper: 30)"),
+    "max_duration_seconds": Limit(86_400.0, "s", "simulated length of one episode (one day)"),
+    # physics_hz x max_duration_seconds: the physics steps of one episode (about ten minutes of CPU)
+    "episode_physics_steps": Limit(1e7, "steps", "physics steps of one episode (physics_hz x max_duration_seconds)"),
+    "image_side": Limit(4096.0, "px", "height or width of a rendered or camera image"),
+    "flight_dome_size": Limit(100_000.0, "m", "radius of the flight dome (its square must stay a finite number)"),
+    # NumPy's legacy seeding, which SB3 uses, takes 32 bits; half of that range leaves room for the
+    # offsets derived from a seed (an env per vector slot, evaluation episodes from seed + 1000 + i)
+    "seed": Limit(2**31 - 1, "", "a run's or an evaluation's seed"),
+    "eval.episodes": Limit(1_000_000.0, "episodes", "episodes `pyflyt eval` flies (seeds seed ... seed + episodes - 1)"),
+    # physical values that overflowed or flew a NaN trajectory with exit 0 (max_rpm 1e200, noise_ratio
+    # 1e10, wind 1e300): far above any real machine (hobby motors: tens of thousands of RPM)
+    "max_rpm": Limit(1e7, "RPM", "a motor's speed at full throttle"),
+    "noise_ratio": Limit(1.0, "", "the std of a motor's multiplicative throttle noise (1: 100 %)"),
+    "wind_speed": Limit(1000.0, "m/s", "a wind, gust or turbulence speed (three times the speed of sound)"),
+    "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
+    "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
+}
+
+
+def problem(key: str, value: float, *, name: str | None = None) -> str | None:
+    """Why ``value`` of ``key`` (shown as ``name``) is above its limit; None when it is within.
+
+    ``value`` is a number the schema already took (finite, positive where it must be)."""
+    limit = LIMITS[key]
+    if value <= limit.high:
+        return None
+    unit = f" {limit.unit}" if limit.unit else ""
+    return (
+        f"{name or key} {number(value)} is above the limit of {number(limit.high)}{unit} ({limit.why}); "
+        "give a smaller value (the limits: docs/reproducibility.md, 'Bounded numbers')"
+    )
+
+
+def number(value: float) -> str:
+    """``value`` as a message shows it: a whole number of up to 12 digits exactly, anything else ``:g``."""
+    if float(value).is_integer() and abs(value) < 1e12:
+        return str(int(value))
+    return f"{value:g}"
+
+
+def check(key: str, value: float, *, name: str | None = None) -> float:
+    """``value`` if it is within the limit of ``key``, else ``ValueError`` (for a pydantic validator)."""
+    why = problem(key, value, name=name)
+    if why is not None:
+        raise ValueError(why)
+    return value
+
+
+__all__ = ["LIMITS", "Limit", "check", "number", "problem"]
