@@ -156,8 +156,15 @@ def _sac_eta(work: Path) -> dict:
         if line.startswith("ETA:"):
             eta = line.strip()
             break
-    os.killpg(proc.pid, signal.SIGINT)
-    proc.communicate(timeout=600)
+    # Ctrl-C asks for a clean stop; one that lands before the run's own handler is in place
+    # (while it builds its evaluation env) is not seen, so ask again, then abort
+    for sig, wait in ((signal.SIGINT, 60), (signal.SIGINT, 60), (signal.SIGKILL, 60)):
+        os.killpg(proc.pid, sig)
+        try:
+            proc.communicate(timeout=wait)
+            break
+        except subprocess.TimeoutExpired:
+            continue
     if eta is None:
         raise SystemExit("pyflyt train env=quadx_waypoints algo=sac printed no ETA:\n" + "\n".join(lines[-20:]))
     return {"command": "pyflyt train env=quadx_waypoints algo=sac", "eta": eta, "load": [load, os.getloadavg()[0]],
