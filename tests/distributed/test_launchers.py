@@ -340,10 +340,12 @@ def test_the_grid_through_a_launcher_matches_the_basic_launcher_and_a_killed_wor
 
 
 def test_a_ray_instance_the_benchmark_starts_itself_trains_the_same_runs(
-    grid: Path, reference: Callable[[], dict[str, dict]], tmp_path: Path
+    grid: Path, reference: Callable[[], dict[str, dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The one-machine form of docs/benchmarks.md: ``address=local`` starts Ray in the benchmark's process."""
     _require("hydra_plugins.hydra_ray_launcher", "ray")
+    if "RAY_AUTH_MODE" not in os.environ:  # unset, Ray 2.60 would write a token to ~/.ray/auth_token (.ci/run)
+        monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
     expected = reference()
     launcher = ["hydra/launcher=ray", "hydra.launcher.ray.init.address=local", "+hydra.launcher.ray.init.num_cpus=2"]
     args = [*_command(grid, tmp_path, launcher), "benchmark.seeds=[0]"]
