@@ -39,12 +39,15 @@ def run_hydra(plan: Plan, jobs: Sequence[Job], hydra_overrides: Sequence[str], e
 
     from pyflyt_engine.paths import conf_dir
 
+    from pyflyt_cli.benchmark.launchers import plugin_overrides
+
     index = {j.id: i for i, j in enumerate(plan.jobs)}
     outcomes: list[Outcome] = []
+    launcher = [*hydra_overrides, *plugin_overrides(hydra_overrides)]
     for wave in levels(list(jobs)):
         numbers = [index[j.id] for j in wave]
-        overrides = [f"bench_dir={plan.root}", "job=" + ",".join(str(n) for n in numbers), *hydra_overrides]
-        echo(f"launching {len(wave)} run(s) with {' '.join(hydra_overrides)}")
+        overrides = [f"bench_dir={plan.root}", "job=" + ",".join(str(n) for n in numbers), *launcher]
+        echo(f"launching {len(wave)} run(s) with {' '.join(launcher)}")
         started = time.monotonic()
         GlobalHydra.instance().clear()
         try:

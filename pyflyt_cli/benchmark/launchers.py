@@ -92,13 +92,35 @@ def _value_problem(value: Any) -> str | None:
     return None
 
 
+#: launcher name -> (Hydra key, value): the setting :func:`plugin_overrides` adds unless the user gives it
+PLUGIN_SETTINGS = {
+    # hydra-ray-launcher 1.2.2 gives ray.init an object store of 75 MB unless the config names
+    # one (a ``setdefault`` in hydra_plugins/hydra_ray_launcher/_core.py, ``launch``), and Ray
+    # refuses any object_store_memory when ray.init joins a running cluster ("When connecting to
+    # an existing cluster, object_store_memory must not be provided": ray/_private/worker.py,
+    # ``init``, Ray 2.x), so hydra.launcher.ray.init.address=<cluster> failed before any run
+    # started.  None passes both: a running cluster keeps its own object store, and a new local
+    # instance is sized by Ray (a run returns one small exit code through it).
+    "ray": ("hydra.launcher.ray.init.object_store_memory", "null"),
+}
+
+
+def plugin_overrides(hydra_overrides: Sequence[str]) -> list[str]:
+    """The overrides ``pyflyt benchmark`` adds to the user's for the chosen launcher plugin to work.
+
+    :data:`PLUGIN_SETTINGS`: each is left out when the user's overrides set that key themselves.
+    """
+    name = _chosen(hydra_overrides)
+    if name not in PLUGIN_SETTINGS:
+        return []
+    key, value = PLUGIN_SETTINGS[name]
+    given = {item.partition("=")[0].lstrip("+~") for item in hydra_overrides}
+    return [] if key in given else [f"+{key}={value}"]
+
+
 def launcher_name(hydra_overrides: Sequence[str]) -> str | None:
     """The ``hydra/launcher=<name>`` choice among the overrides (None: the local launcher)."""
-    name = None
-    for item in hydra_overrides:
-        key, _, value = item.partition("=")
-        if key.lstrip("+~") == "hydra/launcher":
-            name = value
+    name = _chosen(hydra_overrides)
     if name is None and hydra_overrides:
         raise UsageError(
             f"{hydra_overrides[0]}: hydra.* overrides configure a Hydra launcher; choose one with "
@@ -110,6 +132,16 @@ def launcher_name(hydra_overrides: Sequence[str]) -> str | None:
         module, hint = PLUGINS[name]
         if importlib.util.find_spec(module.split(".")[0]) is None or (module != "hydra" and _missing(module)):
             raise UsageError(f"hydra/launcher={name} needs its Hydra plugin: {hint}")
+    return name
+
+
+def _chosen(hydra_overrides: Sequence[str]) -> str | None:
+    """The last ``hydra/launcher=<name>`` value among the overrides, unchecked."""
+    name = None
+    for item in hydra_overrides:
+        key, _, value = item.partition("=")
+        if key.lstrip("+~") == "hydra/launcher":
+            name = value
     return name
 
 

@@ -263,26 +263,6 @@ def test_bad_cli_input_exits_2_with_a_message(tmp_path: Path) -> None:
     assert not (tmp_path / "benchmarks").exists()
 
 
-@pytest.mark.slow
-def test_ray_launcher_runs_the_sweep(tmp_path: Path) -> None:
-    pytest.importorskip("hydra_plugins.hydra_ray_launcher")
-    args = [
-        "benchmark",
-        "experiment=smoke_benchmark",
-        "seeds=2",
-        f"benchmark.output_dir={tmp_path}",
-        "hydra/launcher=ray",
-        "+hydra.launcher.ray.init.num_cpus=2",
-    ]
-    result = pyflyt(args, tmp_path, timeout=900)
-    assert result.returncode == 0, result.stderr[-3000:]
-    root = tmp_path / "smoke_benchmark"
-    assert len(states(root)) == 4 and all(s["status"] == "complete" for s in states(root).values())
-    assert "Ray Launcher is launching 4 jobs" in result.stderr + result.stdout
-    again = pyflyt(args, tmp_path, timeout=900)
-    assert again.returncode == 0 and "4 complete (skipped)" in again.stderr
-
-
 def test_a_hydra_callback_payload_is_refused_before_anything_runs(tmp_path: Path) -> None:
     marker = tmp_path / "payload-ran"
     payload = ["+hydra.callbacks.x._target_=builtins.open", f"+hydra.callbacks.x._args_=[{marker},w]"]
