@@ -3,9 +3,11 @@
 #
 # Each library that chooses floating-point kernels by CPU reads a variable that makes it
 # choose as another CPU would: OpenBLAS's core type, NumPy's SIMD targets, PyTorch's CPU
-# capability, MKL's code branch and oneDNN's instruction set.  Under each emulation below
-# the golden trajectories, the physics' independence of those kernels, determinism across
-# processes, exact resume and the zoo's recorded returns must hold exactly as on this CPU
+# capability, MKL's code branch, oneDNN's instruction set and the CPU numba compiles the
+# batched backend's laws for.  Under each emulation below
+# the golden trajectories (the batched backend's too), the physics' independence of those
+# kernels, determinism across processes, exact resume and the zoo's recorded returns must
+# hold exactly as on this CPU
 # (docs/reproducibility.md, "What is exact, where").
 #
 #   bash experiments/emulated_cpus.sh            # both emulations (~10 min on 2 cores)
@@ -20,12 +22,16 @@ TESTS=(
     tests/envs/test_determinism.py
     tests/train/test_resume.py
     tests/train/test_zoo.py
+    tests/batched/test_golden.py
+    tests/batched/test_training.py
 )
 EMULATIONS=(
-    # an SSE3-only core for BLAS, NumPy without AVX2, PyTorch's baseline kernels, MKL's SSE2 branch
-    "OPENBLAS_CORETYPE=Prescott NPY_DISABLE_CPU_FEATURES=X86_V3 ATEN_CPU_CAPABILITY=default MKL_CBWR=COMPATIBLE ONEDNN_MAX_CPU_ISA=AVX2"
-    # an AVX (no AVX2) core for BLAS, MKL choosing its branch itself, oneDNN without AVX
-    "OPENBLAS_CORETYPE=Sandybridge ATEN_CPU_CAPABILITY=default MKL_CBWR=AUTO ONEDNN_MAX_CPU_ISA=SSE41"
+    # an SSE3-only core for BLAS, NumPy without AVX2, PyTorch's baseline kernels, MKL's SSE2 branch,
+    # the batched backend's laws compiled for baseline x86-64 (numba; its own cache, so it compiles)
+    "OPENBLAS_CORETYPE=Prescott NPY_DISABLE_CPU_FEATURES=X86_V3 ATEN_CPU_CAPABILITY=default MKL_CBWR=COMPATIBLE ONEDNN_MAX_CPU_ISA=AVX2 NUMBA_CPU_NAME=x86-64 NUMBA_CACHE_DIR=${TMPDIR:-/tmp}/pyflyt-numba-x86-64"
+    # an AVX (no AVX2) core for BLAS, MKL choosing its branch itself, oneDNN without AVX,
+    # the batched backend's laws compiled for an AVX-only core
+    "OPENBLAS_CORETYPE=Sandybridge ATEN_CPU_CAPABILITY=default MKL_CBWR=AUTO ONEDNN_MAX_CPU_ISA=SSE41 NUMBA_CPU_NAME=sandybridge NUMBA_CACHE_DIR=${TMPDIR:-/tmp}/pyflyt-numba-sandybridge"
 )
 status=0
 for emulation in "${EMULATIONS[@]}"; do

@@ -1,0 +1,51 @@
+"""The batched backend's numbers are the same on other CPUs: a recorded trajectory, bit for bit.
+
+``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover and QuadX-Waypoints on the
+batched backend (motor noise on, autoreset, seeded random actions): every observation and
+reward.  This test recomputes them; ``experiments/emulated_cpus.sh`` runs it again with the
+laws compiled for other instruction sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64
+and an AVX-only core), so a change that made the compiled laws depend on the CPU fails
+here.  Regenerate (only for a deliberate change of the numbers) with
+``python -m tests.batched.test_golden``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pyflyt_engine.batched import BatchedUAVEnv
+
+GOLDEN = Path(__file__).with_name("golden_batched.npz")
+ENVS = ("quadx_hover", "quadx_waypoints")
+
+
+def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
+    env = BatchedUAVEnv(env_name, num_envs=8, seed=5)
+    obs, _ = env.reset(seed=5)
+    rng = np.random.default_rng(3)
+    observations, rewards = [obs], []
+    for _ in range(120):
+        action = np.c_[rng.uniform(-2.0, 2.0, (8, 3)), rng.uniform(0.05, 0.25, (8, 1))]
+        obs, reward, *_ = env.step(action)
+        observations.append(obs)
+        rewards.append(reward)
+    return np.stack(observations), np.stack(rewards)
+
+
+def test_the_recorded_trajectories_bit_for_bit():
+    golden = np.load(GOLDEN)
+    for name in ENVS:
+        obs, rewards = trajectory(name)
+        assert np.array_equal(obs, golden[f"{name}/obs"]), name
+        assert np.array_equal(rewards, golden[f"{name}/rewards"]), name
+        assert (rewards == -100.0).any()  # crashes and autoresets happened along the way
+
+
+if __name__ == "__main__":
+    arrays = {}
+    for name in ENVS:
+        arrays[f"{name}/obs"], arrays[f"{name}/rewards"] = trajectory(name)
+    np.savez_compressed(GOLDEN, **arrays)
+    print(f"wrote {GOLDEN}")
