@@ -93,7 +93,7 @@ def main() -> None:
         return statistics.median(values)
 
     lines = [
-        f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {machine.get('cpu', platform.processor())}, "
+        f"\n## {time.strftime('%Y-%m-%d %H:%M')} — {machine.get('processor') or platform.processor()}, "
         f"{os.cpu_count()} cores, Python {platform.python_version()}; load average {load_before[0]:.2f} before, "
         f"{load_after[0]:.2f} after; {args.rounds} rounds, medians (ratios within a round)\n",
         f"`python experiments/speed_batched.py {' '.join(sys.argv[1:])}`\n",
