@@ -46,25 +46,26 @@ MODE_RATES_THRUST = 0
 
 
 @njit(cache=True)
-def rotation_rows(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
-    """Body-to-ground rotation matrix of a quaternion, row-major into ``out`` (9,):
-    Bullet's ``btMatrix3x3::setRotation`` (``s = 2 / |q|^2``), which PyBullet's
-    ``getMatrixFromQuaternion`` also runs."""
+def rotation_tuple(qx: float, qy: float, qz: float, qw: float):
+    """Body-to-ground rotation matrix of a quaternion, row-major, as a 9-tuple (the hot loop
+    keeps it in registers): Bullet's ``btMatrix3x3::setRotation`` (``s = 2 / |q|^2``), which
+    PyBullet's ``getMatrixFromQuaternion`` also runs."""
     d = qx * qx + qy * qy + qz * qz + qw * qw
     s = 2.0 / d
     xs, ys, zs = qx * s, qy * s, qz * s
     wx, wy, wz = qw * xs, qw * ys, qw * zs
     xx, xy, xz = qx * xs, qx * ys, qx * zs
     yy, yz, zz = qy * ys, qy * zs, qz * zs
-    out[0] = 1.0 - (yy + zz)
-    out[1] = xy - wz
-    out[2] = xz + wy
-    out[3] = xy + wz
-    out[4] = 1.0 - (xx + zz)
-    out[5] = yz - wx
-    out[6] = xz - wy
-    out[7] = yz + wx
-    out[8] = 1.0 - (xx + yy)
+    return (1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy))
+
+
+@njit(cache=True)
+def rotation_rows(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
+    """Body-to-ground rotation matrix of a quaternion, row-major into ``out`` (9,):
+    :func:`rotation_tuple`'s entries."""
+    r = rotation_tuple(qx, qy, qz, qw)
+    for k in range(9):
+        out[k] = r[k]
 
 
 @njit(cache=True)
@@ -234,18 +235,6 @@ def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts:
             scale = _lower(scale, (fm - fq) / ft)
     for m in range(n):
         out[m] = _throttle(scale * parts[m, 0] + parts[m, 1], parts[m, 3])
-
-
-@njit(cache=True)
-def rotation_tuple(qx: float, qy: float, qz: float, qw: float):
-    """:func:`rotation_rows` as a 9-tuple (the hot loop keeps it in registers)."""
-    d = qx * qx + qy * qy + qz * qz + qw * qw
-    s = 2.0 / d
-    xs, ys, zs = qx * s, qy * s, qz * s
-    wx, wy, wz = qw * xs, qw * ys, qw * zs
-    xx, xy, xz = qx * xs, qx * ys, qx * zs
-    yy, yz, zz = qy * ys, qy * zs, qz * zs
-    return (1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy))
 
 
 @njit(cache=True)
