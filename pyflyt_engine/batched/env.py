@@ -3,9 +3,12 @@
 :class:`BatchedUAVEnv` flies an env config's task for ``num_envs`` independent vehicles,
 advanced together by the compiled laws (:mod:`pyflyt_engine.batched.kernels`).  It is a
 ``gymnasium.vector.VectorEnv`` with same-step autoreset: when an env's episode ends, the
-returned observation is already the first of its next episode, and ``infos["final_obs"]``
-/ ``infos["final_info"]`` hold the last observation and info of the ended one (masked by
-``infos["_final_obs"]``).
+returned observation is already the first of its next episode; ``infos["final_obs"]``
+holds the last observation of the ended one and ``infos["episode"]`` its return ``r`` and
+length ``l`` (both masked by ``infos["_final_obs"]`` / ``infos["_episode"]``).  The step's
+other entries (``collision``, ``out_of_bounds``, ``env_complete``, ``success`` and, for
+waypoints, ``num_targets_reached``; one value per env) describe the step just taken, so for
+an env that ended they describe its last step.
 
 What an agent sees is what the PyBullet engine's env shows through the training wrappers
 (:func:`pyflyt_cli.training.envs.wrap_for_agent` minus the float32 cast and the action
