@@ -268,7 +268,12 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
     """
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    if getattr(config, "backend", "pybullet") == "batched":  # n_envs copies as arrays, in this process
+    backend = getattr(config, "backend", "pybullet")
+    if backend == "auto":
+        from pyflyt_engine.batched import resolve_backend
+
+        backend = resolve_backend(config)
+    if backend == "batched":  # n_envs copies as arrays, in this process
         from pyflyt_cli.training.batched import BatchedVecEnv
 
         return BatchedVecEnv(config, n_envs)  # a curriculum's task changes go to every env at once

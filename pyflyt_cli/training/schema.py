@@ -588,7 +588,13 @@ class TrainConfig(_Strict):
                 "algo=ccge needs init_from=<a SAC run, policy file or <run dir>@<step>>: that policy's actor is "
                 "CCGE's oracle; without one the oracle would be the random initial actor (docs/algorithms.md)"
             )
-        if getattr(self.env, "backend", "pybullet") == "batched":
+        backend = getattr(self.env, "backend", "pybullet")
+        if backend == "auto":  # resolved here, so the run records the backend it trains on
+            from pyflyt_engine.batched import resolve_backend
+
+            backend = resolve_backend(self.env, imitation=opts.imitation is not None)
+            object.__setattr__(self, "env", self.env.model_copy(update={"backend": backend}))
+        if backend == "batched":
             _check_batched(self.env, opts)
         if opts.curriculum:
             _check_curriculum(self.env, opts.curriculum)

@@ -232,7 +232,7 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     data["train"] = {**data["train"], "n_envs": n_envs}
     probe_cfg = parse_train_config(data)
     with _streams_kept():
-        batched = getattr(probe_cfg.env, "backend", "pybullet") == "batched"
+        batched = getattr(probe_cfg.env, "backend", "pybullet") == "batched"  # (auto is resolved by the config)
         if multi_agent or batched:  # a slot per agent (costs per agent-step); the batched envs as trained
             from pyflyt_cli.training.envs import make_vec_env
 

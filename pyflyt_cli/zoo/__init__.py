@@ -343,7 +343,7 @@ def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
     """``words`` plus the overrides that make ``pyflyt train <words>`` compose ``cfg``'s settings, or None."""
     from pyflyt_cli.compose import override_value
     from pyflyt_cli.training.compose import COMMAND_KEYS, compose_config
-    from pyflyt_cli.training.rundir import identity
+    from pyflyt_cli.training.rundir import LATER_KEYS, identity
     from pyflyt_engine.errors import PyFlytError
 
     target = identity(cfg)
@@ -356,6 +356,9 @@ def _reproducing(cfg: Any, words: list[str]) -> list[str] | None:
             if key in composed and target.get(key) == composed[key]:
                 continue
             if key not in target:
+                if key in LATER_KEYS:  # left out of the run's identity at its earlier value: set it back
+                    extra.append(f"{key}={override_value(LATER_KEYS[key])}")
+                    continue
                 return None  # a setting the run did not have: an override cannot remove it
             extra.append(f"{'' if key in composed else '+'}{key}={override_value(target[key])}")
         return [*words, *extra] if identity(compose_config(overrides=[*settings, *extra])) == target else None

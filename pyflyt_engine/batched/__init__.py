@@ -9,7 +9,7 @@ does not simulate is refused by name (docs/batched.md).
 
 from __future__ import annotations
 
-from pyflyt_engine.batched.env import BATCHED_TASKS, BatchedUAVEnv, check_supported, make_batched_env
+from pyflyt_engine.batched.env import BATCHED_TASKS, BatchedUAVEnv, check_supported, make_batched_env, resolve_backend
 from pyflyt_engine.batched.model import BatchedModel, UnsupportedByBatched, batched_model
 
 __all__ = [
@@ -20,4 +20,5 @@ __all__ = [
     "batched_model",
     "check_supported",
     "make_batched_env",
+    "resolve_backend",
 ]

@@ -97,6 +97,20 @@ def check_supported(config: EnvConfig) -> None:
     del model
 
 
+def resolve_backend(config: EnvConfig, *, imitation: bool = False) -> str:
+    """The backend ``config.backend`` names: ``auto`` is ``batched`` where the batched backend
+    simulates the config (and no imitation stage flies an oracle in it), else ``pybullet``."""
+    if config.backend != "auto":
+        return config.backend
+    if imitation:
+        return "pybullet"
+    try:
+        check_supported(config)
+    except ConfigError:  # UnsupportedByBatched among them
+        return "pybullet"
+    return "batched"
+
+
 class BatchedUAVEnv(gymnasium.vector.VectorEnv):
     """``num_envs`` copies of an env config's task, one compiled call per step (module docstring).
 
@@ -469,4 +483,4 @@ def make_batched_env(name: Any, n_envs: int = 1, seed: int | None = None, **env_
     return BatchedUAVEnv(cfg, num_envs=n_envs, seed=seed)
 
 
-__all__ = ["BATCHED_TASKS", "BatchedUAVEnv", "check_supported", "make_batched_env"]
+__all__ = ["BATCHED_TASKS", "BatchedUAVEnv", "check_supported", "make_batched_env", "resolve_backend"]

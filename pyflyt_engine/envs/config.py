@@ -293,11 +293,12 @@ class EnvConfig(_Config):
         "quaternion", description="attitude in the observation: Euler (roll, pitch, yaw) or quaternion (x, y, z, w)"
     )
     drag: bool = Field(True, description="apply the airframe's body drag")
-    backend: Literal["pybullet", "batched"] = Field(
+    backend: Literal["pybullet", "batched", "auto"] = Field(
         "pybullet",
-        description="what simulates training: pybullet (every config; one env per call) or batched (N multirotors "
+        description="what simulates training: pybullet (every config; one env per call), batched (N multirotors "
         "as arrays, one compiled call per step; a training run and the batched env refuse by name what it does "
-        "not simulate, docs/batched.md); evaluation, recordings and pyflyt eval always fly the PyBullet engine",
+        "not simulate, docs/batched.md) or auto (batched where it simulates the config, else pybullet; a "
+        "training run records which); evaluation, recordings and pyflyt eval always fly the PyBullet engine",
     )
     wind: Union[str, dict[str, Any]] = Field(
         "calm",

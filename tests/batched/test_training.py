@@ -122,6 +122,18 @@ def test_same_seed_same_numbers_in_another_process():
     assert np.frombuffer(bytes.fromhex(runs[0][: first.nbytes * 2])).tolist() != first.ravel().tolist()
 
 
+def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp_path):
+    """``env.backend: auto`` (the hover PPO default): batched for the shipped hover, PyBullet for a
+    variant the batched backend does not simulate or with an imitation stage; the resolved
+    backend is the run's configuration.  Asked for by name, batched refuses that variant."""
+    assert load(["env=quadx_hover"], tmp_path).env.backend == "batched"
+    assert load(["env=quadx_hover", "env.wind=gust"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_hover", "uav=tricopter"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_waypoints"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
+    with pytest.raises(ConfigError, match="does not simulate wind"):
+        load(["env=quadx_hover", "env.backend=batched", "env.wind=gust"], tmp_path)
+
+
 def test_ppo_learns_a_little_on_it():
     vec = make_vec_env(load_env_config("quadx_hover").with_overrides(backend="batched"), 8)
     model = PPO("MlpPolicy", vec, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")

@@ -52,6 +52,7 @@ ALLOWED = {
     "render": "the render_mode camera only: what render() shows, nothing the env computes (tests/envs/test_multi_agent.py renders)",
     "name": "selects the task itself: every task has its own tests",
     "task": "holds the task options, each checked here by its own name",
+    "backend": "what simulates training; the env classes always fly PyBullet (the batched backend: tests/batched)",
 }
 #: single-agent only: keys whose effect needs more than one vehicle
 ALLOWED_SINGLE = {

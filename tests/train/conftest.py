@@ -32,6 +32,7 @@ def experiment(name: str):
 TINY_PPO = [
     "env=quadx_hover",
     "algo=ppo",
+    "env.backend=pybullet",  # the PyBullet training path (hover PPO's default auto would train batched: tests/batched)
     "train.total_timesteps=512",
     "train.n_envs=1",
     "algo.n_steps=256",

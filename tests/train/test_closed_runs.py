@@ -52,7 +52,8 @@ def run(tmp_path) -> Path:
     (copy / "body").mkdir()
     (copy / "body" / "cf2x.obj").write_text(OBJ)
     (copy / "body" / "cf2x.urdf").write_text(urdf("cf2x.obj"))
-    set_config(copy, lambda env: env.update(uav="airframe.yaml"))
+    # a URDF airframe trains on PyBullet (the batched backend refuses it by name)
+    set_config(copy, lambda env: env.update(uav="airframe.yaml", backend="pybullet"))
     (tmp_path / "secret.obj").write_text(SECRET)
     return copy
 

@@ -258,7 +258,8 @@ def test_init_from_a_missing_run_is_refused_before_creating_anything(tmp_path):
 def test_an_env_that_cannot_be_built_fails_before_the_run_starts(tmp_path):
     from pyflyt_cli.training import train
 
-    cfg = load_train_config(["uav=fixedwing", "train.n_envs=4", "train.vec_env=auto", f"train.output_dir={tmp_path / 'runs'}"])
+    cfg = load_train_config(["uav=fixedwing", "train.n_envs=4", "algo.n_steps=128", "train.vec_env=auto",
+                             f"train.output_dir={tmp_path / 'runs'}"])  # fmt: skip
     with pytest.raises(ConfigError, match="env: cannot build the environment"):
         train(cfg)
     assert not (tmp_path / "runs").exists()
