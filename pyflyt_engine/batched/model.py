@@ -17,7 +17,6 @@ mesh or URDF collision geometry, and flight modes other than ``rates_thrust`` an
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,7 +76,6 @@ class BatchedModel:
         corners: (k, 8) collision features from the centre of mass: [x, y, z, sphere
             radius, disc radius, disc normal (3)] (box corners, sphere centres, cylinder
             end discs), whose lowest point against the ground is exact.
-        aux_size: entries of the auxiliary state (the motor throttles).
     """
 
     name: str
@@ -96,7 +94,6 @@ class BatchedModel:
     angular_damping: float
     drag: bool
     corners: np.ndarray
-    default_mode: str
 
     @property
     def motors(self) -> int:
@@ -194,7 +191,6 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         angular_damping=float(drag_params.angular_damping),
         drag=on,
         corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
-        default_mode=controller.mode.name,
     )
 
 
@@ -204,15 +200,3 @@ def mode_code(mode: str | int) -> int:
     if name not in BATCHED_MODES:
         raise refuse(f"flight mode {name}", f"it flies {', '.join(BATCHED_MODES)}")
     return BATCHED_MODES[name]
-
-
-def lowest_point_height(pos: np.ndarray, rotation_z_row: np.ndarray, corners: np.ndarray) -> float:
-    """Lowest height [m] of the collision features (for tests): ``rotation_z_row`` is the
-    ground z row of the body-to-ground rotation."""
-    low = math.inf
-    for x, y, z, sphere, disc, nx, ny, nz in corners.tolist():
-        height = pos[2] + rotation_z_row[0] * x + rotation_z_row[1] * y + rotation_z_row[2] * z - sphere
-        normal_z = rotation_z_row[0] * nx + rotation_z_row[1] * ny + rotation_z_row[2] * nz
-        height -= disc * math.sqrt(max(0.0, 1.0 - normal_z * normal_z))
-        low = min(low, height)
-    return low

@@ -144,6 +144,27 @@ def test_rate_loop_and_mixer_equal_the_controller(name):
     assert slow > 30  # the clipping paths ran
 
 
+@pytest.mark.parametrize("name", FLOWN)
+def test_the_ground_contact_height_is_the_airframes_lowest_point(name):
+    """Upright, the collision features' lowest point is the spec's ``lowest_point()`` (from the
+    centre of mass); rolled by 90 degrees about body x, the boxes' lowest edge along body y."""
+    spec = load_uav_spec(name)
+    model = batched_model(spec, DT, CONTROL_DT)
+    com_z = float(assemble(spec).com[2])
+    pos = np.array([0.0, 0.0, 2.0])
+    upright = np.empty(9)
+    kernels.rotation_rows(0.0, 0.0, 0.0, 1.0, upright)
+    assert kernels.lowest_corner(pos, upright, model.corners) == pytest.approx(2.0 + spec.body.lowest_point() - com_z, abs=1e-12)
+    # rolled 90 degrees about body x, body y points up: a point's height is its body y
+    rolled = np.empty(9)
+    kernels.rotation_rows(np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4), rolled)
+    shapes = [s for s in spec.body.shapes if s.collision]
+    assert all(s.type == "box" and s.rpy == (0.0, 0.0, 0.0) for s in shapes)  # the flown airframes' geometry
+    com_y = float(assemble(spec).com[1])
+    expected = 2.0 + min(s.position[1] - com_y - 0.5 * s.size[1] for s in shapes)
+    assert kernels.lowest_corner(pos, rolled, model.corners) == pytest.approx(expected, abs=1e-12)
+
+
 def _random_quaternions(rng: np.random.Generator, count: int) -> np.ndarray:
     q = rng.standard_normal((count, 4))
     return q / np.linalg.norm(q, axis=1, keepdims=True)
