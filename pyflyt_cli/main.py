@@ -31,30 +31,26 @@ def _untyped_flags(params: Any) -> None:
             param.metavar = ""
 
 
-class _Command(typer.core.TyperCommand):
-    """A command whose ``--help`` lists its flags (``--help`` included) without a value type."""
+class _UntypedFlags:
+    """Mixed into Typer's command and group classes: ``--help`` lists their flags (``--help``
+    included) without a value type."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        _untyped_flags(self.params)
+        _untyped_flags(self.params)  # type: ignore[attr-defined]
 
     def get_help_option(self, ctx: Any) -> Any:
-        option = super().get_help_option(ctx)
+        option = super().get_help_option(ctx)  # type: ignore[misc]
         _untyped_flags([option])
         return option
 
 
-class _Group(typer.core.TyperGroup):
-    """A command group whose ``--help`` lists its flags without a value type (:class:`_Command`)."""
+class _Command(_UntypedFlags, typer.core.TyperCommand):
+    """A command whose ``--help`` lists its flags without a value type."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        _untyped_flags(self.params)
 
-    def get_help_option(self, ctx: Any) -> Any:
-        option = super().get_help_option(ctx)
-        _untyped_flags([option])
-        return option
+class _Group(_UntypedFlags, typer.core.TyperGroup):
+    """A command group whose ``--help`` lists its flags without a value type."""
 
 
 class _App(typer.Typer):

@@ -117,7 +117,7 @@ def test_a_fifo_anywhere_in_the_run_is_refused_before_it_is_opened(run):
         pytest.skip("needs FIFOs")
     (run / "body" / "cf2x.obj").unlink()
     os.mkfifo(run / "body" / "cf2x.obj")  # PyBullet blocked on it for ever
-    code, output = pyflyt_forked(["eval", str(run), "episodes=1", "record=false"], timeout=60)
+    code, output = pyflyt_forked(["eval", str(run), "episodes=1", "record=false"])
     assert code == 2, output[-2000:]
     assert "FIFO" in output and str(run / "body" / "cf2x.obj") in output and "Traceback" not in output
     deep = run / "episodes" / "a" / "b"
