@@ -129,22 +129,28 @@ class WaypointProbe(HoverProbe):
         venv.step_wait = timed_step_wait
 
     def probe(self) -> None:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         probe = self.probe_fn(self.model, self.env, self.episodes, seed=PROBE_SEED)
         self.probe_time += time.perf_counter() - t0
+        self.probe_cpu += time.process_time() - c0
         wall = time.perf_counter() - self.started
+        # CPU time of this process (every thread) in training, the probes taken out: what a
+        # machine shared with other jobs inflates far less than the wall-clock
+        cpu = time.process_time() - self.cpu_started - self.probe_cpu
+        probe = {**probe, "cpu": cpu}
         load = os.getloadavg()[0]
         self.loads.append(load)
         self.history.append((self.num_timesteps, wall, probe))
         at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
         print(
-            f"  {self.num_timesteps:>8} steps  {wall:7.1f} s  (train {wall - self.probe_time:7.1f} s, load {load:.1f})  "
+            f"  {self.num_timesteps:>8} steps  {wall:7.1f} s  (train {wall - self.probe_time:7.1f} s, CPU {cpu:7.1f} s, "
+            f"load {load:.1f})  "
             f">=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  endings {probe['endings']}  "
             f"return {probe['mean_return']:8.1f}",
             flush=True,
         )
         if self.hover_at is None and probe["all"] >= self.target:
-            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time)
+            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time, cpu)
 
 
 class _SavedPolicy:
@@ -326,15 +332,16 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict
 def table(rows: list[dict], target: float) -> list[str]:
     lines = [
         "| seed | steps | final: >= 1 / 2 / 3 / 4 / 5 reached [%] | final: mean reached | final endings | best mean reached | "
-        f">= {100 * target:.0f} % all at [steps] | training wall-clock [s] | steps/s | env / other collect / update / eval [s] | load |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        f">= {100 * target:.0f} % all at [steps] | CPU time to it [s] | training wall-clock [s] | steps/s | env / other collect / update / eval [s] | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         f, s, t = r["final"], r["split"], r["target_at"]
+        cpu_to = f"{t[3]:.0f}" if t and len(t) > 3 else "-"  # rows saved before the CPU time was recorded: -
         lines.append(
             f"| {r['seed']} | {r['steps']} | {' / '.join(f'{100 * x:.0f}' for x in f['at_least'])} | "
             f"{f['mean_reached']:.1f} | {', '.join(f'{k} {v}' for k, v in f['endings'].items())} | "
-            f"{r['best_mean_reached']:.1f} | {t[0] if t else 'not within budget'} | {r['trained_wall']:.0f} | "
+            f"{r['best_mean_reached']:.1f} | {t[0] if t else 'not within budget'} | {cpu_to} | {r['trained_wall']:.0f} | "
             f"{r['steps_per_second']:.0f} | "
             + (f"{s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f}" if s else "- (stopped)")
             + f" | {r['load'][0]:.1f}-{r['load'][1]:.1f} |"
