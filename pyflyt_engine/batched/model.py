@@ -289,8 +289,8 @@ def mode_code(mode: str | int, model: BatchedModel | None = None) -> int:
     if model is not None and model.channel_driven:
         name = str(mode)
         if name not in BATCHED_FIXEDWING_MODES:
-            known = "a fixed-wing's" if name in FIXEDWING_MODES else "an unknown"
-            raise refuse(f"flight mode {name} ({known} mode)", f"on a fixed-wing it flies {', '.join(BATCHED_FIXEDWING_MODES)}")
+            what = "the fixed-wing autopilot's mode" if name in FIXEDWING_MODES else "not a fixed-wing mode"
+            raise refuse(f"flight mode {name} ({what})", f"on a fixed-wing it flies {', '.join(BATCHED_FIXEDWING_MODES)}")
         return BATCHED_FIXEDWING_MODES[name]
     name = resolve_mode(mode).name
     if name not in BATCHED_MODES:
