@@ -27,7 +27,8 @@ same seed: the same seed and ``num_envs`` give the same numbers, in any process.
 
 Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover, QuadX-Waypoints and
 Fixedwing-Waypoints configs, their variants on any airframe the model accepts: a
-multirotor in mode ``rates_thrust`` or ``motors``, a fixed-wing in mode ``channels``).
+multirotor in mode ``rates_thrust`` or ``motors``, a fixed-wing in mode ``channels`` or
+``attitude_airspeed``).
 The waypoint logic (sampling, the segment reach test, the observation's deltas) is one
 path for both kinds of airframe, as the PyBullet engine's waypoints task is.  Everything else a config can ask for that
 this backend does not simulate is refused when the env is built, by name
@@ -143,6 +144,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.per_control = int(round(cfg.physics_hz / cfg.control_hz))
         self.model: BatchedModel = batched_model(self.spec_uav, self.physics_dt, self.control_dt, drag=cfg.drag)
         self.mode = mode_code(cfg.action.mode, self.model)
+        if self.mode == kernels.MODE_ATTITUDE_AIRSPEED and len(cfg.action.low) != 4:
+            raise ConfigError(f"mode attitude_airspeed takes 4 values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_CHANNELS and len(cfg.action.low) != self.model.channels:
             raise ConfigError(f"mode channels takes {self.model.channels} values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self.model.motors:
@@ -193,6 +196,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, each lifting surface's flap deflection [rad] and its command in [-1, 1]
         self.deflection = np.zeros((n, ns))
         self.flap_command = np.zeros((n, ns))
+        #: per env, the fixed-wing autopilot's integrals (roll, pitch, yaw, airspeed; none on a multirotor)
+        self.autopilot_integral = np.zeros((n, 4 if m.channel_driven else 0))
         self.integral = np.zeros((n, 3))
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
@@ -299,6 +304,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.command[index] = 0.0
         self.deflection[index] = 0.0
         self.flap_command[index] = 0.0
+        self.autopilot_integral[index] = 0.0
         self.integral[index] = 0.0
         self.previous[index] = 0.0
         self.has_previous[index] = False
@@ -372,14 +378,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         # at once or at an agent step boundary, and per_agent is a multiple of per_control
         # whenever control_hz >= agent_hz); the phase of env 0 is used for all
         start = int(self.physics_steps[0]) % self.per_control
-        if self.mode == kernels.MODE_CHANNELS:
+        if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
             kernels.advance_channels(
                 self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.deflection,
                 self.flap_command, setpoints, factors, self._mass, self._inertia, self._lag, self._columns,
                 m.motor_mix_index, m.motor_mix_weight, m.channel_low, m.channel_high, self._surfaces,
                 self._surface_lag, m.surface_mix_index, m.surface_mix_weight, self._drag_factors, self._damping,
                 m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, self.per_agent,
-                self.per_control,
+                self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
+                m.autopilot_index, self.control_dt,
             )
             self.physics_steps += self.per_agent
             return

@@ -14,7 +14,9 @@ holds together bit for bit on random inputs for every airframe:
 * lifting surfaces (:mod:`pyflyt_engine.components.lifting_surface`: the Khan & Nahon
   profile ``_coefficients``, ``surface_wrench``, ``flap_deflection`` and
   ``Surfaces.step``), and the channel routing of a channel-driven airframe
-  (``Vehicle.control_step`` in mode ``channels``, ``Motors.route``, ``Surfaces.route``);
+  (``Vehicle.control_step`` in mode ``channels``, ``Motors.route``, ``Surfaces.route``)
+  and the fixed-wing autopilot of mode ``attitude_airspeed``
+  (:class:`pyflyt_engine.control.fixedwing.FixedwingAutopilot`);
 * the state read-outs PyBullet gives the PyBullet engine (the quaternion from the body's
   rotation matrix, Euler angles from the quaternion), written from Bullet's formulas.
 
@@ -50,6 +52,7 @@ _ANGULAR_MOTION_THRESHOLD = 0.5 * (0.5 * math.pi)
 MODE_MOTORS = -1
 MODE_RATES_THRUST = 0
 MODE_CHANNELS = 1
+MODE_ATTITUDE_AIRSPEED = 2
 
 # the Khan & Nahon profile's constants, as pyflyt_engine.components.lifting_surface names them
 # (ICUAS 2015; REFERENCE.md "Lifting surface"): the same doubles, read from that module
@@ -572,16 +575,54 @@ def route_channels(channels: np.ndarray, index: np.ndarray, weight: np.ndarray, 
 
 
 @njit(cache=True)
+def _autopilot_loop(error: float, rate: float, gains: np.ndarray, k: int, integral: np.ndarray, dt: float) -> float:
+    """One loop of the fixed-wing autopilot (``control.fixedwing._Loop``): gains row ``k``
+    is kp, ki, kd, integral limit; ``integral[k]`` advanced (clamped to limit / ki)."""
+    kp, ki, kd, integral_limit = gains[k, 0], gains[k, 1], gains[k, 2], gains[k, 3]
+    if ki > 0:
+        limit = integral_limit / ki
+        value = integral[k] + error * dt
+        value = -limit if -limit > value else value  # max(value, -limit)
+        integral[k] = limit if limit < value else value  # min(value, limit)
+    return kp * error + ki * integral[k] - kd * rate
+
+
+@njit(cache=True)
+def fixedwing_autopilot(setpoint: np.ndarray, p: float, q: float, r: float, roll: float, pitch: float, u: float,
+                        integral: np.ndarray, gains: np.ndarray, cruise_thrust: float, index: np.ndarray,
+                        low: np.ndarray, high: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """The channel vector of mode ``attitude_airspeed`` (``FixedwingAutopilot.__call__``) into
+    ``out``: setpoint [roll, pitch, yaw rate, airspeed]; the state's body rates (p, q, r),
+    roll and pitch and forward body speed u; ``index`` the roll, pitch, yaw and thrust
+    channels; the other channels 0; all limited to the channels' ranges."""
+    for c in range(out.shape[0]):
+        out[c] = 0.0
+    out[index[0]] = _autopilot_loop(setpoint[0] - roll, p, gains, 0, integral, dt)
+    out[index[1]] = _autopilot_loop(setpoint[1] - pitch, q, gains, 1, integral, dt)
+    out[index[2]] = _autopilot_loop(setpoint[2] - r, 0.0, gains, 2, integral, dt)
+    out[index[3]] = cruise_thrust + _autopilot_loop(setpoint[3] - u, 0.0, gains, 3, integral, dt)
+    for c in range(out.shape[0]):
+        value = out[c]
+        lo, hi = low[c], high[c]
+        out[c] = hi if value > hi else lo if value < lo else value
+
+
+@njit(cache=True)
 def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap_command, setpoint, factors, mass,
                      inertia, lag, columns, motor_index, motor_weight, channel_low, channel_high, surfaces,
                      surface_lag, surface_index, surface_weight, drag_factors, damping, drag_on, corners, contact,
-                     gravity, air_density, physics_dt, start, count, per_control):
-    """Advance every channel-driven vehicle (a fixed-wing flown in mode ``channels``) ``count``
-    physics steps from physics step ``start``, as :func:`advance` does a multirotor.
+                     gravity, air_density, physics_dt, start, count, per_control, mode, autopilot_integral,
+                     autopilot_gains, cruise_thrust, autopilot_index, control_dt):
+    """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
+    ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
+    :func:`advance` does a multirotor.
 
-    On a control tick (``Vehicle.control_step``, mode ``channels``) the setpoint, limited to
-    the channels' ranges, is the channel vector, which every motor and flap takes through
-    its mix (:func:`route_channels`).  Per physics step, in the PyBullet engine's step order
+    On a control tick (``Vehicle.control_step``) the channel vector is, in mode ``channels``,
+    the setpoint limited to the channels' ranges; in mode ``attitude_airspeed`` the
+    autopilot's output (:func:`fixedwing_autopilot`, ``autopilot_integral`` advanced) from
+    the state the PyBullet engine reads (rates, attitude and velocity through the quaternion
+    PyBullet reports, as :func:`read_out`).  Every motor and flap takes it through its mix
+    (:func:`route_channels`).  Per physics step, in the PyBullet engine's step order
     (motors, lifting surfaces, body drag; the wrenches summed in it): the motors step, the
     flaps move and the surfaces load the body at its velocity through the (still) air,
     body drag, and the rigid body integrates the sum.  ``contact`` as in :func:`advance`.
@@ -589,6 +630,9 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
     n = pos.shape[0]
     nc = channel_low.shape[0]
     channels = np.empty(nc)
+    rm = np.empty(9)
+    qr = np.empty(4)
+    euler = np.empty(3)
     for i in range(n):
         contact[i] = False
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
@@ -602,7 +646,20 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
         for s in range(count):
             step = start + s
             if step % per_control == 0:  # control tick: the channels, routed
-                clip_channels(setpoint[i], channel_low, channel_high, channels)
+                if mode == MODE_ATTITUDE_AIRSPEED:  # the state as Vehicle.read_state reads it
+                    rotation_rows(q[0], q[1], q[2], q[3], rm)
+                    matrix_quaternion(rm, qr)
+                    euler_from_quaternion(qr[0], qr[1], qr[2], qr[3], euler)
+                    m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(qr[0], qr[1], qr[2], qr[3])
+                    w0, w1, w2 = w
+                    fixedwing_autopilot(
+                        setpoint[i], m0 * w0 + m3 * w1 + m6 * w2, m1 * w0 + m4 * w1 + m7 * w2,
+                        m2 * w0 + m5 * w1 + m8 * w2, euler[0], euler[1], m0 * v[0] + m3 * v[1] + m6 * v[2],
+                        autopilot_integral[i], autopilot_gains, cruise_thrust, autopilot_index, channel_low,
+                        channel_high, control_dt, channels,
+                    )
+                else:
+                    clip_channels(setpoint[i], channel_low, channel_high, channels)
                 route_channels(channels, motor_index, motor_weight, cmd_i)
                 route_channels(channels, surface_index, surface_weight, f_i)
             r = rotation_tuple(q[0], q[1], q[2], q[3])

@@ -12,12 +12,12 @@ drift apart.
 
 Two kinds of airframe: a multirotor (its flight controller's modes ``rates_thrust`` and
 ``motors``) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
-driven through the channels, mode ``channels``).  What the batched backend cannot simulate
+driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).  What the batched backend cannot simulate
 is refused here by name (:class:`UnsupportedByBatched`), never approximated: boosters,
 gimbals (tilting motors), channels on a multirotor (a VTOL's actuators outside the mixer),
 lifting surfaces on a multirotor, the optional motor models and the battery, mesh or URDF
-collision geometry, and flight modes other than ``rates_thrust``, ``motors`` and
-``channels`` (the fixed-wing autopilot's ``attitude_airspeed`` among them).
+collision geometry, and a multirotor's flight modes other than ``rates_thrust`` and
+``motors`` (and a multirotor mode on a fixed-wing).
 """
 
 from __future__ import annotations
@@ -48,8 +48,8 @@ KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motor
 
 #: flight modes the compiled controller flies (name -> code in kernels): a multirotor's
 BATCHED_MODES = {"rates_thrust": 0, "motors": -1}
-#: and a fixed-wing's (its raw channels: the paper's fixed-wing action)
-BATCHED_FIXEDWING_MODES = {"channels": 1}
+#: and a fixed-wing's (its raw channels: the paper's fixed-wing action; the autopilot)
+BATCHED_FIXEDWING_MODES = {"channels": 1, "attitude_airspeed": 2}
 
 
 class UnsupportedByBatched(ConfigError):
@@ -94,6 +94,9 @@ class BatchedModel:
             its flap's lag per physics step; surface_scale: (s,) what its deflection is
             divided by in the auxiliary state (its limit, 1 without a flap);
             surface_mix_index, surface_mix_weight: (s, k) its flap's mix.
+        autopilot_gains: (4, 4) the fixed-wing autopilot's loops (roll, pitch, yaw,
+            airspeed) as rows kp, ki, kd, integral limit; cruise_thrust: its thrust
+            feed-forward; autopilot_index: (4,) its roll, pitch, yaw and thrust channels.
     """
 
     name: str
@@ -122,6 +125,9 @@ class BatchedModel:
     surface_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
     surface_mix_index: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), dtype=np.int64))
     surface_mix_weight: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    autopilot_gains: np.ndarray = field(default_factory=lambda: np.zeros((4, 4)))
+    cruise_thrust: float = 0.0
+    autopilot_index: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=np.int64))
 
     @property
     def motors(self) -> int:
@@ -223,7 +229,7 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
     )
     if fixedwing:
-        return _fixedwing_model(parts, physics_dt, common)
+        return _fixedwing_model(parts, spec.control, physics_dt, common)
     assert motors is not None  # a multirotor controller needs motors (spec validator)
     if len(parts.mixer_motors) != motors.count:
         raise refuse(f"motors outside the mixer (airframe {name})")
@@ -246,9 +252,12 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
     )
 
 
-def _fixedwing_model(parts, physics_dt: float, common: dict) -> BatchedModel:
+def _fixedwing_model(parts, control: FixedwingControlSpec, physics_dt: float, common: dict) -> BatchedModel:
     """A fixed-wing's model: motors and flaps routed from the channels (``Motors.route``,
-    ``Surfaces.route``), the surfaces' constants and flap lags as ``Surfaces`` holds them."""
+    ``Surfaces.route``), the surfaces' constants and flap lags as ``Surfaces`` holds them,
+    the autopilot's gains and channels as ``FixedwingAutopilot`` reads them."""
+    loops = (control.roll, control.pitch, control.yaw, control.airspeed)
+    channels = (control.roll_channel, control.pitch_channel, control.yaw_channel, control.thrust_channel)
     motors = parts.motors
     if motors is not None:
         lag = np.asarray(lag_coefficient(physics_dt, motors.tau), dtype=np.float64).reshape(-1)
@@ -279,6 +288,9 @@ def _fixedwing_model(parts, physics_dt: float, common: dict) -> BatchedModel:
         surface_scale=np.array([s.max_deflection or 1.0 for s in parts.surfaces], dtype=np.float64),
         surface_mix_index=surface_index,
         surface_mix_weight=surface_weight,
+        autopilot_gains=np.array([[g.kp, g.ki, g.kd, g.integral_limit] for g in loops], dtype=np.float64),
+        cruise_thrust=float(control.cruise_thrust),
+        autopilot_index=np.array([parts.channels.index(c) for c in channels], dtype=np.int64),
         **common,
     )
 
@@ -289,7 +301,7 @@ def mode_code(mode: str | int, model: BatchedModel | None = None) -> int:
     if model is not None and model.channel_driven:
         name = str(mode)
         if name not in BATCHED_FIXEDWING_MODES:
-            what = "the fixed-wing autopilot's mode" if name in FIXEDWING_MODES else "not a fixed-wing mode"
+            what = "not compiled" if name in FIXEDWING_MODES else "not a fixed-wing mode"
             raise refuse(f"flight mode {name} ({what})", f"on a fixed-wing it flies {', '.join(BATCHED_FIXEDWING_MODES)}")
         return BATCHED_FIXEDWING_MODES[name]
     name = resolve_mode(mode).name

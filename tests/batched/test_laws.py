@@ -5,7 +5,7 @@ for one vehicle), once compiled for N vehicles -- so every pair is held together
 random inputs, for every airframe the batched backend flies: motors, body drag, the rate
 loop, the mixer (its clipping paths included), the lifting surfaces (the Khan & Nahon
 profile, stalled and in reverse flow, the surface wrench, the flaps' step) and the channel
-routing of a fixed-wing, the state read-outs against PyBullet's own functions, and every
+routing and autopilot of a fixed-wing, the state read-outs against PyBullet's own functions, and every
 vector reward term and condition against its registered scalar form.
 """
 
@@ -274,6 +274,36 @@ def test_channel_routing_equals_the_vehicle_and_groups(name):
         kernels.route_channels(channels, model.surface_mix_index, model.surface_mix_weight, flap_command)
         assert motor_command.tolist() == motors.command
         assert flap_command.tolist() == surfaces.command
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_the_fixedwing_autopilot_equals_the_autopilot(name):
+    """Mode ``attitude_airspeed``: random states and setpoints, errors wide enough to hold
+    the integrators at their limits: the compiled autopilot's channels and integrals equal
+    ``FixedwingAutopilot``'s bit for bit."""
+    from pyflyt_engine.control.fixedwing import FixedwingAutopilot
+
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    model = batched_model(spec, DT, CONTROL_DT)
+    autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, CONTROL_DT)
+    rng = np.random.default_rng(12)
+    integral, out = np.zeros(4), np.empty(model.channels)
+    held = 0
+    for tick in range(400):
+        state = _state(rng)
+        scale = 3.0 if tick % 50 < 25 else 0.2  # stretches of large errors: the integrators saturate
+        setpoint = np.r_[rng.normal(0, scale, 3), rng.uniform(5.0, 25.0)]
+        expected = autopilot(state, setpoint.tolist())
+        (p_, q_, r_), (roll, pitch, _), u = state.ang_vel, state.ang_pos, state.lin_vel[0]
+        kernels.fixedwing_autopilot(setpoint, p_, q_, r_, roll, pitch, u, integral, model.autopilot_gains,
+                                    model.cruise_thrust, model.autopilot_index, model.channel_low,
+                                    model.channel_high, CONTROL_DT, out)
+        assert out.tolist() == expected.tolist()
+        loops = (autopilot._roll, autopilot._pitch, autopilot._yaw, autopilot._speed)
+        assert integral.tolist() == [loop.integral for loop in loops]
+        held += any(g.ki > 0 and abs(loop.integral) == g.integral_limit / g.ki for loop, g in zip(loops, (loop.g for loop in loops)))
+    assert held > 20  # the integrator limits were reached
 
 
 def _random_quaternions(rng: np.random.Generator, count: int) -> np.ndarray:
