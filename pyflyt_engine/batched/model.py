@@ -144,7 +144,9 @@ class BatchedModel:
 
     @property
     def hover_thrust_fraction(self) -> float:
-        """The collective fraction (rates_thrust's thrust) that holds the weight level."""
+        """The collective fraction (rates_thrust's thrust) that holds the weight level (a multirotor's)."""
+        if self.channel_driven:
+            raise ValueError(f"{self.name} is a fixed-wing: it has no multirotor collective thrust")
         return self.mass * 9.81 / self.max_collective
 
 
