@@ -28,11 +28,10 @@ same seed: the same seed and ``num_envs`` give the same numbers, in any process.
 Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover, QuadX-Waypoints and
 Fixedwing-Waypoints configs, their variants on any airframe the model accepts: a
 multirotor in mode ``rates_thrust`` or ``motors``, a fixed-wing in mode ``channels`` or
-``attitude_airspeed``).
-The waypoint logic (sampling, the segment reach test, the observation's deltas) is one
-path for both kinds of airframe, as the PyBullet engine's waypoints task is.  Everything else a config can ask for that
-this backend does not simulate is refused when the env is built, by name
-(:func:`check_supported`).
+``attitude_airspeed``).  The waypoint logic (sampling, the segment reach test, the
+observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
+waypoints task is.  Everything else a config can ask for that this backend does not
+simulate is refused when the env is built, by name (:func:`check_supported`).
 """
 
 from __future__ import annotations
