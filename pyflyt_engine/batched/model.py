@@ -12,8 +12,8 @@ drift apart.
 
 Two kinds of airframe: a multirotor (its flight controller's modes ``rates_thrust`` and
 ``motors``) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
-driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).  What the batched backend cannot simulate
-is refused here by name (:class:`UnsupportedByBatched`), never approximated: boosters,
+driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
+What the batched backend cannot simulate is refused here by name (:class:`UnsupportedByBatched`), never approximated: boosters,
 gimbals (tilting motors), channels on a multirotor (a VTOL's actuators outside the mixer),
 lifting surfaces on a multirotor, the optional motor models and the battery, mesh or URDF
 collision geometry, and a multirotor's flight modes other than ``rates_thrust`` and
