@@ -27,7 +27,8 @@ from pyflyt_engine.paths import uav_dir
 
 
 AUTOPILOT_ACTION = {"mode": "attitude_airspeed", "names": ["roll", "pitch", "yaw_rate", "airspeed"],
-                    "units": ["rad", "rad", "rad/s", "m/s"], "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
+                    "units": ["rad", "rad", "rad/s", "m/s"],
+                    "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
 
 
 def amplification(uav: str, seeds: int, eps: float, autopilot: bool = False) -> float:
@@ -64,7 +65,8 @@ def main() -> None:
             data["motors"]["noise_ratio"] = 0.0  # as the cross-check flies it
             path = Path(folder) / f"{name}.yaml"
             path.write_text(yaml.safe_dump(data))
-            print(f"{name}: a {args.eps:g} nudge grows at most {amplification(str(path), args.seeds, args.eps, args.autopilot):.1f}-fold over 2 s")
+            growth = amplification(str(path), args.seeds, args.eps, args.autopilot)
+            print(f"{name}: a {args.eps:g} nudge grows at most {growth:.1f}-fold over 2 s")
 
 
 if __name__ == "__main__":

@@ -13,11 +13,12 @@ drift apart.
 Two kinds of airframe: a multirotor (its flight controller's modes ``rates_thrust`` and
 ``motors``) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
 driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
-What the batched backend cannot simulate is refused here by name (:class:`UnsupportedByBatched`), never approximated: boosters,
-gimbals (tilting motors), channels on a multirotor (a VTOL's actuators outside the mixer),
-lifting surfaces on a multirotor, the optional motor models and the battery, mesh or URDF
-collision geometry, and a multirotor's flight modes other than ``rates_thrust`` and
-``motors`` (and a multirotor mode on a fixed-wing).
+What the batched backend cannot simulate is refused here by name
+(:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
+channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
+multirotor, the optional motor models and the battery, mesh or URDF collision geometry,
+and a multirotor's flight modes other than ``rates_thrust`` and ``motors`` (and a
+multirotor mode on a fixed-wing).
 """
 
 from __future__ import annotations
@@ -204,7 +205,8 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
         ("the battery", parts.battery is not None),
-        ("actuator channels on a multirotor (a VTOL's actuators outside the mixer)", bool(parts.channels) and not fixedwing),
+        ("actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
+         bool(parts.channels) and not fixedwing),
         ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
         ("range sensors", bool(spec.range_sensors)),
         ("noisy sensors (the airframe's sensors section)", getattr(spec, "sensors", None) is not None),
@@ -304,7 +306,8 @@ def mode_code(mode: str | int, model: BatchedModel | None = None) -> int:
         name = str(mode)
         if name not in BATCHED_FIXEDWING_MODES:
             what = "not compiled" if name in FIXEDWING_MODES else "not a fixed-wing mode"
-            raise refuse(f"flight mode {name} ({what})", f"on a fixed-wing it flies {', '.join(BATCHED_FIXEDWING_MODES)}")
+            flies = ", ".join(BATCHED_FIXEDWING_MODES)
+            raise refuse(f"flight mode {name} ({what})", f"on a fixed-wing it flies {flies}")
         return BATCHED_FIXEDWING_MODES[name]
     name = resolve_mode(mode).name
     if name not in BATCHED_MODES:

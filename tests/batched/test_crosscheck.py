@@ -171,10 +171,13 @@ def test_trajectories_agree_with_the_pybullet_engine(quiet, name, mode, env_name
 
 #: the fixed-wing autopilot's action: bank and pitch within +-0.6 and +-0.3 rad, yaw rate, airspeed 10-20 m/s
 AUTOPILOT_ACTION = {"mode": "attitude_airspeed", "names": ["roll", "pitch", "yaw_rate", "airspeed"],
-                    "units": ["rad", "rad", "rad/s", "m/s"], "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
+                    "units": ["rad", "rad", "rad/s", "m/s"],
+                    "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
 
 
-@pytest.mark.parametrize(("mode", "reward"), [("channels", "dense"), ("channels", "sparse"), ("attitude_airspeed", "dense")])
+@pytest.mark.parametrize(
+    ("mode", "reward"), [("channels", "dense"), ("channels", "sparse"), ("attitude_airspeed", "dense")]
+)
 @pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("name", FIXEDWINGS)
 def test_fixedwing_trajectories_agree_with_the_pybullet_engine(quiet, name, seed, mode, reward):

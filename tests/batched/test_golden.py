@@ -1,12 +1,12 @@
 """The batched backend's numbers are the same on other CPUs: a recorded trajectory, bit for bit.
 
 ``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover, QuadX-Waypoints and
-Fixedwing-Waypoints on the batched backend (motor noise on,
-autoreset, seeded random actions): every observation and reward.  This test recomputes them; ``experiments/emulated_cpus.sh`` runs it again with the
-laws compiled for other instruction sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64
-and an AVX-only core), so a change that made the compiled laws depend on the CPU fails
-here.  Regenerate (only for a deliberate change of the numbers) with
-``python -m tests.batched.test_golden``.
+Fixedwing-Waypoints on the batched backend (motor noise on, autoreset, seeded random
+actions): every observation and reward.  This test recomputes them;
+``experiments/emulated_cpus.sh`` runs it again with the laws compiled for other instruction
+sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64 and an AVX-only core), so a change that
+made the compiled laws depend on the CPU fails here.  Regenerate (only for a deliberate
+change of the numbers) with ``python -m tests.batched.test_golden``.
 """
 
 from __future__ import annotations

@@ -302,7 +302,7 @@ def test_the_fixedwing_autopilot_equals_the_autopilot(name):
         assert out.tolist() == expected.tolist()
         loops = (autopilot._roll, autopilot._pitch, autopilot._yaw, autopilot._speed)
         assert integral.tolist() == [loop.integral for loop in loops]
-        held += any(g.ki > 0 and abs(loop.integral) == g.integral_limit / g.ki for loop, g in zip(loops, (loop.g for loop in loops)))
+        held += any(loop.g.ki > 0 and abs(loop.integral) == loop.g.integral_limit / loop.g.ki for loop in loops)
     assert held > 20  # the integrator limits were reached
 
 
