@@ -34,7 +34,8 @@ from pyflyt_engine.envs.config import EnvConfig
 _STATE_ARRAYS = (
     "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
-    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach",
+    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
+    "autopilot_integral",
 )
 
 
@@ -149,6 +150,8 @@ class BatchedVecEnv(VecEnv):
         saved = state["batched"]
         for name in _STATE_ARRAYS:
             row = getattr(env, name)
+            if name not in saved and row[i].size == 0:  # a checkpoint from before the fixed-wing's arrays
+                continue
             row[i] = np.asarray(saved[name], dtype=row.dtype).reshape(row[i].shape)
         env.env_rngs[i].bit_generator.state = state["rng"]["env"]
         if "noise" in state["rng"]:

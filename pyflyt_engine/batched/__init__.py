@@ -1,4 +1,4 @@
-"""The batched backend: N multirotors as arrays, advanced by one compiled call per agent step.
+"""The batched backend: N multirotors or fixed-wings as arrays, advanced by one compiled call per agent step.
 
 ``env.backend: batched`` in an env config (with ``train.n_envs: N``) trains on it;
 :func:`make_batched_env` builds it from Python as a Gymnasium vector env.  The laws are the

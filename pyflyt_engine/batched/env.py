@@ -13,8 +13,9 @@ an env that ended they describe its last step.
 What an agent sees is what the PyBullet engine's env shows through the training wrappers
 (:func:`pyflyt_cli.training.envs.wrap_for_agent` minus the float32 cast and the action
 rescaling, which the learning library adds for both backends): the attitude vector
-``[ang_vel, attitude, lin_vel, lin_pos, previous action, motor throttles]`` (the PyBullet
-engine's :func:`~pyflyt_engine.envs.core.attitude_vector`), and for waypoints the
+``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]`` (the PyBullet engine's
+:func:`~pyflyt_engine.envs.core.attitude_vector`; aux: the motor throttles, then for a
+fixed-wing each surface's flap deflection over its limit), and for waypoints the
 next ``context_length`` waypoints' body-frame deltas and their mask
 (:class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`'s layout).
 
@@ -24,10 +25,13 @@ law) and, for waypoints, the targets (:func:`~pyflyt_engine.envs.waypoints.sampl
 The motor noise of the whole batch comes from one generator per batch, seeded from the
 same seed: the same seed and ``num_envs`` give the same numbers, in any process.
 
-Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover and QuadX-Waypoints configs, their
-variants on any multirotor the model accepts).  Everything else a config can ask for that
-this backend does not simulate is refused when the env is built, by name
-(:func:`check_supported`).
+Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover, QuadX-Waypoints and
+Fixedwing-Waypoints configs, their variants on any airframe the model accepts: a
+multirotor in mode ``rates_thrust`` or ``motors``, a fixed-wing in mode ``channels`` or
+``attitude_airspeed``).  The waypoint logic (sampling, the segment reach test, the
+observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
+waypoints task is.  Everything else a config can ask for that this backend does not
+simulate is refused when the env is built, by name (:func:`check_supported`).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
+from pyflyt_engine import exact
 from pyflyt_engine.batched import kernels
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
@@ -46,7 +51,7 @@ from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_pr
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.envs.waypoints import sample_waypoints
-from pyflyt_engine.constants import GRAVITY
+from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import load_uav_spec
@@ -93,8 +98,7 @@ def check_supported(config: EnvConfig) -> None:
             "give control_hz a whole multiple of agent_hz that divides physics_hz",
         )
     model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
-    mode_code(config.action.mode)
-    del model
+    mode_code(config.action.mode, model)
 
 
 def resolve_backend(config: EnvConfig, *, imitation: bool = False) -> str:
@@ -138,7 +142,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.per_agent = int(round(cfg.physics_hz / cfg.agent_hz))
         self.per_control = int(round(cfg.physics_hz / cfg.control_hz))
         self.model: BatchedModel = batched_model(self.spec_uav, self.physics_dt, self.control_dt, drag=cfg.drag)
-        self.mode = mode_code(cfg.action.mode)
+        self.mode = mode_code(cfg.action.mode, self.model)
+        if self.mode == kernels.MODE_ATTITUDE_AIRSPEED and len(cfg.action.low) != 4:
+            raise ConfigError(f"mode attitude_airspeed takes 4 values, the action has {len(cfg.action.low)}")
+        if self.mode == kernels.MODE_CHANNELS and len(cfg.action.low) != self.model.channels:
+            raise ConfigError(f"mode channels takes {self.model.channels} values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self.model.motors:
             raise ConfigError(f"mode motors takes {self.model.motors} values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4:
@@ -171,6 +179,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._damping = rows(m.angular_damping)
         self._corners = rows(m.corners)
         self._noise_ratio = m.noise_ratio
+        self._surfaces = rows(m.surfaces)
+        self._surface_lag = rows(m.surface_lag)
 
         # state
         nm = m.motors
@@ -181,6 +191,12 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.angvel = np.zeros((n, 3))
         self.throttle = np.zeros((n, nm))
         self.command = np.zeros((n, nm))
+        ns = len(m.surfaces)
+        #: per env, each lifting surface's flap deflection [rad] and its command in [-1, 1]
+        self.deflection = np.zeros((n, ns))
+        self.flap_command = np.zeros((n, ns))
+        #: per env, the fixed-wing autopilot's integrals (roll, pitch, yaw, airspeed; none on a multirotor)
+        self.autopilot_integral = np.zeros((n, 4 if m.channel_driven else 0))
         self.integral = np.zeros((n, 3))
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
@@ -274,9 +290,10 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.quat[i] = q
             r = np.empty(9)
             kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
-            rot = r.reshape(3, 3)
-            self.vel[i] = rot @ np.asarray(spawn.lin_vel, dtype=np.float64)
-            self.angvel[i] = rot @ np.asarray(spawn.ang_vel, dtype=np.float64)
+            rot = r.reshape(3, 3).tolist()
+            # body to ground as Vehicle.reset turns the spawn's body-frame velocities
+            self.vel[i] = exact.rotate(rot, [float(v) for v in spawn.lin_vel])
+            self.angvel[i] = exact.rotate(rot, [float(v) for v in spawn.ang_vel])
             if self._waypoints:
                 self.targets[i] = sample_waypoints(
                     rng, o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
@@ -284,6 +301,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 )
         self.throttle[index] = 0.0
         self.command[index] = 0.0
+        self.deflection[index] = 0.0
+        self.flap_command[index] = 0.0
+        self.autopilot_integral[index] = 0.0
         self.integral[index] = 0.0
         self.previous[index] = 0.0
         self.has_previous[index] = False
@@ -357,6 +377,18 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         # at once or at an agent step boundary, and per_agent is a multiple of per_control
         # whenever control_hz >= agent_hz); the phase of env 0 is used for all
         start = int(self.physics_steps[0]) % self.per_control
+        if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
+            kernels.advance_channels(
+                self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.deflection,
+                self.flap_command, setpoints, factors, self._mass, self._inertia, self._lag, self._columns,
+                m.motor_mix_index, m.motor_mix_weight, m.channel_low, m.channel_high, self._surfaces,
+                self._surface_lag, m.surface_mix_index, m.surface_mix_weight, self._drag_factors, self._damping,
+                m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, self.per_agent,
+                self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
+                m.autopilot_index, self.control_dt,
+            )
+            self.physics_steps += self.per_agent
+            return
         kernels.advance(
             self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
             self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
@@ -419,6 +451,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         n = self.num_envs
         angles = self.quaternion if self._quaternion else self.ang_pos
         parts = [self.ang_vel_body, angles, self.lin_vel_body, self.pos, self.actions, self.throttle]
+        if self.deflection.shape[1]:  # the surfaces' aux: deflection over its limit (Surfaces.aux)
+            parts.append(self.deflection / self.model.surface_scale)
         if self._waypoints:
             k = self.targets.shape[1]
             r = np.empty((n, 9))

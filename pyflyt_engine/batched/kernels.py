@@ -11,6 +11,12 @@ holds together bit for bit on random inputs for every airframe:
 * body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
 * the body-rate loop (``MultirotorController._rate_loop``) and the mixer
   (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
+* lifting surfaces (:mod:`pyflyt_engine.components.lifting_surface`: the Khan & Nahon
+  profile ``_coefficients``, ``surface_wrench``, ``flap_deflection`` and
+  ``Surfaces.step``), and the channel routing of a channel-driven airframe
+  (``Vehicle.control_step`` in mode ``channels``, ``Motors.route``, ``Surfaces.route``)
+  and the fixed-wing autopilot of mode ``attitude_airspeed``
+  (:class:`pyflyt_engine.control.fixedwing.FixedwingAutopilot`);
 * the state read-outs PyBullet gives the PyBullet engine (the quaternion from the body's
   rotation matrix, Euler angles from the quaternion), written from Bullet's formulas.
 
@@ -37,12 +43,31 @@ import math
 import numpy as np
 from numba import njit
 
+from pyflyt_engine.components import lifting_surface as _ls
+
 # Bullet: ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI (btMultiBody.cpp)
 _ANGULAR_MOTION_THRESHOLD = 0.5 * (0.5 * math.pi)
 
 #: mode codes of the compiled controller
 MODE_MOTORS = -1
 MODE_RATES_THRUST = 0
+MODE_CHANNELS = 1
+MODE_ATTITUDE_AIRSPEED = 2
+
+# the Khan & Nahon profile's constants, as pyflyt_engine.components.lifting_surface names them
+# (ICUAS 2015; REFERENCE.md "Lifting surface"): the same doubles, read from that module
+_CP_BASE = _ls._CP_BASE
+_CP_SHIFT = _ls._CP_SHIFT
+_CD90_QUAD = _ls._CD90_QUAD
+_CD90_LIN = _ls._CD90_LIN
+_CD90_ZERO = _ls._CD90_ZERO
+_CN_BASE = _ls._CN_BASE
+_CN_SIN = _ls._CN_SIN
+_CT_STALL = _ls._CT_STALL
+_HALF_PI = _ls._HALF_PI
+_TWO_OVER_PI = _ls._TWO_OVER_PI
+#: a surface's row: the fields of lifting_surface.SurfaceConstants in order (25 values)
+SURFACE_FIELDS = len(_ls.SurfaceConstants._fields)
 
 
 @njit(cache=True)
@@ -425,3 +450,238 @@ def read_out(pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quater
         lin_vel_body[i, 2] = r[2] * v0 + r[5] * v1 + r[8] * v2
         ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = e[0], e[1], e[2]
         quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q[0], q[1], q[2], q[3]
+
+
+# ----------------------------------------------------------- lifting surfaces
+
+
+@njit(cache=True)
+def surface_coefficients(k: np.ndarray, alpha: float, deflection: float):
+    """``(C_L, C_D, C_M)`` of a surface (row ``k``: its ``SurfaceConstants``) at angle of
+    attack ``alpha`` in [-pi, pi] and flap ``deflection`` [rad]: ``lifting_surface._coefficients``.
+
+    The scalar law first wraps alpha with ``math.remainder(alpha, 2 pi)``, which is alpha
+    itself on [-pi, pi] (the quotient rounds to 0, ties to even at +-pi); ``surface_wrench``
+    only passes ``atan2``'s values, which lie there, so the wrap is left out here."""
+    cl_alpha, pi_ar, delta_cl_per_rad, flap_to_chord = k[15], k[16], k[17], k[18]
+    cl_max_pos_base, cl_max_neg_base, alpha_0_base, cd_0, cn_ar = k[19], k[20], k[21], k[22], k[23]
+    # _shifted_angles
+    delta_cl = delta_cl_per_rad * deflection
+    delta_cl_max = flap_to_chord * delta_cl
+    cl_max_pos = cl_max_pos_base + delta_cl_max
+    cl_max_neg = cl_max_neg_base + delta_cl_max
+    alpha_0 = alpha_0_base - delta_cl / cl_alpha
+    stall_pos = alpha_0 + cl_max_pos / cl_alpha
+    stall_neg = alpha_0 + cl_max_neg / cl_alpha
+    reverse = abs(alpha) > _HALF_PI
+    if reverse:
+        alpha = alpha - math.pi if alpha > 0.0 else alpha + math.pi
+    if stall_neg < alpha < stall_pos:
+        cl = cl_alpha * (alpha - alpha_0)
+        alpha_eff = alpha - alpha_0 - cl / pi_ar
+        cos_e, sin_e = math.cos(alpha_eff), math.sin(alpha_eff)
+        ct = cd_0 * cos_e
+        cn = (cl + ct * sin_e) / cos_e
+        lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * alpha_eff)
+    else:
+        if alpha >= stall_pos:
+            alpha_i = cl_alpha * (stall_pos - alpha_0) / pi_ar * (_HALF_PI - alpha) / (_HALF_PI - stall_pos)
+        else:
+            alpha_i = cl_alpha * (stall_neg - alpha_0) / pi_ar * (_HALF_PI + alpha) / (_HALF_PI + stall_neg)
+        alpha_eff = alpha - alpha_0 - alpha_i
+        cos_e, sin_e = math.cos(alpha_eff), math.sin(alpha_eff)
+        cd_90 = _CD90_QUAD * deflection * deflection + _CD90_LIN * deflection + _CD90_ZERO
+        shape = 1.0 / (_CN_BASE + _CN_SIN * abs(sin_e)) - cn_ar
+        cn = cd_90 * sin_e * shape
+        ct = _CT_STALL * cd_0 * cos_e
+        cl = cn * cos_e - ct * sin_e
+        lever = _CP_BASE - _CP_SHIFT * (1.0 - _TWO_OVER_PI * abs(alpha_eff))
+    cd = cn * sin_e + ct * cos_e
+    cm = cn * (0.5 - lever) if reverse else -cn * lever
+    return cl, cd, cm
+
+
+@njit(cache=True)
+def surface_wrench(k: np.ndarray, deflection: float, vx: float, vy: float, vz: float, wx: float, wy: float,
+                   wz: float, air_density: float):
+    """One surface's body-frame force and torque about the centre of mass (6-tuple) at the
+    body's velocity through the air (v, w): ``lifting_surface.surface_wrench``."""
+    px, py, pz, cx, cy, cz, nx, ny, nz = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], k[8]
+    sx, sy, sz, area, chord = k[9], k[10], k[11], k[12], k[13]
+    vx = vx + (wy * pz - wz * py)
+    vy = vy + (wz * px - wx * pz)
+    vz = vz + (wx * py - wy * px)
+    u = vx * cx + vy * cy + vz * cz
+    w = vx * nx + vy * ny + vz * nz
+    speed_sq = u * u + w * w
+    if speed_sq == 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    cl, cd, cm = surface_coefficients(k, math.atan2(-w, u), deflection)
+    q_area = 0.5 * air_density * speed_sq * area
+    scale = q_area / math.sqrt(speed_sq)
+    f_c = -scale * (cl * w + cd * u)
+    f_n = scale * (cl * u - cd * w)
+    fx = f_c * cx + f_n * nx
+    fy = f_c * cy + f_n * ny
+    fz = f_c * cz + f_n * nz
+    moment = cm * q_area * chord
+    return (fx, fy, fz, py * fz - pz * fy + moment * sx, pz * fx - px * fz + moment * sy,
+            px * fy - py * fx + moment * sz)
+
+
+@njit(cache=True)
+def surfaces_step(deflection: np.ndarray, command: np.ndarray, lag: np.ndarray, surfaces: np.ndarray,
+                  vx: float, vy: float, vz: float, wx: float, wy: float, wz: float, air_density: float):
+    """One physics step of a vehicle's lifting surfaces (``Surfaces.step``): every flap
+    follows its command (``flap_deflection``: clipped to [-1, 1] times its limit, first-order
+    lag), ``deflection`` updated; returns the summed wrench (6-tuple)."""
+    fx = fy = fz = tx = ty = tz = 0.0
+    for j in range(deflection.shape[0]):
+        k = surfaces[j]
+        c = command[j]
+        clipped = -1.0 if c < -1.0 else 1.0 if c > 1.0 else c
+        d = deflection[j]
+        d = d + lag[j] * (clipped * k[24] - d)
+        deflection[j] = d
+        sfx, sfy, sfz, stx, sty, stz = surface_wrench(k, d, vx, vy, vz, wx, wy, wz, air_density)
+        fx, fy, fz = fx + sfx, fy + sfy, fz + sfz
+        tx, ty, tz = tx + stx, ty + sty, tz + stz
+    return fx, fy, fz, tx, ty, tz
+
+
+@njit(cache=True)
+def clip_channels(setpoint: np.ndarray, low: np.ndarray, high: np.ndarray, out: np.ndarray) -> None:
+    """The channel vector of mode ``channels``: the setpoint limited to each channel's range
+    (``Vehicle.control_step``'s ``setpoint.clip(channel_low, channel_high)``), into ``out``."""
+    for c in range(out.shape[0]):
+        value = setpoint[c]
+        lo, hi = low[c], high[c]
+        out[c] = hi if value > hi else lo if value < lo else value
+
+
+@njit(cache=True)
+def route_channels(channels: np.ndarray, index: np.ndarray, weight: np.ndarray, out: np.ndarray) -> None:
+    """Each actuator's command from the channel vector: the weighted sum of the channels its
+    mix names (``routing.mixed``: (index, weight) pairs in order, index -1 ends a row),
+    limited to [-1, 1] (``Motors.route``, ``Surfaces.route``), into ``out``."""
+    for a in range(out.shape[0]):
+        value = 0.0
+        for m in range(index.shape[1]):
+            j = index[a, m]
+            if j < 0:
+                break
+            value += weight[a, m] * channels[j]
+        out[a] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
+
+
+@njit(cache=True)
+def _autopilot_loop(error: float, rate: float, gains: np.ndarray, k: int, integral: np.ndarray, dt: float) -> float:
+    """One loop of the fixed-wing autopilot (``control.fixedwing._Loop``): gains row ``k``
+    is kp, ki, kd, integral limit; ``integral[k]`` advanced (clamped to limit / ki)."""
+    kp, ki, kd, integral_limit = gains[k, 0], gains[k, 1], gains[k, 2], gains[k, 3]
+    if ki > 0:
+        limit = integral_limit / ki
+        value = integral[k] + error * dt
+        value = -limit if -limit > value else value  # max(value, -limit)
+        integral[k] = limit if limit < value else value  # min(value, limit)
+    return kp * error + ki * integral[k] - kd * rate
+
+
+@njit(cache=True)
+def fixedwing_autopilot(setpoint: np.ndarray, p: float, q: float, r: float, roll: float, pitch: float, u: float,
+                        integral: np.ndarray, gains: np.ndarray, cruise_thrust: float, index: np.ndarray,
+                        low: np.ndarray, high: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """The channel vector of mode ``attitude_airspeed`` (``FixedwingAutopilot.__call__``) into
+    ``out``: setpoint [roll, pitch, yaw rate, airspeed]; the state's body rates (p, q, r),
+    roll and pitch and forward body speed u; ``index`` the roll, pitch, yaw and thrust
+    channels; the other channels 0; all limited to the channels' ranges."""
+    for c in range(out.shape[0]):
+        out[c] = 0.0
+    out[index[0]] = _autopilot_loop(setpoint[0] - roll, p, gains, 0, integral, dt)
+    out[index[1]] = _autopilot_loop(setpoint[1] - pitch, q, gains, 1, integral, dt)
+    out[index[2]] = _autopilot_loop(setpoint[2] - r, 0.0, gains, 2, integral, dt)
+    out[index[3]] = cruise_thrust + _autopilot_loop(setpoint[3] - u, 0.0, gains, 3, integral, dt)
+    for c in range(out.shape[0]):
+        value = out[c]
+        lo, hi = low[c], high[c]
+        out[c] = hi if value > hi else lo if value < lo else value
+
+
+@njit(cache=True)
+def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap_command, setpoint, factors, mass,
+                     inertia, lag, columns, motor_index, motor_weight, channel_low, channel_high, surfaces,
+                     surface_lag, surface_index, surface_weight, drag_factors, damping, drag_on, corners, contact,
+                     gravity, air_density, physics_dt, start, count, per_control, mode, autopilot_integral,
+                     autopilot_gains, cruise_thrust, autopilot_index, control_dt):
+    """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
+    ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
+    :func:`advance` does a multirotor.
+
+    On a control tick (``Vehicle.control_step``) the channel vector is, in mode ``channels``,
+    the setpoint limited to the channels' ranges; in mode ``attitude_airspeed`` the
+    autopilot's output (:func:`fixedwing_autopilot`, ``autopilot_integral`` advanced) from
+    the state the PyBullet engine reads (rates, attitude and velocity through the quaternion
+    PyBullet reports, as :func:`read_out`).  Every motor and flap takes it through its mix
+    (:func:`route_channels`).  Per physics step, in the PyBullet engine's step order
+    (motors, lifting surfaces, body drag; the wrenches summed in it): the motors step, the
+    flaps move and the surfaces load the body at its velocity through the (still) air,
+    body drag, and the rigid body integrates the sum.  ``contact`` as in :func:`advance`.
+    """
+    n = pos.shape[0]
+    nc = channel_low.shape[0]
+    channels = np.empty(nc)
+    rm = np.empty(9)
+    qr = np.empty(4)
+    euler = np.empty(3)
+    for i in range(n):
+        contact[i] = False
+        p = (pos[i, 0], pos[i, 1], pos[i, 2])
+        q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+        v = (vel[i, 0], vel[i, 1], vel[i, 2])
+        w = (angvel[i, 0], angvel[i, 1], angvel[i, 2])
+        m_i, jx, jy, jz = mass[i], inertia[i, 0], inertia[i, 1], inertia[i, 2]
+        kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
+        x_i, cmd_i, lag_i, col_i = throttle[i], command[i], lag[i], columns[i]
+        d_i, f_i, s_i, sl_i = deflection[i], flap_command[i], surfaces[i], surface_lag[i]
+        for s in range(count):
+            step = start + s
+            if step % per_control == 0:  # control tick: the channels, routed
+                if mode == MODE_ATTITUDE_AIRSPEED:  # the state as Vehicle.read_state reads it
+                    rotation_rows(q[0], q[1], q[2], q[3], rm)
+                    matrix_quaternion(rm, qr)
+                    euler_from_quaternion(qr[0], qr[1], qr[2], qr[3], euler)
+                    m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(qr[0], qr[1], qr[2], qr[3])
+                    w0, w1, w2 = w
+                    fixedwing_autopilot(
+                        setpoint[i], m0 * w0 + m3 * w1 + m6 * w2, m1 * w0 + m4 * w1 + m7 * w2,
+                        m2 * w0 + m5 * w1 + m8 * w2, euler[0], euler[1], m0 * v[0] + m3 * v[1] + m6 * v[2],
+                        autopilot_integral[i], autopilot_gains, cruise_thrust, autopilot_index, channel_low,
+                        channel_high, control_dt, channels,
+                    )
+                else:
+                    clip_channels(setpoint[i], channel_low, channel_high, channels)
+                route_channels(channels, motor_index, motor_weight, cmd_i)
+                route_channels(channels, surface_index, surface_weight, f_i)
+            r = rotation_tuple(q[0], q[1], q[2], q[3])
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+            w0, w1, w2 = w
+            v0, v1, v2 = v
+            bw0 = r0 * w0 + r3 * w1 + r6 * w2
+            bw1 = r1 * w0 + r4 * w1 + r7 * w2
+            bw2 = r2 * w0 + r5 * w1 + r8 * w2
+            bv0 = r0 * v0 + r3 * v1 + r6 * v2
+            bv1 = r1 * v0 + r4 * v1 + r7 * v2
+            bv2 = r2 * v0 + r5 * v1 + r8 * v2
+            load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+            load = summed(load, surfaces_step(d_i, f_i, sl_i, s_i, bv0, bv1, bv2, bw0, bw1, bw2, air_density))
+            if drag_on:
+                load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
+            p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
+            if (step + 1) % per_control == 0 or s == count - 1:
+                rr = rotation_tuple(q[0], q[1], q[2], q[3])
+                if _lowest(p[2], rr[6], rr[7], rr[8], corners[i]) < 0.0:
+                    contact[i] = True
+        pos[i, 0], pos[i, 1], pos[i, 2] = p
+        quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
+        vel[i, 0], vel[i, 1], vel[i, 2] = v
+        angvel[i, 0], angvel[i, 1], angvel[i, 2] = w

@@ -4,20 +4,26 @@ the PyBullet engine builds.
 :func:`batched_model` takes a spec and returns a :class:`BatchedModel`: the numbers the
 compiled laws (:mod:`pyflyt_engine.batched.kernels`) read, copied out of the engine's own
 :class:`~pyflyt_engine.components.motor.Motors`, :class:`~pyflyt_engine.control.mixer.Mixer`,
-:class:`~pyflyt_engine.control.multirotor.MultirotorController` and
-:class:`~pyflyt_engine.components.drag.DragParams` -- so the parameters are computed once,
-by the code the PyBullet engine uses, and cannot drift apart.
+:class:`~pyflyt_engine.control.multirotor.MultirotorController`,
+:class:`~pyflyt_engine.components.lifting_surface.LiftingSurfaceParams` (its
+``constants``), the assembly's channel mixes and :class:`~pyflyt_engine.components.drag.DragParams`
+-- so the parameters are computed once, by the code the PyBullet engine uses, and cannot
+drift apart.
 
+Two kinds of airframe: a multirotor (its flight controller's modes ``rates_thrust`` and
+``motors``) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
+driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
 What the batched backend cannot simulate is refused here by name
-(:class:`UnsupportedByBatched`), never approximated: lifting surfaces, boosters, gimbals
-(tilting motors), channels outside the mixer, the optional motor models and the battery,
-mesh or URDF collision geometry, and flight modes other than ``rates_thrust`` and
-``motors``.
+(:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
+channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
+multirotor, the optional motor models and the battery, mesh or URDF collision geometry,
+and a multirotor's flight modes other than ``rates_thrust`` and ``motors`` (and a
+multirotor mode on a fixed-wing).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +32,8 @@ from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix
+from pyflyt_engine.components.routing import mix_rows
+from pyflyt_engine.control.fixedwing import FIXEDWING_MODES
 from pyflyt_engine.control.mixer import Mixer
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
@@ -35,12 +43,14 @@ from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVS
 
 #: the component kinds (pyflyt_engine.components.kinds) the compiled laws simulate; any other
 #: kind an airframe declares is refused by its name
-SIMULATED_KINDS = frozenset({"motors", "drag"})
+SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag"})
 #: how a refusal names a kind where its registered name says less
 KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motors)", "prop_guards": "propeller guards"}
 
-#: flight modes the compiled controller flies (name -> code in kernels)
+#: flight modes the compiled controller flies (name -> code in kernels): a multirotor's
 BATCHED_MODES = {"rates_thrust": 0, "motors": -1}
+#: and a fixed-wing's (its raw channels: the paper's fixed-wing action; the autopilot)
+BATCHED_FIXEDWING_MODES = {"channels": 1, "attitude_airspeed": 2}
 
 
 class UnsupportedByBatched(ConfigError):
@@ -76,6 +86,18 @@ class BatchedModel:
         corners: (k, 8) collision features from the centre of mass: [x, y, z, sphere
             radius, disc radius, disc normal (3)] (box corners, sphere centres, cylinder
             end discs), whose lowest point against the ground is exact.
+        channel_driven: a fixed-wing: motors and flaps driven by the channels (mode
+            ``channels``), no multirotor controller (its fields above are then zeros).
+        channel_low, channel_high: (c,) the channels' ranges.
+        motor_mix_index, motor_mix_weight: (n, k) per motor the (channel, weight) pairs of
+            its mix, in order (``routing.mix_rows``), index -1 past a row's end.
+        surfaces: (s, 25) per lifting surface its ``SurfaceConstants``; surface_lag: (s,)
+            its flap's lag per physics step; surface_scale: (s,) what its deflection is
+            divided by in the auxiliary state (its limit, 1 without a flap);
+            surface_mix_index, surface_mix_weight: (s, k) its flap's mix.
+        autopilot_gains: (4, 4) the fixed-wing autopilot's loops (roll, pitch, yaw,
+            airspeed) as rows kp, ki, kd, integral limit; cruise_thrust: its thrust
+            feed-forward; autopilot_index: (4,) its roll, pitch, yaw and thrust channels.
     """
 
     name: str
@@ -94,18 +116,38 @@ class BatchedModel:
     angular_damping: float
     drag: bool
     corners: np.ndarray
+    channel_driven: bool = False
+    channel_low: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    channel_high: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    motor_mix_index: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), dtype=np.int64))
+    motor_mix_weight: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    surfaces: np.ndarray = field(default_factory=lambda: np.zeros((0, 25)))
+    surface_lag: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    surface_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    surface_mix_index: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), dtype=np.int64))
+    surface_mix_weight: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    autopilot_gains: np.ndarray = field(default_factory=lambda: np.zeros((4, 4)))
+    cruise_thrust: float = 0.0
+    autopilot_index: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=np.int64))
 
     @property
     def motors(self) -> int:
         return len(self.lag)
 
     @property
+    def channels(self) -> int:
+        return len(self.channel_low)
+
+    @property
     def aux_size(self) -> int:
-        return self.motors
+        """The auxiliary state's size: motor throttles, then flap deflections over their limits."""
+        return self.motors + len(self.surfaces)
 
     @property
     def hover_thrust_fraction(self) -> float:
-        """The collective fraction (rates_thrust's thrust) that holds the weight level."""
+        """The collective fraction (rates_thrust's thrust) that holds the weight level (a multirotor's)."""
+        if self.channel_driven:
+            raise ValueError(f"{self.name} is a fixed-wing: it has no multirotor collective thrust")
         return self.mass * 9.81 / self.max_collective
 
 
@@ -136,48 +178,71 @@ def _corners(spec: UAVSpec, com: np.ndarray) -> np.ndarray:
     return np.asarray(rows, dtype=np.float64)
 
 
+def _mix_tables(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A mix matrix's rows (``routing.mix_rows``) as padded (index, weight) arrays."""
+    rows = mix_rows(matrix)
+    width = max([len(row) for row in rows] + [1])
+    index = np.full((len(rows), width), -1, dtype=np.int64)
+    weight = np.zeros((len(rows), width), dtype=np.float64)
+    for a, row in enumerate(rows):
+        for m, (j, w) in enumerate(row):
+            index[a, m], weight[a, m] = j, w
+    return index, weight
+
+
 def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: bool = True) -> BatchedModel:
-    """The :class:`BatchedModel` of a multirotor spec (refuses what the backend lacks)."""
+    """The :class:`BatchedModel` of a multirotor or fixed-wing spec (refuses what the backend lacks)."""
     name = spec.name
     if spec.body.urdf is not None:
         raise refuse(f"a URDF body ({name})")
-    if not isinstance(spec.control, MultirotorControlSpec):
-        what = "fixed-wing" if isinstance(spec.control, FixedwingControlSpec) else "channel-driven (no multirotor controller)"
-        raise refuse(f"the {what} airframe {name}", "the batched backend flies multirotors")
+    fixedwing = isinstance(spec.control, FixedwingControlSpec)
+    if not isinstance(spec.control, MultirotorControlSpec) and not fixedwing:
+        raise refuse(f"the channel-driven airframe {name} (no multirotor or fixed-wing controller)",
+                     "the batched backend flies multirotors and fixed-wings")
     parts = assemble(spec)
     for kind in component_kinds():  # every registered kind but the ones compiled here, by its name
         if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
         ("the battery", parts.battery is not None),
-        ("actuator channels", bool(parts.channels)),
+        ("actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
+         bool(parts.channels) and not fixedwing),
+        ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
         ("range sensors", bool(spec.range_sensors)),
         ("noisy sensors (the airframe's sensors section)", getattr(spec, "sensors", None) is not None),
     ):
         if present:
             raise refuse(f"{what} (airframe {name})")
     motors = parts.motors
-    assert motors is not None  # a multirotor controller needs motors (spec validator)
-    if motors.modelled:
+    if motors is not None and motors.modelled:
         raise refuse(f"the optional motor models (airframe {name}: tau_fall, rotor_drag or inflow)")
-    if len(parts.mixer_motors) != motors.count:
-        raise refuse(f"motors outside the mixer (airframe {name})")
-    inertia = np.asarray(parts.inertia, dtype=np.float64)
     # the simulated body is the URDF's: mass and the inertia's diagonal written with 9
     # significant digits (pyflyt_engine.urdf.generate_urdf drops the products of inertia);
     # the flight controller keeps the spec's values, as the PyBullet engine's does
     body_mass = float(f"{spec.total_mass():.9g}")
     body_inertia = np.array([float(f"{v:.9g}") for v in np.diag(spec.inertia_matrix())], dtype=np.float64)
-    mixer = Mixer(motors)
-    controller = MultirotorController(spec.control, parts.mass, np.diag(inertia), mixer, control_dt)
-    gains = np.array([list(axis) for axis in controller._rate_axes], dtype=np.float64).T.copy()  # (4, 3)
     drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
     on = bool(drag and drag_params.active)
-    columns = motor_wrench_matrix(motors).T.copy()
-    return BatchedModel(
+    common = dict(
         name=name,
         mass=body_mass,
         inertia=body_inertia,
+        drag_factors=np.asarray(drag_params.factors, dtype=np.float64),
+        angular_damping=float(drag_params.angular_damping),
+        drag=on,
+        corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
+    )
+    if fixedwing:
+        return _fixedwing_model(parts, spec.control, physics_dt, common)
+    assert motors is not None  # a multirotor controller needs motors (spec validator)
+    if len(parts.mixer_motors) != motors.count:
+        raise refuse(f"motors outside the mixer (airframe {name})")
+    inertia = np.asarray(parts.inertia, dtype=np.float64)
+    mixer = Mixer(motors)
+    controller = MultirotorController(spec.control, parts.mass, np.diag(inertia), mixer, control_dt)
+    gains = np.array([list(axis) for axis in controller._rate_axes], dtype=np.float64).T.copy()  # (4, 3)
+    columns = motor_wrench_matrix(motors).T.copy()
+    return BatchedModel(
         control_inertia=np.asarray(controller.inertia, dtype=np.float64),
         gyro=np.asarray(controller._gyro, dtype=np.float64),
         lag=np.asarray(lag_coefficient(physics_dt, motors.tau), dtype=np.float64).reshape(-1),
@@ -187,15 +252,63 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         max_collective=float(mixer.max_collective),
         rate_gains=gains,
         rate_derivative=bool(controller._rate_derivative),
-        drag_factors=np.asarray(drag_params.factors, dtype=np.float64),
-        angular_damping=float(drag_params.angular_damping),
-        drag=on,
-        corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
+        **common,
     )
 
 
-def mode_code(mode: str | int) -> int:
-    """The compiled controller's code of a flight mode (refuses modes it does not fly)."""
+def _fixedwing_model(parts, control: FixedwingControlSpec, physics_dt: float, common: dict) -> BatchedModel:
+    """A fixed-wing's model: motors and flaps routed from the channels (``Motors.route``,
+    ``Surfaces.route``), the surfaces' constants and flap lags as ``Surfaces`` holds them,
+    the autopilot's gains and channels as ``FixedwingAutopilot`` reads them."""
+    loops = (control.roll, control.pitch, control.yaw, control.airspeed)
+    channels = (control.roll_channel, control.pitch_channel, control.yaw_channel, control.thrust_channel)
+    motors = parts.motors
+    if motors is not None:
+        lag = np.asarray(lag_coefficient(physics_dt, motors.tau), dtype=np.float64).reshape(-1)
+        columns = motor_wrench_matrix(motors).T.copy()
+        noise = np.asarray(motors.noise_ratio, dtype=np.float64).copy()
+    else:
+        lag, columns, noise = np.zeros(0), np.zeros((0, 6)), np.zeros(0)
+    motor_index, motor_weight = _mix_tables(parts.motor_mix)
+    surface_index, surface_weight = _mix_tables(parts.surface_mix)
+    surfaces = np.array([list(s.constants) for s in parts.surfaces], dtype=np.float64).reshape(-1, 25)
+    return BatchedModel(
+        control_inertia=np.zeros(3),
+        gyro=np.zeros(3),
+        lag=lag,
+        columns=columns,
+        noise_ratio=noise,
+        mixer_rows=np.zeros((len(lag), 5)),
+        max_collective=0.0,
+        rate_gains=np.zeros((4, 3)),
+        rate_derivative=False,
+        channel_driven=True,
+        channel_low=np.asarray(parts.channel_low, dtype=np.float64).copy(),
+        channel_high=np.asarray(parts.channel_high, dtype=np.float64).copy(),
+        motor_mix_index=motor_index,
+        motor_mix_weight=motor_weight,
+        surfaces=surfaces,
+        surface_lag=np.array([float(lag_coefficient(physics_dt, s.tau)) for s in parts.surfaces], dtype=np.float64),
+        surface_scale=np.array([s.max_deflection or 1.0 for s in parts.surfaces], dtype=np.float64),
+        surface_mix_index=surface_index,
+        surface_mix_weight=surface_weight,
+        autopilot_gains=np.array([[g.kp, g.ki, g.kd, g.integral_limit] for g in loops], dtype=np.float64),
+        cruise_thrust=float(control.cruise_thrust),
+        autopilot_index=np.array([parts.channels.index(c) for c in channels], dtype=np.int64),
+        **common,
+    )
+
+
+def mode_code(mode: str | int, model: BatchedModel | None = None) -> int:
+    """The compiled controller's code of a flight mode on ``model``'s kind of airframe (a
+    multirotor without a model; refuses modes it does not fly)."""
+    if model is not None and model.channel_driven:
+        name = str(mode)
+        if name not in BATCHED_FIXEDWING_MODES:
+            what = "not compiled" if name in FIXEDWING_MODES else "not a fixed-wing mode"
+            flies = ", ".join(BATCHED_FIXEDWING_MODES)
+            raise refuse(f"flight mode {name} ({what})", f"on a fixed-wing it flies {flies}")
+        return BATCHED_FIXEDWING_MODES[name]
     name = resolve_mode(mode).name
     if name not in BATCHED_MODES:
         raise refuse(f"flight mode {name}", f"it flies {', '.join(BATCHED_MODES)}")

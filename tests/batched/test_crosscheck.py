@@ -11,6 +11,22 @@ idles near zero thrust (``sqrt(f)`` at ``f ~ 1e-20``).  Over 2 s of random fligh
 largest position difference measured is ~1e-9 m (hexacopter) and ~1e-15 m (the quads);
 the tests hold it to 1e-6 m, and observations and rewards to 1e-6.
 
+The fixed-wing (mode ``channels``: motors and flaps routed from the channels, the lifting
+surfaces, body drag; and mode ``attitude_airspeed``, its autopilot writing the channels)
+is held to the same bound, derived for it: every law is bit for bit
+the engine's (``test_laws.py``), so the two differ only by the rigid body's last bits,
+at most ~eps |x| per physics step with eps = 2.2e-16 and |x| <= ~100 m (positions and the
+observation's waypoint deltas): ~2.2e-14 per step.  A difference made at one step grows
+with the flight's sensitivity to its state: a 1e-9 nudge of the spawn's position,
+velocity or rates grows at most 22-fold over 2 s of these random actions (measured, 8
+seeds, both fixed-wings: experiments/batched_fixedwing_sensitivity.py; 5.5-fold under the
+autopilot), so 480 steps give at most 480 x 2.2e-14 x 22 ~ 2.3e-10, well
+inside 1e-6.  Only an angle of attack within that much of a stall angle would flip the
+profile's branch (its abrupt stall) and break the bound; over random flight that has a
+probability of order 1e-10 per surface and step.  Measured over 2 s of random actions on
+the whole action range (the test's seeds): positions within 9e-15 m, observations within
+1.3e-13 (the waypoint deltas, ~100 m), rewards within 1.1e-14, dense and sparse, either mode.
+
 Ground contact: the batched backend crashes when the collision geometry's lowest point is
 below the ground at the PyBullet engine's contact samples; PyBullet reports a contact
 from its contact threshold on, so the crash step may come one agent step earlier there.
@@ -33,7 +49,7 @@ from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.urdf import urdf_path
 
-from tests.batched.test_laws import FLOWN
+from tests.batched.test_laws import FIXEDWINGS, FLOWN, MULTIROTORS
 
 BOUND = 1e-6
 
@@ -126,7 +142,7 @@ def _motors_action(uav: str) -> dict:
 
 @pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints"])
 @pytest.mark.parametrize("mode", ["rates_thrust", "motors"])
-@pytest.mark.parametrize("name", FLOWN)
+@pytest.mark.parametrize("name", MULTIROTORS)
 def test_trajectories_agree_with_the_pybullet_engine(quiet, name, mode, env_name):
     """2 s of random actions around hover: positions, observations and rewards within 1e-6."""
     overrides = {} if mode == "rates_thrust" else {"action": _motors_action(quiet[name])}
@@ -153,7 +169,72 @@ def test_trajectories_agree_with_the_pybullet_engine(quiet, name, mode, env_name
     pb.close()
 
 
-@pytest.mark.parametrize("name", FLOWN)
+#: the fixed-wing autopilot's action: bank and pitch within +-0.6 and +-0.3 rad, yaw rate, airspeed 10-20 m/s
+AUTOPILOT_ACTION = {"mode": "attitude_airspeed", "names": ["roll", "pitch", "yaw_rate", "airspeed"],
+                    "units": ["rad", "rad", "rad/s", "m/s"],
+                    "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
+
+
+@pytest.mark.parametrize(
+    ("mode", "reward"), [("channels", "dense"), ("channels", "sparse"), ("attitude_airspeed", "dense")]
+)
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_fixedwing_trajectories_agree_with_the_pybullet_engine(quiet, name, seed, mode, reward):
+    """Fixedwing-Waypoints, 2 s of random actions over the whole action range (channels:
+    aileron, elevator, rudder in [-1, 1], thrust in [0, 1]; or the autopilot's setpoints):
+    positions, observations (flap deflections and waypoint deltas included) and rewards
+    within the module docstring's 1e-6."""
+    overrides = {"action": AUTOPILOT_ACTION} if mode == "attitude_airspeed" else {}
+    pb, be = _pair("fixedwing_waypoints", quiet[name], seed=seed, reward=reward, **overrides)
+    low, high = (np.array(be.config.action.low), np.array(be.config.action.high))
+    rng = np.random.default_rng(20 + seed)
+    worst = {"position": 0.0, "observation": 0.0, "reward": 0.0}
+    flaps = 0.0
+    for steps in range(1, 61):
+        action = rng.uniform(low, high)
+        o1, r1, t1, tr1, _ = pb.step(action)
+        o2, r2, t2, tr2, info = be.step(action[None])
+        assert (t1, tr1) == (bool(t2[0]), bool(tr2[0]))
+        final = info["final_obs"][0] if t2[0] or tr2[0] else o2[0]
+        flat = _flat(o1)
+        assert flat.shape == final.shape
+        worst["position"] = max(worst["position"], np.abs(flat[10:13] - final[10:13]).max())
+        worst["observation"] = max(worst["observation"], np.abs(flat - final).max())
+        worst["reward"] = max(worst["reward"], abs(r1 - r2[0]))
+        flaps = max(flaps, np.abs(final[18:23]).max())  # the surfaces' aux moved
+        if t1:
+            break
+    assert max(worst.values()) < BOUND, worst
+    assert steps == 60, "the flight ended before 2 s"
+    assert flaps > 0.1
+    pb.close()
+
+
+def test_a_fixedwing_dive_into_the_ground_crashes_in_both(quiet):
+    """Thrust off, elevator full down: the Fixedwing dives from 20 m into the ground; both
+    backends end the episode on the crash within one agent step of each other."""
+    ends = []
+    pb, be = _pair("fixedwing_waypoints", quiet["fixedwing"], seed=0)
+    action = np.array([0.0, 1.0, 0.0, 0.0])
+    for backend in ("pybullet", "batched"):
+        for k in range(600):
+            if backend == "pybullet":
+                _, reward, terminated, _, info = pb.step(action)
+                collided = info["collision"]
+            else:
+                _, rewards, term, _, info = be.step(action[None])
+                reward, terminated, collided = rewards[0], bool(term[0]), bool(info["collision"][0])
+            if terminated:
+                ends.append((k, collided, reward))
+                break
+    (k1, c1, r1), (k2, c2, r2) = ends
+    assert c1 and c2 and r1 == r2 == -100.0
+    assert 0 <= k2 - k1 <= 1, ends
+    pb.close()
+
+
+@pytest.mark.parametrize("name", MULTIROTORS)
 def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
     """Motors off from the spawn: both backends end the episode on a crash within one agent
     step of each other (the module docstring), with the crash reward."""
@@ -185,7 +266,11 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
-        ("fixedwing_waypoints", {}, "fixed-wing airframe"),
+        ("fixedwing_waypoints", {"action": {"mode": "rates_thrust", "names": ["p", "q", "r", "thrust"],
+                                            "units": ["rad/s", "rad/s", "rad/s", "1"], "low": [-1.0, -1.0, -1.0, 0.0],
+                                            "high": [1.0, 1.0, 1.0, 1.0]}}, "flight mode rates_thrust"),
+        ("fixedwing_waypoints", {"wind": "dryden_light"}, "wind"),
+        ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),
         ("ma_quadx_hover", {}, "multi-agent"),
         ("quadx_waypoints_velocity", {}, "flight mode"),
@@ -207,7 +292,7 @@ def test_what_it_cannot_simulate_is_refused_by_name(env_name, overrides, named):
 
 
 def test_the_shipped_batched_tasks_are_supported():
-    for env_name in ("quadx_hover", "quadx_waypoints"):
+    for env_name in ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints"):
         cfg = load_env_config(env_name).with_overrides(backend="batched")
         check_supported(cfg)
         assert cfg.backend == "batched"

@@ -1,12 +1,12 @@
 """The batched backend's numbers are the same on other CPUs: a recorded trajectory, bit for bit.
 
-``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover and QuadX-Waypoints on the
-batched backend (motor noise on, autoreset, seeded random actions): every observation and
-reward.  This test recomputes them; ``experiments/emulated_cpus.sh`` runs it again with the
-laws compiled for other instruction sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64
-and an AVX-only core), so a change that made the compiled laws depend on the CPU fails
-here.  Regenerate (only for a deliberate change of the numbers) with
-``python -m tests.batched.test_golden``.
+``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover, QuadX-Waypoints and
+Fixedwing-Waypoints on the batched backend (motor noise on, autoreset, seeded random
+actions): every observation and reward.  This test recomputes them;
+``experiments/emulated_cpus.sh`` runs it again with the laws compiled for other instruction
+sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64 and an AVX-only core), so a change that
+made the compiled laws depend on the CPU fails here.  Regenerate (only for a deliberate
+change of the numbers) with ``python -m tests.batched.test_golden``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,14 @@ import numpy as np
 from pyflyt_engine.batched import BatchedUAVEnv
 
 GOLDEN = Path(__file__).with_name("golden_batched.npz")
-ENVS = ("quadx_hover", "quadx_waypoints")
+ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints")
+
+
+def _fixedwing_action(rng: np.random.Generator) -> np.ndarray:
+    """Aileron and rudder anywhere, the elevator biased nose-down, little thrust: some
+    envs dive into the ground (crashes and autoresets) within the 4 s."""
+    return np.c_[rng.uniform(-1.0, 1.0, (8, 1)), rng.uniform(-0.3, 1.0, (8, 1)), rng.uniform(-1.0, 1.0, (8, 1)),
+                 rng.uniform(0.0, 0.6, (8, 1))]
 
 
 def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -26,8 +33,12 @@ def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
     obs, _ = env.reset(seed=5)
     rng = np.random.default_rng(3)
     observations, rewards = [obs], []
+    fixedwing = env_name.startswith("fixedwing")
     for _ in range(120):
-        action = np.c_[rng.uniform(-2.0, 2.0, (8, 3)), rng.uniform(0.05, 0.25, (8, 1))]
+        if fixedwing:
+            action = _fixedwing_action(rng)
+        else:
+            action = np.c_[rng.uniform(-2.0, 2.0, (8, 3)), rng.uniform(0.05, 0.25, (8, 1))]
         obs, reward, *_ = env.step(action)
         observations.append(obs)
         rewards.append(reward)
@@ -47,5 +58,10 @@ if __name__ == "__main__":
     arrays = {}
     for name in ENVS:
         arrays[f"{name}/obs"], arrays[f"{name}/rewards"] = trajectory(name)
+    if GOLDEN.exists():  # say which recorded trajectories a regeneration changes
+        old = np.load(GOLDEN)
+        for key in arrays:
+            if key in old and not np.array_equal(old[key], arrays[key]):
+                print(f"changed: {key}")
     np.savez_compressed(GOLDEN, **arrays)
     print(f"wrote {GOLDEN}")

@@ -3,8 +3,10 @@
 Each law is written twice -- once in plain Python floats for the PyBullet engine (its speed
 for one vehicle), once compiled for N vehicles -- so every pair is held together here on
 random inputs, for every airframe the batched backend flies: motors, body drag, the rate
-loop, the mixer (its clipping paths included), the state read-outs against PyBullet's own
-functions, and every vector reward term and condition against its registered scalar form.
+loop, the mixer (its clipping paths included), the lifting surfaces (the Khan & Nahon
+profile, stalled and in reverse flow, the surface wrench, the flaps' step) and the channel
+routing and autopilot of a fixed-wing, the state read-outs against PyBullet's own functions, and every
+vector reward term and condition against its registered scalar form.
 """
 
 from __future__ import annotations
@@ -19,8 +21,12 @@ from pyflyt_engine.batched.model import UnsupportedByBatched, batched_model
 from pyflyt_engine.batched.terms import VECTOR_CONDITIONS, VECTOR_TERMS, BatchContext
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components.drag import BodyDrag, DragParams
+from pyflyt_engine.components import lifting_surface
+from pyflyt_engine.components.lifting_surface import Surfaces
 from pyflyt_engine.components.motor import Motors
 from pyflyt_engine.components.noise import NoiseSource
+from pyflyt_engine.components.routing import mix_rows
+from pyflyt_engine.constants import AIR_DENSITY
 from pyflyt_engine.control.mixer import Mixer
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.assembly import assemble
@@ -29,8 +35,11 @@ from pyflyt_engine.spec import available_uavs, load_uav_spec
 from pyflyt_engine.state import KinematicState
 
 DT, CONTROL_DT = 1 / 240, 1 / 120
-#: the shipped airframes the batched backend flies (every other one is refused: test below)
-FLOWN = ("hexacopter", "quadx_cf2x", "quadx_f450")
+#: the shipped multirotors and fixed-wings the batched backend flies
+MULTIROTORS = ("hexacopter", "quadx_cf2x", "quadx_f450")
+FIXEDWINGS = ("fixedwing", "flying_wing")
+#: every shipped airframe it flies (every other one is refused: test below)
+FLOWN = tuple(sorted(MULTIROTORS + FIXEDWINGS))
 
 
 def _accepted() -> list[str]:
@@ -44,8 +53,8 @@ def _accepted() -> list[str]:
     return names
 
 
-def test_the_backend_flies_exactly_the_multirotors_it_claims():
-    assert _accepted() == list(FLOWN)
+def test_the_backend_flies_exactly_the_airframes_it_claims():
+    assert sorted(_accepted()) == list(FLOWN)
 
 
 @pytest.mark.parametrize("name", sorted(set(available_uavs()) - set(FLOWN)))
@@ -110,7 +119,7 @@ def _state(rng: np.random.Generator) -> KinematicState:
     return KinematicState(three(2.0), three(0.5), three(2.0), three(1.0), (0.0, 0.0, 0.0, 1.0), three(2.0), three(2.0))
 
 
-@pytest.mark.parametrize("name", FLOWN)
+@pytest.mark.parametrize("name", MULTIROTORS)
 def test_rate_loop_and_mixer_equal_the_controller(name):
     """rates_thrust through the compiled rate loop and mixer gives the controller's throttles
     bit for bit, over setpoints wide enough to reach the mixer's yaw and thrust give-way paths."""
@@ -144,7 +153,7 @@ def test_rate_loop_and_mixer_equal_the_controller(name):
     assert slow > 30  # the clipping paths ran
 
 
-@pytest.mark.parametrize("name", FLOWN)
+@pytest.mark.parametrize("name", (*MULTIROTORS, "fixedwing"))
 def test_the_ground_contact_height_is_the_airframes_lowest_point(name):
     """Upright, the collision features' lowest point is the spec's ``lowest_point()`` (from the
     centre of mass); rolled by 90 degrees about body x, the boxes' lowest edge along body y."""
@@ -163,6 +172,138 @@ def test_the_ground_contact_height_is_the_airframes_lowest_point(name):
     com_y = float(assemble(spec).com[1])
     expected = 2.0 + min(s.position[1] - com_y - 0.5 * s.size[1] for s in shapes)
     assert kernels.lowest_corner(pos, rolled, model.corners) == pytest.approx(expected, abs=1e-12)
+
+
+def _surface_inputs(rng: np.random.Generator, surface, count: int) -> list[tuple[float, float]]:
+    """(alpha, deflection) pairs: uniform on [-pi, pi] and the flap's range, and the edges
+    of the profile's branches (+-pi, +-pi/2, 0, the shifted stall angles themselves)."""
+    pairs = []
+    for _ in range(count):
+        d = float(rng.uniform(-1.2, 1.2)) * surface.max_deflection
+        pairs.append((float(rng.uniform(-math.pi, math.pi)), d))
+        _, stall_pos, stall_neg = lifting_surface.flap_shifted_angles(surface, d)
+        for alpha in (math.pi, -math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0, stall_pos, stall_neg,
+                      stall_pos - math.pi, stall_neg + math.pi):
+            if -math.pi <= alpha <= math.pi:  # where atan2 puts it
+                pairs.append((alpha, d))
+    return pairs
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_surface_coefficients_equal_the_profile(name):
+    """Attached, stalled (both sides, at the stall angles themselves) and reverse flow: the
+    compiled profile gives the scalar one's C_L, C_D, C_M bit for bit; on [-pi, pi], where
+    ``atan2`` puts alpha, the scalar law's wrap ``math.remainder(alpha, 2 pi)`` is alpha."""
+    model = batched_model(load_uav_spec(name), DT, CONTROL_DT)
+    rng = np.random.default_rng(8)
+    branches = set()
+    for surface, row in zip(assemble(load_uav_spec(name)).surfaces, model.surfaces):
+        k = surface.constants
+        assert row.tolist() == list(k)
+        for alpha, d in _surface_inputs(rng, surface, 200):
+            assert math.remainder(alpha, 2.0 * math.pi) == alpha
+            assert kernels.surface_coefficients(row, alpha, d) == lifting_surface._coefficients(k, alpha, d), (alpha, d)
+            _, stall_pos, stall_neg = lifting_surface.flap_shifted_angles(surface, d)
+            folded = alpha - math.pi if alpha > 0.5 * math.pi else alpha + math.pi if alpha < -0.5 * math.pi else alpha
+            branches.add(("reverse" if abs(alpha) > 0.5 * math.pi else "forward",
+                          "attached" if stall_neg < folded < stall_pos else "stalled"))
+    assert len(branches) == 4  # every branch of the profile ran
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_surface_wrench_equals_the_surface_law(name):
+    """Random air velocities (forward flight, side slip, reverse flow, spinning) and still
+    air: the compiled surface wrench equals ``surface_wrench`` bit for bit."""
+    model = batched_model(load_uav_spec(name), DT, CONTROL_DT)
+    rng = np.random.default_rng(9)
+    for surface, row in zip(assemble(load_uav_spec(name)).surfaces, model.surfaces):
+        k = surface.constants
+        for case in range(300):
+            v = (rng.normal(0, 8, 3) + np.array([14.0 * (case % 2), 0.0, 0.0])).tolist()
+            w = rng.normal(0, 3, 3).tolist()
+            d = float(rng.uniform(-1.0, 1.0)) * surface.max_deflection
+            expected = lifting_surface.surface_wrench(k, d, *v, *w)
+            assert kernels.surface_wrench(row, d, *v, *w, AIR_DENSITY) == expected
+        assert kernels.surface_wrench(row, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AIR_DENSITY) == (0.0,) * 6
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_surfaces_step_equals_the_surface_group(name):
+    """The flaps following commands beyond [-1, 1] through their lag, and the summed wrench:
+    the compiled step equals ``Surfaces.step`` bit for bit, state included."""
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    model = batched_model(spec, DT, CONTROL_DT)
+    group = Surfaces(parts.surfaces, DT, mix_rows(parts.surface_mix))
+    rng = np.random.default_rng(10)
+    ns = len(parts.surfaces)
+    deflection = np.zeros(ns)
+    for step in range(200):
+        if step % 2 == 0:  # a new command every control tick
+            command = rng.uniform(-1.5, 1.5, ns)
+            group.command = command.tolist()
+        v, w = (rng.normal(0, 6, 3) + (14.0, 0.0, 0.0)).tolist(), rng.normal(0, 2, 3).tolist()
+        expected = group.step((tuple(v), tuple(w)))
+        got = kernels.surfaces_step(deflection, command, model.surface_lag, model.surfaces, *v, *w, AIR_DENSITY)
+        assert got == expected
+        assert deflection.tolist() == group.deflection
+    assert (deflection / model.surface_scale).tolist() == group.aux()
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_channel_routing_equals_the_vehicle_and_groups(name):
+    """Mode ``channels``: the setpoint limited to the channels' ranges (``ndarray.clip``, as
+    the vehicle does), then each motor's and flap's mix limited to [-1, 1]
+    (``Motors.route``, ``Surfaces.route``), bit for bit, mixes of two channels included."""
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    model = batched_model(spec, DT, CONTROL_DT)
+    motors = Motors(parts.motors, DT, NoiseSource(np.random.default_rng(0)), mix_rows(parts.motor_mix))
+    surfaces = Surfaces(parts.surfaces, DT, mix_rows(parts.surface_mix))
+    rng = np.random.default_rng(11)
+    channels = np.empty(model.channels)
+    motor_command, flap_command = np.empty(model.motors), np.empty(len(model.surfaces))
+    for _ in range(300):
+        setpoint = rng.uniform(-1.6, 1.6, model.channels)
+        expected = setpoint.clip(parts.channel_low, parts.channel_high)
+        kernels.clip_channels(setpoint, model.channel_low, model.channel_high, channels)
+        assert channels.tolist() == expected.tolist()
+        motors.route(expected.tolist(), None)
+        surfaces.route(expected.tolist(), None)
+        kernels.route_channels(channels, model.motor_mix_index, model.motor_mix_weight, motor_command)
+        kernels.route_channels(channels, model.surface_mix_index, model.surface_mix_weight, flap_command)
+        assert motor_command.tolist() == motors.command
+        assert flap_command.tolist() == surfaces.command
+
+
+@pytest.mark.parametrize("name", FIXEDWINGS)
+def test_the_fixedwing_autopilot_equals_the_autopilot(name):
+    """Mode ``attitude_airspeed``: random states and setpoints, errors wide enough to hold
+    the integrators at their limits: the compiled autopilot's channels and integrals equal
+    ``FixedwingAutopilot``'s bit for bit."""
+    from pyflyt_engine.control.fixedwing import FixedwingAutopilot
+
+    spec = load_uav_spec(name)
+    parts = assemble(spec)
+    model = batched_model(spec, DT, CONTROL_DT)
+    autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, CONTROL_DT)
+    rng = np.random.default_rng(12)
+    integral, out = np.zeros(4), np.empty(model.channels)
+    held = 0
+    for tick in range(400):
+        state = _state(rng)
+        scale = 3.0 if tick % 50 < 25 else 0.2  # stretches of large errors: the integrators saturate
+        setpoint = np.r_[rng.normal(0, scale, 3), rng.uniform(5.0, 25.0)]
+        expected = autopilot(state, setpoint.tolist())
+        (p_, q_, r_), (roll, pitch, _), u = state.ang_vel, state.ang_pos, state.lin_vel[0]
+        kernels.fixedwing_autopilot(setpoint, p_, q_, r_, roll, pitch, u, integral, model.autopilot_gains,
+                                    model.cruise_thrust, model.autopilot_index, model.channel_low,
+                                    model.channel_high, CONTROL_DT, out)
+        assert out.tolist() == expected.tolist()
+        loops = (autopilot._roll, autopilot._pitch, autopilot._yaw, autopilot._speed)
+        assert integral.tolist() == [loop.integral for loop in loops]
+        held += any(loop.g.ki > 0 and abs(loop.integral) == loop.g.integral_limit / loop.g.ki for loop in loops)
+    assert held > 20  # the integrator limits were reached
 
 
 def _random_quaternions(rng: np.random.Generator, count: int) -> np.ndarray:
