@@ -56,6 +56,28 @@ _KNOWN_OPTIONS = {
 }
 
 
+#: PyFlyt 0.29.0 Rocket ``aux_state``: [fins x 4, ignition, fuel, throttle, gimbals x 2]; the
+#: shipped rocket's is [fins x 4, fuel, duty, ignition, gimbals x 2]: index map ours -> theirs
+ROCKET_AUX_ORDER = (0, 1, 2, 3, 6, 4, 5, 7, 8)
+#: PyFlyt 0.29.0 Camera: projection near and far planes [m]
+CAMERA_NEAR, CAMERA_FAR = 0.1, 255.0
+
+
+def reference_rocket_aux(aux: np.ndarray) -> np.ndarray:
+    """The shipped rocket's auxiliary state in the reference's order (:data:`ROCKET_AUX_ORDER`)."""
+    aux = np.asarray(aux, dtype=np.float64)
+    if aux.shape[-1] != len(ROCKET_AUX_ORDER):
+        return aux
+    return aux[..., list(ROCKET_AUX_ORDER)]
+
+
+def depth_to_zbuffer(depth: np.ndarray, near: float = CAMERA_NEAR, far: float = CAMERA_FAR) -> np.ndarray:
+    """Linear depth [m] back to PyBullet's z-buffer value in [0, 1]: the inverse of
+    ``depth = near far / (far - (far - near) d)`` (OpenGL perspective projection)."""
+    depth = np.clip(np.asarray(depth, dtype=np.float64), near, far)
+    return far * (1.0 - near / depth) / (far - near)
+
+
 def state_array(state: KinematicState) -> np.ndarray:
     """The reference's (4, 3) state: [ang_vel, ang_pos, lin_vel, lin_pos] (PyFlyt 0.29.0 ``DroneClass.state``)."""
     return np.array((state.ang_vel, state.ang_pos, state.lin_vel, state.lin_pos), dtype=np.float64)
@@ -92,8 +114,9 @@ class Drone:
 
     Attributes: ``Id`` (PyBullet body), ``state`` (4, 3), ``aux_state``, ``setpoint``,
     ``mode``, ``control_period``, ``physics_period``, ``use_camera`` and, with a camera,
-    ``rgbaImg`` (H, W, 4) uint8, ``depthImg`` (H, W, 1) (linear depth [m] here; the
-    reference's is PyBullet's raw z-buffer), ``segImg`` (H, W, 1).
+    ``rgbaImg`` (H, W, 4) uint8, ``depthImg`` (H, W, 1) PyBullet's z-buffer in [0, 1]
+    (near 0.1 m, far 255 m, as the reference's camera), ``segImg`` (H, W, 1).  After the
+    Aviary is disconnected, ``state`` and ``aux_state`` keep their last values.
     """
 
     def __init__(self, aviary: Aviary, index: int, kind: str, control_hz: float, camera: int | None) -> None:
@@ -114,17 +137,29 @@ class Drone:
         self._controllers: dict[int, tuple[Callable[[], ControlClass], int]] = {}
         self.np_random = aviary.np_random
         self._gain = thrust_gain(self.vehicle) if kind == "quadx" else 1.0
+        self._last_state: np.ndarray | None = None
+        self._last_aux: np.ndarray | None = None
 
     # ------------------------------------------------------------------ read-outs
 
     @property
     def state(self) -> np.ndarray:
         """(4, 3): [ang_vel (body), ang_pos (Euler), lin_vel (body), lin_pos (ground)]."""
-        return state_array(self.vehicle.state)
+        if not self._aviary.connected:  # PyFlyt 0.29.0: the last state stays readable
+            return self._last_state.copy() if self._last_state is not None else np.zeros((4, 3))
+        self._last_state = state_array(self.vehicle.state)
+        return self._last_state.copy()
 
     @property
     def aux_state(self) -> np.ndarray:
-        return np.asarray(self.vehicle.aux_state, dtype=np.float64)
+        """The auxiliary state; the rocket's in the reference's order (see :data:`ROCKET_AUX_ORDER`)."""
+        if not self._aviary.connected:
+            return self._last_aux.copy() if self._last_aux is not None else np.zeros(0)
+        aux = np.asarray(self.vehicle.aux_state, dtype=np.float64)
+        if self.kind == "rocket":
+            aux = reference_rocket_aux(aux)
+        self._last_aux = aux
+        return aux.copy()
 
     # ------------------------------------------------------------------ commands
 
@@ -227,7 +262,8 @@ class Drone:
         if self._camera is None:
             return
         images = self._aviary.world.capture(self._index, self._camera)
-        self.rgbaImg, self.depthImg, self.segImg = images["rgba"], images["depth"], images["segmentation"]
+        self.rgbaImg, self.segImg = images["rgba"], images["segmentation"]
+        self.depthImg = depth_to_zbuffer(images["depth"])
 
 
 class Aviary:
@@ -315,6 +351,7 @@ class Aviary:
         base_ratio = self.world.physics_per_control
         for i, (kind, option, rate) in enumerate(zip(kinds, options, rates)):
             spec, kind_name = self._airframe(kind, option)
+            spec = self._with_fuel(spec, kind_name, option)
             spec, camera = self._with_camera(spec, option, slowest)
             # the vehicle's controller runs at its own rate: built with that period, held in between
             self.world.physics_per_control = int(round(self.physics_hz / rate))
@@ -341,7 +378,36 @@ class Aviary:
 
         self.aviary_steps = 0
         self.reset_count = 0
+        self.armed_drones: list[Drone] = list(self.drones)
         self._reset_drones()
+
+    @classmethod
+    def over_world(cls, world: World, kinds: Sequence[str]) -> Aviary:
+        """An Aviary view of a world built elsewhere (a compat env's), one drone per vehicle.
+
+        ``kinds``: "quadx", "fixedwing" or "rocket" per vehicle.  Reads (``state``,
+        ``aux_state``, ``contact_array``, ``planeId``, ``drones``, PyBullet functions) see
+        that world; :meth:`step` advances it by one of its agent steps; :meth:`reset`
+        restores it, as its owner's reset would not: leave resets to the owner.
+        """
+        self = cls.__new__(cls)
+        self.world = world
+        self.physics_hz = int(world.physics_hz)
+        self.world_scale = 1.0
+        self.render = False
+        self.np_random = world.np_random
+        self.step_period = 1.0 / world.agent_hz
+        self.updates_per_step = int(world.physics_per_agent)
+        self.drones = [Drone(self, i, kind, world.control_hz, None) for i, kind in enumerate(kinds)]
+        for drone in self.drones:
+            drone.mode = 0
+        self._kinds = list(kinds)
+        self._start_velocities = [None] * len(self.drones)
+        self.wind_field = None
+        self.aviary_steps = 0
+        self.reset_count = 0
+        self.armed_drones = list(self.drones)
+        return self
 
     # ------------------------------------------------------------------ building
 
@@ -359,6 +425,16 @@ class Aviary:
         if path.suffix in (".yaml", ".yml"):
             return load_uav_spec(path), "yaml"
         raise UnsupportedFeature(f"unknown drone_type '{kind}' (shipped: {', '.join(DRONE_TYPES)}); {YAML_AIRFRAMES}")
+
+    @staticmethod
+    def _with_fuel(spec: UAVSpec, kind: str, option: dict[str, Any]) -> UAVSpec:
+        """The rocket's tank at ``starting_fuel_ratio`` (PyFlyt 0.29.0 Rocket: default 0.05)."""
+        if kind != "rocket" or spec.boosters is None:
+            return spec
+        fuel = float(option.get("starting_fuel_ratio", 0.05))
+        if not 0.0 <= fuel <= 1.0:
+            raise ValueError(f"starting_fuel_ratio must be in [0, 1], got {fuel}")
+        return spec.model_copy(update={"boosters": spec.boosters.model_copy(update={"initial_fuel": fuel})})
 
     @staticmethod
     def _with_camera(spec: UAVSpec, option: dict[str, Any], step_hz: float) -> tuple[UAVSpec, int | None]:
@@ -382,6 +458,8 @@ class Aviary:
             height=int(height),
             horizon_lock=gimbal,
             capture_hz=float(fps) if fps else float(step_hz),
+            near=CAMERA_NEAR,
+            far=CAMERA_FAR,
             outputs=["rgba", "depth", "segmentation"],
         )
         return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
@@ -394,7 +472,8 @@ class Aviary:
         return None
 
     def _reset_drones(self) -> None:
-        self.world.reset()
+        self.world.reset()  # re-arms every vehicle
+        self.armed_drones = list(self.drones)
         for drone, velocity in zip(self.drones, self._start_velocities):
             if velocity is not None:
                 drone.vehicle.reset(lin_vel=velocity)
@@ -504,6 +583,8 @@ class Aviary:
             raise AssertionError(f"Expected {len(self.drones)} settings, got {len(settings)}.")
         for i, armed in enumerate(settings):
             self.world.set_armed(i, bool(armed))
+        #: the drones that receive updates (PyFlyt 0.29.0 ``Aviary.armed_drones``)
+        self.armed_drones = [d for d, armed in zip(self.drones, settings) if armed]
 
     def print_all_bodies(self) -> None:
         cid = self.world.client
@@ -511,8 +592,17 @@ class Aviary:
             body = p.getBodyUniqueId(i, physicsClientId=cid)
             print(f"ID {body}: {p.getBodyInfo(body, physicsClientId=cid)}")
 
+    @property
+    def connected(self) -> bool:
+        """Whether the PyBullet client is still open."""
+        client = self.world.client
+        return client is not None and client >= 0 and bool(p.isConnected(client))
+
     def disconnect(self) -> None:
-        """Close the PyBullet client (idempotent)."""
+        """Close the PyBullet client (idempotent); the drones' last states stay readable."""
+        if self.connected:
+            for drone in self.drones:
+                drone.state, drone.aux_state  # noqa: B018 - keeps the last values
         self.world.close()
 
     def __getattr__(self, name: str) -> Any:

@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.compat.gym_envs._base import (
+    REFERENCE_STEP_HZ,
     _PwmThrust,
     check_agent_hz,
     check_angle_representation,
@@ -29,12 +30,52 @@ from pyflyt_engine.state import KinematicState
 
 __all__ = ["MAFixedwingDogfightEnvV2", "MAQuadXHoverEnvV2"]
 
+
+class _ReferenceParallel:
+    """What both reference PettingZoo envs share, placed before the native class in the bases.
+
+    * ``reset`` ignores its ``options`` silently, as the reference does (PettingZoo's API
+      test passes ``{"options": 1}``); ``{"task": {...}}`` still changes an episode's task;
+    * the reference's attributes: ``num_possible_agents``, ``agent_name_mapping``,
+      ``step_count``, ``max_steps``, ``env_step_ratio`` (Aviary steps of 1/120 s per
+      agent step) and ``aviary``, an :class:`~pyflyt_engine.compat.core.Aviary` view of the
+      world (``aviary.state(i)`` is the (4, 3) state of agent ``i``).
+    """
+
+    #: the Aviary drone type of every agent
+    _drone_kind: ClassVar[str] = "quadx"
+
+    def _reference_attributes(self, agent_hz: float, max_duration_seconds: float) -> None:
+        self.num_possible_agents = len(self.possible_agents)  # type: ignore[attr-defined]
+        self.agent_name_mapping = dict(self.agent_index)  # type: ignore[attr-defined]
+        self.max_steps = int(agent_hz * max_duration_seconds)
+        self.env_step_ratio = int(REFERENCE_STEP_HZ / agent_hz)
+        self._aviary_view: Any = None
+
+    @property
+    def step_count(self) -> int:
+        """Agent steps since the reset."""
+        return int(self._steps)  # type: ignore[attr-defined]
+
+    @property
+    def aviary(self) -> Any:
+        from pyflyt_engine.compat.core import Aviary
+
+        if self._aviary_view is None or self._aviary_view.world is not self.world:  # type: ignore[attr-defined]
+            kinds = [self._drone_kind] * len(self.possible_agents)  # type: ignore[attr-defined]
+            self._aviary_view = Aviary.over_world(self.world, kinds)  # type: ignore[attr-defined]
+        return self._aviary_view
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
+        kept = {"task": options["task"]} if isinstance(options, dict) and "task" in options else None
+        return super().reset(seed=seed, options=kept)  # type: ignore[misc]
+
 # PyFlyt 0.29.0 MAQuadXHoverEnv: four QuadX at (+-1, +-1, 1), level
 _HOVER_START_POS = np.array([[-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
 _HOVER_START_ORN = np.zeros((4, 3))
 
 
-class MAQuadXHoverEnvV2(_NativeMAHover):
+class MAQuadXHoverEnvV2(_ReferenceParallel, _NativeMAHover):
     """PyFlyt 0.29.0 ``MAQuadXHoverEnv``: every QuadX holds its start position.
 
     Defaults (PyFlyt 0.29.0): ``start_pos`` the four corners (+-1, +-1, 1), ``flight_mode``
@@ -89,6 +130,7 @@ class MAQuadXHoverEnvV2(_NativeMAHover):
         )
         self.start_pos, self.start_orn, self.flight_mode = start_pos, start_orn, flight_mode
         super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
+        self._reference_attributes(agent_hz, max_duration_seconds)
         if cfg["action"]["mode"] in ("rates_thrust", "motors"):
             self.vehicles = [_PwmThrust(v, motors=cfg["action"]["mode"] == "motors") for v in self.vehicles]
 
@@ -109,7 +151,7 @@ class MAQuadXHoverEnvV2(_NativeMAHover):
 _OTHER = 14
 
 
-class MAFixedwingDogfightEnvV2(_NativeDogfight):
+class MAFixedwingDogfightEnvV2(_ReferenceParallel, _NativeDogfight):
     """PyFlyt 0.29.0 ``MAFixedwingDogfightEnv``: two teams of ``team_size`` fixed-wings.
 
     Arguments and defaults are the reference's.  ``damage_per_hit`` is per 120 Hz control
@@ -135,6 +177,7 @@ class MAFixedwingDogfightEnvV2(_NativeDogfight):
     """
 
     metadata: ClassVar[dict] = {**_NativeDogfight.metadata, "name": "ma_fixedwing_team_dogfight"}
+    _drone_kind = "fixedwing"
 
     def __init__(
         self,
@@ -188,6 +231,7 @@ class MAFixedwingDogfightEnvV2(_NativeDogfight):
             action={**cfg["action"], "low": [-1.0] * 4, "high": [1.0] * 4},
         )
         super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
+        self._reference_attributes(agent_hz, max_duration_seconds)
         n = len(self.possible_agents)
         n_act = 4 if self.assisted_flight else 6
         if not self.assisted_flight:

@@ -1,0 +1,6 @@
+"""The reference's ``PyFlyt.gym_envs.utils``: ``FlattenWaypointEnv`` and ``WaypointHandler``."""
+
+from pyflyt_engine.compat.gym_envs.utils.flatten_waypoint_env import FlattenWaypointEnv
+from pyflyt_engine.compat.gym_envs.utils.waypoint_handler import WaypointHandler
+
+__all__ = ["FlattenWaypointEnv", "WaypointHandler"]
