@@ -86,7 +86,7 @@ def test_the_references_constructor_arguments_are_accepted():
     try:
         for seed in range(3):
             rocket.reset(seed=seed)
-            x, y, z = rocket.state.lin_pos
+            x, y, z = rocket.vehicle.state.lin_pos  # `state` is the last observation, as in the reference
             # spawn z in U(0.8, 0.9) x ceiling, then 1/12 s of settling at ~100 m/s down
             assert 240.0 - 9.0 <= z <= 270.0 - 8.0 and abs(x) <= 10.5 and abs(y) <= 10.5
     finally:

@@ -35,17 +35,18 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.gym_envs._base import (
     REFERENCE_STEP_HZ,
     SETTLE_STEPS,
+    ReferenceHooks,
+    fresh,
     check_agent_hz,
     check_angle_representation,
     check_render_mode,
 )
 
 
-class AviaryTaskEnv(gymnasium.Env):
+class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
     """The shared part of the reference-style base envs (see the module docstring)."""
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -159,32 +160,6 @@ class AviaryTaskEnv(gymnasium.Env):
         """Adjust ``self.reward``, ``self.termination``, ``self.truncation`` and ``self.info``."""
         raise NotImplementedError
 
-    def compute_auxiliary(self) -> np.ndarray:
-        return self.env.aux_state(0)
-
-    def compute_attitude(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(ang_vel, ang_pos, lin_vel, lin_pos, quaternion)`` of drone 0."""
-        ang_vel, ang_pos, lin_vel, lin_pos = self.env.state(0)
-        quaternion = np.array(p.getQuaternionFromEuler(ang_pos))
-        return ang_vel, ang_pos, lin_vel, lin_pos, quaternion
-
-    def _crashed(self) -> bool:
-        """QuadX and rocket: any contact with the ground plane."""
-        return bool(np.any(self.env.contact_array[self.env.planeId]))
-
-    def compute_base_term_trunc_reward(self) -> None:
-        """The time limit, a crash (-100, ``collision``) and leaving the dome (-100, ``out_of_bounds``)."""
-        if self.step_count > self.max_steps:
-            self.truncation |= True
-        if self._crashed():
-            self.reward = -100.0
-            self.info["collision"] = True
-            self.termination |= True
-        if np.linalg.norm(self.env.state(0)[-1]) > self.flight_dome_size:
-            self.reward = -100.0
-            self.info["out_of_bounds"] = True
-            self.termination |= True
-
     def _to_setpoint(self, action: np.ndarray) -> np.ndarray:
         return action
 
@@ -199,7 +174,7 @@ class AviaryTaskEnv(gymnasium.Env):
             self.compute_state()
             self.compute_term_trunc_reward()
         self.step_count += 1
-        return self.state, self.reward, self.termination, self.truncation, self.info
+        return fresh(self.state), self.reward, self.termination, self.truncation, dict(self.info)
 
     def render(self) -> np.ndarray | None:
         """An (H, W, 4) RGBA frame from the chase camera (``human``: the GUI follows too)."""

@@ -9,9 +9,11 @@ what still differs (rewards, spawn noise of some tasks, waypoint placement).
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
+
+from gymnasium import spaces
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.gym_envs._base import (
@@ -22,6 +24,7 @@ from pyflyt_engine.compat.gym_envs._base import (
     quadx_action,
     still_spawn,
 )
+from pyflyt_engine.compat.gym_envs.utils.waypoint_handler import WaypointHandler
 from pyflyt_engine.envs.fixedwing import FixedwingWaypointsEnv as _NativeFixedwingWaypoints
 from pyflyt_engine.envs.quadx import QuadXHoverEnv as _NativeHover
 from pyflyt_engine.envs.quadx import QuadXWaypointsEnv as _NativeWaypoints
@@ -35,14 +38,6 @@ Angles = Literal["euler", "quaternion"]
 RenderMode = Literal["human", "rgb_array"] | None
 
 
-def _no_yaw_targets(use_yaw_targets: bool) -> None:
-    if use_yaw_targets:
-        raise ValueError(
-            "use_yaw_targets=True is not supported by pyflyt_engine.compat: waypoints here are positions only "
-            "(docs/migrating_from_pyflyt.md)"
-        )
-
-
 class QuadXHoverEnv(ReferenceEnv, _NativeHover):
     """``PyFlyt/QuadX-Hover-v4``: the native hover task with the reference's arguments.
 
@@ -53,6 +48,7 @@ class QuadXHoverEnv(ReferenceEnv, _NativeHover):
     """
 
     reference_id = "PyFlyt/QuadX-Hover-v4"
+    reference_loop = True
 
     def __init__(
         self,
@@ -78,12 +74,71 @@ class QuadXHoverEnv(ReferenceEnv, _NativeHover):
         )
         cfg["action"] = quadx_action(flight_mode)
         still_spawn(cfg["task"], (0.0, 0.0, 1.0))
-        self.flight_mode = flight_mode
+        self.flight_mode, self.sparse_reward = flight_mode, bool(sparse_reward)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
 
+    def compute_state(self) -> None:
+        """[ang_vel, Euler | quaternion, lin_vel, lin_pos, previous action, aux (4)]."""
+        self.state = self._attitude(self.action, self.angle_representation)
 
-class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
+    def compute_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 QuadXHoverEnv, per 1/120 s: the base endings; dense: + 1 - |p - (0, 0, 1)|
+        - |(roll, pitch)| - 0.01 r^2 (r the yaw rate)."""
+        self.compute_base_term_trunc_reward()
+        if not self.sparse_reward:
+            ang_vel, ang_pos, _, lin_pos = self.env.state(0)
+            self.reward -= 0.01 * float(ang_vel[2]) ** 2
+            self.reward -= float(np.linalg.norm(lin_pos - np.array([0.0, 0.0, 1.0])) + np.linalg.norm(ang_pos[:2]))
+            self.reward += 1.0
+
+
+class _WaypointCourse:
+    """The reference's waypoint episode over a :class:`WaypointHandler` (PyFlyt 0.29.0 QuadX and
+    Fixedwing waypoint envs): targets drawn at each reset, deltas observed in the body
+    frame, reward 100 at a target reached, the last one truncating (``env_complete``)."""
+
+    waypoints: WaypointHandler
+    #: the dense reward's inverse-distance weight (PyFlyt 0.29.0: QuadX 0.1, Fixedwing 1.0)
+    _closeness_weight: ClassVar[float] = 0.1
+    #: the dense reward's yaw-rate penalty weight (QuadX 0.01, Fixedwing none)
+    _yaw_rate_weight: ClassVar[float] = 0.01
+
+    def _reference_reset(self) -> None:
+        self.waypoints.reset(self.env, self.np_random)
+        self.info["num_targets_reached"] = 0
+
+    def _marker_points(self) -> Any:
+        return np.asarray(self.waypoints.targets, dtype=np.float64).reshape(-1, 3)
+
+    def compute_state(self) -> None:
+        """``attitude`` as Hover's; ``target_deltas`` (n, 3) to every remaining target, body frame
+        ((n, 4) with yaw targets: the yaw error last)."""
+        _, ang_pos, _, lin_pos, quaternion = self.compute_attitude()
+        self.state = {
+            "attitude": self._attitude(self.action, self.angle_representation),
+            "target_deltas": self.waypoints.distance_to_targets(ang_pos, lin_pos, quaternion),
+        }
+
+    def compute_term_trunc_reward(self) -> None:
+        """Per 1/120 s: the base endings; dense: + max(3 x progress, 0) + w / distance (- 0.01 r^2
+        on the QuadX); a target reached: reward 100, the next target, the last truncates."""
+        self.compute_base_term_trunc_reward()
+        w = self.waypoints
+        if not self.sparse_reward:
+            self.reward += max(3.0 * w.progress_to_next_target, 0.0)
+            self.reward += self._closeness_weight / w.distance_to_next_target
+            if self._yaw_rate_weight:
+                self.reward -= self._yaw_rate_weight * float(self.env.state(0)[0][2]) ** 2
+        if w.target_reached:
+            self.reward = 100.0
+            w.advance_targets()
+            self.truncation |= w.all_targets_reached
+            self.info["env_complete"] = w.all_targets_reached
+            self.info["num_targets_reached"] = w.num_targets_reached
+
+
+class QuadXWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeWaypoints):
     """``PyFlyt/QuadX-Waypoints-v4``.
 
     PyFlyt 0.29.0 QuadXWaypointsEnv: num_targets 4, use_yaw_targets False,
@@ -95,6 +150,7 @@ class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
 
     reference_id = "PyFlyt/QuadX-Waypoints-v4"
     completion_truncates = True
+    reference_loop = True
 
     def __init__(
         self,
@@ -111,7 +167,6 @@ class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
         render_mode: RenderMode = None,
         render_resolution: tuple[int, int] = (480, 480),
     ) -> None:
-        _no_yaw_targets(use_yaw_targets)
         cfg = common_overrides(
             native_config("quadx_waypoints"),
             reference_id=self.reference_id,
@@ -129,9 +184,24 @@ class QuadXWaypointsEnv(ReferenceEnv, _NativeWaypoints):
         )
         still_spawn(cfg["task"], (0.0, 0.0, 1.0))
         self.flight_mode, self.use_yaw_targets, self.goal_reach_angle = flight_mode, use_yaw_targets, goal_reach_angle
+        self.sparse_reward = bool(sparse_reward)
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
+        self.waypoints = WaypointHandler(
+            enable_render=False,  # the env's markers show the course
+            num_targets=int(num_targets),
+            use_yaw_targets=bool(use_yaw_targets),
+            goal_reach_distance=float(goal_reach_distance),
+            goal_reach_angle=float(goal_reach_angle),
+            flight_dome_size=float(flight_dome_size),
+            min_height=0.1,
+            np_random=self.np_random,
+        )
+        if use_yaw_targets:  # PyFlyt 0.29.0: each delta gains the yaw error, same bounds
+            b = self._delta_bound
+            deltas = spaces.Sequence(spaces.Box(-b, b, shape=(4,), dtype=np.float64), stack=True)
+            self.observation_space = spaces.Dict({**self.observation_space.spaces, "target_deltas": deltas})
 
 
 class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
@@ -333,18 +403,24 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
         self._finish_init(render_resolution, render_mode)
 
 
-class FixedwingWaypointsEnv(ReferenceEnv, _NativeFixedwingWaypoints):
+class FixedwingWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeFixedwingWaypoints):
     """``PyFlyt/Fixedwing-Waypoints-v3`` (and ``-v4``).
 
     PyFlyt 0.29.0 FixedwingWaypointsEnv: num_targets 4, goal_reach_distance 2.0,
     flight_mode 0, flight_dome_size 100.0, max_duration_seconds 120.0, agent_hz 30; spawn
     at (0, 0, 10) flying at 20 m/s (PyFlyt 0.29.0 Fixedwing: starting_velocity
     (20, 0, 0)); waypoints at least 0.5 m high; action [aileron, elevator, rudder,
-    thrust] in [-1, 1]^4; target deltas bounded by +-2 x flight_dome_size.
+    thrust] in [-1, 1]^4, the thrust reaching the aircraft as ``T / 2 + 0.5``
+    (FixedwingBaseEnv.step); target deltas bounded by +-2 x flight_dome_size; dense reward
+    + max(3 x progress, 0) + 1 / distance per 1/120 s; a crash is any contact.
     """
 
     reference_id = "PyFlyt/Fixedwing-Waypoints-v3"
     completion_truncates = True
+    reference_loop = True
+    drone_kind = "fixedwing"
+    _closeness_weight = 1.0
+    _yaw_rate_weight = 0.0
 
     def __init__(
         self,
@@ -382,10 +458,27 @@ class FixedwingWaypointsEnv(ReferenceEnv, _NativeFixedwingWaypoints):
         )
         still_spawn(task, (0.0, 0.0, 10.0))
         task["start_lin_vel"] = (20.0, 0.0, 0.0)
-        self.flight_mode = flight_mode
+        self.flight_mode, self.sparse_reward = flight_mode, bool(sparse_reward)
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
+        self.waypoints = WaypointHandler(
+            enable_render=False,  # the env's markers show the course
+            num_targets=int(num_targets),
+            use_yaw_targets=False,
+            goal_reach_distance=float(goal_reach_distance),
+            goal_reach_angle=math.inf,
+            flight_dome_size=float(flight_dome_size),
+            min_height=0.5,
+            np_random=self.np_random,
+        )
+
+    def _crashed(self) -> bool:
+        return bool(np.any(self.env.contact_array))
+
+    def _to_setpoint(self, action: np.ndarray) -> np.ndarray:
+        action[-1] = action[-1] / 2.0 + 0.5  # PyFlyt 0.29.0 FixedwingBaseEnv.step
+        return action
 
 
 class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
@@ -401,6 +494,9 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
     """
 
     reference_id = "PyFlyt/Rocket-Landing-v4"
+    reference_loop = True
+    drone_kind = "rocket"
+    step_reward = 0.0
 
     def __init__(
         self,
@@ -436,6 +532,7 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
             start_ang_vel_noise=0.0,
             initial_fuel=0.05,
         )
+        self.sparse_reward = bool(sparse_reward)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
 
@@ -449,15 +546,87 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
         body_velocity = rotation.T @ np.array(self.drop_velocity)  # ground -> body
         self.vehicle.reset(tuple(state.lin_pos), tuple(state.ang_pos), lin_vel=tuple(body_velocity))
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        observation, reward, terminated, truncated, info = super().step(action)
-        x, y, z = self.vehicle.state.lin_pos
-        if math.hypot(x, y) > self.max_displacement or z > self.ceiling:
-            info["out_of_bounds"] = True
-            terminated, truncated = True, False
-        return observation, reward, terminated, truncated, info
+    def _new_info(self) -> dict[str, Any]:
+        return {"out_of_bounds": False, "fatal_collision": False, "env_complete": False}
 
-    def _reference_info(self, info: dict[str, Any]) -> dict[str, Any]:
-        info = dict(info)
-        info["fatal_collision"] = bool(info.get("fatal_landing", False))
-        return info
+    def _reference_reset(self) -> None:
+        """PyFlyt 0.29.0 RocketLandingEnv.reset: no pad contact, the previous read-outs zero."""
+        self.landing_pad_contact = 0.0
+        self.ang_vel, self.lin_vel, self.lin_pos, self.ground_lin_vel = (np.zeros(3) for _ in range(4))
+        self.previous_ang_vel, self.previous_lin_vel = np.zeros(3), np.zeros(3)
+        self.previous_lin_pos, self.previous_ground_lin_vel = np.zeros(3), np.zeros(3)
+
+    @property
+    def landing_pad_id(self) -> int:
+        """The pad's PyBullet body (the native landing task's)."""
+        return int(self.task.pad_id)
+
+    def compute_state(self) -> None:
+        """[ang_vel, Euler | quaternion, lin_vel, lin_pos, previous action, aux (9), pad contact]."""
+        self.previous_ang_vel, self.previous_lin_vel = self.ang_vel.copy(), self.lin_vel.copy()
+        self.previous_lin_pos, self.previous_ground_lin_vel = self.lin_pos.copy(), self.ground_lin_vel.copy()
+        self.ang_vel, self.ang_pos, self.lin_vel, self.lin_pos, quaternion = self.compute_attitude()
+        rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)
+        self.ground_lin_vel = rotation @ self.lin_vel  # body -> ground
+        angles = self.ang_pos if self.angle_representation == 0 else quaternion
+        self.state = np.concatenate(
+            [self.ang_vel, angles, self.lin_vel, self.lin_pos, self.action, self.compute_auxiliary(), [self.landing_pad_contact]]
+        )
+
+    def compute_base_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 RocketBaseEnv with the pad's contact ignored: the time limit; any other
+        contact or z < 0 is ``fatal_collision``; beyond ``max_displacement`` sideways or above
+        ``ceiling`` is ``out_of_bounds``."""
+        if self.step_count > self.max_steps:
+            self.truncation |= True
+        contacts = self.env.contact_array.copy()
+        rocket, pad = self.env.drones[0].Id, self.landing_pad_id
+        contacts[rocket, pad] = contacts[pad, rocket] = False
+        position = self.env.state(0)[-1]
+        if np.any(contacts) or position[2] < 0.0:
+            self.info["fatal_collision"] = True
+            self.termination |= True
+        if np.linalg.norm(position[:2]) > self.max_displacement or position[2] > self.ceiling:
+            self.info["out_of_bounds"] = True
+            self.termination |= True
+
+    def compute_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 RocketLandingEnv, per 1/120 s.  Dense: -0.3 + 0.3 / (lateral distance
+        + 0.1) + 10 x (lateral distance gained) + 0.2 x (height lost) + 4 x (deceleration
+        progress: the change of the ground vertical velocity + 1, over e^height, signed by
+        whether it descends) - |yaw rate| - |(roll, pitch)|.  On the pad: + 5 - 0.3 |vz|; landing with |omega| > 0.35 or
+        |v| > 1 (the previous step's) is fatal; at rest (|omega|, |v| < 0.02) and level
+        (|roll, pitch| < 0.1) it truncates with + 3 (``env_complete``)."""
+        self.compute_base_term_trunc_reward()
+        if not self.sparse_reward:
+            lateral_progress = float(np.linalg.norm(self.previous_lin_pos[:2]) - np.linalg.norm(self.lin_pos[:2]))
+            vertical_progress = float(self.previous_lin_pos[-1] - self.lin_pos[-1])
+            lateral_distance = float(np.linalg.norm(self.lin_pos[:2])) + 0.1
+            descending = 1.0 if self.ground_lin_vel[-1] < 0.0 else -1.0
+            deceleration = (self.ground_lin_vel[-1] - self.previous_ground_lin_vel[-1] + 1.0) / np.exp(self.lin_pos[-1])
+            self.reward += (
+                -0.3
+                + 0.3 / lateral_distance
+                + 10.0 * lateral_progress
+                + 0.2 * vertical_progress
+                + 4.0 * deceleration * descending
+                - abs(float(self.ang_vel[-1]))
+                - float(np.linalg.norm(self.ang_pos[:2]))
+            )
+        if not self.env.contact_array[self.env.drones[0].Id, self.landing_pad_id]:
+            self.landing_pad_contact = 0.0
+            return
+        self.landing_pad_contact = 1.0
+        self.reward += 5.0 - 0.3 * abs(self.ground_lin_vel[-1])
+        if np.linalg.norm(self.previous_ang_vel) > 0.35 or np.linalg.norm(self.previous_lin_vel) > 1.0:
+            self.termination |= True
+            self.info["fatal_collision"] = True
+            return
+        if (
+            np.linalg.norm(self.previous_ang_vel) < 0.02
+            and np.linalg.norm(self.previous_lin_vel) < 0.02
+            and np.linalg.norm(self.ang_pos[:2]) < 0.1
+        ):
+            self.truncation |= True
+            self.info["env_complete"] = True
+            self.reward += 3.0
