@@ -25,7 +25,6 @@ REFERENCE = {
     "PyFlyt/QuadX-Pole-Waypoints-v4": (32, [0.0] * 4, [0.8] * 4, 40, 20.0, 10.0, 20.0),
     "PyFlyt/QuadX-Ball-In-Cup-v4": (26, RATES_THRUST_LOW, RATES_THRUST_HIGH, 30, 10.0, 30.0, None),
     "PyFlyt/Fixedwing-Waypoints-v3": (22, [-1.0] * 4, [1.0] * 4, 30, 120.0, 100.0, 200.0),
-    "PyFlyt/Fixedwing-Waypoints-v4": (22, [-1.0] * 4, [1.0] * 4, 30, 120.0, 100.0, 200.0),
     "PyFlyt/Rocket-Landing-v4": (29, [-1, -1, -1, 0, 0, -1, -1], [1.0] * 7, 40, 30.0, None, None),
 }
 

@@ -606,13 +606,16 @@ class Aviary:
         self.world.close()
 
     def __getattr__(self, name: str) -> Any:
-        # the reference's Aviary is a BulletClient: every PyBullet function is a method
+        # the reference's Aviary is a BulletClient: every PyBullet function is a method and
+        # every PyBullet constant an attribute (aviary.GEOM_MESH, aviary.JOINT_FIXED)
         if name.startswith("_") or "world" not in self.__dict__:
             raise AttributeError(name)
-        function = getattr(p, name, None)
-        if not callable(function):
+        member = getattr(p, name, None)
+        if isinstance(member, (int, float)) and not isinstance(member, bool) and name.isupper():
+            return member
+        if not callable(member):
             raise AttributeError(f"'Aviary' object has no attribute '{name}'")
-        return functools.partial(function, physicsClientId=self.world.client)
+        return functools.partial(member, physicsClientId=self.world.client)
 
 
 def _hold_controller(vehicle: Any, hold: int) -> None:

@@ -16,8 +16,9 @@ from pyflyt_engine.compat.gym_envs.flatten import FlattenWaypointEnv
 
 _MODULE = "pyflyt_engine.compat.gym_envs.envs"
 
-#: reference id -> class in :mod:`.envs` (PyFlyt 0.29.0 gym_envs/__init__.py registers all
-#: of them but Fixedwing-Waypoints-v4, the id later releases give the same env)
+#: reference id -> class in :mod:`.envs`: the ids PyFlyt 0.29.0 gym_envs/__init__.py registers.
+#: Not Fixedwing-Waypoints-v4 (later releases' id of the same env): with it registered,
+#: Gymnasium warns at every ``make`` of -v3 that it is out of date, and the reference does not.
 REFERENCE_IDS: dict[str, str] = {
     "PyFlyt/QuadX-Hover-v4": "QuadXHoverEnv",
     "PyFlyt/QuadX-Waypoints-v4": "QuadXWaypointsEnv",
@@ -26,7 +27,6 @@ REFERENCE_IDS: dict[str, str] = {
     "PyFlyt/QuadX-Pole-Waypoints-v4": "QuadXPoleWaypointsEnv",
     "PyFlyt/QuadX-Ball-In-Cup-v4": "QuadXBallInCupEnv",
     "PyFlyt/Fixedwing-Waypoints-v3": "FixedwingWaypointsEnv",
-    "PyFlyt/Fixedwing-Waypoints-v4": "FixedwingWaypointsEnv",
     "PyFlyt/Rocket-Landing-v4": "RocketLandingEnv",
 }
 

@@ -32,6 +32,9 @@ from pyflyt_engine.envs.config import load_env_config
 #: and agent_hz must divide 120.
 REFERENCE_STEP_HZ = 120
 
+#: PyFlyt 0.29.0 *BaseEnv.metadata["render_fps"], whatever the agent rate
+REFERENCE_RENDER_FPS = 30
+
 #: PyFlyt 0.29.0 QuadXBaseEnv: body-rate bound pi rad/s, thrust and motor bound 0.8.
 QUADX_RATE_LIMIT = math.pi
 
@@ -276,6 +279,8 @@ class ReferenceEnv(ReferenceHooks):
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
         self.render_resolution = tuple(render_resolution)
+        # PyFlyt 0.29.0 *BaseEnv.metadata: render_fps 30 at any agent rate
+        self.metadata = {**self.metadata, "render_fps": REFERENCE_RENDER_FPS}  # type: ignore[has-type]
         cfg = self.config  # type: ignore[attr-defined]
         mode = cfg.action.mode
         if mode in ("rates_thrust", "motors"):  # a QuadX in the reference's mode 0 or -1
