@@ -275,6 +275,7 @@ class ReferenceEnv(ReferenceHooks):
     def _finish_init(self, render_resolution: tuple[int, int], render_mode: str | None) -> None:
         """After the native ``__init__``: the reference's command meanings, render mode, delta
         bounds and attributes."""
+        self._refuse_ignored_hooks()
         #: "human" asked for without a display: frames are drawn headless
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
@@ -303,6 +304,28 @@ class ReferenceEnv(ReferenceHooks):
         self.info: dict[str, Any] = {}
         self._reference_state: Any = None
         self._aviary_view: Any = None
+
+    def _refuse_ignored_hooks(self) -> None:
+        """A subclass of a native-loop env (payloads, gates) that overrides the reference's
+        hooks would have them silently ignored: refuse it, saying what works."""
+        if self.reference_loop:
+            return
+        overridden = [
+            name
+            for name in ("compute_state", "compute_term_trunc_reward", "compute_base_term_trunc_reward")
+            if getattr(type(self), name) is not getattr(ReferenceEnv, name, None)
+            and getattr(type(self), name) is not getattr(ReferenceHooks, name, None)
+        ]
+        if overridden:
+            from pyflyt_engine.compat.core.abstractions import UnsupportedFeature
+
+            self.close()  # type: ignore[attr-defined] - the native env is built by now
+            raise UnsupportedFeature(
+                f"{type(self).__name__} overrides {', '.join(overridden)}, which {self.reference_id} does not call "
+                "here (it runs the native task loop): subclass QuadXBaseEnv "
+                "(pyflyt_engine.compat.gym_envs.quadx_envs.quadx_base_env) for a task of your own, or write a "
+                "native reward preset (docs/migrating_from_pyflyt.md)"
+            )
 
     # ------------------------------------------------------------------ the reference's attributes
 
