@@ -38,15 +38,11 @@ TOLERANCES: dict[str, tuple[int, float | None]] = {
     "waypoints_mode6_still": (0, None),
     "rocket_idle": (12, 200.0),
     "fixedwing_neutral_half_thrust": (10, 40.0),
-    "pole_balance_motors": (3, 15.0),
-    "pole_waypoints_motors": (3, 15.0),
+    "pole_balance_motors": (2, 6.0),
+    "pole_waypoints_motors": (2, 8.0),
     "ball_in_cup_hover_command": (3, 20.0),
 }
 
-_JOINTED_POLE = (
-    "the native pole is held by a ball joint on the airframe; the reference's rests free on its "
-    "primitive drone and falls off onto the ground after 18 steps (a crash)"
-)
 #: (case, aspect) -> why it does not agree
 KNOWN: dict[tuple[str, str], str] = {
     ("hover_mode6_still", "return"): (
@@ -64,10 +60,6 @@ KNOWN: dict[tuple[str, str], str] = {
     ),
     ("fixedwing_neutral_half_thrust", "length"): "as its ending",
     ("fixedwing_neutral_half_thrust", "return"): "as its ending",
-    ("pole_balance_motors", "length"): _JOINTED_POLE,
-    ("pole_balance_motors", "return"): _JOINTED_POLE,
-    ("pole_waypoints_motors", "length"): _JOINTED_POLE,
-    ("pole_waypoints_motors", "return"): _JOINTED_POLE + "; its rewards are the native preset's",
     ("ball_in_cup_hover_command", "ending"): (
         "the native ball-in-cup ends on the ball's ground contact without the reference's `collision` flag"
     ),

@@ -118,12 +118,19 @@ def quadx_action(flight_mode: int) -> dict[str, Any]:
 #: 0.3125); its motor noise is biased upwards, so this is not sqrt(weight / max thrust)
 REFERENCE_QUADX_HOVER_COMMAND = 0.300
 
+#: the same for the reference's "primitive_drone" (its Pole and Ball-in-Cup envs' QuadX):
+#: 0.480, measured on PyFlyt 0.29.0 (Aviary, mode -1, four equal commands, level, from 5 m;
+#: the vertical acceleration fitted over 0.3 to 1 s: -0.24 m/s^2 at 0.475, -0.06 at 0.480,
+#: +0.17 at 0.485)
+REFERENCE_PRIMITIVE_HOVER_COMMAND = 0.480
 
-def thrust_gain(vehicle: Any) -> float:
+
+def thrust_gain(vehicle: Any, reference_hover: float = REFERENCE_QUADX_HOVER_COMMAND) -> float:
     """Scale from a reference mode-0 thrust command to this airframe's motor throttle: the
-    reference's hover command meets this airframe's hover throttle (1 without a mixer)."""
+    reference's hover command (its cf2x's unless given) meets this airframe's hover throttle
+    (1 without a mixer)."""
     try:
-        return float(vehicle.hover_throttle()) / REFERENCE_QUADX_HOVER_COMMAND
+        return float(vehicle.hover_throttle()) / reference_hover
     except Exception:  # noqa: BLE001 - an airframe without multirotor motors: no scaling
         return 1.0
 
@@ -148,10 +155,12 @@ class _PwmThrust:
 
     __slots__ = ("_vehicle", "_motors", "_gain")
 
-    def __init__(self, vehicle: Any, motors: bool = False) -> None:
+    def __init__(
+        self, vehicle: Any, motors: bool = False, reference_hover: float = REFERENCE_QUADX_HOVER_COMMAND
+    ) -> None:
         object.__setattr__(self, "_vehicle", vehicle)
         object.__setattr__(self, "_motors", motors)
-        object.__setattr__(self, "_gain", thrust_gain(vehicle))
+        object.__setattr__(self, "_gain", thrust_gain(vehicle, reference_hover))
 
     def set_setpoint(self, setpoint: Any) -> None:
         s = np.array(setpoint, dtype=np.float64)
@@ -271,6 +280,8 @@ class ReferenceEnv(ReferenceHooks):
     drone_kind: ClassVar[str] = "quadx"
     #: the reward each step starts from (PyFlyt 0.29.0: -0.1; the rocket's 0)
     step_reward: ClassVar[float] = -0.1
+    #: the reference QuadX's hover command the thrust and motor commands are matched at
+    reference_hover_command: ClassVar[float] = REFERENCE_QUADX_HOVER_COMMAND
 
     def _finish_init(self, render_resolution: tuple[int, int], render_mode: str | None) -> None:
         """After the native ``__init__``: the reference's command meanings, render mode, delta
@@ -285,7 +296,11 @@ class ReferenceEnv(ReferenceHooks):
         cfg = self.config  # type: ignore[attr-defined]
         mode = cfg.action.mode
         if mode in ("rates_thrust", "motors"):  # a QuadX in the reference's mode 0 or -1
-            self.vehicle = _PwmThrust(self.vehicle, motors=mode == "motors")  # type: ignore[attr-defined]
+            self.vehicle = _PwmThrust(  # type: ignore[attr-defined]
+                self.vehicle,  # type: ignore[attr-defined]
+                motors=mode == "motors",
+                reference_hover=self.reference_hover_command,
+            )
         space = self.observation_space  # type: ignore[has-type]
         if self._delta_bound is not None and isinstance(space, spaces.Dict):
             feature = space["target_deltas"].feature_space
@@ -354,7 +369,8 @@ class ReferenceEnv(ReferenceHooks):
     def _set_task_option(self, name: str, value: Any) -> None:
         row = np.asarray(value, dtype=np.float64).reshape(-1)
         if row.shape != (3,):
-            raise ValueError(f"{name.replace('start_position', 'start_pos')} must hold one (x, y, z) row, got {value!r}")
+            label = {"start_position": "start_pos", "start_orientation": "start_orn"}[name]
+            raise ValueError(f"{label} must hold one (x, y, z) row, e.g. np.array([[0.0, 0.0, 1.0]]), got {value!r}")
         task = self.task  # type: ignore[attr-defined]
         update = {name: tuple(float(v) for v in row)}
         task.configured = task.configured.model_copy(update=update)
@@ -476,7 +492,8 @@ class ReferenceEnv(ReferenceHooks):
         """PyFlyt 0.29.0 ``*BaseEnv.step`` (see the class docstring); the action is observed as given."""
         from pyflyt_engine.envs import core
 
-        clipped = core.clip_action(action, self._low, self._high, self.config.action.names)  # type: ignore[attr-defined]
+        names = self.config.action.names  # type: ignore[attr-defined]
+        clipped = core.clip_action(action, self._low, self._high, names)  # type: ignore[attr-defined]
         self.action = np.array(action, dtype=np.float64).reshape(clipped.shape)
         self._actions[0] = clipped  # type: ignore[attr-defined]
         self.reward = self.step_reward

@@ -17,6 +17,7 @@ from gymnasium import spaces
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.gym_envs._base import (
+    REFERENCE_PRIMITIVE_HOVER_COMMAND,
     ReferenceEnv,
     common_overrides,
     headless_render_mode,
@@ -99,10 +100,22 @@ class _WaypointCourse:
     frame, reward 100 at a target reached, the last one truncating (``env_complete``)."""
 
     waypoints: WaypointHandler
-    #: the dense reward's inverse-distance weight (PyFlyt 0.29.0: QuadX 0.1, Fixedwing 1.0)
+    #: the dense reward's progress weight (PyFlyt 0.29.0: 3; Pole-Waypoints 15)
+    _progress_weight: ClassVar[float] = 3.0
+    #: the dense reward's inverse-distance weight (QuadX 0.1, Fixedwing 1.0, Pole-Waypoints 0.5)
     _closeness_weight: ClassVar[float] = 0.1
     #: the dense reward's yaw-rate penalty weight (QuadX 0.01, Fixedwing none)
     _yaw_rate_weight: ClassVar[float] = 0.01
+    #: the reward of the step a target is reached (100; Pole-Waypoints 300)
+    _reach_reward: ClassVar[float] = 100.0
+
+    def _attitude_extras(self) -> np.ndarray:
+        """Entries after the attitude vector (the pole's 12 values)."""
+        return np.zeros(0)
+
+    def _extra_shaping(self) -> float:
+        """Further dense terms (Pole-Waypoints: 0.5 - the pole's lean)."""
+        return 0.0
 
     def _reference_reset(self) -> None:
         self.waypoints.reset(self.env, self.np_random)
@@ -115,23 +128,26 @@ class _WaypointCourse:
         """``attitude`` as Hover's; ``target_deltas`` (n, 3) to every remaining target, body frame
         ((n, 4) with yaw targets: the yaw error last)."""
         _, ang_pos, _, lin_pos, quaternion = self.compute_attitude()
+        attitude = self._attitude(self.action, self.angle_representation)
         self.state = {
-            "attitude": self._attitude(self.action, self.angle_representation),
+            "attitude": np.concatenate([attitude, self._attitude_extras()]),
             "target_deltas": self.waypoints.distance_to_targets(ang_pos, lin_pos, quaternion),
         }
 
     def compute_term_trunc_reward(self) -> None:
-        """Per 1/120 s: the base endings; dense: + max(3 x progress, 0) + w / distance (- 0.01 r^2
-        on the QuadX); a target reached: reward 100, the next target, the last truncates."""
+        """Per 1/120 s: the base endings; dense: + max(k x progress, 0) + w / distance (- 0.01 r^2
+        on the QuadX; + 0.5 - lean with the pole); a target reached: reward 100 (300 with the
+        pole), the next target, the last truncates."""
         self.compute_base_term_trunc_reward()
         w = self.waypoints
         if not self.sparse_reward:
-            self.reward += max(3.0 * w.progress_to_next_target, 0.0)
+            self.reward += max(self._progress_weight * w.progress_to_next_target, 0.0)
             self.reward += self._closeness_weight / w.distance_to_next_target
+            self.reward += self._extra_shaping()
             if self._yaw_rate_weight:
                 self.reward -= self._yaw_rate_weight * float(self.env.state(0)[0][2]) ** 2
         if w.target_reached:
-            self.reward = 100.0
+            self.reward = self._reach_reward
             w.advance_targets()
             self.truncation |= w.all_targets_reached
             self.info["env_complete"] = w.all_targets_reached
@@ -204,7 +220,21 @@ class QuadXWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeWaypoints):
             self.observation_space = spaces.Dict({**self.observation_space.spaces, "target_deltas": deltas})
 
 
-class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
+class _PoleReadings:
+    """The native pole payload read as the reference's ``PoleHandler`` (PyFlyt 0.29.0): its
+    12 values [tip position, base position, tip velocity, base velocity], relative to the
+    vehicle in its body frame, and its ``leaningness`` (horizontal tip-to-base distance,
+    1 once the tip is not above the base)."""
+
+    def _attitude_extras(self) -> np.ndarray:
+        return self.task.pole.observe(self.vehicle.state)
+
+    @property
+    def leaningness(self) -> float:
+        return float(self.task.pole.lean)
+
+
+class QuadXPoleBalanceEnv(_PoleReadings, ReferenceEnv, _NativePoleBalance):
     """``PyFlyt/QuadX-Pole-Balance-v4``.
 
     PyFlyt 0.29.0 QuadXPoleBalanceEnv: flight_mode -1 (four motor commands in [0, 0.8]),
@@ -213,6 +243,8 @@ class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
     """
 
     reference_id = "PyFlyt/QuadX-Pole-Balance-v4"
+    reference_loop = True
+    reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
 
     def __init__(
         self,
@@ -237,12 +269,28 @@ class QuadXPoleBalanceEnv(ReferenceEnv, _NativePoleBalance):
             render_resolution=render_resolution,
         )
         cfg["action"] = quadx_action(flight_mode)
-        self.flight_mode = flight_mode
+        still_spawn(cfg["task"], (0.0, 0.0, 1.0))
+        self.flight_mode, self.sparse_reward = flight_mode, bool(sparse_reward)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
 
+    def compute_state(self) -> None:
+        """Hover's attitude vector, then the pole's 12 values."""
+        self.state = np.concatenate([self._attitude(self.action, self.angle_representation), self._attitude_extras()])
 
-class QuadXPoleWaypointsEnv(ReferenceEnv, _NativePoleWaypoints):
+    def compute_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 QuadXPoleBalanceEnv, per 1/120 s: the base endings (the pole touching the
+        ground is a crash); dense: + 1 - |p - (0, 0, 1)| - |(roll, pitch)| - lean - 0.01 r^2."""
+        self.compute_base_term_trunc_reward()
+        if not self.sparse_reward:
+            ang_vel, ang_pos, _, lin_pos = self.env.state(0)
+            self.reward -= float(np.linalg.norm(lin_pos - np.array([0.0, 0.0, 1.0])) + np.linalg.norm(ang_pos[:2]))
+            self.reward -= self.leaningness
+            self.reward += 1.0
+            self.reward -= 0.01 * float(ang_vel[2]) ** 2
+
+
+class QuadXPoleWaypointsEnv(_PoleReadings, _WaypointCourse, ReferenceEnv, _NativePoleWaypoints):
     """``PyFlyt/QuadX-Pole-Waypoints-v4``.
 
     PyFlyt 0.29.0 QuadXPoleWaypointsEnv: num_targets 4, goal_reach_distance 0.2,
@@ -252,6 +300,15 @@ class QuadXPoleWaypointsEnv(ReferenceEnv, _NativePoleWaypoints):
 
     reference_id = "PyFlyt/QuadX-Pole-Waypoints-v4"
     completion_truncates = True
+    reference_loop = True
+    reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
+    # PyFlyt 0.29.0 QuadXPoleWaypointsEnv: + max(15 progress, 0) + 0.5 / distance + 0.5 - lean, 300 a target
+    _progress_weight = 15.0
+    _closeness_weight = 0.5
+    _reach_reward = 300.0
+
+    def _extra_shaping(self) -> float:
+        return 0.5 - self.leaningness
 
     def __init__(
         self,
@@ -281,10 +338,21 @@ class QuadXPoleWaypointsEnv(ReferenceEnv, _NativePoleWaypoints):
         cfg["task"].update(
             num_targets=int(num_targets), goal_reach_distance=float(goal_reach_distance), min_target_height=1.3
         )
-        self.flight_mode = flight_mode
+        still_spawn(cfg["task"], (0.0, 0.0, 1.0))
+        self.flight_mode, self.sparse_reward = flight_mode, bool(sparse_reward)
         self._delta_bound = 2.0 * float(flight_dome_size)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
+        self.waypoints = WaypointHandler(
+            enable_render=False,  # the env's markers show the course
+            num_targets=int(num_targets),
+            use_yaw_targets=False,
+            goal_reach_distance=float(goal_reach_distance),
+            goal_reach_angle=math.inf,
+            flight_dome_size=float(flight_dome_size),
+            min_height=1.3,
+            np_random=self.np_random,
+        )
 
 
 class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
@@ -296,6 +364,7 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
     """
 
     reference_id = "PyFlyt/QuadX-Ball-In-Cup-v4"
+    reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
 
     def __init__(
         self,
@@ -569,8 +638,9 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
         rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)
         self.ground_lin_vel = rotation @ self.lin_vel  # body -> ground
         angles = self.ang_pos if self.angle_representation == 0 else quaternion
+        aux = self.compute_auxiliary()
         self.state = np.concatenate(
-            [self.ang_vel, angles, self.lin_vel, self.lin_pos, self.action, self.compute_auxiliary(), [self.landing_pad_contact]]
+            [self.ang_vel, angles, self.lin_vel, self.lin_pos, self.action, aux, [self.landing_pad_contact]]
         )
 
     def compute_base_term_trunc_reward(self) -> None:
