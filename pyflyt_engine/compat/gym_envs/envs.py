@@ -359,12 +359,17 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
     """``PyFlyt/QuadX-Ball-In-Cup-v4``.
 
     PyFlyt 0.29.0 QuadXBallInCupEnv: goal_reach_distance 1.0, goal_reach_velocity 1.0,
-    flight_mode 0, flight_dome_size 30.0, max_duration_seconds 10.0, agent_hz 30;
-    observation Box(27,) / Box(26,).
+    flight_mode 0, flight_dome_size 30.0, max_duration_seconds 10.0, agent_hz 30; spawn
+    exactly at (0, 0, 4); observation Box(27,) / Box(26,): the attitude vector, the ball's
+    position relative to the vehicle and its velocity, both in the body frame.  The ball
+    and cup are the native payloads (a 0.1 kg ball on a 0.5 m tether, a cup with a floor);
+    the ball touching the cup counts as touching the vehicle, where the reference's ball
+    rests on its airframe between the cup's walls.
     """
 
     reference_id = "PyFlyt/QuadX-Ball-In-Cup-v4"
     reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
+    reference_loop = True
 
     def __init__(
         self,
@@ -394,9 +399,78 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
         cfg["task"].update(
             goal_reach_distance=float(goal_reach_distance), goal_reach_velocity=float(goal_reach_velocity)
         )
-        self.flight_mode = flight_mode
+        still_spawn(cfg["task"], (0.0, 0.0, 4.0))
+        self.flight_mode, self.sparse_reward = flight_mode, bool(sparse_reward)
+        self.goal_reach_distance, self.goal_reach_velocity = float(goal_reach_distance), float(goal_reach_velocity)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
+
+    @property
+    def pendulum_id(self) -> int:
+        """The ball's PyBullet body (the reference's name)."""
+        return int(self.payloads.by_name[self.task.options.ball].body_id)
+
+    @property
+    def cup_id(self) -> int:
+        return int(self.payloads.by_name[self.task.options.cup].body_id)
+
+    def _reference_reset(self) -> None:
+        self.drone_state_error = np.zeros(4)
+        self.drone_state_prev_error = np.zeros(4)
+
+    def compute_state(self) -> None:
+        """The attitude vector, then the ball's body-frame offset and body-frame velocity; updates
+        the four squared errors [|omega|^2, |angles|^2, |v|^2, |p - (0, 0, 1)|^2] the reward reads."""
+        _, _, _, lin_pos, quaternion = self.compute_attitude()
+        rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)  # body -> ground
+        ball = self.payloads.state(self.task.options.ball)
+        self.ball_lin_pos, self.ball_lin_vel = np.asarray(ball.position), np.asarray(ball.lin_vel)
+        self.ball_rel_lin_pos = rotation.T @ (self.ball_lin_pos - lin_pos)
+        self.ball_rel_lin_vel = rotation.T @ self.ball_lin_vel  # the ball's own velocity, as the reference's
+        self.drone_state_prev_error = self.drone_state_error.copy()
+        error = self.env.state(0).copy()
+        error[-1] -= np.array([0.0, 0.0, 1.0])
+        self.drone_state_error = np.linalg.norm(error, axis=-1) ** 2
+        attitude = self._attitude(self.action, self.angle_representation)
+        self.state = np.concatenate([attitude, self.ball_rel_lin_pos, self.ball_rel_lin_vel])
+
+    def _ball_touches_vehicle(self) -> bool:
+        contacts = self.env.contact_array
+        ball = self.pendulum_id
+        return bool(contacts[ball, self.env.drones[0].Id] or contacts[ball, self.cup_id])
+
+    def compute_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 QuadXBallInCupEnv, per 1/120 s: the base endings (the ball on the ground
+        is a crash); dense: + 0.4 - 0.01 r^2 - 0.01 x (sum of the squared errors), and with the
+        ball above the vehicle - 4 ln(0.45 d + 0.01) (d its distance), else + its height
+        below.  The ball touching the vehicle from below: -500, terminated
+        (``self_collision``); from above with the position error^2 < goal_reach_distance and
+        the velocity^2 < goal_reach_velocity: +1000, truncated (``env_complete``); else dense:
+        + 50 x (the position error^2 shed) + 10 / (position error^2 + 0.1)."""
+        self.compute_base_term_trunc_reward()
+        offset = self.ball_lin_pos - self.env.state(0)[-1]
+        height, distance = float(offset[2]), float(np.linalg.norm(offset))
+        if not self.sparse_reward:
+            self.reward -= 0.01 * float(self.env.state(0)[0][2]) ** 2
+            self.reward += 0.4
+            self.reward -= 0.01 * float(np.sum(self.drone_state_error))
+            self.reward += -4.0 * float(np.log(0.45 * distance + 1e-2)) if height > 0.0 else height
+        if not self._ball_touches_vehicle():
+            return
+        if height < 0.0:
+            self.reward = -500.0
+            self.termination = True
+            self.info["self_collision"] = True
+            return
+        error = self.drone_state_error
+        if error[-1] < self.goal_reach_distance and error[-2] < self.goal_reach_velocity:
+            self.reward += 1000.0
+            self.truncation = True
+            self.info["env_complete"] = True
+            return
+        if not self.sparse_reward:
+            self.reward += 50.0 * float(self.drone_state_prev_error[-1] - self.drone_state_error[-1])
+            self.reward += 10.0 / (float(self.drone_state_error[-1]) + 0.1)
 
 
 class QuadXGatesEnv(ReferenceEnv, _NativeGates):
