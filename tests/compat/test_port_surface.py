@@ -441,15 +441,3 @@ def test_making_resetting_and_stepping_a_reference_id_warns_nothing(env_id):
             env.step(env.action_space.sample())
         finally:
             env.close()
-
-
-def test_hooks_a_native_loop_env_would_ignore_are_refused_not_ignored():
-    from pyflyt_engine.compat.core.abstractions import UnsupportedFeature
-    from pyflyt_engine.compat.gym_envs.quadx_envs.quadx_gates_env import QuadXGatesEnv
-
-    class MyGates(QuadXGatesEnv):
-        def compute_term_trunc_reward(self):
-            self.reward = 1.0
-
-    with pytest.raises(UnsupportedFeature, match="compute_term_trunc_reward.*QuadXBaseEnv"):
-        MyGates(num_targets=2, camera_resolution=(16, 16))

@@ -258,24 +258,20 @@ class ReferenceEnv(ReferenceHooks):
     (the last observation), ``action``, ``reward``, ``termination``, ``truncation``,
     ``info`` and ``angle_representation`` (0 Euler, 1 quaternion).
 
-    With :attr:`reference_loop` (Hover, Waypoints, Fixed-wing Waypoints, Rocket Landing)
-    the episode is the reference's too: after the native reset and the settling, ``step``
-    starts the reward at :attr:`step_reward`, applies the action and runs ``120 /
-    agent_hz`` world steps of 1/120 s, calling the reference's hooks ``compute_state`` and
-    ``compute_term_trunc_reward`` after each (its reward functions and endings, written
-    per env; a subclass may override them as in the reference) and stopping once the
-    episode ended; ``step_count > max_steps`` truncates.  Without it (the payload and
-    gate envs) the native loop, task and rewards run and the attributes mirror its step.
+    The episode is the reference's: after the native reset (spawn, payloads, the task's
+    scenery) and the settling, ``step`` starts the reward at :attr:`step_reward`, applies
+    the action and runs ``120 / agent_hz`` world steps of 1/120 s, calling the reference's
+    hooks ``compute_state`` and ``compute_term_trunc_reward`` after each (its observations,
+    reward functions and endings, written per env; a subclass may override them as in the
+    reference) and stopping once the episode ended; ``step_count > max_steps`` truncates.
+    The native task supplies the world (payloads, pad, gates, the first course) but
+    neither rewards nor ends these episodes.
     """
 
     #: the reference's id of this env
     reference_id: ClassVar[str] = ""
-    #: waypoint envs: completing the course truncates (PyFlyt 0.29.0 waypoint envs)
-    completion_truncates: ClassVar[bool] = False
     #: bound of the target deltas (PyFlyt 0.29.0: 2 x flight_dome_size), or None
     _delta_bound: float | None = None
-    #: run the reference's episode loop and hooks (see the class docstring)
-    reference_loop: ClassVar[bool] = False
     #: the Aviary drone type of the vehicle ("quadx", "fixedwing", "rocket")
     drone_kind: ClassVar[str] = "quadx"
     #: the reward each step starts from (PyFlyt 0.29.0: -0.1; the rocket's 0)
@@ -286,7 +282,6 @@ class ReferenceEnv(ReferenceHooks):
     def _finish_init(self, render_resolution: tuple[int, int], render_mode: str | None) -> None:
         """After the native ``__init__``: the reference's command meanings, render mode, delta
         bounds and attributes."""
-        self._refuse_ignored_hooks()
         #: "human" asked for without a display: frames are drawn headless
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
@@ -319,28 +314,6 @@ class ReferenceEnv(ReferenceHooks):
         self.info: dict[str, Any] = {}
         self._reference_state: Any = None
         self._aviary_view: Any = None
-
-    def _refuse_ignored_hooks(self) -> None:
-        """A subclass of a native-loop env (payloads, gates) that overrides the reference's
-        hooks would have them silently ignored: refuse it, saying what works."""
-        if self.reference_loop:
-            return
-        overridden = [
-            name
-            for name in ("compute_state", "compute_term_trunc_reward", "compute_base_term_trunc_reward")
-            if getattr(type(self), name) is not getattr(ReferenceEnv, name, None)
-            and getattr(type(self), name) is not getattr(ReferenceHooks, name, None)
-        ]
-        if overridden:
-            from pyflyt_engine.compat.core.abstractions import UnsupportedFeature
-
-            self.close()  # type: ignore[attr-defined] - the native env is built by now
-            raise UnsupportedFeature(
-                f"{type(self).__name__} overrides {', '.join(overridden)}, which {self.reference_id} does not call "
-                "here (it runs the native task loop): subclass QuadXBaseEnv "
-                "(pyflyt_engine.compat.gym_envs.quadx_envs.quadx_base_env) for a task of your own, or write a "
-                "native reward preset (docs/migrating_from_pyflyt.md)"
-            )
 
     # ------------------------------------------------------------------ the reference's attributes
 
@@ -397,40 +370,30 @@ class ReferenceEnv(ReferenceHooks):
 
     # ------------------------------------------------------------------ episodes
 
-    def _reference_info(self, info: dict[str, Any]) -> dict[str, Any]:
-        return info
-
     def _new_info(self) -> dict[str, Any]:
-        """The reference loop's info at a reset (PyFlyt 0.29.0 ``begin_reset``)."""
+        """The info at a reset (PyFlyt 0.29.0 ``begin_reset``)."""
         return {"out_of_bounds": False, "collision": False, "env_complete": False}
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """The native reset, then the reference's settling: PyFlyt 0.29.0 ``*BaseEnv.end_reset``
         runs 10 Aviary steps (1/120 s each) with the flight mode's preset setpoint (idle
         motors, neutral surfaces) before the first observation, so a QuadX starts 3.4 cm
-        below its spawn point, falling at 0.8 m/s.  ``options`` are ignored as in the
-        reference, but for ``{"task": {...}}`` (the native per-episode task options)."""
-        kept = {"task": options["task"]} if isinstance(options, dict) and "task" in options else None
-        _, info = super().reset(seed=seed, options=kept)  # type: ignore[misc]
+        below its spawn point, falling at 0.8 m/s.  ``options`` are ignored, as the
+        reference's envs ignore them (its Rocket reads two, whose defaults are what is done
+        here: see :class:`~pyflyt_engine.compat.gym_envs.envs.RocketLandingEnv`)."""
+        super().reset(seed=seed)  # type: ignore[misc]
         self._after_spawn()
         self.step_count = 0
         self.termination = self.truncation = False
         self.reward = 0.0
         self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
-        if self.reference_loop:
-            self.info = self._new_info()
-            self._reference_reset()
-            self._settle()
-            self.compute_state()
-            self._show_markers()
-            return fresh(self.state), dict(self.info)
+        self.info = self._new_info()
+        self._reference_reset()
         self._settle()
-        state = self.vehicle.state  # type: ignore[attr-defined]
-        self.task.reset(state, self.np_random)  # type: ignore[attr-defined]
+        self.compute_state()
+        self._after_agent_step()
         self._show_markers()
-        info.update(self.task.info())  # type: ignore[attr-defined]
-        self.state, self.info = self._observe(0, [state]), self._reference_info(info)  # type: ignore[attr-defined]
-        return self.state, self.info
+        return fresh(self.state), dict(self.info)
 
     def _show_markers(self) -> None:
         if self._markers is not None:  # type: ignore[attr-defined]
@@ -443,7 +406,7 @@ class ReferenceEnv(ReferenceHooks):
         """Change the spawned state before settling (the rocket's drop velocity)."""
 
     def _reference_reset(self) -> None:
-        """The reference loop's own reset, before the settling (a course of waypoints)."""
+        """The env's own reset, before the settling (a course of waypoints)."""
 
     def _settle(self) -> None:
         world = self.world  # type: ignore[attr-defined]
@@ -456,7 +419,7 @@ class ReferenceEnv(ReferenceHooks):
         finally:
             world.physics_per_agent = per_agent
 
-    # the reference's hooks; the reference-loop envs write them
+    # the reference's hooks; every env writes them
     def compute_state(self) -> None:
         """Set ``self.state`` (the observation) from ``self.env``."""
         raise NotImplementedError
@@ -465,30 +428,14 @@ class ReferenceEnv(ReferenceHooks):
         """Adjust ``self.reward``, ``self.termination``, ``self.truncation`` and ``self.info``."""
         raise NotImplementedError
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        if self.reference_loop:
-            return self._reference_step(action)
-        observation, reward, terminated, truncated, info = super().step(action)  # type: ignore[misc]
-        if self.completion_truncates and info.get("env_complete") and terminated:
-            if not (info.get("collision") or info.get("out_of_bounds")):
-                terminated, truncated = False, True
-        info = self._reference_info(info)
-        self.action = np.array(action, dtype=np.float64)
-        self.state, self.reward, self.termination, self.truncation, self.info = (
-            observation,
-            reward,
-            terminated,
-            truncated,
-            info,
-        )
-        self.step_count += 1
-        return observation, reward, terminated, truncated, info
+    def _after_agent_step(self) -> None:
+        """Once per agent step, after its world steps (the Gates camera frame)."""
 
     def _to_setpoint(self, action: np.ndarray) -> np.ndarray:
         """The clipped action as the vehicle's setpoint (the fixed-wing maps its thrust)."""
         return action
 
-    def _reference_step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """PyFlyt 0.29.0 ``*BaseEnv.step`` (see the class docstring); the action is observed as given."""
         from pyflyt_engine.envs import core
 
@@ -512,6 +459,7 @@ class ReferenceEnv(ReferenceHooks):
             world.physics_per_agent = per_agent
         self.step_count += 1
         self._steps += 1  # type: ignore[attr-defined]
+        self._after_agent_step()
         self._show_markers()
         return fresh(self.state), float(self.reward), bool(self.termination), bool(self.truncation), dict(self.info)
 

@@ -49,7 +49,6 @@ class QuadXHoverEnv(ReferenceEnv, _NativeHover):
     """
 
     reference_id = "PyFlyt/QuadX-Hover-v4"
-    reference_loop = True
 
     def __init__(
         self,
@@ -165,8 +164,6 @@ class QuadXWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeWaypoints):
     """
 
     reference_id = "PyFlyt/QuadX-Waypoints-v4"
-    completion_truncates = True
-    reference_loop = True
 
     def __init__(
         self,
@@ -243,7 +240,6 @@ class QuadXPoleBalanceEnv(_PoleReadings, ReferenceEnv, _NativePoleBalance):
     """
 
     reference_id = "PyFlyt/QuadX-Pole-Balance-v4"
-    reference_loop = True
     reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
 
     def __init__(
@@ -299,8 +295,6 @@ class QuadXPoleWaypointsEnv(_PoleReadings, _WaypointCourse, ReferenceEnv, _Nativ
     """
 
     reference_id = "PyFlyt/QuadX-Pole-Waypoints-v4"
-    completion_truncates = True
-    reference_loop = True
     reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
     # PyFlyt 0.29.0 QuadXPoleWaypointsEnv: + max(15 progress, 0) + 0.5 / distance + 0.5 - lean, 300 a target
     _progress_weight = 15.0
@@ -369,7 +363,6 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
 
     reference_id = "PyFlyt/QuadX-Ball-In-Cup-v4"
     reference_hover_command = REFERENCE_PRIMITIVE_HOVER_COMMAND  # its primitive_drone
-    reference_loop = True
 
     def __init__(
         self,
@@ -482,13 +475,16 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
     max_duration_seconds 10.0, agent_hz 40; observation Dict(attitude, rgba_cam
     Box(0, 255, (4, H, W), uint8), target_deltas Sequence(Box(3,))).
 
-    Here a gate is passed by flying through its opening (``goal_reach_distance`` is
-    accepted and not used), the course climbs at most ``max_gate_angles[1]`` and turns at
-    most ``max_gate_angles[2]`` per gate; gate roll is always 0.
+    The episode is the reference's: a gate counts when the vehicle is within
+    ``goal_reach_distance`` of its centre (+100; the last one terminates with
+    ``env_complete``), more than 2 x ``max_gate_distance`` from the next gate is
+    ``out_of_bounds`` (-100), no flight dome (the reference's is infinite), the camera
+    frame is taken once per agent step.  The course is the native one: it climbs at most
+    ``max_gate_angles[1]`` and turns at most ``max_gate_angles[2]`` per gate; gate roll is
+    always 0; the gates are the native gate bodies.
     """
 
     reference_id = "PyFlyt/QuadX-Gates-v3"
-    completion_truncates = False
 
     def __init__(
         self,
@@ -541,9 +537,63 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
         cam["camera"] = {**cam["camera"], "height": int(camera_resolution[0]), "width": int(camera_resolution[1])}
         cam.update(key="rgba_cam", channels="rgba", channel_first=True)
         cfg["camera_observation"] = cam
-        self.flight_mode, self.goal_reach_distance = flight_mode, goal_reach_distance
+        self.flight_mode, self.goal_reach_distance = flight_mode, float(goal_reach_distance)
+        self.num_targets, self.max_gate_distance = n, float(max_gate_distance)
+        self.camera_resolution = tuple(camera_resolution)
         super().__init__(cfg, render_mode=headless_render_mode(render_mode), info_reward_terms=False)
         self._finish_init(render_resolution, render_mode)
+        self.flight_dome_size = math.inf  # PyFlyt 0.29.0 QuadXGatesEnv: the base env's default
+
+    def _reference_reset(self) -> None:
+        """The course the native reset drew: gate centres, ground frame."""
+        self.targets = [c.copy() for c in np.asarray(self.task.centres, dtype=np.float64)]
+        key = self.config.camera_observation.key
+        self._rgba_cam = np.zeros(self.observation_space[key].shape, dtype=np.uint8)  # until the settled frame
+
+    def _camera_frame(self) -> None:
+        """The onboard camera's (4, H, W) RGBA frame, taken now (once per agent step)."""
+        key = self.config.camera_observation.key
+        self._rgba_cam = self._observe(0, [self.vehicle.state])[key]
+
+    def _after_agent_step(self) -> None:
+        self._camera_frame()
+        self.state["rgba_cam"] = self._rgba_cam
+
+    def compute_state(self) -> None:
+        """``attitude``, the last camera frame ``rgba_cam``, body-frame ``target_deltas`` to the gates left."""
+        _, _, _, lin_pos, quaternion = self.compute_attitude()
+        rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)  # body -> ground
+        deltas = (np.asarray(self.targets) - lin_pos) @ rotation
+        self.dis_error_scalar = float(np.linalg.norm(deltas[0]))
+        self.state = {
+            "attitude": self._attitude(self.action, self.angle_representation),
+            "rgba_cam": self._rgba_cam,
+            "target_deltas": deltas,
+        }
+
+    @property
+    def target_reached(self) -> bool:
+        return self.dis_error_scalar < self.goal_reach_distance
+
+    def _marker_points(self) -> Any:
+        return np.asarray(self.targets, dtype=np.float64).reshape(-1, 3)
+
+    def compute_term_trunc_reward(self) -> None:
+        """PyFlyt 0.29.0 QuadXGatesEnv, per 1/120 s: the base endings; more than 2 x
+        max_gate_distance from the next gate: -100, ``out_of_bounds``; a gate reached: +100,
+        the next one (the last terminates with ``env_complete``)."""
+        self.compute_base_term_trunc_reward()
+        if self.dis_error_scalar > 2.0 * self.max_gate_distance:
+            self.reward += -100.0
+            self.info["out_of_bounds"] = True
+            self.termination = True
+        if self.target_reached:
+            self.reward += 100.0
+            if len(self.targets) > 1:
+                self.targets = self.targets[1:]
+            else:
+                self.info["env_complete"] = True
+                self.termination = True
 
 
 class FixedwingWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeFixedwingWaypoints):
@@ -559,8 +609,6 @@ class FixedwingWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeFixedwingWaypo
     """
 
     reference_id = "PyFlyt/Fixedwing-Waypoints-v3"
-    completion_truncates = True
-    reference_loop = True
     drone_kind = "fixedwing"
     _closeness_weight = 1.0
     _yaw_rate_weight = 0.0
@@ -637,7 +685,6 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
     """
 
     reference_id = "PyFlyt/Rocket-Landing-v4"
-    reference_loop = True
     drone_kind = "rocket"
     step_reward = 0.0
 
