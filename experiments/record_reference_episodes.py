@@ -11,6 +11,8 @@ project, so the tests never import the reference: they read the file this writes
   length, how it ended (terminated / truncated and the info flags), its return and the
   first and last rewards (or the error the reference raises: its Gates-v3 cannot load
   its gate model);
+* **pz_episodes**: the same for the PettingZoo envs: per agent, the step it left, how and
+  its return;
 * **facts**: what user code reads off the env and the Aviary: a spawn moved by assigning
   ``env.unwrapped.start_pos``, the Rocket's ``aux_state`` at the start and its fuel
   entry, ``metadata["render_fps"]``, ``max_steps``, the camera's depth range, a drone's
@@ -87,6 +89,40 @@ def record_episodes() -> dict:
     return out
 
 
+#: PettingZoo cases: name -> (class name, kwargs, constant action per agent)
+PZ_EPISODES = {
+    "ma_hover_hover_command": ("MAQuadXHoverEnvV2", {}, [0.0, 0.0, 0.0, 0.3]),
+    "ma_hover_mode6_still": ("MAQuadXHoverEnvV2", {"flight_mode": 6, "max_duration_seconds": 5.0}, [0.0] * 4),
+}
+
+
+def record_pz_episodes() -> dict:
+    import numpy as np
+
+    import PyFlyt.pz_envs as pz
+
+    out = {}
+    for name, (cls, kwargs, action) in PZ_EPISODES.items():
+        runs = []
+        for seed in SEEDS:
+            env = getattr(pz, cls)(**kwargs)
+            env.reset(seed=seed)
+            steps, returns, ends = 0, {}, {}
+            while env.agents:
+                live = list(env.agents)
+                _, rewards, terms, truncs, infos = env.step({a: np.array(action, dtype=np.float64) for a in live})
+                steps += 1
+                for a in live:
+                    returns[a] = returns.get(a, 0.0) + float(rewards[a])
+                    if terms[a] or truncs[a]:
+                        ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]),
+                                   "info": {k: bool(v) for k, v in infos[a].items()}}
+            runs.append({"seed": seed, "steps": steps, "returns": returns, "ends": ends})
+            env.close()
+        out[name] = {"class": cls, "kwargs": kwargs, "action": action, "runs": runs}
+    return out
+
+
 def record_facts() -> dict:
     import gymnasium
     import numpy as np
@@ -160,6 +196,7 @@ def main() -> None:
         "script": "experiments/record_reference_episodes.py",
         "seeds": list(SEEDS),
         "episodes": record_episodes(),
+        "pz_episodes": record_pz_episodes(),
         "facts": record_facts(),
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
