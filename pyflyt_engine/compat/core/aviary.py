@@ -29,7 +29,7 @@ import numpy as np
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.core.abstractions import YAML_AIRFRAMES, ControlClass, UnsupportedFeature, WindFieldClass
-from pyflyt_engine.compat.gym_envs._base import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
+from pyflyt_engine.compat._commands import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
 from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
@@ -139,6 +139,7 @@ class Drone:
         self._gain = thrust_gain(self.vehicle) if kind == "quadx" else 1.0
         self._last_state: np.ndarray | None = None
         self._last_aux: np.ndarray | None = None
+        self._state_source: KinematicState | None = None  # the vehicle state _last_state was made from
 
     # ------------------------------------------------------------------ read-outs
 
@@ -147,7 +148,9 @@ class Drone:
         """(4, 3): [ang_vel (body), ang_pos (Euler), lin_vel (body), lin_pos (ground)]."""
         if not self._aviary.connected:  # PyFlyt 0.29.0: the last state stays readable
             return self._last_state.copy() if self._last_state is not None else np.zeros((4, 3))
-        self._last_state = state_array(self.vehicle.state)
+        source = self.vehicle.state  # the same object until the body moves
+        if source is not self._state_source or self._last_state is None:
+            self._state_source, self._last_state = source, state_array(source)
         return self._last_state.copy()
 
     @property
@@ -520,6 +523,13 @@ class Aviary:
         matrix = self.world.contact_array
         out[np.ix_(ids, ids)] = matrix
         return out
+
+    def _touches_ground(self) -> bool:
+        """``np.any(contact_array[planeId])``, without building the whole array."""
+        bodies, ground = self.world.contact_bodies, self.world.ground_id
+        if ground is None or ground not in bodies:
+            return False
+        return bool(np.any(self.world.contact_array[bodies.index(ground)]))
 
     def register_all_new_bodies(self) -> None:
         """Track collisions of every body created since (e.g. with ``aviary.loadURDF``)."""

@@ -126,8 +126,9 @@ class _WaypointCourse:
     def compute_state(self) -> None:
         """``attitude`` as Hover's; ``target_deltas`` (n, 3) to every remaining target, body frame
         ((n, 4) with yaw targets: the yaw error last)."""
-        _, ang_pos, _, lin_pos, quaternion = self.compute_attitude()
-        attitude = self._attitude(self.action, self.angle_representation)
+        read = self.compute_attitude()
+        _, ang_pos, _, lin_pos, quaternion = read
+        attitude = self._attitude(self.action, self.angle_representation, read)
         self.state = {
             "attitude": np.concatenate([attitude, self._attitude_extras()]),
             "target_deltas": self.waypoints.distance_to_targets(ang_pos, lin_pos, quaternion),
@@ -414,7 +415,8 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
     def compute_state(self) -> None:
         """The attitude vector, then the ball's body-frame offset and body-frame velocity; updates
         the four squared errors [|omega|^2, |angles|^2, |v|^2, |p - (0, 0, 1)|^2] the reward reads."""
-        _, _, _, lin_pos, quaternion = self.compute_attitude()
+        read = self.compute_attitude()
+        _, _, _, lin_pos, quaternion = read
         rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)  # body -> ground
         ball = self.payloads.state(self.task.options.ball)
         self.ball_lin_pos, self.ball_lin_vel = np.asarray(ball.position), np.asarray(ball.lin_vel)
@@ -424,7 +426,7 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
         error = self.env.state(0).copy()
         error[-1] -= np.array([0.0, 0.0, 1.0])
         self.drone_state_error = np.linalg.norm(error, axis=-1) ** 2
-        attitude = self._attitude(self.action, self.angle_representation)
+        attitude = self._attitude(self.action, self.angle_representation, read)
         self.state = np.concatenate([attitude, self.ball_rel_lin_pos, self.ball_rel_lin_vel])
 
     def _ball_touches_vehicle(self) -> bool:
@@ -561,12 +563,13 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
 
     def compute_state(self) -> None:
         """``attitude``, the last camera frame ``rgba_cam``, body-frame ``target_deltas`` to the gates left."""
-        _, _, _, lin_pos, quaternion = self.compute_attitude()
+        read = self.compute_attitude()
+        _, _, _, lin_pos, quaternion = read
         rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)  # body -> ground
         deltas = (np.asarray(self.targets) - lin_pos) @ rotation
         self.dis_error_scalar = float(np.linalg.norm(deltas[0]))
         self.state = {
-            "attitude": self._attitude(self.action, self.angle_representation),
+            "attitude": self._attitude(self.action, self.angle_representation, read),
             "rgba_cam": self._rgba_cam,
             "target_deltas": deltas,
         }
