@@ -4,8 +4,11 @@
     import pyflyt_engine.compat.gym_envs  # noqa: F401
     env = gymnasium.make("PyFlyt/QuadX-Hover-v4")
 
-Each id is a native env config with the reference's arguments, defaults and spaces
-(:mod:`.envs`); ``docs/migrating_from_pyflyt.md`` lists what still differs.
+Each id has the reference's arguments, defaults, spaces and episodes (its rewards and
+endings) over a world built from a native env config (:mod:`.envs`); the reference's
+module tree is mirrored (``quadx_envs``, ``fixedwing_envs``, ``rocket_envs``, ``utils``,
+with the base envs users subclass); ``docs/migrating_from_pyflyt.md`` lists what still
+differs.
 """
 
 from __future__ import annotations

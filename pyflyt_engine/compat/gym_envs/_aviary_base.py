@@ -23,8 +23,10 @@ from PyFlyt 0.29.0 ``QuadXBaseEnv`` / ``FixedwingBaseEnv`` / ``RocketBaseEnv``):
 * ``compute_base_term_trunc_reward``: the time limit, a crash (contact; reward -100,
   ``collision``) and leaving the dome (reward -100, ``out_of_bounds``).
 
-The stock envs of :mod:`pyflyt_engine.compat.gym_envs` are native envs (faster, the
-project's tasks); these bases are for the code that brings its own task.
+The stock envs of :mod:`pyflyt_engine.compat.gym_envs` run the same episode over worlds
+built from native env configs (restored, not rebuilt, at each reset; their payloads and
+scenery); these bases build a fresh compat Aviary per reset, as the reference does, for
+code that brings its own task and scenery.
 """
 
 from __future__ import annotations

@@ -1,16 +1,16 @@
 """What every reference-shaped single-agent env shares.
 
-Each env of :mod:`pyflyt_engine.compat.gym_envs` is a native env class (same loop, same
-task, same reward presets) built from its shipped config with the reference's defaults
-written into it; the few things a config cannot say are done here, in thin overrides:
+Each env of :mod:`pyflyt_engine.compat.gym_envs` is a native env class built from its
+shipped config with the reference's defaults written into it (the world: airframe,
+payloads, scenery, spawn), with the reference's episode run over it by
+:class:`ReferenceEnv` (see there) and the reference's attributes on it:
 
 * the thrust of flight mode 0 is a motor command in the reference and a fraction of the
   full collective thrust here: :class:`_PwmThrust` maps it (quadratic, matched at hover)
   on its way to the vehicle;
 * ``rgb_array`` frames carry an alpha channel, (H, W, 4), as the reference's;
-* info keys are the reference's (``fatal_collision`` for the rocket), without
-  ``reward_terms``;
-* a waypoint run that reaches its last target ends *truncated*, as in the reference.
+* observations, rewards, endings and info keys are the reference's
+  (:class:`ReferenceHooks`, and per env in :mod:`.envs`).
 
 Facts about the reference are cited as "PyFlyt 0.29.0 <class>: ...".
 """

@@ -1,9 +1,12 @@
-"""The reference's single-agent envs, each one native env config with the reference's defaults.
+"""The reference's single-agent envs: a native env config's world, the reference's episode.
 
-Constructor arguments, their defaults, the spaces and the info keys are those of PyFlyt
-0.29.0 (cited per class); the loop, tasks and rewards are the native ones
-(:class:`~pyflyt_engine.envs.env.UAVEnv`).  ``docs/migrating_from_pyflyt.md`` lists
-what still differs (rewards, spawn noise of some tasks, waypoint placement).
+Constructor arguments, their defaults, the spaces, the info keys, the observations, the
+rewards and the endings are those of PyFlyt 0.29.0 (cited per class): each env's
+``compute_state`` and ``compute_term_trunc_reward`` are the reference's hooks, run by
+:class:`~pyflyt_engine.compat.gym_envs._base.ReferenceEnv` every 1/120 s; the world
+(airframe, payloads, pad, gates) is built by the native env class from its shipped
+config.  ``docs/migrating_from_pyflyt.md`` lists what still differs (the vehicles'
+models, random streams).
 """
 
 from __future__ import annotations

@@ -2,8 +2,10 @@
 
 :class:`MAQuadXHoverEnvV2` and :class:`MAFixedwingDogfightEnvV2` take the reference's
 constructor arguments and have its spaces and observation layouts; each is one of our
-multi-agent env configs (``conf/env/ma_*.yaml``) adjusted, run by the native loop
-(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`).  Facts about the
+multi-agent env configs (``conf/env/ma_*.yaml``) adjusted
+(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`).  ``MAQuadXHoverEnvV2``
+runs the reference's episode (settling, per-1/120 s rewards and endings); the dogfight
+runs the native loop and reward presets.  Facts about the
 reference are cited as "PyFlyt 0.29.0 <class>: ...".
 """
 
