@@ -13,6 +13,8 @@ project, so the tests never import the reference: they read the file this writes
   its gate model);
 * **pz_episodes**: the same for the PettingZoo envs: per agent, the step it left, how and
   its return;
+* **public_names**: every module of its ``core``, ``gym_envs``, ``pz_envs`` and the public
+  classes and functions each defines;
 * **facts**: what user code reads off the env and the Aviary: a spawn moved by assigning
   ``env.unwrapped.start_pos``, the Rocket's ``aux_state`` at the start and its fuel
   entry, ``metadata["render_fps"]``, ``max_steps``, the camera's depth range, a drone's
@@ -183,6 +185,32 @@ def record_facts() -> dict:
     return facts
 
 
+def record_public_names() -> dict:
+    """Every module of the reference's ``core``, ``gym_envs`` and ``pz_envs`` and the public
+    classes and functions it defines (not the ones it imports)."""
+    import importlib
+    import inspect
+
+    import PyFlyt
+
+    root = Path(PyFlyt.__file__).parent
+    names: dict = {}
+    for package in ("core", "gym_envs", "pz_envs"):
+        paths = sorted((root / package).rglob("*.py"))
+        for path in paths:
+            parts = path.relative_to(root).with_suffix("").parts
+            module_name = ".".join(p for p in parts if p != "__init__")
+            module = importlib.import_module(f"PyFlyt.{module_name}")
+            names[module_name] = sorted(
+                n
+                for n, obj in vars(module).items()
+                if not n.startswith("_")
+                and (inspect.isclass(obj) or inspect.isfunction(obj))
+                and getattr(obj, "__module__", "") == module.__name__
+            )
+    return names
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
@@ -198,6 +226,7 @@ def main() -> None:
         "episodes": record_episodes(),
         "pz_episodes": record_pz_episodes(),
         "facts": record_facts(),
+        "public_names": record_public_names(),
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")

@@ -26,8 +26,9 @@ FACTS = RECORD["facts"]
 #: PyFlyt 0.29.0's public modules and the names user code takes from them
 REFERENCE_TREE = {
     "core": ["Aviary", "loadOBJ", "obj_visual", "obj_collision"],
-    "core.aviary": ["Aviary"],
+    "core.aviary": ["Aviary", "AviaryInitException"],
     "core.utils.load_objs": ["loadOBJ", "obj_visual", "obj_collision"],
+    "core.utils.compile_helpers": ["jitter", "check_numpy"],
     "core.abstractions": ["ControlClass", "DroneClass", "WindFieldClass", "Camera", "Motors", "PID"],
     "core.abstractions.base_controller": ["ControlClass"],
     "core.abstractions.base_drone": ["DroneClass"],
@@ -54,6 +55,7 @@ REFERENCE_TREE = {
     "gym_envs.rocket_envs.rocket_base_env": ["RocketBaseEnv"],
     "gym_envs.rocket_envs.rocket_landing_env": ["RocketLandingEnv"],
     "gym_envs.utils.waypoint_handler": ["WaypointHandler"],
+    "gym_envs.utils.pole_handler": ["PoleHandler"],
     "gym_envs.utils.flatten_waypoint_env": ["FlattenWaypointEnv"],
     "pz_envs": ["MAQuadXHoverEnvV2", "MAFixedwingDogfightEnvV2"],
     "pz_envs.quadx_envs.ma_quadx_base_env": ["MAQuadXBaseEnv"],
@@ -441,3 +443,41 @@ def test_making_resetting_and_stepping_a_reference_id_warns_nothing(env_id):
             env.step(env.action_space.sample())
         finally:
             env.close()
+
+
+def test_the_pole_handler_builds_a_free_pole_that_rests_on_the_vehicle():
+    from pyflyt_engine.compat.core import Aviary
+    from pyflyt_engine.compat.gym_envs.utils.pole_handler import PoleHandler
+
+    aviary = Aviary(start_pos=np.array([[0.0, 0.0, 1.0]]), start_orn=np.zeros((1, 3)), drone_type="quadx")
+    try:
+        pole = PoleHandler()
+        pole.reset(aviary, np.array([0.0, 0.0, 1.55]))  # the reference's pole envs' start
+        aviary.register_all_new_bodies()
+        aviary.set_mode(0)
+        for _ in range(60):
+            aviary.step()
+        _, _, lin_vel, lin_pos = aviary.state(0)
+        top, _, bottom, _ = pole.compute_state(np.eye(3), lin_pos, lin_vel)
+        # upright, 1 m long, its foot on the airframe: PyFlyt 0.29.0 pole.urdf's geometry
+        assert np.linalg.norm(top - bottom) == pytest.approx(1.0, abs=1e-6)
+        assert 0.0 < bottom[2] < 0.1 and pole.leaningness < 0.05
+        assert pole.observation_space.shape == (12,)
+    finally:
+        aviary.disconnect()
+
+
+def test_a_malformed_aviary_raises_the_references_exception():
+    from pyflyt_engine.compat.core.aviary import Aviary, AviaryInitException
+
+    with pytest.raises(AviaryInitException, match=r"start_pos must be an array of shape \(n, 3\)"):
+        Aviary(start_pos=np.zeros(3), start_orn=np.zeros(3), drone_type="quadx")
+    assert issubclass(AviaryInitException, ValueError)
+
+
+@pytest.mark.parametrize("module", sorted(RECORD["public_names"]))
+def test_every_module_and_public_name_of_the_reference_exists(module):
+    # recorded from the reference's package itself (experiments/record_reference_episodes.py)
+    loaded = importlib.import_module(f"pyflyt_engine.compat.{module}")
+    missing = [name for name in RECORD["public_names"][module] if not hasattr(loaded, name)]
+    assert not missing, f"pyflyt_engine.compat.{module} lacks {missing}"

@@ -63,6 +63,10 @@ ROCKET_AUX_ORDER = (0, 1, 2, 3, 6, 4, 5, 7, 8)
 CAMERA_NEAR, CAMERA_FAR = 0.1, 255.0
 
 
+class AviaryInitException(ValueError):
+    """A malformed Aviary argument (PyFlyt 0.29.0 ``AviaryInitException``; a ``ValueError`` here)."""
+
+
 def reference_rocket_aux(aux: np.ndarray) -> np.ndarray:
     """The shipped rocket's auxiliary state in the reference's order (:data:`ROCKET_AUX_ORDER`)."""
     aux = np.asarray(aux, dtype=np.float64)
@@ -301,13 +305,13 @@ class Aviary:
         start_pos = np.asarray(start_pos, dtype=np.float64)
         start_orn = np.asarray(start_orn, dtype=np.float64)
         if start_pos.ndim != 2 or start_pos.shape[1] != 3:
-            raise ValueError(f"start_pos must be an array of shape (n, 3), got {start_pos.shape}.")
+            raise AviaryInitException(f"start_pos must be an array of shape (n, 3), got {start_pos.shape}.")
         if start_orn.shape != start_pos.shape:
-            raise ValueError(f"start_orn must have the same shape as start_pos, got {start_orn.shape}.")
+            raise AviaryInitException(f"start_orn must have the same shape as start_pos, got {start_orn.shape}.")
         n = start_pos.shape[0]
         kinds = [drone_type] * n if isinstance(drone_type, str) else list(drone_type)
         if len(kinds) != n:
-            raise ValueError(f"drone_type must be a string or {n} strings, got {len(kinds)}.")
+            raise AviaryInitException(f"drone_type must be a string or {n} strings, got {len(kinds)}.")
         mappings = dict(drone_type_mappings or {})
         for kind in kinds:
             if kind in mappings and not (isinstance(mappings[kind], str) and mappings[kind] in DRONE_TYPES):
@@ -320,7 +324,7 @@ class Aviary:
         else:
             options = [dict(o) for o in drone_options]
             if len(options) != n:
-                raise ValueError(f"drone_options must be a dict or {n} dicts, got {len(options)}.")
+                raise AviaryInitException(f"drone_options must be a dict or {n} dicts, got {len(options)}.")
         for option in options:
             unknown = set(option) - _KNOWN_OPTIONS
             if unknown:
