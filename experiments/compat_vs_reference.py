@@ -64,11 +64,12 @@ WHY = {
     "only, so climb and sink rates differ a little); different rate-loop gains, motor lag and drag; open loop, "
     "so small differences in attitude grow into drift",
     "waypoints": "as hover; targets drawn from different random streams (rewards differ, the flight does not)",
-    "pole_balance": "as hover, in motor mode; the pole: the reference's URDF pole vs the native payload "
-    "(mass, joint, attachment)",
-    "fixedwing": "different airframe models (surface areas, coefficients, mass); the reference v3 drives the "
-    "vertical tail from the pitch entry and ignores yaw (fixed in its later v4, which compat follows); its "
-    "spawn 10 m at 20 m/s is copied",
+    "pole_balance": "as hover, in motor mode, the commands matched at the reference primitive_drone's hover "
+    "command; the pole: the reference's URDF pole resting free vs the native payload on a ball joint",
+    "fixedwing": "different airframe models (surface areas, coefficients, mass): at neutral elevator the native "
+    "airframe pitches up (it is not trimmed there, docs/migrating_from_pyflyt.md), the reference's flies nearly "
+    "straight; the reference v3 drives the vertical tail from the pitch entry and ignores yaw (fixed in its "
+    "later v4, which compat follows); its spawn 10 m at 20 m/s and its thrust mapping T / 2 + 0.5 are copied",
     "rocket_fall": "spawn drawn from different random streams (x, y, z and attitude differ; displacements "
     "compared); both drop at 100 m/s; the drag models of the two rockets differ",
     "aviary_position_mode": "different cascade gains: both hold (0, 0, 1) and reach (1, 0, 1), by different paths",

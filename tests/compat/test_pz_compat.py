@@ -16,14 +16,22 @@ def test_ma_hover_defaults_spaces_and_layout():
         assert env.observation_space("uav_0").shape == (24,)
         np.testing.assert_allclose(env.action_space("uav_0").high, [np.pi, np.pi, np.pi, 0.8])
         assert env.config.agent_hz == 40 and env.config.max_duration_seconds == 30.0
-        obs, _ = env.reset(seed=0)
-        # spawn exactly at the start positions, which close the observation
+        obs, infos = env.reset(seed=0)
+        assert infos == {name: {} for name in env.possible_agents}  # the reference's: empty
+        # spawn exactly at the start positions, which close the observation; then, as the
+        # reference's end_reset, 10 steps of 1/120 s with idle motors: 1/12 s of free fall
+        fall = 0.5 * 9.81 * (1 / 12) ** 2
         for i, name in enumerate(env.possible_agents):
             np.testing.assert_allclose(obs[name][-3:], env.start_pos[i])
-            np.testing.assert_allclose(obs[name][10:13], env.start_pos[i], atol=1e-9)  # lin_pos (quaternion)
-        obs, *_ = env.step({a: np.array([0.0, 0.0, 0.0, 0.5]) for a in env.agents})
+            expected = env.start_pos[i] - [0.0, 0.0, fall]
+            np.testing.assert_allclose(obs[name][10:13], expected, atol=3e-3)  # lin_pos (quaternion)
+        half = {a: np.array([0.0, 0.0, 0.0, 0.5]) for a in env.agents}
+        obs, *_ = env.step(half)
         assert env.vehicles[0].setpoint[3] > 0.125  # mode 0 thrust is a motor command, 0.5 above hover
-        np.testing.assert_allclose(obs["uav_0"][17:21], [0.0, 0.0, 0.0, 0.5])  # previous action after aux
+        # PyFlyt 0.29.0 MAQuadXBaseEnv observes past_actions: the action before the one just applied
+        np.testing.assert_allclose(obs["uav_0"][17:21], [0.0, 0.0, 0.0, 0.0])
+        obs, *_ = env.step(half)
+        np.testing.assert_allclose(obs["uav_0"][17:21], [0.0, 0.0, 0.0, 0.5])
     finally:
         env.close()
     euler = MAQuadXHoverEnvV2(angle_representation="euler", start_pos=np.array([[0.0, 0.0, 1.0]]),

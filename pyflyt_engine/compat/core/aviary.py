@@ -29,7 +29,7 @@ import numpy as np
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.core.abstractions import YAML_AIRFRAMES, ControlClass, UnsupportedFeature, WindFieldClass
-from pyflyt_engine.compat.gym_envs._base import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
+from pyflyt_engine.compat._commands import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
 from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
@@ -54,6 +54,32 @@ _KNOWN_OPTIONS = {
     "np_random",
     "model_dir",
 }
+
+
+#: PyFlyt 0.29.0 Rocket ``aux_state``: [fins x 4, ignition, fuel, throttle, gimbals x 2]; the
+#: shipped rocket's is [fins x 4, fuel, duty, ignition, gimbals x 2]: index map ours -> theirs
+ROCKET_AUX_ORDER = (0, 1, 2, 3, 6, 4, 5, 7, 8)
+#: PyFlyt 0.29.0 Camera: projection near and far planes [m]
+CAMERA_NEAR, CAMERA_FAR = 0.1, 255.0
+
+
+class AviaryInitException(ValueError):
+    """A malformed Aviary argument (PyFlyt 0.29.0 ``AviaryInitException``; a ``ValueError`` here)."""
+
+
+def reference_rocket_aux(aux: np.ndarray) -> np.ndarray:
+    """The shipped rocket's auxiliary state in the reference's order (:data:`ROCKET_AUX_ORDER`)."""
+    aux = np.asarray(aux, dtype=np.float64)
+    if aux.shape[-1] != len(ROCKET_AUX_ORDER):
+        return aux
+    return aux[..., list(ROCKET_AUX_ORDER)]
+
+
+def depth_to_zbuffer(depth: np.ndarray, near: float = CAMERA_NEAR, far: float = CAMERA_FAR) -> np.ndarray:
+    """Linear depth [m] back to PyBullet's z-buffer value in [0, 1]: the inverse of
+    ``depth = near far / (far - (far - near) d)`` (OpenGL perspective projection)."""
+    depth = np.clip(np.asarray(depth, dtype=np.float64), near, far)
+    return far * (1.0 - near / depth) / (far - near)
 
 
 def state_array(state: KinematicState) -> np.ndarray:
@@ -92,8 +118,9 @@ class Drone:
 
     Attributes: ``Id`` (PyBullet body), ``state`` (4, 3), ``aux_state``, ``setpoint``,
     ``mode``, ``control_period``, ``physics_period``, ``use_camera`` and, with a camera,
-    ``rgbaImg`` (H, W, 4) uint8, ``depthImg`` (H, W, 1) (linear depth [m] here; the
-    reference's is PyBullet's raw z-buffer), ``segImg`` (H, W, 1).
+    ``rgbaImg`` (H, W, 4) uint8, ``depthImg`` (H, W, 1) PyBullet's z-buffer in [0, 1]
+    (near 0.1 m, far 255 m, as the reference's camera), ``segImg`` (H, W, 1).  After the
+    Aviary is disconnected, ``state`` and ``aux_state`` keep their last values.
     """
 
     def __init__(self, aviary: Aviary, index: int, kind: str, control_hz: float, camera: int | None) -> None:
@@ -114,17 +141,32 @@ class Drone:
         self._controllers: dict[int, tuple[Callable[[], ControlClass], int]] = {}
         self.np_random = aviary.np_random
         self._gain = thrust_gain(self.vehicle) if kind == "quadx" else 1.0
+        self._last_state: np.ndarray | None = None
+        self._last_aux: np.ndarray | None = None
+        self._state_source: KinematicState | None = None  # the vehicle state _last_state was made from
 
     # ------------------------------------------------------------------ read-outs
 
     @property
     def state(self) -> np.ndarray:
         """(4, 3): [ang_vel (body), ang_pos (Euler), lin_vel (body), lin_pos (ground)]."""
-        return state_array(self.vehicle.state)
+        if not self._aviary.connected:  # PyFlyt 0.29.0: the last state stays readable
+            return self._last_state.copy() if self._last_state is not None else np.zeros((4, 3))
+        source = self.vehicle.state  # the same object until the body moves
+        if source is not self._state_source or self._last_state is None:
+            self._state_source, self._last_state = source, state_array(source)
+        return self._last_state.copy()
 
     @property
     def aux_state(self) -> np.ndarray:
-        return np.asarray(self.vehicle.aux_state, dtype=np.float64)
+        """The auxiliary state; the rocket's in the reference's order (see :data:`ROCKET_AUX_ORDER`)."""
+        if not self._aviary.connected:
+            return self._last_aux.copy() if self._last_aux is not None else np.zeros(0)
+        aux = np.asarray(self.vehicle.aux_state, dtype=np.float64)
+        if self.kind == "rocket":
+            aux = reference_rocket_aux(aux)
+        self._last_aux = aux
+        return aux.copy()
 
     # ------------------------------------------------------------------ commands
 
@@ -227,7 +269,8 @@ class Drone:
         if self._camera is None:
             return
         images = self._aviary.world.capture(self._index, self._camera)
-        self.rgbaImg, self.depthImg, self.segImg = images["rgba"], images["depth"], images["segmentation"]
+        self.rgbaImg, self.segImg = images["rgba"], images["segmentation"]
+        self.depthImg = depth_to_zbuffer(images["depth"])
 
 
 class Aviary:
@@ -262,13 +305,13 @@ class Aviary:
         start_pos = np.asarray(start_pos, dtype=np.float64)
         start_orn = np.asarray(start_orn, dtype=np.float64)
         if start_pos.ndim != 2 or start_pos.shape[1] != 3:
-            raise ValueError(f"start_pos must be an array of shape (n, 3), got {start_pos.shape}.")
+            raise AviaryInitException(f"start_pos must be an array of shape (n, 3), got {start_pos.shape}.")
         if start_orn.shape != start_pos.shape:
-            raise ValueError(f"start_orn must have the same shape as start_pos, got {start_orn.shape}.")
+            raise AviaryInitException(f"start_orn must have the same shape as start_pos, got {start_orn.shape}.")
         n = start_pos.shape[0]
         kinds = [drone_type] * n if isinstance(drone_type, str) else list(drone_type)
         if len(kinds) != n:
-            raise ValueError(f"drone_type must be a string or {n} strings, got {len(kinds)}.")
+            raise AviaryInitException(f"drone_type must be a string or {n} strings, got {len(kinds)}.")
         mappings = dict(drone_type_mappings or {})
         for kind in kinds:
             if kind in mappings and not (isinstance(mappings[kind], str) and mappings[kind] in DRONE_TYPES):
@@ -281,7 +324,7 @@ class Aviary:
         else:
             options = [dict(o) for o in drone_options]
             if len(options) != n:
-                raise ValueError(f"drone_options must be a dict or {n} dicts, got {len(options)}.")
+                raise AviaryInitException(f"drone_options must be a dict or {n} dicts, got {len(options)}.")
         for option in options:
             unknown = set(option) - _KNOWN_OPTIONS
             if unknown:
@@ -315,6 +358,7 @@ class Aviary:
         base_ratio = self.world.physics_per_control
         for i, (kind, option, rate) in enumerate(zip(kinds, options, rates)):
             spec, kind_name = self._airframe(kind, option)
+            spec = self._with_fuel(spec, kind_name, option)
             spec, camera = self._with_camera(spec, option, slowest)
             # the vehicle's controller runs at its own rate: built with that period, held in between
             self.world.physics_per_control = int(round(self.physics_hz / rate))
@@ -341,7 +385,36 @@ class Aviary:
 
         self.aviary_steps = 0
         self.reset_count = 0
+        self.armed_drones: list[Drone] = list(self.drones)
         self._reset_drones()
+
+    @classmethod
+    def over_world(cls, world: World, kinds: Sequence[str]) -> Aviary:
+        """An Aviary view of a world built elsewhere (a compat env's), one drone per vehicle.
+
+        ``kinds``: "quadx", "fixedwing" or "rocket" per vehicle.  Reads (``state``,
+        ``aux_state``, ``contact_array``, ``planeId``, ``drones``, PyBullet functions) see
+        that world; :meth:`step` advances it by one of its agent steps; :meth:`reset`
+        restores it, as its owner's reset would not: leave resets to the owner.
+        """
+        self = cls.__new__(cls)
+        self.world = world
+        self.physics_hz = int(world.physics_hz)
+        self.world_scale = 1.0
+        self.render = False
+        self.np_random = world.np_random
+        self.step_period = 1.0 / world.agent_hz
+        self.updates_per_step = int(world.physics_per_agent)
+        self.drones = [Drone(self, i, kind, world.control_hz, None) for i, kind in enumerate(kinds)]
+        for drone in self.drones:
+            drone.mode = 0
+        self._kinds = list(kinds)
+        self._start_velocities = [None] * len(self.drones)
+        self.wind_field = None
+        self.aviary_steps = 0
+        self.reset_count = 0
+        self.armed_drones = list(self.drones)
+        return self
 
     # ------------------------------------------------------------------ building
 
@@ -359,6 +432,16 @@ class Aviary:
         if path.suffix in (".yaml", ".yml"):
             return load_uav_spec(path), "yaml"
         raise UnsupportedFeature(f"unknown drone_type '{kind}' (shipped: {', '.join(DRONE_TYPES)}); {YAML_AIRFRAMES}")
+
+    @staticmethod
+    def _with_fuel(spec: UAVSpec, kind: str, option: dict[str, Any]) -> UAVSpec:
+        """The rocket's tank at ``starting_fuel_ratio`` (PyFlyt 0.29.0 Rocket: default 0.05)."""
+        if kind != "rocket" or spec.boosters is None:
+            return spec
+        fuel = float(option.get("starting_fuel_ratio", 0.05))
+        if not 0.0 <= fuel <= 1.0:
+            raise ValueError(f"starting_fuel_ratio must be in [0, 1], got {fuel}")
+        return spec.model_copy(update={"boosters": spec.boosters.model_copy(update={"initial_fuel": fuel})})
 
     @staticmethod
     def _with_camera(spec: UAVSpec, option: dict[str, Any], step_hz: float) -> tuple[UAVSpec, int | None]:
@@ -382,6 +465,8 @@ class Aviary:
             height=int(height),
             horizon_lock=gimbal,
             capture_hz=float(fps) if fps else float(step_hz),
+            near=CAMERA_NEAR,
+            far=CAMERA_FAR,
             outputs=["rgba", "depth", "segmentation"],
         )
         return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
@@ -394,7 +479,8 @@ class Aviary:
         return None
 
     def _reset_drones(self) -> None:
-        self.world.reset()
+        self.world.reset()  # re-arms every vehicle
+        self.armed_drones = list(self.drones)
         for drone, velocity in zip(self.drones, self._start_velocities):
             if velocity is not None:
                 drone.vehicle.reset(lin_vel=velocity)
@@ -441,6 +527,13 @@ class Aviary:
         matrix = self.world.contact_array
         out[np.ix_(ids, ids)] = matrix
         return out
+
+    def _touches_ground(self) -> bool:
+        """``np.any(contact_array[planeId])``, without building the whole array."""
+        bodies, ground = self.world.contact_bodies, self.world.ground_id
+        if ground is None or ground not in bodies:
+            return False
+        return bool(np.any(self.world.contact_array[bodies.index(ground)]))
 
     def register_all_new_bodies(self) -> None:
         """Track collisions of every body created since (e.g. with ``aviary.loadURDF``)."""
@@ -504,6 +597,8 @@ class Aviary:
             raise AssertionError(f"Expected {len(self.drones)} settings, got {len(settings)}.")
         for i, armed in enumerate(settings):
             self.world.set_armed(i, bool(armed))
+        #: the drones that receive updates (PyFlyt 0.29.0 ``Aviary.armed_drones``)
+        self.armed_drones = [d for d, armed in zip(self.drones, settings) if armed]
 
     def print_all_bodies(self) -> None:
         cid = self.world.client
@@ -511,18 +606,30 @@ class Aviary:
             body = p.getBodyUniqueId(i, physicsClientId=cid)
             print(f"ID {body}: {p.getBodyInfo(body, physicsClientId=cid)}")
 
+    @property
+    def connected(self) -> bool:
+        """Whether the PyBullet client is still open."""
+        client = self.world.client
+        return client is not None and client >= 0 and bool(p.isConnected(client))
+
     def disconnect(self) -> None:
-        """Close the PyBullet client (idempotent)."""
+        """Close the PyBullet client (idempotent); the drones' last states stay readable."""
+        if self.connected:
+            for drone in self.drones:
+                drone.state, drone.aux_state  # noqa: B018 - keeps the last values
         self.world.close()
 
     def __getattr__(self, name: str) -> Any:
-        # the reference's Aviary is a BulletClient: every PyBullet function is a method
+        # the reference's Aviary is a BulletClient: every PyBullet function is a method and
+        # every PyBullet constant an attribute (aviary.GEOM_MESH, aviary.JOINT_FIXED)
         if name.startswith("_") or "world" not in self.__dict__:
             raise AttributeError(name)
-        function = getattr(p, name, None)
-        if not callable(function):
+        member = getattr(p, name, None)
+        if isinstance(member, (int, float)) and not isinstance(member, bool) and name.isupper():
+            return member
+        if not callable(member):
             raise AttributeError(f"'Aviary' object has no attribute '{name}'")
-        return functools.partial(function, physicsClientId=self.world.client)
+        return functools.partial(member, physicsClientId=self.world.client)
 
 
 def _hold_controller(vehicle: Any, hold: int) -> None:

@@ -1,16 +1,16 @@
 """What every reference-shaped single-agent env shares.
 
-Each env of :mod:`pyflyt_engine.compat.gym_envs` is a native env class (same loop, same
-task, same reward presets) built from its shipped config with the reference's defaults
-written into it; the few things a config cannot say are done here, in thin overrides:
+Each env of :mod:`pyflyt_engine.compat.gym_envs` is a native env class built from its
+shipped config with the reference's defaults written into it (the world: airframe,
+payloads, scenery, spawn), with the reference's episode run over it by
+:class:`ReferenceEnv` (see there) and the reference's attributes on it:
 
 * the thrust of flight mode 0 is a motor command in the reference and a fraction of the
   full collective thrust here: :class:`_PwmThrust` maps it (quadratic, matched at hover)
   on its way to the vehicle;
 * ``rgb_array`` frames carry an alpha channel, (H, W, 4), as the reference's;
-* info keys are the reference's (``fatal_collision`` for the rocket), without
-  ``reward_terms``;
-* a waypoint run that reaches its last target ends *truncated*, as in the reference.
+* observations, rewards, endings and info keys are the reference's
+  (:class:`ReferenceHooks`, and per env in :mod:`.envs`).
 
 Facts about the reference are cited as "PyFlyt 0.29.0 <class>: ...".
 """
@@ -26,11 +26,21 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from pyflyt_engine.compat._commands import (  # noqa: F401 - re-exported: the envs' command meanings
+    REFERENCE_PRIMITIVE_HOVER_COMMAND,
+    REFERENCE_QUADX_HOVER_COMMAND,
+    command_to_thrust_fraction,
+    surface_commands_to_channels,
+    thrust_gain,
+)
 from pyflyt_engine.envs.config import load_env_config
 
 #: PyFlyt 0.29.0 QuadXBaseEnv/FixedwingBaseEnv/RocketBaseEnv: one Aviary step is 1/120 s
 #: and agent_hz must divide 120.
 REFERENCE_STEP_HZ = 120
+
+#: PyFlyt 0.29.0 *BaseEnv.metadata["render_fps"], whatever the agent rate
+REFERENCE_RENDER_FPS = 30
 
 #: PyFlyt 0.29.0 QuadXBaseEnv: body-rate bound pi rad/s, thrust and motor bound 0.8.
 QUADX_RATE_LIMIT = math.pi
@@ -109,31 +119,6 @@ def quadx_action(flight_mode: int) -> dict[str, Any]:
     }
 
 
-#: the mode-0 thrust command at which the reference's QuadX (cf2x) hovers: 0.300, measured
-#: on PyFlyt 0.29.0 QuadX-Hover-v4 (constant command, level; the vertical acceleration
-#: fitted over 1 to 2.5 s goes through zero at 0.300, +0.36 m/s^2 at 0.305, +0.90 at
-#: 0.3125); its motor noise is biased upwards, so this is not sqrt(weight / max thrust)
-REFERENCE_QUADX_HOVER_COMMAND = 0.300
-
-
-def thrust_gain(vehicle: Any) -> float:
-    """Scale from a reference mode-0 thrust command to this airframe's motor throttle: the
-    reference's hover command meets this airframe's hover throttle (1 without a mixer)."""
-    try:
-        return float(vehicle.hover_throttle()) / REFERENCE_QUADX_HOVER_COMMAND
-    except Exception:  # noqa: BLE001 - an airframe without multirotor motors: no scaling
-        return 1.0
-
-
-def command_to_thrust_fraction(command: float, gain: float) -> float:
-    """PyFlyt 0.29.0 QuadX mode 0: the thrust entry is a motor command and a motor's thrust goes
-    as the square of its command; here the entry is a fraction of the full collective
-    thrust.  So ``T`` becomes ``(gain x T)**2`` (negative commands: idle), ``gain`` from
-    :func:`thrust_gain`; exact at hover by construction, quadratic around it."""
-    t = max(float(command), 0.0) * gain
-    return t * t
-
-
 class _PwmThrust:
     """The vehicle, seen through the reference's meaning of its QuadX commands.
 
@@ -145,10 +130,12 @@ class _PwmThrust:
 
     __slots__ = ("_vehicle", "_motors", "_gain")
 
-    def __init__(self, vehicle: Any, motors: bool = False) -> None:
+    def __init__(
+        self, vehicle: Any, motors: bool = False, reference_hover: float = REFERENCE_QUADX_HOVER_COMMAND
+    ) -> None:
         object.__setattr__(self, "_vehicle", vehicle)
         object.__setattr__(self, "_motors", motors)
-        object.__setattr__(self, "_gain", thrust_gain(vehicle))
+        object.__setattr__(self, "_gain", thrust_gain(vehicle, reference_hover))
 
     def set_setpoint(self, setpoint: Any) -> None:
         s = np.array(setpoint, dtype=np.float64)
@@ -165,62 +152,227 @@ class _PwmThrust:
         setattr(self._vehicle, name, value)
 
 
-def surface_commands_to_channels(setpoint: Any) -> np.ndarray:
-    """PyFlyt 0.29.0 Fixedwing mode -1 commands (left aileron, right aileron, horizontal tail,
-    vertical tail, main wing, thrust) folded onto the airframe's channels (roll, pitch,
-    yaw, thrust): roll = (left - right) / 2, pitch = horizontal tail, yaw = -vertical tail
-    (PyFlyt Fixedwing mode 0 drives them as left = roll, right = -roll, tail = pitch,
-    vertical tail = -yaw); the main wing's entry has no surface here."""
-    la, ra, ht, vt, _mw, thrust = (float(v) for v in setpoint)
-    return np.array((0.5 * (la - ra), ht, -vt, thrust))
+def fresh(observation: Any) -> Any:
+    """A copy of an observation (arrays, or a dict of them): Gymnasium's checker wants no two
+    calls to return the same objects, while the reference keeps its ``state`` between them."""
+    if isinstance(observation, dict):
+        return {k: np.array(v, copy=True) for k, v in observation.items()}
+    return np.array(observation, copy=True) if observation is not None else None
 
 
-class ReferenceEnv:
-    """Mixin for the compat envs, placed before the native class in the bases."""
+class ReferenceHooks:
+    """The reference's read-outs and base ending rules, over ``self.env`` (an Aviary).
+
+    Shared by the stock envs below and the base envs of :mod:`._aviary_base` (PyFlyt 0.29.0
+    ``*BaseEnv.compute_attitude`` / ``compute_auxiliary`` / ``compute_base_term_trunc_reward``).
+    """
+
+    env: Any
+    step_count: int
+    max_steps: int
+    flight_dome_size: float
+    reward: float
+    termination: bool
+    truncation: bool
+    info: dict[str, Any]
+
+    def compute_auxiliary(self) -> np.ndarray:
+        return self.env.aux_state(0)
+
+    def compute_attitude(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(ang_vel, ang_pos, lin_vel, lin_pos, quaternion)`` of drone 0; the quaternion is
+        PyBullet's of the Euler angles, as the reference computes it."""
+        from pyflyt_engine.bullet import pybullet as p
+
+        ang_vel, ang_pos, lin_vel, lin_pos = self.env.state(0)
+        return ang_vel, ang_pos, lin_vel, lin_pos, np.array(p.getQuaternionFromEuler(ang_pos))
+
+    def _attitude(self, action: np.ndarray, angle_representation: int, attitude: Any = None) -> np.ndarray:
+        """[ang_vel, Euler angles | quaternion, lin_vel, lin_pos, action, aux] (PyFlyt 0.29.0 layout);
+        ``attitude``: :meth:`compute_attitude`'s tuple when already at hand."""
+        ang_vel, ang_pos, lin_vel, lin_pos, quaternion = attitude if attitude is not None else self.compute_attitude()
+        angles = ang_pos if angle_representation == 0 else quaternion
+        return np.concatenate([ang_vel, angles, lin_vel, lin_pos, action, self.compute_auxiliary()], axis=-1)
+
+    def _crashed(self) -> bool:
+        """QuadX and rocket: any contact with the ground plane (``np.any(env.contact_array[env.planeId])``)."""
+        return self.env._touches_ground()
+
+    def compute_base_term_trunc_reward(self) -> None:
+        """The time limit (``step_count > max_steps``), a crash (reward -100, ``collision``)
+        and leaving the dome (reward -100, ``out_of_bounds``)."""
+        if self.step_count > self.max_steps:
+            self.truncation |= True
+        if self._crashed():
+            self.reward = -100.0
+            self.info["collision"] = True
+            self.termination |= True
+        if np.linalg.norm(self.env.state(0)[-1]) > self.flight_dome_size:
+            self.reward = -100.0
+            self.info["out_of_bounds"] = True
+            self.termination |= True
+
+
+class ReferenceEnv(ReferenceHooks):
+    """Mixin for the compat envs, placed before the native class in the bases.
+
+    The reference's attributes of the unwrapped env are here: ``env`` (an
+    :class:`~pyflyt_engine.compat.core.Aviary` view of the world: ``env.state(0)``,
+    ``env.contact_array`` ...), ``start_pos`` / ``start_orn`` (assigning them moves the
+    next spawn, as in the reference, whose every reset builds its Aviary there),
+    ``step_count``, ``max_steps``, ``env_step_ratio``, ``flight_dome_size``, ``state``
+    (the last observation), ``action``, ``reward``, ``termination``, ``truncation``,
+    ``info`` and ``angle_representation`` (0 Euler, 1 quaternion).
+
+    The episode is the reference's: after the native reset (spawn, payloads, the task's
+    scenery) and the settling, ``step`` starts the reward at :attr:`step_reward`, applies
+    the action and runs ``120 / agent_hz`` world steps of 1/120 s, calling the reference's
+    hooks ``compute_state`` and ``compute_term_trunc_reward`` after each (its observations,
+    reward functions and endings, written per env; a subclass may override them as in the
+    reference) and stopping once the episode ended; ``step_count > max_steps`` truncates.
+    The native task supplies the world (payloads, pad, gates, the first course) but
+    neither rewards nor ends these episodes.
+    """
 
     #: the reference's id of this env
     reference_id: ClassVar[str] = ""
-    #: waypoint envs: completing the course truncates (PyFlyt 0.29.0 waypoint envs)
-    completion_truncates: ClassVar[bool] = False
     #: bound of the target deltas (PyFlyt 0.29.0: 2 x flight_dome_size), or None
     _delta_bound: float | None = None
+    #: the Aviary drone type of the vehicle ("quadx", "fixedwing", "rocket")
+    drone_kind: ClassVar[str] = "quadx"
+    #: the reward each step starts from (PyFlyt 0.29.0: -0.1; the rocket's 0)
+    step_reward: ClassVar[float] = -0.1
+    #: the reference QuadX's hover command the thrust and motor commands are matched at
+    reference_hover_command: ClassVar[float] = REFERENCE_QUADX_HOVER_COMMAND
 
     def _finish_init(self, render_resolution: tuple[int, int], render_mode: str | None) -> None:
-        """After the native ``__init__``: the reference's command meanings, render mode and delta bounds."""
+        """After the native ``__init__``: the reference's command meanings, render mode, delta
+        bounds and attributes."""
         #: "human" asked for without a display: frames are drawn headless
         self._headless_human = render_mode == "human" and self.render_mode == "rgb_array"
         self.render_mode = render_mode
         self.render_resolution = tuple(render_resolution)
-        mode = self.config.action.mode  # type: ignore[attr-defined]
+        # PyFlyt 0.29.0 *BaseEnv.metadata: render_fps 30 at any agent rate
+        self.metadata = {**self.metadata, "render_fps": REFERENCE_RENDER_FPS}  # type: ignore[has-type]
+        cfg = self.config  # type: ignore[attr-defined]
+        mode = cfg.action.mode
         if mode in ("rates_thrust", "motors"):  # a QuadX in the reference's mode 0 or -1
-            self.vehicle = _PwmThrust(self.vehicle, motors=mode == "motors")  # type: ignore[attr-defined]
+            self.vehicle = _PwmThrust(  # type: ignore[attr-defined]
+                self.vehicle,  # type: ignore[attr-defined]
+                motors=mode == "motors",
+                reference_hover=self.reference_hover_command,
+            )
         space = self.observation_space  # type: ignore[has-type]
         if self._delta_bound is not None and isinstance(space, spaces.Dict):
             feature = space["target_deltas"].feature_space
             b = float(self._delta_bound)
             deltas = spaces.Sequence(spaces.Box(-b, b, shape=feature.shape, dtype=np.float64), stack=True)
             self.observation_space = spaces.Dict({**space.spaces, "target_deltas": deltas})
+        # PyFlyt 0.29.0 *BaseEnv.__init__: max_steps = agent_hz x duration, env_step_ratio = 120 / agent_hz
+        self.max_steps = int(cfg.agent_hz * cfg.max_duration_seconds)
+        self.env_step_ratio = int(round(REFERENCE_STEP_HZ / cfg.agent_hz))
+        self.flight_dome_size = float(cfg.flight_dome_size)
+        self.angle_representation = 0 if cfg.angle_representation == "euler" else 1
+        self.step_count = 0
+        self.termination = self.truncation = False
+        self.reward = 0.0
+        self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
+        self.info: dict[str, Any] = {}
+        self._reference_state: Any = None
+        self._aviary_view: Any = None
 
-    def _reference_info(self, info: dict[str, Any]) -> dict[str, Any]:
-        return info
+    # ------------------------------------------------------------------ the reference's attributes
+
+    @property
+    def env(self) -> Any:
+        """The world as the reference's Aviary (:meth:`Aviary.over_world`): read it; the env steps it."""
+        from pyflyt_engine.compat.core import Aviary
+
+        world = self.world  # type: ignore[attr-defined]
+        if self._aviary_view is None or self._aviary_view.world is not world:
+            self._aviary_view = Aviary.over_world(world, [self.drone_kind])
+        return self._aviary_view
+
+    @property
+    def state(self) -> Any:
+        """The last observation (PyFlyt 0.29.0 ``self.state``); the vehicle's own state is ``vehicle.state``."""
+        return self._reference_state
+
+    @state.setter
+    def state(self, value: Any) -> None:
+        self._reference_state = value
+
+    def _task_option(self, name: str) -> np.ndarray:
+        return np.array([getattr(self.task.options, name)], dtype=np.float64)  # type: ignore[attr-defined]
+
+    def _set_task_option(self, name: str, value: Any) -> None:
+        row = np.asarray(value, dtype=np.float64).reshape(-1)
+        if row.shape != (3,):
+            label = {"start_position": "start_pos", "start_orientation": "start_orn"}[name]
+            raise ValueError(f"{label} must hold one (x, y, z) row, e.g. np.array([[0.0, 0.0, 1.0]]), got {value!r}")
+        task = self.task  # type: ignore[attr-defined]
+        update = {name: tuple(float(v) for v in row)}
+        task.configured = task.configured.model_copy(update=update)
+        task.options = task.options.model_copy(update=update)
+
+    @property
+    def start_pos(self) -> np.ndarray:
+        """(1, 3) spawn position; assigning it moves the next reset's spawn (PyFlyt 0.29.0
+        ``begin_reset`` builds its Aviary at ``self.start_pos``)."""
+        return self._task_option("start_position")
+
+    @start_pos.setter
+    def start_pos(self, value: Any) -> None:
+        self._set_task_option("start_position", value)
+
+    @property
+    def start_orn(self) -> np.ndarray:
+        """(1, 3) spawn Euler angles [rad]; assigning them turns the next reset's spawn."""
+        return self._task_option("start_orientation")
+
+    @start_orn.setter
+    def start_orn(self, value: Any) -> None:
+        self._set_task_option("start_orientation", value)
+
+    # ------------------------------------------------------------------ episodes
+
+    def _new_info(self) -> dict[str, Any]:
+        """The info at a reset (PyFlyt 0.29.0 ``begin_reset``)."""
+        return {"out_of_bounds": False, "collision": False, "env_complete": False}
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """The native reset, then the reference's settling: PyFlyt 0.29.0 ``*BaseEnv.end_reset``
         runs 10 Aviary steps (1/120 s each) with the flight mode's preset setpoint (idle
         motors, neutral surfaces) before the first observation, so a QuadX starts 3.4 cm
-        below its spawn point, falling at 0.8 m/s.  The task is reset on the settled state."""
-        _, info = super().reset(seed=seed, options=options or None)  # type: ignore[misc]
+        below its spawn point, falling at 0.8 m/s.  ``options`` are ignored, as the
+        reference's envs ignore them (its Rocket reads two, whose defaults are what is done
+        here: see :class:`~pyflyt_engine.compat.gym_envs.envs.RocketLandingEnv`)."""
+        super().reset(seed=seed)  # type: ignore[misc]
         self._after_spawn()
+        self.step_count = 0
+        self.termination = self.truncation = False
+        self.reward = 0.0
+        self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
+        self.info = self._new_info()
+        self._reference_reset()
         self._settle()
-        state = self.vehicle.state  # type: ignore[attr-defined]
-        self.task.reset(state, self.np_random)  # type: ignore[attr-defined]
+        self.compute_state()
+        self._after_agent_step()
+        self._show_markers()
+        return fresh(self.state), dict(self.info)
+
+    def _show_markers(self) -> None:
         if self._markers is not None:  # type: ignore[attr-defined]
-            self._markers.show(self.task.markers())  # type: ignore[attr-defined]
-        info.update(self.task.info())  # type: ignore[attr-defined]
-        return self._observe(0, [state]), self._reference_info(info)  # type: ignore[attr-defined]
+            self._markers.show(self._marker_points())  # type: ignore[attr-defined]
+
+    def _marker_points(self) -> Any:
+        return self.task.markers()  # type: ignore[attr-defined]
 
     def _after_spawn(self) -> None:
         """Change the spawned state before settling (the rocket's drop velocity)."""
+
+    def _reference_reset(self) -> None:
+        """The env's own reset, before the settling (a course of waypoints)."""
 
     def _settle(self) -> None:
         world = self.world  # type: ignore[attr-defined]
@@ -233,12 +385,49 @@ class ReferenceEnv:
         finally:
             world.physics_per_agent = per_agent
 
+    # the reference's hooks; every env writes them
+    def compute_state(self) -> None:
+        """Set ``self.state`` (the observation) from ``self.env``."""
+        raise NotImplementedError
+
+    def compute_term_trunc_reward(self) -> None:
+        """Adjust ``self.reward``, ``self.termination``, ``self.truncation`` and ``self.info``."""
+        raise NotImplementedError
+
+    def _after_agent_step(self) -> None:
+        """Once per agent step, after its world steps (the Gates camera frame)."""
+
+    def _to_setpoint(self, action: np.ndarray) -> np.ndarray:
+        """The clipped action as the vehicle's setpoint (the fixed-wing maps its thrust)."""
+        return action
+
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        observation, reward, terminated, truncated, info = super().step(action)  # type: ignore[misc]
-        if self.completion_truncates and info.get("env_complete") and terminated:
-            if not (info.get("collision") or info.get("out_of_bounds")):
-                terminated, truncated = False, True
-        return observation, reward, terminated, truncated, self._reference_info(info)
+        """PyFlyt 0.29.0 ``*BaseEnv.step`` (see the class docstring); the action is observed as given."""
+        from pyflyt_engine.envs import core
+
+        names = self.config.action.names  # type: ignore[attr-defined]
+        clipped = core.clip_action(action, self._low, self._high, names)  # type: ignore[attr-defined]
+        self.action = np.array(action, dtype=np.float64).reshape(clipped.shape)
+        self._actions[0] = clipped  # type: ignore[attr-defined]
+        self.reward = self.step_reward
+        self.vehicle.set_setpoint(self._to_setpoint(clipped.copy()))  # type: ignore[attr-defined]
+        world = self.world  # type: ignore[attr-defined]
+        per_agent = world.physics_per_agent
+        world.physics_per_agent = max(1, int(round(world.physics_hz / REFERENCE_STEP_HZ)))
+        try:
+            for _ in range(self.env_step_ratio):
+                if self.termination or self.truncation:
+                    break
+                world.step()
+                self.compute_state()
+                self.compute_term_trunc_reward()
+        finally:
+            world.physics_per_agent = per_agent
+        self.step_count += 1
+        self._steps += 1  # type: ignore[attr-defined]
+        self._after_agent_step()
+        self._show_markers()
+        return fresh(self.state), float(self.reward), bool(self.termination), bool(self.truncation), dict(self.info)
 
     def render(self) -> np.ndarray | None:
         """``rgb_array``: an (H, W, 4) uint8 RGBA frame, as the reference's; ``human``: the GUI."""

@@ -1,0 +1,10 @@
+"""The reference's ``core.drones.quadx`` module path: ``QuadX``, the ``drone_type="quadx"`` of an Aviary."""
+
+from pyflyt_engine.compat.core.abstractions import DroneClass
+
+__all__ = ["QuadX"]
+
+
+class QuadX(DroneClass):
+    """PyFlyt 0.29.0 ``QuadX``: fly it with ``Aviary(drone_type="quadx")`` (the shipped
+    airframe); built directly it is refused."""

@@ -1,0 +1,1 @@
+"""The reference's ``PyFlyt.core.utils``: :mod:`.load_objs`."""

@@ -1,0 +1,6 @@
+"""The reference's ``pz_envs.quadx_envs.ma_quadx_hover_env`` module path: ``MAQuadXHoverEnv``
+(exported by ``pz_envs`` as ``MAQuadXHoverEnvV2``, as in the reference)."""
+
+from pyflyt_engine.compat.pz_envs._envs import MAQuadXHoverEnvV2 as MAQuadXHoverEnv
+
+__all__ = ["MAQuadXHoverEnv"]
