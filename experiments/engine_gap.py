@@ -1,0 +1,136 @@
+"""Does a policy trained on the batched backend fly the same in the PyBullet engine?
+
+For each run directory given, the run's policy (``--model``: best, the default, or final)
+flies ``--episodes`` deterministic episodes in the PyBullet engine (what ``pyflyt eval``
+flies: seeds ``run seed + 1000 + i``) and as many in the batched backend (one env per
+episode, advanced together, each env's first episode counted; its spawns and waypoints come
+from the batched env's own generators, so the episodes are other draws of the same task).
+Printed per run and engine: the success rate, the mean return and, for waypoint tasks, the
+mean waypoints reached and the fraction reaching all of them.  The two engines' rates are
+two samples of the same policy on the same task: compare their gap with the spread across
+seeds (``experiments/results/learn_waypoints.md``).
+
+    python experiments/engine_gap.py RUN_DIR [RUN_DIR ...] [--episodes 50] [--model best] [--write FILE.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pyflyt_cli.training import rundir
+from pyflyt_cli.training.batched import BatchedVecEnv
+from pyflyt_cli.training.envs import EnvFactory
+from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, policy_predict, run_episodes
+from pyflyt_cli.training.models import load_policy
+
+
+def batched_episodes(predict, normalize, env_config, episodes: int, seed: int) -> dict:
+    """The first episode of each of ``episodes`` batched envs, flown by ``predict``."""
+    venv = BatchedVecEnv(env_config.model_copy(update={"backend": "batched"}), episodes)
+    venv.seed(seed)
+    obs = venv.reset()
+    n = episodes
+    done = np.zeros(n, dtype=bool)
+    returns = np.zeros(n)
+    success = np.zeros(n, dtype=bool)
+    reached = np.zeros(n, dtype=np.int64)
+    waypoints = False
+    while not done.all():
+        x = normalize(obs) if normalize is not None else obs
+        action = predict(x, True)
+        a = np.asarray(action, dtype=np.float64)
+        if venv._rescale is not None:  # the adapter's [-1, 1] -> the env's action range
+            a = venv._rescale(a)
+        obs, reward, terminated, truncated, info = venv.env.step(a)
+        obs = obs.astype(np.float32)
+        live = ~done
+        returns[live] += reward[live]
+        ended = (terminated | truncated) & live
+        success[ended] = info["success"][ended]
+        if "num_targets_reached" in info:
+            waypoints = True
+            reached[ended] = info["num_targets_reached"][ended]
+        done |= ended
+    out = {"success_rate": float(success.mean()), "mean_return": float(returns.mean())}
+    if waypoints:
+        k = int(venv.env.targets.shape[1])
+        out.update(mean_reached=float(reached.mean()), all_reached=float(np.mean(reached >= k)))
+    return out
+
+
+def pybullet_episodes(predict, normalize, env, episodes: int, seed: int) -> dict:
+    eps = run_episodes(predict, env, episodes, seed, True, normalize_obs=normalize)
+    out = {
+        "success_rate": float(np.mean([e.success for e in eps])),
+        "mean_return": float(np.mean([e.ret for e in eps])),
+    }
+    if "num_targets_reached" in eps[0].final_info:
+        reached = np.array([int(e.final_info["num_targets_reached"]) for e in eps])
+        k = int(env.unwrapped.task.options.num_targets)
+        out.update(mean_reached=float(reached.mean()), all_reached=float(np.mean(reached >= k)))
+    return out
+
+
+def compare(run_dir: Path, episodes: int, which: str) -> dict:
+    path = rundir.check_run_dir(run_dir)
+    cfg = rundir.load_run_config(path)
+    model_path, which = rundir.find_model(path, which)
+    env = EnvFactory(cfg.env.model_copy(update={"backend": "pybullet"}), monitor=False)()
+    model, normalize = load_policy(model_path, cfg, env)
+    predict = policy_predict(model)
+    seed = cfg.seed + EVAL_SEED_OFFSET
+    t0 = time.process_time()
+    pyb = pybullet_episodes(predict, normalize, env, episodes, seed)
+    t1 = time.process_time()
+    bat = batched_episodes(predict, normalize, cfg.env, episodes, seed)
+    t2 = time.process_time()
+    env.close()
+    return {"run": str(path), "model": f"{model_path.name} ({which})", "seed": cfg.seed, "backend": cfg.env.backend,
+            "pybullet": pyb, "batched": bat, "cpu": (t1 - t0, t2 - t1)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--episodes", type=int, default=50)
+    parser.add_argument("--model", default="best", choices=("best", "final"))
+    parser.add_argument("--write", type=Path, help="append the table to this Markdown file")
+    args = parser.parse_args()
+    rows = [compare(r, args.episodes, args.model) for r in args.runs]
+    waypoints = "mean_reached" in rows[0]["pybullet"]
+    head = "| run seed | model | engine | success [%] | mean return |" + (" mean reached | all reached [%] |" if waypoints else "")
+    lines = [
+        f"## Both engines, {args.episodes} deterministic episodes each ({time.strftime('%Y-%m-%d %H:%M')}, "
+        f"{platform.machine()}, Python {platform.python_version()})",
+        "",
+        "`python experiments/engine_gap.py " + " ".join(str(r) for r in args.runs) + f" --episodes {args.episodes}`",
+        "",
+        head,
+        "|---" * (7 if waypoints else 5) + "|",
+    ]
+    for r in rows:
+        for engine in ("pybullet", "batched"):
+            e = r[engine]
+            cells = f"| {r['seed']} | {r['model']} | {engine} | {100 * e['success_rate']:.0f} | {e['mean_return']:.1f} |"
+            if waypoints:
+                cells += f" {e['mean_reached']:.2f} | {100 * e['all_reached']:.0f} |"
+            lines.append(cells)
+    for key in ("pybullet", "batched"):
+        rates = [100 * r[key]["success_rate"] for r in rows]
+        lines.append("")
+        lines.append(f"{key}: success across runs {np.mean(rates):.0f} % (min {min(rates):.0f}, max {max(rates):.0f})")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.write:
+        with open(args.write, "a", encoding="utf-8") as f:
+            f.write("\n" + text)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
