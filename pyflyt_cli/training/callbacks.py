@@ -21,6 +21,7 @@ captured: a run resumed from one continues exactly as the uninterrupted run did.
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList, Event
 
 from pyflyt_cli.training import rundir
 from pyflyt_cli.training.artifacts import save_policy
-from pyflyt_cli.training.evaluation import policy_predict, run_episodes, summarize
+from pyflyt_cli.training.evaluation import env_measures, policy_predict, run_episodes, summarize, summarize_measures
 
 
 class StopRequest:
@@ -249,6 +250,8 @@ class PeriodicEvaluation(EventCallback):
         self.last_updates: int | None = None
         self._started = time.perf_counter()
         self._start_steps = 0
+        #: the task's success measures (what the evaluation reports beside the return)
+        self.measures = env_measures(env)
 
     def _on_training_start(self) -> None:
         super()._on_training_start()
@@ -292,7 +295,8 @@ class PeriodicEvaluation(EventCallback):
             self.deterministic,
             normalize_obs=vec.normalize_obs if vec is not None and vec.norm_obs else None,
         )
-        summary = summarize(episodes)
+        # the task's success measures ride along in the /eval record (NaN stored as null)
+        summary = {**summarize(episodes), **summarize_measures(self.measures, episodes)}
         self.writer.log("/eval", step, summary)
         elapsed = time.perf_counter() - self._started
         trained = step - self._start_steps
@@ -312,10 +316,14 @@ class PeriodicEvaluation(EventCallback):
                 from pyflyt_cli.training.timing import format_duration
 
                 eta = f", ETA {format_duration((self.total - step) / rate)}"
+            from pyflyt_engine.envs.tasks.measures import brief
+
+            measured = brief(self.measures, summary)
             self.log(
                 f"{label} {step}{of}: eval return {summary['mean_return']:.2f} ± {summary['std_return']:.2f}, "
-                f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
-                f"({rate:.0f} {self.unit}/s{eta})"
+                f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f}"
+                + (f", {measured}" if measured else "")
+                + f" ({rate:.0f} {self.unit}/s{eta})"
             )
         if better_evaluation(summary, self.best_mean_reward, self.best_success_rate, self.best_by):
             self.best_mean_reward = summary["mean_return"]
@@ -337,7 +345,8 @@ class PeriodicEvaluation(EventCallback):
             "best_mean_reward": None if not np.isfinite(self.best_mean_reward) else float(self.best_mean_reward),
             "best_step": self.best_step,
             "best_success_rate": self.best_success_rate,
-            "last": self.last,
+            # NaN (a measure that applied to no episode) as null: checkpoint state is JSON
+            "last": None if self.last is None else {k: None if v != v else v for k, v in self.last.items()},
             "last_step": self.last_step,
             "last_updates": self.last_updates,
             "last_mean_reward": None if not np.isfinite(self.last_mean_reward) else float(self.last_mean_reward),
@@ -354,7 +363,7 @@ class PeriodicEvaluation(EventCallback):
         self.best_mean_reward = -np.inf if state["best_mean_reward"] is None else float(state["best_mean_reward"])
         self.best_step = state["best_step"]
         self.best_success_rate = state.get("best_success_rate")  # absent from older checkpoints
-        self.last = state["last"]
+        self.last = None if state["last"] is None else {k: math.nan if v is None else v for k, v in state["last"].items()}
         self.last_step = state["last_step"]
         self.last_updates = state["last_updates"]
         self.last_mean_reward = -np.inf if state["last_mean_reward"] is None else float(state["last_mean_reward"])

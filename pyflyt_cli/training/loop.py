@@ -812,7 +812,8 @@ class _Run:
         if not interrupted:
             from pyflyt_cli.training.multi_agent import step_unit
 
-            self.log(_summary(result, step_unit(self.cfg.env)))
+            measures = self.evaluation.measures if self.evaluation is not None else ()
+            self.log(_summary(result, step_unit(self.cfg.env), measures))
         if self.phases is not None and elapsed > 0:  # printed when interrupted too (not logged: past the checkpoint)
             from pyflyt_cli.training.timing import describe_split
 
@@ -830,7 +831,10 @@ def _expected_end(cfg: TrainConfig) -> int:
     return -(-cfg.train.total_timesteps // chunk) * chunk
 
 
-def _summary(result: RunResult, unit: str = "steps") -> str:
+def _summary(result: RunResult, unit: str = "steps", measures: tuple[Any, ...] = ()) -> str:
+    """The end-of-run card: steps, time, the last evaluation with the task's success measures."""
+    from pyflyt_engine.envs.tasks.measures import brief
+
     text = (
         f"done: {result.num_timesteps} {unit}, {result.elapsed:.1f} s in training "
         f"({result.steps_per_second:.0f} {unit}/s)"
@@ -841,6 +845,9 @@ def _summary(result: RunResult, unit: str = "steps") -> str:
             f"; last evaluation: return {e['mean_return']:.2f} ± {e['std_return']:.2f}, "
             f"success {100 * e['success_rate']:.0f} %, length {e['mean_length']:.0f}"
         )
+        measured = brief(measures, e)
+        if measured:
+            text += f", {measured}"
     return text + f"\nrun: {result.run_dir}\nevaluate it: pyflyt eval {result.run_dir}"
 
 
