@@ -47,8 +47,22 @@ def test_the_readme_quotes_the_default_run_and_its_video_frame():
 
 def test_the_cli_eval_example_is_the_default_run_flown():
     for i, ret in enumerate(FIGURES["eval"]["returns"][:5]):
-        assert re.search(rf"^\s+{i}\s+{1000 + i}\s+{ret:.2f}\s+300\s+yes$", CLI, re.M), (i, ret)
+        assert re.search(rf"^\s+{i}\s+{1000 + i}\s+{ret:.2f}\s+300\s+yes\s+time limit\s", CLI, re.M), (i, ret)
+    for i, distance in enumerate(FIGURES["eval"]["distance_m"][:5]):  # the task's distance-held column
+        assert re.search(rf"^\s+{i}\s+{1000 + i}\s.*time limit\s+{distance:.3f}\s", CLI, re.M), (i, distance)
     assert f"return        {_last_eval()}  (mean ± std over 5 episodes)" in CLI
+
+
+def test_eval_reports_the_distance_held_that_doc_figures_computed_by_hand(tmp_path, monkeypatch):
+    """``experiments/doc_figures.py`` measures the distance from the recorded positions itself;
+    the hover task's own measure, flown by ``pyflyt eval`` of the same policy, is the same."""
+    from pyflyt_cli.training import evaluate_run
+    from pyflyt_cli.zoo import materialise
+
+    monkeypatch.chdir(tmp_path)
+    report = evaluate_run(materialise("quadx_hover_ppo"), {"episodes": 3, "record": False})
+    by_hand = FIGURES["eval"]["distance_m"][:3]
+    assert [e.measures["distance_mean"] for e in report.episodes] == pytest.approx(by_hand, rel=1e-9)
 
 
 def test_the_shipped_hover_agent_is_the_default_run():

@@ -260,6 +260,8 @@ class PeriodicEvaluation(EventCallback):
 
     #: a :class:`~pyflyt_cli.training.timing.PhaseClock` told the seconds evaluations take (or None)
     phases: Any = None
+    #: the run's :class:`~pyflyt_cli.training.timing.RunEta` (None: the rate since training started)
+    eta: Any = None
 
     def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
@@ -312,7 +314,9 @@ class PeriodicEvaluation(EventCallback):
             label = "step" if self.unit == "steps" else self.unit
             rate = trained / elapsed if elapsed > 0 else 0.0
             eta = ""
-            if self.total and step < self.total and rate > 0:
+            if self.eta is not None and self.total and step < self.total:  # the run's one ETA
+                eta = f", ETA {self.eta.text(step)}"
+            elif self.total and step < self.total and rate > 0:
                 from pyflyt_cli.training.timing import format_duration
 
                 eta = f", ETA {format_duration((self.total - step) / rate)}"
@@ -407,10 +411,18 @@ class Checkpointer(BaseCallback):
 
 
 class ProgressBar(BaseCallback):
-    """A tqdm bar over the run's total steps: steps/s, elapsed, ETA, recent mean return."""
+    """A tqdm bar over the run's total steps: steps/s, elapsed, recent mean return and the
+    run's ETA (``eta``, :class:`~pyflyt_cli.training.timing.RunEta`; tqdm's own, from its
+    smoothed recent rate, is not shown when there is one)."""
 
-    def __init__(self, total: int, episode_metrics: EpisodeMetrics | None = None, unit: str = "steps") -> None:
+    #: the bar without tqdm's remaining-time estimate (the run's ETA goes in the postfix)
+    BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}, {rate_fmt}{postfix}]"
+
+    def __init__(
+        self, total: int, episode_metrics: EpisodeMetrics | None = None, unit: str = "steps", eta: Any = None
+    ) -> None:
         super().__init__()
+        self.eta = eta
         self.total = total
         self.unit = unit[:-1]  # tqdm's unit is singular
         self.episode_metrics = episode_metrics
@@ -423,7 +435,13 @@ class ProgressBar(BaseCallback):
 
         self._shown = self.model.num_timesteps
         self.bar = tqdm(
-            total=self.total, initial=self._shown, unit=self.unit, unit_scale=True, dynamic_ncols=True, smoothing=0.05
+            total=self.total,
+            initial=self._shown,
+            unit=self.unit,
+            unit_scale=True,
+            dynamic_ncols=True,
+            smoothing=0.05,
+            **({"bar_format": self.BAR_FORMAT} if self.eta is not None else {}),
         )
 
     def _on_step(self) -> bool:
@@ -431,14 +449,17 @@ class ProgressBar(BaseCallback):
         if now > self._shown:
             self.bar.update(now - self._shown)
             self._shown = now
-        if (
-            self.episode_metrics is not None
-            and self.episode_metrics.recent
-            and time.monotonic() - self._last_postfix > 1
-        ):
+        if time.monotonic() - self._last_postfix > 1:
             self._last_postfix = time.monotonic()
-            self.bar.set_postfix_str(f"return {np.mean(self.episode_metrics.recent):.1f}", refresh=False)
+            self.bar.set_postfix_str(self.postfix(now), refresh=False)
         return True
+
+    def postfix(self, step: int) -> str:
+        """What follows the rate: the run's ETA, the recent mean training return."""
+        parts = [f"ETA {self.eta.text(step)}"] if self.eta is not None else []
+        if self.episode_metrics is not None and self.episode_metrics.recent:
+            parts.append(f"return {np.mean(self.episode_metrics.recent):.1f}")
+        return ", ".join(parts)
 
     def _on_training_end(self) -> None:
         if self.bar is not None:

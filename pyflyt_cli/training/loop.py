@@ -521,7 +521,7 @@ class _Run:
         if self.log is _silent:
             return
         from pyflyt_cli.training.multi_agent import agents_per_env, step_unit
-        from pyflyt_cli.training.timing import estimate_seconds, format_duration, measure_costs
+        from pyflyt_cli.training.timing import RunEta, format_duration, measure_costs
 
         cfg, opts = self.cfg, self.cfg.train
         unit, agents = step_unit(cfg.env), agents_per_env(cfg.env)
@@ -536,10 +536,12 @@ class _Run:
             text += f"; checkpoint every {opts.checkpoint_freq} {unit}"
         self.log(text)
         costs = measure_costs(cfg)
+        #: the measured costs behind the run's one ETA (:class:`~pyflyt_cli.training.timing.RunEta`)
+        self.costs = costs
         if costs is None:
             self.log("ETA: printed with the progress once training has run for a while")
             return
-        seconds = estimate_seconds(cfg, costs, start_step)
+        seconds = RunEta(cfg, costs).seconds_left(start_step, start_step)  # the ETA every later line updates
         self.log(
             f"ETA: about {format_duration(seconds)} (measured just now on a copy of the model: "
             f"{1e3 * costs.collect:.2f} ms per collected {unit[:-1]}, {1e3 * costs.update:.2f} ms of updates per {unit[:-1]}"
@@ -585,11 +587,13 @@ class _Run:
             RunCallbacks,
         )
         from pyflyt_cli.training.envs import EnvFactory
-        from pyflyt_cli.training.timing import PhaseClock, ProgressLines
+        from pyflyt_cli.training.timing import PhaseClock, ProgressLines, RunEta
 
         cfg, opts = self.cfg, self.cfg.train
         saved = restored[0].get("callbacks", {}) if restored is not None else {}
         callbacks: list[Any] = [ResumeStreams(*restored)] if restored is not None else []
+        eta = RunEta(cfg, getattr(self, "costs", None))  # one ETA for the evaluation lines, the bar, the progress lines
+        callbacks.append(eta)
         episodes = EpisodeMetrics(self.writer)
         callbacks.append(episodes)
         show_bar = self.progress_bar if self.progress_bar is not None else _is_terminal()
@@ -619,6 +623,7 @@ class _Run:
             from pyflyt_cli.training.multi_agent import step_unit
 
             self.evaluation.unit = step_unit(cfg.env)
+            self.evaluation.eta = eta
             for c in children:  # SB3 sets the parent of a single child only; every child reads it
                 c.parent = self.evaluation
             if "evaluation" in saved:
@@ -638,11 +643,16 @@ class _Run:
 
         unit = step_unit(cfg.env)
         if show_bar:
-            callbacks.append(ProgressBar(_expected_end(cfg), episodes, unit=unit))
+            callbacks.append(ProgressBar(_expected_end(cfg), episodes, unit=unit, eta=eta))
         elif self.log is not _silent:  # a log file or a batch job: a line at least every 30 s
             callbacks.append(
                 ProgressLines(
-                    _expected_end(cfg), self.log, self.phases, episode_returns=lambda: episodes.recent, unit=unit
+                    _expected_end(cfg),
+                    self.log,
+                    self.phases,
+                    episode_returns=lambda: episodes.recent,
+                    unit=unit,
+                    eta=eta,
                 )
             )
         callbacks.extend(extra)
