@@ -65,6 +65,37 @@ def test_eval_reports_the_distance_held_that_doc_figures_computed_by_hand(tmp_pa
     assert [e.measures["distance_mean"] for e in report.episodes] == pytest.approx(by_hand, rel=1e-9)
 
 
+@pytest.mark.long
+def test_the_readme_frame_is_what_its_caption_says_the_command_films(tmp_path, monkeypatch):
+    """The caption names `pyflyt replay <run>/episodes/ep_0000.mcap --video hover.mp4 --size WxH`
+    and a frame: filmed again from the same policy's first evaluation episode (the shipped
+    hover agent is the default run, above), that frame at that size is the committed image,
+    up to the MP4 encoding it went through."""
+    import itertools
+
+    import numpy as np
+    from PIL import Image
+
+    from pyflyt_cli.training import evaluate_run
+    from pyflyt_cli.zoo import materialise
+    from pyflyt_engine.telemetry import load_episode
+    from pyflyt_engine.telemetry.video import episode_frames
+
+    caption = re.search(r"\(Frame (\d+) of `pyflyt replay \S+ --video \S+ --size (\d+)x(\d+)`", README)
+    assert caption, "the README's video caption names its frame and size"
+    frame, width, height = (int(g) for g in caption.groups())
+    assert frame == FIGURES["video"]["frame"]
+    image = Image.open(ROOT / FIGURES["video"]["image"]).convert("RGB")
+    assert image.size == (width, height)
+    monkeypatch.chdir(tmp_path)
+    report = evaluate_run(materialise("quadx_hover_ppo"), {"episodes": 1, "record": True})
+    frames = episode_frames(load_episode(report.recordings[0]), (width, height))
+    early, filmed = (np.asarray(f)[..., :3].astype(float) for f in itertools.islice(frames, frame - 30, frame + 1, 30))
+    committed = np.asarray(image).astype(float)
+    assert np.abs(filmed - committed).mean() < 3.0  # the encoding's loss only
+    assert np.abs(early - committed).mean() > np.abs(filmed - committed).mean()  # another frame is further off
+
+
 def test_the_shipped_hover_agent_is_the_default_run():
     """Trained in another process by the same command, the zoo agent is the same policy."""
     summary = yaml.safe_load((ROOT / "pyflyt_cli/zoo/agents/quadx_hover_ppo/summary.yaml").read_text())
