@@ -110,9 +110,9 @@ def _cell(measure: Any, value: float | None) -> str:
 
     if value is None or math.isnan(value):
         return "-"
-    if measure.percent:
+    if measure.percent and measure.rate:
         return "yes" if value >= 0.5 else "no"
-    return f"{value:.{measure.digits}f}"
+    return measure.format(value) if measure.percent else f"{value:.{measure.digits}f}"
 
 
 def trained_line(path: Path, model: Path, model_step: int | None, budget: int | None = None) -> str:

@@ -131,12 +131,19 @@ def disagreement(episodes: list[Episode]) -> str | None:
         return None
     index = episodes.index(best_fail)
     top = max(episodes, key=lambda e: e.ret)
-    lead = "the highest return" if top is best_fail else f"return {best_fail.ret:.2f}"
+    lead = "the highest return" if top is best_fail else "a higher return than a success"
+    successes = f"{worst_win.ret:.2f}" if len(wins) == 1 else f"{worst_win.ret:.2f} to {max(e.ret for e in wins):.2f}"
+    longest_win = max(e.length for e in wins)
+    why = (
+        f"it flew longer ({best_fail.length} steps, successes {min(e.length for e in wins)}-{longest_win}) and "
+        "the return adds reward up over the steps flown"
+        if best_fail.length > longest_win
+        else "the return pays for more than the outcome (e.g. for approaching the targets along the way)"
+    )
     return (
-        f"return and success disagree: episode {index} has {lead} ({best_fail.ret:.2f}, {best_fail.length} steps) "
-        f"but is not a success ({END_WORDS.get(best_fail.end, best_fail.end)}), while successes score "
-        f"{worst_win.ret:.2f}-{max(e.ret for e in wins):.2f}: the return adds up reward over the steps flown "
-        "(a longer episode collects more), the success is the task's verdict on the outcome"
+        f"return and success disagree: episode {index} has {lead} ({best_fail.ret:.2f}) but is not a success "
+        f"({END_WORDS.get(best_fail.end, best_fail.end)}), while the successes score {successes}: {why}; "
+        "the success is the task's verdict on the outcome"
     )
 
 

@@ -84,8 +84,11 @@ def test_a_failure_outscoring_the_successes_is_explained():
                 _episode(2150.0, True, "complete")]
     why = disagreement(episodes)
     assert why is not None
-    assert why.startswith("return and success disagree: episode 1 has the highest return (2771.00, 600 steps)")
-    assert "not a success (time limit)" in why and "1561.00-2150.00" in why
+    assert why.startswith("return and success disagree: episode 1 has the highest return (2771.00) but is not a success")
+    assert "not a success (time limit)" in why and "successes score 1561.00 to 2150.00" in why
+    assert "it flew longer (600 steps, successes 100-100)" in why
+    same_length = disagreement([_episode(5.0, True, "complete"), _episode(9.0, False, "collision")])
+    assert "successes score 5.00: the return pays for more than the outcome" in same_length
 
 
 def test_returns_that_rank_like_the_outcomes_need_no_explanation():

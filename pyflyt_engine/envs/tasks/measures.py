@@ -39,7 +39,10 @@ class Measure:
         unit: the unit printed after the value ("m", "m/s"; "" for a count).
         combine: how the episodes' values combine into the evaluation's figure: ``mean``
             (NaN values left out) or ``max``.
-        percent: the value is a fraction (0/1 per episode: a rate), printed in percent.
+        percent: the value is a fraction, printed in percent.
+        rate: (a ``percent`` measure) each episode's value is 0 or 1, so the figure is the
+            share of episodes (printed per episode as yes/no); False for a share within an
+            episode (the agents that succeeded).
         digits: decimals printed.
     """
 
@@ -48,6 +51,7 @@ class Measure:
     unit: str = ""
     combine: Literal["mean", "max"] = "mean"
     percent: bool = False
+    rate: bool = True
     digits: int = 2
 
     def over(self, values: Iterable[float]) -> float:
@@ -98,7 +102,7 @@ DISTANCE_HELD = (
 )
 
 #: the share of agents whose own episode succeeded (every multi-agent env)
-AGENTS_SUCCEEDED = Measure("agents_succeeded", "agents that succeeded", percent=True)
+AGENTS_SUCCEEDED = Measure("agents_succeeded", "agents that succeeded", percent=True, rate=False)
 
 
 def multi_agent_measures(per_agent: Sequence[Measure]) -> tuple[Measure, ...]:
@@ -132,7 +136,7 @@ def describe(measures: Sequence[Measure], summary: Mapping[str, float], width: i
     width = max([width, *(len(m.label) for m in measures if m.key in summary)])
     for m in measures:
         if m.key in summary:
-            over = "of episodes" if m.percent else "max over episodes" if m.combine == "max" else "mean over episodes"
+            over = "of episodes" if m.percent and m.rate else "max over episodes" if m.combine == "max" else "mean over episodes"
             lines.append(f"{m.label:<{width}}  {m.format(summary[m.key])}  ({over})")
         agents = [k for k in summary if k.endswith("/" + m.key)]
         if agents:
