@@ -9,7 +9,6 @@ message names what is wrong and how to fix it.
 
 from __future__ import annotations
 
-import difflib
 import json
 import re
 from collections.abc import Mapping, Sequence
@@ -22,6 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from pyflyt_cli.errors import UsageError
 from pyflyt_engine.loading import names_file
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.suggest import closest, did_you_mean
 
 
 def group_choices(group: str) -> list[str]:
@@ -60,7 +60,7 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
         raise UsageError(_missing_message(exc)) from None
     except ConfigCompositionException as exc:
         cause = exc.__cause__ or exc
-        message = _composition_message(str(cause), config_name)
+        message = _suggest_key(_composition_message(str(cause), config_name), config_name, overrides)
         outer = str(exc).splitlines()[0] if str(exc) else ""
         if outer.startswith("Error merging override") and not message.startswith("unknown key"):
             message = f"cannot apply override {outer.removeprefix('Error merging override').strip()}: {message}"
@@ -231,8 +231,7 @@ def _missing_message(exc: Exception) -> str:
     missing = str(getattr(exc, "missing_cfg_file", None) or exc)
     group, _, choice = missing.rpartition("/")
     if options:
-        close = difflib.get_close_matches(choice, options, n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
+        hint = did_you_mean(choice, options)
         file_hint = "; or give the path of a .yaml file" if group in FILE_GROUPS else ""
         return f"unknown {group or 'config'} '{choice}'.{hint} Available: {', '.join(options)}{file_hint}"
     return str(exc).splitlines()[0]
@@ -247,6 +246,39 @@ def _composition_message(text: str, config_name: str) -> str:
         # no `+key=value` hint: every config is validated against its schema, which refuses a new key
         return f"unknown key '{key}' for `{config_name}`: check the spelling"
     return first
+
+
+def _suggest_key(message: str, config_name: str, overrides: Sequence[str]) -> str:
+    """An unknown-key message with "Did you mean ...?" (:func:`pyflyt_engine.suggest.closest`)
+    and the keys beside the misspelt one, read from the config composed without it."""
+    if not message.startswith("unknown key '"):
+        return message
+    key = message.split("'")[1]
+    parent, _, leaf = key.rpartition(".")
+
+    def names(o: str) -> bool:  # the override of the key itself, or of a key below it (trian.seed=1)
+        given = o.lstrip("+~").partition("=")[0]
+        return given == key or given.startswith(key + ".")
+
+    rest = [o for o in overrides if not names(o)]
+    try:
+        node: Any = compose(config_name, rest)
+        for part in parent.split(".") if parent else []:
+            node = node[part]
+    except (UsageError, KeyError, TypeError):
+        return message
+    if not isinstance(node, DictConfig):
+        return message
+    keys = [str(k) for k in node]
+    meant_leaf = closest(leaf, keys)
+    hint = ""
+    if meant_leaf is not None:
+        meant = (parent + "." if parent else "") + meant_leaf
+        given = [o.lstrip("+~").partition("=") for o in overrides if names(o)]
+        use = f"{meant}{given[0][0][len(key):]}={given[0][2]}" if given else f"{meant}=<value>"
+        hint = f" Did you mean '{meant}'? Use {use}."
+    tail = ". `pyflyt train --cfg` prints every key with its value" if config_name == "train" else ""
+    return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}{tail}", 1)
 
 
 def to_container(cfg: DictConfig) -> dict[str, Any]:

@@ -45,8 +45,28 @@ class _UntypedFlags:
         return option
 
 
-class _Command(_UntypedFlags, typer.core.TyperCommand):
-    """A command whose ``--help`` lists its flags without a value type."""
+class _SuggestedOptions:
+    """Mixed into Typer's command class: a misspelt ``--option`` gets the one closest option
+    of :func:`pyflyt_engine.suggest.closest` (``--vidoe``: did you mean --video?), as every
+    other name a user types does."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        from pyflyt_engine.suggest import closest
+
+        try:
+            return super().parse_args(ctx, args)  # type: ignore[misc]
+        except Exception as exc:  # Typer's own copy of Click's NoSuchOption (no public import path)
+            if type(exc).__name__ != "NoSuchOption" or not hasattr(exc, "possibilities"):
+                raise
+            names = [o for p in self.params for o in (*p.opts, *p.secondary_opts) if o.startswith("--")]  # type: ignore[attr-defined]
+            meant = closest(exc.option_name, names)  # type: ignore[attr-defined]
+            exc.possibilities = [meant] if meant is not None else []
+            raise
+
+
+class _Command(_SuggestedOptions, _UntypedFlags, typer.core.TyperCommand):
+    """A command whose ``--help`` lists its flags without a value type and whose misspelt
+    options get the closest one."""
 
 
 class _Group(_UntypedFlags, typer.core.TyperGroup):

@@ -19,7 +19,6 @@ lists every problem of a document under ``<source>: invalid <what>:``.
 
 from __future__ import annotations
 
-import difflib
 import os
 import types
 import typing
@@ -32,6 +31,7 @@ from pydantic import BaseModel, ValidationError
 from pyflyt_engine.errors import ConfigError, PyFlytError
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.safe_load import load_yaml_file, plain_name
+from pyflyt_engine.suggest import did_you_mean
 
 Model = TypeVar("Model", bound=BaseModel)
 
@@ -133,8 +133,7 @@ def describe_error(root: type[BaseModel], error: Mapping[str, Any], prefix: str 
     if kind == "extra_forbidden":
         allowed = sorted(k for k in (model.model_fields if model is not None else {}) if k != "source")
         key = str(loc[-1])
-        close = difflib.get_close_matches(key, allowed, n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
+        hint = did_you_mean(key, allowed)
         return f"{where}: unknown key '{key}'.{hint} Allowed keys here: {', '.join(allowed)}"
     message = str(error["msg"]).removeprefix("Value error, ")
     value = error.get("input")
@@ -203,8 +202,7 @@ def names_file(value: str | Path) -> bool:
 
 def unknown_name(value: Any, choices: list[str], what: str, shipped: str = "Shipped", files: str = "or give a .yaml path") -> str:
     """``unknown <what> '<value>'. Did you mean '...'? <shipped>: ...; <files>``."""
-    close = difflib.get_close_matches(str(value), choices, n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(str(value), choices)
     tail = f"; {files}" if files else ""
     return f"unknown {what} '{value}'.{hint} {shipped}: {', '.join(choices)}{tail}"
 

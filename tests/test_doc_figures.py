@@ -47,8 +47,53 @@ def test_the_readme_quotes_the_default_run_and_its_video_frame():
 
 def test_the_cli_eval_example_is_the_default_run_flown():
     for i, ret in enumerate(FIGURES["eval"]["returns"][:5]):
-        assert re.search(rf"^\s+{i}\s+{1000 + i}\s+{ret:.2f}\s+300\s+yes$", CLI, re.M), (i, ret)
+        assert re.search(rf"^\s+{i}\s+{1000 + i}\s+{ret:.2f}\s+300\s+yes\s+time limit\s", CLI, re.M), (i, ret)
+    for i, distance in enumerate(FIGURES["eval"]["distance_m"][:5]):  # the task's distance-held column
+        assert re.search(rf"^\s+{i}\s+{1000 + i}\s.*time limit\s+{distance:.3f}\s", CLI, re.M), (i, distance)
     assert f"return        {_last_eval()}  (mean ± std over 5 episodes)" in CLI
+
+
+def test_eval_reports_the_distance_held_that_doc_figures_computed_by_hand(tmp_path, monkeypatch):
+    """``experiments/doc_figures.py`` measures the distance from the recorded positions itself;
+    the hover task's own measure, flown by ``pyflyt eval`` of the same policy, is the same."""
+    from pyflyt_cli.training import evaluate_run
+    from pyflyt_cli.zoo import materialise
+
+    monkeypatch.chdir(tmp_path)
+    report = evaluate_run(materialise("quadx_hover_ppo"), {"episodes": 3, "record": False})
+    by_hand = FIGURES["eval"]["distance_m"][:3]
+    assert [e.measures["distance_mean"] for e in report.episodes] == pytest.approx(by_hand, rel=1e-9)
+
+
+@pytest.mark.long
+def test_the_readme_frame_is_what_its_caption_says_the_command_films(tmp_path, monkeypatch):
+    """The caption names `pyflyt replay <run>/episodes/ep_0000.mcap --video hover.mp4 --size WxH`
+    and a frame: filmed again from the same policy's first evaluation episode (the shipped
+    hover agent is the default run, above), that frame at that size is the committed image,
+    up to the MP4 encoding it went through."""
+    import itertools
+
+    import numpy as np
+    from PIL import Image
+
+    from pyflyt_cli.training import evaluate_run
+    from pyflyt_cli.zoo import materialise
+    from pyflyt_engine.telemetry import load_episode
+    from pyflyt_engine.telemetry.video import episode_frames
+
+    caption = re.search(r"\(Frame (\d+) of `pyflyt replay \S+ --video \S+ --size (\d+)x(\d+)`", README)
+    assert caption, "the README's video caption names its frame and size"
+    frame, width, height = (int(g) for g in caption.groups())
+    assert frame == FIGURES["video"]["frame"]
+    image = Image.open(ROOT / FIGURES["video"]["image"]).convert("RGB")
+    assert image.size == (width, height)
+    monkeypatch.chdir(tmp_path)
+    report = evaluate_run(materialise("quadx_hover_ppo"), {"episodes": 1, "record": True})
+    frames = episode_frames(load_episode(report.recordings[0]), (width, height))
+    early, filmed = (np.asarray(f)[..., :3].astype(float) for f in itertools.islice(frames, frame - 30, frame + 1, 30))
+    committed = np.asarray(image).astype(float)
+    assert np.abs(filmed - committed).mean() < 3.0  # the encoding's loss only
+    assert np.abs(early - committed).mean() > np.abs(filmed - committed).mean()  # another frame is further off
 
 
 def test_the_shipped_hover_agent_is_the_default_run():

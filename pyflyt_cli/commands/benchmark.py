@@ -30,7 +30,15 @@ def benchmark_command(overrides: list[str], dry_run: bool = False, restart_chang
     overrides = parse_overrides(overrides)
     experiments = [o.partition("=")[2] for o in overrides if o.partition("=")[0] == "experiment"]
     if not experiments or not experiments[-1]:
-        raise UsageError("choose the benchmark: pyflyt benchmark experiment=<name> (e.g. experiment=paper_rl)")
+        from pyflyt_engine.suggest import closest
+
+        misspelt = [o for o in overrides if o.partition("=")[0] != "experiment" and closest(o.partition("=")[0], ["experiment"])]
+        hint = (
+            f" ({misspelt[0]}: Did you mean 'experiment'? Use experiment={misspelt[0].partition('=')[2]}.)"
+            if misspelt
+            else ""
+        )
+        raise UsageError(f"choose the benchmark: pyflyt benchmark experiment=<name> (e.g. experiment=paper_rl){hint}")
     rest = [o for o in overrides if o.partition("=")[0] != "experiment"]
     plan = plan_benchmark(experiments[-1], rest, command=["pyflyt", "benchmark", *overrides])
     if dry_run:

@@ -175,7 +175,11 @@ def run_oracle_eval(name: str, overrides: list[str]) -> object:
     from pyflyt_engine.envs.oracles import ORACLES
 
     if name not in ORACLES:
-        raise UsageError(f"unknown oracle {name!r} in oracle:{name}; oracles: {', '.join(sorted(ORACLES))}")
+        from pyflyt_engine.suggest import did_you_mean
+
+        raise UsageError(
+            f"unknown oracle {name!r} in oracle:{name}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}"
+        )
     evaluation, training = [], []
     for item in parse_overrides(overrides):
         key = item.lstrip("+~").partition("=")[0]

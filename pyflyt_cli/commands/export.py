@@ -23,8 +23,10 @@ def parse_export_args(overrides: list[str]) -> dict[str, str]:
         key, _, value = item.partition("=")
         key = key.lstrip("+")
         if key not in KEYS:
+            from pyflyt_engine.suggest import did_you_mean
+
             known = ", ".join(f"{k}= ({v})" for k, v in KEYS.items())
-            raise UsageError(f"unknown key {key!r} in '{item}': pyflyt export takes {known}")
+            raise UsageError(f"unknown key {key!r} in '{item}'.{did_you_mean(key, KEYS)} pyflyt export takes {known}")
         if key in options:
             raise UsageError(f"{key}= given twice ({key}={options[key]} and {item}): give it once")
         if not value:

@@ -12,6 +12,26 @@ from pyflyt_cli.training.tune import TUNE_KEYS, tune
 INTERRUPTED = 130
 
 
+def _check_top_keys(training: list[str]) -> None:
+    """A key that is neither a tuning setting nor a training key (``trails=3``) is refused
+    here, with the closest of both kinds (:func:`pyflyt_engine.suggest.closest`): passed on,
+    it would be taken for a misspelt training key."""
+    from pyflyt_cli.compose import compose
+    from pyflyt_engine.paths import conf_dir
+    from pyflyt_engine.suggest import did_you_mean
+
+    tops = {o.lstrip("+~").partition("=")[0].partition(".")[0] for o in training}
+    if not tops:
+        return
+    known = {str(k) for k in compose("train", [])} | {p.name for p in conf_dir().iterdir() if p.is_dir()}
+    for top in sorted(tops - known):
+        options = sorted({*TUNE_KEYS, "env", "algo", *known})
+        raise UsageError(
+            f"unknown key '{top}' for pyflyt tune.{did_you_mean(top, options)} Tuning settings: {', '.join(TUNE_KEYS)}; "
+            "every other key is a training key (pyflyt train --cfg lists them)"
+        )
+
+
 def run_tune(overrides: list[str]) -> int:
     """Returns the exit code (0 done, 130 interrupted)."""
     overrides = parse_overrides(overrides)
@@ -30,6 +50,7 @@ def run_tune(overrides: list[str]) -> int:
             raise UsageError(f"{key}= is not a tuning setting: every trial is a new run in the study directory")
         else:
             training.append(item)
+    _check_top_keys(training)
     if not env or not algo:
         raise UsageError("pyflyt tune needs env=<task> and algo=<algorithm>, e.g. pyflyt tune env=quadx_hover algo=sac trials=20")
 

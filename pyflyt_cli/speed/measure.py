@@ -132,7 +132,12 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
     env_ids = list(settings.envs) if settings.envs else list(ENVS)
     unknown = [e for e in env_ids if e not in ENVS]
     if unknown:
-        raise SpeedError(f"unknown env id(s) {', '.join(unknown)}; registered: {', '.join(ENVS)}")
+        from pyflyt_engine.suggest import closest
+
+        by_config = {entry.config: env_id for env_id, entry in ENVS.items()}  # quadx_hover -> PyFlyt/QuadX-Hover-v0
+        meant = closest(unknown[0], [*ENVS, *by_config])
+        hint = f" Did you mean '{by_config.get(meant, meant)}'?" if meant is not None else ""
+        raise SpeedError(f"unknown env id(s) {', '.join(unknown)}.{hint} Registered: {', '.join(ENVS)}")
     if settings.repeats < 1:
         raise SpeedError(f"repeats must be >= 1, got {settings.repeats}")
     from pyflyt_engine.envs.config import MAX_AGENTS

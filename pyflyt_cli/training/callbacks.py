@@ -21,6 +21,7 @@ captured: a run resumed from one continues exactly as the uninterrupted run did.
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList, Event
 
 from pyflyt_cli.training import rundir
 from pyflyt_cli.training.artifacts import save_policy
-from pyflyt_cli.training.evaluation import policy_predict, run_episodes, summarize
+from pyflyt_cli.training.evaluation import env_measures, policy_predict, run_episodes, summarize, summarize_measures
 
 
 class StopRequest:
@@ -249,6 +250,8 @@ class PeriodicEvaluation(EventCallback):
         self.last_updates: int | None = None
         self._started = time.perf_counter()
         self._start_steps = 0
+        #: the task's success measures (what the evaluation reports beside the return)
+        self.measures = env_measures(env)
 
     def _on_training_start(self) -> None:
         super()._on_training_start()
@@ -257,6 +260,8 @@ class PeriodicEvaluation(EventCallback):
 
     #: a :class:`~pyflyt_cli.training.timing.PhaseClock` told the seconds evaluations take (or None)
     phases: Any = None
+    #: the run's :class:`~pyflyt_cli.training.timing.RunEta` (None: the rate since training started)
+    eta: Any = None
 
     def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
@@ -292,7 +297,8 @@ class PeriodicEvaluation(EventCallback):
             self.deterministic,
             normalize_obs=vec.normalize_obs if vec is not None and vec.norm_obs else None,
         )
-        summary = summarize(episodes)
+        # the task's success measures ride along in the /eval record (NaN stored as null)
+        summary = {**summarize(episodes), **summarize_measures(self.measures, episodes)}
         self.writer.log("/eval", step, summary)
         elapsed = time.perf_counter() - self._started
         trained = step - self._start_steps
@@ -308,14 +314,20 @@ class PeriodicEvaluation(EventCallback):
             label = "step" if self.unit == "steps" else self.unit
             rate = trained / elapsed if elapsed > 0 else 0.0
             eta = ""
-            if self.total and step < self.total and rate > 0:
+            if self.eta is not None and self.total and step < self.total:  # the run's one ETA
+                eta = f", ETA {self.eta.text(step)}"
+            elif self.total and step < self.total and rate > 0:
                 from pyflyt_cli.training.timing import format_duration
 
                 eta = f", ETA {format_duration((self.total - step) / rate)}"
+            from pyflyt_engine.envs.tasks.measures import brief
+
+            measured = brief(self.measures, summary)
             self.log(
                 f"{label} {step}{of}: eval return {summary['mean_return']:.2f} ± {summary['std_return']:.2f}, "
-                f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f} "
-                f"({rate:.0f} {self.unit}/s{eta})"
+                f"success {100 * summary['success_rate']:.0f} %, length {summary['mean_length']:.0f}"
+                + (f", {measured}" if measured else "")
+                + f" ({rate:.0f} {self.unit}/s{eta})"
             )
         if better_evaluation(summary, self.best_mean_reward, self.best_success_rate, self.best_by):
             self.best_mean_reward = summary["mean_return"]
@@ -337,7 +349,8 @@ class PeriodicEvaluation(EventCallback):
             "best_mean_reward": None if not np.isfinite(self.best_mean_reward) else float(self.best_mean_reward),
             "best_step": self.best_step,
             "best_success_rate": self.best_success_rate,
-            "last": self.last,
+            # NaN (a measure that applied to no episode) as null: checkpoint state is JSON
+            "last": None if self.last is None else {k: None if v != v else v for k, v in self.last.items()},
             "last_step": self.last_step,
             "last_updates": self.last_updates,
             "last_mean_reward": None if not np.isfinite(self.last_mean_reward) else float(self.last_mean_reward),
@@ -354,7 +367,7 @@ class PeriodicEvaluation(EventCallback):
         self.best_mean_reward = -np.inf if state["best_mean_reward"] is None else float(state["best_mean_reward"])
         self.best_step = state["best_step"]
         self.best_success_rate = state.get("best_success_rate")  # absent from older checkpoints
-        self.last = state["last"]
+        self.last = None if state["last"] is None else {k: math.nan if v is None else v for k, v in state["last"].items()}
         self.last_step = state["last_step"]
         self.last_updates = state["last_updates"]
         self.last_mean_reward = -np.inf if state["last_mean_reward"] is None else float(state["last_mean_reward"])
@@ -398,10 +411,18 @@ class Checkpointer(BaseCallback):
 
 
 class ProgressBar(BaseCallback):
-    """A tqdm bar over the run's total steps: steps/s, elapsed, ETA, recent mean return."""
+    """A tqdm bar over the run's total steps: steps/s, elapsed, recent mean return and the
+    run's ETA (``eta``, :class:`~pyflyt_cli.training.timing.RunEta`; tqdm's own, from its
+    smoothed recent rate, is not shown when there is one)."""
 
-    def __init__(self, total: int, episode_metrics: EpisodeMetrics | None = None, unit: str = "steps") -> None:
+    #: the bar without tqdm's remaining-time estimate (the run's ETA goes in the postfix)
+    BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}, {rate_fmt}{postfix}]"
+
+    def __init__(
+        self, total: int, episode_metrics: EpisodeMetrics | None = None, unit: str = "steps", eta: Any = None
+    ) -> None:
         super().__init__()
+        self.eta = eta
         self.total = total
         self.unit = unit[:-1]  # tqdm's unit is singular
         self.episode_metrics = episode_metrics
@@ -414,7 +435,13 @@ class ProgressBar(BaseCallback):
 
         self._shown = self.model.num_timesteps
         self.bar = tqdm(
-            total=self.total, initial=self._shown, unit=self.unit, unit_scale=True, dynamic_ncols=True, smoothing=0.05
+            total=self.total,
+            initial=self._shown,
+            unit=self.unit,
+            unit_scale=True,
+            dynamic_ncols=True,
+            smoothing=0.05,
+            **({"bar_format": self.BAR_FORMAT} if self.eta is not None else {}),
         )
 
     def _on_step(self) -> bool:
@@ -422,14 +449,17 @@ class ProgressBar(BaseCallback):
         if now > self._shown:
             self.bar.update(now - self._shown)
             self._shown = now
-        if (
-            self.episode_metrics is not None
-            and self.episode_metrics.recent
-            and time.monotonic() - self._last_postfix > 1
-        ):
+        if time.monotonic() - self._last_postfix > 1:
             self._last_postfix = time.monotonic()
-            self.bar.set_postfix_str(f"return {np.mean(self.episode_metrics.recent):.1f}", refresh=False)
+            self.bar.set_postfix_str(self.postfix(now), refresh=False)
         return True
+
+    def postfix(self, step: int) -> str:
+        """What follows the rate: the run's ETA, the recent mean training return."""
+        parts = [f"ETA {self.eta.text(step)}"] if self.eta is not None else []
+        if self.episode_metrics is not None and self.episode_metrics.recent:
+            parts.append(f"return {np.mean(self.episode_metrics.recent):.1f}")
+        return ", ".join(parts)
 
     def _on_training_end(self) -> None:
         if self.bar is not None:

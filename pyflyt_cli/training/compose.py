@@ -79,10 +79,7 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
                 "give config keys (key=value), and launcher settings to pyflyt benchmark"
             )
     overrides, replaced = _whole_value_overrides(overrides)
-    try:
-        cfg = compose("train", overrides, return_hydra_config=True)
-    except UsageError as exc:
-        raise UsageError(_suggest_key(str(exc), overrides)) from None
+    cfg = compose("train", overrides, return_hydra_config=True)  # an unknown key's message names the closest
     choices = dict(cfg.hydra.runtime.choices)
     with open_dict(cfg):
         del cfg["hydra"]
@@ -173,38 +170,3 @@ def _plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
     return value
-
-
-def _suggest_key(message: str, overrides: list[str]) -> str:
-    """Add "Did you mean ...?" to an unknown-key message, from the keys beside the misspelt one."""
-    import difflib
-
-    from omegaconf import DictConfig
-
-    if not message.startswith("unknown key '"):
-        return message
-    key = message.split("'")[1]
-    parent, _, leaf = key.rpartition(".")
-    rest = [o for o in overrides if o.lstrip("+~").partition("=")[0] != key]
-    try:
-        node: Any = compose("train", rest)
-        for part in parent.split(".") if parent else []:
-            node = node[part]
-    except (UsageError, KeyError, TypeError):
-        return message
-    if not isinstance(node, DictConfig):
-        return message
-    keys = [str(k) for k in node]
-    close = difflib.get_close_matches(leaf, keys, n=1)
-    if close:
-        meant = (parent + "." if parent else "") + close[0]
-        given = [o.partition("=")[2] for o in overrides if o.lstrip("+~").partition("=")[0] == key]
-        hint = f" Did you mean '{meant}'? Use {meant}={given[0] if given else '<value>'}."
-    else:
-        hint = ""
-    return message.replace(
-        ": check the spelling",
-        f":{hint} Keys here: {', '.join(keys)}. `pyflyt train --cfg` prints every key with its value",
-        1,
-    )
-

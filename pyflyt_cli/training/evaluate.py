@@ -13,7 +13,17 @@ from typing import Any
 import numpy as np
 
 from pyflyt_cli.training import rundir
-from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, Episode, policy_predict, run_episodes, summarize
+from pyflyt_cli.training.evaluation import (
+    END_WORDS,
+    EVAL_SEED_OFFSET,
+    Episode,
+    disagreement,
+    env_measures,
+    policy_predict,
+    run_episodes,
+    summarize,
+    summarize_measures,
+)
 from pyflyt_cli.training.schema import EvalOptions, TrainConfig, parse_eval_options
 from pyflyt_engine.errors import ConfigError
 
@@ -38,9 +48,18 @@ class EvalReport:
     oracle: str | None = None
     #: changes to the run's environment these episodes flew (``pyflyt eval <run> env.<key>=...``)
     env_changes: dict[str, Any] | None = None
+    #: the success measures the task declares (:mod:`pyflyt_engine.envs.tasks.measures`)
+    measures: tuple[Any, ...] = ()
+    #: those measures combined over the episodes (per-agent ones as ``<agent>/<key>``)
+    measure_summary: dict[str, float] | None = None
+    #: how far the run trained and which step the model flown comes from (one line; None for an oracle)
+    trained: str | None = None
 
     def table(self) -> str:
-        """The printed report: one row per episode, then mean ± std."""
+        """The printed report: one row per episode (return, length, success, why it ended,
+        the task's measures), then the means and the measures over the episodes."""
+        from pyflyt_engine.envs.tasks.measures import describe
+
         s = self.summary
         seeds = f"seeds {self.seed}..{self.seed + len(self.episodes) - 1}"
         flown = (
@@ -50,26 +69,74 @@ class EvalReport:
             f"{'deterministic' if self.deterministic else 'stochastic'} actions, {seeds}"
         )
         lines = [f"run:    {self.run_dir}", flown]
+        if self.trained:
+            lines.append(f"trained: {self.trained}")
         if self.env_changes:
             changed = ", ".join(f"{k}={v}" for k, v in self.env_changes.items())
             lines.append(f"env:    the run's, with {changed}")
-        lines += [
-            "",
-            f"{'episode':>7}  {'seed':>6}  {'return':>10}  {'length':>6}  success",
-        ]
+        # per-agent values stay out of the rows (the summary lists them)
+        columns = [m for m in self.measures if any(m.key in e.measures for e in self.episodes)]
+        widths = [max(len(m.key), 8) for m in columns]
+        header = f"{'episode':>7}  {'seed':>6}  {'return':>10}  {'length':>6}  {'success':<7}  {'ended':<20}"
+        lines += ["", header + "".join(f"  {m.key:>{w}}" for m, w in zip(columns, widths))]
         for i, e in enumerate(self.episodes):
-            lines.append(f"{i:>7}  {e.seed:>6}  {e.ret:>10.2f}  {e.length:>6}  {'yes' if e.success else 'no'}")
+            row = (
+                f"{i:>7}  {e.seed:>6}  {e.ret:>10.2f}  {e.length:>6}  {'yes' if e.success else 'no':<7}  "
+                f"{END_WORDS.get(e.end, e.end):<20}"
+            )
+            cells = [_cell(m, e.measures.get(m.key)) for m in columns]
+            lines.append(row + "".join(f"  {c:>{w}}" for c, w in zip(cells, widths)))
         lines += [
             "",
             f"return        {s['mean_return']:.2f} ± {s['std_return']:.2f}  (mean ± std over {len(self.episodes)} episodes)",
             f"success rate  {100 * s['success_rate']:.0f} %",
             f"length        {s['mean_length']:.1f} steps",
         ]
+        if self.measure_summary:
+            lines += describe(self.measures, self.measure_summary, width=12)
+        why = disagreement(self.episodes)
+        if why is not None:
+            lines.append(why)
         if self.recordings:
             lines.append(f"episodes:     {self.recordings[0].parent}/ ({len(self.recordings)} MCAP files)")
         if self.video is not None:
             lines.append(f"video:        {self.video}")
         return "\n".join(lines)
+
+
+def _cell(measure: Any, value: float | None) -> str:
+    """One measure's value in an episode row: yes/no for a 0/1 rate, the number otherwise."""
+    import math
+
+    if value is None or math.isnan(value):
+        return "-"
+    if measure.percent and measure.rate:
+        return "yes" if value >= 0.5 else "no"
+    return measure.format(value) if measure.percent else f"{value:.{measure.digits}f}"
+
+
+def trained_line(path: Path, model: Path, model_step: int | None, budget: int | None = None) -> str:
+    """How far the run trained (``state.json``: status, steps of the budget) and which step
+    the model flown comes from, in one line; an unfinished run says how to continue it.
+    ``budget``: the configured ``train.total_timesteps``, for a run without ``state.json``."""
+    try:
+        state = rundir.read_state(path)
+    except rundir.RunDirError:
+        state = {}
+    flown = f"{model.name} from step {model_step}" if model_step is not None else f"{model.name} (its step unknown)"
+    if not state.get("status"):  # e.g. a shipped agent's folder: the policy file alone
+        of = f" of a {budget}-step budget" if budget else ""
+        return f"flying {flown}{of} (no {rundir.STATE_FILE} here: how far its training went is not recorded)"
+    status = str(state["status"])
+    done, total = state.get("num_timesteps"), state.get("total_timesteps") or budget
+    of = f"{done} of {total} steps" if done is not None and total else f"{done} steps"
+    if status == "complete":
+        return f"complete, {of}; flying {flown}"
+    words = {"interrupted": "interrupted", "running": "still running (or killed)", "failed": "failed"}
+    text = f"UNFINISHED ({words.get(status, status)} at {of}); flying {flown}"
+    if status in ("interrupted", "running"):
+        text += f"; continue with pyflyt train resume={path}"
+    return text
 
 
 def evaluate_run(
@@ -105,12 +172,28 @@ def evaluate_run(
     apply_torch()
     seed = opts.seed if opts.seed is not None else cfg.seed + EVAL_SEED_OFFSET
 
+    steps: list[int | None] = [None]
+
     def load(env: Any) -> tuple[Callable[[np.ndarray, bool], np.ndarray], Any]:
         model, normalize = load_policy(model_path, cfg, env, trust_pickle=trust)
         model.set_random_seed(seed)
+        if model_path.suffix != ".zip":  # a pyflyt policy file names the step it was saved at
+            from pyflyt_cli.training.models import read_policy
+
+            steps[0] = read_policy(model_path).step
         return policy_predict(model), normalize
 
-    return _fly(path, env_config, load, opts, seed, model=model_path, which=which, env_changes=dict(env or {}))
+    return _fly(
+        path,
+        env_config,
+        load,
+        opts,
+        seed,
+        model=model_path,
+        which=which,
+        env_changes=dict(env or {}),
+        trained=lambda: trained_line(path, model_path, steps[0], cfg.train.total_timesteps),
+    )
 
 
 def _changed_env(cfg: TrainConfig, changes: dict[str, Any]) -> Any:
@@ -156,7 +239,9 @@ def evaluate_oracle(
 
     opts = parse_eval_options(options or {})
     if name not in ORACLES:
-        raise ConfigError(f"unknown oracle {name!r}; oracles: {', '.join(sorted(ORACLES))}")
+        from pyflyt_engine.suggest import did_you_mean
+
+        raise ConfigError(f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}")
     env_ids = ORACLES[name].env_ids
     if cfg.env.id not in env_ids:
         raise ConfigError(f"oracle {name} flies {', '.join(env_ids)}, not {cfg.env.id} (env={cfg.env_name})")
@@ -208,6 +293,7 @@ def _fly(
     which: str,
     oracle: str | None = None,
     env_changes: dict[str, Any] | None = None,
+    trained: Callable[[], str] | None = None,
 ) -> EvalReport:
     """Fly ``opts.episodes`` episodes of ``env_config`` with the policy ``load(env)`` returns
     (``(predict, normalize_obs)``); record, film, write ``eval.json`` (``env_changes``: the
@@ -239,6 +325,8 @@ def _fly(
         recordings = list(_recorder_paths(env))
         env.close()
     summary = summarize(episodes)
+    measures = env_measures(env)
+    measure_summary = summarize_measures(measures, episodes)
     try:
         if video is not None:  # the same film as `pyflyt replay --video` of those recordings
             from pyflyt_cli.outputs import atomic_output
@@ -252,8 +340,23 @@ def _fly(
         if scratch is not None:
             recordings = []
             scratch.cleanup()
+    from pyflyt_engine.envs.tasks.measures import plain
+
     report = EvalReport(
-        path, model, which, seed, opts.deterministic, episodes, summary, recordings, video, oracle, env_changes or None
+        path,
+        model,
+        which,
+        seed,
+        opts.deterministic,
+        episodes,
+        summary,
+        recordings,
+        video,
+        oracle,
+        env_changes or None,
+        measures,
+        measure_summary,
+        trained() if trained is not None else None,
     )
     flown = {"oracle": oracle} if oracle is not None else {"model": model.name if model else None}
     rundir.atomic_write(
@@ -266,9 +369,19 @@ def _fly(
                 "seed": seed,
                 "deterministic": opts.deterministic,
                 **({"env_changes": env_changes} if env_changes else {}),
+                **({"trained": report.trained} if report.trained else {}),
                 **summary,
+                "measures": plain(measure_summary),
                 "episodes": [
-                    {"seed": e.seed, "return": e.ret, "length": e.length, "success": e.success} for e in episodes
+                    {
+                        "seed": e.seed,
+                        "return": e.ret,
+                        "length": e.length,
+                        "success": e.success,
+                        "end": e.end,
+                        "measures": plain(e.measures),
+                    }
+                    for e in episodes
                 ],
                 "recordings": [p.name for p in recordings],
             },

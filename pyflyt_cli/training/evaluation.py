@@ -1,8 +1,14 @@
-"""Running a trained policy for whole episodes: returns, lengths, success.
+"""Running a trained policy for whole episodes: returns, lengths, success, the task's measures.
 
 Shared by the periodic evaluation during training and by ``pyflyt eval``, so both report
 the same numbers for the same seeds.  Episode ``i`` starts from ``reset(seed=seed + i)``:
 each episode can be reproduced on its own.
+
+Beside the return, every episode carries the task's success measures (``info["measures"]``
+of its last step, declared by the task: :mod:`pyflyt_engine.envs.tasks.measures`) and why
+it ended; :func:`summarize_measures` combines the measures over the episodes and
+:func:`disagreement` says where the return and the success verdict rank episodes
+differently.
 """
 
 from __future__ import annotations
@@ -12,6 +18,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
+from pyflyt_engine.envs.tasks.measures import Measure
+from pyflyt_engine.envs.tasks.measures import summarize_measures as combine_measures
 
 #: evaluation episodes use seeds ``run seed + EVAL_SEED_OFFSET + i`` unless told otherwise
 EVAL_SEED_OFFSET = 1000
@@ -30,6 +40,10 @@ class Episode:
     success: bool
     #: the last step's ``info`` (reward terms, collision, ...)
     final_info: dict[str, Any] = field(default_factory=dict, repr=False)
+    #: the task's success measures of the episode (``info["measures"]`` of its last step)
+    measures: dict[str, float] = field(default_factory=dict)
+    #: why it ended: ``complete``, ``time_limit``, ``collision``, ``out_of_bounds``, ``failed``
+    end: str = ""
 
 
 def run_episodes(
@@ -56,6 +70,8 @@ def run_episodes(
             custom measurements).
         on_reset: called as ``on_reset(env, episode_index)`` after every reset.
     """
+    from pyflyt_engine.telemetry.recorder import end_reason
+
     results = []
     for i in range(episodes):
         obs, info = env.reset(seed=seed + i)
@@ -73,8 +89,62 @@ def run_episodes(
             done = terminated or truncated
             if on_step is not None:
                 on_step(env, i)
-        results.append(Episode(seed + i, total, length, bool(info.get("success", False)), dict(info)))
+        measures = {str(k): float(v) for k, v in (info.get(MEASURES) or {}).items()}
+        reason = end_reason(bool(terminated), bool(truncated), info)
+        results.append(Episode(seed + i, total, length, bool(info.get("success", False)), dict(info), measures, reason))
     return results
+
+
+def env_measures(env: Any) -> tuple[Measure, ...]:
+    """The success measures the env's task declares (none for an env without them)."""
+    return tuple(getattr(getattr(env, "unwrapped", env), "measures", ()) or ())
+
+
+def summarize_measures(measures: tuple[Measure, ...], episodes: list[Episode]) -> dict[str, float]:
+    """The declared ``measures`` combined over ``episodes`` (see
+    :func:`pyflyt_engine.envs.tasks.measures.summarize_measures`)."""
+    return combine_measures(measures, [e.measures for e in episodes])
+
+
+#: what an episode's end reason is called in the printed report
+END_WORDS = {
+    "complete": "task complete",
+    "time_limit": "time limit",
+    "collision": "crashed (contact)",
+    "out_of_bounds": "left the flight dome",
+    "failed": "failed (the task's verdict)",
+    "": "-",
+}
+
+
+def disagreement(episodes: list[Episode]) -> str | None:
+    """A sentence when the return ranks a failed episode above a successful one (the
+    return pays for more than the outcome, e.g. a proximity term over a longer episode);
+    None when the two agree."""
+    wins = [e for e in episodes if e.success]
+    fails = [e for e in episodes if not e.success]
+    if not wins or not fails:
+        return None
+    best_fail = max(fails, key=lambda e: e.ret)
+    worst_win = min(wins, key=lambda e: e.ret)
+    if best_fail.ret <= worst_win.ret:
+        return None
+    index = episodes.index(best_fail)
+    top = max(episodes, key=lambda e: e.ret)
+    lead = "the highest return" if top is best_fail else "a higher return than a success"
+    successes = f"{worst_win.ret:.2f}" if len(wins) == 1 else f"{worst_win.ret:.2f} to {max(e.ret for e in wins):.2f}"
+    longest_win = max(e.length for e in wins)
+    why = (
+        f"it flew longer ({best_fail.length} steps, successes {min(e.length for e in wins)}-{longest_win}) and "
+        "the return adds reward up over the steps flown"
+        if best_fail.length > longest_win
+        else "the return pays for more than the outcome (e.g. for approaching the targets along the way)"
+    )
+    return (
+        f"return and success disagree: episode {index} has {lead} ({best_fail.ret:.2f}) but is not a success "
+        f"({END_WORDS.get(best_fail.end, best_fail.end)}), while the successes score {successes}: {why}; "
+        "the success is the task's verdict on the outcome"
+    )
 
 
 def summarize(episodes: list[Episode]) -> dict[str, float]:

@@ -521,7 +521,7 @@ class _Run:
         if self.log is _silent:
             return
         from pyflyt_cli.training.multi_agent import agents_per_env, step_unit
-        from pyflyt_cli.training.timing import estimate_seconds, format_duration, measure_costs
+        from pyflyt_cli.training.timing import RunEta, format_duration, measure_costs
 
         cfg, opts = self.cfg, self.cfg.train
         unit, agents = step_unit(cfg.env), agents_per_env(cfg.env)
@@ -536,10 +536,12 @@ class _Run:
             text += f"; checkpoint every {opts.checkpoint_freq} {unit}"
         self.log(text)
         costs = measure_costs(cfg)
+        #: the measured costs behind the run's one ETA (:class:`~pyflyt_cli.training.timing.RunEta`)
+        self.costs = costs
         if costs is None:
             self.log("ETA: printed with the progress once training has run for a while")
             return
-        seconds = estimate_seconds(cfg, costs, start_step)
+        seconds = RunEta(cfg, costs).seconds_left(start_step, start_step)  # the ETA every later line updates
         self.log(
             f"ETA: about {format_duration(seconds)} (measured just now on a copy of the model: "
             f"{1e3 * costs.collect:.2f} ms per collected {unit[:-1]}, {1e3 * costs.update:.2f} ms of updates per {unit[:-1]}"
@@ -585,11 +587,13 @@ class _Run:
             RunCallbacks,
         )
         from pyflyt_cli.training.envs import EnvFactory
-        from pyflyt_cli.training.timing import PhaseClock, ProgressLines
+        from pyflyt_cli.training.timing import PhaseClock, ProgressLines, RunEta
 
         cfg, opts = self.cfg, self.cfg.train
         saved = restored[0].get("callbacks", {}) if restored is not None else {}
         callbacks: list[Any] = [ResumeStreams(*restored)] if restored is not None else []
+        eta = RunEta(cfg, getattr(self, "costs", None))  # one ETA for the evaluation lines, the bar, the progress lines
+        callbacks.append(eta)
         episodes = EpisodeMetrics(self.writer)
         callbacks.append(episodes)
         show_bar = self.progress_bar if self.progress_bar is not None else _is_terminal()
@@ -619,6 +623,7 @@ class _Run:
             from pyflyt_cli.training.multi_agent import step_unit
 
             self.evaluation.unit = step_unit(cfg.env)
+            self.evaluation.eta = eta
             for c in children:  # SB3 sets the parent of a single child only; every child reads it
                 c.parent = self.evaluation
             if "evaluation" in saved:
@@ -638,11 +643,16 @@ class _Run:
 
         unit = step_unit(cfg.env)
         if show_bar:
-            callbacks.append(ProgressBar(_expected_end(cfg), episodes, unit=unit))
+            callbacks.append(ProgressBar(_expected_end(cfg), episodes, unit=unit, eta=eta))
         elif self.log is not _silent:  # a log file or a batch job: a line at least every 30 s
             callbacks.append(
                 ProgressLines(
-                    _expected_end(cfg), self.log, self.phases, episode_returns=lambda: episodes.recent, unit=unit
+                    _expected_end(cfg),
+                    self.log,
+                    self.phases,
+                    episode_returns=lambda: episodes.recent,
+                    unit=unit,
+                    eta=eta,
                 )
             )
         callbacks.extend(extra)
@@ -812,7 +822,8 @@ class _Run:
         if not interrupted:
             from pyflyt_cli.training.multi_agent import step_unit
 
-            self.log(_summary(result, step_unit(self.cfg.env)))
+            measures = self.evaluation.measures if self.evaluation is not None else ()
+            self.log(_summary(result, step_unit(self.cfg.env), measures))
         if self.phases is not None and elapsed > 0:  # printed when interrupted too (not logged: past the checkpoint)
             from pyflyt_cli.training.timing import describe_split
 
@@ -830,7 +841,10 @@ def _expected_end(cfg: TrainConfig) -> int:
     return -(-cfg.train.total_timesteps // chunk) * chunk
 
 
-def _summary(result: RunResult, unit: str = "steps") -> str:
+def _summary(result: RunResult, unit: str = "steps", measures: tuple[Any, ...] = ()) -> str:
+    """The end-of-run card: steps, time, the last evaluation with the task's success measures."""
+    from pyflyt_engine.envs.tasks.measures import brief
+
     text = (
         f"done: {result.num_timesteps} {unit}, {result.elapsed:.1f} s in training "
         f"({result.steps_per_second:.0f} {unit}/s)"
@@ -841,6 +855,9 @@ def _summary(result: RunResult, unit: str = "steps") -> str:
             f"; last evaluation: return {e['mean_return']:.2f} ± {e['std_return']:.2f}, "
             f"success {100 * e['success_rate']:.0f} %, length {e['mean_length']:.0f}"
         )
+        measured = brief(measures, e)
+        if measured:
+            text += f", {measured}"
     return text + f"\nrun: {result.run_dir}\nevaluate it: pyflyt eval {result.run_dir}"
 
 

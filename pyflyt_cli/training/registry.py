@@ -152,11 +152,10 @@ def resolve(table: Mapping[str, str], name: str, what: str) -> Any:
 
 def unknown(what: str, name: str, choices: Any) -> str:
     """``unknown <what> '<name>'. Did you mean '...'? Available: ...``."""
-    import difflib
+    from pyflyt_engine.suggest import did_you_mean
 
     options = sorted(choices)
-    close = difflib.get_close_matches(str(name), options, n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(str(name), options)
     return f"unknown {what} '{name}'.{hint} Available: {', '.join(options)}"
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import itertools
 import json
 import os
 import platform
@@ -445,7 +446,7 @@ def check_run_dir(run_dir: str | Path) -> Path:
     and is a closed world (:func:`check_closed`)."""
     path = Path(run_dir).expanduser()
     if not path.exists():
-        raise RunDirError(f"run directory {path} does not exist")
+        raise RunDirError(f"run directory {path} does not exist{nearest_existing(path)}")
     if not path.is_dir():
         raise RunDirError(
             f"{path} is not a directory (expected a run directory such as runs/quadx_hover/ppo/<time>-seed0)"
@@ -454,6 +455,24 @@ def check_run_dir(run_dir: str | Path) -> Path:
     if not (path / CONFIG_FILE).is_file():
         raise RunDirError(f"{path} is not a run directory: it has no {CONFIG_FILE}")
     return path.resolve()
+
+
+def nearest_existing(path: Path) -> str:
+    """What exists nearest a missing ``path``, for its message: the closest folder beside the
+    missing part (:func:`pyflyt_engine.suggest.nearest_path`) as ``". Did you mean
+    '<path>'?"``, else the runs in the first existing folder above it, else ``""``."""
+    from pyflyt_engine.suggest import NEAREST_SCAN, nearest_path
+
+    parent, meant = nearest_path(path, dirs_only=True)
+    if meant is not None:
+        return f". Did you mean '{meant}'?"
+    try:
+        runs = sorted(e.name for e in itertools.islice(parent.iterdir(), NEAREST_SCAN) if (e / CONFIG_FILE).is_file())
+    except OSError:
+        return ""
+    if runs:
+        return f". Runs in {parent}: {', '.join(runs[-5:])}" + (f" (and {len(runs) - 5} more)" if len(runs) > 5 else "")
+    return ""
 
 
 def check_closed(

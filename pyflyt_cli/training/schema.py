@@ -598,6 +598,7 @@ class TrainConfig(_Strict):
             _check_batched(self.env, opts)
         if opts.curriculum:
             _check_curriculum(self.env, opts.curriculum)
+            _check_curriculum_budget(opts.curriculum, opts.total_timesteps)
         if opts.imitation is not None:
             _check_imitation(self.env, algo.name, opts.imitation)
             if opts.imitation.hold_normalizer and not algo.normalize.observation:
@@ -705,6 +706,20 @@ def _check_curriculum(env: EnvConfig, curriculum: Mapping[str, CurriculumOption]
         raise ValueError(f"the curriculum's start values are not a valid task: {wrong}") from None
     except (PyFlytError, ValueError) as exc:
         raise ValueError(f"train.curriculum: the start values are not a valid task: {exc}") from None
+
+
+def _check_curriculum_budget(curriculum: Mapping[str, CurriculumOption], total: int) -> None:
+    """Every option of ``train.curriculum`` reaches its configured value within the budget:
+    a curriculum that outlasts ``train.total_timesteps`` would end training on an easier task
+    than the one every evaluation flies (and ``best_model.pt`` is chosen by)."""
+    for name, option in curriculum.items():
+        if option.steps > total:
+            raise ValueError(
+                f"train.curriculum.{name}.steps={option.steps} outlasts train.total_timesteps={total}: training would "
+                f"end before {name} reaches the task's configured value, which the evaluations fly; set "
+                f"train.curriculum.{name}.steps={total} (or fewer), or train.total_timesteps={option.steps} (or more), "
+                "or drop the curriculum with train.curriculum=null"
+            )
 
 
 def split_init_from(value: str | None) -> tuple[str | None, int | None]:

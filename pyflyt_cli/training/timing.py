@@ -8,6 +8,10 @@
   step, measured before a run starts on a throw-away copy of its model (same
   configuration, one env, random streams left untouched), from which
   :func:`estimate_seconds` gives the run's expected duration.
+* :class:`RunEta` — the run's one ETA, computed one way for every place that shows it
+  (the start line, the evaluation lines, the progress bar, the progress lines): the
+  measured cost model's seconds left (:func:`estimate_seconds`), scaled by how the run's
+  actual time so far compares with what the model predicted for it.
 * :class:`ProgressLines` — when stdout/stderr is not a terminal (a log file, a batch
   job), one line at least every :data:`PROGRESS_INTERVAL` seconds: step, rate, elapsed,
   ETA and the split of the time so far.
@@ -275,12 +279,61 @@ def _evaluation_step(cfg: Any, steps: int = 60) -> float:
         env.close()
 
 
+class RunEta(BaseCallback):
+    """The run's ETA: one computation behind every place that prints one.
+
+    With measured ``costs`` (:func:`measure_costs`) the seconds left from step ``s`` are the
+    cost model's (:func:`estimate_seconds`, which knows that an off-policy run updates only
+    after ``learning_starts`` and that evaluations cost episodes), times the ratio of the
+    actual seconds since training started to the model's seconds for the same steps: at
+    the start the model alone, later the model calibrated on this machine under its
+    present load.  Without costs: the steps left at the mean rate since training started.
+    Either way a run that keeps going as it went so far ends when the ETA said.
+
+    Put it first among the callbacks: its training start is the clock's zero.
+    """
+
+    def __init__(self, cfg: Any, costs: Costs | None, clock: Clock = time.perf_counter) -> None:
+        super().__init__()
+        self.cfg = cfg
+        self.costs = costs
+        self.clock = clock
+        self.total = int(cfg.train.total_timesteps)
+        self.started: float | None = None
+        self.start_step = 0
+
+    def _on_training_start(self) -> None:
+        self.started = self.clock()
+        self.start_step = int(self.model.num_timesteps)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def seconds_left(self, step: int, start_step: int | None = None) -> float:
+        """Seconds until the budget is trained, seen at ``step`` now (inf: not known yet).
+        Before training starts (``start_step`` given): the cost model's estimate."""
+        start = self.start_step if start_step is None else start_step
+        elapsed = 0.0 if self.started is None else max(0.0, self.clock() - self.started)
+        if step >= self.total:
+            return 0.0
+        if self.costs is not None:
+            left = estimate_seconds(self.cfg, self.costs, step)
+            predicted = estimate_seconds(self.cfg, self.costs, start) - left  # the model's seconds for start..step
+            return left * elapsed / predicted if predicted > 0 and elapsed > 0 else left
+        done = step - start
+        return (self.total - step) * elapsed / done if done > 0 and elapsed > 0 else math.inf
+
+    def text(self, step: int) -> str:
+        """The ETA as printed (``1:02:03``; ``?`` while unknown)."""
+        return format_duration(self.seconds_left(step))
+
+
 class ProgressLines(BaseCallback):
     """A progress line at least every ``interval`` seconds (at the first step after it passed).
 
     ``step 12000/60000 (20 %) | 410 steps/s | elapsed 0:29 | ETA 1:57 | collect 35 %, update 60 %, eval 5 %``;
-    the ETA comes from the rate since training started (before the first line: from
-    ``estimate``, the expected total seconds, when given).  ``unit`` names what the steps
+    the ETA is the run's (``eta``, :class:`RunEta`; without one: from the rate since
+    training started).  ``unit`` names what the steps
     count (``agent-steps`` for a multi-agent env: every agent's step is one).
     """
 
@@ -293,8 +346,11 @@ class ProgressLines(BaseCallback):
         clock: Clock = time.perf_counter,
         episode_returns: Callable[[], list[float]] | None = None,
         unit: str = "steps",
+        eta: RunEta | None = None,
     ) -> None:
         super().__init__()
+        #: the run's ETA (None: from the rate since training started, as :class:`RunEta` without costs)
+        self.eta = eta
         self.total = total
         self.unit = unit
         self.log = log
@@ -326,7 +382,9 @@ class ProgressLines(BaseCallback):
         elapsed = now - self.started
         done = step - self.start_step
         rate = done / elapsed if elapsed > 0 else 0.0
-        left = (self.total - step) / rate if rate > 0 else float("inf")
+        left = self.eta.seconds_left(step) if self.eta is not None else (
+            (self.total - step) / rate if rate > 0 else float("inf")
+        )
         parts = [
             f"{'step' if self.unit == 'steps' else self.unit} {step}/{self.total} ({100 * step / self.total:.0f} %)",
             f"{rate:.0f} {self.unit}/s",

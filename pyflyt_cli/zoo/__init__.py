@@ -55,8 +55,13 @@ def agent(name: str, root: Path = AGENTS) -> Agent:
     for a in agents(root):
         if a.name == name:
             return a
-    names = ", ".join(a.name for a in agents(root)) or "none"
-    raise ConfigError(f"zoo:{name}: no such agent (shipped: {names}; list them with pyflyt zoo)")
+    from pyflyt_engine.suggest import did_you_mean
+
+    shipped = [a.name for a in agents(root)]
+    hint = did_you_mean(name, shipped)
+    raise ConfigError(
+        f"zoo:{name}: no such agent.{hint} Shipped: {', '.join(shipped) or 'none'} (list them with pyflyt zoo)"
+    )
 
 
 def table(root: Path = AGENTS) -> str:

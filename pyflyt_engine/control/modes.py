@@ -25,10 +25,10 @@ horizontal), which is what PyFlyt calls "local" velocity.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass
 
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.suggest import did_you_mean
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,5 @@ def resolve_mode(mode: str | int, extra: dict[str, FlightMode] | None = None) ->
     name = MODE_ALIASES.get(str(mode), str(mode))
     if name in table:
         return table[name]
-    close = difflib.get_close_matches(str(mode), list(table) + list(MODE_ALIASES), n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(str(mode), list(table) + list(MODE_ALIASES))
     raise ConfigError(f"unknown flight mode '{mode}'.{hint} Available: {', '.join(table)} (or -1 ... 7)")

@@ -12,7 +12,6 @@ tasks, reward terms and conditions are looked up by name in plain registries.
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -45,6 +44,7 @@ from pyflyt_engine.payloads import PayloadSpec
 from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
 from pyflyt_engine.safe_load import load_yaml_file
 from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, SensorsSpec, check_finite
+from pyflyt_engine.suggest import did_you_mean
 
 
 class _Config(BaseModel):
@@ -464,8 +464,7 @@ class EnvConfig(_Config):
                 task[key] = value
             else:
                 valid = sorted((set(type(self).model_fields) - {"source"}) | task_fields)
-                close = difflib.get_close_matches(key, valid, n=1)
-                hint = f" Did you mean '{close[0]}'?" if close else ""
+                hint = did_you_mean(key, valid)
                 raise ConfigError(f"unknown environment argument '{key}'.{hint} Valid: {', '.join(valid)}")
         data["task"] = task
         return parse_env_config(data, source=f"{self.source or 'config'} with overrides {sorted(overrides)}")

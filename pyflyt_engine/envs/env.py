@@ -257,6 +257,13 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         return dict(self._reward_terms[0])
 
     @property
+    def measures(self) -> tuple[Any, ...]:
+        """The task's success measures (:attr:`Task.measures
+        <pyflyt_engine.envs.tasks.base.Task.measures>`), whose values the step that ends an
+        episode reports as ``info["measures"]``."""
+        return tuple(self.task.measures)
+
+    @property
     def action_names(self) -> list[str]:
         """The names of the action's entries (``config.action.names``), as recorded."""
         return list(self.config.action.names)

@@ -10,7 +10,8 @@ an action and the next observation is here, once::
     advance()                 step the physics once for everybody; count the agent step
     judge(live, states)       per acting agent, in agent order: contacts, the dome, the task's
                               signals and termination, payload and obstacle failures, the
-                              reward preset, the time limit, success, the info
+                              reward preset, the time limit, success, the info (with the
+                              task's success measures on an agent's last step)
     observe(i, states)        per acting agent: latency, sensors or estimator, the attitude
                               vector, the task's observation, camera image and range scans
     check(...)                never NaN: a non-finite observation or reward raises
@@ -34,6 +35,7 @@ import numpy as np
 from pyflyt_engine.envs import core
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks.base import Task
+from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
 from pyflyt_engine.state import KinematicState
 
 
@@ -71,6 +73,11 @@ class AgentTasks(Protocol):
         """Agent ``i``'s task entries of the reset info."""
         ...
 
+    def episode_measures(self, i: int) -> dict[str, float]:
+        """Agent ``i``'s success measures of the episode so far (``info["measures"]`` of
+        the step that ends its episode; :mod:`pyflyt_engine.envs.tasks.measures`)."""
+        ...
+
 
 class OneAgentTask:
     """A single-agent :class:`~pyflyt_engine.envs.tasks.base.Task` as the core's per-agent
@@ -101,6 +108,9 @@ class OneAgentTask:
 
     def reset_info(self, i: int) -> dict[str, Any]:
         return self.task.info()
+
+    def episode_measures(self, i: int) -> dict[str, float]:
+        return self.task.episode_measures()
 
 
 class EpisodeCore:
@@ -282,6 +292,8 @@ class EpisodeCore:
                 info["obstacles_parked"] = obstacles.parked
             if self.info_reward_terms:
                 info["reward_terms"] = terms
+            if terminated or truncated:  # the episode's success measures, on its last step
+                info[MEASURES] = tasks.episode_measures(i)
             results.append((reward, terminated, truncated, info))
         return results
 

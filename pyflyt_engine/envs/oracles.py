@@ -503,7 +503,9 @@ ORACLES: dict[str, type] = {
 def make_oracle(name: str, env: Any) -> Callable[[np.ndarray], np.ndarray]:
     """The oracle ``name`` built for ``env`` (a gymnasium env of one of its ``env_ids``)."""
     if name not in ORACLES:
-        raise ConfigError(f"unknown oracle {name!r}; oracles: {', '.join(sorted(ORACLES))}")
+        from pyflyt_engine.suggest import did_you_mean
+
+        raise ConfigError(f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}")
     cls = ORACLES[name]
     env_id = getattr(getattr(env, "spec", None), "id", None) or getattr(env.unwrapped.config, "id", None)
     if env_id not in cls.env_ids:

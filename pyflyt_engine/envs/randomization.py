@@ -42,7 +42,6 @@ uniform draw between the logs) and ``normal`` (``mean``, ``std``; clipped to ``l
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Mapping
 from typing import Any, Literal
@@ -51,6 +50,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.suggest import did_you_mean
 
 AIRFRAME = ("mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag")
 #: factors on the optional airframe models, and what the airframe must declare for them
@@ -130,8 +130,7 @@ def check_names(entries: Mapping[str, Any], wind: Any, episode: float | None = N
         if name.startswith("wind."):
             _wind_number(load_wind_config(wind).model_dump(mode="json"), name)
         elif name not in PARAMETERS:
-            close = difflib.get_close_matches(name, PARAMETERS, n=1)
-            hint = f" Did you mean '{close[0]}'?" if close else ""
+            hint = did_you_mean(name, PARAMETERS)
             raise ValueError(f"unknown parameter '{name}'.{hint} Known: {', '.join(PARAMETERS)}, wind.<path>")
         elif name in AIRFRAME + tuple(MODELS) and (dist.low is None or dist.low <= 0):
             raise ValueError(f"'{name}' is a factor on the nominal value: give it a lower bound low > 0")

@@ -26,7 +26,6 @@ signals lives in that task's module, which registers it (``tasks/pole.py``,
 
 from __future__ import annotations
 
-import difflib
 import functools
 import inspect
 import math
@@ -40,6 +39,7 @@ import numpy as np
 from pyflyt_engine import exact
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
+from pyflyt_engine.suggest import did_you_mean
 
 _NO_EXTRAS: Mapping[str, float] = MappingProxyType({})  # read-only: one empty mapping shared by every step
 
@@ -371,8 +371,7 @@ def term_parameters(term: RewardTerm) -> dict[str, Any]:
 
 
 def _unknown(kind: str, name: str, valid: list[str]) -> str:
-    close = difflib.get_close_matches(str(name), valid, n=1)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(str(name), valid)
     return f"unknown {kind} '{name}'.{hint} Valid: {', '.join(valid)}"
 
 

@@ -57,6 +57,20 @@ def _readable_3d_axes(ax3d, points: np.ndarray) -> None:
     ax3d.set_zlabel("z [m]", labelpad=6)
 
 
+#: the actions panel's moving mean spans this much of the episode [s]
+ACTION_MEAN_SECONDS = 0.25
+
+
+def moving_mean(values: np.ndarray, window: int) -> np.ndarray:
+    """The mean of the last ``window`` values at every index (fewer at the start): what the
+    actions panel draws over the raw steps, lagging them as a flight controller's filter would."""
+    values = np.asarray(values, dtype=float)
+    sums = np.cumsum(np.concatenate(([0.0], values)))
+    index = np.arange(1, len(values) + 1)
+    start = np.maximum(index - window, 0)
+    return (sums[index] - sums[start]) / (index - start)
+
+
 def plot_episode(episode: Episode, out: str | Path) -> Path:
     """3-D path, altitude, attitude and actions against time, in one figure file."""
     out = Path(out)
@@ -104,12 +118,19 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
     ax_att.set_title("attitude (Euler)")
     ax_att.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")  # beside the data, never on it
     ax_att.grid(True, alpha=0.3)
+    # each step thin and faint (a bang-bang policy's rate commands flip sign every step and
+    # would fill the panel), its moving mean over ACTION_MEAN_SECONDS drawn over it
+    window = max(1, round(ACTION_MEAN_SECONDS * episode.agent_hz))
     for j, name in enumerate(episode.action_names):
         if episode.length:
-            ax_act.step(episode.action_time, episode.actions[:, j], where="post", label=name)
+            (raw,) = ax_act.step(episode.action_time, episode.actions[:, j], where="post", lw=0.7, alpha=0.35)
+            ax_act.step(
+                episode.action_time, moving_mean(episode.actions[:, j], window), where="post", lw=1.8,
+                color=raw.get_color(), label=name,
+            )
     ax_act.set_xlabel("time [s]")
     ax_act.set_ylabel("applied action")
-    ax_act.set_title("actions")
+    ax_act.set_title(f"actions (faint: each step; bold: mean of the last {window} steps, {window / episode.agent_hz:.2g} s)")
     if episode.action_names and episode.length:
         ax_act.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     ax_act.grid(True, alpha=0.3)

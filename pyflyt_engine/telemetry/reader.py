@@ -321,7 +321,9 @@ def read_mcap(
     """
     path = Path(path)
     if not path.exists():
-        raise TelemetryError(f"{path}: no such file")
+        from pyflyt_engine.suggest import did_you_mean_path
+
+        raise TelemetryError(f"{path}: no such file.{did_you_mean_path(path)}".removesuffix("."))
     if path.is_dir():
         raise TelemetryError(f"{path} is a directory, not an .mcap file")
     # a FIFO or a device is refused before it is opened: reading one may never end; the magic is

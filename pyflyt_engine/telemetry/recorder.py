@@ -28,6 +28,8 @@ import numpy as np
 from pyflyt_engine import numerics
 from pyflyt_engine.components.sensors import READING_SIZES
 from pyflyt_engine.envs.core import RECORDABLE, RecordableEnv
+from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
+from pyflyt_engine.envs.tasks.measures import plain
 from pyflyt_engine.errors import TelemetryError
 from pyflyt_engine.frames import matrix_to_quaternion
 from pyflyt_engine.telemetry import scene, schemas
@@ -661,6 +663,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 "return": self._return,
                 "length": self._length,
                 "info": _scalar_info(info),
+                **({"measures": plain(info[MEASURES])} if reason != "stopped" and MEASURES in info else {}),
             },
         )
 

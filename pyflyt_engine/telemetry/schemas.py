@@ -589,6 +589,13 @@ EPISODE_EVENT = _strict(
         },
     },
 )
+# optional (recordings made before it lack it): the task's success measures of the episode,
+# info['measures'] of its last step (pyflyt_engine.envs.tasks.measures), on 'end' events
+EPISODE_EVENT["properties"]["measures"] = {
+    "type": "object",
+    "additionalProperties": {"type": ["number", "null"]},
+    "description": "the task's success measures of the episode (NaN as null; 'end' events only)",
+}
 
 #: schema name -> schema, for every channel kind a recording uses
 ALL: dict[str, dict[str, Any]] = {

@@ -456,8 +456,37 @@ def render_video(
     return out
 
 
+#: the shortest frame a GIF viewer shows as stored [centiseconds]: browsers draw a frame of
+#: 0 or 1 cs for 10 cs (a convention of old GIFs), so a faster video would play slowly
+GIF_MIN_CS = 2
+
+
+def gif_timing(frames: int, fps: float) -> tuple[int, list[int]]:
+    """(keep every ``step``-th frame, each kept frame's duration [ms, whole centiseconds]) of a
+    GIF playing ``frames`` frames at ``fps`` in real time.
+
+    GIF stores a frame's duration in whole centiseconds, so a period that is not one (30 Hz:
+    3.33 cs) cannot be stored as is; rounding it down (3 cs) plays 11 % fast.  Instead the
+    durations alternate so that the time shown up to every frame is the exact time rounded
+    to the nearest centisecond (30 Hz: 3, 4, 3, 3, 4, 3 ... cs): each frame is within 1 cs
+    of its period and the whole video lasts its real time to within 0.5 cs.  A period under
+    :data:`GIF_MIN_CS` (above 50 fps) keeps every ``step``-th frame only, the smallest step
+    whose period is at least that, so no frame is shown slower than it should be.
+    """
+    period_cs = 100.0 / float(fps)
+    step = max(1, math.ceil(GIF_MIN_CS / period_cs - 1e-9))
+    kept = -(-frames // step)
+    period = period_cs * step
+
+    def shown(i: int) -> int:  # centiseconds from the start to the end of kept frame i - 1
+        return int(math.floor(i * period + 0.5))
+
+    return step, [10 * (shown(i + 1) - shown(i)) for i in range(kept)]
+
+
 def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
-    """Write RGB(A) frames to ``out`` (``.gif`` or ``.mp4``, by its suffix) at ``fps``.
+    """Write RGB(A) frames to ``out`` (``.gif`` or ``.mp4``, by its suffix) at ``fps`` (a GIF's
+    frame durations: :func:`gif_timing`).
 
     Raises:
         TelemetryError: MP4 without a working imageio-ffmpeg.
@@ -467,7 +496,8 @@ def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
     imageio = require("imageio.v2", "plots", "writing a video")
     frames = [np.asarray(f)[..., :3] for f in frames]
     if Path(out).suffix.lower() == ".gif":
-        imageio.mimsave(out, frames, format="GIF", duration=1000.0 / fps, loop=0)
+        step, durations = gif_timing(len(frames), fps)
+        imageio.mimsave(out, frames[::step], format="GIF", duration=durations, loop=0)
         return
     try:
         writer = imageio.get_writer(

@@ -26,7 +26,7 @@ ENGINE = Path(__file__).resolve().parents[2] / "pyflyt_engine"
 
 #: Top-level modules and packages of pyflyt_engine, lowest layer first.
 LAYERS: tuple[frozenset[str], ...] = (
-    frozenset({"errors", "exact", "constants", "numerics", "paths", "safe_load", "limits", "frames", "state", "bullet", "allocation", "loading", "spatial"}),
+    frozenset({"errors", "exact", "constants", "numerics", "paths", "safe_load", "limits", "frames", "state", "bullet", "allocation", "loading", "spatial", "suggest"}),
     frozenset({"spec"}),
     frozenset({"urdf", "components", "payloads", "obstacles"}),
     frozenset({"atmosphere", "assembly", "control"}),

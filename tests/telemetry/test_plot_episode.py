@@ -43,3 +43,31 @@ def test_the_path_legend_names_the_markers_and_the_legends_sit_beside_the_data(e
         for b in boxes[i + 1 :]:
             assert not a.overlaps(b), [t.get_text() for t in ticks]
     plt.close("all")
+
+
+def test_the_actions_panel_draws_each_step_faintly_and_its_moving_mean_over_it(tmp_path, monkeypatch):
+    import numpy as np
+
+    fig = _figure("PyFlyt/QuadX-Hover-v0", tmp_path, monkeypatch)
+    ax_act = fig.axes[3]
+    episode = load_episode(next((tmp_path / "rec").glob("*.mcap")))
+    window = max(1, round(plots.ACTION_MEAN_SECONDS * episode.agent_hz))
+    lines = ax_act.get_lines()
+    assert len(lines) == 2 * len(episode.action_names)
+    for j in range(len(episode.action_names)):
+        raw, mean = lines[2 * j], lines[2 * j + 1]
+        assert raw.get_alpha() < 0.5 and mean.get_linewidth() > raw.get_linewidth()
+        values = episode.actions[:, j]
+        by_hand = [values[max(0, i + 1 - window): i + 1].mean() for i in range(len(values))]  # the last `window` steps
+        np.testing.assert_allclose(mean.get_ydata(), by_hand, rtol=1e-12)
+    assert [t.get_text() for t in ax_act.get_legend().get_texts()] == list(episode.action_names)
+    plt.close("all")
+
+
+def test_a_moving_mean_of_a_sign_flipping_command_is_its_average():
+    import numpy as np
+
+    flips = np.array([1.0, -1.0] * 20)
+    mean = plots.moving_mean(flips, 8)
+    assert mean[0] == 1.0 and mean[1] == 0.0
+    np.testing.assert_allclose(mean[8:], 0.0, atol=1e-12)  # an even window over +1, -1, ...: zero

@@ -145,7 +145,7 @@ def test_replay_video_is_the_flight_then_the_outcome_held(recorded_hover, tmp_pa
         image.seek(k)
         total += image.info["duration"]
     frames = len(episode.vehicles[0].time) + round(episode.agent_hz)  # the flight, then 1 s held
-    assert total == pytest.approx(frames * 1000 / episode.agent_hz, rel=0.05)
+    assert abs(total - frames * 1000 / episode.agent_hz) <= 5  # real time, to half a centisecond
     image.seek(0)
     first = np.asarray(image.convert("RGB")).astype(int)
     assert np.median(first[6:14, 6:40]) < 160  # the dark overlay box, top left, over the white sky
@@ -190,3 +190,29 @@ def test_videos_render_with_a_progress_bar_on_a_terminal(recorded_hover, tmp_pat
     monkeypatch.setattr("sys.stderr", err)
     render_video(load_episode(recorded_hover), tmp_path / "v.gif", size=(64, 48))
     assert "rendering v.gif" in err.getvalue() and "frame" in err.getvalue()
+
+
+@pytest.mark.parametrize("fps", [30.0, 25.0, 24.0, 60.0, 120.0, 7.0, 100.0 / 3])
+def test_gif_frames_last_the_agent_period_in_whole_centiseconds(fps, tmp_path):
+    """A GIF stores centiseconds: the durations alternate so every frame ends at its real
+    time rounded to the nearest centisecond; above 50 fps frames are dropped instead of
+    stored under 2 cs (which browsers show as 10 cs)."""
+    from pyflyt_engine.telemetry.video import gif_timing, write_video
+
+    n = 45
+    step, durations = gif_timing(n, fps)
+    assert all(d % 10 == 0 and d >= 20 for d in durations)
+    assert len(durations) == -(-n // step) and (step == 1) == (fps <= 50)
+    clock = 0
+    for i, d in enumerate(durations):  # the time shown up to each frame: the exact one, to 0.5 cs
+        clock += d
+        assert abs(clock - (i + 1) * step * 1000 / fps) <= 5
+    frames = [np.full((4, 4, 3), 5 * i, np.uint8) for i in range(n)]  # distinct: no frames merged
+    write_video(tmp_path / "v.gif", frames, fps)
+    image = Image.open(tmp_path / "v.gif")
+    read = []
+    for k in range(image.n_frames):
+        image.seek(k)
+        read.append(image.info["duration"])
+    assert read == durations
+    assert abs(sum(read) - len(durations) * step * 1000 / fps) <= 5

@@ -88,7 +88,7 @@ def test_env_keys_change_the_flight_and_run_dir_names_the_directory(tmp_path):
 def test_bad_oracle_evaluations_name_the_problem_and_leave_nothing(tmp_path):
     runs = f"train.output_dir={tmp_path / 'runs'}"
     cases = {
-        ("oracle:nope",): "unknown oracle 'nope' in oracle:nope; oracles: " + ", ".join(sorted(ORACLES)),
+        ("oracle:nope",): "unknown oracle 'nope' in oracle:nope. Oracles: " + ", ".join(sorted(ORACLES)),
         ("oracle:rocket_lander", "env=quadx_hover"): "flies PyFlyt/Rocket-Landing-v0, not PyFlyt/QuadX-Hover-v0",
         ("oracle:rocket_lander", "model=best"): "model= applies to a trained run",
         ("oracle:rocket_lander", "episodes=0"): "episodes",

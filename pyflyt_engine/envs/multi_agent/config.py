@@ -10,7 +10,6 @@ It imports no PettingZoo.
 
 from __future__ import annotations
 
-import difflib
 
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, load_reward_preset
 from pyflyt_engine.envs.multi_agent.dogfight_task import DogfightTask
@@ -19,6 +18,7 @@ from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
 from pyflyt_engine.envs.multi_agent.task import MA_TASK_CLASSES, MultiAgentTask, register_ma_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import load_uav_spec
+from pyflyt_engine.suggest import did_you_mean
 
 for _task in (MAHoverTask, MAFormationTask, DogfightTask):
     register_ma_task(_task)
@@ -29,8 +29,7 @@ def get_ma_task(name: str) -> type[MultiAgentTask]:
     try:
         return MA_TASK_CLASSES[name]
     except KeyError:
-        close = difflib.get_close_matches(str(name), list(MA_TASK_CLASSES), n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
+        hint = did_you_mean(str(name), list(MA_TASK_CLASSES))
         raise ConfigError(f"unknown multi-agent task '{name}'.{hint} Valid: {', '.join(MA_TASK_CLASSES)}") from None
 
 

@@ -21,7 +21,10 @@ runs a shared policy on it unchanged:
   (this step), ``agent_active`` (acted this step), ``agent_infos`` (by name), and
   ``success`` (hover: every agent survived; dogfight: a team won by shooting down opponents), ``success_rate``
   (fraction of agents whose own episode succeeded), ``collision`` / ``out_of_bounds``
-  (any agent, this step), ``reward_terms`` (the per-term means, summing to the reward).
+  (any agent, this step), ``reward_terms`` (the per-term means, summing to the reward);
+  at the episode's end ``measures``: ``agents_succeeded`` (the share of agents whose own
+  episode succeeded), each of the task's per-agent measures as ``<agent>/<key>`` and their
+  mean over the agents as ``<key>`` (:mod:`pyflyt_engine.envs.tasks.measures`).
 
 Training expands the N rows into N vector-env slots (``pyflyt_cli.training.multi_agent``).
 """
@@ -35,6 +38,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+from pyflyt_engine.envs.tasks.measures import INFO_KEY, Measure, multi_agent_measures
 
 
 class SharedPolicyEnv(gymnasium.Env):
@@ -59,6 +63,7 @@ class SharedPolicyEnv(gymnasium.Env):
         self.action_names = [f"{agent}.{n}" for agent in env.possible_agents for n in names]
         self._terms: dict[str, float] = {}
         self._successes = np.zeros(self.num_agents, dtype=bool)
+        self._measures: dict[str, dict[str, float]] = {}
 
     # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
     @property
@@ -119,6 +124,12 @@ class SharedPolicyEnv(gymnasium.Env):
         return dict(self._terms)
 
     @property
+    def measures(self) -> tuple[Measure, ...]:
+        """What ``info["measures"]`` holds at an episode's end: the agents' success share,
+        then the task's per-agent measures (mean over the agents; per agent as ``<agent>/<key>``)."""
+        return multi_agent_measures(self.parallel.task.measures)
+
+    @property
     def agent_names(self) -> list[str]:
         return list(self.parallel.possible_agents)
 
@@ -130,6 +141,7 @@ class SharedPolicyEnv(gymnasium.Env):
         observations, infos = self.parallel.reset(seed=seed, options=options)
         self._terms = {}
         self._successes[:] = False
+        self._measures = {}
         info: dict[str, Any] = {
             "success": False,
             "collision": False,
@@ -162,6 +174,8 @@ class SharedPolicyEnv(gymnasium.Env):
             info = infos[name]
             if info.get("success"):
                 self._successes[i] = True
+            if INFO_KEY in info:  # this agent's episode ended: its measures
+                self._measures[name] = dict(info[INFO_KEY])
             for key, value in (info.get("reward_terms") or env.last_reward_terms[i]).items():
                 totals[key] = totals.get(key, 0.0) + value
         self._terms = {k: v / n for k, v in totals.items()}
@@ -182,7 +196,22 @@ class SharedPolicyEnv(gymnasium.Env):
             "success_rate": float(self._successes.mean()),
             "reward_terms": dict(self._terms),
         }
+        if over:
+            step_info[INFO_KEY] = self._episode_measures()
         return self._stack(observations), reward, terminated, truncated, step_info
+
+    def _episode_measures(self) -> dict[str, float]:
+        """The episode's ``info["measures"]`` (see :attr:`measures`)."""
+        out = {"agents_succeeded": float(self._successes.mean())}
+        per_agent = [m.key for m in self.parallel.task.measures]
+        for key in per_agent:
+            values = [v[key] for v in self._measures.values() if key in v]
+            finite = [x for x in values if x == x]
+            out[key] = float(np.mean(finite)) if finite else float("nan")
+        for name in self.parallel.possible_agents:
+            for key, value in self._measures.get(name, {}).items():
+                out[f"{name}/{key}"] = float(value)
+        return out
 
     def render(self) -> Any:
         return self.parallel.render()

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from pyflyt_engine.envs.tasks.base import episode_options, termination
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
@@ -73,6 +74,8 @@ class MultiAgentTask:
             ``reset(options={"task": {...}})`` (a training curriculum); only options the
             task reads afresh at every reset or step, never one that shaped the world,
             the spawn layout or the spaces.
+        measures: each agent's success measures (:mod:`pyflyt_engine.envs.tasks.measures`),
+            whose values for an agent's episode :meth:`episode_measures` gives.
 
     Args:
         options: the config's ``task`` options.
@@ -88,6 +91,7 @@ class MultiAgentTask:
     succeeds_at_time_limit: ClassVar[bool] = False
     crash_on_contact: ClassVar[bool] = True
     episode_options: ClassVar[frozenset[str]] = frozenset()
+    measures: ClassVar[tuple[Measure, ...]] = ()
 
     def __init__(
         self,
@@ -158,6 +162,12 @@ class MultiAgentTask:
 
     def reset_info(self, i: int) -> dict[str, Any]:
         """Agent ``i``'s task entries of the reset info."""
+        return {}
+
+    def episode_measures(self, i: int) -> dict[str, float]:
+        """Agent ``i``'s values of :attr:`measures` for its episode so far (reported as
+        ``info["measures"]`` of the step that ends its episode); computing them must not
+        change the episode."""
         return {}
 
     def markers(self) -> np.ndarray:

@@ -6,7 +6,6 @@ Built-in tasks are listed here; add your own from Python with :func:`register_ta
 
 from __future__ import annotations
 
-import difflib
 
 from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals
@@ -17,6 +16,7 @@ from pyflyt_engine.envs.tasks.landing import LandingOptions, LandingTask
 from pyflyt_engine.envs.tasks.pole import PoleBalanceOptions, PoleBalanceTask, PoleWaypointsOptions, PoleWaypointsTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.suggest import did_you_mean
 
 TASKS: dict[str, type[Task]] = {
     HoverTask.name: HoverTask,
@@ -42,8 +42,7 @@ def get_task(name: str) -> type[Task]:
     try:
         return TASKS[name]
     except KeyError:
-        close = difflib.get_close_matches(str(name), list(TASKS), n=1)
-        hint = f" Did you mean '{close[0]}'?" if close else ""
+        hint = did_you_mean(str(name), list(TASKS))
         raise ConfigError(f"unknown task '{name}'.{hint} Valid: {', '.join(TASKS)}") from None
 
 

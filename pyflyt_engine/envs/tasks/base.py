@@ -20,6 +20,7 @@ the environment calls, in order::
     termination(collision, out_of_bounds, signals) -> (crashed, terminated)
     observe(attitude, state)
     info()                         # task entries for the step's info dict
+    episode_measures()             # on the step that ends the episode: its success measures
 
 Every hook has a do-nothing default; a task overrides what it needs.  A new task is a
 module defining a :class:`Task` subclass with its :class:`TaskOptions` model, one line in
@@ -35,6 +36,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import BaseModel, ConfigDict, Field
 
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
@@ -142,6 +144,10 @@ class Task:
             training curriculum: ``curriculum:`` of ``pyflyt train``).  Only options the
             task reads afresh at every reset or step belong here: never one that shaped
             the world, the spaces or anything else built once.
+        measures: the task's success measures (:mod:`pyflyt_engine.envs.tasks.measures`),
+            whose values for an episode :meth:`episode_measures` gives: what ``pyflyt eval``
+            and the training evaluations report beside the return (distance held, waypoints
+            reached, landing outcome ...).
     """
 
     name: ClassVar[str] = "base"
@@ -150,6 +156,7 @@ class Task:
     succeeds_at_time_limit: ClassVar[bool] = False
     crash_on_contact: ClassVar[bool] = True
     episode_options: ClassVar[frozenset[str]] = frozenset()
+    measures: ClassVar[tuple[Measure, ...]] = ()
 
     def __init__(self, options: TaskOptions, *, flight_dome_size: float, agent_hz: float) -> None:
         self.options = options
@@ -242,6 +249,12 @@ class Task:
 
     def info(self) -> dict[str, Any]:
         """Task entries of the info dict."""
+        return {}
+
+    def episode_measures(self) -> dict[str, float]:
+        """The episode's values of :attr:`measures` so far, ``{key: float}`` (NaN: does not
+        apply to this episode); the environment reports them as ``info["measures"]`` on the
+        step that ends the episode.  Computing them must not change the episode."""
         return {}
 
     def markers(self) -> np.ndarray:

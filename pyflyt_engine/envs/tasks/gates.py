@@ -53,6 +53,7 @@ from pydantic import Field, model_validator
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.waypoints import body_frame_deltas
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion, matrix_to_quaternion, quaternion_to_matrix, quaternion_to_rows
@@ -160,6 +161,10 @@ class GatesTask(Task):
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
     # read at every step (the crossing test): a curriculum may ease it
     episode_options: ClassVar[frozenset[str]] = frozenset({"clearance"})
+    measures: ClassVar[tuple[Measure, ...]] = (
+        Measure("gates_passed", "gates passed", digits=2),
+        Measure("all_passed", "every gate passed", percent=True),
+    )
 
     options: GatesOptions
 
@@ -294,3 +299,6 @@ class GatesTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {"num_targets_reached": self.num_passed}
+
+    def episode_measures(self) -> dict[str, float]:
+        return {"gates_passed": float(self.num_passed), "all_passed": float(self.num_passed >= len(self.options.gates))}

@@ -26,6 +26,7 @@ from gymnasium import spaces
 from pydantic import Field, model_validator
 
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
@@ -64,6 +65,7 @@ class GoalTask(Task):
         {"goal_x_range", "goal_y_range", "goal_z_range", "goal_reach_distance", "start_position_noise",
          "start_orientation_noise"}
     )
+    measures: ClassVar[tuple[Measure, ...]] = (Measure("goal_reached", "goal reached", percent=True),)
 
     options: GoalOptions
 
@@ -111,6 +113,9 @@ class GoalTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {"goal_reached": bool(self.tracker.all_reached)}
+
+    def episode_measures(self) -> dict[str, float]:
+        return {"goal_reached": float(self.tracker.all_reached)}
 
     def markers(self) -> np.ndarray:
         return self.tracker.targets.copy()

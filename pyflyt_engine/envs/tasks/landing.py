@@ -27,6 +27,10 @@ Signals: ``target_distance`` = d_pad, the distance from the centre of mass to th
 the pad's top face [m]; ``target_distance_rate`` [m/s]; extras ``pad_contact``,
 ``safe_landing``, ``fatal_landing`` (0/1) and ``touchdown_speed`` [m/s] (-1 before the
 first touchdown).
+
+Measures (what ``pyflyt eval`` reports): ``landed``, ``fatal_landing``, ``ground_contact``
+(1 when the episode ended that way) and ``touchdown_speed`` of the last touchdown [m/s]
+(NaN without one).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from pydantic import Field, model_validator
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import Condition, StepContext, register_condition
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals, Vec3
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.frames import ground_to_body_matrix
 from pyflyt_engine.state import KinematicState
 
@@ -133,6 +138,12 @@ class LandingTask(Task):
             "halt_angular_speed",
             "halt_duration",
         }
+    )
+    measures: ClassVar[tuple[Measure, ...]] = (
+        Measure("landed", "safe landing", percent=True),
+        Measure("fatal_landing", "fatal landing", percent=True),
+        Measure("ground_contact", "ground contact", percent=True),
+        Measure("touchdown_speed", "touchdown speed", "m/s", digits=2),
     )
 
     options: LandingOptions
@@ -277,6 +288,16 @@ class LandingTask(Task):
             "fatal_landing": fatal,
             "touchdown_speed": self._touchdown_speed,
             "pad_distance": self._distance,
+        }
+
+    def episode_measures(self) -> dict[str, float]:
+        _, ground, safe, fatal = self._signals
+        touchdown = self._touchdown_speed if self._touchdown_speed >= 0 else math.nan
+        return {
+            "landed": float(safe),
+            "fatal_landing": float(fatal),
+            "ground_contact": float(ground),
+            "touchdown_speed": touchdown,
         }
 
 

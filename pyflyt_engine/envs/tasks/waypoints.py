@@ -9,6 +9,7 @@ from gymnasium import spaces
 from pydantic import Field, model_validator
 
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
+from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas, sample_waypoints
 from pyflyt_engine.state import KinematicState
 
@@ -45,6 +46,9 @@ class WaypointsTask(Task):
     Signals: ``target_distance`` delta [m] and ``target_distance_rate`` [m/s] to the next
     waypoint, ``waypoint_reached`` (see :mod:`pyflyt_engine.envs.waypoints` for the reach
     test); complete when the last waypoint is reached.
+
+    Measures: ``waypoints_reached`` (of ``num_targets``) and ``all_reached`` (1 when every
+    waypoint was reached: the episode's success unless it crashed on the last one).
     """
 
     name: ClassVar[str] = "waypoints"
@@ -61,6 +65,11 @@ class WaypointsTask(Task):
             "start_position_noise",
             "start_orientation_noise",
         }
+    )
+
+    measures: ClassVar[tuple[Measure, ...]] = (
+        Measure("waypoints_reached", "waypoints reached", digits=2),
+        Measure("all_reached", "every waypoint reached", percent=True),
     )
 
     options: WaypointsOptions
@@ -109,6 +118,9 @@ class WaypointsTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {"num_targets_reached": self.tracker.num_reached}
+
+    def episode_measures(self) -> dict[str, float]:
+        return {"waypoints_reached": float(self.tracker.num_reached), "all_reached": float(self.tracker.all_reached)}
 
     def markers(self) -> np.ndarray:
         return self.tracker.remaining.copy()
