@@ -1,0 +1,41 @@
+"""Inputs that ended in a Python traceback now end in one line naming the value and the fix, exit code 2.
+
+Each case is a reproduction from the attack on shared artefacts and command lines (issue 52, "~40
+inputs end in tracebacks instead of one line"), run as the command line runs it.
+"""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from pyflyt_cli.main import app
+
+runner = CliRunner()
+
+
+def one_line(args: list[str], *fragments: str) -> str:
+    """``pyflyt <args>`` exits 2 with exactly one ``error:`` line holding every fragment, and no traceback."""
+    result = runner.invoke(app, args)
+    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1, result.output
+    rest = result.output.split(errors[0], 1)[1].strip()
+    assert not rest, f"more after the error line: {rest!r}"
+    for fragment in fragments:
+        assert fragment in errors[0], errors[0]
+    return errors[0]
+
+
+@pytest.mark.parametrize("args", [
+    ["fly", "duration=${eval:1+1}"],  # UnsupportedInterpolationType: a traceback (eval), three lines (fly)
+    ["fly", "duration=${now:%H}"],  # resolved: the flight lasted the hour of the day
+    ["eval", "oracle:rocket_lander", "episodes=1", "env.max_duration_seconds=${eval:1}"],
+    ["train", "env=quadx_hover", "env.id=${oc.env:HOME}", "train.total_timesteps=1"],  # the environment, saved
+    ["train", "env=quadx_hover", "seed=${now:%S}", "train.total_timesteps=1"],
+])  # fmt: skip
+def test_an_interpolation_in_a_command_line_value_is_refused(args):
+    item = next(a for a in args if "${" in a)
+    one_line(args, f"'{item}'", "holds no ${...} interpolation", f"give {item.partition('=')[0]} its value itself")
