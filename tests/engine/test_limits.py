@@ -167,6 +167,8 @@ CASES = {
                    lambda: fly_problem("wind=constant", "wind.mean.speed=100"), "mean.speed 1e+300"),
     "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
+    "fly.magnitude": (lambda: fly_problem("position=[1e308,0,1]"), lambda: fly_problem("setpoint=[0,0,0,99999]"),
+                      "a position value of size 1e+308"),
     # lists read from a recording: 3 M-value state lists hung replay
     "recording.row_values": (lambda: recording_problem(long_aux(10_001)), lambda: recording_problem(long_aux(10_000)),
                              "'aux' has 10001 values"),
