@@ -39,3 +39,22 @@ def one_line(args: list[str], *fragments: str) -> str:
 def test_an_interpolation_in_a_command_line_value_is_refused(args):
     item = next(a for a in args if "${" in a)
     one_line(args, f"'{item}'", "holds no ${...} interpolation", f"give {item.partition('=')[0]} its value itself")
+
+
+@pytest.mark.parametrize("urdf", [
+    "<foo/>",  # PyBullet: expected a robot element
+    '<robot name="r"></robot>',  # no links
+    '<robot name="r"><link name="a"/><joint name="j" type="fixed"><parent link="a"/><child link="zz"/></joint></robot>',
+])  # fmt: skip
+@pytest.mark.parametrize("command", ["fly", "validate"])
+def test_a_urdf_pybullet_cannot_load_is_one_line_naming_it(tmp_path, urdf, command):
+    """``pybullet.error: Cannot load URDF file.`` was a traceback from ``pyflyt fly``."""
+    from pyflyt_engine.paths import uav_dir
+
+    text = (uav_dir() / "quadx_cf2x.yaml").read_text().replace("\nbody:\n", "\nbody:\n  urdf: body.urdf\n", 1)
+    assert "urdf: body.urdf" in text
+    (tmp_path / "airframe.yaml").write_text(text)
+    (tmp_path / "body.urdf").write_text(urdf)
+    args = ["fly", f"uav={tmp_path / 'airframe.yaml'}", "duration=0.1"] if command == "fly" else [
+        "uav", "validate", str(tmp_path / "airframe.yaml")]  # fmt: skip
+    one_line(args, f"{tmp_path / 'airframe.yaml'}: PyBullet cannot load its URDF {tmp_path / 'body.urdf'}")
