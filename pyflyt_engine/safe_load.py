@@ -265,15 +265,37 @@ def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return data
 
 
-def json_loads(text: str | bytes, *, source: str, error: type[PyFlytError] = ConfigError) -> Any:
+class _NotANumber(Exception):
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.name = name
+
+
+def _no_constant(name: str) -> Any:
+    raise _NotANumber(name)
+
+
+def json_loads(
+    text: str | bytes, *, source: str, error: type[PyFlytError] = ConfigError, strict_numbers: bool = False
+) -> Any:
     """``json.loads`` that refuses an object giving a key twice: ``error`` naming ``source`` and the key.
 
+    ``strict_numbers``: also refuse ``NaN``, ``Infinity`` and ``-Infinity``, which are not JSON
+    (Python's reader takes them; every MCAP writer of this package writes null instead).
+
     Raises:
-        error: a key given twice in one object.
+        error: a key given twice in one object (or, with ``strict_numbers``, a non-finite constant).
         ValueError: not valid JSON (the caller words it); RecursionError: nested too deeply.
     """
     try:
+        if strict_numbers:
+            return json.loads(text, object_pairs_hook=_unique_pairs, parse_constant=_no_constant)
         return json.loads(text, object_pairs_hook=_unique_pairs)
+    except _NotANumber as exc:
+        raise error(
+            f"{source}: holds {exc.name}, which is not a JSON number (a recorder writes null for a value that is "
+            "not finite); the file was not written by pyflyt"
+        ) from None
     except _DuplicateKey as exc:
         raise error(
             f"{source}: the key {exc.key!r} is given twice in one object; give each key once "

@@ -453,7 +453,10 @@ def _take(out: McapContents, record: Any, decode: bool) -> None:
         data: Any = record.data
         if decode and channel.message_encoding == "json":
             try:
-                data = json_loads(record.data, source=f"{out.path}: a message on {channel.topic}", error=TelemetryError)
+                data = json_loads(
+                    record.data, source=f"{out.path}: a message on {channel.topic}", error=TelemetryError,
+                    strict_numbers=True,
+                )
             except TelemetryError:
                 raise
             except ValueError as exc:

@@ -8,6 +8,7 @@ another shape ended ``--plot`` / ``--video`` in a ``KeyError`` traceback.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -111,3 +112,34 @@ def test_a_message_giving_a_key_twice_is_refused_naming_the_channel_and_the_key(
     for args in (["replay", str(path)], ["replay", str(path), "--verify"]):
         code, output = pyflyt_forked(args, timeout=120)
         one_line(code, output, "a message on /reward", "the key 'reward' is given twice")
+
+
+@pytest.mark.parametrize("topic, key, value, name", [
+    ("/uav/0/state", "lin_pos", [math.inf, 0.0, 1.0], "Infinity"),  # --plot: 'Axis limits cannot be infinite'
+    ("/uav/0/state", "time", math.nan, "NaN"),
+    ("/uav/0/action", "applied", None, "-Infinity"),
+])  # fmt: skip
+def test_nan_or_infinity_in_a_message_is_refused_by_every_replay(waypoints, tmp_path, topic, key, value, name):
+    path = tmp_path / "odd.mcap"
+
+    def forge(t, data):
+        if t != topic:
+            return None
+        return {**data, key: value if value is not None else [-math.inf] * len(data[key])}
+
+    rewrite_mcap(waypoints, path, forge)
+    for option in ([], ["--verify"], ["--plot", str(tmp_path / "p.png")]):
+        code, output = pyflyt_forked(["replay", str(path), *option], timeout=300)
+        one_line(code, output, f"a message on {topic}: holds {name}, which is not a JSON number")
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_positions_too_large_to_draw_are_one_line_for_plot(waypoints, tmp_path):
+    """Finite but 1e308: matplotlib's 'arange: cannot compute length' was a traceback."""
+    path = tmp_path / "huge.mcap"
+    rewrite_mcap(waypoints, path,
+                 lambda t, data: {**data, "lin_pos": [1e308, -1e308, 1e308]} if t == "/uav/0/state" else None)
+    out = tmp_path / "p.png"
+    code, output = pyflyt_forked(["replay", str(path), "--plot", str(out)], timeout=300)
+    one_line(code, output, f"--plot {out}: cannot draw {path}: its values cannot be drawn")
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["huge.mcap"]
