@@ -58,3 +58,38 @@ def test_a_urdf_pybullet_cannot_load_is_one_line_naming_it(tmp_path, urdf, comma
     args = ["fly", f"uav={tmp_path / 'airframe.yaml'}", "duration=0.1"] if command == "fly" else [
         "uav", "validate", str(tmp_path / "airframe.yaml")]  # fmt: skip
     one_line(args, f"{tmp_path / 'airframe.yaml'}: PyBullet cannot load its URDF {tmp_path / 'body.urdf'}")
+
+
+def refused(args: list[str], *fragments: str) -> str:
+    """``pyflyt <args>`` exits 2 with an ``error:`` message (a validation list may follow it), no traceback."""
+    result = runner.invoke(app, args)
+    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert result.output.startswith("error:"), result.output
+    for fragment in fragments:
+        assert fragment in result.output, result.output
+    return result.output
+
+
+@pytest.mark.parametrize("override, fragment", [
+    ("wind.gust.length=1e-320", "gust.length 9.99989e-321 is positive but below 1e-06"),  # math domain error
+    ("wind.gust.speed=1e-320", "gust.speed 9.99989e-321 is positive but below 1e-06"),
+])  # fmt: skip
+def test_a_subnormal_gust_is_refused(override, fragment):
+    refused(["fly", "wind=gust", override, "duration=2"], fragment)
+
+
+@pytest.mark.parametrize("override, fragment", [
+    ("wind.turbulence.wind_speed_20ft=1e-320", "turbulence.wind_speed_20ft 9.99989e-321 is positive but below"),
+    ("wind.turbulence.airspeed=1e-320", "turbulence.airspeed 9.99989e-321 is positive but below"),  # ZeroDivisionError
+    ("wind.turbulence.height=1e-320", "turbulence.height 9.99989e-321 is positive but below"),
+])  # fmt: skip
+def test_a_subnormal_turbulence_speed_is_refused(override, fragment):
+    refused(["fly", "wind=dryden_severe", override, "duration=1"], fragment)
+
+
+def test_calm_turbulence_and_the_smallest_gust_still_fly():
+    for args in (["fly", "wind=dryden_severe", "wind.turbulence.wind_speed_20ft=0", "duration=0.5"],
+                 ["fly", "wind=gust", "wind.gust.length=1e-6", "duration=0.5"]):  # fmt: skip
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
