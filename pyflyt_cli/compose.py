@@ -42,6 +42,7 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     from omegaconf.errors import OmegaConfBaseException
 
     _checkgroup_choices(overrides)
+    _check_no_interpolation(overrides)
     overrides, copies = _group_files(overrides)
     try:
         with initialize_config_dir(config_dir=str(conf_dir()), version_base="1.3"):
@@ -77,6 +78,19 @@ def _checkgroup_choices(overrides: Sequence[str]) -> None:
         if sep and value.strip().lower() == "null" and (conf_dir() / group).is_dir():
             choices = ", ".join(group_choices(group))
             raise UsageError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
+
+
+def _check_no_interpolation(overrides: Sequence[str]) -> None:
+    """A command-line value is data: ``${...}`` in it would be resolved by OmegaConf's resolvers
+    (``${now:...}`` reads the clock, ``${oc.env:...}`` the environment, into a run's saved config;
+    ``${eval:...}`` ended in a traceback).  Interpolations belong in config files."""
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        if sep and "${" in value:
+            raise UsageError(
+                f"'{item}': a command-line value holds no ${{...}} interpolation (it would be resolved by "
+                f"OmegaConf, reading the clock or the environment); give {key.lstrip('+~')} its value itself"
+            )
 
 
 #: config groups whose choice may also be the path of a YAML file (``experiment=study.yaml``,
@@ -286,7 +300,8 @@ def to_container(cfg: DictConfig) -> dict[str, Any]:
     try:
         return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
     except Exception as exc:  # omegaconf interpolation errors
-        raise UsageError(f"cannot resolve the configuration: {exc}") from None
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"cannot resolve the configuration: {first}") from None
 
 
 __all__ = [

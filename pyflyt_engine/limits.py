@@ -48,6 +48,16 @@ LIMITS: dict[str, Limit] = {
     "wind_speed": Limit(1000.0, "m/s", "a wind, gust or turbulence speed (three times the speed of sound)"),
     "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
     "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
+    # a setpoint or spawn position of 1e308 flew a NaN trajectory with exit 0 (or printed a 300-digit altitude)
+    "fly.magnitude": Limit(100_000.0, "", "each value of a `pyflyt fly` setpoint, spawn position or attitude (as the flight dome)"),
+    # lists read from a recording (``pyflyt replay``, ``--verify``, ``--plot``, ``--video``): a 3 M-value
+    # state list hung replay; shipped recordings hold rows of a few dozen values
+    "recording.row_values": Limit(10_000.0, "values", "values in one recorded row of unfixed width (aux state, sensors)"),
+    # the largest a recorder writes: an OBJ mesh at its limits, 100 000 vertices and 200 000 triangles
+    # (600 000 indices), drawn as one triangle list
+    "recording.scene_items": Limit(
+        1_000_000.0, "items", "items of one list in a /scene record: entities, an entity's shapes, a shape's points"
+    ),
 }
 
 

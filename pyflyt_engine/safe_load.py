@@ -14,6 +14,9 @@ the JSON metadata of an MCAP recording):
   values); more than :data:`MAX_NODES` values, nesting deeper than :data:`MAX_DEPTH` or a
   value that contains itself is refused before anything is constructed;
 * **JSON is bounded alike**: size, values and nesting depth;
+* **a key given twice is refused**, in YAML and in JSON (:func:`json_loads`): readers
+  disagree on which of the two counts (Python's keeps the last), so a second entry could
+  make a file say one thing to a person or another tool and another to this package;
 * YAML goes through ``yaml.SafeLoader``: tags that would construct Python objects are
   refused, so loading never runs code.
 
@@ -243,6 +246,63 @@ def _check_unique_keys(node: yaml.MappingNode, source: str, error: type[PyFlytEr
 # ------------------------------------------------------------------------- JSON
 
 
+class _DuplicateKey(Exception):
+    """Raised inside ``json.loads`` by :func:`_unique_pairs` (not a ValueError: nothing rewords it)."""
+
+    def __init__(self, key: str) -> None:
+        super().__init__(key)
+        self.key = key
+
+
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    data = dict(pairs)
+    if len(data) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _DuplicateKey(key)
+            seen.add(key)
+    return data
+
+
+class _NotANumber(Exception):
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self.name = name
+
+
+def _no_constant(name: str) -> Any:
+    raise _NotANumber(name)
+
+
+def json_loads(
+    text: str | bytes, *, source: str, error: type[PyFlytError] = ConfigError, strict_numbers: bool = False
+) -> Any:
+    """``json.loads`` that refuses an object giving a key twice: ``error`` naming ``source`` and the key.
+
+    ``strict_numbers``: also refuse ``NaN``, ``Infinity`` and ``-Infinity``, which are not JSON
+    (Python's reader takes them; every MCAP writer of this package writes null instead).
+
+    Raises:
+        error: a key given twice in one object (or, with ``strict_numbers``, a non-finite constant).
+        ValueError: not valid JSON (the caller words it); RecursionError: nested too deeply.
+    """
+    try:
+        if strict_numbers:
+            return json.loads(text, object_pairs_hook=_unique_pairs, parse_constant=_no_constant)
+        return json.loads(text, object_pairs_hook=_unique_pairs)
+    except _NotANumber as exc:
+        raise error(
+            f"{source}: holds {exc.name}, which is not a JSON number (a recorder writes null for a value that is "
+            "not finite); the file was not written by pyflyt"
+        ) from None
+    except _DuplicateKey as exc:
+        raise error(
+            f"{source}: the key {exc.key!r} is given twice in one object; give each key once "
+            "(JSON readers disagree on which one counts)"
+        ) from None
+
+
 def json_data(
     text: str | bytes,
     *,
@@ -261,7 +321,7 @@ def json_data(
     if limit is not None and len(text) > limit:
         raise error(_too_large(source, "document", len(text), limit))
     try:
-        data = json.loads(text)
+        data = json_loads(text, source=source, error=error)
     except RecursionError:
         raise error(f"{source}: nested too deeply (more than {MAX_DEPTH} levels)") from None
     count = 0
@@ -335,6 +395,90 @@ def _yaml_problem(exc: yaml.YAMLError) -> str:
 def _first_line(exc: Exception) -> str:
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
+
+
+# ------------------------------------------------------------------- writing
+
+
+def _hard_link(path: Any, what: str, links: int) -> str:
+    return (
+        f"{path}: the {what} has {links} names (a hard link to a file elsewhere); refusing to write to it, "
+        "as that would change the other file too: delete this name (the other keeps its content)"
+    )
+
+
+def check_own_file(
+    path: str | os.PathLike[str], *, what: str = "file", error: type[PyFlytError] = ConfigError
+) -> None:
+    """Refuse ``path``, if it exists, unless :func:`open_own_file` could write it: a regular file,
+    not a link, with one name.  Opens and creates nothing (a check before any work starts)."""
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what}: {exc.strerror or exc}") from None
+    if stat.S_ISLNK(info.st_mode):
+        raise error(f"{path}: the {what} is a symbolic link; this directory's files are written through no link "
+                    "(remove the link)")
+    kind = _kind(info.st_mode)
+    if kind is not None:
+        raise error(f"{path}: the {what} is {kind}, not a regular file; remove it")
+    if info.st_nlink > 1:
+        raise error(_hard_link(path, what, info.st_nlink))
+
+
+def open_own_file(
+    path: str | os.PathLike[str],
+    *,
+    append: bool = False,
+    readable: bool = False,
+    what: str = "file",
+    error: type[PyFlytError] = ConfigError,
+) -> int:
+    """A descriptor open for writing on ``path`` (created if missing), that is this directory's own.
+
+    ``append``: every write goes to the end; ``readable``: open for reading too.
+
+    A file written in place (a log appended to, a lock file rewritten) inside a run, a
+    benchmark or a study may have been put there by someone else: a symbolic link to a
+    file elsewhere, or a *hard link* -- the same file under a second name outside, which no
+    path check can see.  Writing to either would change that other file.  So the file is
+    opened through no link (``O_NOFOLLOW``), without truncating it, and refused unless it
+    is a regular file with one name (``st_nlink == 1``); nothing is written before that.
+    Files replaced by a rename (:func:`pyflyt_cli.training.artifacts.write_atomically`)
+    need no such check: the rename replaces the name, not the content another name shares.
+
+    Raises:
+        error: one line naming ``path``, what it is and how to fix it.
+    """
+    flags = (os.O_RDWR if readable else os.O_WRONLY) | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0)
+    flags |= getattr(os, "O_NONBLOCK", 0)
+    flags |= getattr(os, "O_NOCTTY", 0) | (os.O_APPEND if append else 0)
+    try:
+        fd = os.open(path, flags, 0o644)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise error(
+                f"{path}: the {what} is a symbolic link; this directory's files are written through no link "
+                "(remove the link)"
+            ) from None
+        if exc.errno == errno.ENXIO:  # a FIFO without a reader
+            raise error(f"{path}: the {what} is a FIFO (named pipe), not a regular file; remove it") from None
+        raise error(f"{path}: cannot write the {what}: {exc.strerror or exc}") from None
+    try:
+        info = os.fstat(fd)
+        kind = _kind(info.st_mode)
+        if kind is not None:
+            raise error(f"{path}: the {what} is {kind}, not a regular file; remove it")
+        if info.st_nlink > 1:
+            raise error(_hard_link(path, what, info.st_nlink))
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
 
 
 # -------------------------------------------------------------- closed trees

@@ -70,7 +70,7 @@ from pyflyt_engine.control.mixer import Mixer
 from pyflyt_engine.control.modes import MULTIROTOR_MODES, FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.control.rocket import ROCKET_MODES, RocketAutopilot, has_rocket_modes
-from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.errors import ConfigError, SpecError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
@@ -198,13 +198,21 @@ class Vehicle:
         if len(self.spawn_position) != 3 or len(self.spawn_orientation) != 3:
             raise ConfigError("a vehicle's position and orientation need 3 values each ([x, y, z], [roll, pitch, yaw])")
 
-        self.body_id = p.loadURDF(
-            str(urdf_path(spec)),
-            basePosition=self.spawn_position,
-            baseOrientation=euler_to_quaternion(*self.spawn_orientation),
-            flags=p.URDF_USE_INERTIA_FROM_FILE,
-            physicsClientId=client,
-        )
+        urdf = urdf_path(spec)
+        try:
+            self.body_id = p.loadURDF(
+                str(urdf),
+                basePosition=self.spawn_position,
+                baseOrientation=euler_to_quaternion(*self.spawn_orientation),
+                flags=p.URDF_USE_INERTIA_FROM_FILE,
+                physicsClientId=client,
+            )
+        except p.error:  # PyBullet says only "Cannot load URDF file." (its reason goes to stderr)
+            raise SpecError(
+                f"{spec.source or spec.name}: PyBullet cannot load its URDF {urdf}: it needs a <robot> element "
+                "with at least one <link>, whose joints name existing links and whose meshes exist; "
+                "fix the file, or leave body.urdf out to have one generated"
+            ) from None
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
         if spec.range_sensors:  # its own rays pass through it (components/range_sensor.py)

@@ -51,14 +51,17 @@ def hold_benchmark(root: Path, command: Sequence[str]) -> Iterator[None]:
     except ImportError:  # pragma: no cover - not POSIX
         yield
         return
+    from pyflyt_engine.safe_load import open_own_file
+
     path = root / LOCK_FILE
     try:
         root.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except OSError as exc:
         raise UsageError(
             f"cannot use {root} as the benchmark directory ({exc.strerror}): choose another benchmark.output_dir"
         ) from None
+    # never through a link, never a file with a second name elsewhere (it is truncated below)
+    fd = open_own_file(path, readable=True, what="benchmark lock file", error=UsageError)
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -140,9 +143,17 @@ def worker_command(plan: Plan, job: Job) -> list[str]:
 
 
 def open_log(plan: Plan, job: Job) -> tuple[Path, object]:
+    """``<benchmark>/logs/<run>.log`` open for appending: the benchmark's own file, reached through
+    no link and with no second name (a hard link would append to a file outside the benchmark)."""
+    from pyflyt_engine.safe_load import open_own_file
+
     path = plan.log_file(job)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path, open(path, "ab")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {path.parent}: {exc.strerror or exc}") from None
+    fd = open_own_file(path, append=True, what="run log", error=UsageError)
+    return path, os.fdopen(fd, "ab")
 
 
 def run_job(root: str | Path, job_id: str) -> int:

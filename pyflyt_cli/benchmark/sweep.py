@@ -66,18 +66,24 @@ class Survey:
 
 def check_benchmark_dir(plan: Plan) -> None:
     """Refuse a benchmark directory that is not a closed world before anything in it is read or written:
-    a link leading out of it (its top level, ``logs/``, or on the way to a run directory) or a special file.
+    a link leading out of it (its top level, ``logs/``, or on the way to a run directory) or a special file;
+    and a file written in place (the lock file, a run's log) that is a link or has a second name (a
+    hard link: appending to it would append to a file outside).
 
     Raises:
         RunDirError: naming the link and where it leads.
     """
     from pyflyt_cli.benchmark.plan import LOGS_DIR
     from pyflyt_cli.training.rundir import RunDirError, check_closed
-    from pyflyt_engine.safe_load import outside
+    from pyflyt_cli.benchmark.run import LOCK_FILE
+    from pyflyt_engine.safe_load import check_own_file, outside
 
     if not plan.root.is_dir():
         return
     check_closed(plan.root, folders=(LOGS_DIR,), what="benchmark directory")
+    check_own_file(plan.root / LOCK_FILE, what="benchmark lock file", error=RunDirError)
+    for job in plan.jobs:
+        check_own_file(plan.log_file(job), what="run log", error=RunDirError)
     for job in plan.jobs:
         if outside(plan.root, plan.run_dir(job)):
             raise RunDirError(

@@ -38,6 +38,8 @@ def _setpoint(value: Any) -> Any:
     numbers = list(value.values()) if isinstance(value, dict) else value
     if isinstance(numbers, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
         if all(math.isfinite(v) for v in numbers):
+            for v in numbers:
+                limits.check("fly.magnitude", abs(v), name="a setpoint value of size")
             return value
         raise ValueError(f"every value must be a finite number, got {value!r}")
     raise ValueError(
@@ -73,6 +75,13 @@ class FlyOptions(BaseModel):
     @classmethod
     def _bounded(cls, value: float, info: ValidationInfo) -> float:
         return limits.check(f"fly.{info.field_name}", value, name=info.field_name)
+
+    @field_validator("position", "orientation")
+    @classmethod
+    def _placed(cls, value: Any, info: ValidationInfo) -> Any:
+        for v in value:
+            limits.check("fly.magnitude", abs(v), name=f"a {info.field_name} value of size")
+        return value
 
     @field_validator("physics_hz", "control_hz", "agent_hz")
     @classmethod

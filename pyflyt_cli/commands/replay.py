@@ -12,12 +12,15 @@ and they are the only files written (each all at once, see
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import typer
 
 from pyflyt_cli.errors import UsageError
+from pyflyt_engine.errors import PyFlytError
 from pyflyt_cli.outputs import atomic_output, check_output, parse_size
 
 
@@ -103,7 +106,7 @@ def run_replay(
     if plot is not None:
         from pyflyt_engine.telemetry.plots import plot_episode
 
-        with atomic_output(plot, "--plot") as tmp:
+        with atomic_output(plot, "--plot") as tmp, _drawing(file, "--plot", plot):
             plot_episode(episode, tmp)
         report["plot"] = str(plot)
         if not as_json:
@@ -111,7 +114,7 @@ def run_replay(
     if video is not None:
         from pyflyt_engine.telemetry.video import render_video
 
-        with atomic_output(video, "--video") as tmp:
+        with atomic_output(video, "--video") as tmp, _drawing(file, "--video", video):
             render_video(episode, tmp, size=dims)
         report["video"] = str(video)
         if not as_json:
@@ -119,3 +122,19 @@ def run_replay(
     if as_json:
         typer.echo(json.dumps(report, indent=2))
     return code
+
+
+@contextlib.contextmanager
+def _drawing(recording: Path, option: str, out: Path) -> Iterator[None]:
+    """Values a recorder never writes but a file may hold (a position of 1e308: matplotlib could not
+    lay out its axes) are one line naming the recording, not a traceback; nothing is written."""
+    try:
+        yield
+    except (ValueError, OverflowError, FloatingPointError) as exc:
+        if isinstance(exc, PyFlytError):
+            raise
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(
+            f"{option} {out}: cannot draw {recording}: its values cannot be drawn ({first}); "
+            "check them with pyflyt replay --verify"
+        ) from None

@@ -51,7 +51,8 @@ class Normalisation:
     source: str
 
     def __call__(self, returns: np.ndarray) -> np.ndarray:
-        return (np.asarray(returns, dtype=float) - self.random) / (self.reference - self.random)
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused by load_benchmark, in one line
+            return (np.asarray(returns, dtype=float) - self.random) / (self.reference - self.random)
 
 
 @dataclass
@@ -109,15 +110,53 @@ def _run_dirs(root: Path) -> list[Path]:
     return sorted({p.parent for p in base.glob("*/*/*/metrics.mcap")})
 
 
+#: the longest env or algorithm name a report shows
+MAX_NAME = 100
+#: characters a name may not hold: they would be read as mathematics by matplotlib's labels
+#: (``$``), or end a cell of the report's Markdown tables (``|``, a backtick)
+_NOT_IN_NAMES = "$|`"
+
+
+def _name(run_dir: Path, what: str, value: object) -> str:
+    """An env or algorithm name of a run as the report shows it; refused in one line if it cannot be shown."""
+    text = value if isinstance(value, str) else ""
+    if not text or len(text) > MAX_NAME or not text.isprintable() or any(c in text for c in _NOT_IN_NAMES):
+        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        raise ConfigError(
+            f"{run_dir}: its {what} name {shown} cannot label a report: give a name of 1 to {MAX_NAME} printable "
+            f"characters, none of {' '.join(_NOT_IN_NAMES)} (no line breaks or control characters)"
+        )
+    return text
+
+
+def _eval_point(run_dir: Path, record: dict) -> tuple[int, float] | None:
+    """(step, mean return) of one ``/eval`` record, None without a return; a record of another shape is refused."""
+    if "mean_return" not in record:
+        return None
+    step, value = record.get("step"), record["mean_return"]
+    if isinstance(step, bool) or not isinstance(step, int) or not 0 <= step < 2**63:
+        raise ConfigError(f"{run_dir}: an /eval record has the step {step!r}; a step is a whole number >= 0")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        shown = repr(value) if len(repr(value)) <= 60 else repr(value)[:57] + "..."
+        raise ConfigError(f"{run_dir}: the /eval record at step {step} has mean_return {shown}, not a number")
+    return step, float(value)
+
+
 def read_run(run_dir: Path) -> RunCurve | None:
-    """The ``/eval`` curve of one run directory (None if it has no evaluation records)."""
+    """The ``/eval`` curve of one run directory (None if it has no evaluation records).
+
+    A non-finite mean return (a diverged evaluation) is left out; a record of another shape
+    (a step or return that is not a number), a name the report cannot show, or a seed that
+    is not a whole number is refused in one line (:class:`ConfigError`).
+    """
     from pyflyt_engine.telemetry.metrics import read_metrics, read_metrics_metadata
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a truncated segment still gives its complete records
         records = read_metrics(run_dir).get("/eval", [])
         meta = read_metrics_metadata(run_dir)[0]
-    pairs = sorted({int(r["step"]): float(r["mean_return"]) for r in records if "mean_return" in r}.items())
+    points = [p for p in (_eval_point(run_dir, r) for r in records if isinstance(r, dict)) if p is not None]
+    pairs = sorted(dict(points).items())
     pairs = [(s, r) for s, r in pairs if np.isfinite(r)]
     if not pairs:
         return None
@@ -125,9 +164,11 @@ def read_run(run_dir: Path) -> RunCurve | None:
     if seed is None:
         m = _SEED.search(run_dir.name)
         seed = m.group(1) if m else None
+    if seed is not None and not re.fullmatch(r"\d{1,18}", str(seed)):
+        raise ConfigError(f"{run_dir}: its metadata seed {str(seed)[:40]!r} is not a whole number >= 0")
     return RunCurve(
-        env=meta.get("env") or run_dir.parent.parent.name,
-        algo=meta.get("algo") or run_dir.parent.name,
+        env=_name(run_dir, "env", meta.get("env") or run_dir.parent.parent.name),
+        algo=_name(run_dir, "algorithm", meta.get("algo") or run_dir.parent.name),
         seed=None if seed is None else int(seed),
         run_dir=run_dir,
         steps=np.array([s for s, _ in pairs], dtype=np.int64),
@@ -220,7 +261,8 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
         try:
             curve = read_run(d)
         except PyFlytError as exc:
-            raise ConfigError(f"{d}: unreadable metrics: {exc}") from None
+            reason = str(exc).removeprefix(f"{d}: ")  # the run is named once
+            raise ConfigError(f"{d}: unreadable metrics: {reason}") from None
         (runs if curve is not None else empty).append(curve or d)
     if not runs:
         raise ConfigError(
@@ -289,6 +331,14 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
             per_env.append([norms[env](np.interp(grid, r.steps, r.returns)) for r in mine])
         curves[algo] = np.transpose(np.array(per_env), (1, 0, 2))  # (runs, envs, points)
         final[algo] = curves[algo][:, :, -1]
+        for env, scores in zip(algo_envs[algo], per_env):
+            if not np.isfinite(scores).all():  # returns so large that (return - random) / (reference - random) overflows
+                largest = max(float(np.abs(r.returns).max()) for r in runs if r.env == env)
+                raise ConfigError(
+                    f"{env}/{algo}: the normalised scores are not finite numbers (returns up to {largest:g} in "
+                    f"magnitude overflow the normalisation {norms[env].random:g} .. {norms[env].reference:g}); "
+                    "these metrics were not written by pyflyt train, or give normalisation.yaml scores for this env"
+                )
     for env in envs:
         if len(grids[env]) > n_of[env]:
             notes.append(

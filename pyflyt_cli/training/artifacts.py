@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.safe_load import json_loads
 
 #: ``format`` of a policy file and of a checkpoint (a policy file with the trainer's state)
 POLICY_FORMAT = "pyflyt.policy"
@@ -406,7 +407,7 @@ def load_checkpoint_into(model: Any, data: Mapping[str, Any], path: Path) -> tup
         with torch.no_grad():
             for name, value in data["variables"].items():
                 attrgetter(name)(model).copy_(value)
-        state = json.loads(data["state"])
+        state = json_loads(data["state"], source=f"{path}: its state", error=ArtifactError)
     except (RuntimeError, KeyError, ValueError, AttributeError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ArtifactError(f"{path}: does not fit this run's model ({first})") from None

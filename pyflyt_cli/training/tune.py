@@ -264,6 +264,12 @@ def _pruner(opts: TuneOptions) -> Any:
 def _study(study_dir: Path, env: str, algo: str, opts: TuneOptions, worker: int = 0) -> Any:
     import optuna
 
+    from pyflyt_cli.training.rundir import RunDirError
+    from pyflyt_engine.safe_load import check_own_file
+
+    for name in ("study.db", "study.db-journal", "study.db-wal"):  # SQLite writes them in place
+        check_own_file(study_dir / name, what="study database", error=RunDirError)
+
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     return optuna.create_study(
         study_name=study_name(env, algo),
@@ -409,7 +415,14 @@ def _study_lock(study_dir: Path) -> Iterator[None]:
         pid = read_pid(path)
         if pid and pid != os.getpid() and _alive(pid):
             raise RunDirError(f"{study_dir} is being tuned by process {pid}; wait for it or stop it (Ctrl-C)")
-    path.write_text(f"{os.getpid()}\n")
+    from pyflyt_engine.safe_load import open_own_file
+
+    fd = open_own_file(path, what="study lock file", error=RunDirError)  # not through a link or a second name
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+    finally:
+        os.close(fd)
     try:
         yield
     finally:

@@ -29,6 +29,19 @@ from pyflyt_engine.loading import load, unknown_name, validate
 
 KNOT = 0.514444  # [m/s] (1852 m / 3600 s)
 
+#: the smallest positive gust length or speed, turbulence wind speed or airspeed [m, m/s]: a
+#: subnormal one (1e-320) underflowed the gust's cosine argument to a math domain error and the
+#: turbulence filter's poles to a division by zero; far below anything physical
+SMALLEST_POSITIVE = 1e-6
+
+
+def _not_tiny(value: float, name: str) -> None:
+    if 0 < value < SMALLEST_POSITIVE:
+        raise ValueError(
+            f"{name} {value:g} is positive but below {SMALLEST_POSITIVE:g} (its filters would underflow); "
+            f"give 0 where 0 is allowed, or a value of at least {SMALLEST_POSITIVE:g}"
+        )
+
 
 class _Config(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
@@ -82,6 +95,8 @@ class Gust(_Config):
     def _bounded(self) -> Gust:
         limits.check("wind_speed", max(abs(v) for v in self.amplitude), name="gust.amplitude (its largest component)")
         limits.check("wind_speed", self.speed, name="gust.speed")
+        _not_tiny(self.length, "gust.length")
+        _not_tiny(self.speed, "gust.speed")
         return self
 
 
@@ -115,6 +130,9 @@ class Turbulence(_Config):
     def _bounded(self) -> Turbulence:
         limits.check("wind_speed", self.wind_speed_20ft, name="turbulence.wind_speed_20ft")
         limits.check("wind_speed", self.advection_speed, name="turbulence.airspeed")
+        _not_tiny(self.wind_speed_20ft, "turbulence.wind_speed_20ft")
+        _not_tiny(self.advection_speed, "turbulence.airspeed")
+        _not_tiny(self.height, "turbulence.height")
         return self
 
     @property

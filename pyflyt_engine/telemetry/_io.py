@@ -19,6 +19,11 @@ Guarantees (see ``docs/mcap.md``, "Crash safety"):
   simulated second), when a chunk reaches ``chunk_size`` bytes, and by a background thread
   when buffered messages are older than ``flush_interval`` seconds of wall time.  A file cut
   short therefore stays readable up to its last complete chunk.
+* **Never left cut by a failed write** (``discard_on_error=True``, episode recordings): a
+  write the OS refuses (a full disk, a file-size limit, a read-only disk) closes the file,
+  removes it, and raises one :class:`TelemetryError` naming it and the reason; the writer
+  refuses everything after.  Without it (the metrics, whose earlier records a resume
+  needs) the ``OSError`` reaches the caller as it is.
 """
 
 from __future__ import annotations
@@ -193,9 +198,15 @@ _FLUSHER = _Flusher()
 class _OpenFile:
     """An open file and its ``mcap`` writer: all the exit hook needs (it must not hold the McapFileWriter)."""
 
-    def __init__(self, writer: Writer, stream: Any) -> None:
+    def __init__(self, writer: Writer, stream: Any, path: Path, discard_on_error: bool) -> None:
         self.writer = writer
         self.stream = stream
+        self.path = path
+        self.discard_on_error = discard_on_error
+        #: the write the OS refused (``discard_on_error`` only); the file is then closed and removed
+        self.failed: OSError | None = None
+        #: whether that failure was raised to a caller already (the exit hook then stays quiet)
+        self.reported = False
         self.lock = threading.RLock()
         self.pid = os.getpid()
         #: messages queued by ``write``: (channel id, log time, payload, sequence)
@@ -212,11 +223,34 @@ class _OpenFile:
         if os.getpid() != self.pid:  # a forked child must not finish (and corrupt) its parent's file
             return
         with signals_held(), self.lock:
+            if not self.discard_on_error:
+                try:
+                    self.commit()
+                    self.writer.finish()
+                finally:
+                    self.stream.close()
+                return
             try:
-                self.commit()
-                self.writer.finish()
-            finally:
-                self.stream.close()
+                try:
+                    if self.failed is None:
+                        self.commit()
+                        self.writer.finish()
+                finally:
+                    self.stream.close()  # closes the descriptor even when its last flush fails
+            except OSError as exc:
+                if self.failed is None:
+                    self.failed = exc
+            if self.failed is not None:
+                self.path.unlink(missing_ok=True)  # created by this writer (O_EXCL): nothing else is removed
+                if not self.reported:
+                    self.reported = True
+                    raise self.error() from None
+
+    def error(self) -> TelemetryError:
+        """The one-line error for :attr:`failed`."""
+        exc = self.failed
+        reason = (exc.strerror if exc is not None else None) or str(exc)
+        return TelemetryError(f"cannot write {self.path}: {reason}; the unfinished recording was removed")
 
 
 class McapFileWriter:
@@ -227,6 +261,9 @@ class McapFileWriter:
         chunk_size: close a chunk once its uncompressed data reaches this many bytes.
         flush_interval: longest wall time (s) buffered messages wait before being flushed.
         compression: ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
+        discard_on_error: a write the OS refuses (full disk, file-size limit) closes and
+            removes the file and raises :class:`TelemetryError` (once; the writer then
+            refuses every call), instead of passing the ``OSError`` on and leaving the file.
     """
 
     def __init__(
@@ -236,6 +273,7 @@ class McapFileWriter:
         chunk_size: int = DEFAULT_CHUNK_SIZE,
         flush_interval: float = DEFAULT_FLUSH_INTERVAL,
         compression: str = "zstd",
+        discard_on_error: bool = False,
     ) -> None:
         self.path = Path(path)
         if self.path.is_dir():
@@ -253,7 +291,7 @@ class McapFileWriter:
         except OSError as exc:
             raise TelemetryError(f"cannot create {self.path}: {exc.strerror}") from None
         writer = Writer(stream, chunk_size=chunk_size, compression=comp[compression], enable_data_crcs=True)
-        self._file = _OpenFile(writer, stream)
+        self._file = _OpenFile(writer, stream, self.path, discard_on_error)
         self._lock = self._file.lock
         # The mcap package closes chunks by size only; its (name-mangled) chunk finaliser lets
         # us also close them by time.  Without it (other mcap versions) size is the only policy.
@@ -267,9 +305,26 @@ class McapFileWriter:
         self._closed = False
         self._pid = os.getpid()
         self._finalizer = weakref.finalize(self, _OpenFile.finish, self._file)
-        with signals_held(), self._lock:
+        with self._writing():
             writer.start(profile="", library="pyflyt_engine")
         _FLUSHER.add(self)
+
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[None]:
+        """A section that hands records to the file: signals held, the lock taken; with
+        ``discard_on_error`` an ``OSError`` in it closes and removes the file, then raises once."""
+        with signals_held(), self._lock:
+            if not self._file.discard_on_error:
+                yield
+                return
+            try:
+                yield
+            except OSError as exc:
+                self._file.failed = exc
+                self._file.reported = True
+                self._closed = True
+                self._finalizer()  # closes and removes the file (the failure is raised here, not there)
+                raise self._file.error() from None
 
     # ------------------------------------------------------------------ channels
     def channel(
@@ -279,7 +334,7 @@ class McapFileWriter:
         cid = self._channels.get(topic)
         if cid is not None:
             return cid
-        with signals_held(), self._lock:
+        with self._writing():
             if topic in self._channels:
                 return self._channels[topic]
             self._check_open()
@@ -320,7 +375,7 @@ class McapFileWriter:
         bad = [k for k, v in data.items() if not isinstance(k, str) or not isinstance(v, str)]
         if bad:
             raise TelemetryError(f"metadata {name!r}: keys and values must be strings; bad entries: {bad}")
-        with signals_held(), self._lock:
+        with self._writing():
             self._check_open()
             self._file.writer.add_metadata(name, dict(data))
             if flush:
@@ -328,7 +383,7 @@ class McapFileWriter:
 
     def attachment(self, name: str, media_type: str, data: bytes, log_time_ns: int = 0) -> None:
         """Write an attachment (reaches the OS at the next :meth:`flush`)."""
-        with signals_held(), self._lock:
+        with self._writing():
             self._check_open()
             self._file.writer.add_attachment(time.time_ns(), log_time_ns, name, media_type, data)
 
@@ -338,8 +393,10 @@ class McapFileWriter:
         Args:
             sync: also ask the OS to write them to the disk (``fsync``) before returning.
         """
-        with signals_held(), self._lock:
+        with self._writing():
             if self.closed:
+                if self._file.failed is not None:
+                    raise self._file.error()
                 return
             self._file.commit()
             if self._finalize_chunk is not None:
@@ -371,7 +428,14 @@ class McapFileWriter:
             self._closed = True
         self._finalizer()
 
+    @property
+    def discarded(self) -> bool:
+        """True once a failed write removed the file (``discard_on_error``)."""
+        return self._file.failed is not None
+
     def _check_open(self) -> None:
+        if self._file.failed is not None:
+            raise self._file.error()
         if self.closed:
             raise TelemetryError(f"{self.path} is already closed")
 

@@ -6,8 +6,9 @@ Built on :func:`pyflyt_engine.telemetry.reader.read_mcap`; used by ``pyflyt repl
 
 from __future__ import annotations
 
-import json
+import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.safe_load import json_data
+from pyflyt_engine.limits import LIMITS, number
+from pyflyt_engine.safe_load import json_data, json_loads
 from pyflyt_engine.telemetry.reader import McapContents, read_mcap
 from pyflyt_engine.telemetry.recorder import ENV_INFO, EPISODE_INFO, FILE_INFO, FORMAT_VERSION, VERSIONS
 
@@ -149,7 +151,27 @@ def _check_schema(contents: McapContents, topic: str, expected: str) -> None:
 
 
 #: the most values one recorded row of unfixed width may hold (aux state, sensor readings: a few dozen)
-MAX_ROW_VALUES = 10_000
+MAX_ROW_VALUES = int(LIMITS["recording.row_values"].high)
+#: the most items of one list in a ``/scene`` record (entities, shapes, points)
+MAX_SCENE_ITEMS = int(LIMITS["recording.scene_items"].high)
+
+
+def _check_scene(path: Path, index: int, message: Any) -> None:
+    """Refuse a ``/scene`` record holding a list longer than :data:`MAX_SCENE_ITEMS` (every list, however
+    deep: the reader bounds the nesting), before anything reads its shapes."""
+    stack = [message]
+    while stack:
+        value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend(value.values())
+        elif isinstance(value, list):
+            if len(value) > MAX_SCENE_ITEMS:
+                raise TelemetryError(
+                    f"{path}: message {index} on /scene holds a list of {len(value)} items, above the limit of "
+                    f"{number(MAX_SCENE_ITEMS)} {LIMITS['recording.scene_items'].unit} (items of one list in a "
+                    "/scene record); no recorder writes one that long"
+                )
+            stack.extend(value)
 
 
 def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
@@ -206,6 +228,8 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
     by_topic: dict[str, list[Any]] = {}
     for m in contents.messages:
         by_topic.setdefault(m.topic, []).append(m.data)
+    for i, message in enumerate(by_topic.get("/scene", [])):
+        _check_scene(path, i, message)
 
     def rows(topic: str, key: str, width: int | None) -> np.ndarray:
         out = []
@@ -216,8 +240,8 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
                 raise TelemetryError(f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, expected {width}")
             if isinstance(value, list) and len(value) > MAX_ROW_VALUES:
                 raise TelemetryError(
-                    f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, more than the "
-                    f"{MAX_ROW_VALUES} any recorded row holds"
+                    f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, above the limit of "
+                    f"{number(MAX_ROW_VALUES)} values any recorded row holds"
                 )
             try:
                 value = msg[key]
@@ -307,27 +331,55 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
     )
 
 
+def _waypoint_entities(episode: Episode) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(log time [ns], entity) of every waypoints entity the ``/scene`` channel shows; a record of
+    another shape is refused in one line (the file was not written by a recorder)."""
+    for i, m in enumerate(x for x in episode.contents.messages if x.topic == "/scene"):
+        entities = m.data.get("entities", []) if isinstance(m.data, dict) else None
+        if not isinstance(entities, list) or not all(isinstance(e, dict) for e in entities):
+            raise TelemetryError(f"{episode.path}: message {i} on /scene has no valid 'entities' (wrong schema?)")
+        for entity in entities:
+            if entity.get("id") == "waypoints":
+                yield m.log_time, entity
+
+
+def _finite_number(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise TypeError(value)
+    return float(value)
+
+
 def waypoint_markers(episode: Episode) -> list[tuple[float, np.ndarray]]:
     """Per ``/scene`` message that shows waypoint markers: (time [s], the marker centres, (n, 3))."""
     out = []
-    for m in episode.contents.messages:
-        if m.topic != "/scene" or not isinstance(m.data, dict):
-            continue
-        for entity in m.data.get("entities", []):
-            if entity.get("id") == "waypoints":
-                pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
-                out.append((m.log_time * 1e-9, np.array([[q["x"], q["y"], q["z"]] for q in pts]).reshape(-1, 3)))
+    for log_time, entity in _waypoint_entities(episode):
+        try:
+            pts = [s["pose"]["position"] for s in entity.get("spheres", [])]
+            xyz = [[_finite_number(q["x"]), _finite_number(q["y"]), _finite_number(q["z"])] for q in pts]
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise TelemetryError(
+                f"{episode.path}: a waypoints entity on /scene has a sphere without a finite pose.position"
+            ) from None
+        out.append((log_time * 1e-9, np.array(xyz, dtype=np.float64).reshape(-1, 3)))
     return out
 
 
 def waypoint_radius(episode: Episode) -> float:
     """The radius [m] of the first waypoint marker the ``/scene`` channel shows (0.05 without one)."""
-    for m in episode.contents.messages:
-        if m.topic == "/scene" and isinstance(m.data, dict):
-            for entity in m.data.get("entities", []):
-                if entity.get("id") == "waypoints":
-                    for sphere in entity.get("spheres", []):
-                        return float(sphere["size"]["x"]) / 2
+    for _, entity in _waypoint_entities(episode):
+        spheres = entity.get("spheres", [])
+        if not isinstance(spheres, list):
+            break
+        for sphere in spheres:
+            try:
+                radius = _finite_number(sphere["size"]["x"]) / 2
+            except (KeyError, TypeError, ValueError):
+                raise TelemetryError(
+                    f"{episode.path}: a waypoints entity on /scene has a sphere without a finite size.x"
+                ) from None
+            if radius < 0:
+                raise TelemetryError(f"{episode.path}: a waypoints entity on /scene has a sphere of negative size")
+            return radius
     return 0.05
 
 
@@ -336,7 +388,11 @@ def _sensor_layout(contents: Any, topic: str) -> list[tuple[str, int]]:
     for channel in contents.channels.values():
         if channel.topic == topic:
             try:
-                items = json.loads(channel.metadata.get("layout") or "[]")
+                items = json_loads(
+                    channel.metadata.get("layout") or "[]",
+                    source=f"{contents.path}: the 'layout' of channel {topic}",
+                    error=TelemetryError,
+                )
                 return [(str(n), int(k)) for n, k in (str(item).split(":") for item in items)]
             except (TypeError, ValueError):
                 raise TelemetryError(f"{contents.path}: channel {topic} has a malformed 'layout'") from None

@@ -19,7 +19,6 @@ with a message naming the file and the problem.
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import re
 import struct
@@ -53,7 +52,7 @@ from mcap.records import (
 from mcap.stream_reader import breakup_chunk
 
 from pyflyt_engine.errors import TelemetryError
-from pyflyt_engine.safe_load import check_regular, json_data, read_bytes
+from pyflyt_engine.safe_load import check_regular, json_data, json_loads, read_bytes
 
 MAGIC = bytes([137, 77, 67, 65, 80, 48, 13, 10])
 #: the largest uncompressed chunk read [bytes]: a writer here closes a chunk at 256 KiB
@@ -456,7 +455,12 @@ def _take(out: McapContents, record: Any, decode: bool) -> None:
         data: Any = record.data
         if decode and channel.message_encoding == "json":
             try:
-                data = json.loads(record.data)
+                data = json_loads(
+                    record.data, source=f"{out.path}: a message on {channel.topic}", error=TelemetryError,
+                    strict_numbers=True,
+                )
+            except TelemetryError:
+                raise
             except ValueError as exc:
                 raise TelemetryError(f"{out.path}: a message on {channel.topic} is not valid JSON ({exc})") from None
             except RecursionError:  # nested deeper than any message a writer makes

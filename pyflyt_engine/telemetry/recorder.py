@@ -289,7 +289,7 @@ class RecordEpisode(gymnasium.Wrapper):
             if path.exists():
                 continue
             try:
-                f = McapFileWriter(path, chunk_size=DEFAULT_CHUNK_SIZE)
+                f = McapFileWriter(path, chunk_size=DEFAULT_CHUNK_SIZE, discard_on_error=True)
             except TelemetryError:
                 if path.exists():  # created meanwhile (another recorder): never written over, take the next
                     continue
@@ -679,8 +679,13 @@ class RecordEpisode(gymnasium.Wrapper):
 
     def _close_file(self) -> None:
         if self._file is not None:
-            self._file.close()
-            self._file = None
+            f = self._file
+            try:
+                f.close()
+            finally:
+                self._file = None
+                if f.discarded and f.path in self.paths:  # a write failed: the file is gone, so is its name
+                    self.paths.remove(f.path)
 
     def __del__(self) -> None:  # the file's own finaliser finishes it too; this adds the 'stopped' event
         try:

@@ -102,6 +102,45 @@ def eval_problem(**options) -> str | None:
     return None
 
 
+_RECORDING: list[Path] = []
+
+
+def recording_problem(forge) -> str | None:
+    """What reading a short hover recording says once ``forge(topic, data)`` rewrote its messages (None: read)."""
+    import tempfile
+
+    from pyflyt_engine.telemetry import load_episode
+    from tests.telemetry.conftest import record, rewrite_mcap
+
+    if not _RECORDING:
+        folder = Path(tempfile.mkdtemp(prefix="pyflyt-limits-"))
+        env, _ = record("PyFlyt/QuadX-Hover-v0", folder, episodes=1, max_steps=3)
+        _RECORDING.append(env.paths[0])
+    forged = _RECORDING[0].with_name(f"forged-{len(list(_RECORDING[0].parent.iterdir()))}.mcap")
+    rewrite_mcap(_RECORDING[0], forged, forge)
+    try:
+        load_episode(forged, warn=False)
+    except PyFlytError as exc:
+        return str(exc)
+    finally:
+        forged.unlink()
+    return None
+
+
+def long_aux(n: int):
+    return lambda topic, data: {**data, "aux": [0.0] * n} if topic == "/uav/0/state" else None
+
+
+def long_scene(n: int):
+    def forge(topic, data):
+        if topic == "/scene" and data.get("entities"):
+            entity = data["entities"][0]
+            return {**data, "entities": [{**entity, "spheres": [{}] * n}, *data["entities"][1:]]}
+        return None
+
+    return forge
+
+
 #: limit -> (a setting above it, one within it, what the refusal names); within values keep the
 #: config's other rules (physics_hz a whole multiple of agent_hz, the controller no faster than physics)
 CASES = {
@@ -128,6 +167,13 @@ CASES = {
                    lambda: fly_problem("wind=constant", "wind.mean.speed=100"), "mean.speed 1e+300"),
     "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
+    "fly.magnitude": (lambda: fly_problem("position=[1e308,0,1]"), lambda: fly_problem("setpoint=[0,0,0,99999]"),
+                      "a position value of size 1e+308"),
+    # lists read from a recording: 3 M-value state lists hung replay
+    "recording.row_values": (lambda: recording_problem(long_aux(10_001)), lambda: recording_problem(long_aux(10_000)),
+                             "'aux' has 10001 values"),
+    "recording.scene_items": (lambda: recording_problem(long_scene(1_000_001)),
+                              lambda: recording_problem(long_scene(1_000_000)), "list of 1000001 items"),
 }
 
 

@@ -92,11 +92,12 @@ def flip_byte(path: Path, offset: int) -> None:
 def rewrite_mcap(
     src: Path,
     dst: Path,
-    transform: Callable[[str, dict], dict | None],
+    transform: Callable[[str, dict], dict | bytes | None],
     metadata: Callable[[str, dict[str, str]], dict[str, str]] | None = None,
     attachments: Callable[[str, bytes], bytes] | None = None,
 ) -> None:
-    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``,
+    """Copy ``src`` to ``dst`` (a new file) passing every JSON message through ``transform(topic, data)``
+    (a dict: the new message; bytes: its raw payload; None: unchanged),
     every metadata record through ``metadata(name, record)`` and every attachment's bytes through
     ``attachments(name, data)``."""
     with open(src, "rb") as f:
@@ -120,7 +121,7 @@ def rewrite_mcap(
         }
         for _, channel, message in messages:
             data = transform(channel.topic, json.loads(message.data))
-            payload = json.dumps(data).encode() if data is not None else message.data
+            payload = data if isinstance(data, bytes) else json.dumps(data).encode() if data is not None else message.data
             writer.add_message(
                 channel_ids[channel.id], message.log_time, payload, message.publish_time, message.sequence
             )

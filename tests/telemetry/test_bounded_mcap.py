@@ -96,5 +96,5 @@ def test_a_state_list_longer_than_its_schema_is_refused_before_it_is_converted(t
     rewrite_mcap(env.paths[0], forged, forge)
     code, output = pyflyt_forked(["replay", str(forged), "--verify"], timeout=120, memory=3 << 30)
     assert code == 2 and "Traceback" not in output, output[-2000:]
-    expected = "expected 3" if key == "lin_pos" else "more than the 10000 any recorded row holds"
+    expected = "expected 3" if key == "lin_pos" else "above the limit of 10000 values any recorded row holds"
     assert f"message 2 on /uav/0/state: '{key}' has {values} values" in output and expected in output

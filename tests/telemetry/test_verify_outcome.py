@@ -68,14 +68,27 @@ def test_rewards_raised_and_success_forged_fail(ended, tmp_path):
     assert "end event gives the return" in result.output
 
 
-@pytest.mark.parametrize("bad", [math.nan, math.inf])
-def test_non_finite_rewards_fail(ended, tmp_path, bad):
+def test_a_non_finite_reward_fails(ended, tmp_path):
+    """A recorder writes null for a value that is not finite: that reward differs from any re-simulated one."""
+
     def forge(topic, data):
-        return {**data, "reward": bad} if topic == "/reward" and data["step"] == 2 else None
+        return {**data, "reward": None} if topic == "/reward" and data["step"] == 2 else None
 
     result = verify(forged(ended, tmp_path, forge))
     assert result.exit_code == 1, result.output
     assert "verify    FAILED" in result.output and "NaN or inf counts as differing" in result.output
+
+
+@pytest.mark.parametrize("bad, name", [(math.nan, "NaN"), (math.inf, "Infinity"), (-math.inf, "-Infinity")])
+def test_a_reward_written_as_nan_or_infinity_is_refused_as_not_json(ended, tmp_path, bad, name):
+    """NaN and Infinity are not JSON (Python's reader takes them, no recorder writes them): refused at reading."""
+
+    def forge(topic, data):
+        return {**data, "reward": bad} if topic == "/reward" and data["step"] == 2 else None
+
+    result = verify(forged(ended, tmp_path, forge))
+    assert result.exit_code == 2, result.output
+    assert f"a message on /reward: holds {name}, which is not a JSON number" in result.output
 
 
 @pytest.mark.parametrize(
@@ -86,7 +99,7 @@ def test_non_finite_rewards_fail(ended, tmp_path, bad):
         ("truncated", True, "truncated=True"),
         ("reason", "complete", "the reason 'complete'"),
         ("return", 1e6, "the return 1000000.0"),
-        ("return", math.nan, "the return nan"),
+        ("return", None, "the return None"),  # what a recorder writes for a return that is not finite
     ],
 )
 def test_a_forged_end_event_alone_fails_and_says_which(ended, tmp_path, field, value, says):
