@@ -24,44 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from pyflyt_cli.training import rundir
-from pyflyt_cli.training.batched import BatchedVecEnv
+from pyflyt_cli.training.batched import fly_episodes
 from pyflyt_cli.training.envs import EnvFactory
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, policy_predict, run_episodes
 from pyflyt_cli.training.models import load_policy
-
-
-def batched_episodes(predict, normalize, env_config, episodes: int, seed: int) -> dict:
-    """The first episode of each of ``episodes`` batched envs, flown by ``predict``."""
-    venv = BatchedVecEnv(env_config.model_copy(update={"backend": "batched"}), episodes)
-    venv.seed(seed)
-    obs = venv.reset()
-    n = episodes
-    done = np.zeros(n, dtype=bool)
-    returns = np.zeros(n)
-    success = np.zeros(n, dtype=bool)
-    reached = np.zeros(n, dtype=np.int64)
-    waypoints = False
-    while not done.all():
-        x = normalize(obs) if normalize is not None else obs
-        action = predict(x, True)
-        a = np.asarray(action, dtype=np.float64)
-        if venv._rescale is not None:  # the adapter's [-1, 1] -> the env's action range
-            a = venv._rescale(a)
-        obs, reward, terminated, truncated, info = venv.env.step(a)
-        obs = obs.astype(np.float32)
-        live = ~done
-        returns[live] += reward[live]
-        ended = (terminated | truncated) & live
-        success[ended] = info["success"][ended]
-        if "num_targets_reached" in info:
-            waypoints = True
-            reached[ended] = info["num_targets_reached"][ended]
-        done |= ended
-    out = {"success_rate": float(success.mean()), "mean_return": float(returns.mean())}
-    if waypoints:
-        k = int(venv.env.targets.shape[1])
-        out.update(mean_reached=float(reached.mean()), all_reached=float(np.mean(reached >= k)))
-    return out
 
 
 def pybullet_episodes(predict, normalize, env, episodes: int, seed: int) -> dict:
@@ -73,7 +39,7 @@ def pybullet_episodes(predict, normalize, env, episodes: int, seed: int) -> dict
     if "num_targets_reached" in eps[0].final_info:
         reached = np.array([int(e.final_info["num_targets_reached"]) for e in eps])
         k = int(env.unwrapped.task.options.num_targets)
-        out.update(mean_reached=float(reached.mean()), all_reached=float(np.mean(reached >= k)))
+        out.update(waypoints_reached=float(reached.mean()), all_reached=float(np.mean(reached >= k)))
     return out
 
 
@@ -88,7 +54,7 @@ def compare(run_dir: Path, episodes: int, which: str) -> dict:
     t0 = time.process_time()
     pyb = pybullet_episodes(predict, normalize, env, episodes, seed)
     t1 = time.process_time()
-    bat = batched_episodes(predict, normalize, cfg.env, episodes, seed)
+    bat = fly_episodes(predict, normalize, cfg.env, episodes, seed)  # what `pyflyt eval` adds for such a run
     t2 = time.process_time()
     env.close()
     return {"run": str(path), "model": f"{model_path.name} ({which})", "seed": cfg.seed, "backend": cfg.env.backend,
@@ -103,7 +69,7 @@ def main() -> None:
     parser.add_argument("--write", type=Path, help="append the table to this Markdown file")
     args = parser.parse_args()
     rows = [compare(r, args.episodes, args.model) for r in args.runs]
-    waypoints = "mean_reached" in rows[0]["pybullet"]
+    waypoints = "waypoints_reached" in rows[0]["pybullet"]
     head = "| run seed | model | engine | success [%] | mean return |" + (" mean reached | all reached [%] |" if waypoints else "")
     lines = [
         f"## Both engines, {args.episodes} deterministic episodes each ({time.strftime('%Y-%m-%d %H:%M')}, "
@@ -119,7 +85,7 @@ def main() -> None:
             e = r[engine]
             cells = f"| {r['seed']} | {r['model']} | {engine} | {100 * e['success_rate']:.0f} | {e['mean_return']:.1f} |"
             if waypoints:
-                cells += f" {e['mean_reached']:.2f} | {100 * e['all_reached']:.0f} |"
+                cells += f" {e['waypoints_reached']:.2f} | {100 * e['all_reached']:.0f} |"
             lines.append(cells)
     for key in ("pybullet", "batched"):
         rates = [100 * r[key]["success_rate"] for r in rows]

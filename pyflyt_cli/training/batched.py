@@ -157,3 +157,45 @@ class BatchedVecEnv(VecEnv):
         if "noise" in state["rng"]:
             env.noise_rng.bit_generator.state = state["rng"]["noise"]
         return env._observe()[i].astype(np.float32)
+
+
+def fly_episodes(
+    predict: Any, normalize: Any, config: EnvConfig, episodes: int, seed: int, deterministic: bool = True
+) -> dict[str, float]:
+    """The first episode of each of ``episodes`` envs of ``config`` on the batched backend,
+    flown together by ``predict`` (``(observations, deterministic) -> actions``, as
+    :func:`pyflyt_cli.training.evaluation.policy_predict` gives; ``normalize``: the policy's
+    observation normaliser or None).
+
+    What ``pyflyt eval`` reports beside the PyBullet engine's episodes for a run trained on
+    this backend: ``episodes``, ``success_rate``, ``mean_return`` and, for waypoint tasks,
+    ``waypoints_reached`` (mean) and ``all_reached`` (fraction).  The spawns and waypoints are
+    the batched env's own draws from ``seed`` (other episodes of the same task than the
+    PyBullet engine's ``seed + i``), so the two rates are two samples of one policy.
+    """
+    venv = BatchedVecEnv(config.model_copy(update={"backend": "batched"}), episodes)
+    venv.seed(seed)
+    obs = venv.reset()
+    done = np.zeros(episodes, dtype=bool)
+    returns = np.zeros(episodes)
+    success = np.zeros(episodes, dtype=bool)
+    reached = np.zeros(episodes, dtype=np.int64)
+    while not done.all():
+        action = np.asarray(predict(normalize(obs) if normalize is not None else obs, deterministic), dtype=np.float64)
+        if venv._rescale is not None:  # [-1, 1] -> the env's units, as step_wait does
+            action = venv._rescale(action)
+        obs, reward, terminated, truncated, info = venv.env.step(action)
+        obs = obs.astype(np.float32)
+        live = ~done
+        returns[live] += reward[live]
+        ended = (terminated | truncated) & live
+        success[ended] = info["success"][ended]
+        if "num_targets_reached" in info:
+            reached[ended] = info["num_targets_reached"][ended]
+        done |= ended
+    out = {"episodes": float(episodes), "success_rate": float(success.mean()), "mean_return": float(returns.mean())}
+    if venv.env.targets.shape[1]:
+        out["waypoints_reached"] = float(reached.mean())
+        out["all_reached"] = float(np.mean(reached >= venv.env.targets.shape[1]))
+    venv.close()
+    return out

@@ -54,6 +54,9 @@ class EvalReport:
     measure_summary: dict[str, float] | None = None
     #: how far the run trained and which step the model flown comes from (one line; None for an oracle)
     trained: str | None = None
+    #: a run trained on the batched backend: the same policy flown there as well
+    #: (:func:`pyflyt_cli.training.batched.fly_episodes`), or why not (a one-line reason); None otherwise
+    batched: dict[str, float] | str | None = None
 
     def table(self) -> str:
         """The printed report: one row per episode (return, length, success, why it ended,
@@ -97,6 +100,8 @@ class EvalReport:
         why = disagreement(self.episodes)
         if why is not None:
             lines.append(why)
+        if self.batched is not None:
+            lines.append(batched_line(self.batched))
         if self.recordings:
             lines.append(f"episodes:     {self.recordings[0].parent}/ ({len(self.recordings)} MCAP files)")
         if self.video is not None:
@@ -193,7 +198,40 @@ def evaluate_run(
         which=which,
         env_changes=dict(env or {}),
         trained=lambda: trained_line(path, model_path, steps[0], cfg.train.total_timesteps),
+        batched=_batched_episodes(env_config, opts, seed) if cfg.env.backend == "batched" else None,
     )
+
+
+def batched_line(batched: dict[str, float] | str) -> str:
+    """The report's line on the batched backend's episodes (a run trained there)."""
+    if isinstance(batched, str):
+        return f"batched:      {batched}"
+    parts = [f"success {100 * batched['success_rate']:.0f} %", f"return {batched['mean_return']:.2f}"]
+    if "waypoints_reached" in batched:
+        parts += [f"waypoints {batched['waypoints_reached']:.2f}", f"all reached {100 * batched['all_reached']:.0f} %"]
+    return (
+        f"batched:      {', '.join(parts)} ({int(batched['episodes'])} episodes on the batched backend the run "
+        "trained on, its own draws of the task; the rows above flew the PyBullet engine)"
+    )
+
+
+def _batched_episodes(env_config: Any, opts: EvalOptions, seed: int) -> Callable[[Any, Any], dict[str, float] | str]:
+    """For a run trained on the batched backend: fly the policy there too, or say why not."""
+
+    def fly(predict: Any, normalize: Any) -> dict[str, float] | str:
+        from pyflyt_engine.batched import check_supported
+
+        if hasattr(predict, "reset"):
+            return "not flown (a recurrent policy carries one memory per episode)"
+        try:
+            check_supported(env_config.model_copy(update={"backend": "batched"}))
+        except ConfigError as exc:  # an env change the batched backend does not simulate
+            return f"not flown ({exc})"
+        from pyflyt_cli.training.batched import fly_episodes
+
+        return fly_episodes(predict, normalize, env_config, opts.episodes, seed, opts.deterministic)
+
+    return fly
 
 
 def _changed_env(cfg: TrainConfig, changes: dict[str, Any]) -> Any:
@@ -294,6 +332,7 @@ def _fly(
     oracle: str | None = None,
     env_changes: dict[str, Any] | None = None,
     trained: Callable[[], str] | None = None,
+    batched: Callable[[Any, Any], dict[str, float] | str] | None = None,
 ) -> EvalReport:
     """Fly ``opts.episodes`` episodes of ``env_config`` with the policy ``load(env)`` returns
     (``(predict, normalize_obs)``); record, film, write ``eval.json`` (``env_changes``: the
@@ -325,6 +364,7 @@ def _fly(
         recordings = list(_recorder_paths(env))
         env.close()
     summary = summarize(episodes)
+    on_batched = batched(predict, normalize) if batched is not None else None
     measures = env_measures(env)
     measure_summary = summarize_measures(measures, episodes)
     try:
@@ -357,6 +397,7 @@ def _fly(
         measures,
         measure_summary,
         trained() if trained is not None else None,
+        on_batched,
     )
     flown = {"oracle": oracle} if oracle is not None else {"model": model.name if model else None}
     rundir.atomic_write(
@@ -372,6 +413,7 @@ def _fly(
                 **({"trained": report.trained} if report.trained else {}),
                 **summary,
                 "measures": plain(measure_summary),
+                **({"batched": on_batched} if on_batched is not None else {}),
                 "episodes": [
                     {
                         "seed": e.seed,

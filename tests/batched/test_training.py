@@ -245,3 +245,43 @@ def test_fixedwing_sac_trains_end_to_end_on_it(tmp_path):
 
     report = evaluate_run(result.run_dir, {"episodes": 1})
     assert len(report.episodes) == 1
+
+
+def test_eval_of_a_batched_run_also_flies_the_batched_backend_and_says_why_not_when_it_cannot(tmp_path):
+    """The run's report shows both engines: the PyBullet engine's episodes row by row, and the
+    same policy's success on the batched backend it trained on (in eval.json too); an env change
+    the batched backend does not simulate gets the reason instead."""
+    import json
+
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    run = train(load(PPO_BATCHED, tmp_path)).run_dir
+    report = evaluate_run(run, {"episodes": 3, "record": False})
+    assert isinstance(report.batched, dict) and report.batched["episodes"] == 3.0
+    assert 0.0 <= report.batched["success_rate"] <= 1.0
+    assert "waypoints_reached" not in report.batched  # hover has none
+    assert json.loads((run / "eval.json").read_text())["batched"] == report.batched
+    assert "batched:      success" in report.table()
+    gusty = evaluate_run(run, {"episodes": 1, "record": False}, env={"wind": "gust"})
+    assert isinstance(gusty.batched, str) and gusty.batched.startswith("not flown") and "wind" in gusty.batched
+
+
+def test_fly_episodes_counts_each_env_s_first_episode_as_the_env_reports_it():
+    """Zero thrust: every env falls and crashes, so no success; each env's return is the
+    ``episode`` return the batched env itself reports when that env's first episode ends."""
+    from pyflyt_cli.training.batched import fly_episodes
+
+    config = load_env_config("quadx_waypoints").with_overrides(backend="batched")
+    n = 6
+    zero = np.tile(np.array([0.0, 0.0, 0.0, -1.0], dtype=np.float32), (n, 1))  # thrust -1: the range's bottom, 0
+    out = fly_episodes(lambda obs, det: zero, None, config, n, seed=3)
+    env = BatchedUAVEnv(config, num_envs=n)
+    env.reset(seed=3)
+    first = np.full(n, np.nan)
+    while np.isnan(first).any():  # in the env's units: no rates, no thrust
+        _, _, terminated, truncated, info = env.step(np.zeros((n, 4)))
+        ended = (terminated | truncated) & np.isnan(first)
+        if ended.any():
+            first[ended] = info["episode"]["r"][ended]
+    assert out["success_rate"] == 0.0 and out["waypoints_reached"] == 0.0 and out["all_reached"] == 0.0
+    assert out["mean_return"] == pytest.approx(float(first.mean()), rel=0, abs=1e-9)
