@@ -463,6 +463,8 @@ class ProgressBar(BaseCallback):
 
     def _on_training_end(self) -> None:
         if self.bar is not None:
+            # the postfix is refreshed at most once a second: the bar's last state shows the end's
+            self.bar.set_postfix_str(self.postfix(self.model.num_timesteps), refresh=False)
             self.bar.close()
             self.bar = None
 

@@ -213,6 +213,7 @@ FIXEDWING_SAC_BATCHED = [
     "env.backend=batched",
     "train.n_envs=64",
     "train.total_timesteps=6400",
+    "train.curriculum.goal_reach_distance.steps=6400",  # its tuning's curriculum, cut to the budget
     "algo.buffer_size=10000",
     "algo.learning_starts=1280",
     "algo.batch_size=64",

@@ -70,8 +70,11 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
     # and they train the same way: the tunings' 4 envs and reach-sphere curriculum
     assert sac.config["train"]["n_envs"] == awac.config["train"]["n_envs"] == ccge.config["train"]["n_envs"] == 4
-    assert sac.config["train"]["curriculum"] == awac.config["train"]["curriculum"]
-    assert sac.config["train"]["curriculum"]["goal_reach_distance"]["start"] == 1.0
+    # from the same sphere, each cut to its run's budget (a curriculum may not outlast it)
+    sphere, awac_sphere = sac.config["train"]["curriculum"]["goal_reach_distance"], awac.config["train"]["curriculum"]["goal_reach_distance"]
+    assert sphere["start"] == awac_sphere["start"] == 1.0
+    assert sphere["steps"] == plan.spec["presets"]["laptop"]["dense_curriculum"] <= sac.total_timesteps
+    assert awac_sphere["steps"] == plan.spec["presets"]["laptop"]["sparse_curriculum"] <= awac.total_timesteps
     assert ccge.config["train"]["curriculum"]["goal_reach_distance"]["start"] == 10.0
     big, _ = build_plan("paper_rl", [f"benchmark.output_dir={tmp_path}", "benchmark.preset=paper"])
     assert big.root.name == "paper_rl_paper" and len(big.jobs) == 300
@@ -307,7 +310,9 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
 
     out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
     quoted = str(out).replace("'", "\\'")
-    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=160000"]
+    # a shorter budget for every run, and the dense runs' curriculum cut to it
+    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=160000",
+            "benchmark.presets.laptop.dense_curriculum=160000"]
     result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
     assert result.returncode == 0, result.stderr
     plan, _ = build_plan("paper_rl", args)

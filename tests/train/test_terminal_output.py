@@ -44,12 +44,16 @@ def test_evaluations_are_printed_above_the_progress_bar_on_a_terminal(tmp_path):
     args = ["train", *[o for o in TINY_PPO if not o.startswith("train.progress_bar")], f"train.output_dir={tmp_path}"]
     code, shown = _on_a_terminal(args, ROOT)
     assert code == 0, shown
-    assert re.search(r"\d+/512 \[[\d:]+<[\d:?]+, +[\d.]+ ?\w*step/s", shown), shown  # tqdm's bar was drawn
+    # tqdm's bar was drawn, with the run's ETA (timing.RunEta) where tqdm's own would be
+    assert re.search(r"\d+/512 \[[\d:]+, +[\d.]+ ?\w*step/s, ETA [\d:]+", shown), shown
+    assert re.search(r"512/512 \[[\d:]+, +[\d.]+ ?\w*step/s, ETA 0:00", shown), shown  # it ends at 0:00
     lines = [re.sub(r".*\r", "", line) for line in shown.replace("\r\n", "\n").split("\n")]
     evals = [line for line in lines if "eval return" in line]
     assert len(evals) == 2, shown
     first = re.fullmatch(
-        r"step 256/512: eval return -?[\d.]+ ± [\d.]+, success \d+ %, length \d+ \(\d+ steps/s, ETA \d+:\d\d\)",
+        # the task's own measures (hover: the distance held) between the length and the rate
+        r"step 256/512: eval return -?[\d.]+ ± [\d.]+, success \d+ %, length \d+, distance_mean [\d.]+ m, "
+        r"distance_max [\d.]+ m \(\d+ steps/s, ETA \d+:\d\d\)",
         evals[0].strip(),
     )
     assert first, evals[0]
