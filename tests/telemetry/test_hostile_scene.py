@@ -65,7 +65,7 @@ def test_a_scene_list_above_the_limit_is_refused_before_it_is_drawn(waypoints, t
     path = tmp_path / "long.mcap"
     rewrite_mcap(waypoints, path, forge)
     for args in (["replay", str(path)], ["replay", str(path), "--verify"]):
-        code, output = pyflyt_forked(args, timeout=120, memory=2 << 30)
+        code, output = pyflyt_forked(args)
         one_line(code, output, f"holds a list of {SCENE_LIMIT + 1} items", "above the limit of 1000000")
 
 
@@ -110,7 +110,7 @@ def test_a_message_giving_a_key_twice_is_refused_naming_the_channel_and_the_key(
 
     rewrite_mcap(waypoints, path, forge)
     for args in (["replay", str(path)], ["replay", str(path), "--verify"]):
-        code, output = pyflyt_forked(args, timeout=120)
+        code, output = pyflyt_forked(args)
         one_line(code, output, "a message on /reward", "the key 'reward' is given twice")
 
 
