@@ -118,6 +118,10 @@ class ShapeSpec(_Spec):
         return self
 
 
+#: the smallest body mass accepted [kg]
+MIN_MASS = 1e-6
+
+
 class BodySpec(_Spec):
     """Rigid-body properties of the airframe.
 
@@ -147,7 +151,12 @@ class BodySpec(_Spec):
     def _mass(cls, value: float | None) -> float | None:
         if value is not None and not value > 0:
             raise ValueError(f"mass must be a positive number of kilograms, got {value}")
-        return value
+        if value is not None and value < MIN_MASS:
+            # a mass of 1e-320 kg flew through the ground; 1 mg is below any flying machine
+            raise ValueError(f"mass {value:g} kg is below {MIN_MASS:g} kg (1 mg): give the mass in kilograms")
+        from pyflyt_engine import limits
+
+        return value if value is None else limits.check("mass", value, name="mass")
 
     @field_validator("inertia")
     @classmethod

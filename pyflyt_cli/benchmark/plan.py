@@ -45,6 +45,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from pyflyt_cli.compose import absolute_airframes
 from pyflyt_cli.errors import UsageError
+from pyflyt_engine import limits
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.loading import validate
 
@@ -107,9 +108,23 @@ class BenchmarkSpec(_Strict):
         if isinstance(value, int):
             if value < 1:
                 raise ValueError("seeds must be at least 1")
+            limits.check("benchmark.seeds", value, name="seeds")
         elif not value or len(set(value)) != len(value) or min(value) < 0:
             raise ValueError("a seed list must be non-empty, without repeats, of seeds >= 0")
+        else:
+            limits.check("benchmark.seeds", len(value), name="the seed list's length")
+            limits.check("seed", max(value), name="a listed seed")
         return value
+
+    @field_validator("jobs")
+    @classmethod
+    def _jobs(cls, value: int) -> int:
+        return limits.check("jobs", value, name="jobs")
+
+    @field_validator("random_episodes")
+    @classmethod
+    def _random_episodes(cls, value: int) -> int:
+        return limits.check("benchmark.random_episodes", value, name="random_episodes")
 
     def seed_list(self) -> list[int]:
         return list(range(self.seeds)) if isinstance(self.seeds, int) else list(self.seeds)

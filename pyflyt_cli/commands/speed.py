@@ -28,6 +28,7 @@ def speed_command(
     """What ``pyflyt speed`` does: measure, optionally save the JSON, return the printed report."""
     if backend not in ("pybullet", "batched"):
         raise UsageError(f"--backend takes pybullet or batched, got {backend!r}")
+    _bounded("speed.repeats", repeats, "--repeats")
     overrides: dict[str, Any] = {"vector": vector, "backend": backend}
     if batch_sizes is not None:
         if backend != "batched":
@@ -63,8 +64,23 @@ def parse_counts(text: str, option: str = "--vehicles") -> tuple[int, ...]:
                 f"skip the swarm section; got {text!r}"
             )
         return counts
-    if option == "--batch-sizes" and (not counts or min(counts) < 1):
-        raise UsageError(f"--batch-sizes takes env counts, comma-separated positive integers (e.g. 1,256,4096), got {text!r}")
+    if option == "--batch-sizes":
+        if not counts or min(counts) < 1:
+            raise UsageError(
+                f"--batch-sizes takes env counts, comma-separated positive integers (e.g. 1,256,4096), got {text!r}"
+            )
+        _bounded("train.n_envs", max(counts), "--batch-sizes")
+        return counts
     if not counts or min(counts) < 1:
         raise UsageError(f"--vehicles takes world sizes, comma-separated positive integers (e.g. 1,8,64), got {text!r}")
+    _bounded("speed.vehicles", max(counts), "--vehicles")
     return counts
+
+
+def _bounded(key: str, value: int, option: str) -> None:
+    """A count above its limit (pyflyt_engine/limits.py) refused as a usage error naming the option."""
+    from pyflyt_engine import limits
+
+    why = limits.problem(key, value, name=option)
+    if why is not None:
+        raise UsageError(why)

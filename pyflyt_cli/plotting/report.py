@@ -22,6 +22,7 @@ import numpy as np
 from pyflyt_cli.outputs import atomic_output, make_output_dir
 from pyflyt_cli.plotting import stats
 from pyflyt_cli.plotting.data import Benchmark, load_benchmark
+from pyflyt_engine import limits
 from pyflyt_engine.errors import ConfigError
 
 FIGURES = ("learning_curves", "aggregates", "performance_profiles", "probability_of_improvement")
@@ -103,6 +104,9 @@ def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int
     """
     if reps < 10:
         raise ConfigError(f"--reps must be at least 10, got {reps}")
+    too_many = limits.problem("plot.reps", reps, name="--reps")
+    if too_many is not None:
+        raise ConfigError(too_many)
     bench = load_benchmark(root)
     if out is None:
         out_dir = make_output_dir(Path(root) / "report")

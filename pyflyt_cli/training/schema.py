@@ -39,7 +39,8 @@ from pyflyt_engine.loading import describe_error, problem_list, problems
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    # no NaN or infinity anywhere: algo.learning_rate=inf trained NaN weights and ended in torch's traceback
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
 
 
 # ---------------------------------------------------------------------- algorithm
@@ -54,7 +55,10 @@ class PolicyConfig(_Strict):
     activation_fn: Literal["tanh", "relu", "elu", "leaky_relu", "gelu", "silu"] | None = Field(
         None, description="hidden activation by name; null: SB3's default (tanh for PPO/A2C, relu otherwise)"
     )
-    log_std_init: float | None = Field(None, description="initial log standard deviation of the Gaussian policy")
+    # e^10 is 22 026 times the [-1, 1] action range: any larger std is noise only (1e308 was a NaN traceback)
+    log_std_init: float | None = Field(
+        None, ge=-20, le=10, description="initial log standard deviation of the Gaussian policy, -20 to 10"
+    )
     ortho_init: bool | None = Field(None, description="orthogonal initialisation (PPO/A2C)")
     n_critics: int | None = Field(None, ge=1, description="number of Q networks (SAC/TD3/DDPG/TQC/CrossQ)")
     n_quantiles: int | None = Field(None, ge=1, description="quantiles per critic (TQC)")
@@ -67,6 +71,29 @@ class PolicyConfig(_Strict):
     batch_norm_momentum: float | None = Field(
         None, gt=0, le=1, description="momentum of the batch renormalisation layers (CrossQ)"
     )
+
+    @field_validator("net_arch")
+    @classmethod
+    def _net_size(cls, value: list[int] | dict[str, list[int]] | None) -> Any:
+        # a layer of 1e8 units ended in torch's allocation traceback (docs/reproducibility.md, "Bounded numbers")
+        heads = value.items() if isinstance(value, dict) else [("", value or [])]
+        for head, widths in heads:
+            where = f"net_arch{'.' + head if head else ''}"
+            limits.check("net.depth", len(widths), name=f"{where} (its length)")
+            for width in widths:
+                if width < 1:
+                    raise ValueError(f"{where} holds a layer of {width} units: give positive layer sizes, e.g. [128, 128]")
+                limits.check("net.width", width, name=f"a {where} layer of")
+            weights = sum(a * b for a, b in zip(widths, widths[1:]))
+            limits.check("net.parameters", weights, name=f"{where} ({' x '.join(map(str, widths))})")
+        return value
+
+    @field_validator("lstm_hidden_size", "n_lstm_layers", "n_critics", "n_quantiles")
+    @classmethod
+    def _sizes(cls, value: int | None, info: ValidationInfo) -> int | None:
+        key = {"lstm_hidden_size": "net.width", "n_lstm_layers": "net.depth", "n_critics": "net.critics",
+               "n_quantiles": "net.quantiles"}[info.field_name]
+        return value if value is None else limits.check(key, value, name=f"policy_kwargs.{info.field_name}")
 
     @field_validator("activation_fn", mode="before")
     @classmethod
@@ -116,6 +143,20 @@ class _AlgoBase(_Strict):
     _NOT_KWARGS: ClassVar[frozenset[str]] = frozenset(
         {"name", "policy", "lr_schedule", "normalize", "policy_kwargs", "action_noise"}
     )
+
+    #: counts that cost memory or time before anything is reported -> their limit (pyflyt_engine/limits.py)
+    _BOUNDED: ClassVar[dict[str, str]] = {
+        "n_steps": "algo.rollout", "batch_size": "algo.batch_size", "n_epochs": "algo.n_epochs",
+        "buffer_size": "algo.buffer_size", "gradient_steps": "algo.gradient_steps",
+        "offline_steps": "algo.offline_steps", "n_value_samples": "algo.iterations",
+        "cg_max_steps": "algo.iterations", "line_search_max_iter": "algo.iterations",
+        "n_critic_updates": "algo.iterations",
+    }
+
+    @field_validator(*_BOUNDED, check_fields=False)
+    @classmethod
+    def _bounded(cls, value: int, info: ValidationInfo) -> int:
+        return limits.check(cls._BOUNDED[info.field_name], value, name=f"algo.{info.field_name}")
 
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:
@@ -479,6 +520,11 @@ class TrainOptions(_Strict):
         description="fit the new policy to a scripted oracle by DAgger before learning (imitation.oracle null: none)",
     )
 
+    @field_validator("total_timesteps", "n_envs", "eval_episodes", "torch_threads")
+    @classmethod
+    def _bounded(cls, value: int, info: ValidationInfo) -> int:
+        return limits.check(f"train.{info.field_name}", value, name=f"train.{info.field_name}")
+
     @field_validator("imitation")
     @classmethod
     def _no_oracle_is_none(cls, value: ImitationOptions | None) -> ImitationOptions | None:
@@ -614,6 +660,7 @@ class TrainConfig(_Strict):
             size = "n_steps x n_envs" + (f" x {agents} agents" if agents > 1 else "")
             if rollout < 2:
                 raise ValueError(f"algo.n_steps x train.n_envs must be at least 2 for {algo.name}")
+            limits.check("algo.rollout", rollout, name=f"the rollout {size}")
             if algo.batch_size > rollout:
                 raise ValueError(
                     f"algo.batch_size ({algo.batch_size}) exceeds the rollout size {size} = {rollout}; "

@@ -44,9 +44,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
 
 from pyflyt_cli.compose import override_value
+from pyflyt_engine import limits
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.loading import available, describe_error, problem_list, problems, resolve
 from pyflyt_engine.paths import conf_dir
@@ -86,6 +87,12 @@ class TuneOptions(BaseModel):
     baseline: bool = Field(
         description="a new study's first trial trains the configuration as composed (when the space holds its values)"
     )
+
+    @field_validator("trials", "jobs")
+    @classmethod
+    def _bounded(cls, value: int, info: ValidationInfo) -> int:
+        key = "tune.trials" if info.field_name == "trials" else "jobs"
+        return limits.check(key, value, name=info.field_name)
 
     @field_validator("study_dir")
     @classmethod

@@ -374,6 +374,11 @@ class EnvConfig(_Config):
     def _episode_steps(self) -> EnvConfig:
         limits.check("episode_physics_steps", self.physics_hz * self.max_duration_seconds,
                      name="physics_hz x max_duration_seconds")
+        if self.max_duration_seconds * self.agent_hz < 1:
+            raise ValueError(
+                f"max_duration_seconds {self.max_duration_seconds:g} s is shorter than one agent step "
+                f"(1 / agent_hz = {1 / self.agent_hz:g} s): give a longer episode"
+            )
         return self
 
     @model_validator(mode="after")

@@ -93,3 +93,29 @@ def test_calm_turbulence_and_the_smallest_gust_still_fly():
                  ["fly", "wind=gust", "wind.gust.length=1e-6", "duration=0.5"]):  # fmt: skip
         result = runner.invoke(app, args)
         assert result.exit_code == 0, result.output
+
+
+def refused(args: list[str], *fragments: str) -> str:
+    """``pyflyt <args>`` exits 2 with no traceback, its ``error:`` report naming every fragment (a config's
+    report is one line per problem under the ``error:`` line)."""
+    result = runner.invoke(app, args)
+    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and result.output.startswith("error:"), result.output
+    for fragment in fragments:
+        assert fragment in result.output, result.output
+    return result.output
+
+
+@pytest.mark.parametrize("args, fragments", [
+    # trained NaN weights, then torch's "invalid values" traceback
+    (["train", "algo.learning_rate=inf"], ["algo.learning_rate", "a finite number"]),
+    (["train", "algo=sac", "algo.tau=nan"], ["algo.tau", "a finite number"]),
+    (["train", "algo.policy_kwargs.log_std_init=1e308"], ["algo.policy_kwargs.log_std_init", "less than or equal to 10"]),
+    # an episode shorter than one agent step trained episodes of one step each
+    (["train", "env.max_duration_seconds=1e-9"], ["max_duration_seconds 1e-09 s is shorter than one agent step"]),
+    # a body of 1e-320 kg flew through the ground
+    (["fly", "uav.body.mass=1e-320"], ["body.mass", "below 1e-06 kg"]),
+])  # fmt: skip
+def test_values_that_trained_nan_or_flew_through_the_ground_are_refused(args, fragments):
+    refused(args, *fragments)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -102,6 +103,70 @@ def eval_problem(**options) -> str | None:
     return None
 
 
+def bench_problem(*overrides: str) -> str | None:
+    from pyflyt_cli.benchmark.plan import load_spec, split_overrides
+
+    try:  # as pyflyt benchmark does: its shorthands (seeds=, jobs=) become benchmark.* overrides
+        bench, _, runs = split_overrides(list(overrides))
+        load_spec("smoke_benchmark", bench, runs)
+    except PyFlytError as exc:
+        return str(exc)
+    return None
+
+
+def offline_buffer() -> Path:
+    """A file for ``algo.offline_buffer`` to name (the schema checks that it exists; nothing reads it here)."""
+    path = Path(tempfile.mkdtemp(prefix="pyflyt-limits-")) / "buffer.npz"
+    path.write_bytes(b"")
+    return path
+
+
+def tune_problem(**options) -> str | None:
+    from pyflyt_cli.training.tune import parse_tune_options
+
+    try:
+        parse_tune_options(options)
+    except PyFlytError as exc:
+        return str(exc)
+    return None
+
+
+def speed_problem(*args: str) -> str | None:
+    """What ``pyflyt speed <args>`` refuses before measuring anything (None: it would measure)."""
+    from pyflyt_cli.commands import speed as command
+
+    def measured(settings, progress=None):  # the options passed every check: measuring is not this test's business
+        raise _Measured
+
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(command, "run_speed", measured)
+            kwargs: dict = {}
+            for option, value in zip(args[::2], args[1::2]):
+                kwargs[option.lstrip("-").replace("-", "_")] = int(value) if option == "--repeats" else value
+            command.speed_command(**kwargs)
+    except _Measured:
+        return None
+    except PyFlytError as exc:
+        return str(exc)
+    raise AssertionError("speed_command returned without measuring")
+
+
+class _Measured(Exception):
+    pass
+
+
+def plot_problem(reps: int, tmp: Path) -> str | None:
+    """What ``pyflyt plot --reps`` says of an empty benchmark directory: the reps refusal, or another problem."""
+    from pyflyt_cli.plotting.report import plot_benchmark
+
+    try:
+        plot_benchmark(tmp, tmp / "out", reps=reps)
+    except PyFlytError as exc:
+        return None if "--reps" not in str(exc) else str(exc)
+    return None
+
+
 _RECORDING: list[Path] = []
 
 
@@ -161,6 +226,7 @@ CASES = {
     # physical values: fly exited 0 with a NaN trajectory for each of these
     "max_rpm": (lambda: fly_problem("uav.motors.max_rpm=1e200"), lambda: fly_problem("uav.motors.max_rpm=238667"),
                 "motors.max_rpm 1e+200"),
+    "mass": (lambda: fly_problem("uav.body.mass=1e30"), lambda: fly_problem("uav.body.mass=100000"), "mass 1e+30"),
     "noise_ratio": (lambda: fly_problem("uav.motors.noise_ratio=1e10"), lambda: fly_problem("uav.motors.noise_ratio=0.5"),
                     "motors.noise_ratio 10000000000"),
     "wind_speed": (lambda: fly_problem("wind=constant", "wind.mean.speed=1e300"),
@@ -169,6 +235,60 @@ CASES = {
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
     "fly.magnitude": (lambda: fly_problem("position=[1e308,0,1]"), lambda: fly_problem("setpoint=[0,0,0,99999]"),
                       "a position value of size 1e+308"),
+    # a training run's counts: n_envs=1e8 and n_steps=1e9 ended in MemoryError tracebacks, a layer of 1e8
+    # units in torch's, eval_episodes=1e9 evaluated for ever (train.total_timesteps=64 keeps the curriculum
+    # of the shipped tunings inside the budget)
+    "train.total_timesteps": (lambda: train_problem("train.total_timesteps=1e13"),
+                              lambda: train_problem("train.total_timesteps=1000000000000"),
+                              "train.total_timesteps 1e+13"),
+    "train.n_envs": (lambda: train_problem("train.n_envs=100000000"), lambda: train_problem("train.n_envs=65536", "algo.n_steps=8"),
+                     "train.n_envs 100000000"),
+    "train.eval_episodes": (lambda: train_problem("train.eval_episodes=1000000000"),
+                            lambda: train_problem("train.eval_episodes=10000"), "train.eval_episodes 1000000000"),
+    "train.torch_threads": (lambda: train_problem("train.torch_threads=100000"),
+                            lambda: train_problem("train.torch_threads=1024"), "train.torch_threads 100000"),
+    "algo.rollout": (lambda: train_problem("train.n_envs=4096", "algo.n_steps=4096"),
+                     lambda: train_problem("train.n_envs=4096", "algo.n_steps=2048"),
+                     "the rollout n_steps x n_envs 16777216"),
+    "algo.batch_size": (lambda: train_problem("algo=sac", "algo.batch_size=2000000"),
+                        lambda: train_problem("algo=sac", "algo.batch_size=1048576"), "algo.batch_size 2000000"),
+    "algo.n_epochs": (lambda: train_problem("algo.n_epochs=1000000000"), lambda: train_problem("algo.n_epochs=10000"),
+                      "algo.n_epochs 1000000000"),
+    "algo.buffer_size": (lambda: train_problem("algo=sac", "algo.buffer_size=100000000000"),
+                         lambda: train_problem("algo=sac", "algo.buffer_size=10000000"), "algo.buffer_size 100000000000"),
+    "algo.gradient_steps": (lambda: train_problem("algo=sac", "algo.gradient_steps=1000000000"),
+                            lambda: train_problem("algo=sac", "algo.gradient_steps=100000"), "algo.gradient_steps 1000000000"),
+    "algo.offline_steps": (lambda: train_problem("env=quadx_waypoints", "algo=awac", "algo.offline_steps=1000000000"),
+                           lambda: train_problem("env=quadx_waypoints", "algo=awac", "algo.offline_steps=100000000",
+                                                 f"algo.offline_buffer={offline_buffer()}"),
+                           "algo.offline_steps 1000000000"),
+    "algo.iterations": (lambda: train_problem("algo=trpo", "algo.cg_max_steps=1000000000"),
+                        lambda: train_problem("algo=trpo", "algo.cg_max_steps=10000"), "algo.cg_max_steps 1000000000"),
+    "net.width": (lambda: train_problem("algo.policy_kwargs.net_arch=[100000000]"),
+                  lambda: train_problem("algo.policy_kwargs.net_arch=[65536]"), "a net_arch layer of 100000000"),
+    "net.depth": (lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1001)}]"),
+                  lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1000)}]"),
+                  "net_arch (its length) 1001"),
+    "net.parameters": (lambda: train_problem("algo.policy_kwargs.net_arch=[20000,20000,20000]"),
+                       lambda: train_problem("algo.policy_kwargs.net_arch=[10000,10000]"),
+                       "net_arch (20000 x 20000 x 20000) 800000000"),
+    "net.critics": (lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=1000000"),
+                    lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=100"), "policy_kwargs.n_critics 1000000"),
+    "net.quantiles": (lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=100000000"),
+                      lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=10000"),
+                      "policy_kwargs.n_quantiles 100000000"),
+    # the commands that run many trainings or measurements
+    "jobs": (lambda: tune_problem(jobs=100_000_000), lambda: tune_problem(jobs=1024), "jobs 100000000"),
+    "benchmark.seeds": (lambda: bench_problem("seeds=100000000"), lambda: bench_problem("seeds=10000"), "seeds 100000000"),
+    "benchmark.random_episodes": (lambda: bench_problem("benchmark.random_episodes=100000000"),
+                                  lambda: bench_problem("benchmark.random_episodes=10000"), "random_episodes 100000000"),
+    "tune.trials": (lambda: tune_problem(trials=100_000_000), lambda: tune_problem(trials=100_000), "trials 100000000"),
+    "speed.repeats": (lambda: speed_problem("--repeats", "100000"), lambda: speed_problem("--repeats", "1000"),
+                      "--repeats 100000"),
+    "speed.vehicles": (lambda: speed_problem("--vehicles", "1,100000"), lambda: speed_problem("--vehicles", "1,4096"),
+                       "--vehicles 100000"),
+    "plot.reps": (lambda: plot_problem(100_000_000, Path(tempfile.mkdtemp())),
+                  lambda: plot_problem(1_000_000, Path(tempfile.mkdtemp())), "--reps 100000000"),
     # lists read from a recording: 3 M-value state lists hung replay
     "recording.row_values": (lambda: recording_problem(long_aux(10_001)), lambda: recording_problem(long_aux(10_000)),
                              "'aux' has 10001 values"),
