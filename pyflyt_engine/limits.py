@@ -48,6 +48,8 @@ LIMITS: dict[str, Limit] = {
     "mass": Limit(100_000.0, "kg", "an airframe's body mass"),
     "noise_ratio": Limit(1.0, "", "the std of a motor's multiplicative throttle noise (1: 100 %)"),
     "wind_speed": Limit(1000.0, "m/s", "a wind, gust or turbulence speed (three times the speed of sound)"),
+    # fps=1e9 kept one frame of a GIF (and ended in Pillow's TypeError)
+    "video.fps": Limit(1000.0, "frames/s", "frame rate of a video `pyflyt eval video=` writes"),
     "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
     "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
     # a setpoint or spawn position of 1e308 flew a NaN trajectory with exit 0 (or printed a 300-digit altitude)

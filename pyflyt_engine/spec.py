@@ -173,6 +173,12 @@ class BodySpec(_Spec):
     @model_validator(mode="after")
     def _mass_source(self) -> BodySpec:
         part_mass = sum(s.mass or 0.0 for s in self.shapes)
+        if part_mass > 0:
+            from pyflyt_engine import limits
+
+            limits.check("mass", part_mass, name="the shapes' masses (their sum)")
+            if self.mass is None and part_mass < MIN_MASS:
+                raise ValueError(f"the shapes' masses sum to {part_mass:g} kg, below {MIN_MASS:g} kg (1 mg)")
         if (self.mass is None or self.inertia is None) and part_mass <= 0:
             missing = " and ".join(n for n in ("mass", "inertia") if getattr(self, n) is None)
             raise ValueError(f"body.{missing} missing: give it, or give the shapes a 'mass' each to compute it")

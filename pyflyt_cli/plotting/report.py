@@ -107,6 +107,8 @@ def plot_benchmark(root: str | Path, out: str | Path | None = None, *, reps: int
     too_many = limits.problem("plot.reps", reps, name="--reps")
     if too_many is not None:
         raise ConfigError(too_many)
+    if seed < 0 or limits.problem("seed", seed) is not None:  # NumPy's seeding traceback, before
+        raise ConfigError(f"--seed must be 0 to {limits.number(limits.LIMITS['seed'].high)}, got {seed}")
     bench = load_benchmark(root)
     if out is None:
         out_dir = make_output_dir(Path(root) / "report")

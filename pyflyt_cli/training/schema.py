@@ -899,6 +899,11 @@ class EvalOptions(_Strict):
     def _episodes(cls, value: int) -> int:
         return limits.check("eval.episodes", value, name="episodes")
 
+    @field_validator("fps")
+    @classmethod
+    def _fps(cls, value: int | None) -> int | None:
+        return value if value is None else limits.check("video.fps", value, name="fps")
+
     @field_validator("video")
     @classmethod
     def _video(cls, value: str | None) -> str | None:

@@ -497,7 +497,9 @@ def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
     frames = [np.asarray(f)[..., :3] for f in frames]
     if Path(out).suffix.lower() == ".gif":
         step, durations = gif_timing(len(frames), fps)
-        imageio.mimsave(out, frames[::step], format="GIF", duration=durations, loop=0)
+        # one frame: Pillow takes its duration as a number, not a list of one (a list was its TypeError)
+        imageio.mimsave(out, frames[::step], format="GIF", duration=durations if len(durations) > 1 else durations[0],
+                        loop=0)
         return
     try:
         writer = imageio.get_writer(

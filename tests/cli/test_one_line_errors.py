@@ -116,6 +116,11 @@ def refused(args: list[str], *fragments: str) -> str:
     (["train", "env.max_duration_seconds=1e-9"], ["max_duration_seconds 1e-09 s is shorter than one agent step"]),
     # a body of 1e-320 kg flew through the ground
     (["fly", "uav.body.mass=1e-320"], ["body.mass", "below 1e-06 kg"]),
+    (["fly", "uav.body.mass=null", "uav.body.shapes=[{type: box, size: [0.1, 0.1, 0.1], mass: 1e30}]"],
+     ["the shapes' masses (their sum) 1e+30 is above the limit of 100000 kg"]),
+    # NumPy's "Seed must be between 0 and 2**32 - 1" traceback
+    (["plot", ".", "--seed", "-5"], ["--seed must be 0 to 2147483647, got -5"]),
+    (["plot", ".", "--seed", "99999999999999999999"], ["--seed must be 0 to 2147483647"]),
 ])  # fmt: skip
 def test_values_that_trained_nan_or_flew_through_the_ground_are_refused(args, fragments):
     refused(args, *fragments)

@@ -231,6 +231,7 @@ CASES = {
                     "motors.noise_ratio 10000000000"),
     "wind_speed": (lambda: fly_problem("wind=constant", "wind.mean.speed=1e300"),
                    lambda: fly_problem("wind=constant", "wind.mean.speed=100"), "mean.speed 1e+300"),
+    "video.fps": (lambda: eval_problem(fps=10**9), lambda: eval_problem(fps=1000), "fps 1000000000"),
     "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
     "fly.magnitude": (lambda: fly_problem("position=[1e308,0,1]"), lambda: fly_problem("setpoint=[0,0,0,99999]"),

@@ -216,3 +216,17 @@ def test_gif_frames_last_the_agent_period_in_whole_centiseconds(fps, tmp_path):
         read.append(image.info["duration"])
     assert read == durations
     assert abs(sum(read) - len(durations) * step * 1000 / fps) <= 5
+
+
+@pytest.mark.parametrize("n, fps", [(1, 30.0), (45, 1000.0), (3, 1e9)])
+def test_a_gif_of_one_kept_frame_is_written(n, fps, tmp_path):
+    """One kept frame (a one-step episode, or so high a rate that every other frame is dropped) was
+    Pillow's TypeError: a one-frame GIF takes its duration as a number."""
+    from pyflyt_engine.telemetry.video import gif_timing, write_video
+
+    frames = [np.full((4, 4, 3), 5 * i, np.uint8) for i in range(n)]
+    step, durations = gif_timing(n, fps)
+    write_video(tmp_path / "v.gif", frames, fps)
+    image = Image.open(tmp_path / "v.gif")
+    assert image.n_frames == len(durations)
+    assert image.info["duration"] == durations[0]
