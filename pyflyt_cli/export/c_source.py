@@ -278,7 +278,7 @@ def c_files(policy: DeployedPolicy, header_name: str) -> tuple[str, str]:
         comment
         + f"#ifndef {guard}\n#define {guard}\n\n"
         + "#ifdef __cplusplus\nextern \"C\" {\n#endif\n\n"
-        + f"/* entries of the observation and of the action */\n"
+        + "/* entries of the observation and of the action */\n"
         + f"#define POLICY_OBS_DIM {policy.obs_dim}\n#define POLICY_ACT_DIM {policy.act_dim}\n\n"
         + "/* obs: POLICY_OBS_DIM floats, the env's raw observation; action: POLICY_ACT_DIM floats written,\n"
         + f" * in the env's units. Reentrant; uses {2 * widest * 4} bytes of stack, no heap. */\n"

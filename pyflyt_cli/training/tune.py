@@ -439,7 +439,6 @@ def _study_lock(study_dir: Path) -> Iterator[None]:
 def tune(env: str, algo: str, options: TuneOptions | Mapping[str, Any] | None = None,
          overrides: Sequence[str] = (), log: Log = lambda _: None) -> TuneReport:
     """Run (or continue) the study of ``algo`` on ``env`` up to ``trials`` finished trials; write the report."""
-    import optuna
     from optuna.trial import TrialState
 
     from pyflyt_cli.training.compose import compose_config

@@ -49,7 +49,6 @@ from pyflyt_engine import exact
 from pyflyt_engine.envs.config import EnvConfig, load_env_config
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.envs.rewards import StepContext
-from pyflyt_engine.envs.tasks.base import termination
 from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.frames import quaternion_to_rows
 from pyflyt_engine.obstacles import ObstacleField

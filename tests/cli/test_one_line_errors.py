@@ -95,18 +95,6 @@ def test_calm_turbulence_and_the_smallest_gust_still_fly():
         assert result.exit_code == 0, result.output
 
 
-def refused(args: list[str], *fragments: str) -> str:
-    """``pyflyt <args>`` exits 2 with no traceback, its ``error:`` report naming every fragment (a config's
-    report is one line per problem under the ``error:`` line)."""
-    result = runner.invoke(app, args)
-    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
-    assert result.exit_code == 2, result.output
-    assert "Traceback" not in result.output and result.output.startswith("error:"), result.output
-    for fragment in fragments:
-        assert fragment in result.output, result.output
-    return result.output
-
-
 @pytest.mark.parametrize("args, fragments", [
     # trained NaN weights, then torch's "invalid values" traceback
     (["train", "algo.learning_rate=inf"], ["algo.learning_rate", "a finite number"]),

@@ -6,7 +6,6 @@ adding sensors, the observation built from them, and episodes that replay exactl
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import subprocess

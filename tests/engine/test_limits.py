@@ -21,7 +21,6 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from pyflyt_cli.main import app
 from pyflyt_engine.errors import ConfigError, PyFlytError
 from pyflyt_engine.limits import LIMITS, number
 from tests.conftest import pyflyt_forked

@@ -6,7 +6,6 @@ the steps each run is evaluated at), with made-up returns rising from the random
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -120,8 +120,7 @@ def termination(
     """``(crashed, terminated)`` of one agent's step: a crash is leaving the dome, a failure
     the task declares, or a contact when contacts are crashes; the episode terminates on a
     crash or when the task is complete (dm_control's ``get_termination`` is the model).
-    Every loop uses it, through :meth:`Task.termination` or
-    :func:`pyflyt_engine.envs.core.termination`."""
+    Every loop uses it, through :meth:`Task.termination` or directly."""
     crashed = out_of_bounds or failed or (collision and crash_on_contact)
     return crashed, crashed or complete
 
