@@ -57,6 +57,63 @@ def import_quietly(name: str) -> ModuleType:
         os.close(sink)
 
 
+class CapturedOutput:
+    """What C code wrote to descriptors 1 and 2 inside a ``with`` block (:attr:`text`), kept off the terminal.
+
+    PyBullet gives its reasons (``b3Error[...]: expected a robot element``) through C's stdout,
+    without a line break, and raises only ``Cannot load URDF file.``: uncaptured, the reason was
+    glued to the front of the one-line error that follows.  The caller decides what to show:
+    the reason inside its error, or -- when nothing failed -- the text as it was written
+    (:meth:`replay`, to stderr), so no warning is hidden."""
+
+    def __init__(self) -> None:
+        self.text = ""
+        self._saved: list[tuple[int, int]] = []
+        self._file = None
+
+    def __enter__(self) -> CapturedOutput:
+        import tempfile
+
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None:
+                stream.flush()
+        _flush_c_streams()
+        try:
+            self._file = tempfile.TemporaryFile()
+        except OSError:  # no temporary file: capture nothing
+            return self
+        for fd in (1, 2):
+            try:
+                self._saved.append((fd, os.dup(fd)))
+            except OSError:  # this descriptor is closed: nothing to capture
+                continue
+            os.dup2(self._file.fileno(), fd)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        _flush_c_streams()
+        for fd, copy in self._saved:
+            os.dup2(copy, fd)
+            os.close(copy)
+        self._saved = []
+        if self._file is not None:
+            self._file.seek(0)
+            self.text = self._file.read(1 << 16).decode("utf-8", "replace")
+            self._file.close()
+            self._file = None
+
+    def reason(self) -> str:
+        """The captured text's last non-empty line (PyBullet's reason), or ``""``."""
+        lines = [line.strip() for line in self.text.splitlines() if line.strip()]
+        return lines[-1] if lines else ""
+
+    def replay(self) -> None:
+        """Write the captured text to stderr as it came, ending its last line."""
+        if self.text and sys.stderr is not None:
+            sys.stderr.write(self.text if self.text.endswith("\n") else self.text + "\n")
+            sys.stderr.flush()
+
+
 pybullet = import_quietly("pybullet")
 
-__all__ = ["import_quietly", "pybullet"]
+__all__ = ["CapturedOutput", "import_quietly", "pybullet"]

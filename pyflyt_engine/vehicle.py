@@ -55,6 +55,7 @@ import numpy as np
 
 from pyflyt_engine import exact
 from pyflyt_engine.assembly import Assembly, assemble
+from pyflyt_engine.bullet import CapturedOutput
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components import AirVelocity, Wrench
 from pyflyt_engine.components.battery import Battery
@@ -200,19 +201,22 @@ class Vehicle:
 
         urdf = urdf_path(spec)
         try:
-            self.body_id = p.loadURDF(
-                str(urdf),
-                basePosition=self.spawn_position,
-                baseOrientation=euler_to_quaternion(*self.spawn_orientation),
-                flags=p.URDF_USE_INERTIA_FROM_FILE,
-                physicsClientId=client,
-            )
-        except p.error:  # PyBullet says only "Cannot load URDF file." (its reason goes to stderr)
+            with CapturedOutput() as said:  # PyBullet's reason goes to C's stdout, its exception says only
+                self.body_id = p.loadURDF(  # "Cannot load URDF file."
+                    str(urdf),
+                    basePosition=self.spawn_position,
+                    baseOrientation=euler_to_quaternion(*self.spawn_orientation),
+                    flags=p.URDF_USE_INERTIA_FROM_FILE,
+                    physicsClientId=client,
+                )
+        except p.error:
+            reason = f" (PyBullet: {said.reason()})" if said.reason() else ""
             raise SpecError(
-                f"{spec.source or spec.name}: PyBullet cannot load its URDF {urdf}: it needs a <robot> element "
-                "with at least one <link>, whose joints name existing links and whose meshes exist; "
+                f"{spec.source or spec.name}: PyBullet cannot load its URDF {urdf}{reason}: it needs a <robot> "
+                "element with at least one <link>, whose joints name existing links and whose meshes exist; "
                 "fix the file, or leave body.urdf out to have one generated"
             ) from None
+        said.replay()  # a warning of a URDF that loaded is shown as PyBullet wrote it
         # PyBullet damps every body by default (0.04); vehicles get drag from the model only.
         p.changeDynamics(self.body_id, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
         if spec.range_sensors:  # its own rays pass through it (components/range_sensor.py)

@@ -112,3 +112,24 @@ def test_calm_turbulence_and_the_smallest_gust_still_fly():
 ])  # fmt: skip
 def test_values_that_trained_nan_or_flew_through_the_ground_are_refused(args, fragments):
     refused(args, *fragments)
+
+
+def test_pybullets_reason_is_inside_the_one_line_not_glued_in_front_of_it(tmp_path):
+    """PyBullet writes its reason (``b3Error[...]: expected a robot element``, no line break) through
+    C's stdout, which the CLI runner above cannot see: in a terminal it was glued to the front of the
+    error line.  Run as a real process, the output is the one error line, holding the reason."""
+    import subprocess
+    import sys
+
+    from pyflyt_engine.paths import uav_dir
+
+    text = (uav_dir() / "quadx_cf2x.yaml").read_text().replace("\nbody:\n", "\nbody:\n  urdf: body.urdf\n", 1)
+    (tmp_path / "airframe.yaml").write_text(text)
+    (tmp_path / "body.urdf").write_text("<foo/>")
+    done = subprocess.run([sys.executable, "-m", "pyflyt_cli.main", "fly", f"uav={tmp_path / 'airframe.yaml'}",
+                           "duration=0.1"], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert done.stdout == "", done.stdout
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), done.stderr
+    assert "PyBullet cannot load its URDF" in lines[0] and "(PyBullet: expected a robot element)" in lines[0]
