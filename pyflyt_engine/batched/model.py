@@ -12,7 +12,8 @@ drift apart.
 
 Two kinds of airframe: a multirotor (every flight mode of its controller: ``rates_thrust``
 and ``motors`` in :mod:`~pyflyt_engine.batched.kernels`, the outer loops of the others in
-:mod:`~pyflyt_engine.batched.modes`, their parameters in :attr:`BatchedModel.cascade`) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
+:mod:`~pyflyt_engine.batched.modes`, their parameters in :attr:`BatchedModel.cascade`) and a
+fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
 driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
 What the batched backend cannot simulate is refused here by name
 (:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),

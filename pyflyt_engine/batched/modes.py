@@ -43,7 +43,14 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from pyflyt_engine.batched.kernels import euler_from_quaternion, matrix_quaternion, mix, rate_loop, rotation_rows, rotation_tuple
+from pyflyt_engine.batched.kernels import (
+    euler_from_quaternion,
+    matrix_quaternion,
+    mix,
+    rate_loop,
+    rotation_rows,
+    rotation_tuple,
+)
 from pyflyt_engine.control import multirotor as _mr
 
 # the constants of pyflyt_engine.control.multirotor, the same doubles read from that module

@@ -282,8 +282,8 @@ def test_the_control_tick_equals_the_controller_on_the_state_the_engine_reads(na
             quat /= np.linalg.norm(quat, axis=1, keepdims=True)
         body_rates, euler, body_vel, reported = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 4))
         kernels.read_out(pos, quat, vel, angvel, body_rates, euler, body_vel, reported)
-        states = [KinematicState(*(tuple(a[i].tolist()) for a in (body_rates, euler, body_vel, pos, reported, vel, angvel)))
-                  for i in range(n)]
+        read = (body_rates, euler, body_vel, pos, reported, vel, angvel)  # KinematicState's order
+        states = [KinematicState(*(tuple(a[i].tolist()) for a in read)) for i in range(n)]
         setpoints = np.array([_setpoint(rng, mode, s, 1.0) for s in states])
         modes.control_tick(pos, quat, vel, angvel, setpoints, integral, previous, has_previous, vel_integral, *law,
                            rows(c.table), rows(c.mass), rows(c.window), rows(c.max_tilt), rows(model.rate_gains),
