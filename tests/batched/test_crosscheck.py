@@ -44,7 +44,8 @@ probability ~1e-15 per tick.)  Measured over 2 s of random setpoints for every a
 and mode (the test's seeds): motor commands within 1.3e-8, positions within 3.5e-10 m,
 observations within 6.8e-9 (the throttles and body rates), rewards within 6.5e-11, the
 velocity and rate integrals within 9e-10; about a third of the cases stay at ~1e-15
-throughout (no motor near zero thrust).
+throughout (no motor near zero thrust); experiments/batched_modes_crosscheck.py prints
+them per airframe and mode.
 
 Ground contact: the batched backend crashes when the collision geometry's lowest point is
 below the ground at the PyBullet engine's contact samples; PyBullet reports a contact
@@ -205,29 +206,30 @@ CASCADE_ACTIONS = {
 }
 
 
-@pytest.mark.parametrize("mode", list(CASCADE_ACTIONS))
-@pytest.mark.parametrize("name", MULTIROTORS)
-def test_cascade_modes_agree_with_the_pybullet_engine(quiet, name, mode):
-    """Every multirotor mode above the rate loop, QuadX-Waypoints (the velocity mode: its
-    velocity variant), 2 s of random setpoints drawn anew at every agent step: positions,
-    observations and rewards within the module docstring's 1e-6, and the controller's
-    integrators where the PyBullet engine's are."""
+def fly_cascade_pair(uav: str, mode: str, seed: int = 3, steps: int = 60) -> tuple[dict[str, float], int]:
+    """Both backends fly QuadX-Waypoints on airframe file ``uav`` in cascade mode ``mode``
+    (its range in :data:`CASCADE_ACTIONS`; velocity_yawrate: the velocity variant) from one
+    start for ``steps`` agent steps of random setpoints; returns the largest differences
+    (motor commands, positions, observations, rewards, the controller's velocity and rate
+    integrals) and the steps flown.  The test below and
+    ``experiments/batched_modes_crosscheck.py`` (the documented figures) fly it."""
     from pyflyt_engine.control.modes import MULTIROTOR_MODES
 
     if CASCADE_ACTIONS[mode] is None:
-        pb, be = _pair("quadx_waypoints_velocity", quiet[name], seed=3)
+        pb, be = _pair("quadx_waypoints_velocity", uav, seed=seed)
     else:
         low, high = CASCADE_ACTIONS[mode]
         layout = list(MULTIROTOR_MODES[mode].setpoint)
         action = {"mode": mode, "names": layout, "units": ["1"] * 4, "low": low, "high": high}
-        pb, be = _pair("quadx_waypoints", quiet[name], seed=3, action=action)
+        pb, be = _pair("quadx_waypoints", uav, seed=seed, action=action)
     assert be.action_space == gymnasium.vector.utils.batch_space(pb.action_space, 1)
     low, high = np.array(be.config.action.low), np.array(be.config.action.high)
-    controller = pb.unwrapped.world.vehicles[0].controller
+    vehicle = pb.unwrapped.world.vehicles[0]
+    controller = vehicle.controller
     assert controller.mode.name == mode
     rng = np.random.default_rng(8)
-    worst = {"position": 0.0, "observation": 0.0, "reward": 0.0, "integral": 0.0}
-    for steps in range(1, 61):
+    worst = {"command": 0.0, "position": 0.0, "observation": 0.0, "reward": 0.0, "integral": 0.0}
+    for flown in range(1, steps + 1):
         action = rng.uniform(low, high)
         o1, r1, t1, tr1, _ = pb.step(action)
         o2, r2, t2, tr2, info = be.step(action[None])
@@ -240,12 +242,25 @@ def test_cascade_modes_agree_with_the_pybullet_engine(quiet, name, mode):
         worst["reward"] = max(worst["reward"], abs(r1 - r2[0]))
         if t1 or tr1:
             break
+        commands = np.subtract(vehicle.actuators.motors.command, be.command[0])
+        worst["command"] = max(worst["command"], np.abs(commands).max())
         integrals = np.r_[np.subtract(controller._vel_integral, be.vel_integral[0]),
                           np.subtract(controller._rate_integral, be.integral[0])]
         worst["integral"] = max(worst["integral"], np.abs(integrals).max())
-    assert max(worst.values()) < BOUND, worst
-    assert steps == 60, "the flight ended before 2 s"
     pb.close()
+    return {k: float(v) for k, v in worst.items()}, flown
+
+
+@pytest.mark.parametrize("mode", list(CASCADE_ACTIONS))
+@pytest.mark.parametrize("name", MULTIROTORS)
+def test_cascade_modes_agree_with_the_pybullet_engine(quiet, name, mode):
+    """Every multirotor mode above the rate loop, QuadX-Waypoints (the velocity mode: its
+    velocity variant), 2 s of random setpoints drawn anew at every agent step: positions,
+    observations and rewards within the module docstring's 1e-6, and the controller's
+    integrators where the PyBullet engine's are."""
+    worst, flown = fly_cascade_pair(quiet[name], mode)
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 60, "the flight ended before 2 s"
 
 
 #: the fixed-wing autopilot's action: bank and pitch within +-0.6 and +-0.3 rad, yaw rate, airspeed 10-20 m/s

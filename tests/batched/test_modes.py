@@ -19,7 +19,7 @@ import pytest
 
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.batched import kernels, modes
-from pyflyt_engine.batched.model import BATCHED_MODES, batched_model, mode_code
+from pyflyt_engine.batched.model import BATCHED_MODES, UnsupportedByBatched, batched_model, mode_code
 from pyflyt_engine.control.mixer import Mixer
 from pyflyt_engine.control.modes import MULTIROTOR_MODES
 from pyflyt_engine.control.multirotor import MultirotorController
@@ -70,7 +70,7 @@ def test_every_multirotor_mode_of_the_engine_is_compiled():
         if flight.pyflyt_id is not None:
             assert mode_code(flight.pyflyt_id) == BATCHED_MODES[name]
     fixedwing = batched_model(load_uav_spec("fixedwing"), DT, CONTROL_DT)
-    with pytest.raises(Exception, match="flight mode velocity_yawrate"):
+    with pytest.raises(UnsupportedByBatched, match="flight mode velocity_yawrate"):
         mode_code("velocity_yawrate", fixedwing)
 
 
