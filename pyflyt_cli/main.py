@@ -253,7 +253,8 @@ def speed(
     vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
                                 "same step cost, and the machine's own 1 vs 2 process scaling"),
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
-    env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all)"),
+    env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all; with "
+                                            "--backend batched also an env config, e.g. quadx_waypoints_velocity)"),
     vehicles: Optional[str] = typer.Option(None, "--vehicles", help="world sizes, comma-separated (default 1,8,64)"),
     agents: Optional[str] = typer.Option(None, "--agents", help="swarm sizes of the multi-agent curve, comma-separated "
                                          "(default 1,2,4,8,16,32,64,128; 0 skips it)"),

@@ -188,12 +188,17 @@ def _batched_cases(settings: SpeedSettings) -> list[Case]:
     from pyflyt_engine.envs import ENVS
     from pyflyt_engine.envs.config import load_env_config
 
+    from pyflyt_engine.errors import ConfigError
+
     env_ids = list(settings.envs) if settings.envs else list(BATCHED_IDS)
     for env_id in env_ids:
-        if env_id not in ENVS:
-            raise SpeedError(f"unknown env id {env_id}; registered: {', '.join(ENVS)}")
+        try:  # a registered id, or an env config (a variant such as quadx_waypoints_velocity shares its id)
+            config = load_env_config(ENVS[env_id].config if env_id in ENVS else env_id)
+        except ConfigError as exc:
+            raise SpeedError(f"--env {env_id} is neither a registered env id ({', '.join(ENVS)}) nor an env config: "
+                             f"{exc}") from None
         try:
-            check_supported(load_env_config(ENVS[env_id].config))
+            check_supported(config)
         except UnsupportedByBatched as exc:
             raise SpeedError(f"{env_id}: {exc}") from None
     bad = [n for n in settings.batch_sizes if n < 1]

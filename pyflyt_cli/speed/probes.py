@@ -52,12 +52,16 @@ CAMERA_MOUNT = (0.028, -0.028, 0.0)
 
 
 def measure_env(env_id: str, steps: int = 2000, resets: int = 10, warmup: int = 200) -> dict:
-    """Env steps per second, reset time, real-time factor and peak memory of one env."""
+    """Env steps per second, reset time, real-time factor and peak memory of one env (a
+    registered id, or an env config such as a variant sharing its id)."""
     import gymnasium
 
-    import pyflyt_engine  # noqa: F401  (registers the ids)
+    from pyflyt_engine.envs import ENVS, make_env
 
-    env = gymnasium.make(env_id, agent_hz=AGENT_HZ)
+    if env_id in ENVS:
+        env = gymnasium.make(env_id, agent_hz=AGENT_HZ)
+    else:
+        env = make_env(env_id, agent_hz=AGENT_HZ)
     try:
         timing = protocols.time_env(env, env.unwrapped.config.agent_hz, steps, resets, warmup)
     finally:
@@ -370,19 +374,21 @@ def _cpu_seconds(pids: list[int]) -> float:
 
 
 def measure_batched(env_id: str, n: int, agent_steps: int = 200_000, warmup: int = 20) -> dict:
-    """Agent-steps per second and memory per env of ``n`` copies of ``env_id`` on the batched backend."""
+    """Agent-steps per second and memory per env of ``n`` copies of ``env_id`` (a registered id
+    or an env config) on the batched backend."""
     import numpy as np
 
     from pyflyt_engine.batched import BatchedUAVEnv
     from pyflyt_engine.envs import ENVS
 
+    config = ENVS[env_id].config if env_id in ENVS else env_id
     started = time.perf_counter()
-    probe = BatchedUAVEnv(ENVS[env_id].config, num_envs=1, seed=0)  # loads (or compiles) the laws
+    probe = BatchedUAVEnv(config, num_envs=1, seed=0)  # loads (or compiles) the laws
     probe.reset(seed=0)
     probe.step(probe.action_space.sample())
     first = time.perf_counter() - started
     before = protocols.rss_mb()
-    env = BatchedUAVEnv(ENVS[env_id].config, num_envs=n, seed=0)
+    env = BatchedUAVEnv(config, num_envs=n, seed=0)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     low, high = env.single_action_space.low, env.single_action_space.high

@@ -35,7 +35,7 @@ _STATE_ARRAYS = (
     "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
     "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
-    "autopilot_integral",
+    "autopilot_integral", "vel_integral",
 )
 
 

@@ -27,8 +27,12 @@ same seed: the same seed and ``num_envs`` give the same numbers, in any process.
 
 Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover, QuadX-Waypoints and
 Fixedwing-Waypoints configs, their variants on any airframe the model accepts: a
-multirotor in mode ``rates_thrust`` or ``motors``, a fixed-wing in mode ``channels`` or
-``attitude_airspeed``).  The waypoint logic (sampling, the segment reach test, the
+multirotor in any of its controller's flight modes, a fixed-wing in mode ``channels`` or
+``attitude_airspeed``).  A multirotor mode above the rate loop (the attitude, altitude,
+velocity and position modes: :mod:`pyflyt_engine.batched.modes`) runs its controller at
+every control tick and the physics of each control period in mode ``motors`` with the
+motor commands it gave, as the PyBullet engine runs its controller at ``control_hz``
+between the physics steps of an agent step.  The waypoint logic (sampling, the segment reach test, the
 observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
 waypoints task is.  Everything else a config can ask for that this backend does not
 simulate is refused when the env is built, by name (:func:`check_supported`).
@@ -44,7 +48,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
-from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched import kernels, modes
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
@@ -151,6 +155,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ConfigError(f"mode motors takes {self.model.motors} values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4:
             raise ConfigError(f"mode rates_thrust takes 4 values, the action has {len(cfg.action.low)}")
+        #: a cascade mode's (law, yaw_is_rate, heading_frame, position, altitude); None in the others
+        self._cascade = modes.cascade_law(self.mode) if self.mode in modes.CASCADE_MODES.values() else None
+        if self._cascade is not None and len(cfg.action.low) != 4:
+            name = next(k for k, v in modes.CASCADE_MODES.items() if v == self.mode)
+            raise ConfigError(f"mode {name} takes 4 values, the action has {len(cfg.action.low)}")
         self.task = get_task(cfg.task.name)(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
         preset = load_reward_preset(cfg.reward_preset_name())
         scalar = compile_reward(preset_name(cfg), preset.terms, self.task.provides, self.task.name)
@@ -162,6 +171,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
         self._waypoints = cfg.task.name == "waypoints"
+        self._cascade_rows: tuple | None = None  # a cascade mode's parameter rows and scratch (_advance_cascade)
 
         # parameters, one row per env
         m = self.model
@@ -198,6 +208,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, the fixed-wing autopilot's integrals (roll, pitch, yaw, airspeed; none on a multirotor)
         self.autopilot_integral = np.zeros((n, 4 if m.channel_driven else 0))
         self.integral = np.zeros((n, 3))
+        #: per env, the velocity loop's integrals (x, y, z; only in a cascade mode)
+        self.vel_integral = np.zeros((n, 3 if self._cascade is not None else 0))
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
         self.contact = np.zeros(n, dtype=bool)
@@ -305,6 +317,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.flap_command[index] = 0.0
         self.autopilot_integral[index] = 0.0
         self.integral[index] = 0.0
+        self.vel_integral[index] = 0.0
         self.previous[index] = 0.0
         self.has_previous[index] = False
         self.actions[index] = 0.0
@@ -389,6 +402,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             )
             self.physics_steps += self.per_agent
             return
+        if self._cascade is not None:
+            self._advance_cascade(setpoints, factors, start)
+            return
         kernels.advance(
             self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
             self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
@@ -396,6 +412,43 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
             self.physics_dt, self.control_dt, start, self.per_agent, self.per_control,
         )
+        self.physics_steps += self.per_agent
+
+    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int) -> None:
+        """One agent step in a cascade mode: per control period, the controller's tick
+        (:func:`~pyflyt_engine.batched.modes.control_tick`) sets the motor commands from the
+        state at its start, then the period's physics steps run in mode ``motors`` with them."""
+        if start != 0:  # per_agent is a multiple of per_control (check_supported): every agent step starts on a tick
+            raise RuntimeError(f"an agent step starting {start} physics steps after a control tick")
+        m = self.model
+        c = m.cascade
+        assert c is not None
+        if self._cascade_rows is None:
+            n = self.num_envs
+            rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
+            self._cascade_rows = (rows(c.table), rows(c.mass), rows(c.window), rows(c.max_tilt),
+                                  np.empty((n, m.motors)), np.zeros(n, dtype=bool))
+        table, mass, window, max_tilt, commands, contact = self._cascade_rows
+        law, yaw_is_rate, heading_frame, position, altitude = self._cascade
+        per_control = self.per_control
+        contact[:] = False
+        for k in range(self.per_agent // per_control):
+            modes.control_tick(
+                self.pos, self.quat, self.vel, self.angvel, setpoints, self.integral, self.previous,
+                self.has_previous, self.vel_integral, law, yaw_is_rate, heading_frame, position, altitude, table,
+                mass, window, max_tilt, self._rate_gains, m.rate_derivative, self._control_inertia, self._gyro,
+                self._mixer_rows, self.control_dt, commands,
+            )
+            period = np.ascontiguousarray(factors[:, k * per_control:(k + 1) * per_control])
+            kernels.advance(
+                self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral,
+                self.previous, self.has_previous, commands, period, kernels.MODE_MOTORS, self._mass, self._inertia,
+                self._control_inertia, self._gyro, self._lag, self._columns, self._mixer_rows, self._max_collective,
+                self._rate_gains, m.rate_derivative, self._drag_factors, self._damping, m.drag, self._corners,
+                self.contact, GRAVITY, self.physics_dt, self.control_dt, 0, per_control, per_control,
+            )
+            contact |= self.contact  # each call samples its own period's contacts
+        self.contact[:] = contact
         self.physics_steps += self.per_agent
 
     def _judge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:

@@ -10,15 +10,16 @@ compiled laws (:mod:`pyflyt_engine.batched.kernels`) read, copied out of the eng
 -- so the parameters are computed once, by the code the PyBullet engine uses, and cannot
 drift apart.
 
-Two kinds of airframe: a multirotor (its flight controller's modes ``rates_thrust`` and
-``motors``) and a fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
+Two kinds of airframe: a multirotor (every flight mode of its controller: ``rates_thrust``
+and ``motors`` in :mod:`~pyflyt_engine.batched.kernels`, the outer loops of the others in
+:mod:`~pyflyt_engine.batched.modes`, their parameters in :attr:`BatchedModel.cascade`) and a
+fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
 driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
 What the batched backend cannot simulate is refused here by name
 (:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
 channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
 multirotor, the optional motor models and the battery, mesh or URDF collision geometry,
-and a multirotor's flight modes other than ``rates_thrust`` and ``motors`` (and a
-multirotor mode on a fixed-wing).
+and a multirotor mode on a fixed-wing (or a fixed-wing mode without a compiled form).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pyflyt_engine.assembly import assemble
+from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_params
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
 from pyflyt_engine.components.lag import lag_coefficient
@@ -47,8 +49,9 @@ SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag"})
 #: how a refusal names a kind where its registered name says less
 KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motors)", "prop_guards": "propeller guards"}
 
-#: flight modes the compiled controller flies (name -> code in kernels): a multirotor's
-BATCHED_MODES = {"rates_thrust": 0, "motors": -1}
+#: flight modes the compiled controller flies (name -> code in kernels and modes): a multirotor's,
+#: every one of MULTIROTOR_MODES
+BATCHED_MODES = {"rates_thrust": 0, "motors": -1, **CASCADE_MODES}
 #: and a fixed-wing's (its raw channels: the paper's fixed-wing action; the autopilot)
 BATCHED_FIXEDWING_MODES = {"channels": 1, "attitude_airspeed": 2}
 
@@ -98,6 +101,8 @@ class BatchedModel:
         autopilot_gains: (4, 4) the fixed-wing autopilot's loops (roll, pitch, yaw,
             airspeed) as rows kp, ki, kd, integral limit; cruise_thrust: its thrust
             feed-forward; autopilot_index: (4,) its roll, pitch, yaw and thrust channels.
+        cascade: a multirotor's outer loops (velocity, position, attitude, tilt, thrust:
+            :func:`~pyflyt_engine.batched.modes.cascade_params`); None on a fixed-wing.
     """
 
     name: str
@@ -129,6 +134,7 @@ class BatchedModel:
     autopilot_gains: np.ndarray = field(default_factory=lambda: np.zeros((4, 4)))
     cruise_thrust: float = 0.0
     autopilot_index: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=np.int64))
+    cascade: CascadeParams | None = None
 
     @property
     def motors(self) -> int:
@@ -252,6 +258,7 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         max_collective=float(mixer.max_collective),
         rate_gains=gains,
         rate_derivative=bool(controller._rate_derivative),
+        cascade=cascade_params(controller),
         **common,
     )
 

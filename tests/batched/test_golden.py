@@ -1,7 +1,8 @@
 """The batched backend's numbers are the same on other CPUs: a recorded trajectory, bit for bit.
 
-``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover, QuadX-Waypoints and
-Fixedwing-Waypoints on the batched backend (motor noise on, autoreset, seeded random
+``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover, QuadX-Waypoints (also its
+velocity variant, flown through the controller's outer loops) and Fixedwing-Waypoints on the
+batched backend (motor noise on, autoreset, seeded random
 actions): every observation and reward.  This test recomputes them;
 ``experiments/emulated_cpus.sh`` runs it again with the laws compiled for other instruction
 sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64 and an AVX-only core), so a change that
@@ -18,7 +19,7 @@ import numpy as np
 from pyflyt_engine.batched import BatchedUAVEnv
 
 GOLDEN = Path(__file__).with_name("golden_batched.npz")
-ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints")
+ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints", "quadx_waypoints_velocity")
 
 
 def _fixedwing_action(rng: np.random.Generator) -> np.ndarray:
@@ -26,6 +27,12 @@ def _fixedwing_action(rng: np.random.Generator) -> np.ndarray:
     envs dive into the ground (crashes and autoresets) within the 4 s."""
     return np.c_[rng.uniform(-1.0, 1.0, (8, 1)), rng.uniform(-0.3, 1.0, (8, 1)), rng.uniform(-1.0, 1.0, (8, 1)),
                  rng.uniform(0.0, 0.6, (8, 1))]
+
+
+def _velocity_action(rng: np.random.Generator) -> np.ndarray:
+    """Ground velocities anywhere in the variant's range, any yaw rate, mostly down: some envs
+    fly into the ground or out of the dome (crashes and autoresets) within the 4 s."""
+    return np.c_[rng.uniform(-3.0, 3.0, (8, 2)), rng.uniform(-3.0, 3.0, (8, 1)), rng.uniform(-2.0, 0.5, (8, 1))]
 
 
 def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -37,6 +44,8 @@ def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
     for _ in range(120):
         if fixedwing:
             action = _fixedwing_action(rng)
+        elif env_name.endswith("velocity"):
+            action = _velocity_action(rng)
         else:
             action = np.c_[rng.uniform(-2.0, 2.0, (8, 3)), rng.uniform(0.05, 0.25, (8, 1))]
         obs, reward, *_ = env.step(action)

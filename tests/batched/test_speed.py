@@ -31,6 +31,19 @@ def test_it_plans_the_pybullet_env_then_every_size_of_the_batched_backend():
     assert [(c.section, c.key) for c in cases] == [("envs", HOVER), ("batched", (HOVER, 1)), ("batched", (HOVER, 256))]
 
 
+def test_an_env_config_sharing_an_id_is_measured_by_its_name():
+    """The velocity variant shares QuadX-Waypoints' id: ``--env`` takes its config name."""
+    settings = SpeedSettings.quick(backend="batched", batch_sizes=(4,), envs=("quadx_waypoints_velocity",))
+    assert [(c.section, c.key) for c in plan_cases(settings)] == [
+        ("envs", "quadx_waypoints_velocity"), ("batched", ("quadx_waypoints_velocity", 4))]
+    result = probes.measure_batched("quadx_waypoints_velocity", n=8, agent_steps=400, warmup=2)
+    assert result["id"] == "quadx_waypoints_velocity" and result["steps_per_s"] > 0
+    pybullet = probes.measure_env("quadx_waypoints_velocity", steps=20, resets=1, warmup=2)  # its PyBullet env
+    assert pybullet["id"] == "quadx_waypoints_velocity" and pybullet["steps_per_s"] > 0
+    result = runner.invoke(app, ["speed", "--quick", "--backend", "batched", "--env", "quadx_nope"])
+    assert result.exit_code == 2 and "--env quadx_nope is neither a registered env id" in result.output
+
+
 def test_the_table_sets_each_size_beside_the_pybullet_env():
     report = run_speed(SpeedSettings.quick(backend="batched", batch_sizes=(1, 256), envs=(HOVER,)), measure=_canned)
     text = format_report(report, markdown=True)

@@ -54,7 +54,7 @@ SAC_BATCHED = [
 ]
 
 
-@pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints"])
+@pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints", "quadx_waypoints_velocity"])
 def test_the_adapter_shows_the_agent_what_the_pybullet_training_env_shows(env_name):
     cfg = load_env_config(env_name).with_overrides(backend="batched")
     vec = make_vec_env(cfg, 3)
@@ -67,7 +67,7 @@ def test_the_adapter_shows_the_agent_what_the_pybullet_training_env_shows(env_na
     assert obs.shape == (3, *single.observation_space.shape) and obs.dtype == np.float32
     ended, sums = [], np.zeros(3)
     for _ in range(400):
-        obs, rewards, dones, infos = vec.step(np.full((3, 4), -1.0))  # motors off: every env falls
+        obs, rewards, dones, infos = vec.step(np.full((3, 4), -1.0))  # the range's bottom: no thrust, or 2 m/s down
         sums += rewards
         ended += [(info, sums[i]) for i, (info, done) in enumerate(zip(infos, dones)) if done]
         sums[dones] = 0.0
@@ -131,7 +131,9 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_hover", "env.wind=gust"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_hover", "uav=tricopter"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_waypoints"], tmp_path).env.backend == "batched"  # its PPO tuning is auto too
-    assert load(["env=quadx_waypoints", "env.action.mode=velocity"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_waypoints", "env.action.mode=velocity"], tmp_path).env.backend == "batched"  # every mode
+    assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
+    assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.wind=gust"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
     with pytest.raises(ConfigError, match="does not simulate wind"):
         load(["env=quadx_hover", "env.backend=batched", "env.wind=gust"], tmp_path)
@@ -205,6 +207,54 @@ def test_a_fixedwing_checkpoint_carries_the_flaps():
         vec.env_method("restore_episode", saved[i], indices=i)
     again = [vec.step(a)[0] for a in actions]
     assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def test_a_checkpoint_in_a_cascade_mode_carries_the_velocity_integrals():
+    """The velocity variant: ``episode_state`` then ``restore_episode`` puts the velocity
+    loop's integrals back with the rest: the steps after it repeat bit for bit."""
+    vec = make_vec_env(load_env_config("quadx_waypoints_velocity").with_overrides(backend="batched"), 3)
+    vec.seed(4)
+    vec.reset()
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        vec.step(rng.uniform(-0.5, 0.5, (3, 4)))
+    saved = vec.env_method("episode_state")
+    assert np.abs(vec.env.vel_integral).min() > 0.0 and "vel_integral" in saved[0]["batched"]
+    actions = rng.uniform(-0.5, 0.5, (20, 3, 4))
+    first = [vec.step(a)[0] for a in actions]
+    vec.env.vel_integral[:] = 0.0  # state the restore must put back
+    for i in range(3):
+        vec.env_method("restore_episode", saved[i], indices=i)
+    again = [vec.step(a)[0] for a in actions]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+VELOCITY_PPO_BATCHED = [
+    "env=quadx_waypoints_velocity",
+    "env.backend=batched",
+    "train.n_envs=64",
+    "train.total_timesteps=8192",
+    "algo.n_steps=64",
+    "algo.batch_size=1024",
+    "train.eval_freq=8192",
+    "train.eval_episodes=1",
+    "train.progress_bar=false",
+]
+
+
+def test_the_velocity_variant_trains_end_to_end_on_it(tmp_path):
+    """QuadX-Waypoints flown by ground velocity (mode velocity_yawrate, the controller's
+    outer loops compiled: pyflyt_engine.batched.modes), PPO on 64 batched envs, a tiny
+    budget: it trains, records the batched backend, and evaluates in the PyBullet engine."""
+    result = train(load(VELOCITY_PPO_BATCHED, tmp_path))
+    assert not result.interrupted
+    config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["action"]["mode"] == "velocity_yawrate"
+    assert yaml.safe_load((result.run_dir / "run.yaml").read_text())["backend"] == "batched"
+    assert result.num_timesteps == 8192 and result.last_eval_step == 8192  # evaluated (in PyBullet) at the end
+    from pyflyt_engine.telemetry.metrics import read_metrics
+
+    assert read_metrics(result.run_dir / "metrics.mcap")["/train/episode"]  # batched episodes ended and were counted
 
 
 FIXEDWING_SAC_BATCHED = [
