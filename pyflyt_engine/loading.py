@@ -239,6 +239,71 @@ def resolve(
     raise error(message)
 
 
+#: how many files deep a variant may build on variants (a -> b -> c ...)
+MAX_VARIANT_DEPTH = 8
+
+
+def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: type[PyFlytError] = ConfigError,
+                  _chain: tuple[str, ...] = ()) -> dict[str, Any]:
+    """``data`` with its ``defaults`` list resolved: a **variant** of shipped configs of the same group.
+
+    A config file may start from others of its group and change some keys, in Hydra's own
+    syntax, so that the file composes the same through ``pyflyt train env=<name>`` (Hydra) and
+    through :func:`load` (``make_env``, a path, a mapping)::
+
+        defaults:
+          - quadx_gates      # conf/env/quadx_gates.yaml ...
+          - _self_           # ... with this file's keys over it
+        camera_observation: null
+        task: {observation: corners}
+
+    The entries are names of ``conf/<group>`` and ``_self_`` (the file's own keys; last when
+    not listed, as in Hydra).  Later entries override earlier ones: mappings merge key by key,
+    anything else (a list, a number, ``null``) replaces.  Only names are taken -- a file names
+    no path and runs nothing -- and a chain is at most :data:`MAX_VARIANT_DEPTH` deep, with no
+    loop.
+    """
+    if "defaults" not in data:
+        return dict(data)
+    own = {k: v for k, v in data.items() if k != "defaults"}
+    entries = data["defaults"]
+    if not isinstance(entries, list) or not all(isinstance(e, str) for e in entries):
+        raise error(f"{source}: defaults must be a list of {group} config names (and _self_), e.g. "
+                    f"[{next(iter(available(group)), 'name')}, _self_]; got {entries!r}")
+    if "_self_" not in entries:
+        entries = [*entries, "_self_"]
+    merged: dict[str, Any] = {}
+    for entry in entries:
+        if entry == "_self_":
+            part = own
+        else:
+            if not plain_name(entry):
+                raise error(f"{source}: defaults entry {entry!r} is not a name: a variant starts from shipped "
+                            f"{group} configs by name ({', '.join(available(group))})")
+            if entry in _chain or len(_chain) >= MAX_VARIANT_DEPTH:
+                loop = " -> ".join((*_chain, entry))
+                raise error(f"{source}: defaults {loop}: a loop or a chain deeper than {MAX_VARIANT_DEPTH} files")
+            try:
+                path = resolve(entry, group, what=f"{group} config", error=error, files=False)
+            except PyFlytError as exc:
+                raise error(f"{source}: defaults entry {entry!r}: {exc}") from None
+            part = with_defaults(load_yaml_file(path, what=f"{group} config file", error=error), group, str(path),
+                                 error=error, _chain=(*_chain, entry))
+        merged = _merged(merged, part)
+    return merged
+
+
+def _merged(base: Mapping[str, Any], top: Mapping[str, Any]) -> dict[str, Any]:
+    """``top`` over ``base``: mappings key by key, anything else replaced."""
+    out = dict(base)
+    for key, value in top.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
 def load(
     value: Any,
     *,
@@ -279,4 +344,5 @@ __all__ = [
     "resolve",
     "unknown_name",
     "validate",
+    "with_defaults",
 ]

@@ -41,7 +41,7 @@ from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
-from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate
+from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate, with_defaults
 from pyflyt_engine.safe_load import load_yaml_file
 from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, SensorsSpec, check_finite
 from pyflyt_engine.suggest import did_you_mean
@@ -792,6 +792,7 @@ def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
     """
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: an env config must be a mapping of keys to values, got {type(data).__name__}")
+    data = with_defaults(data, "env", source)  # a variant of shipped env configs (loading.with_defaults)
     if "agents" in data:  # several agents (pyflyt_engine.envs.multi_agent)
         return parse_multi_agent_config(data, source)
     data = {k: v for k, v in data.items() if k != "source"}

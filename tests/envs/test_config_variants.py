@@ -78,3 +78,84 @@ def _digest(name: str, seed: int) -> str:
 def test_variant_is_deterministic_across_processes(name):
     first, second, other = _digest(name, 0), _digest(name, 0), _digest(name, 1)
     assert len(first) == 64 and first == second and first != other
+
+
+# ---------------------------------------------------------------- variants written as deltas
+
+#: variant -> the config it changes (its ``defaults`` list): each file holds only what differs
+DELTAS = {
+    "quadx_gates_state": "quadx_gates",
+    "quadx_waypoints_velocity": "quadx_waypoints",
+    "quadx_hover_sensors": "quadx_hover",
+    "rocket_landing_velocity": "rocket_landing",
+    "rocket_landing_descent": "rocket_landing",
+}
+SHIPPED = sorted(p.stem for p in (conf_dir() / "env").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_env_config_composes_the_same_through_hydra_and_the_loader(name):
+    """``pyflyt train env=<name>`` (Hydra's defaults list) and ``make_env(<name>)`` (the loader's
+    ``with_defaults``) build the same config (a2c: no tuning of any env changes its keys)."""
+    from pyflyt_cli.training.compose import compose_train_data
+    from pyflyt_engine.envs.config import load_env_config, parse_env_config
+
+    data, _ = compose_train_data([f"env={name}", "algo=a2c"])
+    composed = parse_env_config(data["env"], "composed").model_dump(mode="json", exclude={"source"})
+    assert composed == load_env_config(name).model_dump(mode="json", exclude={"source"})
+
+
+@pytest.mark.parametrize("name, base", sorted(DELTAS.items()))
+def test_a_variant_file_holds_only_what_differs_from_its_base(name, base):
+    import yaml
+
+    from pyflyt_engine.envs.config import load_env_config
+
+    text = yaml.safe_load((conf_dir() / "env" / f"{name}.yaml").read_text())
+    assert text["defaults"] == [base, "_self_"]
+    variant, original = (load_env_config(n).model_dump(mode="json", exclude={"source"}) for n in (name, base))
+    changed = {k for k in variant.keys() | original.keys() if variant.get(k) != original.get(k)}
+    assert changed and changed <= set(text) - {"defaults"}, (changed, set(text))
+    for key in set(text) - {"defaults"}:  # and each key it gives changes something
+        assert key in changed, key
+
+
+def test_a_variant_of_a_variant_and_a_users_own_file(tmp_path):
+    """A file outside conf/ may start from shipped configs too; a later entry overrides an earlier one,
+    mappings merging key by key, and the file's own keys come last when _self_ is not listed."""
+    from pyflyt_engine.envs.config import load_env_config
+
+    (tmp_path / "mine.yaml").write_text(
+        "defaults: [quadx_hover_sensors]\nmax_duration_seconds: 5.0\nsensors: {estimator: {k_p: 2.0}}\n"
+    )
+    mine = load_env_config(tmp_path / "mine.yaml")
+    sensors = load_env_config("quadx_hover_sensors")
+    assert mine.max_duration_seconds == 5.0 and mine.task.name == "hover"
+    assert mine.sensors.estimator.k_p == 2.0 and mine.sensors.estimator.k_i == sensors.sensors.estimator.k_i
+    assert mine.sensors.imu == sensors.sensors.imu
+
+
+@pytest.mark.parametrize("defaults, fragment", [
+    ("/etc/quadx_hover", "is not a name"),
+    ("../env/quadx_hover", "is not a name"),
+    ("nope", "unknown env config 'nope'"),
+    ("{quadx_hover: x}", "defaults must be a list of env config names"),
+    ("loop", "a loop or a chain deeper than"),
+])  # fmt: skip
+def test_a_defaults_list_takes_shipped_names_only_and_no_loop(tmp_path, monkeypatch, defaults, fragment):
+    from pyflyt_engine.envs.config import load_env_config
+    from pyflyt_engine.errors import ConfigError
+
+    if defaults == "loop":  # a shipped-looking config that names itself
+        env_dir = tmp_path / "conf" / "env"
+        env_dir.mkdir(parents=True)
+        (env_dir / "loop.yaml").write_text("defaults: [loop]\n")
+        monkeypatch.setattr("pyflyt_engine.loading.conf_dir", lambda: tmp_path / "conf")
+        entry = "[loop]"
+    else:
+        entry = defaults if defaults.startswith("{") else f"[{defaults}]"
+    (tmp_path / "bad.yaml").write_text(f"defaults: {entry}\n")
+    with pytest.raises(ConfigError) as caught:
+        load_env_config(tmp_path / "bad.yaml")
+    where = "loop.yaml" if defaults == "loop" else "bad.yaml"  # the file whose list closes the loop
+    assert fragment in str(caught.value) and where in str(caught.value), str(caught.value)
