@@ -5,9 +5,10 @@ their recorded states in the rebuilt world, no physics), so evaluation videos an
 replays look the same and any recording can be filmed again:
 
 * a **chase camera** that frames the vehicles: centred on the vehicle, behind its
-  (smoothed) heading, 35 degrees above the horizon looking down, at a distance scaled to its
-  span (at least 1.2 m); with several vehicles it looks at their centroid from far enough
-  to keep all in view;
+  (smoothed) heading, 45 degrees above the horizon looking down, at the distance where the
+  airframe's span fills 30 % of the frame's height (at least 0.6 m, from where the ground
+  1 m below is still in view); with several vehicles it looks at their centroid from far
+  enough to keep all in view;
 * the **ground and sky** drawn in NumPy (one ray per pixel of a half-size image) where no
   body shows, with each vehicle's **shadow** and a **drop line** to it; PyBullet's ground
   plane is parked out of view, as TinyRenderer spent most of each frame drawing it;
@@ -46,14 +47,18 @@ _PARKED = (0.0, 0.0, -1000.0)
 class VideoStyle:
     """How a flight video is framed and drawn."""
 
-    #: chase distance, in vehicle spans (the largest horizontal extent of the airframe)
-    distance_spans: float = 3.0
+    #: the vehicle's span (the largest horizontal extent of the airframe) fills this fraction
+    #: of the frame's height: the chase distance follows the airframe, so a 13 cm Crazyflie
+    #: and a 1.5 m fixed-wing are both drawn at a readable size (at 1.2 m a Crazyflie was
+    #: 25-30 px of a 480 px frame)
+    frame_fraction: float = 0.3
     #: the camera never comes closer than this [m]: far enough that, at the elevation below,
-    #: the ground under a vehicle flying 1 m up is in the frame
-    min_distance: float = 1.2
+    #: the ground under a vehicle flying 1 m up stays in the frame (its shadow: its height)
+    min_distance: float = 0.6
     #: camera elevation above the horizon, looking down at the vehicle from above and
-    #: behind [deg]: steep enough that the vehicle's height over its shadow shows
-    elevation_deg: float = 35.0
+    #: behind [deg]: steep enough that the vehicle's height over its shadow shows, and that
+    #: the shadow 1 m below stays in view from ``min_distance``
+    elevation_deg: float = 45.0
     #: time constant of the camera's smoothing of the heading and the vehicles' spread [s]
     smoothing: float = 0.3
     #: vertical field of view [deg]
@@ -137,7 +142,10 @@ class ChaseCamera:
                 self.yaw += k * ((yaw - self.yaw + math.pi) % (2 * math.pi) - math.pi)
         s = self.style
         half_fov = math.radians(s.fov) / 2
-        distance = max(s.min_distance, s.distance_spans * self.span, 1.4 * (self.spread + self.span) / math.tan(half_fov))
+        # the span fills frame_fraction of the frame's height, 2 d tan(fov / 2) at distance d;
+        # several vehicles: far enough for all of them
+        framed = self.span / (s.frame_fraction * 2 * math.tan(half_fov))
+        distance = max(s.min_distance, framed, 1.4 * (self.spread + self.span) / math.tan(half_fov))
         elevation = math.radians(s.elevation_deg)
         x, y, z = self.target
         eye = (

@@ -86,11 +86,22 @@ def test_chase_distance_is_scaled_to_the_span_and_all_vehicles_stay_in_view():
         small = vehicle_span(world.client, world.vehicles[0].body_id)
         large = vehicle_span(world.client, world.vehicles[1].body_id)
         assert small == pytest.approx(0.1, abs=0.05) and large == pytest.approx(2.4, abs=0.2)  # 2.4 m span (paper)
+        tan = math.tan(math.radians(style.fov / 2))
         for span in (small, large):
             eye, target = ChaseCamera(style, span, 1 / 30).update(np.array([[0.0, 0.0, 1.0]]), 0.3)
             distance = math.dist(eye, target)
-            assert distance == pytest.approx(max(style.min_distance, style.distance_spans * span, 1.4 * span / math.tan(math.radians(30))))
+            assert distance == pytest.approx(max(style.min_distance, span / (style.frame_fraction * 2 * tan), 1.4 * span / tan))
             assert math.atan2(target[1] - eye[1], target[0] - eye[0]) == pytest.approx(0.3)  # behind the heading
+            view, projection = _view(world.client, eye, target, style.fov)
+            across = np.array([-math.sin(0.3), math.cos(0.3), 0.0]) * span / 2  # the span, square to the view
+            ends = project(_matrices(view, projection), np.array([target + across, target - across]), W, H)
+            drawn = float(np.linalg.norm(ends[0] - ends[1])) / H  # of the frame's height
+            if span == large:  # framed by its span: it fills frame_fraction of the frame
+                assert drawn == pytest.approx(style.frame_fraction, rel=0.02)
+            else:  # the Crazyflie, from min_distance: larger than it was at 1.2 m, and the ground below in view
+                assert drawn == pytest.approx(span / (2 * style.min_distance * tan), rel=0.02) and drawn > 0.12
+                below = project(_matrices(view, projection), np.array([[0.0, 0.0, 0.0]]), W, H)[0]
+                assert 0 <= below[0] <= W and 0 <= below[1] <= H, below
         positions = np.array([[0.0, 0.0, 1.0], [6.0, -4.0, 3.0], [-3.0, 5.0, 0.5]])
         eye, target = ChaseCamera(style, small, 1 / 30).update(positions, None)
         view, projection = _view(world.client, eye, target, style.fov)
