@@ -191,8 +191,12 @@ def fly_from(spec, pitch: float, velocity_body, setpoint, seconds: float) -> lis
 
 
 def trim_setpoint(trim: dict, roll: bool = True, yaw: bool = True) -> list[float]:
-    return [trim["roll_channel"] if roll else 0.0, trim["pitch_channel"], trim["yaw_channel"] if yaw else 0.0,
-            trim["thrust_channel"]]
+    return [
+        trim["roll_channel"] if roll else 0.0,
+        trim["pitch_channel"],
+        trim["yaw_channel"] if yaw else 0.0,
+        trim["thrust_channel"],
+    ]
 
 
 def test_trimmed_straight_flight_holds_its_heading():
@@ -241,7 +245,8 @@ def test_the_propeller_torque_is_the_only_lateral_asymmetry():
     assert np.abs(rates[:, [0, 2]]).max() < 1e-12
     assert np.abs(attitude[:, [0, 2]]).max() < 1e-12
 
-    left, right = straight_trim(spec, CRUISE), straight_trim(with_motor(spec, spin=[-s for s in spec.motors.spin]), CRUISE)
+    mirrored = with_motor(spec, spin=[-s for s in spec.motors.spin])
+    left, right = straight_trim(spec, CRUISE), straight_trim(mirrored, CRUISE)
     for key in ("roll_channel", "yaw_channel", "beta"):
         assert right[key] == pytest.approx(-left[key], rel=1e-4), key
     for key in ("pitch", "pitch_channel", "thrust"):
@@ -260,8 +265,8 @@ def test_mirrored_lateral_commands_give_mirrored_rates(channel):
     for sign in (1.0, -1.0):
         setpoint = [0.0, trim["pitch_channel"], 0.0, 0.0]
         setpoint[channel] = 0.2 * sign
-        states = fly_from(spec, trim["pitch"], [CRUISE * math.cos(trim["pitch"]), 0.0, CRUISE * math.sin(trim["pitch"])],
-                          setpoint, 1.0)
+        velocity = [CRUISE * math.cos(trim["pitch"]), 0.0, CRUISE * math.sin(trim["pitch"])]
+        states = fly_from(spec, trim["pitch"], velocity, setpoint, 1.0)
         rates[sign] = np.array([s.ang_vel for s in states])
     response = np.abs(rates[1.0] - rates[-1.0]).max() / 2
     assert response > 0.05
