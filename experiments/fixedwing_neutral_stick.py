@@ -15,7 +15,8 @@ of the episode, per seed, on
   episode, spawn at (0, 0, 10) flying 20 m/s, thrust entry ``T`` to ``T / 2 + 0.5``), the
   native airframe;
 * the native ``PyFlyt/Fixedwing-Waypoints-v0`` (spawn 20 m up at 14 m/s, thrust entry
-  as given).
+  as given), on the PyBullet engine per seed and on the batched backend (one batch of as
+  many copies, its seed the first one; the ``seed`` column is then the copy).
 
 Per episode: its length and ending, the largest body rates |p|, |q|, |r| before the last
 step and on it (the step of a ground contact), the mean roll rate over the first second
@@ -165,6 +166,43 @@ def run_native(seeds: list[int], kwargs: dict[str, float]) -> list[dict[str, Any
     return runs
 
 
+def run_batched(seeds: list[int], kwargs: dict[str, float]) -> list[dict[str, Any]]:
+    """The native -v0 on the batched backend: one batch of ``len(seeds)`` copies, seeded with
+    the first seed (its spawn noise comes from the batch's own streams, not the PyBullet
+    env's per-seed ones).  Read from the observations (Euler angles): body rates,
+    attitude, body velocity, and the surfaces' aux entries (deflection over its limit);
+    an ending copy's last row is its ``final_obs`` (same-step autoreset)."""
+    from pyflyt_engine.envs import make_batched_env
+
+    n = len(seeds)
+    env = make_batched_env(
+        "PyFlyt/Fixedwing-Waypoints-v0", n_envs=n, seed=seeds[0], angle_representation="euler", **kwargs
+    )
+    env.reset(seed=seeds[0])
+    rows: list[list[list[float]]] = [[] for _ in range(n)]
+    runs: list[dict[str, Any] | None] = [None] * n
+    action = np.tile(np.array(ACTION, dtype=np.float64), (n, 1))
+    while any(r is None for r in runs):
+        obs, _, term, trunc, info = env.step(action)
+        seen = np.where((term | trunc)[:, None], info.get("final_obs", obs), obs)
+        for i in range(n):
+            if runs[i] is not None:
+                continue
+            o = seen[i]
+            rows[i].append([*o[0:9], float(np.abs(o[17:22]).max())])
+            if term[i] or trunc[i]:
+                flags = {k: bool(info[k][i]) for k in ("collision", "out_of_bounds", "env_complete")}
+                runs[i] = {
+                    "seed": i,
+                    "rows": rows[i],
+                    "terminated": bool(term[i]),
+                    "truncated": bool(trunc[i]),
+                    "info": flags,
+                }
+    env.close()
+    return runs  # type: ignore[return-value]
+
+
 def trims_and_flights() -> dict[str, Any]:
     from pyflyt_engine.spec import load_uav_spec
     from pyflyt_engine.world import VehicleConfig, World
@@ -252,6 +290,7 @@ def main() -> None:
     ref = run_reference(args.reference_python, seeds)
     compat = {label: run_compat(seeds, kwargs) for label, kwargs in CASES.items()}
     native = {label: run_native(seeds, kwargs) for label, kwargs in CASES.items()}
+    batched = {label: run_batched(seeds, kwargs) for label, kwargs in CASES.items()}
     oracle = trims_and_flights()
     seconds = time.perf_counter() - t0
 
@@ -290,6 +329,7 @@ def main() -> None:
             lines += [row("reference -v3", r, 30) for r in ref[label]]
         lines += [row("compat -v3", r, 30) for r in compat[label]]
         lines += [row("native -v0", r, 30) for r in native[label]]
+        lines += [row("native -v0, batched (copy)", r, 30) for r in batched[label]]
         lines.append("")
 
     lt = oracle["level_trim"]
@@ -332,6 +372,7 @@ def main() -> None:
         "reference": {label: table(runs) for label, runs in ref.items()} if ref else None,
         "compat": {label: table(runs) for label, runs in compat.items()},
         "native": {label: table(runs) for label, runs in native.items()},
+        "batched": {label: table(runs) for label, runs in batched.items()},
         "oracle": {**oracle, "level_trim": {str(k): v for k, v in lt.items()}},
     }
     args.out.with_suffix(".json").write_text(json.dumps(summary, indent=1) + "\n")
