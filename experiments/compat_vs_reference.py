@@ -66,9 +66,9 @@ WHY = {
     "waypoints": "as hover; targets drawn from different random streams (rewards differ, the flight does not)",
     "pole_balance": "as hover, in motor mode, the commands matched at the reference primitive_drone's hover "
     "command; the pole: the reference's URDF pole resting free vs the native payload on a ball joint",
-    "fixedwing": "different airframe models (surface areas, coefficients, mass): at neutral elevator the native "
-    "airframe pitches up (it is not trimmed there, docs/migrating_from_pyflyt.md), the reference's flies nearly "
-    "straight; the reference v3 drives the vertical tail from the pitch entry and ignores yaw (fixed in its "
+    "fixedwing": "different airframe models (surface areas, coefficients, mass): neutral elevator trims the native "
+    "airframe near 14 m/s, so at the 20 m/s spawn it pitches up (docs/migrating_from_pyflyt.md), the reference's "
+    "speeds up and flies nearly straight until its propeller torque roll grows; the reference v3 drives the vertical tail from the pitch entry and ignores yaw (fixed in its "
     "later v4, which compat follows); its spawn 10 m at 20 m/s and its thrust mapping T / 2 + 0.5 are copied",
     "rocket_fall": "spawn drawn from different random streams (x, y, z and attitude differ; displacements "
     "compared); both drop at 100 m/s; the drag models of the two rockets differ",

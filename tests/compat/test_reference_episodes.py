@@ -56,8 +56,10 @@ KNOWN: dict[tuple[str, str], str] = {
         "the airflow and falls straight"
     ),
     ("fixedwing_neutral_half_thrust", "ending"): (
-        "at neutral elevator the native fixed-wing is not trimmed: it pitches up (~0.3 rad/s at 20 m/s), "
-        "loops and hits the ground; the reference's 0.29 airframe flies nearly straight out of the dome"
+        "neutral elevator trims the native fixed-wing near 14 m/s: spawned at the reference's 20 m/s it pulls "
+        "up (~0.37 rad/s), loops and hits the ground; the reference's 0.29 airframe speeds up to 31 m/s and "
+        "leaves the 100 m dome in 3.7 s, before its own propeller torque roll (which with a larger dome spirals "
+        "it into the ground too) has banked it past 0.3 rad"
     ),
     ("fixedwing_neutral_half_thrust", "length"): "as its ending",
     ("fixedwing_neutral_half_thrust", "return"): "as its ending",

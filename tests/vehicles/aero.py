@@ -77,3 +77,57 @@ def glide_ratio(spec: UAVSpec, alpha: float, airspeed: float = 14.0) -> float:
     drag = -force @ wind
     lift = force @ np.array([math.sin(alpha), 0.0, math.cos(alpha)])
     return float(lift / drag)
+
+
+def straight_trim(spec: UAVSpec, airspeed: float) -> dict[str, float]:
+    """Steady straight and level flight at ``airspeed`` [m/s], wings level, still air.
+
+    Unlike :func:`level_trim` (pitch plane only), all six equations: the three body-frame
+    forces and the three moments about the centre of mass, the propeller's reaction
+    torque included (``-spin * k_T omega^2`` about the thrust axis, ``= -spin (k_T / k_F)
+    T`` for a thrust ``T``; pyflyt_engine/components/motor.py).  The unknowns: the Euler
+    pitch theta, the sideslip beta (body ``v = V sin beta``), the roll, pitch and yaw
+    channels and the thrust [N].  Returns those, the angle of attack and the thrust
+    channel (normalised speed, ``sqrt(T / T_max)``), keyed ``{"pitch", "beta", "alpha",
+    "roll_channel", "pitch_channel", "yaw_channel", "thrust", "thrust_channel"}``.
+    The body velocity is ``V (cos beta cos theta, sin beta, cos beta sin theta)``, whose
+    ground-frame vertical part vanishes at roll 0 and yaw 0: the track is level, at
+    ``beta`` to the left of the nose.
+    """
+    parts = assemble(spec)
+    weight = parts.mass * GRAVITY
+    index = {name: parts.channels.index(name) for name in ("roll", "pitch", "yaw")}
+    motors = parts.motors
+    axis, position = motors.thrust_axes[0], motors.positions[0]
+    reaction_per_newton = -float(motors.spin[0]) * float(motors.kt[0]) / float(motors.kf[0])
+
+    def velocity(theta: float, beta: float) -> np.ndarray:
+        return airspeed * np.array([math.cos(beta) * math.cos(theta), math.sin(beta), math.cos(beta) * math.sin(theta)])
+
+    def residual(x):
+        theta, beta, roll, pitch, yaw, thrust = x
+        channels = np.zeros(len(parts.channels))
+        channels[[index["roll"], index["pitch"], index["yaw"]]] = roll, pitch, yaw
+        force, torque = aero_wrench(spec, parts, velocity(theta, beta), channels)
+        force = force + thrust * axis + weight * np.array([math.sin(theta), 0.0, -math.cos(theta)])
+        torque = torque + np.cross(position, thrust * axis) + reaction_per_newton * thrust * axis
+        return [*force, *torque]
+
+    start = [-0.03, 0.0, 0.0, 0.0, 0.0, 0.2 * weight]
+    solution, info, ok, message = fsolve(residual, start, full_output=True)
+    if ok != 1 or np.abs(info["fvec"]).max() > 1e-6:
+        raise RuntimeError(f"no straight trim at {airspeed} m/s: {message}")
+    theta, beta, roll, pitch, yaw, thrust = (float(v) for v in solution)
+    v = velocity(theta, beta)
+    max_thrust = float(motors.kf[0] * motors.max_rpm[0] ** 2)
+    return {
+        "pitch": theta,
+        "beta": beta,
+        "alpha": float(math.atan2(-v[2], v[0])),
+        "roll_channel": roll,
+        "pitch_channel": pitch,
+        "yaw_channel": yaw,
+        "thrust": thrust,
+        "thrust_channel": math.sqrt(thrust / max_thrust),
+        "velocity_body": v.tolist(),
+    }

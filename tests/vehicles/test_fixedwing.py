@@ -17,7 +17,7 @@ import pytest
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.world import VehicleConfig, World
-from tests.vehicles.aero import glide_ratio, level_trim
+from tests.vehicles.aero import glide_ratio, level_trim, straight_trim
 
 CRUISE = 14.0  # m/s: the airframe's level-flight design speed (fixedwing.yaml)
 
@@ -172,3 +172,103 @@ def test_autopilot_holds_a_commanded_bank_and_turns_at_the_coordinated_rate():
     turn_rate = (heading[-1] - heading[0]) / (len(held) - 1) * 30.0
     assert turn_rate == pytest.approx(-GRAVITY * math.tan(bank) / CRUISE, rel=0.1)
     assert heading[-1] - heading[0] < -math.radians(90.0)
+
+
+def with_motor(spec, **changes):
+    """``spec`` with its motor fields replaced (e.g. ``kt=0.0``: no reaction torque)."""
+    return spec.model_copy(update={"motors": spec.motors.model_copy(update=changes)})
+
+
+def fly_from(spec, pitch: float, velocity_body, setpoint, seconds: float) -> list:
+    """Fly ``setpoint`` for ``seconds`` from wings level at Euler ``pitch``, 200 m up, with the
+    body velocity ``velocity_body`` (World, seed 0)."""
+    world = World([VehicleConfig(spec, (0.0, 0.0, 200.0), (0.0, pitch, 0.0), mode="channels")], seed=0)
+    world.vehicles[0].reset(lin_vel=velocity_body)
+    world.set_setpoint(0, setpoint)
+    states = fly(world, seconds)
+    world.close()
+    return states
+
+
+def trim_setpoint(trim: dict, roll: bool = True, yaw: bool = True) -> list[float]:
+    return [
+        trim["roll_channel"] if roll else 0.0,
+        trim["pitch_channel"],
+        trim["yaw_channel"] if yaw else 0.0,
+        trim["thrust_channel"],
+    ]
+
+
+def test_trimmed_straight_flight_holds_its_heading():
+    """From the static six-equation trim at 14 m/s (tests/vehicles/aero.py: forces and
+    moments zero, the propeller's reaction torque included), the flown airframe holds
+    wings level within 1 deg, its heading within 3 deg and its height within 0.5 m for
+    10 s (what is left is the 0.05 s flap and 0.01 s motor lags from idle at the start).
+    The same flight with the aileron and rudder at neutral -- the neutral stick -- turns
+    by more than 45 deg in 10 s, banked over 10 deg: the torque roll of the puller
+    propeller, left for ``spin: [1]`` (reaction -k_T w^2 about +x rolls the left wing
+    down), with body rates below 0.3 rad/s."""
+    spec = load_uav_spec("fixedwing")
+    trim = straight_trim(spec, CRUISE)
+    # a small trim: the reaction torque is 0.09 N m at 3.6 N of thrust
+    assert 0.0 < trim["roll_channel"] < 0.05 and abs(trim["yaw_channel"]) < 0.15
+    states = fly_from(spec, trim["pitch"], trim["velocity_body"], trim_setpoint(trim), 10.0)
+    roll = np.array([s.ang_pos[0] for s in states])
+    heading = np.unwrap([s.ang_pos[2] for s in states])
+    z = np.array([s.lin_pos[2] for s in states])
+    rates = np.array([s.ang_vel for s in states])
+    assert np.abs(roll).max() < math.radians(1.0), f"roll up to {math.degrees(np.abs(roll).max()):.2f} deg"
+    assert abs(heading[-1]) < math.radians(3.0), f"heading moved {math.degrees(heading[-1]):.2f} deg"
+    assert np.abs(z - 200.0).max() < 0.5
+    assert np.abs(rates).max() < 0.05
+
+    states = fly_from(spec, trim["pitch"], trim["velocity_body"], trim_setpoint(trim, roll=False, yaw=False), 10.0)
+    roll = np.array([s.ang_pos[0] for s in states])
+    heading = np.unwrap([s.ang_pos[2] for s in states])
+    rates = np.array([s.ang_vel for s in states])
+    assert roll.min() < -math.radians(10.0) and roll.max() < math.radians(0.5), "rolls left, not right"
+    assert heading[-1] > math.radians(45.0), f"turned {math.degrees(heading[-1]):.1f} deg left"
+    assert np.abs(rates).max() < 0.3, "a slow torque-roll turn, not a spin"
+
+
+def test_the_propeller_torque_is_the_only_lateral_asymmetry():
+    """Without the reaction torque (k_T = 0) the straight trim needs no aileron, rudder or
+    sideslip, and the neutral stick at the trim thrust flies 10 s with roll and yaw rates
+    of zero (to 1e-12: the airframe is mirror-symmetric); the propeller turned the other
+    way (spin -1) needs the mirrored trim."""
+    spec = load_uav_spec("fixedwing")
+    still = straight_trim(with_motor(spec, kt=0.0), CRUISE)
+    assert max(abs(still["roll_channel"]), abs(still["yaw_channel"]), abs(still["beta"])) < 1e-12
+    states = fly_from(with_motor(spec, kt=0.0), still["pitch"], still["velocity_body"], trim_setpoint(still), 10.0)
+    rates = np.array([s.ang_vel for s in states])
+    attitude = np.array([s.ang_pos for s in states])
+    assert np.abs(rates[:, [0, 2]]).max() < 1e-12
+    assert np.abs(attitude[:, [0, 2]]).max() < 1e-12
+
+    mirrored = with_motor(spec, spin=[-s for s in spec.motors.spin])
+    left, right = straight_trim(spec, CRUISE), straight_trim(mirrored, CRUISE)
+    for key in ("roll_channel", "yaw_channel", "beta"):
+        assert right[key] == pytest.approx(-left[key], rel=1e-4), key
+    for key in ("pitch", "pitch_channel", "thrust"):
+        assert right[key] == pytest.approx(left[key], rel=1e-6), key
+
+
+@pytest.mark.parametrize("channel", [0, 2], ids=["aileron", "rudder"])
+def test_mirrored_lateral_commands_give_mirrored_rates(channel):
+    """Gliding (no propeller torque) from the pitch trim at 14 m/s, +0.2 and -0.2 on the
+    aileron (rudder) for 1 s: the roll and yaw rates are each other's negatives and the
+    pitch rates equal, within 0.2 % of the response (an off-centre surface or a sign
+    slip in one surface's mix would break this by the size of the response)."""
+    spec = load_uav_spec("fixedwing")
+    trim = level_trim(spec, CRUISE)
+    rates = {}
+    for sign in (1.0, -1.0):
+        setpoint = [0.0, trim["pitch_channel"], 0.0, 0.0]
+        setpoint[channel] = 0.2 * sign
+        velocity = [CRUISE * math.cos(trim["pitch"]), 0.0, CRUISE * math.sin(trim["pitch"])]
+        states = fly_from(spec, trim["pitch"], velocity, setpoint, 1.0)
+        rates[sign] = np.array([s.ang_vel for s in states])
+    response = np.abs(rates[1.0] - rates[-1.0]).max() / 2
+    assert response > 0.05
+    assert np.abs(rates[1.0][:, [0, 2]] + rates[-1.0][:, [0, 2]]).max() < 2e-3 * response
+    assert np.abs(rates[1.0][:, 1] - rates[-1.0][:, 1]).max() < 2e-3 * response
