@@ -5,11 +5,9 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
-from pyflyt_cli.errors import UsageError
 from pyflyt_cli.outputs import atomic_output, make_output_dir
-from pyflyt_cli.speed import SpeedSettings, format_report, run_speed
+from pyflyt_cli.speed import format_report, run_speed, speed_settings
 
 
 def speed_command(
@@ -26,61 +24,11 @@ def speed_command(
     batch_sizes: str | None = None,
 ) -> str:
     """What ``pyflyt speed`` does: measure, optionally save the JSON, return the printed report."""
-    if backend not in ("pybullet", "batched"):
-        raise UsageError(f"--backend takes pybullet or batched, got {backend!r}")
-    _bounded("speed.repeats", repeats, "--repeats")
-    overrides: dict[str, Any] = {"vector": vector, "backend": backend}
-    if batch_sizes is not None:
-        if backend != "batched":
-            raise UsageError("--batch-sizes goes with --backend batched")
-        overrides["batch_sizes"] = parse_counts(batch_sizes, "--batch-sizes")
-    if envs:
-        overrides["envs"] = tuple(envs)
-    if vehicles:
-        overrides["vehicles"] = parse_counts(vehicles)
-    if agents is not None:
-        overrides["swarm"] = () if agents.strip() in ("", "0", "none") else parse_counts(agents, "--agents")
-    settings = SpeedSettings.quick(**overrides) if quick else SpeedSettings(repeats=repeats, **overrides)
+    settings = speed_settings(repeats=repeats, quick=quick, vector=vector, envs=envs, vehicles=vehicles,
+                              agents=agents, backend=backend, batch_sizes=batch_sizes)
     report = run_speed(settings, progress=progress)
     if json_path is not None:
         make_output_dir(json_path.parent, "--json")
         with atomic_output(json_path, "--json") as tmp:
             tmp.write_text(json.dumps(report, indent=2))
     return format_report(report, markdown=markdown)
-
-
-def parse_counts(text: str, option: str = "--vehicles") -> tuple[int, ...]:
-    """``--vehicles 1,8,64`` as world sizes (``--agents 1,2,4``: swarm sizes, at most 128)."""
-    try:
-        counts = tuple(int(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        counts = ()
-    if option == "--agents":
-        from pyflyt_engine.envs.config import MAX_AGENTS
-
-        if not counts or min(counts) < 1 or max(counts) > MAX_AGENTS:
-            raise UsageError(
-                f"--agents takes swarm sizes, comma-separated integers 1 to {MAX_AGENTS} (e.g. 1,2,4,8), or 0 to "
-                f"skip the swarm section; got {text!r}"
-            )
-        return counts
-    if option == "--batch-sizes":
-        if not counts or min(counts) < 1:
-            raise UsageError(
-                f"--batch-sizes takes env counts, comma-separated positive integers (e.g. 1,256,4096), got {text!r}"
-            )
-        _bounded("train.n_envs", max(counts), "--batch-sizes")
-        return counts
-    if not counts or min(counts) < 1:
-        raise UsageError(f"--vehicles takes world sizes, comma-separated positive integers (e.g. 1,8,64), got {text!r}")
-    _bounded("speed.vehicles", max(counts), "--vehicles")
-    return counts
-
-
-def _bounded(key: str, value: int, option: str) -> None:
-    """A count above its limit (pyflyt_engine/limits.py) refused as a usage error naming the option."""
-    from pyflyt_engine import limits
-
-    why = limits.problem(key, value, name=option)
-    if why is not None:
-        raise UsageError(why)

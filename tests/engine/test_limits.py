@@ -66,27 +66,20 @@ def camera_problem(side: int) -> str | None:
 
 
 def fly_problem(*overrides: str) -> str | None:
-    from pyflyt_cli.commands.fly import FlyOptions
-    from pyflyt_cli.compose import compose, to_container
-    from pyflyt_engine.loading import validate
+    from pyflyt_cli.flying import plan_flight
 
-    from pyflyt_engine.atmosphere import parse_wind_config
-    from pyflyt_engine.spec import parse_uav_spec
-
-    try:  # as run_fly does: the options, then the airframe and the wind they hold
-        options = validate(FlyOptions, to_container(compose("fly", list(overrides))), "fly options", "pyflyt fly")
-        parse_uav_spec(options.uav, source="uav")
-        parse_wind_config(options.wind, source="wind")
+    try:  # as pyflyt fly does: the options, then the airframe and the wind they hold
+        plan_flight(list(overrides))
     except PyFlytError as exc:
         return str(exc)
     return None
 
 
 def train_problem(*overrides: str) -> str | None:
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
 
     try:
-        load_train_config(list(overrides))
+        compose_config(overrides=list(overrides))
     except PyFlytError as exc:
         return str(exc)
     return None
@@ -132,27 +125,16 @@ def tune_problem(**options) -> str | None:
 
 def speed_problem(*args: str) -> str | None:
     """What ``pyflyt speed <args>`` refuses before measuring anything (None: it would measure)."""
-    from pyflyt_cli.commands import speed as command
+    from pyflyt_cli.speed import speed_settings
 
-    def measured(settings, progress=None):  # the options passed every check: measuring is not this test's business
-        raise _Measured
-
+    kwargs: dict = {}
+    for option, value in zip(args[::2], args[1::2]):
+        kwargs[option.lstrip("-").replace("-", "_")] = int(value) if option == "--repeats" else value
     try:
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(command, "run_speed", measured)
-            kwargs: dict = {}
-            for option, value in zip(args[::2], args[1::2]):
-                kwargs[option.lstrip("-").replace("-", "_")] = int(value) if option == "--repeats" else value
-            command.speed_command(**kwargs)
-    except _Measured:
-        return None
+        speed_settings(**kwargs)
     except PyFlytError as exc:
         return str(exc)
-    raise AssertionError("speed_command returned without measuring")
-
-
-class _Measured(Exception):
-    pass
+    return None
 
 
 def plot_problem(reps: int, tmp: Path) -> str | None:

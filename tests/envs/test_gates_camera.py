@@ -231,7 +231,7 @@ def test_image_observation_is_deterministic_and_not_shared():
 
 
 def test_multi_input_policy_trains_on_the_gates_image(tmp_path):
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
     overrides = [
@@ -249,7 +249,7 @@ def test_multi_input_policy_trains_on_the_gates_image(tmp_path):
         "algo.normalize.observation=true",
         f"train.output_dir={tmp_path}",
     ]
-    result = train(load_train_config(overrides), command=["pyflyt", "train"], overrides=overrides)
+    result = train(compose_config(overrides=overrides), command=["pyflyt", "train"], overrides=overrides)
     assert result.num_timesteps == 64 and not result.interrupted
     from pyflyt_cli.training.models import read_policy
 

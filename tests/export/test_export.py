@@ -137,7 +137,7 @@ def test_the_compiled_c_reproduces_the_policy(flown, tmp_path):
 @pytest.fixture(scope="module")
 def refused_runs(tmp_path_factory):
     """Two tiny runs the exporters cannot write: a recurrent PPO, and a PPO over camera images."""
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
     root = tmp_path_factory.mktemp("refused")
@@ -149,7 +149,7 @@ def refused_runs(tmp_path_factory):
     camera = ["env=quadx_gates", "algo=ppo", "train.total_timesteps=16", "algo.n_steps=16", "algo.batch_size=16"]
     runs = {}
     for name, overrides in (("recurrent", recurrent), ("camera", camera)):
-        runs[name] = train(load_train_config([*overrides, *common]), run_dir=root / name).run_dir
+        runs[name] = train(compose_config(overrides=[*overrides, *common]), run_dir=root / name).run_dir
     return runs
 
 
@@ -217,14 +217,14 @@ ON_POLICY = ["train.total_timesteps=32", "algo.n_steps=32", "algo.batch_size=16"
 
 @pytest.mark.parametrize("layout", sorted(LAYOUTS))
 def test_other_actor_layouts_export_as_the_policy_acts(tmp_path, layout):
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
     overrides = [*LAYOUTS[layout], *(ON_POLICY if layout.startswith("ppo") else OFF_POLICY),
                  "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
                  "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
                  f"train.output_dir={tmp_path}"]
-    run = train(load_train_config(overrides), run_dir=tmp_path / layout).run_dir
+    run = train(compose_config(overrides=overrides), run_dir=tmp_path / layout).run_dir
     policy = deployed_policy(run, "final")
     obs = record(str(run), policy, steps=64)
     obs = np.concatenate([obs, obs + np.random.default_rng(2).normal(size=obs.shape).astype(np.float32)])
@@ -236,14 +236,14 @@ def test_other_actor_layouts_export_as_the_policy_acts(tmp_path, layout):
 
 
 def test_a_layer_the_exporters_do_not_know_is_refused_by_name(tmp_path):
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
     overrides = ["env=quadx_hover", "algo=crossq", "algo.policy_kwargs.batch_norm_momentum=0.05", *OFF_POLICY,
                  "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
                  "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
                  f"train.output_dir={tmp_path}"]
-    run = train(load_train_config(overrides), run_dir=tmp_path / "crossq").run_dir
+    run = train(compose_config(overrides=overrides), run_dir=tmp_path / "crossq").run_dir
     result = runner.invoke(app, ["export", str(run), "format=onnx", f"out={tmp_path / 'p.onnx'}"])
     assert result.exit_code == 2, result.output
     assert "the crossq actor holds a BatchRenorm" in result.output and "Linear layers and the activations" in result.output

@@ -78,9 +78,9 @@ TINY_AWAC = [
 
 def load(overrides: list[str], output_dir: Path):
     """The validated TrainConfig `pyflyt train <overrides>` would run, writing under output_dir."""
-    from pyflyt_cli.commands.train import load_train_config
+    from pyflyt_cli.training.compose import compose_config
 
-    return load_train_config([*overrides, f"train.output_dir={output_dir}"])
+    return compose_config(overrides=[*overrides, f"train.output_dir={output_dir}"])
 
 
 def cli_env() -> dict[str, str]:

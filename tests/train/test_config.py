@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from pyflyt_cli.commands.train import load_train_config
 from pyflyt_cli.errors import UsageError
 from pyflyt_cli.main import app
 from pyflyt_cli.training import registry
+from pyflyt_cli.training.compose import compose_config
 from pyflyt_cli.training.rundir import create_run_dir
 from pyflyt_cli.training.schema import PPOConfig, SACConfig, parse_train_config
 from pyflyt_engine.errors import ConfigError
@@ -38,7 +38,7 @@ PAIRS = default_subset([(env, algo) for env in ENVS for algo in ALGOS], _in_defa
 
 
 def test_defaults_are_a_short_ppo_run_on_hover():
-    cfg = load_train_config([])
+    cfg = compose_config(overrides=[])
     assert cfg.env_name == "quadx_hover" and cfg.env.id == "PyFlyt/QuadX-Hover-v0"
     assert isinstance(cfg.algo, PPOConfig)
     # the per-env tuning (conf/hparams/quadx_hover_ppo.yaml) is applied on top of algo/ppo.yaml
@@ -47,14 +47,14 @@ def test_defaults_are_a_short_ppo_run_on_hover():
 
 
 def test_nested_overrides_reach_env_and_algo():
-    cfg = load_train_config(["env.reward=sparse", "algo.learning_rate=1e-3", "seed=7", "train.total_timesteps=2e5"])
+    cfg = compose_config(overrides=["env.reward=sparse", "algo.learning_rate=1e-3", "seed=7", "train.total_timesteps=2e5"])
     assert cfg.env.reward == "sparse" and cfg.env.reward_preset_name() == "quadx_hover_sparse"
     assert cfg.algo.learning_rate == pytest.approx(1e-3)
     assert cfg.seed == 7 and cfg.train.total_timesteps == 200_000
 
 
 def test_uav_and_reward_groups_override_the_env():
-    cfg = load_train_config(["uav=quadx_f450", "reward=quadx_hover_sparse"])
+    cfg = compose_config(overrides=["uav=quadx_f450", "reward=quadx_hover_sparse"])
     assert cfg.env.uav == "quadx_f450"
     assert isinstance(cfg.env.reward, dict) and cfg.env.reward["name"] == "quadx_hover_sparse"
     assert set(cfg.env.reward["terms"]) == {"crash", "time_penalty"}
@@ -64,7 +64,7 @@ def test_uav_and_reward_groups_override_the_env():
 def test_every_env_and_algo_composes_and_validates(env, algo):
     # CCGE's oracle is the policy init_from names; it is refused without one (test_ccge.py)
     oracle = ["init_from=sac_run/best_model.pt"] if algo == "ccge" else []
-    cfg = load_train_config([f"env={env}", f"algo={algo}", *oracle])
+    cfg = compose_config(overrides=[f"env={env}", f"algo={algo}", *oracle])
     assert cfg.env_name == env and cfg.algo.name == algo
 
 
@@ -74,9 +74,9 @@ def test_experiment_files_are_override_only_and_compose(experiment):
     assert text.lstrip().startswith("# @package _global_") or "\n# @package _global_" in text
     if "\nbenchmark:" in text:  # a grid for pyflyt benchmark (tests/benchmark); pyflyt train refuses it
         with pytest.raises(UsageError, match=f"pyflyt benchmark experiment={experiment}"):
-            load_train_config([f"experiment={experiment}"])
+            compose_config(overrides=[f"experiment={experiment}"])
         return
-    cfg = load_train_config([f"experiment={experiment}"])
+    cfg = compose_config(overrides=[f"experiment={experiment}"])
     assert cfg.experiment == experiment
 
 
@@ -87,7 +87,7 @@ def test_hparams_follow_the_chosen_env_and_algo():
         env = max((e for e in ENVS if path.stem.startswith(e + "_") and path.stem[len(e) + 1 :] in ALGOS), key=len)
         algo = path.stem[len(env) + 1 :]
         assert algo in ALGOS, path
-        load_train_config([f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])])
+        compose_config(overrides=[f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])])
 
 
 @pytest.mark.parametrize(
@@ -115,13 +115,17 @@ def test_hparams_follow_the_chosen_env_and_algo():
     ],
 )
 def test_bad_configs_fail_with_a_message_naming_the_problem(overrides, expected):
-    with pytest.raises((UsageError, ConfigError)) as info:
-        from pyflyt_cli.commands.train import run_train
-
-        run_train(overrides, show_config=True)
-    message = str(info.value)
+    message = refused(["train", *overrides, "--cfg"])
     for part in expected:
         assert part in message, message
+
+
+def refused(args: list[str]) -> str:
+    """``pyflyt <args>``'s error report: exit code 2, no traceback, nothing printed on stdout."""
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert result.output.startswith("error:"), result.output
+    return result.output
 
 
 def test_cli_errors_exit_2_without_traceback(tmp_path):
@@ -136,7 +140,7 @@ def test_cli_errors_exit_2_without_traceback(tmp_path):
 
 def _hostile_data(tmp_path: Path, where: str) -> tuple[dict, Path]:
     marker = tmp_path / "pwned"
-    data = load_train_config([f"train.output_dir={tmp_path / 'runs'}"]).model_dump(mode="json")
+    data = compose_config(overrides=[f"train.output_dir={tmp_path / 'runs'}"]).model_dump(mode="json")
     payload = {"_target_": "os.system", "_args_": [f"touch {marker}"]}
     if where == "top":
         data.update(payload)
@@ -173,7 +177,7 @@ def test_hostile_override_on_the_command_line_is_refused(tmp_path):
 
 
 def test_targets_naming_registered_objects_are_accepted():
-    data = load_train_config(["algo=sac"]).model_dump(mode="json")
+    data = compose_config(overrides=["algo=sac"]).model_dump(mode="json")
     del data["algo"]["name"]
     data["algo"]["_target_"] = "stable_baselines3.SAC"
     data["algo"]["policy_kwargs"]["activation_fn"] = {"_target_": "torch.nn.ReLU"}
@@ -184,7 +188,7 @@ def test_targets_naming_registered_objects_are_accepted():
 
 
 def test_unknown_keys_and_wrong_types_in_a_plain_dict():
-    data = load_train_config([]).model_dump(mode="json")
+    data = compose_config(overrides=[]).model_dump(mode="json")
     with pytest.raises(
         ConfigError, match=r"train\.total_timestep: unknown key 'total_timestep'\. Did you mean 'total_timesteps'"
     ):
@@ -231,25 +235,29 @@ def test_cfg_prints_the_validated_config():
 def test_hydra_leaves_the_working_directory_alone(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     CliRunner().invoke(app, ["train", "--cfg"])
-    load_train_config(["seed=3"])
+    compose_config(overrides=["seed=3"])
     assert Path.cwd() == tmp_path and not any(tmp_path.iterdir())
 
 
 def test_resume_rejects_other_overrides_and_missing_dirs(tmp_path):
-    from pyflyt_cli.commands.train import run_train
+    from pyflyt_cli.training.loop import resume
+    from pyflyt_cli.training.requests import resume_args
 
     with pytest.raises(UsageError, match="cannot be combined with resume="):
-        run_train([f"resume={tmp_path}", "algo=sac"])
+        resume_args([f"resume={tmp_path}", "algo=sac"])
+    run, kwargs = resume_args([f"resume={tmp_path / 'nope'}"])
     with pytest.raises(ConfigError, match="does not exist"):
-        run_train([f"resume={tmp_path / 'nope'}"])
+        resume(run, **kwargs)
     with pytest.raises(ConfigError, match="not a run directory"):
-        run_train([f"resume={tmp_path}"])
+        resume(str(tmp_path))
+    assert "cannot be combined with resume=" in refused(["train", f"resume={tmp_path}", "algo=sac"])
+    assert "not a run directory" in refused(["train", f"resume={tmp_path}"])
 
 
 def test_init_from_a_missing_run_is_refused_before_creating_anything(tmp_path):
     from pyflyt_cli.training import train
 
-    cfg = load_train_config([f"init_from={tmp_path / 'nope'}", f"train.output_dir={tmp_path / 'runs'}"])
+    cfg = compose_config(overrides=[f"init_from={tmp_path / 'nope'}", f"train.output_dir={tmp_path / 'runs'}"])
     with pytest.raises(ConfigError, match="init_from=.*: run directory .* does not exist"):
         train(cfg)
     assert not (tmp_path / "runs").exists()
@@ -258,7 +266,7 @@ def test_init_from_a_missing_run_is_refused_before_creating_anything(tmp_path):
 def test_an_env_that_cannot_be_built_fails_before_the_run_starts(tmp_path):
     from pyflyt_cli.training import train
 
-    cfg = load_train_config(["uav=fixedwing", "train.n_envs=4", "algo.n_steps=128", "train.vec_env=auto",
+    cfg = compose_config(overrides=["uav=fixedwing", "train.n_envs=4", "algo.n_steps=128", "train.vec_env=auto",
                              f"train.output_dir={tmp_path / 'runs'}"])  # fmt: skip
     with pytest.raises(ConfigError, match="env: cannot build the environment"):
         train(cfg)
@@ -272,7 +280,7 @@ def test_tensorboard_without_the_package_says_how_to_install(tmp_path, monkeypat
 
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "tensorboard" else real(name, *a))
-    cfg = load_train_config(["train.tensorboard=true", f"train.output_dir={tmp_path / 'runs'}"])
+    cfg = compose_config(overrides=["train.tensorboard=true", f"train.output_dir={tmp_path / 'runs'}"])
     with pytest.raises(ConfigError, match="pip install tensorboard"):
         train(cfg)
 
@@ -339,7 +347,7 @@ def test_a_python_tag_in_a_shipped_experiment_is_refused_naming_the_file(tmp_pat
     shipped = _tagged_experiment(conf / "experiment" / "tagged.yaml", marker)
     monkeypatch.setattr(compose, "conf_dir", lambda: conf)  # where Hydra looks
     with pytest.raises(UsageError, match=f"{shipped}, line 2: the YAML tag !!python/object/apply:os.system"):
-        load_train_config(["experiment=tagged"])
+        compose_config(overrides=["experiment=tagged"])
     assert not marker.exists(), "code from the file ran"
 
 
@@ -354,14 +362,14 @@ def test_an_unreadable_experiment_file_is_named(tmp_path, content, expected):
     study = tmp_path / "study.yaml"
     study.write_bytes(content)
     with pytest.raises(UsageError, match=None) as info:
-        load_train_config([f"experiment={study}"])
+        compose_config(overrides=[f"experiment={study}"])
     assert str(info.value).startswith(str(study)) and expected in str(info.value)
 
 
 @pytest.mark.parametrize(("override", "expected"), [("algo=null", "takes a name"), ("uav=null", "write ~uav")])
 def test_a_config_group_set_to_null_is_explained(override, expected):
     with pytest.raises(UsageError, match=expected):
-        load_train_config([override])
+        compose_config(overrides=[override])
 
 
 # ------------------------------------------------------- one source of defaults
@@ -416,7 +424,7 @@ def test_the_algorithm_defaults_are_those_of_conf():
 
 
 def test_a_hand_written_config_missing_keys_is_refused_not_completed():
-    data = load_train_config(["algo=sac"]).model_dump(mode="json")
+    data = compose_config(overrides=["algo=sac"]).model_dump(mode="json")
     del data["algo"]["learning_starts"]
     with pytest.raises(ConfigError, match=r"algo\.learning_starts: .*required(.|\n)*compose_config\(env=") as info:
         parse_train_config(data)
@@ -436,7 +444,7 @@ def test_eval_options_take_conf_eval_yaml_for_keys_left_out():
 
 
 def test_a_run_recorded_before_trust_pickle_existed_reads_as_not_trusting():
-    data = load_train_config([]).model_dump(mode="json")
+    data = compose_config(overrides=[]).model_dump(mode="json")
     del data["trust_pickle"]
     assert parse_train_config(data).trust_pickle is False
 
@@ -445,30 +453,29 @@ def test_awac_offline_buffer_npz_or_trusted_pickle(tmp_path):
     for name in ("buffer.npz", "buffer.pkl", "buffer.txt"):
         (tmp_path / name).write_bytes(b"")
     npz, pkl = tmp_path / "buffer.npz", tmp_path / "buffer.pkl"
-    assert load_train_config(["algo=awac", f"algo.offline_buffer={npz}"]).algo.offline_buffer == str(npz)
+    assert compose_config(overrides=["algo=awac", f"algo.offline_buffer={npz}"]).algo.offline_buffer == str(npz)
     with pytest.raises(
         ConfigError, match=r"is a pickle \(\.pkl\): unpickling can run arbitrary code.*trust_pickle=true"
     ):
-        load_train_config(["algo=awac", f"algo.offline_buffer={pkl}"])
-    trusted = load_train_config(["algo=awac", f"algo.offline_buffer={pkl}", "trust_pickle=true"])
+        compose_config(overrides=["algo=awac", f"algo.offline_buffer={pkl}"])
+    trusted = compose_config(overrides=["algo=awac", f"algo.offline_buffer={pkl}", "trust_pickle=true"])
     assert trusted.algo.offline_buffer == str(pkl) and trusted.trust_pickle
     with pytest.raises(ConfigError, match="is not a replay buffer file"):
-        load_train_config(["algo=awac", f"algo.offline_buffer={tmp_path / 'buffer.txt'}"])
+        compose_config(overrides=["algo=awac", f"algo.offline_buffer={tmp_path / 'buffer.txt'}"])
 
 
 def test_init_from_a_step_of_a_missing_run_names_the_run(tmp_path):
-    from pyflyt_cli.commands.train import run_train
+    import re
 
-    with pytest.raises(ConfigError, match=r"init_from=.*@5: run directory .*nope does not exist"):
-        run_train([f"init_from={tmp_path / 'nope'}@5", f"train.output_dir={tmp_path / 'runs'}"])
-    with pytest.raises(ConfigError, match=r"write <run dir>@<step> with a whole number of steps"):
-        run_train([f"init_from={tmp_path}@five"], show_config=True)
+    missing = refused(["train", f"init_from={tmp_path / 'nope'}@5", f"train.output_dir={tmp_path / 'runs'}"])
+    assert re.search(r"init_from=.*@5: run directory .*nope does not exist", missing), missing
+    assert "write <run dir>@<step> with a whole number of steps" in refused(["train", f"init_from={tmp_path}@five", "--cfg"])
     assert not (tmp_path / "runs").exists()
 
 
 def test_gate_observation_option_is_a_documented_override():
     """docs/environments.md: `pyflyt train env=quadx_gates env.task.observation=corners`."""
-    assert load_train_config(["env=quadx_gates", "env.task.observation=corners"]).env.task.observation == "corners"
-    assert load_train_config(["env=quadx_gates_state"]).env.task.observation == "corners"
+    assert compose_config(overrides=["env=quadx_gates", "env.task.observation=corners"]).env.task.observation == "corners"
+    assert compose_config(overrides=["env=quadx_gates_state"]).env.task.observation == "corners"
     with pytest.raises(ConfigError, match="observation"):  # a value the option does not take
-        load_train_config(["env=quadx_gates", "env.task.observation=pixels"])
+        compose_config(overrides=["env=quadx_gates", "env.task.observation=pixels"])
