@@ -269,9 +269,11 @@ def _evaluation_step(cfg: Any, steps: int = 60) -> float:
     try:
         env.reset(seed=0)
         env.action_space.seed(0)
+        agents = int(getattr(env.unwrapped, "num_agents", 1))  # a multi-agent env takes one action per agent
         started = time.perf_counter()
         for _ in range(steps):
-            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            action = env.action_space.sample() if agents == 1 else [env.action_space.sample() for _ in range(agents)]
+            _, _, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 env.reset()
         return (time.perf_counter() - started) / steps
