@@ -487,6 +487,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         box_centre, box_half = _collision_box(self.model.corners)
         self._box_centre, self._box_half = box_centre, box_half
         self._bound_radius = float(np.linalg.norm(np.abs(box_centre) + box_half))
+        self._check_layout_spacing()
 
         m = self.model
         nm = m.motors
@@ -530,6 +531,24 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
         self._seed_all(seed)
+
+    def _check_layout_spacing(self) -> None:
+        """Agents the task's layout places must spawn clear of each other: the PyBullet env's
+        rule (``MultiAgentUAVEnv._check_layout_spacing``), the airframe's bounding radius taken
+        from its collision box."""
+        cfg = self.config
+        gap_of = getattr(cfg.task, "layout_gap", None)
+        if gap_of is None or not isinstance(cfg.agents, int):
+            return
+        gap = gap_of(cfg.agents)
+        noise = float(getattr(cfg.task, "position_noise", 0.0))
+        need = 2.0 * self._bound_radius + 2.0 * math.sqrt(3.0) * noise
+        if gap is not None and gap < need:
+            raise ConfigError(
+                f"agents: {cfg.agents} agents on the {cfg.task.layout} layout spawn {gap:.3f} m apart, but they need "
+                f"{need:.3f} m not to touch; raise task.layout_radius or task.layout_spacing, use task.layout: grid, "
+                "or lower task.position_noise"
+            )
 
     # ---------------------------------------------------------------- seeding
 

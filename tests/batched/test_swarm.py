@@ -216,6 +216,7 @@ def test_downwash_changes_the_lower_agents_flight_only(quiet_cf2x):
     upper, lower = [1, 3], [0, 2]
     assert np.array_equal(runs[True][upper], runs[False][upper])
     drop = runs[False][lower, 2] - runs[True][lower, 2]
+    print(f"the lower agents' drop after 1 s: {drop} m")
     assert (drop > 0.01).all(), drop
 
 
@@ -321,3 +322,11 @@ def test_what_it_simulates_and_what_it_refuses(overrides, named):
 def test_other_multi_agent_tasks_are_refused_by_name(env, task):
     with pytest.raises(UnsupportedByBatched, match=f"the multi-agent task '{task}'"):
         check_supported(load_env_config(env))
+
+
+def test_a_layout_whose_agents_would_touch_is_refused():
+    from pyflyt_engine.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="64 agents on the ring layout spawn 0.098 m apart"):
+        swarm.make_batched_swarm("ma_quadx_hover", agents=64)
+    assert swarm.make_batched_swarm("ma_quadx_hover", agents=64, layout="grid").num_envs == 64
