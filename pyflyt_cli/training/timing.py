@@ -147,9 +147,10 @@ def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
     if cfg.train.eval_freq > 0:
         from pyflyt_cli.training.multi_agent import agents_per_env
 
-        # an evaluation step moves every agent of the env: as many collected (agent-)steps
+        # an evaluation step moves every agent of the env: as many collected (agent-)steps, or
+        # the measured step of the PyBullet env the evaluations fly (all its agents at once)
         evals = total // cfg.train.eval_freq - done // cfg.train.eval_freq
-        per_step = agents_per_env(cfg.env) * (costs.collect if costs.evaluate is None else costs.evaluate)
+        per_step = agents_per_env(cfg.env) * costs.collect if costs.evaluate is None else costs.evaluate
         seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * per_step
     return seconds
 

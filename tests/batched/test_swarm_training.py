@@ -88,3 +88,17 @@ def test_same_seed_same_numbers_in_another_process():
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
             for _ in range(2)]
     assert runs[0] == runs[1] and len(runs[0]) > 1000
+
+
+def test_the_eta_counts_an_evaluation_step_of_the_pybullet_env_once(tmp_path):
+    """The evaluation cost measured for a batched run is per step of the PyBullet env, all
+    its agents at once: the estimate does not multiply it by the agent count again."""
+    from pyflyt_cli.training.timing import Costs, estimate_seconds
+
+    cfg = load([*PPO_SWARM, "env.agents=8"], tmp_path)
+    base = estimate_seconds(cfg, Costs(1e-5, 2e-5, None))
+    with_eval = estimate_seconds(cfg, Costs(1e-5, 2e-5, 0.01))
+    evals = cfg.train.total_timesteps // cfg.train.eval_freq
+    expected = 2048 * 3e-5 + evals * cfg.train.eval_episodes * cfg.env.max_steps * 0.01
+    assert abs(with_eval - expected) < 1e-9
+    assert abs(base - (2048 * 3e-5 + evals * cfg.train.eval_episodes * cfg.env.max_steps * 8 * 1e-5)) < 1e-9
