@@ -266,6 +266,29 @@ def test_a_collision_between_agents_retires_both_in_both_backends(quiet_cf2x):
     pb.close()
 
 
+def test_a_fall_to_the_ground_crashes_in_both_within_one_agent_step(quiet_cf2x):
+    """One agent's motors off: it falls from 1 m and crashes on the ground in both backends
+    within one agent step of each other (PyBullet reports contact from its contact threshold
+    on); the others hover on."""
+    pb, be = _pair(quiet_cf2x, 0, agents=STACKED[::2])  # the two lower agents, 1 m apart
+    hover = be.model.hover_thrust_fraction
+    act = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, hover]])
+    ends = {}
+    for step in range(1, 30):
+        _, _, t1, _, i1 = pb.step({name: act[pb.agent_index[name]] for name in pb.agents})
+        if t1.get("uav_0"):
+            ends["pybullet"] = (step, i1["uav_0"]["collision"])
+        live = be.alive.copy()
+        _, _, t2, _, i2 = be.step(act)
+        if live[0] and t2[0]:
+            ends["batched"] = (step, bool(i2["collision"][0]))
+    print(ends)
+    assert set(ends) == {"pybullet", "batched"} and all(c for _, c in ends.values()), ends
+    assert abs(ends["pybullet"][0] - ends["batched"][0]) <= 1, ends
+    assert pb.agents == ["uav_1"] and be.alive.tolist() == [False, True]
+    pb.close()
+
+
 # ---------------------------------------------------------------------------- the env
 
 
