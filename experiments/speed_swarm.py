@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pyflyt_engine.batched.swarm import make_batched_swarm  # noqa: E402
+from pyflyt_engine.batched.swarm import make_batched_swarm
 
 RESULTS = Path(__file__).resolve().parent / "results" / "speed_swarm.md"
 
@@ -73,8 +73,10 @@ def main() -> None:
     args = parser.parse_args()
     load_before = os.getloadavg()[0]
     lines = [
-        f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
-        f"one world, hover thrust, {args.steps} batched / {args.pybullet_steps} PyBullet steps per case\n",
+        (
+            f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
+            f"one world, hover thrust, {args.steps} batched / {args.pybullet_steps} PyBullet steps per case\n"
+        ),
         f"Command: `python experiments/speed_swarm.py {' '.join(sys.argv[1:])}`\n",
         "| agents | downwash | batched: CPU us per agent-step | PyBullet env: CPU us per agent-step | ratio |",
         "|---:|---|---:|---:|---:|",

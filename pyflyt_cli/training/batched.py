@@ -227,7 +227,7 @@ def _fly_worlds(venv: BatchedVecEnv, obs: np.ndarray, predict: Any, normalize: A
         if venv._rescale is not None:
             action = venv._rescale(action)
         live = ~np.repeat(done, agents) & env.alive
-        obs, reward, terminated, truncated, info = env.step(action)
+        obs, reward, _, _, info = env.step(action)
         obs = obs.astype(np.float32)
         returns[live] += reward[live]
         success[live & info["success"]] = True

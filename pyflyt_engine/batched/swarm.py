@@ -762,6 +762,14 @@ def make_batched_swarm(name: Any, worlds: int = 1, seed: int | None = None, **en
 
 
 __all__ = [
-    "BatchedSwarmEnv", "SWARM_TASKS", "advance_swarm", "boxes_overlap", "check_swarm_supported", "downwash_at",
-    "downwash_velocity", "make_batched_swarm", "py_hypot", "rotor_thrust",
+    "SWARM_TASKS",
+    "BatchedSwarmEnv",
+    "advance_swarm",
+    "boxes_overlap",
+    "check_swarm_supported",
+    "downwash_at",
+    "downwash_velocity",
+    "make_batched_swarm",
+    "py_hypot",
+    "rotor_thrust",
 ]

@@ -168,7 +168,7 @@ def _fly(pb, be, rng, steps, hover, motors=False):
                 actions[pb.agent_index[name]] = np.r_[rng.uniform(-0.5, 0.5, 3), hover * rng.uniform(0.95, 1.1)]
         o1, r1, t1, tr1, _ = pb.step({name: actions[pb.agent_index[name]] for name in live})
         o2, r2, t2, tr2, info = be.step(actions)
-        final = info["final_obs"] if "final_obs" in info else o2
+        final = info.get("final_obs", o2)
         for name in live:
             i = pb.agent_index[name]
             assert (t1[name], tr1[name]) == (bool(t2[i]), bool(tr2[i])), (step, name)

@@ -12,7 +12,6 @@ import yaml
 from pyflyt_cli.training import resume, train
 from pyflyt_cli.training.envs import make_vec_env
 from pyflyt_engine.envs.config import load_env_config
-
 from tests.train.conftest import load
 from tests.train.test_resume import SignalAt, _assert_same, _outcome, _reference
 
@@ -43,7 +42,7 @@ def test_the_slots_are_worlds_times_agents():
     # slot k A + i is agent i of world k: every world's agents start on the ring, in order
     ring = np.array([a.hover_point for a in cfg.resolved_agents()])
     assert np.abs(vec.env.pos.reshape(3, 4, 3) - ring).max() <= 0.1 + 1e-12
-    _, rewards, dones, infos = vec.step(np.zeros((12, 4), dtype=np.float32))  # mid thrust
+    _, rewards, dones, _ = vec.step(np.zeros((12, 4), dtype=np.float32))  # mid thrust
     assert rewards.shape == (12,) and not dones.any()
 
 
