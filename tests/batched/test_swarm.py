@@ -12,7 +12,7 @@ the body frame and reports the attitude through its rotation matrix) and by the 
 the drag and the downwash are read through; such a difference grows with the flight's
 sensitivity, and the downwash couples the agents (a lower agent's wind depends on the
 upper one's position and throttles).  480 physics steps x 4.4e-16 x a growth of even 1e3
-is ~2e-10, so 1e-6 holds with a wide margin; the test asserts 1e-6 on positions,
+is ~2e-10 (the growth an assumed margin, not measured for this flight), so 1e-6 holds with a wide margin; the test asserts 1e-6 on positions,
 observations and rewards of every live agent and prints what it measured.
 """
 
