@@ -15,6 +15,15 @@ then flies far before it is out, and the shared policy needs more agent-steps.
 config with the shipped tuning's changes, if it makes any), the policy probed on the env
 exactly as ``conf/env/ma_quadx_hover.yaml`` declares it (30 s episodes, 10 m dome).
 
+**The swarm.**  ``--agents N`` trains N agents per world (``env.agents``; more than 4 need
+``--layout grid``: 64 agents on a ring would spawn closer than the layout's spacing rule
+allows), ``--backend batched`` trains on the batched backend (``train.n_envs`` worlds of N
+agents, docs/batched.md), ``--downwash`` turns the agents' downwash on in training and in
+the probes; ``--experiment FILE`` starts from a tuning file (``pyflyt train
+experiment=FILE``, e.g. ``conf/experiment/ma_hover_swarm.yaml``).  The probes always fly
+the PyBullet engine.  Each row also gives the CPU time of the training process until the
+first hovering probe, the probes' own CPU taken out.
+
 **Hovering** means, for every agent of every probe episode: no crash for the whole 10 s
 and a mean distance to its own hover point below ``--max-distance`` (0.2 m).
 
@@ -31,6 +40,7 @@ to try a tuning: ``--set algo.n_steps=256 algo.n_epochs=10``).
 
     python experiments/learn_ma_hover_ppo.py [--seeds 0 1 2] [--budget 400000] [--probe-every 40000] [--max-distance 0.2]
         [--reference-limits | --shipped] [--compare-single 0 1 2 3] [--set KEY=VALUE ...]
+        [--agents 64 --layout grid --backend batched --downwash --experiment FILE]
 """
 
 from __future__ import annotations
@@ -55,6 +65,13 @@ from pyflyt_cli.training import compose_config, train
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"
 MAX_DISTANCE = 0.2  # [m], as learn_hover_ppo.py
 EPISODE_SECONDS = 10.0  # the single-agent hover episode
+
+
+def yaml_value(text: str):
+    """An override's value as the config reads it (``true``, ``64``, ``grid``)."""
+    import yaml
+
+    return yaml.safe_load(text)
 
 
 def single_agent_limits() -> dict[str, float]:
@@ -113,6 +130,7 @@ def run(
     max_distance: float = MAX_DISTANCE,
     limits: dict[str, float] | None = None,
     probe_env=None,
+    experiment: str | None = None,
 ) -> dict:
     limits = {"max_duration_seconds": EPISODE_SECONDS} if limits is None else limits
     overrides = [
@@ -124,6 +142,8 @@ def run(
         f"train.total_timesteps={budget}",
         "train.eval_freq=0",
     ]
+    if experiment:
+        overrides.insert(0, f"experiment={experiment}")
     cfg = compose_config(env="ma_quadx_hover", algo="ppo", overrides=overrides)
     probe = HoverProbe(
         cfg, every, episodes, max_distance=max_distance, probe_fn=hover_probe, unit="agent-steps", probe_env=probe_env
@@ -139,6 +159,8 @@ def run(
         "final": probe.history[-1][2],
         "steps_per_second": result.num_timesteps / max(total - probe.probe_time, 1e-9),
         "wall": total,
+        "backend": cfg.env.backend,
+        "n_envs": cfg.train.n_envs,
     }
 
 
@@ -222,6 +244,11 @@ def main() -> None:
         help="then train single-agent QuadX-Hover runs (its shipped PPO) with these seeds, probed the same way",
     )
     parser.add_argument("--single-probe-every", type=int, default=5_000, help="steps between single-agent probes")
+    parser.add_argument("--agents", type=int, default=None, help="agents per world (env.agents; default: the config's)")
+    parser.add_argument("--layout", choices=["ring", "grid"], default=None, help="the task's spawn layout")
+    parser.add_argument("--backend", choices=["pybullet", "batched", "auto"], default=None, help="env.backend")
+    parser.add_argument("--downwash", action="store_true", help="the agents' downwash on (training and probes)")
+    parser.add_argument("--experiment", default=None, help="a tuning file, as pyflyt train experiment=FILE")
     parser.add_argument(
         "--reference-limits",
         action="store_true",
@@ -246,7 +273,21 @@ def main() -> None:
     dome = limits.get("flight_dome_size", shipped.flight_dome_size)
     seconds = limits.get("max_duration_seconds", shipped.max_duration_seconds)
 
+    env_set = []
+    if args.agents is not None:
+        env_set.append(f"env.agents={args.agents}")
+    if args.layout is not None:
+        env_set.append(f"env.task.layout={args.layout}")
+    if args.backend is not None:
+        env_set.append(f"env.backend={args.backend}")
+    if args.downwash:
+        env_set.append("env.downwash=true")
+    args.set = [*env_set, *args.set]
+    probe_changes = {k.split("=")[0].removeprefix("env.").removeprefix("task."): yaml_value(k.split("=", 1)[1])
+                     for k in env_set if not k.startswith("env.backend")}
+
     load_before = os.getloadavg()[0]
+    cpu_before = time.process_time()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
@@ -261,7 +302,8 @@ def main() -> None:
                     args.set,
                     args.max_distance,
                     limits,
-                    probe_env=declared_env() if args.shipped else None,
+                    probe_env=declared_env().with_overrides(**probe_changes) if args.shipped else None,
+                    experiment=args.experiment,
                 )
             )
         singles = []
@@ -284,21 +326,25 @@ def main() -> None:
     lines = [
         (
             f"\n## {time.strftime('%Y-%m-%d %H:%M')} -- {platform.machine()}, {platform.python_version()}, "
-            f"4 agents, budget {args.budget} agent-steps, probe every {args.probe_every} x {args.episodes} episodes, "
+            f"{rows[0]['agents']} agents, backend {rows[0]['backend']} ({rows[0]['n_envs']} env(s)), "
+            f"downwash {'on' if args.downwash else 'off'}, budget {args.budget} agent-steps, "
+            f"probe every {args.probe_every} x {args.episodes} episodes, "
             f"hovering below {args.max_distance} m, {seconds:g} s episodes, "
             f"{dome:g} m flight dome\n"
         ),
+        f"Command: `python experiments/learn_ma_hover_ppo.py {' '.join(sys.argv[1:])}`\n",
         (
-            "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | final: all survived | "
-            "final: mean / worst distance [m] | final: mean per-agent return | training agent-steps/s | run wall-clock [s] |"
+            "| seed | hovers at [agent-steps] | wall-clock then [s] | without probes [s] | CPU then, without probes [s] | "
+            "final: all survived | final: mean / worst distance [m] | final: mean per-agent return | "
+            "training agent-steps/s | run wall-clock [s] |"
         ),
-        "|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         h, f = r["hover_at"], r["final"]
         lines.append(
             f"| {r['seed']} | {h[0] if h else 'not within budget'} | {f'{h[1]:.0f}' if h else '-'} | "
-            f"{f'{h[2]:.0f}' if h else '-'} | {100 * f['survived']:.0f} % | "
+            f"{f'{h[2]:.0f}' if h else '-'} | {f'{h[3]:.1f}' if h else '-'} | {100 * f['survived']:.0f} % | "
             f"{f['mean_distance']:.3f} / {f['worst_distance']:.3f} | {f['mean_return']:.1f} | "
             f"{r['steps_per_second']:.0f} | {r['wall']:.0f} |"
         )
@@ -308,7 +354,10 @@ def main() -> None:
     )
     if singles:
         lines += comparison(rows, singles, iqm)
-    lines.append(f"\nLoad average (1 min): {load_before:.1f} at the start, {load_after:.1f} at the end.")
+    lines.append(
+        f"\nLoad average (1 min): {load_before:.1f} at the start, {load_after:.1f} at the end; CPU time of this "
+        f"process {time.process_time() - cpu_before:.0f} s for the whole experiment (probes included)."
+    )
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:

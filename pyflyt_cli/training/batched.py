@@ -6,7 +6,11 @@ what the PyBullet backend's training envs show it
 (:func:`pyflyt_cli.training.envs.wrap_for_agent`): float32 observations, actions in
 [-1, 1] rescaled to the env's units by Gymnasium's own rescaling, and ``Monitor``'s episode
 statistics (``info["episode"]`` with ``r``, ``l``, ``t`` and ``success``) plus
-``terminal_observation`` and ``TimeLimit.truncated`` at an episode's end.  So PPO, SAC,
+``terminal_observation`` and ``TimeLimit.truncated`` at an episode's end.  A multi-agent
+config (:class:`pyflyt_engine.batched.swarm.BatchedSwarmEnv`) makes ``n_envs`` worlds of its
+agents, a slot per agent, with the slots' convention of
+:mod:`pyflyt_cli.training.multi_agent`: a retired agent's slot is padding until its world's
+episode ends, and then ends without episode statistics.  So PPO, SAC,
 ``VecNormalize``, the callbacks (a training curriculum's ``set_task_changes`` included)
 and checkpoints work on it unchanged.
 
@@ -27,7 +31,7 @@ from gymnasium import spaces
 from gymnasium.wrappers.utils import rescale_box
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from pyflyt_engine.batched import BatchedUAVEnv
+from pyflyt_engine.batched.env import batched_vector_env
 from pyflyt_engine.envs.config import EnvConfig
 
 #: the per-env arrays a checkpoint carries (their rows), in this order
@@ -40,10 +44,11 @@ _STATE_ARRAYS = (
 
 
 class BatchedVecEnv(VecEnv):
-    """``n_envs`` copies of ``config``'s task on the batched backend, as an SB3 ``VecEnv``."""
+    """``n_envs`` copies of ``config``'s task on the batched backend, as an SB3 ``VecEnv``
+    (a multi-agent config: ``n_envs`` worlds, ``n_envs x agents`` slots)."""
 
     def __init__(self, config: EnvConfig, n_envs: int) -> None:
-        self.env = BatchedUAVEnv(config, num_envs=n_envs)
+        self.env = batched_vector_env(config, n_envs)
         single = self.env.single_observation_space
         obs_space = spaces.Box(
             np.asarray(single.low, dtype=np.float32), np.asarray(single.high, dtype=np.float32), dtype=np.float32
@@ -54,7 +59,7 @@ class BatchedVecEnv(VecEnv):
         if not (np.allclose(act.low, -1.0) and np.allclose(act.high, 1.0)):
             action_space, _, self._rescale = rescale_box(act, -1.0, 1.0)
         self.render_mode = None
-        super().__init__(n_envs, obs_space, action_space)
+        super().__init__(self.env.num_envs, obs_space, action_space)
         self._actions: np.ndarray | None = None
         self._started = time.perf_counter()
 
@@ -82,7 +87,11 @@ class BatchedVecEnv(VecEnv):
             final = info["final_obs"]
             episode = info["episode"]
             elapsed = round(time.perf_counter() - self._started, 6)
+            ended = info.get("_episode", dones)
             for i in np.nonzero(dones)[0].tolist():
+                if not ended[i]:  # a multi-agent padding slot: it ends with its world's episode, no statistics
+                    infos[i] = {"terminal_observation": final[i].astype(np.float32), "TimeLimit.truncated": False}
+                    continue
                 infos[i] = {
                     "terminal_observation": final[i].astype(np.float32),
                     "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
@@ -136,7 +145,7 @@ class BatchedVecEnv(VecEnv):
     def episode_state(self, i: int) -> dict[str, Any]:
         """Env ``i``'s whole state as plain data (and no actions: nothing is re-simulated)."""
         env = self.env
-        state = {name: getattr(env, name)[i].tolist() for name in _STATE_ARRAYS}
+        state = {name: getattr(env, name)[i].tolist() for name in getattr(env, "state_arrays", _STATE_ARRAYS)}
         streams: dict[str, Any] = {"env": env.env_rngs[i].bit_generator.state}
         if i == 0:
             streams["noise"] = env.noise_rng.bit_generator.state
@@ -148,7 +157,7 @@ class BatchedVecEnv(VecEnv):
         """Put env ``i``'s state back (:meth:`episode_state`); returns its observation."""
         env = self.env
         saved = state["batched"]
-        for name in _STATE_ARRAYS:
+        for name in getattr(env, "state_arrays", _STATE_ARRAYS):
             row = getattr(env, name)
             if name not in saved and row[i].size == 0:  # a checkpoint from before the fixed-wing's arrays
                 continue
@@ -176,6 +185,8 @@ def fly_episodes(
     venv = BatchedVecEnv(config.model_copy(update={"backend": "batched"}), episodes)
     venv.seed(seed)
     obs = venv.reset()
+    if hasattr(venv.env, "worlds"):  # multi-agent: an episode per world
+        return _fly_worlds(venv, obs, predict, normalize, deterministic)
     done = np.zeros(episodes, dtype=bool)
     returns = np.zeros(episodes)
     success = np.zeros(episodes, dtype=bool)
@@ -197,5 +208,32 @@ def fly_episodes(
     if venv.env.targets.shape[1]:
         out["waypoints_reached"] = float(reached.mean())
         out["all_reached"] = float(np.mean(reached >= venv.env.targets.shape[1]))
+    venv.close()
+    return out
+
+
+def _fly_worlds(venv: BatchedVecEnv, obs: np.ndarray, predict: Any, normalize: Any,
+                deterministic: bool) -> dict[str, float]:
+    """:func:`fly_episodes` of a multi-agent config: the first episode of every world, as the
+    PyBullet engine's shared-policy env scores one (:class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`):
+    its return is the mean of its agents' returns, it succeeds when every agent did."""
+    env = venv.env
+    worlds, agents = env.worlds, env.agents
+    done = np.zeros(worlds, dtype=bool)
+    returns = np.zeros(env.num_envs)
+    success = np.zeros(env.num_envs, dtype=bool)
+    while not done.all():
+        action = np.asarray(predict(normalize(obs) if normalize is not None else obs, deterministic), dtype=np.float64)
+        if venv._rescale is not None:
+            action = venv._rescale(action)
+        live = ~np.repeat(done, agents) & env.alive
+        obs, reward, _, _, info = env.step(action)
+        obs = obs.astype(np.float32)
+        returns[live] += reward[live]
+        success[live & info["success"]] = True
+        done |= env.world_over.reshape(worlds, agents).any(axis=1)
+    per_world = success.reshape(worlds, agents).all(axis=1)
+    out = {"episodes": float(worlds), "success_rate": float(per_world.mean()),
+           "mean_return": float(returns.reshape(worlds, agents).mean(axis=1).mean())}
     venv.close()
     return out

@@ -147,9 +147,10 @@ def estimate_seconds(cfg: Any, costs: Costs, done: int = 0) -> float:
     if cfg.train.eval_freq > 0:
         from pyflyt_cli.training.multi_agent import agents_per_env
 
-        # an evaluation step moves every agent of the env: as many collected (agent-)steps
+        # an evaluation step moves every agent of the env: as many collected (agent-)steps, or
+        # the measured step of the PyBullet env the evaluations fly (all its agents at once)
         evals = total // cfg.train.eval_freq - done // cfg.train.eval_freq
-        per_step = agents_per_env(cfg.env) * (costs.collect if costs.evaluate is None else costs.evaluate)
+        per_step = agents_per_env(cfg.env) * costs.collect if costs.evaluate is None else costs.evaluate
         seconds += max(0, evals) * cfg.train.eval_episodes * _episode_steps(cfg) * per_step
     return seconds
 
@@ -269,9 +270,11 @@ def _evaluation_step(cfg: Any, steps: int = 60) -> float:
     try:
         env.reset(seed=0)
         env.action_space.seed(0)
+        agents = int(getattr(env.unwrapped, "num_agents", 1))  # a multi-agent env takes one action per agent
         started = time.perf_counter()
         for _ in range(steps):
-            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            action = env.action_space.sample() if agents == 1 else [env.action_space.sample() for _ in range(agents)]
+            _, _, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 env.reset()
         return (time.perf_counter() - started) / steps

@@ -66,13 +66,18 @@ BATCHED_TASKS = ("hover", "waypoints")
 CONTEXT_LENGTH = 2
 
 
-def check_supported(config: EnvConfig) -> None:
-    """Refuse, by name, every key of ``config`` the batched backend does not simulate."""
+def check_supported(config: EnvConfig, multi_agent: bool = False) -> None:
+    """Refuse, by name, every key of ``config`` the batched backend does not simulate
+    (a multi-agent config: :func:`pyflyt_engine.batched.swarm.check_swarm_supported`, which
+    checks its other keys here with ``multi_agent=True``)."""
     from pyflyt_engine.envs.config import MultiAgentEnvConfig
 
-    if isinstance(config, MultiAgentEnvConfig):
-        raise refuse("multi-agent env configs (agents)")
-    if config.task.name not in BATCHED_TASKS:
+    if isinstance(config, MultiAgentEnvConfig) and not multi_agent:
+        from pyflyt_engine.batched.swarm import check_swarm_supported
+
+        check_swarm_supported(config)
+        return
+    if not multi_agent and config.task.name not in BATCHED_TASKS:
         raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
     from pyflyt_engine.atmosphere import load_wind_config
 
@@ -133,8 +138,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, config: Any, num_envs: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
+        from pyflyt_engine.envs.config import MultiAgentEnvConfig
+
         cfg = load_env_config(config)
         check_supported(cfg)
+        if isinstance(cfg, MultiAgentEnvConfig):
+            raise ConfigError(
+                f"BatchedUAVEnv flies single-agent configs; {cfg.id or cfg.source} has agents: build it with "
+                "make_batched_env or pyflyt_engine.batched.swarm.BatchedSwarmEnv (a slot per agent)"
+            )
         if num_envs < 1:
             raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
         self.config = cfg
@@ -552,8 +564,10 @@ def preset_name(cfg: EnvConfig) -> str:
     return name if isinstance(name, str) else "inline"
 
 
-def make_batched_env(name: Any, n_envs: int = 1, seed: int | None = None, **env_overrides: Any) -> BatchedUAVEnv:
-    """``n_envs`` copies of an env config's task on the batched backend, as a Gymnasium vector env.
+def make_batched_env(name: Any, n_envs: int = 1, seed: int | None = None, **env_overrides: Any) -> Any:
+    """``n_envs`` copies of an env config's task on the batched backend, as a Gymnasium vector env
+    (a multi-agent config: ``n_envs`` worlds of its agents, a slot per agent,
+    :class:`~pyflyt_engine.batched.swarm.BatchedSwarmEnv`).
 
     Args:
         name: a shipped env config (``"quadx_hover"``), a registered id
@@ -567,7 +581,22 @@ def make_batched_env(name: Any, n_envs: int = 1, seed: int | None = None, **env_
     cfg = load_env_config(ENVS[name].config if isinstance(name, str) and name in ENVS else name)
     if env_overrides:
         cfg = cfg.with_overrides(**env_overrides)
+    return batched_vector_env(cfg, n_envs, seed=seed)
+
+
+def batched_vector_env(cfg: EnvConfig, n_envs: int, seed: int | None = None) -> Any:
+    """The batched vector env of ``cfg``: ``n_envs`` copies of a single-agent task
+    (:class:`BatchedUAVEnv`), or ``n_envs`` worlds of a multi-agent config's agents, a slot
+    per agent (:class:`~pyflyt_engine.batched.swarm.BatchedSwarmEnv`)."""
+    from pyflyt_engine.envs.config import MultiAgentEnvConfig
+
+    if isinstance(cfg, MultiAgentEnvConfig):
+        from pyflyt_engine.batched.swarm import BatchedSwarmEnv
+
+        return BatchedSwarmEnv(cfg, worlds=n_envs, seed=seed)
     return BatchedUAVEnv(cfg, num_envs=n_envs, seed=seed)
 
 
-__all__ = ["BATCHED_TASKS", "BatchedUAVEnv", "check_supported", "make_batched_env", "resolve_backend"]
+__all__ = [
+    "BATCHED_TASKS", "BatchedUAVEnv", "batched_vector_env", "check_supported", "make_batched_env", "resolve_backend",
+]

@@ -366,7 +366,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("fixedwing_waypoints", {"wind": "dryden_light"}, "wind"),
         ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),
-        ("ma_quadx_hover", {}, "multi-agent"),
+        ("ma_quadx_formation", {}, "multi-agent task 'ma_formation'"),
     ],
 )
 def test_what_it_cannot_simulate_is_refused_by_name(env_name, overrides, named):

@@ -1,0 +1,775 @@
+"""The batched multi-agent hover: W worlds of A quadrotors each, downwash between the agents of a world.
+
+:class:`BatchedSwarmEnv` flies MAQuadX-Hover (``conf/env/ma_quadx_hover.yaml``, task
+``ma_hover``) for ``worlds`` independent worlds of ``A`` agents, every agent one slot of a
+``gymnasium.vector.VectorEnv`` (slot ``k A + i`` is agent ``i`` of world ``k``, the layout of
+:class:`pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`), advanced by one compiled call
+per agent step (:func:`advance_swarm`).  Each vehicle flies the batched multirotor laws of
+:mod:`pyflyt_engine.batched.kernels` (rate loop, mixer, motors, body drag, the rigid body);
+what the agents of one world do to each other:
+
+* **downwash** (``env.downwash: true``): the engine's law,
+  :func:`pyflyt_engine.atmosphere.rotors.downwash_velocity` summed over the rotorcraft above
+  as :meth:`~pyflyt_engine.atmosphere.rotors.RotorInteractions.downwash_at` sums it, compiled
+  here in the same order of operations (:func:`downwash_velocity`, :func:`downwash_at`; the
+  off-axis distance by :func:`py_hypot`, CPython's own ``math.hypot`` algorithm, since the C
+  library's ``hypot`` rounds differently in ~0.3 % of cases).  ``tests/batched/test_laws.py``
+  holds both to the scalar forms bit for bit.  As in the PyBullet engine's loop
+  (:meth:`pyflyt_engine.world.World.step`), each vehicle's wind is taken when it is read,
+  from the others' latest reads (this physics step for the agents before it, the previous
+  one for those after it) and their throttles as they stand (on a control tick every
+  vehicle's of the previous physics step; between ticks, those before it already stepped),
+  and enters as the vertical wind of its air velocity (body drag);
+* **agent-agent contact**: two vehicles touch when their collision boxes overlap (a
+  separating-axis test on each airframe's box about its collision geometry, exact for the
+  single-box Crazyflie), sampled where the PyBullet engine samples contacts; PyBullet
+  reports contacts from its contact threshold on, so it may retire a pair up to an agent
+  step earlier;
+* **ground contact**: as :func:`pyflyt_engine.batched.kernels.advance` (the lowest
+  collision point below the ground).
+
+Episodes follow the PyBullet env's (:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`
+with :class:`~pyflyt_engine.envs.multi_agent.hover_task.MAHoverTask`): a live agent is
+*terminated* on any contact (ground or another agent, retired ones included) or leaving the
+dome, *truncated* at the time limit (a success); an agent whose episode ended is retired:
+disarmed (motor commands 0, its controller no longer runs), it falls and stays a body the
+others can hit and whose wake still blows (its throttles decaying).  The PyBullet engine's
+ground holds a fallen vehicle; here a retired vehicle that reaches the ground is held there
+at rest.  A world's episode ends when no agent is left; it then starts its next one.
+
+Slots (the convention of :mod:`pyflyt_cli.training.multi_agent`): an agent whose episode
+ends is ``done`` with its last observation in ``final_obs`` and its return and length in
+``episode``; until its world's episode ends the slot is padding (zero observation, zero
+reward), and ends (``done``, ``final_obs`` zeros, no ``episode`` entry: ``_episode`` False)
+when its world restarts.
+
+Per world, spawns are drawn from the world's own generator (spawned from the seed), agent
+by agent in order: position offsets ``U(-noise, noise, 3)`` then attitude offsets, as the
+PyBullet env's ``_spawn`` draws them; motor noise from one generator for the batch.
+What the batched multi-agent path does not simulate is refused by name at load
+(:func:`check_swarm_supported`): other multi-agent tasks (formation, dogfight), agents with
+different airframes, and every key the single-agent batched backend refuses.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+from numba import njit
+
+from pyflyt_engine import exact
+from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
+from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched.kernels import (
+    MODE_RATES_THRUST,
+    _lowest,
+    drag_wrench,
+    integrate_state,
+    mix,
+    motors_step,
+    rate_loop,
+    rotation_tuple,
+    summed,
+)
+from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
+from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.frames import euler_to_quaternion
+from pyflyt_engine.spec import UAVSpec, load_uav_spec
+
+#: multi-agent tasks the batched backend runs
+SWARM_TASKS = ("ma_hover",)
+
+# ------------------------------------------------------------------ the downwash law
+
+
+@njit(cache=True)
+def py_hypot(x: float, y: float) -> float:
+    """``math.hypot(x, y)`` as CPython computes it (``vector_norm`` in Modules/mathmodule.c:
+    scaling by a power of two, Dekker's exact products, compensated sums and one
+    differential correction), so that the compiled downwash rounds as the scalar one does;
+    the C library's ``hypot``, which numba calls, differs in the last bit for some inputs."""
+    ax, ay = abs(x), abs(y)
+    if math.isinf(ax) or math.isinf(ay):
+        return math.inf
+    if math.isnan(ax) or math.isnan(ay):
+        return math.nan
+    top = ax if ax > ay else ay
+    if top == 0.0:
+        return top
+    _, max_e = math.frexp(top)
+    if max_e < -1023:  # subnormal scale: as CPython, through DBL_MIN
+        dbl_min = 2.2250738585072014e-308
+        return dbl_min * py_hypot(ax / dbl_min, ay / dbl_min)
+    scale = math.ldexp(1.0, -max_e)
+    csum = 1.0
+    frac1 = 0.0
+    frac2 = 0.0
+    for k in range(2):
+        v = (ax if k == 0 else ay) * scale
+        # dl_mul(v, v): Dekker's split and product
+        t = v * 134217729.0
+        hi = t - (t - v)
+        lo = v - hi
+        p = hi * hi
+        q = hi * lo + lo * hi
+        z = p + q
+        zz = p - z + q + lo * lo
+        # dl_fast_sum(csum, z)
+        s = csum + z
+        e = (csum - s) + z
+        csum = s
+        frac1 += zz
+        frac2 += e
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    # dl_mul(-h, h)
+    t = -h * 134217729.0
+    hi1 = t - (t - -h)
+    lo1 = -h - hi1
+    t = h * 134217729.0
+    hi2 = t - (t - h)
+    lo2 = h - hi2
+    p = hi1 * hi2
+    q = hi1 * lo2 + lo1 * hi2
+    z = p + q
+    zz = p - z + q + lo1 * lo2
+    s = csum + z
+    e = (csum - s) + z
+    csum = s
+    frac1 += zz
+    frac2 += e
+    v = csum - 1.0 + (frac1 + frac2)
+    h += v / (2.0 * h)
+    return h / scale
+
+
+@njit(cache=True)
+def downwash_velocity(dz: float, r: float, thrust: float, disc_area: float, air_density: float,
+                      square: float) -> float:
+    """:func:`pyflyt_engine.atmosphere.rotors.downwash_velocity`, compiled: the downward wake
+    speed [m/s] ``dz`` below and ``r`` off the axis of a rotorcraft of ``thrust`` [N] over
+    ``disc_area`` [m^2] (0 above it or without thrust).
+
+    ``square`` is 2.0, given at run time: the scalar law's ``(r / half) ** 2`` is the C
+    library's ``pow(x, 2.0)`` (Python's float power), which differs from ``x * x`` in the last
+    bit for ~0.1 % of inputs; an exponent the compiler cannot see keeps the call to ``pow``
+    instead of folding it into a multiplication."""
+    if dz <= 0.0 or thrust <= 0.0 or disc_area <= 0.0:
+        return 0.0
+    jet = 2.0 * math.sqrt(thrust / (2.0 * air_density * disc_area))
+    d = math.sqrt(2.0 * disc_area / math.pi)
+    x = dz + JET_DECAY * d
+    half = JET_SPREAD * x
+    return jet * JET_DECAY * d / x * math.exp(-_LN2 * (r / half) ** square)
+
+
+@njit(cache=True)
+def rotor_thrust(throttle: np.ndarray, max_thrust: np.ndarray, is_rotor: np.ndarray) -> float:
+    """:meth:`RotorInteractions.thrust`: ``sum t x |x|`` over the motors with a radius, in order."""
+    total = 0.0
+    for m in range(throttle.shape[0]):
+        if is_rotor[m]:
+            x = throttle[m]
+            total += max_thrust[m] * x * abs(x)
+    return total
+
+
+_REACH = WAKE_REACH * JET_SPREAD
+
+
+@njit(cache=True)
+def downwash_at(index: int, x: float, y: float, z: float, positions: np.ndarray, throttles: np.ndarray,
+                max_thrust: np.ndarray, is_rotor: np.ndarray, disc_area: float, jet_diameter: float,
+                air_density: float, square: float) -> float:
+    """:meth:`RotorInteractions.downwash_at` for vehicle ``index`` at (x, y, z) among vehicles of
+    one airframe at ``positions`` (A, 3) with ``throttles`` (A, motors): the vertical wind
+    [m/s] (negative: down).  The vehicles beyond a wake's reach (``WAKE_REACH`` half-widths,
+    where the term is exactly 0.0: :meth:`RotorInteractions.sources`'s test) are skipped,
+    which leaves every bit of the sum as it is.  ``square``: 2.0 (:func:`downwash_velocity`)."""
+    w = 0.0
+    if disc_area <= 0.0:
+        return w
+    for j in range(positions.shape[0]):
+        if j == index:
+            continue
+        cx, cy, cz = positions[j, 0], positions[j, 1], positions[j, 2]
+        if cz <= z:
+            continue
+        reach = _REACH * (cz - z + JET_DECAY * jet_diameter)
+        dx, dy = x - cx, y - cy
+        if dx * dx + dy * dy > reach * reach:
+            continue
+        thrust = rotor_thrust(throttles[j], max_thrust, is_rotor)
+        w -= downwash_velocity(cz - z, py_hypot(dx, dy), thrust, disc_area, air_density, square)
+    return w
+
+
+# ------------------------------------------------------------------ agent-agent contact
+
+
+@njit(cache=True)
+def boxes_overlap(pa: np.ndarray, ra, pb: np.ndarray, rb, centre: np.ndarray, half: np.ndarray) -> bool:
+    """Whether two boxes of half extents ``half`` about ``centre`` (body frame) overlap, the
+    bodies at ``pa``, ``pb`` with body-to-ground rotations ``ra``, ``rb`` (row-major 9-tuples):
+    the separating-axis test over the 15 axes of two oriented boxes."""
+    c0, c1, c2 = centre[0], centre[1], centre[2]
+    tx = (pb[0] + rb[0] * c0 + rb[1] * c1 + rb[2] * c2) - (pa[0] + ra[0] * c0 + ra[1] * c1 + ra[2] * c2)
+    ty = (pb[1] + rb[3] * c0 + rb[4] * c1 + rb[5] * c2) - (pa[1] + ra[3] * c0 + ra[4] * c1 + ra[5] * c2)
+    tz = (pb[2] + rb[6] * c0 + rb[7] * c1 + rb[8] * c2) - (pa[2] + ra[6] * c0 + ra[7] * c1 + ra[8] * c2)
+    m = np.empty((3, 3))
+    am = np.empty((3, 3))
+    t = np.empty(3)
+    for i in range(3):  # axis i of a: column i of ra
+        t[i] = tx * ra[i] + ty * ra[3 + i] + tz * ra[6 + i]
+        for j in range(3):
+            m[i, j] = ra[i] * rb[j] + ra[3 + i] * rb[3 + j] + ra[6 + i] * rb[6 + j]
+            am[i, j] = abs(m[i, j]) + 1e-12
+    for i in range(3):
+        if abs(t[i]) > half[i] + half[0] * am[i, 0] + half[1] * am[i, 1] + half[2] * am[i, 2]:
+            return False
+    for j in range(3):
+        tb = t[0] * m[0, j] + t[1] * m[1, j] + t[2] * m[2, j]
+        if abs(tb) > half[0] * am[0, j] + half[1] * am[1, j] + half[2] * am[2, j] + half[j]:
+            return False
+    for i in range(3):
+        i1, i2 = (i + 1) % 3, (i + 2) % 3
+        for j in range(3):
+            j1, j2 = (j + 1) % 3, (j + 2) % 3
+            ra_ = half[i1] * am[i2, j] + half[i2] * am[i1, j]
+            rb_ = half[j1] * am[i, j2] + half[j2] * am[i, j1]
+            if abs(t[i2] * m[i1, j] - t[i1] * m[i2, j]) > ra_ + rb_:
+                return False
+    return True
+
+
+# ------------------------------------------------------------------ the step
+
+
+@njit(cache=True)
+def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous, has_previous, setpoint, factors,
+                  mode, armed, parked, agents, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows,
+                  max_collective, rate_gains, derivative, drag_factors, damping, drag_on, corners, box_centre,
+                  box_half, bound_radius, ground_contact, agent_contact, gravity, physics_dt, control_dt, start,
+                  count, per_control, downwash_on, max_thrust, is_rotor, disc_area, jet_diameter, air_density,
+                  square):
+    """Advance every world (rows ``k A ... k A + A - 1`` of every array are world ``k``'s agents)
+    ``count`` physics steps from physics step ``start``, in the PyBullet engine's order
+    (:meth:`pyflyt_engine.world.World.step` with downwash): per physics step, on a control
+    tick every vehicle is read, gets its air (the downwash of the others at their latest
+    reads) and runs its controller, then every vehicle steps its motors and drag; between
+    ticks each vehicle in turn is read, gets its air and steps its motors and drag; then
+    every body integrates.  A disarmed vehicle (``armed`` False) commands its motors to 0
+    and runs no controller; a ``parked`` one (retired, on the ground) stays at rest.
+    Contacts are sampled at the end of each control period and of the step:
+    ``ground_contact`` (lowest point below the ground; a disarmed vehicle touching it is
+    parked) and ``agent_contact`` (collision boxes overlap, both vehicles flagged).
+    The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
+    for every vehicle; ``square`` is 2.0 (:func:`downwash_velocity`).
+    """
+    n = pos.shape[0]
+    worlds = n // agents
+    nm = throttle.shape[1]
+    rates = np.empty(3)
+    torques = np.empty(3)
+    out = np.empty(nm)
+    parts = np.empty((nm, 4))
+    seen = np.empty((agents, 3))
+    air = np.empty((agents, 6))
+    loads = np.empty((agents, 6))
+    jx, jy, jz = inertia[0], inertia[1], inertia[2]
+    kx, ky, kz = drag_factors[0], drag_factors[1], drag_factors[2]
+    reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
+    for k in range(worlds):
+        base = k * agents
+        for a in range(agents):
+            ground_contact[base + a] = False
+            agent_contact[base + a] = False
+            # every vehicle's latest read: its state after the last agent step (the env reads them all)
+            seen[a, 0], seen[a, 1], seen[a, 2] = pos[base + a, 0], pos[base + a, 1], pos[base + a, 2]
+        thr = throttle[base:base + agents]
+        for s in range(count):
+            step = start + s
+            tick = step % per_control == 0
+            for a in range(agents):
+                i = base + a
+                seen[a, 0], seen[a, 1], seen[a, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
+                r0, r1, r2, r3, r4, r5, r6, r7, r8 = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                w0, w1, w2 = angvel[i, 0], angvel[i, 1], angvel[i, 2]
+                v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
+                bw0 = r0 * w0 + r3 * w1 + r6 * w2
+                bw1 = r1 * w0 + r4 * w1 + r7 * w2
+                bw2 = r2 * w0 + r5 * w1 + r8 * w2
+                wz = 0.0
+                if downwash_on:
+                    wz = downwash_at(a, seen[a, 0], seen[a, 1], seen[a, 2], seen, thr, max_thrust, is_rotor,
+                                     disc_area, jet_diameter, air_density, square)
+                if tick:  # the air from the state read (air_velocity_from_body)
+                    bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                    bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                    bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                    air[a, 0] = bv0 - (r0 * 0.0 + r3 * 0.0 + r6 * wz)
+                    air[a, 1] = bv1 - (r1 * 0.0 + r4 * 0.0 + r7 * wz)
+                    air[a, 2] = bv2 - (r2 * 0.0 + r5 * 0.0 + r8 * wz)
+                    air[a, 3] = bw0 - (r0 * 0.0 + r3 * 0.0 + r6 * 0.0)
+                    air[a, 4] = bw1 - (r1 * 0.0 + r4 * 0.0 + r7 * 0.0)
+                    air[a, 5] = bw2 - (r2 * 0.0 + r5 * 0.0 + r8 * 0.0)
+                    cmd = command[i]
+                    if not armed[i]:
+                        for mo in range(nm):
+                            cmd[mo] = 0.0
+                    elif mode == MODE_RATES_THRUST:
+                        rates[0], rates[1], rates[2] = bw0, bw1, bw2
+                        if not has_previous[i]:
+                            previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
+                        rate_loop(setpoint[i, :3], rates, previous[i], integral[i], rate_gains, derivative,
+                                  control_inertia, gyro, control_dt, torques)
+                        previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
+                        has_previous[i] = True
+                        mix(setpoint[i, 3] * max_collective, torques[0], torques[1], torques[2], mixer_rows,
+                            parts, out)
+                        for mo in range(nm):
+                            cmd[mo] = out[mo]
+                    else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
+                        for mo in range(nm):
+                            c = setpoint[i, mo]
+                            cmd[mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
+                else:  # the air from a motion read (air_velocity with the wind)
+                    lx, ly, lz = v0 - 0.0, v1 - 0.0, v2 - wz
+                    ax, ay, az = w0 - 0.0, w1 - 0.0, w2 - 0.0
+                    air[a, 0] = r0 * lx + r3 * ly + r6 * lz
+                    air[a, 1] = r1 * lx + r4 * ly + r7 * lz
+                    air[a, 2] = r2 * lx + r5 * ly + r8 * lz
+                    air[a, 3] = r0 * ax + r3 * ay + r6 * az
+                    air[a, 4] = r1 * ax + r4 * ay + r7 * az
+                    air[a, 5] = r2 * ax + r5 * ay + r8 * az
+                    load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                    if drag_on:
+                        load = summed(load, drag_wrench(air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4],
+                                                        air[a, 5], kx, ky, kz, damping))
+                    for c in range(6):
+                        loads[a, c] = load[c]
+            if tick:
+                for a in range(agents):
+                    i = base + a
+                    load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                    if drag_on:
+                        load = summed(load, drag_wrench(air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4],
+                                                        air[a, 5], kx, ky, kz, damping))
+                    for c in range(6):
+                        loads[a, c] = load[c]
+            for a in range(agents):
+                i = base + a
+                if parked[i]:
+                    continue
+                r = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                p, q, v, w = integrate_state(
+                    (pos[i, 0], pos[i, 1], pos[i, 2]), (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3]),
+                    (vel[i, 0], vel[i, 1], vel[i, 2]), (angvel[i, 0], angvel[i, 1], angvel[i, 2]), r,
+                    (loads[a, 0], loads[a, 1], loads[a, 2], loads[a, 3], loads[a, 4], loads[a, 5]),
+                    mass, jx, jy, jz, gravity, physics_dt,
+                )
+                pos[i, 0], pos[i, 1], pos[i, 2] = p
+                quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
+                vel[i, 0], vel[i, 1], vel[i, 2] = v
+                angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
+            if (step + 1) % per_control == 0 or s == count - 1:  # a contact sample
+                for a in range(agents):
+                    i = base + a
+                    rr = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                    if _lowest(pos[i, 2], rr[6], rr[7], rr[8], corners) < 0.0:
+                        ground_contact[i] = True
+                        if not armed[i] and not parked[i]:  # a retired vehicle lands and lies there
+                            parked[i] = True
+                            vel[i, 0], vel[i, 1], vel[i, 2] = 0.0, 0.0, 0.0
+                            angvel[i, 0], angvel[i, 1], angvel[i, 2] = 0.0, 0.0, 0.0
+                for a in range(agents):
+                    i = base + a
+                    for b in range(a + 1, agents):
+                        j = base + b
+                        dx = pos[i, 0] - pos[j, 0]
+                        dy = pos[i, 1] - pos[j, 1]
+                        dz = pos[i, 2] - pos[j, 2]
+                        if dx * dx + dy * dy + dz * dz > reach2:
+                            continue
+                        ra = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                        rb = rotation_tuple(quat[j, 0], quat[j, 1], quat[j, 2], quat[j, 3])
+                        if boxes_overlap(pos[i], ra, pos[j], rb, box_centre, box_half):
+                            agent_contact[i] = True
+                            agent_contact[j] = True
+
+
+# ------------------------------------------------------------------ the env
+
+
+def check_swarm_supported(config: Any) -> None:
+    """Refuse, by name, what the batched multi-agent path does not simulate in a multi-agent config."""
+    from pyflyt_engine.batched.env import check_supported
+
+    if config.task.name not in SWARM_TASKS:
+        raise refuse(f"the multi-agent task '{config.task.name}'", f"it runs {', '.join(SWARM_TASKS)}")
+    agents = config.resolved_agents()
+    uavs = sorted({a.uav for a in agents})
+    if len(uavs) > 1:
+        raise refuse(f"agents of different airframes ({', '.join(uavs)})", "give every agent the env's uav")
+    # every other key as the single-agent backend checks it (downwash is simulated here)
+    single = config.model_copy(update={"downwash": False})
+    check_supported(single, multi_agent=True)
+
+
+class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
+    """``worlds`` worlds of a multi-agent hover config's agents, one slot per agent (module docstring).
+
+    Args:
+        config: a multi-agent env config (``"ma_quadx_hover"``, a YAML path, a mapping or a
+            :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`).
+        worlds: how many worlds.
+        seed: seeds the first reset.
+        motor_noise: False switches the motors' noise off (the cross-checks).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    #: the per-slot arrays a checkpoint carries (:class:`pyflyt_cli.training.batched.BatchedVecEnv`)
+    state_arrays = (
+        "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
+        "steps", "physics_steps", "_last_distance", "episode_return", "episode_length", "ang_vel_body", "ang_pos",
+        "lin_vel_body", "quaternion", "alive", "armed", "parked", "world_over",
+    )
+
+    def __init__(self, config: Any, worlds: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
+        from pyflyt_engine.envs.config import MultiAgentEnvConfig, load_env_config, load_reward_preset
+        from pyflyt_engine.envs.multi_agent.config import get_ma_task
+        from pyflyt_engine.envs.rewards import compile_reward
+
+        cfg = load_env_config(config)
+        if not isinstance(cfg, MultiAgentEnvConfig):
+            raise ConfigError(f"BatchedSwarmEnv needs a multi-agent env config (one with 'agents'), got {cfg.source}")
+        check_swarm_supported(cfg)
+        if worlds < 1:
+            raise ConfigError(f"worlds must be >= 1, got {worlds}")
+        self.config = cfg
+        self.agent_list = cfg.resolved_agents()
+        self.agents = a_count = len(self.agent_list)
+        self.worlds = int(worlds)
+        self.num_envs = n = self.worlds * a_count
+        self.spec_uav: UAVSpec = load_uav_spec(cfg.uav)
+        self.physics_dt = 1.0 / cfg.physics_hz
+        self.control_dt = 1.0 / cfg.control_hz
+        self.agent_dt = 1.0 / cfg.agent_hz
+        self.per_agent = int(round(cfg.physics_hz / cfg.agent_hz))
+        self.per_control = int(round(cfg.physics_hz / cfg.control_hz))
+        self.model: BatchedModel = batched_model(self.spec_uav, self.physics_dt, self.control_dt, drag=cfg.drag)
+        self.mode = mode_code(cfg.action.mode, self.model)
+        expected = 4 if self.mode == MODE_RATES_THRUST else self.model.motors
+        if len(cfg.action.low) != expected:
+            raise ConfigError(f"mode {cfg.action.mode} takes {expected} values, the action has {len(cfg.action.low)}")
+        task_cls = get_ma_task(cfg.task.name)
+        self.task_class = task_cls
+        preset = load_reward_preset(cfg.reward_preset_name())
+        name = cfg.reward_preset_name()
+        scalar = compile_reward(name if isinstance(name, str) else "inline", preset.terms, task_cls.provides,
+                                cfg.task.name)
+        self.reward_function = BatchedReward(scalar)
+        self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
+        self._quaternion = cfg.angle_representation == "quaternion"
+        self._low = np.array(cfg.action.low, dtype=np.float64)
+        self._high = np.array(cfg.action.high, dtype=np.float64)
+        self._dome2 = cfg.flight_dome_size**2
+        self._max_steps = cfg.max_steps
+        self.downwash = bool(cfg.downwash)
+        self._rotors = _rotor_geometry(self.spec_uav)
+        box_centre, box_half = _collision_box(self.model.corners)
+        self._box_centre, self._box_half = box_centre, box_half
+        self._bound_radius = float(np.linalg.norm(np.abs(box_centre) + box_half))
+        self._check_layout_spacing()
+
+        m = self.model
+        nm = m.motors
+        self.pos = np.zeros((n, 3))
+        self.quat = np.zeros((n, 4))
+        self.quat[:, 3] = 1.0
+        self.vel = np.zeros((n, 3))
+        self.angvel = np.zeros((n, 3))
+        self.throttle = np.zeros((n, nm))
+        self.command = np.zeros((n, nm))
+        self.integral = np.zeros((n, 3))
+        self.previous = np.zeros((n, 3))
+        self.has_previous = np.zeros(n, dtype=bool)
+        self.ground_contact = np.zeros(n, dtype=bool)
+        self.agent_contact = np.zeros(n, dtype=bool)
+        #: per slot: its agent is in its world's episode; its vehicle is armed; it lies on the ground retired
+        self.alive = np.zeros(n, dtype=bool)
+        self.armed = np.zeros(n, dtype=bool)
+        self.parked = np.zeros(n, dtype=bool)
+        #: per slot: its world's episode ended at the last step (kept for a checkpoint's sake)
+        self.world_over = np.zeros(n, dtype=bool)
+        self.actions = np.zeros((n, self._low.size))
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.physics_steps = np.zeros(n, dtype=np.int64)
+        self._ones = np.ones((n, self.per_agent, nm))
+        self.ang_vel_body = np.zeros((n, 3))
+        self.ang_pos = np.zeros((n, 3))
+        self.lin_vel_body = np.zeros((n, 3))
+        self.quaternion = np.zeros((n, 4))
+        self.quaternion[:, 3] = 1.0
+        self.hover_point = np.tile(np.array([ag.hover_point for ag in self.agent_list], dtype=np.float64),
+                                   (self.worlds, 1))
+        self._last_distance = np.zeros(n)
+        self.episode_return = np.zeros(n)
+        self.episode_length = np.zeros(n, dtype=np.int64)
+        self.task_changes: dict[str, Any] = {}
+
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + 3
+        self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
+        self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
+        self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
+        self._seed_all(seed)
+
+    def _check_layout_spacing(self) -> None:
+        """Agents the task's layout places must spawn clear of each other: the PyBullet env's
+        rule (``MultiAgentUAVEnv._check_layout_spacing``), the airframe's bounding radius taken
+        from its collision box."""
+        cfg = self.config
+        gap_of = getattr(cfg.task, "layout_gap", None)
+        if gap_of is None or not isinstance(cfg.agents, int):
+            return
+        gap = gap_of(cfg.agents)
+        noise = float(getattr(cfg.task, "position_noise", 0.0))
+        need = 2.0 * self._bound_radius + 2.0 * math.sqrt(3.0) * noise
+        if gap is not None and gap < need:
+            raise ConfigError(
+                f"agents: {cfg.agents} agents on the {cfg.task.layout} layout spawn {gap:.3f} m apart, but they need "
+                f"{need:.3f} m not to touch; raise task.layout_radius or task.layout_spacing, use task.layout: grid, "
+                "or lower task.position_noise"
+            )
+
+    # ---------------------------------------------------------------- seeding
+
+    def _seed_all(self, seed: int | None) -> None:
+        children = np.random.SeedSequence(seed).spawn(self.worlds + 1)
+        self.noise_rng = np.random.default_rng(children[0])
+        self.world_rngs = [np.random.default_rng(c) for c in children[1:]]
+        #: per slot, its world's generator (the same object for the agents of a world)
+        self.env_rngs = [self.world_rngs[i // self.agents] for i in range(self.num_envs)]
+
+    # ------------------------------------------------------------------ reset
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        """Start an episode in every world (``seed``: reseed every generator first)."""
+        if options:
+            raise ConfigError(f"the batched env takes no reset options, got {sorted(options)}")
+        if seed is not None:
+            self._seed_all(seed)
+        for k in range(self.worlds):
+            self._reset_world(k)
+        return self._observe(), {}
+
+    def set_task_changes(self, changes: dict[str, Any]) -> None:
+        """A training curriculum's task changes: the multi-agent hover has no per-episode options."""
+        allowed = self.task_class.episode_options
+        unknown = sorted(set(changes) - set(allowed))
+        if unknown:
+            raise ConfigError(
+                f"task option(s) {', '.join(unknown)} cannot change per episode; these can: "
+                f"{', '.join(sorted(allowed)) or 'none'}"
+            )
+        self.task_changes = dict(changes)
+
+    def _reset_world(self, k: int) -> None:
+        """World ``k``'s next episode: every agent spawned in its region (the PyBullet env's draws)."""
+        rng = self.world_rngs[k]
+        rows = np.arange(k * self.agents, (k + 1) * self.agents)
+        for a, i in enumerate(rows.tolist()):
+            s = self.agent_list[a].spawn
+            dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
+            da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
+            self.pos[i] = np.add(s.position, dp)
+            q = euler_to_quaternion(*np.add(s.orientation, da).tolist())
+            self.quat[i] = q
+            r = np.empty(9)
+            kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
+            self.vel[i] = exact.rotate(r.reshape(3, 3).tolist(), [float(v) for v in s.lin_vel])
+            self.angvel[i] = 0.0
+        for name in ("throttle", "command", "integral", "previous", "actions", "episode_return"):
+            getattr(self, name)[rows] = 0.0
+        self.has_previous[rows] = False
+        self.steps[rows] = 0
+        self.physics_steps[rows] = 0
+        self.episode_length[rows] = 0
+        self.alive[rows] = True
+        self.armed[rows] = True
+        self.parked[rows] = False
+        self._read(rows)
+        self._last_distance[rows] = self._distance(rows)
+
+    def _distance(self, rows: np.ndarray) -> np.ndarray:
+        d = self.pos[rows] - self.hover_point[rows]
+        return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+
+    def _read(self, rows: np.ndarray | None = None) -> None:
+        if rows is None:
+            kernels.read_out(self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
+                             self.lin_vel_body, self.quaternion)
+            return
+        k = len(rows)
+        a, b, c, d = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 4))
+        kernels.read_out(self.pos[rows], self.quat[rows], self.vel[rows], self.angvel[rows], a, b, c, d)
+        self.ang_vel_body[rows], self.ang_pos[rows], self.lin_vel_body[rows], self.quaternion[rows] = a, b, c, d
+
+    # ------------------------------------------------------------------- step
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        n = self.num_envs
+        a = np.asarray(actions, dtype=np.float64).reshape(n, -1)
+        if a.shape[1] != self._low.size:
+            raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
+        live = self.alive.copy()
+        a = np.minimum(np.maximum(a, self._low), self._high)
+        a[~live] = 0.0  # retired agents receive nothing
+        self.actions[:] = a
+        if self.motor_noise:
+            eta = self.noise_rng.standard_normal((n, self.per_agent, self.model.motors))
+            factors = 1.0 + self.model.noise_ratio * eta
+        else:
+            factors = self._ones
+        self.advance(a, factors)
+        self.steps += 1
+        self.episode_length += live
+        self._read()
+
+        distance = self._distance(np.arange(n))
+        rate = (distance - self._last_distance) / self.agent_dt
+        self._last_distance = np.where(live, distance, self._last_distance)
+        collision = self.ground_contact | self.agent_contact
+        p = self.pos
+        out = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2] > self._dome2
+        crashed = out | collision  # the task crashes on any contact
+        terminated = crashed & live
+        truncated = ~terminated & live & (self.steps >= self._max_steps)
+        ctx = BatchContext(
+            ang_vel=self.ang_vel_body, ang_pos=self.ang_pos, lin_vel=self.lin_vel_body, lin_pos=p,
+            action=self.actions, collision=collision, ground_collision=self.ground_contact & collision,
+            out_of_bounds=out, crashed=crashed, task_complete=np.zeros(n, dtype=bool), target_distance=distance,
+            target_distance_rate=rate, waypoint_reached=np.zeros(n, dtype=bool),
+            steps_remaining=np.maximum(self._max_steps - self.steps, 0), agent_dt=self.agent_dt,
+        )
+        reward, _ = self.reward_function(ctx)
+        reward = np.where(live, reward, 0.0)
+        self.episode_return += reward
+        success = truncated & bool(self.task_class.succeeds_at_time_limit)
+        obs = self._observe()
+        ended = terminated | truncated
+        final = np.where(ended[:, None], obs, 0.0)
+        self.alive &= ~ended
+        self.armed &= ~ended
+        over = ~self.alive.reshape(self.worlds, self.agents).any(axis=1)
+        self.world_over[:] = np.repeat(over, self.agents)
+        padding_end = self.world_over & ~live  # padding slots end with their world's episode
+        done = ended | padding_end
+        info: dict[str, Any] = {
+            "collision": collision & live, "out_of_bounds": out & live, "env_complete": np.zeros(n, dtype=bool),
+            "success": success, "target_distance": np.where(live, distance, 0.0), "agent_active": live,
+        }
+        if ended.any():
+            info["episode"] = {"r": np.where(ended, self.episode_return, 0.0),
+                               "l": np.where(ended, self.episode_length, 0)}
+            info["_episode"] = ended
+        if done.any():
+            info["final_obs"] = final
+            info["_final_obs"] = done
+        for k in np.flatnonzero(over).tolist():
+            self._reset_world(k)
+        obs = self._observe()
+        terminated_slots = terminated | padding_end
+        return obs, reward, terminated_slots, truncated, info
+
+    def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
+        """One agent step of the physics for every world (setpoints already clipped)."""
+        m = self.model
+        rot = self._rotors
+        start = int(self.physics_steps[0]) % self.per_control
+        advance_swarm(
+            self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
+            self.has_previous, setpoints, factors, self.mode, self.armed, self.parked, self.agents, m.mass,
+            m.inertia, m.control_inertia, m.gyro, m.lag, m.columns, m.mixer_rows, m.max_collective, m.rate_gains,
+            m.rate_derivative, m.drag_factors, m.angular_damping, m.drag, m.corners, self._box_centre,
+            self._box_half, self._bound_radius, self.ground_contact, self.agent_contact, GRAVITY, self.physics_dt,
+            self.control_dt, start, self.per_agent, self.per_control, self.downwash, rot["max_thrust"],
+            rot["is_rotor"], rot["disc_area"], rot["jet_diameter"], AIR_DENSITY, 2.0,
+        )
+        self.physics_steps += self.per_agent
+
+    def _observe(self) -> np.ndarray:
+        angles = self.quaternion if self._quaternion else self.ang_pos
+        parts = [self.ang_vel_body, angles, self.lin_vel_body, self.pos, self.actions, self.throttle,
+                 self.hover_point - self.pos]
+        obs = np.concatenate(parts, axis=1)
+        obs[~self.alive] = 0.0  # padding: a retired agent's slot
+        return obs
+
+    def close(self, **kwargs: Any) -> None:  # nothing to release: no PyBullet client
+        self.closed = True
+
+
+def _rotor_geometry(spec: UAVSpec) -> dict[str, Any]:
+    """The downwash source of one airframe, as the PyBullet engine registers it
+    (:meth:`pyflyt_engine.atmosphere.air.Atmosphere.add_vehicle` into
+    :class:`RotorInteractions`): full thrust per motor, which motors are rotors, disc area and
+    jet diameter."""
+    from pyflyt_engine.assembly import assemble
+
+    motors = assemble(spec).motors
+    hubs = motors.positions.tolist()
+    radii: list[float | None] = [None] * len(hubs)
+    if spec.motors is not None and spec.motors.prop_radius is not None:
+        radii = spec.motors.to_array("prop_radius").tolist()
+    rotors = RotorInteractions(False, True)
+    rotors.add_vehicle(hubs, radii, motors.max_thrust.tolist())
+    craft = rotors.vehicles[0]
+    assert craft is not None
+    return {
+        "max_thrust": np.asarray(craft.max_thrust, dtype=np.float64),
+        "is_rotor": np.array([bool(r) for r in craft.radii]),
+        "disc_area": float(craft.disc_area),
+        "jet_diameter": float(craft.jet_diameter) if craft.disc_area > 0.0 else 0.0,
+    }
+
+
+def _collision_box(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The body-frame box (centre, half extents) about an airframe's collision features
+    (:attr:`BatchedModel.corners`: points, spheres of their radius, discs of their radius)."""
+    reach = corners[:, 3] + corners[:, 4]
+    low = (corners[:, :3] - reach[:, None]).min(axis=0)
+    high = (corners[:, :3] + reach[:, None]).max(axis=0)
+    return np.ascontiguousarray(0.5 * (low + high)), np.ascontiguousarray(0.5 * (high - low))
+
+
+def make_batched_swarm(name: Any, worlds: int = 1, seed: int | None = None, **env_overrides: Any) -> BatchedSwarmEnv:
+    """``worlds`` worlds of a multi-agent hover config on the batched backend (a slot per agent)."""
+    from pyflyt_engine.envs.config import load_env_config
+
+    cfg = load_env_config(name)
+    if env_overrides:
+        cfg = cfg.with_overrides(**env_overrides)
+    return BatchedSwarmEnv(cfg, worlds=worlds, seed=seed)
+
+
+__all__ = [
+    "SWARM_TASKS",
+    "BatchedSwarmEnv",
+    "advance_swarm",
+    "boxes_overlap",
+    "check_swarm_supported",
+    "downwash_at",
+    "downwash_velocity",
+    "make_batched_swarm",
+    "py_hypot",
+    "rotor_thrust",
+]
