@@ -78,6 +78,7 @@ from pyflyt_engine.batched.kernels import (
 )
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
@@ -407,6 +408,10 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
 # ------------------------------------------------------------------ the env
 
 
+#: the flight modes the multi-agent worlds fly (the single-agent backend's cascade modes are not wired here)
+SWARM_MODES = ("rates_thrust", "motors")
+
+
 def check_swarm_supported(config: Any) -> None:
     """Refuse, by name, what the batched multi-agent path does not simulate in a multi-agent config."""
     from pyflyt_engine.batched.env import check_supported
@@ -420,6 +425,20 @@ def check_swarm_supported(config: Any) -> None:
     # every other key as the single-agent backend checks it (downwash is simulated here)
     single = config.model_copy(update={"downwash": False})
     check_supported(single, multi_agent=True)
+    # What the single-agent backend simulates may grow beyond what these worlds do: each is refused
+    # here by name too, so a world never flies without something its config asks for.
+    mode = resolve_mode(config.action.mode).name
+    if mode not in SWARM_MODES:  # the single-agent backend flies the cascade modes too; this path does not
+        raise refuse(f"flight mode {mode} in a multi-agent world", f"it flies {', '.join(SWARM_MODES)}")
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    wind = load_wind_config(config.wind)
+    if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
+        raise refuse("wind in a multi-agent world", "give env.wind=calm")
+    for key, asked in (("ground_effect", config.ground_effect), ("latency", config.latency is not None),
+                       ("randomize (domain randomisation)", bool(config.randomize))):
+        if asked:
+            raise refuse(f"env.{key} in a multi-agent world", f"leave env.{key.split()[0]} at its default")
 
 
 class BatchedSwarmEnv(gymnasium.vector.VectorEnv):

@@ -344,6 +344,9 @@ def test_same_seed_same_numbers():
         ({"ground_effect": True}, "env.ground_effect"),
         ({"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
          "agents of different airframes"),
+        # the single-agent backend flies the cascade modes; the worlds' kernel does not
+        ({"action": {"mode": "velocity_yawrate", "names": ["vx", "vy", "yaw_rate", "vz"], "units": ["m/s"] * 4,
+                     "low": [-1.0] * 4, "high": [1.0] * 4}}, "flight mode velocity_yawrate in a multi-agent world"),
     ],
 )
 def test_what_it_simulates_and_what_it_refuses(overrides, named):
