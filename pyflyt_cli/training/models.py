@@ -52,9 +52,9 @@ def build_model(
         kwargs.pop("offline_buffer", None)
         kwargs.pop("offline_steps", None)
     if inference:
-        if "buffer_size" in kwargs:
+        if "buffer_size" in kwargs:  # off-policy (its n_steps, if any, are n-step returns)
             kwargs["buffer_size"] = 1
-        if "n_steps" in kwargs and "batch_size" in kwargs:
+        elif "n_steps" in kwargs and "batch_size" in kwargs:
             # the rollout buffer is never filled: a minibatch that fits the evaluation's
             # env count keeps SB3 from warning about truncated minibatches (a run of 16
             # envs x 32 steps, flown on one env)

@@ -328,7 +328,9 @@ NON_IDENTITY_KEYS = frozenset(
 
 #: keys added after runs were first recorded, with the value those runs had without them: a
 #: key at that value (or unset) is left out of the identity, so older runs keep their digest
-LATER_KEYS = {"env.backend": "pybullet", "train.best_by": "return", "train.imitation.value_warmup": 0, "train.imitation.hold_normalizer": False}
+LATER_KEYS = {"env.backend": "pybullet", "train.best_by": "return", "train.imitation.value_warmup": 0, "train.imitation.hold_normalizer": False,
+              # off-policy n-step returns (an on-policy rollout length of 1 is no config's)
+              "algo.n_steps": 1}
 
 
 def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:

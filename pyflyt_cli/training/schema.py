@@ -155,8 +155,8 @@ class _AlgoBase(_Strict):
 
     @field_validator(*_BOUNDED, check_fields=False)
     @classmethod
-    def _bounded(cls, value: int, info: ValidationInfo) -> int:
-        return limits.check(cls._BOUNDED[info.field_name], value, name=f"algo.{info.field_name}")
+    def _bounded(cls, value: int | None, info: ValidationInfo) -> int | None:
+        return value if value is None else limits.check(cls._BOUNDED[info.field_name], value, name=f"algo.{info.field_name}")
 
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:
@@ -231,10 +231,18 @@ class _OffPolicy(_AlgoBase):
     train_freq: int = Field(ge=1, description="update the model every train_freq steps (per environment)")
     gradient_steps: int = Field(ge=-1, description="gradient steps per update (-1: as many as steps collected)")
     action_noise: ActionNoiseConfig | None = Field(description="exploration noise (null: none)")
+    n_steps: int | None = Field(
+        None,  # runs recorded before the key existed: one-step returns
+        ge=1,
+        description="n-step returns in the critic's TD target (SB3's NStepReplayBuffer: the next n rewards, "
+        "discounted, then the bootstrap; cut at an episode's end); 1: one-step, the algorithms' own; null: 1",
+    )
 
     def constructor_kwargs(self) -> dict[str, Any]:
         kwargs = super().constructor_kwargs()
         kwargs["optimize_memory_usage"] = False
+        if kwargs.get("n_steps") in (None, 1):  # the library's default: exactly the one-step algorithm
+            kwargs.pop("n_steps", None)
         return kwargs
 
 
