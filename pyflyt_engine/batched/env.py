@@ -58,6 +58,7 @@ from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
+from pyflyt_engine.envs.randomization import DELAYS
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.envs.waypoints import sample_waypoints
@@ -86,10 +87,12 @@ def check_supported(config: EnvConfig) -> None:
     if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
         what = config.wind if isinstance(config.wind, str) else "a wind mapping"
         raise refuse(f"wind ({what}: a mean wind, gust or turbulence)", "give env.wind=calm")
+    randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
     for key, present in (
         ("ground_effect", config.ground_effect),
         ("downwash", config.downwash),
-        ("randomize (domain randomisation)", bool(config.randomize)),
+        (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
+         "action_delay and observation_delay)", bool(randomized)),
         ("sensors", config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),

@@ -20,6 +20,8 @@ import pytest
 from pyflyt_engine.batched import BatchedUAVEnv
 from pyflyt_engine.batched.latency import BatchedLatency
 from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.envs.randomization import Distribution, delay_steps
+from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.world import World
 
 from tests.batched.test_crosscheck import AUTOPILOT_ACTION, BOUND, _flat, _pair, quiet  # noqa: F401  (a fixture)
@@ -208,3 +210,63 @@ def test_the_pieces_tick_and_sample_where_the_pybullet_engine_does(per_control):
             assert np.all(shown == start)
     assert kept == engine_samples
     assert np.array_equal(recorded, (latency.steps[:, 1] > 0).astype(np.int64))
+
+
+RANDOM_DELAYS = {"action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05},
+                 "observation_delay": {"distribution": "normal", "mean": 0.03, "std": 0.02, "low": 0.0, "high": 0.06}}
+
+
+def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
+    """Each env draws its delays at every reset from its own generator, in the section's
+    order and before its spawn (Distribution.sample, rounded by delay_steps): the same seed
+    draws the same; a drawn episode flies bit for bit as the same delays fixed."""
+    cfg = load_env_config("quadx_hover").with_overrides(randomize=RANDOM_DELAYS)
+    env = BatchedUAVEnv(cfg, num_envs=16, motor_noise=False)
+    env.reset(seed=7)
+    children = np.random.SeedSequence(7).spawn(17)[1:]
+    draws = {name: Distribution(**d) for name, d in RANDOM_DELAYS.items()}
+    expected = []
+    for child in children:
+        rng = np.random.default_rng(child)
+        expected.append([delay_steps(draws[name].sample(rng), HZ) for name in draws])
+    assert env.latency_steps.tolist() == expected
+    assert len({tuple(e) for e in expected}) > 8  # the envs drew apart
+    assert np.all(env.latency_steps <= [12, 14]) and env.latency_steps.min() >= 0  # 0.05 s, 0.06 s
+    again = BatchedUAVEnv(cfg, num_envs=16, motor_noise=False)
+    again.reset(seed=7)
+    assert np.array_equal(again.latency_steps, env.latency_steps) and np.array_equal(again.pos, env.pos)
+    # env 3's episode flies as its delays, fixed
+    i = 3
+    fixed = BatchedUAVEnv(cfg.with_overrides(randomize={}, latency=_latency(tuple(env.latency_steps[i]))), num_envs=1,
+                          motor_noise=False)
+    fixed.reset(seed=0)
+    for name in ("pos", "quat", "vel", "angvel", "_last_position", "_last_distance"):
+        getattr(fixed, name)[0] = getattr(env, name)[i]
+    fixed._read()
+    fixed.latency.restart(fixed, np.arange(1))
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        a = rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15], (16, 4))
+        o1, r1, *_ = env.step(a)
+        o2, r2, *_ = fixed.step(a[i:i + 1])
+        assert np.array_equal(o1[i], o2[0]) and r1[i] == r2[0]
+    # a new episode draws anew: motors off until every env has reset once
+    before = env.latency_steps.copy()
+    reset = np.zeros(16, dtype=bool)
+    for _ in range(300):
+        _, _, terminated, truncated, _ = env.step(np.zeros((16, 4)))
+        reset |= terminated | truncated
+        if reset.all():
+            break
+    assert reset.all() and not np.array_equal(before, env.latency_steps)
+
+
+def test_other_randomised_parameters_are_refused_by_name():
+    for entries, named in (({"mass": {"distribution": "uniform", "low": 0.9, "high": 1.1}}, "randomize.mass"),
+                           ({**RANDOM_DELAYS, "drag": {"distribution": "uniform", "low": 0.9, "high": 1.1}},
+                            "randomize.drag")):
+        cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries)
+        with pytest.raises(ConfigError) as info:
+            BatchedUAVEnv(cfg, num_envs=2)
+        message = str(info.value)
+        assert "env.backend=batched does not simulate" in message and named in message, message
