@@ -22,6 +22,9 @@ from tests.conftest import default_subset
 from tests.train.conftest import load
 from tests.train.test_resume import SignalAt, _assert_same, _outcome, _reference
 
+#: an action delay between control ticks and an observation delay drawn per episode
+LATENCY = ["+env.latency.action_delay=0.0125",
+           "+env.randomize.observation_delay={distribution: uniform, low: 0.0, high: 0.05}"]
 PPO_BATCHED = [
     "env=quadx_hover",
     "algo=ppo",
@@ -227,6 +230,50 @@ def test_a_checkpoint_in_a_cascade_mode_carries_the_velocity_integrals():
         vec.env_method("restore_episode", saved[i], indices=i)
     again = [vec.step(a)[0] for a in actions]
     assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def test_a_checkpoint_carries_the_delays():
+    """Delays drawn per episode: ``episode_state`` then ``restore_episode`` puts each env's
+    delays, the actions in flight and the states it will show back with the rest: the steps
+    after it repeat bit for bit."""
+    cfg = load_env_config("quadx_hover").with_overrides(
+        backend="batched", latency={"action_delay": 0.0125},
+        randomize={"observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05}},
+    )
+    vec = make_vec_env(cfg, 3)
+    vec.seed(4)
+    vec.reset()
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        vec.step(rng.uniform(-0.3, 0.3, (3, 4)))
+    saved = vec.env_method("episode_state")
+    env = vec.env
+    assert env.latency_steps[:, 0].tolist() == [3] * 3 and len(set(env.latency_steps[:, 1].tolist())) > 1
+    assert np.abs(env.action_history).max() > 0.0 and "observed_history" in saved[0]["batched"]
+    actions = rng.uniform(-0.3, 0.3, (20, 3, 4))
+    first = [vec.step(a)[0] for a in actions]
+    env.latency_steps[:, 1] = 0  # state the restore must put back
+    env.action_history[:] = 0.0
+    env.observed_history[:] = 0.0
+    for i in range(3):
+        vec.env_method("restore_episode", saved[i], indices=i)
+    again = [vec.step(a)[0] for a in actions]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def test_a_stop_then_resume_with_latency_is_bit_identical(tmp_path, tmp_path_factory):
+    """PPO on the batched backend with a fixed action delay and a drawn observation delay:
+    a run stopped and resumed ends bit for bit as the one that ran through."""
+    overrides = [*PPO_BATCHED, *LATENCY]
+    reference = _reference(overrides, tmp_path_factory)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(700)])
+    assert first.interrupted
+    config = yaml.safe_load((first.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["latency"]["action_delay"] == 0.0125
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted
+    _assert_same(_outcome(first.run_dir), reference)
+
 
 
 VELOCITY_PPO_BATCHED = [
