@@ -138,6 +138,9 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
     assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.wind=gust"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
+    assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
+    assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
+                tmp_path).env.backend == "pybullet"  # other domain randomisation
     with pytest.raises(ConfigError, match="does not simulate wind"):
         load(["env=quadx_hover", "env.backend=batched", "env.wind=gust"], tmp_path)
 
@@ -274,6 +277,45 @@ def test_a_stop_then_resume_with_latency_is_bit_identical(tmp_path, tmp_path_fac
     assert not resumed.interrupted
     _assert_same(_outcome(first.run_dir), reference)
 
+
+LATENCY_PPO_BATCHED = [
+    "env=quadx_hover",
+    "+env.latency.action_delay=0.02",
+    "env.backend=batched",
+    "train.n_envs=64",
+    "train.total_timesteps=8192",
+    "algo.n_steps=64",
+    "algo.batch_size=1024",
+    "train.eval_freq=8192",
+    "train.eval_episodes=1",
+    "train.progress_bar=false",
+]
+
+
+def test_hover_with_an_action_delay_trains_end_to_end_on_it(tmp_path):
+    """``pyflyt train env=quadx_hover +env.latency.action_delay=0.02 env.backend=batched``
+    with a tiny budget: it trains on 64 delayed batched envs, records the delay, and
+    evaluates in the PyBullet engine with the same delay."""
+    result = train(load(LATENCY_PPO_BATCHED, tmp_path))
+    assert not result.interrupted
+    config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["latency"]["action_delay"] == 0.02
+    assert result.num_timesteps == 8192 and result.last_eval_step == 8192
+    from pyflyt_engine.telemetry.metrics import read_metrics
+
+    assert read_metrics(result.run_dir / "metrics.mcap")["/train/episode"]
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    report = evaluate_run(result.run_dir, {"episodes": 1, "record": True})
+    (recorded,) = sorted((result.run_dir / "episodes").glob("ep_*.mcap"))
+    from pyflyt_engine.telemetry.episode import load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    episode = load_episode(recorded)
+    assert episode.config["latency"]["action_delay"] == 0.02  # flown in PyBullet with the delay
+    check = verify(episode)
+    assert check.steps > 0 and check.max_deviation == 0.0
+    assert isinstance(report.batched, dict) and report.batched["episodes"] == 1.0  # and on the batched backend
 
 
 VELOCITY_PPO_BATCHED = [
