@@ -52,17 +52,19 @@ def _action(be: BatchedUAVEnv, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(np.array(be.config.action.low), np.array(be.config.action.high))
 
 
-@pytest.mark.parametrize("delays", DELAYS)
-@pytest.mark.parametrize("flight", list(FLIGHTS))
-def test_delayed_flights_agree_with_the_pybullet_engine(quiet, flight, delays):  # noqa: F811
-    """2 s of random actions with the delays: positions, observations (the delayed state, the
-    waypoint deltas from the delayed pose) and rewards (the true state) within 1e-6."""
-    env_name, uav, overrides = FLIGHTS[flight]
-    pb, be = _pair(env_name, quiet[uav], seed=3, latency=_latency(delays), **overrides)
+def fly_delayed_pair(uav: str, flight: str, delays: tuple[int, int], seed: int = 3,
+                     steps: int = 60) -> tuple[dict[str, float], int]:
+    """Both backends fly ``flight`` (:data:`FLIGHTS`) on airframe file ``uav`` with the
+    (action, observation) ``delays`` [physics steps] from one start, ``steps`` agent steps
+    of random actions; returns the largest differences of the positions, observations
+    and rewards, and the steps flown.  The test below and ``experiments/batched_latency.py``
+    (the documented figures) fly it."""
+    env_name, _, overrides = FLIGHTS[flight]
+    pb, be = _pair(env_name, uav, seed=seed, latency=_latency(delays), **overrides)
     assert pb.unwrapped.world.vehicles[0].latency == delays and be.latency_steps.tolist() == [list(delays)]
     rng = np.random.default_rng(7)
     worst = {"position": 0.0, "observation": 0.0, "reward": 0.0}
-    for steps in range(1, 61):
+    for flown in range(1, steps + 1):
         action = _action(be, rng)
         o1, r1, t1, tr1, i1 = pb.step(action)
         o2, r2, t2, tr2, info = be.step(action[None])
@@ -78,9 +80,18 @@ def test_delayed_flights_agree_with_the_pybullet_engine(quiet, flight, delays): 
         assert (t1, tr1) == (bool(t2[0]), bool(tr2[0]))
         if t1 or tr1:
             break
-    assert max(worst.values()) < BOUND, worst
-    assert steps >= 30, "the flight ended too soon to compare much"
     pb.close()
+    return {k: float(v) for k, v in worst.items()}, flown
+
+
+@pytest.mark.parametrize("delays", DELAYS)
+@pytest.mark.parametrize("flight", list(FLIGHTS))
+def test_delayed_flights_agree_with_the_pybullet_engine(quiet, flight, delays):  # noqa: F811
+    """2 s of random actions with the delays: positions, observations (the delayed state, the
+    waypoint deltas from the delayed pose) and rewards (the true state) within 1e-6."""
+    worst, flown = fly_delayed_pair(quiet[FLIGHTS[flight][1]], flight, delays)
+    assert max(worst.values()) < BOUND, worst
+    assert flown >= 30, "the flight ended too soon to compare much"
 
 
 def _fly(cfg, actions: np.ndarray, seed: int = 5) -> dict[str, list[np.ndarray]]:
