@@ -95,8 +95,6 @@ class BatchedLatency:
         self.observed_history = np.zeros((n, max(-(-largest[1] // P), 1) if largest[1] else 0, size))
         #: whether any episode can have an observation delay
         self.observes = largest[1] > 0
-        #: the values [s] each env drew at its last reset (empty without randomised delays)
-        self.drawn: list[dict[str, float]] = [{} for _ in range(n)]
         self._rows = np.arange(n)
         self._schedule: tuple | None = None
         self._scheduled_for: np.ndarray | None = None
@@ -109,7 +107,6 @@ class BatchedLatency:
         if not self.draws:
             return
         values = {name: dist.sample(rng) for name, dist in self.draws.items()}
-        self.drawn[i] = values
         self.steps[i] = [
             delay_steps(values[name], self.physics_hz) if name in values else fixed
             for name, fixed in zip(DELAYS, self.fixed)
