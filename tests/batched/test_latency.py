@@ -281,3 +281,42 @@ def test_other_randomised_parameters_are_refused_by_name():
             BatchedUAVEnv(cfg, num_envs=2)
         message = str(info.value)
         assert "env.backend=batched does not simulate" in message and named in message, message
+
+
+def test_across_an_episode_end_both_drop_what_was_in_flight(quiet):  # noqa: F811
+    """Delays (13, 11) physics steps, a spawn without noise: both backends fly, crash with
+    rates still asked for (in flight at the crash), and start again -- the batched env by
+    its same-step autoreset, the PyBullet env by its reset; the next episode's observations
+    and rewards agree within 1e-6 from its first observation on (nothing in flight, the
+    spawn shown)."""
+    pb, be = _pair("quadx_hover", quiet["quadx_cf2x"], seed=1, latency=_latency((13, 11)),
+                   start_position_noise=0.0, start_orientation_noise=0.0)
+    rng = np.random.default_rng(5)
+    for _ in range(15):
+        a = _action(be, rng)
+        o1, r1, *_ = pb.step(a)
+        o2, r2, *_ = be.step(a[None])
+        assert np.abs(_flat(o1) - o2[0]).max() < BOUND and abs(r1 - r2[0]) < BOUND
+    crash = np.array([0.8, -0.6, 0.4, 0.0])  # no thrust, rates asked for
+    ended = {"pybullet": None, "batched": None}
+    for k in range(300):
+        if ended["pybullet"] is None:
+            _, _, t1, _, i1 = pb.step(crash)
+            ended["pybullet"] = k if t1 else None
+        if ended["batched"] is None:
+            o2, _, t2, _, i2 = be.step(crash[None])
+            ended["batched"] = k if t2[0] else None
+            start = o2[0]  # after the autoreset: the next episode's first observation
+        if None not in ended.values():
+            break
+    assert i1["collision"] and bool(i2["collision"][0]) and 0 <= ended["batched"] - ended["pybullet"] <= 1, ended
+    assert be.steps[0] == 0 and not be.action_history[0].any()  # the autoreset emptied the queue
+    o1, _ = pb.reset(seed=2)
+    assert np.abs(_flat(o1) - start).max() < BOUND
+    for _ in range(40):
+        a = _action(be, rng)
+        o1, r1, t1, *_ = pb.step(a)
+        o2, r2, t2, *_ = be.step(a[None])
+        assert np.abs(_flat(o1) - o2[0]).max() < BOUND and abs(r1 - r2[0]) < BOUND
+        assert not t1 and not t2[0]
+    pb.close()
