@@ -320,3 +320,28 @@ def test_across_an_episode_end_both_drop_what_was_in_flight(quiet):  # noqa: F81
         assert np.abs(_flat(o1) - o2[0]).max() < BOUND and abs(r1 - r2[0]) < BOUND
         assert not t1 and not t2[0]
     pb.close()
+
+
+@pytest.mark.parametrize(
+    "rates",
+    [{"control_hz": 240.0, "agent_hz": 40.0}, {"control_hz": 60.0, "agent_hz": 30.0},
+     {"physics_hz": 480.0, "control_hz": 120.0, "agent_hz": 40.0}],
+)
+def test_other_loop_rates_agree_with_the_pybullet_engine(quiet, rates):  # noqa: F811
+    """A tick at every physics step, 4 physics steps per tick, 480 Hz physics (6, 8 and 12
+    physics steps per agent step): QuadX-Hover with delays of 13 and 23 physics steps,
+    within 1e-6 of the PyBullet engine for 2 s."""
+    hz = rates.get("physics_hz", HZ)
+    pb, be = _pair("quadx_hover", quiet["quadx_cf2x"], seed=3,
+                   latency={"action_delay": 13 / hz, "observation_delay": 23 / hz}, **rates)
+    assert pb.unwrapped.world.vehicles[0].latency == (13, 23)
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for _ in range(int(2 * be.config.agent_hz)):
+        a = _action(be, rng)
+        o1, r1, t1, *_ = pb.step(a)
+        o2, r2, t2, *_ = be.step(a[None])
+        assert not t1 and not t2[0]
+        worst = max(worst, np.abs(_flat(o1) - o2[0]).max(), abs(r1 - r2[0]))
+    assert worst < BOUND
+    pb.close()
