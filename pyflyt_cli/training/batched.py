@@ -15,7 +15,8 @@ episode ends, and then ends without episode statistics.  So PPO, SAC,
 and checkpoints work on it unchanged.
 
 Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched state of
-that env (its arrays' rows and its random streams; env 0 also the batch's motor-noise
+that env (its arrays' rows -- with latency its delays, the actions in flight and the states
+it will show among them -- and its random streams; env 0 also the batch's motor-noise
 stream) as plain data, and ``env_method("restore_episode", state)`` puts it back, so a
 resumed run continues bit for bit (the continuity module compares the observations).
 """
@@ -39,7 +40,7 @@ _STATE_ARRAYS = (
     "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
     "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
-    "autopilot_integral", "vel_integral",
+    "autopilot_integral", "vel_integral", "latency_steps", "action_history", "observed_history",
 )
 
 

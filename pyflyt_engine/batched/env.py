@@ -32,7 +32,12 @@ multirotor in any of its controller's flight modes, a fixed-wing in mode ``chann
 velocity and position modes: :mod:`pyflyt_engine.batched.modes`) runs its controller at
 every control tick and the physics of each control period in mode ``motors`` with the
 motor commands it gave, as the PyBullet engine runs its controller at ``control_hz``
-between the physics steps of an agent step.  The waypoint logic (sampling, the segment reach test, the
+between the physics steps of an agent step.  An env config's ``latency`` (and a
+``randomize`` entry ``action_delay`` / ``observation_delay``, drawn per episode and env) is
+simulated as the PyBullet engine simulates it (:mod:`pyflyt_engine.batched.latency`): the
+action reaches the controller at its first tick at or after the delay, the observation shows
+the state of that many physics steps ago, the reward and episode ends the true state.
+The waypoint logic (sampling, the segment reach test, the
 observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
 waypoints task is.  Everything else a config can ask for that this backend does not
 simulate is refused when the env is built, by name (:func:`check_supported`).
@@ -49,9 +54,11 @@ from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
 from pyflyt_engine.batched import kernels, modes
+from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
+from pyflyt_engine.envs.randomization import DELAYS
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.envs.waypoints import sample_waypoints
@@ -85,11 +92,12 @@ def check_supported(config: EnvConfig, multi_agent: bool = False) -> None:
     if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
         what = config.wind if isinstance(config.wind, str) else "a wind mapping"
         raise refuse(f"wind ({what}: a mean wind, gust or turbulence)", "give env.wind=calm")
+    randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
     for key, present in (
         ("ground_effect", config.ground_effect),
         ("downwash", config.downwash),
-        ("randomize (domain randomisation)", bool(config.randomize)),
-        ("latency", config.latency is not None),
+        (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
+         "action_delay and observation_delay)", bool(randomized)),
         ("sensors", config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),
@@ -249,6 +257,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._last_position = np.zeros((n, 3))
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
+        #: the action and observation delays (None without; pyflyt_engine.batched.latency)
+        self.latency = (BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns)
+                        if declares_latency(cfg) else None)
+        delays = self.latency.state_arrays() if self.latency is not None else {}
+        #: per env, this episode's (action, observation) delays [physics steps], its last actions
+        #: and the states it shows (BatchedLatency; empty rows without latency)
+        self.latency_steps = delays.get("latency_steps", np.zeros((n, 0), dtype=np.int64))
+        self.action_history = delays.get("action_history", np.zeros((n, 0)))
+        self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
 
         size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size
         self._attitude_size = size
@@ -308,6 +325,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.reach[index] = float(o.goal_reach_distance)
         for i in index.tolist():
             rng = self.env_rngs[i]
+            if self.latency is not None:  # a randomised delay: drawn before the spawn, as the randomiser is
+                self.latency.draw(i, rng)
             spawn = task.spawn(rng)
             self.pos[i] = spawn.position
             q = euler_to_quaternion(*spawn.orientation)
@@ -339,6 +358,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.episode_length[index] = 0
         self.num_reached[index] = 0
         self._read(index)
+        if self.latency is not None:
+            self.latency.restart(self, index)
         p = self.pos[index]
         self._last_position[index] = p
         self._last_distance[index] = self._target_distance(index, p)
@@ -396,42 +417,51 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         return obs, reward, terminated, truncated, info
 
     def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
-        """One agent step of the physics for every env (setpoints already clipped)."""
+        """One agent step of the physics for every env (setpoints already clipped; with
+        latency, the actions given now, which reach the controller later)."""
+        if self.latency is not None:
+            self.latency.advance(self, setpoints, factors)
+        else:
+            # every env's physics steps stay in phase with its control ticks (all reset to 0
+            # at once or at an agent step boundary, and per_agent is a multiple of per_control
+            # whenever control_hz >= agent_hz); the phase of env 0 is used for all
+            self.physics(setpoints, factors, int(self.physics_steps[0]) % self.per_control, self.per_agent)
+        self.physics_steps += self.per_agent
+
+    def physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """``count`` physics steps of every env from offset ``start`` into the agent step
+        (a control tick where ``(start + s) % per_control == 0``), every tick in them flying
+        ``setpoints``; ``factors`` (N, count, motors) their motor noise.  ``contact``: whether
+        a sample in them (the end of a control period, and their end) found the ground."""
         m = self.model
-        # every env's physics steps stay in phase with its control ticks (all reset to 0
-        # at once or at an agent step boundary, and per_agent is a multiple of per_control
-        # whenever control_hz >= agent_hz); the phase of env 0 is used for all
-        start = int(self.physics_steps[0]) % self.per_control
         if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
             kernels.advance_channels(
                 self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.deflection,
                 self.flap_command, setpoints, factors, self._mass, self._inertia, self._lag, self._columns,
                 m.motor_mix_index, m.motor_mix_weight, m.channel_low, m.channel_high, self._surfaces,
                 self._surface_lag, m.surface_mix_index, m.surface_mix_weight, self._drag_factors, self._damping,
-                m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, self.per_agent,
+                m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, count,
                 self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
                 m.autopilot_index, self.control_dt,
             )
-            self.physics_steps += self.per_agent
             return
         if self._cascade is not None:
-            self._advance_cascade(setpoints, factors, start)
+            self._advance_cascade(setpoints, factors, start, count)
             return
         kernels.advance(
             self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
             self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
             self._columns, self._mixer_rows, self._max_collective, self._rate_gains, m.rate_derivative,
             self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
-            self.physics_dt, self.control_dt, start, self.per_agent, self.per_control,
+            self.physics_dt, self.control_dt, start, count, self.per_control,
         )
-        self.physics_steps += self.per_agent
 
-    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int) -> None:
-        """One agent step in a cascade mode: per control period, the controller's tick
-        (:func:`~pyflyt_engine.batched.modes.control_tick`) sets the motor commands from the
-        state at its start, then the period's physics steps run in mode ``motors`` with them."""
-        if start != 0:  # per_agent is a multiple of per_control (check_supported): every agent step starts on a tick
-            raise RuntimeError(f"an agent step starting {start} physics steps after a control tick")
+    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """``count`` physics steps from offset ``start`` in a cascade mode: per control
+        period, the controller's tick (:func:`~pyflyt_engine.batched.modes.control_tick`) sets
+        the motor commands from the state at its start, then the period's physics steps run
+        in mode ``motors`` with them (a piece of a period that starts after its tick keeps
+        the commands the tick gave)."""
         m = self.model
         c = m.cascade
         assert c is not None
@@ -444,22 +474,26 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         law, yaw_is_rate, heading_frame, position, altitude = self._cascade
         per_control = self.per_control
         contact[:] = False
-        for k in range(self.per_agent // per_control):
-            modes.control_tick(
-                self.pos, self.quat, self.vel, self.angvel, setpoints, self.integral, self.previous,
-                self.has_previous, self.vel_integral, law, yaw_is_rate, heading_frame, position, altitude, table,
-                mass, window, max_tilt, self._rate_gains, m.rate_derivative, self._control_inertia, self._gyro,
-                self._mixer_rows, self.control_dt, commands,
-            )
-            period = np.ascontiguousarray(factors[:, k * per_control:(k + 1) * per_control])
+        a = start
+        while a < start + count:
+            b = min((a // per_control + 1) * per_control, start + count)  # to the period's end, or the count's
+            if a % per_control == 0:  # the period's tick
+                modes.control_tick(
+                    self.pos, self.quat, self.vel, self.angvel, setpoints, self.integral, self.previous,
+                    self.has_previous, self.vel_integral, law, yaw_is_rate, heading_frame, position, altitude,
+                    table, mass, window, max_tilt, self._rate_gains, m.rate_derivative, self._control_inertia,
+                    self._gyro, self._mixer_rows, self.control_dt, commands,
+                )  # (a piece after it has no tick: the motors keep the commands it gave)
+            period = np.ascontiguousarray(factors[:, a - start:b - start])
             kernels.advance(
                 self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral,
                 self.previous, self.has_previous, commands, period, kernels.MODE_MOTORS, self._mass, self._inertia,
                 self._control_inertia, self._gyro, self._lag, self._columns, self._mixer_rows, self._max_collective,
                 self._rate_gains, m.rate_derivative, self._drag_factors, self._damping, m.drag, self._corners,
-                self.contact, GRAVITY, self.physics_dt, self.control_dt, 0, per_control, per_control,
+                self.contact, GRAVITY, self.physics_dt, self.control_dt, a % per_control, b - a, per_control,
             )
             contact |= self.contact  # each call samples its own period's contacts
+            a = b
         self.contact[:] = contact
         self.physics_steps += self.per_agent
 
@@ -514,21 +548,28 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _observe(self) -> np.ndarray:
         n = self.num_envs
-        angles = self.quaternion if self._quaternion else self.ang_pos
-        parts = [self.ang_vel_body, angles, self.lin_vel_body, self.pos, self.actions, self.throttle]
+        # with an observation delay, the state (and aux) of n_o physics steps ago (BatchedLatency.observed)
+        if self.latency is not None and self.latency.observes:
+            seen = self.latency.observed(self)
+        else:
+            seen = {"pos": self.pos, "quaternion": self.quaternion, "ang_pos": self.ang_pos, "throttle": self.throttle,
+                    "ang_vel_body": self.ang_vel_body, "lin_vel_body": self.lin_vel_body, "deflection": self.deflection}
+        pos, quaternion = seen["pos"], seen["quaternion"]
+        angles = quaternion if self._quaternion else seen["ang_pos"]
+        parts = [seen["ang_vel_body"], angles, seen["lin_vel_body"], pos, self.actions, seen["throttle"]]
         if self.deflection.shape[1]:  # the surfaces' aux: deflection over its limit (Surfaces.aux)
-            parts.append(self.deflection / self.model.surface_scale)
+            parts.append(seen["deflection"] / self.model.surface_scale)
         if self._waypoints:
             k = self.targets.shape[1]
             r = np.empty((n, 9))
-            kernels.rotations(self.quaternion, r)  # of the quaternion PyBullet reports
+            kernels.rotations(np.ascontiguousarray(quaternion), r)  # of the quaternion PyBullet reports
             deltas = np.zeros((n, CONTEXT_LENGTH, 3))
             mask = np.zeros((n, CONTEXT_LENGTH))
             for slot in range(CONTEXT_LENGTH):
                 j = self.num_reached + slot
                 valid = j < k
                 t = self.targets[np.arange(n), np.minimum(j, k - 1)]
-                d = t - self.pos
+                d = t - pos  # the current targets from the pose shown (WaypointsTask.observe)
                 # R^T d, row by row
                 body = np.stack(
                     [

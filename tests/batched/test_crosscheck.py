@@ -139,6 +139,8 @@ def _pair(env_name: str, uav: str, seed: int, **overrides):
     if be._waypoints:
         be.targets[0] = pb.unwrapped.task.targets
     be._read()
+    if be.latency is not None:  # the copied start is the state its delays start from
+        be.latency.restart(be, np.arange(1))
     be._last_position[:] = be.pos
     be._last_distance[:] = be._target_distance(np.arange(1), be.pos)
     return pb, be

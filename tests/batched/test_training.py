@@ -22,6 +22,9 @@ from tests.conftest import default_subset
 from tests.train.conftest import load
 from tests.train.test_resume import SignalAt, _assert_same, _outcome, _reference
 
+#: an action delay between control ticks and an observation delay drawn per episode
+LATENCY = ["+env.latency.action_delay=0.0125",
+           "+env.randomize.observation_delay={distribution: uniform, low: 0.0, high: 0.05}"]
 PPO_BATCHED = [
     "env=quadx_hover",
     "algo=ppo",
@@ -135,6 +138,9 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
     assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.wind=gust"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
+    assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
+    assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
+                tmp_path).env.backend == "pybullet"  # other domain randomisation
     with pytest.raises(ConfigError, match="does not simulate wind"):
         load(["env=quadx_hover", "env.backend=batched", "env.wind=gust"], tmp_path)
 
@@ -227,6 +233,89 @@ def test_a_checkpoint_in_a_cascade_mode_carries_the_velocity_integrals():
         vec.env_method("restore_episode", saved[i], indices=i)
     again = [vec.step(a)[0] for a in actions]
     assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def test_a_checkpoint_carries_the_delays():
+    """Delays drawn per episode: ``episode_state`` then ``restore_episode`` puts each env's
+    delays, the actions in flight and the states it will show back with the rest: the steps
+    after it repeat bit for bit."""
+    cfg = load_env_config("quadx_hover").with_overrides(
+        backend="batched", latency={"action_delay": 0.0125},
+        randomize={"observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05}},
+    )
+    vec = make_vec_env(cfg, 3)
+    vec.seed(4)
+    vec.reset()
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        vec.step(rng.uniform(-0.3, 0.3, (3, 4)))
+    saved = vec.env_method("episode_state")
+    env = vec.env
+    assert env.latency_steps[:, 0].tolist() == [3] * 3 and len(set(env.latency_steps[:, 1].tolist())) > 1
+    assert np.abs(env.action_history).max() > 0.0 and "observed_history" in saved[0]["batched"]
+    actions = rng.uniform(-0.3, 0.3, (20, 3, 4))
+    first = [vec.step(a)[0] for a in actions]
+    env.latency_steps[:, 1] = 0  # state the restore must put back
+    env.action_history[:] = 0.0
+    env.observed_history[:] = 0.0
+    for i in range(3):
+        vec.env_method("restore_episode", saved[i], indices=i)
+    again = [vec.step(a)[0] for a in actions]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+def test_a_stop_then_resume_with_latency_is_bit_identical(tmp_path, tmp_path_factory):
+    """PPO on the batched backend with a fixed action delay and a drawn observation delay:
+    a run stopped and resumed ends bit for bit as the one that ran through."""
+    overrides = [*PPO_BATCHED, *LATENCY]
+    reference = _reference(overrides, tmp_path_factory)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(700)])
+    assert first.interrupted
+    config = yaml.safe_load((first.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["latency"]["action_delay"] == 0.0125
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted
+    _assert_same(_outcome(first.run_dir), reference)
+
+
+LATENCY_PPO_BATCHED = [
+    "env=quadx_hover",
+    "+env.latency.action_delay=0.02",
+    "env.backend=batched",
+    "train.n_envs=64",
+    "train.total_timesteps=8192",
+    "algo.n_steps=64",
+    "algo.batch_size=1024",
+    "train.eval_freq=8192",
+    "train.eval_episodes=1",
+    "train.progress_bar=false",
+]
+
+
+def test_hover_with_an_action_delay_trains_end_to_end_on_it(tmp_path):
+    """``pyflyt train env=quadx_hover +env.latency.action_delay=0.02 env.backend=batched``
+    with a tiny budget: it trains on 64 delayed batched envs, records the delay, and
+    evaluates in the PyBullet engine with the same delay."""
+    result = train(load(LATENCY_PPO_BATCHED, tmp_path))
+    assert not result.interrupted
+    config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["latency"]["action_delay"] == 0.02
+    assert result.num_timesteps == 8192 and result.last_eval_step == 8192
+    from pyflyt_engine.telemetry.metrics import read_metrics
+
+    assert read_metrics(result.run_dir / "metrics.mcap")["/train/episode"]
+    from pyflyt_cli.training.evaluate import evaluate_run
+
+    report = evaluate_run(result.run_dir, {"episodes": 1, "record": True})
+    (recorded,) = sorted((result.run_dir / "episodes").glob("ep_*.mcap"))
+    from pyflyt_engine.telemetry.episode import load_episode
+    from pyflyt_engine.telemetry.replay import verify
+
+    episode = load_episode(recorded)
+    assert episode.config["latency"]["action_delay"] == 0.02  # flown in PyBullet with the delay
+    check = verify(episode)
+    assert check.steps > 0 and check.max_deviation == 0.0
+    assert isinstance(report.batched, dict) and report.batched["episodes"] == 1.0  # and on the batched backend
 
 
 VELOCITY_PPO_BATCHED = [
