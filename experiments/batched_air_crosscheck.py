@@ -5,7 +5,8 @@ for the winds, the turbulence and ground effect, within the bound
 For every airframe the backend flies and every case of ``tests/batched/test_air.py`` --
 the deterministic winds (constant, shear, gust and the variants reaching every branch of
 the gust and the power law), Dryden turbulence with the engine's white noise injected into
-the batched filter, ground effect near the ground -- both backends fly 2 s from one start
+the batched filter, ground effect near the ground, the velocity variant (a cascade mode) in
+the wind -- both backends fly 2 s from one start
 with the motor noise off (the test's actions and seeds, ``fly_air_pair``).  Prints per
 case the largest difference of the positions [m], observations and rewards, how far the
 flight got from the same flight in calm air (or out of ground effect) [m], then the
@@ -23,7 +24,7 @@ from pathlib import Path
 import yaml
 
 from pyflyt_engine.paths import uav_dir
-from tests.batched.test_air import DETERMINISTIC, VARIANTS, fly_air_pair
+from tests.batched.test_air import DETERMINISTIC, VARIANTS, fly_air_pair, fly_cascade_air_pair
 from tests.batched.test_laws import FIXEDWINGS, MULTIROTORS
 
 FIELDS = ("position", "observation", "reward")
@@ -36,6 +37,8 @@ def cases() -> list[tuple[str, str, str | None, str | None, bool]]:
         for wind in (*DETERMINISTIC, *VARIANTS, "dryden_light", "dryden_severe", "on_shear_and_gust"):
             out.append((name, wind, wind, None, False))
         out.append((name, "ground_effect", None, None, True))
+        for wind in ("gust_fast", "shear", "on_shear_and_gust"):
+            out.append((name, f"{wind} (velocity_yawrate)", wind, "velocity_yawrate", False))
     for name in FIXEDWINGS:
         for mode in ("channels", "attitude_airspeed"):
             for wind in ("constant", "shear", "gust_fast", "gust_step_on_wind", "dryden_moderate"):
@@ -56,7 +59,11 @@ def main() -> None:
             paths[name] = Path(folder) / f"{name}.yaml"
             paths[name].write_text(yaml.safe_dump(data))
         for name, label, wind, mode, ground in cases():
-            worst, flown, felt, _ = fly_air_pair(str(paths[name]), wind, mode, ground_effect=ground)
+            if mode == "velocity_yawrate":  # the velocity variant (a cascade mode): no calm twin flown
+                worst, flown = fly_cascade_air_pair(str(paths[name]), wind)
+                felt = float("nan")
+            else:
+                worst, flown, felt, _ = fly_air_pair(str(paths[name]), wind, mode, ground_effect=ground)
             rows.append((name, label, flown, worst, felt))
     sep = " | " if args.markdown else "  "
     header = ["airframe", "case", "steps", *FIELDS, "from calm"]

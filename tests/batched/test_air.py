@@ -448,6 +448,32 @@ def test_the_batched_turbulence_has_the_dryden_intensities():
     assert np.allclose(intensities(), expected, rtol=0.06)
 
 
+@pytest.mark.parametrize("wind", ["gust_fast", "shear", "on_shear_and_gust"])
+@pytest.mark.parametrize("name", MULTIROTORS)
+def test_a_cascade_mode_in_the_air_agrees_with_the_pybullet_engine(quiet, name, wind):
+    """QuadX-Waypoints flown by ground velocity (mode velocity_yawrate: the controller's tick,
+    then each control period's physics in mode motors, pyflyt_engine/batched/modes.py), 2 s
+    of random setpoints in the wind (turbulence injected): within 1e-6, the wind at each
+    period's own physics steps."""
+    worst, flown = fly_cascade_air_pair(quiet[name], wind)
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 60, "the flight ended before 2 s"
+
+
+def fly_cascade_air_pair(uav: str, wind: str):
+    """Both backends fly QuadX-Waypoints' velocity variant on airframe file ``uav`` for 2 s
+    of random setpoints in ``wind`` (as :func:`fly_air_pair`); returns the largest
+    differences and the agent steps flown (``experiments/batched_air_crosscheck.py`` too)."""
+    pb, be = _pair("quadx_waypoints_velocity", uav, seed=3, wind=VARIANTS.get(wind, TURBULENT.get(wind, wind)))
+    if be.dryden is not None:
+        _inject_the_engines_turbulence(pb, be)
+    low, high = np.array(be.config.action.low), np.array(be.config.action.high)
+    draws = np.random.default_rng(8)
+    table = [draws.uniform(low, high) for _ in range(60)]
+    worst, flown = _fly(pb, be, lambda k: table[k])
+    return worst, len(flown)
+
+
 @pytest.mark.parametrize("wind", ["gust_fast", "on_shear_and_gust"])
 @pytest.mark.parametrize("flight", ["quadx_hover", "velocity", "fixedwing"])
 def test_the_air_with_latency_agrees_with_the_pybullet_engine(quiet, flight, wind):
@@ -467,21 +493,3 @@ def test_the_air_with_latency_agrees_with_the_pybullet_engine(quiet, flight, win
     worst, flown = _fly(pb, be, lambda k: table[k])
     assert max(worst.values()) < BOUND, worst
     assert len(flown) >= 30, "the flight ended too soon to compare much"
-
-
-@pytest.mark.parametrize("wind", ["gust_fast", "shear", "on_shear_and_gust"])
-@pytest.mark.parametrize("name", MULTIROTORS)
-def test_a_cascade_mode_in_the_air_agrees_with_the_pybullet_engine(quiet, name, wind):
-    """QuadX-Waypoints flown by ground velocity (mode velocity_yawrate: the controller's tick,
-    then each control period's physics in mode motors, pyflyt_engine/batched/modes.py), 2 s
-    of random setpoints in the wind (turbulence injected): within 1e-6, the wind at each
-    period's own physics steps."""
-    pb, be = _pair("quadx_waypoints_velocity", quiet[name], seed=3, wind=VARIANTS.get(wind, TURBULENT.get(wind, wind)))
-    if be.dryden is not None:
-        _inject_the_engines_turbulence(pb, be)
-    low, high = np.array(be.config.action.low), np.array(be.config.action.high)
-    draws = np.random.default_rng(8)
-    table = [draws.uniform(low, high) for _ in range(60)]
-    worst, flown = _fly(pb, be, lambda k: table[k])
-    assert max(worst.values()) < BOUND, worst
-    assert len(flown) == 60, "the flight ended before 2 s"
