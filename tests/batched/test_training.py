@@ -187,6 +187,18 @@ def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory
     _assert_same(_outcome(first.run_dir), reference)
 
 
+def test_a_stop_then_resume_in_turbulence_is_bit_identical(tmp_path, tmp_path_factory):
+    """Hover PPO in Dryden turbulence: stopped mid-run and resumed, the run ends where an
+    uninterrupted one does (each env's turbulence filter and white-noise stream carried)."""
+    overrides = [*PPO_BATCHED, "env.wind=dryden_light"]
+    reference = _reference(overrides, tmp_path_factory)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(700)])
+    assert first.interrupted
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted
+    _assert_same(_outcome(first.run_dir), reference)
+
+
 def test_the_fixedwing_adapter_shows_the_agent_what_the_pybullet_training_env_shows():
     cfg = load_env_config("fixedwing_waypoints").with_overrides(backend="batched")
     vec = make_vec_env(cfg, 2)
