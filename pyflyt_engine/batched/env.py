@@ -23,7 +23,15 @@ Per episode, env ``i`` draws from its own generator (spawned from the seed, so i
 episodes do not depend on the other envs): the spawn (:meth:`Task.spawn`, the task's own
 law) and, for waypoints, the targets (:func:`~pyflyt_engine.envs.waypoints.sample_waypoints`).
 The motor noise of the whole batch comes from one generator per batch, seeded from the
-same seed: the same seed and ``num_envs`` give the same numbers, in any process.
+same seed: the same seed and ``num_envs`` give the same numbers, in any process.  In Dryden
+turbulence env ``i`` draws its filter's white noise from a stream of its own as well (the
+first child of its seed sequence), and its filter starts each episode from a fresh
+stationary draw, as the PyBullet engine's field does on a reset.
+
+The atmosphere (:mod:`pyflyt_engine.batched.air`): every ``env.wind`` -- a mean wind,
+uniform or sheared, a 1-cosine gust, Dryden turbulence -- and ``env.ground_effect``, as
+the PyBullet engine's world applies them (body drag and each lifting surface at the
+velocity through the air, the rotors' thrust in ground effect).
 
 Tasks: ``hover`` and ``waypoints`` (the QuadX-Hover, QuadX-Waypoints and
 Fixedwing-Waypoints configs, their variants on any airframe the model accepts: a
@@ -53,7 +61,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
-from pyflyt_engine.batched import kernels, modes
+from pyflyt_engine.batched import air, kernels, modes
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
@@ -88,13 +96,9 @@ def check_supported(config: EnvConfig, multi_agent: bool = False) -> None:
         raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
     from pyflyt_engine.atmosphere import load_wind_config
 
-    wind = load_wind_config(config.wind)
-    if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
-        what = config.wind if isinstance(config.wind, str) else "a wind mapping"
-        raise refuse(f"wind ({what}: a mean wind, gust or turbulence)", "give env.wind=calm")
+    load_wind_config(config.wind)  # every wind: mean, shear, gust, Dryden turbulence
     randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
     for key, present in (
-        ("ground_effect", config.ground_effect),
         ("downwash", config.downwash),
         (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
          "action_delay and observation_delay)", bool(randomized)),
@@ -211,6 +215,22 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._noise_ratio = m.noise_ratio
         self._surfaces = rows(m.surfaces)
         self._surface_lag = rows(m.surface_lag)
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        #: the air (pyflyt_engine.batched.air): the wind field's parameters, and per env the
+        #: rotors' rows for ground effect (the PyBullet engine's needs a ground: its worlds have one)
+        self.wind_config = load_wind_config(cfg.wind)
+        #: the turbulence filter of this airframe (None: no turbulence)
+        self.dryden = air.dryden_filter(self.wind_config, self.physics_dt, m.span)
+        self._wind = air.wind_params(self.wind_config, rotary=self.dryden is not None and self.dryden.rotary)
+        self.ground_effect = bool(cfg.ground_effect)
+        self._rotors = rows(m.rotors)
+        states = self.dryden.states if self.dryden is not None else 0
+        self._dryden_arrays = self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+        #: per env, the turbulence filter's state (Dryden; none without turbulence)
+        self.turbulence = np.zeros((n, states))
+        self._no_normals = np.zeros((n, self.per_agent, 0))
+        self._normals = self._no_normals  # this agent step's (advance)
 
         # state
         nm = m.motors
@@ -285,6 +305,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         children = sequence.spawn(self.num_envs + 1)
         self.noise_rng = np.random.default_rng(children[0])
         self.env_rngs = [np.random.default_rng(c) for c in children[1:]]
+        #: per env, the stream of its turbulence's white noise: the first child of that env's
+        #: own seed sequence (so it depends on the seed and the env's index alone, and leaves
+        #: the env's other draws as they were); none without turbulence
+        turbulent = self.dryden is not None
+        self.turbulence_rngs = [np.random.default_rng(c.spawn(1)[0]) for c in children[1:]] if turbulent else []
 
     # ------------------------------------------------------------------ reset
 
@@ -337,6 +362,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             # body to ground as Vehicle.reset turns the spawn's body-frame velocities
             self.vel[i] = exact.rotate(rot, [float(v) for v in spawn.lin_vel])
             self.angvel[i] = exact.rotate(rot, [float(v) for v in spawn.ang_vel])
+            if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
+                air.dryden_initial(self._dryden_arrays, self.turbulence_rngs[i].standard_normal(self.dryden.states),
+                                   self.turbulence[i])
             if self._waypoints:
                 self.targets[i] = sample_waypoints(
                     rng, o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
@@ -398,7 +426,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             factors = 1.0 + self._noise_ratio * eta
         else:
             factors = self._ones
-        self.advance(a, factors)
+        self.advance(a, factors, self.turbulence_normals())
         self.steps += 1
         self.episode_length += 1
         self._read()
@@ -416,9 +444,21 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             obs = self._observe()
         return obs, reward, terminated, truncated, info
 
-    def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
+    def turbulence_normals(self) -> np.ndarray:
+        """The turbulence's white noise of one agent step, (N, physics steps, filter states)
+        standard normal draws, env ``i``'s from its own stream (none without turbulence)."""
+        if self.dryden is None:
+            return self._no_normals
+        out = np.empty((self.num_envs, self.per_agent, self.dryden.states))
+        for rng, row in zip(self.turbulence_rngs, out):
+            rng.standard_normal(out=row)
+        return out
+
+    def advance(self, setpoints: np.ndarray, factors: np.ndarray, normals: np.ndarray | None = None) -> None:
         """One agent step of the physics for every env (setpoints already clipped; with
-        latency, the actions given now, which reach the controller later)."""
+        latency, the actions given now, which reach the controller later; ``normals``: the
+        turbulence's white noise, :meth:`turbulence_normals`, drawn here when not given)."""
+        self._normals = self.turbulence_normals() if normals is None else normals
         if self.latency is not None:
             self.latency.advance(self, setpoints, factors)
         else:
@@ -432,7 +472,14 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         """``count`` physics steps of every env from offset ``start`` into the agent step
         (a control tick where ``(start + s) % per_control == 0``), every tick in them flying
         ``setpoints``; ``factors`` (N, count, motors) their motor noise.  ``contact``: whether
-        a sample in them (the end of a control period, and their end) found the ground."""
+        a sample in them (the end of a control period, and their end) found the ground.  The
+        wind is the one of each env's physics steps ``physics_steps + start ...`` of its
+        episode, the turbulence driven by this agent step's white noise from ``start`` on."""
+        normals = self._normals
+        if (start, count) != (0, normals.shape[1]):
+            normals = np.ascontiguousarray(normals[:, start:start + count])
+        steps = self.physics_steps + start
+        dryden = self._dryden_arrays
         m = self.model
         if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
             kernels.advance_channels(
@@ -442,26 +489,30 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self._surface_lag, m.surface_mix_index, m.surface_mix_weight, self._drag_factors, self._damping,
                 m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, count,
                 self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
-                m.autopilot_index, self.control_dt,
+                m.autopilot_index, self.control_dt, self._wind, steps, self._rotors, self.ground_effect,
+                air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden,
             )
             return
         if self._cascade is not None:
-            self._advance_cascade(setpoints, factors, start, count)
+            self._advance_cascade(setpoints, factors, start, count, normals, steps)
             return
         kernels.advance(
             self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
             self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
             self._columns, self._mixer_rows, self._max_collective, self._rate_gains, m.rate_derivative,
             self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
-            self.physics_dt, self.control_dt, start, count, self.per_control,
+            self.physics_dt, self.control_dt, start, count, self.per_control, self._wind, steps, self._rotors,
+            self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden,
         )
 
-    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int,
+                         normals: np.ndarray, steps: np.ndarray) -> None:
         """``count`` physics steps from offset ``start`` in a cascade mode: per control
         period, the controller's tick (:func:`~pyflyt_engine.batched.modes.control_tick`) sets
         the motor commands from the state at its start, then the period's physics steps run
         in mode ``motors`` with them (a piece of a period that starts after its tick keeps
-        the commands the tick gave)."""
+        the commands the tick gave); ``normals`` the pieces' turbulence noise, ``steps`` each
+        env's episode physics step at ``start`` (:meth:`physics`)."""
         m = self.model
         c = m.cascade
         assert c is not None
@@ -491,11 +542,12 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self._control_inertia, self._gyro, self._lag, self._columns, self._mixer_rows, self._max_collective,
                 self._rate_gains, m.rate_derivative, self._drag_factors, self._damping, m.drag, self._corners,
                 self.contact, GRAVITY, self.physics_dt, self.control_dt, a % per_control, b - a, per_control,
+                self._wind, steps + (a - start), self._rotors, self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT,
+                self.turbulence, np.ascontiguousarray(normals[:, a - start:b - start]), self._dryden_arrays,
             )
             contact |= self.contact  # each call samples its own period's contacts
             a = b
         self.contact[:] = contact
-        self.physics_steps += self.per_agent
 
     def _judge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs

@@ -43,6 +43,7 @@ import math
 import numpy as np
 from numba import njit
 
+from pyflyt_engine.batched import air as _air
 from pyflyt_engine.components import lifting_surface as _ls
 
 # Bullet: ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI (btMultiBody.cpp)
@@ -352,7 +353,8 @@ def _lowest(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray) -> 
 def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_previous, setpoint,
             factors, mode, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows, max_collective,
             rate_gains, derivative, drag_factors, damping, drag_on, corners, contact, gravity, physics_dt,
-            control_dt, start, count, per_control):
+            control_dt, start, count, per_control, wind, episode_steps, rotors, ground_effect, min_height,
+            turbulence, turbulence_normals, dryden):
     """Advance every vehicle ``count`` physics steps from physics step ``start`` (control
     ticks where ``(start + s) % per_control == 0``).
 
@@ -367,7 +369,17 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
     sample (the end of each control period or of the step), as the PyBullet engine
     samples contacts.  Per physics step, in the PyBullet engine's order: on a control
     tick the controller (rate loop, mixer) sets the motor commands; the motors step; the
-    drag at the body's velocity (still air); the rigid body integrates the sum.
+    drag at the body's velocity through the air; the rigid body integrates the sum.
+
+    The air (:mod:`pyflyt_engine.batched.air`): where ``wind[0]`` is on, the wind at the
+    vehicle's height at physics step ``episode_steps[i] + s`` of its episode is taken off
+    its velocity (:func:`~pyflyt_engine.batched.air.air_from_body` on a tick, from the state
+    read; :func:`~pyflyt_engine.batched.air.air_from_motion` between ticks); with
+    ``ground_effect`` each motor's thrust takes its ground-effect ratio (``rotors`` (N, n, 5)
+    per motor: hub, prop radius, reaction per newton; the clamp ``min_height``).  With
+    turbulence (``wind``'s, :func:`~pyflyt_engine.batched.air.dryden_output`) each env's filter
+    state ``turbulence[i]`` moves on one step per physics step, driven by the standard normal
+    draws ``turbulence_normals[i, s]``; ``dryden`` its filter (:class:`~pyflyt_engine.batched.air.Dryden`).
     """
     n = pos.shape[0]
     nm = throttle.shape[1]
@@ -375,6 +387,12 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
     torques = np.empty(3)
     out = np.empty(nm)
     parts = np.empty((nm, 4))
+    scaled = np.empty((nm, 6))
+    windy = wind[0] != 0.0
+    turbulent = wind[17] != 0.0
+    calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    sample = calm
+    scratch = np.empty(turbulence.shape[1])
     for i in range(n):
         contact[i] = False
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
@@ -409,13 +427,33 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                     for mo in range(nm):
                         c = setpoint[i, mo]
                         cmd_i[mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
-            load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+            if windy:  # the wind at this physics step; the turbulence moves on
+                gusts = calm
+                if turbulent:
+                    gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
+                    _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
+                sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
+            if ground_effect:
+                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
+                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
+            else:
+                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
             if drag_on:  # summed after the motors, as the PyBullet engine sums its groups
                 v0, v1, v2 = v
-                bv0 = r0 * v0 + r3 * v1 + r6 * v2
-                bv1 = r1 * v0 + r4 * v1 + r7 * v2
-                bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
+                if windy:
+                    if step % per_control == 0:
+                        bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                        bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                        bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                        a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+                    else:
+                        a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
+                    load = summed(load, drag_wrench(a[0], a[1], a[2], a[3], a[4], a[5], kx, ky, kz, c_i))
+                else:
+                    bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                    bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                    bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                    load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
             p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity,
                                          physics_dt)
             if (step + 1) % per_control == 0 or s == count - 1:
@@ -612,7 +650,8 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
                      inertia, lag, columns, motor_index, motor_weight, channel_low, channel_high, surfaces,
                      surface_lag, surface_index, surface_weight, drag_factors, damping, drag_on, corners, contact,
                      gravity, air_density, physics_dt, start, count, per_control, mode, autopilot_integral,
-                     autopilot_gains, cruise_thrust, autopilot_index, control_dt):
+                     autopilot_gains, cruise_thrust, autopilot_index, control_dt, wind, episode_steps, rotors,
+                     ground_effect, min_height, turbulence, turbulence_normals, dryden):
     """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
     ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
     :func:`advance` does a multirotor.
@@ -624,8 +663,10 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
     PyBullet reports, as :func:`read_out`).  Every motor and flap takes it through its mix
     (:func:`route_channels`).  Per physics step, in the PyBullet engine's step order
     (motors, lifting surfaces, body drag; the wrenches summed in it): the motors step, the
-    flaps move and the surfaces load the body at its velocity through the (still) air,
-    body drag, and the rigid body integrates the sum.  ``contact`` as in :func:`advance`.
+    flaps move and the surfaces load the body at its velocity through the air, body drag
+    at the same, and the rigid body integrates the sum.  ``contact``, the wind and ground
+    effect (``wind``, ``episode_steps``, ``rotors``, ``ground_effect``, ``min_height``) and
+    the turbulence (``turbulence``, ``turbulence_normals``, ``dryden``) as in :func:`advance`.
     """
     n = pos.shape[0]
     nc = channel_low.shape[0]
@@ -633,6 +674,11 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
     rm = np.empty(9)
     qr = np.empty(4)
     euler = np.empty(3)
+    scaled = np.empty((throttle.shape[1], 6))
+    windy = wind[0] != 0.0
+    turbulent = wind[17] != 0.0
+    calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    scratch = np.empty(turbulence.shape[1])
     for i in range(n):
         contact[i] = False
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
@@ -672,7 +718,22 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
             bv0 = r0 * v0 + r3 * v1 + r6 * v2
             bv1 = r1 * v0 + r4 * v1 + r7 * v2
             bv2 = r2 * v0 + r5 * v1 + r8 * v2
-            load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+            if windy:  # the velocity through the air, as the PyBullet engine's world forms it
+                gusts = calm
+                if turbulent:
+                    gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
+                    _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
+                sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
+                if step % per_control == 0:
+                    a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+                else:
+                    a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
+                bv0, bv1, bv2, bw0, bw1, bw2 = a
+            if ground_effect:
+                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
+                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
+            else:
+                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
             load = summed(load, surfaces_step(d_i, f_i, sl_i, s_i, bv0, bv1, bv2, bw0, bw1, bw2, air_density))
             if drag_on:
                 load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pyflyt_engine.assembly import assemble
+from pyflyt_engine.atmosphere.field import vehicle_span
 from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_params
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
@@ -103,6 +104,10 @@ class BatchedModel:
             feed-forward; autopilot_index: (4,) its roll, pitch, yaw and thrust channels.
         cascade: a multirotor's outer loops (velocity, position, attitude, tilt, thrust:
             :func:`~pyflyt_engine.batched.modes.cascade_params`); None on a fixed-wing.
+        rotors: (n, 5) per motor what ground effect reads (:mod:`pyflyt_engine.batched.air`):
+            its hub position (centre-of-mass frame), prop radius (0: none, no ground effect)
+            and reaction torque per newton of thrust, as ``RotorInteractions`` and ``Motors`` hold them.
+        span: [m] the span the rotary turbulence gusts take (``atmosphere.field.vehicle_span``).
     """
 
     name: str
@@ -135,6 +140,8 @@ class BatchedModel:
     cruise_thrust: float = 0.0
     autopilot_index: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=np.int64))
     cascade: CascadeParams | None = None
+    rotors: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    span: float = 0.05
 
     @property
     def motors(self) -> int:
@@ -184,6 +191,22 @@ def _corners(spec: UAVSpec, com: np.ndarray) -> np.ndarray:
     return np.asarray(rows, dtype=np.float64)
 
 
+def _rotor_rows(spec: UAVSpec, motors, physics_dt: float) -> np.ndarray:
+    """Per motor: hub position, prop radius (0 for none) and reaction torque per newton, read
+    as the PyBullet engine's ``Atmosphere.add_vehicle`` and ``Motors`` read them."""
+    if motors is None:
+        return np.zeros((0, 5))
+    from pyflyt_engine.components.motor import Motors
+    from pyflyt_engine.components.noise import NoiseSource
+
+    hubs = np.asarray(motors.positions, dtype=np.float64).reshape(-1, 3)
+    radii = np.zeros(len(hubs))
+    if spec.motors is not None and spec.motors.prop_radius is not None:
+        radii = np.array([r or 0.0 for r in spec.motors.to_array("prop_radius").tolist()], dtype=np.float64)
+    group = Motors(motors, physics_dt, NoiseSource(np.random.default_rng(0)))
+    return np.column_stack([hubs, radii, np.asarray(group._reaction_per_thrust, dtype=np.float64)])
+
+
 def _mix_tables(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A mix matrix's rows (``routing.mix_rows``) as padded (index, weight) arrays."""
     rows = mix_rows(matrix)
@@ -230,6 +253,8 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
     drag_params = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
     on = bool(drag and drag_params.active)
     common = dict(
+        rotors=_rotor_rows(spec, parts.motors, physics_dt),
+        span=vehicle_span(parts.motors.positions if parts.motors is not None else None, parts.surfaces),
         name=name,
         mass=body_mass,
         inertia=body_inertia,

@@ -356,8 +356,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
 @pytest.mark.parametrize(
     ("env_name", "overrides", "named"),
     [
-        ("quadx_hover", {"wind": "gust"}, "wind"),
-        ("quadx_hover", {"ground_effect": True}, "ground_effect"),
+        ("quadx_hover", {"downwash": True}, "downwash"),
         ("quadx_hover", {"randomize": "moderate"}, "randomize"),
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
         ("quadx_obstacles", {}, "task 'goal'"),
@@ -365,7 +364,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("fixedwing_waypoints", {"action": {"mode": "rates_thrust", "names": ["p", "q", "r", "thrust"],
                                             "units": ["rad/s", "rad/s", "rad/s", "1"], "low": [-1.0, -1.0, -1.0, 0.0],
                                             "high": [1.0, 1.0, 1.0, 1.0]}}, "flight mode rates_thrust"),
-        ("fixedwing_waypoints", {"wind": "dryden_light"}, "wind"),
+        ("fixedwing_waypoints", {"downwash": True}, "downwash"),
         ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),
         ("ma_quadx_formation", {}, "multi-agent task 'ma_formation'"),
@@ -392,4 +391,4 @@ def test_the_shipped_batched_tasks_are_supported():
         check_supported(cfg)
         assert cfg.backend == "batched"
     with pytest.raises(UnsupportedByBatched):
-        check_supported(load_env_config("quadx_hover").with_overrides(wind="constant"))
+        check_supported(load_env_config("quadx_hover").with_overrides(downwash=True))

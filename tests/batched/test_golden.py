@@ -3,7 +3,9 @@
 ``golden_batched.npz`` holds 8 envs x 120 steps of QuadX-Hover, QuadX-Waypoints (also its
 velocity variant, flown through the controller's outer loops) and Fixedwing-Waypoints on the
 batched backend (motor noise on, autoreset, seeded random
-actions): every observation and reward.  This test recomputes them;
+actions), and QuadX-Hover in severe Dryden turbulence on a sheared wind and Fixedwing-Waypoints
+in the gust (``<env>+<wind>``: the air's laws, the turbulence's per-env streams): every
+observation and reward.  This test recomputes them;
 ``experiments/emulated_cpus.sh`` runs it again with the laws compiled for other instruction
 sets (numba's ``NUMBA_CPU_NAME``: a baseline x86-64 and an AVX-only core), so a change that
 made the compiled laws depend on the CPU fails here.  Regenerate (only for a deliberate
@@ -17,9 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from pyflyt_engine.batched import BatchedUAVEnv
+from pyflyt_engine.envs.config import load_env_config
 
 GOLDEN = Path(__file__).with_name("golden_batched.npz")
-ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints", "quadx_waypoints_velocity")
+ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints", "quadx_waypoints_velocity",
+        "quadx_hover+dryden_severe_sheared", "fixedwing_waypoints+gust")
+#: the winds of the ``<env>+<wind>`` entries: a preset name or a mapping
+WINDS = {"dryden_severe_sheared": {"preset": "dryden_severe", "mean": {"speed": 3.0, "direction": 45.0, "profile": "power"}},
+         "gust": "gust"}
 
 
 def _fixedwing_action(rng: np.random.Generator) -> np.ndarray:
@@ -36,7 +43,8 @@ def _velocity_action(rng: np.random.Generator) -> np.ndarray:
 
 
 def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
-    env = BatchedUAVEnv(env_name, num_envs=8, seed=5)
+    config, _, wind = env_name.partition("+")
+    env = BatchedUAVEnv(load_env_config(config).with_overrides(wind=WINDS[wind]) if wind else config, num_envs=8, seed=5)
     obs, _ = env.reset(seed=5)
     rng = np.random.default_rng(3)
     observations, rewards = [obs], []

@@ -128,21 +128,24 @@ def test_same_seed_same_numbers_in_another_process():
 
 def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp_path):
     """``env.backend: auto`` (the hover and waypoints PPO default): batched for the shipped hover, PyBullet for a
-    variant the batched backend does not simulate or with an imitation stage; the resolved
+    variant the batched backend does not simulate (downwash, a tricopter) or with an imitation stage; the resolved
     backend is the run's configuration.  Asked for by name, batched refuses that variant."""
     assert load(["env=quadx_hover"], tmp_path).env.backend == "batched"
-    assert load(["env=quadx_hover", "env.wind=gust"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_hover", "env.wind=gust"], tmp_path).env.backend == "batched"  # a deterministic wind
+    assert load(["env=quadx_hover", "env.ground_effect=true"], tmp_path).env.backend == "batched"
+    assert load(["env=quadx_hover", "env.wind=dryden_moderate"], tmp_path).env.backend == "batched"  # turbulence too
+    assert load(["env=quadx_hover", "env.downwash=true"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_hover", "uav=tricopter"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_waypoints"], tmp_path).env.backend == "batched"  # its PPO tuning is auto too
     assert load(["env=quadx_waypoints", "env.action.mode=velocity"], tmp_path).env.backend == "batched"  # every mode
     assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
-    assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.wind=gust"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.downwash=true"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
     assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
     assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
                 tmp_path).env.backend == "pybullet"  # other domain randomisation
-    with pytest.raises(ConfigError, match="does not simulate wind"):
-        load(["env=quadx_hover", "env.backend=batched", "env.wind=gust"], tmp_path)
+    with pytest.raises(ConfigError, match="does not simulate env.downwash"):
+        load(["env=quadx_hover", "env.backend=batched", "env.downwash=true"], tmp_path)
 
 
 def test_ppo_learns_a_little_on_it():
@@ -184,6 +187,18 @@ def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory
     _assert_same(_outcome(first.run_dir), reference)
 
 
+def test_a_stop_then_resume_in_turbulence_is_bit_identical(tmp_path, tmp_path_factory):
+    """Hover PPO in Dryden turbulence: stopped mid-run and resumed, the run ends where an
+    uninterrupted one does (each env's turbulence filter and white-noise stream carried)."""
+    overrides = [*PPO_BATCHED, "env.wind=dryden_light"]
+    reference = _reference(overrides, tmp_path_factory)
+    first = train(load(overrides, tmp_path), callbacks=[SignalAt(700)])
+    assert first.interrupted
+    resumed = resume(first.run_dir)
+    assert not resumed.interrupted
+    _assert_same(_outcome(first.run_dir), reference)
+
+
 def test_the_fixedwing_adapter_shows_the_agent_what_the_pybullet_training_env_shows():
     cfg = load_env_config("fixedwing_waypoints").with_overrides(backend="batched")
     vec = make_vec_env(cfg, 2)
@@ -209,6 +224,29 @@ def test_a_fixedwing_checkpoint_carries_the_flaps():
     first = [vec.step(a)[0] for a in actions]
     vec.env.deflection[:] = 0.0  # state the restore must put back
     vec.env.flap_command[:] = 0.0
+    for i in range(3):
+        vec.env_method("restore_episode", saved[i], indices=i)
+    again = [vec.step(a)[0] for a in actions]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
+@pytest.mark.parametrize("env_name", ["quadx_hover", "fixedwing_waypoints"])
+def test_a_checkpoint_in_turbulence_carries_the_filters_and_their_streams(env_name):
+    """Dryden turbulence: ``episode_state`` then ``restore_episode`` puts every env's filter
+    state and its white-noise stream back: the steps after it repeat bit for bit."""
+    vec = make_vec_env(load_env_config(env_name).with_overrides(backend="batched", wind="dryden_light"), 3)
+    vec.seed(4)
+    vec.reset()
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        vec.step(rng.uniform(-0.3, 0.3, (3, 4)))
+    saved = vec.env_method("episode_state")
+    assert np.abs(vec.env.turbulence).min() > 0.0 and "turbulence" in saved[0]["batched"]
+    actions = rng.uniform(-0.3, 0.3, (20, 3, 4))
+    first = [vec.step(a)[0] for a in actions]
+    vec.env.turbulence[:] = 0.0  # state the restore must put back
+    for g in vec.env.turbulence_rngs:
+        g.standard_normal(7)
     for i in range(3):
         vec.env_method("restore_episode", saved[i], indices=i)
     again = [vec.step(a)[0] for a in actions]
@@ -346,6 +384,31 @@ def test_the_velocity_variant_trains_end_to_end_on_it(tmp_path):
     assert read_metrics(result.run_dir / "metrics.mcap")["/train/episode"]  # batched episodes ended and were counted
 
 
+GUSTY_PPO_BATCHED = [
+    "env=quadx_hover",
+    "env.wind=gust",
+    "env.backend=batched",
+    "train.n_envs=64",
+    "train.total_timesteps=8192",
+    "algo.n_steps=64",
+    "algo.batch_size=1024",
+    "train.eval_freq=8192",
+    "train.eval_episodes=1",
+    "train.progress_bar=false",
+]
+
+
+def test_hover_in_a_gust_trains_end_to_end_on_it(tmp_path):
+    """``pyflyt train env=quadx_hover env.wind=gust env.backend=batched``, a tiny budget: the
+    batched envs fly the gust (pyflyt_engine.batched.air), the run records both, and the
+    evaluation flies the PyBullet engine in the same gust."""
+    result = train(load(GUSTY_PPO_BATCHED, tmp_path))
+    assert not result.interrupted
+    config = yaml.safe_load((result.run_dir / "config.yaml").read_text())
+    assert config["env"]["backend"] == "batched" and config["env"]["wind"] == "gust"
+    assert result.num_timesteps == 8192 and result.last_eval_step == 8192
+
+
 FIXEDWING_SAC_BATCHED = [
     "env=fixedwing_waypoints",
     "algo=sac",
@@ -402,8 +465,10 @@ def test_eval_of_a_batched_run_also_flies_the_batched_backend_and_says_why_not_w
     assert "waypoints_reached" not in report.batched  # hover has none
     assert json.loads((run / "eval.json").read_text())["batched"] == report.batched
     assert "batched:      success" in report.table()
-    gusty = evaluate_run(run, {"episodes": 1, "record": False}, env={"wind": "gust"})
-    assert isinstance(gusty.batched, str) and gusty.batched.startswith("not flown") and "wind" in gusty.batched
+    gusty = evaluate_run(run, {"episodes": 1, "record": False}, env={"wind": "gust"})  # a gust: flown there too
+    assert isinstance(gusty.batched, dict) and gusty.batched["episodes"] == 1.0
+    washed = evaluate_run(run, {"episodes": 1, "record": False}, env={"downwash": True})
+    assert isinstance(washed.batched, str) and washed.batched.startswith("not flown") and "downwash" in washed.batched
 
 
 def test_fly_episodes_counts_each_env_s_first_episode_as_the_env_reports_it():
