@@ -63,10 +63,10 @@ from gymnasium.vector import AutoresetMode
 from pyflyt_engine import exact
 from pyflyt_engine.batched import air, kernels, modes
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
-from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
+from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
-from pyflyt_engine.envs.randomization import DELAYS
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.envs.waypoints import sample_waypoints
@@ -75,51 +75,22 @@ from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import load_uav_spec
 
-#: tasks the batched backend runs
-BATCHED_TASKS = ("hover", "waypoints")
 #: upcoming waypoints in a waypoint observation (FlattenWaypointEnv's default)
 CONTEXT_LENGTH = 2
 
 
-def check_supported(config: EnvConfig, multi_agent: bool = False) -> None:
-    """Refuse, by name, every key of ``config`` the batched backend does not simulate
-    (a multi-agent config: :func:`pyflyt_engine.batched.swarm.check_swarm_supported`, which
-    checks its other keys here with ``multi_agent=True``)."""
+def check_supported(config: EnvConfig) -> None:
+    """Refuse, by name, every key of ``config`` the batched backend does not simulate (a
+    multi-agent config: :func:`pyflyt_engine.batched.swarm.check_swarm_supported`; the keys both
+    check: :func:`pyflyt_engine.batched.support.check_keys`)."""
     from pyflyt_engine.envs.config import MultiAgentEnvConfig
 
-    if isinstance(config, MultiAgentEnvConfig) and not multi_agent:
+    if isinstance(config, MultiAgentEnvConfig):
         from pyflyt_engine.batched.swarm import check_swarm_supported
 
         check_swarm_supported(config)
         return
-    if not multi_agent and config.task.name not in BATCHED_TASKS:
-        raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
-    from pyflyt_engine.atmosphere import load_wind_config
-
-    load_wind_config(config.wind)  # every wind: mean, shear, gust, Dryden turbulence
-    randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
-    for key, present in (
-        ("downwash", config.downwash),
-        (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
-         "action_delay and observation_delay)", bool(randomized)),
-        ("sensors", config.sensors is not None),
-        ("payloads", bool(config.payloads)),
-        ("obstacles", config.obstacles is not None),
-        ("range_sensors", bool(config.range_sensors)),
-        ("camera_observation", config.camera_observation is not None),
-    ):
-        if present:
-            raise refuse(f"env.{key}")
-    per_agent = config.physics_hz / config.agent_hz
-    per_control = config.physics_hz / config.control_hz
-    if abs(per_control - round(per_control)) > 1e-9 or abs(per_agent / round(per_control) - round(per_agent / round(per_control))) > 1e-9:
-        raise refuse(
-            f"control ticks out of step with the agent steps (physics_hz {config.physics_hz:g}, control_hz "
-            f"{config.control_hz:g}, agent_hz {config.agent_hz:g})",
-            "give control_hz a whole multiple of agent_hz that divides physics_hz",
-        )
-    model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
-    mode_code(config.action.mode, model)
+    check_keys(config)
 
 
 def resolve_backend(config: EnvConfig, *, imitation: bool = False) -> str:

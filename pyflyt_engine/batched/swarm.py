@@ -414,7 +414,7 @@ SWARM_MODES = ("rates_thrust", "motors")
 
 def check_swarm_supported(config: Any) -> None:
     """Refuse, by name, what the batched multi-agent path does not simulate in a multi-agent config."""
-    from pyflyt_engine.batched.env import check_supported
+    from pyflyt_engine.batched.support import check_keys
 
     if config.task.name not in SWARM_TASKS:
         raise refuse(f"the multi-agent task '{config.task.name}'", f"it runs {', '.join(SWARM_TASKS)}")
@@ -424,7 +424,7 @@ def check_swarm_supported(config: Any) -> None:
         raise refuse(f"agents of different airframes ({', '.join(uavs)})", "give every agent the env's uav")
     # every other key as the single-agent backend checks it (downwash is simulated here)
     single = config.model_copy(update={"downwash": False})
-    check_supported(single, multi_agent=True)
+    check_keys(single, multi_agent=True)
     # What the single-agent backend simulates may grow beyond what these worlds do: each is refused
     # here by name too, so a world never flies without something its config asks for.
     mode = resolve_mode(config.action.mode).name

@@ -1,0 +1,52 @@
+"""What the batched backend simulates of an env config: every other key is refused by name.
+
+:func:`check_keys` is shared by the single-agent envs (:func:`pyflyt_engine.batched.env.check_supported`)
+and the multi-agent worlds (:func:`pyflyt_engine.batched.swarm.check_swarm_supported`, which
+refuses more), so neither imports the other to ask.
+"""
+
+from __future__ import annotations
+
+from pyflyt_engine.batched.model import batched_model, mode_code, refuse
+from pyflyt_engine.envs.config import EnvConfig
+from pyflyt_engine.envs.randomization import DELAYS
+from pyflyt_engine.spec import load_uav_spec
+
+#: tasks the batched backend runs
+BATCHED_TASKS = ("hover", "waypoints")
+
+
+def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
+    """Refuse, by name, every key of ``config`` the batched backend does not simulate; a
+    multi-agent config's task is its caller's to check (``multi_agent``)."""
+    if not multi_agent and config.task.name not in BATCHED_TASKS:
+        raise refuse(f"the task '{config.task.name}'", f"it runs {', '.join(BATCHED_TASKS)}")
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    load_wind_config(config.wind)  # every wind: mean, shear, gust, Dryden turbulence
+    randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
+    for key, present in (
+        ("downwash", config.downwash),
+        (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
+         "action_delay and observation_delay)", bool(randomized)),
+        ("sensors", config.sensors is not None),
+        ("payloads", bool(config.payloads)),
+        ("obstacles", config.obstacles is not None),
+        ("range_sensors", bool(config.range_sensors)),
+        ("camera_observation", config.camera_observation is not None),
+    ):
+        if present:
+            raise refuse(f"env.{key}")
+    per_agent = config.physics_hz / config.agent_hz
+    per_control = config.physics_hz / config.control_hz
+    if abs(per_control - round(per_control)) > 1e-9 or abs(per_agent / round(per_control) - round(per_agent / round(per_control))) > 1e-9:
+        raise refuse(
+            f"control ticks out of step with the agent steps (physics_hz {config.physics_hz:g}, control_hz "
+            f"{config.control_hz:g}, agent_hz {config.agent_hz:g})",
+            "give control_hz a whole multiple of agent_hz that divides physics_hz",
+        )
+    model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    mode_code(config.action.mode, model)
+
+
+__all__ = ["BATCHED_TASKS", "check_keys"]
