@@ -68,8 +68,9 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     # the policy shapes agree, so the weights load
     assert awac.config["algo"]["policy_kwargs"]["net_arch"] == sac.config["algo"]["policy_kwargs"]["net_arch"]
     assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
-    # and they train the same way: the tunings' 4 envs and reach-sphere curriculum
-    assert sac.config["train"]["n_envs"] == awac.config["train"]["n_envs"] == ccge.config["train"]["n_envs"] == 4
+    # each with its own tuning's envs: SAC on 64 batched envs, AWAC and CCGE on 4 PyBullet envs
+    assert (sac.config["train"]["n_envs"], sac.config["env"]["backend"]) == (64, "batched")
+    assert awac.config["train"]["n_envs"] == ccge.config["train"]["n_envs"] == 4
     # from the same sphere, each cut to its run's budget (a curriculum may not outlast it)
     sphere, awac_sphere = sac.config["train"]["curriculum"]["goal_reach_distance"], awac.config["train"]["curriculum"]["goal_reach_distance"]
     assert sphere["start"] == awac_sphere["start"] == 1.0

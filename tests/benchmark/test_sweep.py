@@ -350,8 +350,11 @@ benchmark:
       task: "{env}_sparse"
       overrides: [env.reward=sparse]
       init_from: {task: "{env}", algo: sac, checkpoint: 100}
-train: {total_timesteps: 160, eval_freq: 0, checkpoint_freq: 100}
-algo: {learning_starts: 40, batch_size: 16, buffer_size: 1000, policy_kwargs: {net_arch: [16, 16]}}
+# the PyBullet path, 4 envs, one-step updates (the SAC tuning trains 64 batched envs)
+env: {backend: pybullet}
+train: {total_timesteps: 160, eval_freq: 0, checkpoint_freq: 100, n_envs: 4}
+algo: {learning_starts: 40, batch_size: 16, buffer_size: 1000, policy_kwargs: {net_arch: [16, 16]}, gradient_steps: 1,
+       n_steps: 1}
 """
 
 

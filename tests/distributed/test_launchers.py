@@ -65,8 +65,10 @@ benchmark:
                   "algo.policy_kwargs.net_arch=[32,32]"]
     - envs: [quadx_waypoints]
       algos: [sac]
+      # the PyBullet path with one-step updates, as before the tuning moved to 64 batched envs
       overrides: [algo.learning_starts=64, algo.batch_size=32, algo.buffer_size=2000,
-                  "algo.policy_kwargs.net_arch=[32,32]", train.curriculum.goal_reach_distance.steps=512]
+                  "algo.policy_kwargs.net_arch=[32,32]", train.curriculum.goal_reach_distance.steps=512,
+                  env.backend=pybullet, algo.gradient_steps=1, algo.n_steps=1]
 train: {total_timesteps: 512, n_envs: 1, eval_freq: 128, eval_episodes: 1, checkpoint_freq: 128}
 """
 RUN_IDS = [f"{e}/{a}/seed{k}" for a in ("ppo", "sac") for e in ("quadx_hover", "quadx_waypoints") for k in (0, 1)]

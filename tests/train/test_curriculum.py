@@ -24,6 +24,11 @@ from .test_resume import SignalAt, _assert_same, _outcome, _reference
 SAC_WAYPOINTS = [
     "env=quadx_waypoints",
     "algo=sac",
+    # the PyBullet path, 4 envs, one update per vector step (the tuning trains 64 batched envs)
+    "env.backend=pybullet",
+    "train.n_envs=4",
+    "algo.gradient_steps=1",
+    "algo.n_steps=1",
     "train.total_timesteps=600",
     "algo.buffer_size=2000",
     "algo.learning_starts=100",
@@ -132,14 +137,14 @@ def test_the_curriculum_reaches_envs_in_subprocesses(tmp_path):
 
 
 def test_a_curriculum_on_the_command_line_replaces_the_tunings_and_a_field_changes_one(tmp_path):
-    """conf/hparams/quadx_waypoints_sac.yaml sets goal_reach_distance 1 m over its 500k-step budget."""
+    """conf/hparams/quadx_waypoints_sac.yaml sets goal_reach_distance 1 m over the first 1 M of its 2 M steps."""
     tuned = load(["env=quadx_waypoints", "algo=sac"], tmp_path).train.curriculum
-    assert tuned["goal_reach_distance"].start == 1.0 and tuned["goal_reach_distance"].steps == 500000
+    assert tuned["goal_reach_distance"].start == 1.0 and tuned["goal_reach_distance"].steps == 1000000
     whole = load(["env=quadx_waypoints", "algo=sac", "train.curriculum={goal_reach_distance:{start:3.0,steps:100}}"], tmp_path)
     assert set(whole.train.curriculum) == {"goal_reach_distance"}
     assert (whole.train.curriculum["goal_reach_distance"].start, whole.train.curriculum["goal_reach_distance"].steps) == (3.0, 100)
     field = load(["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.start=3.0"], tmp_path)
-    assert (field.train.curriculum["goal_reach_distance"].start, field.train.curriculum["goal_reach_distance"].steps) == (3.0, 500000)
+    assert (field.train.curriculum["goal_reach_distance"].start, field.train.curriculum["goal_reach_distance"].steps) == (3.0, 1000000)
     assert not load(["env=quadx_waypoints", "algo=sac", "train.curriculum=null"], tmp_path).train.curriculum
 
 
@@ -168,14 +173,14 @@ def test_a_curriculum_that_outlasts_the_budget_is_refused_with_the_fix(tmp_path)
     from pyflyt_cli.errors import UsageError
     from pyflyt_engine.errors import ConfigError
 
-    long = ["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.steps=600000"]
+    long = ["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.steps=3000000"]
     with pytest.raises((ConfigError, UsageError)) as caught:
         load(long, tmp_path)
     message = str(caught.value)
-    assert "train.curriculum.goal_reach_distance.steps=600000 outlasts train.total_timesteps=500000" in message
-    assert "set train.curriculum.goal_reach_distance.steps=500000 (or fewer), or train.total_timesteps=600000" in message
+    assert "train.curriculum.goal_reach_distance.steps=3000000 outlasts train.total_timesteps=2000000" in message
+    assert "set train.curriculum.goal_reach_distance.steps=2000000 (or fewer), or train.total_timesteps=3000000" in message
     assert "train.curriculum=null" in message
-    assert load([*long, "train.total_timesteps=600000"], tmp_path).train.curriculum["goal_reach_distance"].steps == 600000
+    assert load([*long, "train.total_timesteps=3000000"], tmp_path).train.curriculum["goal_reach_distance"].steps == 3000000
 
 
 def test_no_shipped_tuning_or_experiment_has_a_curriculum_outlasting_its_budget(tmp_path):
