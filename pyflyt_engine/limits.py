@@ -64,6 +64,8 @@ LIMITS: dict[str, Limit] = {
     "train.eval_episodes": Limit(10_000.0, "episodes", "episodes of each evaluation during training"),
     "train.torch_threads": Limit(1024.0, "threads", "torch's intra-op threads"),
     "algo.rollout": Limit(1e7, "samples", "an on-policy rollout, n_steps x n_envs (x agents): every sample's observation is kept"),
+    # NStepReplayBuffer reads n transitions per sampled one: a minibatch of 256 at n = 1e7 is 2.6e9 reads
+    "algo.n_step_returns": Limit(1000.0, "steps", "rewards summed in an off-policy n-step return (algo.n_steps)"),
     "algo.batch_size": Limit(1_048_576.0, "samples", "a minibatch of one gradient step"),
     "algo.n_epochs": Limit(10_000.0, "epochs", "passes over each on-policy rollout"),
     "algo.buffer_size": Limit(1e7, "transitions", "the replay buffer, allocated whole when training starts (the paper: 1e6)"),

@@ -156,7 +156,10 @@ class _AlgoBase(_Strict):
     @field_validator(*_BOUNDED, check_fields=False)
     @classmethod
     def _bounded(cls, value: int | None, info: ValidationInfo) -> int | None:
-        return value if value is None else limits.check(cls._BOUNDED[info.field_name], value, name=f"algo.{info.field_name}")
+        key = cls._BOUNDED[info.field_name]
+        if info.field_name == "n_steps" and "buffer_size" in cls.model_fields:  # off-policy: n-step returns
+            key = "algo.n_step_returns"
+        return value if value is None else limits.check(key, value, name=f"algo.{info.field_name}")
 
     @model_validator(mode="after")
     def _policy_fits(self) -> Any:

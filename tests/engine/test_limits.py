@@ -232,6 +232,8 @@ CASES = {
     "algo.rollout": (lambda: train_problem("train.n_envs=4096", "algo.n_steps=4096"),
                      lambda: train_problem("train.n_envs=4096", "algo.n_steps=2048"),
                      "the rollout n_steps x n_envs 16777216"),
+    "algo.n_step_returns": (lambda: train_problem("algo=sac", "algo.n_steps=1000000"),
+                            lambda: train_problem("algo=sac", "algo.n_steps=1000"), "algo.n_steps 1000000"),
     "algo.batch_size": (lambda: train_problem("algo=sac", "algo.batch_size=2000000"),
                         lambda: train_problem("algo=sac", "algo.batch_size=1048576"), "algo.batch_size 2000000"),
     "algo.n_epochs": (lambda: train_problem("algo.n_epochs=1000000000"), lambda: train_problem("algo.n_epochs=10000"),
