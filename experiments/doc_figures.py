@@ -173,7 +173,6 @@ def _sac_eta(work: Path) -> dict:
 
 
 def _zoo(work: Path) -> dict:
-    sys.path.insert(0, str(ROOT))
     from pyflyt_cli import zoo
 
     out = {}
@@ -191,7 +190,6 @@ def _zoo(work: Path) -> dict:
 def _machine() -> str:
     import platform
 
-    sys.path.insert(0, str(ROOT))
     from pyflyt_engine.numerics import platform_info
 
     info = platform_info()

@@ -38,7 +38,6 @@ import math
 import os
 import platform
 import subprocess
-import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -47,7 +46,6 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 DEFAULT_REFERENCE = os.environ.get("PYFLYT_REFERENCE_PYTHON", "/work/refvenv/bin/python")
 ACTION = [0.0, 0.0, 0.0, 0.5]
 #: label -> env kwargs: the ids as registered, and a dome and duration large enough to see

@@ -34,7 +34,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 import pyflyt_engine  # noqa: E402,F401 - pins the kernels in this process (the reference)
 import numpy as np  # noqa: E402

@@ -149,11 +149,19 @@ def _run_ma(module: str, kwargs: dict, episodes: int = 2, steps: int = 120) -> s
     return _digest(rows)
 
 
+def _golden_trajectories():
+    """``tests/engine/test_golden_trajectories.py`` (its cases and their computation), loaded from its file."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("golden_trajectories", ROOT / "tests" / "engine" / "test_golden_trajectories.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def all_cases() -> list[str]:
     """Every case name, in table order."""
-    sys.path.insert(0, str(ROOT))
-    from tests.engine.test_golden_trajectories import cases
-
+    cases = _golden_trajectories().cases
     return [f"{kind}:{name}" for kind, name in cases()] + [f"env+:{n}" for n, _, _ in ENV_VARIANTS] + [
         f"ma:{n}" for n, _, _ in MA_VARIANTS
     ]
@@ -163,10 +171,7 @@ def compute_case(case: str) -> str:
     """The trajectory hash of one case, in this process."""
     kind, _, name = case.partition(":")
     if kind in ("fly", "env"):
-        sys.path.insert(0, str(ROOT))
-        from tests.engine.test_golden_trajectories import compute
-
-        return compute(kind, name)
+        return _golden_trajectories().compute(kind, name)
     if kind == "env+":
         _, env_id, kwargs = next(v for v in ENV_VARIANTS if v[0] == name)
         return _run_gym(env_id, kwargs)

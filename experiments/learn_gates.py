@@ -34,43 +34,13 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from learn_hover_ppo import plot_curve  # this folder: the curve's plot
-from learn_obstacles import ObstacleProbe, iqm_summary, run_seeds, section_head  # CPU budget, saves, report
-from learn_waypoints import waypoint_probe
+from pyflyt_cli.studies.probes import GATES, GatesProbe
+from pyflyt_cli.studies.report import iqm_summary, plot_curve, section_head
+from pyflyt_cli.studies.runs import run_seeds
 
 ENV = "quadx_gates_state"
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_gates.md"
 TARGET = 0.5  # the issue's target: >= 50 % of the episodes ...
-GATES = 3  # ... pass at least 3 gates in a row
-
-
-def gates_probe(model, env, episodes: int, seed: int, gates: int = GATES) -> dict:
-    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...):
-    :func:`learn_waypoints.waypoint_probe`'s counts (gates passed per episode, the fractions
-    passing at least 1..n, their mean, the endings, the return), and ``success``, the fraction
-    passing at least ``gates``."""
-    out = waypoint_probe(model, env, episodes, seed)
-    out["success"] = out["at_least"][gates - 1]
-    return out
-
-
-class GatesProbe(ObstacleProbe):
-    """:class:`learn_obstacles.ObstacleProbe` (CPU budget, saves, schedule) flying :func:`gates_probe`."""
-
-    def __init__(self, *args, **kwargs) -> None:
-        super().__init__(*args, **kwargs)
-        self.probe_fn = gates_probe
-
-    def describe(self, probe: dict) -> str:
-        at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
-        return (
-            f">= k gates [%]: {at_least}  mean {probe['mean_reached']:.2f}  endings {probe['endings']}  "
-            f"return {probe['mean_return']:8.1f}"
-        )
-
-
 def table(rows: list[dict]) -> list[str]:
     lines = [
         "| seed | ended by | steps | training CPU [min] | wall-clock [min] | load min / mean / max | steps per CPU-s | "

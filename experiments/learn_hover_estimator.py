@@ -26,16 +26,14 @@ import argparse
 import json
 import os
 import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from learn_hover_ppo import MAX_DISTANCE, HoverProbe, hover_probe  # noqa: E402
-
-from pyflyt_cli.training import compose_config, train  # noqa: E402
-from pyflyt_cli.training.envs import EnvFactory  # noqa: E402
+from pyflyt_cli.studies.probes import HOVER_DISTANCE as MAX_DISTANCE
+from pyflyt_cli.studies.probes import HoverProbe, hover_probe
+from pyflyt_cli.training import compose_config, train
+from pyflyt_cli.training.envs import EnvFactory
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_hover_estimator.md"
 RUNS = RESULTS.with_suffix("")

@@ -35,145 +35,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback
 
-from pyflyt_cli.training import compose_config, train
-from pyflyt_cli.training.envs import EnvFactory
+from pyflyt_cli.studies.probes import HOVER_DISTANCE
+from pyflyt_cli.studies.report import plot_curve, probe_curve
+from pyflyt_cli.studies.runs import hover_run
+from pyflyt_cli.training import compose_config
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_hover_ppo.md"
-MAX_DISTANCE = 0.1  # [m], the issue's hovering target
-
-
-def hover_probe(model, env, episodes: int, seed: int) -> dict[str, float]:
-    """Fly ``episodes`` episodes; crash-free fraction, mean distance to the hover point, return."""
-    vec = model.get_vec_normalize_env()
-    base = env.unwrapped
-    point = np.asarray(base.task.options.hover_point)
-    survived, distances, returns = [], [], []
-    for i in range(episodes):
-        obs, _ = env.reset(seed=seed + i)
-        done, total, dist = False, 0.0, []
-        while not done:
-            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
-            action, _ = model.predict(x, deterministic=True)
-            obs, reward, terminated, truncated, _ = env.step(action)
-            total += float(reward)
-            dist.append(float(np.linalg.norm(base.state.lin_pos - point)))
-            done = terminated or truncated
-        survived.append(truncated and not terminated)
-        distances.append(float(np.mean(dist)))
-        returns.append(total)
-    return {
-        "survived": float(np.mean(survived)),
-        "worst_distance": float(np.max(distances)),
-        "mean_distance": float(np.mean(distances)),
-        "mean_return": float(np.mean(returns)),
-    }
-
-
-class HoverProbe(BaseCallback):
-    """Every ``every`` steps: fly ``probe_fn`` (default :func:`hover_probe`) on a fresh env of
-    ``cfg`` (or of ``probe_env``, an env config, when the policy is probed on another env than
-    it trains on); remember the first step whose probe hovers (every episode survived, worst mean
-    distance below ``max_distance``).  ``unit`` names the steps in the printed lines
-    (``learn_ma_hover_ppo.py`` probes all agents and counts agent-steps)."""
-
-    def __init__(
-        self,
-        cfg,
-        every: int,
-        episodes: int,
-        stop_on_hover: bool = False,
-        *,
-        max_distance: float = MAX_DISTANCE,
-        probe_fn=hover_probe,
-        unit: str = "steps",
-        probe_env=None,
-    ) -> None:
-        super().__init__()
-        self.stop_on_hover = stop_on_hover
-        self.max_distance, self.probe_fn, self.unit = max_distance, probe_fn, unit
-        self.env = EnvFactory(cfg.env if probe_env is None else probe_env, monitor=False)()
-        self.every, self.episodes = every, episodes
-        self.next = every
-        self.started = time.perf_counter()
-        self.cpu_started = time.process_time()
-        self.probe_time = 0.0
-        self.probe_cpu = 0.0
-        self.history: list[tuple[int, float, dict[str, float]]] = []
-        #: (steps, wall-clock, wall-clock without the probes, CPU time of this process without the probes)
-        self.hover_at: tuple[int, float, float, float] | None = None
-
-    def _on_training_start(self) -> None:
-        self.started = time.perf_counter()
-        self.cpu_started = time.process_time()
-
-    def _on_step(self) -> bool:
-        if self.num_timesteps >= self.next:
-            self.next += self.every
-            self.probe()
-            if self.stop_on_hover and self.hover_at is not None:
-                return False
-        return True
-
-    def _on_training_end(self) -> None:
-        if not self.history or self.history[-1][0] != self.num_timesteps:
-            self.probe()  # the final policy
-
-    def probe(self) -> None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        probe = self.probe_fn(self.model, self.env, self.episodes, seed=10_000)
-        self.probe_time += time.perf_counter() - t0
-        self.probe_cpu += time.process_time() - c0
-        wall = time.perf_counter() - self.started
-        self.history.append((self.num_timesteps, wall, probe))
-        print(
-            f"  {self.num_timesteps:>7} {self.unit}  {wall:6.1f} s  survived {100 * probe['survived']:3.0f} %  "
-            f"distance mean {probe['mean_distance']:.3f} / worst {probe['worst_distance']:.3f} m  "
-            f"return {probe['mean_return']:8.2f}",
-            flush=True,
-        )
-        if self.hover_at is None and probe["survived"] == 1.0 and probe["worst_distance"] < self.max_distance:
-            cpu = time.process_time() - self.cpu_started - self.probe_cpu
-            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time, cpu)
-
-
-def run(
-    seed: int,
-    budget: int | None,
-    every: int,
-    episodes: int,
-    output: Path,
-    algo: str = "ppo",
-    extra: tuple[str, ...] | list[str] = (),
-    stop_on_hover: bool = False,
-    max_distance: float = MAX_DISTANCE,
-) -> dict:
-    overrides = [
-        *extra,
-        f"seed={seed}",
-        f"train.output_dir={output}",
-        "train.progress_bar=false",
-    ]
-    if budget is not None:
-        overrides.append(f"train.total_timesteps={budget}")
-    cfg = compose_config(env="quadx_hover", algo=algo, overrides=overrides)
-    probe = HoverProbe(cfg, every, episodes, stop_on_hover, max_distance=max_distance)
-    start = time.perf_counter()
-    result = train(cfg, callbacks=[probe])
-    total = time.perf_counter() - start
-    final = probe.history[-1][2] if probe.history else {}
-    return {
-        "seed": seed,
-        "budget": cfg.train.total_timesteps,
-        "steps": result.num_timesteps,
-        "hover_at": probe.hover_at,
-        "final": final,
-        "steps_per_second": result.num_timesteps / max(total - probe.probe_time, 1e-9),
-        "wall": total,
-        "n_envs": cfg.train.n_envs,
-        "history": [(steps, wall, probe) for steps, wall, probe in probe.history],
-    }
 
 
 def rliable_summary(rows: list[dict], budget: int, reps: int = 2000) -> tuple[list[str], dict]:
@@ -210,48 +78,6 @@ def rliable_summary(rows: list[dict], budget: int, reps: int = 2000) -> tuple[li
     return lines, data
 
 
-def probe_curve(rows: list[dict], key: str, reps: int = 2000) -> dict | None:
-    """IQM over seeds, with its 95 % bootstrap band (rliable), of the probes' ``key`` at each probe
-    step; None unless every run probed at the same steps (two or more)."""
-    from pyflyt_cli.plotting import stats
-
-    probe_steps = [[h[0] for h in r["history"]] for r in rows]
-    if not rows or any(s != probe_steps[0] for s in probe_steps) or len(probe_steps[0]) < 2:
-        return None
-    curve = np.asarray([[[h[2][key] for h in r["history"]]] for r in rows])  # (runs, 1, points)
-    band = stats.iqm_curves({"x": curve}, reps=reps, seed=0)["x"]
-    return {"steps": probe_steps[0], "iqm": band.value.tolist(), "low": band.low.tolist(), "high": band.high.tolist()}
-
-
-def plot_curve(
-    data: dict,
-    path: Path,
-    title: str,
-    key: str = "mean_return",
-    ylabel: str = "probe return (deterministic)",
-    legend: str = "lower right",
-) -> None:
-    """``data["curve"]`` (from :func:`probe_curve`) with its band, and every run's probes of ``key`` in grey."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    curve = data["curve"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.plot(curve["steps"], curve["iqm"], color="C0", label="IQM over seeds")
-    ax.fill_between(curve["steps"], curve["low"], curve["high"], color="C0", alpha=0.25, label="95 % CI")
-    for r in data["rows"]:
-        ax.plot([h[0] for h in r["history"]], [h[2][key] for h in r["history"]], color="0.6", lw=0.8)
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.legend(loc=legend)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
@@ -263,7 +89,7 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--stop-on-hover", action="store_true", help="end a run at its first hovering probe")
     parser.add_argument(
-        "--max-distance", type=float, default=MAX_DISTANCE, help="hovering: mean distance below this [m]"
+        "--max-distance", type=float, default=HOVER_DISTANCE, help="hovering: mean distance below this [m]"
     )
     args = parser.parse_args()
 
@@ -272,7 +98,7 @@ def main() -> None:
         for seed in args.seeds:
             print(f"seed {seed}:", flush=True)
             rows.append(
-                run(
+                hover_run(
                     seed,
                     args.budget,
                     args.probe_every,

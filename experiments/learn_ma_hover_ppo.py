@@ -3,7 +3,7 @@
 Trains what ``pyflyt train env=ma_quadx_hover algo=ppo`` trains (``conf/hparams/
 ma_quadx_hover_ppo.yaml``: 4 agents, one shared policy), and every ``--probe-every``
 agent-steps flies the current policy (deterministic) for ``--episodes`` seeded episodes
-with ``learn_hover_ppo.py``'s probe callback.
+with the hover probe callback (``pyflyt_cli.studies.probes.HoverProbe``).
 
 **The task's limits.**  By default every agent flies the single-agent QuadX-Hover
 task's limits, read from ``conf/env/quadx_hover.yaml``: 10 s episodes and its 3 m
@@ -55,11 +55,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from learn_hover_ppo import HoverProbe  # this folder: the probe callback and its criterion
-from learn_hover_ppo import run as run_single
-
+from pyflyt_cli.studies.probes import HoverProbe  # the probe callback and its criterion
+from pyflyt_cli.studies.runs import hover_run as run_single
 from pyflyt_cli.training import compose_config, train
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_ma_hover_ppo.md"

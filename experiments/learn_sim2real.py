@@ -35,13 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from learn_hover_ppo import MAX_DISTANCE, HoverProbe, hover_probe  # noqa: E402
-
-from pyflyt_cli.training import compose_config, train  # noqa: E402
-from pyflyt_cli.training.envs import EnvFactory  # noqa: E402
-from pyflyt_engine.envs.config import EnvConfig  # noqa: E402
-from pyflyt_engine.envs.randomization import Distribution  # noqa: E402
+from pyflyt_cli.studies.probes import HOVER_DISTANCE as MAX_DISTANCE
+from pyflyt_cli.studies.probes import HoverProbe, hover_probe
+from pyflyt_cli.training import compose_config, train
+from pyflyt_cli.training.envs import EnvFactory
+from pyflyt_engine.envs.config import EnvConfig
+from pyflyt_engine.envs.randomization import Distribution
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_sim2real.md"
 #: the held-out airframe: fixed factors on the nominal cf2x, each beyond the sim2real preset's range

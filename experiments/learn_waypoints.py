@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import sys
 import tempfile
@@ -42,10 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from learn_hover_ppo import HoverProbe, plot_curve, probe_curve  # this folder: probe callback, curve, plot
-
+from pyflyt_cli.studies.probes import PROBE_SEED, WaypointProbe, waypoint_probe
+from pyflyt_cli.studies.report import iqm_cell, plot_curve, probe_curve
+from pyflyt_cli.studies.runs import SavedPolicy, checkpoint_policies, phase_split
 from pyflyt_cli.training import compose_config, train
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
@@ -55,141 +53,14 @@ TASKS = {
     "quadx_waypoints_velocity": (RESULTS_DIR / "learn_waypoints_velocity.md", 0.8, "QuadX-Waypoints, velocity flight mode"),
     "fixedwing_waypoints": (RESULTS_DIR / "learn_fixedwing_waypoints.md", 0.5, "Fixedwing-Waypoints"),
 }
-PROBE_SEED = 10_000
-
-
-def ending(info: dict, truncated: bool) -> str:
-    """How an episode ended, from its last ``info``: complete, crash, out (of the dome) or time."""
-    if info.get("env_complete"):
-        return "complete"
-    if info.get("out_of_bounds"):
-        return "out"
-    if truncated and not info.get("collision"):
-        return "time"
-    return "crash"
-
-
-def summarize_probe(reached: list[int], endings: list[str], returns: list[float], num_targets: int) -> dict:
-    """Fractions of the episodes reaching at least 1..``num_targets`` waypoints, and the rest."""
-    counts = np.asarray(reached, dtype=int)
-    return {
-        "reached": [int(c) for c in counts],
-        "at_least": [float(np.mean(counts >= k)) for k in range(1, num_targets + 1)],
-        "mean_reached": float(counts.mean()),
-        "all": float(np.mean(counts >= num_targets)),
-        "endings": {e: endings.count(e) for e in ("complete", "time", "out", "crash") if e in endings},
-        "mean_return": float(np.mean(returns)),
-    }
-
-
-def waypoint_probe(model, env, episodes: int, seed: int) -> dict:
-    """Fly ``episodes`` deterministic episodes (seeds ``seed``, ``seed + 1``, ...); see :func:`summarize_probe`
-    (waypoints reached, or gates passed, in order: ``info["num_targets_reached"]``)."""
-    vec = model.get_vec_normalize_env()
-    options = env.unwrapped.task.options
-    num_targets = options.num_targets if hasattr(options, "num_targets") else len(options.gates)  # waypoints or gates
-    reached, endings, returns = [], [], []
-    for i in range(episodes):
-        obs, _ = env.reset(seed=seed + i)
-        done, total, info, truncated = False, 0.0, {}, False
-        while not done:
-            x = vec.normalize_obs(obs) if vec is not None and vec.norm_obs else obs
-            action, _ = model.predict(x, deterministic=True)
-            obs, reward, terminated, truncated, info = env.step(action)
-            total += float(reward)
-            done = terminated or truncated
-        reached.append(int(info["num_targets_reached"]))
-        endings.append(ending(info, truncated))
-        returns.append(total)
-    return summarize_probe(reached, endings, returns, num_targets)
-
-
-class WaypointProbe(HoverProbe):
-    """:class:`learn_hover_ppo.HoverProbe`'s schedule with :func:`waypoint_probe`; remembers the first
-    probe at which ``target`` of the episodes reach every waypoint, and times the env stepping."""
-
-    def __init__(self, cfg, every: int, episodes: int, target: float) -> None:
-        super().__init__(cfg, every, episodes, probe_fn=waypoint_probe)
-        self.target = target
-        self.env_time = 0.0
-        self.loads: list[float] = []
-
-    def _on_training_start(self) -> None:
-        super()._on_training_start()
-        venv = self.model.get_env()  # the outermost vector env: its step_wait steps every env
-        inner = venv.step_wait
-
-        def timed_step_wait():
-            t0 = time.perf_counter()
-            try:
-                return inner()
-            finally:
-                self.env_time += time.perf_counter() - t0
-
-        venv.step_wait = timed_step_wait
-
-    def probe(self) -> None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        probe = self.probe_fn(self.model, self.env, self.episodes, seed=PROBE_SEED)
-        self.probe_time += time.perf_counter() - t0
-        self.probe_cpu += time.process_time() - c0
-        wall = time.perf_counter() - self.started
-        # CPU time of this process (every thread) in training, the probes taken out: what a
-        # machine shared with other jobs inflates far less than the wall-clock
-        cpu = time.process_time() - self.cpu_started - self.probe_cpu
-        probe = {**probe, "cpu": cpu}
-        load = os.getloadavg()[0]
-        self.loads.append(load)
-        self.history.append((self.num_timesteps, wall, probe))
-        at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
-        print(
-            f"  {self.num_timesteps:>8} steps  {wall:7.1f} s  (train {wall - self.probe_time:7.1f} s, CPU {cpu:7.1f} s, "
-            f"load {load:.1f})  "
-            f">=k reached [%]: {at_least}  mean {probe['mean_reached']:.1f}  endings {probe['endings']}  "
-            f"return {probe['mean_return']:8.1f}",
-            flush=True,
-        )
-        if self.hover_at is None and probe["all"] >= self.target:
-            self.hover_at = (self.num_timesteps, wall, wall - self.probe_time, cpu)
-
-
-class _SavedPolicy:
-    """A saved policy with the probe's interface (``predict``; its normaliser applied inside)."""
-
-    def __init__(self, model, normalize) -> None:
-        self.model, self.normalize = model, normalize
-
-    def get_vec_normalize_env(self):
-        return None
-
-    def predict(self, obs, deterministic: bool = True):
-        return self.model.predict(self.normalize(obs) if self.normalize is not None else obs, deterministic=deterministic)
-
-
-def _checkpoint_policies(run_dir: Path, after: int = 0, every: int = 1):
-    """(step, model, observation normaliser, run config, env) for each checkpoint of a run
-    directory after step ``after`` at a multiple of ``every`` steps, on the env the run trained on."""
-    from pyflyt_cli.training import rundir
-    from pyflyt_cli.training.envs import EnvFactory
-    from pyflyt_cli.training.models import load_policy
-
-    cfg = rundir.load_run_config(run_dir)
-    env = EnvFactory(cfg.env, monitor=False)()
-    try:
-        for checkpoint in rundir.checkpoints(run_dir):
-            if checkpoint.step > after and checkpoint.step % every == 0:
-                model, normalize = load_policy(checkpoint.model, cfg, env)
-                yield checkpoint.step, model, normalize, cfg, env
-    finally:
-        env.close()
 
 
 def probe_run(run_dir: Path, episodes: int, after: int = 0) -> list[tuple[int, dict]]:
     """The probe of every checkpoint of a run directory after step ``after`` (e.g. a run extended
     with ``pyflyt train resume=<run> train.total_timesteps=N``), on the env the run trained on."""
     out = []
-    for step, model, normalize, _, env in _checkpoint_policies(run_dir, after):
-        probe = waypoint_probe(_SavedPolicy(model, normalize), env, episodes, seed=PROBE_SEED)
+    for step, model, normalize, _, env in checkpoint_policies(run_dir, after):
+        probe = waypoint_probe(SavedPolicy(model, normalize), env, episodes, seed=PROBE_SEED)
         out.append((step, probe))
         at_least = " ".join(f"{100 * f:3.0f}" for f in probe["at_least"])
         print(
@@ -212,7 +83,7 @@ def replay_evaluations(
     from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET, policy_predict, run_episodes, summarize
 
     out = []
-    for step, model, normalize, cfg, env in _checkpoint_policies(run_dir, after, every):
+    for step, model, normalize, cfg, env in checkpoint_policies(run_dir, after, every):
         flown = run_episodes(
             policy_predict(model), env, episodes or cfg.train.eval_episodes, cfg.seed + EVAL_SEED_OFFSET,
             cfg.train.eval_deterministic, normalize_obs=normalize,
@@ -234,18 +105,6 @@ def replay_evaluations(
     return out
 
 
-def _phase_split(run_dir: Path) -> dict[str, float]:
-    import warnings
-
-    from pyflyt_engine.telemetry import read_metrics
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        records = read_metrics(run_dir).get("/train/progress", [])
-    last = dict(records[-1]) if records else {}
-    return {k[: -len("_seconds")]: float(v) for k, v in last.items() if k.endswith("_seconds")}
-
-
 def run(
     env: str,
     seed: int,
@@ -264,7 +123,7 @@ def run(
     start = time.perf_counter()
     result = train(cfg, callbacks=[probe], log=lambda line: print(f"    {line}", flush=True))
     wall = time.perf_counter() - start
-    split = _phase_split(Path(result.run_dir))
+    split = phase_split(Path(result.run_dir))
     if split:
         # the probes run inside the collection phase (from a callback's on_step): take them out
         collect = split.get("collect", 0.0) - probe.probe_time
@@ -296,15 +155,6 @@ def run(
         "load": [min(probe.loads, default=0.0), max(probe.loads, default=0.0)],
         "history": probe.history,
     }
-
-
-def iqm_cell(values: list[float], digits: int, reps: int = 2000) -> str:
-    """``IQM [low, high]`` over seeds of one value per seed: rliable's interquartile mean with its
-    95 % stratified-bootstrap interval (``reps`` replicates, seed 0), to ``digits`` decimals."""
-    from pyflyt_cli.plotting import stats
-
-    e = stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
-    return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
 
 
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:

@@ -23,18 +23,13 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from learn_gates import gates_probe  # this folder: the probes the learning runs are measured by
-from learn_obstacles import obstacle_probe
-from learn_waypoints import PROBE_SEED
+from pyflyt_cli.studies.probes import PROBE_SEED, gates_probe, obstacle_probe  # the probes the learning runs are measured by
 
 from pyflyt_cli.training import compose_config
 from pyflyt_cli.training.envs import EnvFactory

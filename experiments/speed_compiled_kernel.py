@@ -50,7 +50,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from pyflyt_engine.bullet import pybullet as p  # noqa: E402
 

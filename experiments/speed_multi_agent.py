@@ -65,7 +65,6 @@ def _agents(kind: str, size: int) -> int:
 
 
 def ours(kind: str, size: int, steps: int, seed: int) -> dict:
-    sys.path.insert(0, str(ROOT))
     from pyflyt_cli.speed import probes
 
     env = probes.swarm_env(kind, _agents(kind, size))
@@ -104,7 +103,6 @@ def level(size: int, downwash: bool, steps: int) -> dict:
     sources visited per vehicle read."""
     import time
 
-    sys.path.insert(0, str(ROOT))
     from pyflyt_engine.envs.multi_agent import ma_quadx_formation_v0
 
     env = ma_quadx_formation_v0.parallel_env(agents=size, downwash=downwash, velocity=(0.0, 0.0, 0.0))

@@ -34,7 +34,6 @@ import argparse
 import importlib.util
 import os
 import statistics
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -42,7 +41,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from pyflyt_engine.atmosphere.air import air_velocity  # noqa: E402
 from pyflyt_engine.bullet import pybullet as p  # noqa: E402

@@ -21,8 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from pyflyt_engine.batched.swarm import make_batched_swarm
 
 RESULTS = Path(__file__).resolve().parent / "results" / "speed_swarm.md"

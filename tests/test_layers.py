@@ -8,7 +8,9 @@ inside a function:
 * the learning library (``pyflyt_cli`` but ``main`` and ``commands``) never imports the
   command line (``pyflyt_cli.main``, ``pyflyt_cli.commands``) nor Typer;
 * Hydra is used through its public API only (nothing of ``hydra._internal``);
-* ``pyflyt_cli`` has no import cycle.
+* ``pyflyt_cli`` has no import cycle;
+* the scripts under ``experiments/`` import the library, never each other, and never edit
+  ``sys.path`` (what studies share lives in :mod:`pyflyt_cli.studies`).
 
 The engine's own layers (spec, components, control, telemetry ...) are checked by their
 own test; :func:`import_graph` serves both.
@@ -156,6 +158,37 @@ def test_pyflyt_cli_has_no_import_cycle():
     graph = import_graph("pyflyt_cli")
     assert "pyflyt_cli.benchmark.launchers" in graph["pyflyt_cli.benchmark.plan"]
     assert cycles(graph) == []
+
+
+def _script_offences(path: Path, scripts: set[str]) -> list[str]:
+    """What ``path`` does that a script under experiments/ must not: import a sibling script, edit sys.path."""
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            bad += [f"{path.name} imports {a.name}" for a in node.names if a.name.split(".")[0] in scripts]
+        elif isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").split(".")[0] in scripts:
+            bad.append(f"{path.name} imports {node.module}")
+        elif (
+            isinstance(node, ast.Attribute) and node.attr == "path"
+            and isinstance(node.value, ast.Name) and node.value.id == "sys"
+        ):
+            bad.append(f"{path.name} uses sys.path (line {node.lineno})")
+    return bad
+
+
+def test_experiments_share_code_through_the_library_not_each_other():
+    scripts = {p.stem for p in (ROOT / "experiments").glob("*.py")}
+    assert {"learn_waypoints", "learn_hover_ppo", "learn_obstacles", "learn_gates"} <= scripts
+    bad = [b for p in sorted((ROOT / "experiments").glob("*.py")) for b in _script_offences(p, scripts)]
+    assert bad == []
+
+
+def test_the_script_check_sees_a_sibling_import_and_a_path_edit(tmp_path):
+    script = tmp_path / "study.py"
+    script.write_text("import sys\nsys.path.insert(0, '.')\nfrom learn_waypoints import run\nimport numpy\n")
+    assert sorted(_script_offences(script, {"learn_waypoints", "study"})) == [
+        "study.py imports learn_waypoints", "study.py uses sys.path (line 2)",
+    ]
 
 
 def test_the_checks_see_a_cycle_and_a_forbidden_import():

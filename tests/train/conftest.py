@@ -14,17 +14,13 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def experiment(name: str):
-    """The script ``experiments/<name>.py`` as a module (its sibling imports resolved from
-    ``experiments/``), for tests of the experiments' measuring code."""
+    """The script ``experiments/<name>.py`` as a module, for tests of a study's own code (what
+    the studies share lives in :mod:`pyflyt_cli.studies`; no script imports another)."""
     import importlib.util
 
-    sys.path.insert(0, str(ROOT / "experiments"))
-    try:
-        spec = importlib.util.spec_from_file_location(name, ROOT / "experiments" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "experiments"))
+    spec = importlib.util.spec_from_file_location(name, ROOT / "experiments" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
     return module
 
 #: a PPO run that finishes in a few seconds: 2 rollouts of 256 steps, evaluation and

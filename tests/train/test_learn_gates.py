@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
+from pyflyt_cli.studies import probes, runs
+
 from .conftest import ROOT, FixedAction, experiment
 
 
@@ -45,14 +47,14 @@ class _Scripted(gymnasium.Env):
 def test_probe_counts_gates_in_a_row_and_the_target_fraction(exp):
     passed = [0, 1, 2, 3, 5, 4, 3, 0]
     ends = ["crash", "crash", "out", "time", "complete", "crash", "crash", "time"]
-    probe = exp.gates_probe(FixedAction([0, 0, 0, 0]), _Scripted(passed, ends), episodes=8, seed=0)
+    probe = probes.gates_probe(FixedAction([0, 0, 0, 0]), _Scripted(passed, ends), episodes=8, seed=0)
     assert probe["reached"] == passed
     assert probe["at_least"] == [6 / 8, 5 / 8, 4 / 8, 2 / 8, 1 / 8]
     assert probe["success"] == 4 / 8  # >= 3 gates: episodes 3, 4, 5, 6
     assert probe["all"] == 1 / 8 and probe["mean_reached"] == pytest.approx(18 / 8)
     assert probe["endings"] == {"complete": 1, "time": 2, "out": 1, "crash": 4}
     assert probe["mean_return"] == pytest.approx(100 * 18 / 8)
-    assert exp.gates_probe(FixedAction([0, 0, 0, 0]), _Scripted(passed, ends), 8, 0, gates=1)["success"] == 6 / 8
+    assert probes.gates_probe(FixedAction([0, 0, 0, 0]), _Scripted(passed, ends), 8, 0, gates=1)["success"] == 6 / 8
 
 
 def _env():
@@ -65,7 +67,7 @@ def _env():
 def test_falling_passes_no_gate(exp):
     env = _env()
     try:  # no thrust from 1 m: the ground, before the first gate (1-3 m ahead)
-        probe = exp.gates_probe(FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)
+        probe = probes.gates_probe(FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)
     finally:
         env.close()
     assert probe["reached"] == [0, 0] and probe["endings"] == {"crash": 2} and probe["success"] == 0.0
@@ -75,9 +77,8 @@ def test_cpu_budget_stops_training_of_the_state_env(exp, tmp_path):
     saved = []
     from .test_learn_obstacles import TINY
 
-    run = experiment("learn_obstacles").run  # the budgeted run learn_gates.run_seeds calls per seed
-    row = run(0, 0.15, 64, 1, tmp_path, TINY, save=lambda r: saved.append(json.loads(json.dumps(r))),
-              env=exp.ENV, target=exp.TARGET, probe_cls=exp.GatesProbe)
+    row = runs.budgeted_run(0, 0.15, 64, 1, tmp_path, TINY, save=lambda r: saved.append(json.loads(json.dumps(r))),
+                            env=exp.ENV, target=exp.TARGET, probe_cls=probes.GatesProbe)  # as learn_gates.py's seeds
     assert row["env"] == "quadx_gates_state" and row["status"] == "cpu budget" and row["steps"] < 100_000_000
     assert row["training_cpu"] >= 0.15 * 60
     assert row["history"][0][0] == 0  # the imitated policy, probed before learning

@@ -13,6 +13,8 @@ import json
 import pytest
 import yaml
 
+from pyflyt_cli.studies import probes, report
+
 from .conftest import ROOT, FixedAction, experiment
 
 
@@ -34,7 +36,7 @@ def _env(task=None, obstacles=None):
 
 def _probe(exp, env, action, episodes=2):
     try:
-        return exp.obstacle_probe(FixedAction(action), env, episodes=episodes, seed=0)
+        return probes.obstacle_probe(FixedAction(action), env, episodes=episodes, seed=0)
     finally:
         env.close()
 
@@ -96,5 +98,5 @@ def test_curve_uses_the_probe_steps_every_seed_reached(exp):
     def r(steps):
         return {"history": [(s, 0.0, {"success": 0.5}) for s in steps]}
 
-    cut = exp.common_prefix([r([10, 20, 30, 35]), r([10, 20, 27]), r([10, 20, 30])])
+    cut = report.common_prefix([r([10, 20, 30, 35]), r([10, 20, 27]), r([10, 20, 30])])
     assert [[h[0] for h in c["history"]] for c in cut] == [[10, 20]] * 3

@@ -13,6 +13,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from pyflyt_cli.studies import probes
+
 from .conftest import ROOT, FixedAction, experiment
 
 
@@ -37,7 +39,7 @@ def exp():
 def test_every_waypoint_counted_when_each_step_reaches_one(exp):
     env = _env(num_targets=3, reach=20.0)  # wider than the 5 m dome: reached at once, one per step
     try:
-        probe = exp.waypoint_probe(FixedAction([0, 0, 0, -0.7]), env, episodes=2, seed=0)
+        probe = probes.waypoint_probe(FixedAction([0, 0, 0, -0.7]), env, episodes=2, seed=0)
     finally:
         env.close()
     assert probe["reached"] == [3, 3]
@@ -48,7 +50,7 @@ def test_every_waypoint_counted_when_each_step_reaches_one(exp):
 def test_nothing_counted_when_the_vehicle_falls(exp):
     env = _env(num_targets=5, reach=1e-4)
     try:
-        probe = exp.waypoint_probe(FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)  # no thrust
+        probe = probes.waypoint_probe(FixedAction([0, 0, 0, -1.0]), env, episodes=2, seed=0)  # no thrust
     finally:
         env.close()
     assert probe["reached"] == [0, 0]
@@ -57,7 +59,7 @@ def test_nothing_counted_when_the_vehicle_falls(exp):
 
 
 def test_fractions_of_mixed_episodes(exp):
-    probe = exp.summarize_probe([0, 2, 5, 5], ["crash", "out", "complete", "complete"], [1.0, 2.0, 3.0, 6.0], 5)
+    probe = probes.summarize_probe([0, 2, 5, 5], ["crash", "out", "complete", "complete"], [1.0, 2.0, 3.0, 6.0], 5)
     assert probe["at_least"] == [0.75, 0.75, 0.5, 0.5, 0.5]
     assert probe["mean_reached"] == 3.0 and probe["all"] == 0.5 and probe["mean_return"] == 3.0
     assert probe["endings"] == {"complete": 2, "out": 1, "crash": 1}
@@ -85,14 +87,14 @@ def test_probe_run_flies_the_checkpoints_after_a_step_with_their_normaliser(exp,
         def _on_training_end(self) -> None:
             env = EnvFactory(cfg.env, monitor=False)()
             try:
-                live["probe"] = exp.waypoint_probe(self.model, env, episodes=2, seed=exp.PROBE_SEED)
+                live["probe"] = probes.waypoint_probe(self.model, env, episodes=2, seed=probes.PROBE_SEED)
             finally:
                 env.close()
 
     result = train(cfg, callbacks=[ProbeAtEnd()], log=lambda line: None)
-    probes = exp.probe_run(Path(result.run_dir), episodes=2, after=256)
-    assert [step for step, _ in probes] == [512]
-    assert probes[0][1] == live["probe"]
+    flown = exp.probe_run(Path(result.run_dir), episodes=2, after=256)
+    assert [step for step, _ in flown] == [512]
+    assert flown[0][1] == live["probe"]
 
 
 def test_replayed_evaluations_are_the_run_s_own(tmp_path, capsys):

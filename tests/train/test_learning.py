@@ -14,17 +14,15 @@ import pytest
 from .conftest import experiment
 
 
-def _experiment():
-    return experiment("learn_hover_ppo")
-
-
 @pytest.mark.slow
 def test_ppo_defaults_learn_to_hover(tmp_path):
-    exp = _experiment()
-    row = exp.run(seed=0, budget=None, every=50_000, episodes=10, output=tmp_path)
+    from pyflyt_cli.studies.probes import HOVER_DISTANCE
+    from pyflyt_cli.studies.runs import hover_run
+
+    row = hover_run(seed=0, budget=None, every=50_000, episodes=10, output=tmp_path)
     final = row["final"]
     assert final["survived"] == 1.0, final
-    assert final["worst_distance"] < exp.MAX_DISTANCE, final
+    assert final["worst_distance"] < HOVER_DISTANCE, final
 
 
 def test_shared_policy_comparison_counts_missed_runs_and_scales_single_runs():
