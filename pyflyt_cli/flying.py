@@ -84,6 +84,7 @@ class FlyOptions(BaseModel):
     @field_validator("physics_hz", "control_hz", "agent_hz")
     @classmethod
     def _rate(cls, value: float, info: ValidationInfo) -> float:
+        assert info.field_name is not None  # a field validator is always given its field's name
         return limits.check(info.field_name, value)
 
     @model_validator(mode="after")

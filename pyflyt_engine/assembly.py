@@ -82,7 +82,9 @@ def assemble(spec: UAVSpec) -> Assembly:
     low = np.array([spec.channels[c][0] for c in channels], dtype=float)
     high = np.array([spec.channels[c][1] for c in channels], dtype=float)
 
-    motors, mixer_motors, motor_mix = None, (), np.zeros((0, len(channels)))
+    motors: MotorParams | None = None
+    mixer_motors: tuple[int, ...] = ()
+    motor_mix = np.zeros((0, len(channels)))
     if spec.motors is not None:
         m = spec.motors
         motors = MotorParams(
@@ -99,7 +101,7 @@ def assemble(spec: UAVSpec) -> Assembly:
             prop_radius=m.to_array("prop_radius") if m.prop_radius is not None else None,
             inflow=(m.inflow.solidity, m.inflow.lift_slope) if m.inflow is not None else None,
         )
-        mixes = list(m.mix) if m.mix is not None else [None] * motors.count
+        mixes: list[dict[str, float] | None] = list(m.mix) if m.mix is not None else [None] * motors.count
         motor_mix = _mix_matrix(mixes, channels)
         mixer_motors = spec.mixer_motor_indices()
 
@@ -134,19 +136,21 @@ def assemble(spec: UAVSpec) -> Assembly:
             positions=positions,
             thrust_axes=np.asarray(b.thrust_axes, dtype=float) if b.thrust_axes else np.tile([0.0, 0.0, 1.0], (n, 1)),
             fuel_tank_positions=tanks,
-            total_fuel=b.per_booster("total_fuel"),
-            max_fuel_rate=b.per_booster("max_fuel_rate"),
+            total_fuel=np.asarray(b.per_booster("total_fuel"), dtype=float),
+            max_fuel_rate=np.asarray(b.per_booster("max_fuel_rate"), dtype=float),
             inertia_full=np.asarray(b.inertia_full, dtype=float) if b.inertia_full else np.zeros((n, 3)),
-            min_thrust=b.per_booster("min_thrust"),
-            max_thrust=b.per_booster("max_thrust"),
-            reignitable=b.per_booster("reignitable"),
-            tau=b.per_booster("tau"),
-            noise_ratio=b.per_booster("noise_ratio"),
+            min_thrust=np.asarray(b.per_booster("min_thrust"), dtype=float),
+            max_thrust=np.asarray(b.per_booster("max_thrust"), dtype=float),
+            reignitable=np.asarray(b.per_booster("reignitable"), dtype=bool),
+            tau=np.asarray(b.per_booster("tau"), dtype=float),
+            noise_ratio=np.asarray(b.per_booster("noise_ratio"), dtype=float),
         )
         ignition_index = np.array([channels.index(c) for c in b.per_booster("ignition_channel")], dtype=int)
         throttle_index = np.array([channels.index(c) for c in b.per_booster("throttle_channel")], dtype=int)
 
-    gimbals, gimbal_channels, gimbal_targets = None, np.zeros((0, 2), int), ()
+    gimbals: GimbalParams | None = None
+    gimbal_channels = np.zeros((0, 2), int)
+    gimbal_targets: tuple[tuple[str, int], ...] = ()
     if spec.gimbals:
         g = spec.gimbals
         gimbals = GimbalParams(
@@ -170,7 +174,11 @@ def assemble(spec: UAVSpec) -> Assembly:
     cameras = tuple(
         CameraParams(
             position=tuple(np.asarray(c.position, dtype=float) - com),
-            orientation=tuple(math.radians(a) for a in c.orientation_deg),
+            orientation=(
+                math.radians(c.orientation_deg[0]),
+                math.radians(c.orientation_deg[1]),
+                math.radians(c.orientation_deg[2]),
+            ),
             fov=c.fov,
             width=c.width,
             height=c.height,
@@ -185,14 +193,14 @@ def assemble(spec: UAVSpec) -> Assembly:
 
     battery = None
     if spec.battery is not None:
-        b = spec.battery
+        cell = spec.battery
         battery = BatteryParams(
-            capacity_mah=b.capacity_mah,
-            internal_resistance=b.internal_resistance,
-            open_circuit_voltage=tuple((float(q), float(v)) for q, v in b.open_circuit_voltage),
-            efficiency=b.efficiency,
-            avionics_power=b.avionics_power,
-            initial_charge=b.initial_charge,
+            capacity_mah=cell.capacity_mah,
+            internal_resistance=cell.internal_resistance,
+            open_circuit_voltage=tuple((float(q), float(v)) for q, v in cell.open_circuit_voltage),
+            efficiency=cell.efficiency,
+            avionics_power=cell.avionics_power,
+            initial_charge=cell.initial_charge,
         )
 
     return Assembly(

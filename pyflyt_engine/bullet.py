@@ -19,6 +19,7 @@ import importlib
 import os
 import sys
 from types import ModuleType
+from typing import BinaryIO
 
 
 def _flush_c_streams() -> None:
@@ -69,7 +70,7 @@ class CapturedOutput:
     def __init__(self) -> None:
         self.text = ""
         self._saved: list[tuple[int, int]] = []
-        self._file = None
+        self._file: BinaryIO | None = None
 
     def __enter__(self) -> CapturedOutput:
         import tempfile

@@ -42,18 +42,21 @@ import numpy as np
 
 Vec3 = tuple[float, float, float]
 Matrix = list[list[float]]
+# what the functions below take: Python sequences or NumPy arrays (read element by element)
+VectorLike = Sequence[float] | np.ndarray
+MatrixLike = Sequence[Sequence[float]] | np.ndarray
 
 # --------------------------------------------------------------------- per step
 
 
-def rotate(m: Sequence[Sequence[float]], v: Sequence[float]) -> Vec3:
+def rotate(m: MatrixLike, v: VectorLike) -> Vec3:
     """``m v`` for a 3 x 3 matrix ``m`` (rows) and a 3-vector ``v``."""
     (a, b, c), (d, e, f), (g, h, i) = m
     x, y, z = v
     return (a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z)
 
 
-def rotate_t(m: Sequence[Sequence[float]], v: Sequence[float]) -> Vec3:
+def rotate_t(m: MatrixLike, v: VectorLike) -> Vec3:
     """``m^T v``: with ``m`` a body-to-ground rotation, ``v`` turned into the body frame."""
     (a, b, c), (d, e, f), (g, h, i) = m
     x, y, z = v
@@ -61,9 +64,9 @@ def rotate_t(m: Sequence[Sequence[float]], v: Sequence[float]) -> Vec3:
 
 
 def rows_rotate_t(
-    vectors: np.ndarray | Sequence[Sequence[float]],
-    m: Sequence[Sequence[float]],
-    origin: Sequence[float] = (0.0, 0.0, 0.0),
+    vectors: MatrixLike,
+    m: MatrixLike,
+    origin: VectorLike = (0.0, 0.0, 0.0),
 ) -> np.ndarray:
     """``(vectors - origin) @ m`` for ``n`` row 3-vectors: each row ``v`` becomes
     ``m^T (v - origin)`` (with ``m`` a body-to-ground rotation and ``origin`` the body's
@@ -78,18 +81,18 @@ def rows_rotate_t(
     return np.array(out, dtype=np.float64).reshape(-1, 3)
 
 
-def cross(u: Sequence[float], v: Sequence[float]) -> Vec3:
+def cross(u: VectorLike, v: VectorLike) -> Vec3:
     """``u x v`` of two 3-vectors."""
     return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
 
-def norm(v: Sequence[float]) -> float:
+def norm(v: VectorLike) -> float:
     """Euclidean length of a vector: :func:`math.hypot` (CPython's own accurate algorithm on
     plain doubles, the same on every CPU)."""
     return math.hypot(*(float(x) for x in v))
 
 
-def apply(function: Callable[[float], float], values: np.ndarray | Sequence[float]) -> np.ndarray:
+def apply(function: Callable[[float], float], values: VectorLike | float) -> np.ndarray:
     """``function`` (e.g. :func:`math.cos`) on every element: float64 array of the shape of ``values``."""
     arr = np.asarray(values, dtype=np.float64)
     return np.array([function(x) for x in arr.ravel().tolist()], dtype=np.float64).reshape(arr.shape)
@@ -98,30 +101,30 @@ def apply(function: Callable[[float], float], values: np.ndarray | Sequence[floa
 # ---------------------------------------------------------------------- set-up
 
 
-def dot(u: Sequence[float], v: Sequence[float]) -> float:
+def dot(u: VectorLike, v: VectorLike) -> float:
     """Dot product: :func:`math.fsum` of the rounded products (their sum correctly rounded,
     whatever the order)."""
     return math.fsum(float(a) * float(b) for a, b in zip(u, v, strict=True))
 
 
-def _rows(m: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
+def _rows(m: MatrixLike) -> Matrix:
     if isinstance(m, np.ndarray):
         return np.asarray(m, dtype=np.float64).tolist()
     return [[float(x) for x in row] for row in m]
 
 
-def transpose(m: Sequence[Sequence[float]]) -> Matrix:
+def transpose(m: MatrixLike) -> Matrix:
     """The transpose, as lists."""
     return [list(col) for col in zip(*_rows(m))]
 
 
-def matmul(a: Sequence[Sequence[float]] | np.ndarray, b: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
+def matmul(a: MatrixLike, b: MatrixLike) -> Matrix:
     """``a b`` for small matrices, every entry a :func:`dot`; lists of rows."""
     cols = transpose(b)
     return [[dot(row, col) for col in cols] for row in _rows(a)]
 
 
-def inverse(m: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
+def inverse(m: MatrixLike) -> Matrix:
     """Inverse of a small square matrix: Gauss-Jordan elimination with partial pivoting.
 
     Raises:
@@ -144,7 +147,7 @@ def inverse(m: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
     return [row[n:] for row in aug]
 
 
-def pinv(m: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
+def pinv(m: MatrixLike) -> Matrix:
     """Moore-Penrose pseudo-inverse of a matrix of full row rank: ``A^T (A A^T)^-1``.
 
     The rows are first scaled by powers of two to about unit length (exact), which keeps
@@ -159,7 +162,7 @@ def pinv(m: Sequence[Sequence[float]] | np.ndarray) -> Matrix:
     return [[x * s for x, s in zip(row, scales)] for row in out]
 
 
-def rank(m: Sequence[Sequence[float]] | np.ndarray, tol: float) -> int:
+def rank(m: MatrixLike, tol: float) -> int:
     """Numerical rank: pivots above ``tol`` in Gaussian elimination with complete pivoting."""
     a = _rows(m)
     if not a or not a[0]:
@@ -186,7 +189,7 @@ def rank(m: Sequence[Sequence[float]] | np.ndarray, tol: float) -> int:
     return r
 
 
-def eigvalsh3(m: Sequence[Sequence[float]] | np.ndarray) -> list[float]:
+def eigvalsh3(m: MatrixLike) -> list[float]:
     """Eigenvalues of a symmetric 3 x 3 matrix, ascending (the trigonometric closed form,
     O. K. Smith, "Eigenvalues of a symmetric 3 x 3 matrix", Comm. ACM 4(4), 1961)."""
     (a, b, c), (_, d, e), (_, _, f) = _rows(m)

@@ -16,6 +16,10 @@ is printed in docs/reproducibility.md and each limit has a test in ``tests/engin
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
+
+#: a checked count or quantity, returned as given
+Number = TypeVar("Number", int, float)
 
 
 @dataclass(frozen=True)
@@ -117,7 +121,7 @@ def number(value: float) -> str:
     return f"{value:g}"
 
 
-def check(key: str, value: float, *, name: str | None = None) -> float:
+def check(key: str, value: Number, *, name: str | None = None) -> Number:
     """``value`` if it is within the limit of ``key``, else ``ValueError`` (for a pydantic validator)."""
     why = problem(key, value, name=name)
     if why is not None:

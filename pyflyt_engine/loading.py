@@ -138,8 +138,8 @@ def describe_error(root: type[BaseModel], error: Mapping[str, Any], prefix: str 
     message = str(error["msg"]).removeprefix("Value error, ")
     value = error.get("input")
     shown = "" if kind == "missing" or isinstance(value, dict) or "got" in message else f" (got {value!r})"
-    hint = FIX_HINTS.get(kind)
-    return f"{where}: {message}{shown}" + (f"; fix: {hint}" if hint else "")
+    fix = FIX_HINTS.get(kind)
+    return f"{where}: {message}{shown}" + (f"; fix: {fix}" if fix else "")
 
 
 def problems(root: type[BaseModel], exc: ValidationError, prefix: str = "") -> list[str]:

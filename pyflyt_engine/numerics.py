@@ -37,6 +37,7 @@ This module imports nothing heavy at import time: it runs before NumPy loads.
 
 from __future__ import annotations
 
+import importlib
 import os
 import platform
 import sys
@@ -144,7 +145,8 @@ def apply_torch() -> None:
     if _state["applied"]:
         import torch
 
-        torch.backends.mkldnn.enabled = False
+        # torch's stubs type the module flag as its ContextProp descriptor; a bool is what it takes
+        torch.backends.mkldnn.enabled = False  # type: ignore[assignment]
 
 
 def _openblas() -> list[dict[str, str]]:
@@ -165,14 +167,17 @@ def _openblas() -> list[dict[str, str]]:
 def _numpy_simd() -> str:
     if "numpy" not in sys.modules:
         return "not loaded"
-    try:
-        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
-    except ImportError:  # NumPy < 2
+    # NumPy 2, then NumPy < 2; imported by name, as NumPy's stubs leave out this private module
+    for module in ("numpy._core._multiarray_umath", "numpy.core._multiarray_umath"):
         try:
-            from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__
-        except ImportError:
-            return "unknown"
-    enabled = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)]
+            umath = importlib.import_module(module)
+            dispatch, features = umath.__cpu_dispatch__, umath.__cpu_features__
+            break
+        except (ImportError, AttributeError):
+            continue
+    else:
+        return "unknown"
+    enabled = [name for name in dispatch if features.get(name)]
     return " ".join(enabled) or "baseline only"
 
 

@@ -212,7 +212,7 @@ def parse_obj(data: bytes, name: str) -> ObjMesh:
                 raise ValueError(
                     f"file: {name!r} line {number}: a vertex needs three finite numbers, got {line.strip()!r}"
                 )
-            vertices.append(xyz[:3])  # type: ignore[arg-type]
+            vertices.append((xyz[0], xyz[1], xyz[2]))
             if len(vertices) > MAX_OBJ_VERTICES:
                 raise ValueError(
                     f"file: {name!r} line {number}: more than {MAX_OBJ_VERTICES} vertices, the most a mesh obstacle "
@@ -475,7 +475,7 @@ def prism_mesh(radius: float, height: float, sides: int) -> tuple[list[list[floa
 def _unit_prism(sides: int) -> tuple[tuple[tuple[float, float, float], ...], tuple[int, ...]]:
     """:func:`prism_mesh` of radius 1 and height 1 as tuples, made once per number of sides."""
     vertices, indices = prism_mesh(1.0, 1.0, sides)
-    return tuple(tuple(v) for v in vertices), tuple(indices)  # type: ignore[return-value]
+    return tuple((v[0], v[1], v[2]) for v in vertices), tuple(indices)
 
 
 # ------------------------------------------------------------------- bodies
@@ -575,8 +575,8 @@ class ObstacleField:
         else:
             key = ("mesh", o.file, o.scale)
         # a text key: the cache is never walked by the cyclic garbage collector
-        key = repr((*key, o.color))
-        cached = self._shapes.get(key)
+        text = repr((*key, o.color))
+        cached = self._shapes.get(text)
         if cached is not None:
             return cached
         cid = self.world.client
@@ -622,5 +622,5 @@ class ObstacleField:
             )
         if collision < 0:
             raise ConfigError(f"obstacles: PyBullet could not build the {o.type} obstacle {o.model_dump()}")
-        self._shapes[key] = (collision, visual)
+        self._shapes[text] = (collision, visual)
         return collision, visual

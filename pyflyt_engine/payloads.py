@@ -173,12 +173,16 @@ def _bounding_radius(spec: PayloadSpec) -> float:
     com = spec.center_of_mass()
     radius = 0.0
     for s in spec.body.shapes:
+        # ShapeSpec._dimensions has required the dimensions of each shape type: the asserts only narrow
         if s.type == "box":
-            half = 0.5 * math.sqrt(sum(v * v for v in s.size))  # type: ignore[union-attr]
+            assert s.size is not None
+            half = 0.5 * math.sqrt(sum(v * v for v in s.size))
         elif s.type == "cylinder":
-            half = math.sqrt(s.radius**2 + (0.5 * s.length) ** 2)  # type: ignore[operator]
+            assert s.radius is not None and s.length is not None
+            half = math.sqrt(s.radius**2 + (0.5 * s.length) ** 2)
         elif s.type == "sphere":
-            half = float(s.radius)  # type: ignore[arg-type]
+            assert s.radius is not None
+            half = float(s.radius)
         else:
             half = 0.0
         radius = max(radius, exact.norm(np.asarray(s.position) - com) + half)

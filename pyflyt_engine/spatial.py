@@ -11,7 +11,7 @@ an all-pairs search.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 
 class PlanarGrid:
@@ -31,7 +31,7 @@ class PlanarGrid:
         self.cells: dict[tuple[int, int], list[int]] = {}
         self.where: dict[int, tuple[int, int]] = {}
         #: per point, the position object it was binned from (to notice a newer read)
-        self.placed: dict[int, object] = {}
+        self.placed: dict[int, Sequence[float]] = {}
         self.top = -math.inf
 
     def clear(self) -> None:
@@ -72,14 +72,14 @@ class PlanarGrid:
         else:
             for cx in range(x0, x1 + 1):
                 for cy in range(y0, y1 + 1):
-                    members = cells.get((cx, cy))
-                    if members:
-                        found.extend(members)
+                    held = cells.get((cx, cy))
+                    if held:
+                        found.extend(held)
         found.sort()
         return found
 
     def nearest(
-        self, x: float, y: float, z: float, positions: dict[int, Sequence[float]], count: int, radius: float, skip: int
+        self, x: float, y: float, z: float, positions: Mapping[int, Sequence[float]], count: int, radius: float, skip: int
     ) -> list[tuple[float, int]]:
         """The ``count`` points nearest to ``(x, y, z)`` within ``radius`` [m] (3-D distance),
         ``skip`` excluded, as ``(squared distance, index)`` ascending (ties by index).

@@ -276,15 +276,19 @@ def _check_inertia(tensor: np.ndarray) -> None:
 def shape_inertia(shape: ShapeSpec) -> np.ndarray:
     """Inertia [kg m^2] of a uniform solid shape about its own centre, in its own axes."""
     m = shape.mass or 0.0
+    # ShapeSpec._dimensions has required the dimensions of each shape type: the asserts only narrow
     if shape.type == "box":
-        x, y, z = shape.size  # type: ignore[misc]
+        assert shape.size is not None
+        x, y, z = shape.size
         return np.diag([m * (y * y + z * z), m * (x * x + z * z), m * (x * x + y * y)]) / 12.0
     if shape.type == "cylinder":
         r, h = shape.radius, shape.length
-        side = m * (3 * r * r + h * h) / 12.0  # type: ignore[operator]
-        return np.diag([side, side, m * r * r / 2.0])  # type: ignore[operator]
+        assert r is not None and h is not None
+        side = m * (3 * r * r + h * h) / 12.0
+        return np.diag([side, side, m * r * r / 2.0])
     if shape.type == "sphere":
-        return np.eye(3) * 0.4 * m * shape.radius**2  # type: ignore[operator]
+        assert shape.radius is not None
+        return np.eye(3) * 0.4 * m * shape.radius**2
     raise ValueError("a mesh shape cannot carry a mass: give body.mass and body.inertia instead")
 
 
@@ -518,7 +522,7 @@ class SurfaceSpec(_Spec):
             )
         corrected = [n - dot * c for n, c in zip(normal, chord)]
         length = math.sqrt(sum(v * v for v in corrected))  # >= sqrt(1 - dot**2): never near 0
-        return tuple(v / length for v in corrected)  # type: ignore[return-value]
+        return tuple(v / length for v in corrected)
 
     @model_validator(mode="after")
     def _geometry(self) -> SurfaceSpec:
@@ -602,6 +606,10 @@ class GimbalSpec(_Spec):
         return int(self.target.partition(":")[2])
 
 
+CameraOutput = Literal["rgba", "depth", "segmentation"]
+_CAMERA_OUTPUTS: tuple[CameraOutput, ...] = ("rgba", "depth", "segmentation")
+
+
 class CameraSpec(_Spec):
     """An onboard camera (see :class:`pyflyt_engine.components.camera.CameraParams`)."""
 
@@ -615,8 +623,8 @@ class CameraSpec(_Spec):
     far: float = Field(100.0, gt=0, description="far clip distance [m]")
     horizon_lock: bool = Field(False, description="follow body yaw only (gimbal-stabilised)")
     capture_hz: float = Field(30.0, gt=0, description="image refresh rate [Hz]")
-    outputs: list[Literal["rgba", "depth", "segmentation"]] = Field(
-        default_factory=lambda: ["rgba", "depth", "segmentation"], min_length=1, description="images to compute"
+    outputs: list[CameraOutput] = Field(
+        default_factory=lambda: list(_CAMERA_OUTPUTS), min_length=1, description="images to compute"
     )
 
     @field_validator("width", "height", mode="before")

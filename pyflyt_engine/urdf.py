@@ -323,8 +323,8 @@ def _tree_problem(root: Any) -> str | None:
     children: set[str] = set()
     for joint in root.iter("joint"):
         parent, child = joint.find("parent"), joint.find("child")
-        ends = [None if e is None else e.get("link") for e in (parent, child)]
-        if any(end not in names for end in ends):
+        ends = [e.get("link") for e in (parent, child) if e is not None]
+        if len(ends) != 2 or any(end not in names for end in ends):
             return f"the <joint> {joint.get('name')!r} does not join two of the URDF's links"
         if ends[1] in children:
             return f"the link {ends[1]!r} is the child of two joints"
@@ -351,4 +351,4 @@ def urdf_files(text: str) -> list[str]:
     :func:`urdf_problem` passed."""
     from xml.etree import ElementTree
 
-    return [element.get("filename") for element in ElementTree.fromstring(text).iter() if element.get("filename") is not None]
+    return [name for element in ElementTree.fromstring(text).iter() if (name := element.get("filename")) is not None]

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -100,7 +100,7 @@ def _summed(total: Wrench | None, load: Wrench) -> Wrench:
 class Controller(Protocol):
     """A user controller: maps (state, setpoint) to the setpoint of a built-in base mode."""
 
-    def __call__(self, state: KinematicState, setpoint: np.ndarray) -> Sequence[float]: ...
+    def __call__(self, state: KinematicState, setpoint: np.ndarray, /) -> Sequence[float]: ...
 
 
 @dataclass
@@ -363,7 +363,7 @@ class Vehicle:
             self.controller.set_mode(base)
             custom = self._custom_modes.get(resolved.name)
             if custom is not None and hasattr(custom.controller, "reset"):
-                custom.controller.reset()  # type: ignore[attr-defined]
+                custom.controller.reset()
         elif self.autopilot is not None and resolved is not self.mode:
             self.autopilot.reset()
         if resolved is not self.mode or self.setpoint.size != self._setpoint_size(resolved):
@@ -780,7 +780,7 @@ class Vehicle:
             group.reseed()
 
     @property
-    def rng_state(self) -> dict:
+    def rng_state(self) -> Mapping[str, Any]:
         """Position of this vehicle's noise stream: its numpy bit-generator state (a
         JSON-serialisable dict); restore it with ``reseed`` (see :meth:`World.set_rng_state`)."""
         return self._noise.rng.bit_generator.state

@@ -23,9 +23,10 @@ vehicle's state is read from PyBullet when first asked for (:attr:`Vehicle.state
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -75,7 +76,7 @@ def _finite_vector(values: Sequence[float], name: str, unit: str) -> tuple[float
         raise ConfigError(f"spawn {name} must be 3 numbers {unit}, got {values!r}") from None
     if len(vector) != 3 or not all(math.isfinite(v) for v in vector):
         raise ConfigError(f"spawn {name} must be 3 finite numbers {unit}, got {list(vector)}")
-    return vector  # type: ignore[return-value]
+    return vector
 
 
 @dataclass
@@ -162,7 +163,7 @@ class World:
         ground: bool = True,
         drag: bool = True,
         gravity: float = GRAVITY,
-        wind: str | Path | dict | WindConfig | None = None,
+        wind: str | Path | Mapping[str, Any] | WindConfig | None = None,
         ground_effect: bool = False,
         downwash: bool = False,
     ) -> None:
@@ -279,7 +280,7 @@ class World:
         self._drop_snapshot()
         return index
 
-    def set_wind(self, wind: str | Path | dict | WindConfig | None) -> None:
+    def set_wind(self, wind: str | Path | Mapping[str, Any] | WindConfig | None) -> None:
         """Replace the atmosphere (e.g. a wind sampled at a reset): a new field at time 0,
         drawing from the world's wind stream."""
         self.wind_config = load_wind_config(wind)
@@ -359,9 +360,9 @@ class World:
         cid = self.client
         vehicles = self.vehicles
         airs = self._airs
-        atmosphere = self.atmosphere
-        rotors = atmosphere.rotors is not None
-        if atmosphere.field is None and not rotors:
+        rotors = self.atmosphere.rotors is not None
+        atmosphere: Atmosphere | None = self.atmosphere
+        if self.atmosphere.field is None and not rotors:
             atmosphere = None  # still air: each vehicle's air velocity is its own velocity
         # Vehicles never read each other's state within a physics step, so each phase can
         # run over all of them in turn; the per-vehicle work is the same as interleaved.
@@ -541,7 +542,7 @@ class World:
         episode that began with an unseeded ``reset()`` (the streams continue from where
         the previous episode left them).
         """
-        state = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        state: dict[str, Any] = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
         state["wind"] = self._wind_generator.bit_generator.state
         if any(v.range_sensors for v in self.vehicles):
             state["sensors"] = [[s.rng.bit_generator.state for s in v.range_sensors] for v in self.vehicles]

@@ -180,14 +180,14 @@ def describe(spec: UAVSpec) -> list[str]:
         out += _table(["name", "position", "chord x span [m]", "area [m^2]", "deflection [deg]", "mixing"], rows)
     if spec.boosters is not None:
         b = spec.boosters
-        axes = b.thrust_axes or [(0.0, 0.0, 1.0)] * len(b.positions)
+        booster_axes = b.thrust_axes or [(0.0, 0.0, 1.0)] * len(b.positions)
         fields = {k: b.per_booster(k) for k in ("min_thrust", "max_thrust", "total_fuel", "reignitable",
                                                 "ignition_channel", "throttle_channel")}  # fmt: skip
         rows = [
             [
                 str(i),
                 _vec(b.positions[i]),
-                _vec(axes[i]),
+                _vec(booster_axes[i]),
                 f"{fields['min_thrust'][i]:.4g}-{fields['max_thrust'][i]:.4g}",
                 f"{fields['total_fuel'][i]:.4g}",
                 "yes" if fields["reignitable"][i] else "no",

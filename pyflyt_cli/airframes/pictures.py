@@ -166,8 +166,8 @@ def render_airframe(spec: UAVSpec, path: Path, width: int = 640, height: int = 4
                 colour = _CCW_COLOR if spin > 0 else _CW_COLOR
                 rods.append((np.asarray(position) - com, axis, 0.12 * size, 1.5 * rod, colour))
         if spec.boosters is not None:
-            axes = spec.boosters.thrust_axes or [(0.0, 0.0, 1.0)] * len(spec.boosters.positions)
-            for position, axis in zip(spec.boosters.positions, axes):
+            booster_axes = spec.boosters.thrust_axes or [(0.0, 0.0, 1.0)] * len(spec.boosters.positions)
+            for position, axis in zip(spec.boosters.positions, booster_axes):
                 exhaust = -np.asarray(axis, dtype=float)  # drawn as the plume, opposite the thrust
                 rods.append((np.asarray(position) - com, exhaust, 0.15 * size, 2 * rod, _BOOSTER_COLOR))
         for start, axis, length, thickness, colour in rods:

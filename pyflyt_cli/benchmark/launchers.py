@@ -43,6 +43,7 @@ def check_launcher_overrides(hydra_overrides: Sequence[str]) -> None:
 
     parser = OverridesParser.create()
     for item in hydra_overrides:
+        problem: str | None
         try:
             override = parser.parse_override(item)
         except HydraException:

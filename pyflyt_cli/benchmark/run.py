@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 from pyflyt_cli.benchmark.plan import LOGS_DIR, RUNS_DIR, Job, Plan
 from pyflyt_cli.errors import UsageError
@@ -142,7 +143,7 @@ def worker_command(plan: Plan, job: Job) -> list[str]:
     return [sys.executable, "-m", "pyflyt_cli.benchmark.worker", str(plan.root), job.id]
 
 
-def open_log(plan: Plan, job: Job) -> tuple[Path, object]:
+def open_log(plan: Plan, job: Job) -> tuple[Path, BinaryIO]:
     """``<benchmark>/logs/<run>.log`` open for appending: the benchmark's own file, reached through
     no link and with no second name (a hard link would append to a file outside the benchmark)."""
     from pyflyt_engine.safe_load import open_own_file
@@ -166,7 +167,7 @@ def run_job(root: str | Path, job_id: str) -> int:
     plan = read_plan(root)
     job = plan.job(job_id)
     _, log = open_log(plan, job)
-    with log:  # type: ignore[attr-defined]
+    with log:
         return subprocess.call(worker_command(plan, job), stdout=log, stderr=subprocess.STDOUT)
 
 
@@ -223,7 +224,7 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
 
     pending = list(jobs)
     planned = {j.id for j in jobs}
-    running: dict[str, tuple[Job, subprocess.Popen, float, object]] = {}
+    running: dict[str, tuple[Job, subprocess.Popen, float, BinaryIO]] = {}
     outcomes: dict[str, Outcome] = {}
     failed: set[str] = set()
     total = len(jobs)
@@ -276,7 +277,7 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
                 code = proc.poll()
                 if code is None:
                     continue
-                log.close()  # type: ignore[attr-defined]
+                log.close()
                 del running[job_id]
                 out = outcome_of(plan, job, code, time.monotonic() - t0)
                 outcomes[job_id] = out
@@ -295,7 +296,7 @@ def run_local(plan: Plan, jobs: Sequence[Job], parallel: int, echo: Echo) -> lis
                 proc.send_signal(signal.SIGTERM)
         for job_id, (job, proc, t0, log) in running.items():
             code = proc.wait()
-            log.close()  # type: ignore[attr-defined]
+            log.close()
             outcomes[job_id] = outcome_of(
                 plan, job, code if code != 0 or run_state(plan, job) == COMPLETE else INTERRUPTED, time.monotonic() - t0
             )

@@ -180,7 +180,8 @@ def run_oracle_eval(name: str, overrides: list[str]) -> object:
         raise UsageError(
             f"unknown oracle {name!r} in oracle:{name}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}"
         )
-    evaluation, training = [], []
+    evaluation: list[str] = []
+    training: list[str] = []
     for item in parse_overrides(overrides):
         key = item.lstrip("+~").partition("=")[0]
         if key in POLICY_ONLY_KEYS:

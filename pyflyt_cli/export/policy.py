@@ -46,6 +46,10 @@ class Standardize(torch.nn.Module):
     """``clip((x - mean) / std, -clip, clip)``: SB3's ``VecNormalize.normalize_obs`` with
     ``std = sqrt(var + epsilon)`` (computed in float64, stored in float32)."""
 
+    # buffers (register_buffer), declared for the type checker: nn.Module's __getattr__ types them loosely
+    mean: torch.Tensor
+    std: torch.Tensor
+
     def __init__(self, mean: np.ndarray, std: np.ndarray, clip: float) -> None:
         super().__init__()
         self.register_buffer("mean", torch.as_tensor(np.asarray(mean, dtype=np.float32)))
@@ -59,6 +63,9 @@ class Standardize(torch.nn.Module):
 class Affine(torch.nn.Module):
     """``x * scale + offset``, element by element."""
 
+    scale: torch.Tensor
+    offset: torch.Tensor
+
     def __init__(self, scale: np.ndarray, offset: np.ndarray) -> None:
         super().__init__()
         self.register_buffer("scale", torch.as_tensor(np.asarray(scale, dtype=np.float32)))
@@ -70,6 +77,9 @@ class Affine(torch.nn.Module):
 
 class Clamp(torch.nn.Module):
     """``min(max(x, low), high)``, element by element."""
+
+    low: torch.Tensor
+    high: torch.Tensor
 
     def __init__(self, low: np.ndarray, high: np.ndarray) -> None:
         super().__init__()

@@ -256,14 +256,18 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
             f"no runs in {root}: expected <env>/<algo>/<run>/metrics.mcap (or runs/<env>/<algo>/<run>/...) "
             "as written by pyflyt train train.output_dir=<benchmark>"
         )
-    runs, empty = [], []
+    runs: list[RunCurve] = []
+    empty: list[Path] = []
     for d in dirs:
         try:
             curve = read_run(d)
         except PyFlytError as exc:
             reason = str(exc).removeprefix(f"{d}: ")  # the run is named once
             raise ConfigError(f"{d}: unreadable metrics: {reason}") from None
-        (runs if curve is not None else empty).append(curve or d)
+        if curve is not None:
+            runs.append(curve)
+        else:
+            empty.append(d)
     if not runs:
         raise ConfigError(
             f"none of the {len(dirs)} runs in {root} has evaluation metrics (/eval records); "

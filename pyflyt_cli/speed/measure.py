@@ -158,9 +158,9 @@ def plan_cases(settings: SpeedSettings) -> list[Case]:
         probe = {"probe": "swarm", "env": env, "agents": agents, "steps": settings.swarm_steps(agents),
                  "warmup": max(2, settings.swarm_steps(agents) // 10)}  # fmt: skip
         cases.append(Case("swarm", key, probe))
-    for key, channels in CAMERA_CASES.items():
+    for name, channels in CAMERA_CASES.items():
         camera = {"probe": "camera", "captures": settings.camera_captures, "repeats": 5, "channels": channels}
-        cases.append(Case("camera", key, camera))
+        cases.append(Case("camera", name, camera))
     if settings.vector:
         # each 1-worker case right before its 2-worker case, so each repeat gives a pair
         # measured under the same load; the machine's own scaling in the same repeat

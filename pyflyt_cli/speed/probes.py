@@ -43,6 +43,7 @@ import os
 import sys
 import time
 from collections.abc import Callable
+from typing import Any
 
 from pyflyt_cli.speed import protocols
 from pyflyt_cli.speed.protocols import AGENT_HZ, grid_positions, peak_rss_mb
@@ -62,8 +63,9 @@ def measure_env(env_id: str, steps: int = 2000, resets: int = 10, warmup: int = 
         env = gymnasium.make(env_id, agent_hz=AGENT_HZ)
     else:
         env = make_env(env_id, agent_hz=AGENT_HZ)
+    uav_env: Any = env.unwrapped  # a UAVEnv (gymnasium types it as a bare Env)
     try:
-        timing = protocols.time_env(env, env.unwrapped.config.agent_hz, steps, resets, warmup)
+        timing = protocols.time_env(env, uav_env.config.agent_hz, steps, resets, warmup)
     finally:
         env.close()
     return {"id": env_id, **timing}
@@ -123,8 +125,11 @@ def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1, clock: Callab
     from pyflyt_engine.urdf import urdf_path
 
     spec = load_uav_spec(uav)
-    motors = [tuple(m) for m in spec.motors.positions]
-    return protocols.time_floor(p, str(urdf_path(spec)), spec.body.mass, motors, steps, n, clock)
+    if spec.motors is None:
+        raise ValueError(f"the floor probe spins motors, and the airframe {uav!r} has none: give a multirotor")
+    motors = [(x, y, z) for x, y, z in spec.motors.positions]
+    # the airframe's mass: body.mass, or its parts' sum where body.mass is left out
+    return protocols.time_floor(p, str(urdf_path(spec)), spec.body.total_mass(), motors, steps, n, clock)
 
 
 def measure_floor(n: int = 1, seconds: float = 4.0, physics_hz: float = 240.0) -> dict:
@@ -212,6 +217,8 @@ def measure_vector(
         factory = functools.partial(_make_stand_in, observation_space, action_space, iterations)
     else:
         factory = functools.partial(_make_flat_env, env_id)
+    # SB3's SubprocVecEnv or a gymnasium vector env: stepped, timed and closed alike below
+    envs: Any
     if backend == "sb3":
         from stable_baselines3.common.vec_env import SubprocVecEnv
 
@@ -376,6 +383,7 @@ def _cpu_seconds(pids: list[int]) -> float:
 def measure_batched(env_id: str, n: int, agent_steps: int = 200_000, warmup: int = 20) -> dict:
     """Agent-steps per second and memory per env of ``n`` copies of ``env_id`` (a registered id
     or an env config) on the batched backend."""
+    import gymnasium
     import numpy as np
 
     from pyflyt_engine.batched import BatchedUAVEnv
@@ -391,7 +399,9 @@ def measure_batched(env_id: str, n: int, agent_steps: int = 200_000, warmup: int
     env = BatchedUAVEnv(config, num_envs=n, seed=0)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
-    low, high = env.single_action_space.low, env.single_action_space.high
+    space = env.single_action_space
+    assert isinstance(space, gymnasium.spaces.Box)  # the UAV envs' actions are boxes
+    low, high = space.low, space.high
     steps = max(warmup + 5, -(-agent_steps // n))
     actions = rng.uniform(low, high, (min(steps, 256), n, low.size))
     env.step(actions[0])
@@ -414,7 +424,7 @@ def measure_batched(env_id: str, n: int, agent_steps: int = 200_000, warmup: int
     }
 
 
-PROBES = {
+PROBES: dict[str, Callable[..., dict]] = {
     "env": measure_env,
     "batched": measure_batched,
     "world": measure_world,

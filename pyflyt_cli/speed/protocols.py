@@ -21,6 +21,7 @@ import sys
 import time
 import warnings
 from collections.abc import Callable, Mapping
+from typing import Any
 
 #: Marker in front of the JSON result line (a simulator may print to stdout too).
 RESULT_MARKER = "PYFLYT_SPEED_RESULT "
@@ -236,7 +237,7 @@ def rss_mb() -> float:
 
 def machine(packages: tuple[str, ...] = ("numpy", "pybullet", "gymnasium")) -> dict:
     """What the numbers were measured on: processor, cores, memory, load, package versions."""
-    info = {
+    info: dict[str, Any] = {
         "python": platform.python_version(),
         "machine": platform.machine(),
         "processor": platform.processor(),

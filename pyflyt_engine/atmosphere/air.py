@@ -146,7 +146,7 @@ class Atmosphere:
             if placed.get(j) is not position:
                 rotors.place(j, position)
         wakes = rotors.wakes
-        wakes.top = max((placed[j][2] for j in wakes.where), default=-math.inf)  # type: ignore[index]
+        wakes.top = max((placed[j][2] for j in wakes.where), default=-math.inf)
 
     def stepping(self, on: bool) -> None:
         """The world enters (True, after :meth:`refresh_wakes`) or leaves (False) its physics loop."""

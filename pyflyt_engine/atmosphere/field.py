@@ -153,7 +153,7 @@ class WindField:
             assert turbulence is not None
             #: per vehicle: its row in the process's rotary outputs, or None (no rotary gusts)
             self._rotary_rows: list[int | None] = []
-            spans = []
+            spans: list[float] = []
             for b in self.spans if self._angular else ():
                 self._rotary_rows.append(len(spans) if self._rotary(b) else None)
                 if self._rotary(b):
@@ -198,7 +198,8 @@ class WindField:
         self._rows = []
         for i in range(len(self.spans)):
             j = rows[i] if rotary is not None and i < len(rows) else None
-            self._rows.append(np.vstack((linear, rotary[3 * j : 3 * j + 3] if j is not None else zeros)).T.tolist())
+            spin = rotary[3 * j : 3 * j + 3] if rotary is not None and j is not None else zeros
+            self._rows.append(np.vstack((linear, spin)).T.tolist())
         self._k = 0
         self._n = n
 

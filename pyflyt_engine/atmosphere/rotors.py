@@ -213,7 +213,7 @@ class RotorInteractions:
         for j in found:
             if j == index:
                 continue
-            cx, cy, cz = placed[j]  # type: ignore[misc]
+            cx, cy, cz = placed[j]
             if cz <= z:
                 continue
             r = reach * (cz - z + JET_DECAY * diameters[j])

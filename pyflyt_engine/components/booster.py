@@ -324,6 +324,8 @@ class Boosters:
     #: the thrust does not depend on the air
     needs_air = False
     commanded = True
+    # the state as arrays, built when first read after a step (None: not built yet)
+    _state: BoosterState | None
 
     def __init__(
         self,

@@ -220,7 +220,7 @@ def view_matrix(
     norm = exact.norm(s)
     if norm < _PARALLEL_TOL:
         raise ValueError(f"view_matrix: up {up!r} is parallel to forward {forward!r}; give an up not along the view")
-    s = tuple(v / norm for v in s)
+    s = (s[0] / norm, s[1] / norm, s[2] / norm)
     u = exact.cross(s, f)
     se, ue, fe = (c[0] * e[0] + c[1] * e[1] + c[2] * e[2] for c in (s, u, f))
     # column-major, as OpenGL and PyBullet take it: one line per column of the matrix

@@ -245,7 +245,7 @@ class Gimbals:
         self.params = params
         self._targets = list(targets)
         self._constants = gimbal_constants(params, physics_dt)
-        self._nominal = [tuple(float(v) for v in axis) for axis in nominal_axes]
+        self._nominal = [(float(x), float(y), float(z)) for x, y, z in nominal_axes]
         self._channels = [tuple(c) for c in channels] if channels is not None else [(-1, -1)] * params.n
         self._mixer_outputs = dict(mixer_outputs or {})
         self._scale = [(max(a, 1e-12), max(b, 1e-12)) for a, b in params.max_angles.tolist()]

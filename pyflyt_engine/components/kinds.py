@@ -51,8 +51,10 @@ if TYPE_CHECKING:  # annotations only: the assembly is built above the component
 class ActuatorGroup(Protocol):
     """What a vehicle asks of every component group (the module docstring)."""
 
-    needs_air: bool
     commanded: bool
+
+    @property
+    def needs_air(self) -> bool: ...
 
     def route(self, channels: Sequence[float], outputs: Sequence[float] | None) -> None: ...
 

@@ -37,7 +37,7 @@ def lag_coefficient(dt: float, tau: float | np.ndarray) -> float | np.ndarray:
         ``1 - exp(-dt / tau)``, in (0, 1]; same shape as ``tau``.
     """
     if np.ndim(tau) == 0:
-        return _coefficient(dt, float(tau))  # type: ignore[arg-type]
+        return _coefficient(dt, float(tau))
     return exact.apply(lambda t: _coefficient(dt, t), tau)
 
 

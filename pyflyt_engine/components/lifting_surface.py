@@ -175,10 +175,10 @@ class LiftingSurfaceParams:
             "cd_0", "cl_alpha_2d", "eta", "max_deflection", "tau",
         )  # fmt: skip
         for name in scalars:
-            value = float(getattr(self, name))
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value}")
-            object.__setattr__(self, name, value)
+            number = float(getattr(self, name))
+            if not math.isfinite(number):
+                raise ValueError(f"{name} must be finite, got {number}")
+            object.__setattr__(self, name, number)
 
         for name in ("chord", "span"):
             if getattr(self, name) <= 0.0:
@@ -370,7 +370,7 @@ def coefficient_curves(
     alpha = np.linspace(-np.pi, np.pi, 1001) if alphas is None else np.asarray(alphas, dtype=np.float64)
     cl, cd, cm = surface_coefficients(params, np.atleast_1d(alpha), deflection)
     shape = np.shape(alpha)
-    return {"alpha": alpha, "cl": cl.reshape(shape), "cd": cd.reshape(shape), "cm": cm.reshape(shape)}
+    return {"alpha": alpha, "cl": np.reshape(cl, shape), "cd": np.reshape(cd, shape), "cm": np.reshape(cm, shape)}
 
 
 def plot_coefficient_curves(

@@ -168,8 +168,12 @@ class Motors:
         command: per motor, the commanded throttle in [-1, 1] (set at the control rate).
     """
 
-    #: the static thrust model does not read the air (:class:`~pyflyt_engine.components.kinds.ActuatorGroup`)
-    needs_air = False
+    @property
+    def needs_air(self) -> bool:
+        """The static thrust model does not read the air (:class:`~pyflyt_engine.components.kinds.ActuatorGroup`);
+        a property, as :class:`~pyflyt_engine.components.motor_models.ModelledMotors` computes it."""
+        return False
+
     #: its throttles follow the channels and the mixer
     commanded = True
 

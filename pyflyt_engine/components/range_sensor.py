@@ -127,6 +127,7 @@ class RangeSensor:
         self.kind: str = spec.type
         self.offset = tuple(float(v) for v in offset)
         self.min_range, self.max_range = float(spec.min_range), float(spec.max_range)
+        self.shape: tuple[int, ...]
         if self.kind == "lidar":
             directions, self.shape = lidar_directions(spec)
             if self.shape[0] == 1:  # one scan line: a vector of the horizontal beams
@@ -219,10 +220,10 @@ class RangeSensor:
         hit = fractions < 1.0 if noisy or axial is not None else None
         ranges = fractions * self._span
         ranges += self.min_range
-        if noisy:
+        if noisy and hit is not None:  # (hit is computed whenever noisy)
             eta = self.rng.standard_normal(n)
             ranges = np.where(hit, np.clip(ranges + self.spec.noise_std * eta, self.min_range, self.max_range), ranges)
-        if axial is not None:  # depth camera: along the optical axis
+        if axial is not None and hit is not None:  # depth camera: along the optical axis
             ranges = np.where(hit, ranges * axial, self.max_range)
         readings = ranges.reshape(self.shape).astype(np.float32)
         self._last = (time if time is not None else float("nan"), readings)

@@ -22,7 +22,7 @@ and the cascade runs at 120 Hz per vehicle.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.mixer import Mixer
@@ -98,7 +98,7 @@ class MultirotorController:
         self,
         gains: MultirotorControlSpec,
         mass: float,
-        inertia: Sequence[float],
+        inertia: Iterable[float],
         mixer: Mixer,
         dt: float,
     ) -> None:
@@ -119,7 +119,7 @@ class MultirotorController:
         horizontal, up, down = self.authority
         # per ground axis (low, high) saturation of the acceleration command: the integral's
         # bound unless integral_limit gives one
-        bounds = ((-horizontal, horizontal), (-horizontal, horizontal), (-down, up))
+        bounds: tuple[tuple[float, float], ...] = ((-horizontal, horizontal), (-horizontal, horizontal), (-down, up))
         if vel.integral_limit is not None:
             bounds = tuple((-lim, lim) for lim in vel.integral_limit)
         #: per ground axis (kp, ki, lowest and highest integral term) of the velocity loop
@@ -142,7 +142,7 @@ class MultirotorController:
 
     def reset(self) -> None:
         """Clear integrators and derivative memory (on spawn, reset and mode change)."""
-        self._rate_integral = (0.0, 0.0, 0.0)
+        self._rate_integral: Sequence[float] = (0.0, 0.0, 0.0)
         self._prev_rate: tuple[float, float, float] | None = None
         self._vel_integral = [0.0, 0.0, 0.0]
 

@@ -226,10 +226,10 @@ class RocketAutopilot:
                 weight = float(parts.surface_mix[s][c])
                 if weight == 0.0:
                     continue
-                k = surface.constants
-                arm = _cross((k.px, k.py, k.pz), (k.nx, k.ny, k.nz))
-                gain = weight * k.max_deflection * k.area * k.delta_cl_per_rad * 0.5 * AIR_DENSITY
-                terms.append((tuple(gain * x for x in arm), (k.cx, k.cy, k.cz)))
+                sc = surface.constants
+                arm = _cross((sc.px, sc.py, sc.pz), (sc.nx, sc.ny, sc.nz))
+                gain = weight * sc.max_deflection * sc.area * sc.delta_cl_per_rad * 0.5 * AIR_DENSITY
+                terms.append((tuple(gain * x for x in arm), (sc.cx, sc.cy, sc.cz)))
                 lag = max(lag, surface.tau)
             if terms:
                 fin_columns.append((c, tuple(terms), lag))

@@ -368,6 +368,7 @@ class EnvConfig(_Config):
     @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds", "flight_dome_size")
     @classmethod
     def _bounded(cls, value: float, info: ValidationInfo) -> float:
+        assert info.field_name is not None  # a field validator is always given its field's name
         return limits.check(info.field_name, value)
 
     @model_validator(mode="after")
@@ -446,7 +447,7 @@ class EnvConfig(_Config):
     def reward_preset_name(self) -> str | dict[str, Any]:
         """The preset that :attr:`reward` selects (name, path or inline mapping)."""
         if isinstance(self.reward, str) and self.reward in self.reward_presets:
-            return self.reward_presets[self.reward]  # type: ignore[index]
+            return self.reward_presets[self.reward]
         return self.reward
 
     def with_overrides(self, **overrides: Any) -> EnvConfig:
@@ -764,6 +765,7 @@ def parse_multi_agent_config(data: Mapping[str, Any], source: str) -> MultiAgent
     problems = _one_branch(problems, data.get("agents")) + task_problems
     if problems:
         raise ConfigError(f"{source}: invalid multi-agent env config:\n" + "\n".join(f"  - {p}" for p in problems))
+    assert config is not None  # check() returns the model whenever it finds no problem
     config = config.model_copy(update={"source": source})
     config.resolved_agents()  # team and layout problems surface at load
     return config
@@ -811,6 +813,7 @@ def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
     problems += task_problems
     if problems:
         raise ConfigError(f"{source}: invalid env config:\n" + problem_list(problems))
+    assert config is not None  # check() returns the model whenever it finds no problem
     return config.model_copy(update={"source": source})
 
 

@@ -262,7 +262,7 @@ def sensed_state(state: KinematicState, suite: Any) -> KinematicState:
     if suite.gyro is not None:
         ang_vel = suite.gyro.reading
         r = quaternion_to_rows(state.quaternion)
-        ang_ground = tuple(exact.rotate(r, ang_vel))
+        ang_ground = exact.rotate(r, ang_vel)
     names = suite.names
     if "position" in names:
         lin_pos = suite.position
@@ -475,7 +475,8 @@ def build_episode(
     latency = cfg.latency.steps(cfg.physics_hz) if cfg.latency is not None else (0, 0)
     for vehicle in vehicles:
         vehicle.set_latency(*latency)
-    sensed = [v.sensors for v in vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+    # (with_sensors gave every flown spec the env's sensors: no suite is None; EpisodeParts.sensed)
+    sensed: list[Any] | None = [v.sensors for v in vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
     estimators = None
     if sensed is not None and cfg.sensors.estimator.active:
         estimators = [suite.attach_estimator(cfg.sensors.estimator) for suite in sensed]

@@ -110,7 +110,7 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
     deterministic under a seed; ``reset(seed=None)`` continues the current RNG streams.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     #: env config loaded when none is given (subclasses for registered ids set it)
     config_name: ClassVar[str | None] = None
 

@@ -47,8 +47,10 @@ class AgentTasks(Protocol):
     (the reward context reads them).
     """
 
-    #: an agent alive at the time limit succeeded (survival tasks)
-    succeeds_at_time_limit: bool
+    @property
+    def succeeds_at_time_limit(self) -> bool:
+        """An agent alive at the time limit succeeded (survival tasks)."""
+        ...
 
     def update(
         self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int

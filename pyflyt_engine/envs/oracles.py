@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -79,7 +79,7 @@ class RocketLander:
     (``experiments/results/rocket_landing_scripted.md``).
     """
 
-    env_ids = ("PyFlyt/Rocket-Landing-v0",)
+    env_ids: tuple[str, ...] = ("PyFlyt/Rocket-Landing-v0",)
 
     def __init__(
         self,
@@ -185,7 +185,7 @@ class RocketVelocityLander:
     (``experiments/results/rocket_landing_scripted.md``).
     """
 
-    env_ids = ("PyFlyt/Rocket-Landing-Velocity-v0",)
+    env_ids: tuple[str, ...] = ("PyFlyt/Rocket-Landing-Velocity-v0",)
 
     def __init__(self, env: Any, a_brake: float = 30.0, v_land: float = 0.35, h_slow: float = 2.0,
                  k_pad: float = 1.5, k_damp: float = 2.0, lean: float = 0.15) -> None:
@@ -238,7 +238,7 @@ class RocketDescentLander:
       1 until the Rocket touches the pad, then 0.
     """
 
-    env_ids = ("PyFlyt/Rocket-Landing-Descent-v0",)
+    env_ids: tuple[str, ...] = ("PyFlyt/Rocket-Landing-Descent-v0",)
 
     def __init__(self, env: Any, share: float = 2.0 / 3.0, h_aim: float = 30.0, v_min: float = 5.0,
                  k_pad: float = 1.5, k_damp: float = 2.0) -> None:
@@ -366,7 +366,7 @@ class QuadXForestNavigator:
     7.6 s on average; ``experiments/results/quadx_scripted.md``).
     """
 
-    env_ids = ("PyFlyt/QuadX-Obstacles-v0",)
+    env_ids: tuple[str, ...] = ("PyFlyt/QuadX-Obstacles-v0",)
 
     def __init__(self, env: Any, speed: float = 1.2, look: float = 2.0, clearance: float = 0.4,
                  candidates: int = 72, w_keep: float = 0.3, k_z: float = 1.0, ground: float = 0.15) -> None:
@@ -446,7 +446,7 @@ class QuadXGateRacer:
     3 end on a gate's bar (``experiments/results/quadx_scripted.md``).
     """
 
-    env_ids = ("PyFlyt/QuadX-Gates-v0",)
+    env_ids: tuple[str, ...] = ("PyFlyt/QuadX-Gates-v0",)
     #: the env config ``pyflyt eval oracle:quadx_gate_racer`` flies without ``env=`` (the id's
     #: own, ``quadx_gates``, sees the camera image and the gate centres, not the corners)
     env_config = "quadx_gates_state"
@@ -490,8 +490,18 @@ class QuadXGateRacer:
         return self.pilot(attitude, want, heading=math.atan2(n[1], n[0]))
 
 
+class _OracleClass(Protocol):
+    """What :func:`make_oracle` asks of an oracle class: the env ids it flies, built on the env."""
+
+    env_ids: tuple[str, ...]
+
+    def __init__(self, env: Any) -> None: ...
+
+    def __call__(self, obs: Any) -> np.ndarray: ...
+
+
 #: name -> oracle class (each names the env ids it flies in ``env_ids``)
-ORACLES: dict[str, type] = {
+ORACLES: dict[str, type[_OracleClass]] = {
     "rocket_lander": RocketLander,
     "rocket_velocity_lander": RocketVelocityLander,
     "rocket_descent_lander": RocketDescentLander,

@@ -108,10 +108,14 @@ class Distribution(BaseModel):
 
     def sample(self, rng: np.random.Generator) -> float:
         """One draw (exactly one call of ``rng``)."""
+        # the model validator has required low and high of a (log-)uniform, mean and std of a normal
         if self.distribution == "uniform":
+            assert self.low is not None and self.high is not None
             return float(rng.uniform(self.low, self.high))
         if self.distribution == "log_uniform":
-            return float(math.exp(rng.uniform(math.log(self.low), math.log(self.high))))  # type: ignore[arg-type]
+            assert self.low is not None and self.high is not None
+            return float(math.exp(rng.uniform(math.log(self.low), math.log(self.high))))
+        assert self.mean is not None and self.std is not None
         value = float(rng.normal(self.mean, self.std))
         if self.low is not None:
             value = max(value, self.low)

@@ -147,7 +147,8 @@ def target_distance(ctx: StepContext) -> float:
 def inverse_target_distance(ctx: StepContext, floor: float = 0.0) -> float:
     """1 / max(delta, floor): inverse distance to the task's current target [1/m] (floor [m] bounds it)."""
     delta = ctx.target_distance
-    return 1.0 / max(delta, floor)  # type: ignore[type-var]  (a NaN delta, first, stays NaN)
+    # (a NaN delta, first, stays NaN); the term needs target_distance, so delta is a float
+    return 1.0 / max(delta, floor)  # type: ignore[operator,type-var]
 
 
 def target_distance_rate(ctx: StepContext) -> float:

@@ -35,19 +35,22 @@ class FlattenWaypointEnv(gymnasium.ObservationWrapper):
     def __init__(self, env: gymnasium.Env, context_length: int = 2) -> None:
         super().__init__(env)
         space = env.observation_space
+        attitude = space.spaces.get("attitude") if isinstance(space, spaces.Dict) else None
+        deltas = space.spaces.get("target_deltas") if isinstance(space, spaces.Dict) else None
         if not (
             isinstance(space, spaces.Dict)
-            and isinstance(space.spaces.get("attitude"), spaces.Box)
-            and isinstance(space.spaces.get("target_deltas"), spaces.Sequence)
+            and isinstance(attitude, spaces.Box)
+            and isinstance(deltas, spaces.Sequence)
+            and isinstance(deltas.feature_space, spaces.Box)
         ):
             raise TypeError(
-                f"FlattenWaypointEnv needs a Dict(attitude=Box, target_deltas=Sequence) observation space, got {space}"
+                f"FlattenWaypointEnv needs a Dict(attitude=Box, target_deltas=Sequence(Box)) observation space, got {space}"
             )
         if context_length < 1:
             raise ValueError(f"context_length must be >= 1, got {context_length}")
         self.context_length = int(context_length)
-        self._attitude_size = int(np.prod(space["attitude"].shape))
-        self._delta_size = int(np.prod(space["target_deltas"].feature_space.shape))
+        self._attitude_size = int(np.prod(attitude.shape))
+        self._delta_size = int(np.prod(deltas.feature_space.shape))
         size = self._attitude_size + self.context_length * (self._delta_size + 1)
         flat = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self._others = [k for k in space.spaces if k not in ("attitude", "target_deltas")]

@@ -47,7 +47,7 @@ from pyflyt_engine.errors import TelemetryError
 try:  # the C module behind `signal`, without its enum conversions (~50x faster per call)
     import _signal as _sig
 except ImportError:  # pragma: no cover - other Python implementations
-    _sig = signal  # type: ignore[no-redef]
+    _sig = signal
 
 #: Default upper bound on one chunk's uncompressed size (bytes).
 DEFAULT_CHUNK_SIZE = 256 * 1024
@@ -157,10 +157,10 @@ def signals_held() -> Iterator[None]:
         yield
     finally:
         hold.active = False
-        for sig, handler in hold.replaced.items():
-            _sig.signal(sig, handler)
-        for sig in hold.fired:
-            hold.replaced[sig](sig, None)
+        for signum, handler in hold.replaced.items():
+            _sig.signal(signum, handler)
+        for signum in hold.fired:
+            hold.replaced[signum](signum, None)
 
 
 class _Flusher:

@@ -205,7 +205,8 @@ def _parse(data: bytes, pos: int, *, exact: bool) -> tuple[int, Any, int]:
         return opcode, None, end  # a record kind of a later MCAP version: skipped, as the spec says
     stream = _Body(BytesIO(data[pos + 9 : end]))
     try:
-        record = Message.read(stream, length) if opcode == Opcode.MESSAGE else parser(stream)
+        # (parser is None for a message alone: _PARSERS holds every other kind this reader knows)
+        record = Message.read(stream, length) if parser is None else parser(stream)
     except Exception as exc:  # noqa: BLE001 - any failure to decode a record's body is damage
         raise _Damage(f"a {Opcode(opcode).name.lower()} record at byte {pos} does not parse ({exc!r})") from None
     if stream.count > length or (exact and stream.count != length):

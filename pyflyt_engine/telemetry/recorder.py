@@ -20,7 +20,7 @@ import re
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium
 import numpy as np
@@ -182,7 +182,7 @@ class RecordEpisode(gymnasium.Wrapper):
         self._write_reset(info, seed)
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         if self._file is not None:
             self._write_step(action, float(reward), bool(terminated), bool(truncated), info)
@@ -312,13 +312,13 @@ class RecordEpisode(gymnasium.Wrapper):
             },
             flush=False,
         )
-        for i, (urdf, _) in enumerate(self._airframe_prims()):
+        for i, (urdf, _prims) in enumerate(self._airframe_prims()):
             f.attachment(f"uav_{i}.urdf", "text/xml", urdf.encode())
         payloads = self._base_payloads()
         for payload in payloads:
             f.attachment(f"payload_{payload.spec.name}.urdf", "text/xml", payload.urdf_text.encode())
-        for _, attachment, _, data in self._obstacle_meshes():
-            f.attachment(attachment, "model/obj", data)
+        for _file, attachment, _digest, content in self._obstacle_meshes():
+            f.attachment(attachment, "model/obj", content)
         base = self._base
         world = base.world
         self._ch_tf = f.channel("/tf", "foxglove.FrameTransform", schemas.FRAME_TRANSFORM)
@@ -388,17 +388,23 @@ class RecordEpisode(gymnasium.Wrapper):
         self._last_images: dict[tuple[int, int], int] = {}
         self._last_info: dict[str, Any] = {}
 
+    def _writing(self) -> McapFileWriter:
+        """The file an episode is being written to (the ``_write_*`` methods run only while one is open)."""
+        if self._file is None:
+            raise RuntimeError("the recorder has no open recording to write to: reset() opens one")
+        return self._file
+
     def _common(self, ns: int) -> dict[str, Any]:
         return {"timestamp": scene.stamp(ns), "step": self._length, "time": ns * 1e-9}
 
     def _write_frames(self, ns: int) -> None:
-        f = self._file
+        f = self._writing()
         world = self._base.world
         stamp = scene.stamp(ns)
         time_s = ns * 1e-9
         payloads = self._base_payloads()
         for payload in payloads:
-            ps = payloads.state(payload.spec.name)  # type: ignore[union-attr]
+            ps = payloads.state(payload.spec.name)
             f.write(
                 self._ch_tf,
                 ns,
@@ -496,7 +502,7 @@ class RecordEpisode(gymnasium.Wrapper):
         vehicle = world.vehicles[i]
         s = vehicle.state
         cloud = points(vehicle.range_sensors[k], world.scan(i, k), s.lin_pos, s.quaternion).astype("<f4")
-        self._file.write(
+        self._writing().write(
             channel,
             ns,
             {
@@ -518,7 +524,7 @@ class RecordEpisode(gymnasium.Wrapper):
         s = vehicle.state
         wind = self._base.world.wind_at(i)
         (u, v, w), (p, q, r) = self._base.world.air_velocity(i)
-        self._file.write(
+        self._writing().write(
             self._ch_wind[i],
             ns,
             {
@@ -531,7 +537,7 @@ class RecordEpisode(gymnasium.Wrapper):
                 "air_rates": (p, q, r),
             },
         )
-        self._file.write(self._ch_scene, ns, scene.scene_update([scene.wind_entity(ns, i, s.lin_pos, wind[:3])]))
+        self._writing().write(self._ch_scene, ns, scene.scene_update([scene.wind_entity(ns, i, s.lin_pos, wind[:3])]))
 
     def _write_image(self, ns: int, i: int, k: int) -> None:
         images = self._base.world.capture(i, k)
@@ -546,7 +552,7 @@ class RecordEpisode(gymnasium.Wrapper):
         )
         import base64
 
-        self._file.write(
+        self._writing().write(
             self._ch_camera[i][k],
             ns,
             {
@@ -563,10 +569,10 @@ class RecordEpisode(gymnasium.Wrapper):
         if not force and key == self._markers:
             return
         self._markers = key
-        self._file.write(self._ch_scene, ns, scene.scene_update([scene.waypoints_entity(ns, points, radius)]))
+        self._writing().write(self._ch_scene, ns, scene.scene_update([scene.waypoints_entity(ns, points, radius)]))
 
     def _write_reset(self, info: dict[str, Any], seed: int | None) -> None:
-        f = self._file
+        f = self._writing()
         base = self._base
         world = base.world
         ns = to_ns(world.elapsed)
@@ -622,7 +628,7 @@ class RecordEpisode(gymnasium.Wrapper):
         f.flush()
 
     def _write_step(self, action: Any, reward: float, terminated: bool, truncated: bool, info: dict[str, Any]) -> None:
-        f = self._file
+        f = self._writing()
         base = self._base
         world = base.world
         self._length += 1
@@ -649,7 +655,7 @@ class RecordEpisode(gymnasium.Wrapper):
             f.flush()
 
     def _write_end(self, ns: int, terminated: bool, truncated: bool, reason: str, info: dict[str, Any]) -> None:
-        self._file.write(
+        self._writing().write(
             self._ch_episode,
             ns,
             {

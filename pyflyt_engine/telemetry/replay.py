@@ -96,10 +96,12 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
     flown = [i for i, s in enumerate(specs) if s == episode.airframe_spec]
     airframe = _recorded_airframe(episode, episode.airframe_spec, flown[0] if flown else 0)
     if "agents" in config:  # each agent's airframe by the name it gives: its vehicle's recorded spec
-        from pyflyt_engine.envs.config import parse_env_config
+        from pyflyt_engine.envs.config import MultiAgentEnvConfig, parse_env_config
 
         try:
-            agents = parse_env_config(config, source=f"{episode.path} (recorded config)").resolved_agents()
+            parsed = parse_env_config(config, source=f"{episode.path} (recorded config)")
+            assert isinstance(parsed, MultiAgentEnvConfig)  # a config with agents parses as one
+            agents = parsed.resolved_agents()
         except PyFlytError as exc:
             raise TelemetryError(f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}") from None
         airframes: dict[str, Any] = {}
@@ -228,7 +230,7 @@ def _recorded_airframe(episode: Episode, recorded: dict[str, Any], index: int) -
     spec = json.loads(json.dumps(recorded))
     body = spec.get("body")
     if isinstance(body, dict):  # otherwise the spec's validation says what is wrong
-        shapes = body.get("shapes") if isinstance(body.get("shapes"), list) else []
+        shapes = body["shapes"] if isinstance(body.get("shapes"), list) else []
         if body.get("urdf") is None:
             if any(isinstance(s, dict) and s.get("type") == "mesh" for s in shapes):
                 raise _cannot_replay(episode, "its airframe draws mesh files, which the recording does not hold")
@@ -239,13 +241,14 @@ def _recorded_airframe(episode: Episode, recorded: dict[str, Any], index: int) -
                 raise _cannot_replay(
                     episode, f"its airframe names the URDF file {body['urdf']!r} and the recording holds no copy"
                 )
+            refused = f"{episode.path}: the recorded URDF ({name}) is refused"
             try:
                 text = copies[-1].data.decode("utf-8")
             except UnicodeDecodeError:
-                text = None
-            problem = "it is not UTF-8 text" if text is None else urdf_problem(text)
+                raise TelemetryError(f"{refused}: it is not UTF-8 text") from None
+            problem = urdf_problem(text)
             if problem is not None:
-                raise TelemetryError(f"{episode.path}: the recorded URDF ({name}) is refused: {problem}")
+                raise TelemetryError(f"{refused}: {problem}")
             body["urdf"] = str(cached_urdf(text))
     try:
         return parse_uav_spec(spec, source=f"{episode.path} (recorded airframe)")

@@ -313,7 +313,7 @@ def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
     if not any(prims.values()):
         return None
     metadata = {"mesh": ", ".join(meshes)} if meshes else None
-    return entity(ns, f"scenery/{body_id}", WORLD_FRAME, metadata=metadata, **prims)
+    return entity(ns, f"scenery/{body_id}", WORLD_FRAME, frame_locked=False, metadata=metadata, **prims)
 
 
 def wind_entity(ns: int, index: int, position: Any, wind: Any, metres_per_mps: float = 0.2) -> dict[str, Any]:

@@ -343,10 +343,10 @@ def _ground_image(clip_from_world: np.ndarray, eye: np.ndarray, width: int, heig
     up = np.sqrt(np.clip(rz, 0.0, 1.0))[..., None]
     sky = SKY_HORIZON + (SKY_TOP - SKY_HORIZON) * up
     image = np.where(down[..., None], ground, sky)
-    return Image.fromarray(image.astype(np.uint8)).resize(full, Image.BILINEAR)
+    return Image.fromarray(image.astype(np.uint8)).resize(full, Image.Resampling.BILINEAR)
 
 
-def _circle(centre: np.ndarray, radius: float, axes: tuple[int, int], n: int = 40) -> np.ndarray:
+def _circle(centre: np.ndarray | Sequence[float], radius: float, axes: tuple[int, int], n: int = 40) -> np.ndarray:
     """(n + 1, 3) points of a circle around ``centre`` in the plane of two world axes."""
     angles = np.linspace(0.0, 2 * np.pi, n + 1)
     points = np.repeat(np.asarray(centre, dtype=float)[None, :], n + 1, axis=0)

@@ -381,3 +381,24 @@ def test_runs_made_under_another_numeric_platform_are_named_in_one_line(tmp_path
     for job in plan.jobs[1:3]:  # all made here: nothing to say
         rundir.write_yaml(plan.run_dir(job) / rundir.RUN_FILE, {"numerics": here})
     assert platform_note(plan, survey(plan)) is None
+
+
+@pytest.mark.parametrize(
+    ("algo", "settings", "expected"),
+    [
+        # SB3 starts an off-policy collection every train_freq steps per env (8 x 2 envs = 16 steps):
+        # the evaluations due at 30, 60, 90 run at the round starts 32, 64, 96; the run ends at 7 rounds
+        # (112 >= 100).  algo.n_steps (1) is the n-step return there, not the round.
+        ("sac", ["algo.train_freq=8", "algo.n_steps=1"], [32, 64, 96, 112]),
+        # on-policy, a round is a rollout of n_steps per env (16 x 2 = 32 steps)
+        ("ppo", ["algo.n_steps=16", "algo.batch_size=32"], [32, 64, 96, 128]),
+    ],
+)
+def test_evaluation_steps_fall_on_collection_rounds(algo: str, settings: list[str], expected: list[int]) -> None:
+    from pyflyt_cli.benchmark.plan import evaluation_steps
+    from pyflyt_cli.training.compose import compose_train_data
+
+    data, _ = compose_train_data(
+        [f"algo={algo}", "env=quadx_hover", *settings, "train.n_envs=2", "train.total_timesteps=100", "train.eval_freq=30"]
+    )
+    assert evaluation_steps(data) == expected

@@ -75,7 +75,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         **overrides: any top-level config field (``agents=8``, ``agent_hz=60``) or task option.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {
+    metadata: dict[str, Any] = {
         "render_modes": ["human", "rgb_array"],
         "name": "ma_uav",
         "is_parallelizable": True,

@@ -91,6 +91,6 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
     on the ground (here when its episode ends).
     """
 
-    metadata: ClassVar[dict] = {**MultiAgentUAVEnv.metadata, "name": "ma_fixedwing_dogfight_v0"}
+    metadata = {**MultiAgentUAVEnv.metadata, "name": "ma_fixedwing_dogfight_v0"}
     config_name: ClassVar[str | None] = "ma_fixedwing_dogfight"
     task_class: ClassVar[type[MultiAgentTask] | None] = DogfightTask

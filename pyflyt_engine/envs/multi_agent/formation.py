@@ -84,6 +84,6 @@ class MAQuadXFormationEnv(MultiAgentUAVEnv):
     **Version history**: v0 -- new in this package (the reference PyFlyt has no swarm task).
     """
 
-    metadata: ClassVar[dict] = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_formation_v0"}
+    metadata = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_formation_v0"}
     config_name: ClassVar[str | None] = "ma_quadx_formation"
     task_class: ClassVar[type[MultiAgentTask] | None] = MAFormationTask

@@ -67,6 +67,6 @@ class MAQuadXHoverEnv(MultiAgentUAVEnv):
     (here: its offset from the vehicle), collisions read every control step.
     """
 
-    metadata: ClassVar[dict] = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_hover_v0"}
+    metadata = {**MultiAgentUAVEnv.metadata, "name": "ma_quadx_hover_v0"}
     config_name: ClassVar[str | None] = "ma_quadx_hover"
     task_class: ClassVar[type[MultiAgentTask] | None] = MAHoverTask

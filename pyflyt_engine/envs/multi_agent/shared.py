@@ -41,6 +41,13 @@ from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
 from pyflyt_engine.envs.tasks.measures import INFO_KEY, Measure, multi_agent_measures
 
 
+def _shape(key: str, space: spaces.Space) -> tuple[int, ...]:
+    """The shape of the observation entry ``key`` (gymnasium leaves it None for a space without one)."""
+    if space.shape is None:
+        raise TypeError(f"observation entry {key!r} ({space}) has no fixed shape to stack agent by agent")
+    return space.shape
+
+
 class SharedPolicyEnv(gymnasium.Env):
     """A parallel multi-agent env as one Gymnasium env for a shared policy (see the module docstring).
 
@@ -56,7 +63,8 @@ class SharedPolicyEnv(gymnasium.Env):
         self.observation_space = env.observation_space(first)
         self.action_space = env.action_space(first)
         self.num_agents = len(env.possible_agents)
-        self._obs_shape = self.observation_space.shape
+        # (None for a Dict space, stacked key by key instead)
+        self._obs_shape: tuple[int, ...] = self.observation_space.shape or ()
         self._act_shape = self.action_space.shape
         names = list(env.config.action.names)
         #: names of the flattened stacked action (``<agent>.<entry>``), as recorded
@@ -101,7 +109,7 @@ class SharedPolicyEnv(gymnasium.Env):
         return self.parallel.vehicles[0]
 
     @property
-    def np_random(self) -> np.random.Generator:  # type: ignore[override]
+    def np_random(self) -> np.random.Generator:
         return self.parallel.np_random
 
     @np_random.setter
@@ -224,7 +232,7 @@ class SharedPolicyEnv(gymnasium.Env):
         space = self.observation_space
         if isinstance(space, spaces.Dict):  # camera images, range sensors: one stacked array per key
             n = self.num_agents
-            stacked = {key: np.zeros((n, *sub.shape), dtype=sub.dtype) for key, sub in space.spaces.items()}
+            stacked = {key: np.zeros((n, *_shape(key, sub)), dtype=sub.dtype) for key, sub in space.spaces.items()}
             for name, obs in observations.items():
                 for key, value in obs.items():
                     stacked[key][index[name]] = value
