@@ -481,3 +481,34 @@ def test_every_module_and_public_name_of_the_reference_exists(module):
     loaded = importlib.import_module(f"pyflyt_engine.compat.{module}")
     missing = [name for name in RECORD["public_names"][module] if not hasattr(loaded, name)]
     assert not missing, f"pyflyt_engine.compat.{module} lacks {missing}"
+
+
+@pytest.mark.parametrize("module", sorted(RECORD["public_imports"]))
+def test_names_the_references_modules_hold_through_imports_import_here(module):
+    # `from PyFlyt.core.aviary import DroneIndex` or `... quadx_hover_env import QuadXBaseEnv`
+    # works on the reference (recorded from its package): so it does here
+    loaded = importlib.import_module(f"pyflyt_engine.compat.{module}")
+    missing = [name for name in RECORD["public_imports"][module] if not hasattr(loaded, name)]
+    assert not missing, f"pyflyt_engine.compat.{module} lacks {missing}"
+
+
+def test_a_fixedwings_starting_velocity_is_a_ground_frame_vector():
+    # PyFlyt 0.29.0 Fixedwing.reset: resetBaseVelocity(Id, starting_velocity): ground frame
+    from pyflyt_engine.compat.core import Aviary
+
+    aviary = Aviary(
+        start_pos=np.array([[0.0, 0.0, 50.0], [0.0, 30.0, 50.0]]),
+        start_orn=np.array([[0.0, 0.0, np.pi / 2], [0.0, 0.0, np.pi / 2]]),
+        drone_type="fixedwing",
+        drone_options=[{"starting_velocity": np.array([0.0, 20.0, 0.0])}, {}],
+    )
+    try:
+        # nose along +y, flying +y: all forward in the body frame
+        np.testing.assert_allclose(aviary.state(0)[2], [20.0, 0.0, 0.0], atol=1e-6)
+        np.testing.assert_allclose(aviary.world.vehicles[0].state.lin_vel_ground, [0.0, 20.0, 0.0], atol=1e-6)
+        # the default (20, 0, 0) is ground +x, so a nose along +y slips sideways at spawn, as there
+        np.testing.assert_allclose(aviary.world.vehicles[1].state.lin_vel_ground, [20.0, 0.0, 0.0], atol=1e-6)
+        np.testing.assert_allclose(aviary.state(1)[2], [0.0, -20.0, 0.0], atol=1e-6)
+    finally:
+        aviary.disconnect()
+
