@@ -1,24 +1,23 @@
 """The reference's PettingZoo envs (``from PyFlyt.pz_envs import ...``'s counterpart).
 
 :class:`MAQuadXHoverEnvV2` and :class:`MAFixedwingDogfightEnvV2` take the reference's
-constructor arguments and have its spaces and observation layouts; each is one of our
-multi-agent env configs (``conf/env/ma_*.yaml``) adjusted
-(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`).  ``MAQuadXHoverEnvV2``
-runs the reference's episode (settling, per-1/120 s rewards and endings); the dogfight
-runs the native loop and reward presets.  Facts about the
+constructor arguments and have its spaces and observation layouts.  ``MAQuadXHoverEnvV2``
+is our multi-agent hover config (``conf/env/ma_quadx_hover.yaml``) adjusted
+(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`), running the reference's
+episode (settling, per-1/120 s rewards and endings); ``MAFixedwingDogfightEnvV2``
+(:mod:`._dogfight`) is the reference's dogfight over the compat Aviary.  Facts about the
 reference are cited as "PyFlyt 0.29.0 <class>: ...".
 """
 
 from __future__ import annotations
 
 import contextlib
-import warnings
 from collections.abc import Iterator
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from gymnasium import spaces
 
+from pyflyt_engine.compat.pz_envs._dogfight import MAFixedwingDogfightEnvV2
 from pyflyt_engine.compat.gym_envs._base import (
     REFERENCE_STEP_HZ,
     SETTLE_STEPS,
@@ -27,9 +26,7 @@ from pyflyt_engine.compat.gym_envs._base import (
     check_angle_representation,
     native_config,
     quadx_action,
-    surface_commands_to_channels,
 )
-from pyflyt_engine.envs.multi_agent.dogfight import MAFixedwingDogfightEnv as _NativeDogfight
 from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv as _NativeMAHover
 from pyflyt_engine.state import KinematicState
 
@@ -240,181 +237,3 @@ class MAQuadXHoverEnvV2(_ReferenceParallel, _NativeMAHover):
         for name in live:
             self._alive[self.agent_index[name]] = name in self.agents
         return observations, rewards, terminations, truncations, infos
-
-
-#: entries per other aircraft (PyFlyt 0.29.0 MAFixedwingDogfightEnv: 12 + health + team flag)
-_OTHER = 14
-
-
-class MAFixedwingDogfightEnvV2(_ReferenceParallel, _NativeDogfight):
-    """PyFlyt 0.29.0 ``MAFixedwingDogfightEnv``: two teams of ``team_size`` fixed-wings.
-
-    Arguments and defaults are the reference's.  ``damage_per_hit`` is per 120 Hz control
-    step there, so it becomes ``damage_per_second = 120 x damage_per_hit``.  Spawn: the
-    native layout (teams facing each other ``spawn_min_radius + spawn_max_radius`` apart
-    at the middle of the spawn heights), not the reference's outward-facing circle.
-    ``aggressiveness`` and ``cooperativeness`` other than 0.5 / 0.5 are not modelled (the
-    dense reward is the reference's at 0.5 aggressiveness, without sharing): a warning
-    says so.
-
-    Action (PyFlyt 0.29.0): ``assisted_flight`` True: ``Box(-1, 1, (4,))`` [roll, pitch,
-    yaw, thrust] as the airframe's channels; False: ``Box(-1, 1, (6,))`` [left aileron,
-    right aileron, horizontal tail, vertical tail, main wing, thrust], mapped onto the
-    channels (roll = (left - right) / 2, pitch = horizontal tail, yaw = -vertical tail;
-    the main wing entry has no surface here).
-
-    Observation: ``self`` = [ang_vel, Euler angles, lin_vel, lin_pos (12), aux (6),
-    health, previous action (4 | 6)]; one block of 14 per other live aircraft =
-    [its ang_vel, its Euler angles minus own, its velocity in own body frame minus own
-    body velocity, its position in own body frame, its health, same team].
-    ``flatten_observation`` True: ``Box(self + 14 (2 team_size - 1),)``, absent aircraft
-    zero-padded; False: ``Dict(self=Box, others=Sequence(Box(14,), stack=True))``.
-    """
-
-    metadata: ClassVar[dict] = {**_NativeDogfight.metadata, "name": "ma_fixedwing_team_dogfight"}
-    _drone_kind = "fixedwing"
-
-    def __init__(
-        self,
-        team_size: int = 2,
-        spawn_min_radius: float = 10.0,
-        spawn_max_radius: float = 50.0,
-        spawn_min_height: float = 20.0,
-        spawn_max_height: float = 50.0,
-        damage_per_hit: float = 0.003,
-        lethal_distance: float = 20.0,
-        lethal_angle_radians: float = 0.07,
-        assisted_flight: bool = True,
-        aggressiveness: float = 0.5,
-        cooperativeness: float = 0.5,
-        sparse_reward: bool = False,
-        flatten_observation: bool = True,
-        flight_dome_size: float = 800.0,
-        max_duration_seconds: float = 60.0,
-        agent_hz: int = 30,
-        render_mode: None | str = None,
-    ) -> None:
-        check_agent_hz(agent_hz)
-        if int(team_size) < 1:
-            raise ValueError(f"team_size must be at least 1, got {team_size}")
-        if (aggressiveness, cooperativeness) != (0.5, 0.5):
-            warnings.warn(
-                "pyflyt_engine.compat: aggressiveness and cooperativeness other than 0.5 are not modelled; "
-                "write a reward preset instead (docs/migrating_from_pyflyt.md)",
-                stacklevel=2,
-            )
-        self.team_size = int(team_size)
-        self.assisted_flight = bool(assisted_flight)
-        self.flatten_observation = bool(flatten_observation)
-        self.aggressiveness, self.cooperativeness = aggressiveness, cooperativeness
-        cfg = native_config("ma_fixedwing_dogfight")
-        task = cfg["task"]
-        task.update(
-            lethal_distance=float(lethal_distance),
-            lethal_angle=float(lethal_angle_radians),
-            damage_per_second=120.0 * float(damage_per_hit),
-            team_separation=float(spawn_min_radius + spawn_max_radius),
-            spawn_height=0.5 * float(spawn_min_height + spawn_max_height),
-        )
-        cfg.update(
-            agents=2 * self.team_size,
-            agent_hz=float(agent_hz),
-            max_duration_seconds=float(max_duration_seconds),
-            flight_dome_size=float(flight_dome_size),
-            angle_representation="euler",
-            reward="sparse" if sparse_reward else "dense",
-            action={**cfg["action"], "low": [-1.0] * 4, "high": [1.0] * 4},
-        )
-        super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
-        self._reference_attributes(agent_hz, max_duration_seconds)
-        n = len(self.possible_agents)
-        n_act = 4 if self.assisted_flight else 6
-        if not self.assisted_flight:
-            self.vehicles = [_SurfaceCommands(v) for v in self.vehicles]
-        self._low, self._high = -np.ones(n_act), np.ones(n_act)
-        self._actions = np.zeros((n, n_act))
-        self._self_size = 12 + 6 + 1 + n_act
-        self._flat_size = self._self_size + _OTHER * (n - 1)
-        if self.flatten_observation:
-            obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(self._flat_size,), dtype=np.float64)
-        else:
-            obs_space = spaces.Dict(
-                {
-                    "self": spaces.Box(-np.inf, np.inf, shape=(self._self_size,), dtype=np.float64),
-                    "others": spaces.Sequence(
-                        spaces.Box(-np.inf, np.inf, shape=(_OTHER,), dtype=np.float64), stack=True
-                    ),
-                }
-            )
-        act_space = spaces.Box(self._low, self._high, dtype=np.float64)
-        self.observation_spaces = {name: obs_space for name in self.possible_agents}
-        self.action_spaces = {name: act_space for name in self.possible_agents}
-        self._active_others = [0] * n
-
-    # the native loop checks a flat vector per agent; the Dict form is made from it after
-    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        s = states[i]
-        own = np.array((*s.ang_vel, *s.ang_pos, *s.lin_vel, *s.lin_pos), dtype=np.float64)
-        rot = self.task._rot[i]  # body of i -> ground
-        blocks = []
-        for j in range(len(self.possible_agents)):
-            if j == i or not self._alive[j]:
-                continue
-            o = states[j]
-            blocks.append(
-                np.concatenate(
-                    (
-                        o.ang_vel,
-                        np.subtract(o.ang_pos, s.ang_pos),
-                        rot.T @ np.asarray(o.lin_vel_ground) - np.asarray(s.lin_vel),
-                        rot.T @ (np.asarray(o.lin_pos) - np.asarray(s.lin_pos)),
-                        (self.task.health[j], float(self.teams[j] == self.teams[i])),
-                    )
-                )
-            )
-        self._active_others[i] = len(blocks)
-        flat = np.zeros(self._flat_size)
-        health = (self.task.health[i],)
-        flat[: self._self_size] = np.concatenate((own, self.vehicles[i].aux_state, health, self._actions[i]))
-        if blocks:
-            flat[self._self_size : self._self_size + _OTHER * len(blocks)] = np.concatenate(blocks)
-        return flat
-
-    def _as_reference(self, observations: dict[str, np.ndarray]) -> dict[str, Any]:
-        if self.flatten_observation:
-            return observations
-        out = {}
-        for name, flat in observations.items():
-            k = self._active_others[self.agent_index[name]]
-            others = flat[self._self_size : self._self_size + _OTHER * k].reshape(k, _OTHER)
-            out[name] = {"self": flat[: self._self_size].copy(), "others": others.copy()}
-        return out
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict]:
-        observations, infos = super().reset(seed=seed, options=options)
-        for info in infos.values():
-            info["received_hits"] = 0
-        return self._as_reference(observations), infos
-
-    def step(self, actions: Any) -> tuple[dict[str, Any], dict, dict, dict, dict]:
-        observations, rewards, terminations, truncations, infos = super().step(actions)
-        for name, info in infos.items():
-            info["received_hits"] = info.get("total_hits_taken", 0)
-        return self._as_reference(observations), rewards, terminations, truncations, infos
-
-
-class _SurfaceCommands:
-    """A fixed-wing driven by the reference's six raw commands (PyFlyt 0.29.0 Fixedwing mode -1:
-    left aileron, right aileron, horizontal tail, vertical tail, main wing, thrust),
-    folded onto the airframe's four channels (roll, pitch, yaw, thrust)."""
-
-    __slots__ = ("_vehicle",)
-
-    def __init__(self, vehicle: Any) -> None:
-        object.__setattr__(self, "_vehicle", vehicle)
-
-    def set_setpoint(self, setpoint: Any) -> None:
-        self._vehicle.set_setpoint(surface_commands_to_channels(setpoint))
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._vehicle, name)
