@@ -512,3 +512,31 @@ def test_a_fixedwings_starting_velocity_is_a_ground_frame_vector():
     finally:
         aviary.disconnect()
 
+
+def test_a_stock_env_subclass_overriding_reset_calls_its_two_halves_as_in_the_reference():
+    from pyflyt_engine.compat.gym_envs.quadx_envs.quadx_waypoints_env import QuadXWaypointsEnv
+
+    class FixedCourse(QuadXWaypointsEnv):
+        """The reference's pattern: begin_reset, the task's own set-up, end_reset."""
+
+        def reset(self, *, seed=None, options=None):
+            super().begin_reset(seed, options)
+            self.waypoints.reset(self.env, self.np_random)
+            self.waypoints.targets = np.array([[1.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
+            self.info["num_targets_reached"] = 0
+            super().end_reset(seed, options)
+            return self.state, self.info
+
+    env = FixedCourse(num_targets=2, angle_representation="euler")
+    try:
+        obs, info = env.reset(seed=0)
+        assert env.step_count == 0 and info["num_targets_reached"] == 0
+        position = env.env.state(0)[-1]
+        # settled 1/12 s below the spawn, as the stock reset; the deltas to the assigned course
+        assert position[2] == pytest.approx(1.0 - 0.5 * 9.81 / 144, abs=3e-3)
+        np.testing.assert_allclose(np.linalg.norm(obs["target_deltas"], axis=1),
+                                   np.linalg.norm(env.waypoints.targets - position, axis=1), rtol=1e-9)
+        env.step(np.array([0.0, 0.0, 0.0, 0.3]))
+        assert env.step_count == 1
+    finally:
+        env.close()
