@@ -175,3 +175,19 @@ def test_dogfight_damage_is_per_120_hz_step_and_ends_the_target():
         assert infos["uav_0"]["team_win"] and rewards["uav_0"] == 300.0
     finally:
         env.close()
+
+
+def test_dogfight_truncates_once_step_count_exceeds_max_steps():
+    # PyFlyt 0.29.0: update_states truncates when step_count > max_steps, and step_count counts
+    # up after the Aviary steps: the episode's last step is step max_steps + 2
+    env = MAFixedwingDogfightEnvV2(team_size=1, max_duration_seconds=1.0, flight_dome_size=5000.0)
+    try:
+        env.reset(seed=0)
+        assert env.max_steps == 30
+        steps = 0
+        while env.agents:
+            _, _, terms, truncs, _ = env.step({a: np.array([0.0, 0.0, 0.0, 0.5]) for a in env.agents})
+            steps += 1
+        assert steps == env.max_steps + 2 and all(truncs.values()) and not any(terms.values())
+    finally:
+        env.close()
