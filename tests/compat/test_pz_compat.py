@@ -15,7 +15,7 @@ def test_ma_hover_defaults_spaces_and_layout():
         assert env.possible_agents == ["uav_0", "uav_1", "uav_2", "uav_3"]
         assert env.observation_space("uav_0").shape == (24,)
         np.testing.assert_allclose(env.action_space("uav_0").high, [np.pi, np.pi, np.pi, 0.8])
-        assert env.config.agent_hz == 40 and env.config.max_duration_seconds == 30.0
+        assert env.env_step_ratio == 3 and env.max_steps == 40 * 30  # 40 Hz, 30 s
         obs, infos = env.reset(seed=0)
         assert infos == {name: {} for name in env.possible_agents}  # the reference's: empty
         # spawn exactly at the start positions, which close the observation; then, as the
@@ -27,7 +27,9 @@ def test_ma_hover_defaults_spaces_and_layout():
             np.testing.assert_allclose(obs[name][10:13], expected, atol=3e-3)  # lin_pos (quaternion)
         half = {a: np.array([0.0, 0.0, 0.0, 0.5]) for a in env.agents}
         obs, *_ = env.step(half)
-        assert env.vehicles[0].setpoint[3] > 0.125  # mode 0 thrust is a motor command, 0.5 above hover
+        # mode 0 thrust is a motor command: 0.5 is above the 0.3 hover command, so above the
+        # native airframe's hover thrust fraction
+        assert env.world.vehicles[0].setpoint[3] > 0.125
         # PyFlyt 0.29.0 MAQuadXBaseEnv observes past_actions: the action before the one just applied
         np.testing.assert_allclose(obs["uav_0"][17:21], [0.0, 0.0, 0.0, 0.0])
         obs, *_ = env.step(half)
@@ -63,6 +65,27 @@ def test_dogfight_spaces_are_the_references(kwargs, shape, actions):
         obs, *_, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
         assert {"health", "received_hits"} <= set(infos["uav_0"])
         assert obs["uav_0"].shape == shape
+    finally:
+        env.close()
+
+
+def test_ma_hover_is_the_references_base_env_and_a_subclass_reshapes_its_reward():
+    from pyflyt_engine.compat.pz_envs.quadx_envs.ma_quadx_base_env import MAQuadXBaseEnv
+
+    class StayLow(MAQuadXHoverEnvV2):
+        def compute_term_trunc_reward_info_by_id(self, agent_id):
+            term, trunc, _, info = super().compute_term_trunc_reward_info_by_id(agent_id)
+            return term, trunc, -float(self.aviary.state(agent_id)[-1][2]), info
+
+    env = StayLow()
+    try:
+        assert isinstance(env, MAQuadXBaseEnv)
+        env.reset(seed=0)
+        _, rewards, *_ = env.step({a: np.array([0.0, 0.0, 0.0, 0.3]) for a in env.agents})
+        # summed over the 3 Aviary steps of the agent step: about -3 x the height (~0.9 m)
+        for i, agent in enumerate(env.possible_agents):
+            height = env.aviary.state(i)[-1][2]
+            assert -3.0 * height - 0.1 < rewards[agent] < -3.0 * height + 0.1
     finally:
         env.close()
 

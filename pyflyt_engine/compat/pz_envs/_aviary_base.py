@@ -141,11 +141,16 @@ class _MAAviaryEnv(ParallelEnv):
         ang_vel, ang_pos, lin_vel, lin_pos = self.aviary.state(agent_id)
         return ang_vel, ang_pos, lin_vel, lin_pos, np.array(p.getQuaternionFromEuler(ang_pos))
 
+    #: PyFlyt 0.29.0: the fixed-wing base takes actions of live agents only (the others get
+    #: zeros); the QuadX base takes every known agent's
+    _live_actions_only: ClassVar[bool] = False
+
     def _take_actions(self, actions: dict[str, np.ndarray]) -> np.ndarray:
         self.past_actions = self.current_actions.copy()
         self.current_actions = np.zeros_like(self.current_actions)
+        takes = self.agents if self._live_actions_only else self.agent_name_mapping
         for name, action in actions.items():
-            if name in self.agents:  # PyFlyt 0.29.0: agents that left get zeros
+            if name in takes:
                 self.current_actions[self.agent_name_mapping[name]] = action
         return self.current_actions.copy()
 
@@ -226,6 +231,7 @@ class MAFixedwingBaseEnv(_MAAviaryEnv):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human"], "name": "ma_fixedwing_base"}
     drone_type = "fixedwing"
     aux_size = 6
+    _live_actions_only = True
 
     def __init__(
         self,
