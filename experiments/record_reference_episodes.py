@@ -22,7 +22,7 @@ project, so the tests never import the reference: they read the file this writes
 * **facts**: what user code reads off the env and the Aviary: a spawn moved by assigning
   ``env.unwrapped.start_pos``, the Rocket's ``aux_state`` at the start and its fuel
   entry, ``metadata["render_fps"]``, ``max_steps``, the camera's depth range, a drone's
-  state after ``disconnect``.
+  state after ``disconnect``, the courses of waypoints and the Rocket's drops seeded resets draw.
 """
 
 from __future__ import annotations
@@ -227,6 +227,37 @@ def record_facts() -> dict:
     for env_id in ("PyFlyt/QuadX-Hover-v4", "PyFlyt/Fixedwing-Waypoints-v3", "PyFlyt/Rocket-Landing-v4"):
         e = gymnasium.make(env_id)
         facts["render_fps"][env_id] = e.metadata["render_fps"]
+        e.close()
+
+    # the courses a seeded reset draws (the first draws of the env's seeded np_random)
+    facts["waypoint_targets"] = {}
+    for env_id, kwargs in (
+        ("PyFlyt/QuadX-Waypoints-v4", {}),
+        ("PyFlyt/QuadX-Waypoints-v4", {"use_yaw_targets": True}),
+        ("PyFlyt/QuadX-Pole-Waypoints-v4", {}),
+        ("PyFlyt/Fixedwing-Waypoints-v3", {}),
+    ):
+        key = env_id + (" use_yaw_targets" if kwargs else "")
+        facts["waypoint_targets"][key] = {}
+        for seed in SEEDS:
+            e = gymnasium.make(env_id, **kwargs)
+            e.reset(seed=seed)
+            w = e.unwrapped.waypoints
+            entry = {"targets": np.asarray(w.targets, dtype=float).tolist()}
+            if kwargs:
+                entry["yaw_targets"] = np.asarray(w.yaw_targets, dtype=float).tolist()
+            facts["waypoint_targets"][key][str(seed)] = entry
+            e.close()
+
+    # the Rocket's drop (its default reset options: randomize_drop, from the seeded np_random)
+    facts["rocket_drop"] = {}
+    for seed in SEEDS:
+        e = gymnasium.make("PyFlyt/Rocket-Landing-v4")
+        e.reset(seed=seed)
+        facts["rocket_drop"][str(seed)] = {
+            "start_pos": np.asarray(e.unwrapped.start_pos, dtype=float).tolist(),
+            "start_orn": np.asarray(e.unwrapped.start_orn, dtype=float).tolist(),
+        }
         e.close()
 
     env = gymnasium.make("PyFlyt/Rocket-Landing-v4")

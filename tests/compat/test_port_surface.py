@@ -540,3 +540,61 @@ def test_a_stock_env_subclass_overriding_reset_calls_its_two_halves_as_in_the_re
         assert env.step_count == 1
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("key", sorted(FACTS["waypoint_targets"]))
+def test_a_seeded_reset_draws_the_references_course(key):
+    # PyFlyt 0.29.0: the course is the first draw of the env's seeded np_random
+    env_id, *flags = key.split()
+    for seed, course in FACTS["waypoint_targets"][key].items():
+        env = gymnasium.make(env_id, **{flag: True for flag in flags})
+        try:
+            env.reset(seed=int(seed))
+            w = env.unwrapped.waypoints
+            np.testing.assert_allclose(w.targets, course["targets"], rtol=0, atol=1e-12)
+            if "yaw_targets" in course:
+                np.testing.assert_allclose(w.yaw_targets, course["yaw_targets"], rtol=0, atol=1e-12)
+        finally:
+            env.close()
+
+
+def test_a_task_on_the_base_env_draws_the_references_course_from_np_random():
+    # the reference's pattern (its QuadXWaypointsEnv): a handler reset with the env's np_random
+    # right after begin_reset draws the course of the reference's seeded reset
+    from pyflyt_engine.compat.gym_envs.utils.waypoint_handler import WaypointHandler
+
+    class Course(_PointHover):
+        def __init__(self):
+            super().__init__()
+            self.flight_dome_size = 5.0
+            self.waypoints = WaypointHandler(False, 4, False, 0.2, 0.1, 5.0, 0.1, self.np_random)
+
+        def reset(self, *, seed=None, options=None):
+            super().begin_reset(seed, options)
+            self.waypoints.reset(self.env, self.np_random)
+            super().end_reset(seed, options)
+            return self.state, self.info
+
+    env = Course()
+    try:
+        for seed, course in FACTS["waypoint_targets"]["PyFlyt/QuadX-Waypoints-v4"].items():
+            env.reset(seed=int(seed))
+            np.testing.assert_allclose(env.waypoints.targets, course["targets"], rtol=0, atol=1e-12)
+    finally:
+        env.close()
+
+
+def test_a_seeded_rocket_reset_drops_where_the_references_does():
+    # PyFlyt 0.29.0 RocketBaseEnv, default randomize_drop: the first draws of the seeded np_random
+    for seed, drop in FACTS["rocket_drop"].items():
+        env = gymnasium.make("PyFlyt/Rocket-Landing-v4", angle_representation="euler")
+        try:
+            env.reset(seed=int(seed))
+            np.testing.assert_allclose(env.unwrapped.start_pos, drop["start_pos"], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(env.unwrapped.start_orn, drop["start_orn"], rtol=0, atol=1e-12)
+            # then 10 settling steps of 1/120 s at ~100 m/s downwards: ~8.3 m lower
+            position = env.unwrapped.env.state(0)[-1]
+            assert drop["start_pos"][0][2] - position[2] == pytest.approx(100.0 / 12, abs=0.5)
+            np.testing.assert_allclose(position[:2], drop["start_pos"][0][:2], atol=0.5)
+        finally:
+            env.close()

@@ -29,13 +29,16 @@ import pyflyt_engine.compat.gym_envs  # noqa: F401 - registers the reference ids
 
 RECORD = json.loads((Path(__file__).parent / "data" / "reference_episodes.json").read_text())["episodes"]
 
-#: case -> (length tolerance [steps], return tolerance [absolute]); None: not compared
-#: (the waypoints are drawn from other random streams, so the distance terms differ)
+#: case -> (length tolerance [steps], return tolerance [absolute]); None: not compared.
+#: A seeded reset draws the reference's course (its first draws of the seeded np_random), so
+#: the waypoint returns compare: still in mode 6 they are 0.1 / distance per 1/120 s step to
+#: the first target (1.3 to 2.7 m from the spawn), which the reference's sinking QuadX (Hover, mode 6)
+#: changes by up to 13 (seed 2: 62.9 vs 49.8; seeds 0 and 1 within 0.7)
 TOLERANCES: dict[str, tuple[int, float | None]] = {
     "hover_mode0_hover_command": (6, 12.0),
     "hover_mode0_sparse": (6, 1.0),
     "hover_mode6_still": (0, 50.0),
-    "waypoints_mode6_still": (0, None),
+    "waypoints_mode6_still": (0, 15.0),
     "rocket_idle": (12, 200.0),
     "fixedwing_neutral_half_thrust": (10, 40.0),
     "pole_balance_motors": (2, 6.0),

@@ -363,6 +363,13 @@ class ReferenceEnv(ReferenceHooks):
         ``reward``, ``termination``, ``truncation`` and ``info``.  The reference's
         ``drone_options`` keyword is accepted and unused (the airframe is the env's)."""
         super().reset(seed=seed)  # type: ignore[misc]
+        if seed is not None or getattr(self, "_reference_rng", None) is None:
+            # PyFlyt 0.29.0: its env's np_random, seeded here, draws nothing before the env's
+            # own set-up (its course of waypoints); the native reset draws from ours, so the
+            # reference's stream is kept apart and the same seed draws the reference's course
+            from gymnasium.utils import seeding
+
+            self._reference_rng, _ = seeding.np_random(seed)
         self._after_spawn()
         self.step_count = 0
         self.termination = self.truncation = False
