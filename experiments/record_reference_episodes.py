@@ -11,14 +11,18 @@ project, so the tests never import the reference: they read the file this writes
   length, how it ended (terminated / truncated and the info flags), its return and the
   first and last rewards (or the error the reference raises: its Gates-v3 cannot load
   its gate model);
-* **pz_episodes**: the same for the PettingZoo envs: per agent, the step it left, how and
-  its return;
+* **pz_episodes**: the same for the PettingZoo envs (MAQuadXHoverEnvV2 and
+  MAFixedwingDogfightEnvV2): per agent, the step it left, how (the info at its end: flags,
+  dogfight ``health`` and ``received_hits``) and its return; the dogfight's spawn too;
+* **checker_warnings**: per Gymnasium id, the warnings Gymnasium's ``check_env`` gives on
+  the reference's env and the error it ends with (if any); per PettingZoo env, those of
+  ``parallel_api_test`` and of ``api_test`` on its AEC conversion;
 * **public_names**: every module of its ``core``, ``gym_envs``, ``pz_envs`` and the public
   classes and functions each defines;
 * **facts**: what user code reads off the env and the Aviary: a spawn moved by assigning
   ``env.unwrapped.start_pos``, the Rocket's ``aux_state`` at the start and its fuel
   entry, ``metadata["render_fps"]``, ``max_steps``, the camera's depth range, a drone's
-  state after ``disconnect``.
+  state after ``disconnect``, the courses of waypoints and the Rocket's drops seeded resets draw.
 """
 
 from __future__ import annotations
@@ -91,11 +95,29 @@ def record_episodes() -> dict:
     return out
 
 
-#: PettingZoo cases: name -> (class name, kwargs, constant action per agent)
+#: PettingZoo cases: name -> (class name, kwargs, constant action per agent); the dogfight at
+#: neutral stick and the env's thrust entry 0.5 (0.75 of full thrust), as the fixed-wing case
 PZ_EPISODES = {
     "ma_hover_hover_command": ("MAQuadXHoverEnvV2", {}, [0.0, 0.0, 0.0, 0.3]),
     "ma_hover_mode6_still": ("MAQuadXHoverEnvV2", {"flight_mode": 6, "max_duration_seconds": 5.0}, [0.0] * 4),
+    "dogfight_neutral_half_thrust": ("MAFixedwingDogfightEnvV2", {}, [0.0, 0.0, 0.0, 0.5]),
+    "dogfight_1v1_sparse_glide": (
+        "MAFixedwingDogfightEnvV2",
+        {"team_size": 1, "sparse_reward": True, "max_duration_seconds": 20.0},
+        [0.0, 0.0, 0.0, -1.0],
+    ),
 }
+
+
+def _info_entry(value):
+    """An info value as JSON: flags as bools, the dogfight's health as a float, counts as ints."""
+    import numpy as np
+
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    return float(value)
 
 
 def record_pz_episodes() -> dict:
@@ -109,6 +131,10 @@ def record_pz_episodes() -> dict:
         for seed in SEEDS:
             env = getattr(pz, cls)(**kwargs)
             env.reset(seed=seed)
+            run = {"seed": seed}
+            if hasattr(env, "start_pos") and cls == "MAFixedwingDogfightEnvV2":
+                run["start_pos"] = np.asarray(env.start_pos, dtype=float).tolist()
+                run["start_orn"] = np.asarray(env.start_orn, dtype=float).tolist()
             steps, returns, ends = 0, {}, {}
             while env.agents:
                 live = list(env.agents)
@@ -118,10 +144,64 @@ def record_pz_episodes() -> dict:
                     returns[a] = returns.get(a, 0.0) + float(rewards[a])
                     if terms[a] or truncs[a]:
                         ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]),
-                                   "info": {k: bool(v) for k, v in infos[a].items()}}
-            runs.append({"seed": seed, "steps": steps, "returns": returns, "ends": ends})
+                                   "info": {k: _info_entry(v) for k, v in infos[a].items()}}
+            runs.append({**run, "steps": steps, "returns": returns, "ends": ends})
             env.close()
         out[name] = {"class": cls, "kwargs": kwargs, "action": action, "runs": runs}
+    return out
+
+
+def _caught(run) -> dict:
+    """The distinct warnings ``run()`` gives (colour codes stripped) and the error it ends with."""
+    import re
+
+    error = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            run()
+        except Exception as exc:  # noqa: BLE001 - a fact about the reference, recorded
+            error = f"{type(exc).__name__}: {str(exc)[:200]}"
+    messages = sorted({re.sub(r"\x1b\[[0-9;]*m", "", str(w.message)) for w in caught})
+    return {"warnings": messages, "error": error}
+
+
+def record_checker_warnings() -> dict:
+    """What Gymnasium's and PettingZoo's checkers say about the reference's envs."""
+    import gymnasium
+    from gymnasium.utils.env_checker import check_env
+    from pettingzoo.test import api_test, parallel_api_test
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    import PyFlyt.gym_envs  # noqa: F401
+    import PyFlyt.pz_envs as pz
+
+    out: dict = {"gymnasium": {}, "pettingzoo": {}}
+    for env_id in sorted(i for i in gymnasium.registry if i.startswith("PyFlyt/")):
+        def check(env_id=env_id):
+            env = gymnasium.make(env_id)
+            try:
+                check_env(env.unwrapped, skip_render_check=True)
+            finally:
+                env.close()
+
+        out["gymnasium"][env_id] = _caught(check)
+    for cls in ("MAQuadXHoverEnvV2", "MAFixedwingDogfightEnvV2"):
+        def parallel(cls=cls):
+            env = getattr(pz, cls)()
+            try:
+                parallel_api_test(env, num_cycles=100)
+            finally:
+                env.close()
+
+        def aec(cls=cls):
+            env = parallel_to_aec(getattr(pz, cls)())
+            try:
+                api_test(env, num_cycles=100)
+            finally:
+                env.close()
+
+        out["pettingzoo"][cls] = {"parallel_api_test": _caught(parallel), "api_test": _caught(aec)}
     return out
 
 
@@ -147,6 +227,37 @@ def record_facts() -> dict:
     for env_id in ("PyFlyt/QuadX-Hover-v4", "PyFlyt/Fixedwing-Waypoints-v3", "PyFlyt/Rocket-Landing-v4"):
         e = gymnasium.make(env_id)
         facts["render_fps"][env_id] = e.metadata["render_fps"]
+        e.close()
+
+    # the courses a seeded reset draws (the first draws of the env's seeded np_random)
+    facts["waypoint_targets"] = {}
+    for env_id, kwargs in (
+        ("PyFlyt/QuadX-Waypoints-v4", {}),
+        ("PyFlyt/QuadX-Waypoints-v4", {"use_yaw_targets": True}),
+        ("PyFlyt/QuadX-Pole-Waypoints-v4", {}),
+        ("PyFlyt/Fixedwing-Waypoints-v3", {}),
+    ):
+        key = env_id + (" use_yaw_targets" if kwargs else "")
+        facts["waypoint_targets"][key] = {}
+        for seed in SEEDS:
+            e = gymnasium.make(env_id, **kwargs)
+            e.reset(seed=seed)
+            w = e.unwrapped.waypoints
+            entry = {"targets": np.asarray(w.targets, dtype=float).tolist()}
+            if kwargs:
+                entry["yaw_targets"] = np.asarray(w.yaw_targets, dtype=float).tolist()
+            facts["waypoint_targets"][key][str(seed)] = entry
+            e.close()
+
+    # the Rocket's drop (its default reset options: randomize_drop, from the seeded np_random)
+    facts["rocket_drop"] = {}
+    for seed in SEEDS:
+        e = gymnasium.make("PyFlyt/Rocket-Landing-v4")
+        e.reset(seed=seed)
+        facts["rocket_drop"][str(seed)] = {
+            "start_pos": np.asarray(e.unwrapped.start_pos, dtype=float).tolist(),
+            "start_orn": np.asarray(e.unwrapped.start_orn, dtype=float).tolist(),
+        }
         e.close()
 
     env = gymnasium.make("PyFlyt/Rocket-Landing-v4")
@@ -211,6 +322,36 @@ def record_public_names() -> dict:
     return names
 
 
+def record_public_imports() -> dict:
+    """Per module, the public names it holds that come from elsewhere in the package (``from
+    PyFlyt.core.aviary import DroneClass`` works on the reference, so ported code may use it),
+    and its plain type aliases (``DroneIndex = int``)."""
+    import importlib
+    import inspect
+
+    import PyFlyt
+
+    root = Path(PyFlyt.__file__).parent
+    names: dict = {}
+    for package in ("core", "gym_envs", "pz_envs"):
+        for path in sorted((root / package).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
+            module_name = ".".join(p for p in parts if p != "__init__")
+            module = importlib.import_module(f"PyFlyt.{module_name}")
+            names[module_name] = sorted(
+                n
+                for n, obj in vars(module).items()
+                if not n.startswith("_")
+                and (
+                    ((inspect.isclass(obj) or inspect.isfunction(obj))
+                     and getattr(obj, "__module__", "").startswith("PyFlyt.")
+                     and obj.__module__ != module.__name__)
+                    or any(obj is t for t in (int, float, str))
+                )
+            )
+    return names
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
@@ -227,6 +368,8 @@ def main() -> None:
         "pz_episodes": record_pz_episodes(),
         "facts": record_facts(),
         "public_names": record_public_names(),
+        "public_imports": record_public_imports(),
+        "checker_warnings": record_checker_warnings(),
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")

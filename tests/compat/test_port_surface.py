@@ -481,3 +481,120 @@ def test_every_module_and_public_name_of_the_reference_exists(module):
     loaded = importlib.import_module(f"pyflyt_engine.compat.{module}")
     missing = [name for name in RECORD["public_names"][module] if not hasattr(loaded, name)]
     assert not missing, f"pyflyt_engine.compat.{module} lacks {missing}"
+
+
+@pytest.mark.parametrize("module", sorted(RECORD["public_imports"]))
+def test_names_the_references_modules_hold_through_imports_import_here(module):
+    # `from PyFlyt.core.aviary import DroneIndex` or `... quadx_hover_env import QuadXBaseEnv`
+    # works on the reference (recorded from its package): so it does here
+    loaded = importlib.import_module(f"pyflyt_engine.compat.{module}")
+    missing = [name for name in RECORD["public_imports"][module] if not hasattr(loaded, name)]
+    assert not missing, f"pyflyt_engine.compat.{module} lacks {missing}"
+
+
+def test_a_fixedwings_starting_velocity_is_a_ground_frame_vector():
+    # PyFlyt 0.29.0 Fixedwing.reset: resetBaseVelocity(Id, starting_velocity): ground frame
+    from pyflyt_engine.compat.core import Aviary
+
+    aviary = Aviary(
+        start_pos=np.array([[0.0, 0.0, 50.0], [0.0, 30.0, 50.0]]),
+        start_orn=np.array([[0.0, 0.0, np.pi / 2], [0.0, 0.0, np.pi / 2]]),
+        drone_type="fixedwing",
+        drone_options=[{"starting_velocity": np.array([0.0, 20.0, 0.0])}, {}],
+    )
+    try:
+        # nose along +y, flying +y: all forward in the body frame
+        np.testing.assert_allclose(aviary.state(0)[2], [20.0, 0.0, 0.0], atol=1e-6)
+        np.testing.assert_allclose(aviary.world.vehicles[0].state.lin_vel_ground, [0.0, 20.0, 0.0], atol=1e-6)
+        # the default (20, 0, 0) is ground +x, so a nose along +y slips sideways at spawn, as there
+        np.testing.assert_allclose(aviary.world.vehicles[1].state.lin_vel_ground, [20.0, 0.0, 0.0], atol=1e-6)
+        np.testing.assert_allclose(aviary.state(1)[2], [0.0, -20.0, 0.0], atol=1e-6)
+    finally:
+        aviary.disconnect()
+
+
+def test_a_stock_env_subclass_overriding_reset_calls_its_two_halves_as_in_the_reference():
+    from pyflyt_engine.compat.gym_envs.quadx_envs.quadx_waypoints_env import QuadXWaypointsEnv
+
+    class FixedCourse(QuadXWaypointsEnv):
+        """The reference's pattern: begin_reset, the task's own set-up, end_reset."""
+
+        def reset(self, *, seed=None, options=None):
+            super().begin_reset(seed, options)
+            self.waypoints.reset(self.env, self.np_random)
+            self.waypoints.targets = np.array([[1.0, 0.0, 1.0], [1.0, 1.0, 1.0]])
+            self.info["num_targets_reached"] = 0
+            super().end_reset(seed, options)
+            return self.state, self.info
+
+    env = FixedCourse(num_targets=2, angle_representation="euler")
+    try:
+        obs, info = env.reset(seed=0)
+        assert env.step_count == 0 and info["num_targets_reached"] == 0
+        position = env.env.state(0)[-1]
+        # settled 1/12 s below the spawn, as the stock reset; the deltas to the assigned course
+        assert position[2] == pytest.approx(1.0 - 0.5 * 9.81 / 144, abs=3e-3)
+        np.testing.assert_allclose(np.linalg.norm(obs["target_deltas"], axis=1),
+                                   np.linalg.norm(env.waypoints.targets - position, axis=1), rtol=1e-9)
+        env.step(np.array([0.0, 0.0, 0.0, 0.3]))
+        assert env.step_count == 1
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("key", sorted(FACTS["waypoint_targets"]))
+def test_a_seeded_reset_draws_the_references_course(key):
+    # PyFlyt 0.29.0: the course is the first draw of the env's seeded np_random
+    env_id, *flags = key.split()
+    for seed, course in FACTS["waypoint_targets"][key].items():
+        env = gymnasium.make(env_id, **{flag: True for flag in flags})
+        try:
+            env.reset(seed=int(seed))
+            w = env.unwrapped.waypoints
+            np.testing.assert_allclose(w.targets, course["targets"], rtol=0, atol=1e-12)
+            if "yaw_targets" in course:
+                np.testing.assert_allclose(w.yaw_targets, course["yaw_targets"], rtol=0, atol=1e-12)
+        finally:
+            env.close()
+
+
+def test_a_task_on_the_base_env_draws_the_references_course_from_np_random():
+    # the reference's pattern (its QuadXWaypointsEnv): a handler reset with the env's np_random
+    # right after begin_reset draws the course of the reference's seeded reset
+    from pyflyt_engine.compat.gym_envs.utils.waypoint_handler import WaypointHandler
+
+    class Course(_PointHover):
+        def __init__(self):
+            super().__init__()
+            self.flight_dome_size = 5.0
+            self.waypoints = WaypointHandler(False, 4, False, 0.2, 0.1, 5.0, 0.1, self.np_random)
+
+        def reset(self, *, seed=None, options=None):
+            super().begin_reset(seed, options)
+            self.waypoints.reset(self.env, self.np_random)
+            super().end_reset(seed, options)
+            return self.state, self.info
+
+    env = Course()
+    try:
+        for seed, course in FACTS["waypoint_targets"]["PyFlyt/QuadX-Waypoints-v4"].items():
+            env.reset(seed=int(seed))
+            np.testing.assert_allclose(env.waypoints.targets, course["targets"], rtol=0, atol=1e-12)
+    finally:
+        env.close()
+
+
+def test_a_seeded_rocket_reset_drops_where_the_references_does():
+    # PyFlyt 0.29.0 RocketBaseEnv, default randomize_drop: the first draws of the seeded np_random
+    for seed, drop in FACTS["rocket_drop"].items():
+        env = gymnasium.make("PyFlyt/Rocket-Landing-v4", angle_representation="euler")
+        try:
+            env.reset(seed=int(seed))
+            np.testing.assert_allclose(env.unwrapped.start_pos, drop["start_pos"], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(env.unwrapped.start_orn, drop["start_orn"], rtol=0, atol=1e-12)
+            # then 10 settling steps of 1/120 s at ~100 m/s downwards: ~8.3 m lower
+            position = env.unwrapped.env.state(0)[-1]
+            assert drop["start_pos"][0][2] - position[2] == pytest.approx(100.0 / 12, abs=0.5)
+            np.testing.assert_allclose(position[:2], drop["start_pos"][0][:2], atol=0.5)
+        finally:
+            env.close()

@@ -29,13 +29,16 @@ import pyflyt_engine.compat.gym_envs  # noqa: F401 - registers the reference ids
 
 RECORD = json.loads((Path(__file__).parent / "data" / "reference_episodes.json").read_text())["episodes"]
 
-#: case -> (length tolerance [steps], return tolerance [absolute]); None: not compared
-#: (the waypoints are drawn from other random streams, so the distance terms differ)
+#: case -> (length tolerance [steps], return tolerance [absolute]); None: not compared.
+#: A seeded reset draws the reference's course (its first draws of the seeded np_random), so
+#: the waypoint returns compare: still in mode 6 they are 0.1 / distance per 1/120 s step to
+#: the first target (1.3 to 2.7 m from the spawn), which the reference's sinking QuadX (Hover, mode 6)
+#: changes by up to 13 (seed 2: 62.9 vs 49.8; seeds 0 and 1 within 0.7)
 TOLERANCES: dict[str, tuple[int, float | None]] = {
     "hover_mode0_hover_command": (6, 12.0),
     "hover_mode0_sparse": (6, 1.0),
     "hover_mode6_still": (0, 50.0),
-    "waypoints_mode6_still": (0, None),
+    "waypoints_mode6_still": (0, 15.0),
     "rocket_idle": (12, 200.0),
     "fixedwing_neutral_half_thrust": (10, 40.0),
     "pole_balance_motors": (2, 6.0),
@@ -151,13 +154,49 @@ PZ_RECORD = json.loads((Path(__file__).parent / "data" / "reference_episodes.jso
 PZ_TOLERANCES: dict[str, tuple[int, float | None]] = {
     "ma_hover_hover_command": (6, None),
     "ma_hover_mode6_still": (0, 20.0),
+    "dogfight_neutral_half_thrust": (40, 300.0),
+    "dogfight_1v1_sparse_glide": (30, 1e-6),
 }
 PZ_KNOWN = {
     ("ma_hover_mode6_still", "return"): (
         "as the single-agent Hover in mode 6: the reference's QuadX sink below their start points, "
         "the native ones hold them (447 vs 597 over 5 s)"
     ),
+    ("dogfight_neutral_half_thrust", "return"): (
+        "the dense return is mostly the height and dome terms, tanh(0.1 z - 1) - tanh(0.0025 r - 1) per "
+        "1/120 s step, summed over episodes of other lengths: the native fixed-wing (trimmed near 14 m/s) "
+        "and the reference's fly other paths from the 20 m/s spawn at thrust 0.75 (returns 2280 to 8273 "
+        "vs 3546 to 7489, up to 1266 apart)"
+    ),
 }
+#: (case, seed, agent) -> why that aircraft's episode length is outside the case's tolerance
+#: (checked to stay outside: should it start to agree, the entry must go)
+PZ_KNOWN_LENGTHS = {
+    ("dogfight_neutral_half_thrust", 0, "uav_0"): (
+        "it flies 876 steps to the reference's 701 before it hits the ground (the airframes fly other "
+        "paths from the 20 m/s spawn, above)"
+    ),
+    ("dogfight_neutral_half_thrust", 0, "uav_2"): "its win is paired with uav_0's end (the reference's team_win)",
+    ("dogfight_1v1_sparse_glide", 1, "uav_1"): (
+        "gliding unpowered, the native fixed-wing first zooms 7.7 m up from its 20 m/s spawn "
+        "(trimmed near 14 m/s); from this seed's lowest spawn (15.9 m) that delays its ground "
+        "contact most: 387 steps to the reference's 251 (within 24 from 27 m, seeds 0 and 2)"
+    ),
+    ("dogfight_1v1_sparse_glide", 1, "uav_0"): "its win is paired with uav_1's end (the reference's team_win)",
+}
+
+
+def _flags(info: dict) -> dict:
+    """The info's flags (the dogfight's ``health`` and ``received_hits`` are numbers, not compared).
+
+    PyFlyt 0.29.0's dogfight zeroes the health of an aircraft that crashes or leaves the
+    dome, so ``dead`` joins ``collision`` / ``out_of_bounds`` only when that happened before
+    the last 1/120 s step of the agent step: which of the steps it was is timing, not how
+    the episode ended, and that ``dead`` is left out (in both)."""
+    flags = {k: bool(v) for k, v in info.items() if isinstance(v, (bool, np.bool_))}
+    if flags.get("collision") or flags.get("out_of_bounds"):
+        flags.pop("dead", None)
+    return flags
 
 
 def _fly_pz(case: dict, seed: int) -> dict:
@@ -174,11 +213,20 @@ def _fly_pz(case: dict, seed: int) -> dict:
             for a in live:
                 returns[a] = returns.get(a, 0.0) + float(rewards[a])
                 if terms[a] or truncs[a]:
-                    info = {k: bool(v) for k, v in infos[a].items()}
-                    ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]), "info": info}
+                    ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]),
+                               "info": _flags(infos[a])}
         return {"steps": steps, "returns": returns, "ends": ends}
     finally:
         env.close()
+
+
+_FLOWN_PZ: dict[tuple[str, int], dict] = {}
+
+
+def _flown_pz(name: str, seed: int) -> dict:
+    if (name, seed) not in _FLOWN_PZ:
+        _FLOWN_PZ[(name, seed)] = _fly_pz(PZ_RECORD[name], seed)
+    return _FLOWN_PZ[(name, seed)]
 
 
 def _pz_params():
@@ -195,16 +243,42 @@ def _pz_params():
 def test_multi_agent_episode_agrees_with_the_reference(name, aspect):
     length_tolerance, return_tolerance = PZ_TOLERANCES[name]
     for run in PZ_RECORD[name]["runs"]:
-        ours = _fly_pz(PZ_RECORD[name], run["seed"])
+        ours = _flown_pz(name, run["seed"])
         for agent, ref_end in run["ends"].items():
             end, where = ours["ends"][agent], f"{name} seed {run['seed']} {agent}"
             if aspect == "ending":
                 assert (end["terminated"], end["truncated"], end["info"]) == (
                     ref_end["terminated"],
                     ref_end["truncated"],
-                    ref_end["info"],
+                    _flags(ref_end["info"]),
                 ), where
             elif aspect == "length":
-                assert abs(end["step"] - ref_end["step"]) <= length_tolerance, (where, end["step"], ref_end["step"])
+                within = abs(end["step"] - ref_end["step"]) <= length_tolerance
+                if (name, run["seed"], agent) in PZ_KNOWN_LENGTHS:
+                    assert not within, (where, "agrees now: remove its PZ_KNOWN_LENGTHS entry")
+                else:
+                    assert within, (where, end["step"], ref_end["step"])
             else:
                 assert abs(ours["returns"][agent] - run["returns"][agent]) <= return_tolerance, where
+
+
+def test_every_recorded_multi_agent_case_has_a_tolerance():
+    assert set(PZ_RECORD) == set(PZ_TOLERANCES)
+    assert {name for name, _ in PZ_KNOWN} <= set(PZ_RECORD)
+    assert {name for name, _, _ in PZ_KNOWN_LENGTHS} <= set(PZ_RECORD)
+    assert {case["class"] for case in PZ_RECORD.values()} == {"MAQuadXHoverEnvV2", "MAFixedwingDogfightEnvV2"}
+
+
+@pytest.mark.parametrize("name", sorted(n for n in PZ_RECORD if PZ_RECORD[n]["class"] == "MAFixedwingDogfightEnvV2"))
+def test_the_dogfight_spawns_exactly_where_the_references_does(name):
+    # PyFlyt 0.29.0 draws the spawn circle from numpy's RandomState(seed): so does compat
+    from pyflyt_engine.compat import pz_envs
+
+    for run in PZ_RECORD[name]["runs"]:
+        env = pz_envs.MAFixedwingDogfightEnvV2(**PZ_RECORD[name]["kwargs"])
+        try:
+            env.reset(seed=run["seed"])
+            np.testing.assert_allclose(env.start_pos, run["start_pos"], rtol=0, atol=1e-12)
+            np.testing.assert_allclose(env.start_orn, run["start_orn"], rtol=0, atol=1e-12)
+        finally:
+            env.close()

@@ -28,11 +28,23 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.bullet import pybullet as p
-from pyflyt_engine.compat.core.abstractions import YAML_AIRFRAMES, ControlClass, UnsupportedFeature, WindFieldClass
+from pyflyt_engine.compat.core.abstractions import (
+    YAML_AIRFRAMES,
+    ControlClass,
+    DroneClass,
+    UnsupportedFeature,
+    WindFieldClass,
+)
+from pyflyt_engine.compat.core.drones import Fixedwing, QuadX, Rocket
 from pyflyt_engine.compat._commands import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
 from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
+
+__all__ = ["Aviary", "AviaryInitException", "DroneClass", "DroneIndex", "Fixedwing", "QuadX", "Rocket", "WindFieldClass"]
+
+#: PyFlyt 0.29.0 ``core.aviary``: a drone's index in ``Aviary.drones`` (a type alias)
+DroneIndex = int
 
 #: reference drone type -> shipped airframe (PyFlyt 0.29.0 Aviary: "quadx", "fixedwing", "rocket")
 DRONE_TYPES = {"quadx": "quadx_cf2x", "fixedwing": "fixedwing", "rocket": "rocket"}
@@ -373,7 +385,9 @@ class Aviary:
                 _hold_controller(self.world.vehicles[i], hold)
             self.drones.append(Drone(self, i, kind_name, rate, camera))
             self._kinds.append(kind_name)
-        self._start_velocities = [self._start_velocity(k, o) for k, o in zip(self._kinds, options)]
+        self._start_velocities = [
+            self._start_velocity(k, o, orn) for k, o, orn in zip(self._kinds, options, start_orn)
+        ]
 
         self.wind_field: Callable[[float, np.ndarray], np.ndarray] | None = None
         if wind_type is not None and not isinstance(wind_type, str):
@@ -472,11 +486,22 @@ class Aviary:
         return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
 
     @staticmethod
-    def _start_velocity(kind: str, option: dict[str, Any]) -> tuple[float, float, float] | None:
-        if kind == "fixedwing":  # PyFlyt 0.29.0 Fixedwing: starting_velocity (20, 0, 0), body frame
-            velocity = option.get("starting_velocity", (20.0, 0.0, 0.0))
-            return tuple(float(v) for v in velocity)  # type: ignore[return-value]
-        return None
+    def _start_velocity(
+        kind: str, option: dict[str, Any], start_orn: np.ndarray
+    ) -> tuple[float, float, float] | None:
+        """The fixed-wing's spawn velocity in its body frame.
+
+        PyFlyt 0.29.0 Fixedwing: ``starting_velocity`` (default (20, 0, 0)) is passed to
+        ``resetBaseVelocity`` as it is, so it is a ground-frame vector (its dogfight points it
+        along each aircraft's nose); the native reset takes body-frame velocities.
+        """
+        if kind != "fixedwing":
+            return None
+        velocity = np.asarray(option.get("starting_velocity", (20.0, 0.0, 0.0)), dtype=np.float64).reshape(-1)
+        if velocity.shape != (3,):
+            raise ValueError(f"starting_velocity must be 3 numbers (ground frame, m/s), got {velocity.shape}")
+        body_to_ground = np.array(p.getMatrixFromQuaternion(p.getQuaternionFromEuler(start_orn.tolist()))).reshape(3, 3)
+        return tuple(float(v) for v in body_to_ground.T @ velocity)  # type: ignore[return-value]
 
     def _reset_drones(self) -> None:
         self.world.reset()  # re-arms every vehicle

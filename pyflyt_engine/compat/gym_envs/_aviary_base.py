@@ -11,8 +11,10 @@ from PyFlyt 0.29.0 ``QuadXBaseEnv`` / ``FixedwingBaseEnv`` / ``RocketBaseEnv``):
 
 * ``begin_reset`` seeds ``np_random``, closes the previous Aviary and builds a new one at
   ``self.start_pos`` / ``self.start_orn`` (so assigning ``start_pos`` moves the next
-  spawn; the world's random streams are seeded from one draw of ``np_random``, so an
-  episode is repeatable under a seed), and zeroes ``step_count``, ``action``, ``reward`` and the info flags
+  spawn; the world's random streams come from a generator of their own seeded with the
+  env's seed, so an episode is repeatable under a seed and nothing is drawn from
+  ``np_random`` before the task's set-up: a ``WaypointHandler`` reset with it draws the
+  reference's course for that seed), and zeroes ``step_count``, ``action``, ``reward`` and the info flags
   ``out_of_bounds``, ``collision``, ``env_complete``;
 * ``end_reset`` tracks new bodies, selects ``flight_mode`` and runs 10 Aviary steps
   before ``compute_state``;
@@ -118,6 +120,11 @@ class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
         from pyflyt_engine.compat.core import Aviary
 
         super().reset(seed=seed)
+        if seed is not None or getattr(self, "_world_rng", None) is None:
+            # the world's streams come from a generator of their own, so that nothing is drawn
+            # from np_random before the task's set-up, as in the reference (whose courses are
+            # the first draws of the seeded np_random)
+            self._world_rng = np.random.default_rng(None if seed is None else [int(seed), 1])
         if hasattr(self, "env"):
             self.env.disconnect()
         self.step_count = 0
@@ -135,8 +142,8 @@ class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
             drone_type=self.drone_type,
             render=self.render_mode == "human",
             drone_options=drone_options,
-            # the world's own streams (motor noise) from the env's: deterministic under a seed
-            seed=int(self.np_random.integers(2**31)),
+            # the world's own streams (motor noise): deterministic under a seed
+            seed=int(self._world_rng.integers(2**31)),
             np_random=self.np_random,
         )
 

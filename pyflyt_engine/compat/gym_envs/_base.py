@@ -346,20 +346,44 @@ class ReferenceEnv(ReferenceHooks):
         motors, neutral surfaces) before the first observation, so a QuadX starts 3.4 cm
         below its spawn point, falling at 0.8 m/s.  ``options`` are ignored, as the
         reference's envs ignore them (its Rocket reads two, whose defaults are what is done
-        here: see :class:`~pyflyt_engine.compat.gym_envs.envs.RocketLandingEnv`)."""
+        here: see :class:`~pyflyt_engine.compat.gym_envs.envs.RocketLandingEnv`).
+
+        As the reference's stock ``reset``: :meth:`begin_reset`, the env's own set-up (its
+        course of waypoints), :meth:`end_reset`; a subclass that overrides ``reset`` calls
+        the two halves around its own set-up, as it would there."""
+        self.begin_reset(seed, options)
+        self._reference_reset()
+        self.end_reset(seed, options)
+        return fresh(self.state), dict(self.info)
+
+    def begin_reset(self, seed: int | None = None, options: dict[str, Any] | None = None, **_: Any) -> None:
+        """PyFlyt 0.29.0 ``*BaseEnv.begin_reset``: seed, the world back at ``start_pos`` /
+        ``start_orn`` (the native reset restores the world the env built, with its payloads
+        and scenery, rather than building a new one), and zeroed ``step_count``, ``action``,
+        ``reward``, ``termination``, ``truncation`` and ``info``.  The reference's
+        ``drone_options`` keyword is accepted and unused (the airframe is the env's)."""
         super().reset(seed=seed)  # type: ignore[misc]
+        if seed is not None or getattr(self, "_reference_rng", None) is None:
+            # PyFlyt 0.29.0: its env's np_random, seeded here, draws nothing before the env's
+            # own set-up (its course of waypoints); the native reset draws from ours, so the
+            # reference's stream is kept apart and the same seed draws the reference's course
+            from gymnasium.utils import seeding
+
+            self._reference_rng, _ = seeding.np_random(seed)
         self._after_spawn()
         self.step_count = 0
         self.termination = self.truncation = False
         self.reward = 0.0
         self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
         self.info = self._new_info()
-        self._reference_reset()
+
+    def end_reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        """PyFlyt 0.29.0 ``*BaseEnv.end_reset``: 10 settling steps of 1/120 s with the mode's
+        idle setpoint, then ``compute_state``."""
         self._settle()
         self.compute_state()
         self._after_agent_step()
         self._show_markers()
-        return fresh(self.state), dict(self.info)
 
     def _show_markers(self) -> None:
         if self._markers is not None:  # type: ignore[attr-defined]

@@ -120,7 +120,7 @@ class _WaypointCourse:
         return 0.0
 
     def _reference_reset(self) -> None:
-        self.waypoints.reset(self.env, self.np_random)
+        self.waypoints.reset(self.env, self._reference_rng)
         self.info["num_targets_reached"] = 0
 
     def _marker_points(self) -> Any:
@@ -736,11 +736,42 @@ class RocketLandingEnv(ReferenceEnv, _NativeRocketLanding):
     drop_velocity = (0.0, 0.0, -100.0)
 
     def _after_spawn(self) -> None:
-        state = self.vehicle.state
+        """PyFlyt 0.29.0 ``RocketBaseEnv.begin_reset`` with its default ``randomize_drop``: the drop
+        point x, y ~ U(+-0.1 ``max_displacement``), z ~ U(0.8, 0.9) x ``ceiling`` and the attitude
+        ~ U(+-0.3) rad, in that order the first draws of the seeded stream (so a seed drops where
+        the reference's does), then ``accelerate_drop``'s 100 m/s downwards."""
+        rng = self._reference_rng
+        spread = 0.1 * self.max_displacement
+        xy = rng.uniform(-spread, spread, size=(2,))
+        z = rng.uniform(0.8 * self.ceiling, 0.9 * self.ceiling)
+        orn = rng.uniform(-0.3, 0.3, size=(3,))
+        self._drop = (np.array([[xy[0], xy[1], z]]), orn[None, :])
         cid = self.world.client
-        rotation = np.array(p.getMatrixFromQuaternion(state.quaternion, physicsClientId=cid)).reshape(3, 3)
+        quaternion = p.getQuaternionFromEuler(orn.tolist(), physicsClientId=cid)
+        rotation = np.array(p.getMatrixFromQuaternion(quaternion, physicsClientId=cid)).reshape(3, 3)
         body_velocity = rotation.T @ np.array(self.drop_velocity)  # ground -> body
-        self.vehicle.reset(tuple(state.lin_pos), tuple(state.ang_pos), lin_vel=tuple(body_velocity))
+        self.vehicle.reset((xy[0], xy[1], z), tuple(orn), lin_vel=tuple(body_velocity))
+
+    @property
+    def start_pos(self) -> np.ndarray:
+        """(1, 3): the last drop point (PyFlyt 0.29.0: ``randomize_drop`` overwrites ``start_pos``
+        at every reset, so assigning it has no lasting effect there either)."""
+        drop = getattr(self, "_drop", None)
+        return drop[0].copy() if drop is not None else self._task_option("start_position")
+
+    @start_pos.setter
+    def start_pos(self, value: Any) -> None:
+        self._set_task_option("start_position", value)
+
+    @property
+    def start_orn(self) -> np.ndarray:
+        """(1, 3): the last drop attitude (Euler angles, rad)."""
+        drop = getattr(self, "_drop", None)
+        return drop[1].copy() if drop is not None else self._task_option("start_orientation")
+
+    @start_orn.setter
+    def start_orn(self, value: Any) -> None:
+        self._set_task_option("start_orientation", value)
 
     def _new_info(self) -> dict[str, Any]:
         return {"out_of_bounds": False, "fatal_collision": False, "env_complete": False}

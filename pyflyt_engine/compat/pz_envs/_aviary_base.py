@@ -10,8 +10,10 @@ live agent after every Aviary step (rewards summed, flags or-ed, infos merged); 
 fixed-wing base asks ``pop_obs_by_id`` and ``pop_term_trunc_rew_info_by_id`` once per
 agent step and sends the thrust entry as ``T / 2 + 0.5``.  Agents that ended leave
 ``agents``.  Here they run over the compat Aviary; the stock
-:class:`~pyflyt_engine.compat.pz_envs.MAQuadXHoverEnvV2` and
-:class:`~pyflyt_engine.compat.pz_envs.MAFixedwingDogfightEnvV2` are native envs.
+:class:`~pyflyt_engine.compat.pz_envs.MAFixedwingDogfightEnvV2` is a subclass of
+:class:`MAFixedwingBaseEnv`, as the reference's is, while
+:class:`~pyflyt_engine.compat.pz_envs.MAQuadXHoverEnvV2` is a native env running the
+reference's episode.
 """
 
 from __future__ import annotations
@@ -139,11 +141,16 @@ class _MAAviaryEnv(ParallelEnv):
         ang_vel, ang_pos, lin_vel, lin_pos = self.aviary.state(agent_id)
         return ang_vel, ang_pos, lin_vel, lin_pos, np.array(p.getQuaternionFromEuler(ang_pos))
 
+    #: PyFlyt 0.29.0: the fixed-wing base takes actions of live agents only (the others get
+    #: zeros); the QuadX base takes every known agent's
+    _live_actions_only: ClassVar[bool] = False
+
     def _take_actions(self, actions: dict[str, np.ndarray]) -> np.ndarray:
         self.past_actions = self.current_actions.copy()
         self.current_actions = np.zeros_like(self.current_actions)
+        takes = self.agents if self._live_actions_only else self.agent_name_mapping
         for name, action in actions.items():
-            if name in self.agent_name_mapping:
+            if name in takes:
                 self.current_actions[self.agent_name_mapping[name]] = action
         return self.current_actions.copy()
 
@@ -224,6 +231,7 @@ class MAFixedwingBaseEnv(_MAAviaryEnv):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human"], "name": "ma_fixedwing_base"}
     drone_type = "fixedwing"
     aux_size = 6
+    _live_actions_only = True
 
     def __init__(
         self,
@@ -249,6 +257,24 @@ class MAFixedwingBaseEnv(_MAAviaryEnv):
 
     def pop_obs_by_id(self, agent_id: int) -> Any:
         raise NotImplementedError
+
+    @staticmethod
+    def compute_rotation_forward(orn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Body-to-ground rotation matrices (n, 3, 3) and nose directions (n, 3) from (n, 3) Euler angles.
+
+        PyFlyt 0.29.0 ``MAFixedwingBaseEnv.compute_rotation_forward``: R = Rz(yaw) Ry(pitch)
+        Rx(roll), PyBullet's convention; the nose is R's first column, (cos yaw cos pitch,
+        sin yaw cos pitch, -sin pitch).
+        """
+        orn = np.asarray(orn, dtype=np.float64).reshape(-1, 3)
+        c, s = np.cos(orn), np.sin(orn)
+        n = orn.shape[0]
+        rx, ry, rz = (np.tile(np.eye(3), (n, 1, 1)) for _ in range(3))
+        rx[:, 1, 1], rx[:, 1, 2], rx[:, 2, 1], rx[:, 2, 2] = c[:, 0], -s[:, 0], s[:, 0], c[:, 0]
+        ry[:, 0, 0], ry[:, 0, 2], ry[:, 2, 0], ry[:, 2, 2] = c[:, 1], s[:, 1], -s[:, 1], c[:, 1]
+        rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1] = c[:, 2], -s[:, 2], s[:, 2], c[:, 2]
+        forward = np.stack((c[:, 2] * c[:, 1], s[:, 2] * c[:, 1], -s[:, 1]), axis=-1)
+        return rz @ ry @ rx, forward
 
     def pop_term_trunc_rew_info_by_id(self, agent_id: int) -> tuple[bool, bool, float, dict[str, Any]]:
         raise NotImplementedError

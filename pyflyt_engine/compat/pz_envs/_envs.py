@@ -1,97 +1,44 @@
 """The reference's PettingZoo envs (``from PyFlyt.pz_envs import ...``'s counterpart).
 
-:class:`MAQuadXHoverEnvV2` and :class:`MAFixedwingDogfightEnvV2` take the reference's
-constructor arguments and have its spaces and observation layouts; each is one of our
-multi-agent env configs (``conf/env/ma_*.yaml``) adjusted
-(:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`).  ``MAQuadXHoverEnvV2``
-runs the reference's episode (settling, per-1/120 s rewards and endings); the dogfight
-runs the native loop and reward presets.  Facts about the
-reference are cited as "PyFlyt 0.29.0 <class>: ...".
+Both are subclasses of the reference-style bases of :mod:`._aviary_base`, as the
+reference's are, and run its episodes over the compat Aviary: :class:`MAQuadXHoverEnvV2`
+here (PyFlyt 0.29.0 ``MAQuadXHoverEnv``) and ``MAFixedwingDogfightEnvV2``
+(:mod:`._dogfight`).  Facts about the reference are cited as "PyFlyt 0.29.0 <class>: ...".
 """
 
 from __future__ import annotations
 
-import contextlib
-import warnings
-from collections.abc import Iterator
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine.compat.gym_envs._base import (
-    REFERENCE_STEP_HZ,
-    SETTLE_STEPS,
-    _PwmThrust,
-    check_agent_hz,
-    check_angle_representation,
-    native_config,
-    quadx_action,
-    surface_commands_to_channels,
-)
-from pyflyt_engine.envs.multi_agent.dogfight import MAFixedwingDogfightEnv as _NativeDogfight
-from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv as _NativeMAHover
-from pyflyt_engine.state import KinematicState
+from pyflyt_engine.compat.pz_envs._aviary_base import MAQuadXBaseEnv
+from pyflyt_engine.compat.pz_envs._dogfight import MAFixedwingDogfightEnvV2
 
 __all__ = ["MAFixedwingDogfightEnvV2", "MAQuadXHoverEnvV2"]
-
-
-class _ReferenceParallel:
-    """What both reference PettingZoo envs share, placed before the native class in the bases.
-
-    * ``reset`` ignores its ``options`` silently, as the reference does (PettingZoo's API
-      test passes ``{"options": 1}``); ``{"task": {...}}`` still changes an episode's task;
-    * the reference's attributes: ``num_possible_agents``, ``agent_name_mapping``,
-      ``step_count``, ``max_steps``, ``env_step_ratio`` (Aviary steps of 1/120 s per
-      agent step) and ``aviary``, an :class:`~pyflyt_engine.compat.core.Aviary` view of the
-      world (``aviary.state(i)`` is the (4, 3) state of agent ``i``).
-    """
-
-    #: the Aviary drone type of every agent
-    _drone_kind: ClassVar[str] = "quadx"
-
-    def _reference_attributes(self, agent_hz: float, max_duration_seconds: float) -> None:
-        self.num_possible_agents = len(self.possible_agents)  # type: ignore[attr-defined]
-        self.agent_name_mapping = dict(self.agent_index)  # type: ignore[attr-defined]
-        self.max_steps = int(agent_hz * max_duration_seconds)
-        self.env_step_ratio = int(REFERENCE_STEP_HZ / agent_hz)
-        self._aviary_view: Any = None
-
-    @property
-    def step_count(self) -> int:
-        """Agent steps since the reset."""
-        return int(self._steps)  # type: ignore[attr-defined]
-
-    @property
-    def aviary(self) -> Any:
-        from pyflyt_engine.compat.core import Aviary
-
-        if self._aviary_view is None or self._aviary_view.world is not self.world:  # type: ignore[attr-defined]
-            kinds = [self._drone_kind] * len(self.possible_agents)  # type: ignore[attr-defined]
-            self._aviary_view = Aviary.over_world(self.world, kinds)  # type: ignore[attr-defined]
-        return self._aviary_view
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
-        kept = {"task": options["task"]} if isinstance(options, dict) and "task" in options else None
-        return super().reset(seed=seed, options=kept)  # type: ignore[misc]
 
 # PyFlyt 0.29.0 MAQuadXHoverEnv: four QuadX at (+-1, +-1, 1), level
 _HOVER_START_POS = np.array([[-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
 _HOVER_START_ORN = np.zeros((4, 3))
 
 
-class MAQuadXHoverEnvV2(_ReferenceParallel, _NativeMAHover):
+class MAQuadXHoverEnvV2(MAQuadXBaseEnv):
     """PyFlyt 0.29.0 ``MAQuadXHoverEnv``: every QuadX holds its start position.
 
     Defaults (PyFlyt 0.29.0): ``start_pos`` the four corners (+-1, +-1, 1), ``flight_mode``
-    0, ``flight_dome_size`` 10.0, ``max_duration_seconds`` 30.0, ``agent_hz`` 40.  Spawn
-    exactly at ``start_pos``/``start_orn``.  Action ``Box(4,)`` as the reference's (mode 0:
-    [-pi, pi]^3 x [0, 0.8], the thrust a motor command).  Observation ``Box(24,)`` /
-    ``Box(23,)``: [ang_vel, quaternion | Euler, lin_vel, lin_pos, aux (4), previous action
-    (4), start position (3)].
+    0, ``flight_dome_size`` 10.0, ``max_duration_seconds`` 30.0, ``angle_representation``
+    "quaternion", ``agent_hz`` 40.  A new compat Aviary per reset at
+    ``start_pos``/``start_orn``, 10 settling steps; per agent step ``120 / agent_hz``
+    Aviary steps, after each of which every live agent is judged
+    (:meth:`compute_term_trunc_reward_info_by_id`: rewards summed, flags or-ed, infos
+    merged) and observed (:meth:`compute_observation_by_id`).  Action ``Box(4,)`` as the
+    reference's (mode 0: [-pi, pi]^3 x [0, 0.8], the thrust a motor command).
+    Observation ``Box(24,)`` / ``Box(23,)``: [ang_vel, quaternion | Euler, lin_vel,
+    lin_pos, aux (4), previous action (4), start position (3)]; reset infos are empty.
     """
 
-    metadata: ClassVar[dict] = {**_NativeMAHover.metadata, "name": "ma_quadx_hover"}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human"], "name": "ma_quadx_hover"}
 
     def __init__(
         self,
@@ -105,316 +52,70 @@ class MAQuadXHoverEnvV2(_ReferenceParallel, _NativeMAHover):
         agent_hz: int = 40,
         render_mode: None | str = None,
     ) -> None:
-        check_agent_hz(agent_hz)
-        check_angle_representation(angle_representation)
-        start_pos = np.asarray(start_pos, dtype=np.float64).reshape(-1, 3)
-        start_orn = np.asarray(start_orn, dtype=np.float64).reshape(-1, 3)
-        if start_pos.shape != start_orn.shape:
-            raise ValueError(f"start_pos {start_pos.shape} and start_orn {start_orn.shape} must have the same shape")
-        cfg = native_config("ma_quadx_hover")
-        cfg.update(
-            agent_hz=float(agent_hz),
-            max_duration_seconds=float(max_duration_seconds),
-            flight_dome_size=float(flight_dome_size),
+        super().__init__(
+            start_pos=start_pos,
+            start_orn=start_orn,
+            flight_mode=flight_mode,
+            flight_dome_size=flight_dome_size,
+            max_duration_seconds=max_duration_seconds,
             angle_representation=angle_representation,
-            reward="sparse" if sparse_reward else "dense",
-            action=quadx_action(flight_mode),
-            agents=[
-                {
-                    "name": f"uav_{i}",
-                    "spawn": {
-                        "position": tuple(p),
-                        "orientation": tuple(o),
-                        "position_noise": 0.0,
-                        "orientation_noise": 0.0,
-                    },
-                    "hover_point": tuple(p),
-                }
-                for i, (p, o) in enumerate(zip(start_pos, start_orn))
-            ],
+            agent_hz=agent_hz,
+            render_mode=render_mode,
         )
-        self.start_pos, self.start_orn, self.flight_mode = start_pos, start_orn, flight_mode
-        super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
-        self._reference_attributes(agent_hz, max_duration_seconds)
-        if cfg["action"]["mode"] in ("rates_thrust", "motors"):
-            self.vehicles = [_PwmThrust(v, motors=cfg["action"]["mode"] == "motors") for v in self.vehicles]
         self.sparse_reward = bool(sparse_reward)
-        n = len(self.possible_agents)
-        #: PyFlyt 0.29.0 MAQuadXBaseEnv: the actions of this step and of the one before it
-        #: (observations carry the one before)
-        self.current_actions = np.zeros((n, 4))
-        self.past_actions = np.zeros((n, 4))
+        self._observation_space = spaces.Box(
+            -np.inf, np.inf, shape=(self.combined_space.shape[0] + 3,), dtype=np.float64
+        )
 
-    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        s = states[i]
-        angles = s.quaternion if self._quaternion else s.ang_pos
+    def observation_space(self, agent: Any = None) -> spaces.Space:
+        return self._observation_space
+
+    @property
+    def world(self) -> Any:
+        """The native :class:`~pyflyt_engine.world.World` under the Aviary (after a reset)."""
+        return self.aviary.world
+
+    def reset(
+        self, seed: None | int = None, options: None | dict[str, Any] = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """PyFlyt 0.29.0 ``MAQuadXHoverEnv.reset``: ``begin_reset``, ``end_reset``, the observations
+        and empty infos (``options`` are ignored, as there)."""
+        super().begin_reset(seed, options)
+        super().end_reset(seed, options)
+        observations = {a: self.compute_observation_by_id(self.agent_name_mapping[a]) for a in self.agents}
+        return observations, {a: {} for a in self.agents}
+
+    def compute_observation_by_id(self, agent_id: int) -> np.ndarray:
+        """[ang_vel, Euler angles | quaternion, lin_vel, lin_pos, aux, previous action, start position]."""
+        ang_vel, ang_pos, lin_vel, lin_pos, quaternion = self.compute_attitude_by_id(agent_id)
+        angles = ang_pos if self.angle_representation == 0 else quaternion
         return np.concatenate(
             (
-                np.array((*s.ang_vel, *angles, *s.lin_vel, *s.lin_pos), dtype=np.float64),
-                self.vehicles[i].aux_state,
-                self.past_actions[i],
-                self.start_pos[i],
+                ang_vel,
+                angles,
+                lin_vel,
+                lin_pos,
+                self.aviary.aux_state(agent_id),
+                self.past_actions[agent_id],
+                self.start_pos[agent_id],
             )
         )
 
-    @contextlib.contextmanager
-    def _at_reference_rate(self) -> Iterator[None]:
-        """The world steps 1/120 s at a time inside (PyFlyt 0.29.0: one Aviary step)."""
-        world = self.world
-        saved = world.physics_per_agent
-        world.physics_per_agent = max(1, int(round(world.physics_hz / REFERENCE_STEP_HZ)))
-        try:
-            yield
-        finally:
-            world.physics_per_agent = saved
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
-        """The native spawn, then the reference's 10 settling steps of 1/120 s with idle motors
-        (PyFlyt 0.29.0 ``MAQuadXBaseEnv.end_reset``); infos are empty, as the reference's."""
-        super().reset(seed=seed, options=options)
-        self.current_actions[:] = 0.0
-        self.past_actions[:] = 0.0
-        with self._at_reference_rate():
-            for vehicle in self.vehicles:
-                vehicle.set_setpoint(np.zeros(4))
-            for _ in range(SETTLE_STEPS):
-                self.world.step()
-        states = [v.state for v in self.vehicles]
-        observations = {name: self._observe(i, states) for i, name in enumerate(self.possible_agents)}
-        return observations, {name: {} for name in self.possible_agents}
-
-    def _judge_reference(self, i: int) -> tuple[bool, bool, float, dict[str, Any]]:
-        """PyFlyt 0.29.0 MAQuadXHoverEnv, per 1/120 s and agent: any contact of its vehicle: -100,
-        terminated (``collision``); beyond the dome: -100 (``out_of_bounds``); dense: + 1 -
-        |p - its start| - 0.1 |(roll, pitch)|; truncated once ``step_count > max_steps``."""
-        aviary = self.aviary
+    def compute_term_trunc_reward_info_by_id(self, agent_id: int) -> tuple[bool, bool, float, dict[str, Any]]:
+        """PyFlyt 0.29.0, per 1/120 s and agent: any contact of its vehicle: -100, terminated
+        (``collision``); beyond the dome: -100 (``out_of_bounds``); dense: + 1 - |p - its
+        start| - 0.1 |(roll, pitch)|; truncated once ``step_count > max_steps``."""
         reward, term, info = 0.0, False, {}
-        if np.any(aviary.contact_array[aviary.drones[i].Id]):
+        if np.any(self.aviary.contact_array[self.aviary.drones[agent_id].Id]):
             reward -= 100.0
             info["collision"] = True
             term = True
-        _, ang_pos, _, lin_pos = aviary.state(i)
-        if np.linalg.norm(lin_pos) > self.config.flight_dome_size:
+        _, ang_pos, _, lin_pos = self.aviary.state(agent_id)
+        if np.linalg.norm(lin_pos) > self.flight_dome_size:
             reward -= 100.0
             info["out_of_bounds"] = True
             term = True
         if not self.sparse_reward:
-            reward -= float(np.linalg.norm(lin_pos - self.start_pos[i]) + 0.1 * np.linalg.norm(ang_pos[:2]))
+            reward -= float(np.linalg.norm(lin_pos - self.start_pos[agent_id]) + 0.1 * np.linalg.norm(ang_pos[:2]))
             reward += 1.0
         return term, self.step_count > self.max_steps, reward, info
-
-    def step(self, actions: Any) -> tuple[dict, dict, dict, dict, dict]:
-        """PyFlyt 0.29.0 ``MAQuadXBaseEnv.step``: every vehicle gets its agent's action (zero for
-        agents that left), then ``120 / agent_hz`` world steps of 1/120 s, each judged per live
-        agent (rewards summed, flags or-ed, infos merged); agents that ended leave ``agents``."""
-        live = list(self.agents)
-        if not live:
-            raise RuntimeError("step() after the episode ended (no live agents): call reset()")
-        self.past_actions = self.current_actions.copy()
-        self.current_actions = np.zeros_like(self.current_actions)
-        for name, action in actions.items():
-            if name in self.agent_index:
-                self.current_actions[self.agent_index[name]] = np.asarray(action, dtype=np.float64).reshape(-1)
-        for i, vehicle in enumerate(self.vehicles):
-            self._actions[i] = np.clip(self.current_actions[i], self._low, self._high)
-            vehicle.set_setpoint(self._actions[i])
-        observations: dict[str, Any] = {}
-        terminations = {a: False for a in live}
-        truncations = {a: False for a in live}
-        rewards = {a: 0.0 for a in live}
-        infos: dict[str, dict[str, Any]] = {a: {} for a in live}
-        with self._at_reference_rate():
-            for _ in range(self.env_step_ratio):
-                self.world.step()
-                states = [v.state for v in self.vehicles]
-                for name in live:
-                    i = self.agent_index[name]
-                    term, trunc, reward, info = self._judge_reference(i)
-                    terminations[name] |= term
-                    truncations[name] |= trunc
-                    rewards[name] += reward
-                    infos[name].update(info)
-                    observations[name] = self._observe(i, states)
-        self._steps += 1
-        self.agents = [a for a in live if not (terminations[a] or truncations[a])]
-        for name in live:
-            self._alive[self.agent_index[name]] = name in self.agents
-        return observations, rewards, terminations, truncations, infos
-
-
-#: entries per other aircraft (PyFlyt 0.29.0 MAFixedwingDogfightEnv: 12 + health + team flag)
-_OTHER = 14
-
-
-class MAFixedwingDogfightEnvV2(_ReferenceParallel, _NativeDogfight):
-    """PyFlyt 0.29.0 ``MAFixedwingDogfightEnv``: two teams of ``team_size`` fixed-wings.
-
-    Arguments and defaults are the reference's.  ``damage_per_hit`` is per 120 Hz control
-    step there, so it becomes ``damage_per_second = 120 x damage_per_hit``.  Spawn: the
-    native layout (teams facing each other ``spawn_min_radius + spawn_max_radius`` apart
-    at the middle of the spawn heights), not the reference's outward-facing circle.
-    ``aggressiveness`` and ``cooperativeness`` other than 0.5 / 0.5 are not modelled (the
-    dense reward is the reference's at 0.5 aggressiveness, without sharing): a warning
-    says so.
-
-    Action (PyFlyt 0.29.0): ``assisted_flight`` True: ``Box(-1, 1, (4,))`` [roll, pitch,
-    yaw, thrust] as the airframe's channels; False: ``Box(-1, 1, (6,))`` [left aileron,
-    right aileron, horizontal tail, vertical tail, main wing, thrust], mapped onto the
-    channels (roll = (left - right) / 2, pitch = horizontal tail, yaw = -vertical tail;
-    the main wing entry has no surface here).
-
-    Observation: ``self`` = [ang_vel, Euler angles, lin_vel, lin_pos (12), aux (6),
-    health, previous action (4 | 6)]; one block of 14 per other live aircraft =
-    [its ang_vel, its Euler angles minus own, its velocity in own body frame minus own
-    body velocity, its position in own body frame, its health, same team].
-    ``flatten_observation`` True: ``Box(self + 14 (2 team_size - 1),)``, absent aircraft
-    zero-padded; False: ``Dict(self=Box, others=Sequence(Box(14,), stack=True))``.
-    """
-
-    metadata: ClassVar[dict] = {**_NativeDogfight.metadata, "name": "ma_fixedwing_team_dogfight"}
-    _drone_kind = "fixedwing"
-
-    def __init__(
-        self,
-        team_size: int = 2,
-        spawn_min_radius: float = 10.0,
-        spawn_max_radius: float = 50.0,
-        spawn_min_height: float = 20.0,
-        spawn_max_height: float = 50.0,
-        damage_per_hit: float = 0.003,
-        lethal_distance: float = 20.0,
-        lethal_angle_radians: float = 0.07,
-        assisted_flight: bool = True,
-        aggressiveness: float = 0.5,
-        cooperativeness: float = 0.5,
-        sparse_reward: bool = False,
-        flatten_observation: bool = True,
-        flight_dome_size: float = 800.0,
-        max_duration_seconds: float = 60.0,
-        agent_hz: int = 30,
-        render_mode: None | str = None,
-    ) -> None:
-        check_agent_hz(agent_hz)
-        if int(team_size) < 1:
-            raise ValueError(f"team_size must be at least 1, got {team_size}")
-        if (aggressiveness, cooperativeness) != (0.5, 0.5):
-            warnings.warn(
-                "pyflyt_engine.compat: aggressiveness and cooperativeness other than 0.5 are not modelled; "
-                "write a reward preset instead (docs/migrating_from_pyflyt.md)",
-                stacklevel=2,
-            )
-        self.team_size = int(team_size)
-        self.assisted_flight = bool(assisted_flight)
-        self.flatten_observation = bool(flatten_observation)
-        self.aggressiveness, self.cooperativeness = aggressiveness, cooperativeness
-        cfg = native_config("ma_fixedwing_dogfight")
-        task = cfg["task"]
-        task.update(
-            lethal_distance=float(lethal_distance),
-            lethal_angle=float(lethal_angle_radians),
-            damage_per_second=120.0 * float(damage_per_hit),
-            team_separation=float(spawn_min_radius + spawn_max_radius),
-            spawn_height=0.5 * float(spawn_min_height + spawn_max_height),
-        )
-        cfg.update(
-            agents=2 * self.team_size,
-            agent_hz=float(agent_hz),
-            max_duration_seconds=float(max_duration_seconds),
-            flight_dome_size=float(flight_dome_size),
-            angle_representation="euler",
-            reward="sparse" if sparse_reward else "dense",
-            action={**cfg["action"], "low": [-1.0] * 4, "high": [1.0] * 4},
-        )
-        super().__init__(cfg, render_mode=render_mode, info_reward_terms=False)
-        self._reference_attributes(agent_hz, max_duration_seconds)
-        n = len(self.possible_agents)
-        n_act = 4 if self.assisted_flight else 6
-        if not self.assisted_flight:
-            self.vehicles = [_SurfaceCommands(v) for v in self.vehicles]
-        self._low, self._high = -np.ones(n_act), np.ones(n_act)
-        self._actions = np.zeros((n, n_act))
-        self._self_size = 12 + 6 + 1 + n_act
-        self._flat_size = self._self_size + _OTHER * (n - 1)
-        if self.flatten_observation:
-            obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(self._flat_size,), dtype=np.float64)
-        else:
-            obs_space = spaces.Dict(
-                {
-                    "self": spaces.Box(-np.inf, np.inf, shape=(self._self_size,), dtype=np.float64),
-                    "others": spaces.Sequence(
-                        spaces.Box(-np.inf, np.inf, shape=(_OTHER,), dtype=np.float64), stack=True
-                    ),
-                }
-            )
-        act_space = spaces.Box(self._low, self._high, dtype=np.float64)
-        self.observation_spaces = {name: obs_space for name in self.possible_agents}
-        self.action_spaces = {name: act_space for name in self.possible_agents}
-        self._active_others = [0] * n
-
-    # the native loop checks a flat vector per agent; the Dict form is made from it after
-    def _observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
-        s = states[i]
-        own = np.array((*s.ang_vel, *s.ang_pos, *s.lin_vel, *s.lin_pos), dtype=np.float64)
-        rot = self.task._rot[i]  # body of i -> ground
-        blocks = []
-        for j in range(len(self.possible_agents)):
-            if j == i or not self._alive[j]:
-                continue
-            o = states[j]
-            blocks.append(
-                np.concatenate(
-                    (
-                        o.ang_vel,
-                        np.subtract(o.ang_pos, s.ang_pos),
-                        rot.T @ np.asarray(o.lin_vel_ground) - np.asarray(s.lin_vel),
-                        rot.T @ (np.asarray(o.lin_pos) - np.asarray(s.lin_pos)),
-                        (self.task.health[j], float(self.teams[j] == self.teams[i])),
-                    )
-                )
-            )
-        self._active_others[i] = len(blocks)
-        flat = np.zeros(self._flat_size)
-        health = (self.task.health[i],)
-        flat[: self._self_size] = np.concatenate((own, self.vehicles[i].aux_state, health, self._actions[i]))
-        if blocks:
-            flat[self._self_size : self._self_size + _OTHER * len(blocks)] = np.concatenate(blocks)
-        return flat
-
-    def _as_reference(self, observations: dict[str, np.ndarray]) -> dict[str, Any]:
-        if self.flatten_observation:
-            return observations
-        out = {}
-        for name, flat in observations.items():
-            k = self._active_others[self.agent_index[name]]
-            others = flat[self._self_size : self._self_size + _OTHER * k].reshape(k, _OTHER)
-            out[name] = {"self": flat[: self._self_size].copy(), "others": others.copy()}
-        return out
-
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict]:
-        observations, infos = super().reset(seed=seed, options=options)
-        for info in infos.values():
-            info["received_hits"] = 0
-        return self._as_reference(observations), infos
-
-    def step(self, actions: Any) -> tuple[dict[str, Any], dict, dict, dict, dict]:
-        observations, rewards, terminations, truncations, infos = super().step(actions)
-        for name, info in infos.items():
-            info["received_hits"] = info.get("total_hits_taken", 0)
-        return self._as_reference(observations), rewards, terminations, truncations, infos
-
-
-class _SurfaceCommands:
-    """A fixed-wing driven by the reference's six raw commands (PyFlyt 0.29.0 Fixedwing mode -1:
-    left aileron, right aileron, horizontal tail, vertical tail, main wing, thrust),
-    folded onto the airframe's four channels (roll, pitch, yaw, thrust)."""
-
-    __slots__ = ("_vehicle",)
-
-    def __init__(self, vehicle: Any) -> None:
-        object.__setattr__(self, "_vehicle", vehicle)
-
-    def set_setpoint(self, setpoint: Any) -> None:
-        self._vehicle.set_setpoint(surface_commands_to_channels(setpoint))
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._vehicle, name)

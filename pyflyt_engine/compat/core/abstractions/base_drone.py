@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.core.abstractions import DroneClass
 
-__all__ = ["DroneClass"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.abstractions import Camera, ControlClass
+
+__all__ = ["Camera", "ControlClass", "DroneClass"]

@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.core.abstractions import Camera
 
-__all__ = ["Camera"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.utils.compile_helpers import check_numpy
+
+__all__ = ["Camera", "check_numpy"]

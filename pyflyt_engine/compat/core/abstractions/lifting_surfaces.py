@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.core.abstractions import LiftingSurface, LiftingSurfaces
 
-__all__ = ["LiftingSurface", "LiftingSurfaces"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.utils.compile_helpers import jitter
+
+__all__ = ["LiftingSurface", "LiftingSurfaces", "jitter"]

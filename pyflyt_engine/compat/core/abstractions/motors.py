@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.core.abstractions import Motors
 
-__all__ = ["Motors"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.utils.compile_helpers import jitter
+
+__all__ = ["Motors", "jitter"]

@@ -2,7 +2,10 @@
 
 from pyflyt_engine.compat.core.abstractions import DroneClass
 
-__all__ = ["Fixedwing"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.abstractions import Camera, LiftingSurface, LiftingSurfaces, Motors
+
+__all__ = ["Camera", "Fixedwing", "LiftingSurface", "LiftingSurfaces", "Motors"]
 
 
 class Fixedwing(DroneClass):

@@ -2,7 +2,10 @@
 
 from pyflyt_engine.compat.core.abstractions import DroneClass
 
-__all__ = ["QuadX"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.abstractions import BoringBodies, Camera, ControlClass, Motors, PID
+
+__all__ = ["BoringBodies", "Camera", "ControlClass", "Motors", "PID", "QuadX"]
 
 
 class QuadX(DroneClass):

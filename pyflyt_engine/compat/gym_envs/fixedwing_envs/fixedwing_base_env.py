@@ -9,7 +9,11 @@ from gymnasium import spaces
 
 from pyflyt_engine.compat.gym_envs._aviary_base import AviaryTaskEnv
 
-__all__ = ["FixedwingBaseEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.aviary import Aviary
+from pyflyt_engine.compat.core.utils.compile_helpers import check_numpy
+
+__all__ = ["Aviary", "FixedwingBaseEnv", "check_numpy"]
 
 
 class FixedwingBaseEnv(AviaryTaskEnv):

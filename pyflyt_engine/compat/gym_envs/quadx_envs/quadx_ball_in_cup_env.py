@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.gym_envs.envs import QuadXBallInCupEnv
 
-__all__ = ["QuadXBallInCupEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.gym_envs.quadx_envs.quadx_base_env import QuadXBaseEnv
+
+__all__ = ["QuadXBallInCupEnv", "QuadXBaseEnv"]

@@ -10,7 +10,11 @@ from gymnasium import spaces
 from pyflyt_engine.compat.gym_envs._aviary_base import AviaryTaskEnv
 from pyflyt_engine.compat.gym_envs._base import QUADX_RATE_LIMIT, QUADX_THRUST_LIMIT
 
-__all__ = ["QuadXBaseEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.aviary import Aviary
+from pyflyt_engine.compat.core.utils.compile_helpers import check_numpy
+
+__all__ = ["Aviary", "QuadXBaseEnv", "check_numpy"]
 
 
 class QuadXBaseEnv(AviaryTaskEnv):

@@ -2,4 +2,8 @@
 
 from pyflyt_engine.compat.gym_envs.envs import QuadXPoleBalanceEnv
 
-__all__ = ["QuadXPoleBalanceEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.gym_envs.quadx_envs.quadx_base_env import QuadXBaseEnv
+from pyflyt_engine.compat.gym_envs.utils.pole_handler import PoleHandler
+
+__all__ = ["PoleHandler", "QuadXBaseEnv", "QuadXPoleBalanceEnv"]

@@ -9,7 +9,11 @@ from gymnasium import spaces
 
 from pyflyt_engine.compat.gym_envs._aviary_base import AviaryTaskEnv
 
-__all__ = ["RocketBaseEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.aviary import Aviary
+from pyflyt_engine.compat.core.utils.compile_helpers import check_numpy
+
+__all__ = ["Aviary", "RocketBaseEnv", "check_numpy"]
 
 
 class RocketBaseEnv(AviaryTaskEnv):
@@ -70,6 +74,8 @@ class RocketBaseEnv(AviaryTaskEnv):
         options = dict(options or {})
         if options.get("randomize_drop"):  # drawn after the seeding, as the reference does
             super(AviaryTaskEnv, self).reset(seed=seed)
+            if seed is not None:  # the world's streams, seeded apart from np_random (AviaryTaskEnv)
+                self._world_rng = np.random.default_rng([int(seed), 1])
             seed = None
             spread = 0.1 * self.max_displacement
             xy = self.np_random.uniform(-spread, spread, size=(2,))

@@ -2,4 +2,7 @@
 
 from pyflyt_engine.compat.gym_envs.envs import RocketLandingEnv
 
-__all__ = ["RocketLandingEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.gym_envs.rocket_envs.rocket_base_env import RocketBaseEnv
+
+__all__ = ["RocketBaseEnv", "RocketLandingEnv"]

@@ -2,4 +2,8 @@
 
 from pyflyt_engine.compat.pz_envs._aviary_base import MAFixedwingBaseEnv
 
-__all__ = ["MAFixedwingBaseEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.core.aviary import Aviary
+from pyflyt_engine.compat.core.utils.compile_helpers import jitter
+
+__all__ = ["Aviary", "MAFixedwingBaseEnv", "jitter"]

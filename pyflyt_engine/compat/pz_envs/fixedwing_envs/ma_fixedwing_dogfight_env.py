@@ -3,4 +3,7 @@
 
 from pyflyt_engine.compat.pz_envs._envs import MAFixedwingDogfightEnvV2 as MAFixedwingDogfightEnv
 
-__all__ = ["MAFixedwingDogfightEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.pz_envs.fixedwing_envs.ma_fixedwing_base_env import MAFixedwingBaseEnv
+
+__all__ = ["MAFixedwingBaseEnv", "MAFixedwingDogfightEnv"]

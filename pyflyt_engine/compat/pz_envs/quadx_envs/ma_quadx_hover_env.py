@@ -3,4 +3,7 @@
 
 from pyflyt_engine.compat.pz_envs._envs import MAQuadXHoverEnvV2 as MAQuadXHoverEnv
 
-__all__ = ["MAQuadXHoverEnv"]
+# the names the reference's module holds through its own imports, for code that takes them from here
+from pyflyt_engine.compat.pz_envs.quadx_envs.ma_quadx_base_env import MAQuadXBaseEnv
+
+__all__ = ["MAQuadXBaseEnv", "MAQuadXHoverEnv"]
