@@ -44,13 +44,17 @@ class Algorithm:
     #: the ``algo.policy_kwargs`` keys its policies take that not every algorithm's do
     #: (every one in :data:`SPECIFIC_POLICY_KEYS`; the others must leave them null)
     policy_keys: frozenset[str] = frozenset()
+    #: import strings of the library classes it computes exactly (its ``cls`` is a subclass
+    #: with the same numbers): a config's ``_target_`` may name those too
+    same_as: tuple[str, ...] = ()
 
 
 #: algorithm name (``algo.name``, ``conf/algo/<name>.yaml`` holds its defaults) -> its facts
 ALGORITHMS: dict[str, Algorithm] = {
     "ppo": Algorithm("stable_baselines3:PPO", "PPOConfig", off_policy=False),
     "a2c": Algorithm("stable_baselines3:A2C", "A2CConfig", off_policy=False),
-    "sac": Algorithm("stable_baselines3:SAC", "SACConfig", off_policy=True),
+    # ours (pyflyt_cli/training/sac.py): SB3's SAC with cheaper gradient steps, the same numbers
+    "sac": Algorithm("pyflyt_cli.training.sac:SAC", "SACConfig", off_policy=True, same_as=("stable_baselines3:SAC",)),
     "td3": Algorithm("stable_baselines3:TD3", "TD3Config", off_policy=True),
     "ddpg": Algorithm("stable_baselines3:DDPG", "DDPGConfig", off_policy=True),
     # not in SB3: ours (pyflyt_cli/training/awac.py), on SB3's SAC policy class unchanged,
@@ -139,7 +143,7 @@ TARGETS: dict[str, tuple[str, str]] = {
     )
     for name, entry in table.items()
     for path in _dotted(entry)
-}
+} | {path: ("algo", name) for name, a in ALGORITHMS.items() for entry in a.same_as for path in _dotted(entry)}
 
 
 def resolve(table: Mapping[str, str], name: str, what: str) -> Any:
