@@ -4,7 +4,10 @@ Measures, each case in a fresh process (``pyflyt speed --backend batched``'s pro
 
 * the batched backend at N = 1 ... 4096 envs (``--sizes``): agent-steps per second, CPU
   per agent-step, memory per env;
-* the PyBullet engine's env of the same id (one env per call, through ``gymnasium.make``);
+* the PyBullet engine's env of the same id (one env per call, through ``gymnasium.make``):
+  its steps per second and CPU per step, so each size's "x PyBullet env per core" is the
+  ratio of the CPU times of the two processes (robust to other jobs' load, which slows the
+  wall clock of both);
 * with ``--reference-python`` (an interpreter of a virtual environment with
   ``pyflyt==0.29.0``, which pins numpy < 2), the reference's env of the same name, by
   ``speed_targets_probe.py`` (random actions, resets inside the timing, CPU time of the
@@ -81,6 +84,7 @@ def main() -> None:
             print(f"[{r + 1}/{args.rounds}] {env_id}", file=sys.stderr, flush=True)
             ours = run_probe({"probe": "env", "env_id": env_id, "steps": args.env_steps, "resets": 5, "warmup": 200})
             row[(env_id, "pybullet")] = ours["steps_per_s"]
+            row[(env_id, "pybullet_cpu")] = ours["step_cpu_s"]
             if args.reference_python:
                 row[(env_id, "reference")] = reference(args.reference_python, env_id, 300, 5)
             for n in args.sizes:
@@ -100,22 +104,24 @@ def main() -> None:
     ]
     for env_id in env_ids:
         pb = [row[(env_id, "pybullet")] for row in rounds]
+        pb_cpu = [row[(env_id, "pybullet_cpu")] for row in rounds]
         lines += [
             f"### {env_id}\n",
-            f"PyBullet env (one env per call): {med(pb):,.0f} steps/s"
+            f"PyBullet env (one env per call): {med(pb):,.0f} steps/s, {med(pb_cpu) * 1e6:.1f} us of CPU per step"
             + (f"; reference PyFlyt 0.29.0: {med([row[(env_id, 'reference')] for row in rounds]):,.0f} steps/s"
                if args.reference_python else "") + "\n",  # fmt: skip
-            "| N | agent-steps/s | CPU us / agent-step | x PyBullet env | x reference | KiB per env |",
-            "|---|---|---|---|---|---|",
+            "| N | agent-steps/s | CPU us / agent-step | x PyBullet env | x PyBullet env per core | x reference | KiB per env |",
+            "|---|---|---|---|---|---|---|",
         ]
         for n in args.sizes:
             res = [row[(env_id, n)] for row in rounds]
             x_pb = [row[(env_id, n)]["steps_per_s"] / row[(env_id, "pybullet")] for row in rounds]
+            x_core = [row[(env_id, "pybullet_cpu")] / row[(env_id, n)]["cpu_per_agent_step_s"] for row in rounds]
             x_ref = ([row[(env_id, n)]["steps_per_s"] / row[(env_id, "reference")] for row in rounds]
                      if args.reference_python else None)  # fmt: skip
             lines.append(
                 f"| {n} | {med([x['steps_per_s'] for x in res]):,.0f} | "
-                f"{med([x['cpu_per_agent_step_s'] for x in res]) * 1e6:.2f} | {med(x_pb):.0f}x | "
+                f"{med([x['cpu_per_agent_step_s'] for x in res]) * 1e6:.2f} | {med(x_pb):.0f}x | {med(x_core):.0f}x | "
                 f"{f'{med(x_ref):.0f}x' if x_ref else '-'} | {med([x['memory_per_env_kb'] for x in res]):.1f} |"
             )
         lines.append("")

@@ -107,7 +107,10 @@ def swarm_table(rows: list[dict], markdown: bool, reference: dict | None = None)
 
 
 def batched_table(report: dict, markdown: bool) -> list[str]:
-    """``--backend batched``: agent-steps/s against N, beside the PyBullet env of the same id."""
+    """``--backend batched``: agent-steps/s against N, beside the PyBullet env of the same id:
+    the ratio of the rates (wall clock), and per core, the ratio of the CPU time of the
+    process per step of the PyBullet env to the batched backend's per agent-step (robust to
+    other jobs' load, which slows the wall clock of both)."""
     pybullet = {row["id"]: row for row in report["envs"]}
     heading = "batched backend: N envs stepped by one call (motor noise on), beside the PyBullet env (one env per call)"
     out = [f"**{heading}**", ""] if markdown else [heading]
@@ -115,13 +118,17 @@ def batched_table(report: dict, markdown: bool) -> list[str]:
     for row in report["batched"]:
         env = pybullet.get(row["id"])
         base = env["steps_per_s"] if env else None
+        base_cpu = env.get("step_cpu_s") if env else None
         rows.append([row["id"], str(row["n"]), number(row["steps_per_s"]), number(row["cpu_per_agent_step_s"] * 1e6, 2),
                      ratio(row["steps_per_s"] / base) if base else "-", number(row["memory_per_env_kb"], 1),
-                     number(row["first_step_s"], 2)])  # fmt: skip
+                     number(row["first_step_s"], 2),
+                     ratio(base_cpu / row["cpu_per_agent_step_s"]) if base_cpu else "-"])  # fmt: skip
     for env_id, env in pybullet.items():
-        rows.append([env_id, "PyBullet env", number(env["steps_per_s"]), "-", "1x", "-", "-"])
+        cpu = env.get("step_cpu_s")
+        rows.append([env_id, "PyBullet env", number(env["steps_per_s"]), number(cpu * 1e6, 2) if cpu else "-", "1x",
+                     "-", "-", "1x" if cpu else "-"])  # fmt: skip
     out += table(["env", "N", "agent-steps/s", "CPU us / agent-step", "vs PyBullet env", "KiB per env",
-                  "first step s"], rows, markdown)  # fmt: skip
+                  "first step s", "x PyBullet env per core"], rows, markdown)  # fmt: skip
     return out
 
 

@@ -61,7 +61,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
-from pyflyt_engine.batched import air, kernels, modes
+from pyflyt_engine.batched import air, kernels, modes, bookkeeping
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
@@ -69,6 +69,7 @@ from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
+from pyflyt_engine.envs.tasks.base import Task
 from pyflyt_engine.envs.waypoints import sample_waypoints
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
@@ -228,6 +229,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.steps = np.zeros(n, dtype=np.int64)
         self.physics_steps = np.zeros(n, dtype=np.int64)  # per env: its control ticks' phase
         self._ones = np.ones((n, self.per_agent, nm))
+        self._noise_buffer = np.empty((n, self.per_agent, nm))  # this step's motor noise factors (step)
         # read-outs
         self.ang_vel_body = np.zeros((n, 3))
         self.ang_pos = np.zeros((n, 3))
@@ -236,6 +238,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.quaternion[:, 3] = 1.0
         # task state
         self.hover_point = np.asarray(getattr(cfg.task, "hover_point", (0.0, 0.0, 0.0)), dtype=np.float64)
+        self._hover_goals: np.ndarray | None = None  # the hover point, a row per env (_goals)
         k = int(getattr(cfg.task, "num_targets", 0))
         self.targets = np.zeros((n, k, 3))
         self.num_reached = np.zeros(n, dtype=np.int64)
@@ -281,6 +284,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: the env's other draws as they were); none without turbulence
         turbulent = self.dryden is not None
         self.turbulence_rngs = [np.random.default_rng(c.spawn(1)[0]) for c in children[1:]] if turbulent else []
+        self._streams_of: list | None = None  # the env_rngs whose states _env_streams holds (_streams)
 
     # ------------------------------------------------------------------ reset
 
@@ -314,54 +318,85 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         else:
             self._episode_task = self.task
 
+    def _streams(self) -> tuple[np.ndarray, Any] | None:
+        """The state addresses of the envs' generators and their ``next_double``, which
+        :func:`~pyflyt_engine.batched.bookkeeping.spawn_rows` draws through (taken again when
+        ``env_rngs`` is a new list; None if they are not all one kind of bit generator)."""
+        if self._streams_of is not self.env_rngs:
+            self._env_streams = bookkeeping.stream_addresses(self.env_rngs)
+            self._streams_of = self.env_rngs
+        return self._env_streams
+
     def _reset_envs(self, index: np.ndarray) -> None:
+        """Start an episode in the envs ``index``: their draws (each from its own generator,
+        in the order a PyBullet env draws them: the delays, the spawn, the targets), then
+        their state from the spawn, all rows at once (:mod:`pyflyt_engine.batched.bookkeeping`)."""
         task = self._episode_task
         o = task.options
         if self._waypoints:
             self.reach[index] = float(o.goal_reach_distance)
-        for i in index.tolist():
-            rng = self.env_rngs[i]
-            if self.latency is not None:  # a randomised delay: drawn before the spawn, as the randomiser is
-                self.latency.draw(i, rng)
-            spawn = task.spawn(rng)
-            self.pos[i] = spawn.position
-            q = euler_to_quaternion(*spawn.orientation)
-            self.quat[i] = q
-            r = np.empty(9)
-            kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
-            rot = r.reshape(3, 3).tolist()
-            # body to ground as Vehicle.reset turns the spawn's body-frame velocities
-            self.vel[i] = exact.rotate(rot, [float(v) for v in spawn.lin_vel])
-            self.angvel[i] = exact.rotate(rot, [float(v) for v in spawn.ang_vel])
-            if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
+        if self.latency is not None:  # a randomised delay: drawn before the spawn, as the randomiser is
+            for i in index.tolist():
+                self.latency.draw(i, self.env_rngs[i])
+        self._spawn(task, index)
+        if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
+            for i in index.tolist():
                 air.dryden_initial(self._dryden_arrays, self.turbulence_rngs[i].standard_normal(self.dryden.states),
                                    self.turbulence[i])
-            if self._waypoints:
+        if self._waypoints:
+            for i in index.tolist():
                 self.targets[i] = sample_waypoints(
-                    rng, o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
+                    self.env_rngs[i], o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
                     o.min_target_height,
                 )
-        self.throttle[index] = 0.0
-        self.command[index] = 0.0
-        self.deflection[index] = 0.0
-        self.flap_command[index] = 0.0
-        self.autopilot_integral[index] = 0.0
-        self.integral[index] = 0.0
-        self.vel_integral[index] = 0.0
-        self.previous[index] = 0.0
-        self.has_previous[index] = False
-        self.actions[index] = 0.0
-        self.steps[index] = 0
-        self.physics_steps[index] = 0
-        self.episode_return[index] = 0.0
-        self.episode_length[index] = 0
-        self.num_reached[index] = 0
-        self._read(index)
+        bookkeeping.zero_rows(
+            index,
+            (self.throttle, self.command, self.deflection, self.flap_command, self.autopilot_integral, self.integral,
+             self.vel_integral, self.previous, self.actions),
+            (self.episode_return,),
+            (self.steps, self.physics_steps, self.episode_length, self.num_reached),
+            (self.has_previous,),
+        )
+        bookkeeping.read_rows(index, self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
+                         self.lin_vel_body, self.quaternion)
         if self.latency is not None:
             self.latency.restart(self, index)
-        p = self.pos[index]
-        self._last_position[index] = p
-        self._last_distance[index] = self._target_distance(index, p)
+        bookkeeping.distance_rows(index, self.pos, self._goals(), self._last_position, self._last_distance)
+
+    def _spawn(self, task: Any, index: np.ndarray) -> None:
+        """The spawn of the envs ``index``, drawn from their generators: the task's own law
+        (``task.spawn``) env by env where the task has one of its own, else the base law
+        (:meth:`Task.spawn`) on all rows in one compiled call (:func:`bookkeeping.spawn_rows`)."""
+        streams = self._streams()
+        if type(task).spawn is not Task.spawn or streams is None:
+            for i in index.tolist():
+                spawn = task.spawn(self.env_rngs[i])
+                self.pos[i] = spawn.position
+                q = euler_to_quaternion(*spawn.orientation)
+                self.quat[i] = q
+                r = np.empty(9)
+                kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
+                rot = r.reshape(3, 3).tolist()
+                # body to ground as Vehicle.reset turns the spawn's body-frame velocities
+                self.vel[i] = exact.rotate(rot, [float(v) for v in spawn.lin_vel])
+                self.angvel[i] = exact.rotate(rot, [float(v) for v in spawn.ang_vel])
+            return
+        o = task.options
+        states, next_double = streams
+        bookkeeping.spawn_rows(
+            index, states, next_double, np.asarray(o.start_position, dtype=np.float64), float(o.start_position_noise),
+            np.asarray(o.start_orientation, dtype=np.float64), float(o.start_orientation_noise),
+            np.asarray(o.start_lin_vel, dtype=np.float64), np.zeros(3), self.pos, self.quat, self.vel, self.angvel,
+        )
+
+    def _goals(self) -> np.ndarray:
+        """Each env's current target (N, 3): its next waypoint, or the hover point."""
+        if self._waypoints:
+            k = self.targets.shape[1]
+            return self.targets[np.arange(self.num_envs), np.minimum(self.num_reached, k - 1)]
+        if self._hover_goals is None:
+            self._hover_goals = np.ascontiguousarray(np.broadcast_to(self.hover_point, (self.num_envs, 3)))
+        return self._hover_goals
 
     def _target_distance(self, index: np.ndarray, p: np.ndarray) -> np.ndarray:
         if self._waypoints:
@@ -392,9 +427,10 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
         a = np.minimum(np.maximum(a, self._low), self._high)
         self.actions[:] = a
-        if self.motor_noise:
-            eta = self.noise_rng.standard_normal((n, self.per_agent, self.model.motors))
-            factors = 1.0 + self._noise_ratio * eta
+        if self.motor_noise:  # 1 + ratio eta, the draws and the factors in buffers kept for the next step
+            factors = self.noise_rng.standard_normal(out=self._noise_buffer)
+            np.multiply(factors, self._noise_ratio, out=factors)
+            np.add(factors, 1.0, out=factors)
         else:
             factors = self._ones
         self.advance(a, factors, self.turbulence_normals())
@@ -542,18 +578,13 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             distance = np.where(all_done, 0.0, distance)
             rate = np.where(all_done, 0.0, rate)
         else:
-            distance = self._target_distance(index, p)
-            rate = (distance - self._last_distance) / self.agent_dt
+            distance, rate = bookkeeping.progress(p, self._goals(), self._last_distance, self.agent_dt)
             self._last_distance = distance
         self._last_position = p.copy()
-        collision = self.contact.copy()
-        out = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2] > self._dome2
-        crash_on_contact = bool(getattr(self.task, "crash_on_contact", True))
-        crashed = out | (collision & crash_on_contact)
-        terminated = crashed | complete
-        time_up = self.steps >= self._max_steps
-        truncated = ~terminated & time_up
-        remaining = np.maximum(self._max_steps - self.steps, 0)
+        collision, out, crashed, terminated, truncated, remaining, success = bookkeeping.ends(
+            p, self.contact, complete, self.steps, self._max_steps, self._dome2,
+            bool(getattr(self.task, "crash_on_contact", True)), bool(self.task.succeeds_at_time_limit),
+        )
         ctx = BatchContext(
             ang_vel=self.ang_vel_body, ang_pos=self.ang_pos, lin_vel=self.lin_vel_body, lin_pos=p,
             action=self.actions, collision=collision, ground_collision=collision, out_of_bounds=out,
@@ -561,7 +592,6 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             waypoint_reached=reached, steps_remaining=remaining, agent_dt=self.agent_dt,
         )
         reward, _ = self.reward_function(ctx)
-        success = (complete & ~crashed) | (truncated & bool(self.task.succeeds_at_time_limit))
         info: dict[str, Any] = {
             "collision": collision, "out_of_bounds": out, "env_complete": complete, "success": success,
         }

@@ -474,20 +474,26 @@ def read_out(pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quater
     q = np.empty(4)
     e = np.empty(3)
     for i in range(pos.shape[0]):
-        rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
-        matrix_quaternion(r, q)
-        rotation_rows(q[0], q[1], q[2], q[3], r)  # getMatrixFromQuaternion of what PyBullet reports
-        euler_from_quaternion(q[0], q[1], q[2], q[3], e)
-        w0, w1, w2 = angvel[i, 0], angvel[i, 1], angvel[i, 2]
-        v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
-        ang_vel_body[i, 0] = r[0] * w0 + r[3] * w1 + r[6] * w2
-        ang_vel_body[i, 1] = r[1] * w0 + r[4] * w1 + r[7] * w2
-        ang_vel_body[i, 2] = r[2] * w0 + r[5] * w1 + r[8] * w2
-        lin_vel_body[i, 0] = r[0] * v0 + r[3] * v1 + r[6] * v2
-        lin_vel_body[i, 1] = r[1] * v0 + r[4] * v1 + r[7] * v2
-        lin_vel_body[i, 2] = r[2] * v0 + r[5] * v1 + r[8] * v2
-        ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = e[0], e[1], e[2]
-        quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q[0], q[1], q[2], q[3]
+        read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e)
+
+
+@njit(cache=True)
+def read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e):
+    """:func:`read_out` of row ``i`` (``r``, ``q``, ``e``: (9,), (4,), (3,) scratch)."""
+    rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
+    matrix_quaternion(r, q)
+    rotation_rows(q[0], q[1], q[2], q[3], r)  # getMatrixFromQuaternion of what PyBullet reports
+    euler_from_quaternion(q[0], q[1], q[2], q[3], e)
+    w0, w1, w2 = angvel[i, 0], angvel[i, 1], angvel[i, 2]
+    v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
+    ang_vel_body[i, 0] = r[0] * w0 + r[3] * w1 + r[6] * w2
+    ang_vel_body[i, 1] = r[1] * w0 + r[4] * w1 + r[7] * w2
+    ang_vel_body[i, 2] = r[2] * w0 + r[5] * w1 + r[8] * w2
+    lin_vel_body[i, 0] = r[0] * v0 + r[3] * v1 + r[6] * v2
+    lin_vel_body[i, 1] = r[1] * v0 + r[4] * v1 + r[7] * v2
+    lin_vel_body[i, 2] = r[2] * v0 + r[5] * v1 + r[8] * v2
+    ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = e[0], e[1], e[2]
+    quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q[0], q[1], q[2], q[3]
 
 
 # ----------------------------------------------------------- lifting surfaces

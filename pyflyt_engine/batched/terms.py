@@ -121,16 +121,19 @@ class BatchedReward:
         n = len(ctx.crashed)
         total = np.zeros(n)
         breakdown: dict[str, np.ndarray] = {}
-        for key, vector, params, weight, conditions in self._entries:
-            active = np.ones(n, dtype=bool)
-            for cond, negate in conditions:
-                held = np.asarray(cond(ctx), dtype=bool)
-                active &= ~held if negate else held
-            value = np.zeros(n)
-            if active.any():
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    computed = weight * np.asarray(vector(ctx, **params), dtype=np.float64)
-                value[active] = computed[active]
-            breakdown[key] = value
-            total = total + value
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for key, vector, params, weight, conditions in self._entries:
+                active = None  # every row, until a condition says otherwise
+                for cond, negate in conditions:
+                    held = np.asarray(cond(ctx), dtype=bool)
+                    held = ~held if negate else held
+                    active = held if active is None else active & held
+                if active is None or active.all():  # the term's value in every row
+                    value = weight * np.asarray(vector(ctx, **params), dtype=np.float64)
+                elif active.any():  # 0 where a condition fails (the term's value there is never used)
+                    value = np.where(active, weight * np.asarray(vector(ctx, **params), dtype=np.float64), 0.0)
+                else:  # no row: the term is not evaluated (1/delta is never computed without a target)
+                    value = np.zeros(n)
+                breakdown[key] = value
+                np.add(total, value, out=total)
         return total, breakdown

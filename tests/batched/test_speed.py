@@ -52,6 +52,25 @@ def test_the_table_sets_each_size_beside_the_pybullet_env():
     assert f"| {HOVER} | PyBullet env | 4,000 |" in text
 
 
+def test_the_table_sets_each_size_beside_the_pybullet_env_per_core():
+    """The per-core column: the PyBullet env's CPU time per step over the batched backend's per
+    agent-step, both from the same run (the canned env: 250 us of CPU per step)."""
+
+    def measured(case: Case) -> dict:
+        result = _canned(case)
+        if case.probe["probe"] == "env":
+            result["step_cpu_s"] = 250e-6
+        return result
+
+    report = run_speed(SpeedSettings.quick(backend="batched", batch_sizes=(1, 256), envs=(HOVER,)), measure=measured)
+    text = format_report(report, markdown=True)
+    # 250 us against 1 / 359,551 s = 2.78 us per agent-step: 90x per core; at N = 1, 250 / 202 us = 1.24x
+    assert f"| {HOVER} | 256 | 359,551 | 2.78 | 90x | 3.0 | 1.00 | 90x |" in text
+    assert f"| {HOVER} | 1 | 4,950 | 202.00 | 1.24x | 3.0 | 1.00 | 1.24x |" in text
+    assert f"| {HOVER} | PyBullet env | 4,000 | 250.00 | 1x | - | - | 1x |" in text
+    assert "x PyBullet env per core" in text
+
+
 def test_envs_it_does_not_run_and_bad_sizes_are_user_errors():
     result = runner.invoke(app, ["speed", "--quick", "--backend", "batched", "--env", "PyFlyt/Rocket-Landing-v0"])
     assert result.exit_code == 2 and "does not simulate" in result.output

@@ -1,0 +1,180 @@
+"""A batched step's bookkeeping on arrays, in compiled calls: the episodes' ends and the resets.
+
+A step of :class:`~pyflyt_engine.batched.env.BatchedUAVEnv` resets every env whose episode
+ended; with random actions that is one env in ~13 per step, so a reset that is Python work
+per env (a generator call, a ``Spawn``, a quaternion, a rotation) costs more than the
+physics.  Here the same laws run on the rows of the ended envs at once:
+
+* :func:`spawn_rows` is :meth:`~pyflyt_engine.envs.tasks.base.Task.spawn` (the mean pose plus
+  ``U(-noise, noise)`` per coordinate, then per Euler angle; moving at ``start_lin_vel`` in
+  the body frame, not rotating) followed by what the env does with a spawn
+  (:func:`~pyflyt_engine.frames.euler_to_quaternion`, the body-frame velocities turned to
+  the ground frame by ``exact.rotate``), each expression in the same order of operations.
+  The uniform draws come from each env's own generator: numpy's ``Generator.uniform(low,
+  high)`` is ``low + (high - low) * next_double`` of its bit generator (numpy's
+  ``random_uniform`` in ``distributions.c``), and the compiled loop calls that
+  ``next_double`` (the ``bit_generator.ctypes`` interface numpy exposes for compiled
+  callers) on each env's state, so every env draws the same numbers in the same order
+  from the same stream as ``Task.spawn`` would;
+* :func:`zero_rows` starts the controller, motors and counters of those rows from zero;
+* :func:`read_rows` and :func:`distance_rows`: the read-outs and the target distance of
+  those rows, as a step computes them for every row.
+
+And per step, for every env: :func:`ends` (the contact, the flight dome, the time limit: what
+ended the episode and how) and :func:`progress` (the distance to a fixed goal and its rate),
+the env's former NumPy expressions element by element, in the same order of operations.
+
+``tests/batched/test_bookkeeping.py`` holds each against its Python form bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pyflyt_engine.batched.kernels import read_row, rotation_rows
+
+
+def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, object] | None:
+    """The state addresses of ``rngs``' bit generators and their common ``next_double``
+    (numpy's ctypes interface), or None when they are not all of one kind of bit generator
+    (then the caller draws through ``Generator.uniform``, env by env)."""
+    if not rngs:
+        return None
+    interfaces = [rng.bit_generator.ctypes for rng in rngs]
+    import ctypes
+
+    address = ctypes.cast(interfaces[0].next_double, ctypes.c_void_p).value
+    if any(ctypes.cast(c.next_double, ctypes.c_void_p).value != address for c in interfaces):
+        return None
+    return np.array([c.state_address for c in interfaces], dtype=np.uintp), interfaces[0].next_double
+
+
+@njit(cache=True)
+def spawn_rows(index, states, next_double, start_position, position_noise, start_orientation, orientation_noise,
+               lin_vel, ang_vel, pos, quat, vel, angvel):
+    """The spawn of every env in ``index`` (``Task.spawn`` and the env's use of it, module
+    docstring): env ``i`` draws from the bit generator state at ``states[i]``, three numbers
+    for its position when ``position_noise`` is not 0, then three for its attitude when
+    ``orientation_noise`` is not 0; its ``pos``, ``quat``, ``vel`` and ``angvel`` rows are set
+    (``lin_vel``, ``ang_vel``: the body-frame velocities of the spawn)."""
+    p_low, o_low = -position_noise, -orientation_noise
+    p_range, o_range = position_noise - p_low, orientation_noise - o_low  # Generator.uniform's high - low
+    e = np.empty(3)
+    r = np.empty(9)
+    for k in range(index.shape[0]):
+        i = index[k]
+        state = states[i]
+        for a in range(3):
+            d = p_low + p_range * next_double(state) if position_noise != 0.0 else 0.0
+            pos[i, a] = start_position[a] + d
+        for a in range(3):
+            d = o_low + o_range * next_double(state) if orientation_noise != 0.0 else 0.0
+            e[a] = start_orientation[a] + d
+        # frames.euler_to_quaternion
+        cr, sr = math.cos(e[0] / 2), math.sin(e[0] / 2)
+        cp, sp = math.cos(e[1] / 2), math.sin(e[1] / 2)
+        cy, sy = math.cos(e[2] / 2), math.sin(e[2] / 2)
+        qx = sr * cp * cy - cr * sp * sy
+        qy = cr * sp * cy + sr * cp * sy
+        qz = cr * cp * sy - sr * sp * cy
+        qw = cr * cp * cy + sr * sp * sy
+        quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = qx, qy, qz, qw
+        rotation_rows(qx, qy, qz, qw, r)
+        # exact.rotate(rows, v): body to ground, as Vehicle.reset turns the spawn's velocities
+        x, y, z = lin_vel[0], lin_vel[1], lin_vel[2]
+        vel[i, 0] = r[0] * x + r[1] * y + r[2] * z
+        vel[i, 1] = r[3] * x + r[4] * y + r[5] * z
+        vel[i, 2] = r[6] * x + r[7] * y + r[8] * z
+        x, y, z = ang_vel[0], ang_vel[1], ang_vel[2]
+        angvel[i, 0] = r[0] * x + r[1] * y + r[2] * z
+        angvel[i, 1] = r[3] * x + r[4] * y + r[5] * z
+        angvel[i, 2] = r[6] * x + r[7] * y + r[8] * z
+
+
+@njit(cache=True)
+def zero_rows(index, tables, columns, counts, flags):
+    """Rows ``index`` of every array set to zero: ``tables`` (2-D float arrays), ``columns``
+    (1-D float), ``counts`` (1-D int), ``flags`` (1-D bool), each a tuple of one kind."""
+    for k in range(index.shape[0]):
+        i = index[k]
+        for a in tables:
+            for j in range(a.shape[1]):
+                a[i, j] = 0.0
+        for a in columns:
+            a[i] = 0.0
+        for a in counts:
+            a[i] = 0
+        for a in flags:
+            a[i] = False
+
+
+@njit(cache=True)
+def read_rows(index, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion):
+    """:func:`~pyflyt_engine.batched.kernels.read_out` of the rows ``index`` only."""
+    r = np.empty(9)
+    q = np.empty(4)
+    e = np.empty(3)
+    for k in range(index.shape[0]):
+        read_row(index[k], pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e)
+
+
+@njit(cache=True)
+def distance_rows(index, pos, goals, last_position, last_distance):
+    """Rows ``index``: ``last_position`` the position, ``last_distance`` its distance to the
+    row's goal (``goals`` (N, 3); the env's ``_target_distance``: ``sqrt(dx dx + dy dy + dz dz)``)."""
+    for k in range(index.shape[0]):
+        i = index[k]
+        dx, dy, dz = pos[i, 0] - goals[i, 0], pos[i, 1] - goals[i, 1], pos[i, 2] - goals[i, 2]
+        last_position[i, 0], last_position[i, 1], last_position[i, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
+        last_distance[i] = math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def ends(pos, contact, complete, steps, max_steps, dome2, crash_on_contact, succeeds_at_time_limit):
+    """How each env's step ended, from its position, ``contact``, ``complete`` (the task done)
+    and ``steps`` taken: ``(collision, out_of_bounds, crashed, terminated, truncated,
+    steps_remaining, success)``, new arrays.  Out of bounds: ``x x + y y + z z > dome2``; a
+    crash: out of bounds, or a contact where the task crashes on one; terminated: a crash or
+    complete; truncated: not terminated at ``max_steps``; success: complete without a crash,
+    or truncated where the task succeeds at its time limit."""
+    n = pos.shape[0]
+    collision = np.empty(n, dtype=np.bool_)
+    out = np.empty(n, dtype=np.bool_)
+    crashed = np.empty(n, dtype=np.bool_)
+    terminated = np.empty(n, dtype=np.bool_)
+    truncated = np.empty(n, dtype=np.bool_)
+    success = np.empty(n, dtype=np.bool_)
+    remaining = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
+        o = x * x + y * y + z * z > dome2
+        c = contact[i]
+        crash = o or (c and crash_on_contact)
+        end = crash or complete[i]
+        cut = (not end) and steps[i] >= max_steps
+        left = max_steps - steps[i]
+        collision[i], out[i], crashed[i], terminated[i], truncated[i] = c, o, crash, end, cut
+        remaining[i] = left if left > 0 else 0
+        success[i] = (complete[i] and not crash) or (cut and succeeds_at_time_limit)
+    return collision, out, crashed, terminated, truncated, remaining, success
+
+
+@njit(cache=True)
+def progress(pos, goals, last_distance, dt):
+    """Each env's distance to its goal (``goals`` (N, 3): ``sqrt(dx dx + dy dy + dz dz)``) and
+    its rate since ``last_distance``, ``(distance - last) / dt``: two new arrays."""
+    n = pos.shape[0]
+    distance = np.empty(n)
+    rate = np.empty(n)
+    for i in range(n):
+        dx, dy, dz = pos[i, 0] - goals[i, 0], pos[i, 1] - goals[i, 1], pos[i, 2] - goals[i, 2]
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        distance[i] = d
+        rate[i] = (d - last_distance[i]) / dt
+    return distance, rate
+
+
+__all__ = ["distance_rows", "ends", "progress", "read_rows", "spawn_rows", "stream_addresses", "zero_rows"]
