@@ -89,7 +89,7 @@ class HoverProbe(BaseCallback):
         self.probe_cpu = 0.0
         self.history: list[tuple[int, float, dict[str, float]]] = []
         #: (steps, wall-clock, wall-clock without the probes, CPU time of this process without the probes)
-        self.hover_at: tuple[int, float, float, float] | None = None
+        self.hover_at: tuple[float, ...] | None = None
 
     def _on_training_start(self) -> None:
         self.started = time.perf_counter()
@@ -184,6 +184,7 @@ class WaypointProbe(HoverProbe):
     def _on_training_start(self) -> None:
         super()._on_training_start()
         venv = self.model.get_env()  # the outermost vector env: its step_wait steps every env
+        assert venv is not None, "a probe callback runs inside learn(), on the model's env"
         inner = venv.step_wait
 
         def timed_step_wait():
@@ -193,7 +194,7 @@ class WaypointProbe(HoverProbe):
             finally:
                 self.env_time += time.perf_counter() - t0
 
-        venv.step_wait = timed_step_wait
+        setattr(venv, "step_wait", timed_step_wait)  # this run's env only: the probe times its stepping
 
     def probe(self) -> None:
         t0, c0 = time.perf_counter(), time.process_time()

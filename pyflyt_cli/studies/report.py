@@ -59,7 +59,7 @@ def plot_curve(
     ax.set_xlabel("environment steps")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
-    ax.legend(loc=legend)
+    ax.legend(loc=legend)  # type: ignore[call-overload]  # the stubs take only literal loc names
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
