@@ -291,14 +291,13 @@ def evaluation_steps(config: dict[str, Any]) -> list[int]:
     """The steps a run of this (validated train) configuration is evaluated at, from scratch:
     the first rollout start at or after every multiple of ``train.eval_freq``, and the end
     (the final weights)."""
-    from pyflyt_cli.training.multi_agent import agents_per_env
+    from pyflyt_cli.training.loop import steps_per_round
     from pyflyt_cli.training.schema import parse_train_config
 
     cfg = parse_train_config(config)
     if cfg.train.eval_freq <= 0:
         return []
-    per_round = getattr(cfg.algo, "n_steps", None) or getattr(cfg.algo, "train_freq", 1)
-    chunk = per_round * cfg.train.n_envs * agents_per_env(cfg.env)
+    chunk = steps_per_round(cfg)
     end = -(-cfg.train.total_timesteps // chunk) * chunk
     steps, next_eval = [], cfg.train.eval_freq
     while next_eval < end:  # the rollout start at or after each scheduled step
