@@ -291,19 +291,13 @@ def evaluation_steps(config: dict[str, Any]) -> list[int]:
     """The steps a run of this (validated train) configuration is evaluated at, from scratch:
     the first rollout start at or after every multiple of ``train.eval_freq``, and the end
     (the final weights)."""
-    from pyflyt_cli.training.multi_agent import agents_per_env
-    from pyflyt_cli.training.registry import ALGORITHMS
+    from pyflyt_cli.training.loop import steps_per_round
     from pyflyt_cli.training.schema import parse_train_config
 
     cfg = parse_train_config(config)
     if cfg.train.eval_freq <= 0:
         return []
-    # a collection round, at whose start the evaluation runs: train_freq steps per env off-policy
-    # (where n_steps are the steps of an n-step return), a rollout of n_steps on-policy
-    # (schema.AlgoConfig is a Union built at run time from the algorithm table: opaque to mypy)
-    off_policy = ALGORITHMS[cfg.algo.name].off_policy  # type: ignore[attr-defined]
-    per_round: int = getattr(cfg.algo, "train_freq" if off_policy else "n_steps")
-    chunk = per_round * cfg.train.n_envs * agents_per_env(cfg.env)
+    chunk = steps_per_round(cfg)
     end = -(-cfg.train.total_timesteps // chunk) * chunk
     steps, next_eval = [], cfg.train.eval_freq
     while next_eval < end:  # the rollout start at or after each scheduled step

@@ -831,13 +831,23 @@ class _Run:
         return result
 
 
+def steps_per_round(cfg: TrainConfig) -> int:
+    """Steps one collection round adds to the count: a rollout of ``algo.n_steps`` per env (on-policy) or
+    ``algo.train_freq`` per env (off-policy, whose ``algo.n_steps`` is the n-step return's length), times the
+    envs and, in a multi-agent env, its agents (a vector-env slot each)."""
+    from pyflyt_cli.training.multi_agent import agents_per_env
+
+    if cfg.algo.off_policy:
+        per_env = getattr(cfg.algo, "train_freq", 1)
+    else:
+        per_env = getattr(cfg.algo, "n_steps", None) or 1
+    return per_env * cfg.train.n_envs * agents_per_env(cfg.env)
+
+
 def _expected_end(cfg: TrainConfig) -> int:
     """The step count a run ends at: the budget rounded up to whole rollouts (on-policy) or collection rounds
     (a multi-agent env fills a vector-env slot per agent)."""
-    from pyflyt_cli.training.multi_agent import agents_per_env
-
-    per_round = getattr(cfg.algo, "n_steps", None) or getattr(cfg.algo, "train_freq", 1)
-    chunk = per_round * cfg.train.n_envs * agents_per_env(cfg.env)
+    chunk = steps_per_round(cfg)
     return -(-cfg.train.total_timesteps // chunk) * chunk
 
 

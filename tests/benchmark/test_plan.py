@@ -68,9 +68,12 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     # the policy shapes agree, so the weights load
     assert awac.config["algo"]["policy_kwargs"]["net_arch"] == sac.config["algo"]["policy_kwargs"]["net_arch"]
     assert awac.config["algo"]["use_sde"] == sac.config["algo"]["use_sde"]
-    # each with its own tuning's envs: SAC on 64 batched envs, AWAC and CCGE on 4 PyBullet envs
-    assert (sac.config["train"]["n_envs"], sac.config["env"]["backend"]) == (64, "batched")
-    assert awac.config["train"]["n_envs"] == ccge.config["train"]["n_envs"] == 4
+    # the preset's training shape for all three: 64 batched envs, 4 gradient steps per vector step; SAC with
+    # 3-step returns (the QuadX-Waypoints tuning's), AWAC and CCGE one-step as published
+    for job in (sac, awac, ccge, plan.job("fixedwing_waypoints/sac/seed0")):
+        shape = (job.config["env"]["backend"], job.config["train"]["n_envs"], job.config["algo"]["gradient_steps"])
+        assert shape == ("batched", 64, 4), job.id
+    assert (sac.config["algo"]["n_steps"], awac.config["algo"]["n_steps"], ccge.config["algo"]["n_steps"]) == (3, 1, 1)
     # from the same sphere, each cut to its run's budget (a curriculum may not outlast it)
     sphere, awac_sphere = sac.config["train"]["curriculum"]["goal_reach_distance"], awac.config["train"]["curriculum"]["goal_reach_distance"]
     assert sphere["start"] == awac_sphere["start"] == 1.0
@@ -81,6 +84,8 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
     assert big.root.name == "paper_rl_paper" and len(big.jobs) == 300
     assert big.job("quadx_waypoints_sparse/ccge/seed7").config["init_from"].endswith("quadx_waypoints/sac/seed7@200000")
     assert big.job("fixedwing_waypoints/sac/seed49").total_timesteps == 1_000_000
+    assert big.job("fixedwing_waypoints_sparse/awac/seed3").config["env"]["backend"] == "batched"
+    assert big.job("fixedwing_waypoints_sparse/awac/seed3").config["train"]["n_envs"] == 64
 
 
 @pytest.mark.parametrize(

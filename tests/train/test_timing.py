@@ -210,3 +210,21 @@ def test_one_compressed_replay_buffer_is_kept(tmp_path):
         infos = archive.infolist()
     assert infos and all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     assert sum(i.compress_size for i in infos) < sum(i.file_size for i in infos)
+
+
+def test_evaluation_steps_of_an_off_policy_run_with_n_step_returns_are_those_it_logs(tmp_path):
+    """Off-policy ``algo.n_steps`` is the n-step return's length, not a rollout: a round of a SAC run on 4
+    envs adds 4 steps, so a 3-step-return run is evaluated at the first multiple of 4 at or after each
+    ``eval_freq`` (here 50 -> 52, 100, 150 -> 152, and the end 200), not of 3 x 4."""
+    from pyflyt_cli.benchmark.plan import evaluation_steps
+    from pyflyt_cli.training.loop import _expected_end
+    from pyflyt_engine.telemetry import read_metrics
+
+    overrides = [o for o in TINY_SAC if not o.startswith(("train.n_envs", "train.total_timesteps", "train.eval_freq"))]
+    given = ["train.n_envs=4", "train.vec_env=dummy", "algo.n_steps=3", "algo.train_freq=1", "algo.gradient_steps=1"]
+    budget = ["train.total_timesteps=200", "train.eval_freq=50", "train.eval_episodes=1", "train.checkpoint_freq=0"]
+    cfg = load([*overrides, *given, *budget], tmp_path)
+    planned = evaluation_steps(cfg.model_dump(mode="json"))
+    assert planned == [52, 100, 152, 200] and _expected_end(cfg) == 200
+    result = train(cfg)
+    assert [e["step"] for e in read_metrics(result.run_dir)["/eval"]] == planned
