@@ -34,10 +34,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from pyflyt_cli.studies.probes import HOVER_DISTANCE
-from pyflyt_cli.studies.report import plot_curve, probe_curve
+from pyflyt_cli.studies.report import iqm_summary, plot_curve
 from pyflyt_cli.studies.runs import hover_run
 from pyflyt_cli.training import compose_config
 
@@ -45,37 +44,17 @@ RESULTS = Path(__file__).resolve().parent / "results" / "learn_hover_ppo.md"
 
 
 def rliable_summary(rows: list[dict], budget: int, reps: int = 2000) -> tuple[list[str], dict]:
-    """IQM over the seeds with 95 % stratified-bootstrap intervals (rliable, through the
-    project's seeded wrapper :mod:`pyflyt_cli.plotting.stats`): steps to the first
-    hovering probe (a run that never hovers counts as the budget, a lower bound), the final
-    probe's return and mean distance, and the return curve over the probes."""
-    from pyflyt_cli.plotting import stats
-
-    def iqm(values: list[float]) -> stats.Estimate:
-        return stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
-
-    def fmt(e: stats.Estimate, digits: int) -> str:
-        return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
-
-    hover = [r["hover_at"][0] if r["hover_at"] else budget for r in rows]
-    final_return = [r["final"]["mean_return"] for r in rows]
-    final_distance = [r["final"]["mean_distance"] for r in rows]
+    """:func:`iqm_summary` of the steps to the first hovering probe (a run that never hovers
+    counts as the budget, a lower bound), the final probe's return and mean distance, and the
+    return curve over the probes."""
     never = sum(1 for r in rows if not r["hover_at"])
-    lines = [
-        "",
-        f"IQM over {len(rows)} seeds, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
-        "",
-        "| measure | IQM [95 % CI] |",
-        "|---|---|",
-        f"| steps to the first hovering probe{' (never = budget)' if never else ''} | {fmt(iqm(hover), 0)} |",
-        f"| final return ({rows[0]['history'][-1][0] if rows[0]['history'] else '-'} steps) | {fmt(iqm(final_return), 2)} |",
-        f"| final mean distance [m] | {fmt(iqm(final_distance), 3)} |",
-    ]
-    data = {"rows": [{k: v for k, v in r.items()} for r in rows]}
-    curve = probe_curve(rows, "mean_return", reps)
-    if curve is not None:
-        data["curve"] = curve
-    return lines, data
+    return iqm_summary(rows, [
+        (f"steps to the first hovering probe{' (never = budget)' if never else ''}",
+         [r["hover_at"][0] if r["hover_at"] else budget for r in rows], 0),
+        (f"final return ({rows[0]['history'][-1][0] if rows[0]['history'] else '-'} steps)",
+         [r["final"]["mean_return"] for r in rows], 2),
+        ("final mean distance [m]", [r["final"]["mean_distance"] for r in rows], 3),
+    ], reps, curve="mean_return", of="")
 
 
 def main() -> None:

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
+from pyflyt_cli.studies.report import iqm_summary
 from pyflyt_cli.training import compose_config, train
 from pyflyt_cli.training.envs import EnvFactory
 
@@ -243,26 +244,14 @@ def probe_model(run_dir: Path, which: str, episodes: int) -> dict:
 
 
 def rliable_summary(rows: list[dict], reps: int = 2000) -> list[str]:
-    """IQM over seeds, 95 % stratified-bootstrap CI, of the final probe's safe-landing fraction and
-    return, and of each run's best probe's safe-landing fraction."""
-    from pyflyt_cli.plotting import stats
-
-    def fmt(values: list[float], digits: int) -> str:
-        e = stats.iqm({"x": np.asarray(values, dtype=float)[:, None]}, reps=reps, seed=0)["x"]
-        return f"{float(e.value[0]):.{digits}f} [{float(e.low[0]):.{digits}f}, {float(e.high[0]):.{digits}f}]"
-
+    """:func:`iqm_summary` of the final probe's safe-landing fraction and return, and of each
+    run's best probe's safe-landing fraction."""
     final = [r["final"] for r in rows]
-    return [
-        "",
-        f"IQM over {len(rows)} seeds of the final probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
-        "",
-        "| measure | IQM [95 % CI] |",
-        "|---|---|",
-        f"| safe landings (fraction of {len(final[0]['flights'])} probe episodes) | "
-        f"{fmt([f['safe'] for f in final], 2)} |",
-        f"| probe return | {fmt([f['mean_return'] for f in final], 0)} |",
-        f"| safe landings at each run's best probe | {fmt([max(p['safe'] for p in r['history']) for r in rows], 2)} |",
-    ]
+    return iqm_summary(rows, [
+        (f"safe landings (fraction of {len(final[0]['flights'])} probe episodes)", [f["safe"] for f in final], 2),
+        ("probe return", [f["mean_return"] for f in final], 0),
+        ("safe landings at each run's best probe", [max(p["safe"] for p in r["history"]) for r in rows], 2),
+    ], reps, curve=None, of="of the final probe")[0]
 
 
 def table(rows: list[dict]) -> list[str]:

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from pyflyt_cli.studies.probes import PROBE_SEED, WaypointProbe, waypoint_probe
-from pyflyt_cli.studies.report import iqm_cell, plot_curve, probe_curve
+from pyflyt_cli.studies.report import iqm_summary, plot_curve
 from pyflyt_cli.studies.runs import SavedPolicy, checkpoint_policies, phase_split
 from pyflyt_cli.training import compose_config, train
 
@@ -158,25 +158,14 @@ def run(
 
 
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
-    """IQM over seeds with 95 % stratified-bootstrap CIs of the final probe's waypoint measures,
-    and of the mean-waypoints-reached curve when every seed was probed at the same steps."""
+    """:func:`iqm_summary` of the final probe's waypoint measures, and the mean-waypoints-reached curve."""
     final = [r["final"] for r in rows]
-    lines = [
-        "",
-        f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
-        "",
-        "| measure | IQM [95 % CI] |",
-        "|---|---|",
-        f"| mean waypoints reached (of 5) | {iqm_cell([f['mean_reached'] for f in final], 2, reps)} |",
-        f"| fraction reaching >= 1 waypoint | {iqm_cell([f['at_least'][0] for f in final], 2, reps)} |",
-        f"| fraction reaching all 5 | {iqm_cell([f['all'] for f in final], 2, reps)} |",
-        f"| probe return | {iqm_cell([f['mean_return'] for f in final], 1, reps)} |",
-    ]
-    data: dict = {"rows": rows}
-    curve = probe_curve(rows, "mean_reached", reps)
-    if curve is not None:
-        data["curve"] = curve
-    return lines, data
+    return iqm_summary(rows, [
+        ("mean waypoints reached (of 5)", [f["mean_reached"] for f in final], 2),
+        ("fraction reaching >= 1 waypoint", [f["at_least"][0] for f in final], 2),
+        ("fraction reaching all 5", [f["all"] for f in final], 2),
+        ("probe return", [f["mean_return"] for f in final], 1),
+    ], reps, curve="mean_reached")
 
 
 def table(rows: list[dict], target: float) -> list[str]:

@@ -178,23 +178,18 @@ class WaypointProbe(HoverProbe):
     def __init__(self, cfg, every: int, episodes: int, target: float) -> None:
         super().__init__(cfg, every, episodes, probe_fn=waypoint_probe)
         self.target = target
-        self.env_time = 0.0
         self.loads: list[float] = []
 
-    def _on_training_start(self) -> None:
-        super()._on_training_start()
-        venv = self.model.get_env()  # the outermost vector env: its step_wait steps every env
-        assert venv is not None, "a probe callback runs inside learn(), on the model's env"
-        inner = venv.step_wait
+    @property
+    def env_time(self) -> float:
+        """Seconds the run's envs took to step so far (the training loop's :class:`StepTimer`)."""
+        from stable_baselines3.common.vec_env import unwrap_vec_wrapper
 
-        def timed_step_wait():
-            t0 = time.perf_counter()
-            try:
-                return inner()
-            finally:
-                self.env_time += time.perf_counter() - t0
+        from pyflyt_cli.training.timing import StepTimer
 
-        setattr(venv, "step_wait", timed_step_wait)  # this run's env only: the probe times its stepping
+        model = getattr(self, "model", None)  # set when learn() starts
+        timer = unwrap_vec_wrapper(model.get_env(), StepTimer) if model is not None else None
+        return timer.seconds if isinstance(timer, StepTimer) else 0.0
 
     def probe(self) -> None:
         t0, c0 = time.perf_counter(), time.process_time()

@@ -75,21 +75,25 @@ def common_prefix(rows: list[dict]) -> list[dict]:
     return [{**r, "history": r["history"][:n]} for r in rows]
 
 
-def iqm_summary(rows: list[dict], measures: list[tuple[str, list[float], int]], reps: int = 2000) -> tuple[list[str], dict]:
+def iqm_summary(
+    rows: list[dict], measures: list[tuple[str, list[float], int]], reps: int = 2000, *,
+    curve: str | None = "success", of: str = "of the final policy's probe",
+) -> tuple[list[str], dict]:
     """IQM over seeds with 95 % stratified-bootstrap CIs of each measure ``(label, one value per
-    seed, decimals)``, and the probe ``success`` curve over the probe steps every seed reached."""
+    seed, decimals)`` (a table headed "IQM over N seeds ``of``"), and the probes' ``curve`` key
+    (None: no curve) over the probe steps every seed reached."""
     lines = [
         "",
-        f"IQM over {len(rows)} seeds of the final policy's probe, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
+        f"IQM over {len(rows)} seeds{' ' + of if of else ''}, 95 % stratified-bootstrap CI ({reps} replicates, rliable):",
         "",
         "| measure | IQM [95 % CI] |",
         "|---|---|",
         *(f"| {label} | {iqm_cell(values, digits, reps)} |" for label, values, digits in measures),
     ]
     data: dict = {"rows": rows}
-    curve = probe_curve(common_prefix(rows), "success", reps)
-    if curve is not None:
-        data["curve"] = curve
+    band = probe_curve(common_prefix(rows), curve, reps) if curve is not None else None
+    if band is not None:
+        data["curve"] = band
     return lines, data
 
 

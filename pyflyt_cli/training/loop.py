@@ -444,6 +444,7 @@ class _Run:
         from stable_baselines3.common.vec_env import VecNormalize
 
         from pyflyt_cli.training.envs import make_vec_env
+        from pyflyt_cli.training.timing import StepTimer
 
         cfg, opts = self.cfg, self.cfg.train
         torch.set_num_threads(opts.torch_threads)
@@ -451,6 +452,7 @@ class _Run:
         set_random_seed(cfg.seed)
         vec = make_vec_env(cfg.env, opts.n_envs, opts.vec_env, curriculum=bool(opts.curriculum))
         cleanup.push(_closing(vec.close, "the training environments"))
+        vec = StepTimer(vec)  # the envs' own share of the collection (studies read it; no effect on numbers)
         norm = cfg.algo.normalize
         if norm.enabled:
             from gymnasium import spaces

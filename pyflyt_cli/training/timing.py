@@ -4,6 +4,8 @@
   *collect* (the envs stepping and the policy choosing actions: from a rollout start to
   its end), *update* (gradient steps: from a rollout end to the next rollout start,
   less what evaluations and checkpoints took there) and *eval* / *checkpoint*.
+* :class:`StepTimer` — a vector-env wrapper around every run's training envs, adding up
+  the seconds their ``step`` takes (the envs alone, without the policy's part of *collect*).
 * :func:`measure_costs` — the cost of one collected step and of the updates per
   step, measured before a run starts on a throw-away copy of its model (same
   configuration, one env, random streams left untouched), from which
@@ -32,6 +34,7 @@ from typing import Any
 
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnvWrapper
 
 Clock = Callable[[], float]
 
@@ -112,6 +115,33 @@ class PhaseClock(BaseCallback):
                 spent = max(0.0, spent - self._others)
             out[self._phase] += spent
         return out
+
+
+class StepTimer(VecEnvWrapper):
+    """The training envs, unchanged, with the seconds their steps took: :attr:`seconds` adds up
+    ``step_wait`` (the envs stepping; with ``step_async``'s hand-over for subprocesses) on
+    ``clock``.  The loop puts it innermost (under ``VecNormalize``); find it with SB3's
+    ``unwrap_vec_wrapper(model.get_env(), StepTimer)``."""
+
+    def __init__(self, venv: Any, clock: Clock = time.perf_counter) -> None:
+        super().__init__(venv)
+        self.clock = clock
+        self.seconds = 0.0
+
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        started = self.clock()
+        self.venv.step_async(actions)
+        self.seconds += self.clock() - started
+
+    def step_wait(self) -> Any:
+        started = self.clock()
+        try:
+            return self.venv.step_wait()
+        finally:
+            self.seconds += self.clock() - started
 
 
 def describe_split(split: dict[str, float]) -> str:

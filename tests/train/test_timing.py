@@ -228,3 +228,32 @@ def test_evaluation_steps_of_an_off_policy_run_with_n_step_returns_are_those_it_
     assert planned == [52, 100, 152, 200] and _expected_end(cfg) == 200
     result = train(cfg)
     assert [e["step"] for e in read_metrics(result.run_dir)["/eval"]] == planned
+
+
+def test_the_step_timer_adds_up_the_envs_steps_and_changes_nothing():
+    import gymnasium
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize, unwrap_vec_wrapper
+
+    from pyflyt_cli.training.timing import StepTimer
+
+    class Ticking:  # one second per reading
+        now = 0.0
+
+        def __call__(self) -> float:
+            self.now += 1.0
+            return self.now
+
+    def envs():
+        vec = DummyVecEnv([lambda: gymnasium.make("CartPole-v1")] * 2)
+        vec.seed(3)
+        return vec
+
+    plain, timer = envs(), StepTimer(envs(), clock=Ticking())
+    wrapped = VecNormalize(timer)
+    assert unwrap_vec_wrapper(wrapped, StepTimer) is timer
+    assert np.array_equal(plain.reset(), timer.reset())
+    actions = np.array([1, 0])
+    for steps in range(1, 4):
+        for a, b in zip(plain.step(actions), timer.step(actions)):
+            assert np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+        assert timer.seconds == 2.0 * steps  # step_async and step_wait: one second each
