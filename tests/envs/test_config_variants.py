@@ -17,15 +17,14 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 from pyflyt_cli.training.envs import wrap_for_agent
 from pyflyt_engine.envs import ENVS, make_env
+from pyflyt_engine.loading import available
 from pyflyt_engine.paths import conf_dir
 from tests.conftest import default_subset
 
 ROOT = Path(__file__).resolve().parents[2]
 REGISTERED = {entry.config for entry in ENVS.values()}
 #: single-agent configs of conf/env that no registered id is built from
-VARIANTS = sorted(
-    p.stem for p in (conf_dir() / "env").glob("*.yaml") if p.stem not in REGISTERED and not p.stem.startswith("ma_")
-)
+VARIANTS = sorted(n for n in available("env") if n not in REGISTERED and not n.startswith("ma_"))
 
 
 def test_the_state_based_gates_config_is_a_variant():
@@ -90,7 +89,7 @@ DELTAS = {
     "rocket_landing_velocity": "rocket_landing",
     "rocket_landing_descent": "rocket_landing",
 }
-SHIPPED = sorted(p.stem for p in (conf_dir() / "env").glob("*.yaml"))
+SHIPPED = available("env")
 
 
 @pytest.mark.parametrize("name", SHIPPED)
