@@ -83,13 +83,13 @@ def _variants(env_id: str, registered: str) -> list[str]:
     ``pyflyt train env=<name>``."""
     from pyflyt_engine.envs import make_env
     from pyflyt_engine.envs.config import load_env_config
-    from pyflyt_engine.paths import conf_dir
+    from pyflyt_engine.loading import available
 
     out = []
-    for path in sorted((conf_dir() / "env").glob("*.yaml")):
-        if path.stem == registered:
+    for name in available("env"):  # the bases (conf/env/_*.yaml) are no envs
+        if name == registered:
             continue
-        cfg = load_env_config(path)
+        cfg = load_env_config(name)
         if cfg.id != env_id:
             continue
         with warnings.catch_warnings():
@@ -97,8 +97,8 @@ def _variants(env_id: str, registered: str) -> list[str]:
             env = make_env(cfg)
         try:
             out.append(
-                f"{path.stem}: {cfg.description}; observation {describe_space(env.observation_space)}, "
-                f"action mode {cfg.action.mode} (pyflyt train env={path.stem})"
+                f"{name}: {cfg.description}; observation {describe_space(env.observation_space)}, "
+                f"action mode {cfg.action.mode} (pyflyt train env={name})"
             )
         finally:
             env.close()

@@ -19,15 +19,17 @@ import yaml
 from omegaconf import DictConfig, OmegaConf
 
 from pyflyt_cli.errors import UsageError
-from pyflyt_engine.loading import names_file
+from pyflyt_engine.loading import base_named, is_base, names_file
 from pyflyt_engine.paths import conf_dir
 from pyflyt_engine.suggest import closest, did_you_mean
 
 
 def group_choices(group: str) -> list[str]:
-    """The shipped options of a config group (``conf/<group>/*.yaml``), by name."""
+    """The shipped options of a config group (``conf/<group>/*.yaml``), by name; its bases
+    (``conf/env/_base.yaml``: parts other options start from, :func:`~pyflyt_engine.loading.is_base`)
+    are no options."""
     path = conf_dir() / group
-    return sorted(p.stem for p in path.glob("*.yaml")) if path.is_dir() else []
+    return sorted(p.stem for p in path.glob("*.yaml") if not is_base(p.stem)) if path.is_dir() else []
 
 
 def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: bool = False) -> DictConfig:
@@ -71,13 +73,18 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
 
 
 def _checkgroup_choices(overrides: Sequence[str]) -> None:
-    """``algo=null``: a config group is left out with ``~group``, never set to null."""
+    """``algo=null``: a config group is left out with ``~group``, never set to null; ``env=_base``:
+    a base is a part the group's configs start from, never chosen itself (Hydra would compose it)."""
     for item in overrides:
         key, sep, value = item.partition("=")
         group = key.lstrip("+")
-        if sep and value.strip().lower() == "null" and (conf_dir() / group).is_dir():
+        if not sep or not (conf_dir() / group).is_dir():
+            continue
+        if value.strip().lower() == "null":
             choices = ", ".join(group_choices(group))
             raise UsageError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
+        if is_base(value.strip()) and (conf_dir() / group / f"{value.strip()}.yaml").is_file():
+            raise UsageError(f"'{item}': {base_named(value.strip(), group)}")
 
 
 def _check_no_interpolation(overrides: Sequence[str]) -> None:
@@ -244,6 +251,7 @@ def _missing_message(exc: Exception) -> str:
     options = getattr(exc, "options", None)
     missing = str(getattr(exc, "missing_cfg_file", None) or exc)
     group, _, choice = missing.rpartition("/")
+    options = [o for o in options or [] if not is_base(o)]  # Hydra lists the group's bases too
     if options:
         hint = did_you_mean(choice, options)
         file_hint = "; or give the path of a .yaml file" if group in FILE_GROUPS else ""

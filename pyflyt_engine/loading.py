@@ -189,9 +189,25 @@ def validate(
 # ------------------------------------------------------------------ the loader
 
 
+#: a shipped file whose name starts with this is a **base**: a part other configs of its group
+#: start from (``defaults: [_base, ...]``), not a config to pick (``conf/env/_base.yaml``)
+BASE_PREFIX = "_"
+
+
+def is_base(name: str) -> bool:
+    """Whether a shipped name is a base (:data:`BASE_PREFIX`): listed, loaded and chosen only as a
+    ``defaults`` entry of another config, never on its own."""
+    return name.startswith(BASE_PREFIX) and name != "_self_"
+
+
 def available(group: str) -> list[str]:
-    """Names of the shipped configs of a group (``conf/<group>/*.yaml``)."""
-    return sorted(p.stem for p in (conf_dir() / group).glob("*.yaml"))
+    """Names of the shipped configs of a group (``conf/<group>/*.yaml``), the bases left out."""
+    return sorted(p.stem for p in (conf_dir() / group).glob("*.yaml") if not is_base(p.stem))
+
+
+def bases(group: str) -> list[str]:
+    """Names of the shipped bases of a group (``conf/<group>/_*.yaml``): what its configs start from."""
+    return sorted(p.stem for p in (conf_dir() / group).glob(f"{BASE_PREFIX}*.yaml"))
 
 
 def names_file(value: str | Path) -> bool:
@@ -215,15 +231,18 @@ def resolve(
     error: type[PyFlytError] = ConfigError,
     unknown: Callable[[str | Path], str] | None = None,
     files: bool = True,
+    base: bool = False,
 ) -> Path:
     """The file ``value`` names: a shipped name of ``conf/<group>`` or, with ``files``, a YAML path.
 
     A shipped name comes first, so a file or directory of that name in the working
-    directory cannot shadow it; a name never leaves ``conf/<group>``.
+    directory cannot shadow it; a name never leaves ``conf/<group>``.  A base's name
+    (:func:`is_base`) is taken only with ``base`` (a ``defaults`` entry).
 
     Raises:
-        error: no such file (``<path>: no such <what> file; check the path``), or an
-            unknown name (``unknown(value)``, or a message listing the shipped names).
+        error: no such file (``<path>: no such <what> file; check the path``), an unknown
+            name (``unknown(value)``, or a message listing the shipped names), or a base
+            named as a config of its own.
     """
     if files and names_file(value):
         path = Path(value).expanduser()
@@ -232,11 +251,22 @@ def resolve(
         return path
     shipped = conf_dir() / group / f"{value}.yaml"
     if plain_name(str(value)) and shipped.is_file():
+        if is_base(str(value)) and not base:
+            raise error(base_named(str(value), group))
         return shipped
     if files and Path(value).is_file():
         return Path(value)
     message = unknown(value) if unknown is not None else unknown_name(value, available(group), what)
     raise error(message)
+
+
+def base_named(name: str, group: str) -> str:
+    """The message for a base (:func:`is_base`) named where a config of its own is wanted."""
+    return (
+        f"'{name}' is a base (conf/{group}/{name}.yaml): a part other {group} configs start from with "
+        f"'defaults: [{name}, _self_]', not a config to load on its own; pick one of: "
+        f"{', '.join(available(group))}"
+    )
 
 
 #: how many files deep a variant may build on variants (a -> b -> c ...)
@@ -257,11 +287,13 @@ def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: ty
         camera_observation: null
         task: {observation: corners}
 
-    The entries are names of ``conf/<group>`` and ``_self_`` (the file's own keys; last when
-    not listed, as in Hydra).  Later entries override earlier ones: mappings merge key by key,
-    anything else (a list, a number, ``null``) replaces.  Only names are taken -- a file names
-    no path and runs nothing -- and a chain is at most :data:`MAX_VARIANT_DEPTH` deep, with no
-    loop.
+    The entries are names of ``conf/<group>`` -- its configs and its bases (``_base``, ...:
+    :func:`is_base`, parts no one picks on their own) -- and ``_self_`` (the file's own keys;
+    last when not listed, as in Hydra).  Later entries override earlier ones: mappings merge
+    key by key, anything else (a list, a number, ``null``) replaces; a key cannot be removed,
+    so a base holds only keys every config starting from it gives.  Only names are taken -- a
+    file names no path and runs nothing -- and a chain is at most :data:`MAX_VARIANT_DEPTH`
+    deep, with no loop.
     """
     if "defaults" not in data:
         return dict(data)
@@ -279,12 +311,14 @@ def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: ty
         else:
             if not plain_name(entry):
                 raise error(f"{source}: defaults entry {entry!r} is not a name: a variant starts from shipped "
-                            f"{group} configs by name ({', '.join(available(group))})")
+                            f"{group} configs by name ({', '.join(bases(group) + available(group))})")
             if entry in _chain or len(_chain) >= MAX_VARIANT_DEPTH:
                 loop = " -> ".join((*_chain, entry))
                 raise error(f"{source}: defaults {loop}: a loop or a chain deeper than {MAX_VARIANT_DEPTH} files")
             try:
-                path = resolve(entry, group, what=f"{group} config", error=error, files=False)
+                path = resolve(entry, group, what=f"{group} config", error=error, files=False, base=True,
+                               unknown=lambda name: unknown_name(name, bases(group) + available(group), f"{group} config",
+                                                                 files=""))
             except PyFlytError as exc:
                 raise error(f"{source}: defaults entry {entry!r}: {exc}") from None
             part = with_defaults(load_yaml_file(path, what=f"{group} config file", error=error), group, str(path),
@@ -302,6 +336,17 @@ def _merged(base: Mapping[str, Any], top: Mapping[str, Any]) -> dict[str, Any]:
         else:
             out[key] = value
     return out
+
+
+def composed(value: str | Path, group: str, *, what: str, error: type[PyFlytError] = ConfigError) -> dict[str, Any]:
+    """The plain data of a shipped name of ``conf/<group>`` or a YAML file, its ``defaults`` list
+    resolved (:func:`with_defaults`): every key the config gives, none of a model's defaults --
+    what :func:`load` validates, e.g. to adjust a shipped config before loading it."""
+    path = resolve(value, group, what=what, error=error)
+    data = load_yaml_file(path, what=f"{what} file", error=error)
+    if not isinstance(data, Mapping):
+        raise error(f"{path}: a {group} config is a mapping of keys to values, got {type(data).__name__}")
+    return with_defaults(data, group, str(path), error=error)
 
 
 def load(
@@ -332,11 +377,16 @@ def load(
 
 
 __all__ = [
+    "BASE_PREFIX",
     "FIX_HINTS",
     "available",
+    "base_named",
+    "bases",
     "check",
+    "composed",
     "describe_error",
     "first_model",
+    "is_base",
     "load",
     "names_file",
     "problem_list",

@@ -117,6 +117,7 @@ def __getattr__(name: str) -> Any:
         "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
         "EnvConfig": "pyflyt_engine.envs.config",
         "RewardPreset": "pyflyt_engine.envs.config",
+        "env_config_data": "pyflyt_engine.envs.config",
         "load_env_config": "pyflyt_engine.envs.config",
         "load_reward_preset": "pyflyt_engine.envs.config",
     }
@@ -147,6 +148,7 @@ __all__ = [
     "RocketLandingEnv",
     "RocketLandingVelocityEnv",
     "UAVEnv",
+    "env_config_data",
     "load_env_config",
     "load_reward_preset",
     "make_env",

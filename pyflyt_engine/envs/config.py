@@ -41,7 +41,17 @@ from pyflyt_engine.envs.tasks import TaskOptions, get_task
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
-from pyflyt_engine.loading import available, check, load, problem_list, resolve, unknown_name, validate, with_defaults
+from pyflyt_engine.loading import (
+    available,
+    check,
+    composed,
+    load,
+    problem_list,
+    resolve,
+    unknown_name,
+    validate,
+    with_defaults,
+)
 from pyflyt_engine.safe_load import load_yaml_file
 from pyflyt_engine.spec import CameraSpec, RangeSensorSpec, SensorsSpec, check_finite
 from pyflyt_engine.suggest import did_you_mean
@@ -820,6 +830,13 @@ def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
 def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvConfig:
     """An :class:`EnvConfig` from a shipped name (``conf/env``), a YAML path or a mapping."""
     return load(config, group="env", model=EnvConfig, parse=lambda data, source, _name: parse_env_config(data, source), what="env", unknown=_unknown("env"))
+
+
+def env_config_data(config: str | Path) -> dict[str, Any]:
+    """A shipped env config (``conf/env`` name) or a YAML file as plain data, its ``defaults``
+    list resolved (the keys of its bases and its own): a mapping to adjust and hand to
+    :func:`load_env_config` or ``make_env``.  Not validated."""
+    return composed(config, "env", what="env", error=ConfigError)
 
 
 def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline") -> RewardPreset:

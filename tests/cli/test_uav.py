@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 from pyflyt_cli.airframes import thrust_to_weight
 from pyflyt_cli.airframes.schema import BEGIN_MARKER, embedded_schema, schema_markdown
 from pyflyt_cli.main import app
+from pyflyt_engine.envs.config import env_config_data
 from pyflyt_engine.spec import available_uavs, load_uav_spec, parse_uav_spec
 from tests.conftest import spec_dict
 
@@ -513,7 +514,7 @@ def test_show_env_bad_input_exits_2_with_one_message(tmp_path):
     result = invoke("show", "--env", "quadx_pole_balanc")
     assert result.exit_code == 2
     assert "unknown env config 'quadx_pole_balanc'. Did you mean 'quadx_pole_balance'?" in result.output
-    bad = yaml.safe_load((Path(__file__).resolve().parents[2] / "conf/env/quadx_pole_balance.yaml").read_text())
+    bad = env_config_data("quadx_pole_balance")  # the pole comes from its base, conf/env/_quadx_pole.yaml
     del bad["payloads"][0]["body"]["shapes"][0]["mass"]
     result = invoke("show", "--env", write_yaml(tmp_path / "no_mass.yaml", bad))
     assert result.exit_code == 2
@@ -525,7 +526,7 @@ def test_show_env_bad_input_exits_2_with_one_message(tmp_path):
 
 def test_show_env_png_draws_the_vehicle_payloads(tmp_path):
     magenta = (255, 0, 255)  # a colour nothing else in the picture has
-    env = yaml.safe_load((Path(__file__).resolve().parents[2] / "conf/env/quadx_pole_balance.yaml").read_text())
+    env = env_config_data("quadx_pole_balance")  # the pole comes from its base, conf/env/_quadx_pole.yaml
     env["payloads"][0]["body"]["shapes"][0].update(color=[1.0, 0.0, 1.0, 1.0], radius=0.02)
     env_file = write_yaml(tmp_path / "magenta_pole.yaml", env)
     pictures = {}

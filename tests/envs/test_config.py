@@ -9,16 +9,16 @@ import pytest
 import yaml
 
 from pyflyt_engine.envs import ENVS, make_env
-from pyflyt_engine.envs.config import available, load_env_config, load_reward_preset, parse_env_config
+from pyflyt_engine.envs.config import available, env_config_data, load_env_config, load_reward_preset, parse_env_config
 from pyflyt_engine.envs.env import UAVEnv
 from pyflyt_engine.envs.quadx import QuadXHoverEnv
 from pyflyt_engine.envs.rewards import CONDITIONS, TERMS
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.paths import conf_dir
 
 
 def _raw(name: str) -> dict:
-    return copy.deepcopy(yaml.safe_load((conf_dir() / "env" / f"{name}.yaml").read_text()))
+    """A shipped config's keys as plain data, its bases' included (``defaults`` resolved)."""
+    return copy.deepcopy(env_config_data(name))
 
 
 def _env_error(data: dict) -> str:

@@ -6,12 +6,11 @@ import copy
 
 import numpy as np
 import pytest
-import yaml
 
 from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs.config import env_config_data
 from pyflyt_engine.envs.env import UAVEnv
 from pyflyt_engine.envs.tasks import TASKS, Task, TaskSignals, register_task
-from pyflyt_engine.paths import conf_dir
 
 
 class TouchdownTask(Task):
@@ -46,7 +45,7 @@ def touchdown():
 
 
 def test_custom_task_and_term_through_the_generic_env(touchdown):
-    data = copy.deepcopy(yaml.safe_load((conf_dir() / "env" / "quadx_hover.yaml").read_text()))
+    data = copy.deepcopy(env_config_data("quadx_hover"))  # its bases' keys too: the task below replaces the whole section
     data["id"] = None
     data["task"] = {"name": "test_touchdown", "start_position": [0, 0, 0.3], "start_position_noise": 0.0}
     data["reward"] = {"terms": {

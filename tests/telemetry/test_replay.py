@@ -274,7 +274,7 @@ def test_never_writes_over_the_input(recorded, tmp_path):
 
 def test_verify_uses_the_recorded_airframe_when_its_file_changed_or_is_gone(tmp_path):
     """A user airframe with channels (whose order matters) is rebuilt from the recording."""
-    from pyflyt_engine.envs import UAVEnv
+    from pyflyt_engine.envs import UAVEnv, env_config_data
     from pyflyt_engine.paths import conf_dir
     from pyflyt_engine.telemetry import RecordEpisode
 
@@ -284,7 +284,7 @@ def test_verify_uses_the_recorded_airframe_when_its_file_changed_or_is_gone(tmp_
     spec["channels"] = dict(reversed(list(spec["channels"].items())))  # not in alphabetical order
     airframe.write_text(yaml.safe_dump(spec, sort_keys=False))
     channels = list(spec["channels"])
-    env_cfg = yaml.safe_load((conf_dir() / "env" / "quadx_hover.yaml").read_text())
+    env_cfg = env_config_data("quadx_hover")  # its bases' keys too: the action below replaces the whole section
     env_cfg.update(
         uav=str(airframe),
         action={

@@ -18,13 +18,14 @@ from pyflyt_cli.training.compose import compose_config
 from pyflyt_cli.training.rundir import create_run_dir
 from pyflyt_cli.training.schema import PPOConfig, SACConfig, parse_train_config
 from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.loading import available
 from pyflyt_engine.paths import conf_dir
 
 from tests.conftest import default_subset
 
 from .conftest import ROOT, pyflyt
 
-ENVS = sorted(p.stem for p in (conf_dir() / "env").glob("*.yaml"))
+ENVS = available("env")  # the bases (conf/env/_*.yaml) are no envs
 ALGOS = sorted(p.stem for p in (conf_dir() / "algo").glob("*.yaml"))
 EXPERIMENTS = sorted(p.stem for p in (conf_dir() / "experiment").glob("*.yaml"))
 #: every (env, algo) pair: in the default suite those with a per-pair tuning, every env with
