@@ -45,6 +45,11 @@ between the physics steps of an agent step.  An env config's ``latency`` (and a
 simulated as the PyBullet engine simulates it (:mod:`pyflyt_engine.batched.latency`): the
 action reaches the controller at its first tick at or after the delay, the observation shows
 the state of that many physics steps ago, the reward and episode ends the true state.
+Noisy sensors (``env.sensors`` or the airframe's ``sensors`` section) and the flight
+controller's estimator are the PyBullet engine's laws on rows
+(:mod:`pyflyt_engine.batched.sensors`), sampled at the start of every physics step and
+drawing from env ``i``'s own sensor stream in the engine's order; the observation shows
+the sensed or estimated state (and the fix's validity flag) as the PyBullet env does.
 The waypoint logic (sampling, the segment reach test, the
 observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
 waypoints task is.  Everything else a config can ask for that this backend does not

@@ -34,7 +34,7 @@ from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.spec import SensorsSpec
 
-from tests.batched.test_crosscheck import BOUND, _flat, quiet  # noqa: F401  (a fixture)
+from tests.batched.test_crosscheck import AUTOPILOT_ACTION, BOUND, _flat, quiet  # noqa: F401  (a fixture)
 
 PHYSICS_HZ = 240.0
 GRAVITY = 9.81
@@ -185,12 +185,26 @@ _SENSED = {
     "position": {"noise_std": [0.01, 0.01, 0.01], "rate_hz": 100.0, "dropout": 0.2},
     "barometer": SUITES["fast_imu_fix_baro"]["barometer"],
 }
+_ESTIMATED = {**_SENSED, "estimator": "complementary"}
 FLIGHTS = {
-    "estimated": ("quadx_hover_sensors", {}),
-    "estimated_quaternion": ("quadx_hover_sensors", {"angle_representation": "quaternion"}),
-    "sensed_baro": ("quadx_hover", {"sensors": _SENSED}),
-    "sensed_waypoints": ("quadx_waypoints", {"sensors": _SENSED}),
-    "estimated_latency": ("quadx_hover_sensors", {"latency": {"action_delay": 3 / 240, "observation_delay": 5 / 240}}),
+    "estimated": ("quadx_hover_sensors", "quadx_cf2x", {}),
+    "estimated_quaternion": ("quadx_hover_sensors", "quadx_cf2x", {"angle_representation": "quaternion"}),
+    "sensed_baro": ("quadx_hover", "quadx_cf2x", {"sensors": _SENSED}),
+    "sensed_waypoints": ("quadx_waypoints", "quadx_cf2x", {"sensors": _SENSED}),
+    "estimated_latency": (
+        "quadx_hover_sensors",
+        "quadx_cf2x",
+        {"latency": {"action_delay": 3 / 240, "observation_delay": 5 / 240}},
+    ),
+    # a cascade mode (the controller's tick, then a period of physics steps in mode motors)
+    "estimated_velocity_mode": ("quadx_waypoints_velocity", "quadx_cf2x", {"sensors": _ESTIMATED}),
+    # the fixed-wing on its channels and through its autopilot (the other compiled step)
+    "estimated_fixedwing": ("fixedwing_waypoints", "fixedwing", {"sensors": _ESTIMATED}),
+    "sensed_fixedwing_autopilot": (
+        "fixedwing_waypoints",
+        "fixedwing",
+        {"sensors": _SENSED, "action": AUTOPILOT_ACTION},
+    ),
 }
 
 
@@ -228,8 +242,8 @@ def test_observations_match_pybullet(flight, quiet):  # noqa: F811
     """Same start, actions and sensor stream: the batched observation has the PyBullet env's
     layout and space, equals it at the reset, and stays within the cross-check bound over
     2 s of random flight (readings bit for bit would need bit-equal true states)."""
-    env_name, overrides = FLIGHTS[flight]
-    pb, be, first = _sensor_pair(env_name, quiet["quadx_cf2x"], seed=5, **overrides)
+    env_name, uav, overrides = FLIGHTS[flight]
+    pb, be, first = _sensor_pair(env_name, quiet[uav], seed=5, **overrides)
     vehicle = pb.unwrapped.world.vehicles[0]
     suite = vehicle.sensors
     assert be.sensor_readings(0).keys() == suite.readings().keys()
@@ -242,9 +256,11 @@ def test_observations_match_pybullet(flight, quiet):  # noqa: F811
     assert np.max(np.abs(first - be._observe()[0])) < BOUND
     rng = np.random.default_rng(11)
     worst = noise = 0.0
-    hover = be.model.hover_thrust_fraction
     for step in range(60):
-        action = np.r_[rng.uniform(-0.5, 0.5, 3), hover * rng.uniform(0.97, 1.08)]
+        if be.config.action.mode == "rates_thrust":  # around hover
+            action = np.r_[rng.uniform(-0.5, 0.5, 3), be.model.hover_thrust_fraction * rng.uniform(0.97, 1.08)]
+        else:
+            action = rng.uniform(np.array(be.config.action.low), np.array(be.config.action.high))
         o1, r1, t1, tr1, _ = pb.step(action)
         o2, r2, t2, tr2, info = be.step(action[None])
         final = info["final_obs"][0] if t2[0] or tr2[0] else o2[0]
@@ -319,6 +335,12 @@ def test_refusals_and_errors():
     multi = load_env_config("ma_quadx_hover").with_overrides(sensors=_SENSED)
     with pytest.raises(UnsupportedByBatched, match="sensors"):
         check_supported(multi)
+    from pyflyt_engine.paths import uav_dir
+
+    airframe = str(uav_dir() / "examples" / "quadx_cf2x_sensors.yaml")
+    with pytest.raises(UnsupportedByBatched, match="noisy sensors .* in a multi-agent world"):
+        check_supported(load_env_config("ma_quadx_hover").with_overrides(uav=airframe))
+    BatchedUAVEnv(load_env_config("quadx_hover").with_overrides(uav=airframe))  # single-agent: simulated
     bad = load_env_config("quadx_hover").with_overrides(
         sensors={"observe": True, "imu": SUITES["fast_imu_fix_baro"]["imu"], "estimator": "complementary"}
     )
