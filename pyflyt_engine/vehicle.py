@@ -65,6 +65,7 @@ from pyflyt_engine.components.motor import MotorParams
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.range_sensor import RAY_SKIP_GROUP, RangeSensor
 from pyflyt_engine.components.sensors import SensorSuite
+from pyflyt_engine.components.sensors import check_rates as check_sensor_rates
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
 from pyflyt_engine.control.mixer import Mixer
@@ -707,15 +708,7 @@ class Vehicle:
         spec = self.spec.sensors
         if spec is None or self.sensors is not None:
             return
-        physics_hz = 1.0 / self.physics_dt
-        # an IMU faster than the physics keeps the last sample of each step (its bias walks
-        # over all of them); a position fix or altitude is one draw per sample: at most one a step
-        for where, part in (("position", spec.position), ("barometer", spec.barometer)):
-            if part is not None and part.rate_hz > physics_hz * (1.0 + 1e-12):
-                raise ConfigError(
-                    f"sensors.{where}.rate_hz: {part.rate_hz:g} Hz is faster than the physics ({physics_hz:g} Hz); "
-                    "give at most physics_hz"
-                )
+        check_sensor_rates(spec, 1.0 / self.physics_dt)
         self.sensors = suite = SensorSuite(spec, self.physics_dt, gravity, rng)
         self._choose_stages()
         state = self.state

@@ -16,8 +16,9 @@ and checkpoints work on it unchanged.
 
 Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched state of
 that env (its arrays' rows -- with latency its delays, the actions in flight and the states
-it will show among them, in turbulence its filter's state -- and its random streams, its
-turbulence's too; env 0 also the batch's motor-noise stream) as plain data, and
+it will show among them, in turbulence its filter's state, with noisy sensors their biases,
+held readings, sample counts and estimator -- and its random streams, its turbulence's and
+its sensors' too; env 0 also the batch's motor-noise stream) as plain data, and
 ``env_method("restore_episode", state)`` puts it back, so a resumed run continues bit for
 bit (the continuity module compares the observations).
 """
@@ -42,6 +43,7 @@ _STATE_ARRAYS = (
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
     "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
     "autopilot_integral", "vel_integral", "latency_steps", "action_history", "observed_history", "turbulence",
+    "sensor_state", "sensor_counts",
 )
 
 
@@ -153,6 +155,8 @@ class BatchedVecEnv(VecEnv):
             streams["noise"] = env.noise_rng.bit_generator.state
         if getattr(env, "turbulence_rngs", None):  # the turbulence's white noise (Dryden)
             streams["turbulence"] = env.turbulence_rngs[i].bit_generator.state
+        if getattr(env, "sensors", None) is not None:  # the noisy sensors' stream
+            streams["sensors"] = env.sensors.rngs[i].bit_generator.state
         shape = self.env.single_action_space.shape
         return {"seed": None, "options": None, "rng": streams, "batched": state,
                 "actions": np.zeros((0, *shape), dtype=np.float32)}
@@ -171,6 +175,8 @@ class BatchedVecEnv(VecEnv):
             env.noise_rng.bit_generator.state = state["rng"]["noise"]
         if getattr(env, "turbulence_rngs", None):
             env.turbulence_rngs[i].bit_generator.state = state["rng"]["turbulence"]
+        if getattr(env, "sensors", None) is not None:
+            env.sensors.rngs[i].bit_generator.state = state["rng"]["sensors"]
         return env._observe()[i].astype(np.float32)
 
 

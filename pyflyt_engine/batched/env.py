@@ -45,6 +45,11 @@ between the physics steps of an agent step.  An env config's ``latency`` (and a
 simulated as the PyBullet engine simulates it (:mod:`pyflyt_engine.batched.latency`): the
 action reaches the controller at its first tick at or after the delay, the observation shows
 the state of that many physics steps ago, the reward and episode ends the true state.
+Noisy sensors (``env.sensors`` or the airframe's ``sensors`` section) and the flight
+controller's estimator are the PyBullet engine's laws on rows
+(:mod:`pyflyt_engine.batched.sensors`), sampled at the start of every physics step and
+drawing from env ``i``'s own sensor stream in the engine's order; the observation shows
+the sensed or estimated state (and the fix's validity flag) as the PyBullet env does.
 The waypoint logic (sampling, the segment reach test, the
 observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
 waypoints task is.  Everything else a config can ask for that this backend does not
@@ -64,6 +69,7 @@ from pyflyt_engine import exact
 from pyflyt_engine.batched import air, kernels, modes, bookkeeping
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
+from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
@@ -261,7 +267,17 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.action_history = delays.get("action_history", np.zeros((n, 0)))
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
 
-        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size
+        from pyflyt_engine.envs.core import with_sensors
+
+        #: the noisy sensors and estimator (pyflyt_engine.batched.sensors; None without a
+        #: ``sensors`` section, the env config's or the airframe's)
+        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
+        self.sensors = BatchedSensors(flown, cfg.sensors, n, self.physics_dt, GRAVITY) if flown is not None else None
+        #: per env, the sensors' and estimator's state (empty rows without sensors)
+        self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))
+        self.sensor_counts = self.sensors.counts if self.sensors is not None else np.zeros((n, 0), dtype=np.int64)
+        self._fix_flag = self.sensors is not None and self.sensors.fix_flag
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + int(self._fix_flag)
         self._attitude_size = size
         if self._waypoints:
             size += CONTEXT_LENGTH * 4
@@ -284,6 +300,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: the env's other draws as they were); none without turbulence
         turbulent = self.dryden is not None
         self.turbulence_rngs = [np.random.default_rng(c.spawn(1)[0]) for c in children[1:]] if turbulent else []
+        if self.sensors is not None:  # per env, the sensors' stream (BatchedSensors.seed)
+            self.sensors.seed(children[1:])
         self._streams_of: list | None = None  # the env_rngs whose states _env_streams holds (_streams)
 
     # ------------------------------------------------------------------ reset
@@ -359,6 +377,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         )
         bookkeeping.read_rows(index, self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
                          self.lin_vel_body, self.quaternion)
+        if self.sensors is not None:  # time 0: new initial biases, the estimator at the spawn
+            self.sensors.reset(index, self.pos, self.vel, self.quaternion)
         if self.latency is not None:
             self.latency.restart(self, index)
         bookkeeping.distance_rows(index, self.pos, self._goals(), self._last_position, self._last_distance)
@@ -476,6 +496,28 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.physics_steps += self.per_agent
 
     def physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """:meth:`_physics` of ``count`` physics steps from offset ``start``; with noisy sensors
+        one step at a time, the sensors sampling the body at the start of each (as the PyBullet
+        engine's vehicle samples them before its loads), the contact sampled where the whole
+        span samples it (the end of each control period, and the span's end)."""
+        if self.sensors is None:
+            self._physics(setpoints, factors, start, count)
+            return
+        hit = np.zeros(self.num_envs, dtype=bool)
+        steps = self.physics_steps + start
+        for s in range(count):
+            self.sensors.sample(steps + s, self.pos, self.quat, self.vel, self.angvel)
+            self._physics(setpoints, np.ascontiguousarray(factors[:, s:s + 1]), start + s, 1)
+            if (start + s + 1) % self.per_control == 0 or s == count - 1:
+                hit |= self.contact
+        self.contact[:] = hit
+
+    def sensor_readings(self, i: int) -> dict[str, np.ndarray]:
+        """Env ``i``'s noisy sensors' latest readings by name (empty without sensors), as the
+        PyBullet engine's ``Vehicle.sensor_readings`` gives them."""
+        return self.sensors.readings(i) if self.sensors is not None else {}
+
+    def _physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
         """``count`` physics steps of every env from offset ``start`` into the agent step
         (a control tick where ``(start + s) % per_control == 0``), every tick in them flying
         ``setpoints``; ``factors`` (N, count, motors) their motor noise.  ``contact``: whether
@@ -607,11 +649,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         else:
             seen = {"pos": self.pos, "quaternion": self.quaternion, "ang_pos": self.ang_pos, "throttle": self.throttle,
                     "ang_vel_body": self.ang_vel_body, "lin_vel_body": self.lin_vel_body, "deflection": self.deflection}
+        if self.sensors is not None:  # the rates, position (and with an estimator attitude, velocity) sensed
+            seen = self.sensors.observed(seen)
         pos, quaternion = seen["pos"], seen["quaternion"]
         angles = quaternion if self._quaternion else seen["ang_pos"]
         parts = [seen["ang_vel_body"], angles, seen["lin_vel_body"], pos, self.actions, seen["throttle"]]
         if self.deflection.shape[1]:  # the surfaces' aux: deflection over its limit (Surfaces.aux)
             parts.append(seen["deflection"] / self.model.surface_scale)
+        if self._fix_flag:  # the position fix's validity, after the aux state
+            parts.append(self.sensor_state[:, S_VALID:S_VALID + 1])
         if self._waypoints:
             k = self.targets.shape[1]
             r = np.empty((n, 9))

@@ -238,7 +238,6 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
          bool(parts.channels) and not fixedwing),
         ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
         ("range sensors", bool(spec.range_sensors)),
-        ("noisy sensors (the airframe's sensors section)", getattr(spec, "sensors", None) is not None),
     ):
         if present:
             raise refuse(f"{what} (airframe {name})")

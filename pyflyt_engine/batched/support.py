@@ -29,7 +29,7 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         ("downwash", config.downwash),
         (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
          "action_delay and observation_delay)", bool(randomized)),
-        ("sensors", config.sensors is not None),
+        ("sensors (noisy sensors in a multi-agent world)", multi_agent and config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),
         ("range_sensors", bool(config.range_sensors)),

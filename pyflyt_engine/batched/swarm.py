@@ -439,6 +439,8 @@ def check_swarm_supported(config: Any) -> None:
                        ("randomize (domain randomisation)", bool(config.randomize))):
         if asked:
             raise refuse(f"env.{key} in a multi-agent world", f"leave env.{key.split()[0]} at its default")
+    if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
+        raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
 
 
 class BatchedSwarmEnv(gymnasium.vector.VectorEnv):

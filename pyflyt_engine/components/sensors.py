@@ -55,6 +55,20 @@ from pyflyt_engine.components.estimator import ComplementaryEstimator
 READING_SIZES = {"gyro": 3, "accel": 3, "position": 3, "position_valid": 1, "altitude": 1}
 
 
+def check_rates(spec: Any, physics_hz: float) -> None:
+    """Refuse a position fix or barometer faster than the physics: each sample is one draw,
+    so at most one a physics step (an IMU faster than the physics keeps the last sample of
+    each step, its bias walking over all of them)."""
+    from pyflyt_engine.errors import ConfigError
+
+    for where, part in (("position", spec.position), ("barometer", spec.barometer)):
+        if part is not None and part.rate_hz > physics_hz * (1.0 + 1e-12):
+            raise ConfigError(
+                f"sensors.{where}.rate_hz: {part.rate_hz:g} Hz is faster than the physics ({physics_hz:g} Hz); "
+                "give at most physics_hz"
+            )
+
+
 class InertialTriad:
     """A three-axis inertial sensor (gyroscope or accelerometer); see the module docstring."""
 

@@ -142,6 +142,7 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.downwash=true"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
     assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
+    assert load(["env=quadx_hover_sensors", "env.backend=auto"], tmp_path).env.backend == "batched"  # the estimator
     assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
                 tmp_path).env.backend == "pybullet"  # other domain randomisation
     with pytest.raises(ConfigError, match="does not simulate env.downwash"):
