@@ -29,7 +29,7 @@ autopilot) keeps the nominal values, as the PyBullet engine's does.  The values 
 :attr:`BatchedRandomizer.values` (one row per env, one column per entry in the section's
 order; the delays in seconds, as drawn), the env's ``info["randomization"]``.
 
-What this backend does not simulate stays refused, by name (:func:`unsupported`): the
+What this backend does not draw stays refused, by name (:func:`unsupported`): the
 optional models' factors (``motor_rotor_drag``, the battery's, the sensors'), and
 ``wind.<path>``: the batched wind field is one parameter array for the whole batch and the
 Dryden filter is built once per env config (its matrices depend on the turbulence's
@@ -68,7 +68,7 @@ def unsupported(entries: dict[str, Distribution] | None) -> tuple[str, str] | No
                 "once per config: no per-env wind"
             )
         if name not in BATCHED_PARAMETERS:
-            return name, "its model is not simulated by the batched backend"
+            return name, "the batched backend does not draw it per env"
     return None
 
 
