@@ -17,7 +17,8 @@ and checkpoints work on it unchanged.
 Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched state of
 that env (its arrays' rows -- with latency its delays, the actions in flight and the states
 it will show among them, in turbulence its filter's state, with noisy sensors their biases,
-held readings, sample counts and estimator -- and its random streams, its turbulence's and
+held readings, sample counts and estimator, with domain randomisation the episode's draws and
+the mass, inertia, motor and drag rows they set -- and its random streams, its turbulence's and
 its sensors' too; env 0 also the batch's motor-noise stream) as plain data, and
 ``env_method("restore_episode", state)`` puts it back, so a resumed run continues bit for
 bit (the continuity module compares the observations).
@@ -45,6 +46,12 @@ _STATE_ARRAYS = (
     "autopilot_integral", "vel_integral", "latency_steps", "action_history", "observed_history", "turbulence",
     "sensor_state", "sensor_counts",
 )
+
+
+def _state_arrays(env: Any) -> tuple[str, ...]:
+    """The arrays whose rows a checkpoint of ``env`` carries: the state, and with domain
+    randomisation the episode's draws and the parameter rows they changed (``randomized_arrays``)."""
+    return tuple(getattr(env, "state_arrays", _STATE_ARRAYS)) + tuple(getattr(env, "randomized_arrays", ()))
 
 
 class BatchedVecEnv(VecEnv):
@@ -149,7 +156,7 @@ class BatchedVecEnv(VecEnv):
     def episode_state(self, i: int) -> dict[str, Any]:
         """Env ``i``'s whole state as plain data (and no actions: nothing is re-simulated)."""
         env = self.env
-        state = {name: getattr(env, name)[i].tolist() for name in getattr(env, "state_arrays", _STATE_ARRAYS)}
+        state = {name: getattr(env, name)[i].tolist() for name in _state_arrays(env)}
         streams: dict[str, Any] = {"env": env.env_rngs[i].bit_generator.state}
         if i == 0:
             streams["noise"] = env.noise_rng.bit_generator.state
@@ -165,10 +172,10 @@ class BatchedVecEnv(VecEnv):
         """Put env ``i``'s state back (:meth:`episode_state`); returns its observation."""
         env = self.env
         saved = state["batched"]
-        for name in getattr(env, "state_arrays", _STATE_ARRAYS):
+        for name in _state_arrays(env):
             row = getattr(env, name)
-            if name not in saved and row[i].size == 0:  # a checkpoint from before the fixed-wing's arrays
-                continue
+            if name not in saved and (row[i].size == 0 or name == "randomized_values"):
+                continue  # a checkpoint from before the fixed-wing's arrays, or of delays drawn before the values were kept
             row[i] = np.asarray(saved[name], dtype=row.dtype).reshape(row[i].shape)
         env.env_rngs[i].bit_generator.state = state["rng"]["env"]
         if "noise" in state["rng"]:

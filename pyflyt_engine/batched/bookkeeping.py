@@ -54,12 +54,14 @@ def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, objec
 
 @njit(cache=True)
 def spawn_rows(index, states, next_double, start_position, position_noise, start_orientation, orientation_noise,
-               lin_vel, ang_vel, pos, quat, vel, angvel):
+               lin_vel, ang_vel, pos, quat, vel, angvel, offsets, shifted):
     """The spawn of every env in ``index`` (``Task.spawn`` and the env's use of it, module
     docstring): env ``i`` draws from the bit generator state at ``states[i]``, three numbers
     for its position when ``position_noise`` is not 0, then three for its attitude when
     ``orientation_noise`` is not 0; its ``pos``, ``quat``, ``vel`` and ``angvel`` rows are set
-    (``lin_vel``, ``ang_vel``: the body-frame velocities of the spawn)."""
+    (``lin_vel``, ``ang_vel``: the body-frame velocities of the spawn).  With ``shifted``,
+    row ``i`` of ``offsets`` (x, y, z, roll, pitch, yaw: the drawn ``spawn_*`` offsets) is
+    added to the spawn's position and Euler angles, as ``Randomizer.spawn`` adds them."""
     p_low, o_low = -position_noise, -orientation_noise
     p_range, o_range = position_noise - p_low, orientation_noise - o_low  # Generator.uniform's high - low
     e = np.empty(3)
@@ -70,9 +72,13 @@ def spawn_rows(index, states, next_double, start_position, position_noise, start
         for a in range(3):
             d = p_low + p_range * next_double(state) if position_noise != 0.0 else 0.0
             pos[i, a] = start_position[a] + d
+            if shifted:
+                pos[i, a] = pos[i, a] + offsets[i, a]
         for a in range(3):
             d = o_low + o_range * next_double(state) if orientation_noise != 0.0 else 0.0
             e[a] = start_orientation[a] + d
+            if shifted:
+                e[a] = e[a] + offsets[i, 3 + a]
         # frames.euler_to_quaternion
         cr, sr = math.cos(e[0] / 2), math.sin(e[0] / 2)
         cp, sp = math.cos(e[1] / 2), math.sin(e[1] / 2)

@@ -69,10 +69,12 @@ from pyflyt_engine import exact
 from pyflyt_engine.batched import air, kernels, modes, bookkeeping
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
+from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
+from pyflyt_engine.envs.randomization import SPAWN, Randomizer
 from pyflyt_engine.envs.rewards import compile_reward
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.envs.tasks.base import Task
@@ -175,9 +177,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._waypoints = cfg.task.name == "waypoints"
         self._cascade_rows: tuple | None = None  # a cascade mode's parameter rows and scratch (_advance_cascade)
 
-        # parameters, one row per env
+        # parameters, one row per env (own, writable copies: domain randomisation sets an env's rows)
         m = self.model
-        rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
+        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
         self._mass = rows(m.mass)
         self._inertia = rows(m.inertia)
         self._control_inertia = rows(m.control_inertia)
@@ -208,6 +210,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, the turbulence filter's state (Dryden; none without turbulence)
         self.turbulence = np.zeros((n, states))
         self._no_normals = np.zeros((n, self.per_agent, 0))
+        self._no_offsets = np.zeros((n, len(SPAWN)))  # the spawn offsets without randomisation (_spawn)
         self._normals = self._no_normals  # this agent step's (advance)
 
         # state
@@ -257,6 +260,17 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._last_position = np.zeros((n, 3))
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
+        #: the randomize section's draws per env and episode (None without; pyflyt_engine.batched.randomization)
+        self.randomizer = (BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n)
+                           if cfg.randomize else None)
+        #: per env, this episode's randomize draws (entries in the section's order; no columns without)
+        self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
+        #: the parameter rows a checkpoint carries besides the state: those the draws change
+        self.randomized_arrays: tuple[str, ...] = ("randomized_values",) if self.randomizer is not None else ()
+        if self.randomizer is not None:
+            r = self.randomizer
+            self.randomized_arrays += (("_mass", "_inertia") if r.body else ()) + (
+                ("_lag", "_columns", "_rotors") if r.motors else ()) + (("_drag_factors", "_damping") if r.drag else ())
         #: the action and observation delays (None without; pyflyt_engine.batched.latency)
         self.latency = (BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns)
                         if declares_latency(cfg) else None)
@@ -313,7 +327,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if seed is not None:
             self._seed_all(seed)
         self._reset_envs(np.arange(self.num_envs))
-        return self._observe(), {}
+        info: dict[str, Any] = {}
+        if self.randomizer is not None:  # per entry, each env's draw (the PyBullet env's info["randomization"])
+            info["randomization"] = self.randomizer.info()
+            info["_randomization"] = np.ones(self.num_envs, dtype=bool)
+        return self._observe(), info
 
     def set_task_changes(self, changes: dict[str, Any]) -> None:
         """The task option values of the episodes that start from now on ({}: as configured),
@@ -347,15 +365,20 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _reset_envs(self, index: np.ndarray) -> None:
         """Start an episode in the envs ``index``: their draws (each from its own generator,
-        in the order a PyBullet env draws them: the delays, the spawn, the targets), then
-        their state from the spawn, all rows at once (:mod:`pyflyt_engine.batched.bookkeeping`)."""
+        in the order a PyBullet env draws them: the randomize section, the spawn, the targets),
+        then their state from the spawn, all rows at once (:mod:`pyflyt_engine.batched.bookkeeping`)."""
         task = self._episode_task
         o = task.options
         if self._waypoints:
             self.reach[index] = float(o.goal_reach_distance)
-        if self.latency is not None:  # a randomised delay: drawn before the spawn, as the randomiser is
+        randomizer = self.randomizer
+        if randomizer is not None:  # drawn before the spawn, as the PyBullet engine's randomiser is
             for i in index.tolist():
-                self.latency.draw(i, self.env_rngs[i])
+                values = randomizer.draw(i, self.env_rngs[i])
+                if randomizer.airframe:
+                    randomizer.apply(self, i, values)
+                if self.latency is not None:
+                    self.latency.draw(i, values)
         self._spawn(task, index)
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             for i in index.tolist():
@@ -388,11 +411,16 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         (``task.spawn``) env by env where the task has one of its own, else the base law
         (:meth:`Task.spawn`) on all rows in one compiled call (:func:`bookkeeping.spawn_rows`)."""
         streams = self._streams()
+        offsets = self.randomizer.spawn_offsets if self.randomizer is not None else None
         if type(task).spawn is not Task.spawn or streams is None:
             for i in index.tolist():
                 spawn = task.spawn(self.env_rngs[i])
-                self.pos[i] = spawn.position
-                q = euler_to_quaternion(*spawn.orientation)
+                position, orientation = spawn.position, spawn.orientation
+                if offsets is not None:  # Randomizer.spawn: the drawn offsets added to the task's spawn
+                    values = dict(zip(SPAWN, offsets[i].tolist()))
+                    position, orientation = Randomizer.spawn(values, position, orientation)
+                self.pos[i] = position
+                q = euler_to_quaternion(*orientation)
                 self.quat[i] = q
                 r = np.empty(9)
                 kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
@@ -407,6 +435,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             index, states, next_double, np.asarray(o.start_position, dtype=np.float64), float(o.start_position_noise),
             np.asarray(o.start_orientation, dtype=np.float64), float(o.start_orientation_noise),
             np.asarray(o.start_lin_vel, dtype=np.float64), np.zeros(3), self.pos, self.quat, self.vel, self.angvel,
+            offsets if offsets is not None else self._no_offsets, offsets is not None,
         )
 
     def _goals(self) -> np.ndarray:
@@ -468,6 +497,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             info["episode"] = {"r": np.where(done, self.episode_return, 0.0), "l": np.where(done, self.episode_length, 0)}
             info["_episode"] = done
             self._reset_envs(index)
+            if self.randomizer is not None:  # the draws of the episodes that start now, masked as the reset ones
+                info["randomization"] = self.randomizer.info()
+                info["_randomization"] = done
             obs = self._observe()
         return obs, reward, terminated, truncated, info
 

@@ -32,9 +32,10 @@ PyBullet engine samples them (the end of each control period and of the agent st
 call that ends elsewhere samples once more at its end, and its sample is dropped (the
 splits put every such call inside one control period, where it has no other sample).
 
-Randomised delays are drawn per episode and per env from that env's own generator, in
-the ``randomize`` section's order, before its spawn (the PyBullet engine's randomiser
-also draws before the spawn), each rounded by :func:`~pyflyt_engine.envs.randomization.delay_steps`
+Randomised delays are drawn per episode and per env from that env's own generator, with
+the ``randomize`` section's other entries and in its order, before its spawn
+(:class:`~pyflyt_engine.batched.randomization.BatchedRandomizer`; the PyBullet engine's
+randomiser also draws before the spawn), each rounded by :func:`~pyflyt_engine.envs.randomization.delay_steps`
 (the rule of the fixed delays); a drawn delay replaces that delay of the fixed ``latency``
 for the episode, the other keeps its fixed value.
 """
@@ -101,12 +102,12 @@ class BatchedLatency:
 
     # ------------------------------------------------------------------ episodes
 
-    def draw(self, i: int, rng: np.random.Generator) -> None:
-        """Env ``i``'s delays for its next episode: the randomised ones drawn from ``rng``
-        (one call each, in the section's order), the others fixed."""
+    def draw(self, i: int, values: dict[str, float]) -> None:
+        """Env ``i``'s delays for its next episode: the randomised ones from this episode's
+        draws ``values`` [s] (:meth:`~pyflyt_engine.batched.randomization.BatchedRandomizer.draw`,
+        which draws every entry in the section's order), the others fixed."""
         if not self.draws:
             return
-        values = {name: dist.sample(rng) for name, dist in self.draws.items()}
         self.steps[i] = [
             delay_steps(values[name], self.physics_hz) if name in values else fixed
             for name, fixed in zip(DELAYS, self.fixed)

@@ -34,7 +34,7 @@ from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_pa
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
 from pyflyt_engine.components.lag import lag_coefficient
-from pyflyt_engine.components.motor import motor_wrench_matrix
+from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES
 from pyflyt_engine.control.mixer import Mixer
@@ -196,15 +196,11 @@ def _rotor_rows(spec: UAVSpec, motors, physics_dt: float) -> np.ndarray:
     as the PyBullet engine's ``Atmosphere.add_vehicle`` and ``Motors`` read them."""
     if motors is None:
         return np.zeros((0, 5))
-    from pyflyt_engine.components.motor import Motors
-    from pyflyt_engine.components.noise import NoiseSource
-
     hubs = np.asarray(motors.positions, dtype=np.float64).reshape(-1, 3)
     radii = np.zeros(len(hubs))
     if spec.motors is not None and spec.motors.prop_radius is not None:
         radii = np.array([r or 0.0 for r in spec.motors.to_array("prop_radius").tolist()], dtype=np.float64)
-    group = Motors(motors, physics_dt, NoiseSource(np.random.default_rng(0)))
-    return np.column_stack([hubs, radii, np.asarray(group._reaction_per_thrust, dtype=np.float64)])
+    return np.column_stack([hubs, radii, np.asarray(reaction_per_thrust(motors), dtype=np.float64)])
 
 
 def _mix_tables(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pyflyt_engine.batched.model import batched_model, mode_code, refuse
 from pyflyt_engine.envs.config import EnvConfig
-from pyflyt_engine.envs.randomization import DELAYS
+from pyflyt_engine.batched.randomization import BATCHED_PARAMETERS, unsupported
 from pyflyt_engine.spec import load_uav_spec
 
 #: tasks the batched backend runs
@@ -24,11 +24,13 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     from pyflyt_engine.atmosphere import load_wind_config
 
     load_wind_config(config.wind)  # every wind: mean, shear, gust, Dryden turbulence
-    randomized = [name for name in (config.randomize or {}) if name not in DELAYS]  # the delays it draws itself
+    refused = unsupported(config.randomize)  # domain randomisation: the entries it draws per env
+    if refused is not None:
+        name, why = refused
+        raise refuse(f"env.randomize.{name} (domain randomisation: {why})",
+                     f"it draws {', '.join(BATCHED_PARAMETERS)}")
     for key, present in (
         ("downwash", config.downwash),
-        (f"randomize.{randomized[0] if randomized else ''} (domain randomisation; it draws only "
-         "action_delay and observation_delay)", bool(randomized)),
         ("sensors (noisy sensors in a multi-agent world)", multi_agent and config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),

@@ -128,6 +128,14 @@ def motor_wrench_matrix(params: MotorParams) -> np.ndarray:
     return np.array(columns, dtype=np.float64).reshape(-1, 6).T.copy()
 
 
+def reaction_per_thrust(params: MotorParams) -> list[float]:
+    """Per motor, its reaction torque per newton of thrust, ``-spin k_T / k_F`` as
+    ``-spin max_torque / max_thrust`` (0 for a motor without thrust): what ground effect
+    leaves unscaled (:meth:`Motors._scaled_columns`)."""
+    reaction = (-(params.spin * params.max_torque)).tolist()
+    return [r / t if t else 0.0 for r, t in zip(reaction, params.max_thrust.tolist())]
+
+
 def wrench_column(
     position: Sequence[float], axis: Sequence[float], max_thrust: float, reaction: float
 ) -> tuple[float, float, float, float, float, float]:
@@ -256,8 +264,7 @@ class Motors:
         self._positions = params.positions.tolist()
         self._max_thrust = params.max_thrust.tolist()
         self._reaction = (-(params.spin * params.max_torque)).tolist()
-        # reaction torque per newton of thrust (0 for a motor without thrust)
-        self._reaction_per_thrust = [r / t if t else 0.0 for r, t in zip(self._reaction, self._max_thrust)]
+        self._reaction_per_thrust = reaction_per_thrust(params)
 
     def turn(self, index: int, thrust_axis: Sequence[float]) -> None:
         """Point motor ``index``'s thrust along ``thrust_axis`` (a gimbal moved it)."""

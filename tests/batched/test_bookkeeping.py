@@ -14,26 +14,33 @@ import pytest
 from pyflyt_engine import exact
 from pyflyt_engine.batched import BatchedUAVEnv, kernels, bookkeeping
 from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.envs.randomization import SPAWN, Randomizer
 from pyflyt_engine.envs.tasks import get_task
 from pyflyt_engine.frames import euler_to_quaternion
 
 
-def _python_spawn(task, rng):
-    """What the env did with a spawn before the compiled form: Task.spawn, the quaternion,
-    the velocities turned to the ground frame."""
+def _python_spawn(task, rng, offsets=None):
+    """What the env did with a spawn before the compiled form: Task.spawn (with ``offsets``,
+    the randomiser's spawn offsets added by ``Randomizer.spawn``), the quaternion, the
+    velocities turned to the ground frame."""
     spawn = task.spawn(rng)
-    q = euler_to_quaternion(*spawn.orientation)
+    position, orientation = spawn.position, spawn.orientation
+    if offsets is not None:
+        position, orientation = Randomizer.spawn(dict(zip(SPAWN, offsets.tolist())), position, orientation)
+    q = euler_to_quaternion(*orientation)
     r = np.empty(9)
     kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
     rot = r.reshape(3, 3).tolist()
-    return (np.array(spawn.position), np.array(q), np.array(exact.rotate(rot, [float(v) for v in spawn.lin_vel])),
+    return (np.array(position), np.array(q), np.array(exact.rotate(rot, [float(v) for v in spawn.lin_vel])),
             np.array(exact.rotate(rot, [float(v) for v in spawn.ang_vel])))
 
 
+@pytest.mark.parametrize("shifted", [False, True])
 @pytest.mark.parametrize("position_noise, orientation_noise", [(0.1, 0.1), (0.0, 0.7), (2.5, 0.0), (0.0, 0.0)])
-def test_spawn_rows_draw_and_place_as_task_spawn(position_noise, orientation_noise):
+def test_spawn_rows_draw_and_place_as_task_spawn(position_noise, orientation_noise, shifted):
     """Every row equals Task.spawn on the same generator (start pose, noise and a body-frame
-    start velocity drawn at random), and each generator is left where Task.spawn leaves it."""
+    start velocity drawn at random; ``shifted``: plus random spawn offsets per row, as the
+    randomiser adds them), and each generator is left where Task.spawn leaves it."""
     rng = np.random.default_rng(0)
     cfg = load_env_config("quadx_hover")
     options = cfg.task.model_copy(update={
@@ -51,12 +58,13 @@ def test_spawn_rows_draw_and_place_as_task_spawn(position_noise, orientation_noi
     pos, quat, vel, angvel = (np.full((n, 3), np.nan), np.full((n, 4), np.nan), np.full((n, 3), np.nan),
                               np.full((n, 3), np.nan))
     for _ in range(3):  # three episodes in a row: the streams move on as Task.spawn's do
+        offsets = rng.uniform(-0.5, 0.5, (n, 6))
         bookkeeping.spawn_rows(index, states, next_double, np.asarray(options.start_position, dtype=np.float64),
                           float(position_noise), np.asarray(options.start_orientation, dtype=np.float64),
                           float(orientation_noise), np.asarray(options.start_lin_vel, dtype=np.float64), np.zeros(3),
-                          pos, quat, vel, angvel)
+                          pos, quat, vel, angvel, offsets, shifted)
         for i in index:
-            expected = _python_spawn(task, theirs[i])
+            expected = _python_spawn(task, theirs[i], offsets[i] if shifted else None)
             for got, want in zip((pos[i], quat[i], vel[i], angvel[i]), expected):
                 assert got.tobytes() == want.tobytes()
     untouched = np.setdiff1d(np.arange(n), index)

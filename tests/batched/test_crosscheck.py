@@ -357,7 +357,8 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
     ("env_name", "overrides", "named"),
     [
         ("quadx_hover", {"downwash": True}, "downwash"),
-        ("quadx_hover", {"randomize": "moderate"}, "randomize"),
+        ("quadx_hover", {"randomize": {"battery_capacity": {"distribution": "uniform", "low": 0.9, "high": 1.1}}},
+         "randomize.battery_capacity"),
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
@@ -381,8 +382,22 @@ def test_what_it_cannot_simulate_is_refused_by_name(env_name, overrides, named):
         from tests.train.conftest import load
 
         with pytest.raises(ConfigError) as info:
-            load([f"env={env_name}", "env.backend=batched", *(f"env.{k}={v}" for k, v in overrides.items())], ".")
+            load([f"env={env_name}", "env.backend=batched", *_hydra(overrides)], ".")
         assert "env.backend=batched does not simulate" in str(info.value) and named in str(info.value)
+
+
+def _hydra(overrides: dict) -> list[str]:
+    """Env overrides as Hydra writes them (a ``randomize`` mapping entry by entry, each new key
+    with ``+``, as docs/batched.md gives them)."""
+    out = []
+    for key, value in overrides.items():
+        if isinstance(value, dict):
+            for name, entry in value.items():
+                fields = ", ".join(f"{k}: {v}" for k, v in entry.items())
+                out.append(f"+env.{key}.{name}={{{fields}}}")
+        else:
+            out.append(f"env.{key}={value}")
+    return out
 
 
 def test_the_shipped_batched_tasks_are_supported():

@@ -272,10 +272,12 @@ def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
     assert reset.all() and not np.array_equal(before, env.latency_steps)
 
 
-def test_other_randomised_parameters_are_refused_by_name():
-    for entries, named in (({"mass": {"distribution": "uniform", "low": 0.9, "high": 1.1}}, "randomize.mass"),
-                           ({**RANDOM_DELAYS, "drag": {"distribution": "uniform", "low": 0.9, "high": 1.1}},
-                            "randomize.drag")):
+def test_randomised_parameters_of_unsimulated_models_are_refused_by_name():
+    """Beside the delays, an entry of a model the batched backend lacks is refused by its name
+    (the airframe factors and spawn offsets it draws: tests/batched/test_randomization.py)."""
+    factor = {"distribution": "uniform", "low": 0.9, "high": 1.1}
+    for entries, named in (({"battery_capacity": factor}, "randomize.battery_capacity"),
+                           ({**RANDOM_DELAYS, "drag": factor, "gyro_scale": factor}, "randomize.gyro_scale")):
         cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries)
         with pytest.raises(ConfigError) as info:
             BatchedUAVEnv(cfg, num_envs=2)

@@ -144,7 +144,10 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
     assert load(["env=quadx_hover_sensors", "env.backend=auto"], tmp_path).env.backend == "batched"  # the estimator
     assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
-                tmp_path).env.backend == "pybullet"  # other domain randomisation
+                tmp_path).env.backend == "batched"  # airframe factors and spawn offsets, drawn per env
+    assert load(["env=quadx_hover", "env.randomize=sim2real"], tmp_path).env.backend == "batched"
+    assert load(["env=quadx_hover", "+env.randomize.battery_capacity={distribution: uniform, low: 0.9, high: 1.1}"],
+                tmp_path).env.backend == "pybullet"  # a model it does not simulate
     with pytest.raises(ConfigError, match="does not simulate env.downwash"):
         load(["env=quadx_hover", "env.backend=batched", "env.downwash=true"], tmp_path)
 

@@ -1,0 +1,154 @@
+"""Domain randomisation on the batched backend: per env and per episode, the PyBullet engine's draws.
+
+The PyBullet engine's randomiser (:class:`pyflyt_engine.envs.randomization.Randomizer`)
+draws every ``randomize`` entry at a reset, in the section's order, one call of the env's
+generator each (:meth:`~pyflyt_engine.envs.randomization.Distribution.sample`), before the
+spawn, and applies them to the vehicle.  :class:`BatchedRandomizer` does the same for each
+env of a :class:`~pyflyt_engine.batched.env.BatchedUAVEnv` from that env's own generator,
+so env ``i``'s episode draws what a PyBullet env drawing from that generator draws:
+
+* ``mass``, ``inertia``: the body's mass and inertia diagonal become the assembly's dry
+  mass and inertia diagonal times the factors, as ``Vehicle.set_mass_properties`` sets them
+  (the assembly's values, not the URDF's 9 significant digits the nominal body has; both
+  are set when either is drawn, as the randomiser sets them);
+* ``motor_kf``, ``motor_kt``, ``motor_tau``: the motors' parameters with those factors
+  (``dataclasses.replace`` of the nominal :class:`~pyflyt_engine.components.motor.MotorParams`),
+  and from them, by the engine's own functions, the env's rows of the motor lag
+  (``lag_coefficient``), the wrench columns (``motor_wrench_matrix``) and the reaction torque
+  per newton of thrust that ground effect leaves unscaled (``reaction_per_thrust``), as
+  ``Motors.set_params`` derives them;
+* ``drag``: the body-drag coefficients and the angular damping times the factor, the env's
+  rows of ``1/2 rho C_d A`` from :attr:`~pyflyt_engine.components.drag.DragParams.factors`;
+* ``spawn_x`` ... ``spawn_yaw``: offsets added to the task's spawn (position, then Euler
+  angles) before it is turned into the state, as ``Randomizer.spawn`` adds them (with any
+  ``randomize`` entry, undrawn offsets add 0, as there);
+* ``action_delay``, ``observation_delay``: handed to :class:`~pyflyt_engine.batched.latency.BatchedLatency`.
+
+The flight controller (the rate loop, the mixer, the cascade's outer loops, the fixed-wing
+autopilot) keeps the nominal values, as the PyBullet engine's does.  The values drawn are
+:attr:`BatchedRandomizer.values` (one row per env, one column per entry in the section's
+order; the delays in seconds, as drawn), the env's ``info["randomization"]``.
+
+What this backend does not draw stays refused, by name (:func:`unsupported`): the
+optional models' factors (``motor_rotor_drag``, the battery's, the sensors'), and
+``wind.<path>``: the batched wind field is one parameter array for the whole batch and the
+Dryden filter is built once per env config (its matrices depend on the turbulence's
+intensities and scale lengths), so a per-env wind needs per-env rows of both.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pyflyt_engine.assembly import assemble
+from pyflyt_engine.components.drag import DragParams
+from pyflyt_engine.components.lag import lag_coefficient
+from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
+from pyflyt_engine.envs.randomization import AIRFRAME, DELAYS, SPAWN, Distribution
+
+if TYPE_CHECKING:
+    from pyflyt_engine.batched.env import BatchedUAVEnv
+    from pyflyt_engine.spec import UAVSpec
+
+#: the ``randomize`` entries the batched backend draws and applies
+BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN
+MOTOR = ("motor_kf", "motor_kt", "motor_tau")
+
+
+def unsupported(entries: dict[str, Distribution] | None) -> tuple[str, str] | None:
+    """The first entry of a ``randomize`` section the batched backend does not draw, and why
+    (None: it draws them all)."""
+    for name in entries or {}:
+        if name.startswith("wind."):
+            return name, (
+                "the batched wind is one parameter array for the batch and its turbulence filter is built "
+                "once per config: no per-env wind"
+            )
+        if name not in BATCHED_PARAMETERS:
+            return name, "the batched backend does not draw it per env"
+    return None
+
+
+class BatchedRandomizer:
+    """The ``randomize`` draws of ``num_envs`` batched envs (module docstring).
+
+    Args:
+        entries: the config's ``randomize`` section (name -> :class:`Distribution`), every
+            name in :data:`BATCHED_PARAMETERS`.
+        spec: the airframe (its nominal mass, inertia, motors and drag).
+        physics_dt: the physics step [s] (the motors' lag).
+        num_envs: how many envs.
+
+    Attributes:
+        names: the entries, in the section's order.
+        values: (N, entries) this episode's draws per env (NaN before the first reset).
+        spawn_offsets: (N, 6) per env, the drawn ``spawn_*`` offsets (0 where not drawn).
+    """
+
+    def __init__(self, entries: dict[str, Distribution], spec: UAVSpec, physics_dt: float, num_envs: int) -> None:
+        self.entries = dict(entries)
+        self.names = tuple(self.entries)
+        n = int(num_envs)
+        self.values = np.full((n, len(self.names)), np.nan)
+        self.spawn_offsets = np.zeros((n, len(SPAWN)))
+        self.physics_dt = float(physics_dt)
+        parts = assemble(spec)
+        self._mass = float(parts.mass)
+        self._inertia = np.diag(np.asarray(parts.inertia, dtype=np.float64)).copy()
+        self._motors = parts.motors
+        self._drag = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
+        drawn = set(self.names)
+        self.body = bool(drawn & {"mass", "inertia"})
+        self.motors = bool(drawn & set(MOTOR)) and self._motors is not None
+        self.drag = "drag" in drawn
+
+    @property
+    def airframe(self) -> bool:
+        """Whether any airframe factor is drawn (the env's parameter rows change per episode)."""
+        return self.body or self.motors or self.drag
+
+    def draw(self, i: int, rng: np.random.Generator) -> dict[str, float]:
+        """Env ``i``'s values for its next episode: every entry, in the section's order, one
+        call of ``rng`` each (``Distribution.sample``, as the PyBullet engine's randomiser)."""
+        values = {name: dist.sample(rng) for name, dist in self.entries.items()}
+        self.values[i] = [values[name] for name in self.names]
+        self.spawn_offsets[i] = [values.get(name, 0.0) for name in SPAWN]
+        return values
+
+    def apply(self, env: BatchedUAVEnv, i: int, values: dict[str, float]) -> None:
+        """Env ``i``'s parameter rows from its nominal values and ``values`` (the airframe
+        factors; the controller's rows are left nominal)."""
+        if self.body:  # Vehicle.set_mass_properties(mass * f, inertia * g)
+            env._mass[i] = self._mass * values.get("mass", 1.0)
+            env._inertia[i] = self._inertia * values.get("inertia", 1.0)
+        if self.motors:
+            m = self._motors
+            assert m is not None
+            params = dataclasses.replace(
+                m,
+                kf=m.kf * values.get("motor_kf", 1.0),
+                kt=m.kt * values.get("motor_kt", 1.0),
+                tau=m.tau * values.get("motor_tau", 1.0),
+            )
+            env._lag[i] = np.asarray(lag_coefficient(self.physics_dt, params.tau), dtype=np.float64).reshape(-1)
+            env._columns[i] = motor_wrench_matrix(params).T
+            env._rotors[i, :, 4] = reaction_per_thrust(params)
+        if self.drag:
+            d, f = self._drag, values["drag"]
+            d = dataclasses.replace(
+                d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
+            )
+            env._drag_factors[i] = d.factors
+            env._damping[i] = d.angular_damping
+
+    def info(self, index: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The values of every env's current episode by entry ((N,) each), as the PyBullet
+        env's ``info["randomization"]`` holds one episode's; ``index``: those envs' rows only."""
+        rows = self.values if index is None else self.values[index]
+        return {name: rows[:, k].copy() for k, name in enumerate(self.names)}
+
+
+__all__ = ["BATCHED_PARAMETERS", "BatchedRandomizer", "unsupported"]
