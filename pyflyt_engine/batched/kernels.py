@@ -8,6 +8,10 @@ holds together bit for bit on random inputs for every airframe:
 
 * motors (:meth:`pyflyt_engine.components.motor.Motors.step`): first-order lag, the
   multiplicative noise factor, the wrench columns times ``x |x|``;
+* the optional motor models and the battery (:meth:`pyflyt_engine.components.motor_models.ModelledMotors.step`:
+  asymmetric lag, axial inflow ``InflowRotor.ratios``, rotor drag, the rotors' speed on
+  the pack's voltage; :meth:`pyflyt_engine.components.battery.Battery.step` and
+  ``battery.supply``), in ``tests/batched/test_motor_models.py``;
 * body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
 * the body-rate loop (``MultirotorController._rate_loop``) and the mixer
   (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
@@ -318,6 +322,24 @@ def battery_step(state: np.ndarray, params: np.ndarray, table: np.ndarray, dt: f
 
 
 @njit(cache=True)
+def _body_air(r, v, w, bw0: float, bw1: float, bw2: float, windy: bool, tick: bool, sample):
+    """The body's velocity through the air as :func:`advance` gives it to body drag (6-tuple,
+    body frame): in the wind from the body-frame state on a control tick (``air_from_body``)
+    and from the ground-frame motion ``v``, ``w`` between ticks (``air_from_motion``); in
+    still air the body's own velocity, ``R^T v`` and the body rates ``bw``."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    v0, v1, v2 = v
+    if windy and not tick:
+        return _air.air_from_motion(r, v0, v1, v2, w[0], w[1], w[2], sample)
+    bv0 = r0 * v0 + r3 * v1 + r6 * v2
+    bv1 = r1 * v0 + r4 * v1 + r7 * v2
+    bv2 = r2 * v0 + r5 * v1 + r8 * v2
+    if windy:
+        return _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+    return bv0, bv1, bv2, bw0, bw1, bw2
+
+
+@njit(cache=True)
 def modelled_load(x_i, cmd_i, lag_i, factors, model, laws, battery, battery_params, battery_table, rotors,
                   ground_effect, z, r6, r7, r8, min_height, ratio, air, physics_dt):
     """The modelled motors' wrench of one physics step (:func:`modelled_motors_step`) at the
@@ -559,7 +581,6 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
     nm = throttle.shape[1]
     modelled = motor_laws != 0
     motor_air = (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0
-    airy = drag_on or motor_air
     ratio = np.empty(nm)
     rates = np.empty(3)
     torques = np.empty(3)
@@ -611,23 +632,10 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                     gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
                     _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
                 sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
-            a = calm
-            if airy:  # the body's velocity through the air (body drag, the modelled rotors)
-                v0, v1, v2 = v
-                if windy:
-                    if step % per_control == 0:
-                        bv0 = r0 * v0 + r3 * v1 + r6 * v2
-                        bv1 = r1 * v0 + r4 * v1 + r7 * v2
-                        bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                        a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
-                    else:
-                        a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
-                else:
-                    bv0 = r0 * v0 + r3 * v1 + r6 * v2
-                    bv1 = r1 * v0 + r4 * v1 + r7 * v2
-                    bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                    a = (bv0, bv1, bv2, bw0, bw1, bw2)
-            if modelled:
+            if modelled:  # ModelledMotors, at the body's velocity through the air as body drag takes it
+                a = calm
+                if motor_air:
+                    a = _body_air(r, v, w, bw0, bw1, bw2, windy, step % per_control == 0, sample)
                 load = modelled_load(x_i, cmd_i, lag_i, factors[i, s], motor_model[i], motor_laws, battery[i],
                                      battery_params, battery_table, rotors[i], ground_effect, p[2], r6, r7, r8,
                                      min_height, ratio, a, physics_dt)
@@ -637,7 +645,21 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
             else:
                 load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
             if drag_on:  # summed after the motors, as the PyBullet engine sums its groups
-                load = summed(load, drag_wrench(a[0], a[1], a[2], a[3], a[4], a[5], kx, ky, kz, c_i))
+                v0, v1, v2 = v
+                if windy:
+                    if step % per_control == 0:
+                        bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                        bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                        bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                        a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+                    else:
+                        a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
+                    load = summed(load, drag_wrench(a[0], a[1], a[2], a[3], a[4], a[5], kx, ky, kz, c_i))
+                else:
+                    bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                    bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                    bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                    load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
             p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity,
                                          physics_dt)
             if (step + 1) % per_control == 0 or s == count - 1:
