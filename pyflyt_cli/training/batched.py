@@ -44,7 +44,7 @@ _STATE_ARRAYS = (
     "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
     "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
     "autopilot_integral", "vel_integral", "latency_steps", "action_history", "observed_history", "turbulence",
-    "sensor_state", "sensor_counts",
+    "sensor_state", "sensor_counts", "battery",
 )
 
 

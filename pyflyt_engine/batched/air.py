@@ -272,6 +272,18 @@ def ground_effect_ratio(height: float, radius: float, min_height: float) -> floa
 
 
 @njit(cache=True)
+def ground_effect_ratios(z: float, r6: float, r7: float, r8: float, rotors: np.ndarray, min_height: float,
+                         out: np.ndarray) -> None:
+    """Per motor the ground-effect ratio at its hub height ``z + r6 px + r7 py + r8 pz`` into
+    ``out`` (n,) (1 without a radius; ``RotorInteractions.ground_effect_ratios``): the
+    ``thrust_ratio`` the modelled motors take (``ModelledMotors.step``), where the static
+    motors take :func:`ground_effect_columns`."""
+    for m in range(rotors.shape[0]):
+        px, py, pz, radius = rotors[m, 0], rotors[m, 1], rotors[m, 2], rotors[m, 3]
+        out[m] = ground_effect_ratio(z + r6 * px + r7 * py + r8 * pz, radius, min_height) if radius != 0.0 else 1.0
+
+
+@njit(cache=True)
 def ground_effect_columns(z: float, r6: float, r7: float, r8: float, rotors: np.ndarray, columns: np.ndarray,
                           min_height: float, out: np.ndarray) -> None:
     """The motor wrench columns in ground effect into ``out`` (n, 6): per motor the ratio

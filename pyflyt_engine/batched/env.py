@@ -15,7 +15,8 @@ What an agent sees is what the PyBullet engine's env shows through the training 
 rescaling, which the learning library adds for both backends): the attitude vector
 ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]`` (the PyBullet engine's
 :func:`~pyflyt_engine.envs.core.attitude_vector`; aux: the motor throttles, then for a
-fixed-wing each surface's flap deflection over its limit), and for waypoints the
+fixed-wing each surface's flap deflection over its limit; with a battery, last, its state
+of charge), and for waypoints the
 next ``context_length`` waypoints' body-frame deltas and their mask
 (:class:`~pyflyt_engine.envs.wrappers.FlattenWaypointEnv`'s layout).
 
@@ -195,6 +196,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._noise_ratio = m.noise_ratio
         self._surfaces = rows(m.surfaces)
         self._surface_lag = rows(m.surface_lag)
+        #: the optional motor models' rows (none for the static motors)
+        self._motor_model = rows(m.motor_model)
         from pyflyt_engine.atmosphere import load_wind_config
 
         #: the air (pyflyt_engine.batched.air): the wind field's parameters, and per env the
@@ -228,6 +231,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.flap_command = np.zeros((n, ns))
         #: per env, the fixed-wing autopilot's integrals (roll, pitch, yaw, airspeed; none on a multirotor)
         self.autopilot_integral = np.zeros((n, 4 if m.channel_driven else 0))
+        #: per env, the battery's state (charge, voltage [V], current [A], speed ratio:
+        #: ``kernels.BATTERY_STATE``; none without a battery), its reset's at every episode start
+        self.battery = np.zeros((n, m.battery_reset.size))
         self.integral = np.zeros((n, 3))
         #: per env, the velocity loop's integrals (x, y, z; only in a cascade mode)
         self.vel_integral = np.zeros((n, 3 if self._cascade is not None else 0))
@@ -272,7 +278,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.randomized_arrays += (("_mass", "_inertia") if r.body else ()) + (
                 ("_lag", "_columns", "_rotors") if r.motors else ()) + (("_drag_factors", "_damping") if r.drag else ())
         #: the action and observation delays (None without; pyflyt_engine.batched.latency)
-        self.latency = (BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns)
+        self.latency = (BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns,
+                                       m.has_battery)
                         if declares_latency(cfg) else None)
         delays = self.latency.state_arrays() if self.latency is not None else {}
         #: per env, this episode's (action, observation) delays [physics steps], its last actions
@@ -398,6 +405,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             (self.steps, self.physics_steps, self.episode_length, self.num_reached),
             (self.has_previous,),
         )
+        if self.battery.shape[1]:  # the pack back to its initial charge, no load (Battery.reset)
+            self.battery[index] = self.model.battery_reset
         bookkeeping.read_rows(index, self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
                          self.lin_vel_body, self.quaternion)
         if self.sensors is not None:  # time 0: new initial biases, the estimator at the spawn
@@ -571,7 +580,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, count,
                 self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
                 m.autopilot_index, self.control_dt, self._wind, steps, self._rotors, self.ground_effect,
-                air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden,
+                air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden, self._motor_model, m.motor_laws,
+                self.battery, m.battery, m.battery_table,
             )
             return
         if self._cascade is not None:
@@ -583,7 +593,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._columns, self._mixer_rows, self._max_collective, self._rate_gains, m.rate_derivative,
             self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
             self.physics_dt, self.control_dt, start, count, self.per_control, self._wind, steps, self._rotors,
-            self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden,
+            self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden, self._motor_model,
+            m.motor_laws, self.battery, m.battery, m.battery_table,
         )
 
     def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int,
@@ -625,6 +636,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self.contact, GRAVITY, self.physics_dt, self.control_dt, a % per_control, b - a, per_control,
                 self._wind, steps + (a - start), self._rotors, self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT,
                 self.turbulence, np.ascontiguousarray(normals[:, a - start:b - start]), self._dryden_arrays,
+                self._motor_model, m.motor_laws, self.battery, m.battery, m.battery_table,
             )
             contact |= self.contact  # each call samples its own period's contacts
             a = b
@@ -680,7 +692,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             seen = self.latency.observed(self)
         else:
             seen = {"pos": self.pos, "quaternion": self.quaternion, "ang_pos": self.ang_pos, "throttle": self.throttle,
-                    "ang_vel_body": self.ang_vel_body, "lin_vel_body": self.lin_vel_body, "deflection": self.deflection}
+                    "ang_vel_body": self.ang_vel_body, "lin_vel_body": self.lin_vel_body, "deflection": self.deflection,
+                    "battery": self.battery}
         if self.sensors is not None:  # the rates, position (and with an estimator attitude, velocity) sensed
             seen = self.sensors.observed(seen)
         pos, quaternion = seen["pos"], seen["quaternion"]
@@ -688,6 +701,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         parts = [seen["ang_vel_body"], angles, seen["lin_vel_body"], pos, self.actions, seen["throttle"]]
         if self.deflection.shape[1]:  # the surfaces' aux: deflection over its limit (Surfaces.aux)
             parts.append(seen["deflection"] / self.model.surface_scale)
+        if self.battery.shape[1]:  # the battery's gauge closes the aux: its state of charge (BatteryGauge.aux)
+            parts.append(seen["battery"][:, :1])
         if self._fix_flag:  # the position fix's validity, after the aux state
             parts.append(self.sensor_state[:, S_VALID:S_VALID + 1])
         if self._waypoints:

@@ -8,6 +8,10 @@ holds together bit for bit on random inputs for every airframe:
 
 * motors (:meth:`pyflyt_engine.components.motor.Motors.step`): first-order lag, the
   multiplicative noise factor, the wrench columns times ``x |x|``;
+* the optional motor models and the battery (:meth:`pyflyt_engine.components.motor_models.ModelledMotors.step`:
+  asymmetric lag, axial inflow ``InflowRotor.ratios``, rotor drag, the rotors' speed on
+  the pack's voltage; :meth:`pyflyt_engine.components.battery.Battery.step` and
+  ``battery.supply``), in ``tests/batched/test_motor_models.py``;
 * body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
 * the body-rate loop (``MultirotorController._rate_loop``) and the mixer
   (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
@@ -168,6 +172,192 @@ def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, fact
         tx += columns[m, 3] * f
         ty += columns[m, 4] * f
         tz += columns[m, 5] * f
+    return fx, fy, fz, tx, ty, tz
+
+
+# ------------------------------------------------- modelled motors and battery
+
+#: a modelled motor's row (``BatchedModel.motor_model``), read out of the engine's
+#: ``ModelledMotors`` and its ``InflowRotor``: the spin-down lag, hub position, thrust
+#: axis, static thrust and reaction torque at full throttle, top speed [rad/s], reaction
+#: torque magnitude at full throttle, rotor drag coefficient (0: none), and the inflow
+#: model's radius, C_T0, lambda_h, s = sigma a / 4, theta_tip and C_Q / C_T0 in hover
+(M_LAG_FALL, M_PX, M_PY, M_PZ, M_AX, M_AY, M_AZ, M_THRUST, M_REACTION, M_OMEGA, M_TORQUE, M_ROTOR_DRAG,
+ M_RADIUS, M_CT0, M_LAMBDA_H, M_S, M_THETA, M_CQ_HOVER) = range(18)
+MOTOR_MODEL_FIELDS = 18
+#: bits of ``BatchedModel.motor_laws``: 0 flies the static motors (:func:`motors_step`), any
+#: other value :func:`modelled_motors_step` (``ModelledMotors``), with the laws its bits name
+LAW_MODELLED, LAW_ROTOR_DRAG, LAW_INFLOW, LAW_BATTERY = 1, 2, 4, 8
+#: the battery's state row (``BatchedUAVEnv.battery``): ``Battery.charge``, ``voltage``,
+#: ``current``, ``speed_ratio``; its parameter row (``BatchedModel.battery``): capacity [C],
+#: internal resistance [ohm], eta V_full^3 (``Battery._load_divisor``), avionics power [W], V_full [V]
+BATTERY_STATE = 4
+BATTERY_PARAMS = 5
+
+
+@njit(cache=True)
+def inflow_ratios(k: np.ndarray, climb: float, rotor_speed: float):
+    """(thrust ratio, torque ratio) of a rotor (row ``k``) at axial air speed ``climb`` [m/s]
+    and rotor speed ``rotor_speed`` [rad/s] (> 0): ``InflowRotor.ratios``."""
+    radius, ct0, lambda_h, s, theta, cq_hover = k[M_RADIUS], k[M_CT0], k[M_LAMBDA_H], k[M_S], k[M_THETA], k[M_CQ_HOVER]
+    lc = climb / (rotor_speed * radius)
+    floor = -0.5 * lambda_h
+    if lc < floor:
+        lc = floor
+    if lc >= theta:
+        brake = 1.0 - lambda_h / cq_hover
+        return 0.0, (brake if brake > 0.0 else 0.0)  # Python's max(0.0, brake)
+    b = 2.0 * lc + s
+    li = 0.25 * (math.sqrt(b * b + 8.0 * s * (theta - lc)) - b)
+    kt = s * (theta - lc - li) / ct0
+    if kt < 0.0:
+        kt = 0.0
+    kq = 1.0 + ((lc + li) * kt - lambda_h) / cq_hover
+    return kt, (kq if kq > 0.0 else 0.0)
+
+
+@njit(cache=True)
+def modelled_motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray,
+                         model: np.ndarray, laws: int, volt: float, ratio: np.ndarray, u: float, v: float, w: float,
+                         p: float, q: float, r: float):
+    """One physics step of a vehicle's modelled motors (``ModelledMotors.step``): the
+    asymmetric lag (``lag`` up, the row's spin-down lag down), the noise factor, each rotor
+    at speed ``|x| volt`` (``volt``: the battery's ``speed_ratio``, 1 without one) with its
+    inflow ratios and rotor drag at the hub's velocity through the air (body frame: the
+    body's ``(u, v, w)``, ``(p, q, r)``), its thrust times ``ratio`` (ground effect, 1
+    without); ``throttle`` updated.  ``model`` (n, :data:`MOTOR_MODEL_FIELDS`); ``laws`` the
+    bits of :data:`LAW_ROTOR_DRAG`, :data:`LAW_INFLOW`, :data:`LAW_BATTERY`.  Returns the
+    wrench (6 values) and the rotors' shaft power at full voltage [W] (0 without a battery)."""
+    drag = (laws & LAW_ROTOR_DRAG) != 0
+    inflow = (laws & LAW_INFLOW) != 0
+    battery = (laws & LAW_BATTERY) != 0
+    airy = drag or inflow
+    volt2 = volt * volt
+    fx = fy = fz = tx = ty = tz = 0.0
+    power = 0.0
+    for m in range(throttle.shape[0]):
+        k = model[m]
+        x = throttle[m]
+        c = command[m]
+        a = lag[m] if x * (c - x) >= 0.0 else k[M_LAG_FALL]  # speeding up (away from zero) or slowing down
+        x = (x + a * (c - x)) * factors[m]
+        throttle[m] = x
+        ax_, ay_, az_ = k[M_AX], k[M_AY], k[M_AZ]
+        px, py, pz = k[M_PX], k[M_PY], k[M_PZ]
+        speed = abs(x) * volt
+        kt = 1.0
+        kq = 1.0
+        if airy:  # the hub's velocity through the air: v + omega x p (body frame)
+            hx, hy, hz = u + q * pz - r * py, v + r * px - p * pz, w + p * py - q * px
+            axial = hx * ax_ + hy * ay_ + hz * az_
+            if inflow and speed > 0.0:
+                kt, kq = inflow_ratios(k, axial if x >= 0.0 else -axial, speed * k[M_OMEGA])
+            if drag:
+                kd = -k[M_ROTOR_DRAG] * speed
+                gx, gy, gz = kd * (hx - axial * ax_), kd * (hy - axial * ay_), kd * (hz - axial * az_)
+                fx, fy, fz = fx + gx, fy + gy, fz + gz
+                tx, ty, tz = tx + (py * gz - pz * gy), ty + (pz * gx - px * gz), tz + (px * gy - py * gx)
+        f = x * abs(x) * volt2
+        thrust = k[M_THRUST] * f * kt * ratio[m]
+        reaction = k[M_REACTION] * f * kq
+        gx, gy, gz = thrust * ax_, thrust * ay_, thrust * az_
+        fx, fy, fz = fx + gx, fy + gy, fz + gz
+        tx += (py * gz - pz * gy) + reaction * ax_
+        ty += (pz * gx - px * gz) + reaction * ay_
+        tz += (px * gy - py * gx) + reaction * az_
+        if battery:
+            power += k[M_TORQUE] * abs(x) * x * x * kq * k[M_OMEGA]
+    return fx, fy, fz, tx, ty, tz, power
+
+
+@njit(cache=True)
+def open_circuit_voltage(table: np.ndarray, charge: float) -> float:
+    """V_oc at state of charge ``charge``: ``battery.open_circuit_voltage`` on ``table`` (k, 2)."""
+    q0, v0 = table[0, 0], table[0, 1]
+    if charge <= q0:
+        return v0
+    for j in range(1, table.shape[0]):
+        q1, v1 = table[j, 0], table[j, 1]
+        if charge <= q1:
+            return v0 + (v1 - v0) * (charge - q0) / (q1 - q0)
+        q0, v0 = q1, v1
+    return v0
+
+
+@njit(cache=True)
+def battery_supply(ocv: float, resistance: float, cubic: float, constant: float):
+    """Terminal voltage and current of the pack under ``P(V) = cubic V^3 + constant``:
+    ``battery.supply`` (Newton's method from ``ocv``).  ``** 3.0``, not ``** 3``: numba
+    turns an integer power into multiplications, CPython's ``v**3`` calls ``pow``."""
+    if resistance <= 0.0:
+        return ocv, (cubic * ocv**3.0 + constant) / ocv
+    c = resistance * cubic
+    r0 = resistance * constant
+    v = ocv
+    for _ in range(60):
+        g = (c * v + 1.0) * v * v - ocv * v + r0
+        slope = (3.0 * c * v + 2.0) * v - ocv
+        if slope <= 0.0:  # past the minimum of g: no root
+            break
+        step = g / slope
+        v -= step
+        if step <= 1e-15 * v:
+            return v, (cubic * v**3.0 + constant) / v
+    v = (math.sqrt(4.0 + 12.0 * c * ocv) - 2.0) / (6.0 * c) if c > 0.0 else 0.5 * ocv
+    return v, (ocv - v) / resistance
+
+
+@njit(cache=True)
+def battery_step(state: np.ndarray, params: np.ndarray, table: np.ndarray, dt: float, full_power: float) -> None:
+    """One physics step of a pack (``Battery.step``) drawing ``full_power`` [W] at full
+    voltage: ``state`` (:data:`BATTERY_STATE`) updated from ``params`` (:data:`BATTERY_PARAMS`)
+    and the open-circuit ``table``."""
+    ocv = open_circuit_voltage(table, state[0])
+    v, current = battery_supply(ocv, params[1], full_power / params[2], params[3])
+    charge = state[0] - current * dt / params[0]
+    state[0] = charge if charge > 0.0 else 0.0
+    state[1] = v
+    state[2] = current
+    state[3] = v / params[4]
+
+
+@njit(cache=True)
+def _body_air(r, v, w, bw0: float, bw1: float, bw2: float, windy: bool, tick: bool, sample):
+    """The body's velocity through the air as :func:`advance` gives it to body drag (6-tuple,
+    body frame): in the wind from the body-frame state on a control tick (``air_from_body``)
+    and from the ground-frame motion ``v``, ``w`` between ticks (``air_from_motion``); in
+    still air the body's own velocity, ``R^T v`` and the body rates ``bw``."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    v0, v1, v2 = v
+    if windy and not tick:
+        return _air.air_from_motion(r, v0, v1, v2, w[0], w[1], w[2], sample)
+    bv0 = r0 * v0 + r3 * v1 + r6 * v2
+    bv1 = r1 * v0 + r4 * v1 + r7 * v2
+    bv2 = r2 * v0 + r5 * v1 + r8 * v2
+    if windy:
+        return _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+    return bv0, bv1, bv2, bw0, bw1, bw2
+
+
+@njit(cache=True)
+def modelled_load(x_i, cmd_i, lag_i, factors, model, laws, battery, battery_params, battery_table, rotors,
+                  ground_effect, z, r6, r7, r8, min_height, ratio, air, physics_dt):
+    """The modelled motors' wrench of one physics step (:func:`modelled_motors_step`) at the
+    body's velocity through the air ``air`` (6-tuple, body frame), ground effect's ratios
+    (``ratio`` (n,) scratch, set to 1 without ground effect), the pack ``battery`` (its
+    state row) stepped after them with their power, as ``ModelledMotors.step`` steps it."""
+    if ground_effect:
+        _air.ground_effect_ratios(z, r6, r7, r8, rotors, min_height, ratio)
+    else:
+        for m in range(ratio.shape[0]):
+            ratio[m] = 1.0
+    with_battery = (laws & LAW_BATTERY) != 0
+    volt = battery[3] if with_battery else 1.0
+    fx, fy, fz, tx, ty, tz, power = modelled_motors_step(
+        x_i, cmd_i, lag_i, factors, model, laws, volt, ratio, air[0], air[1], air[2], air[3], air[4], air[5]
+    )
+    if with_battery:
+        battery_step(battery, battery_params, battery_table, physics_dt, power)
     return fx, fy, fz, tx, ty, tz
 
 
@@ -354,7 +544,8 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
             factors, mode, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows, max_collective,
             rate_gains, derivative, drag_factors, damping, drag_on, corners, contact, gravity, physics_dt,
             control_dt, start, count, per_control, wind, episode_steps, rotors, ground_effect, min_height,
-            turbulence, turbulence_normals, dryden):
+            turbulence, turbulence_normals, dryden, motor_model, motor_laws, battery, battery_params,
+            battery_table):
     """Advance every vehicle ``count`` physics steps from physics step ``start`` (control
     ticks where ``(start + s) % per_control == 0``).
 
@@ -380,9 +571,17 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
     turbulence (``wind``'s, :func:`~pyflyt_engine.batched.air.dryden_output`) each env's filter
     state ``turbulence[i]`` moves on one step per physics step, driven by the standard normal
     draws ``turbulence_normals[i, s]``; ``dryden`` its filter (:class:`~pyflyt_engine.batched.air.Dryden`).
+
+    The modelled motors (``motor_laws`` not 0: :func:`modelled_load`, ``motor_model``
+    (N, n, :data:`MOTOR_MODEL_FIELDS`)) take the body's velocity through the air (as body
+    drag does) and drive from the pack ``battery[i]`` (its state, :data:`BATTERY_STATE`;
+    ``battery_params`` and ``battery_table`` its parameters and open-circuit table).
     """
     n = pos.shape[0]
     nm = throttle.shape[1]
+    modelled = motor_laws != 0
+    motor_air = (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0
+    ratio = np.empty(nm)
     rates = np.empty(3)
     torques = np.empty(3)
     out = np.empty(nm)
@@ -433,7 +632,14 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                     gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
                     _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
                 sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
-            if ground_effect:
+            if modelled:  # ModelledMotors, at the body's velocity through the air as body drag takes it
+                a = calm
+                if motor_air:
+                    a = _body_air(r, v, w, bw0, bw1, bw2, windy, step % per_control == 0, sample)
+                load = modelled_load(x_i, cmd_i, lag_i, factors[i, s], motor_model[i], motor_laws, battery[i],
+                                     battery_params, battery_table, rotors[i], ground_effect, p[2], r6, r7, r8,
+                                     min_height, ratio, a, physics_dt)
+            elif ground_effect:
                 _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
                 load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
             else:
@@ -657,7 +863,8 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
                      surface_lag, surface_index, surface_weight, drag_factors, damping, drag_on, corners, contact,
                      gravity, air_density, physics_dt, start, count, per_control, mode, autopilot_integral,
                      autopilot_gains, cruise_thrust, autopilot_index, control_dt, wind, episode_steps, rotors,
-                     ground_effect, min_height, turbulence, turbulence_normals, dryden):
+                     ground_effect, min_height, turbulence, turbulence_normals, dryden, motor_model, motor_laws,
+                     battery, battery_params, battery_table):
     """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
     ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
     :func:`advance` does a multirotor.
@@ -672,10 +879,14 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
     flaps move and the surfaces load the body at its velocity through the air, body drag
     at the same, and the rigid body integrates the sum.  ``contact``, the wind and ground
     effect (``wind``, ``episode_steps``, ``rotors``, ``ground_effect``, ``min_height``) and
-    the turbulence (``turbulence``, ``turbulence_normals``, ``dryden``) as in :func:`advance`.
+    the turbulence (``turbulence``, ``turbulence_normals``, ``dryden``) and the modelled motors
+    and battery (``motor_model``, ``motor_laws``, ``battery``, ``battery_params``,
+    ``battery_table``) as in :func:`advance`.
     """
     n = pos.shape[0]
     nc = channel_low.shape[0]
+    modelled = motor_laws != 0
+    ratio = np.empty(throttle.shape[1])
     channels = np.empty(nc)
     rm = np.empty(9)
     qr = np.empty(4)
@@ -735,7 +946,11 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
                 else:
                     a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
                 bv0, bv1, bv2, bw0, bw1, bw2 = a
-            if ground_effect:
+            if modelled:
+                load = modelled_load(x_i, cmd_i, lag_i, factors[i, s], motor_model[i], motor_laws, battery[i],
+                                     battery_params, battery_table, rotors[i], ground_effect, p[2], r6, r7, r8,
+                                     min_height, ratio, (bv0, bv1, bv2, bw0, bw1, bw2), physics_dt)
+            elif ground_effect:
                 _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
                 load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
             else:

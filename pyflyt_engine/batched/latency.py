@@ -15,7 +15,7 @@ two delays with the same semantics, each env with its own (the env's fixed
   the reset, zeros -- what ``Vehicle._deliver_setpoints`` delivers from its queue.  The
   ring keeps the last ``ceil(max n_a / P) + 1`` actions.
 * **Observation delay** ``n_o``: the observation after ``k`` physics steps shows the state
-  and the auxiliary state (motor throttles, flap deflections) at the start of physics
+  and the auxiliary state (motor throttles, flap deflections, the battery's charge) at the start of physics
   step ``k - n_o`` -- the spawn's while ``k < n_o`` -- as ``Vehicle.delayed_observation``
   does; the previous action in it is the agent's own, and the waypoint deltas are the
   current targets seen from the delayed pose (``WaypointsTask.observe`` on the delayed
@@ -67,16 +67,18 @@ class BatchedLatency:
         per_agent, per_control: physics steps per agent step and per control tick.
         action_size: values per action.
         motors, surfaces: the airframe's motors and lifting surfaces (the snapshot's aux).
+        battery: whether it has a battery (its state of charge closes the snapshot's aux).
 
     Attributes (one row per env; what checkpoints carry):
         steps: (N, 2) this episode's (action, observation) delays [physics steps].
         action_history: (N, La, A) the actions of the last La agent steps, by agent step mod La.
         observed_history: (N, Lo, S) per agent step mod Lo, the state shown from it
-            (position, quaternion, velocity, angular velocity, throttles, flap deflections).
+            (position, quaternion, velocity, angular velocity, throttles, flap deflections, the
+            battery's state of charge).
     """
 
     def __init__(self, config: EnvConfig, num_envs: int, per_agent: int, per_control: int, action_size: int,
-                 motors: int, surfaces: int) -> None:
+                 motors: int, surfaces: int, battery: bool = False) -> None:
         hz = config.physics_hz
         self.fixed = config.latency.steps(hz) if config.latency is not None else (0, 0)
         #: the randomised delays, in the randomize section's order (name -> Distribution)
@@ -92,7 +94,8 @@ class BatchedLatency:
         self.steps = np.tile(np.array(self.fixed, dtype=np.int64), (n, 1))
         self.action_history = np.zeros((n, -(-largest[0] // P) + 1, action_size))
         self.motors, self.surfaces = int(motors), int(surfaces)
-        size = 13 + self.motors + self.surfaces
+        self.battery = bool(battery)
+        size = 13 + self.motors + self.surfaces + int(self.battery)
         self.observed_history = np.zeros((n, max(-(-largest[1] // P), 1) if largest[1] else 0, size))
         #: whether any episode can have an observation delay
         self.observes = largest[1] > 0
@@ -147,8 +150,9 @@ class BatchedLatency:
 
     def observed(self, env: BatchedUAVEnv) -> dict[str, np.ndarray]:
         """What every env shows after its last step: the read-outs (``ang_vel_body``,
-        ``ang_pos``, ``lin_vel_body``, ``quaternion``), ``pos``, ``throttle`` and
-        ``deflection`` of the state ``n_o`` physics steps ago (now, for ``n_o = 0``)."""
+        ``ang_pos``, ``lin_vel_body``, ``quaternion``), ``pos``, ``throttle``, ``deflection``
+        and ``battery`` (its state of charge) of the state ``n_o`` physics steps ago (now, for
+        ``n_o = 0``)."""
         from pyflyt_engine.batched import kernels
 
         n = env.num_envs
@@ -167,7 +171,9 @@ class BatchedLatency:
                          out["quaternion"])
         out["pos"] = np.ascontiguousarray(pos)
         out["throttle"] = shown[:, 13:13 + nm]
-        out["deflection"] = shown[:, 13 + nm:]
+        ns = self.surfaces
+        out["deflection"] = shown[:, 13 + nm:13 + nm + ns]
+        out["battery"] = shown[:, 13 + nm + ns:]
         return out
 
     # ------------------------------------------------------------------ internals
@@ -176,7 +182,7 @@ class BatchedLatency:
         """The rows ``index`` of the state an observation shows, as one array (N, S)."""
         return np.concatenate(
             [env.pos[index], env.quat[index], env.vel[index], env.angvel[index], env.throttle[index],
-             env.deflection[index]], axis=1,
+             env.deflection[index], env.battery[index][:, :1]], axis=1,
         )
 
     def _record(self, env: BatchedUAVEnv, index: np.ndarray, t: np.ndarray) -> None:

@@ -8,7 +8,10 @@ compiled laws (:mod:`pyflyt_engine.batched.kernels`) read, copied out of the eng
 :class:`~pyflyt_engine.components.lifting_surface.LiftingSurfaceParams` (its
 ``constants``), the assembly's channel mixes and :class:`~pyflyt_engine.components.drag.DragParams`
 -- so the parameters are computed once, by the code the PyBullet engine uses, and cannot
-drift apart.
+drift apart.  The optional motor models and the battery likewise: each modelled motor's
+row out of the engine's :class:`~pyflyt_engine.components.motor_models.ModelledMotors` (and
+its :class:`~pyflyt_engine.components.motor_models.InflowRotor`), the pack's parameters and
+its state at a reset out of its :class:`~pyflyt_engine.components.battery.Battery`.
 
 Two kinds of airframe: a multirotor (every flight mode of its controller: ``rates_thrust``
 and ``motors`` in :mod:`~pyflyt_engine.batched.kernels`, the outer loops of the others in
@@ -18,8 +21,8 @@ driven through the channels, modes ``channels`` and ``attitude_airspeed``, the a
 What the batched backend cannot simulate is refused here by name
 (:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
 channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
-multirotor, the optional motor models and the battery, mesh or URDF collision geometry,
-and a multirotor mode on a fixed-wing (or a fixed-wing mode without a compiled form).
+multirotor, mesh or URDF collision geometry, and a multirotor mode on a fixed-wing (or a
+fixed-wing mode without a compiled form).
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ import numpy as np
 
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.atmosphere.field import vehicle_span
+from pyflyt_engine.batched.kernels import (
+    BATTERY_PARAMS, BATTERY_STATE, LAW_BATTERY, LAW_INFLOW, LAW_MODELLED, LAW_ROTOR_DRAG, MOTOR_MODEL_FIELDS,
+)
 from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_params
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
@@ -46,7 +52,7 @@ from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVS
 
 #: the component kinds (pyflyt_engine.components.kinds) the compiled laws simulate; any other
 #: kind an airframe declares is refused by its name
-SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag"})
+SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag", "battery"})
 #: how a refusal names a kind where its registered name says less
 KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motors)", "prop_guards": "propeller guards"}
 
@@ -108,6 +114,14 @@ class BatchedModel:
             its hub position (centre-of-mass frame), prop radius (0: none, no ground effect)
             and reaction torque per newton of thrust, as ``RotorInteractions`` and ``Motors`` hold them.
         span: [m] the span the rotary turbulence gusts take (``atmosphere.field.vehicle_span``).
+        motor_laws: 0 for the static motors, else the bits (``kernels.LAW_*``) of the optional
+            models the engine's ``ModelledMotors`` flies: always ``LAW_MODELLED``, and rotor
+            drag, inflow and the battery where declared; motor_model: (n, 18) per motor its
+            row (``kernels.MOTOR_MODEL_FIELDS``; zeros for the static motors).
+        battery: the pack's parameters (``kernels.BATTERY_PARAMS``: capacity [C], R [ohm],
+            eta V_full^3, avionics power [W], V_full [V]; empty without one);
+            battery_table: (k, 2) its open-circuit voltage table; battery_reset: its state
+            at a reset (``kernels.BATTERY_STATE``: charge, voltage, current, speed ratio).
     """
 
     name: str
@@ -142,6 +156,11 @@ class BatchedModel:
     cascade: CascadeParams | None = None
     rotors: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
     span: float = 0.05
+    motor_laws: int = 0
+    motor_model: np.ndarray = field(default_factory=lambda: np.zeros((0, MOTOR_MODEL_FIELDS)))
+    battery: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    battery_table: np.ndarray = field(default_factory=lambda: np.zeros((1, 2)))
+    battery_reset: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def motors(self) -> int:
@@ -152,9 +171,14 @@ class BatchedModel:
         return len(self.channel_low)
 
     @property
+    def has_battery(self) -> bool:
+        return self.battery.size > 0
+
+    @property
     def aux_size(self) -> int:
-        """The auxiliary state's size: motor throttles, then flap deflections over their limits."""
-        return self.motors + len(self.surfaces)
+        """The auxiliary state's size: motor throttles, then flap deflections over their limits,
+        then the battery's state of charge (``BatteryGauge.aux``)."""
+        return self.motors + len(self.surfaces) + int(self.has_battery)
 
     @property
     def hover_thrust_fraction(self) -> float:
@@ -203,6 +227,46 @@ def _rotor_rows(spec: UAVSpec, motors, physics_dt: float) -> np.ndarray:
     return np.column_stack([hubs, radii, np.asarray(reaction_per_thrust(motors), dtype=np.float64)])
 
 
+def _motor_laws(parts, physics_dt: float) -> dict:
+    """The optional motor models and the battery (``BatchedModel.motor_laws`` ... ``battery_reset``),
+    read out of the group the PyBullet engine builds for them (``motor_models.build_motors``:
+    ``ModelledMotors`` where the airframe declares a model or a battery) and of its pack."""
+    motors = parts.motors
+    if motors is None or not (motors.modelled or parts.battery is not None):
+        return {}
+    from pyflyt_engine.components.battery import Battery
+    from pyflyt_engine.components.motor_models import ModelledMotors
+    from pyflyt_engine.components.noise import NoiseSource
+
+    pack = Battery(parts.battery, physics_dt) if parts.battery is not None else None
+    group = ModelledMotors(motors, physics_dt, NoiseSource(np.random.default_rng(0)), battery=pack)
+    rows = np.zeros((motors.count, MOTOR_MODEL_FIELDS), dtype=np.float64)
+    for m in range(motors.count):
+        inflow = [0.0] * 6
+        if group._inflow is not None:
+            k = group._inflow[m]
+            inflow = [k.radius, k.ct0, k.lambda_h, k.s, k.theta_tip, k.cq_hover]
+        rows[m] = [
+            group.lag_fall[m], *group._positions[m], *group._axes[m], group._max_thrust[m], group._reaction[m],
+            group._omega_max[m], group._torque_max[m],
+            group._rotor_drag[m] if group._rotor_drag is not None else 0.0, *inflow,
+        ]
+    laws = LAW_MODELLED
+    laws |= LAW_ROTOR_DRAG if group._rotor_drag is not None else 0
+    laws |= LAW_INFLOW if group._inflow is not None else 0
+    out: dict = {"motor_laws": laws, "motor_model": rows}
+    if pack is not None:
+        out.update(
+            motor_laws=laws | LAW_BATTERY,
+            battery=np.array([pack._coulombs, pack._resistance, pack._load_divisor, pack._avionics, pack._full],
+                             dtype=np.float64),
+            battery_table=np.array(pack._table, dtype=np.float64).reshape(-1, 2),
+            battery_reset=np.array([pack.charge, pack.voltage, pack.current, pack.speed_ratio], dtype=np.float64),
+        )
+        assert out["battery"].size == BATTERY_PARAMS and out["battery_reset"].size == BATTERY_STATE
+    return out
+
+
 def _mix_tables(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A mix matrix's rows (``routing.mix_rows``) as padded (index, weight) arrays."""
     rows = mix_rows(matrix)
@@ -229,7 +293,6 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
-        ("the battery", parts.battery is not None),
         ("actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
          bool(parts.channels) and not fixedwing),
         ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
@@ -238,8 +301,6 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         if present:
             raise refuse(f"{what} (airframe {name})")
     motors = parts.motors
-    if motors is not None and motors.modelled:
-        raise refuse(f"the optional motor models (airframe {name}: tau_fall, rotor_drag or inflow)")
     # the simulated body is the URDF's: mass and the inertia's diagonal written with 9
     # significant digits (pyflyt_engine.urdf.generate_urdf drops the products of inertia);
     # the flight controller keeps the spec's values, as the PyBullet engine's does
@@ -257,6 +318,7 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         angular_damping=float(drag_params.angular_damping),
         drag=on,
         corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
+        **_motor_laws(parts, physics_dt),
     )
     if fixedwing:
         return _fixedwing_model(parts, spec.control, physics_dt, common)

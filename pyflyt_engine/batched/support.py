@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pyflyt_engine.batched.model import batched_model, mode_code, refuse
 from pyflyt_engine.envs.config import EnvConfig
-from pyflyt_engine.batched.randomization import BATCHED_PARAMETERS, unsupported
+from pyflyt_engine.batched.randomization import BATCHED_PARAMETERS, MOTOR, unsupported
 from pyflyt_engine.spec import load_uav_spec
 
 #: tasks the batched backend runs
@@ -48,6 +48,10 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
             "give control_hz a whole multiple of agent_hz that divides physics_hz",
         )
     model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    drawn_motors = [name for name in (config.randomize or {}) if name in MOTOR]
+    if model.motor_laws and drawn_motors:  # the draws set the static motors' rows, not the modelled ones'
+        raise refuse(f"env.randomize.{drawn_motors[0]} (domain randomisation of the optional motor models and "
+                     "the battery: not drawn per env)", "it draws it for airframes with the static motors")
     mode_code(config.action.mode, model)
 
 

@@ -431,7 +431,13 @@ def check_swarm_supported(config: Any) -> None:
     if mode not in SWARM_MODES:  # the single-agent backend flies the cascade modes too; this path does not
         raise refuse(f"flight mode {mode} in a multi-agent world", f"it flies {', '.join(SWARM_MODES)}")
     from pyflyt_engine.atmosphere import load_wind_config
+    from pyflyt_engine.batched.model import batched_model
+    from pyflyt_engine.spec import load_uav_spec
 
+    model = batched_model(load_uav_spec(uavs[0]), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    if model.motor_laws:  # the worlds' kernel steps the static motors alone
+        raise refuse(f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",
+                     "give the agents an airframe without tau_fall, rotor_drag, inflow or battery")
     wind = load_wind_config(config.wind)
     if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
         raise refuse("wind in a multi-agent world", "give env.wind=calm")

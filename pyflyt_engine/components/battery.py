@@ -121,6 +121,9 @@ class Battery:
         self._resistance = float(params.internal_resistance)
         self._efficiency = float(params.efficiency)
         self._avionics = float(params.avionics_power)
+        #: what the shaft power at full voltage is divided by to give the load's cubic
+        #: coefficient, eta V_full^3 (computed once: the batched backend reads it)
+        self._load_divisor = self._efficiency * self._full**3
 
     def reset(self) -> None:
         """Charge back to ``initial_charge``, no load."""
@@ -134,7 +137,7 @@ class Battery:
         at the throttles of this step and full voltage (speed ratio 1); it scales with
         ``(V / V_full)^3``.  Sets the voltage, current and charge (the module docstring)."""
         ocv = open_circuit_voltage(self._table, self.charge)
-        v, current = supply(ocv, self._resistance, full_power / (self._efficiency * self._full**3), self._avionics)
+        v, current = supply(ocv, self._resistance, full_power / self._load_divisor, self._avionics)
         charge = self.charge - current * self.physics_dt / self._coulombs
         self.charge = charge if charge > 0.0 else 0.0
         self.voltage = v

@@ -1,0 +1,48 @@
+"""Features of the batched backend together: what each adds keeps its place and its meaning
+when another is on (the aux state's order, the refusals between them)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyflyt_engine.batched import BatchedUAVEnv
+from pyflyt_engine.batched.model import UnsupportedByBatched
+from pyflyt_engine.envs.config import load_env_config
+from pyflyt_engine.envs.env import UAVEnv
+from pyflyt_engine.paths import uav_dir
+
+EXAMPLE = str(uav_dir() / "examples" / "quadx_cf2x_battery.yaml")
+
+
+def test_a_battery_under_noisy_sensors_keeps_the_pybullet_envs_observation_layout():
+    """The pack's charge closes the aux state and the position fix's flag follows it, in both
+    backends: at a reset the charge is the pack's initial one and the flag 0 or 1."""
+    cfg = load_env_config("quadx_hover_sensors").with_overrides(uav=EXAMPLE)
+    pb = UAVEnv(cfg)
+    try:
+        pb_obs, _ = pb.reset(seed=0)
+        charge0 = pb.vehicles[0].aux_values()[-1]
+    finally:
+        pb.close()
+    be = BatchedUAVEnv(cfg.with_overrides(backend="batched"), num_envs=2)
+    obs, _ = be.reset(seed=0)
+    assert obs.shape[1] == np.asarray(pb_obs).size
+    for row in (np.asarray(pb_obs, dtype=np.float64), obs[0], obs[1]):
+        assert row[-2] == pytest.approx(charge0, abs=1e-12) and 0.0 < charge0 <= 1.0
+        assert row[-1] in (0.0, 1.0)
+    for _ in range(20):  # the pack drains under load: its column, not the flag's, moves
+        obs = be.step(np.tile([0.0, 0.0, 0.0, 0.6], (2, 1)))[0]
+    assert np.all(obs[:, -2] < charge0) and np.all(np.isin(obs[:, -1], (0.0, 1.0)))
+
+
+@pytest.mark.parametrize("name", ["motor_kf", "motor_kt", "motor_tau"])
+def test_randomised_motor_factors_on_modelled_motors_are_refused_by_name(name):
+    """The draws set the static motors' rows; an airframe with the optional models or a pack
+    flies other rows, so such a draw is refused, naming it, rather than silently not applied."""
+    entry = {"distribution": "uniform", "low": 0.9, "high": 1.1}
+    cfg = load_env_config("quadx_hover").with_overrides(uav=EXAMPLE, randomize={name: entry}, backend="batched")
+    with pytest.raises(UnsupportedByBatched, match=f"env.randomize.{name} \\(domain randomisation of the optional"):
+        BatchedUAVEnv(cfg, num_envs=2)
+    plain = load_env_config("quadx_hover").with_overrides(randomize={name: entry}, backend="batched")
+    BatchedUAVEnv(plain, num_envs=2).reset(seed=0)  # the static motors draw it
