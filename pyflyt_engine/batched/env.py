@@ -180,7 +180,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
         # parameters, one row per env (own, writable copies: domain randomisation sets an env's rows)
         m = self.model
-        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
+        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
         self._mass = rows(m.mass)
         self._inertia = rows(m.inertia)
         self._control_inertia = rows(m.control_inertia)
