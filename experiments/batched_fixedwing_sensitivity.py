@@ -26,9 +26,13 @@ from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.paths import uav_dir
 
 
-AUTOPILOT_ACTION = {"mode": "attitude_airspeed", "names": ["roll", "pitch", "yaw_rate", "airspeed"],
-                    "units": ["rad", "rad", "rad/s", "m/s"],
-                    "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
+AUTOPILOT_ACTION = {
+    "mode": "attitude_airspeed",
+    "names": ["roll", "pitch", "yaw_rate", "airspeed"],
+    "units": ["rad", "rad", "rad/s", "m/s"],
+    "low": [-0.6, -0.3, -0.5, 10.0],
+    "high": [0.6, 0.3, 0.5, 20.0],
+}
 
 
 def amplification(uav: str, seeds: int, eps: float, autopilot: bool = False) -> float:

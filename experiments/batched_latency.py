@@ -32,8 +32,10 @@ from pyflyt_engine.paths import uav_dir
 from tests.batched.test_latency import DELAYS, FLIGHTS, fly_delayed_pair
 
 FIELDS = ("position", "observation", "reward")
-DRAWN = {"action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.02},
-         "observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.02}}
+DRAWN = {
+    "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.02},
+    "observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.02},
+}
 SPEED_CASES = {
     "none": {},
     "action 0.02 s": {"latency": {"action_delay": 0.02}},
@@ -63,7 +65,9 @@ def crosscheck(markdown: bool) -> None:
             for delays in DELAYS:
                 worst, flown = fly_delayed_pair(str(paths[uav]), flight, delays)
                 rows.append((flight, delays, flown, worst))
-    lines = [[flight, f"{a}, {o}", str(flown), *(f"{worst[f]:.1e}" for f in FIELDS)] for flight, (a, o), flown, worst in rows]
+    lines = [
+        [flight, f"{a}, {o}", str(flown), *(f"{worst[f]:.1e}" for f in FIELDS)] for flight, (a, o), flown, worst in rows
+    ]
     lines.append(["all", "-", "-", *(f"{max(r[3][f] for r in rows):.1e}" for f in FIELDS)])
     _table(["flight", "delays [physics steps]", "steps", *FIELDS], lines, markdown)
 
@@ -78,7 +82,9 @@ def speed(sizes: list[int], steps: int, markdown: bool) -> None:
             env.reset(seed=0)
             rng = np.random.default_rng(0)
             hover = env.model.hover_thrust_fraction
-            actions = np.concatenate([rng.uniform(-0.3, 0.3, (steps, n, 3)), hover * rng.uniform(0.97, 1.05, (steps, n, 1))], 2)
+            actions = np.concatenate(
+                [rng.uniform(-0.3, 0.3, (steps, n, 3)), hover * rng.uniform(0.97, 1.05, (steps, n, 1))], 2
+            )
             for a in actions[:20]:  # compiled and warm
                 env.step(a)
             start = time.process_time()

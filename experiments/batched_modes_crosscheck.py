@@ -42,7 +42,10 @@ def main() -> None:
                 rows.append((name, mode, flown, worst))
     sep = " | " if args.markdown else "  "
     header = ["airframe", "mode", "steps", *FIELDS]
-    lines = [header, *[[name, mode, str(flown), *(f"{worst[f]:.1e}" for f in FIELDS)] for name, mode, flown, worst in rows]]
+    lines = [
+        header,
+        *[[name, mode, str(flown), *(f"{worst[f]:.1e}" for f in FIELDS)] for name, mode, flown, worst in rows],
+    ]
     lines.append(["all", "-", "-", *(f"{max(r[3][f] for r in rows):.1e}" for f in FIELDS)])
     for k, line in enumerate(lines):
         print(("| " if args.markdown else "") + sep.join(line) + (" |" if args.markdown else ""))

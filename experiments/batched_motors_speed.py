@@ -65,7 +65,10 @@ CASES = (
 def _time(root: Path, env: str, uav: str, n: int, steps: int) -> float:
     code = CASE.format(env=env, uav=uav, n=n, steps=steps)
     out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=str(root),
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=str(root),
         env=dict(os.environ, PYTHONPATH=str(root)),
     )
     if out.returncode:

@@ -83,8 +83,10 @@ class Reference:
             "envs": {row["id"]: self.get("envs", row["id"]) for row in report["envs"]},
             "worlds": {str(row["n"]): self.get("worlds", row["n"]) for row in report["worlds"]},
             "camera": {"all": self.get("camera", "all")},
-            "swarm": {f"{row['env']} {row['agents']}": self.get("swarm", (row["env"], row["agents"]))
-                      for row in report.get("swarm", [])},  # fmt: skip
+            "swarm": {
+                f"{row['env']} {row['agents']}": self.get("swarm", (row["env"], row["agents"]))
+                for row in report.get("swarm", [])
+            },  # fmt: skip
             "errors": {f"{section} {key}": message for (section, key), message in self.errors.items()},
         }
 

@@ -78,7 +78,7 @@ WHY = {
 }
 
 # The reference side: runs in the reference's interpreter, reads the cases from stdin.
-REFERENCE_SCRIPT = r'''
+REFERENCE_SCRIPT = r"""
 import json, sys, time, warnings
 warnings.filterwarnings("ignore")
 import numpy as np
@@ -165,7 +165,7 @@ if job.get("aviary_speed"):
     env.disconnect()
 
 print("RESULT " + json.dumps(out))
-'''
+"""
 
 
 def actions_for(kind: str, steps: int, rng: np.random.Generator) -> list[list[float]]:
@@ -454,9 +454,17 @@ def main() -> None:
             f"{fmt(r['max_vel_diff'])} | {r['final_pos_ours']} / {r['final_pos_ref']} |"
         )
     if results:
-        lines += ["", "Episode ends (step, compat / reference): " + ", ".join(
-            f"{n} {r['ended'][0] or '-'} / {r['ended'][1] or '-'}" for n, r in results.items() if "ended" in r
-        ) + ".", "", "Why they differ:", ""]
+        lines += [
+            "",
+            "Episode ends (step, compat / reference): "
+            + ", ".join(
+                f"{n} {r['ended'][0] or '-'} / {r['ended'][1] or '-'}" for n, r in results.items() if "ended" in r
+            )
+            + ".",
+            "",
+            "Why they differ:",
+            "",
+        ]
         lines += [f"- **{name}**: {WHY[name]}" for name in results]
     lines += [
         "",

@@ -89,19 +89,34 @@ def theirs(rtol: float = 1e-10) -> Multirotor:
     other aerodynamic terms (body drag, axial k_z, translational lift, flapping) set to 0."""
     pos = PARAMS.positions.tolist()
     params = {
-        "mass": SPEC.body.mass, "Ixx": 1.4e-5, "Iyy": 1.4e-5, "Izz": 2.17e-5, "Ixy": 0.0, "Iyz": 0.0, "Ixz": 0.0,
+        "mass": SPEC.body.mass,
+        "Ixx": 1.4e-5,
+        "Iyy": 1.4e-5,
+        "Izz": 2.17e-5,
+        "Ixy": 0.0,
+        "Iyz": 0.0,
+        "Ixz": 0.0,
         "num_rotors": 4,
         "rotor_pos": {f"r{i + 1}": np.array(p) for i, p in enumerate(pos)},
         "rotor_directions": np.array(PARAMS.spin, dtype=float),
         "rI": np.zeros(3),
-        "c_Dx": 0.0, "c_Dy": 0.0, "c_Dz": 0.0,
+        "c_Dx": 0.0,
+        "c_Dy": 0.0,
+        "c_Dz": 0.0,
         "k_eta": float(PARAMS.kf[0]) / RPM_TO_RAD_S**2,
         "k_m": float(PARAMS.kt[0]) / RPM_TO_RAD_S**2,
         "k_d": C_H / OMEGA_MAX,
-        "k_z": 0.0, "k_h": 0.0, "k_flap": 0.0,
+        "k_z": 0.0,
+        "k_h": 0.0,
+        "k_flap": 0.0,
         "tau_m": TAU,
-        "rotor_speed_min": 0.0, "rotor_speed_max": OMEGA_MAX, "motor_noise_std": 0.0,
-        "k_w": 1.0, "k_v": 10.0, "kp_att": 300.0, "kd_att": 50.0,
+        "rotor_speed_min": 0.0,
+        "rotor_speed_max": OMEGA_MAX,
+        "motor_noise_std": 0.0,
+        "k_w": 1.0,
+        "k_v": 10.0,
+        "kp_att": 300.0,
+        "kd_att": 50.0,
     }
     kwargs = {"method": "RK45", "rtol": rtol, "atol": 1e-9} if rtol else None
     return Multirotor(params, control_abstraction="cmd_motor_speeds", aero=True, integrator_kwargs=kwargs)
@@ -114,8 +129,14 @@ def rotor_drag_rows() -> list[tuple]:
     quad = theirs()
     omega_h = HOVER_X * OMEGA_MAX
     rows = []
-    cases = [((0.5, 0.0, 0.0), (0.0, 0.0, 0.0)), ((2.0, 0.0, 0.0), (0.0, 0.0, 0.0)), ((5.0, -3.0, 0.0), (0.0, 0.0, 0.0)),
-             ((10.0, 0.0, 0.0), (0.0, 0.0, 0.0)), ((0.0, 0.0, 0.0), (0.0, 0.0, 5.0)), ((3.0, 1.0, 0.0), (0.0, 0.0, -2.0))]
+    cases = [
+        ((0.5, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ((2.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ((5.0, -3.0, 0.0), (0.0, 0.0, 0.0)),
+        ((10.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 5.0)),
+        ((3.0, 1.0, 0.0), (0.0, 0.0, -2.0)),
+    ]
     for v, w in cases:
         m = ours(None, HOVER_X, HOVER_X)
         m.set_air((v, w))
@@ -128,11 +149,19 @@ def rotor_drag_rows() -> list[tuple]:
 # ------------------------------------------------------------------ (2) motor step response
 
 
-def step_rows(start: float, cmd: float, tau_fall: float | None, steps: list[int], rtol: float | None = 1e-10) -> list[tuple]:
+def step_rows(
+    start: float, cmd: float, tau_fall: float | None, steps: list[int], rtol: float | None = 1e-10
+) -> list[tuple]:
     m = ours(tau_fall, start, cmd)
     quad = theirs(rtol)
-    state = {"x": np.zeros(3), "v": np.zeros(3), "q": np.array([0.0, 0.0, 0.0, 1.0]), "w": np.zeros(3),
-             "wind": np.zeros(3), "rotor_speeds": np.full(4, start * OMEGA_MAX)}
+    state = {
+        "x": np.zeros(3),
+        "v": np.zeros(3),
+        "q": np.array([0.0, 0.0, 0.0, 1.0]),
+        "w": np.zeros(3),
+        "wind": np.zeros(3),
+        "rotor_speeds": np.full(4, start * OMEGA_MAX),
+    }
     control = {"cmd_motor_speeds": np.full(4, cmd * OMEGA_MAX)}
     rows = []
     for k in range(1, max(steps) + 1):
@@ -161,8 +190,17 @@ def imu_rows(n_den: float, k_rw: float, rate: float, seconds: float, seeds: int)
     with the same numbers, RotorPy with the mapped numbers; mean and standard error over
     ``seeds`` independent series of each."""
     n = int(seconds * rate)
-    triad = InertialTriad(SimpleNamespace(noise_density=n_den, bias_random_walk=k_rw, bias=0.0,
-                                          bias_initial_std=0.0, scale=1.0, range=1e9, rate_hz=rate))
+    triad = InertialTriad(
+        SimpleNamespace(
+            noise_density=n_den,
+            bias_random_walk=k_rw,
+            bias=0.0,
+            bias_initial_std=0.0,
+            scale=1.0,
+            range=1e9,
+            rate_hz=rate,
+        )
+    )
     still = {"x": np.zeros(3), "v": np.zeros(3), "q": np.array([0.0, 0.0, 0.0, 1.0]), "w": np.zeros(3)}
     zero = {"vdot": np.zeros(3), "wdot": np.zeros(3)}
     out: dict[str, list] = {"ours": [], "rotorpy_same": [], "rotorpy_mapped": []}
@@ -174,7 +212,10 @@ def imu_rows(n_den: float, k_rw: float, rate: float, seconds: float, seeds: int)
             triad.sample((0.0, 0.0, 0.0), 1, rng)
             ys.append(triad.reading[0])
         out["ours"].append([adev(np.array(ys), rate, t) for t in (1.0, 10.0)])
-        for key, nd, rw in (("rotorpy_same", n_den, k_rw), ("rotorpy_mapped", math.sqrt(2.0) * n_den, k_rw / math.sqrt(2.0))):
+        for key, nd, rw in (
+            ("rotorpy_same", n_den, k_rw),
+            ("rotorpy_mapped", math.sqrt(2.0) * n_den, k_rw / math.sqrt(2.0)),
+        ):
             np.random.seed(2000 + seed)
             none = {"initial_bias": np.zeros(3), "noise_density": np.zeros(3), "random_walk": np.zeros(3)}
             gyro = {"initial_bias": np.zeros(3), "noise_density": np.full(3, nd), "random_walk": np.full(3, rw)}
@@ -200,10 +241,14 @@ def main() -> None:
 
     say("## (1) Rotor drag on a hovering quad (4 rotors summed, body frame)")
     say("")
-    say(f"Hover throttle {HOVER_X:.4f} (Omega = {HOVER_X * OMEGA_MAX:.1f} rad/s); c_H = {C_H:.4g} N/(m/s) at full speed,"
-        f" k_d = c_H / Omega_max = {C_H / OMEGA_MAX:.5g} N/(m/s)/(rad/s).")
+    say(
+        f"Hover throttle {HOVER_X:.4f} (Omega = {HOVER_X * OMEGA_MAX:.1f} rad/s); c_H = {C_H:.4g} N/(m/s) at full speed,"
+        f" k_d = c_H / Omega_max = {C_H / OMEGA_MAX:.5g} N/(m/s)/(rad/s)."
+    )
     say("")
-    say("| air velocity v [m/s] | body rate w [rad/s] | ours Fx, Fy [N], Mz [N m] | RotorPy Fx, Fy [N], Mz [N m] | max abs. diff |")
+    say(
+        "| air velocity v [m/s] | body rate w [rad/s] | ours Fx, Fy [N], Mz [N m] | RotorPy Fx, Fy [N], Mz [N m] | max abs. diff |"
+    )
     say("|---|---|---|---|---:|")
     worst = 0.0
     for v, w, a, b in rotor_drag_rows():
@@ -219,7 +264,13 @@ def main() -> None:
     cases = [
         ("spin-up 0 -> 0.8, tau = tau_m = 0.01 s", 0.0, 0.8, None, 1e-10),
         ("spin-down 0.8 -> 0.2, tau_fall = tau_m = 0.01 s", 0.8, 0.2, TAU, 1e-10),
-        ("spin-down 0.8 -> 0.2, ours tau_fall = 0.02 s (the example file), RotorPy tau_m = 0.01 s", 0.8, 0.2, float(PARAMS.tau_fall[0]), 1e-10),
+        (
+            "spin-down 0.8 -> 0.2, ours tau_fall = 0.02 s (the example file), RotorPy tau_m = 0.01 s",
+            0.8,
+            0.2,
+            float(PARAMS.tau_fall[0]),
+            1e-10,
+        ),
         ("spin-up 0 -> 0.8, RotorPy at its default RK45 tolerances", 0.0, 0.8, None, None),
     ]
     for title, start, cmd, tf, rtol in cases:
@@ -233,21 +284,29 @@ def main() -> None:
     say("## (3) IMU: Allan deviation of a stationary gyro axis")
     say("")
     rate, seconds, seeds = 100.0, 200.0, 3
-    say(f"{seeds} independent {seconds:.0f} s series at {rate:.0f} Hz per row, x axis, non-overlapping clusters;"
-        " mean +- standard error over the series. theory = sqrt(N^2/tau + K^2 tau/3).")
+    say(
+        f"{seeds} independent {seconds:.0f} s series at {rate:.0f} Hz per row, x axis, non-overlapping clusters;"
+        " mean +- standard error over the series. theory = sqrt(N^2/tau + K^2 tau/3)."
+    )
     say("")
-    say("| N, K | tau [s] | theory | ours | RotorPy, same numbers | RotorPy, mapped (sqrt(2) N, K/sqrt(2)) | ours vs mapped [std. errors] |")
+    say(
+        "| N, K | tau [s] | theory | ours | RotorPy, same numbers | RotorPy, mapped (sqrt(2) N, K/sqrt(2)) | ours vs mapped [std. errors] |"
+    )
     say("|---|---:|---:|---:|---:|---:|---:|")
     for n_den, k_rw, label in ((2.443e-4, 1.0e-4, "white-dominated at 1 s, walk-dominated at 10 s"),):
         r = imu_rows(n_den, k_rw, rate, seconds, seeds)
         for j, tau in enumerate((1.0, 10.0)):
             (om, os_), (sm, ss), (mm, ms) = r["ours"], r["rotorpy_same"], r["rotorpy_mapped"]
             z = (om[j] - mm[j]) / math.hypot(os_[j], ms[j])
-            say(f"| {label}: {n_den:g}, {k_rw:g} | {tau:g} | {r['theory'][j]:.4e} | {om[j]:.4e} +- {os_[j]:.1e}"
-                f" | {sm[j]:.4e} +- {ss[j]:.1e} | {mm[j]:.4e} +- {ms[j]:.1e} | {z:+.2f} |")
+            say(
+                f"| {label}: {n_den:g}, {k_rw:g} | {tau:g} | {r['theory'][j]:.4e} | {om[j]:.4e} +- {os_[j]:.1e}"
+                f" | {sm[j]:.4e} +- {ss[j]:.1e} | {mm[j]:.4e} +- {ms[j]:.1e} | {z:+.2f} |"
+            )
     say("")
     elapsed = time.time() - t0
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    commit = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+    ).stdout.strip()
     head = [
         "# Cross-check against RotorPy",
         "",

@@ -200,8 +200,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--skip-zoo", action="store_true")
     parser.add_argument("--keep", type=Path, help="keep the scratch directory here")
-    parser.add_argument("--only-sac", action="store_true",
-                        help="measure step 4 again (after the SAC tuning changed), keep the other figures as recorded")
+    parser.add_argument(
+        "--only-sac",
+        action="store_true",
+        help="measure step 4 again (after the SAC tuning changed), keep the other figures as recorded",
+    )
     args = parser.parse_args()
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     if args.only_sac:
@@ -278,7 +281,11 @@ def write_results(figures: dict) -> None:
         f"`{v['image']}`",
         "",
         f"## `{sac['command']}` (load {sac['load'][0]:.1f}"
-        + (f"; measured again on its own, {sac['date']}, on {sac['machine']}, after its tuning changed)" if "date" in sac else ")"),
+        + (
+            f"; measured again on its own, {sac['date']}, on {sac['machine']}, after its tuning changed)"
+            if "date" in sac
+            else ")"
+        ),
         "",
         f"- {sac['budget']}",
         f"- {sac['eta']}",
@@ -286,7 +293,9 @@ def write_results(figures: dict) -> None:
     ]
     if zoo_result:
         lines += ["## `pyflyt eval zoo:<name>`", ""]
-        lines += [f"- `{k}` ({z['wall_s']:.0f} s, success {z['success']} %): {z['line']}" for k, z in zoo_result.items()]
+        lines += [
+            f"- `{k}` ({z['wall_s']:.0f} s, success {z['success']} %): {z['line']}" for k, z in zoo_result.items()
+        ]
         lines.append("")
     (RESULTS / "doc_figures.md").write_text("\n".join(lines))
     print(f"wrote {RESULTS / 'doc_figures.md'} and doc_figures.json")

@@ -57,8 +57,15 @@ def compare(run_dir: Path, episodes: int, which: str) -> dict:
     bat = fly_episodes(predict, normalize, cfg.env, episodes, seed)  # what `pyflyt eval` adds for such a run
     t2 = time.process_time()
     env.close()
-    return {"run": str(path), "model": f"{model_path.name} ({which})", "seed": cfg.seed, "backend": cfg.env.backend,
-            "pybullet": pyb, "batched": bat, "cpu": (t1 - t0, t2 - t1)}
+    return {
+        "run": str(path),
+        "model": f"{model_path.name} ({which})",
+        "seed": cfg.seed,
+        "backend": cfg.env.backend,
+        "pybullet": pyb,
+        "batched": bat,
+        "cpu": (t1 - t0, t2 - t1),
+    }
 
 
 def main() -> None:
@@ -70,7 +77,9 @@ def main() -> None:
     args = parser.parse_args()
     rows = [compare(r, args.episodes, args.model) for r in args.runs]
     waypoints = "waypoints_reached" in rows[0]["pybullet"]
-    head = "| run seed | model | engine | success [%] | mean return |" + (" mean reached | all reached [%] |" if waypoints else "")
+    head = "| run seed | model | engine | success [%] | mean return |" + (
+        " mean reached | all reached [%] |" if waypoints else ""
+    )
     lines = [
         f"## Both engines, {args.episodes} deterministic episodes each ({time.strftime('%Y-%m-%d %H:%M')}, "
         f"{platform.machine()}, Python {platform.python_version()})",
@@ -83,7 +92,9 @@ def main() -> None:
     for r in rows:
         for engine in ("pybullet", "batched"):
             e = r[engine]
-            cells = f"| {r['seed']} | {r['model']} | {engine} | {100 * e['success_rate']:.0f} | {e['mean_return']:.1f} |"
+            cells = (
+                f"| {r['seed']} | {r['model']} | {engine} | {100 * e['success_rate']:.0f} | {e['mean_return']:.1f} |"
+            )
             if waypoints:
                 cells += f" {e['waypoints_reached']:.2f} | {100 * e['all_reached']:.0f} |"
             lines.append(cells)

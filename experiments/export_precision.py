@@ -32,19 +32,34 @@ from pyflyt_cli.export.policy import deployed_policy, flown_observations
 AGENTS = ("quadx_hover_ppo", "fixedwing_waypoints_sac")
 
 
-
 def c_actions(source: str, obs: np.ndarray, act_dim: int, folder: Path) -> np.ndarray:
     export_policy(source, "c", folder / "policy.c", force=True)
     (folder / "main.c").write_text(HOST_RUNNER)
     gcc = shutil.which("gcc") or "gcc"
-    subprocess.run([gcc, "-std=c99", "-Wall", "-Werror", "-O2", "-o", "run", "main.c", "policy.c", "-lm"], cwd=folder, check=True)
+    subprocess.run(
+        [gcc, "-std=c99", "-Wall", "-Werror", "-O2", "-o", "run", "main.c", "policy.c", "-lm"], cwd=folder, check=True
+    )
     (folder / "obs.bin").write_bytes(np.ascontiguousarray(obs, dtype="<f4").tobytes())
     subprocess.run([str(folder / "run"), "obs.bin", "act.bin"], cwd=folder, check=True)
     return np.frombuffer((folder / "act.bin").read_bytes(), dtype="<f4").reshape(-1, act_dim)
 
 
-ARM = ["-std=c99", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-Wall", "-Wextra",
-       "-Wdouble-promotion", "-Werror", "-O2", "-c", "policy.c", "-o", "policy.o"]
+ARM = [
+    "-std=c99",
+    "-mcpu=cortex-m4",
+    "-mthumb",
+    "-mfpu=fpv4-sp-d16",
+    "-mfloat-abi=hard",
+    "-Wall",
+    "-Wextra",
+    "-Wdouble-promotion",
+    "-Werror",
+    "-O2",
+    "-c",
+    "policy.c",
+    "-o",
+    "policy.o",
+]
 
 
 def cortex_m4(folder: Path) -> str | None:
@@ -55,7 +70,9 @@ def cortex_m4(folder: Path) -> str | None:
     subprocess.run([gcc, *ARM], cwd=folder, check=True)
     size = subprocess.run(["arm-none-eabi-size", "policy.o"], cwd=folder, check=True, capture_output=True, text=True)
     text = int(size.stdout.splitlines()[1].split()[0])
-    dump = subprocess.run(["arm-none-eabi-objdump", "-d", "policy.o"], cwd=folder, check=True, capture_output=True, text=True)
+    dump = subprocess.run(
+        ["arm-none-eabi-objdump", "-d", "policy.o"], cwd=folder, check=True, capture_output=True, text=True
+    )
     doubles = sum("__aeabi_d" in line for line in dump.stdout.splitlines())
     return f"{text / 1024:.1f} KiB flash, {doubles} double-precision calls"
 

@@ -153,7 +153,9 @@ def _golden_trajectories():
     """``tests/engine/test_golden_trajectories.py`` (its cases and their computation), loaded from its file."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("golden_trajectories", ROOT / "tests" / "engine" / "test_golden_trajectories.py")
+    spec = importlib.util.spec_from_file_location(
+        "golden_trajectories", ROOT / "tests" / "engine" / "test_golden_trajectories.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -162,9 +164,11 @@ def _golden_trajectories():
 def all_cases() -> list[str]:
     """Every case name, in table order."""
     cases = _golden_trajectories().cases
-    return [f"{kind}:{name}" for kind, name in cases()] + [f"env+:{n}" for n, _, _ in ENV_VARIANTS] + [
-        f"ma:{n}" for n, _, _ in MA_VARIANTS
-    ]
+    return (
+        [f"{kind}:{name}" for kind, name in cases()]
+        + [f"env+:{n}" for n, _, _ in ENV_VARIANTS]
+        + [f"ma:{n}" for n, _, _ in MA_VARIANTS]
+    )
 
 
 def compute_case(case: str) -> str:

@@ -41,6 +41,8 @@ from pyflyt_cli.studies.runs import run_seeds
 ENV = "quadx_gates_state"
 RESULTS = Path(__file__).resolve().parent / "results" / "learn_gates.md"
 TARGET = 0.5  # the target: >= 50 % of the episodes ...
+
+
 def table(rows: list[dict]) -> list[str]:
     lines = [
         "| seed | ended by | steps | training CPU [min] | wall-clock [min] | load min / mean / max | steps per CPU-s | "
@@ -63,20 +65,26 @@ def table(rows: list[dict]) -> list[str]:
 
 def summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     final = [r["final"] for r in rows]
-    return iqm_summary(rows, [
-        (f"fraction passing >= {GATES} gates", [f["success"] for f in final], 2),
-        (f"best probe's fraction passing >= {GATES} gates", [r["best_success"] for r in rows], 2),
-        ("mean gates passed (of 5)", [f["mean_reached"] for f in final], 2),
-        ("fraction passing all 5", [f["all"] for f in final], 2),
-        ("probe return", [f["mean_return"] for f in final], 1),
-    ], reps)
+    return iqm_summary(
+        rows,
+        [
+            (f"fraction passing >= {GATES} gates", [f["success"] for f in final], 2),
+            (f"best probe's fraction passing >= {GATES} gates", [r["best_success"] for r in rows], 2),
+            ("mean gates passed (of 5)", [f["mean_reached"] for f in final], 2),
+            ("fraction passing all 5", [f["all"] for f in final], 2),
+            ("probe return", [f["mean_return"] for f in final], 1),
+        ],
+        reps,
+    )
 
 
 def probes_text(rows: list[dict]) -> list[str]:
     lines = ["", "Probes per seed (steps: % passing >= 1..5 gates / endings):", ""]
     for r in rows:
         parts = [
-            f"{h[0] // 1000}k: " + "/".join(f"{100 * a:.0f}" for a in h[2]["at_least"]) + " "
+            f"{h[0] // 1000}k: "
+            + "/".join(f"{100 * a:.0f}" for a in h[2]["at_least"])
+            + " "
             + " ".join(f"{k} {v}" for k, v in h[2]["endings"].items())
             for h in r["history"]
         ]
@@ -87,7 +95,9 @@ def probes_text(rows: list[dict]) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cpu-minutes", type=float, default=60.0, help="training CPU-time budget per run [min] (0: none)")
+    parser.add_argument(
+        "--cpu-minutes", type=float, default=60.0, help="training CPU-time budget per run [min] (0: none)"
+    )
     parser.add_argument("--probe-every", type=int, default=250_000)
     parser.add_argument("--episodes", type=int, default=20, help="episodes per probe")
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
@@ -109,8 +119,12 @@ def main() -> None:
     if args.write and "curve" in data:
         png = RESULTS.with_suffix(".png")
         plot_curve(
-            data, png, f"QuadX-Gates from state, PPO, seeds {', '.join(str(r['seed']) for r in rows)}",
-            key="success", ylabel=f"fraction passing >= {GATES} gates, probe", legend="upper left",
+            data,
+            png,
+            f"QuadX-Gates from state, PPO, seeds {', '.join(str(r['seed']) for r in rows)}",
+            key="success",
+            ylabel=f"fraction passing >= {GATES} gates, probe",
+            legend="upper left",
         )
         lines.append(f"\nCurve: `{png.name}` (IQM and 95 % CI of the probe fraction; grey: each seed).")
     text = "\n".join(lines) + "\n"

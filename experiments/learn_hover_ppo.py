@@ -48,13 +48,25 @@ def rliable_summary(rows: list[dict], budget: int, reps: int = 2000) -> tuple[li
     counts as the budget, a lower bound), the final probe's return and mean distance, and the
     return curve over the probes."""
     never = sum(1 for r in rows if not r["hover_at"])
-    return iqm_summary(rows, [
-        (f"steps to the first hovering probe{' (never = budget)' if never else ''}",
-         [r["hover_at"][0] if r["hover_at"] else budget for r in rows], 0),
-        (f"final return ({rows[0]['history'][-1][0] if rows[0]['history'] else '-'} steps)",
-         [r["final"]["mean_return"] for r in rows], 2),
-        ("final mean distance [m]", [r["final"]["mean_distance"] for r in rows], 3),
-    ], reps, curve="mean_return", of="")
+    return iqm_summary(
+        rows,
+        [
+            (
+                f"steps to the first hovering probe{' (never = budget)' if never else ''}",
+                [r["hover_at"][0] if r["hover_at"] else budget for r in rows],
+                0,
+            ),
+            (
+                f"final return ({rows[0]['history'][-1][0] if rows[0]['history'] else '-'} steps)",
+                [r["final"]["mean_return"] for r in rows],
+                2,
+            ),
+            ("final mean distance [m]", [r["final"]["mean_distance"] for r in rows], 3),
+        ],
+        reps,
+        curve="mean_return",
+        of="",
+    )
 
 
 def main() -> None:

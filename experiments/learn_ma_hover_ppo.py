@@ -280,8 +280,11 @@ def main() -> None:
     if args.downwash:
         env_set.append("env.downwash=true")
     args.set = [*env_set, *args.set]
-    probe_changes = {k.split("=")[0].removeprefix("env.").removeprefix("task."): yaml_value(k.split("=", 1)[1])
-                     for k in env_set if not k.startswith("env.backend")}
+    probe_changes = {
+        k.split("=")[0].removeprefix("env.").removeprefix("task."): yaml_value(k.split("=", 1)[1])
+        for k in env_set
+        if not k.startswith("env.backend")
+    }
 
     load_before = os.getloadavg()[0]
     cpu_before = time.process_time()

@@ -84,7 +84,8 @@ def diagnose(run_dir: Path, episodes: int) -> list[str]:
     for step, model, normalize, _, env in checkpoint_policies(run_dir, after=newest - 1):  # the newest alone
         policy = SavedPolicy(model, normalize)
         lines += [
-            f"{run_dir.name}, checkpoint at {step} steps, {episodes} episodes (seeds {PROBE_SEED}+):", "",
+            f"{run_dir.name}, checkpoint at {step} steps, {episodes} episodes (seeds {PROBE_SEED}+):",
+            "",
             "| task | actions | success [%] | endings | closest [m] | speed [m/s] | length [s] |",
             "|---|---|---|---|---|---|---|",
         ]
@@ -103,12 +104,16 @@ def diagnose(run_dir: Path, episodes: int) -> list[str]:
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     """:func:`iqm_summary` of the final probe's success, closest approach and return."""
     final = [r["final"] for r in rows]
-    return iqm_summary(rows, [
-        ("success fraction (goal reached without contact)", [f["success"] for f in final], 2),
-        ("best probe's success fraction", [r["best_success"] for r in rows], 2),
-        ("closest approach to the goal [m] (0 when reached)", [f["mean_closest"] for f in final], 2),
-        ("probe return", [f["mean_return"] for f in final], 1),
-    ], reps)
+    return iqm_summary(
+        rows,
+        [
+            ("success fraction (goal reached without contact)", [f["success"] for f in final], 2),
+            ("best probe's success fraction", [r["best_success"] for r in rows], 2),
+            ("closest approach to the goal [m] (0 when reached)", [f["mean_closest"] for f in final], 2),
+            ("probe return", [f["mean_return"] for f in final], 1),
+        ],
+        reps,
+    )
 
 
 def table(rows: list[dict]) -> list[str]:
@@ -145,8 +150,12 @@ def probes_text(rows: list[dict]) -> list[str]:
         ]
         lines.append(f"- seed {r['seed']}: " + "; ".join(parts))
     if any(r.get("training") for r in rows):
-        lines += ["", "Training episodes per window (the curriculum's task, stochastic actions; steps: success % "
-                  "of the episodes ended in the window / mean length in steps / goal x m / reach sphere m):", ""]
+        lines += [
+            "",
+            "Training episodes per window (the curriculum's task, stochastic actions; steps: success % "
+            "of the episodes ended in the window / mean length in steps / goal x m / reach sphere m):",
+            "",
+        ]
         for r in rows:
             parts = [
                 f"{t['step'] // 1000}k: {100 * t['success']:.0f} / {t['length']:.0f} / "
@@ -162,19 +171,24 @@ def probes_text(rows: list[dict]) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cpu-minutes", type=float, default=30.0, help="training CPU-time budget per run [min] (0: none)")
+    parser.add_argument(
+        "--cpu-minutes", type=float, default=30.0, help="training CPU-time budget per run [min] (0: none)"
+    )
     parser.add_argument("--probe-every", type=int, default=100_000)
     parser.add_argument("--episodes", type=int, default=10, help="episodes per probe")
     parser.add_argument("--set", nargs="*", default=[], help="training overrides (key=value) for every run")
     parser.add_argument("--write", action="store_true", help="append to the results file, write .json and .png")
     parser.add_argument("--save-rows", type=Path, help="write each run's results here (JSON) at every probe")
     parser.add_argument(
-        "--keep-runs", type=Path,
+        "--keep-runs",
+        type=Path,
         help="keep the run directories here (default: a temporary folder); with --from-rows: read them from here",
     )
     parser.add_argument("--from-rows", type=Path, nargs="+", help="no training: report the runs saved by --save-rows")
     parser.add_argument("--title", default="", help="a few words for the results section's heading")
-    parser.add_argument("--diagnose", type=Path, nargs="+", help="no training: fly these runs' newest checkpoints four ways")
+    parser.add_argument(
+        "--diagnose", type=Path, nargs="+", help="no training: fly these runs' newest checkpoints four ways"
+    )
     args = parser.parse_args()
     cpu_minutes = args.cpu_minutes or None
     if args.diagnose:
@@ -201,8 +215,12 @@ def main() -> None:
     if args.write and "curve" in data:
         png = RESULTS.with_suffix(".png")
         plot_curve(
-            data, png, f"QuadX-Obstacles, PPO, seeds {', '.join(str(r['seed']) for r in rows)}",
-            key="success", ylabel="success fraction, probe", legend="upper left",
+            data,
+            png,
+            f"QuadX-Obstacles, PPO, seeds {', '.join(str(r['seed']) for r in rows)}",
+            key="success",
+            ylabel="success fraction, probe",
+            legend="upper left",
         )
         lines.append(f"\nCurve: `{png.name}` (IQM and 95 % CI of the probe success fraction; grey: each seed).")
     text = "\n".join(lines) + "\n"

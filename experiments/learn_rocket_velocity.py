@@ -60,8 +60,12 @@ OUTCOMES = ("safe", "fatal", "ground", "dome exit", "time limit")
 
 def outcome(info: dict) -> str:
     """How a Rocket-Landing episode ended, from its last ``info``."""
-    for key, name in (("safe_landing", "safe"), ("fatal_landing", "fatal"), ("ground_contact", "ground"),
-                      ("out_of_bounds", "dome exit")):
+    for key, name in (
+        ("safe_landing", "safe"),
+        ("fatal_landing", "fatal"),
+        ("ground_contact", "ground"),
+        ("out_of_bounds", "dome exit"),
+    ):
         if info.get(key):
             return name
     return "time limit"
@@ -102,24 +106,31 @@ def rocket_probe(predict, normalize, env, episodes: int, seed: int = PROBE_SEED,
             total += float(reward)
             steps += 1
             done = terminated or truncated
-        flights.append({
-            "seed": seed + i,
-            "outcome": outcome(info),
-            "steps": steps,
-            "touchdown_speed": float(info["touchdown_speed"]),
-            "pad_distance": float(info["pad_distance"]),
-            "fuel_left_kg": float(env.unwrapped.vehicle.aux_state[4]) * TANK_KG,
-            "offset_at_aim_height": offset,
-            "return": total,
-        })
+        flights.append(
+            {
+                "seed": seed + i,
+                "outcome": outcome(info),
+                "steps": steps,
+                "touchdown_speed": float(info["touchdown_speed"]),
+                "pad_distance": float(info["pad_distance"]),
+                "fuel_left_kg": float(env.unwrapped.vehicle.aux_state[4]) * TANK_KG,
+                "offset_at_aim_height": offset,
+                "return": total,
+            }
+        )
     ends = [f["outcome"] for f in flights]
     versus = {}
     for name, rows in diffs.items():
         if rows:
             d = np.asarray(rows)
             rms = np.sqrt(np.mean(d[:, :3] ** 2, axis=0))
-            versus[name] = {"steps": len(d), "rms_vx": float(rms[0]), "rms_vy": float(rms[1]), "rms_vz": float(rms[2]),
-                            "ignition_disagrees": float(np.mean(d[:, 3]))}
+            versus[name] = {
+                "steps": len(d),
+                "rms_vx": float(rms[0]),
+                "rms_vy": float(rms[1]),
+                "rms_vz": float(rms[2]),
+                "ignition_disagrees": float(np.mean(d[:, 3])),
+            }
     offsets = [f["offset_at_aim_height"] for f in flights if f["offset_at_aim_height"] is not None]
     touchdowns = [f["touchdown_speed"] for f in flights if f["touchdown_speed"] >= 0.0]
     return {
@@ -190,17 +201,31 @@ class RocketProbe(BaseCallback):
         self.probe_cpu += time.process_time() - c0
         load = os.getloadavg()[0]
         self.loads.append(load)
-        point = {"step": self.num_timesteps, "cpu_minutes": self.training_cpu() / 60.0,
-                 "wall": time.perf_counter() - self.started, "load": load, **probe}
+        point = {
+            "step": self.num_timesteps,
+            "cpu_minutes": self.training_cpu() / 60.0,
+            "wall": time.perf_counter() - self.started,
+            "load": load,
+            **probe,
+        }
         self.history.append(point)
         if self.target_at is None and probe["safe"] >= TARGET:
             self.target_at = {"step": point["step"], "cpu_minutes": point["cpu_minutes"]}
-        print(f"  {point['step']:>8} steps  {point['cpu_minutes']:5.1f} CPU-min  load {load:.1f}  {describe(probe)}",
-              flush=True)
+        print(
+            f"  {point['step']:>8} steps  {point['cpu_minutes']:5.1f} CPU-min  load {load:.1f}  {describe(probe)}",
+            flush=True,
+        )
 
 
-def run(seed: int, every: int, episodes: int, cpu_minutes: float, output: Path, extra: list[str],
-        env: str = "rocket_landing_velocity") -> dict:
+def run(
+    seed: int,
+    every: int,
+    episodes: int,
+    cpu_minutes: float,
+    output: Path,
+    extra: list[str],
+    env: str = "rocket_landing_velocity",
+) -> dict:
     overrides = [*extra, f"seed={seed}", f"train.output_dir={output}", "train.progress_bar=false"]
     cfg = compose_config(env=env, algo="ppo", overrides=overrides)
     probe = RocketProbe(cfg, every, episodes, cpu_minutes * 60.0)
@@ -247,11 +272,17 @@ def rliable_summary(rows: list[dict], reps: int = 2000) -> list[str]:
     """:func:`iqm_summary` of the final probe's safe-landing fraction and return, and of each
     run's best probe's safe-landing fraction."""
     final = [r["final"] for r in rows]
-    return iqm_summary(rows, [
-        (f"safe landings (fraction of {len(final[0]['flights'])} probe episodes)", [f["safe"] for f in final], 2),
-        ("probe return", [f["mean_return"] for f in final], 0),
-        ("safe landings at each run's best probe", [max(p["safe"] for p in r["history"]) for r in rows], 2),
-    ], reps, curve=None, of="of the final probe")[0]
+    return iqm_summary(
+        rows,
+        [
+            (f"safe landings (fraction of {len(final[0]['flights'])} probe episodes)", [f["safe"] for f in final], 2),
+            ("probe return", [f["mean_return"] for f in final], 0),
+            ("safe landings at each run's best probe", [max(p["safe"] for p in r["history"]) for r in rows], 2),
+        ],
+        reps,
+        curve=None,
+        of="of the final probe",
+    )[0]
 
 
 def table(rows: list[dict]) -> list[str]:
@@ -294,15 +325,19 @@ def main() -> None:
         print(describe(probe))
         for f in probe["flights"]:
             offset = f["offset_at_aim_height"] if f["offset_at_aim_height"] is not None else float("nan")
-            print(f"  seed {f['seed']}: {f['outcome']:10s} {f['steps']:4d} steps  "
-                  f"touchdown {f['touchdown_speed']:5.1f} m/s  off axis at {AIM_HEIGHT:.0f} m {offset:5.1f} m  "
-                  f"pad distance {f['pad_distance']:6.1f} m  fuel left {f['fuel_left_kg']:.2f} kg  "
-                  f"return {f['return']:.0f}")
+            print(
+                f"  seed {f['seed']}: {f['outcome']:10s} {f['steps']:4d} steps  "
+                f"touchdown {f['touchdown_speed']:5.1f} m/s  off axis at {AIM_HEIGHT:.0f} m {offset:5.1f} m  "
+                f"pad distance {f['pad_distance']:6.1f} m  fuel left {f['fuel_left_kg']:.2f} kg  "
+                f"return {f['return']:.0f}"
+            )
         print("the policy's setpoint against the oracle's on the states it flies (RMS [m/s]; ignition: disagreements):")
         for name, v in probe["versus_oracle"].items():
-            print(f"  {name:20s} {v['steps']:6d} steps  "
-                  f"vx {v['rms_vx']:5.2f}  vy {v['rms_vy']:5.2f}  vz {v['rms_vz']:6.2f}  "
-                  f"ignition {100 * v['ignition_disagrees']:3.0f} %")
+            print(
+                f"  {name:20s} {v['steps']:6d} steps  "
+                f"vx {v['rms_vx']:5.2f}  vy {v['rms_vy']:5.2f}  vz {v['rms_vz']:6.2f}  "
+                f"ignition {100 * v['ignition_disagrees']:3.0f} %"
+            )
         return
 
     rows: list[dict] = []
@@ -333,7 +368,9 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        raw = RESULTS.with_name("learn_rocket_velocity.json" if args.env == "rocket_landing_velocity" else f"learn_{args.env}.json")
+        raw = RESULTS.with_name(
+            "learn_rocket_velocity.json" if args.env == "rocket_landing_velocity" else f"learn_{args.env}.json"
+        )
         raw.write_text(json.dumps({"command": command, "rows": rows}, indent=1) + "\n")
         with RESULTS.open("a") as fh:
             fh.write(text)

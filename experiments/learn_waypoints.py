@@ -50,7 +50,11 @@ RESULTS_DIR = Path(__file__).resolve().parent / "results"
 #: env -> (results file, fraction of the evaluation episodes that must reach every waypoint, title)
 TASKS = {
     "quadx_waypoints": (RESULTS_DIR / "learn_waypoints.md", 0.8, "QuadX-Waypoints"),
-    "quadx_waypoints_velocity": (RESULTS_DIR / "learn_waypoints_velocity.md", 0.8, "QuadX-Waypoints, velocity flight mode"),
+    "quadx_waypoints_velocity": (
+        RESULTS_DIR / "learn_waypoints_velocity.md",
+        0.8,
+        "QuadX-Waypoints, velocity flight mode",
+    ),
     "fixedwing_waypoints": (RESULTS_DIR / "learn_fixedwing_waypoints.md", 0.5, "Fixedwing-Waypoints"),
 }
 
@@ -85,8 +89,12 @@ def replay_evaluations(
     out = []
     for step, model, normalize, cfg, env in checkpoint_policies(run_dir, after, every):
         flown = run_episodes(
-            policy_predict(model), env, episodes or cfg.train.eval_episodes, cfg.seed + EVAL_SEED_OFFSET,
-            cfg.train.eval_deterministic, normalize_obs=normalize,
+            policy_predict(model),
+            env,
+            episodes or cfg.train.eval_episodes,
+            cfg.seed + EVAL_SEED_OFFSET,
+            cfg.train.eval_deterministic,
+            normalize_obs=normalize,
         )
         summary = summarize(flown)
         out.append((step, summary))
@@ -160,12 +168,17 @@ def run(
 def rliable_summary(rows: list[dict], reps: int = 2000) -> tuple[list[str], dict]:
     """:func:`iqm_summary` of the final probe's waypoint measures, and the mean-waypoints-reached curve."""
     final = [r["final"] for r in rows]
-    return iqm_summary(rows, [
-        ("mean waypoints reached (of 5)", [f["mean_reached"] for f in final], 2),
-        ("fraction reaching >= 1 waypoint", [f["at_least"][0] for f in final], 2),
-        ("fraction reaching all 5", [f["all"] for f in final], 2),
-        ("probe return", [f["mean_return"] for f in final], 1),
-    ], reps, curve="mean_reached")
+    return iqm_summary(
+        rows,
+        [
+            ("mean waypoints reached (of 5)", [f["mean_reached"] for f in final], 2),
+            ("fraction reaching >= 1 waypoint", [f["at_least"][0] for f in final], 2),
+            ("fraction reaching all 5", [f["all"] for f in final], 2),
+            ("probe return", [f["mean_return"] for f in final], 1),
+        ],
+        reps,
+        curve="mean_reached",
+    )
 
 
 def table(rows: list[dict], target: float) -> list[str]:
@@ -182,7 +195,11 @@ def table(rows: list[dict], target: float) -> list[str]:
             f"{f['mean_reached']:.1f} | {', '.join(f'{k} {v}' for k, v in f['endings'].items())} | "
             f"{r['best_mean_reached']:.1f} | {t[0] if t else 'not within budget'} | {cpu_to} | {r['trained_wall']:.0f} | "
             f"{r['steps_per_second']:.0f} | "
-            + (f"{s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f}" if s else "- (stopped)")
+            + (
+                f"{s['env']:.0f} / {s['collect_other']:.0f} / {s['update']:.0f} / {s['eval']:.0f}"
+                if s
+                else "- (stopped)"
+            )
             + f" | {r['load'][0]:.1f}-{r['load'][1]:.1f} |"
         )
     return lines
@@ -208,10 +225,13 @@ def main() -> None:
     )
     parser.add_argument("--after", type=int, default=0)
     parser.add_argument(
-        "--as-evaluations", action="store_true",
+        "--as-evaluations",
+        action="store_true",
         help="with --probe-run: fly each checkpoint as the run's own evaluation would, and say which best_by keeps",
     )
-    parser.add_argument("--eval-episodes", type=int, help="with --as-evaluations: episodes per evaluation (default: the run's)")
+    parser.add_argument(
+        "--eval-episodes", type=int, help="with --as-evaluations: episodes per evaluation (default: the run's)"
+    )
     args = parser.parse_args()
 
     if args.probe_run and args.as_evaluations:
@@ -247,7 +267,9 @@ def main() -> None:
             output = args.keep_runs or Path(tmp)
             for seed in args.seeds:
                 print(f"seed {seed}:", flush=True)
-                rows.append(run(args.env, seed, args.algo, args.budget, args.probe_every, args.episodes, output, args.set))
+                rows.append(
+                    run(args.env, seed, args.algo, args.budget, args.probe_every, args.episodes, output, args.set)
+                )
                 if args.save_rows:  # a long study survives an interruption seed by seed
                     args.save_rows.write_text(json.dumps(rows, indent=1) + "\n")
 

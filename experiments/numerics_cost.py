@@ -91,13 +91,15 @@ def main() -> None:
     results: dict[str, list[dict]] = {"pinned": [], "native": []}
     started = time.time()
     for r in range(args.rounds):
-        for mode in (("pinned", "native") if r % 2 == 0 else ("native", "pinned")):
+        for mode in ("pinned", "native") if r % 2 == 0 else ("native", "pinned"):
             results[mode].append(measure(mode))
             print(f"round {r + 1} {mode}: " + ", ".join(f"{k} {v:.3g}" for k, v in results[mode][-1].items()
                                                         if k != "status"), flush=True)  # fmt: skip
     keys = [k for k in results["pinned"][0] if k != "status"]
     load = os.getloadavg()
-    print(f"\n{args.rounds} rounds, {time.time() - started:.0f} s, load average {load[0]:.1f} / {load[1]:.1f} at the end")
+    print(
+        f"\n{args.rounds} rounds, {time.time() - started:.0f} s, load average {load[0]:.1f} / {load[1]:.1f} at the end"
+    )
     print(f"pinned: {results['pinned'][0]['status']}\nnative: {results['native'][0]['status']}\n")
     print(f"{'figure':<22}{'pinned':>10}{'native':>10}{'pinned / native':>18}")
     for k in keys:

@@ -260,7 +260,11 @@ def main() -> None:
 def _write(args, plan, rows, started, load, load_end) -> None:
     cpu = platform.processor() or platform.machine()
     try:
-        cpu = next(x.split(":", 1)[1].strip() for x in Path("/proc/cpuinfo").read_text().splitlines() if x.startswith("model name"))
+        cpu = next(
+            x.split(":", 1)[1].strip()
+            for x in Path("/proc/cpuinfo").read_text().splitlines()
+            if x.startswith("model name")
+        )
     except (OSError, StopIteration):
         pass
     preset = plan.spec["presets"][args.preset]

@@ -29,7 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pyflyt_cli.studies.probes import PROBE_SEED, gates_probe, obstacle_probe  # the probes the learning runs are measured by
+from pyflyt_cli.studies.probes import (
+    PROBE_SEED,
+    gates_probe,
+    obstacle_probe,
+)  # the probes the learning runs are measured by
 
 from pyflyt_cli.training import compose_config
 from pyflyt_cli.training.envs import EnvFactory
@@ -112,7 +116,10 @@ def main() -> None:
     results = []
     for env_name, oracle, probe in CASES:
         out = fly(env_name, oracle, probe, args.episodes)
-        print(f"{env_name} {oracle}: success {100 * out['success']:.0f} % {out['endings']} ({out['seconds']:.0f} s)", flush=True)
+        print(
+            f"{env_name} {oracle}: success {100 * out['success']:.0f} % {out['endings']} ({out['seconds']:.0f} s)",
+            flush=True,
+        )
         results.append((env_name, oracle, out))
     lines = report(results, args.episodes)
     print("\n".join(lines))

@@ -55,7 +55,6 @@ EPISODES = {
 SEEDS = (0, 1, 2)
 
 
-
 def record_episodes() -> dict:
     import gymnasium
     import numpy as np
@@ -83,8 +82,11 @@ def record_episodes() -> dict:
                     "length": len(rewards),
                     "terminated": bool(term),
                     "truncated": bool(trunc),
-                    "info": {k: (int(v) if k == "num_targets_reached" else bool(v)) for k, v in info.items()
-                             if isinstance(v, (bool, int, np.bool_)) and not isinstance(v, float)},
+                    "info": {
+                        k: (int(v) if k == "num_targets_reached" else bool(v))
+                        for k, v in info.items()
+                        if isinstance(v, (bool, int, np.bool_)) and not isinstance(v, float)
+                    },
                     "return": float(sum(rewards)),
                     "first_reward": rewards[0],
                     "last_reward": rewards[-1],
@@ -143,8 +145,12 @@ def record_pz_episodes() -> dict:
                 for a in live:
                     returns[a] = returns.get(a, 0.0) + float(rewards[a])
                     if terms[a] or truncs[a]:
-                        ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]),
-                                   "info": {k: _info_entry(v) for k, v in infos[a].items()}}
+                        ends[a] = {
+                            "step": steps,
+                            "terminated": bool(terms[a]),
+                            "truncated": bool(truncs[a]),
+                            "info": {k: _info_entry(v) for k, v in infos[a].items()},
+                        }
             runs.append({**run, "steps": steps, "returns": returns, "ends": ends})
             env.close()
         out[name] = {"class": cls, "kwargs": kwargs, "action": action, "runs": runs}
@@ -178,6 +184,7 @@ def record_checker_warnings() -> dict:
 
     out: dict = {"gymnasium": {}, "pettingzoo": {}}
     for env_id in sorted(i for i in gymnasium.registry if i.startswith("PyFlyt/")):
+
         def check(env_id=env_id):
             env = gymnasium.make(env_id)
             try:
@@ -187,6 +194,7 @@ def record_checker_warnings() -> dict:
 
         out["gymnasium"][env_id] = _caught(check)
     for cls in ("MAQuadXHoverEnvV2", "MAFixedwingDogfightEnvV2"):
+
         def parallel(cls=cls):
             env = getattr(pz, cls)()
             try:
@@ -343,9 +351,11 @@ def record_public_imports() -> dict:
                 for n, obj in vars(module).items()
                 if not n.startswith("_")
                 and (
-                    ((inspect.isclass(obj) or inspect.isfunction(obj))
-                     and getattr(obj, "__module__", "").startswith("PyFlyt.")
-                     and obj.__module__ != module.__name__)
+                    (
+                        (inspect.isclass(obj) or inspect.isfunction(obj))
+                        and getattr(obj, "__module__", "").startswith("PyFlyt.")
+                        and obj.__module__ != module.__name__
+                    )
                     or any(obj is t for t in (int, float, str))
                 )
             )

@@ -60,8 +60,12 @@ RESULTS = Path(__file__).parent / "results" / "rocket_landing_scripted.md"
 
 
 def _outcome(info: dict) -> str:
-    for key, name in (("safe_landing", "safe"), ("fatal_landing", "fatal"), ("ground_contact", "ground"),
-                      ("out_of_bounds", "dome exit")):
+    for key, name in (
+        ("safe_landing", "safe"),
+        ("fatal_landing", "fatal"),
+        ("ground_contact", "ground"),
+        ("out_of_bounds", "dome exit"),
+    ):
         if info[key]:
             return name
     return "time limit"
@@ -92,8 +96,15 @@ def fly(seed: int, policy: str) -> dict:
         flights.add((steps, _outcome(info), obs.tobytes()))
     if len(flights) != 1:
         raise RuntimeError(f"seed {seed}: the presets flew different episodes; the comparison is void")
-    return {"seed": seed, "outcome": _outcome(info), "steps": steps, "touchdown_speed": float(info["touchdown_speed"]),
-            "pad_distance": float(info["pad_distance"]), "fuel_left_kg": fuel, "returns": totals}
+    return {
+        "seed": seed,
+        "outcome": _outcome(info),
+        "steps": steps,
+        "touchdown_speed": float(info["touchdown_speed"]),
+        "pad_distance": float(info["pad_distance"]),
+        "fuel_left_kg": fuel,
+        "returns": totals,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -105,31 +116,48 @@ def main(argv: list[str] | None = None) -> int:
     rows = {policy: [fly(seed, policy) for seed in range(args.seeds)] for policy in POLICIES}
     seconds = time.perf_counter() - start
     load = os.getloadavg()[0]
-    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average {load:.1f} at the end"
-    lines = [f"{args.seeds} seeds (0-{args.seeds - 1}) per policy; all the flights took {seconds:.0f} s ({machine})", ""]
-    lines += ["| policy | safe / fatal / ground / dome exit / time limit | touchdown speed of the safe landings [m/s] | fuel left [kg] | "
-              + " | ".join(f"`{p}` return, mean ± std" for p in PRESETS) + " |",
-              "|---|---|---|---|" + "---|" * len(PRESETS)]
+    machine = (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load average {load:.1f} at the end"
+    )
+    lines = [
+        f"{args.seeds} seeds (0-{args.seeds - 1}) per policy; all the flights took {seconds:.0f} s ({machine})",
+        "",
+    ]
+    lines += [
+        "| policy | safe / fatal / ground / dome exit / time limit | touchdown speed of the safe landings [m/s] | fuel left [kg] | "
+        + " | ".join(f"`{p}` return, mean ± std" for p in PRESETS)
+        + " |",
+        "|---|---|---|---|" + "---|" * len(PRESETS),
+    ]
     for policy, runs in rows.items():
         counts = [sum(r["outcome"] == o for r in runs) for o in ("safe", "fatal", "ground", "dome exit", "time limit")]
         safe = [r["touchdown_speed"] for r in runs if r["outcome"] == "safe"]
         speed = f"{np.mean(safe):.2f} (max {np.max(safe):.2f})" if safe else "-"
         fuel = np.mean([r["fuel_left_kg"] for r in runs])
         returns = [np.array([r["returns"][p] for r in runs]) for p in PRESETS]
-        lines.append(f"| {policy} | {' / '.join(map(str, counts))} | {speed} | {fuel:.2f} | "
-                     + " | ".join(f"{x.mean():.1f} ± {x.std():.1f}" for x in returns) + " |")
+        lines.append(
+            f"| {policy} | {' / '.join(map(str, counts))} | {speed} | {fuel:.2f} | "
+            + " | ".join(f"{x.mean():.1f} ± {x.std():.1f}" for x in returns)
+            + " |"
+        )
     # the same start, a lander and the free fall: how often does each preset rank the landing higher?
     lines.append("")
     for policy in ("descent lander", "velocity lander", "raw-channel lander"):
         for p in PRESETS:
             better = sum(a["returns"][p] > b["returns"][p] for a, b in zip(rows[policy], rows["free fall"]))
-            lines.append(f"- `{p}`: the {policy} returns more than the free fall from the same start in {better} of {args.seeds} starts")
+            lines.append(
+                f"- `{p}`: the {policy} returns more than the free fall from the same start in {better} of {args.seeds} starts"
+            )
     text = "\n".join(lines)
     print(text)
     if args.write:
         RESULTS.write_text(
             "# Rocket-Landing flown by scripted controllers (`experiments/rocket_scripted_landing.py`)\n\n"
-            + (__doc__ or "").split("\n\n", 1)[1].split("    python")[0].strip() + "\n\n" + text + "\n")
+            + (__doc__ or "").split("\n\n", 1)[1].split("    python")[0].strip()
+            + "\n\n"
+            + text
+            + "\n"
+        )
     return 0
 
 

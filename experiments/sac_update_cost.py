@@ -49,8 +49,15 @@ class Dummy(gym.Env):
 
 def cost(cls, net: list[int], batch: int, updates: int = 100) -> float:
     """CPU seconds per gradient step of ``cls`` (an SAC class with SB3's API)."""
-    model = cls("MlpPolicy", Dummy(), batch_size=batch, learning_starts=2000, buffer_size=20_000, seed=0,
-                policy_kwargs={"net_arch": net})
+    model = cls(
+        "MlpPolicy",
+        Dummy(),
+        batch_size=batch,
+        learning_starts=2000,
+        buffer_size=20_000,
+        seed=0,
+        policy_kwargs={"net_arch": net},
+    )
     model.learn(2000)  # fills the buffer; no update yet
     model.train(gradient_steps=5, batch_size=batch)  # compiles (SBX) / warms up
     t0 = time.process_time()
@@ -62,8 +69,14 @@ def weights_hash() -> str:
     import jax
     from sbx import SAC
 
-    model = SAC("MlpPolicy", gym.make("Pendulum-v1"), seed=0, learning_starts=500, batch_size=256,
-                policy_kwargs={"net_arch": [128, 128]})
+    model = SAC(
+        "MlpPolicy",
+        gym.make("Pendulum-v1"),
+        seed=0,
+        learning_starts=500,
+        batch_size=256,
+        policy_kwargs={"net_arch": [128, 128]},
+    )
     model.learn(2500)
     leaves = jax.tree_util.tree_leaves(model.policy.actor_state.params) + jax.tree_util.tree_leaves(
         model.policy.qf_state.params
@@ -102,8 +115,9 @@ def main() -> None:
     if args.determinism and SBXSAC is not None:
         for flags in ("", "", "--xla_cpu_max_isa=AVX2", "--xla_cpu_max_isa=AVX"):
             env = {**os.environ, "XLA_FLAGS": flags}
-            out = subprocess.run([sys.executable, __file__, "--hash-only"], env=env, capture_output=True, text=True,
-                                 check=True)
+            out = subprocess.run(
+                [sys.executable, __file__, "--hash-only"], env=env, capture_output=True, text=True, check=True
+            )
             print(f"SBX SAC, XLA_FLAGS={flags or '(none)'}: weights {out.stdout.strip().splitlines()[-1]}", flush=True)
 
 

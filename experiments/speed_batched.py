@@ -61,7 +61,7 @@ def reference(python: str, env_id: str, steps: int, chunks: int) -> float:
     lines = [line for line in out.stdout.splitlines() if line.startswith(RESULT_MARKER)]
     if out.returncode != 0 or not lines:
         raise SystemExit(f"reference probe failed ({python}):\n{out.stderr[-2000:]}")
-    return 1.0 / statistics.median(json.loads(lines[-1][len(RESULT_MARKER):])["env_s"])
+    return 1.0 / statistics.median(json.loads(lines[-1][len(RESULT_MARKER) :])["env_s"])
 
 
 def main() -> None:
@@ -108,8 +108,12 @@ def main() -> None:
         lines += [
             f"### {env_id}\n",
             f"PyBullet env (one env per call): {med(pb):,.0f} steps/s, {med(pb_cpu) * 1e6:.1f} us of CPU per step"
-            + (f"; reference PyFlyt 0.29.0: {med([row[(env_id, 'reference')] for row in rounds]):,.0f} steps/s"
-               if args.reference_python else "") + "\n",  # fmt: skip
+            + (
+                f"; reference PyFlyt 0.29.0: {med([row[(env_id, 'reference')] for row in rounds]):,.0f} steps/s"
+                if args.reference_python
+                else ""
+            )
+            + "\n",  # fmt: skip
             "| N | agent-steps/s | CPU us / agent-step | x PyBullet env | x PyBullet env per core | x reference | KiB per env |",
             "|---|---|---|---|---|---|---|",
         ]

@@ -32,8 +32,9 @@ def make(variant: str) -> gymnasium.Env:
         return gymnasium.make("PyFlyt/QuadX-Hover-v0", disable_env_checker=True)
     sensors = load_env_config("quadx_hover_sensors").sensors.model_dump()
     sensors["estimator"] = {"type": "complementary"} if variant == "complementary" else {"type": "none"}
-    return gymnasium.make("PyFlyt/QuadX-Hover-v0", config="quadx_hover_sensors", sensors=sensors,
-                          disable_env_checker=True)
+    return gymnasium.make(
+        "PyFlyt/QuadX-Hover-v0", config="quadx_hover_sensors", sensors=sensors, disable_env_checker=True
+    )
 
 
 def time_steps(env: gymnasium.Env, steps: int, seed: int) -> float:
@@ -65,9 +66,11 @@ def main() -> None:
             times[v].append(time_steps(envs[v], args.steps, r))
     load_after = os.getloadavg()
     median = {v: statistics.median(t) * 1e6 for v, t in times.items()}
-    print(f"{platform.machine()}, Python {platform.python_version()}, {os.cpu_count()} CPUs; load (1/5/15 min) "
-          f"before {'/'.join(f'{x:.1f}' for x in load_before)}, after {'/'.join(f'{x:.1f}' for x in load_after)}; "
-          f"{args.repeats} x {args.steps} steps, median CPU time\n")
+    print(
+        f"{platform.machine()}, Python {platform.python_version()}, {os.cpu_count()} CPUs; load (1/5/15 min) "
+        f"before {'/'.join(f'{x:.1f}' for x in load_before)}, after {'/'.join(f'{x:.1f}' for x in load_after)}; "
+        f"{args.repeats} x {args.steps} steps, median CPU time\n"
+    )
     print("| variant | CPU us per agent step | vs sensors without estimator |")
     print("|---|---|---|")
     for v in variants:

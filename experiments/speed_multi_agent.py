@@ -141,8 +141,13 @@ def level(size: int, downwash: bool, steps: int) -> dict:
         env.step(hold())
     cpu = time.process_time() - start
     env.close()
-    return {"agents": size, "downwash": downwash, "cpu_us_per_agent_step": 1e6 * cpu / agent_steps,
-            "sources_per_vehicle_read": visited[0] / (agent_steps * 8), "live_fraction": agent_steps / (steps * size)}
+    return {
+        "agents": size,
+        "downwash": downwash,
+        "cpu_us_per_agent_step": 1e6 * cpu / agent_steps,
+        "sources_per_vehicle_read": visited[0] / (agent_steps * 8),
+        "live_fraction": agent_steps / (steps * size),
+    }
 
 
 def _reference_python(given: str | None) -> str | None:
@@ -178,8 +183,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", nargs="+", default=None, help="only these cases, KIND:SIZE (hover:4 dogfight:2)")
     parser.add_argument("--case", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
     parser.add_argument("--ours", nargs=4, metavar=("KIND", "SIZE", "STEPS", "SEED"), help=argparse.SUPPRESS)
-    parser.add_argument("--level", action="store_true", help="instead: a level formation with and without "
-                        "downwash, CPU us per agent-step and wake sources visited, against N (ours only)")
+    parser.add_argument(
+        "--level",
+        action="store_true",
+        help="instead: a level formation with and without "
+        "downwash, CPU us per agent-step and wake sources visited, against N (ours only)",
+    )
     parser.add_argument("--level-run", nargs=3, metavar=("SIZE", "DOWNWASH", "STEPS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.level_run:
@@ -191,15 +200,30 @@ def main(argv: list[str] | None = None) -> int:
         for size in SIZES[1:]:
             for downwash in (False, True):
                 steps = min(150, max(args.min_steps, -(-args.agent_steps // size)))  # 5 s at most: level flight
-                code = [sys.executable, str(Path(__file__).resolve()), "--level-run", str(size), str(int(downwash)), str(steps)]
-                env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+                code = [
+                    sys.executable,
+                    str(Path(__file__).resolve()),
+                    "--level-run",
+                    str(size),
+                    str(int(downwash)),
+                    str(steps),
+                ]
+                env = {
+                    **os.environ,
+                    "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
+                }
                 runs = [json.loads(subprocess.run(code, capture_output=True, text=True, check=True, cwd=ROOT, env=env)
                                    .stdout.strip().splitlines()[-1]) for _ in range(args.repeats)]  # fmt: skip
                 us = statistics.median(r["cpu_us_per_agent_step"] for r in runs)
-                print(f"| {size} | {'on' if downwash else 'off'} | {us:,.0f} | {runs[0]['sources_per_vehicle_read']:.2f} | "
-                      f"{100 * runs[0]['live_fraction']:.0f}% |", flush=True)
-        print(f"\nlevel formation 1 m apart at 1.5 m, attitude and height hold; about {args.agent_steps} agent-steps x {args.repeats} "
-              f"repeats (median), process CPU time; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
+                print(
+                    f"| {size} | {'on' if downwash else 'off'} | {us:,.0f} | {runs[0]['sources_per_vehicle_read']:.2f} | "
+                    f"{100 * runs[0]['live_fraction']:.0f}% |",
+                    flush=True,
+                )
+        print(
+            f"\nlevel formation 1 m apart at 1.5 m, attitude and height hold; about {args.agent_steps} agent-steps x {args.repeats} "
+            f"repeats (median), process CPU time; load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}"
+        )
         return 0
     if args.case or args.ours:  # one timing, in its own process
         kind, size, steps, seed = (args.case or args.ours)[0], *map(int, (args.case or args.ours)[1:])
@@ -235,8 +259,14 @@ def main(argv: list[str] | None = None) -> int:
             (
                 _label(kind, size),
                 _agents(kind, size),
-                {k: med(mine, k) for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")},
-                {k: med(theirs, k) for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")},
+                {
+                    k: med(mine, k)
+                    for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")
+                },
+                {
+                    k: med(theirs, k)
+                    for k in ("agent_steps_per_s", "agent_steps_per_cpu_s", "rtf", "cpu_rtf", "live_fraction")
+                },
             )
         )
 

@@ -76,8 +76,11 @@ def fraction_gap(env) -> float:
         *sensor.rays(state.lin_pos, state.quaternion), collisionFilterMask=RAY_MASK, physicsClientId=client
     )
     body = p.rayTestBatch(
-        *sensor._local, parentObjectUniqueId=vehicle.body_id, parentLinkIndex=-1,
-        collisionFilterMask=RAY_MASK, physicsClientId=client,
+        *sensor._local,
+        parentObjectUniqueId=vehicle.body_id,
+        parentLinkIndex=-1,
+        collisionFilterMask=RAY_MASK,
+        physicsClientId=client,
     )
     return max(abs(a[2] - b[2]) for a, b in zip(ground, body))
 
@@ -192,8 +195,12 @@ def breakdown(plain, lidar, steps: int) -> list[tuple[str, float]]:
 
     def body_cast():
         return p.rayTestBatch(
-            local_starts, local_ends, parentObjectUniqueId=vehicle.body_id, parentLinkIndex=-1,
-            collisionFilterMask=RAY_MASK, physicsClientId=client,
+            local_starts,
+            local_ends,
+            parentObjectUniqueId=vehicle.body_id,
+            parentLinkIndex=-1,
+            collisionFilterMask=RAY_MASK,
+            physicsClientId=client,
         )
 
     def scan_previous():
@@ -214,13 +221,19 @@ def breakdown(plain, lidar, steps: int) -> list[tuple[str, float]]:
         ("bare env step, no sensor (QuadX-Hover + forest)", thread_us(plain_step, 300)),
         ("rayTestBatch, 64 rays in the ground frame", thread_us(world_cast, n)),
         ("rayTestBatch, 64 rays from the body frame (parent body)", thread_us(body_cast, n)),
-        ("RangeSensor.rays: the 64 rays placed in the ground frame in NumPy", thread_us(
-            lambda: sensor.rays(state.lin_pos, state.quaternion), n)),
-        ("RangeSensor.scan, rays from the body frame (the engine's)", thread_us(
-            lambda: sensor.scan(client, state.lin_pos, state.quaternion), n)),
+        (
+            "RangeSensor.rays: the 64 rays placed in the ground frame in NumPy",
+            thread_us(lambda: sensor.rays(state.lin_pos, state.quaternion), n),
+        ),
+        (
+            "RangeSensor.scan, rays from the body frame (the engine's)",
+            thread_us(lambda: sensor.scan(client, state.lin_pos, state.quaternion), n),
+        ),
         ("RangeSensor.scan, rays placed in Python (the previous cast)", thread_us(scan_previous, n)),
-        ("the Dict observation's finiteness check", thread_us(
-            lambda: all_finite(0.0, {"attitude": np.zeros(21), "lidar": np.zeros(64, np.float32)}), n)),
+        (
+            "the Dict observation's finiteness check",
+            thread_us(lambda: all_finite(0.0, {"attitude": np.zeros(21), "lidar": np.zeros(64, np.float32)}), n),
+        ),
     ]
     return rows
 
@@ -254,7 +267,15 @@ def variants() -> dict[str, dict]:
     # a spinning LiDAR's usual 10 Hz (every third agent step; the last scan in between)
     out["LiDAR 64 beams, 10 Hz"] = {**base, "range_sensors": [{**lidar, "rate_hz": 10.0}]}
     for w, h in RESOLUTIONS:
-        depth = {"name": "depth", "type": "depth", "width": w, "height": h, "fov": 90.0, "max_range": 10.0, "min_range": 0.1}
+        depth = {
+            "name": "depth",
+            "type": "depth",
+            "width": w,
+            "height": h,
+            "fov": 90.0,
+            "max_range": 10.0,
+            "min_range": 0.1,
+        }
         out[f"ray-cast depth {w} x {h}"] = {**base, "range_sensors": [depth]}
         camera = {"camera": {"name": "eye", "width": w, "height": h, "fov": 90.0, "near": 0.1, "far": 10.0}}
         out[f"rendered camera {w} x {h}"] = {**base, "camera_observation": camera}
@@ -286,7 +307,9 @@ def main() -> None:
             envs[STUB].unwrapped.world.vehicles[0].range_sensors[0].scan = lambda *_, **__: constant.copy()
             envs[GROUP] = make_env(variants()["plain"])
             world = envs[GROUP].unwrapped.world
-            p.setCollisionFilterGroupMask(world.vehicles[0].body_id, -1, RAY_SKIP_GROUP, -1, physicsClientId=world.client)
+            p.setCollisionFilterGroupMask(
+                world.vehicles[0].body_id, -1, RAY_SKIP_GROUP, -1, physicsClientId=world.client
+            )
         use_previous_scan(envs[PREVIOUS])
         noisy = {**variants()["LiDAR 64 beams"]}
         noisy["range_sensors"] = [{**noisy["range_sensors"][0], "noise_std": 0.01}]

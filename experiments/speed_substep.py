@@ -77,7 +77,12 @@ def make_fused_step(vehicle):
     new throttles and the wrench."""
     cid, body = vehicle._client, vehicle.body_id
     get_pose, get_velocity, get_matrix = p.getBasePositionAndOrientation, p.getBaseVelocity, p.getMatrixFromQuaternion
-    apply_force, apply_torque, frame, origin = p.applyExternalForce, p.applyExternalTorque, p.LINK_FRAME, (0.0, 0.0, 0.0)
+    apply_force, apply_torque, frame, origin = (
+        p.applyExternalForce,
+        p.applyExternalTorque,
+        p.LINK_FRAME,
+        (0.0, 0.0, 0.0),
+    )
     motors, drag = vehicle.actuators.motors, vehicle.actuators.drag
     lag, columns = motors.lag, motors.columns
     (kx, ky, kz), d = drag._factors, drag._damping
@@ -246,7 +251,9 @@ def main() -> None:
                     s_ = raw.state
                     (pr, q, r), (roll, pitch, _) = s_.ang_vel, s_.ang_pos
                     z, vz = s_.lin_pos[2], s_.lin_vel_ground[2]
-                    action = np.array([-4 * roll - 0.5 * pr, -4 * pitch - 0.5 * q, -0.5 * r, 0.125 + 0.1 * (1 - z) - 0.05 * vz])
+                    action = np.array(
+                        [-4 * roll - 0.5 * pr, -4 * pitch - 0.5 * q, -0.5 * r, 0.125 + 0.1 * (1 - z) - 0.05 * vz]
+                    )
                     if whole:
                         env.step(action)
                     else:

@@ -83,14 +83,18 @@ def main() -> None:
         for downwash in (False, True):
             b = batched_cost(agents, downwash, args.steps)
             pb = pybullet_cost(agents, downwash, args.pybullet_steps)
-            lines.append(f"| {agents} | {'on' if downwash else 'off'} | {1e6 * b:.1f} | {1e6 * pb:.0f} | {pb / b:.0f}x |")
+            lines.append(
+                f"| {agents} | {'on' if downwash else 'off'} | {1e6 * b:.1f} | {1e6 * pb:.0f} | {pb / b:.0f}x |"
+            )
             print(lines[-1], flush=True)
     lines.append(f"\nLoad average (1 min): {load_before:.1f} at the start, {os.getloadavg()[0]:.1f} at the end.")
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:
         if not RESULTS.exists():
-            RESULTS.write_text("# The batched multi-agent hover against the PyBullet engine (experiments/speed_swarm.py)\n")
+            RESULTS.write_text(
+                "# The batched multi-agent hover against the PyBullet engine (experiments/speed_swarm.py)\n"
+            )
         with RESULTS.open("a") as fh:
             fh.write(text)
 

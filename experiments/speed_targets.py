@@ -134,7 +134,9 @@ def main() -> None:
         for name in ("baseline", "reference"):
             if any(name == side[0] for side in sides):
                 faster = [r[name]["x_floor"] / r["ours"]["x_floor"] for r in rounds]
-                goal = f" (target >= {TARGET_X_REF[env_id]:g})" if name == "reference" and env_id in TARGET_X_REF else ""
+                goal = (
+                    f" (target >= {TARGET_X_REF[env_id]:g})" if name == "reference" and env_id in TARGET_X_REF else ""
+                )
                 goal = " (target >= 1)" if name == "baseline" else goal
                 print(f"  ours faster than {name}: x {_spread(faster)}{goal}")
     if args.json:

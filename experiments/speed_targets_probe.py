@@ -126,7 +126,9 @@ def measure(side: str, env_id: str, floor: dict, actions: str = "random", steps:
         step(action)
     env_s, floor_s = [], []
     for _ in range(rounds):
-        floor_s.append(8 * protocols.time_floor(pybullet, floor["urdf"], floor["mass"], floor["motors"], 8 * steps, clock=clock))
+        floor_s.append(
+            8 * protocols.time_floor(pybullet, floor["urdf"], floor["mass"], floor["motors"], 8 * steps, clock=clock)
+        )
         start = clock()
         for action in batch:
             step(action)

@@ -74,7 +74,16 @@ def approaches(run, episodes: int, seed: int) -> list[dict]:
         d, v = np.array([x[0] for x in steps]), np.array([x[1] for x in steps])
         k = int(d.argmin())
         flips = int(np.sum(np.diff(np.sign(np.diff(d))) != 0))
-        rows.append({"closest": float(d[k]), "step": k, "speed": float(v[k]), "mean_speed": float(v.mean()), "flips": flips, "terms": split})
+        rows.append(
+            {
+                "closest": float(d[k]),
+                "step": k,
+                "speed": float(v[k]),
+                "mean_speed": float(v.mean()),
+                "flips": flips,
+                "terms": split,
+            }
+        )
     return rows
 
 
@@ -102,7 +111,9 @@ def main() -> None:
             print("|---|---|---|---|---|" + ("---|---|---|---|---|" if near else ""))
             for i, e in enumerate(report.episodes):
                 reached = e.final_info.get("num_targets_reached", "-")
-                line = f"| {e.seed} | {e.ret:.1f} | {e.length} | {reached} | {ending(e.final_info, e.length, max_steps)} |"
+                line = (
+                    f"| {e.seed} | {e.ret:.1f} | {e.length} | {reached} | {ending(e.final_info, e.length, max_steps)} |"
+                )
                 if near:
                     a = near[i]
                     line += f" {a['closest']:.2f} ({a['step']}) | {a['speed']:.1f} | {a['mean_speed']:.1f} | {a['flips']} | "

@@ -58,7 +58,9 @@ def compose(config_name: str, overrides: Sequence[str], *, return_hydra_config: 
     except UnicodeDecodeError as exc:
         raise UsageError(f"a config file under {conf_dir()} is not UTF-8 text ({exc}); reinstall the package") from None
     except OverrideParseException as exc:
-        raise UsageError(f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450") from None
+        raise UsageError(
+            f"malformed override: {exc}. Overrides look like key=value, e.g. seed=3 or uav=quadx_f450"
+        ) from None
     except MissingConfigException as exc:
         raise UsageError(_missing_message(exc)) from None
     except ConfigCompositionException as exc:
@@ -82,7 +84,9 @@ def _checkgroup_choices(overrides: Sequence[str]) -> None:
             continue
         if value.strip().lower() == "null":
             choices = ", ".join(group_choices(group))
-            raise UsageError(f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}")
+            raise UsageError(
+                f"'{item}': a config group takes a name ({choices}); to leave an optional one out, write ~{group}"
+            )
         if is_base(value.strip()) and (conf_dir() / group / f"{value.strip()}.yaml").is_file():
             raise UsageError(f"'{item}': {base_named(value.strip(), group)}")
 
@@ -198,11 +202,15 @@ def _group_files(overrides: Sequence[str]) -> tuple[list[str], dict[str, str]]:
             path = Path(value).expanduser()
             shipped = ", ".join(group_choices("experiment"))
             if not value.endswith((".yaml", ".yml")):
-                raise UsageError(f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})")
+                raise UsageError(
+                    f"experiment={value}: an experiment file must be a .yaml file (or name a shipped one: {shipped})"
+                )
             if not path.is_file():
                 raise UsageError(f"experiment file {path} does not exist (or name a shipped one: {shipped})")
             if path.stem in group_choices("experiment"):
-                raise UsageError(f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file")
+                raise UsageError(
+                    f"experiment file {path}: its name '{path.stem}' is a shipped experiment's; rename the file"
+                )
             read_yaml_data(path)
             option = path.stem
         else:
@@ -297,7 +305,7 @@ def _suggest_key(message: str, config_name: str, overrides: Sequence[str]) -> st
     if meant_leaf is not None:
         meant = (parent + "." if parent else "") + meant_leaf
         given = [o.lstrip("+~").partition("=") for o in overrides if names(o)]
-        use = f"{meant}{given[0][0][len(key):]}={given[0][2]}" if given else f"{meant}=<value>"
+        use = f"{meant}{given[0][0][len(key) :]}={given[0][2]}" if given else f"{meant}=<value>"
         hint = f" Did you mean '{meant}'? Use {use}."
     tail = ". `pyflyt train --cfg` prints every key with its value" if config_name == "train" else ""
     return message.replace(": check the spelling", f":{hint} Keys here: {', '.join(keys)}{tail}", 1)

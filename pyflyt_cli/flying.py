@@ -110,7 +110,9 @@ class Flight:
 
 def plan_flight(overrides: list[str]) -> Flight:
     """Compose ``conf/fly.yaml`` with ``overrides`` (key=value) and validate all of it."""
-    options: FlyOptions = validate(FlyOptions, to_container(compose("fly", list(overrides))), "fly options", "pyflyt fly")
+    options: FlyOptions = validate(
+        FlyOptions, to_container(compose("fly", list(overrides))), "fly options", "pyflyt fly"
+    )
     given = [o.partition("=")[2] for o in overrides if o.partition("=")[0].lstrip("+") == "uav"]
     if given and names_file(given[-1]):  # the file's own path: meshes are found beside it
         source = str(Path(given[-1]).expanduser().resolve())

@@ -22,6 +22,7 @@ except ImportError as exc:  # the simulator was installed without the command's 
 
 from pyflyt_engine.errors import PyFlytError
 
+
 def _untyped_flags(params: Any) -> None:
     """Blank the metavar of every on/off flag in ``params``: it is what the type column of
     typer's rich help shows, ``<bool>`` beside a flag (``--verify <bool>``), which reads as
@@ -159,7 +160,9 @@ def _train_help() -> str:
 @user_errors
 def train(
     overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/train.yaml"),
-    multirun: bool = typer.Option(False, "--multirun", "-m", help="one run per combination of swept values (seed=0,1,2)"),
+    multirun: bool = typer.Option(
+        False, "--multirun", "-m", help="one run per combination of swept values (seed=0,1,2)"
+    ),
     show_cfg: bool = typer.Option(False, "--cfg", help="print the composed, validated configuration and exit"),
 ) -> None:
     from pyflyt_cli.commands.train import run_train
@@ -184,7 +187,10 @@ def train(
 )
 @user_errors
 def eval_(
-    run_dir: str = typer.Argument(..., help="run directory written by pyflyt train, zoo:<name> (pyflyt zoo) or oracle:<name> (a scripted controller)"),
+    run_dir: str = typer.Argument(
+        ...,
+        help="run directory written by pyflyt train, zoo:<name> (pyflyt zoo) or oracle:<name> (a scripted controller)",
+    ),
     overrides: Optional[list[str]] = typer.Argument(None, help="key=value overrides of conf/eval.yaml"),
 ) -> None:
     from pyflyt_cli.commands.eval import run_eval
@@ -225,11 +231,19 @@ def export_(
 @user_errors
 def replay(
     file: Path = typer.Argument(..., help="episode recording (.mcap) written by RecordEpisode / pyflyt eval"),
-    verify: bool = typer.Option(False, "--verify", help="re-simulate from the recorded metadata and actions; compare states"),
+    verify: bool = typer.Option(
+        False, "--verify", help="re-simulate from the recorded metadata and actions; compare states"
+    ),
     tolerance: float = typer.Option(1e-6, "--tolerance", help="largest state deviation --verify accepts [SI units]"),
-    video: Optional[Path] = typer.Option(None, "--video", help="render the flight with a chase camera to this .mp4 or .gif"),
-    size: Optional[str] = typer.Option(None, "--size", help="video size WIDTHxHEIGHT (default: the env's render resolution)"),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="draw 3-D path, altitude, attitude and actions to this .png/.pdf/.svg"),
+    video: Optional[Path] = typer.Option(
+        None, "--video", help="render the flight with a chase camera to this .mp4 or .gif"
+    ),
+    size: Optional[str] = typer.Option(
+        None, "--size", help="video size WIDTHxHEIGHT (default: the env's render resolution)"
+    ),
+    plot: Optional[Path] = typer.Option(
+        None, "--plot", help="draw 3-D path, altitude, attitude and actions to this .png/.pdf/.svg"
+    ),
     as_json: bool = typer.Option(False, "--json", help="print the summary (and verify result) as JSON"),
 ) -> None:
     from pyflyt_cli.commands.replay import run_replay
@@ -250,25 +264,55 @@ def replay(
 def speed(
     repeats: int = typer.Option(5, "--repeats", min=1, help="runs per figure; the median is printed"),
     quick: bool = typer.Option(False, "--quick", help="tiny counts: check that everything runs (figures unreliable)"),
-    vector: bool = typer.Option(False, "--vector", help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
-                                "same step cost, and the machine's own 1 vs 2 process scaling"),
+    vector: bool = typer.Option(
+        False,
+        "--vector",
+        help="also measure 1 vs 2 subprocess workers (gymnasium async, SB3), a stand-in env of the "
+        "same step cost, and the machine's own 1 vs 2 process scaling",
+    ),
     markdown: bool = typer.Option(False, "--markdown", help="print the tables as Markdown (for docs/performance.md)"),
-    env: Optional[list[str]] = typer.Option(None, "--env", help="env id to measure (repeatable; default: all; with "
-                                            "--backend batched also an env config, e.g. quadx_waypoints_velocity)"),
+    env: Optional[list[str]] = typer.Option(
+        None,
+        "--env",
+        help="env id to measure (repeatable; default: all; with "
+        "--backend batched also an env config, e.g. quadx_waypoints_velocity)",
+    ),
     vehicles: Optional[str] = typer.Option(None, "--vehicles", help="world sizes, comma-separated (default 1,8,64)"),
-    agents: Optional[str] = typer.Option(None, "--agents", help="swarm sizes of the multi-agent curve, comma-separated "
-                                         "(default 1,2,4,8,16,32,64,128; 0 skips it)"),
+    agents: Optional[str] = typer.Option(
+        None,
+        "--agents",
+        help="swarm sizes of the multi-agent curve, comma-separated (default 1,2,4,8,16,32,64,128; 0 skips it)",
+    ),
     json_path: Optional[Path] = typer.Option(None, "--json", help="also write the full results to this JSON file"),
-    backend: str = typer.Option("pybullet", "--backend", help="pybullet (the sections above), or batched: the batched "
-                                "backend's agent-steps/s against the number of envs, beside the PyBullet env"),
-    batch_sizes: Optional[str] = typer.Option(None, "--batch-sizes", help="with --backend batched: env counts, "
-                                              "comma-separated (default 1,16,64,256,1024,4096)"),
+    backend: str = typer.Option(
+        "pybullet",
+        "--backend",
+        help="pybullet (the sections above), or batched: the batched "
+        "backend's agent-steps/s against the number of envs, beside the PyBullet env",
+    ),
+    batch_sizes: Optional[str] = typer.Option(
+        None,
+        "--batch-sizes",
+        help="with --backend batched: env counts, comma-separated (default 1,16,64,256,1024,4096)",
+    ),
 ) -> None:
     from pyflyt_cli.commands.speed import speed_command
 
-    typer.echo(speed_command(repeats=repeats, quick=quick, vector=vector, markdown=markdown, envs=env,
-                             vehicles=vehicles, agents=agents, json_path=json_path, backend=backend,
-                             batch_sizes=batch_sizes, progress=lambda message: typer.echo(message, err=True)))
+    typer.echo(
+        speed_command(
+            repeats=repeats,
+            quick=quick,
+            vector=vector,
+            markdown=markdown,
+            envs=env,
+            vehicles=vehicles,
+            agents=agents,
+            json_path=json_path,
+            backend=backend,
+            batch_sizes=batch_sizes,
+            progress=lambda message: typer.echo(message, err=True),
+        )
+    )
 
 
 @app.command(
@@ -320,7 +364,9 @@ def benchmark(
     context_settings={"allow_extra_args": False},
 )
 @user_errors
-def tune(overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=, tune options, training overrides")) -> None:
+def tune(
+    overrides: Optional[list[str]] = typer.Argument(None, help="env=, algo=, tune options, training overrides"),
+) -> None:
     from pyflyt_cli.commands.tune import run_tune
 
     code = run_tune(overrides or [])
@@ -408,10 +454,14 @@ def uav_validate(files: list[str] = typer.Argument(..., help="YAML files or ship
 )
 @user_errors
 def uav_show(
-    file: Optional[str] = typer.Argument(None, help="YAML file or shipped name (default with --env: the env's airframe)"),
+    file: Optional[str] = typer.Argument(
+        None, help="YAML file or shipped name (default with --env: the env's airframe)"
+    ),
     png: Optional[Path] = typer.Option(None, "--png", help="write a 3/4-view picture to this .png file"),
     size: str = typer.Option("640x480", "--size", help="picture size WIDTHxHEIGHT in pixels"),
-    curves: Optional[Path] = typer.Option(None, "--curves", help="plot every lifting surface's coefficients to this .png"),
+    curves: Optional[Path] = typer.Option(
+        None, "--curves", help="plot every lifting surface's coefficients to this .png"
+    ),
     env: Optional[str] = typer.Option(
         None, "--env", help="also show this env config's payloads (shipped name in conf/env or a YAML path)"
     ),
@@ -421,7 +471,9 @@ def uav_show(
     run_show(file, png=png, size=size, curves=curves, env=env)
 
 
-@uav_app.command("schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning).")
+@uav_app.command(
+    "schema", help="Print the reference of every airframe YAML field (Markdown: key, type, default, meaning)."
+)
 def uav_schema() -> None:
     from pyflyt_cli.airframes import schema_markdown
 

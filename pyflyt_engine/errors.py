@@ -36,5 +36,5 @@ def require(module: str, extra: str, feature: str):
     except ModuleNotFoundError as error:
         raise MissingExtraError(
             f"{feature} needs the package '{(error.name or module).split('.')[0]}', which is not installed: "
-            f"install the '{extra}' extra, e.g. pip install \"pyflyt-toolkit[{extra}]\" (or \".[{extra}]\" in a checkout)"
+            f'install the \'{extra}\' extra, e.g. pip install "pyflyt-toolkit[{extra}]" (or ".[{extra}]" in a checkout)'
         ) from None

@@ -44,7 +44,9 @@ LIMITS: dict[str, Limit] = {
     # NumPy's legacy seeding, which SB3 uses, takes 32 bits; half of that range leaves room for the
     # offsets derived from a seed (an env per vector slot, evaluation episodes from seed + 1000 + i)
     "seed": Limit(2**31 - 1, "", "a run's or an evaluation's seed"),
-    "eval.episodes": Limit(1_000_000.0, "episodes", "episodes `pyflyt eval` flies (seeds seed ... seed + episodes - 1)"),
+    "eval.episodes": Limit(
+        1_000_000.0, "episodes", "episodes `pyflyt eval` flies (seeds seed ... seed + episodes - 1)"
+    ),
     # physical values that overflowed or flew a NaN trajectory with exit 0 (max_rpm 1e200, noise_ratio
     # 1e10, wind 1e300): far above any real machine (hobby motors: tens of thousands of RPM)
     "max_rpm": Limit(1e7, "RPM", "a motor's speed at full throttle"),
@@ -57,7 +59,9 @@ LIMITS: dict[str, Limit] = {
     "fly.rows": Limit(10_000.0, "rows", "rows of the table `pyflyt fly` prints"),
     "fly.duration": Limit(86_400.0, "s", "simulated seconds `pyflyt fly` flies"),
     # a setpoint or spawn position of 1e308 flew a NaN trajectory with exit 0 (or printed a 300-digit altitude)
-    "fly.magnitude": Limit(100_000.0, "", "each value of a `pyflyt fly` setpoint, spawn position or attitude (as the flight dome)"),
+    "fly.magnitude": Limit(
+        100_000.0, "", "each value of a `pyflyt fly` setpoint, spawn position or attitude (as the flight dome)"
+    ),
     # counts of a training run (a run's config.yaml, an experiment, a benchmark plan, the command line):
     # `train.n_envs=1e8` or `algo.n_steps=1e9` ended in a NumPy MemoryError traceback, a layer of 1e8
     # units in torch's, `train.eval_episodes=1e9` evaluated for ever before the first report.  The largest
@@ -67,15 +71,23 @@ LIMITS: dict[str, Limit] = {
     "train.n_envs": Limit(65_536.0, "envs", "environments of one run (PyBullet envs, or the batched backend's arrays)"),
     "train.eval_episodes": Limit(10_000.0, "episodes", "episodes of each evaluation during training"),
     "train.torch_threads": Limit(1024.0, "threads", "torch's intra-op threads"),
-    "algo.rollout": Limit(1e7, "samples", "an on-policy rollout, n_steps x n_envs (x agents): every sample's observation is kept"),
+    "algo.rollout": Limit(
+        1e7, "samples", "an on-policy rollout, n_steps x n_envs (x agents): every sample's observation is kept"
+    ),
     # NStepReplayBuffer reads n transitions per sampled one: a minibatch of 256 at n = 1e7 is 2.6e9 reads
     "algo.n_step_returns": Limit(1000.0, "steps", "rewards summed in an off-policy n-step return (algo.n_steps)"),
     "algo.batch_size": Limit(1_048_576.0, "samples", "a minibatch of one gradient step"),
     "algo.n_epochs": Limit(10_000.0, "epochs", "passes over each on-policy rollout"),
-    "algo.buffer_size": Limit(1e7, "transitions", "the replay buffer, allocated whole when training starts (the paper: 1e6)"),
+    "algo.buffer_size": Limit(
+        1e7, "transitions", "the replay buffer, allocated whole when training starts (the paper: 1e6)"
+    ),
     "algo.gradient_steps": Limit(100_000.0, "steps", "gradient steps of one off-policy update"),
     "algo.offline_steps": Limit(1e8, "steps", "gradient steps on an offline buffer before the first online step"),
-    "algo.iterations": Limit(10_000.0, "iterations", "iterations of an inner loop of one update (samples of V(s), conjugate gradient, line search, critic epochs)"),
+    "algo.iterations": Limit(
+        10_000.0,
+        "iterations",
+        "iterations of an inner loop of one update (samples of V(s), conjugate gradient, line search, critic epochs)",
+    ),
     "net.width": Limit(65_536.0, "units", "units of one hidden layer (net_arch, lstm_hidden_size)"),
     "net.depth": Limit(1000.0, "layers", "hidden layers of one network (net_arch, n_lstm_layers)"),
     "net.parameters": Limit(1e8, "weights", "weights between the hidden layers of one network (400 MB as float32)"),
@@ -84,14 +96,18 @@ LIMITS: dict[str, Limit] = {
     # counts of the commands that run many trainings or measurements
     "jobs": Limit(1024.0, "processes", "runs or trials trained at once on this machine (`benchmark`, `tune`)"),
     "benchmark.seeds": Limit(10_000.0, "seeds", "seeds of one benchmark group (the paper: 50)"),
-    "benchmark.random_episodes": Limit(10_000.0, "episodes", "episodes of the random policy per task (a benchmark's score 0)"),
+    "benchmark.random_episodes": Limit(
+        10_000.0, "episodes", "episodes of the random policy per task (a benchmark's score 0)"
+    ),
     "tune.trials": Limit(100_000.0, "trials", "finished trials a study should hold"),
     "speed.repeats": Limit(1000.0, "runs", "runs per figure of `pyflyt speed`"),
     "speed.vehicles": Limit(4096.0, "vehicles", "vehicles of one PyBullet world `pyflyt speed --vehicles` builds"),
     "plot.reps": Limit(1_000_000.0, "replicates", "bootstrap replicates per statistic of `pyflyt plot --reps`"),
     # lists read from a recording (``pyflyt replay``, ``--verify``, ``--plot``, ``--video``): a 3 M-value
     # state list hung replay; shipped recordings hold rows of a few dozen values
-    "recording.row_values": Limit(10_000.0, "values", "values in one recorded row of unfixed width (aux state, sensors)"),
+    "recording.row_values": Limit(
+        10_000.0, "values", "values in one recorded row of unfixed width (aux state, sensors)"
+    ),
     # the largest a recorder writes: an OBJ mesh at its limits, 100 000 vertices and 200 000 triangles
     # (600 000 indices), drawn as one triangle list
     "recording.scene_items": Limit(

@@ -216,7 +216,9 @@ def names_file(value: str | Path) -> bool:
     return text.endswith((".yaml", ".yml")) or "/" in text or os.sep in text
 
 
-def unknown_name(value: Any, choices: list[str], what: str, shipped: str = "Shipped", files: str = "or give a .yaml path") -> str:
+def unknown_name(
+    value: Any, choices: list[str], what: str, shipped: str = "Shipped", files: str = "or give a .yaml path"
+) -> str:
     """``unknown <what> '<value>'. Did you mean '...'? <shipped>: ...; <files>``."""
     hint = did_you_mean(str(value), choices)
     tail = f"; {files}" if files else ""
@@ -273,8 +275,14 @@ def base_named(name: str, group: str) -> str:
 MAX_VARIANT_DEPTH = 8
 
 
-def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: type[PyFlytError] = ConfigError,
-                  _chain: tuple[str, ...] = ()) -> dict[str, Any]:
+def with_defaults(
+    data: Mapping[str, Any],
+    group: str,
+    source: str,
+    *,
+    error: type[PyFlytError] = ConfigError,
+    _chain: tuple[str, ...] = (),
+) -> dict[str, Any]:
     """``data`` with its ``defaults`` list resolved: a **variant** of shipped configs of the same group.
 
     A config file may start from others of its group and change some keys, in Hydra's own
@@ -300,8 +308,10 @@ def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: ty
     own = {k: v for k, v in data.items() if k != "defaults"}
     entries = data["defaults"]
     if not isinstance(entries, list) or not all(isinstance(e, str) for e in entries):
-        raise error(f"{source}: defaults must be a list of {group} config names (and _self_), e.g. "
-                    f"[{next(iter(available(group)), 'name')}, _self_]; got {entries!r}")
+        raise error(
+            f"{source}: defaults must be a list of {group} config names (and _self_), e.g. "
+            f"[{next(iter(available(group)), 'name')}, _self_]; got {entries!r}"
+        )
     if "_self_" not in entries:
         entries = [*entries, "_self_"]
     merged: dict[str, Any] = {}
@@ -310,19 +320,34 @@ def with_defaults(data: Mapping[str, Any], group: str, source: str, *, error: ty
             part = own
         else:
             if not plain_name(entry):
-                raise error(f"{source}: defaults entry {entry!r} is not a name: a variant starts from shipped "
-                            f"{group} configs by name ({', '.join(bases(group) + available(group))})")
+                raise error(
+                    f"{source}: defaults entry {entry!r} is not a name: a variant starts from shipped "
+                    f"{group} configs by name ({', '.join(bases(group) + available(group))})"
+                )
             if entry in _chain or len(_chain) >= MAX_VARIANT_DEPTH:
                 loop = " -> ".join((*_chain, entry))
                 raise error(f"{source}: defaults {loop}: a loop or a chain deeper than {MAX_VARIANT_DEPTH} files")
             try:
-                path = resolve(entry, group, what=f"{group} config", error=error, files=False, base=True,
-                               unknown=lambda name: unknown_name(name, bases(group) + available(group), f"{group} config",
-                                                                 files=""))
+                path = resolve(
+                    entry,
+                    group,
+                    what=f"{group} config",
+                    error=error,
+                    files=False,
+                    base=True,
+                    unknown=lambda name: unknown_name(
+                        name, bases(group) + available(group), f"{group} config", files=""
+                    ),
+                )
             except PyFlytError as exc:
                 raise error(f"{source}: defaults entry {entry!r}: {exc}") from None
-            part = with_defaults(load_yaml_file(path, what=f"{group} config file", error=error), group, str(path),
-                                 error=error, _chain=(*_chain, entry))
+            part = with_defaults(
+                load_yaml_file(path, what=f"{group} config file", error=error),
+                group,
+                str(path),
+                error=error,
+                _chain=(*_chain, entry),
+            )
         merged = _merged(merged, part)
     return merged
 

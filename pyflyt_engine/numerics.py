@@ -50,9 +50,7 @@ MODES = ("pinned", "native")
 
 #: NumPy's AVX-512 dispatch targets, by both naming schemes (NumPy >= 2.4 groups them as
 #: X86_V4; older versions name each); names a version does not know are ignored by it
-_NUMPY_AVX512 = (
-    "X86_V4 AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL AVX512_SPR"
-)
+_NUMPY_AVX512 = "X86_V4 AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL AVX512_SPR"
 
 #: what :func:`pin` sets, in the pinned mode
 PINNED: dict[str, str] = {

@@ -260,9 +260,7 @@ def parse_obj(data: bytes, name: str) -> ObjMesh:
     return ObjMesh(tuple(vertices), tuple(indices))
 
 
-Obstacle = Annotated[
-    Union[BoxObstacle, CylinderObstacle, SphereObstacle, MeshObstacle], Field(discriminator="type")
-]
+Obstacle = Annotated[Union[BoxObstacle, CylinderObstacle, SphereObstacle, MeshObstacle], Field(discriminator="type")]
 
 
 class _Generator(_Model):
@@ -297,7 +295,9 @@ class _Generator(_Model):
                 f"density {self.density} per m^2 over {self.area:g} m^2 gives no obstacle: raise the density or the region"
             )
         if self.count > 2000:
-            raise ValueError(f"density {self.density} per m^2 over {self.area:g} m^2 gives {self.count} obstacles (limit 2000)")
+            raise ValueError(
+                f"density {self.density} per m^2 over {self.area:g} m^2 gives {self.count} obstacles (limit 2000)"
+            )
         return self
 
     @property
@@ -431,7 +431,9 @@ def draw_layout(
             if isinstance(g, ForestGenerator):
                 obstacle = CylinderObstacle(radius=radius, height=height, position=(x, y, 0.5 * height), color=g.color)
             else:
-                obstacle = BoxObstacle(size=(sx, sy, sz), position=(x, y, 0.5 * sz), orientation=(0.0, 0.0, yaw), color=g.color)
+                obstacle = BoxObstacle(
+                    size=(sx, sy, sz), position=(x, y, 0.5 * sz), orientation=(0.0, 0.0, yaw), color=g.color
+                )
             placed.append((x, y, reach))
             break
         if obstacle is None:
@@ -459,7 +461,10 @@ def prism_mesh(radius: float, height: float, sides: int) -> tuple[list[list[floa
     """The upright ``sides``-gon prism inscribed in the cylinder of ``radius`` and ``height``
     centred on the origin (vertices on the circle), as vertices and outward triangles."""
     h = 0.5 * float(height)
-    ring = [(radius * math.cos(2.0 * math.pi * k / sides), radius * math.sin(2.0 * math.pi * k / sides)) for k in range(sides)]
+    ring = [
+        (radius * math.cos(2.0 * math.pi * k / sides), radius * math.sin(2.0 * math.pi * k / sides))
+        for k in range(sides)
+    ]
     vertices = [[x, y, -h] for x, y in ring] + [[x, y, h] for x, y in ring] + [[0.0, 0.0, -h], [0.0, 0.0, h]]
     bottom, top = 2 * sides, 2 * sides + 1
     indices: list[int] = []

@@ -407,9 +407,7 @@ def _hard_link(path: Any, what: str, links: int) -> str:
     )
 
 
-def check_own_file(
-    path: str | os.PathLike[str], *, what: str = "file", error: type[PyFlytError] = ConfigError
-) -> None:
+def check_own_file(path: str | os.PathLike[str], *, what: str = "file", error: type[PyFlytError] = ConfigError) -> None:
     """Refuse ``path``, if it exists, unless :func:`open_own_file` could write it: a regular file,
     not a link, with one name.  Opens and creates nothing (a check before any work starts)."""
     try:
@@ -419,8 +417,10 @@ def check_own_file(
     except OSError as exc:
         raise error(f"{path}: cannot read the {what}: {exc.strerror or exc}") from None
     if stat.S_ISLNK(info.st_mode):
-        raise error(f"{path}: the {what} is a symbolic link; this directory's files are written through no link "
-                    "(remove the link)")
+        raise error(
+            f"{path}: the {what} is a symbolic link; this directory's files are written through no link "
+            "(remove the link)"
+        )
     kind = _kind(info.st_mode)
     if kind is not None:
         raise error(f"{path}: the {what} is {kind}, not a regular file; remove it")

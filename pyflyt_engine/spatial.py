@@ -79,7 +79,14 @@ class PlanarGrid:
         return found
 
     def nearest(
-        self, x: float, y: float, z: float, positions: Mapping[int, Sequence[float]], count: int, radius: float, skip: int
+        self,
+        x: float,
+        y: float,
+        z: float,
+        positions: Mapping[int, Sequence[float]],
+        count: int,
+        radius: float,
+        skip: int,
     ) -> list[tuple[float, int]]:
         """The ``count`` points nearest to ``(x, y, z)`` within ``radius`` [m] (3-D distance),
         ``skip`` excluded, as ``(squared distance, index)`` ascending (ties by index).

@@ -142,9 +142,7 @@ class BodySpec(_Spec):
         None, description="centre of mass in the spec's coordinates [m] (default: from the parts, else the origin)"
     )
     shapes: list[ShapeSpec] = Field(default_factory=list, description="collision/visual primitives")
-    urdf: str | None = Field(
-        None, description="use this URDF instead of generating one (relative to the spec file)"
-    )
+    urdf: str | None = Field(None, description="use this URDF instead of generating one (relative to the spec file)")
 
     @field_validator("mass")
     @classmethod
@@ -409,7 +407,8 @@ class MotorsSpec(_Spec):
         "at the hub; null: none",
     )
     inflow: InflowSpec | None = Field(
-        None, description="thrust and torque respond to the axial air speed through the disc (needs prop_radius); null: static"
+        None,
+        description="thrust and torque respond to the axial air speed through the disc (needs prop_radius); null: static",
     )
 
     @model_serializer(mode="wrap")
@@ -559,9 +558,20 @@ class BoostersSpec(_Spec):
         n = len(self.positions)
         if n == 0:
             raise ValueError("boosters.positions is empty: list one [x, y, z] per booster")
-        for name in ("thrust_axes", "fuel_tank_positions", "inertia_full", "total_fuel", "max_fuel_rate",
-                     "min_thrust", "max_thrust", "reignitable", "tau", "noise_ratio", "ignition_channel",
-                     "throttle_channel"):
+        for name in (
+            "thrust_axes",
+            "fuel_tank_positions",
+            "inertia_full",
+            "total_fuel",
+            "max_fuel_rate",
+            "min_thrust",
+            "max_thrust",
+            "reignitable",
+            "tau",
+            "noise_ratio",
+            "ignition_channel",
+            "throttle_channel",
+        ):
             value = getattr(self, name)
             if isinstance(value, list) and len(value) != n:
                 raise ValueError(f"'{name}' has {len(value)} entries but 'positions' has {n}: give one per booster")
@@ -583,7 +593,9 @@ class GimbalSpec(_Spec):
     max_angle_a_deg: float = Field(ge=0, description="deflection limit about axis a [deg]")
     max_angle_b_deg: float = Field(ge=0, description="deflection limit about axis b [deg]")
     tau: float = Field(0.01, ge=0, description="actuator time constant [s]")
-    channels: tuple[str, str] = Field(("gimbal_a", "gimbal_b"), description="channels commanding axes a and b in [-1, 1]")
+    channels: tuple[str, str] = Field(
+        ("gimbal_a", "gimbal_b"), description="channels commanding axes a and b in [-1, 1]"
+    )
     mixer: bool = Field(
         False,
         description="true: the multirotor mixer flies axis a (a tilting motor: tricopter tail, tilt-rotor); the "
@@ -656,7 +668,9 @@ class _RangeSensorSpec(_Spec):
         0.05, gt=0, description="rays start this far from the origin [m] (outside the airframe: it never sees itself)"
     )
     max_range: float = Field(10.0, gt=0, description="reading where nothing is hit [m]")
-    noise_std: float = Field(0.0, ge=0, description="standard deviation of the zero-mean Gaussian added to each hit [m]")
+    noise_std: float = Field(
+        0.0, ge=0, description="standard deviation of the zero-mean Gaussian added to each hit [m]"
+    )
     rate_hz: float = Field(30.0, gt=0, description="scan refresh rate [Hz] (the last scan is returned in between)")
 
     @model_validator(mode="after")
@@ -860,9 +874,7 @@ class NoControlSpec(_Spec):
     type: Literal["none"] = "none"
 
 
-ControlSpec = Annotated[
-    Union[MultirotorControlSpec, FixedwingControlSpec, NoControlSpec], Field(discriminator="type")
-]
+ControlSpec = Annotated[Union[MultirotorControlSpec, FixedwingControlSpec, NoControlSpec], Field(discriminator="type")]
 
 
 # ------------------------------------------------------------------------ battery
@@ -879,7 +891,9 @@ class BatterySpec(_Spec):
         description="[[state of charge, volts], ...] from charge 0 to 1, linearly interpolated; the voltage at "
         "charge 1 is V_full, at which the motors reach max_rpm"
     )
-    efficiency: float = Field(1.0, gt=0, le=1, description="motors and speed controllers: shaft power / electrical power")
+    efficiency: float = Field(
+        1.0, gt=0, le=1, description="motors and speed controllers: shaft power / electrical power"
+    )
     avionics_power: float = Field(0.0, ge=0, description="constant draw of everything but the motors [W]")
     initial_charge: float = Field(1.0, gt=0, le=1, description="state of charge at spawn (0, 1]")
 
@@ -895,7 +909,9 @@ class BatterySpec(_Spec):
             )
         volts = [v for _, v in value]
         if volts[0] <= 0 or any(b < a for a, b in zip(volts, volts[1:])):
-            raise ValueError(f"open_circuit_voltage: the voltages must be > 0 and never fall as the charge rises, got {volts}")
+            raise ValueError(
+                f"open_circuit_voltage: the voltages must be > 0 and never fall as the charge rises, got {volts}"
+            )
         return value
 
 
@@ -947,7 +963,8 @@ class UAVSpec(_Spec):
         None, description="IMU, position sensor and barometer with noise (docs/engine.md, 'Sensors'); null: none"
     )
     prop_guards: PropGuardSpec | None = Field(
-        None, description="rings around the rotors that add drag (docs/uav_authoring.md, 'Propeller guards'); null: none"
+        None,
+        description="rings around the rotors that add drag (docs/uav_authoring.md, 'Propeller guards'); null: none",
     )
     source: str | None = Field(None, exclude=True, description="file the spec was loaded from")
 
@@ -974,17 +991,28 @@ class UAVSpec(_Spec):
         for where, channel in used:
             if channel not in self.channels:
                 declared = ", ".join(self.channels) or "none"
-                raise ValueError(f"{where} uses channel '{channel}', which is not declared in 'channels' (declared: {declared})")
-        for kind, items in (("surfaces", self.surfaces), ("gimbals", self.gimbals), ("cameras", self.cameras),
-                            ("range_sensors", self.range_sensors)):
+                raise ValueError(
+                    f"{where} uses channel '{channel}', which is not declared in 'channels' (declared: {declared})"
+                )
+        for kind, items in (
+            ("surfaces", self.surfaces),
+            ("gimbals", self.gimbals),
+            ("cameras", self.cameras),
+            ("range_sensors", self.range_sensors),
+        ):
             names = [i.name for i in items]
             if len(set(names)) != len(names):
                 raise ValueError(f"{kind}: names must be unique, got {names}")
         for gimbal in self.gimbals:
-            pool = self.boosters.positions if gimbal.target_kind == "booster" and self.boosters else (
-                self.motors.positions if gimbal.target_kind == "motor" and self.motors else [])
+            pool = (
+                self.boosters.positions
+                if gimbal.target_kind == "booster" and self.boosters
+                else (self.motors.positions if gimbal.target_kind == "motor" and self.motors else [])
+            )
             if gimbal.target_index >= len(pool):
-                raise ValueError(f"gimbals.{gimbal.name}: target '{gimbal.target}' does not exist ({len(pool)} {gimbal.target_kind}s)")
+                raise ValueError(
+                    f"gimbals.{gimbal.name}: target '{gimbal.target}' does not exist ({len(pool)} {gimbal.target_kind}s)"
+                )
         if isinstance(self.control, MultirotorControlSpec):
             if self.motors is None:
                 raise ValueError("control.type 'multirotor' needs a 'motors' section")
@@ -993,11 +1021,15 @@ class UAVSpec(_Spec):
                 if not 0 <= index < n:
                     raise ValueError(f"control.mixer_motors: no motor {index} (there are {n})")
         if self.battery is not None and self.motors is None:
-            raise ValueError("battery: it drives motors, and the airframe has no 'motors' section; remove it or add motors")
+            raise ValueError(
+                "battery: it drives motors, and the airframe has no 'motors' section; remove it or add motors"
+            )
         if self.prop_guards is not None:
             n = len(self.motors.positions) if self.motors is not None else 0
             if n == 0:
-                raise ValueError("prop_guards: they ring rotors, and the airframe has no 'motors' section; remove it or add motors")
+                raise ValueError(
+                    "prop_guards: they ring rotors, and the airframe has no 'motors' section; remove it or add motors"
+                )
             for index in self.prop_guards.motors or []:
                 if not 0 <= index < n:
                     raise ValueError(f"prop_guards.motors: no motor {index} (there are {n}: 0 to {n - 1})")
@@ -1038,7 +1070,6 @@ class UAVSpec(_Spec):
                     f"motor {g.target_index} (dot product {dot:.3g}): the servo tilts the thrust across its own axis"
                 )
 
-
     def mixer_motor_indices(self) -> tuple[int, ...]:
         """Indices of the motors a multirotor controller flies: ``control.mixer_motors``,
         else every motor without a ``mix`` (empty without multirotor control)."""
@@ -1057,7 +1088,9 @@ class UAVSpec(_Spec):
         m = self.motors
         positions = np.asarray(m.positions, dtype=float)[idx] - self.center_of_mass()
         axes, spin, kf, kt = (m.to_array(name)[idx] for name in ("thrust_axes", "spin", "kf", "kt"))
-        tilts = [Tilt(idx.index(g.target_index), g.axis_a, math.radians(g.max_angle_a_deg)) for g in self.gimbals if g.mixer]
+        tilts = [
+            Tilt(idx.index(g.target_index), g.axis_a, math.radians(g.max_angle_a_deg)) for g in self.gimbals if g.mixer
+        ]
         require_controllable(tilted_allocation(positions, axes, spin, kf, kt, tilts), idx, tilted=bool(tilts))
 
     # ------------------------------------------------------- mass properties
@@ -1083,6 +1116,7 @@ def inertia_tensor(values: list[float] | tuple[float, ...]) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------ loading
+
 
 def parse_uav_spec(data: Any, source: str = "<dict>") -> UAVSpec:
     """Validate an already-parsed mapping as a :class:`UAVSpec`.

@@ -37,7 +37,7 @@ def _geometry(shape: ShapeSpec, base_dir: Path) -> str:
     mesh = Path(shape.mesh)  # type: ignore[arg-type]
     if not mesh.is_absolute():
         mesh = (base_dir / mesh).resolve()
-    return f"<mesh filename={quoteattr(str(mesh))} scale=\"{_fmt(shape.scale)}\"/>"
+    return f'<mesh filename={quoteattr(str(mesh))} scale="{_fmt(shape.scale)}"/>'
 
 
 def _surface_plate(surface: SurfaceSpec) -> ShapeSpec:

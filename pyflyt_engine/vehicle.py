@@ -297,7 +297,11 @@ class Vehicle:
             self._modes: dict[str, FlightMode] = {}
             self.mode = self.controller.mode
         else:
-            self._modes = dict(FIXEDWING_MODES) if isinstance(spec.control, FixedwingControlSpec) else {"channels": FIXEDWING_MODES["channels"]}
+            self._modes = (
+                dict(FIXEDWING_MODES)
+                if isinstance(spec.control, FixedwingControlSpec)
+                else {"channels": FIXEDWING_MODES["channels"]}
+            )
             if has_rocket_modes(parts):
                 boosters, body_drag = self.actuators.boosters, self.actuators.drag
                 assert boosters is not None
@@ -305,8 +309,12 @@ class Vehicle:
                 self.rocket = RocketAutopilot(parts, boosters, control_dt, factors)
                 self._modes.update({k: v for k, v in ROCKET_MODES.items() if k != "channels"})
             if isinstance(spec.control, FixedwingControlSpec):
-                self.autopilot = FixedwingAutopilot(spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt)
-            self.mode = self._resolve(spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels")
+                self.autopilot = FixedwingAutopilot(
+                    spec.control, parts.channels, parts.channel_low, parts.channel_high, control_dt
+                )
+            self.mode = self._resolve(
+                spec.control.mode if isinstance(spec.control, FixedwingControlSpec) else "channels"
+            )
         self.setpoint = np.zeros(self._setpoint_size(self.mode))
         self.armed = True
         if mode is not None:
@@ -322,7 +330,9 @@ class Vehicle:
             return resolve_mode(mode, {k: v.mode for k, v in self._custom_modes.items()})
         name = str(mode)
         if name not in self._modes:
-            raise ConfigError(f"unknown mode '{mode}' for vehicle '{self.spec.name}': available {', '.join(self._modes)}")
+            raise ConfigError(
+                f"unknown mode '{mode}' for vehicle '{self.spec.name}': available {', '.join(self._modes)}"
+            )
         return self._modes[name]
 
     def _setpoint_size(self, mode: FlightMode) -> int:
@@ -522,9 +532,7 @@ class Vehicle:
         ang_vel = (r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
         lin_vel = (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz)
         # KinematicState(ang_vel, ang_pos, lin_vel, lin_pos, quaternion, lin_vel_ground, ang_vel_ground)
-        self._state = state = _new_state(
-            KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang)
-        )
+        self._state = state = _new_state(KinematicState, (ang_vel, _get_euler(quat, cid), lin_vel, pos, quat, lin, ang))
         self._state_stale = False
         return state
 
@@ -577,7 +585,9 @@ class Vehicle:
             custom = self._custom_modes.get(self.mode.name) if self._custom_modes else None
             if custom is not None:
                 head = np.asarray(custom.controller(self.state, np.asarray(head)), dtype=np.float64).tolist()
-            throttles = self.controller.law(self.state, head)  # the mode's control law (what calling the controller runs)
+            throttles = self.controller.law(
+                self.state, head
+            )  # the mode's control law (what calling the controller runs)
         elif self.mode.name == "channels":
             self.channels = self.setpoint.clip(parts.channel_low, parts.channel_high)
         elif self.rocket is not None and self.mode.name in ROCKET_MODES:
@@ -659,7 +669,11 @@ class Vehicle:
             self._update_mass()
             return
         p.changeDynamics(
-            self.body_id, -1, mass=self._dry_mass, localInertiaDiagonal=self._dry_inertia.tolist(), physicsClientId=self._client
+            self.body_id,
+            -1,
+            mass=self._dry_mass,
+            localInertiaDiagonal=self._dry_inertia.tolist(),
+            physicsClientId=self._client,
         )
         self.mass = self._dry_mass
 

@@ -284,7 +284,9 @@ class World:
         """Replace the atmosphere (e.g. a wind sampled at a reset): a new field at time 0,
         drawing from the world's wind stream."""
         self.wind_config = load_wind_config(wind)
-        self.atmosphere.field = None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        self.atmosphere.field = (
+            None if self.wind_config.calm else WindField(self.wind_config, self.physics_dt, self._wind_generator)
+        )
         for vehicle in self.vehicles:
             vehicle.state_changed()
 
@@ -542,7 +544,10 @@ class World:
         episode that began with an unseeded ``reset()`` (the streams continue from where
         the previous episode left them).
         """
-        state: dict[str, Any] = {"world": self.np_random.bit_generator.state, "vehicles": [v.rng_state for v in self.vehicles]}
+        state: dict[str, Any] = {
+            "world": self.np_random.bit_generator.state,
+            "vehicles": [v.rng_state for v in self.vehicles],
+        }
         state["wind"] = self._wind_generator.bit_generator.state
         if any(v.range_sensors for v in self.vehicles):
             state["sensors"] = [[s.rng.bit_generator.state for s in v.range_sensors] for v in self.vehicles]
@@ -565,7 +570,9 @@ class World:
 
         vehicles = state["vehicles"]
         if len(vehicles) != len(self.vehicles):
-            raise ConfigError(f"rng state has {len(vehicles)} vehicle streams, the world has {len(self.vehicles)} vehicles")
+            raise ConfigError(
+                f"rng state has {len(vehicles)} vehicle streams, the world has {len(self.vehicles)} vehicles"
+            )
         self.np_random = generator(state["world"])
         for vehicle, bit_state in zip(self.vehicles, vehicles):
             vehicle.reseed(generator(bit_state))

@@ -57,8 +57,17 @@ def pyflyt_forked(args: list[str], timeout: float = 120, memory: int = 2 << 30) 
                 used = int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
             resource.setrlimit(resource.RLIMIT_AS, (used + memory, used + memory))
         result = CliRunner().invoke(app, args)
-        send.send((result.exit_code, result.output + ("" if result.exception is None or isinstance(
-            result.exception, SystemExit) else f"\nTraceback (in the child): {result.exception!r}")))
+        send.send(
+            (
+                result.exit_code,
+                result.output
+                + (
+                    ""
+                    if result.exception is None or isinstance(result.exception, SystemExit)
+                    else f"\nTraceback (in the child): {result.exception!r}"
+                ),
+            )
+        )
 
     child = context.Process(target=target)
     child.start()

@@ -34,13 +34,18 @@ def test_the_quickstart_transcript_is_the_measured_one():
     t = FIGURES["train"]
     assert f"{t['training_s']:.0f} s of training, {t['wall_s']:.0f} s for the whole command" in QUICKSTART
     e = FIGURES["eval"]
-    assert f"returns {e['mean_return']:.2f} ± {e['std_return']:.2f} and holds {100 * e['mean_distance_m']:.1f} cm" in QUICKSTART
+    assert (
+        f"returns {e['mean_return']:.2f} ± {e['std_return']:.2f} and holds {100 * e['mean_distance_m']:.1f} cm"
+        in QUICKSTART
+    )
 
 
 def test_the_readme_quotes_the_default_run_and_its_video_frame():
     assert f"last evaluation returns {_last_eval().replace('-', '-')}" in README.replace("\n", " ")
     t, v = FIGURES["train"], FIGURES["video"]
-    assert f"Training took {t['training_s']:.0f} s ({t['wall_s']:.0f} s for the whole command" in README.replace("\n", " ")
+    assert f"Training took {t['training_s']:.0f} s ({t['wall_s']:.0f} s for the whole command" in README.replace(
+        "\n", " "
+    )
     assert f"{100 * v['distance_m']:.1f} cm from it, return {v['return']:.2f} after 5 s" in README.replace("\n", " ")
     assert v["frame"] == 150 and (ROOT / v["image"]).is_file()
 

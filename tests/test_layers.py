@@ -169,8 +169,10 @@ def _script_offences(path: Path, scripts: set[str]) -> list[str]:
         elif isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").split(".")[0] in scripts:
             bad.append(f"{path.name} imports {node.module}")
         elif (
-            isinstance(node, ast.Attribute) and node.attr == "path"
-            and isinstance(node.value, ast.Name) and node.value.id == "sys"
+            isinstance(node, ast.Attribute)
+            and node.attr == "path"
+            and isinstance(node.value, ast.Name)
+            and node.value.id == "sys"
         ):
             bad.append(f"{path.name} uses sys.path (line {node.lineno})")
     return bad
@@ -187,7 +189,8 @@ def test_the_script_check_sees_a_sibling_import_and_a_path_edit(tmp_path):
     script = tmp_path / "study.py"
     script.write_text("import sys\nsys.path.insert(0, '.')\nfrom learn_waypoints import run\nimport numpy\n")
     assert sorted(_script_offences(script, {"learn_waypoints", "study"})) == [
-        "study.py imports learn_waypoints", "study.py uses sys.path (line 2)",
+        "study.py imports learn_waypoints",
+        "study.py uses sys.path (line 2)",
     ]
 
 

@@ -31,7 +31,10 @@ def _run(args, cwd, env=None):
 def test_wheel_installs_and_runs_from_another_directory(tmp_path):
     pytest.importorskip("hatchling", reason="building the wheel needs hatchling (pip install hatchling)")
     wheel_dir = tmp_path / "wheel"
-    built = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheel_dir), str(ROOT)], cwd=tmp_path)
+    built = _run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheel_dir), str(ROOT)],
+        cwd=tmp_path,
+    )
     assert built.returncode == 0, built.stderr
     wheel = next(wheel_dir.glob("*.whl"))
 
@@ -43,14 +46,24 @@ def test_wheel_installs_and_runs_from_another_directory(tmp_path):
     # borrow the dependencies only now, so pip could not mistake an installed copy of
     # the project in the running environment for this one; the venv's own
     # site-packages comes first on sys.path, so its copy of the project wins
-    site = _run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], cwd=tmp_path).stdout.strip()
+    site = _run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], cwd=tmp_path
+    ).stdout.strip()
     Path(site, "borrowed_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
 
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    where = _run([str(python), "-c", "import pyflyt_engine, pyflyt_cli; from pyflyt_engine.paths import conf_dir; "
-                  "print(pyflyt_engine.__file__); print(conf_dir())"], cwd=elsewhere, env=env)
+    where = _run(
+        [
+            str(python),
+            "-c",
+            "import pyflyt_engine, pyflyt_cli; from pyflyt_engine.paths import conf_dir; "
+            "print(pyflyt_engine.__file__); print(conf_dir())",
+        ],
+        cwd=elsewhere,
+        env=env,
+    )
     assert where.returncode == 0, where.stderr
     module_file, conf = where.stdout.strip().splitlines()[-2:]
     assert module_file.startswith(str(env_dir)), module_file
@@ -125,7 +138,10 @@ def test_the_wheel_installs_the_simulator_alone_from_the_index(tmp_path):
     """``pip install <wheel>``: the core dependencies only, and the first flight runs."""
     pytest.importorskip("hatchling", reason="building the wheel needs hatchling (pip install hatchling)")
     wheel_dir = tmp_path / "wheel"
-    built = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheel_dir), str(ROOT)], cwd=tmp_path)
+    built = _run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheel_dir), str(ROOT)],
+        cwd=tmp_path,
+    )
     assert built.returncode == 0, built.stderr
     wheel = next(wheel_dir.glob("*.whl"))
     env_dir = tmp_path / "venv"
@@ -140,7 +156,9 @@ def test_the_wheel_installs_the_simulator_alone_from_the_index(tmp_path):
     assert sorted(names & {n.lower() for n in LEARNING_STACK} | names & {"stable_baselines3", "hydra_core"}) == []
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    flown = _run([python, "-c", SIMULATOR_ONLY, ",".join(LEARNING_STACK), str(tmp_path / "episodes")], elsewhere, env=env)
+    flown = _run(
+        [python, "-c", SIMULATOR_ONLY, ",".join(LEARNING_STACK), str(tmp_path / "episodes")], elsewhere, env=env
+    )
     assert flown.returncode == 0, flown.stderr[-3000:]
     assert flown.stdout.strip().splitlines()[-1] == "loaded []"
     # the command names the extra it needs instead of a traceback

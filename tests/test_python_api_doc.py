@@ -57,5 +57,11 @@ def test_every_python_block_of_the_page_runs(tmp_path: Path, monkeypatch: pytest
     assert namespace["check"].ok
     assert [p.name for p in namespace["exported"].files] == ["policy.c", "policy.h"]
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "benchmarks", "f450.png", "flight.png", "policy.c", "policy.h", "recordings", "runs"
+        "benchmarks",
+        "f450.png",
+        "flight.png",
+        "policy.c",
+        "policy.h",
+        "recordings",
+        "runs",
     ]

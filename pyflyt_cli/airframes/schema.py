@@ -161,7 +161,9 @@ def _model_default(field: Any) -> str | None:
         return None
     own = type(value)()
     changed = [
-        f"{k}: {_format_value(getattr(value, k))}" for k in type(value).model_fields if getattr(value, k) != getattr(own, k)
+        f"{k}: {_format_value(getattr(value, k))}"
+        for k in type(value).model_fields
+        if getattr(value, k) != getattr(own, k)
     ]
     return ", ".join(changed) if changed else "defaults of its section"
 

@@ -216,7 +216,9 @@ def read_plan(root: str | Path) -> Plan:
         jobs = [Job(**{k: v for k, v in j.items() if k != "id"}) for j in data["jobs"]]
     except ConfigError as exc:
         reason = str(exc).removeprefix(f"{path}: ")
-        raise ConfigError(f"{path}: not a readable benchmark plan ({reason}); rerun pyflyt benchmark to rewrite it") from None
+        raise ConfigError(
+            f"{path}: not a readable benchmark plan ({reason}); rerun pyflyt benchmark to rewrite it"
+        ) from None
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ConfigError(
             f"{path}: not a readable benchmark plan ({exc}); rerun pyflyt benchmark to rewrite it"

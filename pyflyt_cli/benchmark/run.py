@@ -197,6 +197,7 @@ def failure_reason(path: Path) -> str:
 def outcome_of(plan: Plan, job: Job, code: int | None, seconds: float) -> Outcome:
     """Classify a finished worker from its exit code and its run directory."""
     from pyflyt_cli.benchmark.worker import INTERRUPTED
+
     if code == 0 and run_state(plan, job) == COMPLETE:
         return Outcome(job, "complete", seconds, code)
     if code == INTERRUPTED or (code is not None and code < 0):

@@ -32,7 +32,9 @@ def benchmark_command(overrides: list[str], dry_run: bool = False, restart_chang
     if not experiments or not experiments[-1]:
         from pyflyt_engine.suggest import closest
 
-        misspelt = [o for o in overrides if o.partition("=")[0] != "experiment" and closest(o.partition("=")[0], ["experiment"])]
+        misspelt = [
+            o for o in overrides if o.partition("=")[0] != "experiment" and closest(o.partition("=")[0], ["experiment"])
+        ]
         hint = (
             f" ({misspelt[0]}: Did you mean 'experiment'? Use experiment={misspelt[0].partition('=')[2]}.)"
             if misspelt

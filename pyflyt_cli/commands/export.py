@@ -36,7 +36,9 @@ def parse_export_args(overrides: list[str]) -> dict[str, str]:
         out = options.get("out", "")
         inferred = {".onnx": "onnx", ".c": "c"}.get(out[out.rfind(".") :].lower() if "." in out else "")
         if inferred is None:
-            raise UsageError("format= is missing: write format=onnx or format=c (e.g. pyflyt export zoo:quadx_hover_ppo format=c out=policy.c)")
+            raise UsageError(
+                "format= is missing: write format=onnx or format=c (e.g. pyflyt export zoo:quadx_hover_ppo format=c out=policy.c)"
+            )
         options["format"] = inferred
     return options
 
@@ -46,7 +48,9 @@ def run_export(source: str, overrides: list[str], *, force: bool = False) -> obj
     from pyflyt_cli.export import PROBES, export_policy
 
     options = parse_export_args(overrides)
-    result = export_policy(source, options["format"], options.get("out"), model=options.get("model", "auto"), force=force)
+    result = export_policy(
+        source, options["format"], options.get("out"), model=options.get("model", "auto"), force=force
+    )
     about = result.about
     act = about["action"]
     typer.echo(f"policy:  {about['run']}  {about['model']} ({about['which']}), {about['algo']}, step {about['step']}")
@@ -57,5 +61,7 @@ def run_export(source: str, overrides: list[str], *, force: bool = False) -> obj
     for path in result.files:
         typer.echo(f"wrote:   {path}")
     if result.check is not None:
-        typer.echo(f"checked: onnxruntime gives the PyTorch chain's actions within {result.check:.2g} on {PROBES} probe observations")
+        typer.echo(
+            f"checked: onnxruntime gives the PyTorch chain's actions within {result.check:.2g} on {PROBES} probe observations"
+        )
     return result

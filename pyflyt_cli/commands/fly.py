@@ -22,7 +22,11 @@ def run_fly(overrides: list[str]) -> Trajectory:
     print_summary(flight.spec.name, traj, flight.options.rows)
     if not flight.wind.calm:
         # the preset's description no longer holds once one of its values is overridden
-        about = f"with {' '.join(flight.wind_overrides)}" if flight.wind_overrides else (flight.wind.description or "custom")
+        about = (
+            f"with {' '.join(flight.wind_overrides)}"
+            if flight.wind_overrides
+            else (flight.wind.description or "custom")
+        )
         typer.echo(f"wind: {flight.wind.name} ({about})")
     return traj
 

@@ -24,8 +24,16 @@ def speed_command(
     batch_sizes: str | None = None,
 ) -> str:
     """What ``pyflyt speed`` does: measure, optionally save the JSON, return the printed report."""
-    settings = speed_settings(repeats=repeats, quick=quick, vector=vector, envs=envs, vehicles=vehicles,
-                              agents=agents, backend=backend, batch_sizes=batch_sizes)
+    settings = speed_settings(
+        repeats=repeats,
+        quick=quick,
+        vector=vector,
+        envs=envs,
+        vehicles=vehicles,
+        agents=agents,
+        backend=backend,
+        batch_sizes=batch_sizes,
+    )
     report = run_speed(settings, progress=progress)
     if json_path is not None:
         make_output_dir(json_path.parent, "--json")

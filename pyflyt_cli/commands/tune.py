@@ -52,7 +52,9 @@ def run_tune(overrides: list[str]) -> int:
             training.append(item)
     _check_top_keys(training)
     if not env or not algo:
-        raise UsageError("pyflyt tune needs env=<task> and algo=<algorithm>, e.g. pyflyt tune env=quadx_hover algo=sac trials=20")
+        raise UsageError(
+            "pyflyt tune needs env=<task> and algo=<algorithm>, e.g. pyflyt tune env=quadx_hover algo=sac trials=20"
+        )
 
     def echo(message: str) -> None:
         typer.echo(message, err=True)
@@ -65,7 +67,9 @@ def run_tune(overrides: list[str]) -> int:
     echo(f"{report.finished} trials finished ({report.ran} now); study: {report.storage}")
     if report.best_file is not None:
         echo(f"best settings: {report.best_file}")
-        echo(f"train with them: pyflyt train env={env} algo={algo} experiment={report.best_file} {' '.join(training)}".rstrip())
+        echo(
+            f"train with them: pyflyt train env={env} algo={algo} experiment={report.best_file} {' '.join(training)}".rstrip()
+        )
     for plot in report.plots:
         echo(f"plot: {plot}")
     return 0

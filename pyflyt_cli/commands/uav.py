@@ -72,7 +72,9 @@ def run_show(
         config = load_env_config(env)
     if name_or_path is None:
         if config is None:
-            raise UsageError("give an airframe (a YAML file or a shipped name), or --env <env> to show an env's airframe")
+            raise UsageError(
+                "give an airframe (a YAML file or a shipped name), or --env <env> to show an env's airframe"
+            )
         name_or_path = config.uav
     path = resolve_file(name_or_path)
     width, height = parse_size(size)

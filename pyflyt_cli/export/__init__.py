@@ -58,7 +58,9 @@ def output_files(fmt: str, out: str | Path | None) -> list[Path]:
         raise ExportError(f"out={path}: the file name may not hold quotes, backslashes or line breaks")
     if fmt == "c" and not C_FILE_NAME.fullmatch(path.name):
         # the header's name is written into the source (#include "<name>.h"): letters, digits, '_', '-', '.' only
-        raise ExportError(f"out={path}: a C file name is made of letters, digits, '_', '-' and '.' only (e.g. out=policy.c)")
+        raise ExportError(
+            f"out={path}: a C file name is made of letters, digits, '_', '-' and '.' only (e.g. out=policy.c)"
+        )
     files = [path] if fmt == "onnx" else [path, path.with_suffix(".h")]
     for file in files:
         if file.is_dir():

@@ -85,7 +85,9 @@ def _guard(header: str) -> str:
 #: ``?`` (the trigraph ``??/`` is a backslash in C99), ``%`` (the escape itself), every control
 #: character and line break, and everything outside ASCII.  ``*`` is kept only where it cannot
 #: open or close a comment (see :func:`comment_text`).
-COMMENT_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 !\"#$&'()+,-./:;<=>@[]^_`{|}~*")
+COMMENT_SAFE = frozenset(
+    "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 !\"#$&'()+,-./:;<=>@[]^_`{|}~*"
+)
 
 
 def _percent(char: str) -> str:
@@ -205,7 +207,9 @@ def _step_code(layer: Any, index: int, width: int, src: str, dst: str) -> tuple[
         )
         return arrays, code, out, math
     if isinstance(layer, Affine):
-        arrays = _array(f"affine{index}_scale", layer.scale.numpy()) + _array(f"affine{index}_offset", layer.offset.numpy())
+        arrays = _array(f"affine{index}_scale", layer.scale.numpy()) + _array(
+            f"affine{index}_offset", layer.offset.numpy()
+        )
         code = (
             f"    /* {index}: rescale: x * scale + offset */\n"
             f"    for (i = 0; i < {n}; ++i) {src}[i] = {src}[i] * affine{index}_scale[i] + affine{index}_offset[i];\n"
@@ -277,7 +281,7 @@ def c_files(policy: DeployedPolicy, header_name: str) -> tuple[str, str]:
     header = (
         comment
         + f"#ifndef {guard}\n#define {guard}\n\n"
-        + "#ifdef __cplusplus\nextern \"C\" {\n#endif\n\n"
+        + '#ifdef __cplusplus\nextern "C" {\n#endif\n\n'
         + "/* entries of the observation and of the action */\n"
         + f"#define POLICY_OBS_DIM {policy.obs_dim}\n#define POLICY_ACT_DIM {policy.act_dim}\n\n"
         + "/* obs: POLICY_OBS_DIM floats, the env's raw observation; action: POLICY_ACT_DIM floats written,\n"

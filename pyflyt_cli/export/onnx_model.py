@@ -59,7 +59,9 @@ def write_onnx(policy: DeployedPolicy, path: Path) -> None:
             )
     except Exception as exc:  # noqa: BLE001 - any failure of the exporter is reported, not raised
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ExportError(f"out={path}: PyTorch's ONNX exporter failed ({first}); format=c writes the same chain") from None
+        raise ExportError(
+            f"out={path}: PyTorch's ONNX exporter failed ({first}); format=c writes the same chain"
+        ) from None
     finally:
         quiet.setLevel(level)
     if program is None:  # pragma: no cover - the dynamo exporter always returns its program

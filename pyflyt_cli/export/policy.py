@@ -165,14 +165,18 @@ def _assemble(
         from pyflyt_cli.training.envs import is_image
 
         entries = obs_space.spaces.values() if isinstance(obs_space, spaces.Dict) else [obs_space]
-        seen = "camera images (a CNN over env.camera_observation)" if any(is_image(s) for s in entries) else str(obs_space)
+        seen = (
+            "camera images (a CNN over env.camera_observation)" if any(is_image(s) for s in entries) else str(obs_space)
+        )
         raise ExportError(
             f"{run}: its policy sees {seen}; the exporters write policies of one flat observation vector "
             "only (no images, no Dict observations)"
         )
     act_space = env.action_space
     if not (isinstance(act_space, spaces.Box) and len(act_space.shape) == 1):
-        raise ExportError(f"{run}: the policy's action is {act_space}; the exporters write continuous (Box) actions only")
+        raise ExportError(
+            f"{run}: the policy's action is {act_space}; the exporters write continuous (Box) actions only"
+        )
     policy = sb3.policy
     if hasattr(policy, "lstm_actor"):
         raise ExportError(
@@ -189,19 +193,25 @@ def _assemble(
         mean, var, epsilon, clip = _normaliser(run, model_path, rms, normalizer, int(obs_space.shape[0]))
         std = np.sqrt(var + epsilon)
         layers.append(Standardize(mean, std, clip))
-        steps.append(f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {epsilon:g}), -{clip:g}, {clip:g})")
+        steps.append(
+            f"observation normaliser (VecNormalize): clip((obs - mean) / sqrt(var + {epsilon:g}), -{clip:g}, {clip:g})"
+        )
     else:
         steps.append("no observation normaliser (the run trained on raw observations)")
 
     low = np.asarray(sb3.action_space.low, dtype=np.float64)
     high = np.asarray(sb3.action_space.high, dtype=np.float64)
     if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
-        raise ExportError(f"{run}: the policy's action space {sb3.action_space} is unbounded: nothing to clip or rescale to")
+        raise ExportError(
+            f"{run}: the policy's action space {sb3.action_space} is unbounded: nothing to clip or rescale to"
+        )
 
     # the actor's layout, read from the policy itself: PPO, A2C, TRPO (a Gaussian over an action head);
     # SAC, TQC, AWAC, CCGE (a squashed Gaussian); TD3, DDPG (a deterministic actor ending in tanh)
     if hasattr(policy, "action_net") and hasattr(policy, "mlp_extractor"):
-        _flat_features(run, policy.pi_features_extractor if hasattr(policy, "pi_features_extractor") else policy.features_extractor)
+        _flat_features(
+            run, policy.pi_features_extractor if hasattr(policy, "pi_features_extractor") else policy.features_extractor
+        )
         layers += _actor_layers(run, algo, [policy.mlp_extractor.policy_net, policy.action_net])
         steps.append(f"{algo} actor: the Gaussian's mean (deterministic action)")
         if policy.squash_output:
@@ -210,7 +220,9 @@ def _assemble(
             layers.append(_unscale(low, high))
         else:
             layers.append(Clamp(low, high))
-            steps.append(f"clip to the agent's action space, low {_bounds(low)}, high {_bounds(high)} (as SB3's predict)")
+            steps.append(
+                f"clip to the agent's action space, low {_bounds(low)}, high {_bounds(high)} (as SB3's predict)"
+            )
     elif hasattr(policy, "actor") and hasattr(policy.actor, "latent_pi"):
         actor = policy.actor
         _flat_features(run, actor.features_extractor)
@@ -268,13 +280,19 @@ def _numbers(run: Path, model_path: Path, what: str, value: Any) -> np.ndarray:
     try:
         array = np.asarray(value.numpy() if isinstance(value, torch.Tensor) else value, dtype=np.float64)
     except (TypeError, ValueError, RuntimeError):
-        raise ExportError(f"{model_path}: the normaliser's {what} is not numbers ({type(value).__name__}); the file is damaged") from None
+        raise ExportError(
+            f"{model_path}: the normaliser's {what} is not numbers ({type(value).__name__}); the file is damaged"
+        ) from None
     if not np.all(np.isfinite(array)):
-        raise ExportError(f"{model_path}: the normaliser's {what} holds non-finite values (NaN or inf): nothing to export")
+        raise ExportError(
+            f"{model_path}: the normaliser's {what} holds non-finite values (NaN or inf): nothing to export"
+        )
     return array
 
 
-def _normaliser(run: Path, model_path: Path, rms: Any, normalizer: Any, obs_dim: int) -> tuple[np.ndarray, np.ndarray, float, float]:
+def _normaliser(
+    run: Path, model_path: Path, rms: Any, normalizer: Any, obs_dim: int
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """(mean, var, epsilon, clip) of a policy file's observation normaliser, checked against the observation:
     ``obs_dim`` finite values each, var >= 0, epsilon >= 0, clip > 0; else an :class:`ExportError` naming it."""
     mean = _numbers(run, model_path, "mean", rms.get("mean"))
@@ -288,7 +306,9 @@ def _normaliser(run: Path, model_path: Path, rms: Any, normalizer: Any, obs_dim:
     epsilon = _numbers(run, model_path, "epsilon", normalizer.get("epsilon"))
     clip = _numbers(run, model_path, "clip_obs", normalizer.get("clip_obs"))
     if epsilon.shape != () or clip.shape != ():
-        raise ExportError(f"{model_path}: the normaliser's epsilon and clip_obs are single numbers; the file is damaged")
+        raise ExportError(
+            f"{model_path}: the normaliser's epsilon and clip_obs are single numbers; the file is damaged"
+        )
     if np.any(var < 0) or epsilon < 0 or not clip > 0 or not np.all(var + epsilon > 0):
         raise ExportError(
             f"{model_path}: the normaliser's variance and epsilon must be >= 0 (their sum > 0) and clip_obs > 0: the file is damaged"
@@ -311,25 +331,37 @@ def check_chain(run: Path, network: Any, obs_dim: int, act_dim: int) -> None:
         if isinstance(layer, torch.nn.Linear):
             weight = layer.weight.detach()
             if weight.dim() != 2 or weight.shape[1] != width:
-                raise ExportError(f"{run}: layer {index} (Linear) has weights of shape {list(weight.shape)}, it is fed {width} values")
+                raise ExportError(
+                    f"{run}: layer {index} (Linear) has weights of shape {list(weight.shape)}, it is fed {width} values"
+                )
             bias = layer.bias
             if bias is not None and tuple(bias.shape) != (weight.shape[0],):
-                raise ExportError(f"{run}: layer {index} (Linear) has a bias of shape {list(bias.shape)} for {weight.shape[0]} outputs")
+                raise ExportError(
+                    f"{run}: layer {index} (Linear) has a bias of shape {list(bias.shape)} for {weight.shape[0]} outputs"
+                )
             tensors = {"weight": weight, **({"bias": bias.detach()} if bias is not None else {})}
             width = int(weight.shape[0])
         elif kind in _ELEMENTWISE:
             for name in _ELEMENTWISE[kind]:
                 value = getattr(layer, name)
                 if tuple(value.shape) != (width,):
-                    raise ExportError(f"{run}: layer {index} ({kind}) has {name} of shape {list(value.shape)}, it is fed {width} values")
+                    raise ExportError(
+                        f"{run}: layer {index} ({kind}) has {name} of shape {list(value.shape)}, it is fed {width} values"
+                    )
                 tensors[name] = value
         else:
-            tensors = {k: torch.as_tensor(float(getattr(layer, k))) for k in ("alpha", "negative_slope", "min_val", "max_val") if hasattr(layer, k)}
+            tensors = {
+                k: torch.as_tensor(float(getattr(layer, k)))
+                for k in ("alpha", "negative_slope", "min_val", "max_val")
+                if hasattr(layer, k)
+            }
         if isinstance(layer, Standardize):
             tensors["clip"] = torch.as_tensor(layer.clip)
         for name, value in tensors.items():
             if not bool(torch.all(torch.isfinite(value))):
-                raise ExportError(f"{run}: layer {index} ({kind}) has non-finite {name} (NaN or inf): nothing to export")
+                raise ExportError(
+                    f"{run}: layer {index} ({kind}) has non-finite {name} (NaN or inf): nothing to export"
+                )
         if isinstance(layer, Standardize) and not bool(torch.all(layer.std > 0)):
             raise ExportError(f"{run}: layer {index} (observation normaliser) has a std of 0 or below")
         if isinstance(layer, Clamp) and not bool(torch.all(layer.low <= layer.high)):

@@ -293,7 +293,9 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
             given = norms[env]
             if best <= given.random:
                 best = given.random + 1.0
-            norms[env] = Normalisation(given.random, best, f"{given.source}; reference: best evaluation in the benchmark")
+            norms[env] = Normalisation(
+                given.random, best, f"{given.source}; reference: best evaluation in the benchmark"
+            )
             notes.append(f"{env}: no reference score given; 1 is the best mean evaluation return in this benchmark")
         if env not in norms:
             values = np.concatenate([r.returns for r in runs if r.env == env])
@@ -336,7 +338,9 @@ def load_benchmark(root: str | Path, normalisation: dict[str, Normalisation] | N
         curves[algo] = np.transpose(np.array(per_env), (1, 0, 2))  # (runs, envs, points)
         final[algo] = curves[algo][:, :, -1]
         for env, scores in zip(algo_envs[algo], per_env):
-            if not np.isfinite(scores).all():  # returns so large that (return - random) / (reference - random) overflows
+            if not np.isfinite(
+                scores
+            ).all():  # returns so large that (return - random) / (reference - random) overflows
                 largest = max(float(np.abs(r.returns).max()) for r in runs if r.env == env)
                 raise ConfigError(
                     f"{env}/{algo}: the normalised scores are not finite numbers (returns up to {largest:g} in "

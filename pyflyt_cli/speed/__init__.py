@@ -18,6 +18,13 @@ from pyflyt_cli.speed.options import parse_counts, speed_settings
 from pyflyt_cli.speed.tables import format_report
 
 __all__ = [
-    "Case", "SpeedError", "SpeedSettings", "format_report", "parse_counts", "plan_cases", "run_probe", "run_speed",
+    "Case",
+    "SpeedError",
+    "SpeedSettings",
+    "format_report",
+    "parse_counts",
+    "plan_cases",
+    "run_probe",
+    "run_speed",
     "speed_settings",
 ]

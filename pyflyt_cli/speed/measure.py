@@ -195,8 +195,9 @@ def _batched_cases(settings: SpeedSettings) -> list[Case]:
         try:  # a registered id, or an env config (a variant such as quadx_waypoints_velocity shares its id)
             config = load_env_config(ENVS[env_id].config if env_id in ENVS else env_id)
         except ConfigError as exc:
-            raise SpeedError(f"--env {env_id} is neither a registered env id ({', '.join(ENVS)}) nor an env config: "
-                             f"{exc}") from None
+            raise SpeedError(
+                f"--env {env_id} is neither a registered env id ({', '.join(ENVS)}) nor an env config: {exc}"
+            ) from None
         try:
             check_supported(config)
         except UnsupportedByBatched as exc:

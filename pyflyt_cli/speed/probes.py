@@ -117,7 +117,9 @@ def measure_world(n: int, seconds: float = 4.0) -> dict:
     return {"n": n, **timing, "contacts": contacts}
 
 
-def bare_pybullet(steps: int, uav: str = "quadx_cf2x", n: int = 1, clock: Callable[[], float] = time.perf_counter) -> float:
+def bare_pybullet(
+    steps: int, uav: str = "quadx_cf2x", n: int = 1, clock: Callable[[], float] = time.perf_counter
+) -> float:
     """Seconds per physics step of the floor: ``n`` bodies, bare PyBullet (timed by
     ``clock``: wall time, or ``time.process_time`` for the CPU time this process used)."""
     from pyflyt_engine.bullet import pybullet as p

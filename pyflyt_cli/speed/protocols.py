@@ -124,10 +124,14 @@ def centred_grid(n: int, spacing: float = 1.0, height: float = 1.0) -> list[tupl
     ``ceil(sqrt(n))`` columns filled row by row (the ``grid`` layout of the multi-agent envs)."""
     columns = math.ceil(math.sqrt(n))
     rows = math.ceil(n / columns)
-    return [
-        ((i % columns - (columns - 1) / 2.0) * spacing, (i // columns - (rows - 1) / 2.0) * spacing, height)
-        for i in range(n)
-    ] if n > 1 else [(0.0, 0.0, height)]
+    return (
+        [
+            ((i % columns - (columns - 1) / 2.0) * spacing, (i // columns - (rows - 1) / 2.0) * spacing, height)
+            for i in range(n)
+        ]
+        if n > 1
+        else [(0.0, 0.0, height)]
+    )
 
 
 def time_world(step: Callable[[], object], period: float, seconds: float) -> dict:

@@ -76,8 +76,12 @@ def common_prefix(rows: list[dict]) -> list[dict]:
 
 
 def iqm_summary(
-    rows: list[dict], measures: list[tuple[str, list[float], int]], reps: int = 2000, *,
-    curve: str | None = "success", of: str = "of the final policy's probe",
+    rows: list[dict],
+    measures: list[tuple[str, list[float], int]],
+    reps: int = 2000,
+    *,
+    curve: str | None = "success",
+    of: str = "of the final policy's probe",
 ) -> tuple[list[str], dict]:
     """IQM over seeds with 95 % stratified-bootstrap CIs of each measure ``(label, one value per
     seed, decimals)`` (a table headed "IQM over N seeds ``of``"), and the probes' ``curve`` key

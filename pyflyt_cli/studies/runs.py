@@ -31,7 +31,9 @@ class SavedPolicy:
         return None
 
     def predict(self, obs, deterministic: bool = True):
-        return self.model.predict(self.normalize(obs) if self.normalize is not None else obs, deterministic=deterministic)
+        return self.model.predict(
+            self.normalize(obs) if self.normalize is not None else obs, deterministic=deterministic
+        )
 
 
 def checkpoint_policies(run_dir: Path, after: int = 0, every: int = 1):
@@ -104,7 +106,9 @@ def hover_run(
     }
 
 
-def budget_row(probe: ObstacleProbe, seed: int, every: int, episodes: int, extra, cpu_minutes, status: str, **more) -> dict:
+def budget_row(
+    probe: ObstacleProbe, seed: int, every: int, episodes: int, extra, cpu_minutes, status: str, **more
+) -> dict:
     """One seed's results from its probe callback (partial while ``status`` is ``running``)."""
     history = probe.history
     return {
@@ -121,16 +125,28 @@ def budget_row(probe: ObstacleProbe, seed: int, every: int, episodes: int, extra
         "best_success": max((h[2]["success"] for h in history), default=0.0),
         "training_cpu": probe.training_cpu(),
         "probe_cpu": probe.probe_cpu,
-        "load": [min(probe.loads, default=0.0), float(np.mean(probe.loads)) if probe.loads else 0.0,
-                 max(probe.loads, default=0.0)],
+        "load": [
+            min(probe.loads, default=0.0),
+            float(np.mean(probe.loads)) if probe.loads else 0.0,
+            max(probe.loads, default=0.0),
+        ],
         "history": history,
         **more,
     }
 
 
 def budgeted_run(
-    seed: int, cpu_minutes: float | None, every: int, episodes: int, output: Path, extra=(), save=None, *,
-    env: str, target: float, probe_cls: type[ObstacleProbe] | None = None,
+    seed: int,
+    cpu_minutes: float | None,
+    every: int,
+    episodes: int,
+    output: Path,
+    extra=(),
+    save=None,
+    *,
+    env: str,
+    target: float,
+    probe_cls: type[ObstacleProbe] | None = None,
 ) -> dict:
     """Train one seed of ``env`` (PPO, its shipped tuning and ``extra`` overrides) under the CPU
     budget, probing with ``probe_cls`` (default :class:`ObstacleProbe`); ``save`` gets the row
@@ -154,10 +170,20 @@ def budgeted_run(
     status = "cpu budget" if probe.stopped_by_budget else "stopped" if result.interrupted else "step budget"
     training = training_success(Path(result.run_dir), every)
     out = budget_row(
-        probe, seed, every, episodes, extra, cpu_minutes, status,
-        wall=wall, process_cpu=process_cpu, step_budget=cfg.train.total_timesteps, split=split,
+        probe,
+        seed,
+        every,
+        episodes,
+        extra,
+        cpu_minutes,
+        status,
+        wall=wall,
+        process_cpu=process_cpu,
+        step_budget=cfg.train.total_timesteps,
+        split=split,
         cpu_steps_per_second=result.num_timesteps / max(probe.training_cpu(), 1e-9),
-        run_dir=str(result.run_dir), training=training,
+        run_dir=str(result.run_dir),
+        training=training,
     )
     if save is not None:
         save(out)
@@ -183,14 +209,16 @@ def training_success(run_dir: Path, every: int) -> list[dict]:
         if not window:
             continue
         stage = [c for c in stages if c["step"] <= end]
-        out.append({
-            "step": end,
-            "episodes": len(window),
-            "success": sum(bool(e["success"]) for e in window) / len(window),
-            "length": sum(e["length"] for e in window) / len(window),
-            "goal_x": stage[-1].get("goal_x_range[0]") if stage else None,
-            "reach": stage[-1].get("goal_reach_distance") if stage else None,
-        })
+        out.append(
+            {
+                "step": end,
+                "episodes": len(window),
+                "success": sum(bool(e["success"]) for e in window) / len(window),
+                "length": sum(e["length"] for e in window) / len(window),
+                "goal_x": stage[-1].get("goal_x_range[0]") if stage else None,
+                "reach": stage[-1].get("goal_reach_distance") if stage else None,
+            }
+        )
     return out
 
 
@@ -207,5 +235,7 @@ def run_seeds(args: argparse.Namespace, cpu_minutes: float | None, **run_kwargs)
                 if args.save_rows:  # every probe: a stopped run keeps what it measured
                     args.save_rows.write_text(json.dumps([*done, current], indent=1) + "\n")
 
-            rows.append(budgeted_run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save, **run_kwargs))
+            rows.append(
+                budgeted_run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save, **run_kwargs)
+            )
     return rows

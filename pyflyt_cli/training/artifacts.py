@@ -365,7 +365,9 @@ def load_policy_into(model: Any, data: Mapping[str, Any], path: Path) -> None:
 # -------------------------------------------------------------- checkpoints
 
 
-def save_checkpoint_file(path: Path, model: Any, algo: str, step: int, state: dict[str, Any], tensors: dict[str, Any]) -> None:
+def save_checkpoint_file(
+    path: Path, model: Any, algo: str, step: int, state: dict[str, Any], tensors: dict[str, Any]
+) -> None:
     """Write a checkpoint: the policy file's content plus optimisers, trainer state and streams."""
     from operator import attrgetter
 

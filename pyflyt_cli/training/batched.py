@@ -40,11 +40,40 @@ from pyflyt_engine.envs.config import EnvConfig
 
 #: the per-env arrays a checkpoint carries (their rows), in this order
 _STATE_ARRAYS = (
-    "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
-    "steps", "physics_steps", "targets", "num_reached", "_last_distance", "_last_position", "episode_return",
-    "episode_length", "ang_vel_body", "ang_pos", "lin_vel_body", "quaternion", "reach", "deflection", "flap_command",
-    "autopilot_integral", "vel_integral", "latency_steps", "action_history", "observed_history", "turbulence",
-    "sensor_state", "sensor_counts", "battery",
+    "pos",
+    "quat",
+    "vel",
+    "angvel",
+    "throttle",
+    "command",
+    "integral",
+    "previous",
+    "has_previous",
+    "actions",
+    "steps",
+    "physics_steps",
+    "targets",
+    "num_reached",
+    "_last_distance",
+    "_last_position",
+    "episode_return",
+    "episode_length",
+    "ang_vel_body",
+    "ang_pos",
+    "lin_vel_body",
+    "quaternion",
+    "reach",
+    "deflection",
+    "flap_command",
+    "autopilot_integral",
+    "vel_integral",
+    "latency_steps",
+    "action_history",
+    "observed_history",
+    "turbulence",
+    "sensor_state",
+    "sensor_counts",
+    "battery",
 )
 
 
@@ -165,8 +194,13 @@ class BatchedVecEnv(VecEnv):
         if getattr(env, "sensors", None) is not None:  # the noisy sensors' stream
             streams["sensors"] = env.sensors.rngs[i].bit_generator.state
         shape = self.env.single_action_space.shape
-        return {"seed": None, "options": None, "rng": streams, "batched": state,
-                "actions": np.zeros((0, *shape), dtype=np.float32)}
+        return {
+            "seed": None,
+            "options": None,
+            "rng": streams,
+            "batched": state,
+            "actions": np.zeros((0, *shape), dtype=np.float32),
+        }
 
     def restore_episode(self, i: int, state: dict[str, Any]) -> np.ndarray:
         """Put env ``i``'s state back (:meth:`episode_state`); returns its observation."""
@@ -231,8 +265,9 @@ def fly_episodes(
     return out
 
 
-def _fly_worlds(venv: BatchedVecEnv, obs: np.ndarray, predict: Any, normalize: Any,
-                deterministic: bool) -> dict[str, float]:
+def _fly_worlds(
+    venv: BatchedVecEnv, obs: np.ndarray, predict: Any, normalize: Any, deterministic: bool
+) -> dict[str, float]:
     """:func:`fly_episodes` of a multi-agent config: the first episode of every world, as the
     PyBullet engine's shared-policy env scores one (:class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`):
     its return is the mean of its agents' returns, it succeeds when every agent did."""
@@ -252,7 +287,10 @@ def _fly_worlds(venv: BatchedVecEnv, obs: np.ndarray, predict: Any, normalize: A
         success[live & info["success"]] = True
         done |= env.world_over.reshape(worlds, agents).any(axis=1)
     per_world = success.reshape(worlds, agents).all(axis=1)
-    out = {"episodes": float(worlds), "success_rate": float(per_world.mean()),
-           "mean_return": float(returns.reshape(worlds, agents).mean(axis=1).mean())}
+    out = {
+        "episodes": float(worlds),
+        "success_rate": float(per_world.mean()),
+        "mean_return": float(returns.reshape(worlds, agents).mean(axis=1).mean()),
+    }
     venv.close()
     return out

@@ -355,9 +355,13 @@ class PeriodicEvaluation(EventCallback):
             "last_updates": self.last_updates,
             "last_mean_reward": None if not np.isfinite(self.last_mean_reward) else float(self.last_mean_reward),
             "children": [
-                {k: float(getattr(c, k)) if k == "last_best_mean_reward" else getattr(c, k)
-                 for k in self._CHILD_STATE if hasattr(c, k)}
-                for c in children if c is not None
+                {
+                    k: float(getattr(c, k)) if k == "last_best_mean_reward" else getattr(c, k)
+                    for k in self._CHILD_STATE
+                    if hasattr(c, k)
+                }
+                for c in children
+                if c is not None
             ],
         }
 
@@ -367,7 +371,9 @@ class PeriodicEvaluation(EventCallback):
         self.best_mean_reward = -np.inf if state["best_mean_reward"] is None else float(state["best_mean_reward"])
         self.best_step = state["best_step"]
         self.best_success_rate = state.get("best_success_rate")  # absent from older checkpoints
-        self.last = None if state["last"] is None else {k: math.nan if v is None else v for k, v in state["last"].items()}
+        self.last = (
+            None if state["last"] is None else {k: math.nan if v is None else v for k, v in state["last"].items()}
+        )
         self.last_step = state["last_step"]
         self.last_updates = state["last_updates"]
         self.last_mean_reward = -np.inf if state["last_mean_reward"] is None else float(state["last_mean_reward"])

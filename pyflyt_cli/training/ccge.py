@@ -187,7 +187,9 @@ class CCGE(SAC):
 
             with th.no_grad():
                 next_actions, next_log_prob = self.actor.action_log_prob(data.next_observations)
-                next_q = th.cat(self.critic_target(data.next_observations, next_actions), dim=1).min(dim=1, keepdim=True)[0]
+                next_q = th.cat(self.critic_target(data.next_observations, next_actions), dim=1).min(
+                    dim=1, keepdim=True
+                )[0]
                 next_q = next_q - ent_coef * next_log_prob.reshape(-1, 1)
                 target_q = data.rewards + (1 - data.dones) * discounts * next_q
             current = self.critic(data.observations, data.actions)

@@ -86,7 +86,9 @@ def compose_train_data(overrides: Sequence[str], benchmark: bool = False) -> tup
     missing = sorted(OmegaConf.missing_keys(cfg))
     if missing:
         origin = f" (required by experiment={choices['experiment']})" if choices.get("experiment") else ""
-        raise UsageError(f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing))
+        raise UsageError(
+            f"{', '.join(missing)} must be given{origin}: add " + " ".join(f"{k}=<value>" for k in missing)
+        )
     data = to_container(cfg)
     given = {item.lstrip("+~").partition("=")[0] for item in overrides}
     for key in OPT_INS:

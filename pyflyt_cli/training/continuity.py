@@ -61,7 +61,9 @@ def checked_counters(model: Any, counters: Any) -> dict[str, int | float]:
     and in its range; else an :class:`ArtifactError` naming the first that is not."""
     expected = (*COUNTERS, *getattr(model, "resume_attributes", ()))
     if not isinstance(counters, Mapping):
-        raise ArtifactError(f"the checkpoint's counters are a {type(counters).__name__}, not a mapping: the file is damaged")
+        raise ArtifactError(
+            f"the checkpoint's counters are a {type(counters).__name__}, not a mapping: the file is damaged"
+        )
     unknown = [str(name) for name in counters if name not in expected]
     if unknown:
         raise ArtifactError(
@@ -70,7 +72,9 @@ def checked_counters(model: Any, counters: Any) -> dict[str, int | float]:
         )
     missing = [name for name in expected if name not in counters]
     if missing:
-        raise ArtifactError(f"the checkpoint lacks the counter {missing[0]!r}: the file is damaged or from another algorithm")
+        raise ArtifactError(
+            f"the checkpoint lacks the counter {missing[0]!r}: the file is damaged or from another algorithm"
+        )
     out: dict[str, int | float] = {}
     for name in expected:
         kind, low, high = COUNTER_SCHEMA[name]

@@ -42,7 +42,9 @@ from pyflyt_engine.envs.config import EnvConfig
 
 
 def _float32(space: spaces.Box) -> spaces.Box:
-    return spaces.Box(np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32), dtype=np.float32)
+    return spaces.Box(
+        np.asarray(space.low, dtype=np.float32), np.asarray(space.high, dtype=np.float32), dtype=np.float32
+    )
 
 
 class Float32Observation(gymnasium.ObservationWrapper):
@@ -82,7 +84,9 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
     space = env.observation_space
     if (isinstance(space, spaces.Box) and space.dtype != np.float32) or (
         isinstance(space, spaces.Dict)
-        and any(isinstance(s, spaces.Box) and s.dtype.kind == "f" and s.dtype != np.float32 for s in space.spaces.values())
+        and any(
+            isinstance(s, spaces.Box) and s.dtype.kind == "f" and s.dtype != np.float32 for s in space.spaces.values()
+        )
     ):
         env = Float32Observation(env)
     act_space = env.action_space
@@ -288,7 +292,9 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
         ]
         return AgentSlotsVecEnv(factories, subprocess=subproc)
     subproc = kind == "subproc" or (kind == "auto" and n_envs > 1)
-    factories = [EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)]
+    factories = [
+        EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)
+    ]
     if subproc:
         return SubprocVecEnv(factories)
     return DummyVecEnv(factories)

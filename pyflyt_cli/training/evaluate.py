@@ -279,7 +279,9 @@ def evaluate_oracle(
     if name not in ORACLES:
         from pyflyt_engine.suggest import did_you_mean
 
-        raise ConfigError(f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}")
+        raise ConfigError(
+            f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}"
+        )
     env_ids = ORACLES[name].env_ids
     if cfg.env.id not in env_ids:
         raise ConfigError(f"oracle {name} flies {', '.join(env_ids)}, not {cfg.env.id} (env={cfg.env_name})")

@@ -203,7 +203,6 @@ def _fit(
     return last
 
 
-
 def hold_observation_statistics(normalizer: Any) -> bool:
     """``train.imitation.hold_normalizer``: from now on the observation normaliser's running
     statistics stay as they are (the reward's still update).

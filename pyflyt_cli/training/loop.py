@@ -432,8 +432,14 @@ class _Run:
             with contextlib.suppress(PyFlytError):
                 self._write_state("failed", int(self.state.get("num_timesteps") or 0))
             saved = self.state.get("checkpoint")
-            where = f"its checkpoint at step {saved} is intact" if saved else "it saved no checkpoint yet (a resume starts over)"
-            raise ConfigError(f"{exc}\nthe run stopped; {where}: fix the cause, then pyflyt train resume={self.run_dir}") from None
+            where = (
+                f"its checkpoint at step {saved} is intact"
+                if saved
+                else "it saved no checkpoint yet (a resume starts over)"
+            )
+            raise ConfigError(
+                f"{exc}\nthe run stopped; {where}: fix the cause, then pyflyt train resume={self.run_dir}"
+            ) from None
 
     # ------------------------------------------------------------ the model
 
@@ -695,7 +701,9 @@ class _Run:
         def show(value: Any) -> str:
             return f"[{', '.join(f'{v:g}' for v in value)}]" if isinstance(value, (list, tuple)) else f"{value:g}"
 
-        moves = ", ".join(f"{n} {show(c.start)} -> {show(configured[n])} over {c.steps} steps" for n, c in curriculum.items())
+        moves = ", ".join(
+            f"{n} {show(c.start)} -> {show(configured[n])} over {c.steps} steps" for n, c in curriculum.items()
+        )
         self.log(f"curriculum: {moves} (evaluations fly the configured task)")
         return [callback]
 
@@ -796,7 +804,9 @@ class _Run:
             if interrupted:
                 step = stop.saved_at if stop.saved_at is not None else int(self.state.get("checkpoint") or 0)
                 self._write_state("interrupted", step)
-                self.log(f"interrupted at step {step}: checkpoint saved; continue with pyflyt train resume={self.run_dir}")
+                self.log(
+                    f"interrupted at step {step}: checkpoint saved; continue with pyflyt train resume={self.run_dir}"
+                )
             else:
                 # ended by the budget, or by a callback at a rollout start (where its checkpoint was saved)
                 step = stop.saved_at if stop.final and stop.saved_at is not None else int(model.num_timesteps)
@@ -804,10 +814,14 @@ class _Run:
                     self.evaluation.evaluate()  # the final weights
                 artifacts.save_policy(self.run_dir / rundir.FINAL_MODEL, model, self.cfg.algo.name, step)
                 if stop.saved_at != step:
-                    self.save_checkpoint(model)  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
+                    self.save_checkpoint(
+                        model
+                    )  # `pyflyt train resume=<run> train.total_timesteps=<more>` continues here
                 trained_rate = (step - start_step) / elapsed if elapsed > 0 else 0.0
                 split = {f"{k}_seconds": v for k, v in self.phases.split().items()} if self.phases else {}
-                self.writer.log("/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate, **split})
+                self.writer.log(
+                    "/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate, **split}
+                )
                 self._write_state("complete", step)
         ev = self.evaluation
         trained = max(0, step - start_step)

@@ -154,7 +154,9 @@ def load_policy(
         return model, observation_normalizer(normalizer)
     source = read_policy(path)
     if source.algo != cfg.algo.name:
-        raise ArtifactError(f"{path}: holds a {source.algo} policy, but the run's config.yaml says algo {cfg.algo.name}")
+        raise ArtifactError(
+            f"{path}: holds a {source.algo} policy, but the run's config.yaml says algo {cfg.algo.name}"
+        )
     model = build_model(cfg, vec, inference=True)
     load_policy_into(model, {"policy": source.policy}, path)
     check_normalizer(source.normalizer, env.observation_space, path)

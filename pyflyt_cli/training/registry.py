@@ -23,6 +23,7 @@ from typing import Any
 
 from pyflyt_engine.errors import ConfigError
 
+
 @dataclass(frozen=True)
 class Algorithm:
     """What the library knows of one algorithm (a row of :data:`ALGORITHMS`)."""

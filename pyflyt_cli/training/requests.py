@@ -38,6 +38,7 @@ def plan_runs(overrides: list[str], multirun: bool = False) -> list[tuple[list[s
         raise UsageError("run_dir= names the directory of one run: leave it out with -m (each job gets its own)")
     return planned
 
+
 def sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
     """The jobs of a command line: itself, or with ``-m`` every combination of its swept values."""
     import itertools
@@ -67,7 +68,9 @@ def sweep_jobs(overrides: list[str], multirun: bool) -> list[list[str]]:
         elif override.is_discrete_sweep():
             choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
         else:
-            raise UsageError(f"{override.input_line}: a sweep takes a list of values (a,b,c or range(...)), not an interval")
+            raise UsageError(
+                f"{override.input_line}: a sweep takes a list of values (a,b,c or range(...)), not an interval"
+            )
     return [list(job) for job in itertools.product(*choices.values())]
 
 

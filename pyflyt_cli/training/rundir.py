@@ -328,9 +328,14 @@ NON_IDENTITY_KEYS = frozenset(
 
 #: keys added after runs were first recorded, with the value those runs had without them: a
 #: key at that value (or unset) is left out of the identity, so older runs keep their digest
-LATER_KEYS = {"env.backend": "pybullet", "train.best_by": "return", "train.imitation.value_warmup": 0, "train.imitation.hold_normalizer": False,
-              # off-policy n-step returns (an on-policy rollout length of 1 is no config's)
-              "algo.n_steps": 1}
+LATER_KEYS = {
+    "env.backend": "pybullet",
+    "train.best_by": "return",
+    "train.imitation.value_warmup": 0,
+    "train.imitation.hold_normalizer": False,
+    # off-policy n-step returns (an on-policy rollout length of 1 is no config's)
+    "algo.n_steps": 1,
+}
 
 
 def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
@@ -361,6 +366,7 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     for key, earlier in LATER_KEYS.items():
         if flat.get(key) in (None, earlier):
             flat.pop(key, None)
+
     def file_identity(uav: Any) -> Any:
         if not (isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav)):
             return uav
@@ -477,9 +483,7 @@ def nearest_existing(path: Path) -> str:
     return ""
 
 
-def check_closed(
-    run_dir: Path, folders: tuple[str, ...] | None = None, what: str = "run directory"
-) -> None:
+def check_closed(run_dir: Path, folders: tuple[str, ...] | None = None, what: str = "run directory") -> None:
     """Refuse a directory that is not a closed world: an entry that is a link leading out of it, or
     a special file (a FIFO, a device, a socket).
 
@@ -566,14 +570,24 @@ def _confine(data: Any, root: Path, source: str) -> None:
         shapes = ((payload.get("body") or {}).get("shapes") or []) if isinstance(payload, dict) else []
         for j, shape in enumerate(shapes):
             if isinstance(shape, dict) and shape.get("type") == "mesh" and isinstance(shape.get("mesh"), str):
-                shape["mesh"] = str(confined_file(root, shape["mesh"], what=f"mesh of env.payloads[{i}].body.shapes[{j}]",
-                                                  source=source, error=RunDirError))
+                shape["mesh"] = str(
+                    confined_file(
+                        root,
+                        shape["mesh"],
+                        what=f"mesh of env.payloads[{i}].body.shapes[{j}]",
+                        source=source,
+                        error=RunDirError,
+                    )
+                )
     obstacles = env.get("obstacles")
     items = obstacles.get("items") if isinstance(obstacles, dict) else None
     for i, item in enumerate(items if isinstance(items, list) else []):
         if isinstance(item, dict) and isinstance(item.get("file"), str):
-            item["file"] = str(confined_file(root, item["file"], what=f"env.obstacles.items[{i}].file", source=source,
-                                             error=RunDirError))
+            item["file"] = str(
+                confined_file(
+                    root, item["file"], what=f"env.obstacles.items[{i}].file", source=source, error=RunDirError
+                )
+            )
 
 
 def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
@@ -602,7 +616,9 @@ def _confine_airframes(cfg: TrainConfig, root: Path, source: str) -> None:
         if problem is not None:
             raise RunDirError(f"{label} names the URDF {urdf.name}, which PyBullet is not given: {problem}")
         for file in urdf_files(text):
-            confined_file(root, urdf.parent / file, what=f"mesh its URDF {urdf.name} names", source=label, error=RunDirError)
+            confined_file(
+                root, urdf.parent / file, what=f"mesh its URDF {urdf.name} names", source=label, error=RunDirError
+            )
 
 
 def load_run_config(run_dir: str | Path) -> TrainConfig:

@@ -66,7 +66,8 @@ class PolicyConfig(_Strict):
     n_lstm_layers: int | None = Field(None, ge=1, description="LSTM layers (recurrent_ppo)")
     shared_lstm: bool | None = Field(None, description="one LSTM for actor and critic (recurrent_ppo)")
     enable_critic_lstm: bool | None = Field(
-        None, description="a separate LSTM for the critic (recurrent_ppo; false with shared_lstm: a feed-forward critic)"
+        None,
+        description="a separate LSTM for the critic (recurrent_ppo; false with shared_lstm: a feed-forward critic)",
     )
     batch_norm_momentum: float | None = Field(
         None, gt=0, le=1, description="momentum of the batch renormalisation layers (CrossQ)"
@@ -82,7 +83,9 @@ class PolicyConfig(_Strict):
             limits.check("net.depth", len(widths), name=f"{where} (its length)")
             for width in widths:
                 if width < 1:
-                    raise ValueError(f"{where} holds a layer of {width} units: give positive layer sizes, e.g. [128, 128]")
+                    raise ValueError(
+                        f"{where} holds a layer of {width} units: give positive layer sizes, e.g. [128, 128]"
+                    )
                 limits.check("net.width", width, name=f"a {where} layer of")
             weights = sum(a * b for a, b in zip(widths, widths[1:]))
             limits.check("net.parameters", weights, name=f"{where} ({' x '.join(map(str, widths))})")
@@ -91,8 +94,12 @@ class PolicyConfig(_Strict):
     @field_validator("lstm_hidden_size", "n_lstm_layers", "n_critics", "n_quantiles")
     @classmethod
     def _sizes(cls, value: int | None, info: ValidationInfo) -> int | None:
-        key = {"lstm_hidden_size": "net.width", "n_lstm_layers": "net.depth", "n_critics": "net.critics",
-               "n_quantiles": "net.quantiles"}[info.field_name]
+        key = {
+            "lstm_hidden_size": "net.width",
+            "n_lstm_layers": "net.depth",
+            "n_critics": "net.critics",
+            "n_quantiles": "net.quantiles",
+        }[info.field_name]
         return value if value is None else limits.check(key, value, name=f"policy_kwargs.{info.field_name}")
 
     @field_validator("activation_fn", mode="before")
@@ -146,10 +153,15 @@ class _AlgoBase(_Strict):
 
     #: counts that cost memory or time before anything is reported -> their limit (pyflyt_engine/limits.py)
     _BOUNDED: ClassVar[dict[str, str]] = {
-        "n_steps": "algo.rollout", "batch_size": "algo.batch_size", "n_epochs": "algo.n_epochs",
-        "buffer_size": "algo.buffer_size", "gradient_steps": "algo.gradient_steps",
-        "offline_steps": "algo.offline_steps", "n_value_samples": "algo.iterations",
-        "cg_max_steps": "algo.iterations", "line_search_max_iter": "algo.iterations",
+        "n_steps": "algo.rollout",
+        "batch_size": "algo.batch_size",
+        "n_epochs": "algo.n_epochs",
+        "buffer_size": "algo.buffer_size",
+        "gradient_steps": "algo.gradient_steps",
+        "offline_steps": "algo.offline_steps",
+        "n_value_samples": "algo.iterations",
+        "cg_max_steps": "algo.iterations",
+        "line_search_max_iter": "algo.iterations",
         "n_critic_updates": "algo.iterations",
     }
 
@@ -288,7 +300,8 @@ class CCGEConfig(SACConfig):
 
     name: Literal["ccge"]  # type: ignore[assignment]
     confidence_lambda: float = Field(
-        ge=0, allow_inf_nan=False,
+        ge=0,
+        allow_inf_nan=False,
         description="the oracle acts (and is imitated) where the critic ensemble's normalised gap exceeds it",
     )
     supervise: bool = Field(description="imitate the oracle where the critic is unsure (false: exploration only)")
@@ -834,9 +847,7 @@ def parse_train_config(
                 "\n  (every key must be given: its default lives in conf/; compose a complete configuration with "
                 "pyflyt_cli.training.compose_config(env=..., algo=..., overrides=[...]))"
             )
-        raise ConfigError(
-            f"{source}: invalid configuration:\n" + problem_list(lines) + hint
-        ) from None
+        raise ConfigError(f"{source}: invalid configuration:\n" + problem_list(lines) + hint) from None
     check_env_references(cfg.env)
     return cfg
 
@@ -892,7 +903,9 @@ class EvalOptions(_Strict):
         "auto: best, else final, else latest",
     )
     record: bool = Field(description="write each episode to <run_dir>/episodes/ as MCAP")
-    video: str | None = Field(description="film the first video_episodes episodes to this .gif or .mp4 (the pyflyt replay --video film)")
+    video: str | None = Field(
+        description="film the first video_episodes episodes to this .gif or .mp4 (the pyflyt replay --video film)"
+    )
     video_episodes: int = Field(ge=1, description="episodes included in the video")
     fps: int | None = Field(ge=1, description="video frame rate (null: the env's agent rate)")
     trust_pickle: bool = Field(

@@ -415,8 +415,10 @@ class ProgressLines(BaseCallback):
         elapsed = now - self.started
         done = step - self.start_step
         rate = done / elapsed if elapsed > 0 else 0.0
-        left = self.eta.seconds_left(step) if self.eta is not None else (
-            (self.total - step) / rate if rate > 0 else float("inf")
+        left = (
+            self.eta.seconds_left(step)
+            if self.eta is not None
+            else ((self.total - step) / rate if rate > 0 else float("inf"))
         )
         parts = [
             f"{'step' if self.unit == 'steps' else self.unit} {step}/{self.total} ({100 * step / self.total:.0f} %)",

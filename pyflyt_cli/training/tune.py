@@ -80,8 +80,12 @@ class TuneOptions(BaseModel):
     space: str | None = Field(description="search space: a name in conf/search_space or a YAML file; null: the algo's")
     study_dir: str | None = Field(description="where the study, its trials and report go; null: tune/<env>_<algo>")
     sampler_seed: int = Field(ge=0, description="seed of the TPE sampler (worker k of jobs uses seed + k)")
-    objective: Literal["last", "best"] = Field(description="last: the final evaluation's mean return; best: the best one")
-    pruner: Literal["median", "none"] = Field(description="median: stop a trial below the median of the others at a step")
+    objective: Literal["last", "best"] = Field(
+        description="last: the final evaluation's mean return; best: the best one"
+    )
+    pruner: Literal["median", "none"] = Field(
+        description="median: stop a trial below the median of the others at a step"
+    )
     startup_trials: int = Field(ge=0, description="trials finished before the pruner prunes")
     warmup_steps: int = Field(ge=0, description="environment steps of a trial before it may be pruned")
     baseline: bool = Field(
@@ -200,8 +204,10 @@ def load_search_space(space: str | None, algo: str) -> SearchSpace:
         name,
         "search_space",
         what="search space",
-        unknown=lambda _: f"space={name}: no search space named so; shipped: {', '.join(available('search_space'))}, "
-        "or give a YAML file",
+        unknown=lambda _: (
+            f"space={name}: no search space named so; shipped: {', '.join(available('search_space'))}, "
+            "or give a YAML file"
+        ),
     )
     from pyflyt_cli.training.schema import OPT_INS
 
@@ -341,8 +347,9 @@ class _ReportEvaluations:
         return Report()
 
 
-def run_trial(trial: Any, env: str, algo: str, study_dir: Path, space: SearchSpace, base: Sequence[str],
-              objective: str, log: Log) -> float:
+def run_trial(
+    trial: Any, env: str, algo: str, study_dir: Path, space: SearchSpace, base: Sequence[str], objective: str, log: Log
+) -> float:
     """Train one trial's configuration; its objective, or ``TrialPruned``."""
     import optuna
 
@@ -379,8 +386,9 @@ def run_trial(trial: Any, env: str, algo: str, study_dir: Path, space: SearchSpa
     return float(value)
 
 
-def _optimize(env: str, algo: str, study_dir: Path, opts: TuneOptions, base: Sequence[str], worker: int,
-              log: Log) -> None:
+def _optimize(
+    env: str, algo: str, study_dir: Path, opts: TuneOptions, base: Sequence[str], worker: int, log: Log
+) -> None:
     """One worker: trials until the study holds ``opts.trials`` finished ones."""
     import torch
     from optuna.study import MaxTrialsCallback
@@ -436,8 +444,13 @@ def _study_lock(study_dir: Path) -> Iterator[None]:
         path.unlink(missing_ok=True)
 
 
-def tune(env: str, algo: str, options: TuneOptions | Mapping[str, Any] | None = None,
-         overrides: Sequence[str] = (), log: Log = lambda _: None) -> TuneReport:
+def tune(
+    env: str,
+    algo: str,
+    options: TuneOptions | Mapping[str, Any] | None = None,
+    overrides: Sequence[str] = (),
+    log: Log = lambda _: None,
+) -> TuneReport:
     """Run (or continue) the study of ``algo`` on ``env`` up to ``trials`` finished trials; write the report."""
     from optuna.trial import TrialState
 
@@ -500,8 +513,9 @@ def tune(env: str, algo: str, options: TuneOptions | Mapping[str, Any] | None = 
         return _write_report(study, study_dir, env, algo, opts, base, before, log)
 
 
-def _write_report(study: Any, study_dir: Path, env: str, algo: str, opts: TuneOptions, base: Sequence[str],
-                  before: int, log: Log) -> TuneReport:
+def _write_report(
+    study: Any, study_dir: Path, env: str, algo: str, opts: TuneOptions, base: Sequence[str], before: int, log: Log
+) -> TuneReport:
     from optuna.trial import TrialState
 
     from pyflyt_cli.training.rundir import atomic_write
@@ -542,8 +556,17 @@ def _write_report(study: Any, study_dir: Path, env: str, algo: str, opts: TuneOp
             best_file = None
             log(f"best: trial {best.number}, return {best_value:.2f}; no settings recommended")
     plots = _plots(study, study_dir, log, importance=verdict is not None and verdict.parameters_matter)
-    return TuneReport(study_dir, _storage_url(study_dir), finished, finished - before, best_value, best_params,
-                      best_file, plots, verdict)
+    return TuneReport(
+        study_dir,
+        _storage_url(study_dir),
+        finished,
+        finished - before,
+        best_value,
+        best_params,
+        best_file,
+        plots,
+        verdict,
+    )
 
 
 def _decoded(value: Any) -> Any:
@@ -563,8 +586,16 @@ def _nested(values: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _hparams_text(params: Mapping[str, Any], env: str, algo: str, number: int, value: float, opts: TuneOptions,
-                  base: Sequence[str], finished: int) -> str:
+def _hparams_text(
+    params: Mapping[str, Any],
+    env: str,
+    algo: str,
+    number: int,
+    value: float,
+    opts: TuneOptions,
+    base: Sequence[str],
+    finished: int,
+) -> str:
     header = [
         "# @package _global_",
         f"# {algo} on {env}: the best of {finished} trials of pyflyt tune env={env} algo={algo} "

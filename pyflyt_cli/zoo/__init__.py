@@ -81,9 +81,7 @@ def table(root: Path = AGENTS) -> str:
         )
     widths = [max(len(row[i]) for row in cells) for i in range(6)]
     right = (False, False, False, True, True, True)
-    rows = [
-        "  ".join(c.rjust(w) if r else c.ljust(w) for c, w, r in zip(row, widths, right)).rstrip() for row in cells
-    ]
+    rows = ["  ".join(c.rjust(w) if r else c.ljust(w) for c, w, r in zip(row, widths, right)).rstrip() for row in cells]
     if len(rows) == 1:
         rows.append("(no agents shipped)")
     rows.append("fly one: pyflyt eval zoo:<name> [video=agent.gif]")
@@ -121,7 +119,10 @@ def compare(recorded: dict[str, Any], returns: list[float], success_rate: float)
         f"Mann-Whitney p = {p:.2f}"
     )
     if other is None and made.get("key"):
-        return False, f"DIFFERS episode by episode on the numeric platform it was recorded on ({stats}): the engine or the policy changed"
+        return (
+            False,
+            f"DIFFERS episode by episode on the numeric platform it was recorded on ({stats}): the engine or the policy changed",
+        )
     where = f"recorded under another numeric platform ({other})" if other else "recorded without its numeric platform"
     if p >= AGREEMENT_P:
         return True, f"{where}: not bit-identical here, consistent with the recording ({stats})"

@@ -40,7 +40,9 @@ if TYPE_CHECKING:
 Air = tuple[AirVelocity, "list[float] | None"]
 
 
-def air_velocity(r: Sequence[float], lin: Sequence[float], ang: Sequence[float], wind: WindSample | None = None) -> AirVelocity:
+def air_velocity(
+    r: Sequence[float], lin: Sequence[float], ang: Sequence[float], wind: WindSample | None = None
+) -> AirVelocity:
     """``R^T (v - v_wind)``, ``R^T (omega - omega_gust)``: the body-frame velocity through the air.
 
     Args:
@@ -182,7 +184,9 @@ class Atmosphere:
         wx, wy, wz, p, q, r = sample
         return (wx, wy, wz + w, p, q, r)
 
-    def at_motion(self, index: int, position: Sequence[float], r: Sequence[float], lin: Sequence[float], ang: Sequence[float]) -> Air:
+    def at_motion(
+        self, index: int, position: Sequence[float], r: Sequence[float], lin: Sequence[float], ang: Sequence[float]
+    ) -> Air:
         """The air of vehicle ``index`` from a read of its motion (ground-frame velocities)."""
         thrust_ratio = self.rotors.ground_effect_ratios(index, position, r) if self.rotors is not None else None
         return air_velocity(r, lin, ang, self.wind_at(index, position)), thrust_ratio

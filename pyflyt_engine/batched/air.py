@@ -49,9 +49,27 @@ from pyflyt_engine.atmosphere.rotors import RotorInteractions
 
 #: the wind parameter array's layout (:func:`wind_params`)
 WIND_FIELDS = (
-    "on", "mean_x", "mean_y", "vertical", "shear", "shear_x", "shear_y", "roughness_length",
-    "reference_height", "exponent", "gust", "gust_x", "gust_y", "gust_z", "gust_length", "gust_speed",
-    "gust_start", "turbulence", "turbulence_cos", "turbulence_sin", "rotary",
+    "on",
+    "mean_x",
+    "mean_y",
+    "vertical",
+    "shear",
+    "shear_x",
+    "shear_y",
+    "roughness_length",
+    "reference_height",
+    "exponent",
+    "gust",
+    "gust_x",
+    "gust_y",
+    "gust_z",
+    "gust_length",
+    "gust_speed",
+    "gust_start",
+    "turbulence",
+    "turbulence_cos",
+    "turbulence_sin",
+    "rotary",
 )
 #: the ground-effect clamp in rotor radii: the PyBullet engine's worlds build their
 #: RotorInteractions with its default
@@ -81,7 +99,9 @@ def wind_params(config: WindConfig, rotary: bool = False) -> np.ndarray:
             f["shear"] = SHEAR_LOG if mean.profile == "log" else SHEAR_POWER
             f["shear_x"], f["shear_y"] = mx, my
             f["roughness_length"], f["reference_height"], f["exponent"] = (
-                mean.roughness_length, mean.reference_height, mean.exponent,
+                mean.roughness_length,
+                mean.reference_height,
+                mean.exponent,
             )
         else:
             f["mean_x"], f["mean_y"] = mx, my
@@ -247,8 +267,14 @@ def air_from_motion(r, v0: float, v1: float, v2: float, w0: float, w1: float, w2
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
     wx, wy, wz, gp, gq, gr = wind
     lx, ly, lz, ax, ay, az = v0 - wx, v1 - wy, v2 - wz, w0 - gp, w1 - gq, w2 - gr
-    return (r0 * lx + r3 * ly + r6 * lz, r1 * lx + r4 * ly + r7 * lz, r2 * lx + r5 * ly + r8 * lz,
-            r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az)
+    return (
+        r0 * lx + r3 * ly + r6 * lz,
+        r1 * lx + r4 * ly + r7 * lz,
+        r2 * lx + r5 * ly + r8 * lz,
+        r0 * ax + r3 * ay + r6 * az,
+        r1 * ax + r4 * ay + r7 * az,
+        r2 * ax + r5 * ay + r8 * az,
+    )
 
 
 @njit(cache=True)
@@ -257,9 +283,14 @@ def air_from_body(r, b0: float, b1: float, b2: float, c0: float, c1: float, c2: 
     the velocity through the air from body-frame velocities (a control tick's state read)."""
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
     wx, wy, wz, gp, gq, gr = wind
-    return (b0 - (r0 * wx + r3 * wy + r6 * wz), b1 - (r1 * wx + r4 * wy + r7 * wz),
-            b2 - (r2 * wx + r5 * wy + r8 * wz), c0 - (r0 * gp + r3 * gq + r6 * gr),
-            c1 - (r1 * gp + r4 * gq + r7 * gr), c2 - (r2 * gp + r5 * gq + r8 * gr))
+    return (
+        b0 - (r0 * wx + r3 * wy + r6 * wz),
+        b1 - (r1 * wx + r4 * wy + r7 * wz),
+        b2 - (r2 * wx + r5 * wy + r8 * wz),
+        c0 - (r0 * gp + r3 * gq + r6 * gr),
+        c1 - (r1 * gp + r4 * gq + r7 * gr),
+        c2 - (r2 * gp + r5 * gq + r8 * gr),
+    )
 
 
 @njit(cache=True)
@@ -272,8 +303,9 @@ def ground_effect_ratio(height: float, radius: float, min_height: float) -> floa
 
 
 @njit(cache=True)
-def ground_effect_ratios(z: float, r6: float, r7: float, r8: float, rotors: np.ndarray, min_height: float,
-                         out: np.ndarray) -> None:
+def ground_effect_ratios(
+    z: float, r6: float, r7: float, r8: float, rotors: np.ndarray, min_height: float, out: np.ndarray
+) -> None:
     """Per motor the ground-effect ratio at its hub height ``z + r6 px + r7 py + r8 pz`` into
     ``out`` (n,) (1 without a radius; ``RotorInteractions.ground_effect_ratios``): the
     ``thrust_ratio`` the modelled motors take (``ModelledMotors.step``), where the static
@@ -284,8 +316,16 @@ def ground_effect_ratios(z: float, r6: float, r7: float, r8: float, rotors: np.n
 
 
 @njit(cache=True)
-def ground_effect_columns(z: float, r6: float, r7: float, r8: float, rotors: np.ndarray, columns: np.ndarray,
-                          min_height: float, out: np.ndarray) -> None:
+def ground_effect_columns(
+    z: float,
+    r6: float,
+    r7: float,
+    r8: float,
+    rotors: np.ndarray,
+    columns: np.ndarray,
+    min_height: float,
+    out: np.ndarray,
+) -> None:
     """The motor wrench columns in ground effect into ``out`` (n, 6): per motor the ratio
     ``k`` at its hub height ``z + r6 px + r7 py + r8 pz`` (1 without a radius;
     ``RotorInteractions.ground_effect_ratios``), then ``Motors._scaled_columns``: the force

@@ -53,8 +53,23 @@ def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, objec
 
 
 @njit(cache=True)
-def spawn_rows(index, states, next_double, start_position, position_noise, start_orientation, orientation_noise,
-               lin_vel, ang_vel, pos, quat, vel, angvel, offsets, shifted):
+def spawn_rows(
+    index,
+    states,
+    next_double,
+    start_position,
+    position_noise,
+    start_orientation,
+    orientation_noise,
+    lin_vel,
+    ang_vel,
+    pos,
+    quat,
+    vel,
+    angvel,
+    offsets,
+    shifted,
+):
     """The spawn of every env in ``index`` (``Task.spawn`` and the env's use of it, module
     docstring): env ``i`` draws from the bit generator state at ``states[i]``, three numbers
     for its position when ``position_noise`` is not 0, then three for its attitude when

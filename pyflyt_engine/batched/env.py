@@ -209,7 +209,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.ground_effect = bool(cfg.ground_effect)
         self._rotors = rows(m.rotors)
         states = self.dryden.states if self.dryden is not None else 0
-        self._dryden_arrays = self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+        self._dryden_arrays = (
+            self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+        )
         #: per env, the turbulence filter's state (Dryden; none without turbulence)
         self.turbulence = np.zeros((n, states))
         self._no_normals = np.zeros((n, self.per_agent, 0))
@@ -267,20 +269,24 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
         #: the randomize section's draws per env and episode (None without; pyflyt_engine.batched.randomization)
-        self.randomizer = (BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n)
-                           if cfg.randomize else None)
+        self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
         #: per env, this episode's randomize draws (entries in the section's order; no columns without)
         self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
         #: the parameter rows a checkpoint carries besides the state: those the draws change
         self.randomized_arrays: tuple[str, ...] = ("randomized_values",) if self.randomizer is not None else ()
         if self.randomizer is not None:
             r = self.randomizer
-            self.randomized_arrays += (("_mass", "_inertia") if r.body else ()) + (
-                ("_lag", "_columns", "_rotors") if r.motors else ()) + (("_drag_factors", "_damping") if r.drag else ())
+            self.randomized_arrays += (
+                (("_mass", "_inertia") if r.body else ())
+                + (("_lag", "_columns", "_rotors") if r.motors else ())
+                + (("_drag_factors", "_damping") if r.drag else ())
+            )
         #: the action and observation delays (None without; pyflyt_engine.batched.latency)
-        self.latency = (BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns,
-                                       m.has_battery)
-                        if declares_latency(cfg) else None)
+        self.latency = (
+            BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns, m.has_battery)
+            if declares_latency(cfg)
+            else None
+        )
         delays = self.latency.state_arrays() if self.latency is not None else {}
         #: per env, this episode's (action, observation) delays [physics steps], its last actions
         #: and the states it shows (BatchedLatency; empty rows without latency)
@@ -389,26 +395,48 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._spawn(task, index)
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             for i in index.tolist():
-                air.dryden_initial(self._dryden_arrays, self.turbulence_rngs[i].standard_normal(self.dryden.states),
-                                   self.turbulence[i])
+                air.dryden_initial(
+                    self._dryden_arrays, self.turbulence_rngs[i].standard_normal(self.dryden.states), self.turbulence[i]
+                )
         if self._waypoints:
             for i in index.tolist():
                 self.targets[i] = sample_waypoints(
-                    self.env_rngs[i], o.num_targets, o.min_target_distance, o.max_target_distance * task.flight_dome_size,
+                    self.env_rngs[i],
+                    o.num_targets,
+                    o.min_target_distance,
+                    o.max_target_distance * task.flight_dome_size,
                     o.min_target_height,
                 )
         bookkeeping.zero_rows(
             index,
-            (self.throttle, self.command, self.deflection, self.flap_command, self.autopilot_integral, self.integral,
-             self.vel_integral, self.previous, self.actions),
+            (
+                self.throttle,
+                self.command,
+                self.deflection,
+                self.flap_command,
+                self.autopilot_integral,
+                self.integral,
+                self.vel_integral,
+                self.previous,
+                self.actions,
+            ),
             (self.episode_return,),
             (self.steps, self.physics_steps, self.episode_length, self.num_reached),
             (self.has_previous,),
         )
         if self.battery.shape[1]:  # the pack back to its initial charge, no load (Battery.reset)
             self.battery[index] = self.model.battery_reset
-        bookkeeping.read_rows(index, self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
-                         self.lin_vel_body, self.quaternion)
+        bookkeeping.read_rows(
+            index,
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            self.ang_vel_body,
+            self.ang_pos,
+            self.lin_vel_body,
+            self.quaternion,
+        )
         if self.sensors is not None:  # time 0: new initial biases, the estimator at the spawn
             self.sensors.reset(index, self.pos, self.vel, self.quaternion)
         if self.latency is not None:
@@ -441,10 +469,21 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         o = task.options
         states, next_double = streams
         bookkeeping.spawn_rows(
-            index, states, next_double, np.asarray(o.start_position, dtype=np.float64), float(o.start_position_noise),
-            np.asarray(o.start_orientation, dtype=np.float64), float(o.start_orientation_noise),
-            np.asarray(o.start_lin_vel, dtype=np.float64), np.zeros(3), self.pos, self.quat, self.vel, self.angvel,
-            offsets if offsets is not None else self._no_offsets, offsets is not None,
+            index,
+            states,
+            next_double,
+            np.asarray(o.start_position, dtype=np.float64),
+            float(o.start_position_noise),
+            np.asarray(o.start_orientation, dtype=np.float64),
+            float(o.start_orientation_noise),
+            np.asarray(o.start_lin_vel, dtype=np.float64),
+            np.zeros(3),
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            offsets if offsets is not None else self._no_offsets,
+            offsets is not None,
         )
 
     def _goals(self) -> np.ndarray:
@@ -468,11 +507,23 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _read(self, index: np.ndarray | None = None) -> None:
         if index is None:
-            kernels.read_out(self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
-                             self.lin_vel_body, self.quaternion)
+            kernels.read_out(
+                self.pos,
+                self.quat,
+                self.vel,
+                self.angvel,
+                self.ang_vel_body,
+                self.ang_pos,
+                self.lin_vel_body,
+                self.quaternion,
+            )
             return
-        a, b, c, d = (np.empty((len(index), 3)), np.empty((len(index), 3)), np.empty((len(index), 3)),
-                      np.empty((len(index), 4)))
+        a, b, c, d = (
+            np.empty((len(index), 3)),
+            np.empty((len(index), 3)),
+            np.empty((len(index), 3)),
+            np.empty((len(index), 4)),
+        )
         kernels.read_out(self.pos[index], self.quat[index], self.vel[index], self.angvel[index], a, b, c, d)
         self.ang_vel_body[index], self.ang_pos[index], self.lin_vel_body[index], self.quaternion[index] = a, b, c, d
 
@@ -503,7 +554,10 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             index = np.nonzero(done)[0]
             info["final_obs"] = np.where(done[:, None], obs, 0.0)
             info["_final_obs"] = done
-            info["episode"] = {"r": np.where(done, self.episode_return, 0.0), "l": np.where(done, self.episode_length, 0)}
+            info["episode"] = {
+                "r": np.where(done, self.episode_return, 0.0),
+                "l": np.where(done, self.episode_length, 0),
+            }
             info["_episode"] = done
             self._reset_envs(index)
             if self.randomizer is not None:  # the draws of the episodes that start now, masked as the reset ones
@@ -548,7 +602,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         steps = self.physics_steps + start
         for s in range(count):
             self.sensors.sample(steps + s, self.pos, self.quat, self.vel, self.angvel)
-            self._physics(setpoints, np.ascontiguousarray(factors[:, s:s + 1]), start + s, 1)
+            self._physics(setpoints, np.ascontiguousarray(factors[:, s : s + 1]), start + s, 1)
             if (start + s + 1) % self.per_control == 0 or s == count - 1:
                 hit |= self.contact
         self.contact[:] = hit
@@ -567,38 +621,121 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         episode, the turbulence driven by this agent step's white noise from ``start`` on."""
         normals = self._normals
         if (start, count) != (0, normals.shape[1]):
-            normals = np.ascontiguousarray(normals[:, start:start + count])
+            normals = np.ascontiguousarray(normals[:, start : start + count])
         steps = self.physics_steps + start
         dryden = self._dryden_arrays
         m = self.model
         if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
             kernels.advance_channels(
-                self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.deflection,
-                self.flap_command, setpoints, factors, self._mass, self._inertia, self._lag, self._columns,
-                m.motor_mix_index, m.motor_mix_weight, m.channel_low, m.channel_high, self._surfaces,
-                self._surface_lag, m.surface_mix_index, m.surface_mix_weight, self._drag_factors, self._damping,
-                m.drag, self._corners, self.contact, GRAVITY, AIR_DENSITY, self.physics_dt, start, count,
-                self.per_control, self.mode, self.autopilot_integral, m.autopilot_gains, m.cruise_thrust,
-                m.autopilot_index, self.control_dt, self._wind, steps, self._rotors, self.ground_effect,
-                air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden, self._motor_model, m.motor_laws,
-                self.battery, m.battery, m.battery_table,
+                self.pos,
+                self.quat,
+                self.vel,
+                self.angvel,
+                self.throttle,
+                self.command,
+                self.deflection,
+                self.flap_command,
+                setpoints,
+                factors,
+                self._mass,
+                self._inertia,
+                self._lag,
+                self._columns,
+                m.motor_mix_index,
+                m.motor_mix_weight,
+                m.channel_low,
+                m.channel_high,
+                self._surfaces,
+                self._surface_lag,
+                m.surface_mix_index,
+                m.surface_mix_weight,
+                self._drag_factors,
+                self._damping,
+                m.drag,
+                self._corners,
+                self.contact,
+                GRAVITY,
+                AIR_DENSITY,
+                self.physics_dt,
+                start,
+                count,
+                self.per_control,
+                self.mode,
+                self.autopilot_integral,
+                m.autopilot_gains,
+                m.cruise_thrust,
+                m.autopilot_index,
+                self.control_dt,
+                self._wind,
+                steps,
+                self._rotors,
+                self.ground_effect,
+                air.GROUND_EFFECT_MIN_HEIGHT,
+                self.turbulence,
+                normals,
+                dryden,
+                self._motor_model,
+                m.motor_laws,
+                self.battery,
+                m.battery,
+                m.battery_table,
             )
             return
         if self._cascade is not None:
             self._advance_cascade(setpoints, factors, start, count, normals, steps)
             return
         kernels.advance(
-            self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
-            self.has_previous, setpoints, factors, self.mode, self._mass, self._inertia, self._control_inertia, self._gyro, self._lag,
-            self._columns, self._mixer_rows, self._max_collective, self._rate_gains, m.rate_derivative,
-            self._drag_factors, self._damping, m.drag, self._corners, self.contact, GRAVITY,
-            self.physics_dt, self.control_dt, start, count, self.per_control, self._wind, steps, self._rotors,
-            self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT, self.turbulence, normals, dryden, self._motor_model,
-            m.motor_laws, self.battery, m.battery, m.battery_table,
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            self.throttle,
+            self.command,
+            self.integral,
+            self.previous,
+            self.has_previous,
+            setpoints,
+            factors,
+            self.mode,
+            self._mass,
+            self._inertia,
+            self._control_inertia,
+            self._gyro,
+            self._lag,
+            self._columns,
+            self._mixer_rows,
+            self._max_collective,
+            self._rate_gains,
+            m.rate_derivative,
+            self._drag_factors,
+            self._damping,
+            m.drag,
+            self._corners,
+            self.contact,
+            GRAVITY,
+            self.physics_dt,
+            self.control_dt,
+            start,
+            count,
+            self.per_control,
+            self._wind,
+            steps,
+            self._rotors,
+            self.ground_effect,
+            air.GROUND_EFFECT_MIN_HEIGHT,
+            self.turbulence,
+            normals,
+            dryden,
+            self._motor_model,
+            m.motor_laws,
+            self.battery,
+            m.battery,
+            m.battery_table,
         )
 
-    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int,
-                         normals: np.ndarray, steps: np.ndarray) -> None:
+    def _advance_cascade(
+        self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int, normals: np.ndarray, steps: np.ndarray
+    ) -> None:
         """``count`` physics steps from offset ``start`` in a cascade mode: per control
         period, the controller's tick (:func:`~pyflyt_engine.batched.modes.control_tick`) sets
         the motor commands from the state at its start, then the period's physics steps run
@@ -611,8 +748,14 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self._cascade_rows is None:
             n = self.num_envs
             rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
-            self._cascade_rows = (rows(c.table), rows(c.mass), rows(c.window), rows(c.max_tilt),
-                                  np.empty((n, m.motors)), np.zeros(n, dtype=bool))
+            self._cascade_rows = (
+                rows(c.table),
+                rows(c.mass),
+                rows(c.window),
+                rows(c.max_tilt),
+                np.empty((n, m.motors)),
+                np.zeros(n, dtype=bool),
+            )
         table, mass, window, max_tilt, commands, contact = self._cascade_rows
         law, yaw_is_rate, heading_frame, position, altitude = self._cascade
         per_control = self.per_control
@@ -622,21 +765,80 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             b = min((a // per_control + 1) * per_control, start + count)  # to the period's end, or the count's
             if a % per_control == 0:  # the period's tick
                 modes.control_tick(
-                    self.pos, self.quat, self.vel, self.angvel, setpoints, self.integral, self.previous,
-                    self.has_previous, self.vel_integral, law, yaw_is_rate, heading_frame, position, altitude,
-                    table, mass, window, max_tilt, self._rate_gains, m.rate_derivative, self._control_inertia,
-                    self._gyro, self._mixer_rows, self.control_dt, commands,
+                    self.pos,
+                    self.quat,
+                    self.vel,
+                    self.angvel,
+                    setpoints,
+                    self.integral,
+                    self.previous,
+                    self.has_previous,
+                    self.vel_integral,
+                    law,
+                    yaw_is_rate,
+                    heading_frame,
+                    position,
+                    altitude,
+                    table,
+                    mass,
+                    window,
+                    max_tilt,
+                    self._rate_gains,
+                    m.rate_derivative,
+                    self._control_inertia,
+                    self._gyro,
+                    self._mixer_rows,
+                    self.control_dt,
+                    commands,
                 )  # (a piece after it has no tick: the motors keep the commands it gave)
-            period = np.ascontiguousarray(factors[:, a - start:b - start])
+            period = np.ascontiguousarray(factors[:, a - start : b - start])
             kernels.advance(
-                self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral,
-                self.previous, self.has_previous, commands, period, kernels.MODE_MOTORS, self._mass, self._inertia,
-                self._control_inertia, self._gyro, self._lag, self._columns, self._mixer_rows, self._max_collective,
-                self._rate_gains, m.rate_derivative, self._drag_factors, self._damping, m.drag, self._corners,
-                self.contact, GRAVITY, self.physics_dt, self.control_dt, a % per_control, b - a, per_control,
-                self._wind, steps + (a - start), self._rotors, self.ground_effect, air.GROUND_EFFECT_MIN_HEIGHT,
-                self.turbulence, np.ascontiguousarray(normals[:, a - start:b - start]), self._dryden_arrays,
-                self._motor_model, m.motor_laws, self.battery, m.battery, m.battery_table,
+                self.pos,
+                self.quat,
+                self.vel,
+                self.angvel,
+                self.throttle,
+                self.command,
+                self.integral,
+                self.previous,
+                self.has_previous,
+                commands,
+                period,
+                kernels.MODE_MOTORS,
+                self._mass,
+                self._inertia,
+                self._control_inertia,
+                self._gyro,
+                self._lag,
+                self._columns,
+                self._mixer_rows,
+                self._max_collective,
+                self._rate_gains,
+                m.rate_derivative,
+                self._drag_factors,
+                self._damping,
+                m.drag,
+                self._corners,
+                self.contact,
+                GRAVITY,
+                self.physics_dt,
+                self.control_dt,
+                a % per_control,
+                b - a,
+                per_control,
+                self._wind,
+                steps + (a - start),
+                self._rotors,
+                self.ground_effect,
+                air.GROUND_EFFECT_MIN_HEIGHT,
+                self.turbulence,
+                np.ascontiguousarray(normals[:, a - start : b - start]),
+                self._dryden_arrays,
+                self._motor_model,
+                m.motor_laws,
+                self.battery,
+                m.battery,
+                m.battery_table,
             )
             contact |= self.contact  # each call samples its own period's contacts
             a = b
@@ -668,18 +870,38 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._last_distance = distance
         self._last_position = p.copy()
         collision, out, crashed, terminated, truncated, remaining, success = bookkeeping.ends(
-            p, self.contact, complete, self.steps, self._max_steps, self._dome2,
-            bool(getattr(self.task, "crash_on_contact", True)), bool(self.task.succeeds_at_time_limit),
+            p,
+            self.contact,
+            complete,
+            self.steps,
+            self._max_steps,
+            self._dome2,
+            bool(getattr(self.task, "crash_on_contact", True)),
+            bool(self.task.succeeds_at_time_limit),
         )
         ctx = BatchContext(
-            ang_vel=self.ang_vel_body, ang_pos=self.ang_pos, lin_vel=self.lin_vel_body, lin_pos=p,
-            action=self.actions, collision=collision, ground_collision=collision, out_of_bounds=out,
-            crashed=crashed, task_complete=complete, target_distance=distance, target_distance_rate=rate,
-            waypoint_reached=reached, steps_remaining=remaining, agent_dt=self.agent_dt,
+            ang_vel=self.ang_vel_body,
+            ang_pos=self.ang_pos,
+            lin_vel=self.lin_vel_body,
+            lin_pos=p,
+            action=self.actions,
+            collision=collision,
+            ground_collision=collision,
+            out_of_bounds=out,
+            crashed=crashed,
+            task_complete=complete,
+            target_distance=distance,
+            target_distance_rate=rate,
+            waypoint_reached=reached,
+            steps_remaining=remaining,
+            agent_dt=self.agent_dt,
         )
         reward, _ = self.reward_function(ctx)
         info: dict[str, Any] = {
-            "collision": collision, "out_of_bounds": out, "env_complete": complete, "success": success,
+            "collision": collision,
+            "out_of_bounds": out,
+            "env_complete": complete,
+            "success": success,
         }
         if self._waypoints:
             info["num_targets_reached"] = self.num_reached.copy()
@@ -691,9 +913,16 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self.latency is not None and self.latency.observes:
             seen = self.latency.observed(self)
         else:
-            seen = {"pos": self.pos, "quaternion": self.quaternion, "ang_pos": self.ang_pos, "throttle": self.throttle,
-                    "ang_vel_body": self.ang_vel_body, "lin_vel_body": self.lin_vel_body, "deflection": self.deflection,
-                    "battery": self.battery}
+            seen = {
+                "pos": self.pos,
+                "quaternion": self.quaternion,
+                "ang_pos": self.ang_pos,
+                "throttle": self.throttle,
+                "ang_vel_body": self.ang_vel_body,
+                "lin_vel_body": self.lin_vel_body,
+                "deflection": self.deflection,
+                "battery": self.battery,
+            }
         if self.sensors is not None:  # the rates, position (and with an estimator attitude, velocity) sensed
             seen = self.sensors.observed(seen)
         pos, quaternion = seen["pos"], seen["quaternion"]
@@ -704,7 +933,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self.battery.shape[1]:  # the battery's gauge closes the aux: its state of charge (BatteryGauge.aux)
             parts.append(seen["battery"][:, :1])
         if self._fix_flag:  # the position fix's validity, after the aux state
-            parts.append(self.sensor_state[:, S_VALID:S_VALID + 1])
+            parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
         if self._waypoints:
             k = self.targets.shape[1]
             r = np.empty((n, 9))
@@ -785,5 +1014,10 @@ def batched_vector_env(cfg: EnvConfig, n_envs: int, seed: int | None = None) -> 
 
 
 __all__ = [
-    "BATCHED_TASKS", "BatchedUAVEnv", "batched_vector_env", "check_supported", "make_batched_env", "resolve_backend",
+    "BATCHED_TASKS",
+    "BatchedUAVEnv",
+    "batched_vector_env",
+    "check_supported",
+    "make_batched_env",
+    "resolve_backend",
 ]

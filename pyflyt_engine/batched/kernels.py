@@ -156,8 +156,7 @@ def euler_from_quaternion(qx: float, qy: float, qz: float, qw: float, out: np.nd
 
 
 @njit(cache=True)
-def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray,
-                columns: np.ndarray):
+def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray, columns: np.ndarray):
     """One physics step of a vehicle's motors (``Motors.step``): ``x' = (x + a (c - x)) z``;
     ``throttle`` updated; returns the wrench ``sum_i column_i x'_i |x'_i|`` (6-tuple)."""
     fx = fy = fz = tx = ty = tz = 0.0
@@ -182,8 +181,26 @@ def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, fact
 #: axis, static thrust and reaction torque at full throttle, top speed [rad/s], reaction
 #: torque magnitude at full throttle, rotor drag coefficient (0: none), and the inflow
 #: model's radius, C_T0, lambda_h, s = sigma a / 4, theta_tip and C_Q / C_T0 in hover
-(M_LAG_FALL, M_PX, M_PY, M_PZ, M_AX, M_AY, M_AZ, M_THRUST, M_REACTION, M_OMEGA, M_TORQUE, M_ROTOR_DRAG,
- M_RADIUS, M_CT0, M_LAMBDA_H, M_S, M_THETA, M_CQ_HOVER) = range(18)
+(
+    M_LAG_FALL,
+    M_PX,
+    M_PY,
+    M_PZ,
+    M_AX,
+    M_AY,
+    M_AZ,
+    M_THRUST,
+    M_REACTION,
+    M_OMEGA,
+    M_TORQUE,
+    M_ROTOR_DRAG,
+    M_RADIUS,
+    M_CT0,
+    M_LAMBDA_H,
+    M_S,
+    M_THETA,
+    M_CQ_HOVER,
+) = range(18)
 MOTOR_MODEL_FIELDS = 18
 #: bits of ``BatchedModel.motor_laws``: 0 flies the static motors (:func:`motors_step`), any
 #: other value :func:`modelled_motors_step` (``ModelledMotors``), with the laws its bits name
@@ -217,9 +234,22 @@ def inflow_ratios(k: np.ndarray, climb: float, rotor_speed: float):
 
 
 @njit(cache=True)
-def modelled_motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray,
-                         model: np.ndarray, laws: int, volt: float, ratio: np.ndarray, u: float, v: float, w: float,
-                         p: float, q: float, r: float):
+def modelled_motors_step(
+    throttle: np.ndarray,
+    command: np.ndarray,
+    lag: np.ndarray,
+    factors: np.ndarray,
+    model: np.ndarray,
+    laws: int,
+    volt: float,
+    ratio: np.ndarray,
+    u: float,
+    v: float,
+    w: float,
+    p: float,
+    q: float,
+    r: float,
+):
     """One physics step of a vehicle's modelled motors (``ModelledMotors.step``): the
     asymmetric lag (``lag`` up, the row's spin-down lag down), the noise factor, each rotor
     at speed ``|x| volt`` (``volt``: the battery's ``speed_ratio``, 1 without one) with its
@@ -340,8 +370,27 @@ def _body_air(r, v, w, bw0: float, bw1: float, bw2: float, windy: bool, tick: bo
 
 
 @njit(cache=True)
-def modelled_load(x_i, cmd_i, lag_i, factors, model, laws, battery, battery_params, battery_table, rotors,
-                  ground_effect, z, r6, r7, r8, min_height, ratio, air, physics_dt):
+def modelled_load(
+    x_i,
+    cmd_i,
+    lag_i,
+    factors,
+    model,
+    laws,
+    battery,
+    battery_params,
+    battery_table,
+    rotors,
+    ground_effect,
+    z,
+    r6,
+    r7,
+    r8,
+    min_height,
+    ratio,
+    air,
+    physics_dt,
+):
     """The modelled motors' wrench of one physics step (:func:`modelled_motors_step`) at the
     body's velocity through the air ``air`` (6-tuple, body frame), ground effect's ratios
     (``ratio`` (n,) scratch, set to 1 without ground effect), the pack ``battery`` (its
@@ -362,12 +411,19 @@ def modelled_load(x_i, cmd_i, lag_i, factors, model, laws, battery, battery_para
 
 
 @njit(cache=True)
-def drag_wrench(vx: float, vy: float, vz: float, wx: float, wy: float, wz: float,
-                kx: float, ky: float, kz: float, damping: float):
+def drag_wrench(
+    vx: float, vy: float, vz: float, wx: float, wy: float, wz: float, kx: float, ky: float, kz: float, damping: float
+):
     """Body drag (``BodyDrag.step``) at body-frame air velocity (v, w): factors
     ``k = 1/2 rho C_d A`` per axis and the rotational ``damping``; returns the 6-tuple."""
-    return (-kx * vx * abs(vx), -ky * vy * abs(vy), -kz * vz * abs(vz),
-            -damping * wx * abs(wx), -damping * wy * abs(wy), -damping * wz * abs(wz))
+    return (
+        -kx * vx * abs(vx),
+        -ky * vy * abs(vy),
+        -kz * vz * abs(vz),
+        -damping * wx * abs(wx),
+        -damping * wy * abs(wy),
+        -damping * wz * abs(wz),
+    )
 
 
 @njit(cache=True)
@@ -377,9 +433,18 @@ def summed(a, b):
 
 
 @njit(cache=True)
-def rate_loop(rates_sp: np.ndarray, rates: np.ndarray, previous: np.ndarray, integral: np.ndarray,
-              gains: np.ndarray, derivative: bool, inertia: np.ndarray, gyro: np.ndarray, dt: float,
-              out: np.ndarray) -> None:
+def rate_loop(
+    rates_sp: np.ndarray,
+    rates: np.ndarray,
+    previous: np.ndarray,
+    integral: np.ndarray,
+    gains: np.ndarray,
+    derivative: bool,
+    inertia: np.ndarray,
+    gyro: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
     """The body-rate loop (``MultirotorController._rate_loop``): torques [N m] into ``out``
     (3,); ``integral`` advanced.  ``gains`` rows: kp, ki, kd, integral limit (per axis);
     ``previous`` the rates of the last tick (the rates themselves on the first)."""
@@ -501,14 +566,32 @@ def integrate_state(p, q, v, w, r, load, mass, jx, jy, jz, gravity, dt):
 
 
 @njit(cache=True)
-def integrate(pos: np.ndarray, quat: np.ndarray, vel: np.ndarray, angvel: np.ndarray, r: np.ndarray,
-              load: np.ndarray, mass: float, inertia: np.ndarray, gravity: float, dt: float) -> None:
+def integrate(
+    pos: np.ndarray,
+    quat: np.ndarray,
+    vel: np.ndarray,
+    angvel: np.ndarray,
+    r: np.ndarray,
+    load: np.ndarray,
+    mass: float,
+    inertia: np.ndarray,
+    gravity: float,
+    dt: float,
+) -> None:
     """:func:`integrate_state` on arrays (updates pos, quat, vel, angvel in place)."""
     p, q, v, w = integrate_state(
-        (pos[0], pos[1], pos[2]), (quat[0], quat[1], quat[2], quat[3]), (vel[0], vel[1], vel[2]),
-        (angvel[0], angvel[1], angvel[2]), (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]),
-        (load[0], load[1], load[2], load[3], load[4], load[5]), mass, inertia[0], inertia[1], inertia[2],
-        gravity, dt,
+        (pos[0], pos[1], pos[2]),
+        (quat[0], quat[1], quat[2], quat[3]),
+        (vel[0], vel[1], vel[2]),
+        (angvel[0], angvel[1], angvel[2]),
+        (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]),
+        (load[0], load[1], load[2], load[3], load[4], load[5]),
+        mass,
+        inertia[0],
+        inertia[1],
+        inertia[2],
+        gravity,
+        dt,
     )
     pos[0], pos[1], pos[2] = p
     quat[0], quat[1], quat[2], quat[3] = q
@@ -540,12 +623,54 @@ def _lowest(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray) -> 
 
 
 @njit(cache=True)
-def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_previous, setpoint,
-            factors, mode, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows, max_collective,
-            rate_gains, derivative, drag_factors, damping, drag_on, corners, contact, gravity, physics_dt,
-            control_dt, start, count, per_control, wind, episode_steps, rotors, ground_effect, min_height,
-            turbulence, turbulence_normals, dryden, motor_model, motor_laws, battery, battery_params,
-            battery_table):
+def advance(
+    pos,
+    quat,
+    vel,
+    angvel,
+    throttle,
+    command,
+    integral,
+    previous,
+    has_previous,
+    setpoint,
+    factors,
+    mode,
+    mass,
+    inertia,
+    control_inertia,
+    gyro,
+    lag,
+    columns,
+    mixer_rows,
+    max_collective,
+    rate_gains,
+    derivative,
+    drag_factors,
+    damping,
+    drag_on,
+    corners,
+    contact,
+    gravity,
+    physics_dt,
+    control_dt,
+    start,
+    count,
+    per_control,
+    wind,
+    episode_steps,
+    rotors,
+    ground_effect,
+    min_height,
+    turbulence,
+    turbulence_normals,
+    dryden,
+    motor_model,
+    motor_laws,
+    battery,
+    battery_params,
+    battery_table,
+):
     """Advance every vehicle ``count`` physics steps from physics step ``start`` (control
     ticks where ``(start + s) % per_control == 0``).
 
@@ -614,12 +739,29 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                     rates[0], rates[1], rates[2] = bw0, bw1, bw2
                     if not has_previous[i]:
                         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-                    rate_loop(setpoint[i, :3], rates, previous[i], integral[i], rate_gains[i], derivative,
-                              control_inertia[i], gyro[i], control_dt, torques)
+                    rate_loop(
+                        setpoint[i, :3],
+                        rates,
+                        previous[i],
+                        integral[i],
+                        rate_gains[i],
+                        derivative,
+                        control_inertia[i],
+                        gyro[i],
+                        control_dt,
+                        torques,
+                    )
                     previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
                     has_previous[i] = True
-                    mix(setpoint[i, 3] * max_collective[i], torques[0], torques[1], torques[2], mixer_rows[i],
-                        parts, out)
+                    mix(
+                        setpoint[i, 3] * max_collective[i],
+                        torques[0],
+                        torques[1],
+                        torques[2],
+                        mixer_rows[i],
+                        parts,
+                        out,
+                    )
                     for mo in range(nm):
                         cmd_i[mo] = out[mo]
                 else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
@@ -636,9 +778,27 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                 a = calm
                 if motor_air:
                     a = _body_air(r, v, w, bw0, bw1, bw2, windy, step % per_control == 0, sample)
-                load = modelled_load(x_i, cmd_i, lag_i, factors[i, s], motor_model[i], motor_laws, battery[i],
-                                     battery_params, battery_table, rotors[i], ground_effect, p[2], r6, r7, r8,
-                                     min_height, ratio, a, physics_dt)
+                load = modelled_load(
+                    x_i,
+                    cmd_i,
+                    lag_i,
+                    factors[i, s],
+                    motor_model[i],
+                    motor_laws,
+                    battery[i],
+                    battery_params,
+                    battery_table,
+                    rotors[i],
+                    ground_effect,
+                    p[2],
+                    r6,
+                    r7,
+                    r8,
+                    min_height,
+                    ratio,
+                    a,
+                    physics_dt,
+                )
             elif ground_effect:
                 _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
                 load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
@@ -660,8 +820,7 @@ def advance(pos, quat, vel, angvel, throttle, command, integral, previous, has_p
                     bv1 = r1 * v0 + r4 * v1 + r7 * v2
                     bv2 = r2 * v0 + r5 * v1 + r8 * v2
                     load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
-            p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity,
-                                         physics_dt)
+            p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
             if (step + 1) % per_control == 0 or s == count - 1:
                 rr = rotation_tuple(q[0], q[1], q[2], q[3])
                 if _lowest(p[2], rr[6], rr[7], rr[8], corners[i]) < 0.0:
@@ -752,8 +911,17 @@ def surface_coefficients(k: np.ndarray, alpha: float, deflection: float):
 
 
 @njit(cache=True)
-def surface_wrench(k: np.ndarray, deflection: float, vx: float, vy: float, vz: float, wx: float, wy: float,
-                   wz: float, air_density: float):
+def surface_wrench(
+    k: np.ndarray,
+    deflection: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    air_density: float,
+):
     """One surface's body-frame force and torque about the centre of mass (6-tuple) at the
     body's velocity through the air (v, w): ``lifting_surface.surface_wrench``."""
     px, py, pz, cx, cy, cz, nx, ny, nz = k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], k[8]
@@ -775,13 +943,30 @@ def surface_wrench(k: np.ndarray, deflection: float, vx: float, vy: float, vz: f
     fy = f_c * cy + f_n * ny
     fz = f_c * cz + f_n * nz
     moment = cm * q_area * chord
-    return (fx, fy, fz, py * fz - pz * fy + moment * sx, pz * fx - px * fz + moment * sy,
-            px * fy - py * fx + moment * sz)
+    return (
+        fx,
+        fy,
+        fz,
+        py * fz - pz * fy + moment * sx,
+        pz * fx - px * fz + moment * sy,
+        px * fy - py * fx + moment * sz,
+    )
 
 
 @njit(cache=True)
-def surfaces_step(deflection: np.ndarray, command: np.ndarray, lag: np.ndarray, surfaces: np.ndarray,
-                  vx: float, vy: float, vz: float, wx: float, wy: float, wz: float, air_density: float):
+def surfaces_step(
+    deflection: np.ndarray,
+    command: np.ndarray,
+    lag: np.ndarray,
+    surfaces: np.ndarray,
+    vx: float,
+    vy: float,
+    vz: float,
+    wx: float,
+    wy: float,
+    wz: float,
+    air_density: float,
+):
     """One physics step of a vehicle's lifting surfaces (``Surfaces.step``): every flap
     follows its command (``flap_deflection``: clipped to [-1, 1] times its limit, first-order
     lag), ``deflection`` updated; returns the summed wrench (6-tuple)."""
@@ -838,9 +1023,23 @@ def _autopilot_loop(error: float, rate: float, gains: np.ndarray, k: int, integr
 
 
 @njit(cache=True)
-def fixedwing_autopilot(setpoint: np.ndarray, p: float, q: float, r: float, roll: float, pitch: float, u: float,
-                        integral: np.ndarray, gains: np.ndarray, cruise_thrust: float, index: np.ndarray,
-                        low: np.ndarray, high: np.ndarray, dt: float, out: np.ndarray) -> None:
+def fixedwing_autopilot(
+    setpoint: np.ndarray,
+    p: float,
+    q: float,
+    r: float,
+    roll: float,
+    pitch: float,
+    u: float,
+    integral: np.ndarray,
+    gains: np.ndarray,
+    cruise_thrust: float,
+    index: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+) -> None:
     """The channel vector of mode ``attitude_airspeed`` (``FixedwingAutopilot.__call__``) into
     ``out``: setpoint [roll, pitch, yaw rate, airspeed]; the state's body rates (p, q, r),
     roll and pitch and forward body speed u; ``index`` the roll, pitch, yaw and thrust
@@ -858,13 +1057,60 @@ def fixedwing_autopilot(setpoint: np.ndarray, p: float, q: float, r: float, roll
 
 
 @njit(cache=True)
-def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap_command, setpoint, factors, mass,
-                     inertia, lag, columns, motor_index, motor_weight, channel_low, channel_high, surfaces,
-                     surface_lag, surface_index, surface_weight, drag_factors, damping, drag_on, corners, contact,
-                     gravity, air_density, physics_dt, start, count, per_control, mode, autopilot_integral,
-                     autopilot_gains, cruise_thrust, autopilot_index, control_dt, wind, episode_steps, rotors,
-                     ground_effect, min_height, turbulence, turbulence_normals, dryden, motor_model, motor_laws,
-                     battery, battery_params, battery_table):
+def advance_channels(
+    pos,
+    quat,
+    vel,
+    angvel,
+    throttle,
+    command,
+    deflection,
+    flap_command,
+    setpoint,
+    factors,
+    mass,
+    inertia,
+    lag,
+    columns,
+    motor_index,
+    motor_weight,
+    channel_low,
+    channel_high,
+    surfaces,
+    surface_lag,
+    surface_index,
+    surface_weight,
+    drag_factors,
+    damping,
+    drag_on,
+    corners,
+    contact,
+    gravity,
+    air_density,
+    physics_dt,
+    start,
+    count,
+    per_control,
+    mode,
+    autopilot_integral,
+    autopilot_gains,
+    cruise_thrust,
+    autopilot_index,
+    control_dt,
+    wind,
+    episode_steps,
+    rotors,
+    ground_effect,
+    min_height,
+    turbulence,
+    turbulence_normals,
+    dryden,
+    motor_model,
+    motor_laws,
+    battery,
+    battery_params,
+    battery_table,
+):
     """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
     ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
     :func:`advance` does a multirotor.
@@ -916,10 +1162,21 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
                     m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(qr[0], qr[1], qr[2], qr[3])
                     w0, w1, w2 = w
                     fixedwing_autopilot(
-                        setpoint[i], m0 * w0 + m3 * w1 + m6 * w2, m1 * w0 + m4 * w1 + m7 * w2,
-                        m2 * w0 + m5 * w1 + m8 * w2, euler[0], euler[1], m0 * v[0] + m3 * v[1] + m6 * v[2],
-                        autopilot_integral[i], autopilot_gains, cruise_thrust, autopilot_index, channel_low,
-                        channel_high, control_dt, channels,
+                        setpoint[i],
+                        m0 * w0 + m3 * w1 + m6 * w2,
+                        m1 * w0 + m4 * w1 + m7 * w2,
+                        m2 * w0 + m5 * w1 + m8 * w2,
+                        euler[0],
+                        euler[1],
+                        m0 * v[0] + m3 * v[1] + m6 * v[2],
+                        autopilot_integral[i],
+                        autopilot_gains,
+                        cruise_thrust,
+                        autopilot_index,
+                        channel_low,
+                        channel_high,
+                        control_dt,
+                        channels,
                     )
                 else:
                     clip_channels(setpoint[i], channel_low, channel_high, channels)
@@ -947,9 +1204,27 @@ def advance_channels(pos, quat, vel, angvel, throttle, command, deflection, flap
                     a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
                 bv0, bv1, bv2, bw0, bw1, bw2 = a
             if modelled:
-                load = modelled_load(x_i, cmd_i, lag_i, factors[i, s], motor_model[i], motor_laws, battery[i],
-                                     battery_params, battery_table, rotors[i], ground_effect, p[2], r6, r7, r8,
-                                     min_height, ratio, (bv0, bv1, bv2, bw0, bw1, bw2), physics_dt)
+                load = modelled_load(
+                    x_i,
+                    cmd_i,
+                    lag_i,
+                    factors[i, s],
+                    motor_model[i],
+                    motor_laws,
+                    battery[i],
+                    battery_params,
+                    battery_table,
+                    rotors[i],
+                    ground_effect,
+                    p[2],
+                    r6,
+                    r7,
+                    r8,
+                    min_height,
+                    ratio,
+                    (bv0, bv1, bv2, bw0, bw1, bw2),
+                    physics_dt,
+                )
             elif ground_effect:
                 _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
                 load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)

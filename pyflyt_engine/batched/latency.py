@@ -77,8 +77,17 @@ class BatchedLatency:
             battery's state of charge).
     """
 
-    def __init__(self, config: EnvConfig, num_envs: int, per_agent: int, per_control: int, action_size: int,
-                 motors: int, surfaces: int, battery: bool = False) -> None:
+    def __init__(
+        self,
+        config: EnvConfig,
+        num_envs: int,
+        per_agent: int,
+        per_control: int,
+        action_size: int,
+        motors: int,
+        surfaces: int,
+        battery: bool = False,
+    ) -> None:
         hz = config.physics_hz
         self.fixed = config.latency.steps(hz) if config.latency is not None else (0, 0)
         #: the randomised delays, in the randomize section's order (name -> Distribution)
@@ -164,16 +173,25 @@ class BatchedLatency:
             shown[now] = self._snapshot(env, np.nonzero(now)[0])
         nm = self.motors
         pos, quat, vel, angvel = shown[:, 0:3], shown[:, 3:7], shown[:, 7:10], shown[:, 10:13]
-        out = {name: np.empty((n, k)) for name, k in
-               (("ang_vel_body", 3), ("ang_pos", 3), ("lin_vel_body", 3), ("quaternion", 4))}
-        kernels.read_out(np.ascontiguousarray(pos), np.ascontiguousarray(quat), np.ascontiguousarray(vel),
-                         np.ascontiguousarray(angvel), out["ang_vel_body"], out["ang_pos"], out["lin_vel_body"],
-                         out["quaternion"])
+        out = {
+            name: np.empty((n, k))
+            for name, k in (("ang_vel_body", 3), ("ang_pos", 3), ("lin_vel_body", 3), ("quaternion", 4))
+        }
+        kernels.read_out(
+            np.ascontiguousarray(pos),
+            np.ascontiguousarray(quat),
+            np.ascontiguousarray(vel),
+            np.ascontiguousarray(angvel),
+            out["ang_vel_body"],
+            out["ang_pos"],
+            out["lin_vel_body"],
+            out["quaternion"],
+        )
         out["pos"] = np.ascontiguousarray(pos)
-        out["throttle"] = shown[:, 13:13 + nm]
+        out["throttle"] = shown[:, 13 : 13 + nm]
         ns = self.surfaces
-        out["deflection"] = shown[:, 13 + nm:13 + nm + ns]
-        out["battery"] = shown[:, 13 + nm + ns:]
+        out["deflection"] = shown[:, 13 + nm : 13 + nm + ns]
+        out["battery"] = shown[:, 13 + nm + ns :]
         return out
 
     # ------------------------------------------------------------------ internals
@@ -181,8 +199,16 @@ class BatchedLatency:
     def _snapshot(self, env: BatchedUAVEnv, index: np.ndarray) -> np.ndarray:
         """The rows ``index`` of the state an observation shows, as one array (N, S)."""
         return np.concatenate(
-            [env.pos[index], env.quat[index], env.vel[index], env.angvel[index], env.throttle[index],
-             env.deflection[index], env.battery[index][:, :1]], axis=1,
+            [
+                env.pos[index],
+                env.quat[index],
+                env.vel[index],
+                env.angvel[index],
+                env.throttle[index],
+                env.deflection[index],
+                env.battery[index][:, :1],
+            ],
+            axis=1,
         )
 
     def _record(self, env: BatchedUAVEnv, index: np.ndarray, t: np.ndarray) -> None:
@@ -220,5 +246,8 @@ class BatchedLatency:
 
     def state_arrays(self) -> dict[str, Any]:
         """The arrays a checkpoint carries, by the env attribute names that alias them."""
-        return {"latency_steps": self.steps, "action_history": self.action_history,
-                "observed_history": self.observed_history}
+        return {
+            "latency_steps": self.steps,
+            "action_history": self.action_history,
+            "observed_history": self.observed_history,
+        }

@@ -34,7 +34,13 @@ import numpy as np
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.atmosphere.field import vehicle_span
 from pyflyt_engine.batched.kernels import (
-    BATTERY_PARAMS, BATTERY_STATE, LAW_BATTERY, LAW_INFLOW, LAW_MODELLED, LAW_ROTOR_DRAG, MOTOR_MODEL_FIELDS,
+    BATTERY_PARAMS,
+    BATTERY_STATE,
+    LAW_BATTERY,
+    LAW_INFLOW,
+    LAW_MODELLED,
+    LAW_ROTOR_DRAG,
+    MOTOR_MODEL_FIELDS,
 )
 from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_params
 from pyflyt_engine.components.drag import DragParams
@@ -247,9 +253,15 @@ def _motor_laws(parts, physics_dt: float) -> dict:
             k = group._inflow[m]
             inflow = [k.radius, k.ct0, k.lambda_h, k.s, k.theta_tip, k.cq_hover]
         rows[m] = [
-            group.lag_fall[m], *group._positions[m], *group._axes[m], group._max_thrust[m], group._reaction[m],
-            group._omega_max[m], group._torque_max[m],
-            group._rotor_drag[m] if group._rotor_drag is not None else 0.0, *inflow,
+            group.lag_fall[m],
+            *group._positions[m],
+            *group._axes[m],
+            group._max_thrust[m],
+            group._reaction[m],
+            group._omega_max[m],
+            group._torque_max[m],
+            group._rotor_drag[m] if group._rotor_drag is not None else 0.0,
+            *inflow,
         ]
     laws = LAW_MODELLED
     laws |= LAW_ROTOR_DRAG if group._rotor_drag is not None else 0
@@ -258,8 +270,9 @@ def _motor_laws(parts, physics_dt: float) -> dict:
     if pack is not None:
         out.update(
             motor_laws=laws | LAW_BATTERY,
-            battery=np.array([pack._coulombs, pack._resistance, pack._load_divisor, pack._avionics, pack._full],
-                             dtype=np.float64),
+            battery=np.array(
+                [pack._coulombs, pack._resistance, pack._load_divisor, pack._avionics, pack._full], dtype=np.float64
+            ),
             battery_table=np.array(pack._table, dtype=np.float64).reshape(-1, 2),
             battery_reset=np.array([pack.charge, pack.voltage, pack.current, pack.speed_ratio], dtype=np.float64),
         )
@@ -286,15 +299,19 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         raise refuse(f"a URDF body ({name})")
     fixedwing = isinstance(spec.control, FixedwingControlSpec)
     if not isinstance(spec.control, MultirotorControlSpec) and not fixedwing:
-        raise refuse(f"the channel-driven airframe {name} (no multirotor or fixed-wing controller)",
-                     "the batched backend flies multirotors and fixed-wings")
+        raise refuse(
+            f"the channel-driven airframe {name} (no multirotor or fixed-wing controller)",
+            "the batched backend flies multirotors and fixed-wings",
+        )
     parts = assemble(spec)
     for kind in component_kinds():  # every registered kind but the ones compiled here, by its name
         if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
-        ("actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
-         bool(parts.channels) and not fixedwing),
+        (
+            "actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
+            bool(parts.channels) and not fixedwing,
+        ),
         ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
         ("range sensors", bool(spec.range_sensors)),
     ):

@@ -113,18 +113,19 @@ def cascade_params(controller: _mr.MultirotorController) -> CascadeParams:
     if controller._trim is not None:  # only tilted thrust (a gimbal) makes one; the model refuses gimbals
         raise ValueError("the compiled cascade has no trim attitude (tilted thrust)")
     velocity = np.array(controller._velocity_axes, dtype=np.float64).T  # rows kp, ki, lo, hi
-    rows = np.vstack([velocity, controller._position_kp, controller._max_velocity, controller._attitude_kp,
-                      controller._max_rate]).astype(np.float64)
-    return CascadeParams(float(controller.mass), np.ascontiguousarray(rows), float(controller._window),
-                         float(controller._max_tilt))
+    rows = np.vstack(
+        [velocity, controller._position_kp, controller._max_velocity, controller._attitude_kp, controller._max_rate]
+    ).astype(np.float64)
+    return CascadeParams(
+        float(controller.mass), np.ascontiguousarray(rows), float(controller._window), float(controller._max_tilt)
+    )
 
 
 # ------------------------------------------------------------------ the loops
 
 
 @njit(cache=True)
-def velocity_axis(sp: float, v: float, i: float, kp: float, ki: float, lo: float, hi: float, window: float,
-                  dt: float):
+def velocity_axis(sp: float, v: float, i: float, kp: float, ki: float, lo: float, hi: float, window: float, dt: float):
     """One ground axis of ``MultirotorController._velocity_loop`` with a setpoint: returns the
     acceleration command and the advanced integral ``(a, i)``."""
     e = sp - v
@@ -155,8 +156,17 @@ def thrust_for(mass: float, roll: float, pitch: float, az: float) -> float:
 
 
 @njit(cache=True)
-def attitude_rates(table: np.ndarray, roll_sp: float, pitch_sp: float, yaw_sp: float, hold_rate: bool,
-                   yaw_rate: float, roll: float, pitch: float, yaw: float):
+def attitude_rates(
+    table: np.ndarray,
+    roll_sp: float,
+    pitch_sp: float,
+    yaw_sp: float,
+    hold_rate: bool,
+    yaw_rate: float,
+    roll: float,
+    pitch: float,
+    yaw: float,
+):
     """``MultirotorController._attitude_rates``: body-rate setpoint ``(p, q, r)`` from an
     attitude setpoint (``hold_rate``: the scalar law's ``yaw is None``, hold ``yaw_rate``)."""
     p = table[_ATT_KP, 0] * (roll_sp - roll)
@@ -191,16 +201,47 @@ def tilt_for(yaw: float, ax: float, ay: float, az: float, limit: float):
 def _vertical(table: np.ndarray, vz_sp: float, vz: float, vel_integral: np.ndarray, window: float, dt: float) -> float:
     """The vertical axis alone of the velocity loop (``_velocity_loop(state, (None, None, vz))[2]``:
     the horizontal integrals stay as they are)."""
-    az, vel_integral[2] = velocity_axis(vz_sp, vz, vel_integral[2], table[_VEL_KP, 2], table[_VEL_KI, 2],
-                                        table[_VEL_LO, 2], table[_VEL_HI, 2], window, dt)
+    az, vel_integral[2] = velocity_axis(
+        vz_sp,
+        vz,
+        vel_integral[2],
+        table[_VEL_KP, 2],
+        table[_VEL_KI, 2],
+        table[_VEL_LO, 2],
+        table[_VEL_HI, 2],
+        window,
+        dt,
+    )
     return az
 
 
 @njit(cache=True)
-def outer_loops(law: int, yaw_is_rate: bool, heading_frame: bool, position: bool, altitude: bool, a: float, b: float,
-                c: float, d: float, roll: float, pitch: float, yaw: float, x: float, y: float, z: float, vx: float,
-                vy: float, vz: float, vel_integral: np.ndarray, table: np.ndarray, mass: float, window: float,
-                max_tilt: float, dt: float):
+def outer_loops(
+    law: int,
+    yaw_is_rate: bool,
+    heading_frame: bool,
+    position: bool,
+    altitude: bool,
+    a: float,
+    b: float,
+    c: float,
+    d: float,
+    roll: float,
+    pitch: float,
+    yaw: float,
+    x: float,
+    y: float,
+    z: float,
+    vx: float,
+    vy: float,
+    vz: float,
+    vel_integral: np.ndarray,
+    table: np.ndarray,
+    mass: float,
+    window: float,
+    max_tilt: float,
+    dt: float,
+):
     """The body-rate setpoint and collective thrust ``(p, q, r, thrust)`` of a cascade mode's
     law for setpoint ``(a, b, c, d)`` and the state's attitude (roll, pitch, yaw), position and
     ground velocity; ``vel_integral`` (3,) advanced.
@@ -227,21 +268,72 @@ def outer_loops(law: int, yaw_is_rate: bool, heading_frame: bool, position: bool
     else:
         vx_sp, vy_sp = a, b
     vz_sp = climb(table[_POS_KP, 2], table[_MAX_VEL, 2], d, z) if altitude else d
-    ax, vel_integral[0] = velocity_axis(vx_sp, vx, vel_integral[0], table[_VEL_KP, 0], table[_VEL_KI, 0],
-                                        table[_VEL_LO, 0], table[_VEL_HI, 0], window, dt)
-    ay, vel_integral[1] = velocity_axis(vy_sp, vy, vel_integral[1], table[_VEL_KP, 1], table[_VEL_KI, 1],
-                                        table[_VEL_LO, 1], table[_VEL_HI, 1], window, dt)
-    az, vel_integral[2] = velocity_axis(vz_sp, vz, vel_integral[2], table[_VEL_KP, 2], table[_VEL_KI, 2],
-                                        table[_VEL_LO, 2], table[_VEL_HI, 2], window, dt)
+    ax, vel_integral[0] = velocity_axis(
+        vx_sp,
+        vx,
+        vel_integral[0],
+        table[_VEL_KP, 0],
+        table[_VEL_KI, 0],
+        table[_VEL_LO, 0],
+        table[_VEL_HI, 0],
+        window,
+        dt,
+    )
+    ay, vel_integral[1] = velocity_axis(
+        vy_sp,
+        vy,
+        vel_integral[1],
+        table[_VEL_KP, 1],
+        table[_VEL_KI, 1],
+        table[_VEL_LO, 1],
+        table[_VEL_HI, 1],
+        window,
+        dt,
+    )
+    az, vel_integral[2] = velocity_axis(
+        vz_sp,
+        vz,
+        vel_integral[2],
+        table[_VEL_KP, 2],
+        table[_VEL_KI, 2],
+        table[_VEL_LO, 2],
+        table[_VEL_HI, 2],
+        window,
+        dt,
+    )
     roll_sp, pitch_sp = tilt_for(yaw, ax, ay, az, max_tilt)
     p, q, r = attitude_rates(table, roll_sp, pitch_sp, c, yaw_is_rate, c if yaw_is_rate else 0.0, roll, pitch, yaw)
     return p, q, r, thrust_for(mass, roll, pitch, az)
 
 
 @njit(cache=True)
-def control_tick(pos, quat, vel, angvel, setpoint, integral, previous, has_previous, vel_integral, law, yaw_is_rate,
-                 heading_frame, position, altitude, table, mass, window, max_tilt, rate_gains, derivative,
-                 control_inertia, gyro, mixer_rows, dt, command):
+def control_tick(
+    pos,
+    quat,
+    vel,
+    angvel,
+    setpoint,
+    integral,
+    previous,
+    has_previous,
+    vel_integral,
+    law,
+    yaw_is_rate,
+    heading_frame,
+    position,
+    altitude,
+    table,
+    mass,
+    window,
+    max_tilt,
+    rate_gains,
+    derivative,
+    control_inertia,
+    gyro,
+    mixer_rows,
+    dt,
+    command,
+):
     """One control tick of every vehicle in a cascade mode: the motor commands (N, n) into
     ``command``.
 
@@ -272,16 +364,47 @@ def control_tick(pos, quat, vel, angvel, setpoint, integral, previous, has_previ
         bw2 = m2 * w0 + m5 * w1 + m8 * w2
         s = setpoint[i]
         p_sp, q_sp, r_sp, thrust = outer_loops(
-            law, yaw_is_rate, heading_frame, position, altitude, s[0], s[1], s[2], s[3], euler[0], euler[1],
-            euler[2], pos[i, 0], pos[i, 1], pos[i, 2], vel[i, 0], vel[i, 1], vel[i, 2], vel_integral[i], table[i],
-            mass[i], window[i], max_tilt[i], dt,
+            law,
+            yaw_is_rate,
+            heading_frame,
+            position,
+            altitude,
+            s[0],
+            s[1],
+            s[2],
+            s[3],
+            euler[0],
+            euler[1],
+            euler[2],
+            pos[i, 0],
+            pos[i, 1],
+            pos[i, 2],
+            vel[i, 0],
+            vel[i, 1],
+            vel[i, 2],
+            vel_integral[i],
+            table[i],
+            mass[i],
+            window[i],
+            max_tilt[i],
+            dt,
         )
         rates[0], rates[1], rates[2] = bw0, bw1, bw2
         rates_sp[0], rates_sp[1], rates_sp[2] = p_sp, q_sp, r_sp
         if not has_previous[i]:
             previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-        rate_loop(rates_sp, rates, previous[i], integral[i], rate_gains[i], derivative, control_inertia[i], gyro[i],
-                  dt, torques)
+        rate_loop(
+            rates_sp,
+            rates,
+            previous[i],
+            integral[i],
+            rate_gains[i],
+            derivative,
+            control_inertia[i],
+            gyro[i],
+            dt,
+            torques,
+        )
         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
         has_previous[i] = True
         mix(thrust, torques[0], torques[1], torques[2], mixer_rows[i], parts, out)

@@ -27,8 +27,7 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     refused = unsupported(config.randomize)  # domain randomisation: the entries it draws per env
     if refused is not None:
         name, why = refused
-        raise refuse(f"env.randomize.{name} (domain randomisation: {why})",
-                     f"it draws {', '.join(BATCHED_PARAMETERS)}")
+        raise refuse(f"env.randomize.{name} (domain randomisation: {why})", f"it draws {', '.join(BATCHED_PARAMETERS)}")
     for key, present in (
         ("downwash", config.downwash),
         ("sensors (noisy sensors in a multi-agent world)", multi_agent and config.sensors is not None),
@@ -41,7 +40,10 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
             raise refuse(f"env.{key}")
     per_agent = config.physics_hz / config.agent_hz
     per_control = config.physics_hz / config.control_hz
-    if abs(per_control - round(per_control)) > 1e-9 or abs(per_agent / round(per_control) - round(per_agent / round(per_control))) > 1e-9:
+    if (
+        abs(per_control - round(per_control)) > 1e-9
+        or abs(per_agent / round(per_control) - round(per_agent / round(per_control))) > 1e-9
+    ):
         raise refuse(
             f"control ticks out of step with the agent steps (physics_hz {config.physics_hz:g}, control_hz "
             f"{config.control_hz:g}, agent_hz {config.agent_hz:g})",
@@ -50,8 +52,11 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
     drawn_motors = [name for name in (config.randomize or {}) if name in MOTOR]
     if model.motor_laws and drawn_motors:  # the draws set the static motors' rows, not the modelled ones'
-        raise refuse(f"env.randomize.{drawn_motors[0]} (domain randomisation of the optional motor models and "
-                     "the battery: not drawn per env)", "it draws it for airframes with the static motors")
+        raise refuse(
+            f"env.randomize.{drawn_motors[0]} (domain randomisation of the optional motor models and "
+            "the battery: not drawn per env)",
+            "it draws it for airframes with the static motors",
+        )
     mode_code(config.action.mode, model)
 
 

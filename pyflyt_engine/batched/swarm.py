@@ -151,8 +151,7 @@ def py_hypot(x: float, y: float) -> float:
 
 
 @njit(cache=True)
-def downwash_velocity(dz: float, r: float, thrust: float, disc_area: float, air_density: float,
-                      square: float) -> float:
+def downwash_velocity(dz: float, r: float, thrust: float, disc_area: float, air_density: float, square: float) -> float:
     """:func:`pyflyt_engine.atmosphere.rotors.downwash_velocity`, compiled: the downward wake
     speed [m/s] ``dz`` below and ``r`` off the axis of a rotorcraft of ``thrust`` [N] over
     ``disc_area`` [m^2] (0 above it or without thrust).
@@ -185,9 +184,20 @@ _REACH = WAKE_REACH * JET_SPREAD
 
 
 @njit(cache=True)
-def downwash_at(index: int, x: float, y: float, z: float, positions: np.ndarray, throttles: np.ndarray,
-                max_thrust: np.ndarray, is_rotor: np.ndarray, disc_area: float, jet_diameter: float,
-                air_density: float, square: float) -> float:
+def downwash_at(
+    index: int,
+    x: float,
+    y: float,
+    z: float,
+    positions: np.ndarray,
+    throttles: np.ndarray,
+    max_thrust: np.ndarray,
+    is_rotor: np.ndarray,
+    disc_area: float,
+    jet_diameter: float,
+    air_density: float,
+    square: float,
+) -> float:
     """:meth:`RotorInteractions.downwash_at` for vehicle ``index`` at (x, y, z) among vehicles of
     one airframe at ``positions`` (A, 3) with ``throttles`` (A, motors): the vertical wind
     [m/s] (negative: down).  The vehicles beyond a wake's reach (``WAKE_REACH`` half-widths,
@@ -253,12 +263,55 @@ def boxes_overlap(pa: np.ndarray, ra, pb: np.ndarray, rb, centre: np.ndarray, ha
 
 
 @njit(cache=True)
-def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous, has_previous, setpoint, factors,
-                  mode, armed, parked, agents, mass, inertia, control_inertia, gyro, lag, columns, mixer_rows,
-                  max_collective, rate_gains, derivative, drag_factors, damping, drag_on, corners, box_centre,
-                  box_half, bound_radius, ground_contact, agent_contact, gravity, physics_dt, control_dt, start,
-                  count, per_control, downwash_on, max_thrust, is_rotor, disc_area, jet_diameter, air_density,
-                  square):
+def advance_swarm(
+    pos,
+    quat,
+    vel,
+    angvel,
+    throttle,
+    command,
+    integral,
+    previous,
+    has_previous,
+    setpoint,
+    factors,
+    mode,
+    armed,
+    parked,
+    agents,
+    mass,
+    inertia,
+    control_inertia,
+    gyro,
+    lag,
+    columns,
+    mixer_rows,
+    max_collective,
+    rate_gains,
+    derivative,
+    drag_factors,
+    damping,
+    drag_on,
+    corners,
+    box_centre,
+    box_half,
+    bound_radius,
+    ground_contact,
+    agent_contact,
+    gravity,
+    physics_dt,
+    control_dt,
+    start,
+    count,
+    per_control,
+    downwash_on,
+    max_thrust,
+    is_rotor,
+    disc_area,
+    jet_diameter,
+    air_density,
+    square,
+):
     """Advance every world (rows ``k A ... k A + A - 1`` of every array are world ``k``'s agents)
     ``count`` physics steps from physics step ``start``, in the PyBullet engine's order
     (:meth:`pyflyt_engine.world.World.step` with downwash): per physics step, on a control
@@ -293,7 +346,7 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
             agent_contact[base + a] = False
             # every vehicle's latest read: its state after the last agent step (the env reads them all)
             seen[a, 0], seen[a, 1], seen[a, 2] = pos[base + a, 0], pos[base + a, 1], pos[base + a, 2]
-        thr = throttle[base:base + agents]
+        thr = throttle[base : base + agents]
         for s in range(count):
             step = start + s
             tick = step % per_control == 0
@@ -308,8 +361,20 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
                 bw2 = r2 * w0 + r5 * w1 + r8 * w2
                 wz = 0.0
                 if downwash_on:
-                    wz = downwash_at(a, seen[a, 0], seen[a, 1], seen[a, 2], seen, thr, max_thrust, is_rotor,
-                                     disc_area, jet_diameter, air_density, square)
+                    wz = downwash_at(
+                        a,
+                        seen[a, 0],
+                        seen[a, 1],
+                        seen[a, 2],
+                        seen,
+                        thr,
+                        max_thrust,
+                        is_rotor,
+                        disc_area,
+                        jet_diameter,
+                        air_density,
+                        square,
+                    )
                 if tick:  # the air from the state read (air_velocity_from_body)
                     bv0 = r0 * v0 + r3 * v1 + r6 * v2
                     bv1 = r1 * v0 + r4 * v1 + r7 * v2
@@ -328,12 +393,21 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
                         rates[0], rates[1], rates[2] = bw0, bw1, bw2
                         if not has_previous[i]:
                             previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-                        rate_loop(setpoint[i, :3], rates, previous[i], integral[i], rate_gains, derivative,
-                                  control_inertia, gyro, control_dt, torques)
+                        rate_loop(
+                            setpoint[i, :3],
+                            rates,
+                            previous[i],
+                            integral[i],
+                            rate_gains,
+                            derivative,
+                            control_inertia,
+                            gyro,
+                            control_dt,
+                            torques,
+                        )
                         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
                         has_previous[i] = True
-                        mix(setpoint[i, 3] * max_collective, torques[0], torques[1], torques[2], mixer_rows,
-                            parts, out)
+                        mix(setpoint[i, 3] * max_collective, torques[0], torques[1], torques[2], mixer_rows, parts, out)
                         for mo in range(nm):
                             cmd[mo] = out[mo]
                     else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
@@ -351,8 +425,12 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
                     air[a, 5] = r2 * ax + r5 * ay + r8 * az
                     load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
                     if drag_on:
-                        load = summed(load, drag_wrench(air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4],
-                                                        air[a, 5], kx, ky, kz, damping))
+                        load = summed(
+                            load,
+                            drag_wrench(
+                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                            ),
+                        )
                     for c in range(6):
                         loads[a, c] = load[c]
             if tick:
@@ -360,8 +438,12 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
                     i = base + a
                     load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
                     if drag_on:
-                        load = summed(load, drag_wrench(air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4],
-                                                        air[a, 5], kx, ky, kz, damping))
+                        load = summed(
+                            load,
+                            drag_wrench(
+                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                            ),
+                        )
                     for c in range(6):
                         loads[a, c] = load[c]
             for a in range(agents):
@@ -370,10 +452,18 @@ def advance_swarm(pos, quat, vel, angvel, throttle, command, integral, previous,
                     continue
                 r = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
                 p, q, v, w = integrate_state(
-                    (pos[i, 0], pos[i, 1], pos[i, 2]), (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3]),
-                    (vel[i, 0], vel[i, 1], vel[i, 2]), (angvel[i, 0], angvel[i, 1], angvel[i, 2]), r,
+                    (pos[i, 0], pos[i, 1], pos[i, 2]),
+                    (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3]),
+                    (vel[i, 0], vel[i, 1], vel[i, 2]),
+                    (angvel[i, 0], angvel[i, 1], angvel[i, 2]),
+                    r,
                     (loads[a, 0], loads[a, 1], loads[a, 2], loads[a, 3], loads[a, 4], loads[a, 5]),
-                    mass, jx, jy, jz, gravity, physics_dt,
+                    mass,
+                    jx,
+                    jy,
+                    jz,
+                    gravity,
+                    physics_dt,
                 )
                 pos[i, 0], pos[i, 1], pos[i, 2] = p
                 quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
@@ -436,13 +526,18 @@ def check_swarm_supported(config: Any) -> None:
 
     model = batched_model(load_uav_spec(uavs[0]), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
     if model.motor_laws:  # the worlds' kernel steps the static motors alone
-        raise refuse(f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",
-                     "give the agents an airframe without tau_fall, rotor_drag, inflow or battery")
+        raise refuse(
+            f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",
+            "give the agents an airframe without tau_fall, rotor_drag, inflow or battery",
+        )
     wind = load_wind_config(config.wind)
     if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
         raise refuse("wind in a multi-agent world", "give env.wind=calm")
-    for key, asked in (("ground_effect", config.ground_effect), ("latency", config.latency is not None),
-                       ("randomize (domain randomisation)", bool(config.randomize))):
+    for key, asked in (
+        ("ground_effect", config.ground_effect),
+        ("latency", config.latency is not None),
+        ("randomize (domain randomisation)", bool(config.randomize)),
+    ):
         if asked:
             raise refuse(f"env.{key} in a multi-agent world", f"leave env.{key.split()[0]} at its default")
     if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
@@ -464,9 +559,29 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
 
     #: the per-slot arrays a checkpoint carries (:class:`pyflyt_cli.training.batched.BatchedVecEnv`)
     state_arrays = (
-        "pos", "quat", "vel", "angvel", "throttle", "command", "integral", "previous", "has_previous", "actions",
-        "steps", "physics_steps", "_last_distance", "episode_return", "episode_length", "ang_vel_body", "ang_pos",
-        "lin_vel_body", "quaternion", "alive", "armed", "parked", "world_over",
+        "pos",
+        "quat",
+        "vel",
+        "angvel",
+        "throttle",
+        "command",
+        "integral",
+        "previous",
+        "has_previous",
+        "actions",
+        "steps",
+        "physics_steps",
+        "_last_distance",
+        "episode_return",
+        "episode_length",
+        "ang_vel_body",
+        "ang_pos",
+        "lin_vel_body",
+        "quaternion",
+        "alive",
+        "armed",
+        "parked",
+        "world_over",
     )
 
     def __init__(self, config: Any, worlds: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
@@ -500,8 +615,9 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.task_class = task_cls
         preset = load_reward_preset(cfg.reward_preset_name())
         name = cfg.reward_preset_name()
-        scalar = compile_reward(name if isinstance(name, str) else "inline", preset.terms, task_cls.provides,
-                                cfg.task.name)
+        scalar = compile_reward(
+            name if isinstance(name, str) else "inline", preset.terms, task_cls.provides, cfg.task.name
+        )
         self.reward_function = BatchedReward(scalar)
         self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
         self._quaternion = cfg.angle_representation == "quaternion"
@@ -545,8 +661,9 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.lin_vel_body = np.zeros((n, 3))
         self.quaternion = np.zeros((n, 4))
         self.quaternion[:, 3] = 1.0
-        self.hover_point = np.tile(np.array([ag.hover_point for ag in self.agent_list], dtype=np.float64),
-                                   (self.worlds, 1))
+        self.hover_point = np.tile(
+            np.array([ag.hover_point for ag in self.agent_list], dtype=np.float64), (self.worlds, 1)
+        )
         self._last_distance = np.zeros(n)
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
@@ -642,8 +759,16 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
 
     def _read(self, rows: np.ndarray | None = None) -> None:
         if rows is None:
-            kernels.read_out(self.pos, self.quat, self.vel, self.angvel, self.ang_vel_body, self.ang_pos,
-                             self.lin_vel_body, self.quaternion)
+            kernels.read_out(
+                self.pos,
+                self.quat,
+                self.vel,
+                self.angvel,
+                self.ang_vel_body,
+                self.ang_pos,
+                self.lin_vel_body,
+                self.quaternion,
+            )
             return
         k = len(rows)
         a, b, c, d = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 4))
@@ -681,11 +806,21 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         terminated = crashed & live
         truncated = ~terminated & live & (self.steps >= self._max_steps)
         ctx = BatchContext(
-            ang_vel=self.ang_vel_body, ang_pos=self.ang_pos, lin_vel=self.lin_vel_body, lin_pos=p,
-            action=self.actions, collision=collision, ground_collision=self.ground_contact & collision,
-            out_of_bounds=out, crashed=crashed, task_complete=np.zeros(n, dtype=bool), target_distance=distance,
-            target_distance_rate=rate, waypoint_reached=np.zeros(n, dtype=bool),
-            steps_remaining=np.maximum(self._max_steps - self.steps, 0), agent_dt=self.agent_dt,
+            ang_vel=self.ang_vel_body,
+            ang_pos=self.ang_pos,
+            lin_vel=self.lin_vel_body,
+            lin_pos=p,
+            action=self.actions,
+            collision=collision,
+            ground_collision=self.ground_contact & collision,
+            out_of_bounds=out,
+            crashed=crashed,
+            task_complete=np.zeros(n, dtype=bool),
+            target_distance=distance,
+            target_distance_rate=rate,
+            waypoint_reached=np.zeros(n, dtype=bool),
+            steps_remaining=np.maximum(self._max_steps - self.steps, 0),
+            agent_dt=self.agent_dt,
         )
         reward, _ = self.reward_function(ctx)
         reward = np.where(live, reward, 0.0)
@@ -701,12 +836,18 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         padding_end = self.world_over & ~live  # padding slots end with their world's episode
         done = ended | padding_end
         info: dict[str, Any] = {
-            "collision": collision & live, "out_of_bounds": out & live, "env_complete": np.zeros(n, dtype=bool),
-            "success": success, "target_distance": np.where(live, distance, 0.0), "agent_active": live,
+            "collision": collision & live,
+            "out_of_bounds": out & live,
+            "env_complete": np.zeros(n, dtype=bool),
+            "success": success,
+            "target_distance": np.where(live, distance, 0.0),
+            "agent_active": live,
         }
         if ended.any():
-            info["episode"] = {"r": np.where(ended, self.episode_return, 0.0),
-                               "l": np.where(ended, self.episode_length, 0)}
+            info["episode"] = {
+                "r": np.where(ended, self.episode_return, 0.0),
+                "l": np.where(ended, self.episode_length, 0),
+            }
             info["_episode"] = ended
         if done.any():
             info["final_obs"] = final
@@ -723,20 +864,67 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         rot = self._rotors
         start = int(self.physics_steps[0]) % self.per_control
         advance_swarm(
-            self.pos, self.quat, self.vel, self.angvel, self.throttle, self.command, self.integral, self.previous,
-            self.has_previous, setpoints, factors, self.mode, self.armed, self.parked, self.agents, m.mass,
-            m.inertia, m.control_inertia, m.gyro, m.lag, m.columns, m.mixer_rows, m.max_collective, m.rate_gains,
-            m.rate_derivative, m.drag_factors, m.angular_damping, m.drag, m.corners, self._box_centre,
-            self._box_half, self._bound_radius, self.ground_contact, self.agent_contact, GRAVITY, self.physics_dt,
-            self.control_dt, start, self.per_agent, self.per_control, self.downwash, rot["max_thrust"],
-            rot["is_rotor"], rot["disc_area"], rot["jet_diameter"], AIR_DENSITY, 2.0,
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            self.throttle,
+            self.command,
+            self.integral,
+            self.previous,
+            self.has_previous,
+            setpoints,
+            factors,
+            self.mode,
+            self.armed,
+            self.parked,
+            self.agents,
+            m.mass,
+            m.inertia,
+            m.control_inertia,
+            m.gyro,
+            m.lag,
+            m.columns,
+            m.mixer_rows,
+            m.max_collective,
+            m.rate_gains,
+            m.rate_derivative,
+            m.drag_factors,
+            m.angular_damping,
+            m.drag,
+            m.corners,
+            self._box_centre,
+            self._box_half,
+            self._bound_radius,
+            self.ground_contact,
+            self.agent_contact,
+            GRAVITY,
+            self.physics_dt,
+            self.control_dt,
+            start,
+            self.per_agent,
+            self.per_control,
+            self.downwash,
+            rot["max_thrust"],
+            rot["is_rotor"],
+            rot["disc_area"],
+            rot["jet_diameter"],
+            AIR_DENSITY,
+            2.0,
         )
         self.physics_steps += self.per_agent
 
     def _observe(self) -> np.ndarray:
         angles = self.quaternion if self._quaternion else self.ang_pos
-        parts = [self.ang_vel_body, angles, self.lin_vel_body, self.pos, self.actions, self.throttle,
-                 self.hover_point - self.pos]
+        parts = [
+            self.ang_vel_body,
+            angles,
+            self.lin_vel_body,
+            self.pos,
+            self.actions,
+            self.throttle,
+            self.hover_point - self.pos,
+        ]
         obs = np.concatenate(parts, axis=1)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot
         return obs

@@ -141,16 +141,25 @@ class BoosterParams:
             object.__setattr__(self, name, _as_vector(name, getattr(self, name), n))
         object.__setattr__(self, "reignitable", _as_vector("reignitable", self.reignitable, n, dtype=bool))
 
-        for name in ("positions", "thrust_axes", "fuel_tank_positions", "inertia_full",
-                     "total_fuel", "max_fuel_rate", "min_thrust", "max_thrust", "tau", "noise_ratio"):
+        for name in (
+            "positions",
+            "thrust_axes",
+            "fuel_tank_positions",
+            "inertia_full",
+            "total_fuel",
+            "max_fuel_rate",
+            "min_thrust",
+            "max_thrust",
+            "tau",
+            "noise_ratio",
+        ):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"{name} contains non-finite values; give finite numbers.")
 
         norms = np.sqrt(np.sum(self.thrust_axes * self.thrust_axes, axis=1))
         if np.any(np.abs(norms - 1.0) > _UNIT_TOL):
             raise ValueError(
-                f"thrust_axes must be unit vectors (norms {norms.tolist()}); "
-                f"normalise each thrust axis to length 1."
+                f"thrust_axes must be unit vectors (norms {norms.tolist()}); normalise each thrust axis to length 1."
             )
         if np.any(self.total_fuel <= 0.0):
             raise ValueError("total_fuel must be > 0 kg for every booster; give the full-tank fuel mass.")

@@ -119,8 +119,7 @@ class CameraParams:
 
         if not isinstance(self.fov, Real) or not 0.0 < self.fov < 180.0:
             raise ConfigError(
-                f"camera fov is the vertical field of view in degrees and must satisfy "
-                f"0 < fov < 180, got {self.fov!r}"
+                f"camera fov is the vertical field of view in degrees and must satisfy 0 < fov < 180, got {self.fov!r}"
             )
         object.__setattr__(self, "fov", float(self.fov))
 
@@ -131,8 +130,7 @@ class CameraParams:
             object.__setattr__(self, name, float(value))
         if not self.near < self.far:
             raise ConfigError(
-                f"camera near ({self.near:g} m) must be less than far ({self.far:g} m); "
-                "swap them or widen the range"
+                f"camera near ({self.near:g} m) must be less than far ({self.far:g} m); swap them or widen the range"
             )
 
         if not isinstance(self.horizon_lock, (bool, np.bool_)):

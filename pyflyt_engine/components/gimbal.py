@@ -126,7 +126,9 @@ class GimbalParams:
             if arr.ndim == 0:
                 arr = np.full(n, arr)
             if arr.shape != (n,):
-                raise ValueError(f"{name} has shape {arr.shape}, expected ({n},) or a scalar; give one value per gimbal.")
+                raise ValueError(
+                    f"{name} has shape {arr.shape}, expected ({n},) or a scalar; give one value per gimbal."
+                )
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} contains non-finite values; give finite numbers.")
             if np.any(arr < 0.0):
@@ -189,7 +191,9 @@ def gimbal_step_scalar(k: GimbalConstants, eps_a: float, eps_b: float, xi_a: flo
     return eps_a + k.lag * (target_a - eps_a), eps_b + k.lag * (target_b - eps_b)
 
 
-def _rodrigues(W: tuple[float, ...], W2: tuple[float, ...], eps: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+def _rodrigues(
+    W: tuple[float, ...], W2: tuple[float, ...], eps: float, x: float, y: float, z: float
+) -> tuple[float, float, float]:
     """(I + sin(eps) W + 2 sin^2(eps / 2) W^2) v."""
     sin = math.sin(eps)
     vers = 2.0 * math.sin(0.5 * eps) ** 2
@@ -200,7 +204,9 @@ def _rodrigues(W: tuple[float, ...], W2: tuple[float, ...], eps: float, x: float
     )
 
 
-def rotate_vector_scalar(k: GimbalConstants, eps_a: float, eps_b: float, v: tuple[float, float, float]) -> tuple[float, float, float]:
+def rotate_vector_scalar(
+    k: GimbalConstants, eps_a: float, eps_b: float, v: tuple[float, float, float]
+) -> tuple[float, float, float]:
     """``R_a R_b v`` for one gimbal at angles (eps_a, eps_b) [rad]: the Rodrigues rotation of
     the module docstring about ``c_b``, then about ``c_a``, applied to the vector."""
     return _rodrigues(k.W_a, k.W_a2, eps_a, *_rodrigues(k.W_b, k.W_b2, eps_b, *v))

@@ -207,9 +207,7 @@ class LiftingSurfaceParams:
                 f"stall_pos_base={self.stall_pos_base} [rad]; check their signs and order"
             )
         if not 0.0 <= self.flap_to_chord <= 1.0:
-            raise ValueError(
-                f"flap_to_chord must be in [0, 1] (flap chord / surface chord), got {self.flap_to_chord}"
-            )
+            raise ValueError(f"flap_to_chord must be in [0, 1] (flap chord / surface chord), got {self.flap_to_chord}")
         for name in ("tau", "max_deflection", "cd_0", "eta"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}; use a non-negative value")

@@ -88,7 +88,9 @@ class InflowRotor:
         radius: R [m]; solidity: sigma; lift_slope: a [1/rad].
     """
 
-    def __init__(self, kf: float, kt: float, radius: float, solidity: float, lift_slope: float, air_density: float = AIR_DENSITY) -> None:
+    def __init__(
+        self, kf: float, kt: float, radius: float, solidity: float, lift_slope: float, air_density: float = AIR_DENSITY
+    ) -> None:
         self.radius = radius
         self.ct0 = kf / (air_density * math.pi * radius**4 * RPM_TO_RAD_S**2)
         self.lambda_h = math.sqrt(0.5 * self.ct0)
@@ -149,7 +151,11 @@ class ModelledMotors(Motors):
     def set_params(self, params: MotorParams) -> None:
         super().set_params(params)
         dt = self.physics_dt
-        self.lag_fall = [lag_coefficient(dt, float(t)) for t in params.tau_fall.tolist()] if params.tau_fall is not None else self.lag
+        self.lag_fall = (
+            [lag_coefficient(dt, float(t)) for t in params.tau_fall.tolist()]
+            if params.tau_fall is not None
+            else self.lag
+        )
         self._rotor_drag = params.rotor_drag.tolist() if params.rotor_drag is not None else None
         self._axes = [tuple(a) for a in params.thrust_axes.tolist()]
         self._omega_max = (params.max_rpm * RPM_TO_RAD_S).tolist()  # [rad/s]

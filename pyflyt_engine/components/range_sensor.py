@@ -119,9 +119,7 @@ class RangeSensor:
             (module docstring) and :meth:`scan` reads the pose from PyBullet, not its arguments.
     """
 
-    def __init__(
-        self, spec: Any, offset: Sequence[float], rng: np.random.Generator, body: int | None = None
-    ) -> None:
+    def __init__(self, spec: Any, offset: Sequence[float], rng: np.random.Generator, body: int | None = None) -> None:
         self.spec = spec
         self.name: str = spec.name
         self.kind: str = spec.type
@@ -234,7 +232,9 @@ class RangeSensor:
         self._last = None
 
 
-def points(sensor: RangeSensor, readings: np.ndarray, position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
+def points(
+    sensor: RangeSensor, readings: np.ndarray, position: Sequence[float], quaternion: Sequence[float]
+) -> np.ndarray:
     """The hit points of a scan in the ground frame, ``(k, 3)`` (rays that hit nothing left out)."""
     starts, ends = sensor.rays(position, quaternion)
     values = np.asarray(readings, dtype=np.float64).reshape(-1)

@@ -5,4 +5,12 @@ from pyflyt_engine.control.modes import MULTIROTOR_MODES, FlightMode, resolve_mo
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.control.rocket import ROCKET_MODES, RocketAutopilot
 
-__all__ = ["MULTIROTOR_MODES", "ROCKET_MODES", "FlightMode", "Mixer", "MultirotorController", "RocketAutopilot", "resolve_mode"]
+__all__ = [
+    "MULTIROTOR_MODES",
+    "ROCKET_MODES",
+    "FlightMode",
+    "Mixer",
+    "MultirotorController",
+    "RocketAutopilot",
+    "resolve_mode",
+]

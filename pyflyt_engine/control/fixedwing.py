@@ -54,17 +54,27 @@ class FixedwingAutopilot:
         dt: control period [s].
     """
 
-    def __init__(self, gains: FixedwingControlSpec, channels: Sequence[str], low: np.ndarray, high: np.ndarray, dt: float) -> None:
+    def __init__(
+        self, gains: FixedwingControlSpec, channels: Sequence[str], low: np.ndarray, high: np.ndarray, dt: float
+    ) -> None:
         self.gains, self.dt = gains, dt
         self.low, self.high = low, high
-        self._index = [channels.index(c) for c in (gains.roll_channel, gains.pitch_channel, gains.yaw_channel, gains.thrust_channel)]
+        self._index = [
+            channels.index(c)
+            for c in (gains.roll_channel, gains.pitch_channel, gains.yaw_channel, gains.thrust_channel)
+        ]
         self.n = len(channels)
         self.reset()
 
     def reset(self) -> None:
         """Clear the integrators."""
         g, dt = self.gains, self.dt
-        self._roll, self._pitch, self._yaw, self._speed = _Loop(g.roll, dt), _Loop(g.pitch, dt), _Loop(g.yaw, dt), _Loop(g.airspeed, dt)
+        self._roll, self._pitch, self._yaw, self._speed = (
+            _Loop(g.roll, dt),
+            _Loop(g.pitch, dt),
+            _Loop(g.yaw, dt),
+            _Loop(g.airspeed, dt),
+        )
 
     def __call__(self, state: KinematicState, setpoint: Sequence[float]) -> np.ndarray:
         roll_sp, pitch_sp, yaw_rate_sp, speed_sp = setpoint

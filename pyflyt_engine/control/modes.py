@@ -49,8 +49,12 @@ MULTIROTOR_MODES: dict[str, FlightMode] = {
         FlightMode("attitude_vz", 1, ("roll", "pitch", "yaw", "vz"), "attitude + climb rate"),
         FlightMode("rates_z", 2, ("p", "q", "r", "z"), "body rates + altitude"),
         FlightMode("attitude_z", 3, ("roll", "pitch", "yaw", "z"), "attitude + altitude"),
-        FlightMode("heading_velocity_z", 4, ("u", "v", "yaw_rate", "z"), "heading-frame velocity + yaw rate + altitude"),
-        FlightMode("heading_velocity_vz", 5, ("u", "v", "yaw_rate", "vz"), "heading-frame velocity + yaw rate + climb rate"),
+        FlightMode(
+            "heading_velocity_z", 4, ("u", "v", "yaw_rate", "z"), "heading-frame velocity + yaw rate + altitude"
+        ),
+        FlightMode(
+            "heading_velocity_vz", 5, ("u", "v", "yaw_rate", "vz"), "heading-frame velocity + yaw rate + climb rate"
+        ),
         FlightMode("velocity_yawrate", 6, ("vx", "vy", "yaw_rate", "vz"), "ground velocity + yaw rate"),
         FlightMode("position_yaw", 7, ("x", "y", "yaw", "z"), "position + yaw angle"),
         FlightMode("velocity_yaw", None, ("vx", "vy", "yaw", "vz"), "ground velocity + yaw angle"),

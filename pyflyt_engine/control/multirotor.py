@@ -188,7 +188,9 @@ class MultirotorController:
         self._prev_rate = rates
         derivative = self._rate_derivative
         integrals, alphas = [], []
-        for (kp, ki, kd, limit), sp, w, w_prev, i in zip(self._rate_axes, rates_sp, rates, previous, self._rate_integral):
+        for (kp, ki, kd, limit), sp, w, w_prev, i in zip(
+            self._rate_axes, rates_sp, rates, previous, self._rate_integral
+        ):
             e = sp - w
             i += e * dt
             i = limit if i > limit else -limit if i < -limit else i  # _clamp(i, limit)

@@ -208,8 +208,10 @@ class RocketAutopilot:
             if kind != "booster":
                 continue
             r, t = b.positions[index].tolist(), b.thrust_axes[index].tolist()
-            for axis, limit, channel in ((g.axis_a[k], g.max_angle_a[k], parts.gimbal_channels[k][0]),
-                                         (g.axis_b[k], g.max_angle_b[k], parts.gimbal_channels[k][1])):
+            for axis, limit, channel in (
+                (g.axis_a[k], g.max_angle_a[k], parts.gimbal_channels[k][0]),
+                (g.axis_b[k], g.max_angle_b[k], parts.gimbal_channels[k][1]),
+            ):
                 if channel < 0 or float(limit) == 0.0:
                     continue
                 arm = _cross(r, _cross(axis.tolist(), t))
@@ -255,7 +257,9 @@ class RocketAutopilot:
         (as the vehicle sets them, :meth:`pyflyt_engine.vehicle.Vehicle.update_mass`)."""
         mass = self._dry_mass
         jx, jy, jz = self._dry_inertia
-        for fuel, total, (rx, ry, rz), (fx, fy, fz) in zip(self.boosters.fuel, self._total_fuel, self._tanks, self._inertia_full):
+        for fuel, total, (rx, ry, rz), (fx, fy, fz) in zip(
+            self.boosters.fuel, self._total_fuel, self._tanks, self._inertia_full
+        ):
             share = fuel / total
             mass += fuel
             jx += share * fx + fuel * (ry * ry + rz * rz)
@@ -271,8 +275,15 @@ class RocketAutopilot:
         x = (thrust - self.min_thrust) / span
         return 0.0 if x < 0.0 else 1.0 if x > 1.0 else x
 
-    def _channels(self, state: KinematicState, target: Sequence[float], roll_rate: float,
-                  lit: bool, throttle: float, inertia: Sequence[float]) -> list[float]:
+    def _channels(
+        self,
+        state: KinematicState,
+        target: Sequence[float],
+        roll_rate: float,
+        lit: bool,
+        throttle: float,
+        inertia: Sequence[float],
+    ) -> list[float]:
         """The channel vector: the booster commands, and the attitude loop's gimbal and fin
         commands that turn the long axis onto ``target`` (ground frame, unit)."""
         out = [0.0] * self.n
@@ -358,7 +369,9 @@ class RocketAutopilot:
         throttle = 0.0 if throttle < 0.0 else 1.0 if throttle > 1.0 else throttle
         return self._channels(state, target, roll_rate, ignition > 0.5, throttle, self.mass_properties()[1])
 
-    def velocity_command(self, state: KinematicState, setpoint: Sequence[float]) -> tuple[tuple[float, float, float], float, bool]:
+    def velocity_command(
+        self, state: KinematicState, setpoint: Sequence[float]
+    ) -> tuple[tuple[float, float, float], float, bool]:
         """What mode ``velocity`` asks: (target axis, ground frame; thrust [N]; lit)."""
         vx_sp, vy_sp, vz_sp, ignition = setpoint
         vx, vy, vz = state.lin_vel_ground

@@ -294,7 +294,9 @@ class EnvConfig(_Config):
     uav: str = Field("quadx_cf2x", description="shipped airframe name (conf/uav) or path to a UAV YAML")
     physics_hz: float = Field(240.0, gt=0, description="physics rate [Hz] (paper: 240)")
     control_hz: float = Field(120.0, gt=0, description="flight controller rate [Hz] (paper: 120)")
-    agent_hz: float = Field(30.0, gt=0, description="agent step rate [Hz] (paper: 30); physics_hz / agent_hz must be whole")
+    agent_hz: float = Field(
+        30.0, gt=0, description="agent step rate [Hz] (paper: 30); physics_hz / agent_hz must be whole"
+    )
     max_duration_seconds: float = Field(10.0, gt=0, description="simulated episode length before truncation [s]")
     flight_dome_size: float = Field(
         5.0, gt=0, description="radius [m] of the sphere about the origin the vehicle must stay inside"
@@ -383,8 +385,11 @@ class EnvConfig(_Config):
 
     @model_validator(mode="after")
     def _episode_steps(self) -> EnvConfig:
-        limits.check("episode_physics_steps", self.physics_hz * self.max_duration_seconds,
-                     name="physics_hz x max_duration_seconds")
+        limits.check(
+            "episode_physics_steps",
+            self.physics_hz * self.max_duration_seconds,
+            name="physics_hz x max_duration_seconds",
+        )
         if self.max_duration_seconds * self.agent_hz < 1:
             raise ValueError(
                 f"max_duration_seconds {self.max_duration_seconds:g} s is shorter than one agent step "
@@ -829,7 +834,14 @@ def parse_env_config(data: Any, source: str = "<dict>") -> EnvConfig:
 
 def load_env_config(config: str | Path | Mapping[str, Any] | EnvConfig) -> EnvConfig:
     """An :class:`EnvConfig` from a shipped name (``conf/env``), a YAML path or a mapping."""
-    return load(config, group="env", model=EnvConfig, parse=lambda data, source, _name: parse_env_config(data, source), what="env", unknown=_unknown("env"))
+    return load(
+        config,
+        group="env",
+        model=EnvConfig,
+        parse=lambda data, source, _name: parse_env_config(data, source),
+        what="env",
+        unknown=_unknown("env"),
+    )
 
 
 def env_config_data(config: str | Path) -> dict[str, Any]:
@@ -848,7 +860,9 @@ def parse_reward_preset(data: Any, source: str = "<dict>", name: str = "inline")
 
 def load_reward_preset(preset: str | Path | Mapping[str, Any] | RewardPreset) -> RewardPreset:
     """A :class:`RewardPreset` from a shipped name (``conf/reward``), a YAML path or a mapping."""
-    return load(preset, group="reward", model=RewardPreset, parse=parse_reward_preset, what="reward", unknown=_unknown("reward"))
+    return load(
+        preset, group="reward", model=RewardPreset, parse=parse_reward_preset, what="reward", unknown=_unknown("reward")
+    )
 
 
 def _unknown(group: str):  # noqa: ANN202

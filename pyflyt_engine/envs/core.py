@@ -87,7 +87,9 @@ def check_render_mode(render_mode: str | None, modes: Sequence[str]) -> None:
         raise ConfigError(f"unknown render_mode '{render_mode}': use one of {list(modes)} or None")
 
 
-def clip_action(action: Any, low: np.ndarray, high: np.ndarray, names: Sequence[str], agent: str | None = None) -> np.ndarray:
+def clip_action(
+    action: Any, low: np.ndarray, high: np.ndarray, names: Sequence[str], agent: str | None = None
+) -> np.ndarray:
     """``action`` as a flat float64 array clipped to ``[low, high]``.
 
     Raises:
@@ -108,7 +110,9 @@ def attitude_size(quaternion: bool, actions: int, aux: int) -> int:
     return 3 + (4 if quaternion else 3) + 3 + 3 + actions + aux
 
 
-def attitude_vector(state: KinematicState, quaternion: bool, action: Sequence[float], aux: Sequence[float]) -> np.ndarray:
+def attitude_vector(
+    state: KinematicState, quaternion: bool, action: Sequence[float], aux: Sequence[float]
+) -> np.ndarray:
     """``[ang_vel (3, body), attitude (quaternion xyzw | Euler), lin_vel (3, body),
     lin_pos (3, ground), previous action, aux]`` as one float64 array (one flat tuple)."""
     angles = state.quaternion if quaternion else state.ang_pos
@@ -289,7 +293,6 @@ def estimated_state(state: KinematicState, suite: Any, estimator: Any) -> Kinema
         lin_vel_ground=velocity,
         ang_vel_ground=exact.rotate(r, ang_vel),
     )
-
 
 
 def with_observation_camera(spec: UAVSpec, obs: Any) -> tuple[UAVSpec, int]:
@@ -476,7 +479,9 @@ def build_episode(
     for vehicle in vehicles:
         vehicle.set_latency(*latency)
     # (with_sensors gave every flown spec the env's sensors: no suite is None; EpisodeParts.sensed)
-    sensed: list[Any] | None = [v.sensors for v in vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+    sensed: list[Any] | None = (
+        [v.sensors for v in vehicles] if cfg.sensors is not None and cfg.sensors.observe else None
+    )
     estimators = None
     if sensed is not None and cfg.sensors.estimator.active:
         estimators = [suite.attach_estimator(cfg.sensors.estimator) for suite in sensed]

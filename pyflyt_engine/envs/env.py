@@ -146,9 +146,7 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
             setup=self._setup_task,
         )
         # the episode core (pyflyt_engine.envs.episode) runs the step; this env is its N = 1 case
-        self._init_core(
-            cfg, parts, OneAgentTask(self.task), self.reward_function, info_reward_terms=info_reward_terms
-        )
+        self._init_core(cfg, parts, OneAgentTask(self.task), self.reward_function, info_reward_terms=info_reward_terms)
         #: the config's payloads, built around the vehicle (None without payloads)
         self.payloads: PayloadSet | None = parts.payloads[0] if parts.payloads else None
         #: the flight controller's state estimator the observation is built from (None: none)

@@ -187,8 +187,16 @@ class RocketVelocityLander:
 
     env_ids: tuple[str, ...] = ("PyFlyt/Rocket-Landing-Velocity-v0",)
 
-    def __init__(self, env: Any, a_brake: float = 30.0, v_land: float = 0.35, h_slow: float = 2.0,
-                 k_pad: float = 1.5, k_damp: float = 2.0, lean: float = 0.15) -> None:
+    def __init__(
+        self,
+        env: Any,
+        a_brake: float = 30.0,
+        v_land: float = 0.35,
+        h_slow: float = 2.0,
+        k_pad: float = 1.5,
+        k_damp: float = 2.0,
+        lean: float = 0.15,
+    ) -> None:
         base = env.unwrapped
         if base.config.angle_representation != "quaternion":
             raise ConfigError(
@@ -240,8 +248,15 @@ class RocketDescentLander:
 
     env_ids: tuple[str, ...] = ("PyFlyt/Rocket-Landing-Descent-v0",)
 
-    def __init__(self, env: Any, share: float = 2.0 / 3.0, h_aim: float = 30.0, v_min: float = 5.0,
-                 k_pad: float = 1.5, k_damp: float = 2.0) -> None:
+    def __init__(
+        self,
+        env: Any,
+        share: float = 2.0 / 3.0,
+        h_aim: float = 30.0,
+        v_min: float = 5.0,
+        k_pad: float = 1.5,
+        k_damp: float = 2.0,
+    ) -> None:
         base = env.unwrapped
         if base.config.angle_representation != "quaternion":
             raise ConfigError(
@@ -249,7 +264,9 @@ class RocketDescentLander:
             )
         self.low, self.high = base.action_space.low, base.action_space.high
         if base.vehicle.rocket is None:
-            raise ConfigError("oracle rocket_descent_lander needs a vehicle with a gimballed booster (the rocket airframe)")
+            raise ConfigError(
+                "oracle rocket_descent_lander needs a vehicle with a gimballed booster (the rocket airframe)"
+            )
         self.vehicle = base.vehicle  # its dry mass is read at every call: randomisation may change it per episode
         self.total_fuel = float(np.ravel(base.vehicle.spec.boosters.total_fuel)[0])
         self.max_thrust = base.vehicle.rocket.max_thrust
@@ -303,11 +320,20 @@ class QuadXVelocityPilot:
       ``k_yaw`` times the heading error to ``heading`` (none when ``heading`` is None).
     """
 
-    def __init__(self, env: Any, k_v: float = 3.0, k_att: float = 6.0, k_yaw: float = 2.0,
-                 max_tilt: float = 0.35, max_climb_acc: float = 4.0) -> None:
+    def __init__(
+        self,
+        env: Any,
+        k_v: float = 3.0,
+        k_att: float = 6.0,
+        k_yaw: float = 2.0,
+        max_tilt: float = 0.35,
+        max_climb_acc: float = 4.0,
+    ) -> None:
         base = env.unwrapped
         if base.config.angle_representation != "quaternion":
-            raise ConfigError("the QuadX oracles read the attitude as a quaternion: set env.angle_representation=quaternion")
+            raise ConfigError(
+                "the QuadX oracles read the attitude as a quaternion: set env.angle_representation=quaternion"
+            )
         controller = base.vehicle.controller
         if controller is None or base.config.action.mode != "rates_thrust":
             raise ConfigError("the QuadX oracles fly a multirotor in flight mode rates_thrust (env.action.mode)")
@@ -368,8 +394,17 @@ class QuadXForestNavigator:
 
     env_ids: tuple[str, ...] = ("PyFlyt/QuadX-Obstacles-v0",)
 
-    def __init__(self, env: Any, speed: float = 1.2, look: float = 2.0, clearance: float = 0.4,
-                 candidates: int = 72, w_keep: float = 0.3, k_z: float = 1.0, ground: float = 0.15) -> None:
+    def __init__(
+        self,
+        env: Any,
+        speed: float = 1.2,
+        look: float = 2.0,
+        clearance: float = 0.4,
+        candidates: int = 72,
+        w_keep: float = 0.3,
+        k_z: float = 1.0,
+        ground: float = 0.15,
+    ) -> None:
         base = env.unwrapped
         self.pilot = QuadXVelocityPilot(env)
         self.unpack = _dict_observation(env)
@@ -413,12 +448,17 @@ class QuadXForestNavigator:
                 return self.pilot(attitude, (0.0, 0.0, vz), heading=0.0)
             near = int(np.argmin(hx[0] * hx[0] + hy[0] * hy[0]))
             size = math.hypot(float(hx[0, near]), float(hy[0, near]))
-            return self.pilot(attitude, (-0.5 * float(hx[0, near]) / size, -0.5 * float(hy[0, near]) / size, vz), heading=0.0)
+            return self.pilot(
+                attitude, (-0.5 * float(hx[0, near]) / size, -0.5 * float(hy[0, near]) / size, vz), heading=0.0
+            )
         to_goal = (gx / distance, gy / distance) if distance > 1e-9 else (1.0, 0.0)
         moving = math.hypot(v[0], v[1])
         keep_x, keep_y = (v[0] / moving, v[1] / moving) if moving > 1e-6 else (0.0, 0.0)
-        score = (self.cand_x[:, 0] * to_goal[0] + self.cand_y[:, 0] * to_goal[1]
-                 + self.w_keep * (self.cand_x[:, 0] * keep_x + self.cand_y[:, 0] * keep_y))
+        score = (
+            self.cand_x[:, 0] * to_goal[0]
+            + self.cand_y[:, 0] * to_goal[1]
+            + self.w_keep * (self.cand_x[:, 0] * keep_x + self.cand_y[:, 0] * keep_y)
+        )
         score[blocked] = -np.inf
         best = int(np.argmax(score))
         speed = min(self.speed, max(distance, 0.3))
@@ -451,8 +491,16 @@ class QuadXGateRacer:
     #: own, ``quadx_gates``, sees the camera image and the gate centres, not the corners)
     env_config = "quadx_gates_state"
 
-    def __init__(self, env: Any, speed: float = 1.5, k_lat: float = 2.5, closing_speed: float = 0.5,
-                 cone_base: float = 0.08, cone_slope: float = 0.2, behind: float = 0.1) -> None:
+    def __init__(
+        self,
+        env: Any,
+        speed: float = 1.5,
+        k_lat: float = 2.5,
+        closing_speed: float = 0.5,
+        cone_base: float = 0.08,
+        cone_slope: float = 0.2,
+        behind: float = 0.1,
+    ) -> None:
         base = env.unwrapped
         if getattr(base.task.options, "observation", None) != "corners":
             raise ConfigError("oracle quadx_gate_racer reads the next gate's corners: set env.task.observation=corners")
@@ -515,7 +563,9 @@ def make_oracle(name: str, env: Any) -> Callable[[np.ndarray], np.ndarray]:
     if name not in ORACLES:
         from pyflyt_engine.suggest import did_you_mean
 
-        raise ConfigError(f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}")
+        raise ConfigError(
+            f"unknown oracle {name!r}.{did_you_mean(name, ORACLES)} Oracles: {', '.join(sorted(ORACLES))}"
+        )
     cls = ORACLES[name]
     env_id = getattr(getattr(env, "spec", None), "id", None) or getattr(env.unwrapped.config, "id", None)
     if env_id not in cls.env_ids:

@@ -141,7 +141,9 @@ def check_names(entries: Mapping[str, Any], wind: Any, episode: float | None = N
         elif name in MODEL_VALUES:
             _, low, high = MODEL_VALUES[name]
             if dist.low is None or dist.high is None or not (low < dist.low and dist.high <= high):
-                raise ValueError(f"'{name}' must stay in ({low:g}, {high:g}]: give it bounds {low:g} < low <= high <= {high:g}")
+                raise ValueError(
+                    f"'{name}' must stay in ({low:g}, {high:g}]: give it bounds {low:g} < low <= high <= {high:g}"
+                )
         elif name in DELAYS:
             if dist.low is None or dist.high is None or dist.low < 0:
                 raise ValueError(
@@ -197,9 +199,12 @@ class Randomizer:
             if needs is None:
                 continue
             has = [
-                (v.battery is not None) if needs == "battery"
-                else (v.sensors is not None and v.sensors.gyro is not None) if needs == "sensors.imu"
-                else (v.sensors is not None and v.sensors.position_noise_std is not None) if needs == "sensors.position"
+                (v.battery is not None)
+                if needs == "battery"
+                else (v.sensors is not None and v.sensors.gyro is not None)
+                if needs == "sensors.imu"
+                else (v.sensors is not None and v.sensors.position_noise_std is not None)
+                if needs == "sensors.position"
                 else (v.motors is not None and v.motors.rotor_drag is not None)
                 for v in world.vehicles
             ]
@@ -264,7 +269,9 @@ class Randomizer:
                     )
                 )
             elif motor_params is not None and "motor_rotor_drag" in values:
-                v.actuators.motors.set_params(dataclasses.replace(motor_params, **self._model_factors(motor_params, values)))
+                v.actuators.motors.set_params(
+                    dataclasses.replace(motor_params, **self._model_factors(motor_params, values))
+                )
             if drag_params is not None and "drag" in values:
                 d, f = drag_params, values["drag"]
                 v.actuators.drag.set_params(

@@ -29,9 +29,7 @@ class Markers:
             shape = p.createVisualShape(
                 p.GEOM_SPHERE, radius=radius, rgbaColor=(0.1, 0.8, 0.1, 0.6), physicsClientId=client
             )
-            self._ids.append(
-                p.createMultiBody(0.0, -1, shape, basePosition=_PARKED, physicsClientId=client)
-            )
+            self._ids.append(p.createMultiBody(0.0, -1, shape, basePosition=_PARKED, physicsClientId=client))
 
     def show(self, points: np.ndarray) -> None:
         """Draw markers at ``points`` (n, 3), the first one brightest; park the rest."""
@@ -62,9 +60,7 @@ def chase_camera(
     eye = (x - distance * math.cos(yaw), y - distance * math.sin(yaw), z + height)
     view = p.computeViewMatrix(eye, (x, y, z), (0.0, 0.0, 1.0), physicsClientId=client)
     projection = p.computeProjectionMatrixFOV(fov, w / h, 0.01, 200.0, physicsClientId=client)
-    _, _, rgba, _, _ = p.getCameraImage(
-        w, h, view, projection, renderer=p.ER_TINY_RENDERER, physicsClientId=client
-    )
+    _, _, rgba, _, _ = p.getCameraImage(w, h, view, projection, renderer=p.ER_TINY_RENDERER, physicsClientId=client)
     return np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
 
 

@@ -45,7 +45,17 @@ _NO_EXTRAS: Mapping[str, float] = MappingProxyType({})  # read-only: one empty m
 
 #: Signals every task provides (read from the vehicle and the world, not the task).
 BASE_SIGNALS = frozenset(
-    {"state", "action", "collision", "ground_collision", "out_of_bounds", "crashed", "task_complete", "steps_remaining", "agent_dt"}
+    {
+        "state",
+        "action",
+        "collision",
+        "ground_collision",
+        "out_of_bounds",
+        "crashed",
+        "task_complete",
+        "steps_remaining",
+        "agent_dt",
+    }
 )
 
 
@@ -236,7 +246,6 @@ def dome_proximity(ctx: StepContext, scale: float = 0.0025) -> float:
     return math.tanh(scale * math.sqrt(x * x + y * y + z * z) - 1.0)
 
 
-
 #: Every reward term a preset may name: the generic ones here, and those each task registers
 #: from its own module (:func:`register_term`).
 TERMS: dict[str, RewardTerm] = {
@@ -247,9 +256,7 @@ TERMS: dict[str, RewardTerm] = {
     "inverse_target_distance": RewardTerm(inverse_target_distance, "1/m", ("target_distance",)),
     "target_distance_rate": RewardTerm(target_distance_rate, "m/s", ("target_distance_rate",)),
     "target_distance_decrease": RewardTerm(target_distance_decrease, "m", ("target_distance_rate",)),
-    "target_distance_over_remaining_steps": RewardTerm(
-        target_distance_over_remaining_steps, "m", ("target_distance",)
-    ),
+    "target_distance_over_remaining_steps": RewardTerm(target_distance_over_remaining_steps, "m", ("target_distance",)),
     "speed_per_squared_target_distance": RewardTerm(speed_per_squared_target_distance, "1/(m s)", ("target_distance",)),
     "speed_above_braking_envelope": RewardTerm(
         speed_above_braking_envelope, "m/s", ("target_distance",), ("deceleration", "floor_speed", "floor_distance")

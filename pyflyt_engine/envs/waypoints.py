@@ -50,9 +50,7 @@ def sample_waypoints(
     return targets
 
 
-def body_frame_deltas(
-    targets: np.ndarray, position: Sequence[float], quaternion: Sequence[float]
-) -> np.ndarray:
+def body_frame_deltas(targets: np.ndarray, position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
     """Vectors from the vehicle to each target, in the body frame [m], shape ``(n, 3)``.
 
     ``delta_body = R^T (target - position)`` with ``R`` the body-to-ground rotation of

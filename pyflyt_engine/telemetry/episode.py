@@ -237,7 +237,9 @@ def load_episode(path: str | os.PathLike[str], *, warn: bool = True) -> Episode:
             value = msg.get(key) if isinstance(msg, dict) else None
             # the length first, against the schema (or the bound), before any value is converted
             if isinstance(value, list) and width is not None and len(value) != width:
-                raise TelemetryError(f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, expected {width}")
+                raise TelemetryError(
+                    f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, expected {width}"
+                )
             if isinstance(value, list) and len(value) > MAX_ROW_VALUES:
                 raise TelemetryError(
                     f"{path}: message {i} on {topic}: '{key}' has {len(value)} values, above the limit of "

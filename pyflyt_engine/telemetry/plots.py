@@ -101,8 +101,16 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
     if len(wps):
         drawn.append(wps)
         ax3d.scatter(
-            wps[:, 0], wps[:, 1], wps[:, 2], marker="*", s=110, color="gold", edgecolors="black", linewidths=0.6,
-            depthshade=False, label=_marker_label(episode, len(wps)),
+            wps[:, 0],
+            wps[:, 1],
+            wps[:, 2],
+            marker="*",
+            s=110,
+            color="gold",
+            edgecolors="black",
+            linewidths=0.6,
+            depthshade=False,
+            label=_marker_label(episode, len(wps)),
         )
     _readable_3d_axes(ax3d, np.concatenate(drawn))
     ax3d.set_title("path (ground frame, ENU)")
@@ -125,12 +133,18 @@ def plot_episode(episode: Episode, out: str | Path) -> Path:
         if episode.length:
             (raw,) = ax_act.step(episode.action_time, episode.actions[:, j], where="post", lw=0.7, alpha=0.35)
             ax_act.step(
-                episode.action_time, moving_mean(episode.actions[:, j], window), where="post", lw=1.8,
-                color=raw.get_color(), label=name,
+                episode.action_time,
+                moving_mean(episode.actions[:, j], window),
+                where="post",
+                lw=1.8,
+                color=raw.get_color(),
+                label=name,
             )
     ax_act.set_xlabel("time [s]")
     ax_act.set_ylabel("applied action")
-    ax_act.set_title(f"actions (faint: each step; bold: mean of the last {window} steps, {window / episode.agent_hz:.2g} s)")
+    ax_act.set_title(
+        f"actions (faint: each step; bold: mean of the last {window} steps, {window / episode.agent_hz:.2g} s)"
+    )
     if episode.action_names and episode.length:
         ax_act.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     ax_act.grid(True, alpha=0.3)

@@ -241,7 +241,9 @@ def _decompressed(chunk: Chunk, pos: int) -> bytes:
     else:
         raise _Damage(f"the chunk at byte {pos} is compressed with {chunk.compression!r}, which no writer here uses")
     if len(data) != size:
-        raise _Damage(f"the chunk at byte {pos} decompresses to {'more' if len(data) > size else len(data)} bytes, not the {size} it declares")
+        raise _Damage(
+            f"the chunk at byte {pos} decompresses to {'more' if len(data) > size else len(data)} bytes, not the {size} it declares"
+        )
     return data
 
 
@@ -457,7 +459,9 @@ def _take(out: McapContents, record: Any, decode: bool) -> None:
         if decode and channel.message_encoding == "json":
             try:
                 data = json_loads(
-                    record.data, source=f"{out.path}: a message on {channel.topic}", error=TelemetryError,
+                    record.data,
+                    source=f"{out.path}: a message on {channel.topic}",
+                    error=TelemetryError,
                     strict_numbers=True,
                 )
             except TelemetryError:

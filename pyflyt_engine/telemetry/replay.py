@@ -103,7 +103,9 @@ def rebuild_env(episode: Episode, **overrides: Any) -> Any:
             assert isinstance(parsed, MultiAgentEnvConfig)  # a config with agents parses as one
             agents = parsed.resolved_agents()
         except PyFlytError as exc:
-            raise TelemetryError(f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}") from None
+            raise TelemetryError(
+                f"{episode.path}: cannot rebuild the environment from the recorded config: {exc}"
+            ) from None
         airframes: dict[str, Any] = {}
         for i, agent in enumerate(agents[: len(specs)]):
             if agent.uav not in airframes:
@@ -323,13 +325,17 @@ def outcome_differences(
         out.append(f"the recording's end event gives the return {end.get('return')!r}, the re-simulation {total:.6g}")
     for name, value in (("terminated", terminated), ("truncated", truncated)):
         if name in end and end.get(name) is not bool(value):
-            out.append(f"the recording's end event says {name}={end.get(name)!r}, the re-simulation {name}={bool(value)}")
+            out.append(
+                f"the recording's end event says {name}={end.get(name)!r}, the re-simulation {name}={bool(value)}"
+            )
     reason = end_reason(terminated, truncated, info)
     if "reason" in end and end.get("reason") != reason:
         out.append(f"the recording's end event gives the reason {end.get('reason')!r}, the re-simulation {reason!r}")
     success = bool(info.get("success", False))
     if "success" in end and end.get("success") is not success:
-        out.append(f"the recording's end event says success={end.get('success')!r}, the re-simulation success={success}")
+        out.append(
+            f"the recording's end event says success={end.get('success')!r}, the re-simulation success={success}"
+        )
     return out
 
 
@@ -456,7 +462,9 @@ def verify(episode: Episode, tolerance: float = 1e-6) -> VerifyResult:
             same_versions=not notes,
             version_notes=notes,
             diverged_termination=diverged,
-            outcome_differences=[] if diverged else outcome_differences(
+            outcome_differences=[]
+            if diverged
+            else outcome_differences(
                 episode, rewards, bool(terminated), bool(truncated), info if isinstance(info, dict) else {}, tolerance
             ),
         )

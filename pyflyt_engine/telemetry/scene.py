@@ -173,9 +173,7 @@ def airframe_primitives(
             path = Path(filename.removeprefix("file://"))
             if not path.is_absolute() and base_dir is not None:
                 path = base_dir / path
-            out["models"].append(
-                model_primitive(path, filename, p, _floats(shape.get("scale"), (1.0, 1.0, 1.0)), rgba)
-            )
+            out["models"].append(model_primitive(path, filename, p, _floats(shape.get("scale"), (1.0, 1.0, 1.0)), rgba))
     return out
 
 
@@ -275,7 +273,13 @@ def body_entity(ns: int, client: int, body_id: int) -> dict[str, Any] | None:
 
     base_pos, base_orn = p.getBasePositionAndOrientation(body_id, physicsClientId=client)
     rotation = quaternion_to_matrix(base_orn)
-    prims: dict[str, list[dict[str, Any]]] = {"cubes": [], "cylinders": [], "spheres": [], "triangles": [], "models": []}
+    prims: dict[str, list[dict[str, Any]]] = {
+        "cubes": [],
+        "cylinders": [],
+        "spheres": [],
+        "triangles": [],
+        "models": [],
+    }
     meshes: list[str] = []
     for shape in p.getVisualShapeData(body_id, physicsClientId=client):
         link, kind, dims, local_pos, local_orn, rgba = shape[1], shape[2], shape[3], shape[5], shape[6], shape[7]

@@ -601,7 +601,16 @@ EPISODE_EVENT["properties"]["measures"] = {
 ALL: dict[str, dict[str, Any]] = {
     s["title"]: s
     for s in (
-        FRAME_TRANSFORM, SCENE_UPDATE, COMPRESSED_IMAGE, POINT_CLOUD, VEHICLE_STATE, WIND, SENSORS, ESTIMATE, ACTION,
-        REWARD, EPISODE_EVENT,
+        FRAME_TRANSFORM,
+        SCENE_UPDATE,
+        COMPRESSED_IMAGE,
+        POINT_CLOUD,
+        VEHICLE_STATE,
+        WIND,
+        SENSORS,
+        ESTIMATE,
+        ACTION,
+        REWARD,
+        EPISODE_EVENT,
     )
 }

@@ -240,7 +240,10 @@ def episode_frames(
                 path = project(clip, tracks[i].states["lin_pos"][start : step + 1], width, height)
                 _draw_trail(draw, path, TRAIL_COLORS[i % len(TRAIL_COLORS)], line)
             reward = float(episode.rewards[step - 1]) if 0 < step <= len(episode.rewards) else 0.0
-            lines = [f"t {t - float(tracks[0].time[0]):6.2f} s   step {step}", f"reward {reward:+.3f}   return {returns[min(step, len(returns) - 1)]:+.2f}"]
+            lines = [
+                f"t {t - float(tracks[0].time[0]):6.2f} s   step {step}",
+                f"reward {reward:+.3f}   return {returns[min(step, len(returns) - 1)]:+.2f}",
+            ]
             ended = step == n_steps - 1
             _draw_text(draw, lines, outcome if ended else None, outcome_color, width, height, style.text_size)
             frame = np.asarray(Image.alpha_composite(canvas, overlay).convert("RGB"))
@@ -506,8 +509,9 @@ def write_video(out: Path, frames: list[np.ndarray], fps: float) -> None:
     if Path(out).suffix.lower() == ".gif":
         step, durations = gif_timing(len(frames), fps)
         # one frame: Pillow takes its duration as a number, not a list of one (a list was its TypeError)
-        imageio.mimsave(out, frames[::step], format="GIF", duration=durations if len(durations) > 1 else durations[0],
-                        loop=0)
+        imageio.mimsave(
+            out, frames[::step], format="GIF", duration=durations if len(durations) > 1 else durations[0], loop=0
+        )
         return
     try:
         writer = imageio.get_writer(

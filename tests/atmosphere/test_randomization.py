@@ -168,7 +168,14 @@ def test_the_sim2real_preset_loads_and_changes_the_airframe_per_episode():
     cfg = compose_config(env="quadx_hover", overrides=["env.randomize=sim2real"])
     preset = cfg.env.randomize
     assert list(preset) == [
-        "mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag", "action_delay", "observation_delay"
+        "mass",
+        "inertia",
+        "motor_kf",
+        "motor_kt",
+        "motor_tau",
+        "drag",
+        "action_delay",
+        "observation_delay",
     ]
     env = make(randomize="sim2real")
     draws = []

@@ -59,7 +59,9 @@ def test_the_pruned_sum_is_the_all_pairs_sum_bit_for_bit(layout):
         if layout == "flat swarm":  # a 0.5 m grid at 1 m, a few cm of height noise
             positions.append(((i % 8) * 0.5, (i // 8) * 0.5, 1.0 + rng.uniform(-0.05, 0.05)))
         elif layout == "stack":  # columns of vehicles above each other
-            positions.append((rng.choice([0.0, 0.3, 4.0]) + rng.uniform(-0.05, 0.05), rng.uniform(-0.1, 0.1), 0.5 + 0.2 * i))
+            positions.append(
+                (rng.choice([0.0, 0.3, 4.0]) + rng.uniform(-0.05, 0.05), rng.uniform(-0.1, 0.1), 0.5 + 0.2 * i)
+            )
         else:
             positions.append((rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0.0, 15.0)))
     throttles = [[rng.uniform(0.0, 1.0) for _ in range(4)] for _ in range(n)]

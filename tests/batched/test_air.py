@@ -52,9 +52,11 @@ DETERMINISTIC = ("constant", "shear", "gust")
 VARIANTS = {
     "shear_power": {"preset": "shear", "mean": {"profile": "power", "direction": 30.0}},
     "gust_fast": {"preset": "gust", "gust": {"start": 0.2, "length": 2.0, "amplitude": [2.0, -1.0, 0.5]}},
-    "gust_step_on_wind": {"preset": "constant", "mean": {"direction": 120.0, "vertical": -0.3},
-                          "gust": {"amplitude": [0.0, 1.5, 0.0], "length": 3.0, "speed": 6.0, "start": 0.5,
-                                   "shape": "step"}},
+    "gust_step_on_wind": {
+        "preset": "constant",
+        "mean": {"direction": 120.0, "vertical": -0.3},
+        "gust": {"amplitude": [0.0, 1.5, 0.0], "length": 3.0, "speed": 6.0, "start": 0.5, "shape": "step"},
+    },
 }
 
 
@@ -67,13 +69,22 @@ quiet = pytest.fixture(scope="module")(test_crosscheck.quiet.__wrapped__)
 def _random_winds(rng: np.random.Generator, count: int) -> list[dict]:
     winds = []
     for _ in range(count):
-        mean = {"speed": float(rng.uniform(0, 8)), "direction": float(rng.uniform(-360, 360)),
-                "vertical": float(rng.normal(0, 1)), "profile": str(rng.choice(["uniform", "log", "power"])),
-                "reference_height": float(rng.uniform(1, 20)), "roughness_length": float(rng.uniform(0.001, 0.5)),
-                "exponent": float(rng.uniform(0, 0.4))}
-        gust = {"amplitude": rng.normal(0, 3, 3).tolist(), "length": float(rng.uniform(0.5, 10)),
-                "speed": float(rng.uniform(0.5, 10)), "start": float(rng.uniform(0, 2)),
-                "shape": str(rng.choice(["step", "pulse"]))}
+        mean = {
+            "speed": float(rng.uniform(0, 8)),
+            "direction": float(rng.uniform(-360, 360)),
+            "vertical": float(rng.normal(0, 1)),
+            "profile": str(rng.choice(["uniform", "log", "power"])),
+            "reference_height": float(rng.uniform(1, 20)),
+            "roughness_length": float(rng.uniform(0.001, 0.5)),
+            "exponent": float(rng.uniform(0, 0.4)),
+        }
+        gust = {
+            "amplitude": rng.normal(0, 3, 3).tolist(),
+            "length": float(rng.uniform(0.5, 10)),
+            "speed": float(rng.uniform(0.5, 10)),
+            "start": float(rng.uniform(0, 2)),
+            "shape": str(rng.choice(["step", "pulse"])),
+        }
         winds.append({"mean": mean if rng.random() < 0.8 else None, "gust": gust if rng.random() < 0.7 else None})
     return winds
 
@@ -95,7 +106,11 @@ def test_the_wind_equals_the_engines_field(wind):
     for step in range(1200):
         for height in (*rng.uniform(-1.0, 30.0, 3), 0.0, 0.01, 100.0):
             position = (float(rng.normal()), float(rng.normal()), float(height))
-            assert air.wind_sample(params, step, float(height), DT, CALM6) == field.at(0, position) == tuple(probe(position))
+            assert (
+                air.wind_sample(params, step, float(height), DT, CALM6)
+                == field.at(0, position)
+                == tuple(probe(position))
+            )
         field.advance()
 
 
@@ -104,9 +119,12 @@ def test_the_wind_equals_the_engines_field(wind):
 TURBULENT = {
     "dryden_light": "dryden_light",
     "dryden_severe": "dryden_severe",
-    "on_shear_and_gust": {"preset": "dryden_moderate", "mean": {"speed": 4.0, "direction": 70.0, "profile": "log"},
-                          "gust": {"amplitude": [1.0, 0.5, -0.5], "length": 2.0, "speed": 4.0, "start": 0.1},
-                          "turbulence": {"direction": -40.0, "airspeed": 12.0}},
+    "on_shear_and_gust": {
+        "preset": "dryden_moderate",
+        "mean": {"speed": 4.0, "direction": 70.0, "profile": "log"},
+        "gust": {"amplitude": [1.0, 0.5, -0.5], "length": 2.0, "speed": 4.0, "start": 0.1},
+        "turbulence": {"direction": -40.0, "airspeed": 12.0},
+    },
     "rotary_for_all": {"preset": "dryden_light", "turbulence": {"rotary_min_span": 0.0, "height": 50.0}},
     "linear_only": {"preset": "dryden_severe", "turbulence": {"angular": False}},
 }
@@ -160,8 +178,19 @@ def test_the_gust_fraction_equals_the_engines_at_its_edges():
     from pyflyt_engine.atmosphere.field import gust_profile, gust_profiles
 
     for length in (0.5, 5.0, 7.3):
-        xs = np.r_[-1.0, -0.0, 0.0, 5e-324, length, np.nextafter(length, 0), np.nextafter(length, 99), 2 * length,
-                   np.nextafter(2 * length, 0), np.nextafter(2 * length, 99), np.random.default_rng(1).uniform(-1, 3 * length, 200)]
+        xs = np.r_[
+            -1.0,
+            -0.0,
+            0.0,
+            5e-324,
+            length,
+            np.nextafter(length, 0),
+            np.nextafter(length, 99),
+            2 * length,
+            np.nextafter(2 * length, 0),
+            np.nextafter(2 * length, 99),
+            np.random.default_rng(1).uniform(-1, 3 * length, 200),
+        ]
         for shape in ("step", "pulse"):
             expected = gust_profiles(xs, length, shape)
             for x, e in zip(xs.tolist(), expected.tolist()):
@@ -207,7 +236,9 @@ def test_ground_effect_equals_the_engines_rotors_and_motors(name):
         r = kernels.rotation_tuple(*(q / np.linalg.norm(q)).tolist())
         z = float(rng.uniform(-0.05, 0.6))
         ratios = rotors.ground_effect_ratios(0, (0.3, -0.2, z), r)
-        air.ground_effect_columns(z, r[6], r[7], r[8], model.rotors, model.columns, air.GROUND_EFFECT_MIN_HEIGHT, scaled)
+        air.ground_effect_columns(
+            z, r[6], r[7], r[8], model.rotors, model.columns, air.GROUND_EFFECT_MIN_HEIGHT, scaled
+        )
         assert [tuple(row) for row in scaled.tolist()] == group._scaled_columns(ratios)
         command = rng.uniform(0.0, 1.0, n)
         group.command = command.tolist()
@@ -283,8 +314,12 @@ def fly_air_pair(uav: str, wind=None, mode: str | None = None, ground_effect: bo
         env_name, seed, draws = "quadx_hover", 3, np.random.default_rng(7)
     if ground_effect:  # the quads (rotors with a prop_radius) 0.15 m up; others at the task's 1 m
         height = 0.15 if load_uav_spec(uav).motors.prop_radius is not None else 1.0
-        overrides.update(start_position=[0.0, 0.0, height], hover_point=[0.0, 0.0, height],
-                         start_position_noise=0.02, start_orientation_noise=0.02)
+        overrides.update(
+            start_position=[0.0, 0.0, height],
+            hover_point=[0.0, 0.0, height],
+            start_position_noise=0.02,
+            start_orientation_noise=0.02,
+        )
         draws = np.random.default_rng(9)
     flown_with = dict(overrides, ground_effect=True) if ground_effect else dict(overrides)
     if wind_cfg is not None:
@@ -357,7 +392,7 @@ def _inject_the_engines_turbulence(pb, be: BatchedUAVEnv) -> None:
     blocks = np.concatenate([stream.standard_normal((n, field.block)) for _ in range(2)], axis=1)
     per = be.per_agent
     steps = iter(range(10**6))
-    be.turbulence_normals = lambda: np.ascontiguousarray(blocks[:, (k := next(steps)) * per:(k + 1) * per].T[None])
+    be.turbulence_normals = lambda: np.ascontiguousarray(blocks[:, (k := next(steps)) * per : (k + 1) * per].T[None])
     gusts = air.dryden_output(be._dryden_arrays, be.turbulence[0], be._wind[18], be._wind[19])
     here = be.pos[0].tolist()
     assert air.wind_sample(be._wind, 0, here[2], be.physics_dt, gusts) == tuple(world.atmosphere.wind_at(0, here))
@@ -380,7 +415,9 @@ def test_multirotors_in_turbulence_agree_with_the_pybullet_engine_on_the_same_no
 def test_fixedwings_in_turbulence_agree_with_the_pybullet_engine_on_the_same_noise(quiet, name, mode):
     """Fixedwing-Waypoints in moderate turbulence (rotary gusts: the fixed-wings' spans are
     above 1 m), the engine's white noise injected: within 1e-6."""
-    assert BatchedUAVEnv(load_env_config("fixedwing_waypoints").with_overrides(uav=quiet[name], wind="dryden_moderate")).dryden.rotary
+    assert BatchedUAVEnv(
+        load_env_config("fixedwing_waypoints").with_overrides(uav=quiet[name], wind="dryden_moderate")
+    ).dryden.rotary
     worst, flown, felt, _ = fly_air_pair(quiet[name], "dryden_moderate", mode)
     assert max(worst.values()) < BOUND, worst
     assert flown == 60, "the flight ended before 2 s"
@@ -405,8 +442,9 @@ def test_turbulence_is_deterministic_under_a_seed_and_each_env_s_own():
     off: the batch's motor noise is one stream)."""
 
     def fly(n: int, seed: int) -> np.ndarray:
-        env = BatchedUAVEnv(load_env_config("quadx_hover").with_overrides(wind="dryden_severe"), num_envs=n,
-                            motor_noise=False)
+        env = BatchedUAVEnv(
+            load_env_config("quadx_hover").with_overrides(wind="dryden_severe"), num_envs=n, motor_noise=False
+        )
         env.reset(seed=seed)
         hover = np.tile([0.0, 0.0, 0.0, env.model.hover_thrust_fraction], (n, 1))
         out = [np.c_[env.step(hover)[0], env.turbulence] for _ in range(40)]
@@ -484,8 +522,14 @@ def test_the_air_with_latency_agrees_with_the_pybullet_engine(quiet, flight, win
     from tests.batched.test_latency import FLIGHTS, _action, _latency
 
     env_name, uav, overrides = FLIGHTS[flight]
-    pb, be = _pair(env_name, quiet[uav], seed=3, latency=_latency((13, 11)),
-                   wind=VARIANTS.get(wind, TURBULENT.get(wind)), **overrides)
+    pb, be = _pair(
+        env_name,
+        quiet[uav],
+        seed=3,
+        latency=_latency((13, 11)),
+        wind=VARIANTS.get(wind, TURBULENT.get(wind)),
+        **overrides,
+    )
     if be.dryden is not None:
         _inject_the_engines_turbulence(pb, be)
     draws = np.random.default_rng(7)

@@ -31,8 +31,12 @@ def _python_spawn(task, rng, offsets=None):
     r = np.empty(9)
     kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
     rot = r.reshape(3, 3).tolist()
-    return (np.array(position), np.array(q), np.array(exact.rotate(rot, [float(v) for v in spawn.lin_vel])),
-            np.array(exact.rotate(rot, [float(v) for v in spawn.ang_vel])))
+    return (
+        np.array(position),
+        np.array(q),
+        np.array(exact.rotate(rot, [float(v) for v in spawn.lin_vel])),
+        np.array(exact.rotate(rot, [float(v) for v in spawn.ang_vel])),
+    )
 
 
 @pytest.mark.parametrize("shifted", [False, True])
@@ -43,11 +47,15 @@ def test_spawn_rows_draw_and_place_as_task_spawn(position_noise, orientation_noi
     randomiser adds them), and each generator is left where Task.spawn leaves it."""
     rng = np.random.default_rng(0)
     cfg = load_env_config("quadx_hover")
-    options = cfg.task.model_copy(update={
-        "start_position": tuple(rng.uniform(-3, 3, 3)), "start_position_noise": position_noise,
-        "start_orientation": tuple(rng.uniform(-1, 1, 3)), "start_orientation_noise": orientation_noise,
-        "start_lin_vel": tuple(rng.uniform(-5, 5, 3)),
-    })
+    options = cfg.task.model_copy(
+        update={
+            "start_position": tuple(rng.uniform(-3, 3, 3)),
+            "start_position_noise": position_noise,
+            "start_orientation": tuple(rng.uniform(-1, 1, 3)),
+            "start_orientation_noise": orientation_noise,
+            "start_lin_vel": tuple(rng.uniform(-5, 5, 3)),
+        }
+    )
     task = get_task("hover")(options, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
     n = 40
     seeds = np.random.SeedSequence(9).spawn(n)
@@ -55,14 +63,31 @@ def test_spawn_rows_draw_and_place_as_task_spawn(position_noise, orientation_noi
     theirs = [np.random.default_rng(s) for s in seeds]
     states, next_double = bookkeeping.stream_addresses(ours)
     index = np.array([3, 0, 17, 39, 5, 22])
-    pos, quat, vel, angvel = (np.full((n, 3), np.nan), np.full((n, 4), np.nan), np.full((n, 3), np.nan),
-                              np.full((n, 3), np.nan))
+    pos, quat, vel, angvel = (
+        np.full((n, 3), np.nan),
+        np.full((n, 4), np.nan),
+        np.full((n, 3), np.nan),
+        np.full((n, 3), np.nan),
+    )
     for _ in range(3):  # three episodes in a row: the streams move on as Task.spawn's do
         offsets = rng.uniform(-0.5, 0.5, (n, 6))
-        bookkeeping.spawn_rows(index, states, next_double, np.asarray(options.start_position, dtype=np.float64),
-                          float(position_noise), np.asarray(options.start_orientation, dtype=np.float64),
-                          float(orientation_noise), np.asarray(options.start_lin_vel, dtype=np.float64), np.zeros(3),
-                          pos, quat, vel, angvel, offsets, shifted)
+        bookkeeping.spawn_rows(
+            index,
+            states,
+            next_double,
+            np.asarray(options.start_position, dtype=np.float64),
+            float(position_noise),
+            np.asarray(options.start_orientation, dtype=np.float64),
+            float(orientation_noise),
+            np.asarray(options.start_lin_vel, dtype=np.float64),
+            np.zeros(3),
+            pos,
+            quat,
+            vel,
+            angvel,
+            offsets,
+            shifted,
+        )
         for i in index:
             expected = _python_spawn(task, theirs[i], offsets[i] if shifted else None)
             for got, want in zip((pos[i], quat[i], vel[i], angvel[i]), expected):

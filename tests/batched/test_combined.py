@@ -52,10 +52,14 @@ def test_every_per_env_parameter_row_is_c_contiguous():
     """The compiled laws read the parameters row by row: a column-major copy (``np.array`` of a
     broadcast view keeps its strides) made every step of the static path ~50 % slower."""
     cfg = load_env_config("quadx_hover").with_overrides(
-        backend="batched", randomize={"mass": {"distribution": "uniform", "low": 0.9, "high": 1.1}})
+        backend="batched", randomize={"mass": {"distribution": "uniform", "low": 0.9, "high": 1.1}}
+    )
     env = BatchedUAVEnv(cfg, num_envs=8)
-    rows = {name: value for name, value in vars(env).items()
-            if isinstance(value, np.ndarray) and value.ndim >= 2 and value.shape[0] == 8}
+    rows = {
+        name: value
+        for name, value in vars(env).items()
+        if isinstance(value, np.ndarray) and value.ndim >= 2 and value.shape[0] == 8
+    }
     assert {"_inertia", "_control_inertia", "_lag", "_columns", "_rotors", "_drag_factors", "_mixer_rows"} <= set(rows)
     not_c = [name for name, value in rows.items() if not value.flags.c_contiguous]
     assert not not_c, not_c

@@ -99,8 +99,13 @@ def test_the_free_body_integrates_as_pybullet(name):
     try:
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
         p.setTimeStep(1 / 240, physicsClientId=cid)
-        body = p.loadURDF(str(urdf_path(spec)), [0, 0, 5], p.getQuaternionFromEuler([0.3, -0.2, 1.0]),
-                          flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        body = p.loadURDF(
+            str(urdf_path(spec)),
+            [0, 0, 5],
+            p.getQuaternionFromEuler([0.3, -0.2, 1.0]),
+            flags=p.URDF_USE_INERTIA_FROM_FILE,
+            physicsClientId=cid,
+        )
         p.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         p.resetBaseVelocity(body, [1.0, -2.0, 0.5], [3.0, -5.0, 8.0], physicsClientId=cid)
         pos, quat = (np.array(v, dtype=np.float64) for v in p.getBasePositionAndOrientation(body, physicsClientId=cid))
@@ -159,8 +164,13 @@ def _flat(obs) -> np.ndarray:
 
 def _motors_action(uav: str) -> dict:
     n = batched_model(load_uav_spec(uav), 1 / 240, 1 / 120).motors
-    return {"mode": "motors", "names": [f"m{i}" for i in range(n)], "units": ["1"] * n,
-            "low": [0.0] * n, "high": [1.0] * n}
+    return {
+        "mode": "motors",
+        "names": [f"m{i}" for i in range(n)],
+        "units": ["1"] * n,
+        "low": [0.0] * n,
+        "high": [1.0] * n,
+    }
 
 
 @pytest.mark.parametrize("env_name", ["quadx_hover", "quadx_waypoints"])
@@ -246,8 +256,10 @@ def fly_cascade_pair(uav: str, mode: str, seed: int = 3, steps: int = 60) -> tup
             break
         commands = np.subtract(vehicle.actuators.motors.command, be.command[0])
         worst["command"] = max(worst["command"], np.abs(commands).max())
-        integrals = np.r_[np.subtract(controller._vel_integral, be.vel_integral[0]),
-                          np.subtract(controller._rate_integral, be.integral[0])]
+        integrals = np.r_[
+            np.subtract(controller._vel_integral, be.vel_integral[0]),
+            np.subtract(controller._rate_integral, be.integral[0]),
+        ]
         worst["integral"] = max(worst["integral"], np.abs(integrals).max())
     pb.close()
     return {k: float(v) for k, v in worst.items()}, flown
@@ -266,9 +278,13 @@ def test_cascade_modes_agree_with_the_pybullet_engine(quiet, name, mode):
 
 
 #: the fixed-wing autopilot's action: bank and pitch within +-0.6 and +-0.3 rad, yaw rate, airspeed 10-20 m/s
-AUTOPILOT_ACTION = {"mode": "attitude_airspeed", "names": ["roll", "pitch", "yaw_rate", "airspeed"],
-                    "units": ["rad", "rad", "rad/s", "m/s"],
-                    "low": [-0.6, -0.3, -0.5, 10.0], "high": [0.6, 0.3, 0.5, 20.0]}
+AUTOPILOT_ACTION = {
+    "mode": "attitude_airspeed",
+    "names": ["roll", "pitch", "yaw_rate", "airspeed"],
+    "units": ["rad", "rad", "rad/s", "m/s"],
+    "low": [-0.6, -0.3, -0.5, 10.0],
+    "high": [0.6, 0.3, 0.5, 20.0],
+}
 
 
 @pytest.mark.parametrize(
@@ -357,14 +373,27 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
     ("env_name", "overrides", "named"),
     [
         ("quadx_hover", {"downwash": True}, "downwash"),
-        ("quadx_hover", {"randomize": {"battery_capacity": {"distribution": "uniform", "low": 0.9, "high": 1.1}}},
-         "randomize.battery_capacity"),
+        (
+            "quadx_hover",
+            {"randomize": {"battery_capacity": {"distribution": "uniform", "low": 0.9, "high": 1.1}}},
+            "randomize.battery_capacity",
+        ),
         ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
-        ("fixedwing_waypoints", {"action": {"mode": "rates_thrust", "names": ["p", "q", "r", "thrust"],
-                                            "units": ["rad/s", "rad/s", "rad/s", "1"], "low": [-1.0, -1.0, -1.0, 0.0],
-                                            "high": [1.0, 1.0, 1.0, 1.0]}}, "flight mode rates_thrust"),
+        (
+            "fixedwing_waypoints",
+            {
+                "action": {
+                    "mode": "rates_thrust",
+                    "names": ["p", "q", "r", "thrust"],
+                    "units": ["rad/s", "rad/s", "rad/s", "1"],
+                    "low": [-1.0, -1.0, -1.0, 0.0],
+                    "high": [1.0, 1.0, 1.0, 1.0],
+                }
+            },
+            "flight mode rates_thrust",
+        ),
         ("fixedwing_waypoints", {"downwash": True}, "downwash"),
         ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),

@@ -22,18 +22,30 @@ from pyflyt_engine.batched import BatchedUAVEnv
 from pyflyt_engine.envs.config import load_env_config
 
 GOLDEN = Path(__file__).with_name("golden_batched.npz")
-ENVS = ("quadx_hover", "quadx_waypoints", "fixedwing_waypoints", "quadx_waypoints_velocity",
-        "quadx_hover+dryden_severe_sheared", "fixedwing_waypoints+gust")
+ENVS = (
+    "quadx_hover",
+    "quadx_waypoints",
+    "fixedwing_waypoints",
+    "quadx_waypoints_velocity",
+    "quadx_hover+dryden_severe_sheared",
+    "fixedwing_waypoints+gust",
+)
 #: the winds of the ``<env>+<wind>`` entries: a preset name or a mapping
-WINDS = {"dryden_severe_sheared": {"preset": "dryden_severe", "mean": {"speed": 3.0, "direction": 45.0, "profile": "power"}},
-         "gust": "gust"}
+WINDS = {
+    "dryden_severe_sheared": {"preset": "dryden_severe", "mean": {"speed": 3.0, "direction": 45.0, "profile": "power"}},
+    "gust": "gust",
+}
 
 
 def _fixedwing_action(rng: np.random.Generator) -> np.ndarray:
     """Aileron and rudder anywhere, the elevator biased nose-down, little thrust: some
     envs dive into the ground (crashes and autoresets) within the 4 s."""
-    return np.c_[rng.uniform(-1.0, 1.0, (8, 1)), rng.uniform(-0.3, 1.0, (8, 1)), rng.uniform(-1.0, 1.0, (8, 1)),
-                 rng.uniform(0.0, 0.6, (8, 1))]
+    return np.c_[
+        rng.uniform(-1.0, 1.0, (8, 1)),
+        rng.uniform(-0.3, 1.0, (8, 1)),
+        rng.uniform(-1.0, 1.0, (8, 1)),
+        rng.uniform(0.0, 0.6, (8, 1)),
+    ]
 
 
 def _velocity_action(rng: np.random.Generator) -> np.ndarray:
@@ -44,7 +56,9 @@ def _velocity_action(rng: np.random.Generator) -> np.ndarray:
 
 def trajectory(env_name: str) -> tuple[np.ndarray, np.ndarray]:
     config, _, wind = env_name.partition("+")
-    env = BatchedUAVEnv(load_env_config(config).with_overrides(wind=WINDS[wind]) if wind else config, num_envs=8, seed=5)
+    env = BatchedUAVEnv(
+        load_env_config(config).with_overrides(wind=WINDS[wind]) if wind else config, num_envs=8, seed=5
+    )
     obs, _ = env.reset(seed=5)
     rng = np.random.default_rng(3)
     observations, rewards = [obs], []

@@ -52,8 +52,9 @@ def _action(be: BatchedUAVEnv, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(np.array(be.config.action.low), np.array(be.config.action.high))
 
 
-def fly_delayed_pair(uav: str, flight: str, delays: tuple[int, int], seed: int = 3,
-                     steps: int = 60) -> tuple[dict[str, float], int]:
+def fly_delayed_pair(
+    uav: str, flight: str, delays: tuple[int, int], seed: int = 3, steps: int = 60
+) -> tuple[dict[str, float], int]:
     """Both backends fly ``flight`` (:data:`FLIGHTS`) on airframe file ``uav`` with the
     (action, observation) ``delays`` [physics steps] from one start, ``steps`` agent steps
     of random actions; returns the largest differences of the positions, observations
@@ -114,8 +115,9 @@ def test_an_observation_delay_alone_flies_bit_for_bit_as_none_and_shows_the_past
     episode had them); a delay between agent steps flies bit for bit as none too."""
     cfg = load_env_config("quadx_hover")
     rng = np.random.default_rng(3)
-    actions = np.concatenate([rng.uniform([-1, -1, -1, 0.1], [1, 1, 1, 0.16], (50, 4, 4)),
-                              np.zeros((40, 4, 4))])  # then motors off: every env crashes and resets
+    actions = np.concatenate(
+        [rng.uniform([-1, -1, -1, 0.1], [1, 1, 1, 0.16], (50, 4, 4)), np.zeros((40, 4, 4))]
+    )  # then motors off: every env crashes and resets
     plain = _fly(cfg, actions)
     assert np.any(plain["done"])
     for n_o in (16, 5, 11):
@@ -143,8 +145,11 @@ def test_an_action_delay_of_whole_agent_steps_shifts_the_flight_bit_for_bit():
         cfg = load_env_config(name)
         low, high = np.array(cfg.action.low), np.array(cfg.action.high)
         rng = np.random.default_rng(4)
-        actions = rng.uniform(low, high, (30, 3, low.size)) if name != "quadx_hover" else \
-            rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15], (30, 3, 4))
+        actions = (
+            rng.uniform(low, high, (30, 3, low.size))
+            if name != "quadx_hover"
+            else rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15], (30, 3, 4))
+        )
         shifted = np.concatenate([np.zeros((2, 3, low.size)), actions[:-2]])
         plain = _fly(cfg, shifted)
         delayed = _fly(cfg.with_overrides(latency=_latency((16, 0))), actions)
@@ -160,8 +165,10 @@ def test_an_autoreset_starts_the_delays_afresh():
     env.reset(seed=2)
     rng = np.random.default_rng(0)
     for k in range(200):  # env 0 flies, then falls (no thrust, rates still asked for: in flight at its end)
-        a = np.r_[[rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15]) if k < 20 else [0.8, -0.6, 0.4, 0.0]],
-                  [[0.0, 0.0, 0.0, env.model.hover_thrust_fraction]]]
+        a = np.r_[
+            [rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15]) if k < 20 else [0.8, -0.6, 0.4, 0.0]],
+            [[0.0, 0.0, 0.0, env.model.hover_thrust_fraction]],
+        ]
         _, _, terminated, truncated, _ = env.step(a)
         if terminated[0] or truncated[0]:
             break
@@ -191,8 +198,10 @@ def test_the_pieces_tick_and_sample_where_the_pybullet_engine_does(per_control):
     rng = np.random.default_rng(per_control)
     cfg = load_env_config("quadx_hover").with_overrides(
         control_hz=HZ / per_control,
-        randomize={"action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.2},
-                   "observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.2}},
+        randomize={
+            "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.2},
+            "observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.2},
+        },
     )
     latency = BatchedLatency(cfg, 64, P, per_control, 4, 4, 0)
     latency.steps[:] = rng.integers(0, 48, (64, 2))
@@ -212,8 +221,9 @@ def test_the_pieces_tick_and_sample_where_the_pybullet_engine_does(per_control):
         for o in ticks:  # the engine's queue: the action given at t P is released at t P + n_a
             for t in (0, 1, 5, 9):
                 j = t * P + o
-                given = np.array([max((u for u in range(t + 1) if u * P + n_a <= j), default=-1)
-                                  for n_a in latency.steps[:, 0]])
+                given = np.array(
+                    [max((u for u in range(t + 1) if u * P + n_a <= j), default=-1) for n_a in latency.steps[:, 0]]
+                )
                 assert np.array_equal(np.where(t - lag < 0, -1, t - lag), given)
         if record is not None:
             recorded[record] += 1
@@ -223,8 +233,10 @@ def test_the_pieces_tick_and_sample_where_the_pybullet_engine_does(per_control):
     assert np.array_equal(recorded, (latency.steps[:, 1] > 0).astype(np.int64))
 
 
-RANDOM_DELAYS = {"action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05},
-                 "observation_delay": {"distribution": "normal", "mean": 0.03, "std": 0.02, "low": 0.0, "high": 0.06}}
+RANDOM_DELAYS = {
+    "action_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05},
+    "observation_delay": {"distribution": "normal", "mean": 0.03, "std": 0.02, "low": 0.0, "high": 0.06},
+}
 
 
 def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
@@ -248,8 +260,9 @@ def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
     assert np.array_equal(again.latency_steps, env.latency_steps) and np.array_equal(again.pos, env.pos)
     # env 3's episode flies as its delays, fixed
     i = 3
-    fixed = BatchedUAVEnv(cfg.with_overrides(randomize={}, latency=_latency(tuple(env.latency_steps[i]))), num_envs=1,
-                          motor_noise=False)
+    fixed = BatchedUAVEnv(
+        cfg.with_overrides(randomize={}, latency=_latency(tuple(env.latency_steps[i]))), num_envs=1, motor_noise=False
+    )
     fixed.reset(seed=0)
     for name in ("pos", "quat", "vel", "angvel", "_last_position", "_last_distance"):
         getattr(fixed, name)[0] = getattr(env, name)[i]
@@ -259,7 +272,7 @@ def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
     for _ in range(30):
         a = rng.uniform([-1, -1, -1, 0.12], [1, 1, 1, 0.15], (16, 4))
         o1, r1, *_ = env.step(a)
-        o2, r2, *_ = fixed.step(a[i:i + 1])
+        o2, r2, *_ = fixed.step(a[i : i + 1])
         assert np.array_equal(o1[i], o2[0]) and r1[i] == r2[0]
     # a new episode draws anew: motors off until every env has reset once
     before = env.latency_steps.copy()
@@ -276,8 +289,10 @@ def test_randomised_parameters_of_unsimulated_models_are_refused_by_name():
     """Beside the delays, an entry of a model the batched backend lacks is refused by its name
     (the airframe factors and spawn offsets it draws: tests/batched/test_randomization.py)."""
     factor = {"distribution": "uniform", "low": 0.9, "high": 1.1}
-    for entries, named in (({"battery_capacity": factor}, "randomize.battery_capacity"),
-                           ({**RANDOM_DELAYS, "drag": factor, "gyro_scale": factor}, "randomize.gyro_scale")):
+    for entries, named in (
+        ({"battery_capacity": factor}, "randomize.battery_capacity"),
+        ({**RANDOM_DELAYS, "drag": factor, "gyro_scale": factor}, "randomize.gyro_scale"),
+    ):
         cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries)
         with pytest.raises(ConfigError) as info:
             BatchedUAVEnv(cfg, num_envs=2)
@@ -291,8 +306,14 @@ def test_across_an_episode_end_both_drop_what_was_in_flight(quiet):  # noqa: F81
     its same-step autoreset, the PyBullet env by its reset; the next episode's observations
     and rewards agree within 1e-6 from its first observation on (nothing in flight, the
     spawn shown)."""
-    pb, be = _pair("quadx_hover", quiet["quadx_cf2x"], seed=1, latency=_latency((13, 11)),
-                   start_position_noise=0.0, start_orientation_noise=0.0)
+    pb, be = _pair(
+        "quadx_hover",
+        quiet["quadx_cf2x"],
+        seed=1,
+        latency=_latency((13, 11)),
+        start_position_noise=0.0,
+        start_orientation_noise=0.0,
+    )
     rng = np.random.default_rng(5)
     for _ in range(15):
         a = _action(be, rng)
@@ -326,16 +347,24 @@ def test_across_an_episode_end_both_drop_what_was_in_flight(quiet):  # noqa: F81
 
 @pytest.mark.parametrize(
     "rates",
-    [{"control_hz": 240.0, "agent_hz": 40.0}, {"control_hz": 60.0, "agent_hz": 30.0},
-     {"physics_hz": 480.0, "control_hz": 120.0, "agent_hz": 40.0}],
+    [
+        {"control_hz": 240.0, "agent_hz": 40.0},
+        {"control_hz": 60.0, "agent_hz": 30.0},
+        {"physics_hz": 480.0, "control_hz": 120.0, "agent_hz": 40.0},
+    ],
 )
 def test_other_loop_rates_agree_with_the_pybullet_engine(quiet, rates):  # noqa: F811
     """A tick at every physics step, 4 physics steps per tick, 480 Hz physics (6, 8 and 12
     physics steps per agent step): QuadX-Hover with delays of 13 and 23 physics steps,
     within 1e-6 of the PyBullet engine for 2 s."""
     hz = rates.get("physics_hz", HZ)
-    pb, be = _pair("quadx_hover", quiet["quadx_cf2x"], seed=3,
-                   latency={"action_delay": 13 / hz, "observation_delay": 23 / hz}, **rates)
+    pb, be = _pair(
+        "quadx_hover",
+        quiet["quadx_cf2x"],
+        seed=3,
+        latency={"action_delay": 13 / hz, "observation_delay": 23 / hz},
+        **rates,
+    )
     assert pb.unwrapped.world.vehicles[0].latency == (13, 23)
     rng = np.random.default_rng(7)
     worst = 0.0

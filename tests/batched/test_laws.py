@@ -143,8 +143,18 @@ def test_rate_loop_and_mixer_equal_the_controller(name):
         if first:
             previous[:] = rates
             first = False
-        kernels.rate_loop(np.array(setpoint[:3]), rates, previous, integral, model.rate_gains, model.rate_derivative,
-                          model.control_inertia, model.gyro, CONTROL_DT, torques)
+        kernels.rate_loop(
+            np.array(setpoint[:3]),
+            rates,
+            previous,
+            integral,
+            model.rate_gains,
+            model.rate_derivative,
+            model.control_inertia,
+            model.gyro,
+            CONTROL_DT,
+            torques,
+        )
         previous[:] = rates
         assert integral.tolist() == list(controller._rate_integral)
         kernels.mix(setpoint[3] * model.max_collective, *torques.tolist(), model.mixer_rows, scratch, out)
@@ -163,7 +173,9 @@ def test_the_ground_contact_height_is_the_airframes_lowest_point(name):
     pos = np.array([0.0, 0.0, 2.0])
     upright = np.empty(9)
     kernels.rotation_rows(0.0, 0.0, 0.0, 1.0, upright)
-    assert kernels.lowest_corner(pos, upright, model.corners) == pytest.approx(2.0 + spec.body.lowest_point() - com_z, abs=1e-12)
+    assert kernels.lowest_corner(pos, upright, model.corners) == pytest.approx(
+        2.0 + spec.body.lowest_point() - com_z, abs=1e-12
+    )
     # rolled 90 degrees about body x, body y points up: a point's height is its body y
     rolled = np.empty(9)
     kernels.rotation_rows(np.sin(np.pi / 4), 0.0, 0.0, np.cos(np.pi / 4), rolled)
@@ -182,8 +194,17 @@ def _surface_inputs(rng: np.random.Generator, surface, count: int) -> list[tuple
         d = float(rng.uniform(-1.2, 1.2)) * surface.max_deflection
         pairs.append((float(rng.uniform(-math.pi, math.pi)), d))
         _, stall_pos, stall_neg = lifting_surface.flap_shifted_angles(surface, d)
-        for alpha in (math.pi, -math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0, stall_pos, stall_neg,
-                      stall_pos - math.pi, stall_neg + math.pi):
+        for alpha in (
+            math.pi,
+            -math.pi,
+            0.5 * math.pi,
+            -0.5 * math.pi,
+            0.0,
+            stall_pos,
+            stall_neg,
+            stall_pos - math.pi,
+            stall_neg + math.pi,
+        ):
             if -math.pi <= alpha <= math.pi:  # where atan2 puts it
                 pairs.append((alpha, d))
     return pairs
@@ -205,8 +226,12 @@ def test_surface_coefficients_equal_the_profile(name):
             assert kernels.surface_coefficients(row, alpha, d) == lifting_surface._coefficients(k, alpha, d), (alpha, d)
             _, stall_pos, stall_neg = lifting_surface.flap_shifted_angles(surface, d)
             folded = alpha - math.pi if alpha > 0.5 * math.pi else alpha + math.pi if alpha < -0.5 * math.pi else alpha
-            branches.add(("reverse" if abs(alpha) > 0.5 * math.pi else "forward",
-                          "attached" if stall_neg < folded < stall_pos else "stalled"))
+            branches.add(
+                (
+                    "reverse" if abs(alpha) > 0.5 * math.pi else "forward",
+                    "attached" if stall_neg < folded < stall_pos else "stalled",
+                )
+            )
     assert len(branches) == 4  # every branch of the profile ran
 
 
@@ -296,9 +321,23 @@ def test_the_fixedwing_autopilot_equals_the_autopilot(name):
         setpoint = np.r_[rng.normal(0, scale, 3), rng.uniform(5.0, 25.0)]
         expected = autopilot(state, setpoint.tolist())
         (p_, q_, r_), (roll, pitch, _), u = state.ang_vel, state.ang_pos, state.lin_vel[0]
-        kernels.fixedwing_autopilot(setpoint, p_, q_, r_, roll, pitch, u, integral, model.autopilot_gains,
-                                    model.cruise_thrust, model.autopilot_index, model.channel_low,
-                                    model.channel_high, CONTROL_DT, out)
+        kernels.fixedwing_autopilot(
+            setpoint,
+            p_,
+            q_,
+            r_,
+            roll,
+            pitch,
+            u,
+            integral,
+            model.autopilot_gains,
+            model.cruise_thrust,
+            model.autopilot_index,
+            model.channel_low,
+            model.channel_high,
+            CONTROL_DT,
+            out,
+        )
         assert out.tolist() == expected.tolist()
         loops = (autopilot._roll, autopilot._pitch, autopilot._yaw, autopilot._speed)
         assert integral.tolist() == [loop.integral for loop in loops]
@@ -339,23 +378,46 @@ def _context(rng: np.random.Generator, n: int) -> BatchContext:
     distance = rng.uniform(0.0, 4.0, n)
     distance[:3] = (0.0, 0.05, np.nan)
     return BatchContext(
-        ang_vel=rng.normal(0, 2, (n, 3)), ang_pos=rng.normal(0, 1, (n, 3)), lin_vel=rng.normal(0, 2, (n, 3)),
-        lin_pos=rng.normal(0, 2, (n, 3)), action=rng.normal(0, 1, (n, 4)), collision=flags(),
-        ground_collision=flags(), out_of_bounds=flags(), crashed=flags(), task_complete=flags(),
-        target_distance=distance, target_distance_rate=rng.normal(0, 1, n), waypoint_reached=flags(),
-        steps_remaining=rng.integers(0, 300, n), agent_dt=1 / 30,
+        ang_vel=rng.normal(0, 2, (n, 3)),
+        ang_pos=rng.normal(0, 1, (n, 3)),
+        lin_vel=rng.normal(0, 2, (n, 3)),
+        lin_pos=rng.normal(0, 2, (n, 3)),
+        action=rng.normal(0, 1, (n, 4)),
+        collision=flags(),
+        ground_collision=flags(),
+        out_of_bounds=flags(),
+        crashed=flags(),
+        task_complete=flags(),
+        target_distance=distance,
+        target_distance_rate=rng.normal(0, 1, n),
+        waypoint_reached=flags(),
+        steps_remaining=rng.integers(0, 300, n),
+        agent_dt=1 / 30,
     )
 
 
 def _scalar(ctx: BatchContext, i: int) -> r.StepContext:
     state = KinematicState(
-        tuple(ctx.ang_vel[i].tolist()), tuple(ctx.ang_pos[i].tolist()), tuple(ctx.lin_vel[i].tolist()),
-        tuple(ctx.lin_pos[i].tolist()), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+        tuple(ctx.ang_vel[i].tolist()),
+        tuple(ctx.ang_pos[i].tolist()),
+        tuple(ctx.lin_vel[i].tolist()),
+        tuple(ctx.lin_pos[i].tolist()),
+        (0.0, 0.0, 0.0, 1.0),
+        (0.0, 0.0, 0.0),
+        (0.0, 0.0, 0.0),
     )
     return r.StepContext(
-        state, ctx.action[i], bool(ctx.collision[i]), bool(ctx.ground_collision[i]), bool(ctx.out_of_bounds[i]),
-        bool(ctx.crashed[i]), bool(ctx.task_complete[i]), float(ctx.target_distance[i]),
-        float(ctx.target_distance_rate[i]), bool(ctx.waypoint_reached[i]), steps_remaining=int(ctx.steps_remaining[i]),
+        state,
+        ctx.action[i],
+        bool(ctx.collision[i]),
+        bool(ctx.ground_collision[i]),
+        bool(ctx.out_of_bounds[i]),
+        bool(ctx.crashed[i]),
+        bool(ctx.task_complete[i]),
+        float(ctx.target_distance[i]),
+        float(ctx.target_distance_rate[i]),
+        bool(ctx.waypoint_reached[i]),
+        steps_remaining=int(ctx.steps_remaining[i]),
         agent_dt=ctx.agent_dt,
     )
 

@@ -81,8 +81,12 @@ def test_the_parameters_are_the_controllers(name, variant):
     c = batched_model(spec, DT, CONTROL_DT).cascade
     assert c.mass == controller.mass and c.window == controller._window and c.max_tilt == controller._max_tilt
     assert c.table[:4].T.tolist() == [list(axis) for axis in controller._velocity_axes]
-    assert c.table[4:].tolist() == [list(controller._position_kp), list(controller._max_velocity),
-                                    list(controller._attitude_kp), list(controller._max_rate)]
+    assert c.table[4:].tolist() == [
+        list(controller._position_kp),
+        list(controller._max_velocity),
+        list(controller._attitude_kp),
+        list(controller._max_rate),
+    ]
     assert (c.window == 0.5) == (variant == "window_and_limit")
 
 
@@ -122,8 +126,9 @@ def test_the_velocity_loop_equals_the_controllers(name, variant):
                 assert expected[k] == 0.0 and controller._vel_integral[k] == integral[k]
                 counts["none"] += 1
                 continue
-            a, integral[k] = modes.velocity_axis(axes[k], state.lin_vel_ground[k], integral[k], kp[k], ki[k], lo[k],
-                                                 hi[k], c.window, CONTROL_DT)
+            a, integral[k] = modes.velocity_axis(
+                axes[k], state.lin_vel_ground[k], integral[k], kp[k], ki[k], lo[k], hi[k], c.window, CONTROL_DT
+            )
             assert a == expected[k], (tick, k)
             e = axes[k] - state.lin_vel_ground[k]
             if abs(e) >= c.window:
@@ -149,8 +154,7 @@ def test_climb_thrust_attitude_and_tilt_equal_the_controllers(name):
     controller = _controller(spec, "position_yaw")
     c = batched_model(spec, DT, CONTROL_DT).cascade
     rng = np.random.default_rng(31)
-    counts = dict.fromkeys(("climb_limit", "thrust_floor", "thrust_zero", "rate_limit", "tilt_limit",
-                            "lift_floor"), 0)
+    counts = dict.fromkeys(("climb_limit", "thrust_floor", "thrust_zero", "rate_limit", "tilt_limit", "lift_floor"), 0)
     edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 4 * math.pi, 1e-300, -1e-300, 3 * math.pi]
     for case in range(1500):
         wide = case % 2 == 0
@@ -231,16 +235,45 @@ def test_each_cascade_mode_equals_the_controller(name, variant, mode):
         expected = controller.law(state, setpoint)
         (roll, pitch, yaw), (x, y, z), (vx, vy, vz) = state.ang_pos, state.lin_pos, state.lin_vel_ground
         p_sp, q_sp, r_sp, thrust = modes.outer_loops(
-            law, yaw_is_rate, heading_frame, position, altitude, *setpoint, roll, pitch, yaw, x, y, z, vx, vy, vz,
-            vel_integral, c.table, c.mass, c.window, c.max_tilt, CONTROL_DT,
+            law,
+            yaw_is_rate,
+            heading_frame,
+            position,
+            altitude,
+            *setpoint,
+            roll,
+            pitch,
+            yaw,
+            x,
+            y,
+            z,
+            vx,
+            vy,
+            vz,
+            vel_integral,
+            c.table,
+            c.mass,
+            c.window,
+            c.max_tilt,
+            CONTROL_DT,
         )
         rates[:] = state.ang_vel
         rates_sp[:] = (p_sp, q_sp, r_sp)
         if first:
             previous[:] = rates
             first = False
-        kernels.rate_loop(rates_sp, rates, previous, integral, model.rate_gains, model.rate_derivative,
-                          model.control_inertia, model.gyro, CONTROL_DT, torques)
+        kernels.rate_loop(
+            rates_sp,
+            rates,
+            previous,
+            integral,
+            model.rate_gains,
+            model.rate_derivative,
+            model.control_inertia,
+            model.gyro,
+            CONTROL_DT,
+            torques,
+        )
         previous[:] = rates
         kernels.mix(thrust, *torques.tolist(), model.mixer_rows, scratch, out)
         assert out.tolist() == expected, tick
@@ -285,10 +318,29 @@ def test_the_control_tick_equals_the_controller_on_the_state_the_engine_reads(na
         read = (body_rates, euler, body_vel, pos, reported, vel, angvel)  # KinematicState's order
         states = [KinematicState(*(tuple(a[i].tolist()) for a in read)) for i in range(n)]
         setpoints = np.array([_setpoint(rng, mode, s, 1.0) for s in states])
-        modes.control_tick(pos, quat, vel, angvel, setpoints, integral, previous, has_previous, vel_integral, *law,
-                           rows(c.table), rows(c.mass), rows(c.window), rows(c.max_tilt), rows(model.rate_gains),
-                           model.rate_derivative, rows(model.control_inertia), rows(model.gyro),
-                           rows(model.mixer_rows), CONTROL_DT, command)
+        modes.control_tick(
+            pos,
+            quat,
+            vel,
+            angvel,
+            setpoints,
+            integral,
+            previous,
+            has_previous,
+            vel_integral,
+            *law,
+            rows(c.table),
+            rows(c.mass),
+            rows(c.window),
+            rows(c.max_tilt),
+            rows(model.rate_gains),
+            model.rate_derivative,
+            rows(model.control_inertia),
+            rows(model.gyro),
+            rows(model.mixer_rows),
+            CONTROL_DT,
+            command,
+        )
         for i, (controller, state) in enumerate(zip(controllers, states)):
             assert command[i].tolist() == controller.law(state, setpoints[i].tolist()), (tick, i)
             assert integral[i].tolist() == list(controller._rate_integral)

@@ -35,7 +35,9 @@ def test_an_env_config_sharing_an_id_is_measured_by_its_name():
     """The velocity variant shares QuadX-Waypoints' id: ``--env`` takes its config name."""
     settings = SpeedSettings.quick(backend="batched", batch_sizes=(4,), envs=("quadx_waypoints_velocity",))
     assert [(c.section, c.key) for c in plan_cases(settings)] == [
-        ("envs", "quadx_waypoints_velocity"), ("batched", ("quadx_waypoints_velocity", 4))]
+        ("envs", "quadx_waypoints_velocity"),
+        ("batched", ("quadx_waypoints_velocity", 4)),
+    ]
     result = probes.measure_batched("quadx_waypoints_velocity", n=8, agent_steps=400, warmup=2)
     assert result["id"] == "quadx_waypoints_velocity" and result["steps_per_s"] > 0
     pybullet = probes.measure_env("quadx_waypoints_velocity", steps=20, resets=1, warmup=2)  # its PyBullet env

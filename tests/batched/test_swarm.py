@@ -88,15 +88,26 @@ def test_the_downwash_sum_is_the_engines_bit_for_bit(uav):
         positions = np.c_[rng.uniform(-spread, spread, (a, 2)), rng.uniform(0.0, 2.0, a)]
         throttles = rng.uniform(-1.0, 1.0, (a, len(radii)))
         for i, position in enumerate(positions.tolist()):
-            got = swarm.downwash_at(i, *position, positions, throttles, rot["max_thrust"], rot["is_rotor"],
-                                    rot["disc_area"], rot["jet_diameter"], R.AIR_DENSITY, 2.0)
+            got = swarm.downwash_at(
+                i,
+                *position,
+                positions,
+                throttles,
+                rot["max_thrust"],
+                rot["is_rotor"],
+                rot["disc_area"],
+                rot["jet_diameter"],
+                R.AIR_DENSITY,
+                2.0,
+            )
             expected = engine.downwash_at(i, position, positions.tolist(), throttles.tolist())
             assert got == expected, (trial, i)
             for j, q in enumerate(positions.tolist()):
                 engine.place(j, q)
             sources = engine.sources(i, position)
-            near = engine.downwash_near(i, position, sources, [positions[j].tolist() for j in sources],
-                                        [throttles[j].tolist() for j in sources])
+            near = engine.downwash_near(
+                i, position, sources, [positions[j].tolist() for j in sources], [throttles[j].tolist() for j in sources]
+            )
             assert got == near
             compared += 1
             nonzero += got != 0.0
@@ -182,8 +193,13 @@ def _fly(pb, be, rng, steps, hover, motors=False):
     return worst, ends, step
 
 
-MOTORS_ACTION = {"mode": "motors", "names": ["m0", "m1", "m2", "m3"], "units": ["1"] * 4,
-                 "low": [0.0] * 4, "high": [1.0] * 4}
+MOTORS_ACTION = {
+    "mode": "motors",
+    "names": ["m0", "m1", "m2", "m3"],
+    "units": ["1"] * 4,
+    "low": [0.0] * 4,
+    "high": [1.0] * 4,
+}
 
 
 @pytest.mark.parametrize("mode", ["rates_thrust", "motors"])
@@ -202,8 +218,21 @@ def test_stacked_agents_with_downwash_agree_with_the_pybullet_engine(quiet_cf2x,
     still = np.full(4, np.sqrt(hover)) if motors else np.r_[0.0, 0.0, 0.0, hover]
     pb.step({name: still for name in pb.agents})
     be.step(np.tile(still, (be.num_envs, 1)))
-    lower = [swarm.downwash_at(k, *be.pos[k], be.pos, be.throttle, rot["max_thrust"], rot["is_rotor"],
-                               rot["disc_area"], rot["jet_diameter"], R.AIR_DENSITY, 2.0) for k in (0, 2)]
+    lower = [
+        swarm.downwash_at(
+            k,
+            *be.pos[k],
+            be.pos,
+            be.throttle,
+            rot["max_thrust"],
+            rot["is_rotor"],
+            rot["disc_area"],
+            rot["jet_diameter"],
+            R.AIR_DENSITY,
+            2.0,
+        )
+        for k in (0, 2)
+    ]
     assert max(lower) < -0.1, lower
     length = 29 if motors else 59
     worst, ends, steps = _fly(pb, be, np.random.default_rng(10 + seed), length, hover, motors)
@@ -220,7 +249,9 @@ def test_downwash_changes_the_lower_agents_flight_only(quiet_cf2x):
     for downwash in (False, True):
         env = swarm.BatchedSwarmEnv(
             load_env_config("ma_quadx_hover").with_overrides(uav=quiet_cf2x, agents=STACKED, downwash=downwash),
-            worlds=1, seed=0, motor_noise=False,
+            worlds=1,
+            seed=0,
+            motor_noise=False,
         )
         env.reset(seed=0)
         hover = env.model.hover_thrust_fraction
@@ -342,11 +373,23 @@ def test_same_seed_same_numbers():
         ({"downwash": True}, None),
         ({"wind": "gust"}, "wind"),
         ({"ground_effect": True}, "env.ground_effect"),
-        ({"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
-         "agents of different airframes"),
+        (
+            {"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
+            "agents of different airframes",
+        ),
         # the single-agent backend flies the cascade modes; the worlds' kernel does not
-        ({"action": {"mode": "velocity_yawrate", "names": ["vx", "vy", "yaw_rate", "vz"], "units": ["m/s"] * 4,
-                     "low": [-1.0] * 4, "high": [1.0] * 4}}, "flight mode velocity_yawrate in a multi-agent world"),
+        (
+            {
+                "action": {
+                    "mode": "velocity_yawrate",
+                    "names": ["vx", "vy", "yaw_rate", "vz"],
+                    "units": ["m/s"] * 4,
+                    "low": [-1.0] * 4,
+                    "high": [1.0] * 4,
+                }
+            },
+            "flight mode velocity_yawrate in a multi-agent world",
+        ),
     ],
 )
 def test_what_it_simulates_and_what_it_refuses(overrides, named):
@@ -358,7 +401,9 @@ def test_what_it_simulates_and_what_it_refuses(overrides, named):
         check_supported(cfg)
 
 
-@pytest.mark.parametrize(("env", "task"), [("ma_quadx_formation", "ma_formation"), ("ma_fixedwing_dogfight", "dogfight")])
+@pytest.mark.parametrize(
+    ("env", "task"), [("ma_quadx_formation", "ma_formation"), ("ma_fixedwing_dogfight", "dogfight")]
+)
 def test_other_multi_agent_tasks_are_refused_by_name(env, task):
     with pytest.raises(UnsupportedByBatched, match=f"the multi-agent task '{task}'"):
         check_supported(load_env_config(env))

@@ -84,8 +84,10 @@ def test_same_seed_same_numbers_in_another_process():
         "    out += [o, r[:, None]]\n"
         "print(np.concatenate([x.ravel() for x in out]).tobytes().hex())\n"
     )
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-            for _ in range(2)]
+    runs = [
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+        for _ in range(2)
+    ]
     assert runs[0] == runs[1] and len(runs[0]) > 1000
 
 

@@ -23,8 +23,10 @@ from tests.train.conftest import load
 from tests.train.test_resume import SignalAt, _assert_same, _outcome, _reference
 
 #: an action delay between control ticks and an observation delay drawn per episode
-LATENCY = ["+env.latency.action_delay=0.0125",
-           "+env.randomize.observation_delay={distribution: uniform, low: 0.0, high: 0.05}"]
+LATENCY = [
+    "+env.latency.action_delay=0.0125",
+    "+env.randomize.observation_delay={distribution: uniform, low: 0.0, high: 0.05}",
+]
 PPO_BATCHED = [
     "env=quadx_hover",
     "algo=ppo",
@@ -118,8 +120,10 @@ def test_same_seed_same_numbers_in_another_process():
         "    out += [o, r[:, None]]\n"
         "print(np.concatenate([x.ravel() for x in out]).tobytes().hex())\n"
     )
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-            for _ in range(2)]
+    runs = [
+        subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+        for _ in range(2)
+    ]
     assert runs[0] == runs[1] and len(runs[0]) > 1000
     other = BatchedUAVEnv("quadx_waypoints", num_envs=5)
     first, _ = other.reset(seed=12)
@@ -139,15 +143,27 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
     assert load(["env=quadx_waypoints"], tmp_path).env.backend == "batched"  # its PPO tuning is auto too
     assert load(["env=quadx_waypoints", "env.action.mode=velocity"], tmp_path).env.backend == "batched"  # every mode
     assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
-    assert load(["env=quadx_waypoints", "env.action.mode=velocity", "env.downwash=true"], tmp_path).env.backend == "pybullet"
+    assert (
+        load(["env=quadx_waypoints", "env.action.mode=velocity", "env.downwash=true"], tmp_path).env.backend
+        == "pybullet"
+    )
     assert load(["env=quadx_gates"], tmp_path).env.backend == "pybullet"  # its tuning keeps the default
     assert load(["env=quadx_hover", *LATENCY], tmp_path).env.backend == "batched"  # delays, fixed and drawn
     assert load(["env=quadx_hover_sensors", "env.backend=auto"], tmp_path).env.backend == "batched"  # the estimator
-    assert load(["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"],
-                tmp_path).env.backend == "batched"  # airframe factors and spawn offsets, drawn per env
+    assert (
+        load(
+            ["env=quadx_hover", "+env.randomize.mass={distribution: uniform, low: 0.9, high: 1.1}"], tmp_path
+        ).env.backend
+        == "batched"
+    )  # airframe factors and spawn offsets, drawn per env
     assert load(["env=quadx_hover", "env.randomize=sim2real"], tmp_path).env.backend == "batched"
-    assert load(["env=quadx_hover", "+env.randomize.battery_capacity={distribution: uniform, low: 0.9, high: 1.1}"],
-                tmp_path).env.backend == "pybullet"  # a model it does not simulate
+    assert (
+        load(
+            ["env=quadx_hover", "+env.randomize.battery_capacity={distribution: uniform, low: 0.9, high: 1.1}"],
+            tmp_path,
+        ).env.backend
+        == "pybullet"
+    )  # a model it does not simulate
     with pytest.raises(ConfigError, match="does not simulate env.downwash"):
         load(["env=quadx_hover", "env.backend=batched", "env.downwash=true"], tmp_path)
 
@@ -282,7 +298,8 @@ def test_a_checkpoint_carries_the_delays():
     delays, the actions in flight and the states it will show back with the rest: the steps
     after it repeat bit for bit."""
     cfg = load_env_config("quadx_hover").with_overrides(
-        backend="batched", latency={"action_delay": 0.0125},
+        backend="batched",
+        latency={"action_delay": 0.0125},
         randomize={"observation_delay": {"distribution": "uniform", "low": 0.0, "high": 0.05}},
     )
     vec = make_vec_env(cfg, 3)

@@ -67,4 +67,4 @@ def test_each_group_trains_batched_and_the_sparse_runs_start_from_the_batched_sa
             final = read_policy(run / rundir.FINAL_MODEL).policy
             for key, value in partial.policy.items():
                 if key.startswith("actor."):
-                    assert torch.equal(final["oracle." + key[len("actor."):]], value), key
+                    assert torch.equal(final["oracle." + key[len("actor.") :]], value), key

@@ -75,7 +75,10 @@ def test_paper_rl_bootstraps_sparse_awac_and_ccge_from_partial_sac(tmp_path: Pat
         assert shape == ("batched", 64, 4), job.id
     assert (sac.config["algo"]["n_steps"], awac.config["algo"]["n_steps"], ccge.config["algo"]["n_steps"]) == (3, 1, 1)
     # from the same sphere, each cut to its run's budget (a curriculum may not outlast it)
-    sphere, awac_sphere = sac.config["train"]["curriculum"]["goal_reach_distance"], awac.config["train"]["curriculum"]["goal_reach_distance"]
+    sphere, awac_sphere = (
+        sac.config["train"]["curriculum"]["goal_reach_distance"],
+        awac.config["train"]["curriculum"]["goal_reach_distance"],
+    )
     assert sphere["start"] == awac_sphere["start"] == 1.0
     assert sphere["steps"] == plan.spec["presets"]["laptop"]["dense_curriculum"] <= sac.total_timesteps
     assert awac_sphere["steps"] == plan.spec["presets"]["laptop"]["sparse_curriculum"] <= awac.total_timesteps
@@ -317,8 +320,12 @@ def test_every_dry_run_line_composes_the_planned_run(tmp_path: Path) -> None:
     out = tmp_path / "a dir, with 'quotes'"  # the lines must quote what the shell and Hydra would split
     quoted = str(out).replace("'", "\\'")
     # a shorter budget for every run, and the dense runs' curriculum cut to it
-    args = [f"benchmark.output_dir='{quoted}'", "seeds=2", "train.total_timesteps=160000",
-            "benchmark.presets.laptop.dense_curriculum=160000"]
+    args = [
+        f"benchmark.output_dir='{quoted}'",
+        "seeds=2",
+        "train.total_timesteps=160000",
+        "benchmark.presets.laptop.dense_curriculum=160000",
+    ]
     result = pyflyt(["benchmark", "experiment=paper_rl", *args, "--dry-run"], tmp_path)
     assert result.returncode == 0, result.stderr
     plan, _ = build_plan("paper_rl", args)
@@ -344,11 +351,14 @@ def test_a_benchmark_directory_that_cannot_be_made_is_a_user_error(tmp_path: Pat
     from pyflyt_cli.main import app
 
     (tmp_path / "a file").write_text("")
-    result = CliRunner().invoke(app, ["benchmark", "experiment=smoke_benchmark",
-                                      f"benchmark.output_dir='{tmp_path / 'a file'}'"])
+    result = CliRunner().invoke(
+        app, ["benchmark", "experiment=smoke_benchmark", f"benchmark.output_dir='{tmp_path / 'a file'}'"]
+    )
     assert result.exit_code == 2 and result.output.startswith("error:"), result.output
-    assert re.search("cannot use .* as the benchmark directory .* choose another benchmark.output_dir",
-                     result.output.replace("\n", " ")), result.output
+    assert re.search(
+        "cannot use .* as the benchmark directory .* choose another benchmark.output_dir",
+        result.output.replace("\n", " "),
+    ), result.output
 
 
 @pytest.mark.long
@@ -381,7 +391,10 @@ def test_runs_made_under_another_numeric_platform_are_named_in_one_line(tmp_path
     assert note is not None and len(note.splitlines()) == 1
     assert f"1 of the runs here ({plan.jobs[1].id}) were made on another CPU (Intel(R) Xeon(R) Platinum 8375C" in note
     assert "the same pinned kernels: the numbers agree" in note
-    assert f"1 of the runs here ({plan.jobs[2].id}) were made under another numeric platform (cpu Intel(R) Xeon(R) -> -;" in note
+    assert (
+        f"1 of the runs here ({plan.jobs[2].id}) were made under another numeric platform (cpu Intel(R) Xeon(R) -> -;"
+        in note
+    )
     assert plan.jobs[0].id not in note
     for job in plan.jobs[1:3]:  # all made here: nothing to say
         rundir.write_yaml(plan.run_dir(job) / rundir.RUN_FILE, {"numerics": here})
@@ -404,6 +417,13 @@ def test_evaluation_steps_fall_on_collection_rounds(algo: str, settings: list[st
     from pyflyt_cli.training.compose import compose_train_data
 
     data, _ = compose_train_data(
-        [f"algo={algo}", "env=quadx_hover", *settings, "train.n_envs=2", "train.total_timesteps=100", "train.eval_freq=30"]
+        [
+            f"algo={algo}",
+            "env=quadx_hover",
+            *settings,
+            "train.n_envs=2",
+            "train.total_timesteps=100",
+            "train.eval_freq=30",
+        ]
     )
     assert evaluation_steps(data) == expected

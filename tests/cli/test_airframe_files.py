@@ -75,7 +75,9 @@ def test_missing_and_invalid_files_are_one_message(workdir, command):
     missing = runner.invoke(app, [arg.format("airframes/y7.yaml") for arg in command])
     assert missing.exit_code == 2, missing.output
     key = next(arg for arg in command if "{}" in arg).partition("=")[0]
-    assert f"error: {key}=airframes/y7.yaml: no such airframe file ({workdir / 'airframes' / 'y7.yaml'})" in missing.output
+    assert (
+        f"error: {key}=airframes/y7.yaml: no such airframe file ({workdir / 'airframes' / 'y7.yaml'})" in missing.output
+    )
     assert "Traceback" not in missing.output
     bad = workdir / "airframes" / "bad.yaml"
     bad.write_text("name: bad\nbody: {mass: -1, inertia: [1, 1, 1]}\n")
@@ -96,7 +98,14 @@ def test_train_composes_an_absolute_path_from_either_key(workdir):
 
 def test_benchmark_runs_name_the_file_by_its_absolute_path(workdir):
     result = runner.invoke(
-        app, ["benchmark", "experiment=smoke_benchmark", "uav=airframes/y6.yaml", f"benchmark.output_dir={workdir}", "--dry-run"]
+        app,
+        [
+            "benchmark",
+            "experiment=smoke_benchmark",
+            "uav=airframes/y6.yaml",
+            f"benchmark.output_dir={workdir}",
+            "--dry-run",
+        ],
     )
     assert result.exit_code == 0, result.output
     lines = [line for line in result.output.splitlines() if line.startswith("pyflyt train")]

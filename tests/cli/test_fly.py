@@ -31,7 +31,8 @@ def test_fly_a_rocket_mode_holds_the_spawn_height_and_flies_a_setpoint(mode):
     assert abs(float(final.group(3)) - 100.0) < 0.5
     if mode == "velocity":
         result = runner.invoke(
-            app, ["fly", "uav=rocket", "mode=velocity", "setpoint={vz:2,ignition:1}", "position=[0,0,100]", "duration=3"]
+            app,
+            ["fly", "uav=rocket", "mode=velocity", "setpoint={vz:2,ignition:1}", "position=[0,0,100]", "duration=3"],
         )
         final = re.search(r"final position \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", result.output)
         assert 104.0 < float(final.group(3)) < 106.0  # 2 m/s up, reached within a fraction of a second

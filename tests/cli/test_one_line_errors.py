@@ -126,8 +126,12 @@ def test_pybullets_reason_is_inside_the_one_line_not_glued_in_front_of_it(tmp_pa
     text = (uav_dir() / "quadx_cf2x.yaml").read_text().replace("\nbody:\n", "\nbody:\n  urdf: body.urdf\n", 1)
     (tmp_path / "airframe.yaml").write_text(text)
     (tmp_path / "body.urdf").write_text("<foo/>")
-    done = subprocess.run([sys.executable, "-m", "pyflyt_cli.main", "fly", f"uav={tmp_path / 'airframe.yaml'}",
-                           "duration=0.1"], capture_output=True, text=True, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-m", "pyflyt_cli.main", "fly", f"uav={tmp_path / 'airframe.yaml'}", "duration=0.1"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert done.returncode == 2, done.stdout + done.stderr
     assert done.stdout == "", done.stdout
     lines = done.stderr.splitlines()

@@ -129,8 +129,9 @@ def recording(tmp_path_factory) -> Path:
     ("--plot", "p.png", "matplotlib.figure.Figure.savefig", errno.EROFS),
     ("--video", "v.gif", "imageio.v2.mimsave", errno.ENOSPC),
 ])  # fmt: skip
-def test_replay_write_failure_is_one_message_and_a_retry_succeeds(recording, tmp_path, monkeypatch, option, name,
-                                                                  writer, code):
+def test_replay_write_failure_is_one_message_and_a_retry_succeeds(
+    recording, tmp_path, monkeypatch, option, name, writer, code
+):
     out = tmp_path / name
     args = ("replay", recording, option, out, *(("--size", "32x24") if option == "--video" else ()))
     stand_in = failing(code, method=writer.endswith("savefig"))
@@ -150,8 +151,9 @@ def _limited(limit: int):
     ("--plot", "plot.png", "File too large"),
     ("--video", "video.mp4", "the video encoder (ffmpeg) stopped before the video was complete"),
 ])  # fmt: skip
-def test_replay_output_past_a_file_size_limit_leaves_nothing_and_a_retry_succeeds(recording, tmp_path, option, name,
-                                                                                  reason):
+def test_replay_output_past_a_file_size_limit_leaves_nothing_and_a_retry_succeeds(
+    recording, tmp_path, option, name, reason
+):
     out = tmp_path / "out" / name
     out.parent.mkdir()
     env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONDONTWRITEBYTECODE": "1", "MPLBACKEND": "Agg",

@@ -29,16 +29,21 @@ def _cases(tmp):
         "train: a nested key": (["train", "algo.learnin_rate=1", "--cfg"], "Did you mean 'algo.learning_rate'?"),
         "eval: a key": (["eval", str(run), "episods=3"], "Did you mean 'episodes'? Use episodes=3."),
         "eval: a zoo agent": (["eval", "zoo:quadx_hovr_ppo"], "Did you mean 'quadx_hover_ppo'?"),
-        "eval: a run directory": ([
-            "eval", str(run.parent / "20261201-101010-seed1")], f"Did you mean '{run}'?"),
-        "eval: a folder of runs": (["eval", str(tmp / "runs" / "quadx_hovr")], f"Did you mean '{tmp / 'runs' / 'quadx_hover'}'?"),
+        "eval: a run directory": (["eval", str(run.parent / "20261201-101010-seed1")], f"Did you mean '{run}'?"),
+        "eval: a folder of runs": (
+            ["eval", str(tmp / "runs" / "quadx_hovr")],
+            f"Did you mean '{tmp / 'runs' / 'quadx_hover'}'?",
+        ),
         "eval: an oracle": (["eval", "oracle:rocket_landr"], "Did you mean 'rocket_lander'?"),
         "export: a key": (["export", "zoo:quadx_hover_ppo", "formt=c"], "Did you mean 'format'?"),
         "export: a zoo agent": (["export", "zoo:Quadx_Hover_PPO", "format=c"], "Did you mean 'quadx_hover_ppo'?"),
         "replay: an option": (["replay", str(tmp / "x.mcap"), "--vidoe", "a.gif"], "--video"),
         "plot: an option": (["plot", str(tmp), "--reeps", "3"], "--reps"),
         "benchmark: the experiment key": (["benchmark", "experment=smoke_benchmark"], "Did you mean 'experiment'?"),
-        "benchmark: a key": (["benchmark", "experiment=smoke_benchmark", "sedes=3", "--dry-run"], "Did you mean 'seed'?"),
+        "benchmark: a key": (
+            ["benchmark", "experiment=smoke_benchmark", "sedes=3", "--dry-run"],
+            "Did you mean 'seed'?",
+        ),
         "fly: a key": (["fly", "duraton=1"], "Did you mean 'duration'?"),
         "tune: a setting": (["tune", "env=quadx_hover", "algo=ppo", "trails=3"], "Did you mean 'trials'?"),
         "uav: an airframe": (["uav", "show", "quadx_cf2"], "Did you mean 'quadx_cf2x'?"),
@@ -46,7 +51,9 @@ def _cases(tmp):
         "speed: an option": (["speed", "--repeets", "2"], "--repeats"),
         "zoo: a run directory": (["zoo", "--add", str(run.parent / "20261201-101010-seed1")], f"Did you mean '{run}'?"),
         "replay: a recording": (
-            ["replay", str(run / "episodes" / "ep_0010.mcap")], f"Did you mean '{run / 'episodes' / 'ep_0001.mcap'}'?"),
+            ["replay", str(run / "episodes" / "ep_0010.mcap")],
+            f"Did you mean '{run / 'episodes' / 'ep_0001.mcap'}'?",
+        ),
         "a command": (["evl", "x"], "Did you mean 'eval'?"),
     }
 
@@ -58,11 +65,29 @@ def cases(tmp_path, monkeypatch):
 
 
 NAMES = [
-    "train: an algo in capitals", "train: an env", "train: a key above a key", "train: a nested key",
-    "eval: a key", "eval: a zoo agent", "eval: a run directory", "eval: a folder of runs", "eval: an oracle",
-    "export: a key", "export: a zoo agent", "replay: an option", "plot: an option",
-    "benchmark: the experiment key", "benchmark: a key", "fly: a key", "tune: a setting", "uav: an airframe",
-    "speed: an env", "speed: an option", "zoo: a run directory", "replay: a recording", "a command",
+    "train: an algo in capitals",
+    "train: an env",
+    "train: a key above a key",
+    "train: a nested key",
+    "eval: a key",
+    "eval: a zoo agent",
+    "eval: a run directory",
+    "eval: a folder of runs",
+    "eval: an oracle",
+    "export: a key",
+    "export: a zoo agent",
+    "replay: an option",
+    "plot: an option",
+    "benchmark: the experiment key",
+    "benchmark: a key",
+    "fly: a key",
+    "tune: a setting",
+    "uav: an airframe",
+    "speed: an env",
+    "speed: an option",
+    "zoo: a run directory",
+    "replay: a recording",
+    "a command",
 ]
 
 

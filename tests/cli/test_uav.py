@@ -228,6 +228,7 @@ def test_validate_builds_the_vehicle_and_reports_build_errors(monkeypatch):
         (ValueError("stall angles leave +-90 deg"), "cannot build the vehicle: stall angles"),
         (RuntimeError("a bug"), "internal error while checking it (RuntimeError: a bug)"),
     ):
+
         def fail(self, *args, error=error, **kwargs):
             raise error
 

@@ -125,8 +125,12 @@ def test_contacts_by_body_id_and_bullet_methods():
 
 
 def test_cameras_come_from_drone_options():
-    env = Aviary(start_pos=ONE, start_orn=LEVEL, drone_type="quadx",
-                 drone_options=dict(use_camera=True, camera_resolution=(32, 48)))
+    env = Aviary(
+        start_pos=ONE,
+        start_orn=LEVEL,
+        drone_type="quadx",
+        drone_options=dict(use_camera=True, camera_resolution=(32, 48)),
+    )
     try:
         env.step()
         drone = env.drones[0]

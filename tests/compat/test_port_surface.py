@@ -534,8 +534,11 @@ def test_a_stock_env_subclass_overriding_reset_calls_its_two_halves_as_in_the_re
         position = env.env.state(0)[-1]
         # settled 1/12 s below the spawn, as the stock reset; the deltas to the assigned course
         assert position[2] == pytest.approx(1.0 - 0.5 * 9.81 / 144, abs=3e-3)
-        np.testing.assert_allclose(np.linalg.norm(obs["target_deltas"], axis=1),
-                                   np.linalg.norm(env.waypoints.targets - position, axis=1), rtol=1e-9)
+        np.testing.assert_allclose(
+            np.linalg.norm(obs["target_deltas"], axis=1),
+            np.linalg.norm(env.waypoints.targets - position, axis=1),
+            rtol=1e-9,
+        )
         env.step(np.array([0.0, 0.0, 0.0, 0.3]))
         assert env.step_count == 1
     finally:

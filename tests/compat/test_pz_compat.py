@@ -36,8 +36,9 @@ def test_ma_hover_defaults_spaces_and_layout():
         np.testing.assert_allclose(obs["uav_0"][17:21], [0.0, 0.0, 0.0, 0.5])
     finally:
         env.close()
-    euler = MAQuadXHoverEnvV2(angle_representation="euler", start_pos=np.array([[0.0, 0.0, 1.0]]),
-                              start_orn=np.zeros((1, 3)), flight_mode=7)
+    euler = MAQuadXHoverEnvV2(
+        angle_representation="euler", start_pos=np.array([[0.0, 0.0, 1.0]]), start_orn=np.zeros((1, 3)), flight_mode=7
+    )
     try:
         assert euler.possible_agents == ["uav_0"] and euler.observation_space("uav_0").shape == (23,)
     finally:
@@ -119,8 +120,17 @@ def _one_behind_the_other(env):
     attitudes[1, 3] = [10.0, 0.0, 100.0]
     attitudes[:, 2, 0] = 20.0
     env.attitudes = attitudes
-    (env.in_cone, env.in_range, env.chasing, env.current_hits, env.current_distances, env.current_angles,
-     env.current_offsets, env.other_attitudes, env.distances_from_origin) = env._compute_combat_state()
+    (
+        env.in_cone,
+        env.in_range,
+        env.chasing,
+        env.current_hits,
+        env.current_distances,
+        env.current_angles,
+        env.current_offsets,
+        env.other_attitudes,
+        env.distances_from_origin,
+    ) = env._compute_combat_state()
     env.current_hits &= env.friendly_fire_mask
 
 

@@ -213,8 +213,12 @@ def _fly_pz(case: dict, seed: int) -> dict:
             for a in live:
                 returns[a] = returns.get(a, 0.0) + float(rewards[a])
                 if terms[a] or truncs[a]:
-                    ends[a] = {"step": steps, "terminated": bool(terms[a]), "truncated": bool(truncs[a]),
-                               "info": _flags(infos[a])}
+                    ends[a] = {
+                        "step": steps,
+                        "terminated": bool(terms[a]),
+                        "truncated": bool(truncs[a]),
+                        "info": _flags(infos[a]),
+                    }
         return {"steps": steps, "returns": returns, "ends": ends}
     finally:
         env.close()

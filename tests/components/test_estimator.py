@@ -342,8 +342,13 @@ def episode_hash(uav: str) -> str:
 
 def test_a_seeded_episode_is_bit_identical_across_processes():
     code = f"from tests.components.test_estimator import episode_hash; print(episode_hash({EXAMPLE!r}))"
-    other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                           env={**os.environ, "PYTHONPATH": str(ROOT)})
+    other = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     assert other.returncode == 0, other.stderr[-2000:]
     first = episode_hash(EXAMPLE)
     assert other.stdout.strip().splitlines()[-1] == first

@@ -22,21 +22,31 @@ def gimbal_rotation(params, angles):
     """(n, 3, 3) rotation matrices: column j is ``rotate_vector_scalar`` (what runs) of e_j."""
     basis = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     constants = gimbal_constants(params, DT)
-    columns = [[rotate_vector_scalar(k, *eps, e) for e in basis] for k, eps in zip(constants, np.asarray(angles).tolist())]
+    columns = [
+        [rotate_vector_scalar(k, *eps, e) for e in basis] for k, eps in zip(constants, np.asarray(angles).tolist())
+    ]
     return np.array(columns).transpose(0, 2, 1)
 
 
 def gimbal_step(params, angles, command, dt):
     """(n, 2) angles after one ``gimbal_step_scalar`` (what runs) per gimbal."""
     constants = gimbal_constants(params, dt)
-    steps = [gimbal_step_scalar(k, *eps, *xi) for k, eps, xi in zip(constants, np.asarray(angles).tolist(), np.asarray(command).tolist())]
+    steps = [
+        gimbal_step_scalar(k, *eps, *xi)
+        for k, eps, xi in zip(constants, np.asarray(angles).tolist(), np.asarray(command).tolist())
+    ]
     return np.array(steps)
 
 
 def rotate_axes(params, angles, axes):
     """(n, 3) vectors, each rotated by its gimbal with ``rotate_vector_scalar`` (what runs)."""
     constants = gimbal_constants(params, DT)
-    return np.array([rotate_vector_scalar(k, *eps, tuple(v)) for k, eps, v in zip(constants, np.asarray(angles).tolist(), np.asarray(axes).tolist())])
+    return np.array(
+        [
+            rotate_vector_scalar(k, *eps, tuple(v))
+            for k, eps, v in zip(constants, np.asarray(angles).tolist(), np.asarray(axes).tolist())
+        ]
+    )
 
 
 def random_unit(rng, n):

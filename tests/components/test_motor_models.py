@@ -314,12 +314,44 @@ def test_hover_throttle_rises_as_the_battery_sags_as_the_model_says():
         ({"motors.tau_fall": [0.01, 0.02]}, "tau_fall"),
         ({"motors.inflow": {"solidity": 1.5}}, "solidity"),
         ({"motors.inflow": {"solidity": 0.1}, "motors.prop_radius": None}, "prop_radius"),
-        ({"battery": {"capacity_mah": 0, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [1, 4]]}}, "capacity_mah"),
-        ({"battery": {"capacity_mah": 250, "internal_resistance": -0.1, "open_circuit_voltage": [[0, 3], [1, 4]]}}, "internal_resistance"),
-        ({"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [0.5, 4]]}}, "open_circuit_voltage"),
-        ({"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 4], [1, 3]]}}, "open_circuit_voltage"),
-        ({"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [1, 4]], "efficiency": 0}}, "efficiency"),
-        ({"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [1, 4]], "initial_charge": 1.2}}, "initial_charge"),
+        (
+            {"battery": {"capacity_mah": 0, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [1, 4]]}},
+            "capacity_mah",
+        ),
+        (
+            {"battery": {"capacity_mah": 250, "internal_resistance": -0.1, "open_circuit_voltage": [[0, 3], [1, 4]]}},
+            "internal_resistance",
+        ),
+        (
+            {"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 3], [0.5, 4]]}},
+            "open_circuit_voltage",
+        ),
+        (
+            {"battery": {"capacity_mah": 250, "internal_resistance": 0.1, "open_circuit_voltage": [[0, 4], [1, 3]]}},
+            "open_circuit_voltage",
+        ),
+        (
+            {
+                "battery": {
+                    "capacity_mah": 250,
+                    "internal_resistance": 0.1,
+                    "open_circuit_voltage": [[0, 3], [1, 4]],
+                    "efficiency": 0,
+                }
+            },
+            "efficiency",
+        ),
+        (
+            {
+                "battery": {
+                    "capacity_mah": 250,
+                    "internal_resistance": 0.1,
+                    "open_circuit_voltage": [[0, 3], [1, 4]],
+                    "initial_charge": 1.2,
+                }
+            },
+            "initial_charge",
+        ),
     ],
 )
 def test_impossible_values_are_refused_naming_the_key(changes, key):

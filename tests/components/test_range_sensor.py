@@ -83,7 +83,15 @@ def test_vertical_beams_and_a_mounted_sensor_follow_the_geometry():
 
 def test_depth_camera_reads_the_axial_depth_of_a_wall_filling_its_view():
     # a face perpendicular to the optical axis: every pixel reads the same depth, 2 m
-    depth = {"name": "depth", "type": "depth", "width": 8, "height": 6, "fov": 60.0, "min_range": 0.1, "max_range": 10.0}
+    depth = {
+        "name": "depth",
+        "type": "depth",
+        "width": 8,
+        "height": 6,
+        "fov": 60.0,
+        "min_range": 0.1,
+        "max_range": 10.0,
+    }
     world = _world([depth], boxes=[{"size": [1.0, 8.0, 8.0], "position": [2.5, 0.0, 1.0]}])
     image = world.scan(0, 0)
     assert image.shape == (6, 8)
@@ -194,8 +202,13 @@ def test_rays_cast_from_the_body_frame_read_as_rays_placed_in_the_ground_frame()
     # same sensor without a body places them by the state's pose in NumPy: both must read
     # the same (bit for bit here; the hit fractions differ by rounding only) on a tilted,
     # turning flight past a wall, with a mounted, pitched scanner of several lines
-    sensor = {**LIDAR, "vertical_beams": 3, "vertical_fov_deg": 20.0, "position": [0.03, -0.02, 0.01],
-              "orientation_deg": [5.0, 10.0, 30.0]}
+    sensor = {
+        **LIDAR,
+        "vertical_beams": 3,
+        "vertical_fov_deg": 20.0,
+        "position": [0.03, -0.02, 0.01],
+        "orientation_deg": [5.0, 10.0, 30.0],
+    }
     world = _world([sensor], yaw=0.3, ground=True, boxes=[WALL])
     world.set_mode(0, "rates_thrust")
     lidar = world.vehicles[0].range_sensors[0]

@@ -48,8 +48,9 @@ def _with_sensors(sensors: dict, name: str = "quadx_cf2x"):
 
 
 def _triad(**values) -> InertialTriad:
-    base = dict(noise_density=0.0, bias_random_walk=0.0, bias=0.0, bias_initial_std=0.0, scale=1.0, range=1e9,
-                rate_hz=100.0)
+    base = dict(
+        noise_density=0.0, bias_random_walk=0.0, bias=0.0, bias_initial_std=0.0, scale=1.0, range=1e9, rate_hz=100.0
+    )
     return InertialTriad(SimpleNamespace(**{**base, **values}))
 
 
@@ -133,9 +134,13 @@ IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 def test_readings_are_held_between_samples_at_the_configured_rate():
-    suite = _suite({"imu": {"gyro": {"noise_density": 1e-2, "rate_hz": 60.0}, "accel": {"rate_hz": 240.0}},
-                    "position": {"noise_std": [0.1, 0.1, 0.1], "rate_hz": 10.0},
-                    "barometer": {"noise_std": 0.1, "rate_hz": 25.0}})
+    suite = _suite(
+        {
+            "imu": {"gyro": {"noise_density": 1e-2, "rate_hz": 60.0}, "accel": {"rate_hz": 240.0}},
+            "position": {"noise_std": [0.1, 0.1, 0.1], "rate_hz": 10.0},
+            "barometer": {"noise_std": 0.1, "rate_hz": 25.0},
+        }
+    )
     gyro, pos, alt = [], [], []
     for _ in range(240):  # one second of physics at 240 Hz
         suite.step((0.0, 0.0, 1.0), IDENTITY, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -174,8 +179,9 @@ def test_accelerometer_reads_specific_force_at_rest_and_in_free_fall():
     world.close()
     # in free fall without drag (no ground): f = 0 (contact forces and gravity cancel out of
     # the velocity difference exactly but for the float round-off)
-    world = World([dict(uav=_with_sensors(sensors), position=(0.0, 0.0, 50.0), mode="motors")], seed=0,
-                  ground=False, drag=False)
+    world = World(
+        [dict(uav=_with_sensors(sensors), position=(0.0, 0.0, 50.0), mode="motors")], seed=0, ground=False, drag=False
+    )
     world.reset(seed=0)
     for _ in range(10):
         world.step()
@@ -185,8 +191,13 @@ def test_accelerometer_reads_specific_force_at_rest_and_in_free_fall():
 
 def test_gyro_reads_the_body_rates():
     # one physics step per agent step: the sample taken at its start sees the state before it
-    world = World([dict(uav=_with_sensors({"imu": {}}), position=(0.0, 0.0, 50.0), mode="motors")], seed=0,
-                  ground=False, drag=False, agent_hz=240.0)
+    world = World(
+        [dict(uav=_with_sensors({"imu": {}}), position=(0.0, 0.0, 50.0), mode="motors")],
+        seed=0,
+        ground=False,
+        drag=False,
+        agent_hz=240.0,
+    )
     world.reset(seed=0)
     vehicle = world.vehicles[0]
     vehicle.reset(ang_vel=(0.3, -0.2, 0.1))
@@ -326,8 +337,13 @@ def test_episodes_with_sensors_record_them_and_verify_exactly(tmp_path):
     for path, last in zip(env.paths, readings):
         episode = load_episode(path)
         track = episode.vehicles[0]
-        assert track.sensor_layout == [("gyro", 3), ("accel", 3), ("position", 3), ("position_valid", 1),
-                                       ("altitude", 1)]
+        assert track.sensor_layout == [
+            ("gyro", 3),
+            ("accel", 3),
+            ("position", 3),
+            ("position_valid", 1),
+            ("altitude", 1),
+        ]
         assert track.sensors.shape == (len(track.time), 11) and track.sensors[-1].tolist() == last
         result = verify(episode, tolerance=0.0)
         assert result.ok and result.max_deviation == 0.0 and result.per_field["sensors"] == 0.0, result
@@ -357,8 +373,13 @@ def episode_hash(uav: str) -> str:
 
 def test_a_seeded_episode_is_bit_identical_across_processes():
     code = f"from tests.components.test_sensors import episode_hash; print(episode_hash({str(EXAMPLE)!r}))"
-    other = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                           env={**os.environ, "PYTHONPATH": str(ROOT)})
+    other = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     assert other.returncode == 0, other.stderr[-2000:]
     assert other.stdout.strip().splitlines()[-1] == episode_hash(str(EXAMPLE))
 

@@ -135,8 +135,7 @@ def outcome(run_dir: Path) -> dict[str, Any]:
         "model": read_payload(run_dir / "model.pt"),
         "best": read_payload(run_dir / "best_model.pt"),
         "metrics": {
-            topic: [{k: v for k, v in row.items() if not _clock(k)} for row in rows]
-            for topic, rows in metrics.items()
+            topic: [{k: v for k, v in row.items() if not _clock(k)} for row in rows] for topic, rows in metrics.items()
         },
         "state": state,
     }
@@ -191,7 +190,10 @@ def reference(grid: Path, tmp_path_factory: pytest.TempPathFactory) -> Callable[
             # comparisons that can fail: 4 evaluations a run, and the seeds train different weights
             assert all(len(r["metrics"]["/eval"]) == 4 for r in done.values())
             for run_id in RUN_IDS[::2]:
-                seed0, seed1 = done[run_id]["model"]["policy"], done[run_id.replace("seed0", "seed1")]["model"]["policy"]
+                seed0, seed1 = (
+                    done[run_id]["model"]["policy"],
+                    done[run_id.replace("seed0", "seed1")]["model"]["policy"],
+                )
                 assert any(not torch.equal(seed0[k], seed1[k]) for k in seed0), run_id
         return done
 
@@ -364,6 +366,8 @@ def test_a_ray_instance_the_benchmark_starts_itself_trains_the_same_runs(
     assert result.returncode == 0, output[-3000:]
     assert "Ray Launcher is launching 4 jobs" in output and "Connecting to existing Ray cluster" not in output
     seed0 = [i for i in RUN_IDS if i.endswith("/seed0")]
-    assert sorted(p.parent.relative_to(tmp_path / "grid" / "runs").as_posix()
-                  for p in (tmp_path / "grid" / "runs").glob("*/*/*/state.json")) == sorted(seed0)
+    assert sorted(
+        p.parent.relative_to(tmp_path / "grid" / "runs").as_posix()
+        for p in (tmp_path / "grid" / "runs").glob("*/*/*/state.json")
+    ) == sorted(seed0)
     _assert_runs_match(tmp_path / "grid", seed0, expected)

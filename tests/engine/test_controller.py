@@ -27,13 +27,17 @@ DT = 1.0 / 120.0
 def _controller(mode: str, **changes) -> tuple[MultirotorController, object]:
     spec = spec_variant("quadx_f450", **{"body.inertia": [0.011, 0.009, 0.016], **changes})
     vehicle = World([VehicleConfig(spec)], seed=0).vehicles[0]
-    controller = MultirotorController(spec.control, vehicle.parts.mass, np.diag(vehicle.parts.inertia), vehicle.mixer, DT)
+    controller = MultirotorController(
+        spec.control, vehicle.parts.mass, np.diag(vehicle.parts.inertia), vehicle.mixer, DT
+    )
     controller.set_mode(MULTIROTOR_MODES[mode])
     return controller, spec
 
 
 def _state(ang_vel=(0.0, 0.0, 0.0), ang_pos=(0.0, 0.0, 0.0), lin_pos=(0.0, 0.0, 1.0), lin_vel_ground=(0.0, 0.0, 0.0)):
-    return KinematicState(ang_vel, ang_pos, (0.0, 0.0, 0.0), lin_pos, (0.0, 0.0, 0.0, 1.0), lin_vel_ground, (0.0, 0.0, 0.0))
+    return KinematicState(
+        ang_vel, ang_pos, (0.0, 0.0, 0.0), lin_pos, (0.0, 0.0, 0.0, 1.0), lin_vel_ground, (0.0, 0.0, 0.0)
+    )
 
 
 def test_rate_loop_is_pi_plus_derivative_times_inertia_plus_gyroscopic_term():
@@ -73,7 +77,9 @@ def test_thrust_is_weight_plus_climb_compensated_for_tilt():
     mass = controller.mass
     assert controller._thrust_for(_state(), 0.0) == pytest.approx(mass * GRAVITY)
     tilted = _state(ang_pos=(0.3, 0.2, 0.0))
-    assert controller._thrust_for(tilted, 1.5) == pytest.approx(mass * (GRAVITY + 1.5) / (math.cos(0.3) * math.cos(0.2)))
+    assert controller._thrust_for(tilted, 1.5) == pytest.approx(
+        mass * (GRAVITY + 1.5) / (math.cos(0.3) * math.cos(0.2))
+    )
     assert controller._thrust_for(_state(ang_pos=(1.4, 0.0, 0.0)), 0.0) == pytest.approx(mass * GRAVITY / 0.5)
     assert controller._thrust_for(_state(), -2 * GRAVITY) == 0.0  # never pulls
 

@@ -73,9 +73,11 @@ def test_actuator_noise_does_not_depend_on_how_the_stream_is_cut_into_blocks(mon
     def trajectory():
         # noisy motors (cf2x, f450) and a noisy booster (rocket), 8 physics steps per world step
         world = World(
-            [VehicleConfig("quadx_cf2x", (0, 0, 1), mode="position_yaw"),
-             VehicleConfig("quadx_f450", (3, 0, 1), mode="position_yaw"),
-             VehicleConfig("rocket", (10, 0, 1))],
+            [
+                VehicleConfig("quadx_cf2x", (0, 0, 1), mode="position_yaw"),
+                VehicleConfig("quadx_f450", (3, 0, 1), mode="position_yaw"),
+                VehicleConfig("rocket", (10, 0, 1)),
+            ],
             seed=3,
         )
         world.set_setpoint(0, [0.5, 0.2, 1.5, 0.3])

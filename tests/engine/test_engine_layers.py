@@ -26,7 +26,24 @@ ENGINE = Path(__file__).resolve().parents[2] / "pyflyt_engine"
 
 #: Top-level modules and packages of pyflyt_engine, lowest layer first.
 LAYERS: tuple[frozenset[str], ...] = (
-    frozenset({"errors", "exact", "constants", "numerics", "paths", "safe_load", "limits", "frames", "state", "bullet", "allocation", "loading", "spatial", "suggest"}),
+    frozenset(
+        {
+            "errors",
+            "exact",
+            "constants",
+            "numerics",
+            "paths",
+            "safe_load",
+            "limits",
+            "frames",
+            "state",
+            "bullet",
+            "allocation",
+            "loading",
+            "spatial",
+            "suggest",
+        }
+    ),
     frozenset({"spec"}),
     frozenset({"urdf", "components", "payloads", "obstacles"}),
     frozenset({"atmosphere", "assembly", "control"}),
@@ -65,7 +82,9 @@ def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
             out |= {a.name for a in node.names if a.name in modules}
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in modules:
             # ``from pyflyt_engine import exact`` imports the module pyflyt_engine.exact
-            out |= {f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else node.module for a in node.names}
+            out |= {
+                f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else node.module for a in node.names
+            }
     return out
 
 

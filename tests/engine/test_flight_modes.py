@@ -38,16 +38,64 @@ def _fly(uav: str, mode: str | int, setpoint, seconds: float, start=START) -> Ki
 
 # (mode, setpoint, seconds, check(state) -> error, tolerance)
 CASES = [
-    ("attitude_vz", [0.0, 0.0, 0.8, 0.5], 3.0, lambda s: max(abs(s.ang_pos[2] - 0.8), abs(s.lin_vel_ground[2] - 0.5)), 0.05),
+    (
+        "attitude_vz",
+        [0.0, 0.0, 0.8, 0.5],
+        3.0,
+        lambda s: max(abs(s.ang_pos[2] - 0.8), abs(s.lin_vel_ground[2] - 0.5)),
+        0.05,
+    ),
     # body rates: 1-s mean within 0.1 rad/s (the cf2x's 2 % motor noise jitters them by ~0.3 rad/s)
     ("rates_z", [0.0, 0.0, 0.5, 3.0], 4.0, lambda s: max(abs(s.ang_vel[2] - 0.5), abs(s.lin_pos[2] - 3.0)), 0.1),
-    ("attitude_z", [0.1, -0.1, 0.5, 2.5], 3.0, lambda s: max(abs(s.ang_pos[0] - 0.1), abs(s.ang_pos[1] + 0.1), abs(s.ang_pos[2] - 0.5)), 0.03),
-    ("heading_velocity_z", [1.0, 0.5, 0.0, 2.5], 4.0, lambda s: max(abs(s.lin_vel_ground[0] - 1.0), abs(s.lin_vel_ground[1] - 0.5), abs(s.lin_pos[2] - 2.5)), 0.08),
-    ("heading_velocity_vz", [1.0, 0.0, 0.3, 0.0], 4.0, lambda s: max(abs(math.hypot(*s.lin_vel_ground[:2]) - 1.0), abs(s.ang_vel[2] - 0.3), abs(s.lin_vel_ground[2])), 0.08),
-    ("velocity_yawrate", [1.0, -1.0, 0.0, 0.3], 4.0, lambda s: float(np.abs(np.subtract(s.lin_vel_ground, (1.0, -1.0, 0.3))).max()), 0.08),
-    ("velocity_yaw", [-1.0, 0.5, 1.0, 0.0], 4.0, lambda s: max(float(np.abs(np.subtract(s.lin_vel_ground, (-1.0, 0.5, 0.0))).max()), abs(s.ang_pos[2] - 1.0)), 0.08),
-    ("position_yawrate", [1.0, 1.0, 0.0, 3.0], 5.0, lambda s: float(np.linalg.norm(np.subtract(s.lin_pos, (1.0, 1.0, 3.0)))), 0.05),
-    ("position_yaw", [1.0, -1.0, 1.5, 1.0], 5.0, lambda s: max(float(np.linalg.norm(np.subtract(s.lin_pos, (1.0, -1.0, 1.0)))), abs(s.ang_pos[2] - 1.5)), 0.05),
+    (
+        "attitude_z",
+        [0.1, -0.1, 0.5, 2.5],
+        3.0,
+        lambda s: max(abs(s.ang_pos[0] - 0.1), abs(s.ang_pos[1] + 0.1), abs(s.ang_pos[2] - 0.5)),
+        0.03,
+    ),
+    (
+        "heading_velocity_z",
+        [1.0, 0.5, 0.0, 2.5],
+        4.0,
+        lambda s: max(abs(s.lin_vel_ground[0] - 1.0), abs(s.lin_vel_ground[1] - 0.5), abs(s.lin_pos[2] - 2.5)),
+        0.08,
+    ),
+    (
+        "heading_velocity_vz",
+        [1.0, 0.0, 0.3, 0.0],
+        4.0,
+        lambda s: max(abs(math.hypot(*s.lin_vel_ground[:2]) - 1.0), abs(s.ang_vel[2] - 0.3), abs(s.lin_vel_ground[2])),
+        0.08,
+    ),
+    (
+        "velocity_yawrate",
+        [1.0, -1.0, 0.0, 0.3],
+        4.0,
+        lambda s: float(np.abs(np.subtract(s.lin_vel_ground, (1.0, -1.0, 0.3))).max()),
+        0.08,
+    ),
+    (
+        "velocity_yaw",
+        [-1.0, 0.5, 1.0, 0.0],
+        4.0,
+        lambda s: max(float(np.abs(np.subtract(s.lin_vel_ground, (-1.0, 0.5, 0.0))).max()), abs(s.ang_pos[2] - 1.0)),
+        0.08,
+    ),
+    (
+        "position_yawrate",
+        [1.0, 1.0, 0.0, 3.0],
+        5.0,
+        lambda s: float(np.linalg.norm(np.subtract(s.lin_pos, (1.0, 1.0, 3.0)))),
+        0.05,
+    ),
+    (
+        "position_yaw",
+        [1.0, -1.0, 1.5, 1.0],
+        5.0,
+        lambda s: max(float(np.linalg.norm(np.subtract(s.lin_pos, (1.0, -1.0, 1.0)))), abs(s.ang_pos[2] - 1.5)),
+        0.05,
+    ),
 ]
 
 
@@ -92,8 +140,17 @@ def test_motors_mode_drives_throttles_directly():
 
 
 def test_pyflyt_integers_alias_named_modes():
-    expected = {-1: "motors", 0: "rates_thrust", 1: "attitude_vz", 2: "rates_z", 3: "attitude_z",
-                4: "heading_velocity_z", 5: "heading_velocity_vz", 6: "velocity_yawrate", 7: "position_yaw"}
+    expected = {
+        -1: "motors",
+        0: "rates_thrust",
+        1: "attitude_vz",
+        2: "rates_z",
+        3: "attitude_z",
+        4: "heading_velocity_z",
+        5: "heading_velocity_vz",
+        6: "velocity_yawrate",
+        7: "position_yaw",
+    }
     for number, name in expected.items():
         assert resolve_mode(number).name == name
         assert resolve_mode(str(number)).name == name

@@ -20,8 +20,16 @@ def paper_matrix(phi: float, theta: float, psi: float) -> np.ndarray:
     return np.array(
         [
             [c(theta) * c(psi), s(phi) * c(theta), -s(theta)],
-            [-s(psi) * c(phi) + c(psi) * s(theta) * s(phi), c(psi) * c(phi) + s(psi) * s(theta) * s(phi), c(theta) * s(phi)],
-            [s(psi) * s(phi) + c(psi) * s(theta) * c(phi), -c(psi) * s(phi) + s(psi) * s(theta) * c(phi), c(theta) * c(phi)],
+            [
+                -s(psi) * c(phi) + c(psi) * s(theta) * s(phi),
+                c(psi) * c(phi) + s(psi) * s(theta) * s(phi),
+                c(theta) * s(phi),
+            ],
+            [
+                s(psi) * s(phi) + c(psi) * s(theta) * c(phi),
+                -c(psi) * s(phi) + s(psi) * s(theta) * c(phi),
+                c(theta) * c(phi),
+            ],
         ]
     )
 

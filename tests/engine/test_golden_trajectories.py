@@ -56,7 +56,12 @@ MULTIROTOR_SETPOINTS = {  # per mode: a setpoint that moves the vehicle without 
     "velocity_yaw": [-0.3, 0.5, -0.4, 0.2],
     "position_yawrate": [-0.5, 0.3, 0.3, 1.5],
 }
-ENVS = ["PyFlyt/QuadX-Hover-v0", "PyFlyt/QuadX-Waypoints-v0", "PyFlyt/Fixedwing-Waypoints-v0", "PyFlyt/Rocket-Landing-v0"]
+ENVS = [
+    "PyFlyt/QuadX-Hover-v0",
+    "PyFlyt/QuadX-Waypoints-v0",
+    "PyFlyt/Fixedwing-Waypoints-v0",
+    "PyFlyt/Rocket-Landing-v0",
+]
 
 
 def _state_row(vehicle) -> list[float]:
@@ -203,7 +208,12 @@ def perturbed(uav: str, factor: float = 1 + 1e-6):
 
 @pytest.mark.parametrize(
     ("uav", "mode"),
-    [("quadx_cf2x", "position_yaw"), ("quadx_f450", "motors"), ("fixedwing", "attitude_airspeed"), ("rocket", "channels")],
+    [
+        ("quadx_cf2x", "position_yaw"),
+        ("quadx_f450", "motors"),
+        ("fixedwing", "attitude_airspeed"),
+        ("rocket", "channels"),
+    ],
 )
 def test_a_change_of_one_part_in_a_million_is_caught(uav, mode):
     """The tolerance is tight enough to see a model change far below any that matters."""

@@ -190,94 +190,196 @@ def long_scene(n: int):
 #: limit -> (a setting above it, one within it, what the refusal names); within values keep the
 #: config's other rules (physics_hz a whole multiple of agent_hz, the controller no faster than physics)
 CASES = {
-    "physics_hz": (lambda: env_problem(physics_hz=3e9), lambda: env_problem(physics_hz=9600.0), "physics_hz 3000000000"),
+    "physics_hz": (
+        lambda: env_problem(physics_hz=3e9),
+        lambda: env_problem(physics_hz=9600.0),
+        "physics_hz 3000000000",
+    ),
     "control_hz": (lambda: env_problem(control_hz=2e4), lambda: env_problem(control_hz=240.0), "control_hz 20000"),
-    "agent_hz": (lambda: env_problem(agent_hz=2e4, physics_hz=2e4), lambda: env_problem(agent_hz=240.0), "agent_hz 20000"),
-    "max_duration_seconds": (lambda: env_problem(max_duration_seconds=1e9),
-                             lambda: env_problem(max_duration_seconds=3600.0), "max_duration_seconds 1000000000"),
-    "episode_physics_steps": (lambda: env_problem(physics_hz=9600.0, max_duration_seconds=2000.0),
-                              lambda: env_problem(physics_hz=9600.0, max_duration_seconds=1000.0),
-                              "physics_hz x max_duration_seconds 19200000"),
-    "image_side": (lambda: env_problem(**{"render.resolution": [100000, 100000]}),
-                   lambda: env_problem(**{"render.resolution": [4096, 64]}), "resolution height 100000"),
-    "flight_dome_size": (lambda: env_problem(flight_dome_size=1e308), lambda: env_problem(flight_dome_size=800.0),
-                         "flight_dome_size 1e+308"),
+    "agent_hz": (
+        lambda: env_problem(agent_hz=2e4, physics_hz=2e4),
+        lambda: env_problem(agent_hz=240.0),
+        "agent_hz 20000",
+    ),
+    "max_duration_seconds": (
+        lambda: env_problem(max_duration_seconds=1e9),
+        lambda: env_problem(max_duration_seconds=3600.0),
+        "max_duration_seconds 1000000000",
+    ),
+    "episode_physics_steps": (
+        lambda: env_problem(physics_hz=9600.0, max_duration_seconds=2000.0),
+        lambda: env_problem(physics_hz=9600.0, max_duration_seconds=1000.0),
+        "physics_hz x max_duration_seconds 19200000",
+    ),
+    "image_side": (
+        lambda: env_problem(**{"render.resolution": [100000, 100000]}),
+        lambda: env_problem(**{"render.resolution": [4096, 64]}),
+        "resolution height 100000",
+    ),
+    "flight_dome_size": (
+        lambda: env_problem(flight_dome_size=1e308),
+        lambda: env_problem(flight_dome_size=800.0),
+        "flight_dome_size 1e+308",
+    ),
     "seed": (lambda: train_problem("seed=4294967296"), lambda: train_problem("seed=2147483647"), "seed 4294967296"),
     "eval.episodes": (lambda: eval_problem(episodes=10**8), lambda: eval_problem(episodes=10**6), "episodes 100000000"),
     # physical values: fly exited 0 with a NaN trajectory for each of these
-    "max_rpm": (lambda: fly_problem("uav.motors.max_rpm=1e200"), lambda: fly_problem("uav.motors.max_rpm=238667"),
-                "motors.max_rpm 1e+200"),
+    "max_rpm": (
+        lambda: fly_problem("uav.motors.max_rpm=1e200"),
+        lambda: fly_problem("uav.motors.max_rpm=238667"),
+        "motors.max_rpm 1e+200",
+    ),
     "mass": (lambda: fly_problem("uav.body.mass=1e30"), lambda: fly_problem("uav.body.mass=100000"), "mass 1e+30"),
-    "noise_ratio": (lambda: fly_problem("uav.motors.noise_ratio=1e10"), lambda: fly_problem("uav.motors.noise_ratio=0.5"),
-                    "motors.noise_ratio 10000000000"),
-    "wind_speed": (lambda: fly_problem("wind=constant", "wind.mean.speed=1e300"),
-                   lambda: fly_problem("wind=constant", "wind.mean.speed=100"), "mean.speed 1e+300"),
+    "noise_ratio": (
+        lambda: fly_problem("uav.motors.noise_ratio=1e10"),
+        lambda: fly_problem("uav.motors.noise_ratio=0.5"),
+        "motors.noise_ratio 10000000000",
+    ),
+    "wind_speed": (
+        lambda: fly_problem("wind=constant", "wind.mean.speed=1e300"),
+        lambda: fly_problem("wind=constant", "wind.mean.speed=100"),
+        "mean.speed 1e+300",
+    ),
     "video.fps": (lambda: eval_problem(fps=10**9), lambda: eval_problem(fps=1000), "fps 1000000000"),
     "fly.rows": (lambda: fly_problem("rows=1000000000"), lambda: fly_problem("rows=10000"), "rows 1000000000"),
     "fly.duration": (lambda: fly_problem("duration=1e9"), lambda: fly_problem("duration=2.0"), "duration 1000000000"),
-    "fly.magnitude": (lambda: fly_problem("position=[1e308,0,1]"), lambda: fly_problem("setpoint=[0,0,0,99999]"),
-                      "a position value of size 1e+308"),
+    "fly.magnitude": (
+        lambda: fly_problem("position=[1e308,0,1]"),
+        lambda: fly_problem("setpoint=[0,0,0,99999]"),
+        "a position value of size 1e+308",
+    ),
     # a training run's counts: n_envs=1e8 and n_steps=1e9 ended in MemoryError tracebacks, a layer of 1e8
     # units in torch's, eval_episodes=1e9 evaluated for ever (train.total_timesteps=64 keeps the curriculum
     # of the shipped tunings inside the budget)
-    "train.total_timesteps": (lambda: train_problem("train.total_timesteps=1e13"),
-                              lambda: train_problem("train.total_timesteps=1000000000000"),
-                              "train.total_timesteps 1e+13"),
-    "train.n_envs": (lambda: train_problem("train.n_envs=100000000"), lambda: train_problem("train.n_envs=65536", "algo.n_steps=8"),
-                     "train.n_envs 100000000"),
-    "train.eval_episodes": (lambda: train_problem("train.eval_episodes=1000000000"),
-                            lambda: train_problem("train.eval_episodes=10000"), "train.eval_episodes 1000000000"),
-    "train.torch_threads": (lambda: train_problem("train.torch_threads=100000"),
-                            lambda: train_problem("train.torch_threads=1024"), "train.torch_threads 100000"),
-    "algo.rollout": (lambda: train_problem("train.n_envs=4096", "algo.n_steps=4096"),
-                     lambda: train_problem("train.n_envs=4096", "algo.n_steps=2048"),
-                     "the rollout n_steps x n_envs 16777216"),
-    "algo.n_step_returns": (lambda: train_problem("algo=sac", "algo.n_steps=1000000"),
-                            lambda: train_problem("algo=sac", "algo.n_steps=1000"), "algo.n_steps 1000000"),
-    "algo.batch_size": (lambda: train_problem("algo=sac", "algo.batch_size=2000000"),
-                        lambda: train_problem("algo=sac", "algo.batch_size=1048576"), "algo.batch_size 2000000"),
-    "algo.n_epochs": (lambda: train_problem("algo.n_epochs=1000000000"), lambda: train_problem("algo.n_epochs=10000"),
-                      "algo.n_epochs 1000000000"),
-    "algo.buffer_size": (lambda: train_problem("algo=sac", "algo.buffer_size=100000000000"),
-                         lambda: train_problem("algo=sac", "algo.buffer_size=10000000"), "algo.buffer_size 100000000000"),
-    "algo.gradient_steps": (lambda: train_problem("algo=sac", "algo.gradient_steps=1000000000"),
-                            lambda: train_problem("algo=sac", "algo.gradient_steps=100000"), "algo.gradient_steps 1000000000"),
-    "algo.offline_steps": (lambda: train_problem("env=quadx_waypoints", "algo=awac", "algo.offline_steps=1000000000"),
-                           lambda: train_problem("env=quadx_waypoints", "algo=awac", "algo.offline_steps=100000000",
-                                                 f"algo.offline_buffer={offline_buffer()}"),
-                           "algo.offline_steps 1000000000"),
-    "algo.iterations": (lambda: train_problem("algo=trpo", "algo.cg_max_steps=1000000000"),
-                        lambda: train_problem("algo=trpo", "algo.cg_max_steps=10000"), "algo.cg_max_steps 1000000000"),
-    "net.width": (lambda: train_problem("algo.policy_kwargs.net_arch=[100000000]"),
-                  lambda: train_problem("algo.policy_kwargs.net_arch=[65536]"), "a net_arch layer of 100000000"),
-    "net.depth": (lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1001)}]"),
-                  lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1000)}]"),
-                  "net_arch (its length) 1001"),
-    "net.parameters": (lambda: train_problem("algo.policy_kwargs.net_arch=[20000,20000,20000]"),
-                       lambda: train_problem("algo.policy_kwargs.net_arch=[10000,10000]"),
-                       "net_arch (20000 x 20000 x 20000) 800000000"),
-    "net.critics": (lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=1000000"),
-                    lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=100"), "policy_kwargs.n_critics 1000000"),
-    "net.quantiles": (lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=100000000"),
-                      lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=10000"),
-                      "policy_kwargs.n_quantiles 100000000"),
+    "train.total_timesteps": (
+        lambda: train_problem("train.total_timesteps=1e13"),
+        lambda: train_problem("train.total_timesteps=1000000000000"),
+        "train.total_timesteps 1e+13",
+    ),
+    "train.n_envs": (
+        lambda: train_problem("train.n_envs=100000000"),
+        lambda: train_problem("train.n_envs=65536", "algo.n_steps=8"),
+        "train.n_envs 100000000",
+    ),
+    "train.eval_episodes": (
+        lambda: train_problem("train.eval_episodes=1000000000"),
+        lambda: train_problem("train.eval_episodes=10000"),
+        "train.eval_episodes 1000000000",
+    ),
+    "train.torch_threads": (
+        lambda: train_problem("train.torch_threads=100000"),
+        lambda: train_problem("train.torch_threads=1024"),
+        "train.torch_threads 100000",
+    ),
+    "algo.rollout": (
+        lambda: train_problem("train.n_envs=4096", "algo.n_steps=4096"),
+        lambda: train_problem("train.n_envs=4096", "algo.n_steps=2048"),
+        "the rollout n_steps x n_envs 16777216",
+    ),
+    "algo.n_step_returns": (
+        lambda: train_problem("algo=sac", "algo.n_steps=1000000"),
+        lambda: train_problem("algo=sac", "algo.n_steps=1000"),
+        "algo.n_steps 1000000",
+    ),
+    "algo.batch_size": (
+        lambda: train_problem("algo=sac", "algo.batch_size=2000000"),
+        lambda: train_problem("algo=sac", "algo.batch_size=1048576"),
+        "algo.batch_size 2000000",
+    ),
+    "algo.n_epochs": (
+        lambda: train_problem("algo.n_epochs=1000000000"),
+        lambda: train_problem("algo.n_epochs=10000"),
+        "algo.n_epochs 1000000000",
+    ),
+    "algo.buffer_size": (
+        lambda: train_problem("algo=sac", "algo.buffer_size=100000000000"),
+        lambda: train_problem("algo=sac", "algo.buffer_size=10000000"),
+        "algo.buffer_size 100000000000",
+    ),
+    "algo.gradient_steps": (
+        lambda: train_problem("algo=sac", "algo.gradient_steps=1000000000"),
+        lambda: train_problem("algo=sac", "algo.gradient_steps=100000"),
+        "algo.gradient_steps 1000000000",
+    ),
+    "algo.offline_steps": (
+        lambda: train_problem("env=quadx_waypoints", "algo=awac", "algo.offline_steps=1000000000"),
+        lambda: train_problem(
+            "env=quadx_waypoints",
+            "algo=awac",
+            "algo.offline_steps=100000000",
+            f"algo.offline_buffer={offline_buffer()}",
+        ),
+        "algo.offline_steps 1000000000",
+    ),
+    "algo.iterations": (
+        lambda: train_problem("algo=trpo", "algo.cg_max_steps=1000000000"),
+        lambda: train_problem("algo=trpo", "algo.cg_max_steps=10000"),
+        "algo.cg_max_steps 1000000000",
+    ),
+    "net.width": (
+        lambda: train_problem("algo.policy_kwargs.net_arch=[100000000]"),
+        lambda: train_problem("algo.policy_kwargs.net_arch=[65536]"),
+        "a net_arch layer of 100000000",
+    ),
+    "net.depth": (
+        lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1001)}]"),
+        lambda: train_problem(f"algo.policy_kwargs.net_arch=[{','.join(['8'] * 1000)}]"),
+        "net_arch (its length) 1001",
+    ),
+    "net.parameters": (
+        lambda: train_problem("algo.policy_kwargs.net_arch=[20000,20000,20000]"),
+        lambda: train_problem("algo.policy_kwargs.net_arch=[10000,10000]"),
+        "net_arch (20000 x 20000 x 20000) 800000000",
+    ),
+    "net.critics": (
+        lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=1000000"),
+        lambda: train_problem("algo=sac", "algo.policy_kwargs.n_critics=100"),
+        "policy_kwargs.n_critics 1000000",
+    ),
+    "net.quantiles": (
+        lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=100000000"),
+        lambda: train_problem("algo=tqc", "algo.policy_kwargs.n_quantiles=10000"),
+        "policy_kwargs.n_quantiles 100000000",
+    ),
     # the commands that run many trainings or measurements
     "jobs": (lambda: tune_problem(jobs=100_000_000), lambda: tune_problem(jobs=1024), "jobs 100000000"),
-    "benchmark.seeds": (lambda: bench_problem("seeds=100000000"), lambda: bench_problem("seeds=10000"), "seeds 100000000"),
-    "benchmark.random_episodes": (lambda: bench_problem("benchmark.random_episodes=100000000"),
-                                  lambda: bench_problem("benchmark.random_episodes=10000"), "random_episodes 100000000"),
+    "benchmark.seeds": (
+        lambda: bench_problem("seeds=100000000"),
+        lambda: bench_problem("seeds=10000"),
+        "seeds 100000000",
+    ),
+    "benchmark.random_episodes": (
+        lambda: bench_problem("benchmark.random_episodes=100000000"),
+        lambda: bench_problem("benchmark.random_episodes=10000"),
+        "random_episodes 100000000",
+    ),
     "tune.trials": (lambda: tune_problem(trials=100_000_000), lambda: tune_problem(trials=100_000), "trials 100000000"),
-    "speed.repeats": (lambda: speed_problem("--repeats", "100000"), lambda: speed_problem("--repeats", "1000"),
-                      "--repeats 100000"),
-    "speed.vehicles": (lambda: speed_problem("--vehicles", "1,100000"), lambda: speed_problem("--vehicles", "1,4096"),
-                       "--vehicles 100000"),
-    "plot.reps": (lambda: plot_problem(100_000_000, Path(tempfile.mkdtemp())),
-                  lambda: plot_problem(1_000_000, Path(tempfile.mkdtemp())), "--reps 100000000"),
+    "speed.repeats": (
+        lambda: speed_problem("--repeats", "100000"),
+        lambda: speed_problem("--repeats", "1000"),
+        "--repeats 100000",
+    ),
+    "speed.vehicles": (
+        lambda: speed_problem("--vehicles", "1,100000"),
+        lambda: speed_problem("--vehicles", "1,4096"),
+        "--vehicles 100000",
+    ),
+    "plot.reps": (
+        lambda: plot_problem(100_000_000, Path(tempfile.mkdtemp())),
+        lambda: plot_problem(1_000_000, Path(tempfile.mkdtemp())),
+        "--reps 100000000",
+    ),
     # lists read from a recording: 3 M-value state lists hung replay
-    "recording.row_values": (lambda: recording_problem(long_aux(10_001)), lambda: recording_problem(long_aux(10_000)),
-                             "'aux' has 10001 values"),
-    "recording.scene_items": (lambda: recording_problem(long_scene(1_000_001)),
-                              lambda: recording_problem(long_scene(1_000_000)), "list of 1000001 items"),
+    "recording.row_values": (
+        lambda: recording_problem(long_aux(10_001)),
+        lambda: recording_problem(long_aux(10_000)),
+        "'aux' has 10001 values",
+    ),
+    "recording.scene_items": (
+        lambda: recording_problem(long_scene(1_000_001)),
+        lambda: recording_problem(long_scene(1_000_000)),
+        "list of 1000001 items",
+    ),
 }
 
 
@@ -288,7 +390,10 @@ def test_every_limit_has_a_case_and_a_row_in_the_docs():
     for key, limit in LIMITS.items():
         row = re.search(rf"^\| `{re.escape(key)}` \| ([^|]+) \|", section, re.M)
         assert row is not None, key
-        assert f"{limit.high:,.0f}".replace(",", " ") in row.group(1) or number(limit.high) in row.group(1), (key, row.group(1))
+        assert f"{limit.high:,.0f}".replace(",", " ") in row.group(1) or number(limit.high) in row.group(1), (
+            key,
+            row.group(1),
+        )
 
 
 @pytest.mark.parametrize("key", sorted(CASES))
@@ -344,15 +449,19 @@ def test_eval_of_a_run_with_a_huge_physics_rate_is_refused_in_one_line(shared_ru
 
 
 def test_eval_refuses_a_huge_rate_or_an_alias_bomb_on_the_command_line(shared_run):
-    code, output = pyflyt_forked(["eval", str(shared_run), "episodes=1", "record=false", "env.physics_hz=3e9"],
-                                 memory=1 << 30)
+    code, output = pyflyt_forked(
+        ["eval", str(shared_run), "episodes=1", "record=false", "env.physics_hz=3e9"], memory=1 << 30
+    )
     assert code == 2 and "physics_hz 3000000000 is above the limit" in output, output[-2000:]
     # a few hundred bytes of flow YAML that expand to 10^9 values
-    levels = ["&a0 [x, x, x, x, x, x, x, x, x, x]"] + [f"&a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)]
+    levels = ["&a0 [x, x, x, x, x, x, x, x, x, x]"] + [
+        f"&a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]" for i in range(1, 9)
+    ]
     bomb = "[" + ", ".join(levels) + "]"
     assert len(bomb) < 600
-    code, output = pyflyt_forked(["eval", str(shared_run), "episodes=1", "record=false", f"env.flight_dome_size={bomb}"],
-                                 memory=1 << 30)
+    code, output = pyflyt_forked(
+        ["eval", str(shared_run), "episodes=1", "record=false", f"env.flight_dome_size={bomb}"], memory=1 << 30
+    )
     assert code == 2 and "Traceback" not in output, output[-2000:]
     assert "env.flight_dome_size= (command line)" in output and "alias-expansion bomb" in output
 
@@ -413,7 +522,9 @@ def test_an_obj_mesh_beyond_the_vertex_or_triangle_limit_is_refused_in_seconds(w
     else:
         data = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * (4 * MAX_OBJ_TRIANGLES)
     start = time.process_time()
-    with pytest.raises(ValueError, match=f"more than {MAX_OBJ_VERTICES if what == 'vertices' else MAX_OBJ_TRIANGLES} {what}"):
+    with pytest.raises(
+        ValueError, match=f"more than {MAX_OBJ_VERTICES if what == 'vertices' else MAX_OBJ_TRIANGLES} {what}"
+    ):
         parse_obj(data, "big.obj")
     assert time.process_time() - start < 10.0  # stops at the limit (about 1 s), not at the end of the file
     at_limit = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * MAX_OBJ_TRIANGLES

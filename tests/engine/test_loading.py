@@ -63,11 +63,16 @@ class _Outer(BaseModel):
 
 def test_one_wording_for_every_problem():
     with pytest.raises(ConfigError) as caught:
-        validate(_Outer, {"seeds": "x", "inner": {"sped": 1}, "table": {"a": {"speed": -1}}}, "thing", "here", prefix="t.")
+        validate(
+            _Outer, {"seeds": "x", "inner": {"sped": 1}, "table": {"a": {"speed": -1}}}, "thing", "here", prefix="t."
+        )
     lines = str(caught.value).splitlines()
     assert lines[0] == "here: invalid thing:"
     # a union's members are not keys the user wrote: seeds, never seeds.int or seeds.list[int]
-    assert "  - t.seeds: Input should be a valid integer, unable to parse string as an integer (got 'x'); fix: give an integer" in lines
+    assert (
+        "  - t.seeds: Input should be a valid integer, unable to parse string as an integer (got 'x'); fix: give an integer"
+        in lines
+    )
     assert "  - t.seeds: Input should be a valid list (got 'x'); fix: give a list, e.g. [1, 2, 3]" in lines
     assert "  - t.inner.sped: unknown key 'sped'. Did you mean 'speed'? Allowed keys here: speed" in lines
     assert "  - t.inner.speed: Field required; fix: add it" in lines
@@ -77,5 +82,7 @@ def test_one_wording_for_every_problem():
 def test_the_uav_spec_names_the_control_keys_of_its_kind():
     data = yaml.safe_load((conf_dir() / "uav" / "fixedwing.yaml").read_text())
     data["control"]["zzz"] = 1
-    with pytest.raises(SpecError, match=r"control\.zzz: unknown key 'zzz'\. Allowed keys here: airspeed, cruise_thrust"):
+    with pytest.raises(
+        SpecError, match=r"control\.zzz: unknown key 'zzz'\. Allowed keys here: airspeed, cruise_thrust"
+    ):
         load_uav_spec(data)

@@ -112,8 +112,15 @@ def test_wrench_matrix_is_sum_of_thrusts_moments_and_reactions():
 def test_noise_is_zero_mean_and_independent_per_motor_in_the_world():
     """10 000 physics steps at constant command through the vehicle adapter."""
     spec = spec_variant("quadx_cf2x", **{"motors.noise_ratio": 0.02})
-    world = World([VehicleConfig(spec, (0.0, 0.0, 50.0), mode="motors")], seed=3, ground=False,
-                  agent_hz=240.0, control_hz=240.0, gravity=0.0, drag=False)
+    world = World(
+        [VehicleConfig(spec, (0.0, 0.0, 50.0), mode="motors")],
+        seed=3,
+        ground=False,
+        agent_hz=240.0,
+        control_hz=240.0,
+        gravity=0.0,
+        drag=False,
+    )
     vehicle = world.vehicles[0]
     command = 0.6
     world.set_setpoint(0, [command] * 4)
@@ -171,5 +178,8 @@ def test_motor_step_is_the_lag_noise_and_thrust_law_of_the_paper():
     thrust = params.kf * (expected * params.max_rpm) * np.abs(expected * params.max_rpm)
     torque = params.kt * (expected * params.max_rpm) * np.abs(expected * params.max_rpm)
     force = (params.thrust_axes * thrust[:, None]).sum(axis=0)
-    moment = (np.cross(params.positions, params.thrust_axes * thrust[:, None]) - (params.spin * torque)[:, None] * params.thrust_axes).sum(axis=0)
+    moment = (
+        np.cross(params.positions, params.thrust_axes * thrust[:, None])
+        - (params.spin * torque)[:, None] * params.thrust_axes
+    ).sum(axis=0)
     np.testing.assert_allclose(wrench, np.concatenate([force, moment]), rtol=1e-12, atol=1e-18)

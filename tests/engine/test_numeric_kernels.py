@@ -69,11 +69,11 @@ CASES: list[str] = [
     "ma:ma_quadx_hover_v0?downwash=true&wind=dryden_light",
     "ma:ma_quadx_formation_v0?agents=9&layout_spacing=0.5",
     # the noisy sensors (components/sensors.py) in the observation, their scale randomised
-    "gym:PyFlyt/QuadX-Hover-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml&sensors={\"observe\": true}"
-    "&randomize={\"gyro_scale\": {\"distribution\": \"uniform\", \"low\": 0.9, \"high\": 1.1}}",
+    'gym:PyFlyt/QuadX-Hover-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml&sensors={"observe": true}'
+    '&randomize={"gyro_scale": {"distribution": "uniform", "low": 0.9, "high": 1.1}}',
     # the flight controller's estimator (components/estimator.py) building the observation
     "gym:PyFlyt/QuadX-Waypoints-v0?uav=conf/uav/examples/quadx_cf2x_sensors.yaml"
-    "&sensors={\"observe\": true, \"estimator\": \"complementary\"}",
+    '&sensors={"observe": true, "estimator": "complementary"}',
 ]
 
 MULTIROTOR_SETPOINTS = {

@@ -67,7 +67,10 @@ def test_position_hold_within_5cm_for_10_seconds():
 
 def test_vehicle_dropped_on_ground_registers_contact_and_free_air_does_not(quiet_cf2x):
     world = World(
-        [VehicleConfig(quiet_cf2x, (0.0, 0.0, 0.3), mode="motors"), VehicleConfig(quiet_cf2x, (5.0, 0.0, 50.0), mode="motors")],
+        [
+            VehicleConfig(quiet_cf2x, (0.0, 0.0, 0.3), mode="motors"),
+            VehicleConfig(quiet_cf2x, (5.0, 0.0, 50.0), mode="motors"),
+        ],
         seed=0,
     )
     world.set_armed(0, False)
@@ -127,7 +130,11 @@ def test_mixed_airframes_in_one_world():
 
 @pytest.mark.parametrize(
     "rates, message",
-    [((250.0, 120.0, 30.0), "physics_hz / control_hz"), ((240.0, 120.0, 70.0), "physics_hz / agent_hz"), ((240.0, 480.0, 30.0), "physics_hz / control_hz")],
+    [
+        ((250.0, 120.0, 30.0), "physics_hz / control_hz"),
+        ((240.0, 120.0, 70.0), "physics_hz / agent_hz"),
+        ((240.0, 480.0, 30.0), "physics_hz / control_hz"),
+    ],
 )
 def test_non_integer_loop_rate_ratios_are_rejected(rates, message):
     physics, control, agent = rates
@@ -136,7 +143,9 @@ def test_non_integer_loop_rate_ratios_are_rejected(rates, message):
 
 
 def test_step_runs_the_configured_number_of_physics_and_control_steps(quiet_cf2x):
-    world = World([VehicleConfig(quiet_cf2x, (0.0, 0.0, 5.0), mode="rates_thrust")], physics_hz=240, control_hz=60, agent_hz=20)
+    world = World(
+        [VehicleConfig(quiet_cf2x, (0.0, 0.0, 5.0), mode="rates_thrust")], physics_hz=240, control_hz=60, agent_hz=20
+    )
     vehicle = world.vehicles[0]
     calls = []
     original = vehicle.control_step

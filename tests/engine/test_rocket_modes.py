@@ -85,7 +85,11 @@ def test_gimbal_and_fin_authority_match_the_geometry_and_the_surface_model():
                 _, _, _, tx, ty, tz = surface_wrench(surface.constants, deflection, 0.0, 0.0, -speed, 0.0, 0.0, 0.0)
                 _, _, _, ux, uy, uz = surface_wrench(surface.constants, 0.0, 0.0, 0.0, -speed, 0.0, 0.0, 0.0)
                 model = [model[0] + tx - ux, model[1] + ty - uy, model[2] + tz - uz]
-            assert np.allclose(linear, model, rtol=0.05, atol=1e-6 * max(map(abs, model))), (channels[channel], linear, model)
+            assert np.allclose(linear, model, rtol=0.05, atol=1e-6 * max(map(abs, model))), (
+                channels[channel],
+                linear,
+                model,
+            )
         # the documented signs: fin_x a + moment about x, fin_y about y, fin_roll about z
         signs = {channels[c]: [sum(g[i] for g, _ in terms) for i in range(3)] for c, terms, _ in autopilot._fin_columns}
         assert signs["fin_x"][0] > 0 and signs["fin_y"][1] > 0 and signs["fin_roll"][2] > 0
@@ -130,7 +134,7 @@ def test_attitude_thrust_tilt_step_settles_without_overshoot():
         for _ in range(int(3 * world.agent_hz)):
             world.step()
             tilts.append(_tilt(vehicle))
-        settled = tilts[int(2 * world.agent_hz):]
+        settled = tilts[int(2 * world.agent_hz) :]
         assert max(tilts) < 0.1 * 1.05  # overshoot under 5 %
         assert max(abs(t - 0.1) for t in settled) < 0.003  # within 3 mrad from 2 s on
         rows = vehicle.rotation
@@ -149,7 +153,7 @@ def test_velocity_step_settles_within_stated_bounds(setpoint):
             world.step()
             tilts.append(_tilt(vehicle))
             errors.append(np.subtract(vehicle.state.lin_vel_ground, setpoint))
-        late = np.array(errors[int(10 * world.agent_hz):])
+        late = np.array(errors[int(10 * world.agent_hz) :])
         assert np.abs(late[:, :2]).max() < 0.3  # horizontal within 0.3 m/s from 10 s on
         assert np.abs(late[:, 2]).max() < 0.02  # vertical within 2 cm/s
         assert max(tilts) < MAX_TILT
@@ -168,7 +172,7 @@ def test_ignition_rule_pulses_where_the_minimum_thrust_exceeds_the_weight_and_ob
             lit.append(vehicle.actuators.boosters.ignited[0])
             vz.append(vehicle.state.lin_vel_ground[2])
         assert 0 < sum(lit) < len(lit)  # on and off
-        assert abs(np.mean(vz[int(world.agent_hz):])) < 0.1 and max(map(abs, vz)) < 0.5
+        assert abs(np.mean(vz[int(world.agent_hz) :])) < 0.1 and max(map(abs, vz)) < 0.5
         # ignition 0: the booster stays out whatever the velocity asks -> free fall
         world.reset()
         world.set_setpoint(0, [0.0, 0.0, 5.0, 0.0])

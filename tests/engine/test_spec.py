@@ -93,7 +93,9 @@ def test_multirotor_control_without_motors_is_rejected():
 def test_yaml_tags_cannot_run_code(tmp_path):
     marker = tmp_path / "ran"
     path = tmp_path / "evil.yaml"
-    path.write_text(f"name: !!python/object/apply:os.system ['touch {marker}']\nbody: {{mass: 1, inertia: [1, 1, 1]}}\n")
+    path.write_text(
+        f"name: !!python/object/apply:os.system ['touch {marker}']\nbody: {{mass: 1, inertia: [1, 1, 1]}}\n"
+    )
     with pytest.raises(SpecError, match="not valid YAML"):
         load_uav_spec(path)
     assert not marker.exists()

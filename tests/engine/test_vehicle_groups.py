@@ -50,7 +50,10 @@ def test_every_group_of_every_shipped_airframe_meets_the_protocol_in_kind_order(
 
 
 def test_gimbals_step_first_and_the_loads_sum_in_the_order_of_the_reference():
-    order = [kind.name for kind in sorted((k for k in component_kinds() if k.step_order is not None), key=lambda k: k.step_order)]
+    order = [
+        kind.name
+        for kind in sorted((k for k in component_kinds() if k.step_order is not None), key=lambda k: k.step_order)
+    ]
     assert order[:5] == ["gimbals", "motors", "surfaces", "boosters", "drag"]
 
 
@@ -58,7 +61,9 @@ def test_every_kind_reads_the_spec_field_of_its_spec_class():
     for kind in component_kinds():
         field = UAVSpec.model_fields.get(kind.section)
         assert field is not None, f"kind '{kind.name}': UAVSpec has no field '{kind.section}'"
-        assert kind.spec in _classes(field.annotation), f"kind '{kind.name}': '{kind.section}' is not a {kind.spec.__name__}"
+        assert kind.spec in _classes(field.annotation), (
+            f"kind '{kind.name}': '{kind.section}' is not a {kind.spec.__name__}"
+        )
 
 
 def _classes(annotation) -> set:
@@ -119,7 +124,13 @@ def test_no_method_is_replaced_at_run_time_in_the_library():
             if suppression in text:
                 wrong.append(f"{where}: a {suppression} suppression")
             for node in ast.walk(ast.parse(text)):
-                targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+                targets = (
+                    node.targets
+                    if isinstance(node, ast.Assign)
+                    else [node.target]
+                    if isinstance(node, ast.AnnAssign)
+                    else []
+                )
                 for target in targets:
                     if isinstance(target, ast.Attribute) and target.attr in methods:
                         wrong.append(f"{where}:{node.lineno}: assigns .{target.attr}")

@@ -114,8 +114,9 @@ def test_position_hold_removes_the_downwash_of_a_vehicle_overhead(uav, gap):
 def test_the_integrator_does_not_freeze_at_the_issue_case():
     """The F450 at 5 m/s ended 0.50 m downwind with the integrator frozen outside a 0.5 m/s
     window; the drag it must carry is 1/2 rho C_d A V^2 / m = 2.45 m/s^2."""
-    world = World([VehicleConfig("quadx_f450", (0.0, 0.0, 2.0), mode="position_yaw")], seed=0,
-                  wind={"mean": {"speed": 5.0}})
+    world = World(
+        [VehicleConfig("quadx_f450", (0.0, 0.0, 2.0), mode="position_yaw")], seed=0, wind={"mean": {"speed": 5.0}}
+    )
     world.set_all_setpoints([[0.0, 0.0, 0.0, 2.0]])
     for _ in range(int(END * world.agent_hz)):
         world.step()

@@ -93,9 +93,7 @@ PROFILES: dict[str, EnvProfile] = {
     ),
     # 4 motor throttles; then 12 pole values (tip, base positions and velocities, body frame)
     "PyFlyt/QuadX-Pole-Balance-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),
-    "PyFlyt/QuadX-Pole-Waypoints-v0": EnvProfile(
-        4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy
-    ),
+    "PyFlyt/QuadX-Pole-Waypoints-v0": EnvProfile(4, 12, (0.0, 0.0, 1.0), (0.1, 0.1, 0.1), (0.54,) * 4, _motors_policy),
     # 4 motor throttles; then the ball's relative position and velocity (body frame)
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvProfile(
         4, 6, (0.0, 0.0, 2.0), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0, 0.28), _ball_in_cup_policy

@@ -101,8 +101,19 @@ SINGLE: dict[str, tuple[dict[str, Any], Any]] = {
 }
 
 MULTI: dict[str, tuple[dict[str, Any], Any]] = {
-    **{k: v for k, v in SINGLE.items() if k not in ("start_position", "start_position_noise", "start_orientation",
-                                                        "start_orientation_noise", "start_lin_vel", "hover_point")},
+    **{
+        k: v
+        for k, v in SINGLE.items()
+        if k
+        not in (
+            "start_position",
+            "start_position_noise",
+            "start_orientation",
+            "start_orientation_noise",
+            "start_lin_vel",
+            "hover_point",
+        )
+    },
     "reward_presets": ({}, {"dense": "ma_quadx_hover_sparse", "sparse": "ma_quadx_hover_sparse"}),
     "flight_dome_size": ({}, 1.2),
     "downwash": ({"agents": STACKED}, True),

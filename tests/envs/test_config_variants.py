@@ -69,7 +69,11 @@ print(hashlib.sha256(np.concatenate(rows).tobytes()).hexdigest())
 def _digest(name: str, seed: int) -> str:
     result = subprocess.run(
         [sys.executable, "-c", SCRIPT, str(conf_dir() / "env" / f"{name}.yaml"), str(seed)],
-        capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True,
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        check=True,
     )
     return result.stdout.strip().splitlines()[-1]
 
@@ -216,7 +220,9 @@ def test_a_file_gives_only_what_differs_from_what_it_starts_from(name):
 def test_every_base_is_started_from_by_a_shipped_config():
     from pyflyt_engine.safe_load import load_yaml_file
 
-    named = {e for n in SHIPPED + bases("env") for e in load_yaml_file(conf_dir() / "env" / f"{n}.yaml").get("defaults", [])}
+    named = {
+        e for n in SHIPPED + bases("env") for e in load_yaml_file(conf_dir() / "env" / f"{n}.yaml").get("defaults", [])
+    }
     assert set(bases("env")) <= named and {"_base", "_single_agent"} <= set(bases("env"))
 
 
@@ -243,7 +249,9 @@ def test_a_base_is_no_env_pyflyt_train_takes():
     result = CliRunner().invoke(app, ["train", "env=_single_agent", "--cfg"])
     assert result.exit_code == 2 and "Traceback" not in result.output, result.output
     assert "'env=_single_agent': '_single_agent' is a base (conf/env/_single_agent.yaml)" in result.output
-    result = CliRunner().invoke(app, ["train", "env=_quadxx", "--cfg"])  # an unknown one: the listed choices hold no base
+    result = CliRunner().invoke(
+        app, ["train", "env=_quadxx", "--cfg"]
+    )  # an unknown one: the listed choices hold no base
     assert result.exit_code == 2 and "unknown env '_quadxx'" in result.output and "_quadx," not in result.output
 
 
@@ -345,7 +353,9 @@ def test_the_docs_hover_example_is_the_shipped_hover_config():
     from pyflyt_engine.envs.config import load_env_config
     from pyflyt_engine.safe_load import yaml_data
 
-    block = re.search(r"QuadX-Hover is then the lines that differ from `_quadx`:\n\n```yaml\n(.*?)```", SECTION, re.DOTALL)
+    block = re.search(
+        r"QuadX-Hover is then the lines that differ from `_quadx`:\n\n```yaml\n(.*?)```", SECTION, re.DOTALL
+    )
     assert block is not None
     example = load_env_config(yaml_data(block.group(1), source="docs/environments.md"))
     assert example.model_dump(exclude={"source"}) == load_env_config("quadx_hover").model_dump(exclude={"source"})

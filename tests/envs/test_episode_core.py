@@ -53,7 +53,9 @@ def test_build_then_reset_spawns_each_vehicle_in_agent_order_then_starts_the_tas
 
 def test_build_refuses_an_action_the_flight_mode_does_not_take_naming_the_agent():
     cfg = load_env_config("quadx_hover")
-    cfg = cfg.with_overrides(action={**cfg.action.model_dump(), "names": ["a", "b"], "units": ["", ""], "low": [0, 0], "high": [1, 1]})
+    cfg = cfg.with_overrides(
+        action={**cfg.action.model_dump(), "names": ["a", "b"], "units": ["", ""], "low": [0, 0], "high": [1, 1]}
+    )
     spec = load_uav_spec(cfg.uav)
     with pytest.raises(ConfigError, match="agent 'uav_0': action has 2 entries"):
         core.build_episode(cfg, [spec, spec], [((0, 0, 1), (0, 0, 0)), ((2, 0, 1), (0, 0, 0))], render=False,

@@ -26,8 +26,9 @@ class TouchdownTask(Task):
     def update(self, state):
         touching = self.world.collided_with_ground(0)
         speed = float(np.linalg.norm(state.lin_vel))
-        return TaskSignals(complete=touching and speed < 5.0, failed=touching and speed >= 5.0,
-                           extras={"touchdown_speed": speed})
+        return TaskSignals(
+            complete=touching and speed < 5.0, failed=touching and speed >= 5.0, extras={"touchdown_speed": speed}
+        )
 
 
 def touchdown_speed(ctx):
@@ -45,14 +46,18 @@ def touchdown():
 
 
 def test_custom_task_and_term_through_the_generic_env(touchdown):
-    data = copy.deepcopy(env_config_data("quadx_hover"))  # its bases' keys too: the task below replaces the whole section
+    data = copy.deepcopy(
+        env_config_data("quadx_hover")
+    )  # its bases' keys too: the task below replaces the whole section
     data["id"] = None
     data["task"] = {"name": "test_touchdown", "start_position": [0, 0, 0.3], "start_position_noise": 0.0}
-    data["reward"] = {"terms": {
-        "landed": {"term": "constant", "weight": 10.0, "when": "task_complete"},
-        "speed": {"term": "touchdown_speed", "weight": -1.0, "when": "not_crash"},
-        "crash": {"term": "constant", "weight": -100.0, "when": "crash"},
-    }}
+    data["reward"] = {
+        "terms": {
+            "landed": {"term": "constant", "weight": 10.0, "when": "task_complete"},
+            "speed": {"term": "touchdown_speed", "weight": -1.0, "when": "not_crash"},
+            "crash": {"term": "constant", "weight": -100.0, "when": "crash"},
+        }
+    }
     env = UAVEnv(data)
     try:
         env.reset(seed=0)

@@ -270,7 +270,8 @@ def test_a_drawn_delay_replaces_the_fixed_one_and_the_other_stays():
     vehicle = env.unwrapped.vehicle
     assert vehicle.latency == (0, 3)
     assert vehicle.stages == {  # no action delay: nothing queues the setpoints
-        "before_control": ("deliver_setpoints",), "before_loads": ("record_observation", "count_step")
+        "before_control": ("deliver_setpoints",),
+        "before_loads": ("record_observation", "count_step"),
     }
     env.close()
 

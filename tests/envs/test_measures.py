@@ -132,8 +132,10 @@ def test_a_multi_agent_episode_reports_each_agent_and_their_mean():
 
 def test_episodes_combine_by_mean_or_max_and_leave_out_what_did_not_apply():
     speed = Measure("touchdown_speed", "touchdown speed", "m/s")
-    episodes = [{"distance_mean": 0.1, "distance_max": 0.3, "touchdown_speed": math.nan},
-                {"distance_mean": 0.3, "distance_max": 0.2, "touchdown_speed": 0.5}]
+    episodes = [
+        {"distance_mean": 0.1, "distance_max": 0.3, "touchdown_speed": math.nan},
+        {"distance_mean": 0.3, "distance_max": 0.2, "touchdown_speed": 0.5},
+    ]
     out = summarize_measures((*DISTANCE_HELD, speed), episodes)
     assert out == {"distance_mean": pytest.approx(0.2), "distance_max": 0.3, "touchdown_speed": 0.5}
     assert math.isnan(summarize_measures((speed,), episodes[:1])["touchdown_speed"])

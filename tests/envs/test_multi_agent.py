@@ -286,7 +286,10 @@ def test_the_generic_front_runs_the_task_the_config_names():
     with pytest.raises(ConfigError, match="ma_formation"):
         get_ma_task("ma_formaton")
     runs = []
-    builds = (lambda: ma_quadx_formation_v0.parallel_env(agents=4), lambda: MultiAgentUAVEnv("ma_quadx_formation", agents=4))
+    builds = (
+        lambda: ma_quadx_formation_v0.parallel_env(agents=4),
+        lambda: MultiAgentUAVEnv("ma_quadx_formation", agents=4),
+    )
     for build in builds:
         env = build()
         try:

@@ -140,8 +140,9 @@ def test_a_mesh_obstacle_is_loaded_validated_and_seen(tmp_path):
     obj.write_text(CUBE_OBJ)
     mesh = {"type": "mesh", "file": str(obj), "scale": [1.0, 2.0, 2.0], "position": [2.5, 0.0, 1.0]}
     lidar = [{"name": "lidar", "type": "lidar", "horizontal_beams": 64, "max_range": 5.0, "min_range": 0.1}]
-    env = QuadXHoverEnv(obstacles={"items": [mesh]}, range_sensors=lidar, start_position_noise=0.0,
-                        start_orientation_noise=0.0)
+    env = QuadXHoverEnv(
+        obstacles={"items": [mesh]}, range_sensors=lidar, start_position_noise=0.0, start_orientation_noise=0.0
+    )
     try:
         obs, _ = env.reset(seed=0)
         # the scaled cube's face is the plane x = 2 (|y| <= 1): the two beams nearest ahead
@@ -205,8 +206,9 @@ def test_cylinders_collide_as_the_inscribed_prism():
     # a LiDAR beam straight at a facet's middle reads the apothem r cos(pi / 32), at a vertex r
     env = QuadXHoverEnv(
         obstacles={"items": [CylinderObstacle(radius=0.2, height=3.0, position=(2.0, 0.0, 1.5)).model_dump()]},
-        range_sensors=[{"name": "lidar", "type": "lidar", "horizontal_beams": 1, "horizontal_fov_deg": 1.0,
-                        "max_range": 5.0}],
+        range_sensors=[
+            {"name": "lidar", "type": "lidar", "horizontal_beams": 1, "horizontal_fov_deg": 1.0, "max_range": 5.0}
+        ],
         start_position_noise=0.0,
         start_orientation_noise=0.0,
     )
@@ -315,10 +317,13 @@ def test_cylinder_facets_set_the_collision_prism():
     # the beam reads the apothem r cos(pi / 33); 32: a vertex faces it and it reads r
     def reading(facets: int) -> float:
         env = QuadXHoverEnv(
-            obstacles={"items": [{"type": "cylinder", "radius": 0.2, "height": 3.0, "position": [2.0, 0.0, 1.5]}],
-                       "cylinder_facets": facets},
-            range_sensors=[{"name": "lidar", "type": "lidar", "horizontal_beams": 1, "horizontal_fov_deg": 1.0,
-                            "max_range": 5.0}],
+            obstacles={
+                "items": [{"type": "cylinder", "radius": 0.2, "height": 3.0, "position": [2.0, 0.0, 1.5]}],
+                "cylinder_facets": facets,
+            },
+            range_sensors=[
+                {"name": "lidar", "type": "lidar", "horizontal_beams": 1, "horizontal_fov_deg": 1.0, "max_range": 5.0}
+            ],
             start_position_noise=0.0,
             start_orientation_noise=0.0,
         )
@@ -364,8 +369,14 @@ def test_a_recorded_mesh_obstacle_is_drawn_from_its_file(tmp_path):
     obj = tmp_path / "wedge.obj"
     obj.write_text(WEDGE_OBJ)
     position, yaw, scale = (3.0, 1.0, 0.2), 0.3, (1.5, 2.0, 4.0)
-    mesh = {"type": "mesh", "file": str(obj), "scale": list(scale), "position": list(position),
-            "orientation": [0.0, 0.0, yaw], "color": [0.2, 0.4, 0.6, 1.0]}
+    mesh = {
+        "type": "mesh",
+        "file": str(obj),
+        "scale": list(scale),
+        "position": list(position),
+        "orientation": [0.0, 0.0, yaw],
+        "color": [0.2, 0.4, 0.6, 1.0],
+    }
     env = RecordEpisode(QuadXHoverEnv(obstacles={"items": [mesh]}), tmp_path / "runs")
     env.reset(seed=0)
     env.step(np.array([0.0, 0.0, 0.0, 0.125]))
@@ -401,7 +412,9 @@ def test_a_recorded_mesh_obstacle_is_drawn_from_its_file(tmp_path):
     np.testing.assert_array_equal(points.min(axis=0), [0.0, 0.0, 0.0])
     np.testing.assert_array_equal(points.max(axis=0), [2.0 * 1.5, 1.0 * 2.0, 0.5 * 4.0])
     assert len(tri["indices"]) == 3 * 8 and set(tri["indices"]) == set(range(6))
-    np.testing.assert_allclose([tri["color"][k] for k in "rgba"], [0.2, 0.4, 0.6, 1.0], atol=1e-7)  # float32 in PyBullet
+    np.testing.assert_allclose(
+        [tri["color"][k] for k in "rgba"], [0.2, 0.4, 0.6, 1.0], atol=1e-7
+    )  # float32 in PyBullet
     np.testing.assert_allclose([tri["pose"]["position"][k] for k in "xyz"], position, atol=1e-12)
     q = [tri["pose"]["orientation"][k] for k in "xyzw"]
     np.testing.assert_allclose(np.abs(np.dot(q, euler_to_quaternion(0.0, 0.0, yaw))), 1.0, atol=1e-9)
@@ -639,7 +652,9 @@ def test_a_recorded_forest_episode_replays_exactly(tmp_path):
 
 
 def test_a_forest_keeps_clear_of_the_gates(make):
-    forest = {"generators": [{**FOREST, "x_range": [-8.0, 8.0], "y_range": [-8.0, 8.0], "density": 0.3, "keep_out": 0.8}]}
+    forest = {
+        "generators": [{**FOREST, "x_range": [-8.0, 8.0], "y_range": [-8.0, 8.0], "density": 0.3, "keep_out": 0.8}]
+    }
     env = make("PyFlyt/QuadX-Gates-v0", obstacles=forest)
     env.reset(seed=1)
     trunks = [o for o in env.obstacles.generated if o is not None]

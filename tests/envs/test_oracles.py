@@ -81,7 +81,10 @@ def test_the_graded_ignition_label_flies_the_switch(make):
 def test_an_oracle_refuses_another_env_and_unknown_names_are_listed(make):
     with pytest.raises(ConfigError, match="flies PyFlyt/Rocket-Landing-v0, not PyFlyt/QuadX-Hover-v0"):
         make_oracle("rocket_lander", make("PyFlyt/QuadX-Hover-v0"))
-    with pytest.raises(ConfigError, match="unknown oracle 'lander'. Did you mean 'rocket_lander'[?] Oracles: " + ", ".join(sorted(ORACLES))):
+    with pytest.raises(
+        ConfigError,
+        match="unknown oracle 'lander'. Did you mean 'rocket_lander'[?] Oracles: " + ", ".join(sorted(ORACLES)),
+    ):
         make_oracle("lander", None)
     with pytest.raises(ConfigError, match="quaternion"):
         make_oracle("rocket_lander", make(ROCKET, angle_representation="euler"))

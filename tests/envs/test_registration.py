@@ -22,8 +22,12 @@ print(sorted(i for i in gymnasium.registry if i.startswith("PyFlyt/")), heavy)
 
 def test_import_registers_every_id_without_heavy_imports():
     result = subprocess.run(
-        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, cwd=ROOT,
-        env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True,
+        [sys.executable, "-c", SCRIPT],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        check=True,
     )
     assert result.stdout.strip() == f"{sorted(ENVS)} []"
 

@@ -246,7 +246,9 @@ def test_terms_are_pure_functions_with_the_documented_values():
 def test_speed_above_braking_envelope_by_hand():
     term = rewards.speed_above_braking_envelope  # ||v|| = 3 m/s in _ctx
     # 10 m from the target, envelope from 1 m at 0.5 m/s braking at 0.125 m/s^2: 0.5 + sqrt(2 * 0.125 * 9) = 2
-    assert term(_ctx(target_distance=10.0), deceleration=0.125, floor_speed=0.5, floor_distance=1.0) == pytest.approx(1.0)
+    assert term(_ctx(target_distance=10.0), deceleration=0.125, floor_speed=0.5, floor_distance=1.0) == pytest.approx(
+        1.0
+    )
     # inside the envelope (0.5 + sqrt(2 * 30 * 9) = 23.7 m/s): nothing
     assert term(_ctx(target_distance=10.0), deceleration=30.0, floor_speed=0.5, floor_distance=1.0) == 0.0
     # at or below floor_distance only floor_speed is allowed

@@ -30,7 +30,6 @@ WILD_TOLERANCE = 1e-4
 runner = CliRunner()
 
 
-
 def record(source, policy, steps: int = RECORDED, seed: int = 0) -> np.ndarray:
     """``steps`` raw observations met by flying the policy (episodes from seed, seed + 1, ...)."""
     return flown_observations(source, policy, steps, seed)
@@ -87,7 +86,9 @@ def test_the_chain_is_the_policy_the_env_receives(flown):
     # the post-processing matters: without it the actions differ from what the env receives
     import torch
 
-    bare = torch.nn.Sequential(*[layer for layer in policy.network if type(layer).__name__ not in ("Affine", "Clamp", "Tanh")])
+    bare = torch.nn.Sequential(
+        *[layer for layer in policy.network if type(layer).__name__ not in ("Affine", "Clamp", "Tanh")]
+    )
     with torch.no_grad():
         raw = bare(torch.as_tensor(obs)).numpy()
     assert np.max(np.abs(raw - reference)) > 0.1
@@ -100,7 +101,9 @@ def test_onnxruntime_reproduces_the_policy(flown, tmp_path):
     result = export_policy(source, "onnx", out)
     assert result.files == [out] and result.check is not None and result.check < TOLERANCE
     for batch in (obs, wild) if wild is not None else (obs,):
-        assert np.max(np.abs(run_onnx(out, batch) - policy.reference(batch))) < (TOLERANCE if batch is obs else WILD_TOLERANCE)
+        assert np.max(np.abs(run_onnx(out, batch) - policy.reference(batch))) < (
+            TOLERANCE if batch is obs else WILD_TOLERANCE
+        )
     import onnx
 
     meta = {p.key: p.value for p in onnx.load(str(out)).metadata_props}
@@ -112,7 +115,10 @@ def test_the_compiled_c_reproduces_the_policy(flown, tmp_path):
     result = export_policy(source, "c", tmp_path / "policy.c")
     assert result.files == [tmp_path / "policy.c", tmp_path / "policy.h"]
     header = (tmp_path / "policy.h").read_text()
-    assert f"#define POLICY_OBS_DIM {policy.obs_dim}" in header and "void policy_forward(const float *obs, float *action);" in header
+    assert (
+        f"#define POLICY_OBS_DIM {policy.obs_dim}" in header
+        and "void policy_forward(const float *obs, float *action);" in header
+    )
     assert "#include" not in header  # dependency-free: the header needs nothing
     assert header.isascii() and (tmp_path / "policy.c").read_text().isascii()  # any compiler's source charset
     program = compile_c(tmp_path / "policy.c", tmp_path)
@@ -141,11 +147,25 @@ def refused_runs(tmp_path_factory):
     from pyflyt_cli.training import train
 
     root = tmp_path_factory.mktemp("refused")
-    common = ["train.n_envs=1", "algo.n_epochs=1", "train.eval_freq=100000", "train.eval_episodes=1",
-              "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
-              f"train.output_dir={root}"]
-    recurrent = ["env=quadx_hover", "algo=recurrent_ppo", "train.total_timesteps=16", "algo.n_steps=16",
-                 "algo.batch_size=16", "algo.policy_kwargs.lstm_hidden_size=8", "algo.policy_kwargs.net_arch=[8]"]
+    common = [
+        "train.n_envs=1",
+        "algo.n_epochs=1",
+        "train.eval_freq=100000",
+        "train.eval_episodes=1",
+        "train.checkpoint_freq=100000",
+        "train.progress_bar=false",
+        "env.max_duration_seconds=0.5",
+        f"train.output_dir={root}",
+    ]
+    recurrent = [
+        "env=quadx_hover",
+        "algo=recurrent_ppo",
+        "train.total_timesteps=16",
+        "algo.n_steps=16",
+        "algo.batch_size=16",
+        "algo.policy_kwargs.lstm_hidden_size=8",
+        "algo.policy_kwargs.net_arch=[8]",
+    ]
     camera = ["env=quadx_gates", "algo=ppo", "train.total_timesteps=16", "algo.n_steps=16", "algo.batch_size=16"]
     runs = {}
     for name, overrides in (("recurrent", recurrent), ("camera", camera)):
@@ -220,10 +240,17 @@ def test_other_actor_layouts_export_as_the_policy_acts(tmp_path, layout):
     from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
-    overrides = [*LAYOUTS[layout], *(ON_POLICY if layout.startswith("ppo") else OFF_POLICY),
-                 "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
-                 "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
-                 f"train.output_dir={tmp_path}"]
+    overrides = [
+        *LAYOUTS[layout],
+        *(ON_POLICY if layout.startswith("ppo") else OFF_POLICY),
+        "algo.policy_kwargs.net_arch=[16,16]",
+        "train.n_envs=1",
+        "train.eval_freq=100000",
+        "train.checkpoint_freq=100000",
+        "train.progress_bar=false",
+        "env.max_duration_seconds=0.5",
+        f"train.output_dir={tmp_path}",
+    ]
     run = train(compose_config(overrides=overrides), run_dir=tmp_path / layout).run_dir
     policy = deployed_policy(run, "final")
     obs = record(str(run), policy, steps=64)
@@ -239,14 +266,25 @@ def test_a_layer_the_exporters_do_not_know_is_refused_by_name(tmp_path):
     from pyflyt_cli.training.compose import compose_config
     from pyflyt_cli.training import train
 
-    overrides = ["env=quadx_hover", "algo=crossq", "algo.policy_kwargs.batch_norm_momentum=0.05", *OFF_POLICY,
-                 "algo.policy_kwargs.net_arch=[16,16]", "train.n_envs=1", "train.eval_freq=100000",
-                 "train.checkpoint_freq=100000", "train.progress_bar=false", "env.max_duration_seconds=0.5",
-                 f"train.output_dir={tmp_path}"]
+    overrides = [
+        "env=quadx_hover",
+        "algo=crossq",
+        "algo.policy_kwargs.batch_norm_momentum=0.05",
+        *OFF_POLICY,
+        "algo.policy_kwargs.net_arch=[16,16]",
+        "train.n_envs=1",
+        "train.eval_freq=100000",
+        "train.checkpoint_freq=100000",
+        "train.progress_bar=false",
+        "env.max_duration_seconds=0.5",
+        f"train.output_dir={tmp_path}",
+    ]
     run = train(compose_config(overrides=overrides), run_dir=tmp_path / "crossq").run_dir
     result = runner.invoke(app, ["export", str(run), "format=onnx", f"out={tmp_path / 'p.onnx'}"])
     assert result.exit_code == 2, result.output
-    assert "the crossq actor holds a BatchRenorm" in result.output and "Linear layers and the activations" in result.output
+    assert (
+        "the crossq actor holds a BatchRenorm" in result.output and "Linear layers and the activations" in result.output
+    )
     assert not (tmp_path / "p.onnx").exists()
 
 

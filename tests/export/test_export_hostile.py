@@ -27,8 +27,36 @@ runner = CliRunner()
 
 #: pieces an attacker strings together: C's line splice, trigraphs, comment delimiters, digraphs,
 #: line breaks of every kind, a NUL, non-ASCII look-alikes
-PIECES = ["*", "/", "\\", "\n", "\r", "\r\n", "??/", "??=", "??'", "?", "%", "%:", "<:", "*/", "/*", "//",
-          "\x00", "\x0b", "\x0c", "\u2028", "\u2215", "\uff0a", "\ud800", " ", "a", "#", '"', "'"]
+PIECES = [
+    "*",
+    "/",
+    "\\",
+    "\n",
+    "\r",
+    "\r\n",
+    "??/",
+    "??=",
+    "??'",
+    "?",
+    "%",
+    "%:",
+    "<:",
+    "*/",
+    "/*",
+    "//",
+    "\x00",
+    "\x0b",
+    "\x0c",
+    "\u2028",
+    "\u2215",
+    "\uff0a",
+    "\ud800",
+    " ",
+    "a",
+    "#",
+    '"',
+    "'",
+]
 
 
 def sample_texts(n: int = 3000, seed: int = 0) -> list[str]:
@@ -71,8 +99,12 @@ def test_escaped_texts_compile_as_one_comment(tmp_path):
     texts = sample_texts(600, seed=1)
     lines = [f"v{i}: {comment_text(t + ' int injected_' + str(i) + ' = 1; /*')}" for i, t in enumerate(texts)]
     (tmp_path / "probe.c").write_text(_comment(lines) + "int probe_kept = 1;\n")
-    built = subprocess.run([gcc(), "-std=c99", "-trigraphs", "-Wall", "-Wextra", "-Werror", "-c", "probe.c"],
-                           cwd=tmp_path, capture_output=True, text=True)
+    built = subprocess.run(
+        [gcc(), "-std=c99", "-trigraphs", "-Wall", "-Wextra", "-Werror", "-c", "probe.c"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert built.returncode == 0, built.stderr
     symbols = subprocess.run(["nm", "probe.o"], cwd=tmp_path, capture_output=True, text=True).stdout
     assert "probe_kept" in symbols and "injected" not in symbols
@@ -81,8 +113,10 @@ def test_escaped_texts_compile_as_one_comment(tmp_path):
 #: the reproduction's env id: close the comment through a backslash-newline splice, then a constructor
 #: function that runs before main and leaves a marker file
 def payload(marker: Path) -> str:
-    return (f'x *\\\n/ __attribute__((constructor)) static void pwn(void) {{ FILE *f = fopen("{marker}", "w"); '
-            'if (f) fclose(f); }} /* ??/\n */ int also_injected = 1; //')
+    return (
+        f'x *\\\n/ __attribute__((constructor)) static void pwn(void) {{ FILE *f = fopen("{marker}", "w"); '
+        "if (f) fclose(f); }} /* ??/\n */ int also_injected = 1; //"
+    )
 
 
 @pytest.fixture
@@ -125,8 +159,12 @@ def test_a_hostile_env_id_never_reaches_the_compiled_code(shared_run, tmp_path, 
         comment = text.split("*/", 1)[0]  # the first comment ends at the template's own close
         assert comment.rstrip().endswith("feed finite values.")  # closed by the template, not by the env id
     (out / "main.c").write_text(HOST_RUNNER)
-    built = subprocess.run([gcc(), "-std=c99", "-trigraphs", "-Wall", "-Werror", "-O2", "-o", "harness", "main.c",
-                            "policy.c", "-lm"], cwd=out, capture_output=True, text=True)
+    built = subprocess.run(
+        [gcc(), "-std=c99", "-trigraphs", "-Wall", "-Werror", "-O2", "-o", "harness", "main.c", "policy.c", "-lm"],
+        cwd=out,
+        capture_output=True,
+        text=True,
+    )
     assert built.returncode == 0, built.stderr
     symbols = subprocess.run(["nm", "harness"], cwd=out, capture_output=True, text=True).stdout
     assert "pwn" not in symbols and "also_injected" not in symbols and "u0" not in symbols.split()
@@ -168,8 +206,11 @@ def _narrow_weight(d):
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (_short_mean, "its observation normaliser does not fit this run's env: the observation statistics: the mean "
-                      "has shape [2], the observation [21]"),
+        (
+            _short_mean,
+            "its observation normaliser does not fit this run's env: the observation statistics: the mean "
+            "has shape [2], the observation [21]",
+        ),
         (_nan_var, "the observation statistics: the variance holds NaN or inf"),
         (_inf_weight, "non-finite"),
         (_narrow_weight, "its policy does not fit this model"),

@@ -68,7 +68,9 @@ def test_env_state_is_the_same_after_10_and_510_resets(env_id):
     env.close()
     assert after == before
     assert before["saved_states"] == 1  # the one snapshot every reset restores
-    assert objects_after - objects_before < 200, f"{objects_after - objects_before} Python objects more after 500 resets"
+    assert objects_after - objects_before < 200, (
+        f"{objects_after - objects_before} Python objects more after 500 resets"
+    )
 
 
 def test_adding_a_body_replaces_the_snapshot_instead_of_keeping_both():

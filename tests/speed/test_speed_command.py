@@ -195,7 +195,11 @@ def test_reference_comparison_script_runs_without_the_reference(tmp_path):
 def test_swarm_section_has_a_row_per_env_and_size_and_refuses_bad_sizes():
     report = run_speed(SpeedSettings.quick(envs=(HOVER,), vehicles=(1,), swarm=(1, 8)), measure=Canned())
     assert [(row["env"], row["agents"]) for row in report["swarm"]] == [
-        ("hover", 1), ("hover", 8), ("formation", 1), ("formation", 8), ("dogfight", 4)
+        ("hover", 1),
+        ("hover", 8),
+        ("formation", 1),
+        ("formation", 8),
+        ("dogfight", 4),
     ]
     text = format_report(report, markdown=True)
     assert "| MAQuadX-Hover | 8 | 400 | 2,500 | 50.0 | 1.67 | 100% |" in text

@@ -121,7 +121,9 @@ def rewrite_mcap(
         }
         for _, channel, message in messages:
             data = transform(channel.topic, json.loads(message.data))
-            payload = data if isinstance(data, bytes) else json.dumps(data).encode() if data is not None else message.data
+            payload = (
+                data if isinstance(data, bytes) else json.dumps(data).encode() if data is not None else message.data
+            )
             writer.add_message(
                 channel_ids[channel.id], message.log_time, payload, message.publish_time, message.sequence
             )

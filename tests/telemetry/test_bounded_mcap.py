@@ -37,8 +37,14 @@ def zstd_zeros(size: int, *, content_size: bool) -> bytes:
 def mcap_with_chunk(path, data: bytes, declared: int, crc: int = 0) -> None:
     builder = RecordBuilder()
     Header(profile="", library="test").write(builder)
-    Chunk(compression="zstd", data=data, message_start_time=0, message_end_time=0, uncompressed_crc=crc,
-          uncompressed_size=declared).write(builder)
+    Chunk(
+        compression="zstd",
+        data=data,
+        message_start_time=0,
+        message_end_time=0,
+        uncompressed_crc=crc,
+        uncompressed_size=declared,
+    ).write(builder)
     path.write_bytes(MAGIC + builder.end())  # cut after the chunk: no footer needed to reach it
 
 

@@ -84,8 +84,9 @@ BOTH, VIDEO = ("--plot", "--video"), ("--video",)  # the video alone draws the m
     (lambda e: {**e, "spheres": [{"pose": {"position": {"x": 0, "y": 0, "z": 0}}, "size": {"x": -2}}]},
      "negative size", VIDEO),
 ])  # fmt: skip
-def test_a_waypoint_marker_of_another_shape_is_one_line_for_plot_and_video(waypoints, tmp_path, change, fragment,
-                                                                           options):
+def test_a_waypoint_marker_of_another_shape_is_one_line_for_plot_and_video(
+    waypoints, tmp_path, change, fragment, options
+):
     path = forged(waypoints, tmp_path / "odd.mcap", change)
     for option in options:
         out = tmp_path / ("out.png" if option == "--plot" else "out.gif")
@@ -137,8 +138,9 @@ def test_nan_or_infinity_in_a_message_is_refused_by_every_replay(waypoints, tmp_
 def test_positions_too_large_to_draw_are_one_line_for_plot(waypoints, tmp_path):
     """Finite but 1e308: matplotlib's 'arange: cannot compute length' was a traceback."""
     path = tmp_path / "huge.mcap"
-    rewrite_mcap(waypoints, path,
-                 lambda t, data: {**data, "lin_pos": [1e308, -1e308, 1e308]} if t == "/uav/0/state" else None)
+    rewrite_mcap(
+        waypoints, path, lambda t, data: {**data, "lin_pos": [1e308, -1e308, 1e308]} if t == "/uav/0/state" else None
+    )
     out = tmp_path / "p.png"
     code, output = pyflyt_forked(["replay", str(path), "--plot", str(out)], timeout=300)
     one_line(code, output, f"--plot {out}: cannot draw {path}: its values cannot be drawn")

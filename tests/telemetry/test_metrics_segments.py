@@ -335,4 +335,3 @@ def test_a_kill_at_any_step_of_creating_a_resumed_segment_leaves_before_or_after
         assert _curves(live) == uninterrupted, f"resume after a kill at operation {point}"
         point += 1
     assert seen["before"] >= 2 and seen["after"] >= 1, seen  # kills before and after the flush were tried
-

@@ -23,8 +23,9 @@ def _figure(env_id, tmp_path, monkeypatch):
     return fig
 
 
-@pytest.mark.parametrize(("env_id", "marker"), [("PyFlyt/QuadX-Hover-v0", "hover point"),
-                                                ("PyFlyt/QuadX-Waypoints-v0", "waypoints")])
+@pytest.mark.parametrize(
+    ("env_id", "marker"), [("PyFlyt/QuadX-Hover-v0", "hover point"), ("PyFlyt/QuadX-Waypoints-v0", "waypoints")]
+)
 def test_the_path_legend_names_the_markers_and_the_legends_sit_beside_the_data(env_id, marker, tmp_path, monkeypatch):
     fig = _figure(env_id, tmp_path, monkeypatch)
     ax3d, _, ax_att, ax_act = fig.axes[:4]
@@ -58,7 +59,7 @@ def test_the_actions_panel_draws_each_step_faintly_and_its_moving_mean_over_it(t
         raw, mean = lines[2 * j], lines[2 * j + 1]
         assert raw.get_alpha() < 0.5 and mean.get_linewidth() > raw.get_linewidth()
         values = episode.actions[:, j]
-        by_hand = [values[max(0, i + 1 - window): i + 1].mean() for i in range(len(values))]  # the last `window` steps
+        by_hand = [values[max(0, i + 1 - window) : i + 1].mean() for i in range(len(values))]  # the last `window` steps
         np.testing.assert_allclose(mean.get_ydata(), by_hand, rtol=1e-12)
     assert [t.get_text() for t in ax_act.get_legend().get_texts()] == list(episode.action_names)
     plt.close("all")

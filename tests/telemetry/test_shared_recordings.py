@@ -83,7 +83,10 @@ def test_a_multi_agent_recording_flies_its_recorded_airframes_not_the_files_its_
 
     mine = tmp_path / "mine.yaml"
     mine.write_text((uav_dir() / "quadx_f450.yaml").read_text())
-    config = {**yaml.safe_load((conf_dir() / "env" / "ma_quadx_hover.yaml").read_text()), "agents": [{"uav": str(mine)}, {}]}
+    config = {
+        **yaml.safe_load((conf_dir() / "env" / "ma_quadx_hover.yaml").read_text()),
+        "agents": [{"uav": str(mine)}, {}],
+    }
     env = RecordEpisode(make_env(config), tmp_path / "episodes")
     env.reset(seed=0)
     for _ in range(5):
@@ -157,7 +160,10 @@ def test_metadata_sized_or_nested_to_exhaust_the_reader_is_refused_by_every_comm
     elif option == "--verify":
         args += ["--verify"]
     invoked = CliRunner().invoke(app, ["replay", *args])
-    result = (invoked.exit_code, invoked.output + ("" if isinstance(invoked.exception, (SystemExit, type(None))) else "Traceback"))
+    result = (
+        invoked.exit_code,
+        invoked.output + ("" if isinstance(invoked.exception, (SystemExit, type(None))) else "Traceback"),
+    )
     key = "uav_specs" if damage == "deep" else "airframe_spec"
     _one_line_exit_2(result, str(crafted), f"metadata '{key}'")
     assert not (tmp_path / "plot.png").exists() and not (tmp_path / "film.gif").exists()

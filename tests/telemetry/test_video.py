@@ -90,7 +90,9 @@ def test_chase_distance_is_scaled_to_the_span_and_all_vehicles_stay_in_view():
         for span in (small, large):
             eye, target = ChaseCamera(style, span, 1 / 30).update(np.array([[0.0, 0.0, 1.0]]), 0.3)
             distance = math.dist(eye, target)
-            assert distance == pytest.approx(max(style.min_distance, span / (style.frame_fraction * 2 * tan), 1.4 * span / tan))
+            assert distance == pytest.approx(
+                max(style.min_distance, span / (style.frame_fraction * 2 * tan), 1.4 * span / tan)
+            )
             assert math.atan2(target[1] - eye[1], target[0] - eye[0]) == pytest.approx(0.3)  # behind the heading
             view, projection = _view(world.client, eye, target, style.fov)
             across = np.array([-math.sin(0.3), math.cos(0.3), 0.0]) * span / 2  # the span, square to the view

@@ -23,6 +23,7 @@ def experiment(name: str):
     spec.loader.exec_module(module)
     return module
 
+
 #: a PPO run that finishes in a few seconds: 2 rollouts of 256 steps, evaluation and
 #: checkpoints at every rollout, 2 short evaluation episodes
 TINY_PPO = [

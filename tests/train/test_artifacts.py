@@ -139,7 +139,9 @@ def test_legacy_files_load_when_trusted(run, tmp_path):
 
     cfg = load_run_config(run)
     vec = VecNormalize(make_vec_env(EnvFactory(cfg.env, monitor=False), 1), norm_obs=True, norm_reward=False)
-    model = PPO("MlpPolicy", vec, n_steps=64, batch_size=64, device="cpu", policy_kwargs=cfg.algo.policy_kwargs.kwargs())
+    model = PPO(
+        "MlpPolicy", vec, n_steps=64, batch_size=64, device="cpu", policy_kwargs=cfg.algo.policy_kwargs.kwargs()
+    )
     model.learn(64)
     for name in ("model.pt", "best_model.pt"):
         (run / name).unlink()

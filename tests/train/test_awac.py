@@ -24,7 +24,6 @@ from .conftest import TINY_AWAC, TINY_SAC, initial_policy_probe, load
 SMALL = {"net_arch": [16, 16]}
 
 
-
 @pytest.fixture(autouse=True)
 def _one_thread():
     previous = torch.get_num_threads()

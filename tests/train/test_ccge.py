@@ -94,8 +94,10 @@ def test_the_warm_up_takes_random_actions_as_sac():
 
 
 def test_ccge_whose_oracle_never_acts_is_sac_bit_for_bit():
-    env_id, kwargs = "Pendulum-v1", {"learning_starts": 50, "batch_size": 16, "seed": 3, "device": "cpu",
-                                     "policy_kwargs": {"net_arch": [16]}}
+    env_id, kwargs = (
+        "Pendulum-v1",
+        {"learning_starts": 50, "batch_size": 16, "seed": 3, "device": "cpu", "policy_kwargs": {"net_arch": [16]}},
+    )
     sac = SAC("MlpPolicy", gym.make(env_id), **kwargs).learn(200)
     ccge = CCGE("MlpPolicy", gym.make(env_id), confidence_lambda=1e30, **kwargs).learn(200)
     assert ccge.oracle_actions == 0 and ccge.policy_actions == 150
@@ -129,9 +131,17 @@ def test_pyflyt_train_ccge_bootstraps_from_a_sac_run_and_resumes_exactly(tmp_pat
     sac_run = train(load(TINY_SAC, tmp_path / "sac")).run_dir
     sac_policy = read_policy(sac_run / "best_model.pt").policy
     overrides = [
-        "env=quadx_hover", "algo=ccge", "train.total_timesteps=300", "algo.buffer_size=2000",
-        "algo.learning_starts=50", "algo.batch_size=32", "algo.policy_kwargs.net_arch=[32,32]",
-        "train.eval_freq=150", "train.eval_episodes=1", "train.checkpoint_freq=150", "train.progress_bar=false",
+        "env=quadx_hover",
+        "algo=ccge",
+        "train.total_timesteps=300",
+        "algo.buffer_size=2000",
+        "algo.learning_starts=50",
+        "algo.batch_size=32",
+        "algo.policy_kwargs.net_arch=[32,32]",
+        "train.eval_freq=150",
+        "train.eval_episodes=1",
+        "train.checkpoint_freq=150",
+        "train.progress_bar=false",
         f"init_from={sac_run}",
     ]
     reference_run = train(load(overrides, tmp_path / "reference")).run_dir
@@ -139,7 +149,7 @@ def test_pyflyt_train_ccge_bootstraps_from_a_sac_run_and_resumes_exactly(tmp_pat
     assert final.algo == "ccge"
     for key, value in sac_policy.items():  # the oracle is the SAC actor, frozen
         if key.startswith("actor."):
-            assert torch.equal(final.policy["oracle." + key[len("actor."):]], value), key
+            assert torch.equal(final.policy["oracle." + key[len("actor.") :]], value), key
     first = train(load(overrides, tmp_path / "interrupted"), callbacks=[SignalAt(170)])
     assert first.interrupted
     assert not resume(first.run_dir).interrupted

@@ -153,5 +153,9 @@ def test_tampered_normaliser_statistics_are_refused_by_eval_and_resume(run, dama
     for name in ("best_model.pt", "checkpoints/model_256_steps.pt"):
         path = run / name
         torch.save(tamper(torch.load(path, weights_only=True)), path)
-    refused(cli("eval", str(run), "model=best", "episodes=1", "record=false"), "its observation normaliser does not fit", fragment)
+    refused(
+        cli("eval", str(run), "model=best", "episodes=1", "record=false"),
+        "its observation normaliser does not fit",
+        fragment,
+    )
     refused(cli("train", f"resume={run}"), fragment)

@@ -142,9 +142,11 @@ def test_a_urdf_whose_links_are_not_one_tree_is_refused_before_pybullet(run):
 
     assert "form 2 trees" in urdf_problem(urdf("x.obj", extra_link=True), allow_files=True)
     assert "names the file" in urdf_problem(urdf("x.obj"))  # a recording's URDF names no file at all
-    cycle = ('<robot name="r"><link name="a"/><link name="b"/><link name="c"/>'
-             '<joint name="j1" type="fixed"><parent link="b"/><child link="c"/></joint>'
-             '<joint name="j2" type="fixed"><parent link="c"/><child link="b"/></joint></robot>')
+    cycle = (
+        '<robot name="r"><link name="a"/><link name="b"/><link name="c"/>'
+        '<joint name="j1" type="fixed"><parent link="b"/><child link="c"/></joint>'
+        '<joint name="j2" type="fixed"><parent link="c"/><child link="b"/></joint></robot>'
+    )
     assert "cycle" in urdf_problem(cycle)
 
 
@@ -152,7 +154,9 @@ def test_a_urdf_whose_links_are_not_one_tree_is_refused_before_pybullet(run):
 def test_an_obstacle_mesh_is_a_file_of_the_run(run, tmp_path, where):
     (run / "rock.obj").write_text(OBJ)
     file = {"absolute": str(tmp_path / "secret.obj"), "climbing": "../secret.obj", "inside": "rock.obj"}[where]
-    set_config(run, lambda env: env.update(obstacles={"items": [{"type": "mesh", "file": file, "position": [3, 3, 0]}]}))
+    set_config(
+        run, lambda env: env.update(obstacles={"items": [{"type": "mesh", "file": file, "position": [3, 3, 0]}]})
+    )
     if where == "inside":
         cfg = rundir.load_run_config(run)
         assert cfg.env.obstacles.meshes == [str(run / "rock.obj")]  # from the run, whatever the working directory
@@ -162,7 +166,9 @@ def test_an_obstacle_mesh_is_a_file_of_the_run(run, tmp_path, where):
 
 def test_a_payload_mesh_is_a_file_of_the_run_whatever_the_working_directory(run, tmp_path, monkeypatch):
     shape = {"type": "mesh", "mesh": "../secret.obj", "collision": False}
-    payload = {"body": {"mass": 0.01, "inertia": [1e-6, 1e-6, 1e-6], "shapes": [shape, {"type": "sphere", "radius": 0.01}]}}
+    payload = {
+        "body": {"mass": 0.01, "inertia": [1e-6, 1e-6, 1e-6], "shapes": [shape, {"type": "sphere", "radius": 0.01}]}
+    }
     set_config(run, lambda env: env.update(payloads=[payload]))
     monkeypatch.chdir(run)  # relative to the working directory, '../secret.obj' was outside; from the run too
     refused_by_load(run, "env.payloads[0].body.shapes[0]", "outside")

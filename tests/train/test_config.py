@@ -28,6 +28,8 @@ from .conftest import ROOT, pyflyt
 ENVS = available("env")  # the bases (conf/env/_*.yaml) are no envs
 ALGOS = sorted(p.stem for p in (conf_dir() / "algo").glob("*.yaml"))
 EXPERIMENTS = sorted(p.stem for p in (conf_dir() / "experiment").glob("*.yaml"))
+
+
 #: every (env, algo) pair: in the default suite those with a per-pair tuning, every env with
 #: PPO and every algorithm on the hover task; the rest are marked long
 def _in_default_suite(pair: tuple[str, str]) -> bool:
@@ -48,7 +50,9 @@ def test_defaults_are_a_short_ppo_run_on_hover():
 
 
 def test_nested_overrides_reach_env_and_algo():
-    cfg = compose_config(overrides=["env.reward=sparse", "algo.learning_rate=1e-3", "seed=7", "train.total_timesteps=2e5"])
+    cfg = compose_config(
+        overrides=["env.reward=sparse", "algo.learning_rate=1e-3", "seed=7", "train.total_timesteps=2e5"]
+    )
     assert cfg.env.reward == "sparse" and cfg.env.reward_preset_name() == "quadx_hover_sparse"
     assert cfg.algo.learning_rate == pytest.approx(1e-3)
     assert cfg.seed == 7 and cfg.train.total_timesteps == 200_000
@@ -88,7 +92,9 @@ def test_hparams_follow_the_chosen_env_and_algo():
         env = max((e for e in ENVS if path.stem.startswith(e + "_") and path.stem[len(e) + 1 :] in ALGOS), key=len)
         algo = path.stem[len(env) + 1 :]
         assert algo in ALGOS, path
-        compose_config(overrides=[f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])])
+        compose_config(
+            overrides=[f"env={env}", f"algo={algo}", *(["init_from=sac_run/best_model.pt"] if algo == "ccge" else [])]
+        )
 
 
 @pytest.mark.parametrize(
@@ -330,7 +336,9 @@ def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path)
     marker = tmp_path / "ran"
     study = _tagged_experiment(tmp_path / "tagged_study.yaml", marker)
     for command in (["train", "--cfg"], ["benchmark", "--dry-run"]):
-        result = pyflyt([*command, f"experiment={study}"], cwd=tmp_path)  # the helper's hang guard (300 s), not a readiness wait
+        result = pyflyt(
+            [*command, f"experiment={study}"], cwd=tmp_path
+        )  # the helper's hang guard (300 s), not a readiness wait
         assert result.returncode == 2, result.stderr
         assert f"{study}, line 2: the YAML tag !!python/object/apply:os.system is not allowed" in result.stderr
         assert "Traceback" not in result.stderr
@@ -470,13 +478,17 @@ def test_init_from_a_step_of_a_missing_run_names_the_run(tmp_path):
 
     missing = refused(["train", f"init_from={tmp_path / 'nope'}@5", f"train.output_dir={tmp_path / 'runs'}"])
     assert re.search(r"init_from=.*@5: run directory .*nope does not exist", missing), missing
-    assert "write <run dir>@<step> with a whole number of steps" in refused(["train", f"init_from={tmp_path}@five", "--cfg"])
+    assert "write <run dir>@<step> with a whole number of steps" in refused(
+        ["train", f"init_from={tmp_path}@five", "--cfg"]
+    )
     assert not (tmp_path / "runs").exists()
 
 
 def test_gate_observation_option_is_a_documented_override():
     """docs/environments.md: `pyflyt train env=quadx_gates env.task.observation=corners`."""
-    assert compose_config(overrides=["env=quadx_gates", "env.task.observation=corners"]).env.task.observation == "corners"
+    assert (
+        compose_config(overrides=["env=quadx_gates", "env.task.observation=corners"]).env.task.observation == "corners"
+    )
     assert compose_config(overrides=["env=quadx_gates_state"]).env.task.observation == "corners"
     with pytest.raises(ConfigError, match="observation"):  # a value the option does not take
         compose_config(overrides=["env=quadx_gates", "env.task.observation=pixels"])

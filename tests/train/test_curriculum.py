@@ -140,11 +140,19 @@ def test_a_curriculum_on_the_command_line_replaces_the_tunings_and_a_field_chang
     """conf/hparams/quadx_waypoints_sac.yaml sets goal_reach_distance 1 m over the first 1 M of its 2 M steps."""
     tuned = load(["env=quadx_waypoints", "algo=sac"], tmp_path).train.curriculum
     assert tuned["goal_reach_distance"].start == 1.0 and tuned["goal_reach_distance"].steps == 1000000
-    whole = load(["env=quadx_waypoints", "algo=sac", "train.curriculum={goal_reach_distance:{start:3.0,steps:100}}"], tmp_path)
+    whole = load(
+        ["env=quadx_waypoints", "algo=sac", "train.curriculum={goal_reach_distance:{start:3.0,steps:100}}"], tmp_path
+    )
     assert set(whole.train.curriculum) == {"goal_reach_distance"}
-    assert (whole.train.curriculum["goal_reach_distance"].start, whole.train.curriculum["goal_reach_distance"].steps) == (3.0, 100)
+    assert (
+        whole.train.curriculum["goal_reach_distance"].start,
+        whole.train.curriculum["goal_reach_distance"].steps,
+    ) == (3.0, 100)
     field = load(["env=quadx_waypoints", "algo=sac", "train.curriculum.goal_reach_distance.start=3.0"], tmp_path)
-    assert (field.train.curriculum["goal_reach_distance"].start, field.train.curriculum["goal_reach_distance"].steps) == (3.0, 1000000)
+    assert (
+        field.train.curriculum["goal_reach_distance"].start,
+        field.train.curriculum["goal_reach_distance"].steps,
+    ) == (3.0, 1000000)
     assert not load(["env=quadx_waypoints", "algo=sac", "train.curriculum=null"], tmp_path).train.curriculum
 
 
@@ -155,7 +163,9 @@ def test_a_multi_agent_curriculum_is_checked_and_reaches_the_task_of_every_train
         load(["env=ma_quadx_formation", "train.curriculum={layout_spacing:{start:2,steps:10}}"], tmp_path)
     with pytest.raises(ConfigError, match="tolerance"):
         load(["env=ma_quadx_formation", "train.curriculum={tolerance:{start:-1,steps:10}}"], tmp_path)
-    cfg = load(["env=ma_quadx_formation", "env.agents=4", "train.curriculum={tolerance:{start:2.0,steps:10}}"], tmp_path)
+    cfg = load(
+        ["env=ma_quadx_formation", "env.agents=4", "train.curriculum={tolerance:{start:2.0,steps:10}}"], tmp_path
+    )
     vec = make_vec_env(cfg.env, 2, curriculum=True)
     try:
         vec.env_method("set_task_changes", {"tolerance": 2.0})
@@ -178,9 +188,14 @@ def test_a_curriculum_that_outlasts_the_budget_is_refused_with_the_fix(tmp_path)
         load(long, tmp_path)
     message = str(caught.value)
     assert "train.curriculum.goal_reach_distance.steps=3000000 outlasts train.total_timesteps=2000000" in message
-    assert "set train.curriculum.goal_reach_distance.steps=2000000 (or fewer), or train.total_timesteps=3000000" in message
+    assert (
+        "set train.curriculum.goal_reach_distance.steps=2000000 (or fewer), or train.total_timesteps=3000000" in message
+    )
     assert "train.curriculum=null" in message
-    assert load([*long, "train.total_timesteps=3000000"], tmp_path).train.curriculum["goal_reach_distance"].steps == 3000000
+    assert (
+        load([*long, "train.total_timesteps=3000000"], tmp_path).train.curriculum["goal_reach_distance"].steps
+        == 3000000
+    )
 
 
 def test_no_shipped_tuning_or_experiment_has_a_curriculum_outlasting_its_budget(tmp_path):

@@ -29,8 +29,14 @@ class FakeClock:
         return self.now
 
 
-SAC = ["env=quadx_hover", "algo=sac", "train.total_timesteps=20000", "train.eval_freq=5000",
-       "train.eval_episodes=3", "algo.learning_starts=2000"]
+SAC = [
+    "env=quadx_hover",
+    "algo=sac",
+    "train.total_timesteps=20000",
+    "train.eval_freq=5000",
+    "train.eval_episodes=3",
+    "algo.learning_starts=2000",
+]
 
 
 def _started(eta: RunEta, model) -> None:

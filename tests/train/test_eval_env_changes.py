@@ -47,7 +47,9 @@ def test_a_task_option_and_the_wind_change_the_flight(run):
     calm = evaluate_run(run, {"episodes": 1, "seed": 4, "record": False})
     windy = evaluate_run(run, {"episodes": 1, "seed": 4, "record": False}, env={"wind": "dryden_severe"})
     assert windy.episodes[0].ret != calm.episodes[0].ret
-    moved = evaluate_run(run, {"episodes": 1, "seed": 4, "record": False}, env={"task": {"hover_point": [0.0, 0.0, 2.0]}})
+    moved = evaluate_run(
+        run, {"episodes": 1, "seed": 4, "record": False}, env={"task": {"hover_point": [0.0, 0.0, 2.0]}}
+    )
     assert moved.episodes[0].ret != calm.episodes[0].ret
 
 

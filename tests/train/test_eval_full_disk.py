@@ -79,8 +79,12 @@ def test_a_full_disk_during_an_oracle_eval_leaves_only_complete_recordings(tmp_p
     full_disk_from_file(monkeypatch, nth=1, room=room)  # the second episode's file meets the full disk
     result = runner.invoke(app, ["eval", "oracle:rocket_lander", "episodes=3", "seed=3", f"run_dir={run}"])
     monkeypatch.undo()
-    one_line_exit_2(result, f"cannot write {run / 'episodes' / 'ep_0001.mcap'}", "No space left on device",
-                    "the unfinished recording was removed")
+    one_line_exit_2(
+        result,
+        f"cannot write {run / 'episodes' / 'ep_0001.mcap'}",
+        "No space left on device",
+        "the unfinished recording was removed",
+    )
     assert sorted(p.name for p in (run / "episodes").iterdir()) == ["ep_0000.mcap"]  # nothing cut, no temp file
     first = load_episode(run / "episodes" / "ep_0000.mcap", warn=False)
     assert not first.truncated and first.length > 0

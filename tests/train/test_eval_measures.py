@@ -80,11 +80,16 @@ def _episode(ret: float, success: bool, end: str, length: int = 100) -> Episode:
 
 
 def test_a_failure_outscoring_the_successes_is_explained():
-    episodes = [_episode(1561.0, True, "complete"), _episode(2771.0, False, "time_limit", 600),
-                _episode(2150.0, True, "complete")]
+    episodes = [
+        _episode(1561.0, True, "complete"),
+        _episode(2771.0, False, "time_limit", 600),
+        _episode(2150.0, True, "complete"),
+    ]
     why = disagreement(episodes)
     assert why is not None
-    assert why.startswith("return and success disagree: episode 1 has the highest return (2771.00) but is not a success")
+    assert why.startswith(
+        "return and success disagree: episode 1 has the highest return (2771.00) but is not a success"
+    )
     assert "not a success (time limit)" in why and "successes score 1561.00 to 2150.00" in why
     assert "it flew longer (600 steps, successes 100-100)" in why
     same_length = disagreement([_episode(5.0, True, "complete"), _episode(9.0, False, "collision")])

@@ -33,7 +33,11 @@ def test_a_write_failure_stops_the_command_with_one_message_and_the_run_resumes(
     # 100 kB: the configuration, metrics and best model fit; the first checkpoint does not
     proc = subprocess.run(  # noqa: PLW1510
         [sys.executable, "-m", "pyflyt_cli.main", "train", *overrides],
-        cwd=tmp_path, env=cli_env(), capture_output=True, text=True, preexec_fn=_limit_file_size(100_000),
+        cwd=tmp_path,
+        env=cli_env(),
+        capture_output=True,
+        text=True,
+        preexec_fn=_limit_file_size(100_000),
     )
     assert proc.returncode == 2, proc.stderr
     assert "error: cannot write" in proc.stderr and "Traceback" not in proc.stderr

@@ -271,8 +271,15 @@ def test_the_value_warmup_is_refused_where_it_cannot_hold_the_policy_and_is_no_c
 
     for algo in ("sac", "trpo"):
         with pytest.raises((UsageError, ConfigError)) as info:
-            load(["env=rocket_landing", f"algo={algo}", "train.imitation.oracle=rocket_lander",
-                  "train.imitation.value_warmup=100"], tmp_path)
+            load(
+                [
+                    "env=rocket_landing",
+                    f"algo={algo}",
+                    "train.imitation.oracle=rocket_lander",
+                    "train.imitation.value_warmup=100",
+                ],
+                tmp_path,
+            )
         assert "train.imitation.value_warmup" in str(info.value) and f"not {algo}" in str(info.value), str(info.value)
     with pytest.raises((UsageError, ConfigError)) as info:
         load([*TINY_IMITATION, "train.imitation.value_warmup=-1"], tmp_path)
@@ -320,8 +327,12 @@ def test_hold_normalizer_keeps_the_imitations_observation_statistics(tmp_path, h
     observations) stay as they were through 512 learning steps; without it they take in the
     learner's observations (the count grows by 512)."""
     statistics = _Statistics()
-    overrides = [*TINY_IMITATION, "train.total_timesteps=512", "algo.normalize.observation=true",
-                 f"train.imitation.hold_normalizer={str(hold).lower()}"]
+    overrides = [
+        *TINY_IMITATION,
+        "train.total_timesteps=512",
+        "algo.normalize.observation=true",
+        f"train.imitation.hold_normalizer={str(hold).lower()}",
+    ]
     lines: list[str] = []
     run = train(load(overrides, tmp_path), callbacks=[statistics.callback], log=lines.append)
     (start_mean, start_count), (end_mean, end_count) = statistics.seen
@@ -337,8 +348,13 @@ def test_hold_normalizer_keeps_the_imitations_observation_statistics(tmp_path, h
 
 @pytest.mark.long
 def test_a_resumed_run_holds_the_statistics_and_the_policy_as_the_uninterrupted_one(tmp_path, tmp_path_factory):
-    overrides = [*TINY_IMITATION, "train.total_timesteps=768", "algo.normalize.observation=true",
-                 "train.imitation.hold_normalizer=true", "train.imitation.value_warmup=256"]
+    overrides = [
+        *TINY_IMITATION,
+        "train.total_timesteps=768",
+        "algo.normalize.observation=true",
+        "train.imitation.hold_normalizer=true",
+        "train.imitation.value_warmup=256",
+    ]
     reference = _final(train(load(overrides, tmp_path_factory.mktemp("reference"))).run_dir)
     first = train(load(overrides, tmp_path), callbacks=[SignalAt(100)])
     assert first.interrupted and first.num_timesteps == 256

@@ -39,8 +39,12 @@ class _Scripted(gymnasium.Env):
 
     def step(self, action):
         n, end = self.passed[self.i], self.ends[self.i]
-        info = {"num_targets_reached": n, "env_complete": end == "complete", "out_of_bounds": end == "out",
-                "collision": end == "crash"}
+        info = {
+            "num_targets_reached": n,
+            "env_complete": end == "complete",
+            "out_of_bounds": end == "out",
+            "collision": end == "crash",
+        }
         return np.zeros(2, dtype=np.float32), 100.0 * n, end != "time", end == "time", info
 
 
@@ -77,14 +81,26 @@ def test_cpu_budget_stops_training_of_the_state_env(exp, tmp_path):
     saved = []
     from .test_learn_obstacles import TINY
 
-    row = runs.budgeted_run(0, 0.15, 64, 1, tmp_path, TINY, save=lambda r: saved.append(json.loads(json.dumps(r))),
-                            env=exp.ENV, target=exp.TARGET, probe_cls=probes.GatesProbe)  # as learn_gates.py's seeds
+    row = runs.budgeted_run(
+        0,
+        0.15,
+        64,
+        1,
+        tmp_path,
+        TINY,
+        save=lambda r: saved.append(json.loads(json.dumps(r))),
+        env=exp.ENV,
+        target=exp.TARGET,
+        probe_cls=probes.GatesProbe,
+    )  # as learn_gates.py's seeds
     assert row["env"] == "quadx_gates_state" and row["status"] == "cpu budget" and row["steps"] < 100_000_000
     assert row["training_cpu"] >= 0.15 * 60
     # the envs' share of the collection, timed by the loop's StepTimer, the rest of it apart
     assert row["split"]["env"] > 0 and row["split"]["collect_other"] > 0
     assert row["history"][0][0] == 0  # the imitated policy, probed before learning
-    assert saved[-1]["status"] == "cpu budget" and [h[0] for h in saved[-1]["history"]] == [h[0] for h in row["history"]]
+    assert saved[-1]["status"] == "cpu budget" and [h[0] for h in saved[-1]["history"]] == [
+        h[0] for h in row["history"]
+    ]
     assert all(len(h[2]["at_least"]) == 5 and 0.0 <= h[2]["success"] <= 1.0 for h in row["history"])
 
 

@@ -68,9 +68,15 @@ def test_a_trunk_on_the_spawn_point_is_touched(exp):
 #: the shipped tuning, shrunk: one env, 64-step rollouts, and the imitation stage cut to the
 #: oracle's own round of one episode (the budget counts it; the first probe flies its policy)
 TINY = [
-    "train.n_envs=1", "algo.n_steps=64", "algo.batch_size=64", "algo.n_epochs=1",
-    "train.total_timesteps=100000000", "train.checkpoint_freq=0",
-    "train.imitation.rounds=0", "train.imitation.episodes=1", "train.imitation.value_warmup=64",
+    "train.n_envs=1",
+    "algo.n_steps=64",
+    "algo.batch_size=64",
+    "algo.n_epochs=1",
+    "train.total_timesteps=100000000",
+    "train.checkpoint_freq=0",
+    "train.imitation.rounds=0",
+    "train.imitation.episodes=1",
+    "train.imitation.value_warmup=64",
 ]
 
 

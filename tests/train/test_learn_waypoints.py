@@ -75,7 +75,9 @@ def test_probe_run_flies_the_checkpoints_after_a_step_with_their_normaliser(exp,
 
     overrides = [o for o in TINY_PPO if not o.startswith("env=")]
     # the tuning's curriculum would outlast the tiny budget
-    cfg = load(["env=quadx_waypoints", *overrides, "algo.normalize.observation=true", "train.curriculum=null"], tmp_path)
+    cfg = load(
+        ["env=quadx_waypoints", *overrides, "algo.normalize.observation=true", "train.curriculum=null"], tmp_path
+    )
     live = {}
 
     from stable_baselines3.common.callbacks import BaseCallback

@@ -103,8 +103,9 @@ def test_bad_oracle_evaluations_name_the_problem_and_leave_nothing(tmp_path):
     assert not list((tmp_path / "runs").glob("*/*/*"))  # no run directory either
 
 
-@pytest.mark.parametrize(("name", "env_name"), [("quadx_gate_racer", "quadx_gates_state"),
-                                                ("quadx_forest_navigator", "quadx_obstacles")])
+@pytest.mark.parametrize(
+    ("name", "env_name"), [("quadx_gate_racer", "quadx_gates_state"), ("quadx_forest_navigator", "quadx_obstacles")]
+)
 def test_the_quadx_oracles_fly_their_state_env_by_default(tmp_path, name, env_name):
     """Without env=, the gate racer flies the Gates env that shows the corners (the id's own
     config sees the camera), the navigator the Obstacles env; both succeed on seed 0."""

@@ -256,8 +256,10 @@ def test_resume_of_a_run_killed_before_its_first_checkpoint_starts_over(tmp_path
     assert result.returncode == 0, result.stderr
     assert "from the start" in result.stderr and json.loads((run / "state.json").read_text())["status"] == "complete"
     assert _outcome(run)["evals"] == reference["evals"]  # the first attempt's records are superseded
-    assert torch.equal(_outcome(run)["policy"]["mlp_extractor.policy_net.0.weight"],
-                       reference["policy"]["mlp_extractor.policy_net.0.weight"])
+    assert torch.equal(
+        _outcome(run)["policy"]["mlp_extractor.policy_net.0.weight"],
+        reference["policy"]["mlp_extractor.policy_net.0.weight"],
+    )
 
 
 def test_a_checkpoint_holds_tensors_and_plain_data_only(tmp_path):
@@ -299,6 +301,8 @@ def test_a_resume_under_another_numeric_platform_says_so_in_one_line_and_records
         lines: list[str] = []
         steps = rundir.read_state(run)["num_timesteps"] + 128
         resume(run, total_timesteps=steps, log=lines.append)
-        assert [line for line in lines if line.startswith("note:")] == [next(x for x in lines if x.startswith(expected))]
+        assert [line for line in lines if line.startswith("note:")] == [
+            next(x for x in lines if x.startswith(expected))
+        ]
         resumes = rundir.read_yaml(run / rundir.RUN_FILE)["resumes"]
         assert resumes[-1]["cpu"] == here["cpu"] and resumes[-1]["numerics"] == here["key"]

@@ -82,7 +82,8 @@ def test_a_run_gives_the_numbers_recorded_before_the_faster_updates(tmp_path):
     platform = {**platform_info()["key"], "stable-baselines3": stable_baselines3.__version__}
     assert platform == {**RECORDED_PLATFORM, "stable-baselines3": RECORDED_SB3}, (
         "the recording was made on another numeric platform; install the versions the test extra pins "
-        f"(pip install -e '.[test]'): recorded {json.dumps(RECORDED_PLATFORM, sort_keys=True)}, SB3 {RECORDED_SB3}")
+        f"(pip install -e '.[test]'): recorded {json.dumps(RECORDED_PLATFORM, sort_keys=True)}, SB3 {RECORDED_SB3}"
+    )
     assert digest(outcome) == RECORDED
 
 

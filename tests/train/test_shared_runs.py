@@ -224,7 +224,9 @@ def _airframe_bomb(run: Path) -> None:
     from pyflyt_engine.paths import uav_dir
 
     spec = yaml.safe_load((uav_dir() / "quadx_cf2x.yaml").read_text())
-    text = billion_laughs(10, key="z") + yaml.safe_dump(spec, sort_keys=False).replace("shapes:", "shapes: *z9\n  old:", 1)
+    text = billion_laughs(10, key="z") + yaml.safe_dump(spec, sort_keys=False).replace(
+        "shapes:", "shapes: *z9\n  old:", 1
+    )
     (run / "airframe.yaml").write_text(text)
     path = run / "config.yaml"
     data = yaml.safe_load(path.read_text())

@@ -21,7 +21,11 @@ def _on_a_terminal(args: list[str], cwd, timeout: float = 300) -> tuple[int, str
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 40, 120, 0, 0))  # 40 rows, 120 columns
     proc = subprocess.Popen(
         [sys.executable, "-m", "pyflyt_cli.main", *args],
-        cwd=cwd, env=cli_env(), stdin=subprocess.DEVNULL, stdout=slave, stderr=slave,
+        cwd=cwd,
+        env=cli_env(),
+        stdin=subprocess.DEVNULL,
+        stdout=slave,
+        stderr=slave,
     )
     os.close(slave)
     chunks = []

@@ -111,20 +111,22 @@ def test_parallel_trials_run_in_separate_processes(tmp_path, space):
 
 @pytest.mark.slow  # five trials
 def test_a_trial_below_the_median_of_the_others_is_pruned_on_its_evaluation_curve(tmp_path, space):
-    report = tune(
-        "quadx_hover", "ppo", _options(tmp_path / "prune", space, trials=5, startup_trials=1), TRAIN
-    )
+    report = tune("quadx_hover", "ppo", _options(tmp_path / "prune", space, trials=5, startup_trials=1), TRAIN)
     study = optuna.load_study(study_name="quadx_hover_ppo", storage=report.storage)
     complete = optuna.trial.TrialState.COMPLETE
     pruned = [t for t in study.trials if t.state == optuna.trial.TrialState.PRUNED]
     assert pruned  # (same seeds: the same trials are pruned every time)
+
     def best_until(trial, step):  # Optuna's median pruner compares a trial's best value so far
         return max(v for s, v in trial.intermediate_values.items() if s <= step)
 
     for t in pruned:  # each was behind the median of the trials completed before it, at its last reported step
         step = max(t.intermediate_values)
-        earlier = [best_until(u, step) for u in study.trials
-                   if u.number < t.number and u.state == complete and step in u.intermediate_values]
+        earlier = [
+            best_until(u, step)
+            for u in study.trials
+            if u.number < t.number and u.state == complete and step in u.intermediate_values
+        ]
         assert earlier and best_until(t, step) < np.median(earlier)
         assert step < 256  # stopped at an evaluation before the end of its budget
 
@@ -180,8 +182,9 @@ def test_the_command_line(tmp_path, space):
     assert missing.returncode == 2 and "needs env=<task> and algo=<algorithm>" in missing.stderr
     bad = pyflyt(["tune", "env=quadx_hover", "algo=ppo", "trials=0"], cwd=tmp_path)
     assert bad.returncode == 2 and "trials" in bad.stderr and "Traceback" not in bad.stderr
-    done = pyflyt(["tune", "env=quadx_hover", "algo=ppo", "trials=1", f"space={space}", "study_dir=s", *TRAIN],
-                  cwd=tmp_path)
+    done = pyflyt(
+        ["tune", "env=quadx_hover", "algo=ppo", "trials=1", f"space={space}", "study_dir=s", *TRAIN], cwd=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     # one evaluation episode per trial: no spread, so no finding, no recommendation, no importance
     assert "no finding: with one evaluation episode per trial" in done.stderr and "random policy" in done.stderr

@@ -20,7 +20,12 @@ def test_a_run_becomes_an_agent_whose_evaluation_reproduces_the_record(tmp_path)
     root = tmp_path / "agents"
     made = zoo.add_agent(run, episodes=3, root=root)
     assert made.name == "quadx_hover_ppo"
-    assert sorted(p.name for p in made.path.iterdir()) == ["config.yaml", "learning_curve.png", "model.pt", "summary.yaml"]
+    assert sorted(p.name for p in made.path.iterdir()) == [
+        "config.yaml",
+        "learning_curve.png",
+        "model.pt",
+        "summary.yaml",
+    ]
     summary = yaml.safe_load((made.path / "summary.yaml").read_text())
     assert summary["algo"] == "ppo" and summary["seed"] == 0 and summary["training"]["steps"] == 512
     # the command that trains it names the env, algorithm and seed even for a run started from Python
@@ -117,7 +122,13 @@ def test_returns_that_are_not_bit_identical_are_judged_by_where_they_were_record
     record["numerics"] = {"key": elsewhere}
     agrees, words = zoo.compare(record, nudged, 1.0)
     assert agrees and words.startswith("recorded under another numeric platform (cpu Intel(R) Xeon(R) Gold 6338 -> -;")
-    assert "not bit-identical here, consistent with the recording (mean +0.00, success 100 % vs 100 %, Mann-Whitney p = 0.73)" in words
+    assert (
+        "not bit-identical here, consistent with the recording (mean +0.00, success 100 % vs 100 %, Mann-Whitney p = 0.73)"
+        in words
+    )
     agrees, words = zoo.compare(record, [r - 30.0 for r in returns], 0.0)
-    assert not agrees and "inconsistent with the recording (mean -30.00, success 0 % vs 100 %, Mann-Whitney p = 0.00)" in words
+    assert (
+        not agrees
+        and "inconsistent with the recording (mean -30.00, success 0 % vs 100 %, Mann-Whitney p = 0.00)" in words
+    )
     assert "DIFFERS" not in words

@@ -18,8 +18,13 @@ def test_config_airframes_load_and_build_from_yaml_alone():
     for name, motors, surfaces in (("hexacopter", 6, 0), ("flying_wing", 1, 5), ("quadplane", 5, 5)):
         spec = load_uav_spec(name)
         assert len(spec.motors.positions) == motors and len(spec.surfaces) == surfaces
-    with World([VehicleConfig("hexacopter", (0, 0, 1)), VehicleConfig("flying_wing", (5, 0, 5)),
-                VehicleConfig("quadplane", (-5, 0, 1))]) as world:
+    with World(
+        [
+            VehicleConfig("hexacopter", (0, 0, 1)),
+            VehicleConfig("flying_wing", (5, 0, 5)),
+            VehicleConfig("quadplane", (-5, 0, 1)),
+        ]
+    ) as world:
         hexa, wing, quadplane = world.vehicles
         assert hexa.mixer.allocation.shape == (4, 6)
         assert (hexa.mass, wing.mass, quadplane.mass) == pytest.approx((1.8, 1.5, 3.05))  # from the parts

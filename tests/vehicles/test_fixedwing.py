@@ -115,7 +115,7 @@ def test_power_off_glide_ratio_is_plausible_and_equals_the_lift_to_drag_ratio():
     world.set_setpoint(0, [0.0, 0.0, 0.0, 0.0])
     states = fly(world, 45.0)
     world.close()
-    segment = states[int(25 * 30):]  # after the phugoid has died down
+    segment = states[int(25 * 30) :]  # after the phugoid has died down
     pos = np.array([s.lin_pos for s in segment])
     vel = np.array([s.lin_vel_ground for s in segment])
     distance = np.sum(np.linalg.norm(np.diff(pos[:, :2], axis=0), axis=1))
@@ -144,7 +144,7 @@ def test_autopilot_holds_level_flight_at_the_trim_attitude():
     world.set_setpoint(0, [0.0, trim["pitch"], 0.0, CRUISE])
     states = fly(world, 18.0)
     world.close()
-    held = states[3 * 30:]
+    held = states[3 * 30 :]
     z = np.array([s.lin_pos[2] for s in held])
     u = np.array([s.lin_vel[0] for s in held])
     assert np.abs(z - 100.0).max() < 1.0, f"altitude {z.min():.2f}..{z.max():.2f} m"
@@ -164,7 +164,7 @@ def test_autopilot_holds_a_commanded_bank_and_turns_at_the_coordinated_rate():
     world.set_setpoint(0, [bank, trim["pitch"], -GRAVITY / CRUISE * math.sin(bank), CRUISE])
     states = fly(world, 12.0)
     world.close()
-    held = states[3 * 30:]
+    held = states[3 * 30 :]
     roll = np.array([s.ang_pos[0] for s in held])
     heading = np.unwrap([s.ang_pos[2] for s in held])
     error = np.abs(roll - bank).max()

@@ -106,7 +106,9 @@ def test_holds_its_hover_in_every_multirotor_flight_mode(mode):
         thrust = vehicle.mass * GRAVITY / math.cos(roll)
         if setpoint == "mixer":
             setpoint = vehicle.mixer.throttles(thrust, 0.0, 0.0, 0.0)
-        setpoint = [roll if s == "trim" else thrust / vehicle.mixer.max_collective if s == "hover" else s for s in setpoint]
+        setpoint = [
+            roll if s == "trim" else thrust / vehicle.mixer.max_collective if s == "hover" else s for s in setpoint
+        ]
         world.set_setpoint(0, setpoint)
         errors, yaws = [], []
         for _ in range(round(seconds * 30)):
@@ -141,8 +143,10 @@ def _error(data: dict) -> str:
 
 
 def test_without_its_servo_a_tricopter_cannot_yaw():
-    assert "has rank 3 < 4" in _error(_tricopter_with(mixer=False, channels=["yaw_servo", "unused"]) | {
-        "channels": {"yaw_servo": [-1, 1], "unused": [-1, 1]}})
+    assert "has rank 3 < 4" in _error(
+        _tricopter_with(mixer=False, channels=["yaw_servo", "unused"])
+        | {"channels": {"yaw_servo": [-1, 1], "unused": [-1, 1]}}
+    )
 
 
 @pytest.mark.parametrize(

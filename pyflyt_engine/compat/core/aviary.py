@@ -41,7 +41,16 @@ from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.world import World
 
-__all__ = ["Aviary", "AviaryInitException", "DroneClass", "DroneIndex", "Fixedwing", "QuadX", "Rocket", "WindFieldClass"]
+__all__ = [
+    "Aviary",
+    "AviaryInitException",
+    "DroneClass",
+    "DroneIndex",
+    "Fixedwing",
+    "QuadX",
+    "Rocket",
+    "WindFieldClass",
+]
 
 #: PyFlyt 0.29.0 ``core.aviary``: a drone's index in ``Aviary.drones`` (a type alias)
 DroneIndex = int
@@ -385,9 +394,7 @@ class Aviary:
                 _hold_controller(self.world.vehicles[i], hold)
             self.drones.append(Drone(self, i, kind_name, rate, camera))
             self._kinds.append(kind_name)
-        self._start_velocities = [
-            self._start_velocity(k, o, orn) for k, o, orn in zip(self._kinds, options, start_orn)
-        ]
+        self._start_velocities = [self._start_velocity(k, o, orn) for k, o, orn in zip(self._kinds, options, start_orn)]
 
         self.wind_field: Callable[[float, np.ndarray], np.ndarray] | None = None
         if wind_type is not None and not isinstance(wind_type, str):
@@ -486,9 +493,7 @@ class Aviary:
         return spec.model_copy(update={"cameras": [*spec.cameras, camera]}), len(spec.cameras)
 
     @staticmethod
-    def _start_velocity(
-        kind: str, option: dict[str, Any], start_orn: np.ndarray
-    ) -> tuple[float, float, float] | None:
+    def _start_velocity(kind: str, option: dict[str, Any], start_orn: np.ndarray) -> tuple[float, float, float] | None:
         """The fixed-wing's spawn velocity in its body frame.
 
         PyFlyt 0.29.0 Fixedwing: ``starting_velocity`` (default (20, 0, 0)) is passed to

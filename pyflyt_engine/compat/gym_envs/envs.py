@@ -524,9 +524,7 @@ class QuadXGatesEnv(ReferenceEnv, _NativeGates):
         if n < 1:
             raise ValueError(f"num_targets must be at least 1, got {n}")
         template = cfg["payloads"][0]
-        cfg["payloads"] = [
-            {**template, "name": f"gate_{i}", "position": (2.0 * (i + 1), 0.0, 1.0)} for i in range(n)
-        ]
+        cfg["payloads"] = [{**template, "name": f"gate_{i}", "position": (2.0 * (i + 1), 0.0, 1.0)} for i in range(n)]
         pitch, yaw = float(max_gate_angles[1]), float(max_gate_angles[2])
         cfg["task"].update(
             gates=[f"gate_{i}" for i in range(n)],

@@ -184,7 +184,13 @@ class MAQuadXBaseEnv(_MAAviaryEnv):
         box = spaces.Box(np.array([-r, -r, -r, 0.0]), np.array([r, r, r, QUADX_THRUST_LIMIT]), dtype=np.float64)
         self.flight_mode = flight_mode
         self._setup(
-            start_pos, start_orn, box, flight_dome_size, max_duration_seconds, angle_representation, agent_hz,
+            start_pos,
+            start_orn,
+            box,
+            flight_dome_size,
+            max_duration_seconds,
+            angle_representation,
+            agent_hz,
             render_mode,
         )
 
@@ -248,7 +254,13 @@ class MAFixedwingBaseEnv(_MAAviaryEnv):
         self.assisted_flight = bool(assisted_flight)
         box = spaces.Box(-np.ones(n), np.ones(n), dtype=np.float64)
         self._setup(
-            start_pos, start_orn, box, flight_dome_size, max_duration_seconds, angle_representation, agent_hz,
+            start_pos,
+            start_orn,
+            box,
+            flight_dome_size,
+            max_duration_seconds,
+            angle_representation,
+            agent_hz,
             render_mode,
         )
 

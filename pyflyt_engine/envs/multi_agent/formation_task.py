@@ -59,7 +59,7 @@ class MAFormationTask(MultiAgentTask):
         """Per live agent: its neighbours (nearest first), nearest distance and shape error."""
         opts: Any = self.options
         grid, reach, k = self._grid, self._reach, opts.neighbours
-        radius2 = opts.neighbour_radius ** 2
+        radius2 = opts.neighbour_radius**2
         grid.clear()
         positions = {i: tuple(states[i].lin_pos) for i in live}
         for i in live:

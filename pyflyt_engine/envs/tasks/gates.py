@@ -234,9 +234,13 @@ class GatesTask(Task):
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         kind = self.options.observation
         if kind == "corners":
-            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(12,), dtype=np.float64)})
+            return spaces.Dict(
+                {"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(12,), dtype=np.float64)}
+            )
         if kind == "relative_pose":
-            return spaces.Dict({"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(7,), dtype=np.float64)})
+            return spaces.Dict(
+                {"attitude": attitude, "gate": spaces.Box(-np.inf, np.inf, shape=(7,), dtype=np.float64)}
+            )
         deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
         return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
 

@@ -62,8 +62,14 @@ class GoalTask(Task):
     provides: ClassVar[frozenset[str]] = frozenset({"target_distance", "target_distance_rate", "waypoints"})
     # read at every reset (the draw, the spawn) or step (the reach test)
     episode_options: ClassVar[frozenset[str]] = frozenset(
-        {"goal_x_range", "goal_y_range", "goal_z_range", "goal_reach_distance", "start_position_noise",
-         "start_orientation_noise"}
+        {
+            "goal_x_range",
+            "goal_y_range",
+            "goal_z_range",
+            "goal_reach_distance",
+            "start_position_noise",
+            "start_orientation_noise",
+        }
     )
     measures: ClassVar[tuple[Measure, ...]] = (Measure("goal_reached", "goal reached", percent=True),)
 
@@ -95,7 +101,9 @@ class GoalTask(Task):
         self.tracker.reset(np.array([goal]), state.lin_pos)
 
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
-        return spaces.Dict({"attitude": attitude, "goal_delta": spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)})
+        return spaces.Dict(
+            {"attitude": attitude, "goal_delta": spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)}
+        )
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
         remaining = self.tracker.remaining

@@ -136,13 +136,17 @@ def describe(measures: Sequence[Measure], summary: Mapping[str, float], width: i
     width = max([width, *(len(m.label) for m in measures if m.key in summary)])
     for m in measures:
         if m.key in summary:
-            over = "of episodes" if m.percent and m.rate else "max over episodes" if m.combine == "max" else "mean over episodes"
+            over = (
+                "of episodes"
+                if m.percent and m.rate
+                else "max over episodes"
+                if m.combine == "max"
+                else "mean over episodes"
+            )
             lines.append(f"{m.label:<{width}}  {m.format(summary[m.key])}  ({over})")
         agents = [k for k in summary if k.endswith("/" + m.key)]
         if agents:
-            lines.append(
-                "  per agent: " + ", ".join(f"{k.rpartition('/')[0]} {m.format(summary[k])}" for k in agents)
-            )
+            lines.append("  per agent: " + ", ".join(f"{k.rpartition('/')[0]} {m.format(summary[k])}" for k in agents))
     return lines
 
 

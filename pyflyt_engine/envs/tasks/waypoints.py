@@ -95,7 +95,11 @@ class WaypointsTask(Task):
     def reset(self, state: KinematicState, rng: np.random.Generator) -> None:
         o = self.options
         targets = sample_waypoints(
-            rng, o.num_targets, o.min_target_distance, o.max_target_distance * self.flight_dome_size, o.min_target_height
+            rng,
+            o.num_targets,
+            o.min_target_distance,
+            o.max_target_distance * self.flight_dome_size,
+            o.min_target_height,
         )
         self.tracker.reset(targets, state.lin_pos)
 

@@ -41,9 +41,7 @@ def test_simple_spawn():
     start_orn = np.array([[0.0, 0.0, 0.0]])
 
     # environment setup
-    env = Aviary(
-        start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx"
-    )
+    env = Aviary(start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx")
 
     # set to position control
     env.set_mode(7)
@@ -93,9 +91,7 @@ def test_default_control():
     start_orn = np.array([[0.0, 0.0, 0.0]])
 
     # environment setup
-    env = Aviary(
-        start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx"
-    )
+    env = Aviary(start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx")
 
     # set to position control
     env.set_mode(7)
@@ -140,24 +136,24 @@ def test_camera():
         env.step()
 
         # check the camera image
-        assert isinstance(
-            env.drones[0].rgbaImg, np.ndarray
-        ), f"Expected camera image to be of type `np.ndarray`, got {type(env.drones[0].rgbaImg)}."
-        assert isinstance(
-            env.drones[0].depthImg, np.ndarray
-        ), f"Expected depth image to be of type `np.ndarray`, got {type(env.drones[0].depthImg)}."
-        assert isinstance(
-            env.drones[0].segImg, np.ndarray
-        ), f"Expected segmented image to be of type `np.ndarray`, got {type(env.drones[0].segImg)}."
-        assert (
-            env.drones[0].rgbaImg.shape[-1] == 4
-        ), f"Expected 4 channels in the rendered image, got {env.drones[0].rgbaImg.shape[-1]}."
-        assert (
-            env.drones[0].depthImg.shape[-1] == 1
-        ), f"Expected 1 channel in the depth image, got {env.drones[0].depthImg.shape[-1]}."
-        assert (
-            env.drones[0].segImg.shape[-1] == 1
-        ), f"Expected 1 channel in the segmentated image, got {env.drones[0].segImg.shape[-1]}"
+        assert isinstance(env.drones[0].rgbaImg, np.ndarray), (
+            f"Expected camera image to be of type `np.ndarray`, got {type(env.drones[0].rgbaImg)}."
+        )
+        assert isinstance(env.drones[0].depthImg, np.ndarray), (
+            f"Expected depth image to be of type `np.ndarray`, got {type(env.drones[0].depthImg)}."
+        )
+        assert isinstance(env.drones[0].segImg, np.ndarray), (
+            f"Expected segmented image to be of type `np.ndarray`, got {type(env.drones[0].segImg)}."
+        )
+        assert env.drones[0].rgbaImg.shape[-1] == 4, (
+            f"Expected 4 channels in the rendered image, got {env.drones[0].rgbaImg.shape[-1]}."
+        )
+        assert env.drones[0].depthImg.shape[-1] == 1, (
+            f"Expected 1 channel in the depth image, got {env.drones[0].depthImg.shape[-1]}."
+        )
+        assert env.drones[0].segImg.shape[-1] == 1, (
+            f"Expected 1 channel in the segmentated image, got {env.drones[0].segImg.shape[-1]}"
+        )
 
     env.disconnect()
 
@@ -187,9 +183,7 @@ def test_custom_controller():
             # outputs a command to base flight mode 6 that makes the drone stay at x=1, y=1, z=1, yawrate=0.1
             target_velocity = np.array([1.0, 1.0, 1.0]) - state[-1]
             target_yaw_rate = 0.5
-            output = np.array(
-                [*target_velocity[:2], target_yaw_rate, target_velocity[-1]]
-            )
+            output = np.array([*target_velocity[:2], target_yaw_rate, target_velocity[-1]])
             return output
 
     # the starting position and orientations
@@ -197,14 +191,10 @@ def test_custom_controller():
     start_orn = np.array([[0.0, 0.0, 0.0]])
 
     # environment setup
-    env = Aviary(
-        start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx"
-    )
+    env = Aviary(start_pos=start_pos, start_orn=start_orn, render=False, drone_type="quadx")
 
     # register our custom controller for the first drone, this controller is id 8, and is based off 6
-    env.drones[0].register_controller(
-        controller_constructor=CustomController, controller_id=8, base_mode=6
-    )
+    env.drones[0].register_controller(controller_constructor=CustomController, controller_id=8, base_mode=6)
 
     # set to our new custom controller
     env.set_mode(8)
@@ -306,9 +296,7 @@ def test_simple_wind(model: str):
     start_orn = np.array([[0.0, 0.0, 0.0]])
 
     # environment setup, attach the windfield
-    env = Aviary(
-        start_pos=start_pos, start_orn=start_orn, render=False, drone_type=model
-    )
+    env = Aviary(start_pos=start_pos, start_orn=start_orn, render=False, drone_type=model)
     env.register_wind_field_function(simple_wind)
 
     # simulate for 1000 steps (1000/120 ~= 8 seconds)
@@ -332,9 +320,7 @@ def test_custom_wind(model: str):
 
     # define the wind field
     class MyWindField(WindFieldClass):
-        def __init__(
-            self, my_parameter=1.0, np_random: None | np.random.Generator = None
-        ):
+        def __init__(self, my_parameter=1.0, np_random: None | np.random.Generator = None):
             super().__init__(np_random)
             self.strength = my_parameter
 

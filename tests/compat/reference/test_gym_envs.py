@@ -170,11 +170,7 @@ def test_render(env_config, render_mode):
         env.step(env.action_space.sample())
 
     for frame in frames:
-        assert isinstance(
-            frame, np.ndarray
-        ), f"Expected render frames to be of type `np.ndarray`, got {type(frame)}."
-        assert (
-            frame.shape[-1] == 4
-        ), f"Expected 4 channels in the rendered image, got {frame.shape[-1]}."
+        assert isinstance(frame, np.ndarray), f"Expected render frames to be of type `np.ndarray`, got {type(frame)}."
+        assert frame.shape[-1] == 4, f"Expected 4 channels in the rendered image, got {frame.shape[-1]}."
 
     env.close()

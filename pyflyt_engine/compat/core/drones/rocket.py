@@ -3,7 +3,14 @@
 from pyflyt_engine.compat.core.abstractions import DroneClass
 
 # the names the reference's module holds through its own imports, for code that takes them from here
-from pyflyt_engine.compat.core.abstractions import Boosters, BoringBodies, Camera, Gimbals, LiftingSurface, LiftingSurfaces
+from pyflyt_engine.compat.core.abstractions import (
+    Boosters,
+    BoringBodies,
+    Camera,
+    Gimbals,
+    LiftingSurface,
+    LiftingSurfaces,
+)
 
 __all__ = ["Boosters", "BoringBodies", "Camera", "Gimbals", "LiftingSurface", "LiftingSurfaces", "Rocket"]
 

@@ -58,6 +58,4 @@ class QuadXBaseEnv(AviaryTaskEnv):
         if flight_mode == -1:
             return spaces.Box(np.zeros(4), np.full(4, QUADX_THRUST_LIMIT), dtype=np.float64)
         r = QUADX_RATE_LIMIT
-        return spaces.Box(
-            np.array([-r, -r, -r, 0.0]), np.array([r, r, r, QUADX_THRUST_LIMIT]), dtype=np.float64
-        )
+        return spaces.Box(np.array([-r, -r, -r, 0.0]), np.array([r, r, r, QUADX_THRUST_LIMIT]), dtype=np.float64)
