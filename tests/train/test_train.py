@@ -15,6 +15,7 @@ from pyflyt_cli.training.models import read_policy
 from pyflyt_cli.training.rundir import config_digest, load_run_config, read_state
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.paths import conf_dir
+from pyflyt_engine.loading import available
 from pyflyt_engine.telemetry import read_metrics
 
 from .conftest import TINY_PPO, TINY_SAC, initial_policy_probe, load
@@ -276,7 +277,7 @@ def test_a_run_being_trained_cannot_be_resumed_twice(tmp_path):
     assert not (run / "run.lock").exists()
 
 
-@pytest.mark.parametrize("env", sorted(p.stem for p in conf_dir().glob("env/*.yaml")))
+@pytest.mark.parametrize("env", available("env"))  # every shipped env config; its bases are no envs
 def test_every_env_config_trains_and_evaluates(tmp_path, env):
     overrides = [
         f"env={env}",
