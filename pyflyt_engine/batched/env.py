@@ -51,6 +51,10 @@ controller's estimator are the PyBullet engine's laws on rows
 (:mod:`pyflyt_engine.batched.sensors`), sampled at the start of every physics step and
 drawing from env ``i``'s own sensor stream in the engine's order; the observation shows
 the sensed or estimated state (and the fix's validity flag) as the PyBullet env does.
+Domain randomisation (``env.randomize``: the airframe factors, the spawn offsets, the
+delays) is drawn per env and episode as the PyBullet env draws it
+(:mod:`pyflyt_engine.batched.randomization`); an airframe's optional motor models and its
+battery fly their compiled laws, the pack reset with each env's episode.
 The waypoint logic (sampling, the segment reach test, the
 observation's deltas) is one path for both kinds of airframe, as the PyBullet engine's
 waypoints task is.  Everything else a config can ask for that this backend does not
