@@ -24,6 +24,10 @@ TESTS=(
     tests/train/test_zoo.py
     tests/batched/test_golden.py
     tests/batched/test_training.py
+    tests/batched/test_randomization.py
+    tests/batched/test_motor_models.py
+    tests/batched/test_sensors.py
+    tests/batched/test_combined.py
 )
 EMULATIONS=(
     # an SSE3-only core for BLAS, NumPy without AVX2, PyTorch's baseline kernels, MKL's SSE2 branch,
