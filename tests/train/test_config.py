@@ -338,7 +338,7 @@ def test_a_python_tag_in_an_experiment_file_is_refused_naming_the_file(tmp_path)
     for command in (["train", "--cfg"], ["benchmark", "--dry-run"]):
         result = pyflyt(
             [*command, f"experiment={study}"], cwd=tmp_path
-        )  # the helper's hang guard (300 s), not a readiness wait
+        )  # pyflyt()'s hang guard (300 s), not a readiness wait
         assert result.returncode == 2, result.stderr
         assert f"{study}, line 2: the YAML tag !!python/object/apply:os.system is not allowed" in result.stderr
         assert "Traceback" not in result.stderr
