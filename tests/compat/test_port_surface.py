@@ -95,6 +95,24 @@ def test_python_drone_classes_stay_refused_with_the_documented_message():
             cls()
 
 
+@pytest.mark.parametrize(
+    "option", [{"model_dir": "models/", "drone_model": "modded_drone"}, {"drone_model": "primitive_drone"}]
+)
+def test_the_references_drone_model_files_are_refused_as_files_not_as_python_classes(option, tmp_path):
+    """A project that flies its own QuadX model (a URDF and its YAML of motor, drag and control
+    parameters, as the reference's model_dir / drone_model select) is told that those files are
+    not read and what to pass instead -- not that it wrote a Python class, which it did not."""
+    from pyflyt_engine.compat.core import Aviary
+    from pyflyt_engine.compat.core.abstractions import UnsupportedFeature
+
+    with pytest.raises(UnsupportedFeature) as refused:
+        Aviary(
+            start_pos=np.zeros((1, 3)) + [0, 0, 1], start_orn=np.zeros((1, 3)), drone_type="quadx", drone_options=option
+        )
+    message = str(refused.value)
+    assert "drone model files" in message and "drone_type" in message and "Python" not in message
+
+
 # ------------------------------------------------------------------ the unwrapped env
 
 

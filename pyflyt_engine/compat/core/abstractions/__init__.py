@@ -19,6 +19,13 @@ YAML_AIRFRAMES = (
     "file instead (motors, lifting surfaces, boosters, gimbals, cameras; docs/uav_authoring.md, translation "
     "in docs/migrating_from_pyflyt.md) and fly it with pyflyt_engine.World"
 )
+#: the refusal of the reference's drone model files (drone_options model_dir / drone_model)
+MODEL_FILES = (
+    "the reference's drone model files (a URDF with its YAML of motor_params, drag_params and "
+    "control_params, picked by drone_options model_dir / drone_model) are not read by pyflyt_engine.compat: "
+    "describe the airframe in this project's airframe YAML (docs/uav_authoring.md; the parameter "
+    "translation in docs/migrating_from_pyflyt.md) and pass its path as the Aviary's drone_type"
+)
 
 
 class UnsupportedFeature(NotImplementedError):
