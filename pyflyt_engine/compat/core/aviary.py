@@ -23,12 +23,13 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.compat.core.abstractions import (
+    MODEL_FILES,
     YAML_AIRFRAMES,
     ControlClass,
     DroneClass,
@@ -38,7 +39,9 @@ from pyflyt_engine.compat.core.abstractions import (
 from pyflyt_engine.compat.core.drones import Fixedwing, QuadX, Rocket
 from pyflyt_engine.compat._commands import command_to_thrust_fraction, surface_commands_to_channels, thrust_gain
 from pyflyt_engine.spec import CameraSpec, UAVSpec, load_uav_spec
+from pyflyt_engine.atmosphere.field import WindField
 from pyflyt_engine.state import KinematicState
+from pyflyt_engine.vehicle import Controller
 from pyflyt_engine.world import World
 
 __all__ = [
@@ -264,7 +267,8 @@ class Drone:
         if -1 <= int(controller_id) <= 7:
             raise ValueError(f"`controller_id` must not be a built-in mode (-1 to 7), got {controller_id}.")
         adapter = _ControllerAdapter(controller_constructor, pwm_thrust=int(base_mode) == 0, gain=self._gain)
-        self.vehicle.register_controller(f"pyflyt_{int(controller_id)}", adapter, int(base_mode))
+        # the adapter returns an array where the protocol says Sequence[float]: the vehicle takes either
+        self.vehicle.register_controller(f"pyflyt_{int(controller_id)}", cast(Controller, adapter), int(base_mode))
         self._controllers[int(controller_id)] = (controller_constructor, int(base_mode))
 
     def get_joint_info(self) -> None:
@@ -338,6 +342,7 @@ class Aviary:
             if kind in mappings and not (isinstance(mappings[kind], str) and mappings[kind] in DRONE_TYPES):
                 raise UnsupportedFeature(f"drone_type '{kind}' (drone_type_mappings): {YAML_AIRFRAMES}")
         kinds = [mappings.get(k, k) for k in kinds]
+        options: list[dict[str, Any]]
         if drone_options is None:
             options = [{} for _ in range(n)]
         elif isinstance(drone_options, dict):
@@ -351,7 +356,7 @@ class Aviary:
             if unknown:
                 raise TypeError(f"unknown drone_options {sorted(unknown)}; known: {sorted(_KNOWN_OPTIONS)}")
             if option.get("model_dir") is not None:
-                raise UnsupportedFeature(f"drone_options model_dir: {YAML_AIRFRAMES}")
+                raise UnsupportedFeature(f"drone_options model_dir: {MODEL_FILES}")
 
         self.physics_hz = int(physics_hz)
         self.world_scale = world_scale
@@ -446,7 +451,7 @@ class Aviary:
             model = option.get("drone_model")
             if model is not None:
                 if kind != "quadx" or model not in _QUADX_MODELS:
-                    raise UnsupportedFeature(f"drone_model '{model}' of '{kind}': {YAML_AIRFRAMES}")
+                    raise UnsupportedFeature(f"drone_model '{model}' of '{kind}': {MODEL_FILES}")
                 name = _QUADX_MODELS[model]
             return load_uav_spec(name), kind
         path = Path(kind)
@@ -582,7 +587,8 @@ class Aviary:
             raise AssertionError("`wind_field` function must be callable.")
         WindFieldClass._check_wind_field_validity(wind_field)
         self.wind_field = wind_field
-        self.world.atmosphere.field = _FunctionWind(wind_field, self.world)
+        # duck-typed: _FunctionWind is the part of a WindField the atmosphere reads
+        self.world.atmosphere.field = cast(WindField, _FunctionWind(wind_field, self.world))
         for vehicle in self.world.vehicles:
             vehicle.state_changed()
 

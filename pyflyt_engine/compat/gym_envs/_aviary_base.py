@@ -33,7 +33,7 @@ code that brings its own task and scenery.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, cast
 
 import gymnasium
 import numpy as np
@@ -53,7 +53,7 @@ from pyflyt_engine.compat.gym_envs._base import (
 class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
     """The shared part of the reference-style base envs (see the module docstring)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+    metadata: dict[str, Any] = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     #: the Aviary ``drone_type`` flown
     drone_type: ClassVar[str] = "quadx"
     #: the auxiliary state's length (PyFlyt 0.29.0: QuadX 4, Fixedwing 6, Rocket 9)
@@ -131,7 +131,7 @@ class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
         self.termination = False
         self.truncation = False
         self.state: Any = None
-        self.action = np.zeros(self.action_space.shape)
+        self.action = np.zeros(cast(spaces.Box, self.action_space).shape)
         self.reward = 0.0
         self.info: dict[str, Any] = {"out_of_bounds": False, "collision": False, "env_complete": False}
         drone_options = dict(drone_options or {})
@@ -196,6 +196,8 @@ class AviaryTaskEnv(ReferenceHooks, gymnasium.Env):
 
         world = self.env.world
         state: KinematicState = world.vehicles[0].state
-        frame = _render.chase_camera(world.client, state, tuple(self.render_resolution), 3.0, 1.0, 60.0)
+        frame = _render.chase_camera(
+            world.client, state, (int(self.render_resolution[0]), int(self.render_resolution[1])), 3.0, 1.0, 60.0
+        )
         alpha = np.full(frame.shape[:2] + (1,), 255, dtype=np.uint8)
         return np.concatenate((frame, alpha), axis=-1)

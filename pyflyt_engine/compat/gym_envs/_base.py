@@ -21,7 +21,7 @@ import logging
 import math
 import os
 import sys
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 from gymnasium import spaces
@@ -234,6 +234,21 @@ class ReferenceEnv(ReferenceHooks):
     neither rewards nor ends these episodes.
     """
 
+    # what the native env class after this mixin in the bases provides (annotations only)
+    config: Any
+    world: Any
+    vehicle: Any
+    task: Any
+    observation_space: Any
+    action_space: Any
+    render_mode: str | None
+    metadata: dict[str, Any]
+    # the reference's attributes set at the construction or reset
+    angle_representation: int
+    sparse_reward: bool
+    action: np.ndarray
+    _reference_rng: np.random.Generator
+
     #: the reference's id of this env
     reference_id: ClassVar[str] = ""
     #: bound of the target deltas (PyFlyt 0.29.0: 2 x flight_dome_size), or None
@@ -253,18 +268,18 @@ class ReferenceEnv(ReferenceHooks):
         self.render_mode = render_mode
         self.render_resolution = tuple(render_resolution)
         # PyFlyt 0.29.0 *BaseEnv.metadata: render_fps 30 at any agent rate
-        self.metadata = {**self.metadata, "render_fps": REFERENCE_RENDER_FPS}  # type: ignore[has-type]
-        cfg = self.config  # type: ignore[attr-defined]
+        self.metadata = {**self.metadata, "render_fps": REFERENCE_RENDER_FPS}
+        cfg = self.config
         mode = cfg.action.mode
         if mode in ("rates_thrust", "motors"):  # a QuadX in the reference's mode 0 or -1
-            self.vehicle = _PwmThrust(  # type: ignore[attr-defined]
-                self.vehicle,  # type: ignore[attr-defined]
+            self.vehicle = _PwmThrust(
+                self.vehicle,
                 motors=mode == "motors",
                 reference_hover=self.reference_hover_command,
             )
-        space = self.observation_space  # type: ignore[has-type]
+        space = self.observation_space
         if self._delta_bound is not None and isinstance(space, spaces.Dict):
-            feature = space["target_deltas"].feature_space
+            feature = cast(spaces.Sequence, space["target_deltas"]).feature_space
             b = float(self._delta_bound)
             deltas = spaces.Sequence(spaces.Box(-b, b, shape=feature.shape, dtype=np.float64), stack=True)
             self.observation_space = spaces.Dict({**space.spaces, "target_deltas": deltas})
@@ -276,7 +291,7 @@ class ReferenceEnv(ReferenceHooks):
         self.step_count = 0
         self.termination = self.truncation = False
         self.reward = 0.0
-        self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
+        self.action = np.zeros(self.action_space.shape)
         self.info: dict[str, Any] = {}
         self._reference_state: Any = None
         self._aviary_view: Any = None
@@ -288,7 +303,7 @@ class ReferenceEnv(ReferenceHooks):
         """The world as the reference's Aviary (:meth:`Aviary.over_world`): read it; the env steps it."""
         from pyflyt_engine.compat.core import Aviary
 
-        world = self.world  # type: ignore[attr-defined]
+        world = self.world
         if self._aviary_view is None or self._aviary_view.world is not world:
             self._aviary_view = Aviary.over_world(world, [self.drone_kind])
         return self._aviary_view
@@ -303,14 +318,14 @@ class ReferenceEnv(ReferenceHooks):
         self._reference_state = value
 
     def _task_option(self, name: str) -> np.ndarray:
-        return np.array([getattr(self.task.options, name)], dtype=np.float64)  # type: ignore[attr-defined]
+        return np.array([getattr(self.task.options, name)], dtype=np.float64)
 
     def _set_task_option(self, name: str, value: Any) -> None:
         row = np.asarray(value, dtype=np.float64).reshape(-1)
         if row.shape != (3,):
             label = {"start_position": "start_pos", "start_orientation": "start_orn"}[name]
             raise ValueError(f"{label} must hold one (x, y, z) row, e.g. np.array([[0.0, 0.0, 1.0]]), got {value!r}")
-        task = self.task  # type: ignore[attr-defined]
+        task = self.task
         update = {name: tuple(float(v) for v in row)}
         task.configured = task.configured.model_copy(update=update)
         task.options = task.options.model_copy(update=update)
@@ -369,12 +384,12 @@ class ReferenceEnv(ReferenceHooks):
             # reference's stream is kept apart and the same seed draws the reference's course
             from gymnasium.utils import seeding
 
-            self._reference_rng, _ = seeding.np_random(seed)
+            self._reference_rng = seeding.np_random(seed)[0]
         self._after_spawn()
         self.step_count = 0
         self.termination = self.truncation = False
         self.reward = 0.0
-        self.action = np.zeros(self.action_space.shape)  # type: ignore[attr-defined]
+        self.action = np.zeros(self.action_space.shape)
         self.info = self._new_info()
 
     def end_reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
@@ -390,7 +405,7 @@ class ReferenceEnv(ReferenceHooks):
             self._markers.show(self._marker_points())  # type: ignore[attr-defined]
 
     def _marker_points(self) -> Any:
-        return self.task.markers()  # type: ignore[attr-defined]
+        return self.task.markers()
 
     def _after_spawn(self) -> None:
         """Change the spawned state before settling (the rocket's drop velocity)."""
@@ -399,11 +414,11 @@ class ReferenceEnv(ReferenceHooks):
         """The env's own reset, before the settling (a course of waypoints)."""
 
     def _settle(self) -> None:
-        world = self.world  # type: ignore[attr-defined]
+        world = self.world
         per_agent = world.physics_per_agent
         world.physics_per_agent = max(1, int(round(world.physics_hz / REFERENCE_STEP_HZ)))
         try:
-            self.vehicle.set_setpoint(np.zeros(self.action_space.shape))  # type: ignore[attr-defined]
+            self.vehicle.set_setpoint(np.zeros(self.action_space.shape))
             for _ in range(SETTLE_STEPS):
                 world.step()
         finally:
@@ -429,13 +444,13 @@ class ReferenceEnv(ReferenceHooks):
         """PyFlyt 0.29.0 ``*BaseEnv.step`` (see the class docstring); the action is observed as given."""
         from pyflyt_engine.envs import core
 
-        names = self.config.action.names  # type: ignore[attr-defined]
+        names = self.config.action.names
         clipped = core.clip_action(action, self._low, self._high, names)  # type: ignore[attr-defined]
         self.action = np.array(action, dtype=np.float64).reshape(clipped.shape)
         self._actions[0] = clipped  # type: ignore[attr-defined]
         self.reward = self.step_reward
-        self.vehicle.set_setpoint(self._to_setpoint(clipped.copy()))  # type: ignore[attr-defined]
-        world = self.world  # type: ignore[attr-defined]
+        self.vehicle.set_setpoint(self._to_setpoint(clipped.copy()))
+        world = self.world
         per_agent = world.physics_per_agent
         world.physics_per_agent = max(1, int(round(world.physics_hz / REFERENCE_STEP_HZ)))
         try:
@@ -455,7 +470,7 @@ class ReferenceEnv(ReferenceHooks):
 
     def render(self) -> np.ndarray | None:
         """``rgb_array``: an (H, W, 4) uint8 RGBA frame, as the reference's; ``human``: the GUI."""
-        if self.render_mode is None:  # type: ignore[attr-defined]
+        if self.render_mode is None:
             raise ValueError(
                 "Please set `render_mode='human'` or `render_mode='rgb_array'` in init to use this function."
             )

@@ -96,7 +96,7 @@ class QuadXHoverEnv(ReferenceEnv, _NativeHover):
             self.reward += 1.0
 
 
-class _WaypointCourse:
+class _WaypointCourse(ReferenceEnv):
     """The reference's waypoint episode over a :class:`WaypointHandler` (PyFlyt 0.29.0 QuadX and
     Fixedwing waypoint envs): targets drawn at each reset, deltas observed in the body
     frame, reward 100 at a target reached, the last one truncating (``env_complete``)."""
@@ -221,7 +221,7 @@ class QuadXWaypointsEnv(_WaypointCourse, ReferenceEnv, _NativeWaypoints):
             self.observation_space = spaces.Dict({**self.observation_space.spaces, "target_deltas": deltas})
 
 
-class _PoleReadings:
+class _PoleReadings(ReferenceEnv):
     """The native pole payload read as the reference's ``PoleHandler`` (PyFlyt 0.29.0): its
     12 values [tip position, base position, tip velocity, base velocity], relative to the
     vehicle in its body frame, and its ``leaningness`` (horizontal tip-to-base distance,
@@ -405,11 +405,17 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
     @property
     def pendulum_id(self) -> int:
         """The ball's PyBullet body (the reference's name)."""
-        return int(self.payloads.by_name[self.task.options.ball].body_id)
+        return int(self._payload_set.by_name[self.task.options.ball].body_id)
 
     @property
     def cup_id(self) -> int:
-        return int(self.payloads.by_name[self.task.options.cup].body_id)
+        return int(self._payload_set.by_name[self.task.options.cup].body_id)
+
+    @property
+    def _payload_set(self) -> Any:
+        """The ball and cup (this env always builds them)."""
+        assert self.payloads is not None
+        return self.payloads
 
     def _reference_reset(self) -> None:
         self.drone_state_error = np.zeros(4)
@@ -421,7 +427,7 @@ class QuadXBallInCupEnv(ReferenceEnv, _NativeBallInCup):
         read = self.compute_attitude()
         _, _, _, lin_pos, quaternion = read
         rotation = np.array(p.getMatrixFromQuaternion(quaternion)).reshape(3, 3)  # body -> ground
-        ball = self.payloads.state(self.task.options.ball)
+        ball = self._payload_set.state(self.task.options.ball)
         self.ball_lin_pos, self.ball_lin_vel = np.asarray(ball.position), np.asarray(ball.lin_vel)
         self.ball_rel_lin_pos = rotation.T @ (self.ball_lin_pos - lin_pos)
         self.ball_rel_lin_vel = rotation.T @ self.ball_lin_vel  # the ball's own velocity, as the reference's

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -29,8 +29,8 @@ class FlattenWaypointEnv(gymnasium.ObservationWrapper):
         ):
             raise AttributeError("Only a waypoints environment can be used with the `FlattenWaypointEnv` wrapper.")
         self.context_length = int(context_length)
-        self.attitude_shape = int(space["attitude"].shape[0])
-        self.target_shape = int(space["target_deltas"].feature_space.shape[0])
+        self.attitude_shape = int(cast(spaces.Box, space["attitude"]).shape[0])
+        self.target_shape = int(cast(spaces.Box, cast(spaces.Sequence, space["target_deltas"]).feature_space).shape[0])
         self.observation_space = spaces.Box(
             low=-np.inf, high=np.inf, shape=(self.attitude_shape + self.target_shape * self.context_length,)
         )

@@ -43,6 +43,8 @@ class _MAAviaryEnv(ParallelEnv):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human"], "name": "ma_base"}
     drone_type: ClassVar[str] = "quadx"
     aux_size: ClassVar[int] = 4
+    #: the Aviary of the episode (built by each reset)
+    aviary: Any
 
     def _setup(
         self,

@@ -67,6 +67,16 @@ class MAFixedwingDogfightEnvV2(MAFixedwingBaseEnv):
     ``others`` a stacked ``Sequence``.
     """
 
+    # the pairwise (n, n) arrays each reset makes: who is in whose cone and range, chasing and
+    # hitting whom, and the angles, offsets and distances between them
+    in_cone: np.ndarray
+    in_range: np.ndarray
+    chasing: np.ndarray
+    current_hits: np.ndarray
+    current_angles: np.ndarray
+    current_offsets: np.ndarray
+    current_distances: np.ndarray
+
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human"], "name": "ma_fixedwing_team_dogfight"}
 
     def __init__(

@@ -92,7 +92,9 @@ class RocketBaseEnv(AviaryTaskEnv):
         self.flight_mode = 0
         super().end_reset(seed, options)
 
-    def compute_base_term_trunc_reward(self, collision_ignore_mask: np.ndarray | list[int] = ()) -> None:
+    def compute_base_term_trunc_reward(
+        self, collision_ignore_mask: np.ndarray | list[int] | tuple[int, ...] = ()
+    ) -> None:
         """The time limit; a contact not between consecutive ids of ``collision_ignore_mask``, or
         the rocket below z = 0, is fatal (``fatal_collision``); beyond ``max_displacement``
         sideways or above ``ceiling`` is ``out_of_bounds``.  No reward is given here."""
