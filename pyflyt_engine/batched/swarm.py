@@ -46,9 +46,17 @@ when its world restarts.
 Per world, spawns are drawn from the world's own generator (spawned from the seed), agent
 by agent in order: position offsets ``U(-noise, noise, 3)`` then attitude offsets, as the
 PyBullet env's ``_spawn`` draws them; motor noise from one generator for the batch.
+The air (``env.wind``, ``env.ground_effect``): the single-agent backend's wind and ground-effect
+laws (:mod:`pyflyt_engine.batched.air`), read at each vehicle as the engine's world reads them
+(the downwash added to the field's vertical wind); the Dryden turbulence is one field per world,
+as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world
+the same linear gusts, each world's white noise from a stream of its own.
+
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (formation, dogfight), agents with
-different airframes, and every key the single-agent batched backend refuses.
+different airframes, the cascade flight modes, latency, domain randomisation, noisy sensors,
+the optional motor models, rotary turbulence gusts, and every key the single-agent batched
+backend refuses.
 """
 
 from __future__ import annotations
@@ -64,6 +72,7 @@ from numba import njit
 
 from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
+from pyflyt_engine.batched import air as _air
 from pyflyt_engine.batched import kernels
 from pyflyt_engine.batched.kernels import (
     MODE_RATES_THRUST,
@@ -311,6 +320,14 @@ def advance_swarm(
     jet_diameter,
     air_density,
     square,
+    wind,
+    episode_steps,
+    rotors,
+    ground_effect,
+    min_height,
+    turbulence,
+    turbulence_normals,
+    dryden,
 ):
     """Advance every world (rows ``k A ... k A + A - 1`` of every array are world ``k``'s agents)
     ``count`` physics steps from physics step ``start``, in the PyBullet engine's order
@@ -325,6 +342,18 @@ def advance_swarm(
     parked) and ``agent_contact`` (collision boxes overlap, both vehicles flagged).
     The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
     for every vehicle; ``square`` is 2.0 (:func:`downwash_velocity`).
+
+    The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it: where ``wind[0]`` is
+    on, each vehicle's wind at its height at physics step ``episode_steps[i] + s`` of its
+    world's episode (:func:`~pyflyt_engine.batched.air.wind_sample`); the turbulence is one
+    field per world, as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives
+    every vehicle of a world the same linear gusts: world ``k``'s state (``turbulence`` of its
+    first slot, copied to its other slots after the step) moves on one step per physics step
+    from the draws ``turbulence_normals[k, s]``; the
+    downwash is added to each vehicle's vertical wind as
+    :meth:`pyflyt_engine.atmosphere.air.Atmosphere.wind_at` adds it; with ``ground_effect``
+    each motor's thrust takes its ground-effect ratio at its hub height (``rotors`` (n, 5),
+    :func:`~pyflyt_engine.batched.air.ground_effect_columns`).
     """
     n = pos.shape[0]
     worlds = n // agents
@@ -339,6 +368,11 @@ def advance_swarm(
     jx, jy, jz = inertia[0], inertia[1], inertia[2]
     kx, ky, kz = drag_factors[0], drag_factors[1], drag_factors[2]
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
+    windy = wind[0] != 0.0
+    turbulent = wind[17] != 0.0
+    calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    scratch = np.empty(turbulence.shape[1])
+    scaled = np.empty((nm, 6))
     for k in range(worlds):
         base = k * agents
         for a in range(agents):
@@ -350,6 +384,10 @@ def advance_swarm(
         for s in range(count):
             step = start + s
             tick = step % per_control == 0
+            gusts = calm
+            if turbulent:  # the world's turbulence (one field for its vehicles, as the engine's) moves on
+                gusts = _air.dryden_output(dryden, turbulence[base], wind[18], wind[19])
+                _air.dryden_step(dryden, turbulence[base], turbulence_normals[k, s], scratch)
             for a in range(agents):
                 i = base + a
                 seen[a, 0], seen[a, 1], seen[a, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
@@ -359,9 +397,11 @@ def advance_swarm(
                 bw0 = r0 * w0 + r3 * w1 + r6 * w2
                 bw1 = r1 * w0 + r4 * w1 + r7 * w2
                 bw2 = r2 * w0 + r5 * w1 + r8 * w2
-                wz = 0.0
+                wx = wy = wz = gp = gq = gr = 0.0
+                if windy:  # the field's wind at this vehicle's height and this physics step
+                    wx, wy, wz, gp, gq, gr = _air.wind_sample(wind, episode_steps[i] + s, pos[i, 2], physics_dt, gusts)
                 if downwash_on:
-                    wz = downwash_at(
+                    dw = downwash_at(
                         a,
                         seen[a, 0],
                         seen[a, 1],
@@ -375,16 +415,17 @@ def advance_swarm(
                         air_density,
                         square,
                     )
+                    wz = wz + dw if windy else dw  # Atmosphere.wind_at: the field's sample, its z plus the downwash
                 if tick:  # the air from the state read (air_velocity_from_body)
                     bv0 = r0 * v0 + r3 * v1 + r6 * v2
                     bv1 = r1 * v0 + r4 * v1 + r7 * v2
                     bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                    air[a, 0] = bv0 - (r0 * 0.0 + r3 * 0.0 + r6 * wz)
-                    air[a, 1] = bv1 - (r1 * 0.0 + r4 * 0.0 + r7 * wz)
-                    air[a, 2] = bv2 - (r2 * 0.0 + r5 * 0.0 + r8 * wz)
-                    air[a, 3] = bw0 - (r0 * 0.0 + r3 * 0.0 + r6 * 0.0)
-                    air[a, 4] = bw1 - (r1 * 0.0 + r4 * 0.0 + r7 * 0.0)
-                    air[a, 5] = bw2 - (r2 * 0.0 + r5 * 0.0 + r8 * 0.0)
+                    air[a, 0] = bv0 - (r0 * wx + r3 * wy + r6 * wz)
+                    air[a, 1] = bv1 - (r1 * wx + r4 * wy + r7 * wz)
+                    air[a, 2] = bv2 - (r2 * wx + r5 * wy + r8 * wz)
+                    air[a, 3] = bw0 - (r0 * gp + r3 * gq + r6 * gr)
+                    air[a, 4] = bw1 - (r1 * gp + r4 * gq + r7 * gr)
+                    air[a, 5] = bw2 - (r2 * gp + r5 * gq + r8 * gr)
                     cmd = command[i]
                     if not armed[i]:
                         for mo in range(nm):
@@ -415,15 +456,19 @@ def advance_swarm(
                             c = setpoint[i, mo]
                             cmd[mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
                 else:  # the air from a motion read (air_velocity with the wind)
-                    lx, ly, lz = v0 - 0.0, v1 - 0.0, v2 - wz
-                    ax, ay, az = w0 - 0.0, w1 - 0.0, w2 - 0.0
+                    lx, ly, lz = v0 - wx, v1 - wy, v2 - wz
+                    ax, ay, az = w0 - gp, w1 - gq, w2 - gr
                     air[a, 0] = r0 * lx + r3 * ly + r6 * lz
                     air[a, 1] = r1 * lx + r4 * ly + r7 * lz
                     air[a, 2] = r2 * lx + r5 * ly + r8 * lz
                     air[a, 3] = r0 * ax + r3 * ay + r6 * az
                     air[a, 4] = r1 * ax + r4 * ay + r7 * az
                     air[a, 5] = r2 * ax + r5 * ay + r8 * az
-                    load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                    if ground_effect:
+                        _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors, columns, min_height, scaled)
+                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                    else:
+                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
                     if drag_on:
                         load = summed(
                             load,
@@ -436,7 +481,12 @@ def advance_swarm(
             if tick:
                 for a in range(agents):
                     i = base + a
-                    load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                    if ground_effect:
+                        rg = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                        _air.ground_effect_columns(pos[i, 2], rg[6], rg[7], rg[8], rotors, columns, min_height, scaled)
+                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                    else:
+                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
                     if drag_on:
                         load = summed(
                             load,
@@ -493,6 +543,10 @@ def advance_swarm(
                         if boxes_overlap(pos[i], ra, pos[j], rb, box_centre, box_half):
                             agent_contact[i] = True
                             agent_contact[j] = True
+        if turbulent:  # the world's turbulence state in each of its slots
+            for a in range(1, agents):
+                for c in range(turbulence.shape[1]):
+                    turbulence[base + a, c] = turbulence[base, c]
 
 
 # ------------------------------------------------------------------ the env
@@ -520,7 +574,6 @@ def check_swarm_supported(config: Any) -> None:
     mode = resolve_mode(config.action.mode).name
     if mode not in SWARM_MODES:  # the single-agent backend flies the cascade modes too; this path does not
         raise refuse(f"flight mode {mode} in a multi-agent world", f"it flies {', '.join(SWARM_MODES)}")
-    from pyflyt_engine.atmosphere import load_wind_config
     from pyflyt_engine.batched.model import batched_model
     from pyflyt_engine.spec import load_uav_spec
 
@@ -530,11 +583,15 @@ def check_swarm_supported(config: Any) -> None:
             f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",
             "give the agents an airframe without tau_fall, rotor_drag, inflow or battery",
         )
-    wind = load_wind_config(config.wind)
-    if wind.mean is not None or wind.gust is not None or wind.turbulence is not None:
-        raise refuse("wind in a multi-agent world", "give env.wind=calm")
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    dryden = _air.dryden_filter(load_wind_config(config.wind), 1.0 / config.physics_hz, model.span)
+    if dryden is not None and dryden.rotary:  # the engine's field has a rotary filter per vehicle
+        raise refuse(
+            f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
+            "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
+        )
     for key, asked in (
-        ("ground_effect", config.ground_effect),
         ("latency", config.latency is not None),
         ("randomize (domain randomisation)", bool(config.randomize)),
     ):
@@ -582,6 +639,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         "armed",
         "parked",
         "world_over",
+        "turbulence",
     )
 
     def __init__(self, config: Any, worlds: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
@@ -627,6 +685,17 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._max_steps = cfg.max_steps
         self.downwash = bool(cfg.downwash)
         self._rotors = _rotor_geometry(self.spec_uav)
+        from pyflyt_engine.atmosphere import load_wind_config
+
+        #: the air (pyflyt_engine.batched.air), as the single-agent backend takes it: the wind
+        #: field's parameters, the airframe's turbulence filter (None: no turbulence), ground effect
+        self.wind_config = load_wind_config(cfg.wind)
+        self.dryden = _air.dryden_filter(self.wind_config, self.physics_dt, self.model.span)
+        self._wind = _air.wind_params(self.wind_config, rotary=self.dryden is not None and self.dryden.rotary)
+        self.ground_effect = bool(cfg.ground_effect)
+        self._dryden_arrays = (
+            self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+        )
         box_centre, box_half = _collision_box(self.model.corners)
         self._box_centre, self._box_half = box_centre, box_half
         self._bound_radius = float(np.linalg.norm(np.abs(box_centre) + box_half))
@@ -656,6 +725,10 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.steps = np.zeros(n, dtype=np.int64)
         self.physics_steps = np.zeros(n, dtype=np.int64)
         self._ones = np.ones((n, self.per_agent, nm))
+        #: per slot, its world's turbulence filter state (Dryden; none without turbulence): one
+        #: field per world, the same in each of its slots
+        self.turbulence = np.zeros((n, self.dryden.states if self.dryden is not None else 0))
+        self._no_normals = np.zeros((self.worlds, self.per_agent, 0))
         self.ang_vel_body = np.zeros((n, 3))
         self.ang_pos = np.zeros((n, 3))
         self.lin_vel_body = np.zeros((n, 3))
@@ -700,6 +773,17 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         children = np.random.SeedSequence(seed).spawn(self.worlds + 1)
         self.noise_rng = np.random.default_rng(children[0])
         self.world_rngs = [np.random.default_rng(c) for c in children[1:]]
+        #: per world, the stream of its turbulence's white noise: the first child of the world's
+        #: seed (the world's own draws stay as they were); none without turbulence
+        self.world_turbulence_rngs = (
+            [np.random.default_rng(c.spawn(1)[0]) for c in children[1:]] if self.dryden is not None else []
+        )
+        #: per slot, its world's turbulence stream (the same object for the agents of a world)
+        self.turbulence_rngs = (
+            [self.world_turbulence_rngs[i // self.agents] for i in range(self.num_envs)]
+            if self.dryden is not None
+            else []
+        )
         #: per slot, its world's generator (the same object for the agents of a world)
         self.env_rngs = [self.world_rngs[i // self.agents] for i in range(self.num_envs)]
 
@@ -744,6 +828,13 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         for name in ("throttle", "command", "integral", "previous", "actions", "episode_return"):
             getattr(self, name)[rows] = 0.0
         self.has_previous[rows] = False
+        if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
+            _air.dryden_initial(
+                self._dryden_arrays,
+                self.world_turbulence_rngs[k].standard_normal(self.dryden.states),
+                self.turbulence[rows[0]],
+            )
+            self.turbulence[rows] = self.turbulence[rows[0]]
         self.steps[rows] = 0
         self.physics_steps[rows] = 0
         self.episode_length[rows] = 0
@@ -911,8 +1002,26 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             rot["jet_diameter"],
             AIR_DENSITY,
             2.0,
+            self._wind,
+            self.physics_steps,
+            m.rotors,
+            self.ground_effect,
+            _air.GROUND_EFFECT_MIN_HEIGHT,
+            self.turbulence,
+            self.turbulence_normals(),
+            self._dryden_arrays,
         )
         self.physics_steps += self.per_agent
+
+    def turbulence_normals(self) -> np.ndarray:
+        """The turbulence's white noise of one agent step, (worlds, physics steps, filter
+        states) standard normal draws, each world's from its own stream (none without turbulence)."""
+        if self.dryden is None:
+            return self._no_normals
+        out = np.empty((self.worlds, self.per_agent, self.dryden.states))
+        for rng, row in zip(self.world_turbulence_rngs, out):
+            rng.standard_normal(out=row)
+        return out
 
     def _observe(self) -> np.ndarray:
         angles = self.quaternion if self._quaternion else self.ang_pos

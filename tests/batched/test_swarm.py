@@ -371,8 +371,10 @@ def test_same_seed_same_numbers():
     [
         ({}, None),
         ({"downwash": True}, None),
-        ({"wind": "gust"}, "wind"),
-        ({"ground_effect": True}, "env.ground_effect"),
+        ({"wind": "gust"}, None),
+        ({"wind": "dryden_severe", "ground_effect": True}, None),
+        ({"latency": {"action_delay": 0.01}}, "env.latency"),
+        ({"randomize": "moderate"}, "env.randomize"),
         (
             {"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
             "agents of different airframes",

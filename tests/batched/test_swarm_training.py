@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 import yaml
 
 from pyflyt_cli.training import resume, train
@@ -59,12 +60,21 @@ def test_a_run_records_its_backend_and_evaluates_in_the_pybullet_engine(tmp_path
     assert isinstance(report.batched, dict) and report.batched["episodes"] == 2.0  # and on the batched worlds
 
 
-def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory):
+@pytest.mark.parametrize(
+    "air",
+    [
+        [],
+        # the worlds' turbulence state and streams travel in the checkpoint too
+        pytest.param(["env.wind=dryden_light", "env.ground_effect=true"], marks=pytest.mark.long, id="turbulence"),
+    ],
+)
+def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory, air):
     """Stopped mid-rollout, with retired agents padding their slots, then resumed: the same
     weights, evaluations and episodes as the uninterrupted run."""
-    reference = _reference(PPO_SWARM, tmp_path_factory)
+    lines = PPO_SWARM + air
+    reference = _reference(lines, tmp_path_factory)
     assert len(reference["episodes"]) > 8  # agents did retire and worlds did restart along the way
-    first = train(load(PPO_SWARM, tmp_path), callbacks=[SignalAt(700)])
+    first = train(load(lines, tmp_path), callbacks=[SignalAt(700)])
     assert first.interrupted
     resumed = resume(first.run_dir)
     assert not resumed.interrupted
