@@ -1,7 +1,9 @@
-"""The batched multi-agent hover: W worlds of A quadrotors each, downwash between the agents of a world.
+"""The batched multi-agent worlds: W worlds of A quadrotors each, downwash between the agents of a world.
 
 :class:`BatchedSwarmEnv` flies MAQuadX-Hover (``conf/env/ma_quadx_hover.yaml``, task
-``ma_hover``) for ``worlds`` independent worlds of ``A`` agents, every agent one slot of a
+``ma_hover``) and MAQuadX-Formation (``conf/env/ma_quadx_formation.yaml``, task
+``ma_formation``: the engine's own task object per world, :class:`_WorldTasks`) for
+``worlds`` independent worlds of ``A`` agents, every agent one slot of a
 ``gymnasium.vector.VectorEnv`` (slot ``k A + i`` is agent ``i`` of world ``k``, the layout of
 :class:`pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`), advanced by one compiled call
 per agent step (:func:`advance_swarm`).  Each vehicle flies the batched multirotor laws of
@@ -92,9 +94,11 @@ from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
+from pyflyt_engine.state import KinematicState
 
-#: multi-agent tasks the batched backend runs
-SWARM_TASKS = ("ma_hover",)
+#: multi-agent tasks the batched backend runs: the hover on arrays, the formation through the
+#: engine's own task object, one per world (:class:`_WorldTasks`)
+SWARM_TASKS = ("ma_hover", "ma_formation")
 
 # ------------------------------------------------------------------ the downwash law
 
@@ -601,6 +605,96 @@ def check_swarm_supported(config: Any) -> None:
         raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
 
 
+class _WorldTasks:
+    """A multi-agent task other than the hover, run by the engine's own task object, one per
+    world (the formation: :class:`~pyflyt_engine.envs.multi_agent.formation_task.MAFormationTask`),
+    so its signals, observation entries and info are the PyBullet env's by construction.
+
+    Each world's task reads the states of its agents as the engine's vehicles give them
+    (:class:`~pyflyt_engine.state.KinematicState`) and its live flags (a view of the env's).
+    What the task carries from one step to the next -- the formation's previous distance to
+    each slot, its only such state; its neighbour survey is redone at every step before it is
+    read -- is the env's ``_last_distance`` and is given back to the task before each step, so
+    a checkpoint of the env's arrays resumes the task exactly (a restored world's task is set
+    up from its agents' states at its first step, then given that distance).  A curriculum's
+    episode options are the env's latest (:meth:`BatchedSwarmEnv.set_task_changes`) for the
+    episodes in progress at a restore.
+    """
+
+    def __init__(self, task_cls: Any, cfg: Any, agents: list, alive: np.ndarray, worlds: int, per_world: int) -> None:
+        self.per_world = per_world
+        self.tasks = [
+            task_cls(
+                cfg.task,
+                agents,
+                alive[k * per_world : (k + 1) * per_world],
+                flight_dome_size=cfg.flight_dome_size,
+                agent_hz=cfg.agent_hz,
+                max_steps=cfg.max_steps,
+            )
+            for k in range(worlds)
+        ]
+        self.extra_size = self.tasks[0].extra_size()
+        #: per world, whether its task has been reset in this process (a restored checkpoint's
+        #: worlds are not: their tasks are set up from the restored states at the next step)
+        self.started = [False] * worlds
+        #: the episode options of the tasks' episodes (a curriculum's changes, :meth:`reset`)
+        self.changes: dict = {}
+
+    def reset(self, k: int, states: list[KinematicState], changes: dict, last: np.ndarray, extras: np.ndarray) -> None:
+        task = self.tasks[k]
+        self.changes = changes
+        task.set_episode_options(changes)
+        task.reset(states)
+        self.started[k] = True
+        base = k * self.per_world
+        for a in range(self.per_world):
+            last[base + a] = task._distances[a]
+            extras[base + a] = task.observe(a, states)
+
+    def update(
+        self,
+        states_of: Any,
+        live: np.ndarray,
+        collision: np.ndarray,
+        steps: np.ndarray,
+        last: np.ndarray,
+        extras: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Every world's step: ``(distance, rate, extras, info)`` per slot (NaN / 0 where not live)."""
+        n = len(live)
+        distance, rate = np.full(n, np.nan), np.full(n, np.nan)
+        signal_extras: dict[str, np.ndarray] = {}
+        info: dict[str, np.ndarray] = {}
+        for k, task in enumerate(self.tasks):
+            base = k * self.per_world
+            rows = np.arange(base, base + self.per_world)
+            acted = [a for a in range(self.per_world) if live[base + a]]
+            if not acted:
+                continue
+            states = states_of(rows)
+            if not self.started[k]:  # a restored world: the task's set-up from its states now
+                task.set_episode_options(self.changes)
+                task.reset(states)
+                self.started[k] = True
+            task._distances = [float(last[base + a]) for a in range(self.per_world)]
+            signals = task.update(states, acted, {a: bool(collision[base + a]) for a in acted}, int(steps[base]))
+            for a in acted:
+                sig = signals[a]
+                i = base + a
+                distance[i] = np.nan if sig.target_distance is None else sig.target_distance
+                rate[i] = np.nan if sig.target_distance_rate is None else sig.target_distance_rate
+                last[i] = task._distances[a]
+                for key, value in sig.extras.items():
+                    signal_extras.setdefault(key, np.zeros(n))[i] = value
+                for key, value in sig.info.items():
+                    if key != "target_distance":
+                        info.setdefault(key, np.zeros(n))[i] = value
+            for a in range(self.per_world):
+                extras[base + a] = task.observe(a, states)
+        return distance, rate, signal_extras, info
+
+
 class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     """``worlds`` worlds of a multi-agent hover config's agents, one slot per agent (module docstring).
 
@@ -640,6 +734,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         "parked",
         "world_over",
         "turbulence",
+        "_extras",
     )
 
     def __init__(self, config: Any, worlds: int = 1, seed: int | None = None, motor_noise: bool = True) -> None:
@@ -738,11 +833,20 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             np.array([ag.hover_point for ag in self.agent_list], dtype=np.float64), (self.worlds, 1)
         )
         self._last_distance = np.zeros(n)
+        #: a task other than the hover runs as the engine's task object, one per world
+        self._world_tasks = (
+            None
+            if cfg.task.name == "ma_hover"
+            else _WorldTasks(task_cls, cfg, self.agent_list, self.alive, self.worlds, self.agents)
+        )
+        extra = 3 if self._world_tasks is None else self._world_tasks.extra_size
+        #: per slot, the task's observation entries (the hover's are computed from the position)
+        self._extras = np.zeros((n, extra))
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
         self.task_changes: dict[str, Any] = {}
 
-        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + 3
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + extra
         self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
@@ -842,7 +946,30 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.armed[rows] = True
         self.parked[rows] = False
         self._read(rows)
-        self._last_distance[rows] = self._distance(rows)
+        self._reset_world_task(k)
+
+    def _reset_world_task(self, k: int) -> None:
+        """World ``k``'s task at the start of its episode, from its agents' states now."""
+        rows = np.arange(k * self.agents, (k + 1) * self.agents)
+        if self._world_tasks is None:
+            self._last_distance[rows] = self._distance(rows)
+        else:
+            self._world_tasks.reset(k, self._states(rows), self.task_changes, self._last_distance, self._extras)
+
+    def _states(self, rows: np.ndarray) -> list[KinematicState]:
+        """The agents' states of ``rows`` as the engine's vehicles read them (the task's input)."""
+        return [
+            KinematicState(
+                tuple(self.ang_vel_body[i].tolist()),
+                tuple(self.ang_pos[i].tolist()),
+                tuple(self.lin_vel_body[i].tolist()),
+                tuple(self.pos[i].tolist()),
+                tuple(self.quaternion[i].tolist()),
+                tuple(self.vel[i].tolist()),
+                tuple(self.angvel[i].tolist()),
+            )
+            for i in rows.tolist()
+        ]
 
     def _distance(self, rows: np.ndarray) -> np.ndarray:
         d = self.pos[rows] - self.hover_point[rows]
@@ -887,12 +1014,19 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.episode_length += live
         self._read()
 
-        distance = self._distance(np.arange(n))
-        rate = (distance - self._last_distance) / self.agent_dt
-        self._last_distance = np.where(live, distance, self._last_distance)
         collision = self.ground_contact | self.agent_contact
         p = self.pos
         out = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2] > self._dome2
+        extras: dict[str, np.ndarray] = {}
+        task_info: dict[str, np.ndarray] = {}
+        if self._world_tasks is None:
+            distance = self._distance(np.arange(n))
+            rate = (distance - self._last_distance) / self.agent_dt
+            self._last_distance = np.where(live, distance, self._last_distance)
+        else:
+            distance, rate, extras, task_info = self._world_tasks.update(
+                lambda rows: self._states(rows), live, collision, self.steps, self._last_distance, self._extras
+            )
         crashed = out | collision  # the task crashes on any contact
         terminated = crashed & live
         truncated = ~terminated & live & (self.steps >= self._max_steps)
@@ -912,6 +1046,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             waypoint_reached=np.zeros(n, dtype=bool),
             steps_remaining=np.maximum(self._max_steps - self.steps, 0),
             agent_dt=self.agent_dt,
+            extras=extras,
         )
         reward, _ = self.reward_function(ctx)
         reward = np.where(live, reward, 0.0)
@@ -933,6 +1068,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             "success": success,
             "target_distance": np.where(live, distance, 0.0),
             "agent_active": live,
+            **{key: np.where(live, value, 0.0) for key, value in task_info.items()},
         }
         if ended.any():
             info["episode"] = {
@@ -1032,7 +1168,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.pos,
             self.actions,
             self.throttle,
-            self.hover_point - self.pos,
+            self.hover_point - self.pos if self._world_tasks is None else self._extras,
         ]
         obs = np.concatenate(parts, axis=1)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot

@@ -13,13 +13,14 @@ by name.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from pyflyt_engine.batched.model import refuse
 from pyflyt_engine.envs import rewards as r
+from pyflyt_engine.envs.multi_agent import formation_rewards as formation
 from pyflyt_engine.envs.rewards import RewardFunction
 
 
@@ -44,6 +45,8 @@ class BatchContext:
     waypoint_reached: np.ndarray
     steps_remaining: np.ndarray
     agent_dt: float
+    #: a task's own signals by name, (N,) each (the formation's ``formation_error``, ...)
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _norm3(v: np.ndarray) -> np.ndarray:
@@ -83,6 +86,8 @@ VECTOR_TERMS: dict[Callable[..., float], Callable[..., np.ndarray]] = {
     r.angular_speed: lambda ctx: _norm3(ctx.ang_vel),
     r.altitude: lambda ctx: ctx.lin_pos[:, 2].copy(),
     r.yaw_rate_squared: _yaw_rate_squared,
+    formation.formation_error: lambda ctx: ctx.extras["formation_error"].copy(),
+    formation.crowding: lambda ctx: ctx.extras["crowding"].copy(),
 }
 
 #: the vector form of each scalar condition
@@ -94,6 +99,7 @@ VECTOR_CONDITIONS: dict[Callable[..., bool], Callable[[BatchContext], np.ndarray
     r.waypoint_reached: lambda ctx: ctx.waypoint_reached,
     r.approaching: lambda ctx: ctx.target_distance_rate < 0.0,
     r.task_complete: lambda ctx: ctx.task_complete,
+    formation.in_formation: lambda ctx: ~ctx.crashed & (ctx.extras["in_formation"] > 0.5),
 }
 
 

@@ -397,7 +397,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
         ("fixedwing_waypoints", {"downwash": True}, "downwash"),
         ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),
-        ("ma_quadx_formation", {}, "multi-agent task 'ma_formation'"),
+        ("ma_fixedwing_dogfight", {}, "multi-agent task 'dogfight'"),
     ],
 )
 def test_what_it_cannot_simulate_is_refused_by_name(env_name, overrides, named):

@@ -393,6 +393,12 @@ def _context(rng: np.random.Generator, n: int) -> BatchContext:
         waypoint_reached=flags(),
         steps_remaining=rng.integers(0, 300, n),
         agent_dt=1 / 30,
+        # a task's own signals (the formation's), each drawn across its range
+        extras={
+            "formation_error": rng.uniform(0.0, 2.0, n),
+            "crowding": rng.uniform(0.0, 1.0, n),
+            "in_formation": flags().astype(np.float64),
+        },
     )
 
 
@@ -419,6 +425,7 @@ def _scalar(ctx: BatchContext, i: int) -> r.StepContext:
         bool(ctx.waypoint_reached[i]),
         steps_remaining=int(ctx.steps_remaining[i]),
         agent_dt=ctx.agent_dt,
+        extras={key: float(value[i]) for key, value in ctx.extras.items()},
     )
 
 

@@ -403,9 +403,7 @@ def test_what_it_simulates_and_what_it_refuses(overrides, named):
         check_supported(cfg)
 
 
-@pytest.mark.parametrize(
-    ("env", "task"), [("ma_quadx_formation", "ma_formation"), ("ma_fixedwing_dogfight", "dogfight")]
-)
+@pytest.mark.parametrize(("env", "task"), [("ma_fixedwing_dogfight", "dogfight")])
 def test_other_multi_agent_tasks_are_refused_by_name(env, task):
     with pytest.raises(UnsupportedByBatched, match=f"the multi-agent task '{task}'"):
         check_supported(load_env_config(env))

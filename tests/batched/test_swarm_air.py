@@ -143,3 +143,60 @@ def test_rotary_turbulence_gusts_stay_refused_by_name(tmp_path):
     )
     with pytest.raises(UnsupportedByBatched, match="rotary turbulence gusts in a multi-agent world"):
         swarm.BatchedSwarmEnv(cfg)
+
+
+# ---------------------------------------------------------------------------- the formation
+
+
+def _formation_pair(uav: str, seed: int, **overrides):
+    """The PyBullet formation env and a batched world of the same config, from the same start states."""
+    from pyflyt_engine.bullet import pybullet as p
+    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
+
+    cfg = load_env_config("ma_quadx_formation").with_overrides(uav=uav, **overrides)
+    pb = MAQuadXFormationEnv(cfg)
+    obs, _ = pb.reset(seed=seed)
+    be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
+    be.reset(seed=seed)
+    for i, vehicle in enumerate(pb.vehicles):
+        pos, quat = p.getBasePositionAndOrientation(vehicle.body_id, physicsClientId=vehicle._client)
+        lin, ang = p.getBaseVelocity(vehicle.body_id, physicsClientId=vehicle._client)
+        be.pos[i], be.quat[i], be.vel[i], be.angvel[i] = pos, quat, lin, ang
+    be._read()
+    be._reset_world_task(0)
+    first = be._observe()
+    for i, name in enumerate(pb.possible_agents):
+        assert np.abs(obs[name] - first[i]).max() < 1e-12
+    return pb, be
+
+
+@pytest.mark.parametrize("wind", ["calm", "gust"])
+def test_the_formation_agrees_with_the_pybullet_engine(quiet_cf2x, wind):  # noqa: F811
+    """MAQuadX-Formation, 9 agents on the 3 x 3 grid with downwash, 2 s of random actions around
+    hover (the formation moving at 0.2 m/s): every live agent's position, observation (its slot,
+    the formation's velocity, its neighbours), reward and task info within 1e-6 of the PyBullet
+    engine's, the task being the engine's own object per world."""
+    pb, be = _formation_pair(quiet_cf2x, 3, agents=9, wind={"gust": GUST}.get(wind, wind))
+    hover = be.model.hover_thrust_fraction
+    rng = np.random.default_rng(7)
+    names = pb.possible_agents
+    worst = {"position": 0.0, "observation": 0.0, "reward": 0.0, "info": 0.0}
+    for step in range(60):
+        live = list(pb.agents)
+        actions = np.zeros((len(names), 4))
+        for name in live:
+            actions[pb.agent_index[name]] = np.r_[rng.uniform(-0.5, 0.5, 3), hover * rng.uniform(0.95, 1.1)]
+        o1, r1, t1, tr1, i1 = pb.step({name: actions[pb.agent_index[name]] for name in live})
+        o2, r2, t2, tr2, i2 = be.step(actions)
+        for name in live:
+            i = pb.agent_index[name]
+            assert (t1[name], tr1[name]) == (bool(t2[i]), bool(tr2[i])), (step, name)
+            worst["position"] = max(worst["position"], np.abs(o1[name][10:13] - o2[i][10:13]).max())
+            worst["observation"] = max(worst["observation"], np.abs(o1[name] - o2[i]).max())
+            worst["reward"] = max(worst["reward"], abs(r1[name] - r2[i]))
+            for key in ("target_distance", "formation_error", "nearest_neighbour"):
+                worst["info"] = max(worst["info"], abs(i1[name][key] - i2[key][i]))
+    print(f"formation, {wind}: {worst}")
+    assert max(worst.values()) < BOUND, worst
+    assert len(pb.agents) == 9, "an agent crashed: the flight compares less than it should"
+    pb.close()

@@ -61,17 +61,20 @@ def test_a_run_records_its_backend_and_evaluates_in_the_pybullet_engine(tmp_path
 
 
 @pytest.mark.parametrize(
-    "air",
+    "lines",
     [
-        [],
+        PPO_SWARM,
         # the worlds' turbulence state and streams travel in the checkpoint too
-        pytest.param(["env.wind=dryden_light", "env.ground_effect=true"], marks=pytest.mark.long, id="turbulence"),
+        pytest.param(
+            [*PPO_SWARM, "env.wind=dryden_light", "env.ground_effect=true"], marks=pytest.mark.long, id="turbulence"
+        ),
+        # the formation's task objects (one per world) resume from the env's arrays
+        pytest.param(["env=ma_quadx_formation", *PPO_SWARM[1:]], marks=pytest.mark.long, id="formation"),
     ],
 )
-def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory, air):
+def test_a_stop_anywhere_then_resume_is_bit_identical(tmp_path, tmp_path_factory, lines):
     """Stopped mid-rollout, with retired agents padding their slots, then resumed: the same
     weights, evaluations and episodes as the uninterrupted run."""
-    lines = PPO_SWARM + air
     reference = _reference(lines, tmp_path_factory)
     assert len(reference["episodes"]) > 8  # agents did retire and worlds did restart along the way
     first = train(load(lines, tmp_path), callbacks=[SignalAt(700)])

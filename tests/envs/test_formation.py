@@ -176,3 +176,22 @@ def test_a_formation_with_downwash_is_deterministic_and_downwash_takes_effect():
 
     assert run() == run()
     assert run() != run(downwash=False)
+
+
+@pytest.mark.parametrize(
+    ("neighbours", "angles", "size"), [(3, "quaternion", 39), (1, "quaternion", 31), (3, "euler", 38)]
+)
+def test_the_observation_is_as_long_as_the_manual_says(neighbours, angles, size):
+    """The manual's ``Box(27 + 4 K,)`` (``26 + 4 K`` with Euler angles): the attitude vector's
+    21 (20), the slot offset and the formation's velocity, 4 per neighbour."""
+    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
+
+    cfg = load_env_config("ma_quadx_formation").with_overrides(
+        agents=4, neighbours=neighbours, angle_representation=angles
+    )
+    env = MAQuadXFormationEnv(cfg)
+    try:
+        assert env.observation_space(env.possible_agents[0]).shape == (size,)
+        assert size == (27 if angles == "quaternion" else 26) + 4 * neighbours
+    finally:
+        env.close()

@@ -23,8 +23,8 @@ class MAQuadXFormationEnv(MultiAgentUAVEnv):
     [rad/s] in [-pi, pi] and collective thrust in [0, 1], flown by ``rates_thrust`` (as
     MAQuadX-Hover).
 
-    **Observation space** (per agent) ``Box(30 + 4 K,)`` float64 with quaternion
-    (``Box(29 + 4 K,)`` Euler), ``K = neighbours`` (3: ``Box(42,)``):
+    **Observation space** (per agent) ``Box(27 + 4 K,)`` float64 with quaternion
+    (``Box(26 + 4 K,)`` Euler), ``K = neighbours`` (3: ``Box(39,)``):
 
     ==========  ====  ============================================  =============
     slice       size  meaning                                       frame / unit
