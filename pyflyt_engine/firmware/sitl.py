@@ -304,8 +304,8 @@ class SITLProcess:
             alive = self.process.poll() is None
             raise FirmwareError(
                 f"the Betaflight SITL gave no motor outputs within {TICK_TIMEOUT_S:.0f} s "
-                f"({'still running: hung' if alive else f'exited with code {self.process.returncode}'}; "
-                f"log: {self.log_path})"
+                f"({'still running: hung' if alive else f'exited with code {self.process.returncode}'}); "
+                f"its last output: {self.log()[-300:]!r}"
             ) from None
         if len(answer) != packets.SERVO.size:
             raise FirmwareError(f"the Betaflight SITL answered {len(answer)} bytes, not a servo_packet")
