@@ -12,7 +12,8 @@ machine's speed or load.
 Setpoint (modes ``acro`` and ``angle``): ``[roll, pitch, yaw, throttle]`` sticks, roll,
 pitch and yaw in [-1, 1] with the body-rate signs of ``rates_thrust`` (roll right, nose
 down and yaw left positive), throttle in [0, 1].  In ``acro`` a stick gives Betaflight's
-rate curve (:func:`actual_rate`); in ``angle`` it gives a tilt of up to ``angle_limit``.
+rate curve (:func:`actual_rate`); in ``angle`` it gives a tilt of ``angle_limit`` times the
+rate curve's share of its full-stick rate (src/main/flight/pid.c lines 556-568), yaw a rate.
 
 Channels (AETR, Betaflight's default map): 1 roll, 2 pitch, 3 throttle, 4 yaw, 1000-2000
 us; AUX1 (channel 5) arms above 1700, AUX2 (channel 6) selects ANGLE above 1700.  The
@@ -181,6 +182,9 @@ class BetaflightController:
         self._sitl: LockstepSITL | None = None
         self._ticks = 0
         self._last_velocity: tuple[float, ...] | None = None
+        #: whether the radio link carries the sticks (False: ticks without RC, as a lost
+        #: link; the firmware's failsafe lands or drops the vehicle after its delay)
+        self.radio = True
         #: the firmware's last motor outputs, Betaflight's motors 1-4
         self.outputs: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
@@ -193,6 +197,7 @@ class BetaflightController:
         """Restart the firmware and feed it the vehicle at rest until it arms (when ``armed``)."""
         self.close()
         self._sitl = LockstepSITL(self.commands, self.gyro_hz)
+        self.radio = True
         self._ticks = 0
         self._last_velocity = None
         if not armed:
@@ -283,7 +288,7 @@ class BetaflightController:
 
         ``setpoint`` None sends no RC this tick (the radio link is silent: the firmware's
         failsafe takes over after its delay)."""
-        outputs = self._tick(state, setpoint, armed)
+        outputs = self._tick(state, setpoint if self.radio else None, armed)
         throttles = [0.0] * 4
         for bf_motor, mixer_index in enumerate(self.order):
             throttles[mixer_index] = float(outputs[bf_motor])

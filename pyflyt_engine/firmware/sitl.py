@@ -166,32 +166,31 @@ class SITLProcess:
             return ""
 
     def _wait_ready(self) -> None:
-        """Until UART1's TCP port takes a connection (the firmware opens it at the end of its
-        start-up); a failed bind or an early exit is an error naming the port."""
+        """Until the firmware says it listens on UART1's TCP port (on stderr, unbuffered: the
+        end of its start-up); a failed bind or an early exit is an error naming the port."""
         deadline = time.monotonic() + START_TIMEOUT_S
+        listening = f"bind port {self.tcp_base + 1} for UART1\n"
         while True:
             text = self.log()
             if "failed!!" in text:
                 raise FirmwareError(
                     f"the Betaflight SITL could not bind its ports (UDP {self.udp_base + 1}-{self.udp_base + 4}, "
-                    f"TCP {self.tcp_base + 1}): another process holds one; stop it or retry (log: {self.log_path})"
+                    f"TCP {self.tcp_base + 1}): another process holds one; stop it or retry"
                 )
+            if listening in text:
+                return
             if self.process.poll() is not None:
                 raise FirmwareError(
                     f"the Betaflight SITL exited during start-up (code {self.process.returncode}); "
                     f"its output: {text.strip()[-400:]!r}"
                 )
-            try:
-                with socket.create_connection(("127.0.0.1", self.tcp_base + 1), timeout=1.0):
-                    return
-            except OSError:
-                pass
             if time.monotonic() > deadline:
                 raise FirmwareError(
                     f"the Betaflight SITL did not open its ports within {START_TIMEOUT_S:.0f} s "
-                    f"(log: {self.log_path}): the machine may be overloaded, or the binary is not the patched one"
+                    "(the machine may be overloaded, or the binary is not the patched one); "
+                    f"its output: {text.strip()[-300:]!r}"
                 )
-            time.sleep(0.02)
+            time.sleep(0.005)
 
     def _close_sockets(self) -> None:
         for s in (getattr(self, "servo", None), getattr(self, "state", None)):
