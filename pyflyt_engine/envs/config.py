@@ -326,6 +326,12 @@ class EnvConfig(_Config):
         description="the presets that reward 'dense' / 'sparse' (and sparse_reward=True) select"
     )
     action: ActionConfig
+    controller: Literal["own", "betaflight"] = Field(
+        "own",
+        description="the flight controller: own (the airframe's, flying action.mode) or betaflight (Betaflight's "
+        "firmware in the loop, docs/firmware.md: an action in rates_thrust becomes ACRO sticks; the paper's "
+        "240/120/30 Hz loop rates become 1000/1000/50 Hz)",
+    )
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     camera_observation: CameraObservationConfig | None = Field(
@@ -375,6 +381,35 @@ class EnvConfig(_Config):
                 del data[key]
         if isinstance(data, dict) and data.get("backend") == "pybullet":  # the default, as before the key existed
             del data["backend"]
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _firmware_in_the_loop(cls, data: Any) -> Any:
+        """``controller: betaflight``: the sticks as the action and loop rates the firmware's
+        clock can follow (docs/firmware.md, "In an env")."""
+        if not isinstance(data, dict) or data.get("controller") != "betaflight":
+            return data
+        data = dict(data)
+        rates = tuple(float(data.get(k, d)) for k, d in (("physics_hz", 240), ("control_hz", 120), ("agent_hz", 30)))
+        if rates == (240.0, 120.0, 30.0):  # the paper's: the firmware's gyro period needs whole microseconds
+            data.update(physics_hz=1000.0, control_hz=1000.0, agent_hz=50.0)
+        action = data.get("action")
+        if isinstance(action, dict) and action.get("mode") == "rates_thrust":
+            from pyflyt_engine.firmware.betaflight import STICKS
+
+            data["action"] = {
+                "mode": "acro",
+                "names": list(STICKS),
+                "units": ["1", "1", "1", "1"],
+                "low": [-1.0, -1.0, -1.0, 0.0],
+                "high": [1.0, 1.0, 1.0, 1.0],
+            }
+        elif isinstance(action, dict) and action.get("mode") not in ("acro", "angle"):
+            raise ValueError(
+                f"controller betaflight flies the modes acro and angle (sticks); this env's action is mode "
+                f"'{action.get('mode')}': give action.mode acro (or an action in rates_thrust, which becomes acro)"
+            )
         return data
 
     @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds", "flight_dome_size")
