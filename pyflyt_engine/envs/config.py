@@ -391,13 +391,14 @@ class EnvConfig(_Config):
         if not isinstance(data, dict) or data.get("controller") != "betaflight":
             return data
         data = dict(data)
-        rates = tuple(float(data.get(k, d)) for k, d in (("physics_hz", 240), ("control_hz", 120), ("agent_hz", 30)))
-        if rates == (240.0, 120.0, 30.0):  # the paper's: the firmware's gyro period needs whole microseconds
-            data.update(physics_hz=1000.0, control_hz=1000.0, agent_hz=50.0)
+        from pyflyt_engine.firmware.betaflight import FIRMWARE_RATES, PAPER_RATES, STICKS
+
+        keys = ("physics_hz", "control_hz", "agent_hz")
+        rates = tuple(float(data.get(k, d)) for k, d in zip(keys, PAPER_RATES))
+        if rates == PAPER_RATES:  # the firmware's gyro period needs whole microseconds
+            data.update(zip(keys, FIRMWARE_RATES))
         action = data.get("action")
         if isinstance(action, dict) and action.get("mode") == "rates_thrust":
-            from pyflyt_engine.firmware.betaflight import STICKS
-
             data["action"] = {
                 "mode": "acro",
                 "names": list(STICKS),

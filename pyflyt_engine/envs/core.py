@@ -295,26 +295,6 @@ def estimated_state(state: KinematicState, suite: Any, estimator: Any) -> Kinema
     )
 
 
-def with_firmware(spec: UAVSpec, mode: str) -> UAVSpec:
-    """``spec`` flown by Betaflight's firmware in ``mode`` (acro or angle) instead of its own
-    cascade (an env's ``controller: betaflight``); an airframe that already names its
-    firmware keeps its settings, in ``mode``.
-
-    Raises:
-        ConfigError: the airframe has no multirotor controller to replace.
-    """
-    from pyflyt_engine.spec import BetaflightSpec, MultirotorControlSpec
-
-    control = spec.control
-    if not isinstance(control, MultirotorControlSpec):
-        raise ConfigError(
-            f"controller betaflight replaces a multirotor controller: '{spec.name}' has control type "
-            f"'{control.type}'; fly a quad X airframe (quadx_cf2x, quadx_f450)"
-        )
-    firmware = (control.firmware or BetaflightSpec()).model_copy(update={"mode": mode})
-    return spec.model_copy(update={"control": control.model_copy(update={"firmware": firmware})})
-
-
 def with_observation_camera(spec: UAVSpec, obs: Any) -> tuple[UAVSpec, int]:
     """The airframe with the observation camera appended, and its index."""
     if any(c.name == obs.camera.name for c in spec.cameras):
@@ -456,7 +436,9 @@ def build_episode(
         if cfg.range_sensors:
             flown = with_range_sensors(flown, cfg.range_sensors)
         if getattr(cfg, "controller", "own") == "betaflight":
-            flown = with_firmware(flown, cfg.action.mode)
+            from pyflyt_engine.firmware.betaflight import with_betaflight
+
+            flown = with_betaflight(flown, cfg.action.mode)
         flown_of[id(spec)] = (with_sensors(flown, cfg.sensors), camera)
     world = World(
         [

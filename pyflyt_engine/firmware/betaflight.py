@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from pyflyt_engine.components.motor import MotorParams
 from pyflyt_engine.constants import GRAVITY
@@ -33,8 +34,11 @@ from pyflyt_engine.control.modes import FlightMode
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.firmware import packets
 from pyflyt_engine.firmware.sitl import FirmwareError, LockstepSITL
-from pyflyt_engine.spec import BetaflightSpec
+from pyflyt_engine.spec import BetaflightSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
+
+if TYPE_CHECKING:
+    from pyflyt_engine.vehicle import Vehicle
 
 STICKS = ("roll", "pitch", "yaw", "throttle")
 #: the firmware's flight modes: sticks in, motors out
@@ -137,6 +141,89 @@ def configuration(spec: BetaflightSpec, reversed_spin: bool) -> list[str]:
     return commands + list(spec.cli)
 
 
+#: loop rates the firmware's clock can follow, in place of the paper's 240 / 120 / 30 Hz
+FIRMWARE_RATES = (1000.0, 1000.0, 50.0)
+PAPER_RATES = (240.0, 120.0, 30.0)
+#: Betaflight's default motor idle (motor_idle 550: 5.5 % of the output range)
+MOTOR_IDLE = 0.055
+
+
+def with_betaflight(spec: UAVSpec, mode: str) -> UAVSpec:
+    """``spec`` flown by Betaflight's firmware in ``mode`` (acro or angle) instead of its own
+    cascade (``controller: betaflight`` of an env or of ``pyflyt fly``); an airframe that
+    already names its firmware keeps its settings, in ``mode``.
+
+    Raises:
+        ConfigError: the airframe has no multirotor controller to replace, or ``mode`` is
+            not one of the firmware's.
+    """
+    control = spec.control
+    if not isinstance(control, MultirotorControlSpec):
+        raise ConfigError(
+            f"controller betaflight replaces a multirotor controller: '{spec.name}' has control type "
+            f"'{control.type}'; fly a quad X airframe (quadx_cf2x, quadx_f450)"
+        )
+    if mode not in BETAFLIGHT_MODES:
+        raise ConfigError(
+            f"controller betaflight flies the modes {' and '.join(BETAFLIGHT_MODES)} (sticks), not '{mode}'"
+        )
+    firmware = (control.firmware or BetaflightSpec()).model_copy(update={"mode": mode})
+    return spec.model_copy(update={"control": control.model_copy(update={"firmware": firmware})})
+
+
+def stick_for_angle(angle_deg: float, spec: BetaflightSpec, axis: int) -> float:
+    """The stick deflection whose ANGLE-mode tilt is ``angle_deg`` (the rate curve inverted
+    by bisection; clipped to full stick)."""
+    full = actual_rate(1.0, spec.rc_rate[axis], spec.super_rate[axis], spec.expo[axis])
+    share = max(-1.0, min(1.0, angle_deg / spec.angle_limit))
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if actual_rate(mid, spec.rc_rate[axis], spec.super_rate[axis], spec.expo[axis]) / full < abs(share):
+            lo = mid
+        else:
+            hi = mid
+    return math.copysign(0.5 * (lo + hi), share)
+
+
+class AnglePilot:
+    """Sticks that hold a vehicle flown by the firmware in ANGLE mode at a point: tilt from a
+    PD law on the horizontal position (through :func:`stick_for_angle`), throttle from the
+    hover throttle (through Betaflight's idle) and a PID law on the height; yaw stick 0
+    (called once per control tick)."""
+
+    def __init__(self, vehicle: Vehicle, target: Sequence[float], max_tilt_deg: float = 15.0) -> None:
+        assert vehicle.firmware is not None
+        self.vehicle = vehicle
+        self.spec = vehicle.firmware.spec
+        self.target = tuple(float(v) for v in target)
+        self.max_tilt = math.radians(max_tilt_deg)
+        self.hover = (vehicle.hover_throttle() - MOTOR_IDLE) / (1.0 - MOTOR_IDLE)
+        self.dt = vehicle.firmware.dt  # called once per control tick
+        self._height_integral = 0.0
+
+    def __call__(self) -> list[float]:
+        s = self.vehicle.state
+        yaw = s.ang_pos[2]
+        ex, ey = self.target[0] - s.lin_pos[0], self.target[1] - s.lin_pos[1]
+        vx, vy = s.lin_vel_ground[0], s.lin_vel_ground[1]
+        ax, ay = 1.0 * ex - 1.2 * vx, 1.0 * ey - 1.2 * vy  # wanted acceleration [m/s^2]
+        forward = math.cos(yaw) * ax + math.sin(yaw) * ay
+        left = -math.sin(yaw) * ax + math.cos(yaw) * ay
+        pitch = max(-self.max_tilt, min(self.max_tilt, math.atan2(forward, GRAVITY)))  # nose down: forward
+        roll = max(-self.max_tilt, min(self.max_tilt, math.atan2(-left, GRAVITY)))  # roll right: rightward
+        tilt = max(0.3, math.cos(s.ang_pos[0]) * math.cos(s.ang_pos[1]))
+        ez = self.target[2] - s.lin_pos[2]
+        self._height_integral = max(-0.2, min(0.2, self._height_integral + 0.5 * ez * self.dt))
+        throttle = self.hover / math.sqrt(tilt) + 0.3 * ez - 0.2 * s.lin_vel_ground[2] + self._height_integral
+        return [
+            stick_for_angle(math.degrees(roll), self.spec, 0),
+            stick_for_angle(math.degrees(pitch), self.spec, 1),
+            0.0,
+            max(0.0, min(1.0, throttle)),
+        ]
+
+
 def _channel(value: float) -> int:
     return int(round(1500.0 + 500.0 * max(-1.0, min(1.0, value))))
 
@@ -224,7 +311,8 @@ class BetaflightController:
             self._sitl = None
 
     def __del__(self) -> None:
-        self.close()
+        if getattr(self, "_sitl", None) is not None:
+            self.close()
 
     # ------------------------------------------------------------- stepping
 

@@ -36,6 +36,18 @@ START_TIMEOUT_S = 30.0
 TICK_TIMEOUT_S = 20.0
 
 
+def _die_with_parent() -> None:
+    """In the child before exec: Linux sends it SIGTERM when this process dies, so that a
+    firmware never outlives the simulator that drives it (a crash, a kill, an unclosed env)."""
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: stop() and the env's close still end it
+        pass
+
+
 class FirmwareError(PyFlytError, RuntimeError):
     """The flight controller firmware cannot be built, started, configured or stepped:
     the message says which and how to fix it."""
@@ -145,6 +157,7 @@ class SITLProcess:
                 stdout=self._log,
                 stderr=subprocess.STDOUT,
                 start_new_session=True,
+                preexec_fn=_die_with_parent,
             )
         except OSError as error:
             self._log.close()
