@@ -47,7 +47,7 @@ for episode in range(episodes):
     resets += time.perf_counter() - t
     vehicle = env.unwrapped.world.vehicles[0]
     if controller == "betaflight":
-        hover = [0.0, 0.0, 0.0, (vehicle.hover_throttle() - 0.055) / 0.945]
+        hover = [0.0, 0.0, 0.0, vehicle.hover_throttle()]
         scale = np.array([0.05, 0.05, 0.05, 0.02])
     else:
         hover = [0.0, 0.0, 0.0, vehicle.hover_throttle() ** 2]
@@ -100,7 +100,9 @@ def main() -> None:
     print(f"betaflight resets (firmware start and arming): {1e3 * best['resets_s'] / args.episodes:.0f} ms each")
     digests = {r["digest"] for r in firmware}
     same = len(digests) == 1
-    print(f"repeatability: {args.repeats} processes, {'bit-identical' if same else 'DIFFERENT'} states ({digests.pop()[:16]})")
+    print(
+        f"repeatability: {args.repeats} processes, {'bit-identical' if same else 'DIFFERENT'} states ({digests.pop()[:16]})"
+    )
     walls = ", ".join(f"{r['wall_s']:.2f}" for r in firmware)
     print(f"wall time of the {args.repeats} betaflight runs: {walls} s")
 

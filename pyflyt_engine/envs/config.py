@@ -332,6 +332,12 @@ class EnvConfig(_Config):
         "firmware in the loop, docs/firmware.md: an action in rates_thrust becomes ACRO sticks; the paper's "
         "240/120/30 Hz loop rates become 1000/1000/50 Hz)",
     )
+    firmware_action: Literal["sticks", "rates"] = Field(
+        "sticks",
+        description="with controller betaflight, what an action in rates_thrust becomes: sticks (ACRO sticks in "
+        "[-1, 1] and a throttle in [0, 1], at 1000/1000/50 Hz) or rates (the same rates_thrust action, turned "
+        "into sticks by inverting the rate curve: a policy of the own controller flies the firmware; 1500/500/30 Hz)",
+    )
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     camera_observation: CameraObservationConfig | None = Field(
@@ -391,14 +397,17 @@ class EnvConfig(_Config):
         if not isinstance(data, dict) or data.get("controller") != "betaflight":
             return data
         data = dict(data)
-        from pyflyt_engine.firmware.betaflight import FIRMWARE_RATES, PAPER_RATES, STICKS
+        from pyflyt_engine.firmware.betaflight import FIRMWARE_RATES, FIRMWARE_RATES_AT_30_HZ, PAPER_RATES, STICKS
 
         keys = ("physics_hz", "control_hz", "agent_hz")
         rates = tuple(float(data.get(k, d)) for k, d in zip(keys, PAPER_RATES))
+        as_rates = data.get("firmware_action", "sticks") == "rates"
         if rates == PAPER_RATES:  # the firmware's gyro period needs whole microseconds
-            data.update(zip(keys, FIRMWARE_RATES))
+            data.update(zip(keys, FIRMWARE_RATES_AT_30_HZ if as_rates else FIRMWARE_RATES))
         action = data.get("action")
-        if isinstance(action, dict) and action.get("mode") == "rates_thrust":
+        if isinstance(action, dict) and action.get("mode") == "rates_thrust" and as_rates:
+            pass  # flown as it is, through the inverted rate curve
+        elif isinstance(action, dict) and action.get("mode") == "rates_thrust":
             data["action"] = {
                 "mode": "acro",
                 "names": list(STICKS),
@@ -406,7 +415,7 @@ class EnvConfig(_Config):
                 "low": [-1.0, -1.0, -1.0, 0.0],
                 "high": [1.0, 1.0, 1.0, 1.0],
             }
-        elif isinstance(action, dict) and action.get("mode") not in ("acro", "angle"):
+        elif isinstance(action, dict) and action.get("mode") not in ("acro", "angle", "rates_thrust"):
             raise ValueError(
                 f"controller betaflight flies the modes acro and angle (sticks); this env's action is mode "
                 f"'{action.get('mode')}': give action.mode acro (or an action in rates_thrust, which becomes acro)"

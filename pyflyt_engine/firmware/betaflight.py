@@ -45,6 +45,11 @@ STICKS = ("roll", "pitch", "yaw", "throttle")
 BETAFLIGHT_MODES: dict[str, FlightMode] = {
     "acro": FlightMode("acro", None, STICKS, "Betaflight ACRO: sticks -> body rates (its rate curve)"),
     "angle": FlightMode("angle", None, STICKS, "Betaflight ANGLE: sticks -> tilt, yaw stick -> yaw rate"),
+    # the cascade's rates_thrust layout, flown as ACRO sticks (the rate curve and the throttle
+    # map inverted): a policy trained on the project's own controller flies the firmware unchanged
+    "rates_thrust": FlightMode(
+        "rates_thrust", 0, ("p", "q", "r", "thrust"), "body rates [rad/s] + thrust fraction, as Betaflight ACRO sticks"
+    ),
 }
 
 ARM_ON, ARM_OFF = 2000, 1000
@@ -143,6 +148,8 @@ def configuration(spec: BetaflightSpec, reversed_spin: bool) -> list[str]:
 
 #: loop rates the firmware's clock can follow, in place of the paper's 240 / 120 / 30 Hz
 FIRMWARE_RATES = (1000.0, 1000.0, 50.0)
+#: the same, keeping the paper's 30 Hz agent (a policy trained at 30 Hz): the firmware at 500 Hz
+FIRMWARE_RATES_AT_30_HZ = (1500.0, 500.0, 30.0)
 PAPER_RATES = (240.0, 120.0, 30.0)
 #: Betaflight's default motor idle (motor_idle 550: 5.5 % of the output range)
 MOTOR_IDLE = 0.055
@@ -164,11 +171,35 @@ def with_betaflight(spec: UAVSpec, mode: str) -> UAVSpec:
             f"'{control.type}'; fly a quad X airframe (quadx_cf2x, quadx_f450)"
         )
     if mode not in BETAFLIGHT_MODES:
-        raise ConfigError(
-            f"controller betaflight flies the modes {' and '.join(BETAFLIGHT_MODES)} (sticks), not '{mode}'"
-        )
-    firmware = (control.firmware or BetaflightSpec()).model_copy(update={"mode": mode})
+        raise ConfigError(f"controller betaflight flies the modes {', '.join(BETAFLIGHT_MODES)}, not '{mode}'")
+    firmware = (control.firmware or BetaflightSpec()).model_copy(
+        update={"mode": "angle" if mode == "angle" else "acro"}
+    )
     return spec.model_copy(update={"control": control.model_copy(update={"firmware": firmware})})
+
+
+def stick_for_rate(rate_deg: float, spec: BetaflightSpec, axis: int) -> float:
+    """The stick deflection whose ACRO rate is ``rate_deg`` [deg/s] (the rate curve, odd and
+    increasing, inverted by bisection; full stick beyond its maximum rate)."""
+    rc, sr, ex = spec.rc_rate[axis], spec.super_rate[axis], spec.expo[axis]
+    target = min(abs(rate_deg), actual_rate(1.0, rc, sr, ex))
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if actual_rate(mid, rc, sr, ex) < target:
+            lo = mid
+        else:
+            hi = mid
+    return math.copysign(0.5 * (lo + hi), rate_deg)
+
+
+def throttle_stick(thrust_fraction: float) -> float:
+    """The throttle stick for a fraction of the maximum collective thrust (rates_thrust's
+    ``thrust``): the per-motor throttle sqrt(fraction) (thrust ~ throttle^2).  With the
+    configuration here (PWM outputs, airmode off) Betaflight's motor output at a level hold
+    is the throttle stick from 0.1 up (measured: 0.3 -> 0.303, 0.5 -> 0.501, 0.7 -> 0.700)
+    and its idle, 0.055, below."""
+    return max(0.0, min(1.0, math.sqrt(max(0.0, thrust_fraction))))
 
 
 def stick_for_angle(angle_deg: float, spec: BetaflightSpec, axis: int) -> float:
@@ -189,7 +220,7 @@ def stick_for_angle(angle_deg: float, spec: BetaflightSpec, axis: int) -> float:
 class AnglePilot:
     """Sticks that hold a vehicle flown by the firmware in ANGLE mode at a point: tilt from a
     PD law on the horizontal position (through :func:`stick_for_angle`), throttle from the
-    hover throttle (through Betaflight's idle) and a PID law on the height; yaw stick 0
+    hover throttle and a PID law on the height; yaw stick 0
     (called once per control tick)."""
 
     def __init__(self, vehicle: Vehicle, target: Sequence[float], max_tilt_deg: float = 15.0) -> None:
@@ -198,7 +229,7 @@ class AnglePilot:
         self.spec = vehicle.firmware.spec
         self.target = tuple(float(v) for v in target)
         self.max_tilt = math.radians(max_tilt_deg)
-        self.hover = (vehicle.hover_throttle() - MOTOR_IDLE) / (1.0 - MOTOR_IDLE)
+        self.hover = vehicle.hover_throttle()  # the motor output follows the stick (throttle_stick)
         self.dt = vehicle.firmware.dt  # called once per control tick
         self._height_integral = 0.0
 
@@ -266,6 +297,7 @@ class BetaflightController:
         self.order, reversed_spin = motor_map(motors, mixer_motors)
         self.commands = configuration(spec, reversed_spin)
         self.angle = spec.mode == "angle"
+        self.rates = False  # the setpoint is rates_thrust's, turned into sticks
         self._sitl: LockstepSITL | None = None
         self._ticks = 0
         self._last_velocity: tuple[float, ...] | None = None
@@ -279,6 +311,7 @@ class BetaflightController:
 
     def set_mode(self, mode: FlightMode) -> None:
         self.angle = mode.name == "angle"
+        self.rates = mode.name == "rates_thrust"
 
     def reset(self, state: KinematicState, armed: bool = True) -> None:
         """Restart the firmware and feed it the vehicle at rest until it arms (when ``armed``)."""
@@ -376,6 +409,15 @@ class BetaflightController:
 
         ``setpoint`` None sends no RC this tick (the radio link is silent: the firmware's
         failsafe takes over after its delay)."""
+        if self.rates and setpoint is not None:
+            p, q, r, thrust = (float(v) for v in setpoint[:4])
+            spec = self.spec
+            setpoint = [
+                stick_for_rate(math.degrees(p), spec, 0),
+                stick_for_rate(math.degrees(q), spec, 1),
+                stick_for_rate(math.degrees(r), spec, 2),
+                throttle_stick(thrust),
+            ]
         outputs = self._tick(state, setpoint if self.radio else None, armed)
         throttles = [0.0] * 4
         for bf_motor, mixer_index in enumerate(self.order):

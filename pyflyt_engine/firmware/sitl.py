@@ -188,7 +188,8 @@ class SITLProcess:
             if "failed!!" in text:
                 raise FirmwareError(
                     f"the Betaflight SITL could not bind its ports (UDP {self.udp_base + 1}-{self.udp_base + 4}, "
-                    f"TCP {self.tcp_base + 1}): another process holds one; stop it or retry"
+                    f"TCP {self.tcp_base + 1}): another process holds one; stop it or retry "
+                    f"(its output: {text.strip()[-200:]!r})"
                 )
             if listening in text:
                 return
@@ -324,6 +325,18 @@ class SITLProcess:
         return packets.motors_from_servo(answer)
 
 
+def _start_retrying(start, tries: int = 3) -> SITLProcess:
+    """``start()``, again on other free ports when a port it drew was taken meanwhile (another
+    process may bind a port between the check and the firmware's bind)."""
+    for attempt in range(tries):
+        try:
+            return start()
+        except FirmwareError as error:
+            if "could not bind" not in str(error) or attempt == tries - 1:
+                raise
+    raise AssertionError("unreachable")
+
+
 def configured_eeprom(commands: Sequence[str], gyro_hz: int) -> Path:
     """The ``eeprom.bin`` the commands produce, made once and cached by binary and commands."""
     binary = binary_path()
@@ -335,7 +348,7 @@ def configured_eeprom(commands: Sequence[str], gyro_hz: int) -> Path:
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="pyflyt-bf-config-") as work:
-        process = SITLProcess(Path(work), gyro_hz, lockstep=False)
+        process = _start_retrying(lambda: SITLProcess(Path(work), gyro_hz, lockstep=False))
         try:
             process.cli([*commands, "save"])
             process.wait_exit()
@@ -358,7 +371,7 @@ class LockstepSITL:
         self._dir = Path(tempfile.mkdtemp(prefix="pyflyt-bf-"))
         shutil.copyfile(eeprom, self._dir / "eeprom.bin")
         try:
-            self.process = SITLProcess(self._dir, gyro_hz, lockstep=True)
+            self.process = _start_retrying(lambda: SITLProcess(self._dir, gyro_hz, lockstep=True))
         except BaseException:
             shutil.rmtree(self._dir, ignore_errors=True)
             raise
