@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -197,7 +197,7 @@ def fly(
         world.add_vehicle(uav, position, orientation, mode=mode)
         vehicle = world.vehicles[0]
         layout = vehicle.setpoint_layout
-        pilot = None
+        pilot: Callable[[], list[float]] | None = None
         if setpoint is None:
             target = (float(position[0]), float(position[1]), float(position[2]) + 1.0)
             if pilot_kind is not None:

@@ -299,7 +299,7 @@ class Vehicle:
 
             self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
             self.firmware = BetaflightController(spec.control.firmware, parts.motors, parts.mixer_motors, control_dt)
-            self._modes = dict(BETAFLIGHT_MODES)
+            self._modes: dict[str, FlightMode] = dict(BETAFLIGHT_MODES)
             self.mode = self._modes[spec.control.firmware.mode]
         elif isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
@@ -307,7 +307,7 @@ class Vehicle:
             self.controller = MultirotorController(
                 spec.control, parts.mass, np.diag(parts.inertia), self.mixer, control_dt
             )
-            self._modes: dict[str, FlightMode] = {}
+            self._modes = {}
             self.mode = self.controller.mode
         else:
             self._modes = (

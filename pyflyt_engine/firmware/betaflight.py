@@ -355,6 +355,7 @@ class BetaflightController:
         """This tick's datagram: the state as the firmware's IMU sees it, and the sticks
         (None: no RC this tick, the radio link is silent)."""
         qx, qy, qz, qw = state.quaternion
+        velocity: tuple[float, ...]
         if at_rest:
             p = q = r = 0.0
             velocity = (0.0, 0.0, 0.0)

@@ -92,3 +92,52 @@ def test_missing_binary_names_the_build_command(monkeypatch, tmp_path):
     monkeypatch.setenv("PYFLYT_BETAFLIGHT_SITL", str(tmp_path / "nothing"))
     with pytest.raises(FirmwareError, match="python -m pyflyt_engine.firmware.build"):
         binary_path()
+
+
+@pytest.mark.parametrize("stick", [-1.0, -0.4, 0.0, 0.1, 0.25, 0.7, 1.0])
+def test_stick_for_rate_inverts_the_rate_curve(stick):
+    from pyflyt_engine.firmware.betaflight import stick_for_rate
+
+    spec = BetaflightSpec(rc_rate=[10, 7, 7], super_rate=[40, 67, 67], expo=[50, 0, 0])
+    for axis in range(3):
+        rate = actual_rate(stick, spec.rc_rate[axis], spec.super_rate[axis], spec.expo[axis])
+        assert stick_for_rate(rate, spec, axis) == pytest.approx(stick, abs=1e-9)
+    assert stick_for_rate(1e4, spec, 0) == pytest.approx(1.0)  # beyond the maximum rate: full stick
+
+
+def test_throttle_stick_is_the_square_root_of_the_thrust_fraction():
+    from pyflyt_engine.firmware.betaflight import throttle_stick
+
+    assert throttle_stick(0.25) == 0.5 and throttle_stick(0.0) == 0.0 and throttle_stick(4.0) == 1.0
+
+
+def test_an_env_with_the_firmware_flies_sticks_at_rates_its_clock_follows():
+    from pyflyt_engine.envs.config import load_env_config
+
+    sticks = load_env_config("quadx_hover").with_overrides(controller="betaflight")
+    assert (sticks.physics_hz, sticks.control_hz, sticks.agent_hz) == (1000.0, 1000.0, 50.0)
+    assert sticks.action.mode == "acro" and sticks.action.names == ["roll", "pitch", "yaw", "throttle"]
+    assert sticks.action.low == [-1.0, -1.0, -1.0, 0.0] and sticks.action.high == [1.0, 1.0, 1.0, 1.0]
+    rates = load_env_config("quadx_hover").with_overrides(controller="betaflight", firmware_action="rates")
+    assert (rates.physics_hz, rates.control_hz, rates.agent_hz) == (1500.0, 500.0, 30.0)
+    assert rates.action == load_env_config("quadx_hover").action  # the own controller's space, unchanged
+    own = load_env_config("quadx_hover")
+    assert (own.physics_hz, own.control_hz, own.agent_hz, own.controller) == (240.0, 120.0, 30.0, "own")
+
+
+def test_an_env_whose_action_the_firmware_cannot_fly_is_refused():
+    from pyflyt_engine.envs.config import load_env_config
+
+    with pytest.raises(Exception, match="controller betaflight flies the modes acro and angle"):
+        load_env_config("quadx_waypoints_velocity").with_overrides(controller="betaflight")
+
+
+def test_with_betaflight_refuses_what_has_no_multirotor_controller():
+    from pyflyt_engine.firmware.betaflight import with_betaflight
+
+    with pytest.raises(ConfigError, match="replaces a multirotor controller"):
+        with_betaflight(load_uav_spec("fixedwing"), "acro")
+    with pytest.raises(ConfigError, match="flies the modes acro, angle, rates_thrust"):
+        with_betaflight(load_uav_spec("quadx_cf2x"), "position_yaw")
+    flown = with_betaflight(load_uav_spec("quadx_cf2x"), "rates_thrust")
+    assert flown.control.firmware.mode == "acro"
