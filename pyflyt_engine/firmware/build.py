@@ -67,6 +67,8 @@ def build(source: Path | None = None, jobs: int = 1, out: Path | None = None, fo
         FirmwareError: a missing tool, a source that is not Betaflight's, a patch that does
             not apply or a failed build (with the log's last lines and its path).
     """
+    if source is not None and not (Path(source) / "src" / "platform" / "SIMULATOR" / "sitl.c").is_file():
+        raise FirmwareError(f"{source} is not Betaflight's source: it has no src/platform/SIMULATOR/sitl.c")
     _need("gcc", "the C compiler")
     make = _need("make", "the build tool")
     patch = _need("patch", "to apply sitl-lockstep.patch")
