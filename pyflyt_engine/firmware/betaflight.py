@@ -332,6 +332,7 @@ class BetaflightController:
                 self._last_velocity = None
                 return
         log = self._sitl.process.log()[-300:]
+        self.close()  # nothing left running
         raise FirmwareError(
             f"Betaflight did not arm within {ARM_WITHIN_S:g} s of firmware time with the vehicle at rest, "
             f"throttle low and AUX1 switched: check the spec's cli commands (firmware output: {log!r})"
