@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import Annotated, Any, Literal, Optional
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
@@ -68,6 +68,9 @@ class FlyOptions(BaseModel):
     render: bool = Field(description="open the PyBullet GUI (needs a display)")
     ground_effect: bool = Field(description="rotor thrust times the ground-effect ratio (docs/atmosphere.md)")
     downwash: bool = Field(description="wakes of rotorcraft above as wind (docs/atmosphere.md)")
+    controller: Literal["own", "betaflight"] = Field(
+        "own", description="own (the airframe's cascade) or betaflight (its firmware in the loop, docs/firmware.md)"
+    )
 
     @field_validator("rows", "duration")
     @classmethod

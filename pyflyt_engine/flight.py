@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,6 +146,7 @@ def fly(
     wind: str | Mapping | WindConfig | None = None,
     ground_effect: bool = False,
     downwash: bool = False,
+    controller: str = "own",
 ) -> Trajectory:
     """Fly ``uav`` in ``mode`` toward ``setpoint`` for ``duration`` seconds.
 
@@ -156,9 +157,28 @@ def fly(
     setpoint steered toward that hover every control period by :class:`HoverPilot`.  ``wind``: the atmosphere (a preset
     name in ``conf/wind``, a mapping or a :class:`WindConfig`; None: still air);
     ``ground_effect``, ``downwash``: the rotor interactions of :class:`World`.
+
+    ``controller="betaflight"``: Betaflight's firmware flies it instead of its own cascade
+    (docs/firmware.md): ``mode`` acro or angle (the default mode ``position_yaw`` becomes
+    angle), the setpoint the sticks (None: :class:`~pyflyt_engine.firmware.betaflight.AnglePilot`
+    holds the hover), the paper's 240 / 120 / 30 Hz loop rates 1000 / 1000 / 50 Hz.
     """
     if not duration > 0:
         raise ConfigError(f"duration must be > 0 s, got {duration}")
+    pilot_kind = None
+    if controller == "betaflight":
+        from pyflyt_engine.firmware.betaflight import FIRMWARE_RATES, PAPER_RATES, AnglePilot, with_betaflight
+        from pyflyt_engine.spec import load_uav_spec
+
+        mode = "angle" if str(mode) == "position_yaw" else str(mode)
+        if setpoint is None and mode != "angle":
+            raise ConfigError("controller betaflight hovers by itself in mode angle: give mode=angle, or the sticks")
+        uav = with_betaflight(uav if isinstance(uav, UAVSpec) else load_uav_spec(uav), mode)
+        if (float(physics_hz), float(control_hz), float(agent_hz)) == PAPER_RATES:
+            physics_hz, control_hz, agent_hz = FIRMWARE_RATES
+        pilot_kind = AnglePilot
+    elif controller != "own":
+        raise ConfigError(f"controller is own or betaflight, got '{controller}'")
     # a piloted default setpoint changes every control period: step the world at that rate
     # and keep every stride-th row
     stride = 1
@@ -177,11 +197,19 @@ def fly(
         world.add_vehicle(uav, position, orientation, mode=mode)
         vehicle = world.vehicles[0]
         layout = vehicle.setpoint_layout
-        pilot = None
+        pilot: Callable[[], list[float]] | None = None
         if setpoint is None:
             target = (float(position[0]), float(position[1]), float(position[2]) + 1.0)
-            world.set_setpoint(0, hover_setpoint(vehicle, target[2]))
-            if vehicle.controller is not None and (vehicle.mode.name in _PILOTED or vehicle.mode.name in _CLIMB_RATE):
+            if pilot_kind is not None:
+                pilot = pilot_kind(vehicle, target)
+                world.set_setpoint(0, pilot())
+            else:
+                world.set_setpoint(0, hover_setpoint(vehicle, target[2]))
+            if (
+                pilot_kind is None
+                and vehicle.controller is not None
+                and (vehicle.mode.name in _PILOTED or vehicle.mode.name in _CLIMB_RATE)
+            ):
                 pilot = HoverPilot(vehicle, target, 1.0 / control_hz)
         else:
             world.set_setpoint(0, setpoint_vector(layout, setpoint))

@@ -824,8 +824,52 @@ class PositionGains(_Spec):
     max_velocity: Vec3 = Field((3.0, 3.0, 2.0), description="limit on the velocity setpoint [m/s]")
 
 
+#: CLI commands a firmware configuration may not carry: they save, reboot or reset the firmware
+_FIRMWARE_CLI_REFUSED = ("save", "exit", "defaults", "bl", "dfu", "msc", "batch", "diff", "dump")
+
+
+class BetaflightSpec(_Spec):
+    """Betaflight 4.6's own firmware (its SITL target, in lockstep) as the flight
+    controller: the setpoint is the sticks (docs/firmware.md)."""
+
+    mode: Literal["acro", "angle"] = Field(
+        "acro", description="acro: sticks command body rates (Betaflight's rate curve); angle: sticks command tilt"
+    )
+    rc_rate: list[int] = Field(
+        [7, 7, 7], description="ACTUAL rates' centre sensitivity, roll/pitch/yaw, in 10 deg/s (CLI roll_rc_rate ...)"
+    )
+    super_rate: list[int] = Field(
+        [67, 67, 67], description="ACTUAL rates' maximum rate, roll/pitch/yaw, in 10 deg/s (CLI roll_srate ...)"
+    )
+    expo: list[int] = Field([0, 0, 0], description="ACTUAL rates' expo, roll/pitch/yaw, in % (CLI roll_expo ...)")
+    angle_limit: int = Field(60, ge=10, le=90, description="ANGLE mode's tilt at full stick [deg] (CLI angle_limit)")
+    cli: list[str] = Field(
+        [], description="further Betaflight CLI commands (e.g. 'set p_roll = 50'), run after the project's own"
+    )
+
+    @field_validator("rc_rate", "super_rate", "expo")
+    @classmethod
+    def _three(cls, value: list[int]) -> list[int]:
+        if len(value) != 3 or not all(0 <= v <= 255 for v in value):
+            raise ValueError("needs 3 whole numbers (roll, pitch, yaw) from 0 to 255, as Betaflight's CLI takes them")
+        return value
+
+    @field_validator("cli")
+    @classmethod
+    def _commands(cls, value: list[str]) -> list[str]:
+        for command in value:
+            word = command.strip().split(" ", 1)[0].lower() if command.strip() else ""
+            if not word or "\n" in command or "\r" in command or word in _FIRMWARE_CLI_REFUSED:
+                raise ValueError(
+                    f"'{command}' is not a configuration command: one CLI line each, without "
+                    f"{', '.join(_FIRMWARE_CLI_REFUSED)} (the bridge saves and restarts the firmware itself)"
+                )
+        return value
+
+
 class MultirotorControlSpec(_Spec):
-    """Cascaded PID flight controller for multirotors (position > velocity > attitude > rate)."""
+    """Cascaded PID flight controller for multirotors (position > velocity > attitude > rate),
+    or, with ``firmware``, Betaflight's own firmware in its place."""
 
     type: Literal["multirotor"] = "multirotor"
     mode: str = Field("rates_thrust", description="flight mode at spawn (name or PyFlyt integer)")
@@ -835,6 +879,9 @@ class MultirotorControlSpec(_Spec):
     position: PositionGains = PositionGains()
     mixer_motors: list[int] | None = Field(
         None, description="indices of the motors the controller flies (default: every motor without 'mix')"
+    )
+    firmware: BetaflightSpec | None = Field(
+        None, description="fly the firmware instead of the cascade: its modes acro and angle take sticks"
     )
 
 

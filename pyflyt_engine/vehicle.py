@@ -78,6 +78,9 @@ from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVS
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.urdf import urdf_path
 
+if TYPE_CHECKING:
+    from pyflyt_engine.firmware.betaflight import BetaflightController
+
 _ORIGIN = (0.0, 0.0, 0.0)
 _NO_LOAD: Wrench = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 _LINK_FRAME = p.LINK_FRAME
@@ -287,14 +290,24 @@ class Vehicle:
         self.autopilot: FixedwingAutopilot | None = None
         #: the rocket autopilot (modes attitude_thrust, velocity, descent), on airframes with a gimballed booster
         self.rocket: RocketAutopilot | None = None
+        #: Betaflight's own firmware in the cascade's place (``control.firmware``; docs/firmware.md)
+        self.firmware: BetaflightController | None = None
         self._custom_modes: dict[str, _CustomMode] = {}
-        if isinstance(spec.control, MultirotorControlSpec):
+        if isinstance(spec.control, MultirotorControlSpec) and spec.control.firmware is not None:
+            assert parts.motors is not None  # guaranteed by the spec validator
+            from pyflyt_engine.firmware.betaflight import BETAFLIGHT_MODES, BetaflightController
+
+            self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
+            self.firmware = BetaflightController(spec.control.firmware, parts.motors, parts.mixer_motors, control_dt)
+            self._modes: dict[str, FlightMode] = dict(BETAFLIGHT_MODES)
+            self.mode = self._modes[spec.control.firmware.mode]
+        elif isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
             self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
             self.controller = MultirotorController(
                 spec.control, parts.mass, np.diag(parts.inertia), self.mixer, control_dt
             )
-            self._modes: dict[str, FlightMode] = {}
+            self._modes = {}
             self.mode = self.controller.mode
         else:
             self._modes = (
@@ -377,6 +390,8 @@ class Vehicle:
                 custom.controller.reset()
         elif self.autopilot is not None and resolved is not self.mode:
             self.autopilot.reset()
+        elif self.firmware is not None:
+            self.firmware.set_mode(resolved)
         if resolved is not self.mode or self.setpoint.size != self._setpoint_size(resolved):
             self.setpoint = np.zeros(self._setpoint_size(resolved))
         self.mode = resolved
@@ -574,7 +589,9 @@ class Vehicle:
                     return
         parts = self.parts
         throttles: Sequence[float] | None = None
-        if not self.armed:
+        if self.firmware is not None:  # the firmware ticks armed or not: its clock is the world's
+            throttles = self.firmware(self.state, self.setpoint.tolist(), self.armed)
+        elif not self.armed:
             self.channels = self._idle_channels.copy()
         elif self.controller is not None:
             setpoint = self.setpoint
@@ -777,6 +794,8 @@ class Vehicle:
         if self.autopilot is not None:
             self.autopilot.reset()
         state = self.read_state()
+        if self.firmware is not None:  # a fresh firmware, armed at rest at the spawn
+            self.firmware.reset(state, self.armed)
         if self.sensors is not None:  # time 0: new initial biases
             self.sensors.reset(state.lin_pos, state.lin_vel_ground, state.quaternion)
 

@@ -587,7 +587,10 @@ class World:
                 self.wind.reseed(self._wind_generator)
 
     def close(self) -> None:
-        """Disconnect from PyBullet (idempotent)."""
+        """Disconnect from PyBullet and stop any flight controller firmware (idempotent)."""
+        for vehicle in getattr(self, "vehicles", ()):
+            if vehicle.firmware is not None:
+                vehicle.firmware.close()
         if self.client is not None and self.client >= 0 and p.isConnected(self.client):
             p.disconnect(self.client)
         self.client = -1

@@ -30,6 +30,7 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         raise refuse(f"env.randomize.{name} (domain randomisation: {why})", f"it draws {', '.join(BATCHED_PARAMETERS)}")
     for key, present in (
         ("downwash", config.downwash),
+        ("controller=betaflight (the firmware in the loop)", getattr(config, "controller", "own") == "betaflight"),
         ("sensors (noisy sensors in a multi-agent world)", multi_agent and config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),

@@ -326,6 +326,18 @@ class EnvConfig(_Config):
         description="the presets that reward 'dense' / 'sparse' (and sparse_reward=True) select"
     )
     action: ActionConfig
+    controller: Literal["own", "betaflight"] = Field(
+        "own",
+        description="the flight controller: own (the airframe's, flying action.mode) or betaflight (Betaflight's "
+        "firmware in the loop, docs/firmware.md: an action in rates_thrust becomes ACRO sticks; the paper's "
+        "240/120/30 Hz loop rates become 1000/1000/50 Hz)",
+    )
+    firmware_action: Literal["sticks", "rates"] = Field(
+        "sticks",
+        description="with controller betaflight, what an action in rates_thrust becomes: sticks (ACRO sticks in "
+        "[-1, 1] and a throttle in [0, 1], at 1000/1000/50 Hz) or rates (the same rates_thrust action, turned "
+        "into sticks by inverting the rate curve: a policy of the own controller flies the firmware; 1500/500/30 Hz)",
+    )
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     camera_observation: CameraObservationConfig | None = Field(
@@ -375,6 +387,39 @@ class EnvConfig(_Config):
                 del data[key]
         if isinstance(data, dict) and data.get("backend") == "pybullet":  # the default, as before the key existed
             del data["backend"]
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _firmware_in_the_loop(cls, data: Any) -> Any:
+        """``controller: betaflight``: the sticks as the action and loop rates the firmware's
+        clock can follow (docs/firmware.md, "In an env")."""
+        if not isinstance(data, dict) or data.get("controller") != "betaflight":
+            return data
+        data = dict(data)
+        from pyflyt_engine.firmware.betaflight import FIRMWARE_RATES, FIRMWARE_RATES_AT_30_HZ, PAPER_RATES, STICKS
+
+        keys = ("physics_hz", "control_hz", "agent_hz")
+        rates = tuple(float(data.get(k, d)) for k, d in zip(keys, PAPER_RATES))
+        as_rates = data.get("firmware_action", "sticks") == "rates"
+        if rates == PAPER_RATES:  # the firmware's gyro period needs whole microseconds
+            data.update(zip(keys, FIRMWARE_RATES_AT_30_HZ if as_rates else FIRMWARE_RATES))
+        action = data.get("action")
+        if isinstance(action, dict) and action.get("mode") == "rates_thrust" and as_rates:
+            pass  # flown as it is, through the inverted rate curve
+        elif isinstance(action, dict) and action.get("mode") == "rates_thrust":
+            data["action"] = {
+                "mode": "acro",
+                "names": list(STICKS),
+                "units": ["1", "1", "1", "1"],
+                "low": [-1.0, -1.0, -1.0, 0.0],
+                "high": [1.0, 1.0, 1.0, 1.0],
+            }
+        elif isinstance(action, dict) and action.get("mode") not in ("acro", "angle", "rates_thrust"):
+            raise ValueError(
+                f"controller betaflight flies the modes acro and angle (sticks); this env's action is mode "
+                f"'{action.get('mode')}': give action.mode acro (or an action in rates_thrust, which becomes acro)"
+            )
         return data
 
     @field_validator("physics_hz", "control_hz", "agent_hz", "max_duration_seconds", "flight_dome_size")

@@ -435,6 +435,10 @@ def build_episode(
             flown, camera = with_observation_camera(flown, cfg.camera_observation)
         if cfg.range_sensors:
             flown = with_range_sensors(flown, cfg.range_sensors)
+        if getattr(cfg, "controller", "own") == "betaflight":
+            from pyflyt_engine.firmware.betaflight import with_betaflight
+
+            flown = with_betaflight(flown, cfg.action.mode)
         flown_of[id(spec)] = (with_sensors(flown, cfg.sensors), camera)
     world = World(
         [

