@@ -166,9 +166,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._head = self.model.mixer_outputs
         extra = 0 if self.model.channel_driven else self.model.channels
         if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self._head + extra:
-            raise ConfigError(
-                f"mode motors takes {self._head + extra} values, the action has {len(cfg.action.low)}"
-            )
+            raise ConfigError(f"mode motors takes {self._head + extra} values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4 + extra:
             raise ConfigError(f"mode rates_thrust takes {4 + extra} values, the action has {len(cfg.action.low)}")
         #: a cascade mode's (law, yaw_is_rate, heading_frame, position, altitude); None in the others

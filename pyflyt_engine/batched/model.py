@@ -369,9 +369,9 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
     routed = routed or len(parts.mixer_motors) != motors.count
     source = np.full(motors.count, -1, dtype=np.int64)  # per motor its mixer output (Motors.route), -1: its mix
     source[list(parts.mixer_motors)] = np.arange(len(parts.mixer_motors))
-    lateral = np.array(
-        [[motor, limit, *row] for motor, limit, row in mixer._lateral], dtype=np.float64
-    ).reshape(-1, LATERAL_FIELDS)
+    lateral = np.array([[motor, limit, *row] for motor, limit, row in mixer._lateral], dtype=np.float64).reshape(
+        -1, LATERAL_FIELDS
+    )
     if routed:
         common.update(_channel_tables(parts, physics_dt))
     return BatchedModel(
