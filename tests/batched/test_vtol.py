@@ -25,7 +25,7 @@ angle ``atan2(lateral, f)`` and its ``f / cos(angle)`` are smooth where the moto
 rotation smooth, so they carry a difference over without growth beyond the flight's own.  The
 quadplane's surfaces are the fixed-wing's law (``test_crosscheck.py``: only an angle of attack
 within the last bits of a stall angle flips the profile's branch, probability ~1e-10 per
-surface and step).  Measured over these flights (``python experiments/batched_vtol_crosscheck.py``
+surface and step).  Measured over these flights (``python experiments/batched_modes_crosscheck.py --routed``
 prints them per airframe and mode): see docs/batched.md.
 """
 
@@ -244,7 +244,7 @@ def fly_routed_pair(uav: str, mode: str, seed: int = 3, steps: int = 60) -> tupl
     """Both backends fly QuadX-Waypoints on airframe file ``uav`` in ``mode`` (its action:
     :func:`routed_action`) from one start for ``steps`` agent steps of random setpoints; returns
     the largest differences (motor and flap commands, gimbal angles, positions, observations,
-    rewards) and the steps flown.  The test below and ``experiments/batched_vtol_crosscheck.py``
+    rewards) and the steps flown.  The test below and ``experiments/batched_modes_crosscheck.py --routed``
     fly it."""
     # mode motors flies open loop, its attitude drifting: from 3 m up, 2 s keep it off the ground
     spawn = {"start_position": [0.0, 0.0, 3.0]} if mode == "motors" else {}
