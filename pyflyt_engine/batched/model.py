@@ -18,11 +18,20 @@ and ``motors`` in :mod:`~pyflyt_engine.batched.kernels`, the outer loops of the 
 :mod:`~pyflyt_engine.batched.modes`, their parameters in :attr:`BatchedModel.cascade`) and a
 fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
 driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
+A multirotor whose actuators the channels route beside the mixer (:attr:`BatchedModel.routed`)
+flies through the fixed-wing's kernel (``kernels.advance_channels``) with the multirotor
+controller on its tick: a VTOL such as the quadplane (its lift motors on the mixer, a pusher
+and lifting surfaces on the setpoint's channels after the mode's values: ``motor_source``,
+the channel tables), a tricopter (its tail motor on a gimbal the mixer flies: the mixer's
+lateral rows ``lateral``, the controller's trim in :attr:`BatchedModel.cascade`), and gimbals
+on channels; each gimbal's rows out of the engine's ``Gimbals`` (``gimbal_constants``) and
+``Motors.turn``'s tables (``gimbals``, ``gimbal_source``, ``gimbal_scale``).
 What the batched backend cannot simulate is refused here by name
-(:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
-channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
-multirotor, mesh or URDF collision geometry, and a multirotor mode on a fixed-wing (or a
-fixed-wing mode without a compiled form).
+(:class:`UnsupportedByBatched`), never approximated: boosters (and gimbals turning them),
+gimbals on a fixed-wing, gimbals with the optional motor models or a battery, mesh or URDF
+collision geometry, and a multirotor mode on a fixed-wing (or a fixed-wing mode without a
+compiled form); :func:`pyflyt_engine.batched.support.check_keys` refuses an env's latency and
+drawn motor factors on an airframe with gimbals.
 """
 
 from __future__ import annotations
@@ -130,6 +139,16 @@ class BatchedModel:
             eta V_full^3, avionics power [W], V_full [V]; empty without one);
             battery_table: (k, 2) its open-circuit voltage table; battery_reset: its state
             at a reset (``kernels.BATTERY_STATE``: charge, voltage, current, speed ratio).
+        routed: a multirotor whose actuators the channels route beside the mixer (channels,
+            lifting surfaces, gimbals or motors outside the mixer): it flies through
+            ``kernels.advance_channels``, its channel tables filled as a fixed-wing's.
+        motor_source: (n,) per motor the mixer output it takes (``Motors.route``), -1 for its mix.
+        lateral: (t, ``kernels.LATERAL_FIELDS``) per tilting motor the mixer flies its index
+            among the mixer's motors, its servo limit and its lateral row of the pseudo-inverse.
+        gimbals: (g, ``kernels.GIMBAL_FIELDS``) per gimbal its ``GimbalConstants`` and its target
+            motor's nominal axis, hub, full thrust and reaction torque; gimbal_source: (g, 4) its
+            target motor, the channels of its axes (-1: none) and its mixer output (-1: none);
+            gimbal_scale: (2 g,) what each angle is divided by in the auxiliary state.
     """
 
     name: str
@@ -333,6 +352,7 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
             "gimbals with the optional motor models or a battery",
             parts.gimbals is not None and parts.motors is not None and (parts.motors.modelled or bool(spec.battery)),
         ),
+        ("gimbals on a fixed-wing", parts.gimbals is not None and fixedwing),
     ):
         if present:
             raise refuse(f"{what} (airframe {name})")
