@@ -240,15 +240,17 @@ def routed_action(uav: str, mode: str) -> dict:
     return {"mode": mode, "names": names, "units": ["1"] * len(names), "low": low, "high": high}
 
 
-def fly_routed_pair(uav: str, mode: str, seed: int = 3, steps: int = 60) -> tuple[dict[str, float], int]:
+def fly_routed_pair(
+    uav: str, mode: str, seed: int = 3, steps: int = 60, **overrides: object
+) -> tuple[dict[str, float], int]:
     """Both backends fly QuadX-Waypoints on airframe file ``uav`` in ``mode`` (its action:
     :func:`routed_action`) from one start for ``steps`` agent steps of random setpoints; returns
     the largest differences (motor and flap commands, gimbal angles, positions, observations,
-    rewards) and the steps flown.  The test below and ``experiments/batched_modes_crosscheck.py --routed``
+    rewards) and the steps flown (``overrides``: more env keys, e.g. a latency).  The test below and ``experiments/batched_modes_crosscheck.py --routed``
     fly it."""
     # mode motors flies open loop, its attitude drifting: from 3 m up, 2 s keep it off the ground
     spawn = {"start_position": [0.0, 0.0, 3.0]} if mode == "motors" else {}
-    pb, be = _pair("quadx_waypoints", uav, seed=seed, action=routed_action(uav, mode), **spawn)
+    pb, be = _pair("quadx_waypoints", uav, seed=seed, action=routed_action(uav, mode), **spawn, **overrides)
     low, high = np.array(be.config.action.low), np.array(be.config.action.high)
     vehicle = pb.unwrapped.world.vehicles[0]
     assert vehicle.mode.name == mode
@@ -297,6 +299,17 @@ def test_a_gimbal_on_channels_agrees_with_the_pybullet_engine(quiet, mode):
     assert worst["gimbal"] < BOUND and flown == 60
 
 
+@pytest.mark.parametrize("delays", [(13, 11), (3, 5)])
+def test_the_quadplane_with_latency_agrees_with_the_pybullet_engine(quiet, delays):
+    """The quadplane in position_yaw with action and observation delays (physics steps at
+    240 Hz: between ticks and between agent steps): the delayed observation shows its flaps'
+    deflections of that many steps ago, as the PyBullet engine's; the same 1e-6."""
+    latency = {"action_delay": delays[0] / 240, "observation_delay": delays[1] / 240}
+    worst, flown = fly_routed_pair(quiet["quadplane"], "position_yaw", latency=latency)
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 60
+
+
 # ------------------------------------------------------------------ what stays refused
 
 
@@ -337,3 +350,11 @@ def test_the_tricopter_trains_on_the_batched_backend_by_auto():
 
     assert resolve_backend(load_env_config("quadx_hover").with_overrides(backend="auto", uav="tricopter")) == "batched"
     assert resolve_backend(load_env_config("quadx_hover").with_overrides(backend="auto", uav="rocket")) == "pybullet"
+
+
+def test_a_multi_agent_world_of_them_is_refused_by_name():
+    from pyflyt_engine.batched import check_supported
+
+    cfg = load_env_config("ma_quadx_hover").with_overrides(backend="batched", uav="tricopter")
+    with pytest.raises(UnsupportedByBatched, match="in a multi-agent world \\(airframe tricopter\\)"):
+        check_supported(cfg)
