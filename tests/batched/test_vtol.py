@@ -310,6 +310,36 @@ def test_the_quadplane_with_latency_agrees_with_the_pybullet_engine(quiet, delay
     assert flown == 60
 
 
+def test_the_randomised_quadplane_agrees_with_the_pybullet_engine(quiet):
+    """Every entry the backend draws (test_randomization.DRAWS: the airframe's factors, all five
+    motors' among them, the spawn offsets, an observation delay), drawn by both from one
+    generator, the quadplane in position_yaw with its channels: within 1e-6, as the other
+    randomised flights."""
+    from tests.batched.test_randomization import DRAWS, _generators, _pybullet
+
+    action = routed_action(quiet["quadplane"], "position_yaw")
+    cfg = load_env_config("quadx_waypoints").with_overrides(uav=quiet["quadplane"], randomize=DRAWS, action=action)
+    be = BatchedUAVEnv(cfg, num_envs=1)
+    first, info = be.reset(seed=5)
+    pb, start, pb_info = _pybullet(cfg, _generators(5, 1)[0])
+    assert pb_info["randomization"] == {name: float(v[0]) for name, v in info["randomization"].items()}
+    low, high = np.array(cfg.action.low), np.array(cfg.action.high)
+    rng = np.random.default_rng(7)
+    worst = np.abs(_flat(start) - first[0]).max()
+    for flown in range(1, 61):
+        a = rng.uniform(low, high)
+        o1, r1, t1, tr1, _ = pb.step(a)
+        o2, r2, t2, tr2, info = be.step(a[None])
+        assert (t1, tr1) == (bool(t2[0]), bool(tr2[0]))
+        final = info["final_obs"][0] if t2[0] or tr2[0] else o2[0]
+        worst = max(worst, np.abs(_flat(o1) - final).max(), abs(r1 - r2[0]))
+        if t1 or tr1:
+            break
+    pb.close()
+    assert worst < BOUND, worst
+    assert flown == 60
+
+
 # ------------------------------------------------------------------ what stays refused
 
 
