@@ -14,7 +14,12 @@ holds together bit for bit on random inputs for every airframe:
   ``battery.supply``), in ``tests/batched/test_motor_models.py``;
 * body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
 * the body-rate loop (``MultirotorController._rate_loop``) and the mixer
-  (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
+  (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`: :func:`mix` without tilting motors,
+  :func:`mix_tilted` with them, a tricopter's tail);
+* the gimbals (:class:`pyflyt_engine.components.gimbal.Gimbals`: the servos' lag and the
+  Rodrigues rotation ``R_a R_b``, the motor column they turn, ``Motors.turn``) and the routing
+  of a multirotor's channels and mixer outputs to its motors, gimbals and flaps
+  (``Motors.route``, ``Gimbals.route``), in ``tests/batched/test_vtol.py``;
 * lifting surfaces (:mod:`pyflyt_engine.components.lifting_surface`: the Khan & Nahon
   profile ``_coefficients``, ``surface_wrench``, ``flap_deflection`` and
   ``Surfaces.step``), and the channel routing of a channel-driven airframe
