@@ -1153,24 +1153,17 @@ def clip_channels(setpoint: np.ndarray, low: np.ndarray, high: np.ndarray, out: 
 
 
 @njit(cache=True)
-def _mixed(channels: np.ndarray, index: np.ndarray, weight: np.ndarray, a: int) -> float:
-    """``routing.mixed`` of actuator ``a``'s row: (index, weight) pairs in order, index -1 ends it."""
-    value = 0.0
-    for m in range(index.shape[1]):
-        j = index[a, m]
-        if j < 0:
-            break
-        value += weight[a, m] * channels[j]
-    return value
-
-
-@njit(cache=True)
 def route_channels(channels: np.ndarray, index: np.ndarray, weight: np.ndarray, out: np.ndarray) -> None:
     """Each actuator's command from the channel vector: the weighted sum of the channels its
-    mix names (``routing.mixed``), limited to [-1, 1] (``Motors.route``, ``Surfaces.route``),
-    into ``out``."""
+    mix names (``routing.mixed``: (index, weight) pairs in order, index -1 ends a row),
+    limited to [-1, 1] (``Motors.route``, ``Surfaces.route``), into ``out``."""
     for a in range(out.shape[0]):
-        value = _mixed(channels, index, weight, a)
+        value = 0.0
+        for m in range(index.shape[1]):
+            j = index[a, m]
+            if j < 0:
+                break
+            value += weight[a, m] * channels[j]
         out[a] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
 
 
@@ -1184,11 +1177,14 @@ def route_motors(
     out: np.ndarray,
 ) -> None:
     """Each motor's command (``Motors.route``): a motor the mixer flies (``source[m]`` its
-    output, -1 for none) takes that output, any other its channel mix; limited to [-1, 1]."""
+    output, -1 for none) takes that output, any other its channel mix (:func:`route_channels`,
+    then the mixer's outputs over its motors' rows); limited to [-1, 1]."""
+    route_channels(channels, index, weight, out)
     for a in range(out.shape[0]):
         k = source[a]
-        value = outputs[k] if k >= 0 else _mixed(channels, index, weight, a)
-        out[a] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
+        if k >= 0:
+            value = outputs[k]
+            out[a] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
 
 
 @njit(cache=True)
@@ -1236,6 +1232,52 @@ def fixedwing_autopilot(
         value = out[c]
         lo, hi = low[c], high[c]
         out[c] = hi if value > hi else lo if value < lo else value
+
+
+@njit(cache=True)
+def multirotor_tick(
+    mode,
+    q,
+    w,
+    setpoint,
+    previous,
+    has_previous,
+    i,
+    integral,
+    rate_gains,
+    derivative,
+    control_inertia,
+    gyro,
+    control_dt,
+    thrust,
+    mixer_rows,
+    lateral,
+    parts,
+    rates,
+    torques,
+    outputs,
+) -> None:
+    """The mixer's outputs of a routed multirotor's tick into ``outputs``: in ``rates_thrust`` the
+    rate loop on the body rates of ``q``, ``w`` (as :func:`advance` reads them; ``previous``,
+    ``has_previous[i]``, ``integral`` advanced) and the mixer (:func:`mixer_outputs`) for the
+    collective ``thrust``; in ``motors`` the setpoint's first values."""
+    if mode == MODE_RATES_THRUST:
+        m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(q[0], q[1], q[2], q[3])
+        w0, w1, w2 = w
+        rates[0] = m0 * w0 + m3 * w1 + m6 * w2
+        rates[1] = m1 * w0 + m4 * w1 + m7 * w2
+        rates[2] = m2 * w0 + m5 * w1 + m8 * w2
+        if not has_previous[i]:
+            previous[0], previous[1], previous[2] = rates[0], rates[1], rates[2]
+        rate_loop(
+            setpoint[:3], rates, previous, integral, rate_gains, derivative, control_inertia, gyro, control_dt, torques
+        )
+        previous[0], previous[1], previous[2] = rates[0], rates[1], rates[2]
+        has_previous[i] = True
+        mixer_outputs(thrust, torques[0], torques[1], torques[2], mixer_rows, lateral, parts, outputs)
+    else:  # motors: the head is the mixer's outputs
+        for k in range(outputs.shape[0]):
+            outputs[k] = setpoint[k]
 
 
 @njit(cache=True)
@@ -1398,43 +1440,33 @@ def advance_channels(
                 elif mode == MODE_CHANNELS:
                     clip_channels(setpoint[i], channel_low, channel_high, channels)
                 else:  # a multirotor: the mixer's outputs from the head, the channels after it
-                    if mode == MODE_RATES_THRUST:
-                        m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(q[0], q[1], q[2], q[3])
-                        w0, w1, w2 = w
-                        rates[0] = m0 * w0 + m3 * w1 + m6 * w2
-                        rates[1] = m1 * w0 + m4 * w1 + m7 * w2
-                        rates[2] = m2 * w0 + m5 * w1 + m8 * w2
-                        if not has_previous[i]:
-                            previous[i, 0], previous[i, 1], previous[i, 2] = rates[0], rates[1], rates[2]
-                        rate_loop(
-                            setpoint[i, :3],
-                            rates,
-                            previous[i],
-                            integral[i],
-                            rate_gains[i],
-                            derivative,
-                            control_inertia[i],
-                            gyro[i],
-                            control_dt,
-                            torques,
-                        )
-                        previous[i, 0], previous[i, 1], previous[i, 2] = rates[0], rates[1], rates[2]
-                        has_previous[i] = True
-                        mixer_outputs(
-                            setpoint[i, 3] * max_collective[i],
-                            torques[0],
-                            torques[1],
-                            torques[2],
-                            mixer_rows[i],
-                            lateral,
-                            parts,
-                            outputs,
-                        )
-                    else:  # motors: the head is the mixer's outputs
-                        for k in range(outputs.shape[0]):
-                            outputs[k] = setpoint[i, k]
+                    multirotor_tick(
+                        mode,
+                        q,
+                        w,
+                        setpoint[i],
+                        previous[i],
+                        has_previous,
+                        i,
+                        integral[i],
+                        rate_gains[i],
+                        derivative,
+                        control_inertia[i],
+                        gyro[i],
+                        control_dt,
+                        setpoint[i, 3] * max_collective[i],
+                        mixer_rows[i],
+                        lateral,
+                        parts,
+                        rates,
+                        torques,
+                        outputs,
+                    )
                     clip_channels(setpoint[i, head:], channel_low, channel_high, channels)
-                route_motors(channels, outputs, motor_source, motor_index, motor_weight, cmd_i)
+                if mode > MODE_RATES_THRUST:  # a fixed-wing's motors: their mixes alone
+                    route_channels(channels, motor_index, motor_weight, cmd_i)
+                else:
+                    route_motors(channels, outputs, motor_source, motor_index, motor_weight, cmd_i)
                 route_channels(channels, surface_index, surface_weight, f_i)
                 if ng:
                     route_gimbals(channels, outputs, gimbal_source, gc_i)
