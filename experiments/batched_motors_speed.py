@@ -59,6 +59,7 @@ CASES = (
     ("QuadX-Hover, quadx_cf2x (static motors)", "quadx_hover", "", True),
     ("Fixedwing-Waypoints (static motor)", "fixedwing_waypoints", "", True),
     ("QuadX-Hover, quadx_cf2x_battery (every model, battery)", "quadx_hover", str(EXAMPLE), False),
+    ("QuadX-Hover, tricopter (its tail on the mixer's servo)", "quadx_hover", "tricopter", False),
 )
 
 

@@ -68,7 +68,7 @@ from pyflyt_engine.components.sensors import SensorSuite
 from pyflyt_engine.components.sensors import check_rates as check_sensor_rates
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES, FixedwingAutopilot
-from pyflyt_engine.control.mixer import Mixer
+from pyflyt_engine.control.mixer import flight_mixer
 from pyflyt_engine.control.modes import MULTIROTOR_MODES, FlightMode, resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.control.rocket import ROCKET_MODES, RocketAutopilot, has_rocket_modes
@@ -130,25 +130,6 @@ class Actuators:
     if TYPE_CHECKING:  # a kind's group, by its name
 
         def __getattr__(self, name: str) -> Any: ...
-
-
-def _subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
-    idx = list(indices)
-    return MotorParams(
-        positions=motors.positions[idx],
-        thrust_axes=motors.thrust_axes[idx],
-        spin=motors.spin[idx],
-        tau=motors.tau[idx],
-        max_rpm=motors.max_rpm[idx],
-        kf=motors.kf[idx],
-        kt=motors.kt[idx],
-        noise_ratio=motors.noise_ratio[idx],
-        **{
-            name: (getattr(motors, name)[idx] if getattr(motors, name) is not None else None)
-            for name in ("tau_fall", "rotor_drag", "prop_radius")
-        },
-        inflow=motors.inflow,
-    )
 
 
 def motor_params_from_spec(spec: UAVSpec) -> MotorParams | None:
@@ -303,7 +284,7 @@ class Vehicle:
             self.mode = self._modes[spec.control.firmware.mode]
         elif isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator
-            self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
+            self.mixer = flight_mixer(parts)
             self.controller = MultirotorController(
                 spec.control, parts.mass, np.diag(parts.inertia), self.mixer, control_dt
             )

@@ -65,6 +65,8 @@ _STATE_ARRAYS = (
     "reach",
     "deflection",
     "flap_command",
+    "gimbal_angles",
+    "gimbal_command",
     "autopilot_integral",
     "vel_integral",
     "latency_steps",

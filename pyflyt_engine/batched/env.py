@@ -160,15 +160,20 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ConfigError(f"mode attitude_airspeed takes 4 values, the action has {len(cfg.action.low)}")
         if self.mode == kernels.MODE_CHANNELS and len(cfg.action.low) != self.model.channels:
             raise ConfigError(f"mode channels takes {self.model.channels} values, the action has {len(cfg.action.low)}")
-        if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self.model.motors:
-            raise ConfigError(f"mode motors takes {self.model.motors} values, the action has {len(cfg.action.low)}")
-        if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4:
-            raise ConfigError(f"mode rates_thrust takes 4 values, the action has {len(cfg.action.low)}")
+        #: a multirotor's setpoint: its mode's values (the head), then one per channel (a VTOL's)
+        self._head = 0 if self.model.channel_driven else 4
+        if self.mode == kernels.MODE_MOTORS:
+            self._head = self.model.mixer_outputs
+        extra = 0 if self.model.channel_driven else self.model.channels
+        if self.mode == kernels.MODE_MOTORS and len(cfg.action.low) != self._head + extra:
+            raise ConfigError(f"mode motors takes {self._head + extra} values, the action has {len(cfg.action.low)}")
+        if self.mode == kernels.MODE_RATES_THRUST and len(cfg.action.low) != 4 + extra:
+            raise ConfigError(f"mode rates_thrust takes {4 + extra} values, the action has {len(cfg.action.low)}")
         #: a cascade mode's (law, yaw_is_rate, heading_frame, position, altitude); None in the others
         self._cascade = modes.cascade_law(self.mode) if self.mode in modes.CASCADE_MODES.values() else None
-        if self._cascade is not None and len(cfg.action.low) != 4:
+        if self._cascade is not None and len(cfg.action.low) != 4 + extra:
             name = next(k for k, v in modes.CASCADE_MODES.items() if v == self.mode)
-            raise ConfigError(f"mode {name} takes 4 values, the action has {len(cfg.action.low)}")
+            raise ConfigError(f"mode {name} takes {4 + extra} values, the action has {len(cfg.action.low)}")
         self.task = get_task(cfg.task.name)(cfg.task, flight_dome_size=cfg.flight_dome_size, agent_hz=cfg.agent_hz)
         preset = load_reward_preset(cfg.reward_preset_name())
         scalar = compile_reward(preset_name(cfg), preset.terms, self.task.provides, self.task.name)
@@ -235,6 +240,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, each lifting surface's flap deflection [rad] and its command in [-1, 1]
         self.deflection = np.zeros((n, ns))
         self.flap_command = np.zeros((n, ns))
+        #: per env, each gimbal's servo angles (a, b) [rad] and commands in [-1, 1] (none without gimbals)
+        self.gimbal_angles = np.zeros((n, len(m.gimbal_scale)))
+        self.gimbal_command = np.zeros((n, len(m.gimbal_scale)))
         #: per env, the fixed-wing autopilot's integrals (roll, pitch, yaw, airspeed; none on a multirotor)
         self.autopilot_integral = np.zeros((n, 4 if m.channel_driven else 0))
         #: per env, the battery's state (charge, voltage [V], current [A], speed ratio:
@@ -418,6 +426,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self.command,
                 self.deflection,
                 self.flap_command,
+                self.gimbal_angles,
+                self.gimbal_command,
                 self.autopilot_integral,
                 self.integral,
                 self.vel_integral,
@@ -629,61 +639,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         steps = self.physics_steps + start
         dryden = self._dryden_arrays
         m = self.model
-        if self.mode in (kernels.MODE_CHANNELS, kernels.MODE_ATTITUDE_AIRSPEED):
-            kernels.advance_channels(
-                self.pos,
-                self.quat,
-                self.vel,
-                self.angvel,
-                self.throttle,
-                self.command,
-                self.deflection,
-                self.flap_command,
-                setpoints,
-                factors,
-                self._mass,
-                self._inertia,
-                self._lag,
-                self._columns,
-                m.motor_mix_index,
-                m.motor_mix_weight,
-                m.channel_low,
-                m.channel_high,
-                self._surfaces,
-                self._surface_lag,
-                m.surface_mix_index,
-                m.surface_mix_weight,
-                self._drag_factors,
-                self._damping,
-                m.drag,
-                self._corners,
-                self.contact,
-                GRAVITY,
-                AIR_DENSITY,
-                self.physics_dt,
-                start,
-                count,
-                self.per_control,
-                self.mode,
-                self.autopilot_integral,
-                m.autopilot_gains,
-                m.cruise_thrust,
-                m.autopilot_index,
-                self.control_dt,
-                self._wind,
-                steps,
-                self._rotors,
-                self.ground_effect,
-                air.GROUND_EFFECT_MIN_HEIGHT,
-                self.turbulence,
-                normals,
-                dryden,
-                self._motor_model,
-                m.motor_laws,
-                self.battery,
-                m.battery,
-                m.battery_table,
-            )
+        if m.through_channels and self._cascade is None:
+            self._advance_routed(setpoints, factors, start, count, normals, steps, self.mode)
             return
         if self._cascade is not None:
             self._advance_cascade(setpoints, factors, start, count, normals, steps)
@@ -737,6 +694,93 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             m.battery_table,
         )
 
+    def _advance_routed(
+        self,
+        setpoints: np.ndarray,
+        factors: np.ndarray,
+        start: int,
+        count: int,
+        normals: np.ndarray,
+        steps: np.ndarray,
+        mode: int,
+        head: int | None = None,
+    ) -> None:
+        """``count`` physics steps from offset ``start`` of an airframe whose actuators the
+        channels route (:func:`~pyflyt_engine.batched.kernels.advance_channels`: a fixed-wing, a
+        VTOL, a tricopter), in ``mode``; a multirotor's setpoints hold ``head`` values of its
+        mode (default: this env's) before its channels."""
+        m = self.model
+        kernels.advance_channels(
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            self.throttle,
+            self.command,
+            self.deflection,
+            self.flap_command,
+            setpoints,
+            factors,
+            self._mass,
+            self._inertia,
+            self._lag,
+            self._columns,
+            m.motor_mix_index,
+            m.motor_mix_weight,
+            m.channel_low,
+            m.channel_high,
+            self._surfaces,
+            self._surface_lag,
+            m.surface_mix_index,
+            m.surface_mix_weight,
+            self._drag_factors,
+            self._damping,
+            m.drag,
+            self._corners,
+            self.contact,
+            GRAVITY,
+            AIR_DENSITY,
+            self.physics_dt,
+            start,
+            count,
+            self.per_control,
+            mode,
+            self.autopilot_integral,
+            m.autopilot_gains,
+            m.cruise_thrust,
+            m.autopilot_index,
+            self.control_dt,
+            self._wind,
+            steps,
+            self._rotors,
+            self.ground_effect,
+            air.GROUND_EFFECT_MIN_HEIGHT,
+            self.turbulence,
+            normals,
+            self._dryden_arrays,
+            self._motor_model,
+            m.motor_laws,
+            self.battery,
+            m.battery,
+            m.battery_table,
+            self._head if head is None else head,
+            self.integral,
+            self.previous,
+            self.has_previous,
+            self._rate_gains,
+            m.rate_derivative,
+            self._control_inertia,
+            self._gyro,
+            self._mixer_rows,
+            self._max_collective,
+            m.lateral,
+            m.motor_source,
+            self.gimbal_angles,
+            self.gimbal_command,
+            m.gimbals,
+            m.gimbal_source,
+        )
+
     def _advance_cascade(
         self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int, normals: np.ndarray, steps: np.ndarray
     ) -> None:
@@ -757,7 +801,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 rows(c.mass),
                 rows(c.window),
                 rows(c.max_tilt),
-                np.empty((n, m.motors)),
+                np.zeros((n, m.mixer_outputs + (m.channels if m.routed else 0))),
                 np.zeros(n, dtype=bool),
             )
         table, mass, window, max_tilt, commands, contact = self._cascade_rows
@@ -794,8 +838,28 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                     self._mixer_rows,
                     self.control_dt,
                     commands,
+                    m.lateral,
+                    c.trimmed,
+                    c.trim[0],
+                    c.trim[1],
                 )  # (a piece after it has no tick: the motors keep the commands it gave)
+                if m.routed:  # the channels after the mixer's outputs, as the setpoint gives them
+                    commands[:, m.mixer_outputs :] = setpoints[:, 4:]
             period = np.ascontiguousarray(factors[:, a - start : b - start])
+            if m.routed:
+                self._advance_routed(
+                    commands,
+                    period,
+                    a,
+                    b - a,
+                    np.ascontiguousarray(normals[:, a - start : b - start]),
+                    steps + (a - start),
+                    kernels.MODE_MOTORS,
+                    m.mixer_outputs,
+                )
+                contact |= self.contact
+                a = b
+                continue
             kernels.advance(
                 self.pos,
                 self.quat,
@@ -934,6 +998,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         parts = [seen["ang_vel_body"], angles, seen["lin_vel_body"], pos, self.actions, seen["throttle"]]
         if self.deflection.shape[1]:  # the surfaces' aux: deflection over its limit (Surfaces.aux)
             parts.append(seen["deflection"] / self.model.surface_scale)
+        if self.gimbal_angles.shape[1]:  # the gimbals' aux: each angle over its limit (Gimbals.aux)
+            parts.append(self.gimbal_angles / self.model.gimbal_scale)
         if self.battery.shape[1]:  # the battery's gauge closes the aux: its state of charge (BatteryGauge.aux)
             parts.append(seen["battery"][:, :1])
         if self._fix_flag:  # the position fix's validity, after the aux state

@@ -14,7 +14,12 @@ holds together bit for bit on random inputs for every airframe:
   ``battery.supply``), in ``tests/batched/test_motor_models.py``;
 * body drag (:meth:`pyflyt_engine.components.drag.BodyDrag.step`);
 * the body-rate loop (``MultirotorController._rate_loop``) and the mixer
-  (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`, without tilting motors);
+  (:meth:`pyflyt_engine.control.mixer.Mixer.throttles`: :func:`mix` without tilting motors,
+  :func:`mix_tilted` with them, a tricopter's tail);
+* the gimbals (:class:`pyflyt_engine.components.gimbal.Gimbals`: the servos' lag and the
+  Rodrigues rotation ``R_a R_b``, the motor column they turn, ``Motors.turn``) and the routing
+  of a multirotor's channels and mixer outputs to its motors, gimbals and flaps
+  (``Motors.route``, ``Gimbals.route``), in ``tests/batched/test_vtol.py``;
 * lifting surfaces (:mod:`pyflyt_engine.components.lifting_surface`: the Khan & Nahon
   profile ``_coefficients``, ``surface_wrench``, ``flap_deflection`` and
   ``Surfaces.step``), and the channel routing of a channel-driven airframe
@@ -519,6 +524,159 @@ def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts:
 
 
 @njit(cache=True)
+def mix_tilted(
+    thrust: float,
+    tx: float,
+    ty: float,
+    tz: float,
+    rows: np.ndarray,
+    lateral: np.ndarray,
+    parts: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``Mixer.throttles`` with tilting motors: the throttle per mixer motor, then one servo
+    command per tilting motor, into ``out`` (n + t,).  ``rows`` (n, 5) as in :func:`mix`;
+    ``lateral`` (t, :data:`LATERAL_FIELDS`) per tilting motor its index among the mixer's
+    motors, its servo limit [rad] and its lateral row of the pseudo-inverse; ``parts`` (n, 4)
+    scratch.  The scalar law always takes its second and third passes with tilting motors."""
+    n = rows.shape[0]
+    yaw_scale = 1.0
+    for m in range(n):
+        r0, r1, r2, r3, fm = rows[m, 0], rows[m, 1], rows[m, 2], rows[m, 3], rows[m, 4]
+        ft = r0 * thrust
+        b = ft + r1 * tx + r2 * ty
+        y = r3 * tz
+        if y > 0.0 and b + y > fm:
+            yaw_scale = _lower(yaw_scale, (fm - b) / y)
+        elif y < 0.0 and b + y < 0.0:
+            yaw_scale = _lower(yaw_scale, -b / y)
+        parts[m, 0], parts[m, 1], parts[m, 2], parts[m, 3] = ft, b - ft, y, fm
+    scale = 1.0
+    for m in range(n):
+        ft, fq, fm = parts[m, 0], parts[m, 1] + yaw_scale * parts[m, 2], parts[m, 3]
+        parts[m, 1] = fq
+        if ft + fq > fm and ft > 0.0:
+            scale = _lower(scale, (fm - fq) / ft)
+    for m in range(n):
+        parts[m, 2] = scale * parts[m, 0] + parts[m, 1]  # the force of each motor
+    for t in range(lateral.shape[0]):
+        motor, limit = int(lateral[t, 0]), lateral[t, 1]
+        r0, r1, r2, r3 = lateral[t, 2], lateral[t, 3], lateral[t, 4], lateral[t, 5]
+        side = scale * r0 * thrust + r1 * tx + r2 * ty + yaw_scale * r3 * tz
+        nominal = parts[motor, 2]
+        angle = math.atan2(side, nominal) if nominal > 0.0 else 0.0
+        angle = limit if angle > limit else -limit if angle < -limit else angle
+        parts[motor, 2] = nominal / math.cos(angle)
+        out[n + t] = angle / limit
+    for m in range(n):
+        out[m] = _throttle(parts[m, 2], parts[m, 3])
+
+
+#: a tilting motor's row (``BatchedModel.lateral``): its index among the mixer's motors, the
+#: servo's limit [rad], its lateral row of the mixer's pseudo-inverse (4)
+LATERAL_FIELDS = 6
+
+
+@njit(cache=True)
+def mixer_outputs(
+    thrust: float,
+    tx: float,
+    ty: float,
+    tz: float,
+    rows: np.ndarray,
+    lateral: np.ndarray,
+    parts: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """The mixer's outputs (``Mixer.throttles``): :func:`mix` without tilting motors, else
+    :func:`mix_tilted`."""
+    if lateral.shape[0] == 0:
+        mix(thrust, tx, ty, tz, rows, parts, out)
+    else:
+        mix_tilted(thrust, tx, ty, tz, rows, lateral, parts, out)
+
+
+# ------------------------------------------------------------------- gimbals
+
+#: a gimbal's row (``BatchedModel.gimbals``): ``gimbal.GimbalConstants`` (lag, the two limits,
+#: W_a, W_a2, W_b, W_b2 row-major), then its target motor's nominal thrust axis (3), hub
+#: position (3), full thrust [N] and reaction torque at full throttle [N m] (``Motors.turn``)
+(G_LAG, G_MAX_A, G_MAX_B) = range(3)
+G_W_A, G_W_A2, G_W_B, G_W_B2 = 3, 12, 21, 30
+G_AXIS, G_POSITION, G_THRUST, G_REACTION = 39, 42, 45, 46
+GIMBAL_FIELDS = 47
+#: a gimbal's sources (``BatchedModel.gimbal_source``): its target motor, the channels of its
+#: axes a and b (-1: none) and the mixer output of axis a (-1: not flown by the mixer)
+GS_MOTOR, GS_CHANNEL_A, GS_CHANNEL_B, GS_OUTPUT = range(4)
+
+
+@njit(cache=True)
+def gimbal_servo(eps: float, target: float, lag: float) -> float:
+    """One servo axis one physics step (``gimbal.gimbal_step_scalar``): toward
+    ``clip(command, -1, 1) * limit`` (``target`` the clipped command times the limit)."""
+    return eps + lag * (target - eps)
+
+
+@njit(cache=True)
+def rodrigues(k: np.ndarray, w: int, w2: int, eps: float, x: float, y: float, z: float):
+    """``(I + sin(eps) W + 2 sin^2(eps / 2) W^2) v`` with W, W^2 the row's entries from ``w``,
+    ``w2`` (``gimbal._rodrigues``; ``** 2.0``: CPython's ``** 2`` calls ``pow``)."""
+    s = math.sin(eps)
+    vers = 2.0 * math.sin(0.5 * eps) ** 2.0
+    return (
+        x + s * (k[w] * x + k[w + 1] * y + k[w + 2] * z) + vers * (k[w2] * x + k[w2 + 1] * y + k[w2 + 2] * z),
+        y + s * (k[w + 3] * x + k[w + 4] * y + k[w + 5] * z) + vers * (k[w2 + 3] * x + k[w2 + 4] * y + k[w2 + 5] * z),
+        z + s * (k[w + 6] * x + k[w + 7] * y + k[w + 8] * z) + vers * (k[w2 + 6] * x + k[w2 + 7] * y + k[w2 + 8] * z),
+    )
+
+
+@njit(cache=True)
+def gimbals_step(angles: np.ndarray, command: np.ndarray, gimbals: np.ndarray, source: np.ndarray, columns: np.ndarray):
+    """One physics step of a vehicle's gimbals (``Gimbals.step``): each servo lags toward its
+    command (``angles``, ``command`` (2 g,): (a, b) per gimbal), and its target motor's wrench
+    column (``columns`` (n, 6)) is turned to the thrust axis ``R_a R_b n`` the new angles give
+    (``gimbal.rotate_vector_scalar``, ``Motors.turn``: ``motor.wrench_column``)."""
+    for g in range(gimbals.shape[0]):
+        k = gimbals[g]
+        lag = k[G_LAG]
+        xa, xb = command[2 * g], command[2 * g + 1]
+        xa = -1.0 if -1.0 > xa else xa  # min(max(xi, -1.0), 1.0)
+        xa = 1.0 if 1.0 < xa else xa
+        xb = -1.0 if -1.0 > xb else xb
+        xb = 1.0 if 1.0 < xb else xb
+        ea = gimbal_servo(angles[2 * g], xa * k[G_MAX_A], lag)
+        eb = gimbal_servo(angles[2 * g + 1], xb * k[G_MAX_B], lag)
+        angles[2 * g], angles[2 * g + 1] = ea, eb
+        bx, by, bz = rodrigues(k, G_W_B, G_W_B2, eb, k[G_AXIS], k[G_AXIS + 1], k[G_AXIS + 2])
+        ax, ay, az = rodrigues(k, G_W_A, G_W_A2, ea, bx, by, bz)
+        px, py, pz = k[G_POSITION], k[G_POSITION + 1], k[G_POSITION + 2]
+        thrust, reaction = k[G_THRUST], k[G_REACTION]
+        fx, fy, fz = ax * thrust, ay * thrust, az * thrust
+        c = columns[source[g, GS_MOTOR]]
+        c[0], c[1], c[2] = fx, fy, fz
+        c[3] = (py * fz - pz * fy) + reaction * ax
+        c[4] = (pz * fx - px * fz) + reaction * ay
+        c[5] = (px * fy - py * fx) + reaction * az
+
+
+@njit(cache=True)
+def route_gimbals(channels: np.ndarray, outputs: np.ndarray, source: np.ndarray, out: np.ndarray) -> None:
+    """Each gimbal's (a, b) command into ``out`` (2 g,) (``Gimbals.route``): its channels limited
+    to [-1, 1] ((0, 0) without), or for a gimbal the mixer flies (output limited, 0)."""
+    for g in range(source.shape[0]):
+        ca, cb, k = source[g, GS_CHANNEL_A], source[g, GS_CHANNEL_B], source[g, GS_OUTPUT]
+        if k >= 0:
+            value = outputs[k]
+            out[2 * g], out[2 * g + 1] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value, 0.0
+        elif ca >= 0:
+            a, b = channels[ca], channels[cb]
+            out[2 * g] = 1.0 if a > 1.0 else -1.0 if a < -1.0 else a
+            out[2 * g + 1] = 1.0 if b > 1.0 else -1.0 if b < -1.0 else b
+        else:
+            out[2 * g], out[2 * g + 1] = 0.0, 0.0
+
+
+@njit(cache=True)
 def integrate_state(p, q, v, w, r, load, mass, jx, jy, jz, gravity, dt):
     """One physics step of the free rigid body (the module docstring) under the body-frame
     wrench ``load`` (6-tuple) at the centre of mass and gravity along -z, on tuples:
@@ -1010,6 +1168,26 @@ def route_channels(channels: np.ndarray, index: np.ndarray, weight: np.ndarray, 
 
 
 @njit(cache=True)
+def route_motors(
+    channels: np.ndarray,
+    outputs: np.ndarray,
+    source: np.ndarray,
+    index: np.ndarray,
+    weight: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """Each motor's command (``Motors.route``): a motor the mixer flies (``source[m]`` its
+    output, -1 for none) takes that output, any other its channel mix (:func:`route_channels`,
+    then the mixer's outputs over its motors' rows); limited to [-1, 1]."""
+    route_channels(channels, index, weight, out)
+    for a in range(out.shape[0]):
+        k = source[a]
+        if k >= 0:
+            value = outputs[k]
+            out[a] = 1.0 if value > 1.0 else -1.0 if value < -1.0 else value
+
+
+@njit(cache=True)
 def _autopilot_loop(error: float, rate: float, gains: np.ndarray, k: int, integral: np.ndarray, dt: float) -> float:
     """One loop of the fixed-wing autopilot (``control.fixedwing._Loop``): gains row ``k``
     is kp, ki, kd, integral limit; ``integral[k]`` advanced (clamped to limit / ki)."""
@@ -1054,6 +1232,52 @@ def fixedwing_autopilot(
         value = out[c]
         lo, hi = low[c], high[c]
         out[c] = hi if value > hi else lo if value < lo else value
+
+
+@njit(cache=True)
+def multirotor_tick(
+    mode,
+    q,
+    w,
+    setpoint,
+    previous,
+    has_previous,
+    i,
+    integral,
+    rate_gains,
+    derivative,
+    control_inertia,
+    gyro,
+    control_dt,
+    thrust,
+    mixer_rows,
+    lateral,
+    parts,
+    rates,
+    torques,
+    outputs,
+) -> None:
+    """The mixer's outputs of a routed multirotor's tick into ``outputs``: in ``rates_thrust`` the
+    rate loop on the body rates of ``q``, ``w`` (as :func:`advance` reads them; ``previous``,
+    ``has_previous[i]``, ``integral`` advanced) and the mixer (:func:`mixer_outputs`) for the
+    collective ``thrust``; in ``motors`` the setpoint's first values."""
+    if mode == MODE_RATES_THRUST:
+        m0, m1, m2, m3, m4, m5, m6, m7, m8 = rotation_tuple(q[0], q[1], q[2], q[3])
+        w0, w1, w2 = w
+        rates[0] = m0 * w0 + m3 * w1 + m6 * w2
+        rates[1] = m1 * w0 + m4 * w1 + m7 * w2
+        rates[2] = m2 * w0 + m5 * w1 + m8 * w2
+        if not has_previous[i]:
+            previous[0], previous[1], previous[2] = rates[0], rates[1], rates[2]
+        rate_loop(
+            setpoint[:3], rates, previous, integral, rate_gains, derivative, control_inertia, gyro, control_dt, torques
+        )
+        previous[0], previous[1], previous[2] = rates[0], rates[1], rates[2]
+        has_previous[i] = True
+        mixer_outputs(thrust, torques[0], torques[1], torques[2], mixer_rows, lateral, parts, outputs)
+    else:  # motors: the head is the mixer's outputs
+        for k in range(outputs.shape[0]):
+            outputs[k] = setpoint[k]
 
 
 @njit(cache=True)
@@ -1110,10 +1334,28 @@ def advance_channels(
     battery,
     battery_params,
     battery_table,
+    head,
+    integral,
+    previous,
+    has_previous,
+    rate_gains,
+    derivative,
+    control_inertia,
+    gyro,
+    mixer_rows,
+    max_collective,
+    lateral,
+    motor_source,
+    gimbal_angles,
+    gimbal_command,
+    gimbals,
+    gimbal_source,
 ):
-    """Advance every channel-driven vehicle (a fixed-wing, in mode ``channels`` or
-    ``attitude_airspeed``) ``count`` physics steps from physics step ``start``, as
-    :func:`advance` does a multirotor.
+    """Advance every vehicle whose actuators the channels drive ``count`` physics steps from
+    physics step ``start``, as :func:`advance` does a multirotor whose motors the mixer alone
+    flies: a fixed-wing (mode ``channels`` or ``attitude_airspeed``), or a multirotor with
+    channels, lifting surfaces, gimbals or motors outside the mixer (a VTOL, a tricopter: mode
+    ``rates_thrust`` or ``motors``; the cascade modes fly their ticks' outputs in ``motors``).
 
     On a control tick (``Vehicle.control_step``) the channel vector is, in mode ``channels``,
     the setpoint limited to the channels' ranges; in mode ``attitude_airspeed`` the
@@ -1128,9 +1370,25 @@ def advance_channels(
     the turbulence (``turbulence``, ``turbulence_normals``, ``dryden``) and the modelled motors
     and battery (``motor_model``, ``motor_laws``, ``battery``, ``battery_params``,
     ``battery_table``) as in :func:`advance`.
+
+    A multirotor's tick (``Vehicle.control_step`` with a controller): the setpoint's first
+    ``head`` values are its mode's, the rest the channels, limited to their ranges; in
+    ``rates_thrust`` the rate loop (``integral``, ``previous``, ``has_previous``, as
+    :func:`advance` keeps them) and the mixer (:func:`mixer_outputs`: ``mixer_rows``, the
+    tilting motors' ``lateral`` rows) give the mixer's outputs, in ``motors`` the head is
+    them.  Each motor takes its output or its channel mix (:func:`route_motors`,
+    ``motor_source``), each gimbal its output or channels (:func:`route_gimbals`,
+    ``gimbal_source``).  The gimbals step first in each physics step (:func:`gimbals_step`:
+    ``gimbal_angles``, ``gimbal_command`` (N, 2 g), ``gimbals`` (g, :data:`GIMBAL_FIELDS`)),
+    turning their motors' rows of ``columns``, as ``Gimbals.step`` turns ``Motors.columns``.
     """
     n = pos.shape[0]
     nc = channel_low.shape[0]
+    ng = gimbals.shape[0]
+    outputs = np.zeros(mixer_rows.shape[1] + lateral.shape[0])
+    parts = np.empty((mixer_rows.shape[1], 4))
+    rates = np.empty(3)
+    torques = np.empty(3)
     modelled = motor_laws != 0
     ratio = np.empty(throttle.shape[1])
     channels = np.empty(nc)
@@ -1152,6 +1410,7 @@ def advance_channels(
         kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
         x_i, cmd_i, lag_i, col_i = throttle[i], command[i], lag[i], columns[i]
         d_i, f_i, s_i, sl_i = deflection[i], flap_command[i], surfaces[i], surface_lag[i]
+        ga_i, gc_i = gimbal_angles[i], gimbal_command[i]
         for s in range(count):
             step = start + s
             if step % per_control == 0:  # control tick: the channels, routed
@@ -1178,10 +1437,39 @@ def advance_channels(
                         control_dt,
                         channels,
                     )
-                else:
+                elif mode == MODE_CHANNELS:
                     clip_channels(setpoint[i], channel_low, channel_high, channels)
-                route_channels(channels, motor_index, motor_weight, cmd_i)
+                else:  # a multirotor: the mixer's outputs from the head, the channels after it
+                    multirotor_tick(
+                        mode,
+                        q,
+                        w,
+                        setpoint[i],
+                        previous[i],
+                        has_previous,
+                        i,
+                        integral[i],
+                        rate_gains[i],
+                        derivative,
+                        control_inertia[i],
+                        gyro[i],
+                        control_dt,
+                        setpoint[i, 3] * max_collective[i],
+                        mixer_rows[i],
+                        lateral,
+                        parts,
+                        rates,
+                        torques,
+                        outputs,
+                    )
+                    clip_channels(setpoint[i, head:], channel_low, channel_high, channels)
+                if mode > MODE_RATES_THRUST:  # a fixed-wing's motors: their mixes alone
+                    route_channels(channels, motor_index, motor_weight, cmd_i)
+                else:
+                    route_motors(channels, outputs, motor_source, motor_index, motor_weight, cmd_i)
                 route_channels(channels, surface_index, surface_weight, f_i)
+                if ng:
+                    route_gimbals(channels, outputs, gimbal_source, gc_i)
             r = rotation_tuple(q[0], q[1], q[2], q[3])
             r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
             w0, w1, w2 = w
@@ -1203,6 +1491,8 @@ def advance_channels(
                 else:
                     a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
                 bv0, bv1, bv2, bw0, bw1, bw2 = a
+            if ng:  # the gimbals first: they turn their motors' thrust axes
+                gimbals_step(ga_i, gc_i, gimbals, gimbal_source, col_i)
             if modelled:
                 load = modelled_load(
                     x_i,

@@ -18,11 +18,20 @@ and ``motors`` in :mod:`~pyflyt_engine.batched.kernels`, the outer loops of the 
 :mod:`~pyflyt_engine.batched.modes`, their parameters in :attr:`BatchedModel.cascade`) and a
 fixed-wing (a ``fixedwing`` control section: motors and lifting surfaces
 driven through the channels, modes ``channels`` and ``attitude_airspeed``, the autopilot).
+A multirotor whose actuators the channels route beside the mixer (:attr:`BatchedModel.routed`)
+flies through the fixed-wing's kernel (``kernels.advance_channels``) with the multirotor
+controller on its tick: a VTOL such as the quadplane (its lift motors on the mixer, a pusher
+and lifting surfaces on the setpoint's channels after the mode's values: ``motor_source``,
+the channel tables), a tricopter (its tail motor on a gimbal the mixer flies: the mixer's
+lateral rows ``lateral``, the controller's trim in :attr:`BatchedModel.cascade`), and gimbals
+on channels; each gimbal's rows out of the engine's ``Gimbals`` (``gimbal_constants``) and
+``Motors.turn``'s tables (``gimbals``, ``gimbal_source``, ``gimbal_scale``).
 What the batched backend cannot simulate is refused here by name
-(:class:`UnsupportedByBatched`), never approximated: boosters, gimbals (tilting motors),
-channels on a multirotor (a VTOL's actuators outside the mixer), lifting surfaces on a
-multirotor, mesh or URDF collision geometry, and a multirotor mode on a fixed-wing (or a
-fixed-wing mode without a compiled form).
+(:class:`UnsupportedByBatched`), never approximated: boosters (and gimbals turning them),
+gimbals on a fixed-wing, gimbals with the optional motor models or a battery, mesh or URDF
+collision geometry, and a multirotor mode on a fixed-wing (or a fixed-wing mode without a
+compiled form); :func:`pyflyt_engine.batched.support.check_keys` refuses an env's latency and
+drawn motor factors on an airframe with gimbals.
 """
 
 from __future__ import annotations
@@ -36,6 +45,8 @@ from pyflyt_engine.atmosphere.field import vehicle_span
 from pyflyt_engine.batched.kernels import (
     BATTERY_PARAMS,
     BATTERY_STATE,
+    GIMBAL_FIELDS,
+    LATERAL_FIELDS,
     LAW_BATTERY,
     LAW_INFLOW,
     LAW_MODELLED,
@@ -49,7 +60,7 @@ from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES
-from pyflyt_engine.control.mixer import Mixer
+from pyflyt_engine.control.mixer import flight_mixer
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.errors import ConfigError
@@ -58,7 +69,7 @@ from pyflyt_engine.spec import FixedwingControlSpec, MultirotorControlSpec, UAVS
 
 #: the component kinds (pyflyt_engine.components.kinds) the compiled laws simulate; any other
 #: kind an airframe declares is refused by its name
-SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag", "battery"})
+SIMULATED_KINDS = frozenset({"motors", "surfaces", "drag", "battery", "gimbals"})
 #: how a refusal names a kind where its registered name says less
 KIND_NAMES = {"surfaces": "lifting surfaces", "gimbals": "gimbals (tilting motors)", "prop_guards": "propeller guards"}
 
@@ -128,6 +139,16 @@ class BatchedModel:
             eta V_full^3, avionics power [W], V_full [V]; empty without one);
             battery_table: (k, 2) its open-circuit voltage table; battery_reset: its state
             at a reset (``kernels.BATTERY_STATE``: charge, voltage, current, speed ratio).
+        routed: a multirotor whose actuators the channels route beside the mixer (channels,
+            lifting surfaces, gimbals or motors outside the mixer): it flies through
+            ``kernels.advance_channels``, its channel tables filled as a fixed-wing's.
+        motor_source: (n,) per motor the mixer output it takes (``Motors.route``), -1 for its mix.
+        lateral: (t, ``kernels.LATERAL_FIELDS``) per tilting motor the mixer flies its index
+            among the mixer's motors, its servo limit and its lateral row of the pseudo-inverse.
+        gimbals: (g, ``kernels.GIMBAL_FIELDS``) per gimbal its ``GimbalConstants`` and its target
+            motor's nominal axis, hub, full thrust and reaction torque; gimbal_source: (g, 4) its
+            target motor, the channels of its axes (-1: none) and its mixer output (-1: none);
+            gimbal_scale: (2 g,) what each angle is divided by in the auxiliary state.
     """
 
     name: str
@@ -167,6 +188,12 @@ class BatchedModel:
     battery: np.ndarray = field(default_factory=lambda: np.zeros(0))
     battery_table: np.ndarray = field(default_factory=lambda: np.zeros((1, 2)))
     battery_reset: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    routed: bool = False
+    motor_source: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    lateral: np.ndarray = field(default_factory=lambda: np.zeros((0, LATERAL_FIELDS)))
+    gimbals: np.ndarray = field(default_factory=lambda: np.zeros((0, GIMBAL_FIELDS)))
+    gimbal_source: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), dtype=np.int64))
+    gimbal_scale: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def motors(self) -> int:
@@ -177,14 +204,26 @@ class BatchedModel:
         return len(self.channel_low)
 
     @property
+    def mixer_outputs(self) -> int:
+        """How many outputs the mixer gives: a throttle per mixer motor, a command per tilting motor."""
+        return len(self.mixer_rows) + len(self.lateral)
+
+    @property
+    def through_channels(self) -> bool:
+        """Whether the channels route its actuators (``kernels.advance_channels``): a fixed-wing,
+        or a multirotor with channels, lifting surfaces, gimbals or motors outside the mixer."""
+        return self.channel_driven or self.routed
+
+    @property
     def has_battery(self) -> bool:
         return self.battery.size > 0
 
     @property
     def aux_size(self) -> int:
         """The auxiliary state's size: motor throttles, then flap deflections over their limits,
-        then the battery's state of charge (``BatteryGauge.aux``)."""
-        return self.motors + len(self.surfaces) + int(self.has_battery)
+        then the gimbals' angles over their limits (``Gimbals.aux``), then the battery's state
+        of charge (``BatteryGauge.aux``)."""
+        return self.motors + len(self.surfaces) + len(self.gimbal_scale) + int(self.has_battery)
 
     @property
     def hover_thrust_fraction(self) -> float:
@@ -308,12 +347,12 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
-        (
-            "actuator channels on a multirotor (a VTOL's actuators outside the mixer)",
-            bool(parts.channels) and not fixedwing,
-        ),
-        ("lifting surfaces on a multirotor", bool(parts.surfaces) and not fixedwing),
         ("range sensors", bool(spec.range_sensors)),
+        (
+            "gimbals with the optional motor models or a battery",
+            parts.gimbals is not None and parts.motors is not None and (parts.motors.modelled or bool(spec.battery)),
+        ),
+        ("gimbals on a fixed-wing", parts.gimbals is not None and fixedwing),
     ):
         if present:
             raise refuse(f"{what} (airframe {name})")
@@ -337,23 +376,34 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         corners=_corners(spec, np.asarray(parts.com, dtype=np.float64)),
         **_motor_laws(parts, physics_dt),
     )
+    common.update(_gimbal_rows(parts, physics_dt))
     if fixedwing:
         return _fixedwing_model(parts, spec.control, physics_dt, common)
     assert motors is not None  # a multirotor controller needs motors (spec validator)
-    if len(parts.mixer_motors) != motors.count:
-        raise refuse(f"motors outside the mixer (airframe {name})")
     inertia = np.asarray(parts.inertia, dtype=np.float64)
-    mixer = Mixer(motors)
+    mixer = flight_mixer(parts)  # the Vehicle's: the mixer motors, the tilting ones among them
     controller = MultirotorController(spec.control, parts.mass, np.diag(inertia), mixer, control_dt)
     gains = np.array([list(axis) for axis in controller._rate_axes], dtype=np.float64).T.copy()  # (4, 3)
     columns = motor_wrench_matrix(motors).T.copy()
+    routed = bool(parts.channels) or bool(parts.surfaces) or parts.gimbals is not None
+    routed = routed or len(parts.mixer_motors) != motors.count
+    source = np.full(motors.count, -1, dtype=np.int64)  # per motor its mixer output (Motors.route), -1: its mix
+    source[list(parts.mixer_motors)] = np.arange(len(parts.mixer_motors))
+    lateral = np.array([[motor, limit, *row] for motor, limit, row in mixer._lateral], dtype=np.float64).reshape(
+        -1, LATERAL_FIELDS
+    )
+    if routed:
+        common.update(_channel_tables(parts, physics_dt))
     return BatchedModel(
+        routed=routed,
+        motor_source=source,
+        lateral=lateral,
         control_inertia=np.asarray(controller.inertia, dtype=np.float64),
         gyro=np.asarray(controller._gyro, dtype=np.float64),
         lag=np.asarray(lag_coefficient(physics_dt, motors.tau), dtype=np.float64).reshape(-1),
         columns=columns,
         noise_ratio=np.asarray(motors.noise_ratio, dtype=np.float64).copy(),
-        mixer_rows=np.asarray(mixer._rows, dtype=np.float64),
+        mixer_rows=np.asarray(mixer._rows, dtype=np.float64).reshape(-1, 5),
         max_collective=float(mixer.max_collective),
         rate_gains=gains,
         rate_derivative=bool(controller._rate_derivative),
@@ -375,9 +425,6 @@ def _fixedwing_model(parts, control: FixedwingControlSpec, physics_dt: float, co
         noise = np.asarray(motors.noise_ratio, dtype=np.float64).copy()
     else:
         lag, columns, noise = np.zeros(0), np.zeros((0, 6)), np.zeros(0)
-    motor_index, motor_weight = _mix_tables(parts.motor_mix)
-    surface_index, surface_weight = _mix_tables(parts.surface_mix)
-    surfaces = np.array([list(s.constants) for s in parts.surfaces], dtype=np.float64).reshape(-1, 25)
     return BatchedModel(
         control_inertia=np.zeros(3),
         gyro=np.zeros(3),
@@ -389,20 +436,61 @@ def _fixedwing_model(parts, control: FixedwingControlSpec, physics_dt: float, co
         rate_gains=np.zeros((4, 3)),
         rate_derivative=False,
         channel_driven=True,
+        motor_source=np.full(len(lag), -1, dtype=np.int64),
+        autopilot_gains=np.array([[g.kp, g.ki, g.kd, g.integral_limit] for g in loops], dtype=np.float64),
+        cruise_thrust=float(control.cruise_thrust),
+        autopilot_index=np.array([parts.channels.index(c) for c in channels], dtype=np.int64),
+        **_channel_tables(parts, physics_dt),
+        **common,
+    )
+
+
+def _channel_tables(parts, physics_dt: float) -> dict:
+    """What routes the channels to the actuators (``Motors.route``, ``Surfaces.route``): the
+    channels' ranges, the motors' and flaps' mixes, and the surfaces' constants and flap lags
+    as ``Surfaces`` holds them."""
+    motor_index, motor_weight = _mix_tables(parts.motor_mix)
+    surface_index, surface_weight = _mix_tables(parts.surface_mix)
+    return dict(
         channel_low=np.asarray(parts.channel_low, dtype=np.float64).copy(),
         channel_high=np.asarray(parts.channel_high, dtype=np.float64).copy(),
         motor_mix_index=motor_index,
         motor_mix_weight=motor_weight,
-        surfaces=surfaces,
+        surfaces=np.array([list(s.constants) for s in parts.surfaces], dtype=np.float64).reshape(-1, 25),
         surface_lag=np.array([float(lag_coefficient(physics_dt, s.tau)) for s in parts.surfaces], dtype=np.float64),
         surface_scale=np.array([s.max_deflection or 1.0 for s in parts.surfaces], dtype=np.float64),
         surface_mix_index=surface_index,
         surface_mix_weight=surface_weight,
-        autopilot_gains=np.array([[g.kp, g.ki, g.kd, g.integral_limit] for g in loops], dtype=np.float64),
-        cruise_thrust=float(control.cruise_thrust),
-        autopilot_index=np.array([parts.channels.index(c) for c in channels], dtype=np.int64),
-        **common,
     )
+
+
+def _gimbal_rows(parts, physics_dt: float) -> dict:
+    """The gimbals' rows (``BatchedModel.gimbals``, ``gimbal_source``, ``gimbal_scale``) out of the
+    engine's own ``Gimbals`` group and ``Motors.turn``'s tables (none without gimbals)."""
+    if parts.gimbals is None:
+        return {}
+    from pyflyt_engine.components.gimbal import gimbal_constants
+
+    motors = parts.motors
+    if motors is None or any(kind != "motor" for kind, _ in parts.gimbal_targets):
+        raise refuse("a gimbal turning a booster", "the batched backend flies gimbals that turn motors")
+    n_mixer = len(parts.mixer_motors)
+    flown = {g: n_mixer + k for k, (g, _) in enumerate(parts.mixer_tilts)}  # as build_gimbals routes them
+    reaction = (-(motors.spin * motors.max_torque)).tolist()
+    thrust, positions, axes = motors.max_thrust.tolist(), motors.positions.tolist(), motors.thrust_axes.tolist()
+    rows, source = [], []
+    for g, (k, (_, m), (ca, cb)) in enumerate(
+        zip(gimbal_constants(parts.gimbals, physics_dt), parts.gimbal_targets, parts.gimbal_channels.tolist())
+    ):
+        rows.append([*k[:3], *k.W_a, *k.W_a2, *k.W_b, *k.W_b2, *axes[m], *positions[m], thrust[m], reaction[m]])
+        source.append([m, ca, cb, flown.get(g, -1)])
+    scale = [max(v, 1e-12) for v in parts.gimbals.max_angles.reshape(-1).tolist()]  # Gimbals._scale
+    out = {
+        "gimbals": np.array(rows, dtype=np.float64).reshape(-1, GIMBAL_FIELDS),
+        "gimbal_source": np.array(source, dtype=np.int64).reshape(-1, 4),
+        "gimbal_scale": np.array(scale, dtype=np.float64),
+    }
+    return out
 
 
 def mode_code(mode: str | int, model: BatchedModel | None = None) -> int:

@@ -13,15 +13,15 @@ backend flies):
 * :func:`thrust_for` -- ``_thrust_for``; :func:`attitude_rates` -- ``_attitude_rates``
   (the yaw error wrapped by Python's float ``%``, which numba compiles with CPython's
   semantics: ``fmod``, then the sign of the divisor);
-* :func:`tilt_for` -- ``_tilt_for``;
+* :func:`tilt_for` -- ``_tilt_for`` (with the trim attitude of tilted thrust, a tricopter's tail);
 * :func:`outer_loops` -- the laws ``_rates_z``, ``_attitude`` and ``_translate_command``
   (every translational mode: heading-frame velocity, position or ground velocity; yaw
   angle or rate; climb rate or altitude): the body-rate setpoint and collective thrust;
 * :func:`control_tick` -- one control tick of every vehicle: the state as the PyBullet
   engine reads it (``Vehicle.read_state``: PyBullet's reported quaternion, its matrix and
   Euler angles), :func:`outer_loops`, the rate loop and the mixer
-  (:func:`pyflyt_engine.batched.kernels.rate_loop`, :func:`~pyflyt_engine.batched.kernels.mix`)
-  into the motor commands.
+  (:func:`pyflyt_engine.batched.kernels.rate_loop`, :func:`~pyflyt_engine.batched.kernels.mixer_outputs`:
+  with tilting motors, their servo commands after the throttles) into the mixer's outputs.
 
 The env runs :func:`control_tick` at every control tick and the physics of the control
 period in between through :func:`pyflyt_engine.batched.kernels.advance` in mode ``motors``
@@ -46,7 +46,7 @@ from numba import njit
 from pyflyt_engine.batched.kernels import (
     euler_from_quaternion,
     matrix_quaternion,
-    mix,
+    mixer_outputs,
     rate_loop,
     rotation_rows,
     rotation_tuple,
@@ -100,24 +100,32 @@ class CascadeParams:
             attitude loop's kp and rate limit.
         window: the velocity loop's integral window [m/s] (inf: none).
         max_tilt: the tilt limit [rad].
+        trim: the (roll, pitch) [rad] ``_tilt_for`` adds where the mixer's thrust has a side
+            force (``_trim``: tilted thrust, a tricopter's tail); trimmed: whether it has one.
     """
 
     mass: float
     table: np.ndarray
     window: float
     max_tilt: float
+    trim: tuple[float, float] = (0.0, 0.0)
+    trimmed: bool = False
 
 
 def cascade_params(controller: _mr.MultirotorController) -> CascadeParams:
     """:class:`CascadeParams` of ``controller`` (its attributes as its loops read them)."""
-    if controller._trim is not None:  # only tilted thrust (a gimbal) makes one; the model refuses gimbals
-        raise ValueError("the compiled cascade has no trim attitude (tilted thrust)")
     velocity = np.array(controller._velocity_axes, dtype=np.float64).T  # rows kp, ki, lo, hi
     rows = np.vstack(
         [velocity, controller._position_kp, controller._max_velocity, controller._attitude_kp, controller._max_rate]
     ).astype(np.float64)
+    trim = controller._trim
     return CascadeParams(
-        float(controller.mass), np.ascontiguousarray(rows), float(controller._window), float(controller._max_tilt)
+        float(controller.mass),
+        np.ascontiguousarray(rows),
+        float(controller._window),
+        float(controller._max_tilt),
+        (float(trim[0]), float(trim[1])) if trim is not None else (0.0, 0.0),
+        trim is not None,
     )
 
 
@@ -181,9 +189,12 @@ def attitude_rates(
 
 
 @njit(cache=True)
-def tilt_for(yaw: float, ax: float, ay: float, az: float, limit: float):
-    """``MultirotorController._tilt_for`` without a trim: ``(roll, pitch)`` pointing the thrust
-    along the ground-frame acceleration, both limited to ``limit``."""
+def tilt_for(
+    yaw: float, ax: float, ay: float, az: float, limit: float, trimmed: bool, trim_roll: float, trim_pitch: float
+):
+    """``MultirotorController._tilt_for``: ``(roll, pitch)`` pointing the thrust along the
+    ground-frame acceleration, the trim added where the airframe has one (``trimmed``), both
+    limited to ``limit``."""
     cy, sy = math.cos(yaw), math.sin(yaw)
     forward = cy * ax + sy * ay
     left = -sy * ax + cy * ay
@@ -191,6 +202,8 @@ def tilt_for(yaw: float, ax: float, ay: float, az: float, limit: float):
     lift = _MIN_LIFT if _MIN_LIFT > lift else lift
     pitch = math.atan2(forward, lift)
     roll = math.atan2(-left * math.cos(pitch), lift)
+    if trimmed:
+        roll, pitch = roll + trim_roll, pitch + trim_pitch
     return (
         limit if roll > limit else -limit if roll < -limit else roll,
         limit if pitch > limit else -limit if pitch < -limit else pitch,
@@ -241,6 +254,9 @@ def outer_loops(
     window: float,
     max_tilt: float,
     dt: float,
+    trimmed: bool,
+    trim_roll: float,
+    trim_pitch: float,
 ):
     """The body-rate setpoint and collective thrust ``(p, q, r, thrust)`` of a cascade mode's
     law for setpoint ``(a, b, c, d)`` and the state's attitude (roll, pitch, yaw), position and
@@ -250,7 +266,8 @@ def outer_loops(
     velocity loop.  ``LAW_ATTITUDE`` (``_attitude``): the attitude loop, a climb rate or
     (``altitude``) an altitude.  ``LAW_TRANSLATE`` (``_translate_command``): a ground velocity
     from a heading-frame velocity, a position or as given, a climb rate or altitude, through
-    the velocity, tilt and attitude loops, a yaw angle or (``yaw_is_rate``) rate."""
+    the velocity, tilt (with the trim: ``trimmed``, ``trim_roll``, ``trim_pitch``) and attitude
+    loops, a yaw angle or (``yaw_is_rate``) rate."""
     if law == LAW_RATES_Z:
         az = _vertical(table, climb(table[_POS_KP, 2], table[_MAX_VEL, 2], d, z), vz, vel_integral, window, dt)
         return a, b, c, thrust_for(mass, roll, pitch, az)
@@ -301,7 +318,7 @@ def outer_loops(
         window,
         dt,
     )
-    roll_sp, pitch_sp = tilt_for(yaw, ax, ay, az, max_tilt)
+    roll_sp, pitch_sp = tilt_for(yaw, ax, ay, az, max_tilt, trimmed, trim_roll, trim_pitch)
     p, q, r = attitude_rates(table, roll_sp, pitch_sp, c, yaw_is_rate, c if yaw_is_rate else 0.0, roll, pitch, yaw)
     return p, q, r, thrust_for(mass, roll, pitch, az)
 
@@ -333,18 +350,24 @@ def control_tick(
     mixer_rows,
     dt,
     command,
+    lateral,
+    trimmed,
+    trim_roll,
+    trim_pitch,
 ):
-    """One control tick of every vehicle in a cascade mode: the motor commands (N, n) into
-    ``command``.
+    """One control tick of every vehicle in a cascade mode: the mixer's outputs (N, n + t: the
+    throttles of its n motors, then the servo commands of its t tilting motors, ``lateral``)
+    into ``command``.
 
     Per vehicle ``i`` the state as ``Vehicle.read_state`` reads it (the quaternion PyBullet
     reports for ``quat[i]``, the body rates through its matrix, its Euler angles; position and
     ground velocity as they are), :func:`outer_loops` (``vel_integral[i]`` advanced), the rate
     loop (``integral[i]``, ``previous[i]``, ``has_previous[i]``, as ``kernels.advance`` keeps
     them) and the mixer.  ``table``, ``mass``, ``window``, ``max_tilt`` and the rate loop's and
-    mixer's parameters one row per vehicle."""
+    mixer's parameters one row per vehicle; the trim (``trimmed``, ``trim_roll``, ``trim_pitch``)
+    the airframe's."""
     n = pos.shape[0]
-    nm = command.shape[1]
+    nm = mixer_rows.shape[1] + lateral.shape[0]  # the mixer's outputs (command may hold more columns after them)
     rm = np.empty(9)
     qr = np.empty(4)
     euler = np.empty(3)
@@ -352,7 +375,7 @@ def control_tick(
     rates_sp = np.empty(3)
     torques = np.empty(3)
     out = np.empty(nm)
-    parts = np.empty((nm, 4))
+    parts = np.empty((mixer_rows.shape[1], 4))
     for i in range(n):
         rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], rm)
         matrix_quaternion(rm, qr)
@@ -388,6 +411,9 @@ def control_tick(
             window[i],
             max_tilt[i],
             dt,
+            trimmed,
+            trim_roll,
+            trim_pitch,
         )
         rates[0], rates[1], rates[2] = bw0, bw1, bw2
         rates_sp[0], rates_sp[1], rates_sp[2] = p_sp, q_sp, r_sp
@@ -407,6 +433,6 @@ def control_tick(
         )
         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
         has_previous[i] = True
-        mix(thrust, torques[0], torques[1], torques[2], mixer_rows[i], parts, out)
+        mixer_outputs(thrust, torques[0], torques[1], torques[2], mixer_rows[i], lateral, parts, out)
         for mo in range(nm):
             command[i, mo] = out[mo]

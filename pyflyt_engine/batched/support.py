@@ -58,6 +58,16 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
             "the battery: not drawn per env)",
             "it draws it for airframes with the static motors",
         )
+    if model.gimbals.size:  # the gimbals' rows hold the nominal motors, and the latency's history no servo angles
+        from pyflyt_engine.batched.latency import declares_latency
+
+        if drawn_motors:
+            raise refuse(
+                f"env.randomize.{drawn_motors[0]} on an airframe with gimbals (airframe {model.name})",
+                "it draws the motors' factors for airframes without gimbals",
+            )
+        if declares_latency(config):
+            raise refuse(f"env.latency on an airframe with gimbals (airframe {model.name})")
     mode_code(config.action.mode, model)
 
 

@@ -582,6 +582,12 @@ def check_swarm_supported(config: Any) -> None:
     from pyflyt_engine.spec import load_uav_spec
 
     model = batched_model(load_uav_spec(uavs[0]), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    if model.through_channels:  # the worlds' kernel flies a mixer's motors alone
+        raise refuse(
+            f"channels, lifting surfaces, gimbals or motors outside the mixer in a multi-agent world (airframe "
+            f"{model.name})",
+            "give the agents a multirotor whose motors the mixer alone flies",
+        )
     if model.motor_laws:  # the worlds' kernel steps the static motors alone
         raise refuse(
             f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",

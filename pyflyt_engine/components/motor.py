@@ -105,6 +105,26 @@ class MotorParams:
         return self.kt * self.max_rpm**2
 
 
+def motor_subset(motors: MotorParams, indices: Sequence[int]) -> MotorParams:
+    """The motors ``indices`` of ``motors`` (in that order), e.g. the ones a mixer flies."""
+    idx = list(indices)
+    return MotorParams(
+        positions=motors.positions[idx],
+        thrust_axes=motors.thrust_axes[idx],
+        spin=motors.spin[idx],
+        tau=motors.tau[idx],
+        max_rpm=motors.max_rpm[idx],
+        kf=motors.kf[idx],
+        kt=motors.kt[idx],
+        noise_ratio=motors.noise_ratio[idx],
+        **{
+            name: (getattr(motors, name)[idx] if getattr(motors, name) is not None else None)
+            for name in ("tau_fall", "rotor_drag", "prop_radius")
+        },
+        inflow=motors.inflow,
+    )
+
+
 def motor_lag(params: MotorParams, dt: float) -> np.ndarray:
     """(n,) lag coefficient of every motor for physics step ``dt`` (compute once)."""
     return np.asarray(lag_coefficient(dt, params.tau))

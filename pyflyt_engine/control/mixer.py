@@ -31,12 +31,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from math import atan2, cos, sqrt
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pyflyt_engine import exact
 from pyflyt_engine.allocation import Tilt, require_controllable, tilted_allocation
-from pyflyt_engine.components.motor import MotorParams
+from pyflyt_engine.components.motor import MotorParams, motor_subset
+
+if TYPE_CHECKING:
+    from pyflyt_engine.assembly import Assembly
 
 
 def _lower(current: float, candidate: float) -> float:
@@ -149,3 +153,10 @@ class Mixer:
             forces[motor] = nominal / cos(angle)
             commands.append(angle / limit)
         return [_throttle(f, fm) for f, fm in zip(forces, self._full)] + commands
+
+
+def flight_mixer(parts: Assembly) -> Mixer:
+    """The mixer a multirotor's controller flies: the assembly's mixer motors
+    (``mixer_motors``), with the tilting motors of the gimbals it flies (``mixer_tilts``)."""
+    assert parts.motors is not None  # a multirotor controller needs motors (spec validator)
+    return Mixer(motor_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])

@@ -378,7 +378,7 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
             {"randomize": {"battery_capacity": {"distribution": "uniform", "low": 0.9, "high": 1.1}}},
             "randomize.battery_capacity",
         ),
-        ("quadx_hover", {"uav": "tricopter"}, "gimbals"),
+        ("quadx_hover", {"uav": "rocket"}, "channel-driven airframe rocket"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),
         (
@@ -395,7 +395,6 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
             "flight mode rates_thrust",
         ),
         ("fixedwing_waypoints", {"downwash": True}, "downwash"),
-        ("quadx_hover", {"uav": "quadplane"}, "actuator channels on a multirotor"),
         ("rocket_landing", {}, "task"),
         ("ma_fixedwing_dogfight", {}, "multi-agent task 'dogfight'"),
     ],

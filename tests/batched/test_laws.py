@@ -27,7 +27,7 @@ from pyflyt_engine.components.motor import Motors
 from pyflyt_engine.components.noise import NoiseSource
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.constants import AIR_DENSITY
-from pyflyt_engine.control.mixer import Mixer
+from pyflyt_engine.control.mixer import flight_mixer
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.envs import rewards as r
@@ -38,8 +38,11 @@ DT, CONTROL_DT = 1 / 240, 1 / 120
 #: the shipped multirotors and fixed-wings the batched backend flies
 MULTIROTORS = ("hexacopter", "quadx_cf2x", "quadx_f450")
 FIXEDWINGS = ("fixedwing", "flying_wing")
+#: the shipped multirotors whose actuators the channels route beside the mixer: the tricopter
+#: (its tail servo flown by the mixer), the quadplane (a pusher, channels, lifting surfaces)
+ROUTED = ("quadplane", "tricopter")
 #: every shipped airframe it flies (every other one is refused: test below)
-FLOWN = tuple(sorted(MULTIROTORS + FIXEDWINGS))
+FLOWN = tuple(sorted(MULTIROTORS + FIXEDWINGS + ROUTED))
 
 
 def _accepted() -> list[str]:
@@ -119,20 +122,21 @@ def _state(rng: np.random.Generator) -> KinematicState:
     return KinematicState(three(2.0), three(0.5), three(2.0), three(1.0), (0.0, 0.0, 0.0, 1.0), three(2.0), three(2.0))
 
 
-@pytest.mark.parametrize("name", MULTIROTORS)
+@pytest.mark.parametrize("name", MULTIROTORS + ROUTED)
 def test_rate_loop_and_mixer_equal_the_controller(name):
     """rates_thrust through the compiled rate loop and mixer gives the controller's throttles
-    bit for bit, over setpoints wide enough to reach the mixer's yaw and thrust give-way paths."""
+    bit for bit, over setpoints wide enough to reach the mixer's yaw and thrust give-way paths
+    (the tricopter's: its tilting tail's servo command too; the quadplane's: its four lift motors)."""
     spec = load_uav_spec(name)
     parts = assemble(spec)
-    mixer = Mixer(parts.motors)
+    mixer = flight_mixer(parts)
     controller = MultirotorController(spec.control, parts.mass, np.diag(parts.inertia), mixer, CONTROL_DT)
     controller.set_mode(type(controller.mode)("rates_thrust", 0, ("p", "q", "r", "thrust"), ""))
     model = batched_model(spec, DT, CONTROL_DT)
     rng = np.random.default_rng(3)
     integral, previous = np.zeros(3), np.zeros(3)
-    n = model.motors
-    out, scratch, torques = np.empty(n), np.empty((n, 4)), np.empty(3)
+    n = model.mixer_outputs
+    out, scratch, torques = np.empty(n), np.empty((len(model.mixer_rows), 4)), np.empty(3)
     first = True
     slow = 0
     for _ in range(300):
@@ -157,7 +161,8 @@ def test_rate_loop_and_mixer_equal_the_controller(name):
         )
         previous[:] = rates
         assert integral.tolist() == list(controller._rate_integral)
-        kernels.mix(setpoint[3] * model.max_collective, *torques.tolist(), model.mixer_rows, scratch, out)
+        thrust = setpoint[3] * model.max_collective
+        kernels.mixer_outputs(thrust, *torques.tolist(), model.mixer_rows, model.lateral, scratch, out)
         assert out.tolist() == expected
         slow += any(v in (0.0, 1.0) for v in expected)
     assert slow > 30  # the clipping paths ran
@@ -235,7 +240,7 @@ def test_surface_coefficients_equal_the_profile(name):
     assert len(branches) == 4  # every branch of the profile ran
 
 
-@pytest.mark.parametrize("name", FIXEDWINGS)
+@pytest.mark.parametrize("name", FIXEDWINGS + ("quadplane",))
 def test_surface_wrench_equals_the_surface_law(name):
     """Random air velocities (forward flight, side slip, reverse flow, spinning) and still
     air: the compiled surface wrench equals ``surface_wrench`` bit for bit."""
@@ -252,7 +257,7 @@ def test_surface_wrench_equals_the_surface_law(name):
         assert kernels.surface_wrench(row, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AIR_DENSITY) == (0.0,) * 6
 
 
-@pytest.mark.parametrize("name", FIXEDWINGS)
+@pytest.mark.parametrize("name", FIXEDWINGS + ("quadplane",))
 def test_surfaces_step_equals_the_surface_group(name):
     """The flaps following commands beyond [-1, 1] through their lag, and the summed wrench:
     the compiled step equals ``Surfaces.step`` bit for bit, state included."""

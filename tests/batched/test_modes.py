@@ -20,13 +20,13 @@ import pytest
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.batched import kernels, modes
 from pyflyt_engine.batched.model import BATCHED_MODES, UnsupportedByBatched, batched_model, mode_code
-from pyflyt_engine.control.mixer import Mixer
+from pyflyt_engine.control.mixer import flight_mixer
 from pyflyt_engine.control.modes import MULTIROTOR_MODES
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.spec import load_uav_spec
 from pyflyt_engine.state import KinematicState
 
-from tests.batched.test_laws import CONTROL_DT, DT, MULTIROTORS
+from tests.batched.test_laws import CONTROL_DT, DT, MULTIROTORS, ROUTED
 from tests.conftest import spec_variant
 
 #: gains the shipped airframes leave at their defaults, switched on
@@ -35,7 +35,10 @@ VARIANTS = {
     "window_and_limit": {"control.velocity.integral_window": 0.5, "control.velocity.integral_limit": [2.0, 1.5, 3.0]},
     "derivative": {"control.rate.kd": [0.02, 0.03, 0.01]},
 }
-CASES = [(name, variant) for name in MULTIROTORS for variant in VARIANTS]
+#: every multirotor it flies: the tricopter's trim (its tilted tail) and tilting motor, the
+#: quadplane's mixer of four of its five motors among them
+AIRFRAMES = MULTIROTORS + ROUTED
+CASES = [(name, variant) for name in AIRFRAMES for variant in VARIANTS]
 
 
 def _spec(name: str, variant: str):
@@ -44,7 +47,7 @@ def _spec(name: str, variant: str):
 
 def _controller(spec, mode: str | None = None) -> MultirotorController:
     parts = assemble(spec)
-    controller = MultirotorController(spec.control, parts.mass, np.diag(parts.inertia), Mixer(parts.motors), CONTROL_DT)
+    controller = MultirotorController(spec.control, parts.mass, np.diag(parts.inertia), flight_mixer(parts), CONTROL_DT)
     if mode is not None:
         controller.set_mode(MULTIROTOR_MODES[mode])
     return controller
@@ -80,6 +83,8 @@ def test_the_parameters_are_the_controllers(name, variant):
     controller = _controller(spec)
     c = batched_model(spec, DT, CONTROL_DT).cascade
     assert c.mass == controller.mass and c.window == controller._window and c.max_tilt == controller._max_tilt
+    assert c.trimmed == (controller._trim is not None) and c.trim == (controller._trim or (0.0, 0.0))
+    assert c.trimmed == (name == "tricopter")
     assert c.table[:4].T.tolist() == [list(axis) for axis in controller._velocity_axes]
     assert c.table[4:].tolist() == [
         list(controller._position_kp),
@@ -144,7 +149,7 @@ def test_the_velocity_loop_equals_the_controllers(name, variant):
     assert (counts["windowed"] > 50) == (variant == "window_and_limit"), counts
 
 
-@pytest.mark.parametrize("name", MULTIROTORS)
+@pytest.mark.parametrize("name", AIRFRAMES)
 def test_climb_thrust_attitude_and_tilt_equal_the_controllers(name):
     """The single-step loops on random and edge inputs: the climb rate at its limit, the
     thrust at its tilt floor and at zero, the yaw error wrapped from any angle (exact
@@ -187,7 +192,7 @@ def test_climb_thrust_attitude_and_tilt_equal_the_controllers(name):
         if case % 7 == 0:
             ax, ay = (0.0, -0.0) if case % 2 else (-0.0, 0.0)
         tilt = controller._tilt_for(state, ax, ay, az)
-        got = modes.tilt_for(yaw, ax, ay, az, c.max_tilt)
+        got = modes.tilt_for(yaw, ax, ay, az, c.max_tilt, c.trimmed, *c.trim)
         assert got == tilt and [math.copysign(1.0, v) for v in got] == [math.copysign(1.0, v) for v in tilt]
         counts["tilt_limit"] += c.max_tilt in map(abs, tilt)
         counts["lift_floor"] += 9.81 + az < 0.1 * 9.81
@@ -225,8 +230,8 @@ def test_each_cascade_mode_equals_the_controller(name, variant, mode):
     law, yaw_is_rate, heading_frame, position, altitude = _law(controller)
     rng = np.random.default_rng(40 + list(modes.CASCADE_MODES).index(mode))
     vel_integral, integral, previous = np.zeros(3), np.zeros(3), np.zeros(3)
-    n = model.motors
-    out, scratch, torques, rates = np.empty(n), np.empty((n, 4)), np.empty(3), np.empty(3)
+    n = model.mixer_outputs  # the mixer's throttles, then the tricopter's servo command
+    out, scratch, torques, rates = np.empty(n), np.empty((len(model.mixer_rows), 4)), np.empty(3), np.empty(3)
     rates_sp = np.empty(3)
     first, clipped = True, 0
     for tick in range(300):
@@ -256,6 +261,8 @@ def test_each_cascade_mode_equals_the_controller(name, variant, mode):
             c.window,
             c.max_tilt,
             CONTROL_DT,
+            c.trimmed,
+            *c.trim,
         )
         rates[:] = state.ang_vel
         rates_sp[:] = (p_sp, q_sp, r_sp)
@@ -275,7 +282,7 @@ def test_each_cascade_mode_equals_the_controller(name, variant, mode):
             torques,
         )
         previous[:] = rates
-        kernels.mix(thrust, *torques.tolist(), model.mixer_rows, scratch, out)
+        kernels.mixer_outputs(thrust, *torques.tolist(), model.mixer_rows, model.lateral, scratch, out)
         assert out.tolist() == expected, tick
         assert integral.tolist() == list(controller._rate_integral), tick
         assert previous.tolist() == list(controller._prev_rate), tick
@@ -289,7 +296,7 @@ def test_each_cascade_mode_equals_the_controller(name, variant, mode):
 
 
 @pytest.mark.parametrize("mode", ["velocity_yawrate", "position_yaw", "attitude_z", "rates_z"])
-@pytest.mark.parametrize("name", MULTIROTORS)
+@pytest.mark.parametrize("name", AIRFRAMES)
 def test_the_control_tick_equals_the_controller_on_the_state_the_engine_reads(name, mode):
     """``control_tick`` over 16 vehicles at once: each one's commands and controller memory
     equal the controller's, fed the state the PyBullet engine reads (the compiled read-outs,
@@ -298,7 +305,7 @@ def test_the_control_tick_equals_the_controller_on_the_state_the_engine_reads(na
     spec = load_uav_spec(name)
     model = batched_model(spec, DT, CONTROL_DT)
     c = model.cascade
-    n, nm = 16, model.motors
+    n, nm = 16, model.mixer_outputs
     controllers = [_controller(spec, mode) for _ in range(n)]
     rng = np.random.default_rng(50)
     rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
@@ -340,6 +347,9 @@ def test_the_control_tick_equals_the_controller_on_the_state_the_engine_reads(na
             rows(model.mixer_rows),
             CONTROL_DT,
             command,
+            model.lateral,
+            c.trimmed,
+            *c.trim,
         )
         for i, (controller, state) in enumerate(zip(controllers, states)):
             assert command[i].tolist() == controller.law(state, setpoints[i].tolist()), (tick, i)

@@ -132,14 +132,15 @@ def test_same_seed_same_numbers_in_another_process():
 
 def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp_path):
     """``env.backend: auto`` (the hover and waypoints PPO default): batched for the shipped hover, PyBullet for a
-    variant the batched backend does not simulate (downwash, a tricopter) or with an imitation stage; the resolved
+    variant the batched backend does not simulate (downwash, the rocket) or with an imitation stage; the resolved
     backend is the run's configuration.  Asked for by name, batched refuses that variant."""
     assert load(["env=quadx_hover"], tmp_path).env.backend == "batched"
     assert load(["env=quadx_hover", "env.wind=gust"], tmp_path).env.backend == "batched"  # a deterministic wind
     assert load(["env=quadx_hover", "env.ground_effect=true"], tmp_path).env.backend == "batched"
     assert load(["env=quadx_hover", "env.wind=dryden_moderate"], tmp_path).env.backend == "batched"  # turbulence too
     assert load(["env=quadx_hover", "env.downwash=true"], tmp_path).env.backend == "pybullet"
-    assert load(["env=quadx_hover", "uav=tricopter"], tmp_path).env.backend == "pybullet"
+    assert load(["env=quadx_hover", "uav=tricopter"], tmp_path).env.backend == "batched"  # its gimbal too
+    assert load(["env=quadx_hover", "uav=rocket"], tmp_path).env.backend == "pybullet"
     assert load(["env=quadx_waypoints"], tmp_path).env.backend == "batched"  # its PPO tuning is auto too
     assert load(["env=quadx_waypoints", "env.action.mode=velocity"], tmp_path).env.backend == "batched"  # every mode
     assert load(["env=quadx_waypoints_velocity", "env.backend=auto"], tmp_path).env.backend == "batched"
