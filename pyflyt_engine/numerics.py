@@ -22,12 +22,13 @@ variable                      pinned value         what it selects
                               =AVX2``              for AVX2, not the CPU's widest set
 ============================  ===================  ======================================
 
-XLA is also confined to one thread in both modes (:data:`XLA_ONE_THREAD`, added to
-``XLA_FLAGS`` unless they set those flags themselves): its thread pool would otherwise
-spread a small network's update over every core, costing more CPU time than it saves in
-wall-clock on a shared machine (``experiments/results/sac_update_cost.md``), as
-``train.torch_threads: 1`` does for torch.  XLA reads ``XLA_FLAGS`` once, when JAX
-creates its CPU backend, so these are set here, before anything imports JAX.
+In both modes XLA's Eigen kernels (its matrix products) are also kept single-threaded
+(:data:`XLA_THREADS`, added to ``XLA_FLAGS`` unless they set that flag themselves), as
+``train.torch_threads: 1`` keeps torch's: a product split over threads sums in an order that
+depends on their number.  XLA's thread pool itself still has a thread per CPU the process
+may use, and runs independent operations of an update side by side
+(``experiments/results/sac_update_cost.md``).  XLA reads ``XLA_FLAGS`` once, when JAX
+creates its CPU backend, so they are set here, before anything imports JAX.
 
 ``import pyflyt_engine`` (and so the ``pyflyt`` command) calls :func:`pin` before
 anything imports NumPy or PyTorch.  A library that was loaded earlier keeps the kernels
@@ -72,8 +73,8 @@ PINNED: dict[str, str] = {
 
 #: XLA's instruction-set cap, in the pinned mode (one ``XLA_FLAGS`` token)
 XLA_PINNED = "--xla_cpu_max_isa=AVX2"
-#: XLA on one thread (``XLA_FLAGS`` tokens), in both modes
-XLA_ONE_THREAD = ("--xla_cpu_multi_thread_eigen=false", "intra_op_parallelism_threads=1")
+#: XLA's Eigen kernels on one thread (``XLA_FLAGS`` tokens), in both modes
+XLA_THREADS = ("--xla_cpu_multi_thread_eigen=false",)
 
 #: MKL's CBWR branch codes (Intel's ``mkl_cbwr.h``), for reporting what is in force
 _MKL_BRANCHES = {0: "OFF", 1: "BRANCH_OFF", 2: "AUTO", 3: "COMPATIBLE", 4: "SSE2", 6: "SSSE3", 7: "SSE4_1",
@@ -141,13 +142,13 @@ def _flag_name(token: str) -> str:
 
 
 def xla_flags(current: str, *, pinned: bool) -> str:
-    """``XLA_FLAGS`` with the toolkit's: the one-thread flags added unless ``current`` sets them
+    """``XLA_FLAGS`` with the toolkit's: :data:`XLA_THREADS` added unless ``current`` sets them
     itself, and in the pinned mode the instruction-set cap in place of any other."""
     tokens = current.split()
     named = {_flag_name(t) for t in tokens}
     if pinned:
         tokens = [t for t in tokens if _flag_name(t) != _flag_name(XLA_PINNED)] + [XLA_PINNED]
-    tokens += [t for t in XLA_ONE_THREAD if _flag_name(t) not in named]
+    tokens += [t for t in XLA_THREADS if _flag_name(t) not in named]
     return " ".join(tokens)
 
 

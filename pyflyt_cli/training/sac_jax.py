@@ -5,8 +5,8 @@ vector envs and callbacks and replaces the networks and their updates with Flax 
 Optax optimisers compiled by XLA: a call of ``train(gradient_steps=k)`` is one compiled loop
 over the ``k`` gradient steps, without Python between them.  On SAC's small networks that is
 what an update's time is (``experiments/sac_update_cost.py``): one gradient step of batch 256
-on [128, 128] networks costs ~3.3 ms of CPU on one thread here against SB3's ~17 ms
-(``experiments/results/sac_update_cost.md``).  Install it with ``pip install
+on [128, 128] networks cost 3-6 ms of CPU time here against SB3's 17-20 ms, on a 2-core
+machine under heavy load (``experiments/results/sac_update_cost.md``).  Install it with ``pip install
 'pyflyt-toolkit[jax]'``.
 
 **The same algorithm, not the same numbers as** ``algo=sac``.  SAC (Haarnoja et al. 2018,
@@ -26,10 +26,10 @@ discounts, ``gamma ** steps taken``, SBX's critic target uses).  What SBX does i
   gradient_steps`` at once, from NumPy's stream as SB3 does), then split.
 
 **Determinism.**  The same seed and configuration give the same weights in every process
-and rerun: XLA runs the update on one thread (``pyflyt_engine.numerics``: thread pools
-split sums by the number of threads) and its code is compiled for AVX2 in the pinned mode
-(``--xla_cpu_max_isa=AVX2``), so it does not depend on whether the CPU has AVX-512; the
-flags are set when ``pyflyt_engine`` is imported, before JAX.  A resume is exact: a
+and rerun.  XLA's Eigen kernels run single-threaded (``pyflyt_engine.numerics``: a product
+split over threads sums in an order that depends on their number).  In the pinned mode its
+code is compiled for AVX2 (``--xla_cpu_max_isa=AVX2``), so it does not depend on whether the
+CPU has AVX-512.  The flags are set when ``pyflyt_engine`` is imported, before JAX.  A resume is exact: a
 checkpoint holds the parameters, the target critics, the Adam states and step counts, the
 temperature's state and the JAX keys (:meth:`SACJax.random_streams`), besides what every
 run's checkpoint holds.  What the cross-CPU claim rests on is in ``docs/reproducibility.md``.

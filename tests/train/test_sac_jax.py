@@ -169,18 +169,18 @@ def test_the_same_seed_gives_the_same_weights_in_a_fresh_process(tmp_path):
     assert weights("c", "seed=1") != first  # the hash sees the weights
 
 
-def test_xla_is_pinned_and_on_one_thread_before_jax_loads():
+def test_xla_is_pinned_before_jax_loads():
     flags = numerics.xla_flags("", pinned=True).split()
-    assert flags == ["--xla_cpu_max_isa=AVX2", *numerics.XLA_ONE_THREAD]
+    assert flags == ["--xla_cpu_max_isa=AVX2", *numerics.XLA_THREADS]
     # a user's own flags stay; the pinned mode's instruction set replaces another cap
     mixed = numerics.xla_flags("--xla_cpu_max_isa=AVX512 --xla_dump_to=/tmp/d", pinned=True).split()
-    assert mixed == ["--xla_dump_to=/tmp/d", "--xla_cpu_max_isa=AVX2", *numerics.XLA_ONE_THREAD]
+    assert mixed == ["--xla_dump_to=/tmp/d", "--xla_cpu_max_isa=AVX2", *numerics.XLA_THREADS]
     assert numerics.xla_flags("--xla_cpu_max_isa=AVX512", pinned=False).split() == [
         "--xla_cpu_max_isa=AVX512",
-        *numerics.XLA_ONE_THREAD,
+        *numerics.XLA_THREADS,
     ]
     threads = numerics.xla_flags("--xla_cpu_multi_thread_eigen=true", pinned=False).split()
-    assert threads == ["--xla_cpu_multi_thread_eigen=true", "intra_op_parallelism_threads=1"]
+    assert threads == ["--xla_cpu_multi_thread_eigen=true"]
     # in a process: set by `import pyflyt_engine`, reported once JAX is loaded
     code = (
         "import json, os, pyflyt_engine; from pyflyt_engine import numerics; import jax; "
