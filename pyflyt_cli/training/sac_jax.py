@@ -26,13 +26,16 @@ discounts, ``gamma ** steps taken``, SBX's critic target uses).  What SBX does i
   gradient_steps`` at once, from NumPy's stream as SB3 does), then split.
 
 **Determinism.**  The same seed and configuration give the same weights in every process
-and rerun.  XLA's Eigen kernels run single-threaded (``pyflyt_engine.numerics``: a product
-split over threads sums in an order that depends on their number).  In the pinned mode its
-code is compiled for AVX2 (``--xla_cpu_max_isa=AVX2``), so it does not depend on whether the
-CPU has AVX-512.  The flags are set when ``pyflyt_engine`` is imported, before JAX.  A resume is exact: a
-checkpoint holds the parameters, the target critics, the Adam states and step counts, the
-temperature's state and the JAX keys (:meth:`SACJax.random_streams`), besides what every
-run's checkpoint holds.  What the cross-CPU claim rests on is in ``docs/reproducibility.md``.
+and rerun on the same machine with the same number of CPUs available to the process: a
+process allowed one CPU instead of two trained other weights
+(``experiments/results/sac_update_cost.md``), so ``algo=sac``'s cross-CPU promise does not
+extend to this class.  XLA's Eigen kernels run single-threaded, and in the pinned mode its
+code is compiled for AVX2 (``--xla_cpu_max_isa=AVX2``; on this AVX-512 CPU the same weights
+as XLA's own choice), both set when ``pyflyt_engine`` is imported, before JAX
+(``pyflyt_engine.numerics``).  A resume is exact: a checkpoint holds the parameters, the
+target critics, the Adam states and step counts, the temperature's state and the JAX keys
+(:meth:`SACJax.random_streams`), besides what every run's checkpoint holds
+(``docs/reproducibility.md``).
 
 **What it does not do.**  gSDE (SBX's SAC has none), ``train.imitation`` (its policy is not
 a torch module), ``policy_kwargs.activation_fn`` / ``log_std_init`` (SBX's networks: ReLU),
