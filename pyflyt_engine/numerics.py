@@ -18,7 +18,17 @@ variable                      pinned value         what it selects
                                                    compatible (AMD) processors
 ``ONEDNN_MAX_CPU_ISA``        ``AVX2``             oneDNN (convolutions); see also
                                                    :func:`apply_torch`
+``XLA_FLAGS``                 ``--xla_cpu_max_isa  XLA (JAX, ``algo=sac_jax``): code generated
+                              =AVX2``              for AVX2, not the CPU's widest set
 ============================  ===================  ======================================
+
+In both modes XLA's Eigen kernels (its matrix products) are also kept single-threaded
+(:data:`XLA_THREADS`, added to ``XLA_FLAGS`` unless they set that flag themselves), as
+``train.torch_threads: 1`` keeps torch's: a product split over threads sums in an order that
+depends on their number.  XLA's thread pool itself still has a thread per CPU the process
+may use, and runs independent operations of an update side by side
+(``experiments/results/sac_update_cost.md``).  XLA reads ``XLA_FLAGS`` once, when JAX
+creates its CPU backend, so they are set here, before anything imports JAX.
 
 ``import pyflyt_engine`` (and so the ``pyflyt`` command) calls :func:`pin` before
 anything imports NumPy or PyTorch.  A library that was loaded earlier keeps the kernels
@@ -60,6 +70,11 @@ PINNED: dict[str, str] = {
     "MKL_CBWR": "COMPATIBLE,STRICT",
     "ONEDNN_MAX_CPU_ISA": "AVX2",
 }
+
+#: XLA's instruction-set cap, in the pinned mode (one ``XLA_FLAGS`` token)
+XLA_PINNED = "--xla_cpu_max_isa=AVX2"
+#: XLA's Eigen kernels on one thread (``XLA_FLAGS`` tokens), in both modes
+XLA_THREADS = ("--xla_cpu_multi_thread_eigen=false",)
 
 #: MKL's CBWR branch codes (Intel's ``mkl_cbwr.h``), for reporting what is in force
 _MKL_BRANCHES = {0: "OFF", 1: "BRANCH_OFF", 2: "AUTO", 3: "COMPATIBLE", 4: "SSE2", 6: "SSSE3", 7: "SSE4_1",
@@ -122,6 +137,21 @@ def check_mode() -> None:
         )
 
 
+def _flag_name(token: str) -> str:
+    return token.lstrip("-").split("=", 1)[0]
+
+
+def xla_flags(current: str, *, pinned: bool) -> str:
+    """``XLA_FLAGS`` with the toolkit's: :data:`XLA_THREADS` added unless ``current`` sets them
+    itself, and in the pinned mode the instruction-set cap in place of any other."""
+    tokens = current.split()
+    named = {_flag_name(t) for t in tokens}
+    if pinned:
+        tokens = [t for t in tokens if _flag_name(t) != _flag_name(XLA_PINNED)] + [XLA_PINNED]
+    tokens += [t for t in XLA_THREADS if _flag_name(t) not in named]
+    return " ".join(tokens)
+
+
 def pin() -> None:
     """Apply the pinned kernel set (once per process; see the module docstring)."""
     if _state["mode"] is not None:
@@ -130,9 +160,11 @@ def pin() -> None:
     _state["mode"] = mode
     if os.environ.get(MODE_VARIABLE, "").strip().lower() not in ("", *MODES):
         _state["invalid"] = os.environ[MODE_VARIABLE]
-    if mode != "pinned" or not pinnable()[0]:
+    _state["loaded_before"] = tuple(m for m in ("numpy", "torch", "jax") if m in sys.modules)
+    pinned = mode == "pinned" and pinnable()[0]
+    os.environ["XLA_FLAGS"] = xla_flags(os.environ.get("XLA_FLAGS", ""), pinned=pinned)
+    if not pinned:
         return
-    _state["loaded_before"] = tuple(m for m in ("numpy", "torch") if m in sys.modules)
     os.environ.update(PINNED)
     _state["applied"] = True
 
@@ -208,13 +240,23 @@ def _torch() -> dict[str, str]:
     }
 
 
+def _xla() -> dict[str, str]:
+    """JAX's XLA flags (once JAX is loaded; ``algo=sac_jax``)."""
+    if "jax" not in sys.modules:
+        return {}
+    return {"flags": os.environ.get("XLA_FLAGS", "")}
+
+
 def _versions() -> dict[str, str]:
     """Versions of the numeric libraries: another version may round differently."""
     from importlib import metadata
 
     out = {}
-    for name in ("numpy", "scipy", "pybullet", "torch"):
+    jax_stack = ("jax", "jaxlib", "flax", "optax", "sbx-rl")
+    for name in ("numpy", "scipy", "pybullet", "torch", *jax_stack):
         if name == "torch" and "torch" not in sys.modules:
+            continue
+        if name in jax_stack and "jax" not in sys.modules:  # only in a process that runs JAX
             continue
         try:
             out[name] = metadata.version(name)
@@ -229,6 +271,9 @@ def kernels() -> dict[str, Any]:
     torch_info = _torch()
     if torch_info:
         out["torch"] = torch_info
+    xla = _xla()
+    if xla:
+        out["xla"] = xla
     return out
 
 
@@ -243,6 +288,9 @@ def pins_in_force() -> bool:
         return False
     t = k.get("torch")
     if t and (t["capability"] != "AVX2" or t["mkl_cbwr"] not in ("COMPATIBLE,STRICT", "unknown")):
+        return False
+    x = k.get("xla")
+    if x and ("jax" in _state["loaded_before"] or XLA_PINNED not in x["flags"].split()):
         return False
     return True
 

@@ -10,7 +10,8 @@ update is done, the next action is not chosen yet).  Besides the weights and opt
 * every random stream the run draws from: Python's ``random``, NumPy's global stream
   (replay sampling, minibatch permutations, Gaussian action noise), torch's CPU
   generator (policy sampling, gSDE), the action space's generator (random warm-up
-  actions), the state of correlated action noise and gSDE's exploration matrices;
+  actions), the state of correlated action noise and gSDE's exploration matrices, and
+  an algorithm's own generators (``random_streams()``: ``algo=sac_jax``'s JAX keys);
 * the normaliser's statistics and the per-env discounted returns it accumulates;
 * each environment's episode in progress: how it started (its seed, or its random
   streams when it was reset without a seed) and the actions applied since.  The
@@ -191,6 +192,8 @@ def capture(model: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         for attr in ("exploration_mat", "exploration_matrices"):
             if hasattr(dist, attr):
                 tensors[f"gsde/{name}/{attr}"] = getattr(dist, attr).detach().clone()
+    if hasattr(model, "random_streams"):  # an algorithm's own generators (algo=sac_jax: JAX's keys)
+        tensors.update(model.random_streams())
     tensors.update(_recurrent_states(model))
     for i, episode in enumerate(model.get_env().env_method("episode_state")):
         actions = episode.pop("actions")
@@ -285,6 +288,8 @@ def restore_streams(model: Any, state: Mapping[str, Any], tensors: Mapping[str, 
     np.random.set_state(numpy_state)
     model.action_space.np_random.bit_generator.state = rng["action_space"]
     torch.set_rng_state(tensors["torch_rng"])
+    if hasattr(model, "set_random_streams"):
+        model.set_random_streams(tensors)
     _set_noise(model.action_noise, state["action_noise"])
     for name, dist in _gsde_distributions(model).items():
         for attr in ("exploration_mat", "exploration_matrices"):

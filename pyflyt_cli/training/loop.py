@@ -247,6 +247,10 @@ def _check_restart_inputs(path: Path, cfg: TrainConfig) -> None:
 
 
 def _check_environment(cfg: TrainConfig) -> None:
+    if registry.ALGORITHMS[cfg.algo.name].needs:
+        # an extra's algorithm (algo=sac_jax): a clear message if it is missing, and its library loaded
+        # now, so that run.yaml's numeric platform (recorded next) names its versions and flags
+        registry.resolve(registry.ALGOS, cfg.algo.name, "algorithm")
     if cfg.train.tensorboard and importlib.util.find_spec("tensorboard") is None:
         raise ConfigError(
             "train.tensorboard=true needs the tensorboard package: pip install tensorboard (or set train.tensorboard=false)"

@@ -48,6 +48,12 @@ class Algorithm:
     #: import strings of the library classes it computes exactly (its ``cls`` is a subclass
     #: with the same numbers): a config's ``_target_`` may name those too
     same_as: tuple[str, ...] = ()
+    #: the optional extra of pyproject.toml it needs (``pip install 'pyflyt-toolkit[<extra>]'``)
+    #: and the modules that extra brings; none: the core ``[rl]`` install has it
+    extra: str | None = None
+    needs: tuple[str, ...] = ()
+    #: the ``algo.policy_kwargs`` keys its policies do not take (they must stay null)
+    no_policy_keys: frozenset[str] = frozenset()
 
 
 #: algorithm name (``algo.name``, ``conf/algo/<name>.yaml`` holds its defaults) -> its facts
@@ -56,6 +62,17 @@ ALGORITHMS: dict[str, Algorithm] = {
     "a2c": Algorithm("stable_baselines3:A2C", "A2CConfig", off_policy=False),
     # ours (pyflyt_cli/training/sac.py): SB3's SAC with cheaper gradient steps, the same numbers
     "sac": Algorithm("pyflyt_cli.training.sac:SAC", "SACConfig", off_policy=True, same_as=("stable_baselines3:SAC",)),
+    # ours (pyflyt_cli/training/sac_jax.py): SBX's SAC (JAX), its gradient steps compiled by XLA;
+    # not imitation (its policy is not a torch module), no activation or log_std choice
+    "sac_jax": Algorithm(
+        "pyflyt_cli.training.sac_jax:SACJax",
+        "SACJaxConfig",
+        off_policy=True,
+        imitation=False,
+        extra="jax",
+        needs=("sbx", "jax", "flax", "optax"),
+        no_policy_keys=frozenset({"activation_fn", "log_std_init"}),
+    ),
     "td3": Algorithm("stable_baselines3:TD3", "TD3Config", off_policy=True),
     "ddpg": Algorithm("stable_baselines3:DDPG", "DDPGConfig", off_policy=True),
     # not in SB3: ours (pyflyt_cli/training/awac.py), on SB3's SAC policy class unchanged,
@@ -147,10 +164,27 @@ TARGETS: dict[str, tuple[str, str]] = {
 } | {path: ("algo", name) for name, a in ALGORITHMS.items() for entry in a.same_as for path in _dotted(entry)}
 
 
+def check_installed(name: str) -> None:
+    """A :class:`ConfigError` naming the extra to install if algorithm ``name`` needs modules that are missing."""
+    import importlib.util
+
+    algorithm = ALGORITHMS.get(name)
+    if algorithm is None or not algorithm.needs:
+        return
+    missing = [m for m in algorithm.needs if importlib.util.find_spec(m) is None]
+    if missing:
+        raise ConfigError(
+            f"algo={name} needs {', '.join(missing)}, which {'is' if len(missing) == 1 else 'are'} not installed: "
+            f"pip install 'pyflyt-toolkit[{algorithm.extra}]' (or choose another algo, e.g. algo=sac)"
+        )
+
+
 def resolve(table: Mapping[str, str], name: str, what: str) -> Any:
     """Import the object registered under ``name`` in ``table`` (a :class:`ConfigError` if unknown)."""
     if name not in table:
         raise ConfigError(unknown(what, name, table))
+    if table is ALGOS:
+        check_installed(name)
     module, _, attr = table[name].partition(":")
     return getattr(importlib.import_module(module), attr)
 

@@ -184,6 +184,9 @@ class _AlgoBase(_Strict):
                 raise ValueError(
                     f"policy_kwargs.{key} applies to {', '.join(sorted(algos))} only, not {name}: leave it null"
                 )
+        for key in sorted(registry.ALGORITHMS[name].no_policy_keys):
+            if getattr(self.policy_kwargs, key) is not None:
+                raise ValueError(f"policy_kwargs.{key} is not a setting of {name}'s networks: leave it null")
         return self
 
     @field_validator("policy")
@@ -285,6 +288,26 @@ class SACConfig(_OffPolicy):
     target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
     use_sde: bool = Field(description="generalised state-dependent exploration")
     sde_sample_freq: int = Field(ge=-1, description="resample the gSDE noise every n steps")
+
+    @field_validator("ent_coef")
+    @classmethod
+    def _ent_coef(cls, value: float | str) -> float | str:
+        return _check_ent_coef(value)
+
+
+class SACJaxConfig(_OffPolicy):
+    """Soft Actor-Critic on JAX: SBX's ``SAC`` (``pip install 'pyflyt-toolkit[jax]'``); see
+    :mod:`pyflyt_cli.training.sac_jax` for what it computes differently from ``algo=sac``.
+
+    Its critics' targets move at every gradient step (SBX has no ``target_update_interval``)
+    and it has no gSDE (no ``use_sde``): those keys are refused as unknown.  ``policy_delay``:
+    the actor and the temperature learn every ``policy_delay`` critic steps (1: SAC's).
+    """
+
+    name: Literal["sac_jax"]
+    ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
+    target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
+    policy_delay: int = Field(ge=1, description="actor and temperature update every policy_delay critic updates")
 
     @field_validator("ent_coef")
     @classmethod

@@ -29,7 +29,7 @@ def test_the_config_union_and_the_views_come_from_the_table():
     members = typing.get_args(typing.get_args(AlgoConfig)[0])
     assert [m.__name__ for m in members] == [a.config for a in registry.ALGORITHMS.values()]
     assert set(registry.ALGOS) == set(registry.ALGORITHMS)
-    assert registry.OFF_POLICY == {"sac", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"}
+    assert registry.OFF_POLICY == {"sac", "sac_jax", "td3", "ddpg", "awac", "ccge", "tqc", "crossq"}
     assert registry.INIT_FROM == {"awac": {"sac"}, "ccge": {"sac"}}
     assert registry.SPECIFIC_POLICY_KEYS["n_quantiles"] == {"tqc"}
     assert registry.SPECIFIC_POLICY_KEYS["shared_lstm"] == {"recurrent_ppo"}
