@@ -14,7 +14,7 @@ What an agent sees is what the PyBullet engine's env shows through the training 
 (:func:`pyflyt_cli.training.envs.wrap_for_agent` minus the float32 cast and the action
 rescaling, which the learning library adds for both backends): the attitude vector
 ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]`` (the PyBullet engine's
-:func:`~pyflyt_engine.envs.core.attitude_vector`; aux: the motor throttles, then for a
+:func:`~pyflyt_engine.envs.observe.attitude_vector`; aux: the motor throttles, then for a
 fixed-wing each surface's flap deflection over its limit; with a battery, last, its state
 of charge), and for waypoints the
 next ``context_length`` waypoints' body-frame deltas and their mask
@@ -298,7 +298,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.action_history = delays.get("action_history", np.zeros((n, 0)))
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
 
-        from pyflyt_engine.envs.core import with_sensors
+        from pyflyt_engine.envs.observe import with_sensors
 
         #: the noisy sensors and estimator (pyflyt_engine.batched.sensors; None without a
         #: ``sensors`` section, the env config's or the airframe's)
