@@ -77,7 +77,7 @@ from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
 from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
-from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
 from pyflyt_engine.envs.randomization import SPAWN, Randomizer
 from pyflyt_engine.envs.rewards import compile_reward
@@ -173,6 +173,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         preset = load_reward_preset(cfg.reward_preset_name())
         scalar = compile_reward(preset_name(cfg), preset.terms, self.task.provides, self.task.name)
         self.reward_function = BatchedReward(scalar)
+        #: what ends an episode: the config's termination terms (pyflyt_engine.batched.terms.batched_ends)
+        self._ends = batched_ends(cfg.terminations, bool(self.task.crash_on_contact))
         self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
         self._quaternion = cfg.angle_representation == "quaternion"
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -873,6 +875,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             distance, rate = bookkeeping.progress(p, self._goals(), self._last_distance, self.agent_dt)
             self._last_distance = distance
         self._last_position = p.copy()
+        ends = self._ends
         collision, out, crashed, terminated, truncated, remaining, success = bookkeeping.ends(
             p,
             self.contact,
@@ -880,8 +883,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.steps,
             self._max_steps,
             self._dome2,
-            bool(getattr(self.task, "crash_on_contact", True)),
+            ends.contact,
             bool(self.task.succeeds_at_time_limit),
+            ends.dome,
+            ends.complete,
+            ends.time_limit,
         )
         ctx = BatchContext(
             ang_vel=self.ang_vel_body,

@@ -2,16 +2,17 @@
 
 An env's *front* -- the Gymnasium :class:`~pyflyt_engine.envs.env.UAVEnv` (one agent) or
 the PettingZoo :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv` (N agents)
--- builds the episode (:func:`~pyflyt_engine.envs.core.build_episode`), starts it
-(:func:`~pyflyt_engine.envs.core.reset_episode`) and speaks its API; everything between
+-- builds the episode (:func:`~pyflyt_engine.envs.assembly.build_episode`), starts it
+(:func:`~pyflyt_engine.envs.assembly.reset_episode`) and speaks its API; everything between
 an action and the next observation is here, once::
 
     act(i, action)            each acting agent: clip to the bounds, set the flight mode's setpoint
     advance()                 step the physics once for everybody; count the agent step
     judge(live, states)       per acting agent, in agent order: contacts, the dome, the task's
-                              signals and termination, payload and obstacle failures, the
-                              reward preset, the time limit, success, the info (with the
-                              task's success measures on an agent's last step)
+                              signals, the env config's termination terms (crash, end,
+                              truncate: pyflyt_engine.envs.terminations), the reward preset,
+                              success, the info (with the task's success measures on an
+                              agent's last step)
     observe(i, states)        per acting agent: latency, sensors or estimator, the attitude
                               vector, the task's observation, camera image and range scans
     check(...)                never NaN: a non-finite observation or reward raises
@@ -32,8 +33,12 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pyflyt_engine.envs import core
+from pyflyt_engine.envs import assembly
+from pyflyt_engine.envs.guard import all_finite, divergence_error
+from pyflyt_engine.envs.observe import attitude_vector, estimated_state, sensed_state, with_readings
 from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.envs.step import AgentStep, clip_action, step_context
+from pyflyt_engine.envs.terminations import Terminations, bind_terminations, outside_dome
 from pyflyt_engine.envs.tasks.base import Task
 from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
 from pyflyt_engine.state import KinematicState
@@ -52,15 +57,16 @@ class AgentTasks(Protocol):
         """An agent alive at the time limit succeeded (survival tasks)."""
         ...
 
+    @property
+    def crash_on_contact(self) -> bool:
+        """A contact of an agent's vehicle is a crash (the ``contact`` termination term's default)."""
+        ...
+
     def update(
         self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
     ) -> dict[int, Any]:
         """Advance one agent step (``step`` agent steps since the reset, this one included);
         the signals of every agent in ``live``."""
-        ...
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
-        """``(crashed, terminated)`` of one agent's step."""
         ...
 
     def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
@@ -94,13 +100,14 @@ class OneAgentTask:
     def succeeds_at_time_limit(self) -> bool:
         return self.task.succeeds_at_time_limit
 
+    @property
+    def crash_on_contact(self) -> bool:
+        return self.task.crash_on_contact
+
     def update(
         self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
     ) -> dict[int, Any]:
         return {0: self.task.update(states[0])}
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
-        return self.task.termination(collision, out_of_bounds, signals)
 
     def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
         return self.task.observe(attitude, states[0])
@@ -122,8 +129,9 @@ class EpisodeCore:
 
     Attributes the fronts and recorders share (per agent ``i`` in agent order):
     ``world``, ``vehicles``, ``task``, ``reward_function``, ``randomizer``,
-    ``payloads``/``obstacles`` and ``last_randomization``; the core's own state is
-    ``_actions`` (N, A), ``_steps``, ``_reward_terms`` and ``_alive``.
+    ``agent_payloads``/``obstacles`` and ``last_randomization``; the core's own state is
+    ``_actions`` (N, A), ``_steps``, ``_reward_terms`` and ``_alive``; ``terminations`` are
+    the env config's termination terms bound to this episode.
     """
 
     config: Any
@@ -136,7 +144,7 @@ class EpisodeCore:
     def _init_core(
         self,
         cfg: Any,
-        parts: core.EpisodeParts,
+        parts: assembly.EpisodeParts,
         tasks: AgentTasks,
         reward_function: RewardFunction,
         *,
@@ -144,15 +152,16 @@ class EpisodeCore:
         agent_names: Sequence[str] | None = None,
         alive: np.ndarray | None = None,
     ) -> None:
-        """Take over what :func:`~pyflyt_engine.envs.core.build_episode` built; ``alive``: the
+        """Take over what :func:`~pyflyt_engine.envs.assembly.build_episode` built; ``alive``: the
         (N,) live flags to keep up to date (a multi-agent task reads them), else new ones."""
         self.config = cfg
-        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        #: what the episode flies (:class:`~pyflyt_engine.envs.assembly.EpisodeParts`)
         self._parts = parts
         self.world = parts.world
         #: the agents' vehicles, in agent order (a front may wrap them: the core drives these)
         self.vehicles = list(parts.vehicles)
-        self._tasks = tasks
+        #: the task, asked agent by agent (:class:`AgentTasks`)
+        self.tasks = tasks
         self.reward_function = reward_function
         self._agent_names = agent_names
         self._agent_dt = 1.0 / cfg.agent_hz
@@ -185,24 +194,26 @@ class EpisodeCore:
         self._range_sensors = parts.range_sensors
         self._readings = cfg.camera_observation is not None or any(parts.range_sensors)
         #: per agent, its copy of the config's payloads; empty without payloads
-        self._agent_payloads = parts.payloads
+        self.agent_payloads = parts.payloads
         #: the config's obstacles (None without): fixed ones built with the world, layouts drawn at each reset
         self.obstacles = parts.obstacles
         #: samples and applies ``config.randomize`` at each reset (None without)
         self.randomizer = parts.randomizer
+        #: the config's termination terms bound to this episode (pyflyt_engine.envs.terminations)
+        self.terminations: Terminations = bind_terminations(cfg.terminations, self)
 
     # ------------------------------------------------------------------ reset
 
     def _reset_core(
         self, seed: int | None, rng: np.random.Generator, spawn: Any, start_task: Any
     ) -> list[KinematicState]:
-        """Start an episode (:func:`~pyflyt_engine.envs.core.reset_episode`): every agent
+        """Start an episode (:func:`~pyflyt_engine.envs.assembly.reset_episode`): every agent
         alive, no action yet, step 0; the vehicles' states."""
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self._reward_terms]
         self._alive[:] = True
-        drawn, states = core.reset_episode(self._parts, seed, rng, spawn, start_task)
+        drawn, states = assembly.reset_episode(self._parts, seed, rng, spawn, start_task)
         self.last_randomization = dict(drawn) if drawn is not None else {}
         self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
         return states
@@ -212,12 +223,9 @@ class EpisodeCore:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         if self.randomizer is not None:
             info["randomization"] = dict(self.last_randomization)
-        if self._agent_payloads:
-            info["payload_ground_contact"] = False
-        if self.obstacles is not None:
-            info["obstacle_contact"] = False
-            info["obstacles_parked"] = self.obstacles.parked
-        info.update(self._tasks.reset_info(i))
+        for judge in self.terminations.judges:  # their info entries (payload_ground_contact, ...)
+            judge.reset_info(i, info)
+        info.update(self.tasks.reset_info(i))
         return info
 
     # ------------------------------------------------------------------- step
@@ -225,7 +233,7 @@ class EpisodeCore:
     def _act(self, i: int, action: Any) -> None:
         """Agent ``i``'s action, clipped to the bounds, as its flight mode's setpoint."""
         agent = self._agent_names[i] if self._agent_names is not None else None
-        a = core.clip_action(action, self._low, self._high, self.config.action.names, agent=agent)
+        a = clip_action(action, self._low, self._high, self.config.action.names, agent=agent)
         self.vehicles[i].set_setpoint(a)
         self._actions[i] = a
 
@@ -239,61 +247,52 @@ class EpisodeCore:
         """``(reward, terminated, truncated, info)`` of each agent in ``live`` (in that order)
         after :meth:`_advance`.
 
-        Episode end: *terminated* on a crash -- a contact (unless the task's
-        ``crash_on_contact`` is False), leaving the dome, a failure the task declares, a
-        payload failing on the ground, touching an obstacle (``obstacles.crash_on_contact``)
-        -- or when the task completes; *truncated* at the time limit.
+        Episode end: the env config's termination terms (:mod:`pyflyt_engine.envs.terminations`,
+        declared in order under ``terminations``): *terminated* when a ``crash`` term holds (a
+        contact, leaving the dome, a failure the task declares, a payload on the ground, an
+        obstacle touched ...) or an ``end`` term does (the task completes); *truncated* when a
+        ``truncate`` term holds (the time limit) and the episode did not terminate.
         """
         world = self.world
-        tasks = self._tasks
+        tasks = self.tasks
         collisions = {i: world.collided(i) for i in live}
-        signals = tasks.update(states, live, collisions, self._steps)
-        remaining = max(self._max_steps - self._steps, 0)
-        time_up = self._steps >= self._max_steps
-        obstacles = self.obstacles
+        steps = self._steps
+        signals = tasks.update(states, live, collisions, steps)
+        remaining = max(self._max_steps - steps, 0)
+        terms = self.terminations
         results = []
         for i in live:
             state = states[i]
             sig = signals[i]
-            collision = collisions[i]
-            out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed, terminated = tasks.termination(collision, out_of_bounds, sig)
-            payload_ground = bool(self._agent_payloads) and self._agent_payloads[i].ground_failure()
-            if payload_ground:  # a payload the config says must not touch the ground did
-                crashed = terminated = True
-            obstacle_contact = obstacles is not None and obstacles.touched(i)
-            if obstacle_contact and self.config.obstacles.crash_on_contact:
-                crashed = terminated = True
-            ctx = core.step_context(
-                world,
-                i,
-                state,
-                self._actions[i],
-                collision,
-                out_of_bounds,
-                crashed,
-                sig,
-                sig.waypoint_reached,
-                remaining,
-                self._agent_dt,
-            )
-            reward, terms = self.reward_function(ctx)
-            self._reward_terms[i] = terms
-            truncated = not terminated and time_up
+            step = AgentStep(i, state, self._actions[i], collisions[i], outside_dome(state, self._dome2), sig, steps)
+            entries: dict[str, Any] = {}  # the terms' own info entries
+            crashed = False
+            for judge in terms.crash:
+                if judge(step, entries):
+                    crashed = True
+            terminated = crashed
+            for judge in terms.end:
+                if judge(step, entries):
+                    terminated = True
+            cut = False
+            for judge in terms.truncate:
+                if judge(step, entries):
+                    cut = True
+            truncated = cut and not terminated
+            ctx = step_context(world, step, crashed=crashed, steps_remaining=remaining, agent_dt=self._agent_dt)
+            reward, reward_terms = self.reward_function(ctx)
+            self._reward_terms[i] = reward_terms
             info = {
-                "collision": collision,
-                "out_of_bounds": out_of_bounds,
+                "collision": step.collision,
+                "out_of_bounds": step.out_of_bounds,
                 "env_complete": sig.complete,
                 "success": (sig.complete and not crashed) or (truncated and tasks.succeeds_at_time_limit),
                 **tasks.step_info(i, sig),
             }
-            if self._agent_payloads:
-                info["payload_ground_contact"] = payload_ground
-            if obstacles is not None:
-                info["obstacle_contact"] = obstacle_contact
-                info["obstacles_parked"] = obstacles.parked
+            if entries:
+                info.update(entries)
             if self.info_reward_terms:
-                info["reward_terms"] = terms
+                info["reward_terms"] = reward_terms
             if terminated or truncated:  # the episode's success measures, on its last step
                 info[MEASURES] = tasks.episode_measures(i)
             results.append((reward, terminated, truncated, info))
@@ -311,30 +310,30 @@ class EpisodeCore:
             suite = self._sensed[i]
             states = [*states]
             if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
-                states[i] = core.estimated_state(states[i], suite, self.estimators[i])
+                states[i] = estimated_state(states[i], suite, self.estimators[i])
             else:
-                states[i] = core.sensed_state(states[i], suite)
+                states[i] = sensed_state(states[i], suite)
             if self._fix_flag[i]:
                 aux = [*aux, suite.position_valid]
-        attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        observation = self._tasks.observation(i, attitude, states)
+        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
+        observation = self.tasks.observation(i, attitude, states)
         if not self._readings:
             return observation
-        return core.with_readings(
+        return with_readings(
             observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
         )
 
     def _check(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Never NaN: raise :class:`~pyflyt_engine.errors.SimulationError` if agent ``i``'s
         observation or reward is not finite."""
-        if not core.all_finite(reward, observation):
+        if not all_finite(reward, observation):
             self._diverged(i, observation, reward, state)
 
     def _diverged(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
         where = self.config.id or self.config.source or "the environment"
         agent = self._agent_names[i] if self._agent_names is not None else None
-        raise core.divergence_error(
+        raise divergence_error(
             where, self._steps, observation, reward, state, self.vehicles[i], self._actions[i], agent=agent
         )
 

@@ -1,8 +1,10 @@
-"""One agent's step: its action clipped to the bounds, and the reward context of the step."""
+"""One agent's step: its action clipped to the bounds, what the step was (:class:`AgentStep`)
+and the reward context of it."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,32 +30,44 @@ def clip_action(
     return np.minimum(np.maximum(a, low), high)
 
 
-def step_context(
-    world: Any,
-    index: int,
-    state: KinematicState,
-    action: np.ndarray,
-    collision: bool,
-    out_of_bounds: bool,
-    crashed: bool,
-    signals: Any,
-    waypoint_reached: bool,
-    steps_remaining: int,
-    agent_dt: float,
-) -> StepContext:
-    """The reward context of vehicle ``index``'s step; ``signals`` the task's (``complete``,
-    ``target_distance``, ``target_distance_rate``, ``extras``)."""
+@dataclass(slots=True)
+class AgentStep:
+    """What one agent's step was, as the termination terms and the reward context read it.
+
+    Attributes:
+        index: the agent's index (its vehicle's in the World).
+        state: its vehicle's state at the end of the step.
+        action: the action it applied (clipped to the bounds).
+        collision: its vehicle touched anything (ground included) during the step.
+        out_of_bounds: its centre of mass is outside the flight dome.
+        signals: the task's signals of its step (``complete``, ``failed``, ``target_distance``,
+            ``target_distance_rate``, ``waypoint_reached``, ``extras``).
+        steps: agent steps since the reset, this one included.
+    """
+
+    index: int
+    state: KinematicState
+    action: np.ndarray
+    collision: bool
+    out_of_bounds: bool
+    signals: Any
+    steps: int
+
+
+def step_context(world: Any, step: AgentStep, *, crashed: bool, steps_remaining: int, agent_dt: float) -> StepContext:
+    """The reward context of one agent's ``step`` (``crashed``: a ``crash`` termination term held)."""
+    signals = step.signals
     return StepContext(
-        state,
-        action,
-        collision,
-        world.collided_with_ground(index) if collision else False,
-        out_of_bounds,
+        step.state,
+        step.action,
+        step.collision,
+        world.collided_with_ground(step.index) if step.collision else False,
+        step.out_of_bounds,
         crashed,
         signals.complete,
         signals.target_distance,
         signals.target_distance_rate,
-        waypoint_reached,
+        signals.waypoint_reached,
         signals.extras,
         steps_remaining,
         agent_dt,

@@ -80,7 +80,7 @@ def test_both_fronts_run_the_one_episode_core():
             assert getattr(front, piece) is getattr(EpisodeCore, piece), (front.__name__, piece)
     env = UAVEnv("quadx_hover")
     try:
-        assert isinstance(env._tasks, OneAgentTask) and env._tasks.task is env.task
+        assert isinstance(env.tasks, OneAgentTask) and env.tasks.task is env.task
         env.reset(seed=3)
         env.step(np.array([0.0, 0.0, 0.0, 0.5]))
         assert env.elapsed_steps == 1 and env.vehicles == [env.vehicle]
