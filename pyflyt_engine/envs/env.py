@@ -153,14 +153,14 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         self.estimator = parts.estimators[0] if parts.estimators is not None else None
 
         self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
-        aux_size = self.world.aux_state(0).size + int(self._fix_flag[0])
+        aux_size = self.world.aux_state(0).size + int(self.fix_flag[0])
         size = observe.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
             self.observation_space = observe.with_image_space(self.observation_space, cfg.camera_observation)
-        if self._range_sensors[0]:
-            self.observation_space = observe.with_range_spaces(self.observation_space, self._range_sensors[0])
+        if self.range_sensors[0]:
+            self.observation_space = observe.with_range_spaces(self.observation_space, self.range_sensors[0])
         self._markers = None
         if render_mode is not None:
             from pyflyt_engine.envs.render import Markers

@@ -35,7 +35,7 @@ import numpy as np
 
 from pyflyt_engine.envs import assembly
 from pyflyt_engine.envs.guard import all_finite, divergence_error
-from pyflyt_engine.envs.observe import attitude_vector, estimated_state, sensed_state, with_readings
+from pyflyt_engine.envs.observe import Observation
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.step import AgentStep, clip_action, step_context
 from pyflyt_engine.envs.terminations import Terminations, bind_terminations, outside_dome
@@ -183,16 +183,15 @@ class EpisodeCore:
         #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
         self.latency_steps = parts.latency_steps
         #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
-        self._cameras = parts.cameras
+        self.cameras = parts.cameras
         #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
-        self._sensed = parts.sensed
+        self.sensed = parts.sensed
         #: per agent, its flight controller's state estimator its observation is built from (None: none)
         self.estimators = parts.estimators
         #: per agent, whether its position fix's validity flag follows its auxiliary state
-        self._fix_flag = parts.fix_flag
+        self.fix_flag = parts.fix_flag
         #: per agent, the range sensors observed (every one its airframe carries), in spec order
-        self._range_sensors = parts.range_sensors
-        self._readings = cfg.camera_observation is not None or any(parts.range_sensors)
+        self.range_sensors = parts.range_sensors
         #: per agent, its copy of the config's payloads; empty without payloads
         self.agent_payloads = parts.payloads
         #: the config's obstacles (None without): fixed ones built with the world, layouts drawn at each reset
@@ -201,6 +200,8 @@ class EpisodeCore:
         self.randomizer = parts.randomizer
         #: the config's termination terms bound to this episode (pyflyt_engine.envs.terminations)
         self.terminations: Terminations = bind_terminations(cfg.terminations, self)
+        #: the observation terms the config's sections bind (pyflyt_engine.envs.observe); rebound at each reset
+        self.observation = Observation(self)
 
     # ------------------------------------------------------------------ reset
 
@@ -216,6 +217,7 @@ class EpisodeCore:
         drawn, states = assembly.reset_episode(self._parts, seed, rng, spawn, start_task)
         self.last_randomization = dict(drawn) if drawn is not None else {}
         self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
+        self.observation.reset()
         return states
 
     def _reset_info(self, i: int) -> dict[str, Any]:
@@ -299,29 +301,9 @@ class EpisodeCore:
         return results
 
     def _observe(self, i: int, states: list[KinematicState]) -> Any:
-        """Agent ``i``'s observation of ``states`` (every agent's, in agent order)."""
-        vehicle = self.vehicles[i]
-        if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
-            delayed = [v.delayed_observation() for v in self.vehicles]
-            states, aux = [state for state, _ in delayed], delayed[i][1]
-        else:
-            aux = vehicle.aux_values()
-        if self._sensed is not None:  # its own rates and position as its sensors read them
-            suite = self._sensed[i]
-            states = [*states]
-            if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
-                states[i] = estimated_state(states[i], suite, self.estimators[i])
-            else:
-                states[i] = sensed_state(states[i], suite)
-            if self._fix_flag[i]:
-                aux = [*aux, suite.position_valid]
-        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        observation = self.tasks.observation(i, attitude, states)
-        if not self._readings:
-            return observation
-        return with_readings(
-            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
-        )
+        """Agent ``i``'s observation of ``states`` (every agent's, in agent order), built by
+        the observation terms bound to this episode (:class:`~pyflyt_engine.envs.observe.Observation`)."""
+        return self.observation(i, states)
 
     def _check(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Never NaN: raise :class:`~pyflyt_engine.errors.SimulationError` if agent ``i``'s

@@ -12,8 +12,8 @@ the camera image and range-sensor readings beside the task's observation.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -174,3 +174,170 @@ def with_readings(
     if isinstance(observation, dict):
         return {**observation, c.key: image}
     return {"attitude": observation, c.key: image}
+
+
+# --------------------------------------------------------------- observation terms
+#
+# An agent's observation is built by the observation terms its env config's sections bind
+# (``latency``/``randomize`` delays, ``sensors``, ``range_sensors``, ``camera_observation``):
+# a *source* gives every vehicle's state and the agent's auxiliary state, *views* replace the
+# agent's own state with what its sensors or estimator see, then the attitude vector and the
+# task's observation are built, and *extras* add entries beside them.  Each term binds to an
+# episode (None where its section is absent) and the episode core runs what is bound, with
+# no branch of its own per feature.
+
+
+class ObservationTerm(NamedTuple):
+    """A registered observation term: where it acts (``source``, ``view`` or ``extra``) and
+    ``bind(episode)``, its stage for one built episode or None (its config section is absent)."""
+
+    bind: Callable[[Any], Callable[..., Any] | None]
+    slot: str
+
+    @property
+    def description(self) -> str:
+        return (self.bind.__doc__ or "").strip().splitlines()[0]
+
+
+def _current(episode: Any) -> Callable[[int, list[KinematicState]], tuple[list[KinematicState], Any]]:
+    vehicles = episode.vehicles
+
+    def source(i: int, states: list[KinematicState]) -> tuple[list[KinematicState], Any]:
+        return states, vehicles[i].aux_values()
+
+    return source
+
+
+def delayed_state(episode: Any) -> Callable[..., Any] | None:
+    """Every vehicle as it was observation_delay ago (latency, randomize observation_delay; drawn per reset)."""
+    if not episode.latency_steps[1]:
+        return None
+    vehicles = episode.vehicles
+
+    def source(i: int, states: list[KinematicState]) -> tuple[list[KinematicState], Any]:
+        delayed = [v.delayed_observation() for v in vehicles]
+        return [state for state, _ in delayed], delayed[i][1]
+
+    return source
+
+
+def _with_fix_flag(episode: Any, i: int, aux: Any, suite: Any) -> Any:
+    return [*aux, suite.position_valid] if episode.fix_flag[i] else aux
+
+
+def sensor_state(episode: Any) -> Callable[..., Any] | None:
+    """The agent's rates and position as its noisy sensors read them, the fix's validity flag after aux (sensors.observe)."""
+    if episode.sensed is None or episode.estimators is not None:
+        return None
+    sensed = episode.sensed
+
+    def view(i: int, states: list[KinematicState], aux: Any) -> tuple[list[KinematicState], Any]:
+        suite = sensed[i]
+        states = [*states]
+        states[i] = sensed_state(states[i], suite)
+        return states, _with_fix_flag(episode, i, aux, suite)
+
+    return view
+
+
+def estimator_state(episode: Any) -> Callable[..., Any] | None:
+    """The agent's attitude, velocity and position from its flight controller's estimator, its gyro's rates (sensors.estimator)."""
+    if episode.sensed is None or episode.estimators is None:
+        return None
+    sensed, estimators = episode.sensed, episode.estimators
+
+    def view(i: int, states: list[KinematicState], aux: Any) -> tuple[list[KinematicState], Any]:
+        suite = sensed[i]
+        states = [*states]
+        states[i] = estimated_state(states[i], suite, estimators[i])
+        return states, _with_fix_flag(episode, i, aux, suite)
+
+    return view
+
+
+def range_readings(episode: Any) -> Callable[..., Any] | None:
+    """Each range sensor's readings under its name; the task's observation under attitude (range_sensors)."""
+    if not any(episode.range_sensors):
+        return None
+    world, sensors = episode.world, episode.range_sensors
+
+    def extra(i: int, observation: Any) -> Any:
+        if not sensors[i]:
+            return observation
+        if not isinstance(observation, dict):
+            observation = {"attitude": observation}
+        for k, sensor in enumerate(sensors[i]):
+            observation[sensor.name] = world.scan(i, k)
+        return observation
+
+    return extra
+
+
+def camera_image(episode: Any) -> Callable[..., Any] | None:
+    """The onboard camera's image under its key; the task's observation under attitude (camera_observation)."""
+    c = episode.config.camera_observation
+    if c is None:
+        return None
+    world, cameras = episode.world, episode.cameras
+
+    def extra(i: int, observation: Any) -> Any:
+        rgba = world.vehicles[i].capture(cameras[i])["rgba"]
+        image = rgba[:, :, :3] if c.channels == "rgb" else rgba
+        image = np.ascontiguousarray(image.transpose(2, 0, 1) if c.channel_first else image)
+        if isinstance(observation, dict):
+            return {**observation, c.key: image}
+        return {"attitude": observation, c.key: image}
+
+    return extra
+
+
+#: Every observation term, in the order the stages of a slot run.
+OBSERVATION_TERMS: dict[str, ObservationTerm] = {
+    "delayed_state": ObservationTerm(delayed_state, "source"),
+    "sensor_state": ObservationTerm(sensor_state, "view"),
+    "estimator_state": ObservationTerm(estimator_state, "view"),
+    "range_readings": ObservationTerm(range_readings, "extra"),
+    "camera_image": ObservationTerm(camera_image, "extra"),
+}
+
+
+class Observation:
+    """An episode's observation pipeline: ``observation(i, states)`` is agent ``i``'s
+    observation of ``states`` (every agent's true state, in agent order), built by the
+    observation terms bound to ``episode`` (an :class:`~pyflyt_engine.envs.episode.EpisodeCore`).
+
+    :meth:`reset` binds them again at every reset (a delay drawn per episode starts or
+    stops the delayed source); the names bound are :attr:`bound`.
+    """
+
+    def __init__(self, episode: Any) -> None:
+        self.episode = episode
+        self.reset()
+
+    def reset(self) -> None:
+        """Bind the terms to the episode as it is now (after its reset's draws)."""
+        episode = self.episode
+        stages: dict[str, list[tuple[str, Callable[..., Any]]]] = {"source": [], "view": [], "extra": []}
+        for name, term in OBSERVATION_TERMS.items():
+            stage = term.bind(episode)
+            if stage is not None:
+                stages[term.slot].append((name, stage))
+        if len(stages["source"]) > 1:
+            raise ValueError(f"observation terms {[n for n, _ in stages['source']]} are all sources: one may bind")
+        #: the names of the terms bound, in the order they run
+        self.bound = tuple(name for slot in stages.values() for name, _ in slot)
+        self._source = stages["source"][0][1] if stages["source"] else _current(episode)
+        self._views = tuple(stage for _, stage in stages["view"])
+        self._extras = tuple(stage for _, stage in stages["extra"])
+        self._quaternion = episode.config.angle_representation == "quaternion"
+
+    def __call__(self, i: int, states: list[KinematicState]) -> Any:
+        states, aux = self._source(i, states)
+        for view in self._views:
+            states, aux = view(i, states, aux)
+        episode = self.episode
+        attitude = attitude_vector(states[i], self._quaternion, episode._actions[i].tolist(), aux)
+        observation = episode.tasks.observation(i, attitude, states)
+        for extra in self._extras:
+            observation = extra(i, observation)
+        return observation

@@ -161,11 +161,11 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
             agent_names=self.possible_agents,
             alive=self._alive,
         )
-        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
+        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self.fix_flag)}
         if len(aux) > 1:
             self.world.close()
             sizes = ", ".join(
-                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag)
+                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self.fix_flag)
             )
             raise ConfigError(
                 "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
@@ -178,15 +178,15 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         if cfg.camera_observation is not None:
             obs_space = observe.with_image_space(obs_space, cfg.camera_observation)
-        if any(self._range_sensors):
-            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
+        if any(self.range_sensors):
+            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self.range_sensors}
             if len(layouts) > 1:
                 self.world.close()
                 raise ConfigError(
                     "agents: every agent must observe the same range sensors (one policy is shared): their airframes "
                     "carry different ones; give the range sensors in the env config's range_sensors only"
                 )
-            obs_space = observe.with_range_spaces(obs_space, self._range_sensors[0])
+            obs_space = observe.with_range_spaces(obs_space, self.range_sensors[0])
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
