@@ -4,7 +4,7 @@ The single-agent loop (:class:`~pyflyt_engine.envs.env.UAVEnv`) and the multi-ag
 (:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) share, through the
 episode core (:mod:`pyflyt_engine.envs.episode`):
 
-* :mod:`pyflyt_engine.envs.assembly` -- the config, what an episode flies and how it starts
+* :mod:`pyflyt_engine.envs.build` -- the config, what an episode flies and how it starts
   (:func:`load_config`, :func:`build_episode`, :func:`reset_episode`, :func:`task_changes`);
 * :mod:`pyflyt_engine.envs.step` -- the action clipping and the reward context of a step;
 * :mod:`pyflyt_engine.envs.terminations` -- how a step ends an agent's episode;
@@ -16,7 +16,7 @@ episode core (:mod:`pyflyt_engine.envs.episode`):
 
 from __future__ import annotations
 
-from pyflyt_engine.envs.assembly import (
+from pyflyt_engine.envs.build import (
     EpisodeParts,
     build_episode,
     check_render_mode,

@@ -2,8 +2,8 @@
 
 An env's *front* -- the Gymnasium :class:`~pyflyt_engine.envs.env.UAVEnv` (one agent) or
 the PettingZoo :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv` (N agents)
--- builds the episode (:func:`~pyflyt_engine.envs.assembly.build_episode`), starts it
-(:func:`~pyflyt_engine.envs.assembly.reset_episode`) and speaks its API; everything between
+-- builds the episode (:func:`~pyflyt_engine.envs.build.build_episode`), starts it
+(:func:`~pyflyt_engine.envs.build.reset_episode`) and speaks its API; everything between
 an action and the next observation is here, once::
 
     act(i, action)            each acting agent: clip to the bounds, set the flight mode's setpoint
@@ -33,7 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pyflyt_engine.envs import assembly
+from pyflyt_engine.envs import build
 from pyflyt_engine.envs.guard import all_finite, divergence_error
 from pyflyt_engine.envs.observe import Observation
 from pyflyt_engine.envs.rewards import RewardFunction
@@ -144,7 +144,7 @@ class EpisodeCore:
     def _init_core(
         self,
         cfg: Any,
-        parts: assembly.EpisodeParts,
+        parts: build.EpisodeParts,
         tasks: AgentTasks,
         reward_function: RewardFunction,
         *,
@@ -152,10 +152,10 @@ class EpisodeCore:
         agent_names: Sequence[str] | None = None,
         alive: np.ndarray | None = None,
     ) -> None:
-        """Take over what :func:`~pyflyt_engine.envs.assembly.build_episode` built; ``alive``: the
+        """Take over what :func:`~pyflyt_engine.envs.build.build_episode` built; ``alive``: the
         (N,) live flags to keep up to date (a multi-agent task reads them), else new ones."""
         self.config = cfg
-        #: what the episode flies (:class:`~pyflyt_engine.envs.assembly.EpisodeParts`)
+        #: what the episode flies (:class:`~pyflyt_engine.envs.build.EpisodeParts`)
         self._parts = parts
         self.world = parts.world
         #: the agents' vehicles, in agent order (a front may wrap them: the core drives these)
@@ -208,13 +208,13 @@ class EpisodeCore:
     def _reset_core(
         self, seed: int | None, rng: np.random.Generator, spawn: Any, start_task: Any
     ) -> list[KinematicState]:
-        """Start an episode (:func:`~pyflyt_engine.envs.assembly.reset_episode`): every agent
+        """Start an episode (:func:`~pyflyt_engine.envs.build.reset_episode`): every agent
         alive, no action yet, step 0; the vehicles' states."""
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self._reward_terms]
         self._alive[:] = True
-        drawn, states = assembly.reset_episode(self._parts, seed, rng, spawn, start_task)
+        drawn, states = build.reset_episode(self._parts, seed, rng, spawn, start_task)
         self.last_randomization = dict(drawn) if drawn is not None else {}
         self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
         self.observation.reset()
@@ -223,8 +223,8 @@ class EpisodeCore:
     def _reset_info(self, i: int) -> dict[str, Any]:
         """Agent ``i``'s info at a reset."""
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
-        if self.randomizer is not None:
-            info["randomization"] = dict(self.last_randomization)
+        for event in self._parts.events:  # their info entries (randomization)
+            event.reset_info(info)
         for judge in self.terminations.judges:  # their info entries (payload_ground_contact, ...)
             judge.reset_info(i, info)
         info.update(self.tasks.reset_info(i))

@@ -33,7 +33,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from pyflyt_engine.envs import assembly, observe
+from pyflyt_engine.envs import build, observe
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.episode import EpisodeCore
 from pyflyt_engine.envs.multi_agent.config import get_ma_task
@@ -97,7 +97,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         airframes: Mapping[str, UAVSpec] | None = None,
         **overrides: Any,
     ) -> None:
-        cfg = assembly.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
+        cfg = build.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
         if not isinstance(cfg, MultiAgentEnvConfig):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
@@ -107,7 +107,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} runs task '{task_cls.name}', the config declares '{cfg.task.name}'"
             )
-        assembly.check_render_mode(render_mode, self.metadata["render_modes"])
+        build.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -127,7 +127,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
                 specs[agent.uav] = load_uav_spec(agent.uav)
         # the World, each agent's payloads (each named ``<agent>-<payload>``), the obstacles,
         # latency, sensors, estimators, range sensors and randomiser: as for a single agent
-        parts = assembly.build_episode(
+        parts = build.build_episode(
             cfg,
             [specs[a.uav] for a in self.agent_list],
             [(a.spawn.position, a.spawn.orientation) for a in self.agent_list],
@@ -279,7 +279,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         if options:
             if not isinstance(options, Mapping):
                 raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
-            changes = assembly.task_changes({"task": options["task"]}) if "task" in options else None
+            changes = build.task_changes({"task": options["task"]}) if "task" in options else None
             other = sorted(str(k) for k in options if k != "task")
             if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
                 warnings.warn(

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from pyflyt_engine.envs.config import EnvConfig, load_env_config
+from pyflyt_engine.envs.events import ResetEvent, bind_events
 from pyflyt_engine.envs.observe import with_observation_camera, with_range_sensors, with_sensors
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.errors import ConfigError
@@ -93,6 +94,7 @@ class EpisodeParts:
         fix_flag: per vehicle, whether its position fix's validity flag follows its auxiliary state.
         range_sensors: per vehicle, the range sensors observed (every one it carries), in spec order.
         randomizer: samples ``config.randomize`` at each reset (None without).
+        events: the reset events that apply (:mod:`pyflyt_engine.envs.events`), in their order.
     """
 
     world: World
@@ -106,6 +108,11 @@ class EpisodeParts:
     fix_flag: list[bool]
     range_sensors: list[list[Any]]
     randomizer: Randomizer | None
+    events: tuple[ResetEvent, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.events:
+            self.events = bind_events(self)
 
 
 def build_episode(
@@ -224,28 +231,32 @@ def reset_episode(
     """Start an episode of what :func:`build_episode` built, in one order for one agent or N.
 
     The World is reset (restoring its first snapshot, reseeding its own streams with
-    ``seed``), the randomiser draws this episode's values from ``rng``, then, vehicle by
-    vehicle in agent order, ``spawn(i)`` gives its :class:`~pyflyt_engine.envs.tasks.base.Spawn`
-    (drawing from ``rng`` if it draws), the drawn spawn offsets move it and the vehicle is
-    put there; then every payload is placed, ``start_task(states)`` starts the task on the
-    vehicles' states and returns the points obstacles must keep clear of besides the
-    vehicles, and the obstacle layouts are drawn from ``rng``.
+    ``seed``), the reset events (:mod:`pyflyt_engine.envs.events`) draw this episode's
+    values from ``rng`` (domain randomisation), then, vehicle by vehicle in agent order,
+    ``spawn(i)`` gives its :class:`~pyflyt_engine.envs.tasks.base.Spawn` (drawing from
+    ``rng`` if it draws), the events move it (the drawn spawn offsets) and the vehicle is
+    put there; then the events place every payload, ``start_task(states)`` starts the task
+    on the vehicles' states and returns the points obstacles must keep clear of besides the
+    vehicles, and the events draw the obstacle layouts from ``rng``.
 
     Returns:
         the values drawn (None without randomisation) and the vehicles' states.
     """
     parts.world.reset(seed)
-    drawn = parts.randomizer.sample(rng) if parts.randomizer is not None else None
+    events = parts.events
+    for event in events:
+        event.draw(rng)
     for i, vehicle in enumerate(parts.vehicles):
         s = spawn(i)
         position, orientation = s.position, s.orientation
-        if drawn is not None:
-            position, orientation = Randomizer.spawn(drawn, position, orientation)
+        for event in events:
+            position, orientation = event.spawn(i, position, orientation)
         vehicle.reset(position, orientation, lin_vel=s.lin_vel, ang_vel=s.ang_vel)
-    for payloads in parts.payloads:  # after every vehicle is placed
-        payloads.place()
+    for event in events:  # after every vehicle is placed
+        event.placed()
     states = [v.state for v in parts.vehicles]
     keep_clear = start_task(states)
-    if parts.obstacles is not None:  # this episode's layouts, clear of every spawn point and the task's points
-        parts.obstacles.generate(rng, [*(state.lin_pos for state in states), *np.asarray(keep_clear).reshape(-1, 3)])
+    for event in events:
+        event.started(rng, states, keep_clear)
+    drawn = next((event.drawn for event in events if event.drawn is not None), None)
     return drawn, states
