@@ -13,8 +13,10 @@ an action and the next observation is here, once::
                               truncate: pyflyt_engine.envs.terminations), the reward preset,
                               success, the info (with the task's success measures on an
                               agent's last step)
-    observe(i, states)        per acting agent: latency, sensors or estimator, the attitude
-                              vector, the task's observation, camera image and range scans
+    observe(i, states)        per acting agent: the observation terms the config's sections
+                              bind (pyflyt_engine.envs.observe: the delayed state, the sensors'
+                              or estimator's view), the attitude vector, the task's
+                              observation, camera image and range scans
     check(...)                never NaN: a non-finite observation or reward raises
 
 The task is asked through one per-agent protocol, :class:`AgentTasks`: a multi-agent
