@@ -27,7 +27,7 @@ so the reset has no branch of its own per feature.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -39,6 +39,8 @@ class ResetEvent:
     """One reset event bound to one episode; every hook does nothing by default."""
 
     __slots__ = ()
+    #: the event's key in :data:`RESET_EVENTS`
+    name: ClassVar[str] = ""
 
     def draw(self, rng: np.random.Generator) -> None:
         """Before the spawns: draw this episode's values from ``rng``."""
@@ -65,6 +67,7 @@ class ResetEvent:
 
 class _Randomize(ResetEvent):
     __slots__ = ("randomizer", "values")
+    name = "randomize"
 
     def __init__(self, randomizer: Randomizer) -> None:
         self.randomizer = randomizer
@@ -91,6 +94,7 @@ def randomize(parts: Any) -> ResetEvent | None:
 
 class _PlacePayloads(ResetEvent):
     __slots__ = ("payloads",)
+    name = "place_payloads"
 
     def __init__(self, payloads: list[Any]) -> None:
         self.payloads = payloads
@@ -107,6 +111,7 @@ def place_payloads(parts: Any) -> ResetEvent | None:
 
 class _ObstacleLayouts(ResetEvent):
     __slots__ = ("obstacles",)
+    name = "obstacle_layouts"
 
     def __init__(self, obstacles: Any) -> None:
         self.obstacles = obstacles
