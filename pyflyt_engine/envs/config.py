@@ -114,6 +114,11 @@ class TerminationConfig(_Config):
     )
 
 
+def _default_terminations() -> dict[str, TerminationConfig | None]:
+    """The declaration of every shipped env (``conf/env/_base.yaml``): a config's default."""
+    return {k: TerminationConfig(**v) for k, v in terminations.DEFAULT_TERMINATIONS.items()}
+
+
 def _check_terminations(value: dict[str, TerminationConfig | None]) -> dict[str, TerminationConfig | None]:
     terminations.declared(value)  # names and parameters, at load
     return value
@@ -349,7 +354,7 @@ class EnvConfig(_Config):
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
     terminations: Annotated[dict[str, TerminationConfig | None], AfterValidator(_check_terminations)] = Field(
-        default_factory=lambda: {k: TerminationConfig(**v) for k, v in terminations.DEFAULT_TERMINATIONS.items()},
+        default_factory=_default_terminations,
         description="what ends an episode: entry -> registered termination term (crash, end or truncate) and its "
         "params, in order; null switches an entry off (pyflyt_engine.envs.terminations, docs/environments.md)",
     )
