@@ -227,8 +227,7 @@ class EpisodeCore:
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
         for event in self._parts.events:  # their info entries (randomization)
             event.reset_info(info)
-        for judge in self.terminations.judges:  # their info entries (payload_ground_contact, ...)
-            judge.reset_info(i, info)
+        self.terminations.reset_info(i, info)  # the terms' entries (payload_ground_contact, ...)
         info.update(self.tasks.reset_info(i))
         return info
 

@@ -199,15 +199,6 @@ class ObservationTerm(NamedTuple):
         return (self.bind.__doc__ or "").strip().splitlines()[0]
 
 
-def _current(episode: Any) -> Callable[[int, list[KinematicState]], tuple[list[KinematicState], Any]]:
-    vehicles = episode.vehicles
-
-    def source(i: int, states: list[KinematicState]) -> tuple[list[KinematicState], Any]:
-        return states, vehicles[i].aux_values()
-
-    return source
-
-
 def delayed_state(episode: Any) -> Callable[..., Any] | None:
     """Every vehicle as it was observation_delay ago (latency, randomize observation_delay; drawn per reset)."""
     if not episode.latency_steps[1]:
@@ -326,18 +317,24 @@ class Observation:
             raise ValueError(f"observation terms {[n for n, _ in stages['source']]} are all sources: one may bind")
         #: the names of the terms bound, in the order they run
         self.bound = tuple(name for slot in stages.values() for name, _ in slot)
-        self._source = stages["source"][0][1] if stages["source"] else _current(episode)
+        #: the source bound, None: the true states, and each vehicle's auxiliary state now
+        self._source = stages["source"][0][1] if stages["source"] else None
         self._views = tuple(stage for _, stage in stages["view"])
         self._extras = tuple(stage for _, stage in stages["extra"])
         self._quaternion = episode.config.angle_representation == "quaternion"
+        self._vehicles = episode.vehicles
+        self._actions = episode._actions  # (N, A), updated in place by the episode
+        self._task_observation = episode.tasks.observation
 
     def __call__(self, i: int, states: list[KinematicState]) -> Any:
-        states, aux = self._source(i, states)
+        if self._source is None:
+            aux = self._vehicles[i].aux_values()
+        else:
+            states, aux = self._source(i, states)
         for view in self._views:
             states, aux = view(i, states, aux)
-        episode = self.episode
-        attitude = attitude_vector(states[i], self._quaternion, episode._actions[i].tolist(), aux)
-        observation = episode.tasks.observation(i, attitude, states)
+        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
+        observation = self._task_observation(i, attitude, states)
         for extra in self._extras:
             observation = extra(i, observation)
         return observation

@@ -26,18 +26,19 @@ and a ``bind(episode, **params)`` that returns the term's judge for one built ep
 :class:`~pyflyt_engine.envs.episode.EpisodeCore`), or None where the rule cannot fire in
 it (``payload_on_ground`` without payloads, ``contact`` where contacts are no crash): the
 episode core loops over the judges of its declared terms, in declaration order, and has no
-branch of its own for any of them.  A judge (:class:`Judge`) is called with the agent's
+branch of its own for any of them.  A judge is called with the agent's
 :class:`~pyflyt_engine.envs.step.AgentStep` and the dict its own info entries go into
 (``payload_ground_contact``, ``obstacle_contact``...: a term's info entries come and go
-with it); its :meth:`Judge.reset_info` gives those entries at a reset.
+with it); a :class:`Judge`'s :meth:`Judge.reset_info` gives those entries at a reset.
 
 The episode's measurements -- ``info["collision"]``, ``info["out_of_bounds"]`` (the
 flight-dome check, :func:`outside_dome`), the task's signals -- are taken whichever terms
 are declared: a term decides only whether they end the episode.
 
-Adding a term: subclass :class:`Judge`, give ``bind`` (a function of the episode and
-keyword parameters with defaults, documented in its first docstring line) and register it
-with :func:`register_termination`; configs can then name it.  The batched backend
+Adding a term: write ``bind`` (a function of the episode and keyword parameters with
+defaults, documented in its first docstring line) returning the judge -- a function of
+the step and the info, or a :class:`Judge` for one with state and reset-info entries --
+and register it with :func:`register_termination`; configs can then name it.  The batched backend
 (:mod:`pyflyt_engine.batched.terms`) reads the same declaration and refuses, by name, a
 term it does not implement.
 """
@@ -66,9 +67,14 @@ def outside_dome(state: KinematicState, dome_squared: float) -> bool:
     return x * x + y * y + z * z > dome_squared
 
 
+#: a bound term: ``judge(step, info) -> bool``, whether the agent's step meets the rule (the
+#: term's kind says what that does to the episode); it may put its own entries into ``info``
+JudgeFn = Callable[["AgentStep", dict[str, Any]], bool]
+
+
 class Judge:
-    """One declared term bound to one episode: ``judge(step, info) -> bool``, whether the
-    agent's step meets the rule (the term's kind says what that does to the episode)."""
+    """A bound term with state and info entries of its own (a plain function of the step
+    and the info is one too): ``judge(step, info) -> bool``, and :meth:`reset_info`."""
 
     __slots__ = ()
 
@@ -83,7 +89,7 @@ class Judge:
 class TerminationTerm:
     """A registered termination term: its kind and how it binds to an episode."""
 
-    bind: Callable[..., Judge | None]
+    bind: Callable[..., JudgeFn | None]
     kind: Kind
 
     @property
@@ -98,68 +104,51 @@ class TerminationTerm:
 # ------------------------------------------------------------------------ terms
 
 
-class _Flag(Judge):
-    """A rule that is one field of the step (a measurement or a task signal)."""
-
-    __slots__ = ("read",)
-
-    def __init__(self, read: Callable[[AgentStep], bool]) -> None:
-        self.read = read
-
-    def __call__(self, step: AgentStep, info: dict[str, Any]) -> bool:
-        return self.read(step)
-
-
-def _collision(step: AgentStep) -> bool:
+def _contact(step: AgentStep, info: dict[str, Any]) -> bool:
     return step.collision
 
 
-def _out_of_bounds(step: AgentStep) -> bool:
+def _out_of_bounds(step: AgentStep, info: dict[str, Any]) -> bool:
     return step.out_of_bounds
 
 
-def _failed(step: AgentStep) -> bool:
+def _failed(step: AgentStep, info: dict[str, Any]) -> bool:
     return step.signals.failed
 
 
-def _complete(step: AgentStep) -> bool:
+def _complete(step: AgentStep, info: dict[str, Any]) -> bool:
     return step.signals.complete
 
 
-def contact(episode: Any, crash_on_contact: bool | None = None) -> Judge | None:
+def contact(episode: Any, crash_on_contact: bool | None = None) -> JudgeFn | None:
     """Any contact of the vehicle (ground included) is a crash; crash_on_contact: null the task's (a landing's is false)."""
     crashes = episode.tasks.crash_on_contact if crash_on_contact is None else bool(crash_on_contact)
-    return _Flag(_collision) if crashes else None
+    return _contact if crashes else None
 
 
-def out_of_dome(episode: Any) -> Judge | None:
+def out_of_dome(episode: Any) -> JudgeFn | None:
     """Leaving the flight dome (|lin_pos| > flight_dome_size) is a crash."""
-    return _Flag(_out_of_bounds)
+    return _out_of_bounds
 
 
-def task_failure(episode: Any) -> Judge | None:
+def task_failure(episode: Any) -> JudgeFn | None:
     """A failure the task declares (its signals' failed: a fatal landing, a shot-down plane) is a crash."""
-    return _Flag(_failed)
+    return _failed
 
 
-def task_complete(episode: Any) -> Judge | None:
+def task_complete(episode: Any) -> JudgeFn | None:
     """The task completed (its signals' complete: the last waypoint reached) ends the episode."""
-    return _Flag(_complete)
+    return _complete
 
 
-class _TimeLimit(Judge):
-    __slots__ = ("max_steps",)
-
-    def __init__(self, max_steps: int) -> None:
-        self.max_steps = max_steps
-
-    def __call__(self, step: AgentStep, info: dict[str, Any]) -> bool:
-        return step.steps >= self.max_steps
-
-
-def time_limit(episode: Any) -> Judge | None:
+def time_limit(episode: Any) -> JudgeFn | None:
     """Truncate after max_duration_seconds of simulated time (max_steps agent steps)."""
-    return _TimeLimit(episode.config.max_steps)
+    max_steps = episode.config.max_steps
+
+    def judge(step: AgentStep, info: dict[str, Any]) -> bool:
+        return step.steps >= max_steps
+
+    return judge
 
 
 class _PayloadOnGround(Judge):
@@ -177,7 +166,7 @@ class _PayloadOnGround(Judge):
         info["payload_ground_contact"] = False
 
 
-def payload_on_ground(episode: Any) -> Judge | None:
+def payload_on_ground(episode: Any) -> JudgeFn | None:
     """A payload that declares ground_contact_fails touching the ground is a crash (info payload_ground_contact)."""
     return _PayloadOnGround(episode.agent_payloads) if episode.agent_payloads else None
 
@@ -200,7 +189,7 @@ class _ObstacleContact(Judge):
         info["obstacles_parked"] = self.obstacles.parked
 
 
-def obstacle_contact(episode: Any) -> Judge | None:
+def obstacle_contact(episode: Any) -> JudgeFn | None:
     """Touching an obstacle is a crash when obstacles.crash_on_contact (info obstacle_contact, obstacles_parked)."""
     obstacles = episode.obstacles
     if obstacles is None:
@@ -277,15 +266,17 @@ def declared(terminations: Mapping[str, Any]) -> list[tuple[str, TerminationTerm
 @dataclass(frozen=True)
 class Terminations:
     """A declaration bound to one episode: the judges of its terms that can fire, by kind
-    (each in declaration order), and every judge for the info entries at a reset."""
+    (each in declaration order), and the reset-info hooks of those that report entries."""
 
-    crash: tuple[Judge, ...]
-    end: tuple[Judge, ...]
-    truncate: tuple[Judge, ...]
+    crash: tuple[JudgeFn, ...]
+    end: tuple[JudgeFn, ...]
+    truncate: tuple[JudgeFn, ...]
+    reset_infos: tuple[Callable[[int, dict[str, Any]], None], ...] = ()
 
-    @property
-    def judges(self) -> tuple[Judge, ...]:
-        return (*self.crash, *self.end, *self.truncate)
+    def reset_info(self, i: int, info: dict[str, Any]) -> None:
+        """Agent ``i``'s entries of the terms at a reset, into ``info``."""
+        for hook in self.reset_infos:
+            hook(i, info)
 
 
 def bind_terminations(terminations: Mapping[str, Any], episode: Any) -> Terminations:
@@ -299,7 +290,7 @@ def bind_terminations(terminations: Mapping[str, Any], episode: Any) -> Terminat
             "pyflyt_engine.envs.terminations.register_termination and name it under terminations (or switch the "
             "default ones off with null, e.g. terminations: {out_of_dome: null})"
         )
-    by_kind: dict[str, list[Judge]] = {kind: [] for kind in KINDS}
+    by_kind: dict[str, list[JudgeFn]] = {kind: [] for kind in KINDS}
     for key, term, params in declared(terminations):
         try:
             judge = term.bind(episode, **params)
@@ -307,4 +298,6 @@ def bind_terminations(terminations: Mapping[str, Any], episode: Any) -> Terminat
             raise ConfigError(f"terminations.{key}: {exc}") from None
         if judge is not None:
             by_kind[term.kind].append(judge)
-    return Terminations(tuple(by_kind["crash"]), tuple(by_kind["end"]), tuple(by_kind["truncate"]))
+    judges = [*by_kind["crash"], *by_kind["end"], *by_kind["truncate"]]
+    hooks = tuple(judge.reset_info for judge in judges if isinstance(judge, Judge))
+    return Terminations(tuple(by_kind["crash"]), tuple(by_kind["end"]), tuple(by_kind["truncate"]), hooks)
