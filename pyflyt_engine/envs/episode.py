@@ -37,7 +37,7 @@ import numpy as np
 
 from pyflyt_engine.envs import build
 from pyflyt_engine.envs.guard import all_finite, divergence_error
-from pyflyt_engine.envs.observe import Observation
+from pyflyt_engine.envs.observe import Observation, attitude_vector
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.step import AgentStep, clip_action, step_context
 from pyflyt_engine.envs.terminations import Terminations, bind_terminations, outside_dome
@@ -177,6 +177,11 @@ class EpisodeCore:
         self._steps = 0
         self._alive = alive if alive is not None else np.zeros(n, dtype=bool)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
+        #: per agent, its AgentStep record: what its last step was (rewritten by each :meth:`_judge`)
+        self._agent_steps = [
+            AgentStep(i, None, self._actions[i], False, False, None, 0)  # type: ignore[arg-type]  # (set at each step)
+            for i in range(n)
+        ]
         #: put each agent's reward breakdown into its step info as ``reward_terms``
         self.info_reward_terms = bool(info_reward_terms)
         #: the values drawn at the last reset (empty without randomisation)
@@ -267,7 +272,13 @@ class EpisodeCore:
         for i in live:
             state = states[i]
             sig = signals[i]
-            step = AgentStep(i, state, self._actions[i], collisions[i], outside_dome(state, self._dome2), sig, steps)
+            step = self._agent_steps[i]  # the agent's record, rewritten each step (cheaper than a new one)
+            step.state = state
+            step.action = self._actions[i]
+            step.collision = collisions[i]
+            step.out_of_bounds = outside_dome(state, self._dome2)
+            step.signals = sig
+            step.steps = steps
             entries: dict[str, Any] = {}  # the terms' own info entries
             crashed = False
             for judge in terms.crash:
@@ -303,8 +314,21 @@ class EpisodeCore:
 
     def _observe(self, i: int, states: list[KinematicState]) -> Any:
         """Agent ``i``'s observation of ``states`` (every agent's, in agent order), built by
-        the observation terms bound to this episode (:class:`~pyflyt_engine.envs.observe.Observation`)."""
-        return self.observation(i, states)
+        the observation terms bound to this episode (:class:`~pyflyt_engine.envs.observe.Observation`):
+        the source's states and aux, each view's, the attitude vector and the task's
+        observation, then each extra's entries."""
+        terms = self.observation
+        if terms.source is None:
+            aux = self.vehicles[i].aux_values()
+        else:
+            states, aux = terms.source(i, states)
+        for view in terms.views:
+            states, aux = view(i, states, aux)
+        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
+        observation = self.tasks.observation(i, attitude, states)
+        for extra in terms.extras:
+            observation = extra(i, observation)
+        return observation
 
     def _check(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Never NaN: raise :class:`~pyflyt_engine.errors.SimulationError` if agent ``i``'s

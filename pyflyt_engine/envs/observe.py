@@ -293,9 +293,11 @@ OBSERVATION_TERMS: dict[str, ObservationTerm] = {
 
 
 class Observation:
-    """An episode's observation pipeline: ``observation(i, states)`` is agent ``i``'s
-    observation of ``states`` (every agent's true state, in agent order), built by the
-    observation terms bound to ``episode`` (an :class:`~pyflyt_engine.envs.episode.EpisodeCore`).
+    """The observation terms bound to an episode (an :class:`~pyflyt_engine.envs.episode.EpisodeCore`),
+    by slot: :attr:`source` (None: the true states and each vehicle's auxiliary state now),
+    :attr:`views` and :attr:`extras`, which the episode core runs around the attitude vector
+    and the task's observation (:meth:`EpisodeCore._observe
+    <pyflyt_engine.envs.episode.EpisodeCore._observe>`).
 
     :meth:`reset` binds them again at every reset (a delay drawn per episode starts or
     stops the delayed source); the names bound are :attr:`bound`.
@@ -317,24 +319,9 @@ class Observation:
             raise ValueError(f"observation terms {[n for n, _ in stages['source']]} are all sources: one may bind")
         #: the names of the terms bound, in the order they run
         self.bound = tuple(name for slot in stages.values() for name, _ in slot)
-        #: the source bound, None: the true states, and each vehicle's auxiliary state now
-        self._source = stages["source"][0][1] if stages["source"] else None
-        self._views = tuple(stage for _, stage in stages["view"])
-        self._extras = tuple(stage for _, stage in stages["extra"])
-        self._quaternion = episode.config.angle_representation == "quaternion"
-        self._vehicles = episode.vehicles
-        self._actions = episode._actions  # (N, A), updated in place by the episode
-        self._task_observation = episode.tasks.observation
-
-    def __call__(self, i: int, states: list[KinematicState]) -> Any:
-        if self._source is None:
-            aux = self._vehicles[i].aux_values()
-        else:
-            states, aux = self._source(i, states)
-        for view in self._views:
-            states, aux = view(i, states, aux)
-        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        observation = self._task_observation(i, attitude, states)
-        for extra in self._extras:
-            observation = extra(i, observation)
-        return observation
+        #: ``source(i, states) -> (states, aux)``; None: the true states, the vehicle's aux now
+        self.source: Callable[..., Any] | None = stages["source"][0][1] if stages["source"] else None
+        #: ``view(i, states, aux) -> (states, aux)``, in order
+        self.views = tuple(stage for _, stage in stages["view"])
+        #: ``extra(i, observation) -> observation``, in order
+        self.extras = tuple(stage for _, stage in stages["extra"])

@@ -43,6 +43,9 @@ class AgentStep:
         signals: the task's signals of its step (``complete``, ``failed``, ``target_distance``,
             ``target_distance_rate``, ``waypoint_reached``, ``extras``).
         steps: agent steps since the reset, this one included.
+
+    The episode core keeps one per agent and rewrites it at each step: a termination term
+    reads it during its call and keeps what it needs, not the record.
     """
 
     index: int
