@@ -109,9 +109,7 @@ class TerminationConfig(_Config):
     term: str | None = Field(
         None, description="registered termination term (default: the entry's key); see pyflyt_engine.envs.terminations"
     )
-    params: dict[str, Union[bool, float, str]] = Field(
-        default_factory=dict, description="keyword parameters of the term"
-    )
+    params: dict[str, Union[bool, float]] = Field(default_factory=dict, description="keyword parameters of the term")
 
 
 def _default_terminations() -> dict[str, TerminationConfig | None]:
