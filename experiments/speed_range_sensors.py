@@ -51,7 +51,7 @@ from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components.range_sensor import RAY_MASK, RAY_SKIP_GROUP
 from pyflyt_engine.envs import make_env
 from pyflyt_engine.envs.config import load_env_config
-from pyflyt_engine.envs.core import all_finite
+from pyflyt_engine.envs.guard import all_finite
 
 RESOLUTIONS = ((8, 6), (16, 12), (32, 24), (64, 48))
 PREVIOUS = "LiDAR 64 beams, previous cast"

@@ -29,6 +29,7 @@ def list_envs() -> str:
     from pyflyt_engine.envs import ENVS, make_env
     from pyflyt_engine.envs.config import load_reward_preset
     from pyflyt_engine.envs.rewards import CONDITIONS, TERMS
+    from pyflyt_engine.envs.terminations import TERMINATIONS
 
     lines = []
     for env_id, entry in ENVS.items():
@@ -71,6 +72,7 @@ def list_envs() -> str:
     lines += list_multi_agent_envs()
     lines.append("reward terms: " + ", ".join(TERMS))
     lines.append("conditions:   " + ", ".join(CONDITIONS) + " (each also as not_<name>)")
+    lines.append("terminations: " + ", ".join(f"{name} ({term.kind})" for name, term in TERMINATIONS.items()))
     lines.append(
         "make one: gymnasium.make(id, sparse_reward=True, angle_representation='euler', ...) after import pyflyt_engine"
     )

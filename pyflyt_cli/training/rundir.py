@@ -46,6 +46,7 @@ from typing import Any
 import yaml
 
 from pyflyt_cli.training.schema import OPT_INS, TrainConfig, parse_train_config
+from pyflyt_engine.envs.terminations import DEFAULT_TERMINATIONS
 from pyflyt_engine.errors import ConfigError, PyFlytError
 from pyflyt_engine.safe_load import MAX_YAML_BYTES, plain_name, read_bytes
 
@@ -338,6 +339,11 @@ LATER_KEYS = {
 }
 
 
+#: ``env.terminations`` as every env declared it before it was a key (conf/env/_base.yaml):
+#: left out of the identity, so older runs keep their digest; any other declaration counts
+_DEFAULT_TERMINATIONS = {name: {"term": None, "params": {}} for name in DEFAULT_TERMINATIONS}
+
+
 def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
     """The flattened settings that define what a run computes (``key.path -> value``).
 
@@ -351,6 +357,8 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     data = cfg.model_dump(mode="json") if isinstance(cfg, TrainConfig) else json.loads(json.dumps(cfg))
     if isinstance(data.get("env"), dict):
         _inline_preset_files(data["env"])
+        if data["env"].get("terminations") == _DEFAULT_TERMINATIONS:  # every env's before it was a key
+            del data["env"]["terminations"]
     flat: dict[str, Any] = {}
 
     def walk(node: Any, prefix: str) -> None:

@@ -154,13 +154,15 @@ def distance_rows(index, pos, goals, last_position, last_distance):
 
 
 @njit(cache=True)
-def ends(pos, contact, complete, steps, max_steps, dome2, crash_on_contact, succeeds_at_time_limit):
+def ends(pos, contact, complete, steps, max_steps, dome2, crash_on_contact, succeeds_at_time_limit, dome_ends,
+         complete_ends, time_ends):  # fmt: skip
     """How each env's step ended, from its position, ``contact``, ``complete`` (the task done)
     and ``steps`` taken: ``(collision, out_of_bounds, crashed, terminated, truncated,
     steps_remaining, success)``, new arrays.  Out of bounds: ``x x + y y + z z > dome2``; a
-    crash: out of bounds, or a contact where the task crashes on one; terminated: a crash or
-    complete; truncated: not terminated at ``max_steps``; success: complete without a crash,
-    or truncated where the task succeeds at its time limit."""
+    crash: out of bounds where ``dome_ends``, or a contact where the task crashes on one;
+    terminated: a crash, or complete where ``complete_ends``; truncated: not terminated at
+    ``max_steps`` where ``time_ends``; success: complete without a crash, or truncated where
+    the task succeeds at its time limit (the termination terms, :mod:`pyflyt_engine.envs.terminations`)."""
     n = pos.shape[0]
     collision = np.empty(n, dtype=np.bool_)
     out = np.empty(n, dtype=np.bool_)
@@ -173,9 +175,9 @@ def ends(pos, contact, complete, steps, max_steps, dome2, crash_on_contact, succ
         x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
         o = x * x + y * y + z * z > dome2
         c = contact[i]
-        crash = o or (c and crash_on_contact)
-        end = crash or complete[i]
-        cut = (not end) and steps[i] >= max_steps
+        crash = (o and dome_ends) or (c and crash_on_contact)
+        end = crash or (complete[i] and complete_ends)
+        cut = time_ends and (not end) and steps[i] >= max_steps
         left = max_steps - steps[i]
         collision[i], out[i], crashed[i], terminated[i], truncated[i] = c, o, crash, end, cut
         remaining[i] = left if left > 0 else 0

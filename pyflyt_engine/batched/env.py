@@ -14,7 +14,7 @@ What an agent sees is what the PyBullet engine's env shows through the training 
 (:func:`pyflyt_cli.training.envs.wrap_for_agent` minus the float32 cast and the action
 rescaling, which the learning library adds for both backends): the attitude vector
 ``[ang_vel, attitude, lin_vel, lin_pos, previous action, aux]`` (the PyBullet engine's
-:func:`~pyflyt_engine.envs.core.attitude_vector`; aux: the motor throttles, then for a
+:func:`~pyflyt_engine.envs.observe.attitude_vector`; aux: the motor throttles, then for a
 fixed-wing each surface's flap deflection over its limit; with a battery, last, its state
 of charge), and for waypoints the
 next ``context_length`` waypoints' body-frame deltas and their mask
@@ -77,7 +77,7 @@ from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
 from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
-from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
 from pyflyt_engine.envs.randomization import SPAWN, Randomizer
 from pyflyt_engine.envs.rewards import compile_reward
@@ -178,6 +178,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         preset = load_reward_preset(cfg.reward_preset_name())
         scalar = compile_reward(preset_name(cfg), preset.terms, self.task.provides, self.task.name)
         self.reward_function = BatchedReward(scalar)
+        #: what ends an episode: the config's termination terms (pyflyt_engine.batched.terms.batched_ends)
+        self._ends = batched_ends(cfg.terminations, bool(self.task.crash_on_contact))
         self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
         self._quaternion = cfg.angle_representation == "quaternion"
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -306,7 +308,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.action_history = delays.get("action_history", np.zeros((n, 0)))
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
 
-        from pyflyt_engine.envs.core import with_sensors
+        from pyflyt_engine.envs.observe import with_sensors
 
         #: the noisy sensors and estimator (pyflyt_engine.batched.sensors; None without a
         #: ``sensors`` section, the env config's or the airframe's)
@@ -937,6 +939,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             distance, rate = bookkeeping.progress(p, self._goals(), self._last_distance, self.agent_dt)
             self._last_distance = distance
         self._last_position = p.copy()
+        ends = self._ends
         collision, out, crashed, terminated, truncated, remaining, success = bookkeeping.ends(
             p,
             self.contact,
@@ -944,8 +947,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.steps,
             self._max_steps,
             self._dome2,
-            bool(getattr(self.task, "crash_on_contact", True)),
+            ends.contact,
             bool(self.task.succeeds_at_time_limit),
+            ends.dome,
+            ends.complete,
+            ends.time_limit,
         )
         ctx = BatchContext(
             ang_vel=self.ang_vel_body,

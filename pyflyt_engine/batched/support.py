@@ -10,6 +10,7 @@ from __future__ import annotations
 from pyflyt_engine.batched.model import batched_model, mode_code, refuse
 from pyflyt_engine.envs.config import EnvConfig
 from pyflyt_engine.batched.randomization import BATCHED_PARAMETERS, MOTOR, unsupported
+from pyflyt_engine.batched.terms import batched_ends
 from pyflyt_engine.spec import load_uav_spec
 
 #: tasks the batched backend runs
@@ -69,6 +70,7 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         if declares_latency(config):
             raise refuse(f"env.latency on an airframe with gimbals (airframe {model.name})")
     mode_code(config.action.mode, model)
+    batched_ends(config.terminations, True)  # a termination term it does not implement, by name
 
 
 __all__ = ["BATCHED_TASKS", "check_keys"]

@@ -88,7 +88,7 @@ from pyflyt_engine.batched.kernels import (
     summed,
 )
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
-from pyflyt_engine.batched.terms import BatchContext, BatchedReward
+from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
@@ -778,6 +778,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             name if isinstance(name, str) else "inline", preset.terms, task_cls.provides, cfg.task.name
         )
         self.reward_function = BatchedReward(scalar)
+        #: what ends an agent's episode: the config's termination terms (pyflyt_engine.batched.terms.batched_ends)
+        self._ends = batched_ends(cfg.terminations, bool(task_cls.crash_on_contact))
         self.motor_noise = bool(motor_noise) and bool(np.any(self.model.noise_ratio > 0))
         self._quaternion = cfg.angle_representation == "quaternion"
         self._low = np.array(cfg.action.low, dtype=np.float64)
@@ -1033,9 +1035,10 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             distance, rate, extras, task_info = self._world_tasks.update(
                 lambda rows: self._states(rows), live, collision, self.steps, self._last_distance, self._extras
             )
-        crashed = out | collision  # the task crashes on any contact
-        terminated = crashed & live
-        truncated = ~terminated & live & (self.steps >= self._max_steps)
+        ends = self._ends
+        crashed = (out & ends.dome) | (collision & ends.contact)  # by default: leaving the dome or any contact
+        terminated = crashed & live  # (neither the hover nor the formation completes or fails an agent)
+        truncated = ~terminated & live & (self.steps >= self._max_steps) & ends.time_limit
         ctx = BatchContext(
             ang_vel=self.ang_vel_body,
             ang_pos=self.ang_pos,

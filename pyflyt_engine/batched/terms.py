@@ -1,4 +1,4 @@
-"""Reward terms and conditions over a batch: the registered scalar terms, evaluated on arrays.
+"""Reward terms, conditions and termination terms over a batch: the registered scalar ones, on arrays.
 
 A batched env compiles its reward preset with the engine's own
 :func:`~pyflyt_engine.envs.rewards.compile_reward` (the same checks, the same messages),
@@ -8,6 +8,13 @@ expression on arrays, in the same order of operations, so every element equals t
 term's value bit for bit (``tests/batched/test_laws.py`` draws random contexts and checks
 every registered pair).  A preset naming a term without a vector form is refused at load,
 by name.
+
+The episode's end is the env config's own declaration (``terminations``,
+:mod:`pyflyt_engine.envs.terminations`), read by :func:`batched_ends`: the batched kernels
+implement the terms ``contact``, ``out_of_dome``, ``task_complete`` and ``time_limit``;
+``task_failure`` holds nothing to do (the batched tasks, hover and waypoints, declare no
+failure) and ``payload_on_ground`` / ``obstacle_contact`` cannot fire (payloads and
+obstacles are refused, :mod:`pyflyt_engine.batched.support`).  Any other term is refused by name.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ import numpy as np
 
 from pyflyt_engine.batched.model import refuse
 from pyflyt_engine.envs import rewards as r
+from pyflyt_engine.envs import terminations as t
 from pyflyt_engine.envs.multi_agent import formation_rewards as formation
 from pyflyt_engine.envs.rewards import RewardFunction
 
@@ -143,3 +151,46 @@ class BatchedReward:
                 breakdown[key] = value
                 np.add(total, value, out=total)
         return total, breakdown
+
+
+@dataclass(frozen=True)
+class BatchedEnds:
+    """What ends a batched env's episode, from its config's ``terminations``: a contact is a
+    crash (``contact``), leaving the dome is one (``out_of_dome``), completion ends it
+    (``task_complete``), the time limit truncates it (``time_limit``)."""
+
+    contact: bool
+    dome: bool
+    complete: bool
+    time_limit: bool
+
+
+#: the termination terms with nothing to do in the batched backend (see the module docstring)
+_INERT = (t.task_failure, t.payload_on_ground, t.obstacle_contact)
+
+
+def batched_ends(terminations: Any, crash_on_contact: bool) -> BatchedEnds:
+    """The :class:`BatchedEnds` of a ``terminations`` declaration, the task crashing on a
+    contact by ``crash_on_contact`` (unless the ``contact`` entry's parameter says otherwise).
+
+    Raises:
+        UnsupportedByBatched: a declared term the batched backend does not implement, by name.
+    """
+    contact = dome = complete = time_limit = False
+    for key, term, params in t.declared(terminations):
+        law = term.bind
+        if law is t.contact:
+            given = params.get("crash_on_contact")
+            contact = crash_on_contact if given is None else bool(given)
+        elif law is t.out_of_dome:
+            dome = True
+        elif law is t.task_complete:
+            complete = True
+        elif law is t.time_limit:
+            time_limit = True
+        elif law not in _INERT:
+            raise refuse(
+                f"the termination term '{key}' ({law.__name__})",
+                "it ends episodes by contact, out_of_dome, task_failure, task_complete and time_limit",
+            )
+    return BatchedEnds(contact, dome, complete, time_limit)

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -33,7 +34,7 @@ from pydantic import (
 
 from pyflyt_engine.components.estimator import alpha_beta_gains
 from pyflyt_engine import limits
-from pyflyt_engine.envs import rewards
+from pyflyt_engine.envs import rewards, terminations
 from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
 from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
 from pyflyt_engine.envs.randomization import Distribution, check_names, delay_steps
@@ -97,6 +98,28 @@ class RewardPreset(_Config):
     def compile(self, provides: frozenset[str] | None = None, task_name: str = "?") -> rewards.RewardFunction:
         """The :class:`~pyflyt_engine.envs.rewards.RewardFunction` of this preset."""
         return rewards.compile_reward(self.name, self.terms, provides, task_name)
+
+
+# ----------------------------------------------------------------- terminations
+
+
+class TerminationConfig(_Config):
+    """One entry of ``terminations``: a registered termination term and its parameters."""
+
+    term: str | None = Field(
+        None, description="registered termination term (default: the entry's key); see pyflyt_engine.envs.terminations"
+    )
+    params: dict[str, Union[bool, float]] = Field(default_factory=dict, description="keyword parameters of the term")
+
+
+def _default_terminations() -> dict[str, TerminationConfig | None]:
+    """The declaration of every shipped env (``conf/env/_base.yaml``): a config's default."""
+    return {k: TerminationConfig(**v) for k, v in terminations.DEFAULT_TERMINATIONS.items()}
+
+
+def _check_terminations(value: dict[str, TerminationConfig | None]) -> dict[str, TerminationConfig | None]:
+    terminations.declared(value)  # names and parameters, at load
+    return value
 
 
 # ------------------------------------------------------------------------- env
@@ -340,6 +363,11 @@ class EnvConfig(_Config):
     )
     task: SerializeAsAny[TaskOptions] = Field(description="task name and options (see pyflyt_engine.envs.tasks)")
     render: RenderConfig = Field(default_factory=RenderConfig)
+    terminations: Annotated[dict[str, TerminationConfig | None], AfterValidator(_check_terminations)] = Field(
+        default_factory=_default_terminations,
+        description="what ends an episode: entry -> registered termination term (crash, end or truncate) and its "
+        "params, in order; null switches an entry off (pyflyt_engine.envs.terminations, docs/environments.md)",
+    )
     camera_observation: CameraObservationConfig | None = Field(
         None, description="add an onboard camera image to the observation (None: no image)"
     )

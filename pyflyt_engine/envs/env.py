@@ -2,8 +2,8 @@
 
 :class:`UAVEnv` is the one-agent front of the episode core
 (:class:`~pyflyt_engine.envs.episode.EpisodeCore`), the loop every env runs: what an
-episode flies and how it starts (:func:`~pyflyt_engine.envs.core.build_episode`,
-:func:`~pyflyt_engine.envs.core.reset_episode`) and each step (act, advance, judge,
+episode flies and how it starts (:func:`~pyflyt_engine.envs.build.build_episode`,
+:func:`~pyflyt_engine.envs.build.reset_episode`) and each step (act, advance, judge,
 observe) are the core's, the same code as for N agents; this front speaks Gymnasium.
 The vehicle is the model (named state read-outs, a flight mode that takes the action as
 its setpoint), the task decides spawn, targets, extra observations and completion, and
@@ -21,7 +21,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from pyflyt_engine.envs import core
+from pyflyt_engine.envs import build, observe
 from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.episode import EpisodeCore, OneAgentTask
 from pyflyt_engine.envs.rewards import RewardFunction
@@ -124,8 +124,8 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         airframe: UAVSpec | None = None,
         **overrides: Any,
     ) -> None:
-        cfg = core.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
-        core.check_render_mode(render_mode, self.metadata["render_modes"])
+        cfg = build.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
+        build.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: EnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -138,7 +138,7 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         #: the airframe flown, before the task adjusts it (:meth:`Task.vehicle_spec`)
         self.airframe: UAVSpec = airframe if airframe is not None else load_uav_spec(cfg.uav)
 
-        parts = core.build_episode(
+        parts = build.build_episode(
             cfg,
             [self.task.vehicle_spec(self.airframe)],
             [(cfg.task.start_position, cfg.task.start_orientation)],
@@ -153,14 +153,14 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         self.estimator = parts.estimators[0] if parts.estimators is not None else None
 
         self.action_space = spaces.Box(self._low, self._high, dtype=np.float64)
-        aux_size = self.world.aux_state(0).size + int(self._fix_flag[0])
-        size = core.attitude_size(self._quaternion, self._low.size, aux_size)
+        aux_size = self.world.aux_state(0).size + int(self.fix_flag[0])
+        size = observe.attitude_size(self._quaternion, self._low.size, aux_size)
         self.attitude_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.observation_space = self.task.observation_space(self.attitude_space)
         if cfg.camera_observation is not None:
-            self.observation_space = core.with_image_space(self.observation_space, cfg.camera_observation)
-        if self._range_sensors[0]:
-            self.observation_space = core.with_range_spaces(self.observation_space, self._range_sensors[0])
+            self.observation_space = observe.with_image_space(self.observation_space, cfg.camera_observation)
+        if self.range_sensors[0]:
+            self.observation_space = observe.with_range_spaces(self.observation_space, self.range_sensors[0])
         self._markers = None
         if render_mode is not None:
             from pyflyt_engine.envs.render import Markers
@@ -196,7 +196,7 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
         wider ``goal_reach_distance`` early in training); the next reset without them
         flies the configured task again.  Anything else raises ``ValueError``.
         """
-        self.task.set_episode_options(core.task_changes(options))
+        self.task.set_episode_options(build.task_changes(options))
         super().reset(seed=seed)
         rng = self.np_random
         (state,) = self._reset_core(

@@ -2,18 +2,21 @@
 
 An env's *front* -- the Gymnasium :class:`~pyflyt_engine.envs.env.UAVEnv` (one agent) or
 the PettingZoo :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv` (N agents)
--- builds the episode (:func:`~pyflyt_engine.envs.core.build_episode`), starts it
-(:func:`~pyflyt_engine.envs.core.reset_episode`) and speaks its API; everything between
+-- builds the episode (:func:`~pyflyt_engine.envs.build.build_episode`), starts it
+(:func:`~pyflyt_engine.envs.build.reset_episode`) and speaks its API; everything between
 an action and the next observation is here, once::
 
     act(i, action)            each acting agent: clip to the bounds, set the flight mode's setpoint
     advance()                 step the physics once for everybody; count the agent step
     judge(live, states)       per acting agent, in agent order: contacts, the dome, the task's
-                              signals and termination, payload and obstacle failures, the
-                              reward preset, the time limit, success, the info (with the
-                              task's success measures on an agent's last step)
-    observe(i, states)        per acting agent: latency, sensors or estimator, the attitude
-                              vector, the task's observation, camera image and range scans
+                              signals, the env config's termination terms (crash, end,
+                              truncate: pyflyt_engine.envs.terminations), the reward preset,
+                              success, the info (with the task's success measures on an
+                              agent's last step)
+    observe(i, states)        per acting agent: the observation terms the config's sections
+                              bind (pyflyt_engine.envs.observe: the delayed state, the sensors'
+                              or estimator's view), the attitude vector, the task's
+                              observation, camera image and range scans
     check(...)                never NaN: a non-finite observation or reward raises
 
 The task is asked through one per-agent protocol, :class:`AgentTasks`: a multi-agent
@@ -32,8 +35,12 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pyflyt_engine.envs import core
+from pyflyt_engine.envs import build
+from pyflyt_engine.envs.guard import all_finite, divergence_error
+from pyflyt_engine.envs.observe import Observation, attitude_vector
 from pyflyt_engine.envs.rewards import RewardFunction
+from pyflyt_engine.envs.step import AgentStep, clip_action, step_context
+from pyflyt_engine.envs.terminations import Terminations, bind_terminations, outside_dome
 from pyflyt_engine.envs.tasks.base import Task
 from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
 from pyflyt_engine.state import KinematicState
@@ -52,15 +59,16 @@ class AgentTasks(Protocol):
         """An agent alive at the time limit succeeded (survival tasks)."""
         ...
 
+    @property
+    def crash_on_contact(self) -> bool:
+        """A contact of an agent's vehicle is a crash (the ``contact`` termination term's default)."""
+        ...
+
     def update(
         self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
     ) -> dict[int, Any]:
         """Advance one agent step (``step`` agent steps since the reset, this one included);
         the signals of every agent in ``live``."""
-        ...
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
-        """``(crashed, terminated)`` of one agent's step."""
         ...
 
     def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
@@ -94,13 +102,14 @@ class OneAgentTask:
     def succeeds_at_time_limit(self) -> bool:
         return self.task.succeeds_at_time_limit
 
+    @property
+    def crash_on_contact(self) -> bool:
+        return self.task.crash_on_contact
+
     def update(
         self, states: list[KinematicState], live: list[int], collisions: dict[int, bool], step: int
     ) -> dict[int, Any]:
         return {0: self.task.update(states[0])}
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: Any) -> tuple[bool, bool]:
-        return self.task.termination(collision, out_of_bounds, signals)
 
     def observation(self, i: int, attitude: np.ndarray, states: list[KinematicState]) -> Any:
         return self.task.observe(attitude, states[0])
@@ -122,8 +131,9 @@ class EpisodeCore:
 
     Attributes the fronts and recorders share (per agent ``i`` in agent order):
     ``world``, ``vehicles``, ``task``, ``reward_function``, ``randomizer``,
-    ``payloads``/``obstacles`` and ``last_randomization``; the core's own state is
-    ``_actions`` (N, A), ``_steps``, ``_reward_terms`` and ``_alive``.
+    ``agent_payloads``/``obstacles`` and ``last_randomization``; the core's own state is
+    ``_actions`` (N, A), ``_steps``, ``_reward_terms`` and ``_alive``; ``terminations`` are
+    the env config's termination terms bound to this episode.
     """
 
     config: Any
@@ -136,7 +146,7 @@ class EpisodeCore:
     def _init_core(
         self,
         cfg: Any,
-        parts: core.EpisodeParts,
+        parts: build.EpisodeParts,
         tasks: AgentTasks,
         reward_function: RewardFunction,
         *,
@@ -144,15 +154,16 @@ class EpisodeCore:
         agent_names: Sequence[str] | None = None,
         alive: np.ndarray | None = None,
     ) -> None:
-        """Take over what :func:`~pyflyt_engine.envs.core.build_episode` built; ``alive``: the
+        """Take over what :func:`~pyflyt_engine.envs.build.build_episode` built; ``alive``: the
         (N,) live flags to keep up to date (a multi-agent task reads them), else new ones."""
         self.config = cfg
-        #: what the episode flies (:class:`~pyflyt_engine.envs.core.EpisodeParts`)
+        #: what the episode flies (:class:`~pyflyt_engine.envs.build.EpisodeParts`)
         self._parts = parts
         self.world = parts.world
         #: the agents' vehicles, in agent order (a front may wrap them: the core drives these)
         self.vehicles = list(parts.vehicles)
-        self._tasks = tasks
+        #: the task, asked agent by agent (:class:`AgentTasks`)
+        self.tasks = tasks
         self.reward_function = reward_function
         self._agent_names = agent_names
         self._agent_dt = 1.0 / cfg.agent_hz
@@ -166,6 +177,11 @@ class EpisodeCore:
         self._steps = 0
         self._alive = alive if alive is not None else np.zeros(n, dtype=bool)
         self._reward_terms: list[dict[str, float]] = [{} for _ in range(n)]
+        #: per agent, its AgentStep record: what its last step was (rewritten by each :meth:`_judge`)
+        self._agent_steps = [
+            AgentStep(i, None, self._actions[i], False, False, None, 0)  # type: ignore[arg-type]  # (set at each step)
+            for i in range(n)
+        ]
         #: put each agent's reward breakdown into its step info as ``reward_terms``
         self.info_reward_terms = bool(info_reward_terms)
         #: the values drawn at the last reset (empty without randomisation)
@@ -174,50 +190,50 @@ class EpisodeCore:
         #: with ``randomize.action_delay`` / ``observation_delay``, this episode's (set at each reset)
         self.latency_steps = parts.latency_steps
         #: per agent, the index of its observation camera on its vehicle (None without ``camera_observation``)
-        self._cameras = parts.cameras
+        self.cameras = parts.cameras
         #: per agent, the sensors its observation is built from (``config.sensors.observe``; None: true states)
-        self._sensed = parts.sensed
+        self.sensed = parts.sensed
         #: per agent, its flight controller's state estimator its observation is built from (None: none)
         self.estimators = parts.estimators
         #: per agent, whether its position fix's validity flag follows its auxiliary state
-        self._fix_flag = parts.fix_flag
+        self.fix_flag = parts.fix_flag
         #: per agent, the range sensors observed (every one its airframe carries), in spec order
-        self._range_sensors = parts.range_sensors
-        self._readings = cfg.camera_observation is not None or any(parts.range_sensors)
+        self.range_sensors = parts.range_sensors
         #: per agent, its copy of the config's payloads; empty without payloads
-        self._agent_payloads = parts.payloads
+        self.agent_payloads = parts.payloads
         #: the config's obstacles (None without): fixed ones built with the world, layouts drawn at each reset
         self.obstacles = parts.obstacles
         #: samples and applies ``config.randomize`` at each reset (None without)
         self.randomizer = parts.randomizer
+        #: the config's termination terms bound to this episode (pyflyt_engine.envs.terminations)
+        self.terminations: Terminations = bind_terminations(cfg.terminations, self)
+        #: the observation terms the config's sections bind (pyflyt_engine.envs.observe); rebound at each reset
+        self.observation = Observation(self)
 
     # ------------------------------------------------------------------ reset
 
     def _reset_core(
         self, seed: int | None, rng: np.random.Generator, spawn: Any, start_task: Any
     ) -> list[KinematicState]:
-        """Start an episode (:func:`~pyflyt_engine.envs.core.reset_episode`): every agent
+        """Start an episode (:func:`~pyflyt_engine.envs.build.reset_episode`): every agent
         alive, no action yet, step 0; the vehicles' states."""
         self._actions[:] = 0.0
         self._steps = 0
         self._reward_terms = [{} for _ in self._reward_terms]
         self._alive[:] = True
-        drawn, states = core.reset_episode(self._parts, seed, rng, spawn, start_task)
+        drawn, states = build.reset_episode(self._parts, seed, rng, spawn, start_task)
         self.last_randomization = dict(drawn) if drawn is not None else {}
         self.latency_steps = self.vehicles[0].latency  # this episode's (one draw, every agent)
+        self.observation.reset()
         return states
 
     def _reset_info(self, i: int) -> dict[str, Any]:
         """Agent ``i``'s info at a reset."""
         info: dict[str, Any] = {"collision": False, "out_of_bounds": False, "env_complete": False, "success": False}
-        if self.randomizer is not None:
-            info["randomization"] = dict(self.last_randomization)
-        if self._agent_payloads:
-            info["payload_ground_contact"] = False
-        if self.obstacles is not None:
-            info["obstacle_contact"] = False
-            info["obstacles_parked"] = self.obstacles.parked
-        info.update(self._tasks.reset_info(i))
+        for event in self._parts.events:  # their info entries (randomization)
+            event.reset_info(info)
+        self.terminations.reset_info(i, info)  # the terms' entries (payload_ground_contact, ...)
+        info.update(self.tasks.reset_info(i))
         return info
 
     # ------------------------------------------------------------------- step
@@ -225,7 +241,7 @@ class EpisodeCore:
     def _act(self, i: int, action: Any) -> None:
         """Agent ``i``'s action, clipped to the bounds, as its flight mode's setpoint."""
         agent = self._agent_names[i] if self._agent_names is not None else None
-        a = core.clip_action(action, self._low, self._high, self.config.action.names, agent=agent)
+        a = clip_action(action, self._low, self._high, self.config.action.names, agent=agent)
         self.vehicles[i].set_setpoint(a)
         self._actions[i] = a
 
@@ -239,102 +255,92 @@ class EpisodeCore:
         """``(reward, terminated, truncated, info)`` of each agent in ``live`` (in that order)
         after :meth:`_advance`.
 
-        Episode end: *terminated* on a crash -- a contact (unless the task's
-        ``crash_on_contact`` is False), leaving the dome, a failure the task declares, a
-        payload failing on the ground, touching an obstacle (``obstacles.crash_on_contact``)
-        -- or when the task completes; *truncated* at the time limit.
+        Episode end: the env config's termination terms (:mod:`pyflyt_engine.envs.terminations`,
+        declared in order under ``terminations``): *terminated* when a ``crash`` term holds (a
+        contact, leaving the dome, a failure the task declares, a payload on the ground, an
+        obstacle touched ...) or an ``end`` term does (the task completes); *truncated* when a
+        ``truncate`` term holds (the time limit) and the episode did not terminate.
         """
         world = self.world
-        tasks = self._tasks
+        tasks = self.tasks
         collisions = {i: world.collided(i) for i in live}
-        signals = tasks.update(states, live, collisions, self._steps)
-        remaining = max(self._max_steps - self._steps, 0)
-        time_up = self._steps >= self._max_steps
-        obstacles = self.obstacles
+        steps = self._steps
+        signals = tasks.update(states, live, collisions, steps)
+        remaining = max(self._max_steps - steps, 0)
+        terms = self.terminations
         results = []
         for i in live:
             state = states[i]
             sig = signals[i]
-            collision = collisions[i]
-            out_of_bounds = core.outside_dome(state, self._dome2)
-            crashed, terminated = tasks.termination(collision, out_of_bounds, sig)
-            payload_ground = bool(self._agent_payloads) and self._agent_payloads[i].ground_failure()
-            if payload_ground:  # a payload the config says must not touch the ground did
-                crashed = terminated = True
-            obstacle_contact = obstacles is not None and obstacles.touched(i)
-            if obstacle_contact and self.config.obstacles.crash_on_contact:
-                crashed = terminated = True
-            ctx = core.step_context(
-                world,
-                i,
-                state,
-                self._actions[i],
-                collision,
-                out_of_bounds,
-                crashed,
-                sig,
-                sig.waypoint_reached,
-                remaining,
-                self._agent_dt,
-            )
-            reward, terms = self.reward_function(ctx)
-            self._reward_terms[i] = terms
-            truncated = not terminated and time_up
+            step = self._agent_steps[i]  # the agent's record, rewritten each step (cheaper than a new one)
+            step.state = state
+            step.action = self._actions[i]
+            step.collision = collisions[i]
+            step.out_of_bounds = outside_dome(state, self._dome2)
+            step.signals = sig
+            step.steps = steps
+            entries: dict[str, Any] = {}  # the terms' own info entries
+            crashed = False
+            for judge in terms.crash:
+                if judge(step, entries):
+                    crashed = True
+            terminated = crashed
+            for judge in terms.end:
+                if judge(step, entries):
+                    terminated = True
+            cut = False
+            for judge in terms.truncate:
+                if judge(step, entries):
+                    cut = True
+            truncated = cut and not terminated
+            ctx = step_context(world, step, crashed=crashed, steps_remaining=remaining, agent_dt=self._agent_dt)
+            reward, reward_terms = self.reward_function(ctx)
+            self._reward_terms[i] = reward_terms
             info = {
-                "collision": collision,
-                "out_of_bounds": out_of_bounds,
+                "collision": step.collision,
+                "out_of_bounds": step.out_of_bounds,
                 "env_complete": sig.complete,
                 "success": (sig.complete and not crashed) or (truncated and tasks.succeeds_at_time_limit),
                 **tasks.step_info(i, sig),
             }
-            if self._agent_payloads:
-                info["payload_ground_contact"] = payload_ground
-            if obstacles is not None:
-                info["obstacle_contact"] = obstacle_contact
-                info["obstacles_parked"] = obstacles.parked
+            if entries:
+                info.update(entries)
             if self.info_reward_terms:
-                info["reward_terms"] = terms
+                info["reward_terms"] = reward_terms
             if terminated or truncated:  # the episode's success measures, on its last step
                 info[MEASURES] = tasks.episode_measures(i)
             results.append((reward, terminated, truncated, info))
         return results
 
     def _observe(self, i: int, states: list[KinematicState]) -> Any:
-        """Agent ``i``'s observation of ``states`` (every agent's, in agent order)."""
-        vehicle = self.vehicles[i]
-        if self.latency_steps[1]:  # every vehicle as it was observation_delay ago
-            delayed = [v.delayed_observation() for v in self.vehicles]
-            states, aux = [state for state, _ in delayed], delayed[i][1]
+        """Agent ``i``'s observation of ``states`` (every agent's, in agent order), built by
+        the observation terms bound to this episode (:class:`~pyflyt_engine.envs.observe.Observation`):
+        the source's states and aux, each view's, the attitude vector and the task's
+        observation, then each extra's entries."""
+        terms = self.observation
+        if terms.source is None:
+            aux = self.vehicles[i].aux_values()
         else:
-            aux = vehicle.aux_values()
-        if self._sensed is not None:  # its own rates and position as its sensors read them
-            suite = self._sensed[i]
-            states = [*states]
-            if self.estimators is not None:  # its estimator's attitude, velocity and position, its gyro's rates
-                states[i] = core.estimated_state(states[i], suite, self.estimators[i])
-            else:
-                states[i] = core.sensed_state(states[i], suite)
-            if self._fix_flag[i]:
-                aux = [*aux, suite.position_valid]
-        attitude = core.attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
-        observation = self._tasks.observation(i, attitude, states)
-        if not self._readings:
-            return observation
-        return core.with_readings(
-            observation, self.world, i, self._range_sensors[i], self._cameras[i], self.config.camera_observation
-        )
+            states, aux = terms.source(i, states)
+        for view in terms.views:
+            states, aux = view(i, states, aux)
+        attitude = attitude_vector(states[i], self._quaternion, self._actions[i].tolist(), aux)
+        observation = self.tasks.observation(i, attitude, states)
+        for extra in terms.extras:
+            observation = extra(i, observation)
+        return observation
 
     def _check(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Never NaN: raise :class:`~pyflyt_engine.errors.SimulationError` if agent ``i``'s
         observation or reward is not finite."""
-        if not core.all_finite(reward, observation):
+        if not all_finite(reward, observation):
             self._diverged(i, observation, reward, state)
 
     def _diverged(self, i: int, observation: Any, reward: float, state: KinematicState) -> None:
         """Raise :class:`SimulationError` describing a non-finite observation or reward."""
         where = self.config.id or self.config.source or "the environment"
         agent = self._agent_names[i] if self._agent_names is not None else None
-        raise core.divergence_error(
+        raise divergence_error(
             where, self._steps, observation, reward, state, self.vehicles[i], self._actions[i], agent=agent
         )
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from pyflyt_engine import numerics
 from pyflyt_engine.components.sensors import READING_SIZES
-from pyflyt_engine.envs.core import RECORDABLE, RecordableEnv
+from pyflyt_engine.envs.recordable import RECORDABLE, RecordableEnv
 from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
 from pyflyt_engine.envs.tasks.measures import plain
 from pyflyt_engine.errors import TelemetryError
@@ -115,7 +115,7 @@ class RecordEpisode(gymnasium.Wrapper):
 
     Args:
         env: a pyflyt environment, possibly wrapped: ``env.unwrapped`` implements
-            :class:`~pyflyt_engine.envs.core.RecordableEnv` (a :class:`~pyflyt_engine.envs.env.UAVEnv`,
+            :class:`~pyflyt_engine.envs.recordable.RecordableEnv` (a :class:`~pyflyt_engine.envs.env.UAVEnv`,
             or a multi-agent env's shared-policy view), and nothing else of it is read.  Put this wrapper outermost or innermost: the actions it
             re-simulates are those the vehicle received (after any action wrappers).
         directory: folder for the files (created if missing).
@@ -145,7 +145,7 @@ class RecordEpisode(gymnasium.Wrapper):
         if not isinstance(base, RecordableEnv):
             missing = [name for name in RECORDABLE if not hasattr(base, name)]
             raise TelemetryError(
-                "RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.core.RecordableEnv, e.g. a "
+                "RecordEpisode needs a pyflyt environment (pyflyt_engine.envs.recordable.RecordableEnv, e.g. a "
                 f"UAVEnv); {type(base).__name__} has no {', '.join(repr(m) for m in missing)}"
             )
         if not re.fullmatch(r"[A-Za-z0-9_.-]+", prefix):

@@ -39,6 +39,7 @@ SENSORS = {
     "position": {"noise_std": [0.01, 0.01, 0.01]},
     "barometer": {"noise_std": 0.1},
 }
+NO_DOME = {"contact": {}, "out_of_dome": None, "task_failure": {}, "task_complete": {}, "time_limit": {}}
 STACKED = [
     {"spawn": {"position": [0.0, 0.0, 1.0], "position_noise": 0.0, "orientation_noise": 0.0}},
     {"spawn": {"position": [0.0, 0.0, 1.6], "position_noise": 0.0, "orientation_noise": 0.0}},
@@ -93,6 +94,8 @@ SINGLE: dict[str, tuple[dict[str, Any], Any]] = {
     "latency": ({}, {"action_delay": 0.02, "observation_delay": 0.02}),
     # the observation built from a noisy gyro, position fix and barometer
     "sensors": ({}, SENSORS),
+    # the spawn is outside a 0.5 m dome: without the out_of_dome term the episode goes on
+    "terminations": ({"flight_dome_size": 0.5}, NO_DOME),
     # task options
     "start_position": ({}, (0.0, 0.0, 1.5)),
     "start_position_noise": ({}, 0.0),

@@ -1,4 +1,4 @@
-"""The episode core's build and start (``core.build_episode``, ``core.reset_episode``), used
+"""The episode core's build and start (``build.build_episode``, ``build.reset_episode``), used
 by the single-agent and the multi-agent env alike."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyflyt_engine.envs import core
+from pyflyt_engine.envs import build
 from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.envs.tasks.base import Spawn
 from pyflyt_engine.errors import ConfigError
@@ -17,7 +17,7 @@ def test_build_then_reset_spawns_each_vehicle_in_agent_order_then_starts_the_tas
     cfg = load_env_config("quadx_hover").with_overrides(latency={"action_delay": 0.01})
     spec = load_uav_spec(cfg.uav)
     spawns = [((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)), ((2.0, 0.0, 1.0), (0.0, 0.0, 0.0))]
-    parts = core.build_episode(cfg, [spec, spec], spawns, render=False)
+    parts = build.build_episode(cfg, [spec, spec], spawns, render=False)
     try:
         assert len(parts.vehicles) == 2 and parts.vehicles == parts.world.vehicles
         assert parts.payloads == [] and parts.obstacles is None and parts.randomizer is None
@@ -43,7 +43,7 @@ def test_build_then_reset_spawns_each_vehicle_in_agent_order_then_starts_the_tas
                 assert state.lin_pos == pytest.approx(target, abs=1e-9)  # placed before the task starts
             return np.zeros((0, 3))
 
-        drawn, states = core.reset_episode(parts, 0, np.random.default_rng(0), spawn, start_task)
+        drawn, states = build.reset_episode(parts, 0, np.random.default_rng(0), spawn, start_task)
         assert drawn is None and calls == ["spawn 0", "spawn 1", "task"]
         assert [s.lin_pos for s in states] == [v.state.lin_pos for v in parts.vehicles]
         assert states[1].ang_pos[2] == pytest.approx(0.3, abs=1e-9)
@@ -58,10 +58,10 @@ def test_build_refuses_an_action_the_flight_mode_does_not_take_naming_the_agent(
     )
     spec = load_uav_spec(cfg.uav)
     with pytest.raises(ConfigError, match="agent 'uav_0': action has 2 entries"):
-        core.build_episode(cfg, [spec, spec], [((0, 0, 1), (0, 0, 0)), ((2, 0, 1), (0, 0, 0))], render=False,
+        build.build_episode(cfg, [spec, spec], [((0, 0, 1), (0, 0, 0)), ((2, 0, 1), (0, 0, 0))], render=False,
                            agent_names=["uav_0", "uav_1"])  # fmt: skip
     with pytest.raises(ConfigError, match="action has 2 entries .* give action.names"):
-        core.build_episode(cfg, [spec], [((0, 0, 1), (0, 0, 0))], render=False)
+        build.build_episode(cfg, [spec], [((0, 0, 1), (0, 0, 0))], render=False)
 
 
 # ------------------------------------------------------------ the one step loop
@@ -80,7 +80,7 @@ def test_both_fronts_run_the_one_episode_core():
             assert getattr(front, piece) is getattr(EpisodeCore, piece), (front.__name__, piece)
     env = UAVEnv("quadx_hover")
     try:
-        assert isinstance(env._tasks, OneAgentTask) and env._tasks.task is env.task
+        assert isinstance(env.tasks, OneAgentTask) and env.tasks.task is env.task
         env.reset(seed=3)
         env.step(np.array([0.0, 0.0, 0.0, 0.5]))
         assert env.elapsed_steps == 1 and env.vehicles == [env.vehicle]

@@ -10,7 +10,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pyflyt_engine.envs.core import all_finite as _all_finite
+from pyflyt_engine.envs.guard import all_finite as _all_finite
 from pyflyt_engine.errors import PyFlytError, SimulationError
 
 

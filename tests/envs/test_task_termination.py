@@ -1,4 +1,4 @@
-"""The loop asks the task how a step ends the episode (``Task.termination``)."""
+"""How a step ends the episode is the env config's termination terms, not the task's own hook."""
 
 from __future__ import annotations
 
@@ -7,9 +7,11 @@ from typing import ClassVar, Literal
 import numpy as np
 import pytest
 
+from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.envs.env import UAVEnv
 from pyflyt_engine.envs.tasks import TASKS, HoverOptions, HoverTask, register_task
 from pyflyt_engine.envs.tasks.base import termination
+from pyflyt_engine.errors import ConfigError
 
 
 class _RoamOptions(HoverOptions):
@@ -17,7 +19,7 @@ class _RoamOptions(HoverOptions):
 
 
 class RoamTask(HoverTask):
-    """Hover whose episode never ends early: leaving the dome is no crash."""
+    """Hover with the retired hook: a task deciding the episode's end on its own."""
 
     name: ClassVar[str] = "test_roam"
     Options = _RoamOptions
@@ -40,19 +42,25 @@ def test_the_default_rule():
     assert termination(False, False, False, True, True) == (False, True)  # complete
 
 
-def test_a_task_that_overrides_termination_decides_alone(roam):
-    from pyflyt_engine.envs.config import load_env_config
+def _first_step(**changes):
+    data = load_env_config("quadx_hover").model_dump(exclude={"source"})
+    env = UAVEnv({**data, "flight_dome_size": 0.5, **changes})  # the spawn at 1 m is outside the dome
+    try:
+        env.reset(seed=0)
+        _, _, terminated, _, info = env.step(np.zeros(4))
+        return terminated, info["out_of_bounds"]
+    finally:
+        env.close()
 
+
+def test_the_config_decides_whether_leaving_the_dome_ends_the_episode():
+    assert _first_step() == (True, True)
+    off = {**load_env_config("quadx_hover").model_dump()["terminations"], "out_of_dome": None}
+    assert _first_step(terminations=off) == (False, True)  # still measured, no longer an end
+
+
+def test_a_task_that_still_defines_termination_is_refused_naming_the_fix(roam):
     data = load_env_config("quadx_hover").model_dump(exclude={"source"})
     data["task"]["name"] = "test_roam"
-    ends = {}
-    for name in ("hover", "test_roam"):
-        data["task"]["name"] = name
-        env = UAVEnv({**data, "flight_dome_size": 0.5})  # the spawn at 1 m is outside the dome
-        try:
-            env.reset(seed=0)
-            _, _, terminated, _, info = env.step(np.zeros(4))
-            ends[name] = (terminated, info["out_of_bounds"])
-        finally:
-            env.close()
-    assert ends == {"hover": (True, True), "test_roam": (False, True)}
+    with pytest.raises(ConfigError, match="defines termination.*register_termination"):
+        UAVEnv(data)

@@ -8,7 +8,7 @@ import inspect
 import gymnasium
 import pytest
 
-from pyflyt_engine.envs.core import RECORDABLE, RecordableEnv
+from pyflyt_engine.envs.recordable import RECORDABLE, RecordableEnv
 from pyflyt_engine.errors import TelemetryError
 
 

@@ -353,3 +353,17 @@ def test_best_by_is_checked_resumes_and_leaves_older_runs_their_identity(tmp_pat
     del saved["best_success_rate"]  # a checkpoint from before the key
     resumed.load_state_dict(saved)
     assert resumed.best_success_rate is None
+
+
+def test_a_run_from_before_the_termination_terms_keeps_its_identity_and_another_declaration_counts(tmp_path):
+    default = load(TINY_PPO, tmp_path)
+    older = default.model_dump(mode="json")
+    del older["env"]["terminations"]  # a config.yaml written before the key existed
+    assert config_digest(older) == config_digest(default)
+    assert config_digest(type(default).model_validate(older)) == config_digest(default)  # read back: the defaults
+    off = load([*TINY_PPO, "env.terminations.out_of_dome=null"], tmp_path)
+    assert off.env.terminations["out_of_dome"] is None
+    fewer = default.model_dump(mode="json")
+    fewer["env"]["terminations"] = {"time_limit": {"term": None, "params": {}}}
+    digests = {config_digest(default), config_digest(off), config_digest(fewer)}
+    assert len(digests) == 3  # switching terms off is another run, however it is written

@@ -442,10 +442,10 @@ class ReferenceEnv(ReferenceHooks):
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """PyFlyt 0.29.0 ``*BaseEnv.step`` (see the class docstring); the action is observed as given."""
-        from pyflyt_engine.envs import core
+        from pyflyt_engine.envs.step import clip_action
 
         names = self.config.action.names
-        clipped = core.clip_action(action, self._low, self._high, names)  # type: ignore[attr-defined]
+        clipped = clip_action(action, self._low, self._high, names)  # type: ignore[attr-defined]
         self.action = np.array(action, dtype=np.float64).reshape(clipped.shape)
         self._actions[0] = clipped  # type: ignore[attr-defined]
         self.reward = self.step_reward

@@ -33,7 +33,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from pyflyt_engine.envs import core
+from pyflyt_engine.envs import build, observe
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.episode import EpisodeCore
 from pyflyt_engine.envs.multi_agent.config import get_ma_task
@@ -97,7 +97,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         airframes: Mapping[str, UAVSpec] | None = None,
         **overrides: Any,
     ) -> None:
-        cfg = core.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
+        cfg = build.load_config(config, self.config_name, type(self).__name__, sparse_reward, overrides)
         if not isinstance(cfg, MultiAgentEnvConfig):
             raise ConfigError(
                 f"{type(self).__name__} needs a multi-agent env config (one with 'agents'), got {cfg.source}"
@@ -107,7 +107,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
             raise ConfigError(
                 f"{type(self).__name__} runs task '{task_cls.name}', the config declares '{cfg.task.name}'"
             )
-        core.check_render_mode(render_mode, self.metadata["render_modes"])
+        build.check_render_mode(render_mode, self.metadata["render_modes"])
         self.config: MultiAgentEnvConfig = cfg
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, "render_fps": cfg.agent_hz}
@@ -127,7 +127,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
                 specs[agent.uav] = load_uav_spec(agent.uav)
         # the World, each agent's payloads (each named ``<agent>-<payload>``), the obstacles,
         # latency, sensors, estimators, range sensors and randomiser: as for a single agent
-        parts = core.build_episode(
+        parts = build.build_episode(
             cfg,
             [specs[a.uav] for a in self.agent_list],
             [(a.spawn.position, a.spawn.orientation) for a in self.agent_list],
@@ -161,11 +161,11 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
             agent_names=self.possible_agents,
             alive=self._alive,
         )
-        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self._fix_flag)}
+        aux = {v.aux_state.size + int(flag) for v, flag in zip(self.vehicles, self.fix_flag)}
         if len(aux) > 1:
             self.world.close()
             sizes = ", ".join(
-                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self._fix_flag)
+                f"{v.spec.name}: {v.aux_state.size + int(f)}" for v, f in zip(self.vehicles, self.fix_flag)
             )
             raise ConfigError(
                 "agents: every agent must observe the same number of values (one policy is shared): their airframes' "
@@ -173,20 +173,20 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
                 "mix airframes of the same kind (e.g. quadrotors) and sensors (a position fix adds its validity flag)"
             )
         self._check_layout_spacing()
-        self.attitude_size = core.attitude_size(self._quaternion, len(cfg.action.names), aux.pop())
+        self.attitude_size = observe.attitude_size(self._quaternion, len(cfg.action.names), aux.pop())
         size = self.attitude_size + self.task.extra_size()
         obs_space: spaces.Space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         if cfg.camera_observation is not None:
-            obs_space = core.with_image_space(obs_space, cfg.camera_observation)
-        if any(self._range_sensors):
-            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self._range_sensors}
+            obs_space = observe.with_image_space(obs_space, cfg.camera_observation)
+        if any(self.range_sensors):
+            layouts = {tuple((r.name, r.shape, r.max_range) for r in sensors) for sensors in self.range_sensors}
             if len(layouts) > 1:
                 self.world.close()
                 raise ConfigError(
                     "agents: every agent must observe the same range sensors (one policy is shared): their airframes "
                     "carry different ones; give the range sensors in the env config's range_sensors only"
                 )
-            obs_space = core.with_range_spaces(obs_space, self._range_sensors[0])
+            obs_space = observe.with_range_spaces(obs_space, self.range_sensors[0])
         act_space = spaces.Box(self._low, self._high, dtype=np.float64)
         # one space object per agent, the same object at every call (PettingZoo's api_test checks it)
         self.observation_spaces = {name: obs_space for name in self.possible_agents}
@@ -279,7 +279,7 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         if options:
             if not isinstance(options, Mapping):
                 raise ValueError(f'reset options must be None or {{"task": {{option: value}}}}, got {options!r}')
-            changes = core.task_changes({"task": options["task"]}) if "task" in options else None
+            changes = build.task_changes({"task": options["task"]}) if "task" in options else None
             other = sorted(str(k) for k in options if k != "task")
             if other:  # PettingZoo's API test passes {"options": 1}: accepted, but never silently
                 warnings.warn(

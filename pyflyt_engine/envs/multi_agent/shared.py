@@ -73,7 +73,7 @@ class SharedPolicyEnv(gymnasium.Env):
         self._successes = np.zeros(self.num_agents, dtype=bool)
         self._measures: dict[str, dict[str, float]] = {}
 
-    # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.core.RecordableEnv)
+    # the pieces of a pyflyt env the recorder, replay and resume read (pyflyt_engine.envs.recordable.RecordableEnv)
     @property
     def payloads(self) -> Any:
         """Every agent's payloads as one (:class:`~pyflyt_engine.payloads.PayloadSets`), or None."""

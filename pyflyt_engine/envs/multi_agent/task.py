@@ -8,7 +8,10 @@ entries, termination and success -- and never talks to PyBullet.  The episode co
 (:class:`~pyflyt_engine.envs.episode.EpisodeCore`, through the PettingZoo front
 :class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`) builds the world, spawns
 the agents, steps the physics, reads contacts and the dome and evaluates the reward
-preset; the env classes of the registered ids only name their task and config.
+preset; how an agent's step ends its episode is the env config's termination terms
+(:mod:`pyflyt_engine.envs.terminations`: contacts crash by :attr:`MultiAgentTask.crash_on_contact`,
+the dome, the failures and completion the signals declare, the time limit); the env classes
+of the registered ids only name their task and config.
 
 Once, when the env is built: ``MultiAgentTask(options, agents, ...)`` with the resolved
 agents (names, teams, spawns, hover points) and ``alive``, the loop's live-agent flags
@@ -19,7 +22,6 @@ agents (names, teams, spawns, hover points) and ``alive``, the loop's live-agent
     observe(i, states)                      # each agent's first task observation
     then per agent step (``live``: the agents that acted):
     update(states, live, collisions, step)  # -> {i: AgentSignals}
-    termination(collision, out_of_bounds, signals) -> (crashed, terminated), per live agent
     step_info(i, signals)                   # its entries of the agent's info
     observe(i, states)
 
@@ -37,7 +39,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pyflyt_engine.envs.tasks.base import episode_options, termination
+from pyflyt_engine.envs.tasks.base import episode_options
 from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.state import KinematicState
 
@@ -69,7 +71,8 @@ class MultiAgentTask:
         provides: names of the reward signals :meth:`update` fills in.
         succeeds_at_time_limit: an agent alive at the time limit succeeded (survival tasks).
         crash_on_contact: any contact of an agent's vehicle (ground or another agent) ends
-            its episode as a crash; a task where touching is part of the job sets False.
+            its episode as a crash (the ``contact`` termination term's default); a task
+            where touching is part of the job sets False.
         episode_options: options an episode may fly with other values through
             ``reset(options={"task": {...}})`` (a training curriculum); only options the
             task reads afresh at every reset or step, never one that shaped the world,
@@ -141,11 +144,6 @@ class MultiAgentTask:
     ) -> dict[int, AgentSignals]:
         """Advance one agent step (``step`` agent steps since the reset, this one included)."""
         return {i: AgentSignals() for i in live}
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: AgentSignals) -> tuple[bool, bool]:
-        """``(crashed, terminated)`` of one live agent's step (the rule of every loop:
-        :func:`~pyflyt_engine.envs.tasks.base.termination`, with :attr:`crash_on_contact`)."""
-        return termination(collision, out_of_bounds, signals.failed, signals.complete, self.crash_on_contact)
 
     def observe(self, i: int, states: list[KinematicState]) -> np.ndarray:
         """Agent ``i``'s entries after its attitude vector (:meth:`extra_size` of them)."""

@@ -4,7 +4,10 @@ A task owns the episode's *meaning*: where the vehicle starts, what it observes 
 the shared attitude vector, the signals its rewards read, and when it is complete.  Apart
 from :meth:`Task.setup` (scenery) it never talks to PyBullet: it sees
 :class:`~pyflyt_engine.state.KinematicState` values and the environment's seeded RNG.  The environment (:class:`~pyflyt_engine.envs.env.UAVEnv`)
-runs the loop, detects crashes and dome exits, and evaluates the reward preset.
+runs the loop, detects contacts and dome exits, ends the episode by the env config's
+termination terms (:mod:`pyflyt_engine.envs.terminations`: a task says what they read --
+:attr:`Task.crash_on_contact`, :attr:`TaskSignals.failed` and ``complete``) and evaluates
+the reward preset.
 
 Once, when the environment is built: ``vehicle_spec(spec)`` (the airframe variant the
 task flies, before the world exists), then ``setup(world)`` (add scenery; the env
@@ -17,7 +20,6 @@ the environment calls, in order::
     observe(attitude, state)       # the first observation
     then per agent step:
     update(state) -> TaskSignals   # advance the task, report reward signals
-    termination(collision, out_of_bounds, signals) -> (crashed, terminated)
     observe(attitude, state)
     info()                         # task entries for the step's info dict
     episode_measures()             # on the step that ends the episode: its success measures
@@ -117,10 +119,12 @@ def episode_options(
 def termination(
     collision: bool, out_of_bounds: bool, failed: bool, complete: bool, crash_on_contact: bool
 ) -> tuple[bool, bool]:
-    """``(crashed, terminated)`` of one agent's step: a crash is leaving the dome, a failure
-    the task declares, or a contact when contacts are crashes; the episode terminates on a
-    crash or when the task is complete (dm_control's ``get_termination`` is the model).
-    Every loop uses it, through :meth:`Task.termination` or directly."""
+    """``(crashed, terminated)`` of one agent's step under the default termination terms
+    (``contact``, ``out_of_dome``, ``task_failure``, ``task_complete``;
+    :mod:`pyflyt_engine.envs.terminations`) taken together: a crash is leaving the dome, a
+    failure the task declares, or a contact when contacts are crashes; the episode
+    terminates on a crash or when the task is complete (dm_control's ``get_termination`` is
+    the model)."""
     crashed = out_of_bounds or failed or (collision and crash_on_contact)
     return crashed, crashed or complete
 
@@ -135,9 +139,10 @@ class Task:
             the reward preset's terms and conditions when the env is built).
         succeeds_at_time_limit: an episode that reaches the time limit without a crash
             counts as a success (survival tasks such as hover).
-        crash_on_contact: any contact of the vehicle ends the episode as a crash; a task
-            where touching something is part of the job (landing on a pad) sets False and
-            reports outcomes through :attr:`TaskSignals.failed` / ``complete``.
+        crash_on_contact: any contact of the vehicle ends the episode as a crash (the
+            ``contact`` termination term's default); a task where touching something is
+            part of the job (landing on a pad) sets False and reports outcomes through
+            :attr:`TaskSignals.failed` / ``complete``.
         episode_options: the options one episode may fly with other values than the
             configured ones, through ``env.reset(options={"task": {name: value}})`` (a
             training curriculum: ``curriculum:`` of ``pyflyt train``).  Only options the
@@ -238,13 +243,6 @@ class Task:
     def update(self, state: KinematicState) -> TaskSignals:
         """Advance one agent step with the vehicle now in ``state``."""
         return TaskSignals()
-
-    def termination(self, collision: bool, out_of_bounds: bool, signals: TaskSignals) -> tuple[bool, bool]:
-        """``(crashed, terminated)`` after a step, asked by the environment: by default a crash
-        is leaving the dome, :attr:`TaskSignals.failed` or (with :attr:`crash_on_contact`) any
-        contact, and the episode terminates on a crash or :attr:`TaskSignals.complete`.  A
-        task with other rules overrides this (a payload failure the env adds to the crash)."""
-        return termination(collision, out_of_bounds, signals.failed, signals.complete, self.crash_on_contact)
 
     def info(self) -> dict[str, Any]:
         """Task entries of the info dict."""
