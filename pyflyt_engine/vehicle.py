@@ -278,7 +278,7 @@ class Vehicle:
             assert parts.motors is not None  # guaranteed by the spec validator
             from pyflyt_engine.firmware.betaflight import BETAFLIGHT_MODES, BetaflightController
 
-            self.mixer = Mixer(_subset(parts.motors, parts.mixer_motors), [tilt for _, tilt in parts.mixer_tilts])
+            self.mixer = flight_mixer(parts)
             self.firmware = BetaflightController(spec.control.firmware, parts.motors, parts.mixer_motors, control_dt)
             self._modes: dict[str, FlightMode] = dict(BETAFLIGHT_MODES)
             self.mode = self._modes[spec.control.firmware.mode]
