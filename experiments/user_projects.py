@@ -142,8 +142,21 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         pass
 
 
+class _Project(importlib.abc.MetaPathFinder):
+    """The project's top-level modules and packages, found in its checkout (as if it were the
+    working directory the project runs from)."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = str(root)
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> importlib.machinery.ModuleSpec | None:
+        if path is not None:  # a submodule: its package's own path finds it
+            return None
+        return importlib.machinery.PathFinder.find_spec(name, [self.root])
+
+
 def _load(entry: dict[str, Any], root: Path) -> Any:
-    sys.path.insert(0, str(root))
+    sys.meta_path.append(_Project(root))  # after the installed packages (no listed project shadows one)
     if "module" in entry:
         return importlib.import_module(entry["module"])
     spec = importlib.util.spec_from_file_location(Path(entry["file"]).stem, root / entry["file"])
