@@ -35,7 +35,7 @@ from pyflyt_engine.atmosphere.air import Air, Atmosphere, air_velocity
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.constants import GRAVITY
-from pyflyt_engine.errors import ConfigError
+from pyflyt_engine.errors import ConfigError, SimulationError
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 from pyflyt_engine.vehicle import Vehicle
@@ -183,6 +183,11 @@ class World:
         self.gravity = float(gravity)
 
         self.client = p.connect(p.GUI if render else p.DIRECT)
+        if self.client < 0:
+            raise SimulationError(
+                "PyBullet refused a new connection (it holds a limited number of clients at once): "
+                "close the envs and worlds that are done (env.close(), World.close() or a with block)"
+            )
         if self.client < 0:
             raise RuntimeError("could not connect to PyBullet (GUI needs a display; use render=False)")
         p.setGravity(0.0, 0.0, -gravity, physicsClientId=self.client)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import gc
 import os
 import resource
 
@@ -21,6 +22,17 @@ def _sb3_logs_in_the_test_folder(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("SB3_LOGDIR", str(tmp_path_factory.mktemp("sb3-logs")))
         yield
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _unreferenced_worlds_disconnected():
+    """After each test module, collect what it left unreferenced: an env a test built and did
+    not close is freed, and its world's ``__del__`` disconnects its PyBullet client.  Without
+    it, envs held in reference cycles wait for the cyclic collector, and a worker process of
+    the suite can reach PyBullet's limit of simultaneous clients, after which every new
+    world's connection fails ("Not connected to physics server")."""
+    yield
+    gc.collect()
 
 
 def default_subset(values, keep) -> list:

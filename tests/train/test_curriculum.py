@@ -210,7 +210,10 @@ def test_no_shipped_tuning_or_experiment_has_a_curriculum_outlasting_its_budget(
         data = yaml.safe_load(path.read_text())
         if not (data.get("train") or {}).get("curriculum"):
             continue
-        env, _, algo = path.stem.rpartition("_")
+        # <env>_<algo>, the algorithm named by the longest algo config the stem ends with (sac_jax, not jax)
+        algos = sorted((p.stem for p in (conf / "algo").glob("*.yaml")), key=len, reverse=True)
+        algo = next(a for a in algos if path.stem.endswith(f"_{a}"))
+        env = path.stem[: -len(algo) - 1]
         try:
             cfg = load([f"env={env}", f"algo={algo}"], tmp_path)
         except Exception as exc:  # noqa: BLE001 - only the curriculum's budget is checked here
