@@ -336,6 +336,9 @@ LATER_KEYS = {
     "train.imitation.hold_normalizer": False,
     # off-policy n-step returns (an on-policy rollout length of 1 is no config's)
     "algo.n_steps": 1,
+    # the flight controller (the airframe's own, before Betaflight's firmware could replace it)
+    "env.controller": "own",
+    "env.firmware_action": "sticks",
 }
 
 

@@ -172,3 +172,15 @@ def test_build_command_exits_non_zero_with_one_line(tmp_path, capsys, monkeypatc
     assert build.main(["--source", str(_fake_source(tmp_path / "bf")), "--out", str(tmp_path / "sitl")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("error: building the Betaflight SITL needs gcc") and err.count("\n") == 1
+
+
+def test_the_controller_keys_count_in_a_runs_identity_only_when_not_the_default():
+    """Runs recorded before ``env.controller`` / ``env.firmware_action`` existed keep their
+    identity (the airframe's own controller then), and choosing the firmware makes another run."""
+    from pyflyt_cli.training.compose import compose_config
+    from pyflyt_cli.training.rundir import identity
+
+    own = identity(compose_config(overrides=["env=quadx_hover", "algo=ppo"]))
+    assert "env.controller" not in own and "env.firmware_action" not in own
+    firmware = identity(compose_config(overrides=["env=quadx_hover", "algo=ppo", "env.controller=betaflight"]))
+    assert firmware["env.controller"] == "betaflight"
