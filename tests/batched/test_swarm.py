@@ -142,11 +142,13 @@ STACKED = [
 ]
 
 
-def _pair(uav: str, seed: int, agents=STACKED, **overrides):
+def _pair(uav: str, seed: int, agents=STACKED, env: str = "ma_quadx_hover", **overrides):
+    """The PyBullet env of ``env`` and one batched world of the same config, from the same start states."""
+    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
     from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
 
-    cfg = load_env_config("ma_quadx_hover").with_overrides(uav=uav, agents=agents, **overrides)
-    pb = MAQuadXHoverEnv(cfg)
+    cfg = load_env_config(env).with_overrides(uav=uav, agents=agents, **overrides)
+    pb = {"ma_quadx_hover": MAQuadXHoverEnv, "ma_quadx_formation": MAQuadXFormationEnv}[env](cfg)
     obs, _ = pb.reset(seed=seed)
     be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
     be.reset(seed=seed)
@@ -155,7 +157,7 @@ def _pair(uav: str, seed: int, agents=STACKED, **overrides):
         lin, ang = p.getBaseVelocity(vehicle.body_id, physicsClientId=vehicle._client)
         be.pos[i], be.quat[i], be.vel[i], be.angvel[i] = pos, quat, lin, ang
     be._read()
-    be._last_distance[:] = be._distance(np.arange(be.num_envs))
+    be._reset_world_task(0)  # the task's start from the copied states (the hover's distances)
     first = be._observe()
     for i, name in enumerate(pb.possible_agents):
         assert np.abs(obs[name] - first[i]).max() < 1e-12

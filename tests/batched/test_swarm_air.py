@@ -148,35 +148,13 @@ def test_rotary_turbulence_gusts_stay_refused_by_name(tmp_path):
 # ---------------------------------------------------------------------------- the formation
 
 
-def _formation_pair(uav: str, seed: int, **overrides):
-    """The PyBullet formation env and a batched world of the same config, from the same start states."""
-    from pyflyt_engine.bullet import pybullet as p
-    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
-
-    cfg = load_env_config("ma_quadx_formation").with_overrides(uav=uav, **overrides)
-    pb = MAQuadXFormationEnv(cfg)
-    obs, _ = pb.reset(seed=seed)
-    be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
-    be.reset(seed=seed)
-    for i, vehicle in enumerate(pb.vehicles):
-        pos, quat = p.getBasePositionAndOrientation(vehicle.body_id, physicsClientId=vehicle._client)
-        lin, ang = p.getBaseVelocity(vehicle.body_id, physicsClientId=vehicle._client)
-        be.pos[i], be.quat[i], be.vel[i], be.angvel[i] = pos, quat, lin, ang
-    be._read()
-    be._reset_world_task(0)
-    first = be._observe()
-    for i, name in enumerate(pb.possible_agents):
-        assert np.abs(obs[name] - first[i]).max() < 1e-12
-    return pb, be
-
-
 @pytest.mark.parametrize("wind", ["calm", "gust"])
 def test_the_formation_agrees_with_the_pybullet_engine(quiet_cf2x, wind):  # noqa: F811
     """MAQuadX-Formation, 9 agents on the 3 x 3 grid with downwash, 2 s of random actions around
     hover (the formation moving at 0.2 m/s): every live agent's position, observation (its slot,
     the formation's velocity, its neighbours), reward and task info within 1e-6 of the PyBullet
     engine's, the task being the engine's own object per world."""
-    pb, be = _formation_pair(quiet_cf2x, 3, agents=9, wind={"gust": GUST}.get(wind, wind))
+    pb, be = _pair(quiet_cf2x, 3, agents=9, env="ma_quadx_formation", wind={"gust": GUST}.get(wind, wind))
     hover = be.model.hover_thrust_fraction
     rng = np.random.default_rng(7)
     names = pb.possible_agents
