@@ -843,6 +843,14 @@ class BetaflightSpec(_Spec):
     )
     expo: list[int] = Field([0, 0, 0], description="ACTUAL rates' expo, roll/pitch/yaw, in % (CLI roll_expo ...)")
     angle_limit: int = Field(60, ge=10, le=90, description="ANGLE mode's tilt at full stick [deg] (CLI angle_limit)")
+    pids: Literal["matched", "firmware"] = Field(
+        "matched",
+        description=(
+            "matched: the firmware's rate PIDs set to give the airframe's own rate loop (control.rate) at hover, "
+            "feedforward, D boost, anti-gravity, throttle boost, TPA, I-term relax and RC smoothing off; "
+            "firmware: Betaflight's defaults (tuned for 5-inch racing quads)"
+        ),
+    )
     cli: list[str] = Field(
         [], description="further Betaflight CLI commands (e.g. 'set p_roll = 50'), run after the project's own"
     )

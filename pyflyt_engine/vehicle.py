@@ -276,11 +276,21 @@ class Vehicle:
         self._custom_modes: dict[str, _CustomMode] = {}
         if isinstance(spec.control, MultirotorControlSpec) and spec.control.firmware is not None:
             assert parts.motors is not None  # guaranteed by the spec validator
-            from pyflyt_engine.firmware.betaflight import BETAFLIGHT_MODES, BetaflightController
+            from pyflyt_engine.firmware import betaflight
 
             self.mixer = flight_mixer(parts)
-            self.firmware = BetaflightController(spec.control.firmware, parts.motors, parts.mixer_motors, control_dt)
-            self._modes: dict[str, FlightMode] = dict(BETAFLIGHT_MODES)
+            firmware = spec.control.firmware
+            matched = firmware.pids == "matched"  # the airframe's own loop gains, not Betaflight's defaults
+            inertia = np.diag(parts.inertia).tolist()
+            self.firmware = betaflight.BetaflightController(
+                firmware,
+                parts.motors,
+                parts.mixer_motors,
+                control_dt,
+                pids=betaflight.matched_pids(spec.control, parts.mass, inertia, self.mixer) if matched else None,
+                level=betaflight.matched_level_gain(spec.control) if matched else betaflight.DEFAULT_LEVEL_GAIN,
+            )
+            self._modes: dict[str, FlightMode] = dict(betaflight.BETAFLIGHT_MODES)
             self.mode = self._modes[spec.control.firmware.mode]
         elif isinstance(spec.control, MultirotorControlSpec):
             assert parts.motors is not None  # guaranteed by the spec validator

@@ -38,6 +38,7 @@ from pyflyt_engine.spec import BetaflightSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 
 if TYPE_CHECKING:
+    from pyflyt_engine.control.mixer import Mixer
     from pyflyt_engine.vehicle import Vehicle
 
 STICKS = ("roll", "pitch", "yaw", "throttle")
@@ -118,8 +119,103 @@ def motor_map(motors: MotorParams, mixer_motors: Sequence[int]) -> tuple[tuple[i
     )
 
 
-def configuration(spec: BetaflightSpec, reversed_spin: bool) -> list[str]:
-    """The CLI commands that set the firmware up for the simulator (then the spec's own)."""
+#: Betaflight's gain scalings (src/main/flight/pid.h lines 46-48): its P, I and D terms are
+#: ``P * PTERM_SCALE * e``, ``I * ITERM_SCALE * int(e) dt`` and ``-D * DTERM_SCALE * de/dt``
+#: with the rate error e in deg/s, and their sum over PID_MIXER_SCALING (pid.h line 35) is
+#: added to each QUADX motor's output with a mixer factor of +-1 (mixer.c lines 700-785,
+#: mixer_init.c lines 76-81), in the output range above the motor idle (mixer.c line 460)
+PTERM_SCALE, ITERM_SCALE, DTERM_SCALE = 0.032029, 0.244381, 0.000529
+PID_MIXER_SCALING = 1000.0
+#: Betaflight's largest P, I and D (PID_GAIN_MAX, src/main/flight/pid.h)
+PID_GAIN_MAX = 250
+#: Betaflight's default ANGLE-mode gain (the PID_LEVEL P, src/main/flight/pid.c line 136)
+DEFAULT_LEVEL_GAIN = 50
+
+
+def matched_pids(
+    control: MultirotorControlSpec, mass: float, inertia: Sequence[float], mixer: Mixer
+) -> tuple[tuple[int, int, int], ...]:
+    """Betaflight rate PIDs (P, I, D per roll, pitch, yaw) that give the airframe's own rate
+    loop (``control.rate``) about a level hover; ``inertia`` the body's principal moments,
+    ``mixer`` the flight mixer (over the mixer motors).
+
+    The project's rate loop commands the torque ``J (kp e + ki int(e) - kd dw/dt)`` (e in
+    rad/s), which the mixer turns into motor thrusts and those into throttles
+    ``sqrt(f / f_max)``: about the hover thrust f_h a torque tau changes motor i's throttle
+    by ``|M_i,axis| tau / (2 sqrt(f_h f_max))`` (M the mixer's pseudo-inverse; the same for
+    each motor of a quad X).  Betaflight changes each motor's output by
+    ``P PTERM_SCALE (180/pi) e (1 - idle) / 1000`` for the same e; equating the two gives P,
+    and I and D alike.  Rounded to Betaflight's whole numbers.
+
+    Raises:
+        ConfigError: a gain beyond Betaflight's range (names the axis and the gain).
+    """
+    gravity_thrust = mass * GRAVITY
+    scale = math.degrees(1.0) * (1.0 - MOTOR_IDLE) / PID_MIXER_SCALING
+    gains = []
+    for axis, name in enumerate(("roll", "pitch", "yaw")):
+        per_torque = 0.0  # throttle change per N m about the axis, averaged over the motors
+        motors = range(len(mixer.max_thrust))
+        for m in motors:
+            hover = float(mixer.inverse[m, 0]) * gravity_thrust
+            per_torque += abs(float(mixer.inverse[m, 1 + axis])) / (2.0 * math.sqrt(hover * mixer.max_thrust[m]))
+        per_torque /= len(motors)
+        j = float(inertia[axis]) * per_torque
+        rate = control.rate
+        values = (
+            round(j * rate.kp[axis] / (PTERM_SCALE * scale)),
+            round(j * rate.ki[axis] / (ITERM_SCALE * scale)),
+            round(j * rate.kd[axis] / (DTERM_SCALE * scale)),
+        )
+        for term, value in zip("PID", values):
+            if value > PID_GAIN_MAX:
+                raise ConfigError(
+                    f"the airframe's {name} rate loop needs a Betaflight {term} of {value}, beyond its {PID_GAIN_MAX}: "
+                    "lower control.rate's gains, or set control.firmware.pids: firmware"
+                )
+        gains.append(values)
+    return tuple(gains)
+
+
+def matched_level_gain(control: MultirotorControlSpec) -> int:
+    """Betaflight's ANGLE-mode gain (``angle_p_gain``) for the airframe's own attitude loop:
+    Betaflight's rate setpoint is the tilt error times angle_p_gain / 10 (pid_init.c line 406,
+    pid.c line 597), the project's ``control.attitude.kp`` times the tilt error (one gain for
+    roll and pitch in Betaflight: their mean)."""
+    kp = control.attitude.kp
+    return round(10.0 * 0.5 * (kp[0] + kp[1]))
+
+
+def pid_commands(pids: Sequence[Sequence[int]], level: int) -> list[str]:
+    """The CLI commands that set the rate PIDs and the ANGLE-mode gain, and turn off what the
+    project's loops do not have: feedforward (and its yaw hold, and ANGLE's), D boost (d_max),
+    anti-gravity, throttle boost, TPA, I-term relax, the yaw P-term lowpass and RC smoothing
+    (names: src/main/cli/settings.c, src/main/fc/parameter_names.h)."""
+    commands = ["set simplified_pids_mode = OFF", f"set angle_p_gain = {level}", "set angle_feedforward = 0"]
+    for (p, i, d), name in zip(pids, ("roll", "pitch", "yaw")):
+        commands += [f"set p_{name} = {p}", f"set i_{name} = {i}", f"set d_{name} = {d}", f"set f_{name} = 0"]
+        commands.append(f"set d_max_{name} = {d}")
+    return commands + [
+        "set feedforward_yaw_hold_gain = 0",
+        "set anti_gravity_gain = 0",
+        "set throttle_boost = 0",
+        "set tpa_rate = 0",
+        "set iterm_relax = OFF",
+        "set yaw_lowpass_hz = 0",
+        "set rc_smoothing = OFF",
+    ]
+
+
+def configuration(
+    spec: BetaflightSpec,
+    reversed_spin: bool,
+    pids: Sequence[Sequence[int]] | None = None,
+    level: int = DEFAULT_LEVEL_GAIN,
+) -> list[str]:
+    """The CLI commands that set the firmware up for the simulator (then the spec's own).
+
+    ``pids``: rate PIDs per axis (:func:`matched_pids`) and ``level`` the ANGLE-mode gain
+    (:func:`matched_level_gain`); ``pids`` None keeps Betaflight's defaults for both."""
     commands = [
         "mixer QUADX",
         # outputs as PWM microseconds: sitl.c sends (value - mincommand) / 1000, in [0, 1]
@@ -143,6 +239,8 @@ def configuration(spec: BetaflightSpec, reversed_spin: bool) -> list[str]:
             f"set {name}_srate = {spec.super_rate[axis]}",
             f"set {name}_expo = {spec.expo[axis]}",
         ]
+    if pids is not None:
+        commands += pid_commands(pids, level)
     return commands + list(spec.cli)
 
 
@@ -280,9 +378,19 @@ class BetaflightController:
         motors: the airframe's motors; mixer_motors: the four it flies.
         control_dt: the world's control period [s]: the firmware's gyro and PID period
             (a whole number of Hz).
+        pids: the rate PIDs to set (:func:`matched_pids`) and level the ANGLE-mode gain
+            (:func:`matched_level_gain`); pids None keeps Betaflight's for both.
     """
 
-    def __init__(self, spec: BetaflightSpec, motors: MotorParams, mixer_motors: Sequence[int], control_dt: float):
+    def __init__(
+        self,
+        spec: BetaflightSpec,
+        motors: MotorParams,
+        mixer_motors: Sequence[int],
+        control_dt: float,
+        pids: Sequence[Sequence[int]] | None = None,
+        level: int = DEFAULT_LEVEL_GAIN,
+    ):
         hz = round(1.0 / control_dt)
         if hz < 100 or abs(hz * control_dt - 1.0) > 1e-9 or 1_000_000 % hz:
             raise ConfigError(
@@ -295,7 +403,10 @@ class BetaflightController:
         self.period_us = 1_000_000 // hz
         self.dt = self.period_us * 1e-6
         self.order, reversed_spin = motor_map(motors, mixer_motors)
-        self.commands = configuration(spec, reversed_spin)
+        #: the rate PIDs set (P, I, D per roll, pitch, yaw), None: Betaflight's defaults
+        self.pids = None if pids is None else tuple(tuple(int(v) for v in axis) for axis in pids)
+        self.level = int(level)
+        self.commands = configuration(spec, reversed_spin, self.pids, self.level)
         self.angle = spec.mode == "angle"
         self.rates = False  # the setpoint is rates_thrust's, turned into sticks
         self._sitl: LockstepSITL | None = None
@@ -304,8 +415,11 @@ class BetaflightController:
         #: whether the radio link carries the sticks (False: ticks without RC, as a lost
         #: link; the firmware's failsafe lands or drops the vehicle after its delay)
         self.radio = True
-        #: the firmware's last motor outputs, Betaflight's motors 1-4
-        self.outputs: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        self._outputs: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        #: the vehicle's state and arm flag at the last reset, while the firmware that reset
+        #: asks for has not been started: it starts when first needed, so that a reset followed
+        #: by another (a world's reset, then the episode's spawn) starts one firmware, not two
+        self._start_at: tuple[KinematicState, bool] | None = None
 
     # ------------------------------------------------------------ lifecycle
 
@@ -313,13 +427,27 @@ class BetaflightController:
         self.angle = mode.name == "angle"
         self.rates = mode.name == "rates_thrust"
 
+    @property
+    def outputs(self) -> tuple[float, float, float, float]:
+        """The firmware's last motor outputs, Betaflight's motors 1-4 (after a reset: at its idle
+        once armed)."""
+        if self._start_at is not None:
+            self._start(*self._start_at)
+        return self._outputs
+
     def reset(self, state: KinematicState, armed: bool = True) -> None:
-        """Restart the firmware and feed it the vehicle at rest until it arms (when ``armed``)."""
+        """Restart the firmware and feed it the vehicle at rest (in ``state``) until it arms
+        (when ``armed``); done when the firmware is next needed, a tick or :attr:`outputs`."""
         self.close()
-        self._sitl = LockstepSITL(self.commands, self.gyro_hz)
         self.radio = True
+        self._start_at = (state, armed)
+
+    def _start(self, state: KinematicState, armed: bool) -> None:
+        self._start_at = None
+        self._sitl = LockstepSITL(self.commands, self.gyro_hz)
         self._ticks = 0
         self._last_velocity = None
+        self._outputs = (0.0, 0.0, 0.0, 0.0)
         if not armed:
             return
         # Betaflight arms on a switch moved to ON once arming is allowed (after its gyro
@@ -328,7 +456,7 @@ class BetaflightController:
         flip = max(1, int(ARM_FLIP_S * self.gyro_hz))
         for tick in range(int(ARM_WITHIN_S * self.gyro_hz)):
             self._tick(state, rest, (tick // flip) % 2 == 1, at_rest=True)
-            if max(self.outputs) > 0.0:  # armed: the motors idle
+            if max(self._outputs) > 0.0:  # armed: the motors idle
                 self._last_velocity = None
                 return
         log = self._sitl.process.log()[-300:]
@@ -340,6 +468,7 @@ class BetaflightController:
 
     def close(self) -> None:
         """Stop the firmware (a later :meth:`reset` starts it again)."""
+        self._start_at = None
         if self._sitl is not None:
             self._sitl.close()
             self._sitl = None
@@ -400,11 +529,13 @@ class BetaflightController:
         )
 
     def _tick(self, state: KinematicState, setpoint: Sequence[float] | None, armed: bool, at_rest: bool = False):
-        if self._sitl is None:
-            self.reset(state, armed)
+        if self._start_at is not None:
+            self._start(*self._start_at)
+        elif self._sitl is None:
+            self._start(state, armed)
         assert self._sitl is not None
-        self.outputs = self._sitl.tick(self.datagram(state, setpoint, armed, at_rest))
-        return self.outputs
+        self._outputs = self._sitl.tick(self.datagram(state, setpoint, armed, at_rest))
+        return self._outputs
 
     def __call__(self, state: KinematicState, setpoint: Sequence[float] | None, armed: bool = True) -> list[float]:
         """One control tick: the mixer motors' throttles, in mixer order.

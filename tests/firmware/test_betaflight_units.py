@@ -184,3 +184,78 @@ def test_the_controller_keys_count_in_a_runs_identity_only_when_not_the_default(
     assert "env.controller" not in own and "env.firmware_action" not in own
     firmware = identity(compose_config(overrides=["env=quadx_hover", "algo=ppo", "env.controller=betaflight"]))
     assert firmware["env.controller"] == "betaflight"
+
+
+@pytest.mark.parametrize(
+    ("uav", "arm", "rate_p", "rate_i", "level"),
+    [
+        # the cf2x: 27 g, J = 1.4e-5 / 1.4e-5 / 2.17e-5 kg m^2, arms 0.028 m (x and y),
+        # kf 3.16e-10 N/rpm^2, kt 7.94e-12 N m/rpm^2, 40 943 rpm; kp 60/60/30, ki 200/200/66
+        ("quadx_cf2x", 0.028, (60.0, 60.0, 30.0), (200.0, 200.0, 66.0), 80),
+        # the F450: 1 kg, J = 0.01 / 0.01 / 0.016, the airframe's defaults kp 25/25/15, ki 50/50/30
+        ("quadx_f450", None, (25.0, 25.0, 15.0), (50.0, 50.0, 30.0), 80),
+    ],
+)
+def test_matched_pids_by_hand(uav, arm, rate_p, rate_i, level):
+    """matched_pids equates Betaflight's per-motor output change per deg/s of rate error,
+    P 0.032029 (180/pi) (1 - 0.055) / 1000 (pid.h, mixer.c), with the project's: the torque
+    J kp, split over the four motors of the X (tau / (4 arm) each about roll and pitch,
+    tau / (4 kt/kf) about yaw) and turned into throttle by d sqrt(f / f_max) / df =
+    1 / (2 sqrt(f_h f_max)) at the hover thrust f_h = m g / 4."""
+    import math
+
+    import numpy as np
+
+    from pyflyt_engine.assembly import assemble
+    from pyflyt_engine.control.mixer import flight_mixer
+    from pyflyt_engine.firmware.betaflight import matched_level_gain, matched_pids
+
+    spec = load_uav_spec(uav)
+    motors = spec.motors
+    kf, kt, rpm = float(np.ravel(motors.kf)[0]), float(np.ravel(motors.kt)[0]), float(np.ravel(motors.max_rpm)[0])
+    arm = arm if arm is not None else abs(float(motors.positions[0][1]))
+    f_max, f_hover = kf * rpm**2, spec.body.mass * 9.80665 / 4
+    inertia = spec.inertia_matrix().diagonal()
+    per_newton = 1.0 / (2.0 * math.sqrt(f_hover * f_max))  # throttle per N of one motor's thrust
+    per_torque = (per_newton / (4 * arm), per_newton / (4 * arm), per_newton / (4 * kt / kf))
+    scale = math.degrees(1.0) * 0.945 / 1000.0
+    by_hand = tuple(
+        (
+            round(inertia[a] * per_torque[a] * rate_p[a] / (0.032029 * scale)),
+            round(inertia[a] * per_torque[a] * rate_i[a] / (0.244381 * scale)),
+            0,
+        )
+        for a in range(3)
+    )
+    parts = assemble(spec)
+    assert tuple(spec.control.rate.kp) == rate_p and tuple(spec.control.rate.ki) == rate_i
+    assert matched_pids(spec.control, parts.mass, inertia.tolist(), flight_mixer(parts)) == by_hand
+    assert matched_level_gain(spec.control) == level  # 10 x the attitude loop's 8 /s
+
+
+def test_matched_pids_refuse_gains_beyond_betaflight_s_range():
+    from pyflyt_engine.assembly import assemble
+    from pyflyt_engine.control.mixer import flight_mixer
+    from pyflyt_engine.firmware.betaflight import matched_pids
+
+    spec = load_uav_spec("quadx_f450")
+    stiff = spec.control.model_copy(update={"rate": spec.control.rate.model_copy(update={"kp": (25.0, 25.0, 60.0)})})
+    parts = assemble(spec)
+    with pytest.raises(ConfigError, match="yaw rate loop needs a Betaflight P of 873, beyond its 250"):
+        matched_pids(stiff, parts.mass, spec.inertia_matrix().diagonal().tolist(), flight_mixer(parts))
+
+
+def test_configuration_sets_matched_pids_and_turns_off_what_the_own_loop_lacks():
+    commands = configuration(BetaflightSpec(), reversed_spin=False, pids=((12, 5, 0), (12, 5, 0), (10, 3, 0)), level=80)
+    for line in (
+        "set simplified_pids_mode = OFF",
+        "set p_roll = 12",
+        "set i_yaw = 3",
+        "set f_pitch = 0",
+        "set d_max_roll = 0",
+        "set angle_p_gain = 80",
+        "set anti_gravity_gain = 0",
+        "set rc_smoothing = OFF",
+    ):
+        assert line in commands
+    assert not any(c.startswith("set p_roll") for c in configuration(BetaflightSpec(), reversed_spin=False))
