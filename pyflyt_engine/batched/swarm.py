@@ -1201,6 +1201,7 @@ def _rotor_geometry(spec: UAVSpec) -> dict[str, Any]:
     from pyflyt_engine.assembly import assemble
 
     motors = assemble(spec).motors
+    assert motors is not None  # a multirotor's (check_swarm_supported refuses any other airframe)
     hubs = motors.positions.tolist()
     radii: list[float | None] = [None] * len(hubs)
     if spec.motors is not None and spec.motors.prop_radius is not None:
