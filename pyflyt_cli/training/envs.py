@@ -95,12 +95,10 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
     ):
         env = Float32Observation(env)
     act_space = env.action_space
-    bounded = (
-        isinstance(act_space, spaces.Box) and np.all(np.isfinite(act_space.low)) and np.all(np.isfinite(act_space.high))
-    )
     if (
-        bounded
-        and isinstance(act_space, spaces.Box)
+        isinstance(act_space, spaces.Box)  # bounded, and not already [-1, 1]
+        and np.all(np.isfinite(act_space.low))
+        and np.all(np.isfinite(act_space.high))
         and not (np.allclose(act_space.low, -1.0) and np.allclose(act_space.high, 1.0))
     ):
         # the stubs take NumPy scalars; the wrapper takes any number (its docs, np.issubdtype)
