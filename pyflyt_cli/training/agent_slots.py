@@ -9,10 +9,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any, SupportsFloat, cast
 
 import gymnasium
 import numpy as np
+
+if TYPE_CHECKING:
+    from pyflyt_engine.envs.multi_agent.shared import SharedPolicyEnv
+
+
+def _shared(env: gymnasium.Env) -> SharedPolicyEnv:
+    """The multi-agent env under ``env``'s wrappers."""
+    return cast("SharedPolicyEnv", env.unwrapped)
 
 
 class AgentSlots(gymnasium.Wrapper):
@@ -26,7 +34,7 @@ class AgentSlots(gymnasium.Wrapper):
 
     def __init__(self, env: gymnasium.Env) -> None:
         super().__init__(env)
-        self.num_agents = int(env.unwrapped.num_agents)
+        self.num_agents = int(_shared(env).num_agents)
         self._returns = np.zeros(self.num_agents)
         self._lengths = np.zeros(self.num_agents, dtype=np.int64)
         self._started = time.time()
@@ -37,7 +45,7 @@ class AgentSlots(gymnasium.Wrapper):
         self._lengths[:] = 0
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         active = info["agent_active"]
         ended = active & (info["agent_terminated"] | info["agent_truncated"])
@@ -46,7 +54,7 @@ class AgentSlots(gymnasium.Wrapper):
         self._lengths += active
         slots_obs = np.array(obs, copy=True)
         episodes: dict[int, dict[str, Any]] = {}
-        names = self.env.unwrapped.agent_names
+        names = _shared(self.env).agent_names
         for i in np.flatnonzero(ended):
             agent_info = info["agent_infos"][names[i]]
             episodes[int(i)] = {
@@ -109,7 +117,7 @@ class LocalEnv:
         return self.call(name, *args, **kwargs)
 
     def num_agents(self) -> int:
-        return int(self.env.unwrapped.num_agents)
+        return int(_shared(self.env).num_agents)
 
     def get(self, name: str) -> Any:
         """The attribute of the outermost wrapper (or the env) that has it, as SB3's vector envs find it."""

@@ -31,12 +31,15 @@ import pickle
 import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.safe_load import json_loads
+
+if TYPE_CHECKING:
+    from pyflyt_cli.training.evaluation import ObsNormalizer
 
 #: ``format`` of a policy file and of a checkpoint (a policy file with the trainer's state)
 POLICY_FORMAT = "pyflyt.policy"
@@ -241,7 +244,8 @@ def check_normalizer(state: Any, space: Any, path: Path | str) -> None:
         problems = [
             f"the statistics of an observation entry {key!r} the env does not have"
             if key not in space.spaces
-            else _rms_problem(value, space.spaces[key].shape, f"the statistics of {key!r}")
+            # (an entry without a shape, a nested Dict, which VecNormalize does not take: checked as a scalar's)
+            else _rms_problem(value, space.spaces[key].shape or (), f"the statistics of {key!r}")
             for key, value in entries
         ]
     else:
@@ -301,7 +305,7 @@ def restore_normalizer(vec: Any, state: Mapping[str, Any], *, returns: bool = Tr
         vec.returns = saved.astype(np.float64).copy()
 
 
-def observation_normalizer(state: Mapping[str, Any] | None) -> Callable[[np.ndarray], np.ndarray] | None:
+def observation_normalizer(state: Mapping[str, Any] | None) -> ObsNormalizer | None:
     """``obs -> normalised obs`` as SB3's ``VecNormalize.normalize_obs`` computes it (None if off)."""
     if state is None or not state["norm_obs"]:
         return None
@@ -439,7 +443,8 @@ def save_replay_buffer(path: Path, buffer: Any) -> None:
 
     def write(tmp: Path) -> None:
         with open(tmp, "wb") as handle:
-            np.savez_compressed(handle, **arrays)
+            # (NumPy's stubs would read one of the keys as allow_pickle: none is)
+            np.savez_compressed(handle, **cast("dict[str, Any]", arrays))
 
     write_atomically(path, write)
 

@@ -53,10 +53,10 @@ from gymnasium import spaces
 from stable_baselines3.common.buffers import ReplayBuffer
 from stable_baselines3.common.noise import ActionNoise
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
-from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.policies import BasePolicy, ContinuousCritic
 from stable_baselines3.common.type_aliases import GymEnv, MaybeCallback, Schedule
 from stable_baselines3.common.utils import get_parameters_by_name, polyak_update
-from stable_baselines3.sac.policies import CnnPolicy, MlpPolicy, MultiInputPolicy, SACPolicy
+from stable_baselines3.sac.policies import Actor, CnnPolicy, MlpPolicy, MultiInputPolicy, SACPolicy
 from torch.nn import functional as F
 
 SelfAWAC = TypeVar("SelfAWAC", bound="AWAC")
@@ -98,6 +98,9 @@ class AWAC(OffPolicyAlgorithm):
         "MultiInputPolicy": MultiInputPolicy,
     }
     policy: SACPolicy
+    actor: Actor
+    critic: ContinuousCritic
+    critic_target: ContinuousCritic
 
     def __init__(
         self,
@@ -241,7 +244,9 @@ class AWAC(OffPolicyAlgorithm):
                 next_q = next_q - self.ent_coef * next_log_prob.reshape(-1, 1)
             target = replay_data.rewards + (1 - replay_data.dones) * discounts * next_q
         current = self.critic(replay_data.observations, replay_data.actions)
-        return 0.5 * sum(F.mse_loss(q, target) for q in current)
+        loss = 0.5 * sum(F.mse_loss(q, target) for q in current)
+        assert isinstance(loss, th.Tensor)  # a sum over at least one critic
+        return loss
 
     # -------------------------------------------------------------- training
 
@@ -339,6 +344,7 @@ class AWAC(OffPolicyAlgorithm):
     def load_replay_buffer(self, path: str | pathlib.Path | io.BufferedIOBase, truncate_last_traj: bool = True) -> None:
         """SB3's (pickle) loader, with a clear error when the buffer does not match this env's spaces."""
         super().load_replay_buffer(path, truncate_last_traj)
+        assert isinstance(self.action_space, spaces.Box)  # the one action space AWAC supports
         buffer = self.replay_buffer
         if buffer is not None and (
             buffer.obs_shape != self.observation_space.shape

@@ -99,7 +99,8 @@ class BatchedVecEnv(VecEnv):
         self._rescale = None
         action_space = act
         if not (np.allclose(act.low, -1.0) and np.allclose(act.high, 1.0)):
-            action_space, _, self._rescale = rescale_box(act, -1.0, 1.0)
+            # the stubs take NumPy scalars; the function takes any number (np.issubdtype)
+            action_space, _, self._rescale = rescale_box(act, -1.0, 1.0)  # type: ignore[arg-type]
         self.render_mode = None
         super().__init__(self.env.num_envs, obs_space, action_space)
         self._actions: np.ndarray | None = None

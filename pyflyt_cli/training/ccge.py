@@ -146,7 +146,9 @@ class CCGE(SAC):
         action, buffer_action = super()._sample_action(learning_starts, action_noise, n_envs)
         if warmup:
             return action, buffer_action
+        assert self._last_obs is not None  # set by the rollout collection that samples
         obs, _ = self.policy.obs_to_tensor(self._last_obs)
+        assert isinstance(obs, th.Tensor)  # CCGE's one policy, MlpPolicy, sees a Box observation
         oracle = self.policy.oracle_action(obs)
         use, _ = self.switch(obs, th.as_tensor(buffer_action, dtype=oracle.dtype), oracle)
         chosen = use.cpu().numpy().astype(bool).reshape(-1)
@@ -177,6 +179,7 @@ class CCGE(SAC):
 
             if self.ent_coef_optimizer is not None and self.log_ent_coef is not None:
                 ent_coef = th.exp(self.log_ent_coef.detach())
+                assert isinstance(self.target_entropy, float)  # made a number by SAC's _setup_model
                 ent_loss = -(self.log_ent_coef * (log_prob + self.target_entropy).detach()).mean()
                 self.ent_coef_optimizer.zero_grad()
                 ent_loss.backward()

@@ -30,6 +30,7 @@ slot per agent (:class:`~pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`).
 from __future__ import annotations
 
 import signal
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,9 +58,13 @@ class Float32Observation(gymnasium.ObservationWrapper):
         if isinstance(space, spaces.Dict):
             self._cast = [k for k, s in space.spaces.items() if isinstance(s, spaces.Box) and s.dtype.kind == "f"]
             self.observation_space = spaces.Dict(
-                {k: _float32(s) if k in self._cast else s for k, s in space.spaces.items()}
+                {
+                    k: _float32(s) if k in self._cast and isinstance(s, spaces.Box) else s
+                    for k, s in space.spaces.items()
+                }
             )
         else:
+            assert isinstance(space, spaces.Box), f"Float32Observation casts a Box or a Dict observation, not {space}"
             self._cast = []
             self.observation_space = _float32(space)
 
@@ -90,11 +95,14 @@ def wrap_for_agent(env: gymnasium.Env) -> gymnasium.Env:
     ):
         env = Float32Observation(env)
     act_space = env.action_space
-    bounded = (
-        isinstance(act_space, spaces.Box) and np.all(np.isfinite(act_space.low)) and np.all(np.isfinite(act_space.high))
-    )
-    if bounded and not (np.allclose(act_space.low, -1.0) and np.allclose(act_space.high, 1.0)):
-        env = gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)
+    if (
+        isinstance(act_space, spaces.Box)  # bounded, and not already [-1, 1]
+        and np.all(np.isfinite(act_space.low))
+        and np.all(np.isfinite(act_space.high))
+        and not (np.allclose(act_space.low, -1.0) and np.allclose(act_space.high, 1.0))
+    ):
+        # the stubs take NumPy scalars; the wrapper takes any number (its docs, np.issubdtype)
+        env = gymnasium.wrappers.RescaleAction(env, -1.0, 1.0)  # type: ignore[arg-type]
     return env
 
 
@@ -109,6 +117,7 @@ class _FlattenAllButImages(gymnasium.ObservationWrapper):
     def __init__(self, env: gymnasium.Env) -> None:
         super().__init__(env)
         space = env.observation_space
+        assert isinstance(space, spaces.Dict)  # wrap_for_agent's choice for a Dict holding an image
         self._images = [k for k, s in space.spaces.items() if is_image(s)]
         self._rest = spaces.Dict({k: s for k, s in space.spaces.items() if k not in self._images})
         flat = spaces.flatten_space(self._rest)
@@ -129,7 +138,7 @@ def _rng_state(env: gymnasium.Env) -> dict[str, Any]:
 
 
 def _set_rng_state(env: gymnasium.Env, state: dict[str, Any]) -> None:
-    base = env.unwrapped
+    base: Any = env.unwrapped  # a pyflyt env: its world, if it has one, set below
     base.np_random.bit_generator.state = state["env"]
     if "world" in state:
         base.world.set_rng_state(state["world"])
@@ -287,7 +296,7 @@ def make_vec_env(config: EnvConfig, n_envs: int, kind: str = "auto", curriculum:
         from pyflyt_cli.training.multi_agent import AgentSlotsVecEnv
 
         subproc = kind == "subproc"
-        factories = [
+        factories: list[Callable[[], gymnasium.Env]] = [
             EnvFactory(config, in_subprocess=subproc, resumable=True, curriculum=curriculum) for _ in range(n_envs)
         ]
         return AgentSlotsVecEnv(factories, subprocess=subproc)

@@ -15,13 +15,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 
 from pyflyt_engine.envs.tasks.measures import INFO_KEY as MEASURES
 from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.tasks.measures import summarize_measures as combine_measures
+
+#: an observation: one array, or the entries of a Dict observation space
+Observation: TypeAlias = np.ndarray | dict[str, np.ndarray]
+#: ``obs -> normalised obs``: the observation normalisation a policy was trained with
+ObsNormalizer: TypeAlias = Callable[[Observation], Observation]
 
 #: evaluation episodes use seeds ``run seed + EVAL_SEED_OFFSET + i`` unless told otherwise
 EVAL_SEED_OFFSET = 1000
@@ -47,12 +52,12 @@ class Episode:
 
 
 def run_episodes(
-    predict: Callable[[np.ndarray, bool], np.ndarray],
+    predict: Callable[[Any, bool], np.ndarray],
     env: Any,
     episodes: int,
     seed: int,
     deterministic: bool = True,
-    normalize_obs: Callable[[np.ndarray], np.ndarray] | None = None,
+    normalize_obs: ObsNormalizer | None = None,
     on_step: Callable[[Any, int], None] | None = None,
     on_reset: Callable[[Any, int], None] | None = None,
 ) -> list[Episode]:

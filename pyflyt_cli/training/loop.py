@@ -302,16 +302,16 @@ def _init_source(cfg: TrainConfig) -> PolicySource:
         raise ConfigError(f"init_from={cfg.init_from}: {exc}") from None
     hint = str((rundir.read_yaml(rundir.run_of(model) / rundir.CONFIG_FILE).get("algo") or {}).get("name", "?"))
     try:
-        source = read_policy(model, trust_pickle=trust, algo_hint=hint)
+        policy = read_policy(model, trust_pickle=trust, algo_hint=hint)
     except ConfigError as exc:
         raise ConfigError(f"init_from: {exc}") from None
     accepted = {cfg.algo.name} | registry.INIT_FROM.get(cfg.algo.name, frozenset())
-    if source.algo not in accepted:
+    if policy.algo not in accepted:
         raise ConfigError(
-            f"init_from={cfg.init_from}: that policy was trained by {source.algo}, this run uses {cfg.algo.name}; "
+            f"init_from={cfg.init_from}: that policy was trained by {policy.algo}, this run uses {cfg.algo.name}; "
             f"{cfg.algo.name} can start from the policy weights of: {', '.join(sorted(accepted))}"
         )
-    return source
+    return policy
 
 
 def _resume_point(path: Path, cfg: TrainConfig, log: Log) -> rundir.Checkpoint | None:
@@ -470,7 +470,7 @@ class _Run:
             space = vec.observation_space
             keys = None  # a Dict: normalise its float entries, never a camera image
             if isinstance(space, spaces.Dict):
-                keys = [k for k, s in space.spaces.items() if s.dtype.kind == "f"]
+                keys = [k for k, s in space.spaces.items() if s.dtype is not None and s.dtype.kind == "f"]
             vec = VecNormalize(
                 vec,
                 norm_obs=norm.observation,
@@ -512,6 +512,7 @@ class _Run:
         from pyflyt_cli.training.imitation import IMITATION_RECORD, imitate
 
         options = self.cfg.train.imitation
+        assert options is not None  # called only for a run with train.imitation
         self.log(
             f"imitation: {options.rounds + 1} DAgger rounds x {options.episodes} episodes with oracle "
             f"{options.oracle}, before {self.cfg.algo.name}"
@@ -554,10 +555,11 @@ class _Run:
             self.log("ETA: printed with the progress once training has run for a while")
             return
         seconds = RunEta(cfg, costs).seconds_left(start_step, start_step)  # the ETA every later line updates
+        starts = getattr(cfg.algo, "learning_starts", 0)  # off-policy only
         self.log(
             f"ETA: about {format_duration(seconds)} (measured just now on a copy of the model: "
             f"{1e3 * costs.collect:.2f} ms per collected {unit[:-1]}, {1e3 * costs.update:.2f} ms of updates per {unit[:-1]}"
-            + (f" after learning_starts={cfg.algo.learning_starts}" if getattr(cfg.algo, "learning_starts", 0) else "")
+            + (f" after learning_starts={starts}" if starts else "")
             + ")"
         )
 
@@ -759,6 +761,7 @@ class _Run:
             self.writer.flush()
         artifacts.fault_point("metrics flushed")
         if self.cfg.algo.off_policy and self.cfg.train.save_replay_buffer:
+            assert paths.replay_buffer is not None  # checkpoint_paths names one
             artifacts.save_replay_buffer(paths.replay_buffer, model.replay_buffer)
         artifacts.save_checkpoint_file(paths.model, model, self.cfg.algo.name, step, state, tensors)
         self._write_state("running", step, checkpoint=step)

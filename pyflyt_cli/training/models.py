@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from pyflyt_cli.training.artifacts import (
     read_payload,
 )
 from pyflyt_cli.training.schema import TrainConfig
+
+if TYPE_CHECKING:
+    from pyflyt_cli.training.evaluation import ObsNormalizer
 
 
 def build_model(
@@ -130,14 +133,16 @@ def read_policy(path: Path, *, trust_pickle: bool = False, algo_hint: str | None
             raise ArtifactError(f"{path}: cannot load this SB3 model file ({first})") from None
         legacy_norm = rundir.legacy_normalizer(path)
         normalizer = load_legacy_normalizer(legacy_norm) if legacy_norm is not None else None
-        return PolicySource(path, algo_hint or "?", params["policy"], normalizer)
+        # SB3 annotates params as name -> tensor; each value is a state dict (policy, policy.optimizer)
+        policy = cast("dict[str, Any]", params["policy"])
+        return PolicySource(path, algo_hint or "?", policy, normalizer)
     data = read_payload(path)
     return PolicySource(path, str(data["algo"]), data["policy"], data["normalizer"], int(data["step"]))
 
 
 def load_policy(
     path: Path, cfg: TrainConfig, env: Any, *, trust_pickle: bool = False
-) -> tuple[Any, Callable[[np.ndarray], np.ndarray] | None]:
+) -> tuple[Any, ObsNormalizer | None]:
     """(model ready to predict, observation normaliser or None) for policy file ``path`` of a run
     configured by ``cfg``; ``env`` is a Gymnasium env wrapped for the agent."""
     from stable_baselines3.common.vec_env import DummyVecEnv

@@ -150,7 +150,9 @@ class AgentSlotsVecEnv(VecEnv):
             self.close()
             raise
         super().__init__(len(self.envs) * self.agents_per_env, observation_space, action_space)
-        self._obs = np.zeros((self.num_envs, *self.observation_space.shape), dtype=self.observation_space.dtype)
+        shape = self.observation_space.shape
+        assert shape is not None  # an agent's observation row: a Box
+        self._obs = np.zeros((self.num_envs, *shape), dtype=self.observation_space.dtype)
         self._actions: np.ndarray | None = None
         self._restored: dict[int, np.ndarray] = {}
 

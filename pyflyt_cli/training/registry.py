@@ -189,7 +189,7 @@ def resolve(table: Mapping[str, str], name: str, what: str) -> Any:
     return getattr(importlib.import_module(module), attr)
 
 
-def unknown(what: str, name: str, choices: Any) -> str:
+def unknown(what: str, name: object, choices: Any) -> str:
     """``unknown <what> '<name>'. Did you mean '...'? Available: ...``."""
     from pyflyt_engine.suggest import did_you_mean
 

@@ -287,10 +287,10 @@ def portable_config(cfg: TrainConfig, run_dir: Path) -> TrainConfig:
         listed = [a.model_dump(mode="json") for a in agents]
         for agent in listed:
             if _is_airframe_path(agent.get("uav")):
-                data = read_bytes(agent["uav"], limit=MAX_YAML_BYTES, what="airframe file")
-                copy = run_dir / f"airframe-{hashlib.sha256(data).hexdigest()[:12]}.yaml"
+                content = read_bytes(agent["uav"], limit=MAX_YAML_BYTES, what="airframe file")
+                copy = run_dir / f"airframe-{hashlib.sha256(content).hexdigest()[:12]}.yaml"
                 if not copy.exists():
-                    atomic_write(copy, data)
+                    atomic_write(copy, content)
                 agent["uav"] = str(copy)
         update["agents"] = listed
     obstacles = getattr(env, "obstacles", None)
@@ -344,7 +344,7 @@ LATER_KEYS = {
 
 #: ``env.terminations`` as every env declared it before it was a key (conf/env/_base.yaml):
 #: left out of the identity, so older runs keep their digest; any other declaration counts
-_DEFAULT_TERMINATIONS = {name: {"term": None, "params": {}} for name in DEFAULT_TERMINATIONS}
+_DEFAULT_TERMINATIONS: dict[str, dict[str, Any]] = {name: {"term": None, "params": {}} for name in DEFAULT_TERMINATIONS}
 
 
 def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
@@ -420,7 +420,8 @@ def _inline_preset_files(env: dict[str, Any]) -> None:
     from pyflyt_engine.envs.config import load_reward_preset
 
     wind = env.get("wind")
-    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    declared = env.get("reward_presets")
+    presets = declared if isinstance(declared, dict) else {}
     reward = presets.get(env.get("reward"), env.get("reward")) if isinstance(env.get("reward"), str) else None
     try:
         if isinstance(wind, str) and not plain_name(wind):
@@ -564,7 +565,8 @@ def _confine(data: Any, root: Path, source: str) -> None:
     airframe(env, "uav")
     for agent in _agent_list(env):
         airframe(agent, "uav")
-    presets = env.get("reward_presets") if isinstance(env.get("reward_presets"), dict) else {}
+    declared = env.get("reward_presets")
+    presets = declared if isinstance(declared, dict) else {}
     named = {f"env.reward_presets.{k}": v for k, v in presets.items()}
     for key in _PRESET_KEYS:
         value = env.get(key)

@@ -75,9 +75,9 @@ class SAC(_SB3SAC):
             optimizers.append(self.ent_coef_optimizer)
         self._update_learning_rate(optimizers)
 
-        critic_params = list(self.critic.parameters())
+        critic_params: list[th.Tensor] = list(self.critic.parameters())
         trained = [p for p in critic_params if p.requires_grad]
-        target_params = list(self.critic_target.parameters())
+        target_params: list[th.Tensor] = list(self.critic_target.parameters())
         if len(target_params) != len(critic_params):  # SB3's polyak_update refuses it too (zip strict)
             raise ValueError(f"the critic has {len(critic_params)} parameter tensors, its target {len(target_params)}")
 

@@ -123,7 +123,7 @@ class SACJaxPolicy(SACPolicy):
             **to_tensors("qf_target", self.qf_state.target_params),
         }
 
-    def load_state_dict(self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False) -> Any:  # type: ignore[override]
+    def load_state_dict(self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False) -> Any:
         used: set[str] = set()
         actor = from_tensors("actor", self.actor_state.params, state_dict, used)
         qf = from_tensors("qf", self.qf_state.params, state_dict, used)
@@ -140,7 +140,7 @@ class SACJax(_SBXSAC):
     """SBX's SAC with the toolkit's files: tensors for the policy, the optimisers and the JAX keys
     (see the module docstring)."""
 
-    policy_aliases: ClassVar[dict[str, type[SACPolicy]]] = {  # type: ignore[assignment]
+    policy_aliases: ClassVar[dict[str, type[SACPolicy]]] = {
         "MlpPolicy": SACJaxPolicy,
         "MultiInputPolicy": SACJaxPolicy,  # SBX flattens a Dict observation
     }

@@ -94,6 +94,7 @@ class PolicyConfig(_Strict):
     @field_validator("lstm_hidden_size", "n_lstm_layers", "n_critics", "n_quantiles")
     @classmethod
     def _sizes(cls, value: int | None, info: ValidationInfo) -> int | None:
+        assert info.field_name is not None  # a field validator's
         key = {
             "lstm_hidden_size": "net.width",
             "n_lstm_layers": "net.depth",
@@ -168,6 +169,7 @@ class _AlgoBase(_Strict):
     @field_validator(*_BOUNDED, check_fields=False)
     @classmethod
     def _bounded(cls, value: int | None, info: ValidationInfo) -> int | None:
+        assert info.field_name is not None  # a field validator's
         key = cls._BOUNDED[info.field_name]
         if info.field_name == "n_steps" and "buffer_size" in cls.model_fields:  # off-policy: n-step returns
             key = "algo.n_step_returns"
@@ -404,7 +406,8 @@ class CrossQConfig(_OffPolicy):
     renormalisation in actor and critic; sb3-contrib ``CrossQ``."""
 
     name: Literal["crossq"]
-    tau: None = Field(description="unused: CrossQ has no target network (null)")
+    # a field narrowed to null (pydantic allows it; mypy sees an incompatible override)
+    tau: None = Field(description="unused: CrossQ has no target network (null)")  # type: ignore[assignment]
     ent_coef: float | str = Field(description="entropy coefficient: a number, 'auto' or 'auto_<init>'")
     target_entropy: float | Literal["auto"] = Field(description="entropy target ('auto': -dim(action))")
     policy_delay: int = Field(ge=1, description="actor (and entropy) update every policy_delay critic updates")
@@ -460,9 +463,23 @@ class RecurrentPPOConfig(_AlgoBase):
     target_kl: float | None = Field(gt=0, description="stop the epochs early beyond this KL (null: never)")
 
 
-#: ``algo:``: one model per algorithm, as the table of algorithms names it
+#: ``algo:``: one model per algorithm, as the table of algorithms names it, in its order (spelled
+#: out so the type checker knows each member; tests/train/test_algorithm_table.py holds it to the table)
 AlgoConfig = Annotated[
-    Union[tuple(globals()[a.config] for a in registry.ALGORITHMS.values())],  # noqa: UP007 - built from the table
+    Union[  # noqa: UP007 - a type alias pydantic reads at run time
+        PPOConfig,
+        A2CConfig,
+        SACConfig,
+        SACJaxConfig,
+        TD3Config,
+        DDPGConfig,
+        AWACConfig,
+        CCGEConfig,
+        TQCConfig,
+        CrossQConfig,
+        TRPOConfig,
+        RecurrentPPOConfig,
+    ],
     Field(discriminator="name"),
 ]
 
@@ -735,6 +752,7 @@ def _check_imitation(env: EnvConfig, algo: str, imitation: ImitationOptions) -> 
             f"train.imitation.value_warmup holds the policy of an actor-critic updated from its own rollouts "
             f"({', '.join(VALUE_WARMUP_ALGORITHMS)}), not {algo}; set train.imitation.value_warmup=0"
         )
+    assert imitation.oracle is not None  # train.imitation without one is None (TrainOptions._no_oracle_is_none)
     flies = ORACLES[imitation.oracle].env_ids
     if env.id not in flies:
         raise ValueError(f"train.imitation.oracle={imitation.oracle} flies {', '.join(flies)}, not {env.id}")
@@ -847,14 +865,14 @@ def parse_train_config(
         return data
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: a training config must be a mapping, got {type(data).__name__}")
-    data = registry.check_targets(data)
-    if "trust_pickle" not in data:  # a run recorded before the key existed never trusted pickles
-        data = {**data, "trust_pickle": False}
-    algo = data.get("algo")
+    tree: Mapping[str, Any] = registry.check_targets(data)
+    if "trust_pickle" not in tree:  # a run recorded before the key existed never trusted pickles
+        tree = {**tree, "trust_pickle": False}
+    algo = tree.get("algo")
     if isinstance(algo, Mapping) and algo.get("name") not in registry.ALGOS:
         raise ConfigError(f"{source}: algo.name: " + registry.unknown("algorithm", algo.get("name"), registry.ALGOS))
     try:
-        cfg = TrainConfig.model_validate(data, context={"recorded": recorded})
+        cfg = TrainConfig.model_validate(tree, context={"recorded": recorded})
     except ValidationError as exc:
         lines = []
         for error in exc.errors():

@@ -138,6 +138,11 @@ class _Param(BaseModel):
     step: float | None = None
     choices: list[Any] | None = None
 
+    def bounds(self) -> tuple[float, float]:
+        """``(low, high)`` of a float or int distribution (:func:`load_search_space` requires both)."""
+        assert self.low is not None and self.high is not None, f"a {self.type} distribution without low/high"
+        return self.low, self.high
+
 
 @dataclass(frozen=True)
 class SearchSpace:
@@ -151,9 +156,11 @@ class SearchSpace:
         values: dict[str, Any] = {}
         for key, p in self.params.items():
             if p.type == "float":
-                values[key] = trial.suggest_float(key, p.low, p.high, log=p.log, step=p.step)
+                low, high = p.bounds()
+                values[key] = trial.suggest_float(key, low, high, log=p.log, step=p.step)
             elif p.type == "int":
-                values[key] = trial.suggest_int(key, int(p.low), int(p.high), log=p.log, step=int(p.step or 1))
+                low, high = p.bounds()
+                values[key] = trial.suggest_int(key, int(low), int(high), log=p.log, step=int(p.step or 1))
             else:
                 encoded = [_encode(c) for c in p.choices or []]
                 values[key] = _decoded(trial.suggest_categorical(key, encoded))
@@ -168,7 +175,8 @@ class SearchSpace:
             return False
         if p.type == "int" and int(value) != value:
             return False
-        return float(p.low) <= float(value) <= float(p.high)  # type: ignore[arg-type]
+        low, high = p.bounds()
+        return float(low) <= float(value) <= float(high)
 
     def enqueued(self, values: Mapping[str, Any]) -> dict[str, Any]:
         """``values`` (one per key) as Optuna takes them in ``enqueue_trial``."""
@@ -183,7 +191,8 @@ class SearchSpace:
                 lows[key], highs[key] = (p.choices or [None])[0], (p.choices or [None])[-1]
             else:
                 cast = int if p.type == "int" else float
-                lows[key], highs[key] = cast(p.low), cast(p.high)
+                low, high = p.bounds()
+                lows[key], highs[key] = cast(low), cast(high)
         return [lows, highs]
 
 
@@ -337,8 +346,9 @@ class _ReportEvaluations:
                 self.pruned_at: int | None = None
 
             def _on_step(self) -> bool:
-                step = int(self.parent.num_timesteps)
-                trial.report(float(self.parent.last_mean_reward), step)
+                parent: Any = self.parent  # the evaluation that calls it (its last_mean_reward)
+                step = int(parent.num_timesteps)
+                trial.report(float(parent.last_mean_reward), step)
                 if trial.should_prune():
                     self.pruned_at = step
                     return False
@@ -375,13 +385,18 @@ def run_trial(
     if report.pruned_at is not None:
         log(f"trial {trial.number}: pruned at step {report.pruned_at} ({shown})")
         raise optuna.TrialPruned()
-    value = result.last_eval["mean_return"] if objective == "last" else result.best_mean_return
+    last = result.last_eval
+    if objective == "last":
+        value = last["mean_return"] if last is not None else None
+    else:
+        value = result.best_mean_return
     if value is None:
         raise ConfigError("pyflyt tune needs evaluations: set train.eval_freq > 0")
+    assert last is not None  # there were evaluations: the last one is recorded
     log(f"trial {trial.number}: return {value:.2f} ({shown})")
     # the spread of that evaluation, for the study's verdict (tune_verdict)
     n = int(cfg.train.eval_episodes)
-    trial.set_user_attr("eval_std", float(result.last_eval["std_return"]) * (n / (n - 1)) ** 0.5 if n > 1 else 0.0)
+    trial.set_user_attr("eval_std", float(last["std_return"]) * (n / (n - 1)) ** 0.5 if n > 1 else 0.0)
     trial.set_user_attr("eval_episodes", n)
     return float(value)
 
@@ -618,7 +633,8 @@ def _plots(study: Any, study_dir: Path, log: Log, importance: bool = True) -> li
     from optuna.trial import TrialState
 
     written = []
-    plots = [("history.png", vis.plot_optimization_history)]
+    # each draws an Axes (or an array of them: ax.flat below)
+    plots: list[tuple[str, Callable[[Any], Any]]] = [("history.png", vis.plot_optimization_history)]
     if not importance:
         (study_dir / "importance.png").unlink(missing_ok=True)
     elif len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))) >= 2:

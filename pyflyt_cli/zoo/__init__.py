@@ -157,8 +157,7 @@ def add_agent(
     run = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(run)
     model, which = rundir.find_model(run, "auto")
-    # (schema.AlgoConfig is a Union built at run time from the algorithm table: opaque to mypy)
-    name = name or f"{cfg.env_name}_{cfg.algo.name}"  # type: ignore[attr-defined]
+    name = name or f"{cfg.env_name}_{cfg.algo.name}"
     if not name.replace("_", "").replace("-", "").isalnum():
         raise ConfigError(f"zoo agent name {name!r}: letters, digits, _ and - only")
     final = root / name

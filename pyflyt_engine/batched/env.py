@@ -63,7 +63,7 @@ simulate is refused when the env is built, by name (:func:`check_supported`).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import gymnasium
 import numpy as np
@@ -88,6 +88,9 @@ from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import load_uav_spec
+
+if TYPE_CHECKING:
+    from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions
 
 #: upcoming waypoints in a waypoint observation (FlattenWaypointEnv's default)
 CONTEXT_LENGTH = 2
@@ -395,7 +398,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         in the order a PyBullet env draws them: the randomize section, the spawn, the targets),
         then their state from the spawn, all rows at once (:mod:`pyflyt_engine.batched.bookkeeping`)."""
         task = self._episode_task
-        o = task.options
+        o = cast("WaypointsOptions", task.options)  # read for the waypoints task only
         if self._waypoints:
             self.reach[index] = float(o.goal_reach_distance)
         randomizer = self.randomizer
@@ -807,6 +810,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 np.zeros(n, dtype=bool),
             )
         table, mass, window, max_tilt, commands, contact = self._cascade_rows
+        assert self._cascade is not None  # set for a cascade mode, the only one stepped here
         law, yaw_is_rate, heading_frame, position, altitude = self._cascade
         per_control = self.per_control
         contact[:] = False

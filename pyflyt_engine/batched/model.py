@@ -252,6 +252,7 @@ def _corners(spec: UAVSpec, com: np.ndarray) -> np.ndarray:
                         corner = centre + rot @ (half * np.array([sx, sy, sz]))
                         rows.append([*corner, 0.0, 0.0, 0.0, 0.0, 1.0])
         else:  # cylinder along its local z: two end discs
+            assert shape.length is not None  # a cylinder's (ShapeSpec requires it)
             axis = rot[:, 2]
             for side in (-1.0, 1.0):
                 rows.append([*(centre + side * 0.5 * shape.length * axis), 0.0, shape.radius, *axis])
@@ -377,8 +378,9 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         **_motor_laws(parts, physics_dt),
     )
     common.update(_gimbal_rows(parts, physics_dt))
-    if fixedwing:
+    if isinstance(spec.control, FixedwingControlSpec):  # fixedwing
         return _fixedwing_model(parts, spec.control, physics_dt, common)
+    assert isinstance(spec.control, MultirotorControlSpec)  # the other controllers refused above
     assert motors is not None  # a multirotor controller needs motors (spec validator)
     inertia = np.asarray(parts.inertia, dtype=np.float64)
     mixer = flight_mixer(parts)  # the Vehicle's: the mixer motors, the tilting ones among them

@@ -138,9 +138,8 @@ class BatchedRandomizer:
             env._rotors[i, :, 4] = reaction_per_thrust(params)
         if self.drag:
             d, f = self._drag, values["drag"]
-            d = dataclasses.replace(
-                d, coefficients=tuple(c * f for c in d.coefficients), angular_damping=d.angular_damping * f
-            )
+            cx, cy, cz = d.coefficients
+            d = dataclasses.replace(d, coefficients=(cx * f, cy * f, cz * f), angular_damping=d.angular_damping * f)
             env._drag_factors[i] = d.factors
             env._damping[i] = d.angular_damping
 

@@ -873,10 +873,16 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         noise = float(getattr(cfg.task, "position_noise", 0.0))
         need = 2.0 * self._bound_radius + 2.0 * math.sqrt(3.0) * noise
         if gap is not None and gap < need:
+            # ma_formation has no layout option: its agents always fly its grid
+            layout = getattr(cfg.task, "layout", None)
+            fix = (
+                "raise task.layout_radius or task.layout_spacing, use task.layout: grid, "
+                if layout is not None
+                else "raise task.layout_spacing, "
+            )
             raise ConfigError(
-                f"agents: {cfg.agents} agents on the {cfg.task.layout} layout spawn {gap:.3f} m apart, but they need "
-                f"{need:.3f} m not to touch; raise task.layout_radius or task.layout_spacing, use task.layout: grid, "
-                "or lower task.position_noise"
+                f"agents: {cfg.agents} agents on the {layout or 'grid'} layout spawn {gap:.3f} m apart, but they need "
+                f"{need:.3f} m not to touch; {fix}or lower task.position_noise"
             )
 
     # ---------------------------------------------------------------- seeding
@@ -1195,6 +1201,7 @@ def _rotor_geometry(spec: UAVSpec) -> dict[str, Any]:
     from pyflyt_engine.assembly import assemble
 
     motors = assemble(spec).motors
+    assert motors is not None  # a multirotor's (check_swarm_supported refuses any other airframe)
     hubs = motors.positions.tolist()
     radii: list[float | None] = [None] * len(hubs)
     if spec.motors is not None and spec.motors.prop_radius is not None:

@@ -417,3 +417,17 @@ def test_a_layout_whose_agents_would_touch_is_refused():
     with pytest.raises(ConfigError, match="64 agents on the ring layout spawn 0.098 m apart"):
         swarm.make_batched_swarm("ma_quadx_hover", agents=64)
     assert swarm.make_batched_swarm("ma_quadx_hover", agents=64, layout="grid").num_envs == 64
+
+
+def test_a_formation_whose_agents_would_touch_is_refused_as_the_pybullet_env_refuses_it():
+    # the formation has no layout option (always its grid): its refusal names the spacing alone
+    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
+    from pyflyt_engine.errors import ConfigError
+
+    cfg = load_env_config("ma_quadx_formation").with_overrides(agents=4, layout_spacing=0.05)
+    with pytest.raises(ConfigError, match="4 agents on the grid layout spawn 0.050 m apart") as pybullet:
+        MAQuadXFormationEnv(cfg)
+    with pytest.raises(ConfigError, match="4 agents on the grid layout spawn 0.050 m apart") as batched:
+        swarm.BatchedSwarmEnv(cfg)
+    assert "raise task.layout_spacing" in str(pybullet.value) and "raise task.layout_spacing" in str(batched.value)
+    assert "layout_radius" not in str(batched.value) and "task.layout:" not in str(batched.value)
