@@ -33,7 +33,7 @@ from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.control.modes import FlightMode
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.firmware import packets
-from pyflyt_engine.firmware.sitl import FirmwareError, LockstepSITL
+from pyflyt_engine.firmware.sitl import FirmwareError, FirmwareHungError, LockstepSITL
 from pyflyt_engine.spec import BetaflightSpec, MultirotorControlSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 
@@ -251,6 +251,9 @@ FIRMWARE_RATES_AT_30_HZ = (1500.0, 500.0, 30.0)
 PAPER_RATES = (240.0, 120.0, 30.0)
 #: Betaflight's default motor idle (motor_idle 550: 5.5 % of the output range)
 MOTOR_IDLE = 0.055
+#: the most ticks since a firmware's start that are kept to restart it where it stopped, should
+#: it hang (10 minutes at 1 kHz, ~110 MB); past them a hung firmware is an error
+REPLAY_TICKS = 600_000
 
 
 def with_betaflight(spec: UAVSpec, mode: str) -> UAVSpec:
@@ -420,6 +423,10 @@ class BetaflightController:
         #: asks for has not been started: it starts when first needed, so that a reset followed
         #: by another (a world's reset, then the episode's spawn) starts one firmware, not two
         self._start_at: tuple[KinematicState, bool] | None = None
+        #: every datagram this firmware was sent since its start (up to REPLAY_TICKS)
+        self._sent: list[bytes] | None = []
+        #: how many hung firmwares were replaced by a fresh one replayed to where it stopped
+        self.restarts = 0
 
     # ------------------------------------------------------------ lifecycle
 
@@ -445,6 +452,7 @@ class BetaflightController:
     def _start(self, state: KinematicState, armed: bool) -> None:
         self._start_at = None
         self._sitl = LockstepSITL(self.commands, self.gyro_hz)
+        self._sent = []
         self._ticks = 0
         self._last_velocity = None
         self._outputs = (0.0, 0.0, 0.0, 0.0)
@@ -534,8 +542,32 @@ class BetaflightController:
         elif self._sitl is None:
             self._start(state, armed)
         assert self._sitl is not None
-        self._outputs = self._sitl.tick(self.datagram(state, setpoint, armed, at_rest))
+        datagram = self.datagram(state, setpoint, armed, at_rest)
+        if self._sent is not None:
+            self._sent.append(datagram)
+            if len(self._sent) > REPLAY_TICKS:
+                self._sent = None  # too long a flight to replay: a hang is an error from here
+        try:
+            self._outputs = self._sitl.tick(datagram)
+        except FirmwareHungError:
+            if self._sent is None:
+                raise
+            self._outputs = self._replay()
         return self._outputs
+
+    def _replay(self) -> tuple[float, float, float, float]:
+        """A fresh firmware in place of a hung one, sent every datagram the hung one was: in
+        lockstep its state follows from them alone, so it goes on where the hung one stopped
+        with the same numbers.  Its answer to the last datagram is returned; a second hang is
+        an error."""
+        assert self._sitl is not None and self._sent is not None
+        self._sitl.close()
+        self._sitl = LockstepSITL(self.commands, self.gyro_hz)
+        self.restarts += 1
+        outputs = self._outputs
+        for datagram in self._sent:
+            outputs = self._sitl.tick(datagram)
+        return outputs
 
     def __call__(self, state: KinematicState, setpoint: Sequence[float] | None, armed: bool = True) -> list[float]:
         """One control tick: the mixer motors' throttles, in mixer order.

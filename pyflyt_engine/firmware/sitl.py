@@ -19,6 +19,7 @@ import hashlib
 import os
 import random
 import shutil
+import signal
 import socket
 import subprocess
 import tempfile
@@ -51,6 +52,10 @@ def _die_with_parent() -> None:
 class FirmwareError(PyFlytError, RuntimeError):
     """The flight controller firmware cannot be built, started, configured or stepped:
     the message says which and how to fix it."""
+
+
+class FirmwareHungError(FirmwareError):
+    """A running SITL gave no answer to a tick within ``TICK_TIMEOUT_S``."""
 
 
 def cache_dir() -> Path:
@@ -215,6 +220,7 @@ class SITLProcess:
         """Stop the process (and its threads) and release its ports; safe to call twice."""
         process = getattr(self, "process", None)
         if process is not None and process.poll() is None:
+            process.send_signal(signal.SIGCONT)  # a stopped process takes SIGTERM only once continued
             process.terminate()
             try:
                 process.wait(timeout=5.0)
@@ -315,7 +321,7 @@ class SITLProcess:
             answer = self.servo.recv(64)
         except TimeoutError:
             alive = self.process.poll() is None
-            raise FirmwareError(
+            raise (FirmwareHungError if alive else FirmwareError)(
                 f"the Betaflight SITL gave no motor outputs within {TICK_TIMEOUT_S:.0f} s "
                 f"({'still running: hung' if alive else f'exited with code {self.process.returncode}'}); "
                 f"its last output: {self.log()[-300:]!r}"

@@ -333,3 +333,34 @@ def test_pyflyt_fly_with_the_firmware_hovers(uav):
     assert trajectory.mode == "angle"
     final = trajectory.position[-1]
     assert abs(final[2] - 1.0) < 0.05 and math.hypot(final[0], final[1]) < 0.05
+
+
+def test_a_hung_firmware_is_replaced_and_replayed_without_changing_the_run(monkeypatch):
+    """A firmware that stops answering mid-flight (here: stopped with SIGSTOP) is replaced by a
+    fresh one sent every datagram since its start: the flight goes on with the same numbers,
+    bit for bit, as one whose firmware never hung."""
+    import os
+    import signal
+
+    monkeypatch.setattr(sitl, "TICK_TIMEOUT_S", 1.0)
+    rng = np.random.default_rng(4)
+    sticks = [[0.1 * rng.standard_normal(), 0.1 * rng.standard_normal(), 0.0, 0.4] for _ in range(40)]
+
+    def flight(hang_at=None):
+        world, vehicle = _world()
+        try:
+            states = []
+            for step, setpoint in enumerate(sticks):
+                if step == hang_at:
+                    os.kill(vehicle.firmware._sitl.process.process.pid, signal.SIGSTOP)
+                vehicle.set_setpoint(setpoint)
+                world.step()
+                states.append(vehicle.state.as_array())
+            return np.array(states), vehicle.firmware.restarts
+        finally:
+            world.close()
+
+    calm, calm_restarts = flight()
+    hung, restarts = flight(hang_at=15)
+    assert (calm_restarts, restarts) == (0, 1)
+    assert np.array_equal(calm, hung)
