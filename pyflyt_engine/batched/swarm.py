@@ -54,11 +54,23 @@ laws (:mod:`pyflyt_engine.batched.air`), read at each vehicle as the engine's wo
 as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world
 the same linear gusts, each world's white noise from a stream of its own.
 
+Domain randomisation (``env.randomize``): per world, at each of its resets, every entry is
+drawn once from the world's generator, before the spawns, and every agent of the world given
+the values, as the PyBullet engine's randomiser draws one set per reset for every vehicle of
+its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
+:func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
+:class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
+agent's rows of the body's, motors' and drag's parameters; the spawn offsets are added to
+each agent's spawn.  The flight controller keeps the nominal airframe, as the engine's does,
+and so does the downwash: the engine registers each vehicle's wake with its nominal full
+thrust and keeps it when a drawn ``motor_kf`` changes the motors.
+
 What the batched multi-agent path does not simulate is refused by name at load
-(:func:`check_swarm_supported`): other multi-agent tasks (formation, dogfight), agents with
-different airframes, the cascade flight modes, latency, domain randomisation, noisy sensors,
-the optional motor models, rotary turbulence gusts, and every key the single-agent batched
-backend refuses.
+(:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
+different airframes, the cascade flight modes, latency and the drawn delays
+(``randomize.action_delay`` / ``observation_delay``), the ``randomize`` entries the
+single-agent backend does not draw either, noisy sensors, the optional motor models,
+rotary turbulence gusts, and every key the single-agent batched backend refuses.
 """
 
 from __future__ import annotations
@@ -88,9 +100,11 @@ from pyflyt_engine.batched.kernels import (
     summed,
 )
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
+from pyflyt_engine.envs.randomization import DELAYS, Randomizer
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -345,7 +359,9 @@ def advance_swarm(
     ``ground_contact`` (lowest point below the ground; a disarmed vehicle touching it is
     parked) and ``agent_contact`` (collision boxes overlap, both vehicles flagged).
     The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
-    for every vehicle; ``square`` is 2.0 (:func:`downwash_velocity`).
+    for every vehicle: the flight controller's one set, the body's, motors' and drag's one row
+    per vehicle (``mass``, ``inertia``, ``lag``, ``columns``, ``drag_factors``, ``damping``,
+    ``rotors``: domain randomisation sets a world's rows); ``square`` is 2.0 (:func:`downwash_velocity`).
 
     The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it: where ``wind[0]`` is
     on, each vehicle's wind at its height at physics step ``episode_steps[i] + s`` of its
@@ -369,8 +385,6 @@ def advance_swarm(
     seen = np.empty((agents, 3))
     air = np.empty((agents, 6))
     loads = np.empty((agents, 6))
-    jx, jy, jz = inertia[0], inertia[1], inertia[2]
-    kx, ky, kz = drag_factors[0], drag_factors[1], drag_factors[2]
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
     windy = wind[0] != 0.0
     turbulent = wind[17] != 0.0
@@ -469,15 +483,24 @@ def advance_swarm(
                     air[a, 4] = r1 * ax + r4 * ay + r7 * az
                     air[a, 5] = r2 * ax + r5 * ay + r8 * az
                     if ground_effect:
-                        _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors, columns, min_height, scaled)
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                        _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors[i], columns[i], min_height, scaled)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], scaled)
                     else:
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], columns[i])
                     if drag_on:
                         load = summed(
                             load,
                             drag_wrench(
-                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                                air[a, 0],
+                                air[a, 1],
+                                air[a, 2],
+                                air[a, 3],
+                                air[a, 4],
+                                air[a, 5],
+                                drag_factors[i, 0],
+                                drag_factors[i, 1],
+                                drag_factors[i, 2],
+                                damping[i],
                             ),
                         )
                     for c in range(6):
@@ -487,15 +510,26 @@ def advance_swarm(
                     i = base + a
                     if ground_effect:
                         rg = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
-                        _air.ground_effect_columns(pos[i, 2], rg[6], rg[7], rg[8], rotors, columns, min_height, scaled)
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                        _air.ground_effect_columns(
+                            pos[i, 2], rg[6], rg[7], rg[8], rotors[i], columns[i], min_height, scaled
+                        )
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], scaled)
                     else:
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], columns[i])
                     if drag_on:
                         load = summed(
                             load,
                             drag_wrench(
-                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                                air[a, 0],
+                                air[a, 1],
+                                air[a, 2],
+                                air[a, 3],
+                                air[a, 4],
+                                air[a, 5],
+                                drag_factors[i, 0],
+                                drag_factors[i, 1],
+                                drag_factors[i, 2],
+                                damping[i],
                             ),
                         )
                     for c in range(6):
@@ -512,10 +546,10 @@ def advance_swarm(
                     (angvel[i, 0], angvel[i, 1], angvel[i, 2]),
                     r,
                     (loads[a, 0], loads[a, 1], loads[a, 2], loads[a, 3], loads[a, 4], loads[a, 5]),
-                    mass,
-                    jx,
-                    jy,
-                    jz,
+                    mass[i],
+                    inertia[i, 0],
+                    inertia[i, 1],
+                    inertia[i, 2],
                     gravity,
                     physics_dt,
                 )
@@ -601,12 +635,16 @@ def check_swarm_supported(config: Any) -> None:
             f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
             "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
         )
-    for key, asked in (
-        ("latency", config.latency is not None),
-        ("randomize (domain randomisation)", bool(config.randomize)),
-    ):
-        if asked:
-            raise refuse(f"env.{key} in a multi-agent world", f"leave env.{key.split()[0]} at its default")
+    if config.latency is not None:
+        raise refuse("env.latency in a multi-agent world", "leave env.latency at its default")
+    # domain randomisation: every entry the single-agent backend draws (check_keys refused the
+    # others by name), one draw per world, but the delays: they need the latency above
+    delays = [name for name in config.randomize or {} if name in DELAYS]
+    if delays:
+        raise refuse(
+            f"env.randomize.{delays[0]} (a drawn delay: latency in a multi-agent world)",
+            "remove the delay entries; the airframe and spawn entries are simulated",
+        )
     if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
         raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
 
@@ -787,7 +825,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
         self.downwash = bool(cfg.downwash)
-        self._rotors = _rotor_geometry(self.spec_uav)
+        self._wake_sources = _rotor_geometry(self.spec_uav)
         from pyflyt_engine.atmosphere import load_wind_config
 
         #: the air (pyflyt_engine.batched.air), as the single-agent backend takes it: the wind
@@ -806,6 +844,24 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
 
         m = self.model
         nm = m.motors
+        # the body's, motors' and drag's parameters, one row per slot (own, writable copies:
+        # domain randomisation sets a world's rows at each of its episodes); the flight
+        # controller keeps the airframe's nominal ones (the model's, one set for every vehicle)
+        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
+        self._mass = rows(m.mass)
+        self._inertia = rows(m.inertia)
+        self._lag = rows(m.lag)
+        self._columns = rows(m.columns)
+        self._drag_factors = rows(m.drag_factors)
+        self._damping = rows(m.angular_damping)
+        self._rotors = rows(m.rotors)
+        #: the randomize section's draws, one per world and episode, every agent of the world
+        #: given them (None without; pyflyt_engine.batched.randomization)
+        self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
+        #: per slot, its world's draws of this episode (entries in the section's order; no columns without)
+        self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
+        #: the parameter rows a checkpoint carries besides the state: those the draws change
+        self.randomized_arrays: tuple[str, ...] = self.randomizer.arrays() if self.randomizer is not None else ()
         self.pos = np.zeros((n, 3))
         self.quat = np.zeros((n, 4))
         self.quat[:, 3] = 1.0
@@ -915,7 +971,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self._seed_all(seed)
         for k in range(self.worlds):
             self._reset_world(k)
-        return self._observe(), {}
+        info: dict[str, Any] = {}
+        if self.randomizer is not None:  # per entry, each slot's world's draw (the PyBullet info["randomization"])
+            info["randomization"] = self.randomizer.info()
+            info["_randomization"] = np.ones(self.num_envs, dtype=bool)
+        return self._observe(), info
 
     def set_task_changes(self, changes: dict[str, Any]) -> None:
         """A training curriculum's task changes: the multi-agent hover has no per-episode options."""
@@ -929,15 +989,28 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.task_changes = dict(changes)
 
     def _reset_world(self, k: int) -> None:
-        """World ``k``'s next episode: every agent spawned in its region (the PyBullet env's draws)."""
+        """World ``k``'s next episode, drawn from the world's generator in the PyBullet env's
+        order (:func:`pyflyt_engine.envs.build.reset_episode`): the randomize section once for
+        the world (every agent's parameter rows from it), then every agent spawned in its
+        region, agent by agent, the drawn spawn offsets added."""
         rng = self.world_rngs[k]
         rows = np.arange(k * self.agents, (k + 1) * self.agents)
+        randomizer = self.randomizer
+        values: dict[str, float] | None = None
+        if randomizer is not None:  # drawn before the spawns, one draw for the world's vehicles
+            values = randomizer.draw(rows, rng)
+            if randomizer.airframe:
+                for i in rows.tolist():
+                    randomizer.apply(self, i, values)
         for a, i in enumerate(rows.tolist()):
             s = self.agent_list[a].spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
             da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            self.pos[i] = np.add(s.position, dp)
-            q = euler_to_quaternion(*np.add(s.orientation, da).tolist())
+            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
+            if values is not None:  # Randomizer.spawn: the world's offsets added to each agent's spawn
+                position, orientation = Randomizer.spawn(values, position, orientation)
+            self.pos[i] = position
+            q = euler_to_quaternion(*orientation)
             self.quat[i] = q
             r = np.empty(9)
             kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
@@ -1096,6 +1169,9 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             info["_final_obs"] = done
         for k in np.flatnonzero(over).tolist():
             self._reset_world(k)
+        if self.randomizer is not None and over.any():  # the draws of the worlds that restart now
+            info["randomization"] = self.randomizer.info()
+            info["_randomization"] = self.world_over.copy()
         obs = self._observe()
         terminated_slots = terminated | padding_end
         return obs, reward, terminated_slots, truncated, info
@@ -1103,7 +1179,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
         """One agent step of the physics for every world (setpoints already clipped)."""
         m = self.model
-        rot = self._rotors
+        rot = self._wake_sources
         start = int(self.physics_steps[0]) % self.per_control
         advance_swarm(
             self.pos,
@@ -1121,18 +1197,18 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.armed,
             self.parked,
             self.agents,
-            m.mass,
-            m.inertia,
+            self._mass,
+            self._inertia,
             m.control_inertia,
             m.gyro,
-            m.lag,
-            m.columns,
+            self._lag,
+            self._columns,
             m.mixer_rows,
             m.max_collective,
             m.rate_gains,
             m.rate_derivative,
-            m.drag_factors,
-            m.angular_damping,
+            self._drag_factors,
+            self._damping,
             m.drag,
             m.corners,
             self._box_centre,
@@ -1155,7 +1231,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             2.0,
             self._wind,
             self.physics_steps,
-            m.rotors,
+            self._rotors,
             self.ground_effect,
             _air.GROUND_EFFECT_MIN_HEIGHT,
             self.turbulence,
