@@ -259,6 +259,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
         self.contact = np.zeros(n, dtype=bool)
+        #: the contact samples the physics writes (BatchedLatency gathers them over an agent step's pieces)
+        self.contact_flags = (self.contact,)
         self.actions = np.zeros((n, self._low.size))
         self.steps = np.zeros(n, dtype=np.int64)
         self.physics_steps = np.zeros(n, dtype=np.int64)  # per env: its control ticks' phase

@@ -65,12 +65,23 @@ each agent's spawn.  The flight controller keeps the nominal airframe, as the en
 and so does the downwash: the engine registers each vehicle's wake with its nominal full
 thrust and keeps it when a drawn ``motor_kf`` changes the motors.
 
+Latency (``env.latency``, and the drawn delays ``randomize.action_delay`` /
+``observation_delay``, one draw per world): the single-agent backend's
+:class:`~pyflyt_engine.batched.latency.BatchedLatency`, a row per agent, the PyBullet engine's
+semantics for every vehicle of a world (each control tick flies the latest action released
+by then; an observation shows every vehicle as it was ``n_o`` physics steps ago, the task's
+entries -- the formation's neighbours among them -- from those delayed states, as the
+engine's ``delayed_state`` source gives them; rewards and episode ends read the true
+states).  The agent step then runs in pieces; each vehicle's latest read position, from
+which the others' downwash is taken, is the env's (``_reads``) and carries over from one
+piece to the next, and a piece ending inside a control period takes no contact sample, so
+the pieces change no number of the flight.
+
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
-different airframes, the cascade flight modes, latency and the drawn delays
-(``randomize.action_delay`` / ``observation_delay``), the ``randomize`` entries the
-single-agent backend does not draw either, noisy sensors, the optional motor models,
-rotary turbulence gusts, and every key the single-agent batched backend refuses.
+different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
+backend does not draw either, noisy sensors, the optional motor models, rotary turbulence
+gusts, and every key the single-agent batched backend refuses.
 """
 
 from __future__ import annotations
@@ -100,11 +111,12 @@ from pyflyt_engine.batched.kernels import (
     summed,
 )
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
-from pyflyt_engine.envs.randomization import DELAYS, Randomizer
+from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -346,6 +358,8 @@ def advance_swarm(
     turbulence,
     turbulence_normals,
     dryden,
+    reads,
+    sample_end,
 ):
     """Advance every world (rows ``k A ... k A + A - 1`` of every array are world ``k``'s agents)
     ``count`` physics steps from physics step ``start``, in the PyBullet engine's order
@@ -355,9 +369,14 @@ def advance_swarm(
     ticks each vehicle in turn is read, gets its air and steps its motors and drag; then
     every body integrates.  A disarmed vehicle (``armed`` False) commands its motors to 0
     and runs no controller; a ``parked`` one (retired, on the ground) stays at rest.
-    Contacts are sampled at the end of each control period and of the step:
-    ``ground_contact`` (lowest point below the ground; a disarmed vehicle touching it is
-    parked) and ``agent_contact`` (collision boxes overlap, both vehicles flagged).
+    ``reads`` (n, 3): each vehicle's latest read position, which the others' downwash is
+    taken from, updated as each vehicle is read (the env sets it to the positions at the
+    start of an agent step; a call starting inside one continues the previous call's).
+    Contacts are sampled at the end of each control period and, with ``sample_end``, of the
+    call (the end of the agent step; a call ending inside a control period, which latency's
+    pieces may, takes no sample there, as the engine takes none): ``ground_contact``
+    (lowest point below the ground; a disarmed vehicle touching it is parked) and
+    ``agent_contact`` (collision boxes overlap, both vehicles flagged).
     The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
     for every vehicle: the flight controller's one set, the body's, motors' and drag's one row
     per vehicle (``mass``, ``inertia``, ``lag``, ``columns``, ``drag_factors``, ``damping``,
@@ -382,7 +401,6 @@ def advance_swarm(
     torques = np.empty(3)
     out = np.empty(nm)
     parts = np.empty((nm, 4))
-    seen = np.empty((agents, 3))
     air = np.empty((agents, 6))
     loads = np.empty((agents, 6))
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
@@ -396,8 +414,9 @@ def advance_swarm(
         for a in range(agents):
             ground_contact[base + a] = False
             agent_contact[base + a] = False
-            # every vehicle's latest read: its state after the last agent step (the env reads them all)
-            seen[a, 0], seen[a, 1], seen[a, 2] = pos[base + a, 0], pos[base + a, 1], pos[base + a, 2]
+        # every vehicle's latest read (kept by the env: its state after the last agent step, then
+        # each physics step's read; a call that starts inside an agent step continues them)
+        seen = reads[base : base + agents]
         thr = throttle[base : base + agents]
         for s in range(count):
             step = start + s
@@ -557,7 +576,7 @@ def advance_swarm(
                 quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
                 vel[i, 0], vel[i, 1], vel[i, 2] = v
                 angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
-            if (step + 1) % per_control == 0 or s == count - 1:  # a contact sample
+            if (step + 1) % per_control == 0 or (s == count - 1 and sample_end):  # a contact sample
                 for a in range(agents):
                     i = base + a
                     rr = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
@@ -634,16 +653,6 @@ def check_swarm_supported(config: Any) -> None:
         raise refuse(
             f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
             "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
-        )
-    if config.latency is not None:
-        raise refuse("env.latency in a multi-agent world", "leave env.latency at its default")
-    # domain randomisation: every entry the single-agent backend draws (check_keys refused the
-    # others by name), one draw per world, but the delays: they need the latency above
-    delays = [name for name in config.randomize or {} if name in DELAYS]
-    if delays:
-        raise refuse(
-            f"env.randomize.{delays[0]} (a drawn delay: latency in a multi-agent world)",
-            "remove the delay entries; the airframe and spawn entries are simulated",
         )
     if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
         raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
@@ -738,6 +747,20 @@ class _WorldTasks:
                 extras[base + a] = task.observe(a, states)
         return distance, rate, signal_extras, info
 
+    def observe(self, states_of: Any, extras: np.ndarray) -> np.ndarray:
+        """Every slot's task entries of the states ``states_of(rows)`` gives (the delayed ones),
+        from each world's task as its last step left it (a world whose task is not set up yet,
+        a restored one before its first step: ``extras``' rows)."""
+        out = extras.copy()
+        for k, task in enumerate(self.tasks):
+            if not self.started[k]:
+                continue
+            base = k * self.per_world
+            states = states_of(np.arange(base, base + self.per_world))
+            for a in range(self.per_world):
+                out[base + a] = task.observe(a, states)
+        return out
+
 
 class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     """``worlds`` worlds of a multi-agent hover config's agents, one slot per agent (module docstring).
@@ -753,7 +776,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     #: the per-slot arrays a checkpoint carries (:class:`pyflyt_cli.training.batched.BatchedVecEnv`)
-    state_arrays = (
+    state_arrays: tuple[str, ...] = (
         "pos",
         "quat",
         "vel",
@@ -888,6 +911,30 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: field per world, the same in each of its slots
         self.turbulence = np.zeros((n, self.dryden.states if self.dryden is not None else 0))
         self._no_normals = np.zeros((self.worlds, self.per_agent, 0))
+        self._normals = self._no_normals  # this agent step's (advance)
+        #: per slot, its vehicle's latest read position (the downwash's source; advance_swarm)
+        self._reads = np.zeros((n, 3))
+        #: the contact samples the physics writes (BatchedLatency gathers them over an agent step's pieces)
+        self.contact_flags = (self.ground_contact, self.agent_contact)
+        #: what an observation shows besides the motion (BatchedLatency's snapshot): the worlds'
+        #: multirotors have no lifting surfaces and no battery
+        self.deflection = np.zeros((n, 0))
+        self.battery = np.zeros((n, 0))
+        #: the action and observation delays, one row per slot, the agents of a world sharing
+        #: the world's (None without; pyflyt_engine.batched.latency)
+        self.latency = (
+            BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, 0)
+            if declares_latency(cfg)
+            else None
+        )
+        delays = self.latency.state_arrays() if self.latency is not None else {}
+        #: per slot, this episode's (action, observation) delays [physics steps], its last actions
+        #: and the states it shows (empty rows without latency)
+        self.latency_steps = delays.get("latency_steps", np.zeros((n, 0), dtype=np.int64))
+        self.action_history = delays.get("action_history", np.zeros((n, 0)))
+        self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
+        if self.latency is not None:  # a checkpoint carries them too
+            self.state_arrays = (*type(self).state_arrays, *delays)
         self.ang_vel_body = np.zeros((n, 3))
         self.ang_pos = np.zeros((n, 3))
         self.lin_vel_body = np.zeros((n, 3))
@@ -999,9 +1046,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         values: dict[str, float] | None = None
         if randomizer is not None:  # drawn before the spawns, one draw for the world's vehicles
             values = randomizer.draw(rows, rng)
-            if randomizer.airframe:
-                for i in rows.tolist():
+            for i in rows.tolist():
+                if randomizer.airframe:
                     randomizer.apply(self, i, values)
+                if self.latency is not None:  # the drawn delays, every vehicle of the world
+                    self.latency.draw(i, values)
         for a, i in enumerate(rows.tolist()):
             s = self.agent_list[a].spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
@@ -1033,6 +1082,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.armed[rows] = True
         self.parked[rows] = False
         self._read(rows)
+        if self.latency is not None:  # nothing in flight; the spawn shown until n_o steps have passed
+            self.latency.restart(self, rows)
         self._reset_world_task(k)
 
     def _reset_world_task(self, k: int) -> None:
@@ -1043,20 +1094,25 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         else:
             self._world_tasks.reset(k, self._states(rows), self.task_changes, self._last_distance, self._extras)
 
-    def _states(self, rows: np.ndarray) -> list[KinematicState]:
-        """The agents' states of ``rows`` as the engine's vehicles read them (the task's input)."""
-        return [
-            KinematicState(
-                tuple(self.ang_vel_body[i].tolist()),
-                tuple(self.ang_pos[i].tolist()),
-                tuple(self.lin_vel_body[i].tolist()),
-                tuple(self.pos[i].tolist()),
-                tuple(self.quaternion[i].tolist()),
-                tuple(self.vel[i].tolist()),
-                tuple(self.angvel[i].tolist()),
-            )
-            for i in rows.tolist()
-        ]
+    def _states(self, rows: np.ndarray, source: dict[str, np.ndarray] | None = None) -> list[KinematicState]:
+        """The agents' states of ``rows`` as the engine's vehicles read them (the task's input);
+        ``source``: from those arrays (the delayed ones, BatchedLatency.observed) instead of now."""
+        arrays = (
+            source
+            if source is not None
+            else {
+                "ang_vel_body": self.ang_vel_body,
+                "ang_pos": self.ang_pos,
+                "lin_vel_body": self.lin_vel_body,
+                "pos": self.pos,
+                "quaternion": self.quaternion,
+                "vel": self.vel,
+                "angvel": self.angvel,
+            }
+        )
+        names = ("ang_vel_body", "ang_pos", "lin_vel_body", "pos", "quaternion", "vel", "angvel")
+        columns = [arrays[name] for name in names]
+        return [KinematicState(*(tuple(c[i].tolist()) for c in columns)) for i in rows.tolist()]
 
     def _distance(self, rows: np.ndarray) -> np.ndarray:
         d = self.pos[rows] - self.hover_point[rows]
@@ -1177,10 +1233,27 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         return obs, reward, terminated_slots, truncated, info
 
     def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
-        """One agent step of the physics for every world (setpoints already clipped)."""
+        """One agent step of the physics for every world (setpoints already clipped; with
+        latency, the actions given now, which reach the controllers later: BatchedLatency)."""
+        self._reads[:] = self.pos  # the env read every vehicle after the last agent step
+        self._normals = self.turbulence_normals()
+        if self.latency is not None:
+            self.latency.advance(self, setpoints, factors)
+        else:
+            self.physics(setpoints, factors, 0, self.per_agent)
+        self.physics_steps += self.per_agent
+
+    def physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """``count`` physics steps of every world from offset ``start`` into the agent step,
+        every control tick in them flying ``setpoints``; ``factors`` (N, count, motors) their
+        motor noise.  The contacts are sampled at the end of each control period in them and
+        at the end of the agent step (not at the end of a piece inside a control period)."""
         m = self.model
         rot = self._wake_sources
-        start = int(self.physics_steps[0]) % self.per_control
+        normals = self._normals
+        if (start, count) != (0, normals.shape[1]) and normals.shape[2]:
+            normals = np.ascontiguousarray(normals[:, start : start + count])
+        phase = int(self.physics_steps[0]) % self.per_control + start
         advance_swarm(
             self.pos,
             self.quat,
@@ -1219,8 +1292,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             GRAVITY,
             self.physics_dt,
             self.control_dt,
-            start,
-            self.per_agent,
+            phase,
+            count,
             self.per_control,
             self.downwash,
             rot["max_thrust"],
@@ -1230,15 +1303,16 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             AIR_DENSITY,
             2.0,
             self._wind,
-            self.physics_steps,
+            self.physics_steps + start,
             self._rotors,
             self.ground_effect,
             _air.GROUND_EFFECT_MIN_HEIGHT,
             self.turbulence,
-            self.turbulence_normals(),
+            normals,
             self._dryden_arrays,
+            self._reads,
+            start + count == self.per_agent,
         )
-        self.physics_steps += self.per_agent
 
     def turbulence_normals(self) -> np.ndarray:
         """The turbulence's white noise of one agent step, (worlds, physics steps, filter
@@ -1251,15 +1325,35 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         return out
 
     def _observe(self) -> np.ndarray:
-        angles = self.quaternion if self._quaternion else self.ang_pos
+        """Every slot's observation; with an observation delay, of every vehicle as it was
+        ``n_o`` physics steps ago (the PyBullet env's ``delayed_state`` source: the agent's
+        own attitude and throttles, and the task's entries from every agent's delayed state),
+        the previous action the agent's own."""
+        if self.latency is not None and self.latency.observes:
+            seen = self.latency.observed(self)
+            if self._world_tasks is None:
+                extras = self.hover_point - seen["pos"]
+            else:
+                extras = self._world_tasks.observe(lambda rows: self._states(rows, seen), self._extras)
+        else:
+            seen = {
+                "ang_vel_body": self.ang_vel_body,
+                "ang_pos": self.ang_pos,
+                "lin_vel_body": self.lin_vel_body,
+                "quaternion": self.quaternion,
+                "pos": self.pos,
+                "throttle": self.throttle,
+            }
+            extras = self.hover_point - self.pos if self._world_tasks is None else self._extras
+        angles = seen["quaternion"] if self._quaternion else seen["ang_pos"]
         parts = [
-            self.ang_vel_body,
+            seen["ang_vel_body"],
             angles,
-            self.lin_vel_body,
-            self.pos,
+            seen["lin_vel_body"],
+            seen["pos"],
             self.actions,
-            self.throttle,
-            self.hover_point - self.pos if self._world_tasks is None else self._extras,
+            seen["throttle"],
+            extras,
         ]
         obs = np.concatenate(parts, axis=1)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot

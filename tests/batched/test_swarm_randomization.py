@@ -24,11 +24,9 @@ from pyflyt_engine.batched import check_supported, resolve_backend, swarm
 from pyflyt_engine.batched.model import UnsupportedByBatched
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.envs.config import load_env_config
-from tests.batched.test_randomization import DRAWS as SINGLE_AGENT_DRAWS
+from pyflyt_engine.envs.randomization import AIRFRAME
+from tests.batched.test_randomization import DRAWS
 from tests.batched.test_swarm import BOUND, STACKED, _fly, quiet_cf2x  # noqa: F401 - the fixture
-
-#: every entry the worlds draw (the single-agent backend's, its delays aside: the worlds have no latency)
-DRAWS = {name: entry for name, entry in SINGLE_AGENT_DRAWS.items() if not name.endswith("_delay")}
 
 
 def _generators(seed: int, worlds: int) -> list[np.random.Generator]:
@@ -93,6 +91,7 @@ def test_each_world_draws_and_applies_what_the_pybullet_env_does(seed):
             for a, vehicle in enumerate(pb.vehicles):
                 i = k * agents + a
                 assert list(be.randomized_values[i]) == drawn, (episode, k, a)
+                assert tuple(be.latency_steps[i]) == pb.latency_steps  # the drawn observation delay
                 got = _vehicle(vehicle)
                 assert be._mass[i] == got["mass"] and np.array_equal(be._inertia[i], got["inertia"])
                 assert np.array_equal(be._lag[i], got["lag"]) and np.array_equal(be._columns[i], got["columns"])
@@ -144,7 +143,7 @@ def test_randomised_worlds_agree_with_the_pybullet_engine(quiet_cf2x, flight):  
     # the same spawns and actions with every airframe factor drawn as exactly 1 (the same calls
     # of the generator): the factors moved the agents by centimetres
     unit = {
-        name: ({"distribution": "uniform", "low": 1.0, "high": 1.0} if "spawn" not in name else e)
+        name: ({"distribution": "uniform", "low": 1.0, "high": 1.0} if name in AIRFRAME else e)
         for name, e in DRAWS.items()
     }
     drawn, nominal = _batched_flight(cfg, 59), _batched_flight(cfg.with_overrides(randomize=unit), 59)
@@ -237,21 +236,11 @@ def test_the_shipped_preset_is_simulated_and_auto_picks_the_batched_backend():
     ("overrides", "named"),
     [
         (
-            {"randomize": {"mass": DRAWS["mass"], "action_delay": DRAWS["spawn_z"]}},
-            "env.randomize.action_delay (a drawn delay",
-        ),
-        ({"randomize": "sim2real"}, "env.randomize.action_delay (a drawn delay"),
-        (
-            {"randomize": {"observation_delay": SINGLE_AGENT_DRAWS["observation_delay"]}},
-            "env.randomize.observation_delay",
-        ),
-        (
             {"randomize": {"mass": DRAWS["mass"], "wind.mean.speed": DRAWS["spawn_z"]}, "wind": "constant"},
             "env.randomize.wind.mean.speed (domain randomisation: the batched wind is one parameter array",
         ),
         ({"randomize": {"gyro_noise": DRAWS["mass"]}}, "env.randomize.gyro_noise (domain randomisation"),
         ({"randomize": {"battery_capacity": DRAWS["mass"]}}, "env.randomize.battery_capacity (domain randomisation"),
-        ({"latency": {"action_delay": 0.01}}, "env.latency in a multi-agent world"),
     ],
 )
 def test_what_it_does_not_simulate_stays_refused_by_name(overrides, named):
