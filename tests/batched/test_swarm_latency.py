@@ -26,7 +26,7 @@ import pytest
 from pyflyt_engine.batched import check_supported, resolve_backend, swarm
 from pyflyt_engine.envs.config import load_env_config
 from tests.batched.test_swarm import BOUND, STACKED, _fly, quiet_cf2x  # noqa: F401 - the fixture
-from tests.batched.test_swarm_randomization import _generators, _pybullet
+from tests.batched.test_swarm_air import SHEAR_GUST_TURBULENCE, _inject_the_engines_turbulence
 
 #: 3 physics steps of action delay (ticks every 2: the released action changes between them) and
 #: 5 of observation delay (the snapshot 3 steps into the agent step's 8: inside a control period)
@@ -41,10 +41,36 @@ DRAWN = {
 
 FLIGHTS = {
     "stacked_fixed": ("ma_quadx_hover", {"agents": STACKED, "downwash": True, "latency": FIXED}),
+    # a sheared mean wind, a gust and moderate turbulence (its white noise the engine's): the
+    # pieces read the wind at their own physics steps and the filter's noise from their offset
+    "stacked_fixed_wind": (
+        "ma_quadx_hover",
+        {"agents": STACKED, "downwash": True, "latency": FIXED, "wind": SHEAR_GUST_TURBULENCE},
+    ),
     "stacked_drawn": ("ma_quadx_hover", {"agents": STACKED, "downwash": True, "randomize": DRAWN}),
     "formation_fixed": ("ma_quadx_formation", {"agents": 4, "downwash": True, "latency": FIXED}),
     "formation_drawn": ("ma_quadx_formation", {"agents": 4, "downwash": True, "latency": FIXED, "randomize": DRAWN}),
 }
+
+
+def _paired(cfg, seed: int):
+    """The PyBullet env of ``cfg`` reset with ``seed`` (its world's streams seeded: the
+    turbulence's) and a batched world drawing from a copy of the PyBullet env's generator
+    (``seeding.np_random(seed)``), the engine's turbulence noise injected; their first observations."""
+    from gymnasium.utils import seeding
+
+    from pyflyt_engine.envs.multi_agent.formation import MAQuadXFormationEnv
+    from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
+
+    pb = {"ma_hover": MAQuadXHoverEnv, "ma_formation": MAQuadXFormationEnv}[cfg.task.name](cfg)
+    start, _ = pb.reset(seed=seed)
+    be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
+    be.world_rngs[0] = seeding.np_random(seed)[0]
+    be.env_rngs = [be.world_rngs[0]] * be.num_envs
+    first, _ = be.reset()
+    if be.dryden is not None:
+        _inject_the_engines_turbulence(pb, be)
+    return pb, be, start, first
 
 
 @pytest.mark.parametrize("flight", list(FLIGHTS))
@@ -54,9 +80,7 @@ def test_delayed_worlds_agree_with_the_pybullet_engine(quiet_cf2x, flight):  # n
     1e-6 (the measured differences printed), no agent lost."""
     env_name, overrides = FLIGHTS[flight]
     cfg = load_env_config(env_name).with_overrides(uav=quiet_cf2x, **overrides)
-    be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
-    first, _ = be.reset(seed=6)
-    pb, start, _ = _pybullet(cfg, _generators(6, 1)[0])
+    pb, be, start, first = _paired(cfg, 6)
     assert all(tuple(row) == pb.latency_steps for row in be.latency_steps), (be.latency_steps, pb.latency_steps)
     names = pb.possible_agents
     spawned = max(np.abs(start[n] - first[i]).max() for i, n in enumerate(names))
