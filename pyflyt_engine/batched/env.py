@@ -259,6 +259,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
         self.contact = np.zeros(n, dtype=bool)
+        #: the contact samples the physics writes (BatchedLatency gathers them over an agent step's pieces)
+        self.contact_flags = (self.contact,)
         self.actions = np.zeros((n, self._low.size))
         self.steps = np.zeros(n, dtype=np.int64)
         self.physics_steps = np.zeros(n, dtype=np.int64)  # per env: its control ticks' phase
@@ -290,14 +292,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, this episode's randomize draws (entries in the section's order; no columns without)
         self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
         #: the parameter rows a checkpoint carries besides the state: those the draws change
-        self.randomized_arrays: tuple[str, ...] = ("randomized_values",) if self.randomizer is not None else ()
-        if self.randomizer is not None:
-            r = self.randomizer
-            self.randomized_arrays += (
-                (("_mass", "_inertia") if r.body else ())
-                + (("_lag", "_columns", "_rotors") if r.motors else ())
-                + (("_drag_factors", "_damping") if r.drag else ())
-            )
+        self.randomized_arrays: tuple[str, ...] = self.randomizer.arrays() if self.randomizer is not None else ()
         #: the action and observation delays (None without; pyflyt_engine.batched.latency)
         self.latency = (
             BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, ns, m.has_battery)

@@ -2,7 +2,9 @@
 
 The PyBullet engine's latency (docs/engine.md, "Latency"; ``Vehicle.set_latency``) delays
 the agent's setpoint on its way to the flight controller and shows the agent the vehicle
-as it was.  This module gives a :class:`~pyflyt_engine.batched.env.BatchedUAVEnv` the same
+as it was.  This module gives a :class:`~pyflyt_engine.batched.env.BatchedUAVEnv` (and the
+multi-agent worlds of :class:`~pyflyt_engine.batched.swarm.BatchedSwarmEnv`, a row per
+agent, the agents of a world sharing its delays) the same
 two delays with the same semantics, each env with its own (the env's fixed
 ``latency``, or this episode's draw of a ``randomize`` entry ``action_delay`` /
 ``observation_delay``), kept in two ring buffers per env:
@@ -42,7 +44,7 @@ for the episode, the other keeps its fixed value.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 import numpy as np
 
@@ -50,7 +52,11 @@ from pyflyt_engine.envs.randomization import DELAYS, delay_steps
 
 if TYPE_CHECKING:
     from pyflyt_engine.batched.env import BatchedUAVEnv
+    from pyflyt_engine.batched.swarm import BatchedSwarmEnv
     from pyflyt_engine.envs.config import EnvConfig
+
+    #: an env with delays: the single-agent envs, or the multi-agent worlds (a row per agent)
+    Delayed: TypeAlias = BatchedUAVEnv | BatchedSwarmEnv
 
 
 def declares_latency(config: EnvConfig) -> bool:
@@ -125,7 +131,7 @@ class BatchedLatency:
             for name, fixed in zip(DELAYS, self.fixed)
         ]
 
-    def restart(self, env: BatchedUAVEnv, index: np.ndarray) -> None:
+    def restart(self, env: Delayed, index: np.ndarray) -> None:
         """The envs ``index`` start an episode from their current state: nothing in flight
         (the reset's setpoint, zeros, until the first action arrives) and the spawn shown
         until ``n_o`` physics steps have passed."""
@@ -135,14 +141,15 @@ class BatchedLatency:
 
     # ---------------------------------------------------------------------- step
 
-    def advance(self, env: BatchedUAVEnv, actions: np.ndarray, factors: np.ndarray) -> None:
+    def advance(self, env: Delayed, actions: np.ndarray, factors: np.ndarray) -> None:
         """One agent step of every env: ``actions`` (clipped) join the queue, the physics
         runs in the schedule's pieces with each tick's released setpoint, and the snapshot
         each env will show is kept."""
         t = env.steps  # agent steps since each env's reset, this one not yet counted
         La = self.action_history.shape[1]
         self.action_history[self._rows, t % La] = actions
-        contact = np.zeros(env.num_envs, dtype=bool)
+        flags = env.contact_flags  # the contact samples the physics writes (the worlds: ground, agent)
+        hits = [np.zeros(env.num_envs, dtype=bool) for _ in flags]
         setpoints = actions
         for start, stop, lag, sampled, record in self._pieces():
             if record is not None:
@@ -154,10 +161,12 @@ class BatchedLatency:
             piece = factors if (start, stop) == (0, self.per_agent) else np.ascontiguousarray(factors[:, start:stop])
             env.physics(setpoints, piece, start, stop - start)
             if sampled:
-                contact |= env.contact
-        env.contact[:] = contact
+                for hit, flag in zip(hits, flags):
+                    hit |= flag
+        for hit, flag in zip(hits, flags):
+            flag[:] = hit
 
-    def observed(self, env: BatchedUAVEnv) -> dict[str, np.ndarray]:
+    def observed(self, env: Delayed) -> dict[str, np.ndarray]:
         """What every env shows after its last step: the read-outs (``ang_vel_body``,
         ``ang_pos``, ``lin_vel_body``, ``quaternion``), ``pos``, ``throttle``, ``deflection``
         and ``battery`` (its state of charge) of the state ``n_o`` physics steps ago (now, for
@@ -188,6 +197,7 @@ class BatchedLatency:
             out["quaternion"],
         )
         out["pos"] = np.ascontiguousarray(pos)
+        out["vel"], out["angvel"] = vel, angvel  # the ground-frame motion (a multi-agent task's states)
         out["throttle"] = shown[:, 13 : 13 + nm]
         ns = self.surfaces
         out["deflection"] = shown[:, 13 + nm : 13 + nm + ns]
@@ -196,7 +206,7 @@ class BatchedLatency:
 
     # ------------------------------------------------------------------ internals
 
-    def _snapshot(self, env: BatchedUAVEnv, index: np.ndarray) -> np.ndarray:
+    def _snapshot(self, env: Delayed, index: np.ndarray) -> np.ndarray:
         """The rows ``index`` of the state an observation shows, as one array (N, S)."""
         return np.concatenate(
             [
@@ -211,7 +221,7 @@ class BatchedLatency:
             axis=1,
         )
 
-    def _record(self, env: BatchedUAVEnv, index: np.ndarray, t: np.ndarray) -> None:
+    def _record(self, env: Delayed, index: np.ndarray, t: np.ndarray) -> None:
         self.observed_history[index, t % self.observed_history.shape[1]] = self._snapshot(env, index)
 
     def _pieces(self) -> tuple:

@@ -51,6 +51,7 @@ from pyflyt_engine.envs.randomization import AIRFRAME, DELAYS, SPAWN, Distributi
 
 if TYPE_CHECKING:
     from pyflyt_engine.batched.env import BatchedUAVEnv
+    from pyflyt_engine.batched.swarm import BatchedSwarmEnv
     from pyflyt_engine.spec import UAVSpec
 
 #: the ``randomize`` entries the batched backend draws and applies
@@ -110,16 +111,28 @@ class BatchedRandomizer:
         """Whether any airframe factor is drawn (the env's parameter rows change per episode)."""
         return self.body or self.motors or self.drag
 
-    def draw(self, i: int, rng: np.random.Generator) -> dict[str, float]:
+    def arrays(self) -> tuple[str, ...]:
+        """The env's arrays whose rows the draws set (a checkpoint carries them): the values,
+        and the parameter rows :meth:`apply` writes."""
+        return (
+            ("randomized_values",)
+            + (("_mass", "_inertia") if self.body else ())
+            + (("_lag", "_columns", "_rotors") if self.motors else ())
+            + (("_drag_factors", "_damping") if self.drag else ())
+        )
+
+    def draw(self, i: int | np.ndarray, rng: np.random.Generator) -> dict[str, float]:
         """Env ``i``'s values for its next episode: every entry, in the section's order, one
-        call of ``rng`` each (``Distribution.sample``, as the PyBullet engine's randomiser)."""
+        call of ``rng`` each (``Distribution.sample``, as the PyBullet engine's randomiser).
+        ``i`` may be several rows: they share the one draw (the vehicles of a multi-agent
+        world, as the PyBullet engine's randomiser gives every vehicle of its world the same values)."""
         values = {name: dist.sample(rng) for name, dist in self.entries.items()}
         self.values[i] = [values[name] for name in self.names]
         self.spawn_offsets[i] = [values.get(name, 0.0) for name in SPAWN]
         return values
 
-    def apply(self, env: BatchedUAVEnv, i: int, values: dict[str, float]) -> None:
-        """Env ``i``'s parameter rows from its nominal values and ``values`` (the airframe
+    def apply(self, env: BatchedUAVEnv | BatchedSwarmEnv, i: int, values: dict[str, float]) -> None:
+        """Env (or vehicle) ``i``'s parameter rows from its nominal values and ``values`` (the airframe
         factors; the controller's rows are left nominal)."""
         if self.body:  # Vehicle.set_mass_properties(mass * f, inertia * g)
             env._mass[i] = self._mass * values.get("mass", 1.0)

@@ -54,11 +54,34 @@ laws (:mod:`pyflyt_engine.batched.air`), read at each vehicle as the engine's wo
 as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world
 the same linear gusts, each world's white noise from a stream of its own.
 
+Domain randomisation (``env.randomize``): per world, at each of its resets, every entry is
+drawn once from the world's generator, before the spawns, and every agent of the world given
+the values, as the PyBullet engine's randomiser draws one set per reset for every vehicle of
+its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
+:func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
+:class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
+agent's rows of the body's, motors' and drag's parameters; the spawn offsets are added to
+each agent's spawn.  The flight controller keeps the nominal airframe, as the engine's does,
+and so does the downwash: the engine registers each vehicle's wake with its nominal full
+thrust and keeps it when a drawn ``motor_kf`` changes the motors.
+
+Latency (``env.latency``, and the drawn delays ``randomize.action_delay`` /
+``observation_delay``, one draw per world): the single-agent backend's
+:class:`~pyflyt_engine.batched.latency.BatchedLatency`, a row per agent, the PyBullet engine's
+semantics for every vehicle of a world (each control tick flies the latest action released
+by then; an observation shows every vehicle as it was ``n_o`` physics steps ago, the task's
+entries -- the formation's neighbours among them -- from those delayed states, as the
+engine's ``delayed_state`` source gives them; rewards and episode ends read the true
+states).  The agent step then runs in pieces; each vehicle's latest read position, from
+which the others' downwash is taken, is the env's (``_reads``) and carries over from one
+piece to the next, and a piece ending inside a control period takes no contact sample, so
+the pieces change no number of the flight.
+
 What the batched multi-agent path does not simulate is refused by name at load
-(:func:`check_swarm_supported`): other multi-agent tasks (formation, dogfight), agents with
-different airframes, the cascade flight modes, latency, domain randomisation, noisy sensors,
-the optional motor models, rotary turbulence gusts, and every key the single-agent batched
-backend refuses.
+(:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
+different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
+backend does not draw either, noisy sensors, the optional motor models, rotary turbulence
+gusts, and every key the single-agent batched backend refuses.
 """
 
 from __future__ import annotations
@@ -88,9 +111,12 @@ from pyflyt_engine.batched.kernels import (
     summed,
 )
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
+from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
+from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
+from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import euler_to_quaternion
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
@@ -332,6 +358,8 @@ def advance_swarm(
     turbulence,
     turbulence_normals,
     dryden,
+    reads,
+    sample_end,
 ):
     """Advance every world (rows ``k A ... k A + A - 1`` of every array are world ``k``'s agents)
     ``count`` physics steps from physics step ``start``, in the PyBullet engine's order
@@ -341,11 +369,18 @@ def advance_swarm(
     ticks each vehicle in turn is read, gets its air and steps its motors and drag; then
     every body integrates.  A disarmed vehicle (``armed`` False) commands its motors to 0
     and runs no controller; a ``parked`` one (retired, on the ground) stays at rest.
-    Contacts are sampled at the end of each control period and of the step:
-    ``ground_contact`` (lowest point below the ground; a disarmed vehicle touching it is
-    parked) and ``agent_contact`` (collision boxes overlap, both vehicles flagged).
+    ``reads`` (n, 3): each vehicle's latest read position, which the others' downwash is
+    taken from, updated as each vehicle is read (the env sets it to the positions at the
+    start of an agent step; a call starting inside one continues the previous call's).
+    Contacts are sampled at the end of each control period and, with ``sample_end``, of the
+    call (the end of the agent step; a call ending inside a control period, which latency's
+    pieces may, takes no sample there, as the engine takes none): ``ground_contact``
+    (lowest point below the ground; a disarmed vehicle touching it is parked) and
+    ``agent_contact`` (collision boxes overlap, both vehicles flagged).
     The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
-    for every vehicle; ``square`` is 2.0 (:func:`downwash_velocity`).
+    for every vehicle: the flight controller's one set, the body's, motors' and drag's one row
+    per vehicle (``mass``, ``inertia``, ``lag``, ``columns``, ``drag_factors``, ``damping``,
+    ``rotors``: domain randomisation sets a world's rows); ``square`` is 2.0 (:func:`downwash_velocity`).
 
     The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it: where ``wind[0]`` is
     on, each vehicle's wind at its height at physics step ``episode_steps[i] + s`` of its
@@ -366,11 +401,8 @@ def advance_swarm(
     torques = np.empty(3)
     out = np.empty(nm)
     parts = np.empty((nm, 4))
-    seen = np.empty((agents, 3))
     air = np.empty((agents, 6))
     loads = np.empty((agents, 6))
-    jx, jy, jz = inertia[0], inertia[1], inertia[2]
-    kx, ky, kz = drag_factors[0], drag_factors[1], drag_factors[2]
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
     windy = wind[0] != 0.0
     turbulent = wind[17] != 0.0
@@ -382,8 +414,9 @@ def advance_swarm(
         for a in range(agents):
             ground_contact[base + a] = False
             agent_contact[base + a] = False
-            # every vehicle's latest read: its state after the last agent step (the env reads them all)
-            seen[a, 0], seen[a, 1], seen[a, 2] = pos[base + a, 0], pos[base + a, 1], pos[base + a, 2]
+        # every vehicle's latest read (kept by the env: its state after the last agent step, then
+        # each physics step's read; a call that starts inside an agent step continues them)
+        seen = reads[base : base + agents]
         thr = throttle[base : base + agents]
         for s in range(count):
             step = start + s
@@ -469,15 +502,24 @@ def advance_swarm(
                     air[a, 4] = r1 * ax + r4 * ay + r7 * az
                     air[a, 5] = r2 * ax + r5 * ay + r8 * az
                     if ground_effect:
-                        _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors, columns, min_height, scaled)
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                        _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors[i], columns[i], min_height, scaled)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], scaled)
                     else:
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], columns[i])
                     if drag_on:
                         load = summed(
                             load,
                             drag_wrench(
-                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                                air[a, 0],
+                                air[a, 1],
+                                air[a, 2],
+                                air[a, 3],
+                                air[a, 4],
+                                air[a, 5],
+                                drag_factors[i, 0],
+                                drag_factors[i, 1],
+                                drag_factors[i, 2],
+                                damping[i],
                             ),
                         )
                     for c in range(6):
@@ -487,15 +529,26 @@ def advance_swarm(
                     i = base + a
                     if ground_effect:
                         rg = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
-                        _air.ground_effect_columns(pos[i, 2], rg[6], rg[7], rg[8], rotors, columns, min_height, scaled)
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], scaled)
+                        _air.ground_effect_columns(
+                            pos[i, 2], rg[6], rg[7], rg[8], rotors[i], columns[i], min_height, scaled
+                        )
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], scaled)
                     else:
-                        load = motors_step(throttle[i], command[i], lag, factors[i, s], columns)
+                        load = motors_step(throttle[i], command[i], lag[i], factors[i, s], columns[i])
                     if drag_on:
                         load = summed(
                             load,
                             drag_wrench(
-                                air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5], kx, ky, kz, damping
+                                air[a, 0],
+                                air[a, 1],
+                                air[a, 2],
+                                air[a, 3],
+                                air[a, 4],
+                                air[a, 5],
+                                drag_factors[i, 0],
+                                drag_factors[i, 1],
+                                drag_factors[i, 2],
+                                damping[i],
                             ),
                         )
                     for c in range(6):
@@ -512,10 +565,10 @@ def advance_swarm(
                     (angvel[i, 0], angvel[i, 1], angvel[i, 2]),
                     r,
                     (loads[a, 0], loads[a, 1], loads[a, 2], loads[a, 3], loads[a, 4], loads[a, 5]),
-                    mass,
-                    jx,
-                    jy,
-                    jz,
+                    mass[i],
+                    inertia[i, 0],
+                    inertia[i, 1],
+                    inertia[i, 2],
                     gravity,
                     physics_dt,
                 )
@@ -523,7 +576,7 @@ def advance_swarm(
                 quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
                 vel[i, 0], vel[i, 1], vel[i, 2] = v
                 angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
-            if (step + 1) % per_control == 0 or s == count - 1:  # a contact sample
+            if (step + 1) % per_control == 0 or (s == count - 1 and sample_end):  # a contact sample
                 for a in range(agents):
                     i = base + a
                     rr = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
@@ -601,12 +654,6 @@ def check_swarm_supported(config: Any) -> None:
             f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
             "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
         )
-    for key, asked in (
-        ("latency", config.latency is not None),
-        ("randomize (domain randomisation)", bool(config.randomize)),
-    ):
-        if asked:
-            raise refuse(f"env.{key} in a multi-agent world", f"leave env.{key.split()[0]} at its default")
     if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
         raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
 
@@ -700,6 +747,20 @@ class _WorldTasks:
                 extras[base + a] = task.observe(a, states)
         return distance, rate, signal_extras, info
 
+    def observe(self, states_of: Any, extras: np.ndarray) -> np.ndarray:
+        """Every slot's task entries of the states ``states_of(rows)`` gives (the delayed ones),
+        from each world's task as its last step left it (a world whose task is not set up yet,
+        a restored one before its first step: ``extras``' rows)."""
+        out = extras.copy()
+        for k, task in enumerate(self.tasks):
+            if not self.started[k]:
+                continue
+            base = k * self.per_world
+            states = states_of(np.arange(base, base + self.per_world))
+            for a in range(self.per_world):
+                out[base + a] = task.observe(a, states)
+        return out
+
 
 class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     """``worlds`` worlds of a multi-agent hover config's agents, one slot per agent (module docstring).
@@ -715,7 +776,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     #: the per-slot arrays a checkpoint carries (:class:`pyflyt_cli.training.batched.BatchedVecEnv`)
-    state_arrays = (
+    state_arrays: tuple[str, ...] = (
         "pos",
         "quat",
         "vel",
@@ -787,7 +848,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._dome2 = cfg.flight_dome_size**2
         self._max_steps = cfg.max_steps
         self.downwash = bool(cfg.downwash)
-        self._rotors = _rotor_geometry(self.spec_uav)
+        self._wake_sources = _rotor_geometry(self.spec_uav)
         from pyflyt_engine.atmosphere import load_wind_config
 
         #: the air (pyflyt_engine.batched.air), as the single-agent backend takes it: the wind
@@ -806,6 +867,24 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
 
         m = self.model
         nm = m.motors
+        # the body's, motors' and drag's parameters, one row per slot (own, writable copies:
+        # domain randomisation sets a world's rows at each of its episodes); the flight
+        # controller keeps the airframe's nominal ones (the model's, one set for every vehicle)
+        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
+        self._mass = rows(m.mass)
+        self._inertia = rows(m.inertia)
+        self._lag = rows(m.lag)
+        self._columns = rows(m.columns)
+        self._drag_factors = rows(m.drag_factors)
+        self._damping = rows(m.angular_damping)
+        self._rotors = rows(m.rotors)
+        #: the randomize section's draws, one per world and episode, every agent of the world
+        #: given them (None without; pyflyt_engine.batched.randomization)
+        self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
+        #: per slot, its world's draws of this episode (entries in the section's order; no columns without)
+        self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
+        #: the parameter rows a checkpoint carries besides the state: those the draws change
+        self.randomized_arrays: tuple[str, ...] = self.randomizer.arrays() if self.randomizer is not None else ()
         self.pos = np.zeros((n, 3))
         self.quat = np.zeros((n, 4))
         self.quat[:, 3] = 1.0
@@ -832,6 +911,30 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: field per world, the same in each of its slots
         self.turbulence = np.zeros((n, self.dryden.states if self.dryden is not None else 0))
         self._no_normals = np.zeros((self.worlds, self.per_agent, 0))
+        self._normals = self._no_normals  # this agent step's (advance)
+        #: per slot, its vehicle's latest read position (the downwash's source; advance_swarm)
+        self._reads = np.zeros((n, 3))
+        #: the contact samples the physics writes (BatchedLatency gathers them over an agent step's pieces)
+        self.contact_flags = (self.ground_contact, self.agent_contact)
+        #: what an observation shows besides the motion (BatchedLatency's snapshot): the worlds'
+        #: multirotors have no lifting surfaces and no battery
+        self.deflection = np.zeros((n, 0))
+        self.battery = np.zeros((n, 0))
+        #: the action and observation delays, one row per slot, the agents of a world sharing
+        #: the world's (None without; pyflyt_engine.batched.latency)
+        self.latency = (
+            BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, 0)
+            if declares_latency(cfg)
+            else None
+        )
+        delays = self.latency.state_arrays() if self.latency is not None else {}
+        #: per slot, this episode's (action, observation) delays [physics steps], its last actions
+        #: and the states it shows (empty rows without latency)
+        self.latency_steps = delays.get("latency_steps", np.zeros((n, 0), dtype=np.int64))
+        self.action_history = delays.get("action_history", np.zeros((n, 0)))
+        self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
+        if self.latency is not None:  # a checkpoint carries them too
+            self.state_arrays = (*type(self).state_arrays, *delays)
         self.ang_vel_body = np.zeros((n, 3))
         self.ang_pos = np.zeros((n, 3))
         self.lin_vel_body = np.zeros((n, 3))
@@ -915,7 +1018,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self._seed_all(seed)
         for k in range(self.worlds):
             self._reset_world(k)
-        return self._observe(), {}
+        info: dict[str, Any] = {}
+        if self.randomizer is not None:  # per entry, each slot's world's draw (the PyBullet info["randomization"])
+            info["randomization"] = self.randomizer.info()
+            info["_randomization"] = np.ones(self.num_envs, dtype=bool)
+        return self._observe(), info
 
     def set_task_changes(self, changes: dict[str, Any]) -> None:
         """A training curriculum's task changes: the multi-agent hover has no per-episode options."""
@@ -929,15 +1036,30 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.task_changes = dict(changes)
 
     def _reset_world(self, k: int) -> None:
-        """World ``k``'s next episode: every agent spawned in its region (the PyBullet env's draws)."""
+        """World ``k``'s next episode, drawn from the world's generator in the PyBullet env's
+        order (:func:`pyflyt_engine.envs.build.reset_episode`): the randomize section once for
+        the world (every agent's parameter rows from it), then every agent spawned in its
+        region, agent by agent, the drawn spawn offsets added."""
         rng = self.world_rngs[k]
         rows = np.arange(k * self.agents, (k + 1) * self.agents)
+        randomizer = self.randomizer
+        values: dict[str, float] | None = None
+        if randomizer is not None:  # drawn before the spawns, one draw for the world's vehicles
+            values = randomizer.draw(rows, rng)
+            for i in rows.tolist():
+                if randomizer.airframe:
+                    randomizer.apply(self, i, values)
+                if self.latency is not None:  # the drawn delays, every vehicle of the world
+                    self.latency.draw(i, values)
         for a, i in enumerate(rows.tolist()):
             s = self.agent_list[a].spawn
             dp = rng.uniform(-s.position_noise, s.position_noise, 3) if s.position_noise else np.zeros(3)
             da = rng.uniform(-s.orientation_noise, s.orientation_noise, 3) if s.orientation_noise else np.zeros(3)
-            self.pos[i] = np.add(s.position, dp)
-            q = euler_to_quaternion(*np.add(s.orientation, da).tolist())
+            position, orientation = np.add(s.position, dp).tolist(), np.add(s.orientation, da).tolist()
+            if values is not None:  # Randomizer.spawn: the world's offsets added to each agent's spawn
+                position, orientation = Randomizer.spawn(values, position, orientation)
+            self.pos[i] = position
+            q = euler_to_quaternion(*orientation)
             self.quat[i] = q
             r = np.empty(9)
             kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
@@ -960,6 +1082,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.armed[rows] = True
         self.parked[rows] = False
         self._read(rows)
+        if self.latency is not None:  # nothing in flight; the spawn shown until n_o steps have passed
+            self.latency.restart(self, rows)
         self._reset_world_task(k)
 
     def _reset_world_task(self, k: int) -> None:
@@ -970,20 +1094,25 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         else:
             self._world_tasks.reset(k, self._states(rows), self.task_changes, self._last_distance, self._extras)
 
-    def _states(self, rows: np.ndarray) -> list[KinematicState]:
-        """The agents' states of ``rows`` as the engine's vehicles read them (the task's input)."""
-        return [
-            KinematicState(
-                tuple(self.ang_vel_body[i].tolist()),
-                tuple(self.ang_pos[i].tolist()),
-                tuple(self.lin_vel_body[i].tolist()),
-                tuple(self.pos[i].tolist()),
-                tuple(self.quaternion[i].tolist()),
-                tuple(self.vel[i].tolist()),
-                tuple(self.angvel[i].tolist()),
-            )
-            for i in rows.tolist()
-        ]
+    def _states(self, rows: np.ndarray, source: dict[str, np.ndarray] | None = None) -> list[KinematicState]:
+        """The agents' states of ``rows`` as the engine's vehicles read them (the task's input);
+        ``source``: from those arrays (the delayed ones, BatchedLatency.observed) instead of now."""
+        arrays = (
+            source
+            if source is not None
+            else {
+                "ang_vel_body": self.ang_vel_body,
+                "ang_pos": self.ang_pos,
+                "lin_vel_body": self.lin_vel_body,
+                "pos": self.pos,
+                "quaternion": self.quaternion,
+                "vel": self.vel,
+                "angvel": self.angvel,
+            }
+        )
+        names = ("ang_vel_body", "ang_pos", "lin_vel_body", "pos", "quaternion", "vel", "angvel")
+        columns = [arrays[name] for name in names]
+        return [KinematicState(*(tuple(c[i].tolist()) for c in columns)) for i in rows.tolist()]
 
     def _distance(self, rows: np.ndarray) -> np.ndarray:
         d = self.pos[rows] - self.hover_point[rows]
@@ -1096,15 +1225,35 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             info["_final_obs"] = done
         for k in np.flatnonzero(over).tolist():
             self._reset_world(k)
+        if self.randomizer is not None and over.any():  # the draws of the worlds that restart now
+            info["randomization"] = self.randomizer.info()
+            info["_randomization"] = self.world_over.copy()
         obs = self._observe()
         terminated_slots = terminated | padding_end
         return obs, reward, terminated_slots, truncated, info
 
     def advance(self, setpoints: np.ndarray, factors: np.ndarray) -> None:
-        """One agent step of the physics for every world (setpoints already clipped)."""
+        """One agent step of the physics for every world (setpoints already clipped; with
+        latency, the actions given now, which reach the controllers later: BatchedLatency)."""
+        self._reads[:] = self.pos  # the env read every vehicle after the last agent step
+        self._normals = self.turbulence_normals()
+        if self.latency is not None:
+            self.latency.advance(self, setpoints, factors)
+        else:
+            self.physics(setpoints, factors, 0, self.per_agent)
+        self.physics_steps += self.per_agent
+
+    def physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """``count`` physics steps of every world from offset ``start`` into the agent step,
+        every control tick in them flying ``setpoints``; ``factors`` (N, count, motors) their
+        motor noise.  The contacts are sampled at the end of each control period in them and
+        at the end of the agent step (not at the end of a piece inside a control period)."""
         m = self.model
-        rot = self._rotors
-        start = int(self.physics_steps[0]) % self.per_control
+        rot = self._wake_sources
+        normals = self._normals
+        if (start, count) != (0, normals.shape[1]) and normals.shape[2]:
+            normals = np.ascontiguousarray(normals[:, start : start + count])
+        phase = int(self.physics_steps[0]) % self.per_control + start
         advance_swarm(
             self.pos,
             self.quat,
@@ -1121,18 +1270,18 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.armed,
             self.parked,
             self.agents,
-            m.mass,
-            m.inertia,
+            self._mass,
+            self._inertia,
             m.control_inertia,
             m.gyro,
-            m.lag,
-            m.columns,
+            self._lag,
+            self._columns,
             m.mixer_rows,
             m.max_collective,
             m.rate_gains,
             m.rate_derivative,
-            m.drag_factors,
-            m.angular_damping,
+            self._drag_factors,
+            self._damping,
             m.drag,
             m.corners,
             self._box_centre,
@@ -1143,8 +1292,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             GRAVITY,
             self.physics_dt,
             self.control_dt,
-            start,
-            self.per_agent,
+            phase,
+            count,
             self.per_control,
             self.downwash,
             rot["max_thrust"],
@@ -1154,15 +1303,16 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             AIR_DENSITY,
             2.0,
             self._wind,
-            self.physics_steps,
-            m.rotors,
+            self.physics_steps + start,
+            self._rotors,
             self.ground_effect,
             _air.GROUND_EFFECT_MIN_HEIGHT,
             self.turbulence,
-            self.turbulence_normals(),
+            normals,
             self._dryden_arrays,
+            self._reads,
+            start + count == self.per_agent,
         )
-        self.physics_steps += self.per_agent
 
     def turbulence_normals(self) -> np.ndarray:
         """The turbulence's white noise of one agent step, (worlds, physics steps, filter
@@ -1175,15 +1325,35 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         return out
 
     def _observe(self) -> np.ndarray:
-        angles = self.quaternion if self._quaternion else self.ang_pos
+        """Every slot's observation; with an observation delay, of every vehicle as it was
+        ``n_o`` physics steps ago (the PyBullet env's ``delayed_state`` source: the agent's
+        own attitude and throttles, and the task's entries from every agent's delayed state),
+        the previous action the agent's own."""
+        if self.latency is not None and self.latency.observes:
+            seen = self.latency.observed(self)
+            if self._world_tasks is None:
+                extras = self.hover_point - seen["pos"]
+            else:
+                extras = self._world_tasks.observe(lambda rows: self._states(rows, seen), self._extras)
+        else:
+            seen = {
+                "ang_vel_body": self.ang_vel_body,
+                "ang_pos": self.ang_pos,
+                "lin_vel_body": self.lin_vel_body,
+                "quaternion": self.quaternion,
+                "pos": self.pos,
+                "throttle": self.throttle,
+            }
+            extras = self.hover_point - self.pos if self._world_tasks is None else self._extras
+        angles = seen["quaternion"] if self._quaternion else seen["ang_pos"]
         parts = [
-            self.ang_vel_body,
+            seen["ang_vel_body"],
             angles,
-            self.lin_vel_body,
-            self.pos,
+            seen["lin_vel_body"],
+            seen["pos"],
             self.actions,
-            self.throttle,
-            self.hover_point - self.pos if self._world_tasks is None else self._extras,
+            seen["throttle"],
+            extras,
         ]
         obs = np.concatenate(parts, axis=1)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot

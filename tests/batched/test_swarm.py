@@ -216,7 +216,7 @@ def test_stacked_agents_with_downwash_agree_with_the_pybullet_engine(quiet_cf2x,
     pb, be = _pair(quiet_cf2x, seed, downwash=True, **({"action": MOTORS_ACTION} if motors else {}))
     hover = be.model.hover_thrust_fraction
     # the wakes do blow: the lower agents feel a down-wind of at least 0.1 m/s at the start
-    rot = be._rotors
+    rot = be._wake_sources
     still = np.full(4, np.sqrt(hover)) if motors else np.r_[0.0, 0.0, 0.0, hover]
     pb.step({name: still for name in pb.agents})
     be.step(np.tile(still, (be.num_envs, 1)))
@@ -375,8 +375,9 @@ def test_same_seed_same_numbers():
         ({"downwash": True}, None),
         ({"wind": "gust"}, None),
         ({"wind": "dryden_severe", "ground_effect": True}, None),
-        ({"latency": {"action_delay": 0.01}}, "env.latency"),
-        ({"randomize": "moderate"}, "env.randomize"),
+        ({"latency": {"action_delay": 0.01}}, None),  # tests/batched/test_swarm_latency.py
+        ({"randomize": "moderate"}, None),  # domain randomisation (tests/batched/test_swarm_randomization.py)
+        ({"randomize": "sim2real"}, None),  # with its drawn delays
         (
             {"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
             "agents of different airframes",
