@@ -17,7 +17,8 @@ The name tables of before are views of this one: ``TASKS`` (:mod:`pyflyt_engine.
 (:mod:`pyflyt_engine.envs.tasks.multi`), ``TASK_CLASSES`` (:mod:`pyflyt_engine.envs.multi_agent`)
 and ``ORACLES`` (:mod:`pyflyt_engine.envs.oracles`).
 
-This module imports no task: the task bases are looked up when a task is registered.
+This module imports no task (a task class says its kind in ``task_kind``), so every task
+module can import it.
 """
 
 from __future__ import annotations
@@ -73,15 +74,13 @@ REGISTRY: dict[str, TaskEntry] = {}
 
 
 def _kind(task: Any) -> Kind:
-    """The kind of a task class, by its base. Raises TypeError for anything else."""
-    from pyflyt_engine.envs.tasks.base import Task
-    from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
-
-    if isinstance(task, type) and issubclass(task, Task):
-        return "single"
-    if isinstance(task, type) and issubclass(task, MultiAgentTask):
-        return "multi"
-    raise TypeError(f"register_task needs a Task or MultiAgentTask subclass, got {task!r}")
+    """The kind of a task class: its ``task_kind``, which the two bases set (``single`` on
+    :class:`~pyflyt_engine.envs.tasks.base.Task`, ``multi`` on
+    :class:`~pyflyt_engine.envs.tasks.multi.MultiAgentTask`). Raises TypeError for anything else."""
+    kind = getattr(task, "task_kind", None) if isinstance(task, type) else None
+    if kind not in KIND_WORDS or not isinstance(getattr(task, "Options", None), type):
+        raise TypeError(f"register_task needs a Task or MultiAgentTask subclass, got {task!r}")
+    return cast(Kind, kind)
 
 
 def _check_oracle(oracle: Any, task_name: str) -> None:

@@ -2,6 +2,11 @@
 its oracles and its registration (:func:`~pyflyt_engine.envs.task_registry.register_task` at
 the end of the module).
 
+Single-agent tasks subclass :class:`~pyflyt_engine.envs.tasks.base.Task` (one vehicle,
+run by :class:`~pyflyt_engine.envs.env.UAVEnv`); multi-agent tasks subclass
+:class:`~pyflyt_engine.envs.tasks.multi.MultiAgentTask` (``ma_hover``, ``ma_formation``,
+``dogfight``: N agents in one world, run by the env class each registers).
+
 Importing this package imports every shipped task module, which fills the one task
 registry (:mod:`pyflyt_engine.envs.task_registry`).  :data:`TASKS` is its view of the
 single-agent tasks (task name, ``task.name`` in an env YAML -> :class:`Task` subclass);
@@ -13,8 +18,10 @@ from __future__ import annotations
 
 from typing import Any
 
-# the shipped task modules, in the order the tasks are listed (each registers itself)
+# the shipped task modules, single-agent then multi-agent, in the order the tasks are listed
+# (each registers itself): a new task adds its module here
 from pyflyt_engine.envs.tasks import hover, waypoints, landing, pole, ball_in_cup, gates, goal  # noqa: F401
+from pyflyt_engine.envs.tasks import ma_hover, ma_formation, dogfight  # noqa: F401
 from pyflyt_engine.envs import task_registry
 from pyflyt_engine.envs.task_registry import TaskTable
 from pyflyt_engine.envs.tasks.ball_in_cup import BallInCupOptions, BallInCupTask

@@ -34,7 +34,7 @@ and an env YAML naming it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 from gymnasium import spaces
@@ -157,6 +157,8 @@ class Task:
     """
 
     name: ClassVar[str] = "base"
+    #: the registry's kind of task (:mod:`pyflyt_engine.envs.task_registry`): one vehicle
+    task_kind: ClassVar[Literal["single", "multi"]] = "single"
     Options: ClassVar[type[TaskOptions]] = TaskOptions
     provides: ClassVar[frozenset[str]] = frozenset()
     succeeds_at_time_limit: ClassVar[bool] = False
