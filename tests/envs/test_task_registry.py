@@ -22,10 +22,16 @@ SINGLE = ["hover", "waypoints", "landing", "pole_balance", "pole_waypoints", "ba
 MULTI = ["ma_hover", "ma_formation", "dogfight"]
 
 
+def _shipped(names):
+    """``names`` less the tasks other tests register (they come after the shipped ones)."""
+    return [n for n in names if n in SINGLE + MULTI]
+
+
 def test_the_registry_holds_every_shipped_task_of_both_kinds_in_order():
-    assert list(REGISTRY) == SINGLE + MULTI
-    assert [n for n, e in REGISTRY.items() if e.kind == "single"] == SINGLE == list(TASKS)
-    assert [n for n, e in REGISTRY.items() if e.kind == "multi"] == MULTI == list(MA_TASKS) == list(MA_TASK_CLASSES)
+    assert list(REGISTRY)[: len(SINGLE + MULTI)] == SINGLE + MULTI
+    assert _shipped(n for n, e in REGISTRY.items() if e.kind == "single") == SINGLE == _shipped(TASKS)
+    assert _shipped(n for n, e in REGISTRY.items() if e.kind == "multi") == MULTI == _shipped(MA_TASKS)
+    assert _shipped(MA_TASK_CLASSES) == MULTI and set(TASKS) | set(MA_TASKS) == set(REGISTRY)
 
 
 def test_the_old_tables_are_views_of_the_registry():
@@ -56,7 +62,8 @@ def test_a_task_module_holds_its_task_options_terms_oracles_and_registration():
     """One module per task: its class, its options model, the reward terms reading its own
     signals and its oracles are all defined there (the module registers them)."""
     own_terms = {e.fn.__module__ for e in [*rewards.TERMS.values(), *rewards.CONDITIONS.values()]}
-    for name, entry in REGISTRY.items():
+    for name in SINGLE + MULTI:
+        entry = REGISTRY[name]
         module = entry.task.__module__
         assert module.startswith("pyflyt_engine.envs.tasks.")
         assert entry.options.__module__ == module, name
@@ -77,7 +84,7 @@ def test_unknown_names_list_the_valid_ones_with_a_hint_and_the_other_kind():
         get_task("hovr")
     with pytest.raises(ConfigError, match=r"unknown multi-agent task 'dogfigt'\. Did you mean 'dogfight'\?"):
         get_ma_task("dogfigt")
-    with pytest.raises(ConfigError, match=r"Valid: hover, .*, goal \('ma_hover' is a multi-agent task\)"):
+    with pytest.raises(ConfigError, match=r"Valid: hover, .*, goal.* \('ma_hover' is a multi-agent task\)"):
         get_task("ma_hover")
     with pytest.raises(
         ConfigError,
@@ -143,4 +150,34 @@ def test_what_the_registry_refuses():
         MA_TASK_CLASSES["test_glide"] = _GlideTask  # type: ignore[assignment]
     with pytest.raises(TypeError, match="register the task itself"):
         MA_TASKS["test_glide"] = _GlideOptions  # type: ignore[assignment]
-    assert "test_glide" not in REGISTRY and list(REGISTRY) == SINGLE + MULTI
+    assert "test_glide" not in REGISTRY and list(REGISTRY)[: len(SINGLE + MULTI)] == SINGLE + MULTI
+
+
+def test_a_multi_agent_task_registered_without_an_env_class_runs_in_the_generic_loop():
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.envs.config import env_config_data
+    from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
+    from pyflyt_engine.envs.tasks.ma_hover import MAHoverOptions, MAHoverTask
+
+    class SwarmOptions(MAHoverOptions):
+        name: Literal["test_swarm"] = "test_swarm"  # type: ignore[assignment]
+
+    class SwarmTask(MAHoverTask):
+        name: ClassVar[str] = "test_swarm"
+        Options: ClassVar[type] = SwarmOptions
+
+    register_task(SwarmTask)
+    try:
+        assert MA_TASKS["test_swarm"] is SwarmOptions and TASK_CLASSES["test_swarm"] is None
+        assert env_class("test_swarm") is MultiAgentUAVEnv
+        data = {**env_config_data("ma_quadx_hover"), "id": None, "agents": 2, "task": {"name": "test_swarm"}}
+        env = make_env(data)
+        try:
+            obs, _ = env.reset(seed=0)
+            assert type(env.parallel) is MultiAgentUAVEnv and env.parallel.possible_agents == ["uav_0", "uav_1"]
+            assert isinstance(env.parallel.task, SwarmTask) and obs.shape == (2, 24)
+        finally:
+            env.close()
+    finally:
+        del MA_TASK_CLASSES["test_swarm"]
+    assert "test_swarm" not in REGISTRY
