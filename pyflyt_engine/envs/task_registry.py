@@ -12,7 +12,7 @@ its options, reward terms and oracles, with one call::
 
 :mod:`pyflyt_engine.envs.tasks` imports every shipped task module, so importing it (as
 loading any env config does) fills the registry; configs name tasks, they never import code.
-The name tables of before are views of this one: ``TASKS`` (:mod:`pyflyt_engine.envs.tasks`),
+The older name tables are views of this one: ``TASKS`` (:mod:`pyflyt_engine.envs.tasks`),
 ``MA_TASKS`` (:mod:`pyflyt_engine.envs.config`), ``MA_TASK_CLASSES``
 (:mod:`pyflyt_engine.envs.tasks.multi`), ``TASK_CLASSES`` (:mod:`pyflyt_engine.envs.multi_agent`)
 and ``ORACLES`` (:mod:`pyflyt_engine.envs.oracles`).
