@@ -58,7 +58,7 @@ ENVS: dict[str, EnvEntry] = {
         "pyflyt_engine.envs.quadx_payloads:QuadXPoleWaypointsEnv", "quadx_pole_waypoints"
     ),
     "PyFlyt/QuadX-Ball-In-Cup-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXBallInCupEnv", "quadx_ball_in_cup"),
-    "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_payloads:QuadXGatesEnv", "quadx_gates"),
+    "PyFlyt/QuadX-Gates-v0": EnvEntry("pyflyt_engine.envs.quadx_gates:QuadXGatesEnv", "quadx_gates"),
     "PyFlyt/QuadX-Obstacles-v0": EnvEntry("pyflyt_engine.envs.quadx_obstacles:QuadXObstaclesEnv", "quadx_obstacles"),
 }
 
@@ -97,30 +97,24 @@ def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: An
     return cls(cfg, **overrides)
 
 
+#: lazy exports besides the registered env classes (name -> module): the env classes import
+#: PyBullet, registration must not
+_LAZY = {
+    "make_batched_env": "pyflyt_engine.batched.env",
+    "BatchedUAVEnv": "pyflyt_engine.batched.env",
+    "UAVEnv": "pyflyt_engine.envs.env",
+    "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
+    "EnvConfig": "pyflyt_engine.envs.config",
+    "RewardPreset": "pyflyt_engine.envs.config",
+    "env_config_data": "pyflyt_engine.envs.config",
+    "load_env_config": "pyflyt_engine.envs.config",
+    "load_reward_preset": "pyflyt_engine.envs.config",
+}
+
+
 def __getattr__(name: str) -> Any:
-    # lazy exports: the env classes import PyBullet, registration must not
-    lazy = {
-        "make_batched_env": "pyflyt_engine.batched.env",
-        "BatchedUAVEnv": "pyflyt_engine.batched.env",
-        "UAVEnv": "pyflyt_engine.envs.env",
-        "QuadXHoverEnv": "pyflyt_engine.envs.quadx",
-        "QuadXWaypointsEnv": "pyflyt_engine.envs.quadx",
-        "FixedwingWaypointsEnv": "pyflyt_engine.envs.fixedwing",
-        "RocketLandingEnv": "pyflyt_engine.envs.rocket",
-        "RocketLandingVelocityEnv": "pyflyt_engine.envs.rocket",
-        "RocketLandingDescentEnv": "pyflyt_engine.envs.rocket",
-        "QuadXBallInCupEnv": "pyflyt_engine.envs.quadx_payloads",
-        "QuadXGatesEnv": "pyflyt_engine.envs.quadx_payloads",
-        "QuadXObstaclesEnv": "pyflyt_engine.envs.quadx_obstacles",
-        "QuadXPoleBalanceEnv": "pyflyt_engine.envs.quadx_payloads",
-        "QuadXPoleWaypointsEnv": "pyflyt_engine.envs.quadx_payloads",
-        "FlattenWaypointEnv": "pyflyt_engine.envs.wrappers",
-        "EnvConfig": "pyflyt_engine.envs.config",
-        "RewardPreset": "pyflyt_engine.envs.config",
-        "env_config_data": "pyflyt_engine.envs.config",
-        "load_env_config": "pyflyt_engine.envs.config",
-        "load_reward_preset": "pyflyt_engine.envs.config",
-    }
+    # lazy exports: every registered env class by its entry point's name, and _LAZY
+    lazy = {e.entry_point.partition(":")[2]: e.entry_point.partition(":")[0] for e in ENVS.values()} | _LAZY
     if name in lazy:
         import importlib
 
@@ -134,23 +128,14 @@ __all__ = [
     "ENVS",
     "EnvConfig",
     "EnvEntry",
-    "FixedwingWaypointsEnv",
     "FlattenWaypointEnv",
-    "QuadXBallInCupEnv",
-    "QuadXGatesEnv",
-    "QuadXHoverEnv",
-    "QuadXObstaclesEnv",
-    "QuadXPoleBalanceEnv",
-    "QuadXPoleWaypointsEnv",
-    "QuadXWaypointsEnv",
     "RewardPreset",
-    "RocketLandingDescentEnv",
-    "RocketLandingEnv",
-    "RocketLandingVelocityEnv",
     "UAVEnv",
     "env_config_data",
     "load_env_config",
     "load_reward_preset",
     "make_env",
     "register_envs",
+    # the registered env classes (lazy exports)
+    *(entry.entry_point.partition(":")[2] for entry in ENVS.values()),
 ]

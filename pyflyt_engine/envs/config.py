@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Union
 
@@ -35,10 +34,14 @@ from pydantic import (
 from pyflyt_engine.components.estimator import alpha_beta_gains
 from pyflyt_engine import limits
 from pyflyt_engine.envs import rewards, terminations
-from pyflyt_engine.envs.multi_agent import dogfight_rewards  # noqa: F401  (registers the dogfight terms)
-from pyflyt_engine.envs.multi_agent import formation_rewards  # noqa: F401  (registers the formation terms)
 from pyflyt_engine.envs.randomization import Distribution, check_names, delay_steps
+from pyflyt_engine.envs.task_registry import TaskTable
 from pyflyt_engine.envs.tasks import TaskOptions, get_task
+from pyflyt_engine.envs.tasks.dogfight import DogfightOptions  # noqa: F401  (re-exported)
+from pyflyt_engine.envs.tasks.ma_formation import MAFormationOptions  # noqa: F401  (re-exported)
+from pyflyt_engine.envs.tasks.ma_hover import MAHoverOptions  # noqa: F401  (re-exported)
+from pyflyt_engine.envs.tasks.multi import MATaskOptions, ResolvedAgent, SpawnConfig, Vec3
+from pyflyt_engine.envs.tasks.multi import grid_layout  # noqa: F401  (re-exported)
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.obstacles import ObstaclesConfig
 from pyflyt_engine.payloads import PayloadSpec
@@ -582,32 +585,14 @@ def _unknown_randomize(name: Any) -> str:
 #       - {uav: quadx_cf2x, spawn: {position: [1, 0, 1]}, hover_point: [1, 0, 1.5]}
 #
 # A mapping with ``agents`` is validated by parse_multi_agent_config, reached through
-# parse_env_config, so every loader of env configs accepts both kinds.
-
-Vec3 = tuple[float, float, float]
+# parse_env_config, so every loader of env configs accepts both kinds.  The task options
+# (MATaskOptions and each task's model), SpawnConfig, grid_layout and ResolvedAgent live
+# with the multi-agent tasks (pyflyt_engine.envs.tasks.multi and one module per task) and
+# are re-exported here.
 
 #: The most agents one world takes: the range the swarm envs are tested and measured over
 #: (``pyflyt speed`` times 1 to 128; docs/multi_agent.md).
 MAX_AGENTS = 128
-
-
-def grid_layout(index: int, count: int, spacing: float, height: float) -> Vec3:
-    """Slot ``index`` of ``count`` on a square grid ``spacing`` [m] apart at ``height`` [m],
-    centred on the z axis: ``ceil(sqrt(count))`` columns, filled row by row along +x."""
-    columns = math.ceil(math.sqrt(count))
-    rows = math.ceil(count / columns)
-    column, row = index % columns, index // columns
-    return ((column - (columns - 1) / 2.0) * spacing, (row - (rows - 1) / 2.0) * spacing, height)
-
-
-class SpawnConfig(_Config):
-    """Where one agent starts: a box around ``position`` and a range of attitudes (the spawn region)."""
-
-    position: Vec3 = Field(description="centre of the spawn region (x, y, z) [m], ground frame")
-    position_noise: float = Field(0.1, ge=0, description="each coordinate offset by U(-noise, noise) [m]")
-    orientation: Vec3 = Field((0.0, 0.0, 0.0), description="mean attitude (roll, pitch, yaw) [rad]")
-    orientation_noise: float = Field(0.1, ge=0, description="each Euler angle offset by U(-noise, noise) [rad]")
-    lin_vel: Vec3 = Field((0.0, 0.0, 0.0), description="initial velocity (u, v, w) [m/s], BODY frame")
 
 
 class AgentConfig(_Config):
@@ -624,133 +609,9 @@ class AgentConfig(_Config):
     )
 
 
-class MATaskOptions(_Config):
-    """Options common to the multi-agent tasks."""
-
-    name: str = Field(description="multi-agent task: ma_hover, ma_formation or dogfight")
-
-
-class MAHoverOptions(MATaskOptions):
-    """``task:`` of MAQuadX-Hover: every agent holds its own point."""
-
-    name: Literal["ma_hover"] = "ma_hover"
-    layout: Literal["ring", "grid"] = Field(
-        "ring", description="how agents given by count are placed: on a ring about the z axis, or on a square grid"
-    )
-    layout_radius: float = Field(
-        1.0, ge=0, description="ring layout: agents given by count spawn on a ring of this radius about the z axis [m]"
-    )
-    layout_spacing: float = Field(
-        1.0, gt=0, description="grid layout: distance between neighbouring agents on the square grid [m]"
-    )
-    layout_height: float = Field(1.0, gt=0, description="height of the ring or grid [m]")
-    position_noise: float = Field(0.1, ge=0, description="layout spawn: U(-noise, noise) per coordinate [m]")
-    orientation_noise: float = Field(0.1, ge=0, description="layout spawn: U(-noise, noise) per Euler angle [rad]")
-
-    def layout_gap(self, count: int) -> float | None:
-        """The distance between the closest two layout spawn centres (None for one agent)."""
-        if count < 2:
-            return None
-        if self.layout == "grid":
-            return self.layout_spacing
-        return 2.0 * self.layout_radius * math.sin(math.pi / count)  # the chord between ring neighbours
-
-    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
-        """Agent ``index`` of ``count`` on the ring or grid (the centre for a single agent), level, at rest."""
-        if count == 1:
-            position = (0.0, 0.0, self.layout_height)
-        elif self.layout == "grid":
-            position = grid_layout(index, count, self.layout_spacing, self.layout_height)
-        else:
-            angle = 2.0 * math.pi * index / count
-            r = self.layout_radius
-            position = (r * math.cos(angle), r * math.sin(angle), self.layout_height)
-        return SpawnConfig(
-            position=position, position_noise=self.position_noise, orientation_noise=self.orientation_noise
-        )
-
-
-class DogfightOptions(MATaskOptions):
-    """``task:`` of MAFixedwing-Dogfight: guns, health and the spawn layout of the two teams."""
-
-    name: Literal["dogfight"] = "dogfight"
-    lethal_distance: float = Field(20.0, gt=0, description="gun range [m] (reference PyFlyt: 20 m)")
-    lethal_angle: float = Field(
-        0.07, gt=0, lt=math.pi / 2, description="half-angle of the gun cone about the nose [rad] (reference: 0.07)"
-    )
-    damage_per_second: float = Field(
-        0.36,
-        gt=0,
-        description="health lost per second an opponent holds you in its gun (health starts at 1; reference: "
-        "0.003 per 120 Hz control step = 0.36/s, so ~2.8 s of sustained fire kills)",
-    )
-    team_separation: float = Field(100.0, gt=0, description="layout: distance between the two teams at spawn [m]")
-    wingman_spacing: float = Field(20.0, gt=0, description="layout: lateral spacing of teammates [m]")
-    spawn_height: float = Field(40.0, gt=0, description="layout: spawn height [m]")
-    position_noise: float = Field(5.0, ge=0, description="layout: U(-noise, noise) per coordinate [m]")
-    heading_noise: float = Field(0.2, ge=0, description="layout: U(-noise, noise) on each Euler angle [rad]")
-    spawn_speed: float = Field(14.0, ge=0, description="layout: initial airspeed along the nose [m/s]")
-
-    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
-        """Team 0 (first half) at x = -separation/2 heading +x, team 1 facing it; teammates side by side."""
-        half = count // 2
-        team = 0 if index < half else 1
-        slot = index if team == 0 else index - half
-        lateral = (slot - (half - 1) / 2.0) * self.wingman_spacing
-        x = (-0.5 if team == 0 else 0.5) * self.team_separation
-        y = lateral if team == 0 else -lateral
-        return SpawnConfig(
-            position=(x, y, self.spawn_height),
-            position_noise=self.position_noise,
-            orientation=(0.0, 0.0, 0.0 if team == 0 else math.pi),
-            orientation_noise=self.heading_noise,
-            lin_vel=(self.spawn_speed, 0.0, 0.0),
-        )
-
-
-class MAFormationOptions(MATaskOptions):
-    """``task:`` of MAQuadX-Formation: a swarm keeps a grid formation that moves at a set velocity."""
-
-    name: Literal["ma_formation"] = "ma_formation"
-    layout_spacing: float = Field(
-        1.0, gt=0, description="distance between neighbouring slots of the square grid formation [m]"
-    )
-    layout_height: float = Field(1.5, gt=0, description="height of the formation at the start [m]")
-    velocity: Vec3 = Field(
-        (0.2, 0.0, 0.0), description="the formation's velocity (x, y, z) [m/s], ground frame: every slot moves with it"
-    )
-    neighbours: int = Field(3, ge=0, le=16, description="nearest other live agents each agent observes")
-    neighbour_radius: float = Field(
-        3.0, gt=0, description="an agent observes the neighbours within this distance only [m]"
-    )
-    separation: float = Field(
-        0.5, gt=0, description="closer to another live agent than this is crowding (the crowding term) [m]"
-    )
-    tolerance: float = Field(
-        0.25, gt=0, description="in formation: within this distance of both the slot and the shape (sparse reward) [m]"
-    )
-    position_noise: float = Field(0.05, ge=0, description="layout spawn: U(-noise, noise) per coordinate [m]")
-    orientation_noise: float = Field(0.05, ge=0, description="layout spawn: U(-noise, noise) per Euler angle [rad]")
-
-    def layout_gap(self, count: int) -> float | None:
-        """The distance between the closest two layout spawn centres (None for one agent)."""
-        return self.layout_spacing if count > 1 else None
-
-    def layout_spawn(self, index: int, count: int) -> SpawnConfig:
-        """Agent ``index`` of ``count`` on the grid formation, level, at rest."""
-        return SpawnConfig(
-            position=grid_layout(index, count, self.layout_spacing, self.layout_height),
-            position_noise=self.position_noise,
-            orientation_noise=self.orientation_noise,
-        )
-
-
-#: multi-agent task name -> its options model
-MA_TASKS: dict[str, type[MATaskOptions]] = {
-    "ma_hover": MAHoverOptions,
-    "ma_formation": MAFormationOptions,
-    "dogfight": DogfightOptions,
-}
+#: multi-agent task name -> its options model: a live view of the task registry (each
+#: multi-agent task's module in pyflyt_engine.envs.tasks registers its options with it)
+MA_TASKS: TaskTable[type[MATaskOptions]] = TaskTable("multi", "options")
 
 
 class MultiAgentEnvConfig(EnvConfig):
@@ -798,24 +659,25 @@ class MultiAgentEnvConfig(EnvConfig):
         """One :class:`ResolvedAgent` per agent: defaults and the task's layout filled in.
 
         Raises:
-            ConfigError: a dogfight whose teams cannot be formed, or an agent without a spawn
-                region where the task has no layout for it.
+            ConfigError: a task of two teams (``teams = 2`` of its options: the dogfight)
+                whose teams cannot be formed, or an agent without a spawn region where the
+                task has no layout for it.
         """
         entries = [AgentConfig()] * self.agents if isinstance(self.agents, int) else list(self.agents)
         count = len(entries)
         task = self.task
-        dogfight = isinstance(task, DogfightOptions)
+        teamed = type(task).teams == 2  # agents given by count: the first half team 0, the rest team 1
         out = []
         for i, entry in enumerate(entries):
             spawn = entry.spawn or task.layout_spawn(i, count)  # type: ignore[attr-defined]
-            team = entry.team if entry.team is not None else (0 if i < count // 2 else 1) if dogfight else 0
+            team = entry.team if entry.team is not None else (0 if i < count // 2 else 1) if teamed else 0
             hover = entry.hover_point if entry.hover_point is not None else spawn.position
             out.append(ResolvedAgent(entry.name or f"uav_{i}", entry.uav or self.uav, team, spawn, tuple(hover)))
-        if dogfight:
+        if teamed:
             teams = {a.team for a in out}
             if teams != {0, 1}:
                 raise ConfigError(
-                    f"{self.source or 'env'}: agents: a dogfight needs agents in both teams 0 and 1, got teams "
+                    f"{self.source or 'env'}: agents: a {task.name} needs agents in both teams 0 and 1, got teams "
                     f"{sorted(teams)}; give an even count (agents: 2) or set `team` on each listed agent"
                 )
             if isinstance(self.agents, int) and self.agents % 2:
@@ -826,26 +688,16 @@ class MultiAgentEnvConfig(EnvConfig):
         return out
 
 
-@dataclass(frozen=True)
-class ResolvedAgent:
-    """One agent with every default filled in."""
-
-    name: str
-    uav: str
-    team: int
-    spawn: SpawnConfig
-    hover_point: Vec3
-
-
 def parse_multi_agent_config(data: Mapping[str, Any], source: str) -> MultiAgentEnvConfig:
     """Validate a mapping with ``agents`` as a :class:`MultiAgentEnvConfig` (one ConfigError listing every problem)."""
     data = {k: v for k, v in data.items() if k != "source"}
     task = data.get("task")
     if not isinstance(task, Mapping) or task.get("name") not in MA_TASKS:
         got = task.get("name") if isinstance(task, Mapping) else task
+        hint = did_you_mean(str(got), list(MA_TASKS)) if isinstance(got, str) else ""
         raise ConfigError(
             f"{source}: a multi-agent env (one with 'agents') needs task.name one of: {', '.join(MA_TASKS)} "
-            f"(got {got!r})"
+            f"(got {got!r}).{hint}"
         )
     options, task_problems = check(MA_TASKS[task["name"]], task, prefix="task.")
     placeholder = options if options is not None else MATaskOptions.model_construct(name=task["name"])

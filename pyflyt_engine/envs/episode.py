@@ -20,7 +20,7 @@ an action and the next observation is here, once::
     check(...)                never NaN: a non-finite observation or reward raises
 
 The task is asked through one per-agent protocol, :class:`AgentTasks`: a multi-agent
-task (:class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`) implements it for
+task (:class:`~pyflyt_engine.envs.tasks.multi.MultiAgentTask`) implements it for
 its N agents, and a single-agent :class:`~pyflyt_engine.envs.tasks.base.Task` is seen
 through it by :class:`OneAgentTask`, the N = 1 case.  What stays with the fronts is what
 their APIs differ in: Gymnasium returns one agent's tuple and lets the caller reset;

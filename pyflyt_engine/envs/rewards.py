@@ -19,9 +19,10 @@ register it with :func:`register_term` and the task signals it reads (``requires
 can then name it.  This module holds the generic terms and conditions (of the vehicle state,
 the action, the target distance, contacts); a term or condition that reads one task's own
 signals lives in that task's module, which registers it (``tasks/pole.py``,
-``tasks/ball_in_cup.py``, ``tasks/landing.py``, ``multi_agent/dogfight_rewards.py``).  Task signals are the optional :class:`StepContext` fields (``target_distance``,
-``target_distance_rate``, ``waypoint_reached``) plus anything a task puts in
-``ctx.extras``.
+``tasks/ball_in_cup.py``, ``tasks/landing.py``, ``tasks/dogfight.py``,
+``tasks/ma_formation.py``).  Task signals are the optional :class:`StepContext` fields
+(``target_distance``, ``target_distance_rate``, ``waypoint_reached``) plus anything a task
+puts in ``ctx.extras``.
 """
 
 from __future__ import annotations

@@ -137,3 +137,20 @@ def test_no_import_circles():
     assert not circles, "modules that import each other (directly or round a circle):\n" + "\n".join(
         " <-> ".join(c) for c in circles
     )
+
+
+def test_env_configs_and_tasks_stand_below_the_multi_agent_envs():
+    """Loading a config reaches every task, single- or multi-agent, through ``envs.tasks``:
+    the configs, the task registry and the tasks import nothing of ``envs.multi_agent``
+    (the PettingZoo fronts, which import them), and the registry imports no task."""
+    graph = _graph()
+    below = [
+        m
+        for m in graph
+        if m in ("pyflyt_engine.envs.config", "pyflyt_engine.envs.task_registry")
+        or m.startswith("pyflyt_engine.envs.tasks")
+    ]
+    assert {"pyflyt_engine.envs.tasks.dogfight", "pyflyt_engine.envs.tasks.hover"} <= set(below)
+    upward = [f"{m} imports {t}" for m in sorted(below) for t in sorted(graph[m]) if ".envs.multi_agent" in t]
+    assert upward == []
+    assert sorted(t for t in graph["pyflyt_engine.envs.task_registry"] if ".envs." in t) == []

@@ -44,3 +44,23 @@ def test_entry_points_resolve_to_classes_bound_to_their_configs():
         cls = getattr(importlib.import_module(module), name)
         assert cls.config_name == entry.config
         assert env_id in cls.__doc__ and "Version history" in cls.__doc__
+
+
+def test_every_registered_class_is_a_lazy_export_of_the_package():
+    """``ENVS`` alone names the registered classes: the package's lazy exports and ``__all__`` follow it."""
+    import pyflyt_engine.envs as envs
+
+    for entry in ENVS.values():
+        module, _, name = entry.entry_point.partition(":")
+        assert name in envs.__all__ and getattr(envs, name).__module__ == module
+    assert len(envs.__all__) == len(set(envs.__all__)) == 11 + len(ENVS)
+
+
+def test_quadx_gates_has_its_own_module_and_keeps_its_old_import_path():
+    from pyflyt_engine.envs.quadx_gates import QuadXGatesEnv
+    from pyflyt_engine.envs.quadx_payloads import QuadXGatesEnv as Old
+
+    assert (
+        Old is QuadXGatesEnv
+        and ENVS["PyFlyt/QuadX-Gates-v0"].entry_point == "pyflyt_engine.envs.quadx_gates:QuadXGatesEnv"
+    )

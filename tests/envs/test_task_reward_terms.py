@@ -13,8 +13,8 @@ OWNERS = {
     "pole": "pyflyt_engine.envs.tasks.pole",
     "ball_in_cup": "pyflyt_engine.envs.tasks.ball_in_cup",
     "landing": "pyflyt_engine.envs.tasks.landing",
-    "dogfight": "pyflyt_engine.envs.multi_agent.dogfight_rewards",
-    "formation": "pyflyt_engine.envs.multi_agent.formation_rewards",
+    "dogfight": "pyflyt_engine.envs.tasks.dogfight",
+    "formation": "pyflyt_engine.envs.tasks.ma_formation",
 }
 
 

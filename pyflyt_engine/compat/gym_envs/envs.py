@@ -33,7 +33,7 @@ from pyflyt_engine.envs.fixedwing import FixedwingWaypointsEnv as _NativeFixedwi
 from pyflyt_engine.envs.quadx import QuadXHoverEnv as _NativeHover
 from pyflyt_engine.envs.quadx import QuadXWaypointsEnv as _NativeWaypoints
 from pyflyt_engine.envs.quadx_payloads import QuadXBallInCupEnv as _NativeBallInCup
-from pyflyt_engine.envs.quadx_payloads import QuadXGatesEnv as _NativeGates
+from pyflyt_engine.envs.quadx_gates import QuadXGatesEnv as _NativeGates
 from pyflyt_engine.envs.quadx_payloads import QuadXPoleBalanceEnv as _NativePoleBalance
 from pyflyt_engine.envs.quadx_payloads import QuadXPoleWaypointsEnv as _NativePoleWaypoints
 from pyflyt_engine.envs.rocket import RocketLandingEnv as _NativeRocketLanding

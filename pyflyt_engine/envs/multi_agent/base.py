@@ -6,9 +6,9 @@
 :class:`~pyflyt_engine.envs.config.MultiAgentEnvConfig`, spawns each agent in its region,
 applies each live agent's action, steps the physics once for everybody, detects contacts
 and dome exits, evaluates the reward preset per agent and builds the observations -- and
-asks the task object (a :class:`~pyflyt_engine.envs.multi_agent.task.MultiAgentTask`:
-:mod:`.hover_task`, :mod:`.formation_task`, :mod:`.dogfight_task`) for everything the
-episode means: the observation entries beyond the shared attitude vector, the per-agent
+asks the task object (a :class:`~pyflyt_engine.envs.tasks.multi.MultiAgentTask`; the
+shipped ones in :mod:`pyflyt_engine.envs.tasks`: ``ma_hover``, ``ma_formation``,
+``dogfight``) for everything the episode means: the observation entries beyond the shared attitude vector, the per-agent
 reward signals, termination, info entries and success.  This front speaks PettingZoo's
 API and retires agents whose episode ended.  The env classes of the registered ids
 (:mod:`.hover`, :mod:`.formation`, :mod:`.dogfight`) only name their task and config.
@@ -37,9 +37,9 @@ from pyflyt_engine.envs import build, observe
 from pyflyt_engine.envs.config import MultiAgentEnvConfig, ResolvedAgent, RewardPreset, load_reward_preset
 from pyflyt_engine.envs.episode import EpisodeCore
 from pyflyt_engine.envs.multi_agent.config import get_ma_task
-from pyflyt_engine.envs.multi_agent.task import AgentSignals, MultiAgentTask
 from pyflyt_engine.envs.rewards import RewardFunction
 from pyflyt_engine.envs.tasks.base import Spawn
+from pyflyt_engine.envs.tasks.multi import AgentSignals, MultiAgentTask
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.payloads import PayloadSet, PayloadSets
 from pyflyt_engine.spec import UAVSpec, check_identifier, load_uav_spec
@@ -82,8 +82,8 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
         "render_fps": 30,
     }
     config_name: ClassVar[str | None] = None
-    #: the task this env runs (None: the one the config names, from the registry of
-    #: :mod:`pyflyt_engine.envs.multi_agent.task`)
+    #: the task this env runs (None: the one the config names, from the task registry,
+    #: :mod:`pyflyt_engine.envs.task_registry`)
     task_class: ClassVar[type[MultiAgentTask] | None] = None
 
     def __init__(

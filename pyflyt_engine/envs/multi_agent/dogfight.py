@@ -1,13 +1,13 @@
 """MAFixedwing-Dogfight: two teams of fixed-wings with fixed forward guns (the task:
-:class:`~pyflyt_engine.envs.multi_agent.dogfight_task.DogfightTask`)."""
+:class:`~pyflyt_engine.envs.tasks.dogfight.DogfightTask`)."""
 
 from __future__ import annotations
 
 from typing import ClassVar
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
-from pyflyt_engine.envs.multi_agent.dogfight_task import DogfightTask
-from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
+from pyflyt_engine.envs.tasks.dogfight import DogfightTask
+from pyflyt_engine.envs.tasks.multi import MultiAgentTask
 
 
 class MAFixedwingDogfightEnv(MultiAgentUAVEnv):

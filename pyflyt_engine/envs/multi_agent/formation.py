@@ -1,13 +1,13 @@
 """MAQuadX-Formation: a swarm of quadrotors keeping a grid formation that moves (the task:
-:class:`~pyflyt_engine.envs.multi_agent.formation_task.MAFormationTask`)."""
+:class:`~pyflyt_engine.envs.tasks.ma_formation.MAFormationTask`)."""
 
 from __future__ import annotations
 
 from typing import ClassVar
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
-from pyflyt_engine.envs.multi_agent.formation_task import MAFormationTask
-from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
+from pyflyt_engine.envs.tasks.ma_formation import MAFormationTask
+from pyflyt_engine.envs.tasks.multi import MultiAgentTask
 
 
 class MAQuadXFormationEnv(MultiAgentUAVEnv):

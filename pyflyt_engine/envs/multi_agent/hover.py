@@ -1,13 +1,13 @@
 """MAQuadX-Hover: N quadrotors in one world, each holding its own point (the task:
-:class:`~pyflyt_engine.envs.multi_agent.hover_task.MAHoverTask`)."""
+:class:`~pyflyt_engine.envs.tasks.ma_hover.MAHoverTask`)."""
 
 from __future__ import annotations
 
 from typing import ClassVar
 
 from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
-from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
-from pyflyt_engine.envs.multi_agent.task import MultiAgentTask
+from pyflyt_engine.envs.tasks.ma_hover import MAHoverTask
+from pyflyt_engine.envs.tasks.multi import MultiAgentTask
 
 
 class MAQuadXHoverEnv(MultiAgentUAVEnv):

@@ -36,6 +36,7 @@ from pydantic import Field
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import Condition, RewardTerm, StepContext, register_condition, register_term
+from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.frames import quaternion_to_rows
@@ -186,3 +187,6 @@ register_term("hover_error_decrease", RewardTerm(hover_error_decrease, "m^2", ("
 register_condition("ball_above", Condition(ball_above, ("ball_in_cup",)))
 register_condition("ball_in_cup", Condition(ball_in_cup, ("ball_in_cup",)))
 register_condition("ball_hit_vehicle", Condition(ball_hit_vehicle, ("ball_in_cup",)))
+
+
+register_task(BallInCupTask)

@@ -25,14 +25,16 @@ the environment calls, in order::
     episode_measures()             # on the step that ends the episode: its success measures
 
 Every hook has a do-nothing default; a task overrides what it needs.  A new task is a
-module defining a :class:`Task` subclass with its :class:`TaskOptions` model, one line in
-:data:`pyflyt_engine.envs.tasks.TASKS`, and an env YAML naming it.
+module defining a :class:`Task` subclass with its :class:`TaskOptions` model (and its own
+reward terms and oracles, if any), ending in ``register_task(MyTask)``
+(:mod:`pyflyt_engine.envs.task_registry`), its import in :mod:`pyflyt_engine.envs.tasks`,
+and an env YAML naming it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 from gymnasium import spaces
@@ -155,6 +157,8 @@ class Task:
     """
 
     name: ClassVar[str] = "base"
+    #: the registry's kind of task (:mod:`pyflyt_engine.envs.task_registry`): one vehicle
+    task_kind: ClassVar[Literal["single", "multi"]] = "single"
     Options: ClassVar[type[TaskOptions]] = TaskOptions
     provides: ClassVar[frozenset[str]] = frozenset()
     succeeds_at_time_limit: ClassVar[bool] = False

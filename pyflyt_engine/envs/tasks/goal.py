@@ -19,14 +19,18 @@ the env config adds under their own keys.
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 from gymnasium import spaces
 from pydantic import Field, model_validator
 
+from pyflyt_engine import exact
+from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.measures import Measure
+from pyflyt_engine.envs.tasks.pilot import QuadXVelocityPilot, dict_observation
 from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.state import KinematicState
@@ -140,3 +144,106 @@ class GoalTask(Task):
     def targets(self) -> np.ndarray:
         """The goal as a ``(1, 3)`` array (the waypoint tasks' name for their targets)."""
         return self.tracker.targets.copy()
+
+
+# ------------------------------------------------ the oracle of this task (pyflyt_engine.envs.oracles)
+
+
+class QuadXForestNavigator:
+    """Fly the QuadX to the goal through the forest (``PyFlyt/QuadX-Obstacles-v0``) by its LiDAR.
+
+    From the observation alone (the attitude vector, the goal vector and the LiDAR ranges),
+    with no state of its own:
+
+    * every LiDAR return closer than the range limit is a point in the ground frame; returns
+      from the ground (below ``ground`` m) are dropped;
+    * of ``candidates`` horizontal headings, those whose corridor -- ``clearance`` m to
+      either side of a segment ``look`` m long (or to the goal, if nearer) -- holds no point
+      are free; the free heading scoring highest on ``cos(to the goal) + w_keep cos(to the
+      present velocity)`` is flown at ``speed`` m/s (slowing within 1 m of the goal), the
+      height steered to the goal's at ``k_z`` per second;
+    * no free heading: back away from the nearest point at 0.5 m/s;
+    * :class:`QuadXVelocityPilot` turns the velocity into body rates and thrust, holding
+      the heading at 0 (+x, the way through the forest).
+
+    Reaches the goal without contact in 50 of the first 50 probe episodes (seeds 10 000+;
+    7.6 s on average; ``experiments/results/quadx_scripted.md``).
+    """
+
+    name: str = "quadx_forest_navigator"
+    env_ids: tuple[str, ...] = ("PyFlyt/QuadX-Obstacles-v0",)
+
+    def __init__(
+        self,
+        env: Any,
+        speed: float = 1.2,
+        look: float = 2.0,
+        clearance: float = 0.4,
+        candidates: int = 72,
+        w_keep: float = 0.3,
+        k_z: float = 1.0,
+        ground: float = 0.15,
+    ) -> None:
+        base = env.unwrapped
+        self.pilot = QuadXVelocityPilot(env)
+        self.unpack = dict_observation(env)
+        sensors = [s for s in base.config.range_sensors if s.name == "lidar"]
+        if not sensors or sensors[0].vertical_beams != 1:
+            raise ConfigError("oracle quadx_forest_navigator reads a planar LiDAR named 'lidar' (env.range_sensors)")
+        lidar = sensors[0]
+        n = lidar.horizontal_beams
+        step = math.radians(lidar.horizontal_fov_deg) / n
+        start = -0.5 * math.radians(lidar.horizontal_fov_deg)
+        azimuths = [start + (k + 0.5) * step for k in range(n)]
+        self.beam_x = np.array([math.cos(a) for a in azimuths])
+        self.beam_y = np.array([math.sin(a) for a in azimuths])
+        self.max_range = float(lidar.max_range)
+        headings = [2.0 * math.pi * k / candidates for k in range(candidates)]
+        self.cand_x = np.array([math.cos(h) for h in headings])[:, None]
+        self.cand_y = np.array([math.sin(h) for h in headings])[:, None]
+        self.speed, self.look, self.clearance, self.w_keep = speed, look, clearance, w_keep
+        self.k_z, self.ground = k_z, ground
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        o = self.unpack(obs)
+        attitude = np.asarray(o["attitude"], dtype=np.float64)
+        rows, v, pos = self.pilot.state(attitude)
+        gx, gy, gz = exact.rotate(rows, np.asarray(o["goal_delta"], dtype=np.float64).tolist())  # ground frame
+        ranges = np.asarray(o["lidar"], dtype=np.float64)
+        # the returns in the ground frame, relative to the vehicle (planar beams along body x, y)
+        (a, b, _), (c, d, _), (e, f, _) = rows
+        hx, hy = ranges * (a * self.beam_x + b * self.beam_y), ranges * (c * self.beam_x + d * self.beam_y)
+        hz = pos[2] + ranges * (e * self.beam_x + f * self.beam_y)
+        keep = (ranges < self.max_range - 1e-6) & (hz > self.ground)
+        hx, hy = hx[keep][None, :], hy[keep][None, :]
+        distance = math.hypot(gx, gy)
+        length = min(self.look, distance)
+        along = hx * self.cand_x + hy * self.cand_y
+        side = np.abs(hx * self.cand_y - hy * self.cand_x)
+        blocked = ((along > 0.0) & (along < length + self.clearance) & (side < self.clearance)).any(axis=1)
+        vz = self.k_z * gz
+        if blocked.all():
+            if hx.size == 0:
+                return self.pilot(attitude, (0.0, 0.0, vz), heading=0.0)
+            near = int(np.argmin(hx[0] * hx[0] + hy[0] * hy[0]))
+            size = math.hypot(float(hx[0, near]), float(hy[0, near]))
+            return self.pilot(
+                attitude, (-0.5 * float(hx[0, near]) / size, -0.5 * float(hy[0, near]) / size, vz), heading=0.0
+            )
+        to_goal = (gx / distance, gy / distance) if distance > 1e-9 else (1.0, 0.0)
+        moving = math.hypot(v[0], v[1])
+        keep_x, keep_y = (v[0] / moving, v[1] / moving) if moving > 1e-6 else (0.0, 0.0)
+        score = (
+            self.cand_x[:, 0] * to_goal[0]
+            + self.cand_y[:, 0] * to_goal[1]
+            + self.w_keep * (self.cand_x[:, 0] * keep_x + self.cand_y[:, 0] * keep_y)
+        )
+        score[blocked] = -np.inf
+        best = int(np.argmax(score))
+        speed = min(self.speed, max(distance, 0.3))
+        return self.pilot(
+            attitude, (speed * float(self.cand_x[best, 0]), speed * float(self.cand_y[best, 0]), vz), heading=0.0
+        )
+
+
+register_task(GoalTask, oracles=(QuadXForestNavigator,))

@@ -8,6 +8,7 @@ from typing import ClassVar, Literal
 import numpy as np
 from pydantic import Field
 
+from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.measures import DISTANCE_HELD, DistanceHeld, Measure
 from pyflyt_engine.state import KinematicState
@@ -62,3 +63,6 @@ class HoverTask(Task):
 
     def markers(self) -> np.ndarray:
         return np.array([self.options.hover_point], dtype=np.float64)
+
+
+register_task(HoverTask)

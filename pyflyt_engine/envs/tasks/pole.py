@@ -30,6 +30,7 @@ from pydantic import Field
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import RewardTerm, StepContext, register_term
+from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
 from pyflyt_engine.envs.tasks.waypoints import WaypointsOptions, WaypointsTask
@@ -208,3 +209,7 @@ def pole_lean_term(ctx: StepContext) -> float:
 
 
 register_term("pole_lean", RewardTerm(pole_lean_term, "1", ("pole",)))
+
+
+register_task(PoleBalanceTask)
+register_task(PoleWaypointsTask)

@@ -8,6 +8,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field, model_validator
 
+from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas, sample_waypoints
@@ -136,3 +137,6 @@ class WaypointsTask(Task):
     def targets(self) -> np.ndarray:
         """Every waypoint of the episode, ``(num_targets, 3)`` ground frame [m] (a copy)."""
         return self.tracker.targets.copy()
+
+
+register_task(WaypointsTask)
