@@ -167,6 +167,54 @@ def test_sensed_worlds_agree_with_the_pybullet_engine(quiet_sensors_cf2x, flight
         assert noise > 1e3 * BOUND
 
 
+def test_the_streams_keep_in_step_through_a_crash_and_the_next_episode(quiet_sensors_cf2x):
+    """One agent cut to zero thrust falls and crashes (within an agent step of each other in
+    the two backends: PyBullet's contact threshold) while the others fly on; its sensors go on
+    drawing while it lies there, in both, so when the world restarts every vehicle's new
+    initial biases and readings are again the PyBullet world's, and the next episode's
+    observations and readings agree within 1e-6."""
+    cfg = load_env_config("ma_quadx_hover").with_overrides(
+        uav=quiet_sensors_cf2x, agents=STACKED, sensors=SENSED, max_duration_seconds=1.0
+    )
+    pb, be, _, _ = _paired(cfg, 9)
+    names = pb.possible_agents
+    hover = be.model.hover_thrust_fraction
+    rng = np.random.default_rng(2)
+    crashed: dict[str, int] = {}
+    worst = 0.0
+    step = 0
+    while pb.agents:
+        step += 1
+        live = list(pb.agents)
+        actions = np.zeros((len(names), 4))
+        for name in live:
+            actions[pb.agent_index[name]] = np.r_[rng.uniform(-0.3, 0.3, 3), hover * rng.uniform(0.97, 1.05)]
+        actions[0] = 0.0  # agent 0: no thrust
+        o1, _, t1, _, _ = pb.step({name: actions[pb.agent_index[name]] for name in live})
+        o2, _, t2, _, info = be.step(actions)
+        if t1.get(names[0]):
+            crashed["pybullet"] = step
+        if t2[0] and be.steps[0] == step:  # (not its padding end with the world)
+            crashed.setdefault("batched", step)
+        for name in live[1:] if live[0] == names[0] else live:  # the others, live in both
+            i = pb.agent_index[name]
+            got = info["final_obs"][i] if "final_obs" in info and info["_final_obs"][i] else o2[i]
+            worst = max(worst, np.abs(o1[name] - got).max())
+    assert worst < BOUND, worst
+    assert set(crashed) == {"pybullet", "batched"} and abs(crashed["pybullet"] - crashed["batched"]) <= 1, crashed
+    assert step == 30 and be.steps.max() == 0  # the world restarted with the time limit
+    start, _ = pb.reset()  # the next episode: no seed, every stream goes on
+    for i, name in enumerate(names):
+        theirs, ours = pb.vehicles[i].sensor_readings(), be.sensor_readings(i)
+        for key in theirs:
+            assert np.abs(theirs[key] - ours[key]).max() < 1e-12, (name, key)
+        assert np.abs(start[name] - o2[i]).max() < 1e-12, name
+    again, noise, flown = _fly(pb, be, rng, 20)
+    pb.close()
+    assert max(again.values()) < BOUND and flown == 20, again
+    assert noise > 1e3 * BOUND
+
+
 def _run(cfg, worlds: int, seed: int, steps: int = 20) -> tuple[np.ndarray, swarm.BatchedSwarmEnv]:
     env = swarm.BatchedSwarmEnv(cfg, worlds=worlds)
     obs, _ = env.reset(seed=seed)
