@@ -77,11 +77,23 @@ which the others' downwash is taken, is the env's (``_reads``) and carries over 
 piece to the next, and a piece ending inside a control period takes no contact sample, so
 the pieces change no number of the flight.
 
+Noisy sensors (``env.sensors``, or the airframe's ``sensors`` section, and the estimator):
+the single-agent backend's :class:`~pyflyt_engine.batched.sensors.BatchedSensors`, a row per
+agent, each vehicle's stream its own (agent ``a`` of world ``k``: spawn key ``(4, a)`` under
+the world's seed sequence, as the PyBullet world seeds vehicle ``a``'s suite), every vehicle
+sampled at the start of every physics step (retired ones too, as the engine samples every
+vehicle before its loads), so the draws per stream are the same in number and order as the
+engine's.  With ``sensors.observe`` each agent's own state in its observation is the one its
+sensors (or estimator) show, the task's entries taken from it (the formation's neighbours as
+the source gives them), the fix's validity flag after the throttles, as the PyBullet env's
+``sensor_state`` / ``estimator_state`` views build it; rewards and episode ends read the
+true states.
+
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
-backend does not draw either, noisy sensors, the optional motor models, rotary turbulence
-gusts, and every key the single-agent batched backend refuses.
+backend does not draw either, the optional motor models, rotary turbulence gusts, and every
+key the single-agent batched backend refuses (the range sensors and cameras among them).
 """
 
 from __future__ import annotations
