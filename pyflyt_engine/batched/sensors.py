@@ -498,6 +498,18 @@ class BatchedSensors:
             np.random.default_rng(np.random.SeedSequence(c.entropy, spawn_key=(*c.spawn_key, 4))) for c in children
         ]
 
+    def seed_worlds(self, worlds: list[np.random.SeedSequence], agents: int) -> None:
+        """Slot ``k agents + a``'s stream (agent ``a`` of world ``k``, the multi-agent worlds'
+        layout) from world ``k``'s seed sequence ``worlds[k]``: that sequence's child with
+        spawn key ``(4, a)``, as the PyBullet world seeds vehicle ``a``'s noisy sensors
+        (``World._suite_rng``: spawn key 4, then the vehicle's index); apart from the world's
+        other draws and its turbulence's (its first child)."""
+        self.rngs = [
+            np.random.default_rng(np.random.SeedSequence(w.entropy, spawn_key=(*w.spawn_key, 4, a)))
+            for w in worlds
+            for a in range(agents)
+        ]
+
     def interface(self) -> tuple[np.ndarray, Any, Any]:
         if self._interface_of is not self.rngs:
             self._interface = stream_interface(self.rngs)

@@ -32,7 +32,6 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     for key, present in (
         ("downwash", config.downwash),
         ("controller=betaflight (the firmware in the loop)", getattr(config, "controller", "own") == "betaflight"),
-        ("sensors (noisy sensors in a multi-agent world)", multi_agent and config.sensors is not None),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),
         ("range_sensors", bool(config.range_sensors)),

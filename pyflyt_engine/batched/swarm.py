@@ -77,11 +77,23 @@ which the others' downwash is taken, is the env's (``_reads``) and carries over 
 piece to the next, and a piece ending inside a control period takes no contact sample, so
 the pieces change no number of the flight.
 
+Noisy sensors (``env.sensors``, or the airframe's ``sensors`` section, and the estimator):
+the single-agent backend's :class:`~pyflyt_engine.batched.sensors.BatchedSensors`, a row per
+agent, each vehicle's stream its own (agent ``a`` of world ``k``: spawn key ``(4, a)`` under
+the world's seed sequence, as the PyBullet world seeds vehicle ``a``'s suite), every vehicle
+sampled at the start of every physics step (retired ones too, as the engine samples every
+vehicle before its loads), so the draws per stream are the same in number and order as the
+engine's.  With ``sensors.observe`` each agent's own state in its observation is the one its
+sensors (or estimator) show, the task's entries taken from it (the formation's neighbours as
+the source gives them), the fix's validity flag after the throttles, as the PyBullet env's
+``sensor_state`` / ``estimator_state`` views build it; rewards and episode ends read the
+true states.
+
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
-backend does not draw either, noisy sensors, the optional motor models, rotary turbulence
-gusts, and every key the single-agent batched backend refuses.
+backend does not draw either, the optional motor models, rotary turbulence gusts, and every
+key the single-agent batched backend refuses (the range sensors and cameras among them).
 """
 
 from __future__ import annotations
@@ -113,12 +125,21 @@ from pyflyt_engine.batched.kernels import (
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.randomization import BatchedRandomizer
+from pyflyt_engine.batched.sensors import (
+    OBSERVE_ESTIMATED,
+    OBSERVE_TRUE,
+    P_IMU,
+    S_EST_VEL,
+    S_GYRO,
+    S_VALID,
+    BatchedSensors,
+)
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.control.modes import resolve_mode
 from pyflyt_engine.constants import AIR_DENSITY, GRAVITY
 from pyflyt_engine.envs.randomization import Randomizer
 from pyflyt_engine.errors import ConfigError
-from pyflyt_engine.frames import euler_to_quaternion
+from pyflyt_engine.frames import euler_to_quaternion, quaternion_to_rows
 from pyflyt_engine.spec import UAVSpec, load_uav_spec
 from pyflyt_engine.state import KinematicState
 
@@ -654,8 +675,6 @@ def check_swarm_supported(config: Any) -> None:
             f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
             "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
         )
-    if load_uav_spec(uavs[0]).sensors is not None:  # the single-agent backend simulates them; these worlds do not
-        raise refuse(f"noisy sensors (airframe {uavs[0]}'s sensors section) in a multi-agent world")
 
 
 class _WorldTasks:
@@ -747,10 +766,11 @@ class _WorldTasks:
                 extras[base + a] = task.observe(a, states)
         return distance, rate, signal_extras, info
 
-    def observe(self, states_of: Any, extras: np.ndarray) -> np.ndarray:
+    def observe(self, states_of: Any, extras: np.ndarray, own: Any = None) -> np.ndarray:
         """Every slot's task entries of the states ``states_of(rows)`` gives (the delayed ones),
         from each world's task as its last step left it (a world whose task is not set up yet,
-        a restored one before its first step: ``extras``' rows)."""
+        a restored one before its first step: ``extras``' rows); with ``own``, slot ``i``'s
+        entries see its own state as ``own(i)`` gives it (its sensors'), the others' as given."""
         out = extras.copy()
         for k, task in enumerate(self.tasks):
             if not self.started[k]:
@@ -758,7 +778,12 @@ class _WorldTasks:
             base = k * self.per_world
             states = states_of(np.arange(base, base + self.per_world))
             for a in range(self.per_world):
-                out[base + a] = task.observe(a, states)
+                if own is None:
+                    out[base + a] = task.observe(a, states)
+                else:
+                    viewed = list(states)
+                    viewed[a] = own(base + a)
+                    out[base + a] = task.observe(a, viewed)
         return out
 
 
@@ -934,7 +959,21 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.action_history = delays.get("action_history", np.zeros((n, 0)))
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
         if self.latency is not None:  # a checkpoint carries them too
-            self.state_arrays = (*type(self).state_arrays, *delays)
+            self.state_arrays = (*self.state_arrays, *delays)
+        from pyflyt_engine.envs.observe import with_sensors
+
+        #: the noisy sensors and estimator, a row per slot (pyflyt_engine.batched.sensors; None
+        #: without a ``sensors`` section, the env config's or the airframe's); each slot's stream
+        #: is its own (BatchedSensors.seed_worlds), as each PyBullet vehicle's is
+        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
+        self.sensors = BatchedSensors(flown, cfg.sensors, n, self.physics_dt, GRAVITY) if flown is not None else None
+        #: per slot, the sensors' and estimator's state (empty rows without sensors)
+        self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))
+        self.sensor_counts = self.sensors.counts if self.sensors is not None else np.zeros((n, 0), dtype=np.int64)
+        #: whether the position fix's validity flag follows the auxiliary state in the observation
+        self._fix_flag = self.sensors is not None and self.sensors.fix_flag
+        if self.sensors is not None:  # a checkpoint carries the biases, held readings, counts and estimate
+            self.state_arrays = (*self.state_arrays, "sensor_state", "sensor_counts")
         self.ang_vel_body = np.zeros((n, 3))
         self.ang_pos = np.zeros((n, 3))
         self.lin_vel_body = np.zeros((n, 3))
@@ -957,7 +996,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.episode_length = np.zeros(n, dtype=np.int64)
         self.task_changes: dict[str, Any] = {}
 
-        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + extra
+        size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + int(self._fix_flag) + extra
         self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
         self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
@@ -1007,6 +1046,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         )
         #: per slot, its world's generator (the same object for the agents of a world)
         self.env_rngs = [self.world_rngs[i // self.agents] for i in range(self.num_envs)]
+        if self.sensors is not None:  # per slot, its vehicle's sensor stream (BatchedSensors.seed_worlds)
+            self.sensors.seed_worlds(children[1:], self.agents)
 
     # ------------------------------------------------------------------ reset
 
@@ -1082,6 +1123,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.armed[rows] = True
         self.parked[rows] = False
         self._read(rows)
+        if self.sensors is not None:  # time 0: each vehicle's new initial biases, the estimator at its spawn
+            self.sensors.reset(rows, self.pos, self.vel, self.quaternion)
         if self.latency is not None:  # nothing in flight; the spawn shown until n_o steps have passed
             self.latency.restart(self, rows)
         self._reset_world_task(k)
@@ -1247,7 +1290,29 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         """``count`` physics steps of every world from offset ``start`` into the agent step,
         every control tick in them flying ``setpoints``; ``factors`` (N, count, motors) their
         motor noise.  The contacts are sampled at the end of each control period in them and
-        at the end of the agent step (not at the end of a piece inside a control period)."""
+        at the end of the agent step (not at the end of a piece inside a control period).
+
+        With noisy sensors one physics step at a time, every vehicle's sensors sampling its
+        body at the start of each (as each PyBullet vehicle samples them before its loads,
+        retired ones too): the pieces change no number of the flight (the latest reads carry
+        over, a step ending inside a control period takes no contact sample), and the
+        contact samples of the steps are gathered."""
+        if self.sensors is None:
+            self._physics(setpoints, factors, start, count)
+            return
+        ground = np.zeros(self.num_envs, dtype=bool)
+        agent = np.zeros(self.num_envs, dtype=bool)
+        steps = self.physics_steps + start
+        for s in range(count):
+            self.sensors.sample(steps + s, self.pos, self.quat, self.vel, self.angvel)
+            self._physics(setpoints, np.ascontiguousarray(factors[:, s : s + 1]), start + s, 1)
+            ground |= self.ground_contact
+            agent |= self.agent_contact
+        self.ground_contact[:] = ground
+        self.agent_contact[:] = agent
+
+    def _physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """:meth:`physics` without the sensors: one compiled call (:func:`advance_swarm`)."""
         m = self.model
         rot = self._wake_sources
         normals = self._normals
@@ -1328,13 +1393,14 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         """Every slot's observation; with an observation delay, of every vehicle as it was
         ``n_o`` physics steps ago (the PyBullet env's ``delayed_state`` source: the agent's
         own attitude and throttles, and the task's entries from every agent's delayed state),
-        the previous action the agent's own."""
-        if self.latency is not None and self.latency.observes:
+        the previous action the agent's own.  With observed sensors the agent's own state is
+        then the one its sensors (or its estimator) show (the engine's ``sensor_state`` /
+        ``estimator_state`` views, :meth:`BatchedSensors.observed`), the other agents' stay
+        as the source gives them, and the fix's validity flag follows the throttles."""
+        delayed = self.latency is not None and self.latency.observes
+        if delayed:
+            assert self.latency is not None
             seen = self.latency.observed(self)
-            if self._world_tasks is None:
-                extras = self.hover_point - seen["pos"]
-            else:
-                extras = self._world_tasks.observe(lambda rows: self._states(rows, seen), self._extras)
         else:
             seen = {
                 "ang_vel_body": self.ang_vel_body,
@@ -1342,22 +1408,71 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
                 "lin_vel_body": self.lin_vel_body,
                 "quaternion": self.quaternion,
                 "pos": self.pos,
+                "vel": self.vel,
+                "angvel": self.angvel,
                 "throttle": self.throttle,
             }
-            extras = self.hover_point - self.pos if self._world_tasks is None else self._extras
-        angles = seen["quaternion"] if self._quaternion else seen["ang_pos"]
+        sensed = self.sensors is not None and self.sensors.source != OBSERVE_TRUE
+        own = self.sensors.observed(seen) if sensed else seen  # type: ignore[union-attr]
+        if self._world_tasks is None:
+            extras = self.hover_point - own["pos"]
+        elif delayed or sensed:
+            own_state = self._own_states(seen, own) if sensed else None
+            extras = self._world_tasks.observe(lambda rows: self._states(rows, seen), self._extras, own_state)
+        else:
+            extras = self._extras
+        angles = own["quaternion"] if self._quaternion else own["ang_pos"]
         parts = [
-            seen["ang_vel_body"],
+            own["ang_vel_body"],
             angles,
-            seen["lin_vel_body"],
-            seen["pos"],
+            own["lin_vel_body"],
+            own["pos"],
             self.actions,
             seen["throttle"],
-            extras,
         ]
+        if self._fix_flag:  # the position fix's validity, after the aux state
+            parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
+        parts.append(extras)
         obs = np.concatenate(parts, axis=1)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot
         return obs
+
+    def _own_states(self, seen: dict[str, np.ndarray], own: dict[str, np.ndarray]) -> Any:
+        """Slot ``i``'s own state as its sensors or estimator show it (a task's view of it), as
+        :func:`~pyflyt_engine.envs.observe.sensed_state` / ``estimated_state`` give it: the
+        shown read-outs and position; the ground-frame rates the gyro's turned with the
+        attitude shown; the ground-frame velocity the estimator's (sensed: the source's)."""
+        sensors = self.sensors
+        assert sensors is not None
+        estimated = sensors.source == OBSERVE_ESTIMATED
+        gyro = bool(sensors.params[P_IMU])
+
+        def state(i: int) -> KinematicState:
+            row = sensors.rows[i]
+            q = tuple(own["quaternion"][i].tolist())
+            ang_vel = tuple(own["ang_vel_body"][i].tolist())
+            velocity = tuple(row[S_EST_VEL : S_EST_VEL + 3].tolist()) if estimated else tuple(seen["vel"][i].tolist())
+            ang_ground = (
+                exact.rotate(quaternion_to_rows(q), list(row[S_GYRO : S_GYRO + 3].tolist()))
+                if gyro
+                else tuple(seen["angvel"][i].tolist())
+            )
+            return KinematicState(
+                ang_vel,
+                tuple(own["ang_pos"][i].tolist()),
+                tuple(own["lin_vel_body"][i].tolist()),
+                tuple(own["pos"][i].tolist()),
+                q,
+                velocity,
+                tuple(ang_ground),
+            )
+
+        return state
+
+    def sensor_readings(self, i: int) -> dict[str, np.ndarray]:
+        """Slot ``i``'s noisy sensors' latest readings by name (empty without sensors), as the
+        PyBullet engine's ``Vehicle.sensor_readings`` gives them."""
+        return self.sensors.readings(i) if self.sensors is not None else {}
 
     def close(self, **kwargs: Any) -> None:  # nothing to release: no PyBullet client
         self.closed = True

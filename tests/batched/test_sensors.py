@@ -332,15 +332,19 @@ def test_refusals_and_errors():
     from pyflyt_engine.batched import check_supported
 
     check_supported(load_env_config("quadx_hover_sensors"))  # simulated now
-    multi = load_env_config("ma_quadx_hover").with_overrides(sensors=_SENSED)
-    with pytest.raises(UnsupportedByBatched, match="sensors"):
-        check_supported(multi)
+    # and in the multi-agent worlds (tests/batched/test_swarm_sensors.py)
+    check_supported(load_env_config("ma_quadx_hover").with_overrides(sensors=_SENSED))
     from pyflyt_engine.paths import uav_dir
 
     airframe = str(uav_dir() / "examples" / "quadx_cf2x_sensors.yaml")
-    with pytest.raises(UnsupportedByBatched, match="noisy sensors .* in a multi-agent world"):
-        check_supported(load_env_config("ma_quadx_hover").with_overrides(uav=airframe))
-    BatchedUAVEnv(load_env_config("quadx_hover").with_overrides(uav=airframe))  # single-agent: simulated
+    check_supported(load_env_config("ma_quadx_hover").with_overrides(uav=airframe))
+    BatchedUAVEnv(load_env_config("quadx_hover").with_overrides(uav=airframe))
+    with pytest.raises(UnsupportedByBatched, match="range_sensors"):  # the ray-cast sensors stay refused
+        check_supported(
+            load_env_config("quadx_hover").with_overrides(
+                range_sensors=load_env_config("quadx_obstacles").range_sensors
+            )
+        )
     bad = load_env_config("quadx_hover").with_overrides(
         sensors={"observe": True, "imu": SUITES["fast_imu_fix_baro"]["imu"], "estimator": "complementary"}
     )
