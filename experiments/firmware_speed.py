@@ -44,8 +44,10 @@ resets = 0.0
 for episode in range(episodes):
     t = time.perf_counter()
     env.reset(seed=episode)
-    resets += time.perf_counter() - t
     vehicle = env.unwrapped.world.vehicles[0]
+    if vehicle.firmware is not None:  # the firmware starts when first needed: start it here
+        _ = vehicle.firmware.outputs
+    resets += time.perf_counter() - t
     if controller == "betaflight":
         hover = [0.0, 0.0, 0.0, vehicle.hover_throttle()]
         scale = np.array([0.05, 0.05, 0.05, 0.02])
