@@ -165,6 +165,7 @@ def evaluate_run(
     trust = opts.trust_pickle
     path = rundir.check_run_dir(run_dir)
     cfg = rundir.load_run_config(path)
+    env = _firmware_keeps_the_actions(cfg, env)
     env_config = _changed_env(cfg, dict(env)) if env else cfg.env
     model_path, which = rundir.find_model(path, opts.model, legacy=trust)
     import torch
@@ -234,8 +235,21 @@ def _batched_episodes(env_config: Any, opts: EvalOptions, seed: int) -> Callable
     return fly
 
 
+def _firmware_keeps_the_actions(cfg: TrainConfig, env: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+    """``env.controller=betaflight`` for a policy trained on the own controller in
+    ``rates_thrust``: its actions stay body rates and thrust (``firmware_action: rates``, the
+    firmware flies them through the inverted rate curve at the policy's agent rate), unless the
+    changes say otherwise."""
+    if not env or env.get("controller") != "betaflight" or "firmware_action" in env:
+        return env
+    if getattr(cfg.env, "controller", "own") == "own" and cfg.env.action.mode == "rates_thrust":
+        return {**env, "firmware_action": "rates"}
+    return env
+
+
 def _changed_env(cfg: TrainConfig, changes: dict[str, Any]) -> Any:
-    """The run's env with ``changes``; refused if the policy's spaces would change."""
+    """The run's env with ``changes``; refused if the policy's spaces would change (the
+    training env's, and the env's own before the training wrappers rescale its actions)."""
     from pyflyt_cli.training.envs import EnvFactory
 
     changed = cfg.env.with_overrides(**changes)  # unknown keys and bad values are named here
@@ -243,11 +257,14 @@ def _changed_env(cfg: TrainConfig, changes: dict[str, Any]) -> Any:
     for config in (cfg.env, changed):
         env = EnvFactory(config, monitor=False)()
         try:
-            spaces.append((env.observation_space, env.action_space))
+            raw = getattr(env, "unwrapped", env)
+            spaces.append((env.observation_space, (env.action_space, raw.action_space)))
         finally:
             env.close()
-    (trained_obs, trained_act), (obs, act) = spaces
+    (trained_obs, (trained_act, trained_raw)), (obs, (act, raw_act)) = spaces
     keys = ", ".join(f"env.{k}" for k in changes)
+    if trained_act == act and trained_raw != raw_act:  # the same rescaled Box, other actions
+        trained_act, act = trained_raw, raw_act
     for what, trained, now in (("observation", trained_obs, obs), ("action", trained_act, act)):
         if trained != now:
             raise ConfigError(

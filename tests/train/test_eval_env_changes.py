@@ -86,3 +86,24 @@ def test_the_command_flies_an_env_change(run):
     result = runner.invoke(app, ["eval", str(run), "episodes=1", "record=false", "env.max_duration_seconds=0.2"])
     assert result.exit_code == 0, result.output
     assert "env:    the run's, with max_duration_seconds=0.2" in result.output
+
+
+def test_the_firmware_flies_a_rates_policy_s_actions_as_rates_and_sticks_are_refused(run):
+    """``env.controller=betaflight`` for a policy of the own controller's rates_thrust keeps its
+    actions' meaning (``firmware_action: rates``, at its own agent rate); the firmware's sticks
+    would give the same normalised actions another meaning and are refused by the env's own
+    action space (the training wrappers rescale both to [-1, 1])."""
+    from pyflyt_cli.training.evaluate import _changed_env, _firmware_keeps_the_actions
+
+    cfg = load(TINY_PPO, run.parent)
+    assert cfg.env.action.mode == "rates_thrust"
+    kept = _firmware_keeps_the_actions(cfg, {"controller": "betaflight"})
+    assert kept == {"controller": "betaflight", "firmware_action": "rates"}
+    flown = _changed_env(cfg, dict(kept))  # the SITL starts with the first tick: not here
+    assert flown.controller == "betaflight" and flown.agent_hz == cfg.env.agent_hz
+    assert (
+        _firmware_keeps_the_actions(cfg, {"controller": "betaflight", "firmware_action": "sticks"})["firmware_action"]
+        == "sticks"
+    )
+    with pytest.raises(ConfigError, match="changes the action space the policy was trained on"):
+        _changed_env(cfg, {"controller": "betaflight", "firmware_action": "sticks"})
