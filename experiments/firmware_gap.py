@@ -27,14 +27,13 @@ import argparse
 import json
 import os
 import platform
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import yaml
 
+from pyflyt_cli.studies.runs import pyflyt_command
 from pyflyt_engine.numerics import platform_info
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -64,17 +63,13 @@ def _cases(directory: Path) -> dict[str, list[str]]:
 def _evaluate(name: str, overrides: list[str], episodes: int, directory: Path) -> dict:
     work = directory / name
     work.mkdir()
-    command = [sys.executable, "-m", "pyflyt_cli.main", "eval", POLICY, f"episodes={episodes}", "record=false"]
+    command = ["eval", POLICY, f"episodes={episodes}", "record=false", *overrides]
     start = time.perf_counter()
-    done = subprocess.run(
-        [*command, *overrides], cwd=work, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}
-    )
-    if done.returncode != 0:
-        raise SystemExit(f"{name}: pyflyt eval failed ({done.returncode}):\n{done.stdout[-2000:]}{done.stderr[-2000:]}")
+    pyflyt_command(command, work)
     (found,) = work.glob("zoo/*/eval.json")
     result = json.loads(found.read_text())
     result["wall_s"] = time.perf_counter() - start
-    result["command"] = " ".join(["pyflyt", "eval", POLICY, f"episodes={episodes}", *overrides])
+    result["command"] = " ".join(["pyflyt", *command])
     return result
 
 

@@ -19,30 +19,14 @@ import argparse
 import json
 import os
 import platform
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
+from pyflyt_cli.studies.runs import pyflyt_command
 from pyflyt_engine.numerics import platform_info
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _pyflyt(args: list[str], cwd: Path) -> str:
-    done = subprocess.run(
-        [sys.executable, "-m", "pyflyt_cli.main", *args],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )
-    if done.returncode != 0:
-        raise SystemExit(
-            f"pyflyt {' '.join(args)} failed ({done.returncode}):\n{done.stdout[-2000:]}{done.stderr[-2000:]}"
-        )
-    return done.stdout
 
 
 def main() -> None:
@@ -60,7 +44,7 @@ def main() -> None:
         for budget in range(args.stage, args.budget + 1, args.stage):
             start, load = time.perf_counter(), os.getloadavg()[0]
             if run is None:
-                out = _pyflyt(
+                out = pyflyt_command(
                     [
                         "train",
                         "env=quadx_hover",
@@ -72,10 +56,10 @@ def main() -> None:
                 )
                 (run,) = work.glob("runs/quadx_hover/ppo/*")
             else:
-                out = _pyflyt(["train", f"resume={run}", f"train.total_timesteps={budget}"], work)
+                out = pyflyt_command(["train", f"resume={run}", f"train.total_timesteps={budget}"], work)
             wall = time.perf_counter() - start
             trained = next((line for line in out.splitlines() if line.startswith("done:")), "")
-            _pyflyt(["eval", str(run), f"episodes={args.episodes}", "record=false"], work)
+            pyflyt_command(["eval", str(run), f"episodes={args.episodes}", "record=false"], work)
             result = json.loads((run / "eval.json").read_text())
             row = (
                 f"| {budget} | {100 * result['success_rate']:.0f} % | {result['mean_return']:.2f} +- "

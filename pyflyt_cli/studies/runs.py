@@ -4,13 +4,16 @@
 - :func:`budgeted_run`, :func:`run_seeds`: a PPO run under a CPU-time budget with an
   :class:`~pyflyt_cli.studies.probes.ObstacleProbe` (or a subclass), its row saved after every probe;
 - :func:`checkpoint_policies`, :class:`SavedPolicy`: a finished run's checkpoints as probe-able policies;
-- :func:`phase_split`, :func:`training_success`: where a run's time went, its own training episodes.
+- :func:`phase_split`, :func:`training_success`: where a run's time went, its own training episodes;
+- :func:`pyflyt_command`: a ``pyflyt`` command run in a fresh process, for studies of what the CLI does.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -239,3 +242,17 @@ def run_seeds(args: argparse.Namespace, cpu_minutes: float | None, **run_kwargs)
                 budgeted_run(seed, cpu_minutes, args.probe_every, args.episodes, output, args.set, save, **run_kwargs)
             )
     return rows
+
+
+def pyflyt_command(args: list[str], cwd: Path) -> str:
+    """``pyflyt <args>`` in a fresh process in ``cwd``; its standard output.
+
+    Raises:
+        SystemExit: the command failed (names it, with the end of its output).
+    """
+    done = subprocess.run([sys.executable, "-m", "pyflyt_cli.main", *args], cwd=cwd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(
+            f"pyflyt {' '.join(args)} failed ({done.returncode}):\n{done.stdout[-2000:]}{done.stderr[-2000:]}"
+        )
+    return done.stdout
