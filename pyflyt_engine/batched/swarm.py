@@ -31,7 +31,7 @@ what the agents of one world do to each other:
   collision point below the ground).
 
 Episodes follow the PyBullet env's (:class:`~pyflyt_engine.envs.multi_agent.base.MultiAgentUAVEnv`
-with :class:`~pyflyt_engine.envs.multi_agent.hover_task.MAHoverTask`): a live agent is
+with :class:`~pyflyt_engine.envs.tasks.ma_hover.MAHoverTask`): a live agent is
 *terminated* on any contact (ground or another agent, retired ones included) or leaving the
 dome, *truncated* at the time limit (a success); an agent whose episode ended is retired:
 disarmed (motor commands 0, its controller no longer runs), it falls and stays a body the
@@ -679,7 +679,7 @@ def check_swarm_supported(config: Any) -> None:
 
 class _WorldTasks:
     """A multi-agent task other than the hover, run by the engine's own task object, one per
-    world (the formation: :class:`~pyflyt_engine.envs.multi_agent.formation_task.MAFormationTask`),
+    world (the formation: :class:`~pyflyt_engine.envs.tasks.ma_formation.MAFormationTask`),
     so its signals, observation entries and info are the PyBullet env's by construction.
 
     Each world's task reads the states of its agents as the engine's vehicles give them

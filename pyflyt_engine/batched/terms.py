@@ -28,7 +28,7 @@ import numpy as np
 from pyflyt_engine.batched.model import refuse
 from pyflyt_engine.envs import rewards as r
 from pyflyt_engine.envs import terminations as t
-from pyflyt_engine.envs.multi_agent import formation_rewards as formation
+from pyflyt_engine.envs.tasks import ma_formation as formation
 from pyflyt_engine.envs.rewards import RewardFunction
 
 

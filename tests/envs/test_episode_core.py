@@ -92,7 +92,7 @@ def test_a_multi_agent_task_reaching_a_waypoint_is_paid_as_in_a_single_agent_tas
     """One reward context for every front: a multi-agent task's ``waypoint_reached`` signal
     reaches the preset's ``waypoint_reached`` condition for that agent only, at that step."""
     from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
-    from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
+    from pyflyt_engine.envs.tasks.ma_hover import MAHoverTask
 
     class CheckpointTask(MAHoverTask):
         provides = MAHoverTask.provides | {"waypoints"}

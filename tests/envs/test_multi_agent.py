@@ -279,7 +279,7 @@ def test_the_generic_front_runs_the_task_the_config_names():
     flies the same task object and the same episode, bit for bit."""
     from pyflyt_engine.envs.multi_agent.base import MultiAgentUAVEnv
     from pyflyt_engine.envs.multi_agent.config import get_ma_task
-    from pyflyt_engine.envs.multi_agent.formation_task import MAFormationTask
+    from pyflyt_engine.envs.tasks.ma_formation import MAFormationTask
     from pyflyt_engine.errors import ConfigError
 
     assert get_ma_task("ma_formation") is MAFormationTask

@@ -13,7 +13,7 @@ import pytest
 
 from pyflyt_engine.envs.multi_agent import ma_quadx_hover_v0
 from pyflyt_engine.envs.multi_agent.hover import MAQuadXHoverEnv
-from pyflyt_engine.envs.multi_agent.hover_task import MAHoverTask
+from pyflyt_engine.envs.tasks.ma_hover import MAHoverTask
 from pyflyt_engine.envs.quadx import QuadXHoverEnv
 from pyflyt_engine.errors import ConfigError
 
