@@ -63,67 +63,12 @@ def _cpu() -> float:
 
 def child(spec_file: Path, result_file: Path) -> None:
     """Train one short run in this process and write what it cost (CPU seconds)."""
-    time.perf_counter = time.process_time  # every clock of the run: this process's CPU time
     cpu_at_start = _cpu()
-    from pyflyt_cli.training import artifacts, callbacks, loop, timing
+    from pyflyt_cli.training import loop
     from pyflyt_cli.training.compose import compose_run
     from pyflyt_engine.telemetry import read_metrics
 
     spec = json.loads(spec_file.read_text())
-    checkpoints: list[dict[str, float]] = []
-    splits: list[dict[str, float]] = []
-    marks: dict[str, float] = {}
-
-    save = loop._Run.save_checkpoint
-
-    def timed_save(self, model):  # each checkpoint's CPU, its replay buffer's part and the transitions written
-        written.clear()
-        started = _cpu()
-        save(self, model)
-        buffer = getattr(model, "replay_buffer", None)
-        rows = int(buffer.size()) * int(buffer.n_envs) if buffer is not None else 0  # a row holds n_envs transitions
-        checkpoints.append({"cpu": _cpu() - started, "buffer_cpu": sum(written), "transitions": rows})
-
-    written: list[float] = []
-    save_buffer = artifacts.save_replay_buffer
-
-    def timed_buffer(*a, **k):
-        started = _cpu()
-        try:
-            return save_buffer(*a, **k)
-        finally:
-            written.append(_cpu() - started)
-
-    evaluations: list[float] = []
-    evaluate = callbacks.PeriodicEvaluation.evaluate
-
-    def timed_evaluate(self):  # in training and the final weights' evaluation after it
-        started = _cpu()
-        try:
-            return evaluate(self)
-        finally:
-            evaluations.append(_cpu() - started)
-
-    describe = timing.describe_split
-
-    def kept_split(split):
-        splits.append(dict(split))
-        return describe(split)
-
-    learn = loop._Run._learn
-
-    def timed_learn(self, model, callbacks, stop):
-        marks["learn_start"] = _cpu()
-        try:
-            return learn(self, model, callbacks, stop)
-        finally:
-            marks["learn_end"] = _cpu()
-
-    loop._Run.save_checkpoint = timed_save
-    artifacts.save_replay_buffer = timed_buffer
-    callbacks.PeriodicEvaluation.evaluate = timed_evaluate
-    loop._Run._learn = timed_learn
-    timing.describe_split = kept_split
 
     lines: list[str] = []
 
@@ -132,19 +77,25 @@ def child(spec_file: Path, result_file: Path) -> None:
         print(message, file=sys.stderr, flush=True)
 
     cfg, run_dir = compose_run(spec["line"])
-    result = loop.train(cfg, run_dir=run_dir, log=log, progress_bar=False)
+    called = _cpu()
+    # the run's own ledger, on this process's CPU clock: start-up, learn(), each checkpoint and evaluation
+    result = loop.train(cfg, run_dir=run_dir, log=log, progress_bar=False, clock=time.process_time)
     cpu_total = _cpu() - cpu_at_start
+    costs = result.costs
+    assert costs is not None
     evals = read_metrics(result.run_dir)["/eval"]
     buffers = sorted((Path(result.run_dir) / "checkpoints").glob("replay_buffer_*.npz"))
     out = {
         "id": spec["id"],
         "steps": int(result.num_timesteps),
         "cpu_total": cpu_total,
-        "cpu_startup": marks["learn_start"] - cpu_at_start,
-        "cpu_learn": marks["learn_end"] - marks["learn_start"],
-        "split": splits[-1],
-        "checkpoints": checkpoints,
-        "eval_cpu": evaluations,
+        "cpu_startup": called - cpu_at_start + costs.startup,  # the imports and composing, then the run's start-up
+        "cpu_learn": costs.learn,
+        "split": costs.split,
+        "checkpoints": [
+            {"cpu": c.seconds, "buffer_cpu": c.buffer_seconds, "transitions": c.transitions} for c in costs.checkpoints
+        ],
+        "eval_cpu": costs.evaluations,
         "evals": [{"step": int(e["step"]), "mean_length": float(e["mean_length"])} for e in evals],
         "buffer_bytes": buffers[-1].stat().st_size if buffers else 0,
         "max_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,

@@ -40,7 +40,7 @@ def test_every_python_block_of_the_page_runs(tmp_path: Path, monkeypatch: pytest
     missing = [old for old in TINY if old not in text]
     assert not missing, f"docs/python_api.md no longer says {missing}: update TINY"
     blocks = python_blocks(text)
-    assert len(blocks) == 10
+    assert len(blocks) == 11
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("PYTHONPATH", cli_env()["PYTHONPATH"])  # the benchmark's worker processes
     namespace: dict = {}

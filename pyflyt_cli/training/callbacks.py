@@ -265,10 +265,11 @@ class PeriodicEvaluation(EventCallback):
 
     def _on_rollout_start(self) -> None:
         if self.eval_freq > 0 and self.num_timesteps >= self.next_eval:
-            started = time.perf_counter()
+            clock = self.phases.clock if self.phases is not None else time.perf_counter
+            started = clock()
             go_on = self.evaluate()
             if self.phases is not None:
-                self.phases.add("eval", time.perf_counter() - started)
+                self.phases.add("eval", clock() - started)
             if not go_on and self.stop is not None:  # a child callback ends the run here
                 self.stop.request("an after-evaluation callback", final=True)
 
@@ -280,11 +281,20 @@ class PeriodicEvaluation(EventCallback):
         """Whether the last evaluation saw the model's current weights (no update since)."""
         return self.last_updates is not None and self.last_updates == self.model._n_updates
 
+    #: a :class:`~pyflyt_cli.training.timing.CostLedger` told each evaluation's seconds (or None)
+    ledger: Any = None
+
     def evaluate(self) -> bool:
         """Run the evaluation now; returns False if a child callback asks to stop.
 
         The next scheduled evaluation is the first multiple of ``eval_freq`` after this step.
         """
+        if self.ledger is None:
+            return self._evaluate()
+        with self.ledger.timed(self.ledger.evaluations):
+            return self._evaluate()
+
+    def _evaluate(self) -> bool:
         step = self.model.num_timesteps
         while self.eval_freq > 0 and self.next_eval <= step:
             self.next_eval += self.eval_freq
@@ -405,10 +415,11 @@ class Checkpointer(BaseCallback):
             while self.next_checkpoint <= step:
                 self.next_checkpoint += self.freq
         if due or self.stop.requested:
-            started = time.perf_counter()
+            clock = self.phases.clock if self.phases is not None else time.perf_counter
+            started = clock()
             self.run.save_checkpoint(self.model)
             if self.phases is not None:
-                self.phases.add("checkpoint", time.perf_counter() - started)
+                self.phases.add("checkpoint", clock() - started)
             if self.stop.requested:
                 self.stop.saved_at = step
 

@@ -31,6 +31,7 @@ from pyflyt_cli.training import artifacts, continuity, registry, rundir
 from pyflyt_cli.training.evaluation import EVAL_SEED_OFFSET
 from pyflyt_cli.training.models import PolicySource, build_model, read_policy
 from pyflyt_cli.training.schema import TrainConfig, parse_train_config, split_init_from
+from pyflyt_cli.training.costs import CheckpointCost, CostLedger
 from pyflyt_engine.errors import ConfigError, PyFlytError
 from pyflyt_engine.numerics import apply_torch
 
@@ -53,6 +54,8 @@ class RunResult:
     last_eval: dict[str, float] | None
     last_eval_step: int | None
     best_mean_return: float | None
+    #: what this call's parts cost on its clock (start-up, learn(), each checkpoint and evaluation, the split)
+    costs: CostLedger | None = None
 
 
 def _silent(_: str) -> None:
@@ -72,6 +75,7 @@ def train(
     progress_bar: bool | None = None,
     run_dir: str | Path | None = None,
     after_eval: Sequence[Any] = (),
+    clock: Callable[[], float] = time.perf_counter,
 ) -> RunResult:
     """Train a new run; returns when done or interrupted (Ctrl-C, SIGTERM).
 
@@ -87,7 +91,11 @@ def train(
         after_eval: SB3 callbacks run after each evaluation besides ``cfg.callbacks`` (their
             ``parent`` is the evaluation: ``parent.last_mean_reward``); one returning False
             ends the run there, complete (``pyflyt tune`` prunes trials so).
+        clock: what the run's own timings read (``RunResult.elapsed``, ``steps_per_second``,
+            ``costs``, the phase split it logs): wall-clock by default; ``time.process_time``
+            gives this process's CPU seconds, as the studies report them.
     """
+    ledger = CostLedger(clock)
     cfg = parse_train_config(config)
     _check_environment(cfg)
     init = _init_source(cfg) if cfg.init_from else None
@@ -113,7 +121,7 @@ def train(
         raise
     log(f"run directory: {run_dir}")
     with rundir.run_lock(run_dir):
-        run = _Run(cfg, run_dir, log, progress_bar)
+        run = _Run(cfg, run_dir, log, progress_bar, ledger)
         run.after_eval = list(after_eval)
         return run.execute(callbacks, init=init)
 
@@ -125,6 +133,7 @@ def resume(
     callbacks: Sequence[Any] = (),
     log: Log = _silent,
     progress_bar: bool | None = None,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> RunResult:
     """Continue an interrupted run from its newest checkpoint, in the same directory.
 
@@ -133,15 +142,21 @@ def resume(
     :mod:`pyflyt_cli.training.continuity`), so the run ends exactly as an uninterrupted
     one.  Metrics logged after the checkpoint are superseded by the new segment.
     ``total_timesteps`` extends (or sets) the budget.  A run killed before its first
-    checkpoint starts over.
+    checkpoint starts over.  ``clock`` as for :func:`train`.
     """
+    ledger = CostLedger(clock)
     path = rundir.check_run_dir(run_dir)
     with rundir.run_lock(path):
-        return _resume(path, total_timesteps, callbacks, log, progress_bar)
+        return _resume(path, total_timesteps, callbacks, log, progress_bar, ledger)
 
 
 def _resume(
-    path: Path, total_timesteps: int | None, callbacks: Sequence[Any], log: Log, progress_bar: bool | None
+    path: Path,
+    total_timesteps: int | None,
+    callbacks: Sequence[Any],
+    log: Log,
+    progress_bar: bool | None,
+    ledger: CostLedger,
 ) -> RunResult:
     cfg = rundir.load_run_config(path)
     state = rundir.read_state(path)
@@ -176,7 +191,7 @@ def _resume(
     if total_timesteps is not None:
         rundir.save_config(cfg, path)
     log(f"resuming {path} from " + (f"step {checkpoint.step}" if checkpoint else "the start (no checkpoint was saved)"))
-    return _Run(cfg, path, log, progress_bar).execute(callbacks, checkpoint=checkpoint, init=init)
+    return _Run(cfg, path, log, progress_bar, ledger).execute(callbacks, checkpoint=checkpoint, init=init)
 
 
 def _check_digest(path: Path, cfg: TrainConfig, state: Mapping[str, Any], record: Mapping[str, Any]) -> None:
@@ -389,8 +404,12 @@ def _signals(stop: Any, log: Log, message: str) -> Iterator[None]:
 class _Run:
     """One execution of ``learn()`` for a run directory (new or resumed), in named steps."""
 
-    def __init__(self, cfg: TrainConfig, run_dir: Path, log: Log, progress_bar: bool | None) -> None:
+    def __init__(
+        self, cfg: TrainConfig, run_dir: Path, log: Log, progress_bar: bool | None, ledger: CostLedger | None = None
+    ) -> None:
         self.cfg = cfg
+        #: what this execution's parts cost, on the run's clock (``RunResult.costs``)
+        self.ledger = ledger if ledger is not None else CostLedger()
         self.run_dir = run_dir
         self.log = log
         self.progress_bar = progress_bar if progress_bar is not None else cfg.train.progress_bar
@@ -648,10 +667,11 @@ class _Run:
         next_checkpoint = int(saved.get("next_checkpoint") or opts.checkpoint_freq or 0)
         self.checkpointer = Checkpointer(self, opts.checkpoint_freq, next_checkpoint, stop)
         callbacks.append(self.checkpointer)
-        self.phases = PhaseClock()  # after evaluation and checkpoints, which report their time to it
+        self.phases = PhaseClock(self.ledger.clock)  # after evaluation and checkpoints, which report their time to it
         self.checkpointer.phases = self.phases
         if self.evaluation is not None:
             self.evaluation.phases = self.phases
+            self.evaluation.ledger = self.ledger
         callbacks.append(self.phases)
         from pyflyt_cli.training.multi_agent import step_unit
 
@@ -724,7 +744,7 @@ class _Run:
     def _learn(self, model: Any, callbacks: Any, stop: Any) -> float:
         """``learn()`` for the rest of the budget; returns its wall-clock time."""
         remaining = self.cfg.train.total_timesteps - int(model.num_timesteps)
-        started = time.perf_counter()
+        started = self.ledger.learn_started = self.ledger.clock()
         with _signals(stop, self.log, "saving a checkpoint at the end of this rollout, then stopping"):
             if remaining > 0:
                 try:
@@ -734,7 +754,8 @@ class _Run:
                 except (EOFError, BrokenPipeError, ConnectionResetError):
                     if not stop.requested:  # a worker died for another reason
                         raise
-        return time.perf_counter() - started
+        self.ledger.learn_ended = self.ledger.clock()
+        return self.ledger.learn_ended - started
 
     # ----------------------------------------------------------- checkpoints
 
@@ -748,6 +769,7 @@ class _Run:
         5. older replay buffers (and checkpoints beyond ``train.keep_checkpoints``) are removed.
         Every file goes through a temporary name and a rename (:func:`.artifacts.write_atomically`).
         """
+        started = self.ledger.clock()
         step = int(model.num_timesteps)
         paths = rundir.checkpoint_paths(self.run_dir, step)
         state, tensors = continuity.capture(model)
@@ -760,13 +782,18 @@ class _Run:
         if self.writer is not None:
             self.writer.flush()
         artifacts.fault_point("metrics flushed")
+        buffer_seconds: list[float] = []
+        transitions = 0
         if self.cfg.algo.off_policy and self.cfg.train.save_replay_buffer:
             assert paths.replay_buffer is not None  # checkpoint_paths names one
-            artifacts.save_replay_buffer(paths.replay_buffer, model.replay_buffer)
+            with self.ledger.timed(buffer_seconds):
+                artifacts.save_replay_buffer(paths.replay_buffer, model.replay_buffer)
+            transitions = int(model.replay_buffer.size()) * int(model.replay_buffer.n_envs)  # a row: n_envs of them
         artifacts.save_checkpoint_file(paths.model, model, self.cfg.algo.name, step, state, tensors)
         self._write_state("running", step, checkpoint=step)
         artifacts.fault_point("state written")
         self._prune(step)
+        self.ledger.checkpoints.append(CheckpointCost(self.ledger.clock() - started, sum(buffer_seconds), transitions))
 
     def _prune(self, newest: int) -> None:
         found = rundir.checkpoints(self.run_dir)
@@ -841,7 +868,10 @@ class _Run:
             last_eval=ev.last if ev is not None else None,
             last_eval_step=ev.last_step if ev is not None else None,
             best_mean_return=None if ev is None or not math.isfinite(ev.best_mean_reward) else ev.best_mean_reward,
+            costs=self.ledger,
         )
+        if self.phases is not None:
+            self.ledger.split = self.phases.split()
         if not interrupted:
             from pyflyt_cli.training.multi_agent import step_unit
 

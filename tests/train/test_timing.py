@@ -257,3 +257,35 @@ def test_the_step_timer_adds_up_the_envs_steps_and_changes_nothing():
         for a, b in zip(plain.step(actions), timer.step(actions)):
             assert np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
         assert timer.seconds == 2.0 * steps  # step_async and step_wait: one second each
+
+
+def test_a_run_accounts_its_parts_on_the_clock_it_is_given(tmp_path):
+    """``train(..., clock=)``: the run's elapsed time, split and ledger read that clock (here one second per
+    reading, so every interval is a positive whole number of readings); one ledger entry per checkpoint the
+    run wrote (with the replay buffer's share and its transitions) and per evaluation it logged."""
+    from pyflyt_engine.telemetry import read_metrics
+
+    class Ticking:
+        now = 0.0
+
+        def __call__(self) -> float:
+            self.now += 1.0
+            return self.now
+
+    clock = Ticking()
+    result = train(load(TINY_SAC, tmp_path), clock=clock)
+    costs = result.costs
+    assert costs is not None and costs.clock is clock
+    assert result.elapsed == costs.learn and costs.learn == int(costs.learn) > 0
+    assert costs.startup == int(costs.startup) > 0
+    # checkpoints at 200 and 400 (the end), each writing the whole buffer: 200 then 400 transitions of 1 env
+    assert [c.transitions for c in costs.checkpoints] == [200, 400]
+    for c in costs.checkpoints:
+        assert c.seconds == int(c.seconds) and 0 < c.buffer_seconds < c.seconds
+    # the evaluations at 200 and 400 (the final weights'): as many as the /eval records
+    assert len(costs.evaluations) == len(read_metrics(result.run_dir)["/eval"]) == 2
+    assert all(s == int(s) > 0 for s in costs.evaluations)
+    # the split covers learn() (the final evaluation and checkpoint come after it) and reads the same clock
+    assert set(costs.split) == {"collect", "update", "eval", "checkpoint"}
+    assert all(v == int(v) >= 0 for v in costs.split.values()) and sum(costs.split.values()) <= costs.learn + 1
+    assert costs.split["eval"] == costs.evaluations[0] + 2  # its two readings around the evaluation call
