@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pyflyt_engine.atmosphere.field import WindField, WindSample, vehicle_span
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
@@ -104,6 +104,8 @@ class Atmosphere:
         self._stepping = False
         self._spans: list[float] = []
         self._probes: list = []
+        #: per vehicle, the motor constants its wake's full thrusts were taken from (:meth:`refresh_wakes`)
+        self._thrust_params: list[Any] = []
         self.field = field
 
     @property
@@ -135,18 +137,28 @@ class Atmosphere:
             if spec is not None and spec.prop_radius is not None:
                 radii = spec.to_array("prop_radius").tolist()
             self.rotors.add_vehicle(hubs, radii, motors.max_thrust.tolist() if motors is not None else [])
+        group = vehicle.actuators.motors
+        self._thrust_params.append(group.params if group is not None else None)
 
     def refresh_wakes(self) -> None:
-        """Rebin, in the downwash's wake grid, every vehicle read since it was last binned
-        (O(vehicles); nothing without downwash)."""
+        """Rebin, in the downwash's wake grid, every vehicle read since it was last binned, and
+        take the full thrusts of every vehicle whose motors have new constants (O(vehicles);
+        nothing without downwash)."""
         rotors = self.rotors
         if rotors is None or not rotors.downwash:
             return
         placed = rotors.wakes.placed
+        seen = self._thrust_params
         for j, vehicle in enumerate(self.vehicles):
             position = vehicle.position
             if placed.get(j) is not position:
                 rotors.place(j, position)
+            # each wake as strong as its vehicle's motors are now: new constants (a drawn
+            # motor_kf, set before the episode's first step) are taken at the next step
+            motors = vehicle.actuators.motors
+            if motors is not None and motors.params is not seen[j]:
+                seen[j] = motors.params
+                rotors.set_max_thrust(j, motors.params.max_thrust.tolist())
         wakes = rotors.wakes
         wakes.top = max((placed[j][2] for j in wakes.where), default=-math.inf)
 

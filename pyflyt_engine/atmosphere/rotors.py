@@ -146,6 +146,16 @@ class RotorInteractions:
             # height then looks at the 3 x 3 cells about each vehicle
             self.wakes = PlanarGrid(max(WAKE_REACH * JET_SPREAD * JET_DECAY * d, 0.05))
 
+    def set_max_thrust(self, index: int, max_thrust: Sequence[float]) -> None:
+        """Vehicle ``index``'s motors' full thrusts [N] from now on (its motors took new constants:
+        a drawn ``randomize.motor_kf``); its wake's strength follows them."""
+        craft = self.vehicles[index]
+        if craft is None:
+            return
+        if len(max_thrust) != len(craft.max_thrust):
+            raise ValueError(f"vehicle {index} has {len(craft.max_thrust)} motors, got {len(max_thrust)} thrusts")
+        craft.max_thrust = [float(t) for t in max_thrust]
+
     def ground_effect_ratios(self, index: int, position: Sequence[float], r: Sequence[float]) -> list[float] | None:
         """Per motor of vehicle ``index``, at ``position`` with body-to-ground matrix ``r``
         (row-major), the ground-effect thrust ratio at its hub height (1 for a motor without

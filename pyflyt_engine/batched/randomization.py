@@ -149,6 +149,9 @@ class BatchedRandomizer:
             env._lag[i] = np.asarray(lag_coefficient(self.physics_dt, params.tau), dtype=np.float64).reshape(-1)
             env._columns[i] = motor_wrench_matrix(params).T
             env._rotors[i, :, 4] = reaction_per_thrust(params)
+            wake = getattr(env, "_wake_thrust", None)  # a multi-agent world's: the strength of the vehicle's wake
+            if wake is not None:
+                wake[i] = params.max_thrust
         if self.drag:
             d, f = self._drag, values["drag"]
             cx, cy, cz = d.coefficients

@@ -259,7 +259,8 @@ def downwash_at(
     square: float,
 ) -> float:
     """:meth:`RotorInteractions.downwash_at` for vehicle ``index`` at (x, y, z) among vehicles of
-    one airframe at ``positions`` (A, 3) with ``throttles`` (A, motors): the vertical wind
+    one airframe at ``positions`` (A, 3) with ``throttles`` (A, motors) and full thrusts
+    ``max_thrust`` (A, motors: each vehicle's own, a drawn ``motor_kf`` in them): the vertical wind
     [m/s] (negative: down).  The vehicles beyond a wake's reach (``WAKE_REACH`` half-widths,
     where the term is exactly 0.0: :meth:`RotorInteractions.sources`'s test) are skipped,
     which leaves every bit of the sum as it is.  ``square``: 2.0 (:func:`downwash_velocity`)."""
@@ -276,7 +277,7 @@ def downwash_at(
         dx, dy = x - cx, y - cy
         if dx * dx + dy * dy > reach * reach:
             continue
-        thrust = rotor_thrust(throttles[j], max_thrust, is_rotor)
+        thrust = rotor_thrust(throttles[j], max_thrust[j], is_rotor)
         w -= downwash_velocity(cz - z, py_hypot(dx, dy), thrust, disc_area, air_density, square)
     return w
 
@@ -401,7 +402,8 @@ def advance_swarm(
     The laws and parameters are :func:`pyflyt_engine.batched.kernels.advance`'s, one airframe
     for every vehicle: the flight controller's one set, the body's, motors' and drag's one row
     per vehicle (``mass``, ``inertia``, ``lag``, ``columns``, ``drag_factors``, ``damping``,
-    ``rotors``: domain randomisation sets a world's rows); ``square`` is 2.0 (:func:`downwash_velocity`).
+    ``rotors``, ``max_thrust`` (each vehicle's wake strength): domain randomisation sets a world's
+    rows); ``square`` is 2.0 (:func:`downwash_velocity`).
 
     The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it: where ``wind[0]`` is
     on, each vehicle's wind at its height at physics step ``episode_steps[i] + s`` of its
@@ -439,6 +441,7 @@ def advance_swarm(
         # each physics step's read; a call that starts inside an agent step continues them)
         seen = reads[base : base + agents]
         thr = throttle[base : base + agents]
+        full = max_thrust[base : base + agents]
         for s in range(count):
             step = start + s
             tick = step % per_control == 0
@@ -466,7 +469,7 @@ def advance_swarm(
                         seen[a, 2],
                         seen,
                         thr,
-                        max_thrust,
+                        full,
                         is_rotor,
                         disc_area,
                         jet_diameter,
@@ -903,6 +906,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._drag_factors = rows(m.drag_factors)
         self._damping = rows(m.angular_damping)
         self._rotors = rows(m.rotors)
+        #: each slot's motors' full thrusts [N], the strength of its wake (a drawn motor_kf sets a world's rows)
+        self._wake_thrust = rows(self._wake_sources["max_thrust"])
         #: the randomize section's draws, one per world and episode, every agent of the world
         #: given them (None without; pyflyt_engine.batched.randomization)
         self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
@@ -1361,7 +1366,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             count,
             self.per_control,
             self.downwash,
-            rot["max_thrust"],
+            self._wake_thrust,
             rot["is_rotor"],
             rot["disc_area"],
             rot["jet_diameter"],

@@ -101,6 +101,36 @@ def test_the_vehicle_below_feels_the_wake_and_the_one_above_does_not():
     world.close()
 
 
+def test_a_wake_is_as_strong_as_its_vehicles_own_motors():
+    """A randomiser scales a vehicle's thrust coefficient by f (``randomize.motor_kf``): from the
+    world's next step its wake is that of a rotorcraft with f times the full thrust, so at the
+    same throttles the wake speed below it is sqrt(f) times the nominal one (the jet speed goes
+    as the square root of the thrust, ``downwash_velocity``)."""
+    import dataclasses
+
+    world = World(
+        [VehicleConfig("quadx_cf2x", (0.0, 0.0, 2.0), mode="motors"), VehicleConfig("quadx_cf2x", (0.0, 0.0, 1.0))],
+        seed=0,
+        downwash=True,
+    )
+    rotors = world.rotor_interactions
+    assert rotors is not None
+    motors = world.vehicles[0].actuators.motors
+    nominal = list(rotors.vehicles[0].max_thrust)
+    throttle = [0.5] * 4
+    below, above = [0.0, 0.0, 1.0], [0.0, 0.0, 2.0]
+    before = rotors.downwash_at(1, below, [above, below], [throttle, throttle])
+    motors.set_params(dataclasses.replace(motors.params, kf=motors.params.kf * 1.21))
+    assert rotors.vehicles[0].max_thrust == nominal  # taken when the world steps next
+    world.step()
+    assert rotors.vehicles[0].max_thrust == (motors.params.kf * motors.params.max_rpm**2).tolist()
+    assert rotors.vehicles[0].max_thrust == pytest.approx([1.21 * t for t in nominal], rel=1e-15)
+    assert rotors.vehicles[1].max_thrust == nominal  # the other vehicle keeps its own
+    after = rotors.downwash_at(1, below, [above, below], [throttle, throttle])
+    assert before < -0.1 and after == pytest.approx(1.1 * before, rel=1e-12)
+    world.close()
+
+
 def test_off_by_default_and_bit_identical():
     import numpy as np
 

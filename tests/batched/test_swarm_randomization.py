@@ -66,7 +66,8 @@ def _vehicle(v) -> dict[str, np.ndarray]:
 @pytest.mark.parametrize("seed", [11, 12])
 def test_each_world_draws_and_applies_what_the_pybullet_env_does(seed):
     """Two worlds of four agents, two episodes each: each world's draws, and each agent's
-    mass, inertia, motor lag, wrench columns, reaction per thrust, drag factors and spawn, are
+    mass, inertia, motor lag, wrench columns, reaction per thrust, wake strength (full thrusts),
+    drag factors and spawn, are
     the PyBullet env's from the same generator; the agents of a world share its draws, the
     worlds draw apart; the flight controller keeps the nominal airframe."""
     worlds, agents = 2, 4
@@ -96,6 +97,9 @@ def test_each_world_draws_and_applies_what_the_pybullet_env_does(seed):
                 assert be._mass[i] == got["mass"] and np.array_equal(be._inertia[i], got["inertia"])
                 assert np.array_equal(be._lag[i], got["lag"]) and np.array_equal(be._columns[i], got["columns"])
                 assert np.array_equal(be._rotors[i, :, 4], got["reaction"])
+                # the strength of its wake: the drawn motor_kf's full thrusts, which the engine's rotors take
+                # from the vehicle's motors at the reset (Atmosphere.refresh_rotors)
+                assert be._wake_thrust[i].tolist() == vehicle.actuators.motors.params.max_thrust.tolist()
                 assert np.array_equal(be._drag_factors[i], got["drag"]) and be._damping[i] == got["damping"]
                 assert np.abs(be.pos[i] - got["pos"]).max() < 1e-12, (episode, k, a)
                 assert np.abs(be.quat[i] - got["quat"]).max() < 1e-12, (episode, k, a)
@@ -104,6 +108,7 @@ def test_each_world_draws_and_applies_what_the_pybullet_env_does(seed):
     nominal = swarm.BatchedSwarmEnv(cfg.with_overrides(randomize={}), worlds=worlds)
     assert np.all(be._mass != nominal._mass) and np.all(be._columns[:, :, 2] != nominal._columns[:, :, 2])
     assert np.all(be._drag_factors != nominal._drag_factors)
+    assert np.all(be._wake_thrust != nominal._wake_thrust)
     # the flight controller keeps the nominal airframe (one set for every vehicle, the model's,
     # which the draws leave alone)
     for name in ("control_inertia", "gyro", "mixer_rows", "max_collective", "rate_gains", "columns", "mass"):
