@@ -914,7 +914,12 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: per slot, its world's draws of this episode (entries in the section's order; no columns without)
         self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
         #: the parameter rows a checkpoint carries besides the state: those the draws change
-        self.randomized_arrays: tuple[str, ...] = self.randomizer.arrays() if self.randomizer is not None else ()
+        #: (and the wakes' strengths, which a drawn motor_kf sets)
+        self.randomized_arrays: tuple[str, ...] = (
+            self.randomizer.arrays() + (("_wake_thrust",) if self.randomizer.motors else ())
+            if self.randomizer is not None
+            else ()
+        )
         self.pos = np.zeros((n, 3))
         self.quat = np.zeros((n, 4))
         self.quat[:, 3] = 1.0

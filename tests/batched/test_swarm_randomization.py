@@ -204,11 +204,13 @@ def test_the_same_seed_draws_and_flies_the_same_numbers():
 
 def test_a_checkpoint_carries_the_draws_and_the_parameters_they_set():
     """``episode_state`` then ``restore_episode`` of every slot puts each world's draws and the
-    mass, inertia, motor and drag rows they set back (and its generator): the steps after it,
+    mass, inertia, motor, wake and drag rows they set back (and its generator): the steps after it,
     worlds restarting and drawing among them, repeat bit for bit."""
     from pyflyt_cli.training.envs import make_vec_env
 
-    cfg = load_env_config("ma_quadx_hover").with_overrides(backend="batched", randomize=DRAWS, max_duration_seconds=0.5)
+    cfg = load_env_config("ma_quadx_hover").with_overrides(
+        backend="batched", randomize=DRAWS, max_duration_seconds=0.5, agents=STACKED, downwash=True
+    )
     vec = make_vec_env(cfg, 2)
     vec.seed(4)
     vec.reset()
@@ -218,12 +220,13 @@ def test_a_checkpoint_carries_the_draws_and_the_parameters_they_set():
         vec.step(rng.uniform(-0.3, 0.3, (n, 4)).astype(np.float32))
     saved = vec.env_method("episode_state")
     env = vec.env
-    for name in ("randomized_values", "_mass", "_inertia", "_lag", "_columns", "_rotors", "_drag_factors", "_damping"):
+    rows = ("_mass", "_inertia", "_lag", "_columns", "_rotors", "_wake_thrust", "_drag_factors", "_damping")
+    for name in ("randomized_values", *rows):
         assert name in saved[0]["batched"], name
     actions = rng.uniform(-0.3, 0.3, (20, n, 4)).astype(np.float32)
     first = [vec.step(a)[0] for a in actions]
     assert not np.array_equal(env.randomized_values, np.asarray([s["batched"]["randomized_values"] for s in saved]))
-    for name in ("_mass", "_inertia", "_lag", "_columns", "_rotors", "_drag_factors", "_damping", "randomized_values"):
+    for name in (*rows, "randomized_values"):
         getattr(env, name)[:] = 1.0  # state the restore must put back
     for i in range(n):
         vec.env_method("restore_episode", saved[i], indices=i)
