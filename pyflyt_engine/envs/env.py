@@ -167,6 +167,18 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
 
             self._markers = Markers(self.world.client, *self.task.marker_style())
 
+    def observation_layout(self, quaternion: bool | None = None) -> observe.ObservationLayout:
+        """The declared parts of :attr:`observation_space`: entry key -> its parts, in order
+        (key ``observe.FLAT``: a Box observation); ``quaternion`` True / False: as with that
+        ``angle_representation`` instead of the configured one.  What the env manuals
+        (:mod:`pyflyt_engine.envs.manual`) print; their sizes add up to the space."""
+        cfg = self.config
+        q = self._quaternion if quaternion is None else quaternion
+        aux = self.world.vehicles[0].aux_layout()
+        attitude = observe.attitude_parts(q, cfg.action.names, cfg.action.units, aux, self.fix_flag[0])
+        layout = self.task.observation_parts(attitude)
+        return observe.layout_with_extras(layout, cfg.camera_observation, self.range_sensors[0])
+
     @property
     def vehicle(self) -> Any:
         """The vehicle flown (:class:`~pyflyt_engine.vehicle.Vehicle`)."""
