@@ -40,8 +40,9 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
     """A single-vehicle UAV task as a Gymnasium environment, built from an env config.
 
     Prefer the registered ids (``gymnasium.make("PyFlyt/QuadX-Hover-v0")``), whose
-    classes document their spaces and rewards; this class runs any env config, e.g. one
-    written by a user: ``UAVEnv("my_env.yaml")``.
+    manuals ``pyflyt envs <id>`` prints (generated from the config and spaces,
+    :mod:`pyflyt_engine.envs.manual`); this class runs any env config, e.g. one written by a
+    user: ``UAVEnv("my_env.yaml")``.
 
     Observation: the task's, built on the shared attitude vector (paper, "Observation
     Spaces")::

@@ -31,7 +31,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pyflyt_engine.envs import ENVS
-from pyflyt_engine.envs.config import EnvConfig, RewardPreset, load_env_config, load_reward_preset
+from pyflyt_engine.envs.config import EnvConfig, MultiAgentEnvConfig, RewardPreset, load_env_config, load_reward_preset
 from pyflyt_engine.envs.observe import FLAT, ObservationLayout, ObservationPart
 from pyflyt_engine.envs.rewards import TERMS, resolve_condition
 from pyflyt_engine.envs.terminations import TERMINATIONS
@@ -264,7 +264,7 @@ def _term_text(name: str) -> str:
 
 
 def _preset_rows(preset: RewardPreset) -> list[tuple[str, ...]]:
-    rows = []
+    rows: list[tuple[str, ...]] = []
     for entry, t in preset.terms.items():
         when = [t.when] if isinstance(t.when, str) else list(t.when)
         params = ", ".join(f"{k}={_value(v)}" for k, v in t.params.items())
@@ -342,7 +342,7 @@ def _start_section(cfg: EnvConfig, env: Any) -> list[str]:
         "",
         *_table(("option", "value", "per episode", "meaning"), rows),
     ]
-    if getattr(cfg, "multi_agent", False):
+    if isinstance(cfg, MultiAgentEnvConfig):
         spawn_rows = [
             (f"`{a.name}`", f"`{a.uav}`", str(a.team), _value(a.spawn.position), _num(a.spawn.position_noise),
              _value(a.spawn.orientation), _num(a.spawn.orientation_noise), _value(a.hover_point))
