@@ -46,7 +46,7 @@ FLAT = ""
 #: what each component kind's share of the auxiliary state holds (Vehicle.aux_state)
 _AUX_MEANING = {
     "motors": ("motor throttles", "1"),
-    "surfaces": ("flap deflections / their limits", "[-1, 1]"),
+    "surfaces": ("control-surface deflections / their limits", "[-1, 1]"),
     "boosters": ("per booster: fuel fraction, duty, ignition", "[0, 1], 0/1"),
     "gimbals": ("gimbal angles / their limits", "[-1, 1]"),
     "battery": ("battery state of charge", "[0, 1]"),
