@@ -435,6 +435,28 @@ def _variants(name: str, cfg: EnvConfig) -> list[str]:
     return [f"**Other configs declaring `{cfg.id}`**: " + "; ".join(out)] if out else []
 
 
+def _entry_sizes(space: spaces.Space) -> dict[str, int]:
+    """Entry key -> values per entry (per row of a Sequence) of an observation space."""
+
+    def size(s: spaces.Space) -> int:
+        return size(s.feature_space) if isinstance(s, spaces.Sequence) else int(np.prod(s.shape or (1,)))
+
+    entries = space.spaces if isinstance(space, spaces.Dict) else {FLAT: space}
+    return {key: size(sub) for key, sub in entries.items()}
+
+
+def _check_layout(cfg: EnvConfig, layout: ObservationLayout, space: spaces.Space) -> None:
+    """ConfigError unless the declared parts make up ``space`` (a task that changed its
+    ``observation_space`` without declaring the change in ``observation_parts``)."""
+    declared = {key: sum(p.size for p in parts) for key, parts in layout.items()}
+    built = _entry_sizes(space)
+    if declared != built:
+        raise ConfigError(
+            f"task '{cfg.task.name}': its declared observation parts ({declared}) do not make up its observation "
+            f"space ({built}); declare in the task's observation_parts what its observation_space adds"
+        )
+
+
 def env_manual(name: str, heading: str = "###") -> str:
     """The manual of the env ``name`` names (:func:`resolve_env`), as Markdown: built once,
     headless, to read its spaces.
@@ -454,6 +476,7 @@ def env_manual(name: str, heading: str = "###") -> str:
             observation_space, action_space = env.observation_space, env.action_space
         quaternion = cfg.angle_representation == "quaternion"
         layout = env.observation_layout()
+        _check_layout(cfg, layout, observation_space)
         other = env.observation_layout(quaternion=not quaternion)
         title, call, what = _registration(config, cfg)
         source = f"conf/env/{config}.yaml"

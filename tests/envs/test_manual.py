@@ -150,3 +150,13 @@ def test_environments_doc_embeds_the_current_manuals():
         "docs/environments.md is out of date with the env configs; regenerate it with\n"
         "  python -m pyflyt_cli.commands.env_manuals docs/environments.md"
     )
+
+
+def test_a_task_whose_parts_do_not_make_up_its_space_is_refused(monkeypatch):
+    from pyflyt_engine.envs.tasks.hover import HoverTask
+
+    monkeypatch.setattr(HoverTask, "observation_parts", lambda self, attitude: {"": attitude[:-1]})
+    with pytest.raises(
+        ConfigError, match=r"task 'hover': its declared observation parts \(\{'': 17\}\) do not make up"
+    ):
+        env_manual("quadx_hover")
