@@ -19,7 +19,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     path = Path(args[0])
     text = path.read_text()
-    updated = replace_embedded_manuals(text)
+    try:
+        updated = replace_embedded_manuals(text)
+    except ValueError as exc:  # no markers: nothing to regenerate in this document
+        print(f"error: {path}: {exc}", file=sys.stderr)
+        return 2
     if updated != text:
         path.write_text(updated)
         print(f"updated the env manuals in {path}")
