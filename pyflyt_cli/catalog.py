@@ -1,4 +1,5 @@
-"""What is registered, as ``pyflyt envs`` and ``pyflyt modes`` list it.
+"""What is registered, as ``pyflyt envs`` and ``pyflyt modes`` list it (one env's full
+manual, ``pyflyt envs <id>``, is :func:`pyflyt_engine.envs.manual.env_manual`).
 
 :func:`list_envs`: every Gymnasium environment, its spaces, reward presets and defaults,
 then the multi-agent (PettingZoo) ones (:func:`list_multi_agent_envs`);
@@ -10,18 +11,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-from gymnasium import spaces
-
-
-def describe_space(space: spaces.Space) -> str:
-    """A one-line summary of a Gymnasium space."""
-    if isinstance(space, spaces.Box):
-        return f"Box{space.shape}"
-    if isinstance(space, spaces.Sequence):
-        return f"Sequence({describe_space(space.feature_space)})"
-    if isinstance(space, spaces.Dict):
-        return "Dict(" + ", ".join(f"{k}: {describe_space(v)}" for k, v in space.spaces.items()) + ")"
-    return repr(space)
+from pyflyt_engine.envs.manual import describe_space  # one summary of a space, as the env manuals write it
 
 
 def list_envs() -> str:

@@ -142,12 +142,27 @@ def modes() -> None:
     typer.echo(list_modes())
 
 
-@app.command(help="List the Gymnasium environments: spaces, reward presets and defaults.")
+@app.command(
+    help="List the Gymnasium environments: spaces, reward presets and defaults.\n\n"
+    "With an env (a Gymnasium id, a multi-agent env or an env config), print its full manual, written from its "
+    "config and spaces:\n\n"
+    "  pyflyt envs PyFlyt/QuadX-Hover-v0\n\n"
+    "  pyflyt envs quadx_gates_state"
+)
 @user_errors
-def envs() -> None:
-    from pyflyt_cli.catalog import list_envs
+def envs(
+    name: Optional[str] = typer.Argument(
+        None, help="Gymnasium id (PyFlyt/QuadX-Hover-v0), multi-agent env (ma_quadx_hover_v0) or env config name"
+    ),
+) -> None:
+    if name is None:
+        from pyflyt_cli.catalog import list_envs
 
-    typer.echo(list_envs())
+        typer.echo(list_envs())
+        return
+    from pyflyt_engine.envs.manual import env_manual
+
+    typer.echo(env_manual(name), nl=False)
 
 
 def _train_help() -> str:

@@ -229,6 +229,8 @@ class Vehicle:
         self.groups: tuple[ActuatorGroup, ...] = tuple(built.values())
         self._routes = tuple(group.route for group in self.groups if group.commanded)
         self._auxes = tuple(group.aux for group in self.groups)
+        #: the component kind of each group, in the order of :attr:`groups`
+        self._group_kinds = tuple(built)
         #: the steps of the groups the physics step runs, in step order (their wrenches summed in it)
         self._steps = tuple(group.step for _, group in stepped)
         #: whether the loads depend on the air's velocity: the world then reads the
@@ -823,6 +825,12 @@ class Vehicle:
         ignition (0/1); gimbal angles normalised by their limits [-1, 1]; with a battery,
         its state of charge [0, 1] last."""
         return np.array(self.aux_values(), dtype=np.float64)
+
+    def aux_layout(self) -> list[tuple[str, int]]:
+        """``(component kind, entries)`` of each group's share of :attr:`aux_state`, in its
+        order; groups with no read-out are left out."""
+        sizes = ((kind, len(aux())) for kind, aux in zip(self._group_kinds, self._auxes))
+        return [(kind, n) for kind, n in sizes if n]
 
     def aux_values(self) -> list[float]:
         """:attr:`aux_state` as a list of floats: every group's read-outs, in kind order."""

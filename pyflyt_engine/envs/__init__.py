@@ -8,7 +8,8 @@ PyBullet nor the env modules::
     env = gymnasium.make("PyFlyt/QuadX-Hover-v0", sparse_reward=True)
 
 Layout: :mod:`.env` (the generic loop, :class:`UAVEnv`); :mod:`.quadx`, :mod:`.fixedwing`,
-:mod:`.rocket` (the registered classes, whose docstrings are their manuals); :mod:`.tasks`
+:mod:`.rocket` ... (the registered classes, whose docstrings say what each task is for);
+:mod:`.manual` (each env's manual, generated from its config and spaces: ``pyflyt envs <id>``); :mod:`.tasks`
 (spawn, targets, observations, completion); :mod:`.rewards` (named terms and
 conditions); :mod:`.waypoints` (waypoint logic shared by every waypoint task);
 :mod:`.config` (typed YAML configs); :mod:`.wrappers` (``FlattenWaypointEnv``);
@@ -74,7 +75,7 @@ def make_env(config: str | Path | Mapping[str, Any] | EnvConfig, **overrides: An
     """Build the environment an env config describes (no Gymnasium wrappers).
 
     Uses the registered class when the config's ``id`` is in :data:`ENVS` (so the
-    instance carries that env's manual), else :class:`UAVEnv`.  ``overrides`` as for
+    instance carries that env's class docstring), else :class:`UAVEnv`.  ``overrides`` as for
     :class:`UAVEnv` (``sparse_reward=True``, ``num_targets=3``, ...).  A multi-agent config
     (one with ``agents``) gives its parallel env wrapped in
     :class:`~pyflyt_engine.envs.multi_agent.shared.SharedPolicyEnv`.

@@ -40,8 +40,9 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
     """A single-vehicle UAV task as a Gymnasium environment, built from an env config.
 
     Prefer the registered ids (``gymnasium.make("PyFlyt/QuadX-Hover-v0")``), whose
-    classes document their spaces and rewards; this class runs any env config, e.g. one
-    written by a user: ``UAVEnv("my_env.yaml")``.
+    manuals ``pyflyt envs <id>`` prints (generated from the config and spaces,
+    :mod:`pyflyt_engine.envs.manual`); this class runs any env config, e.g. one written by a
+    user: ``UAVEnv("my_env.yaml")``.
 
     Observation: the task's, built on the shared attitude vector (paper, "Observation
     Spaces")::
@@ -166,6 +167,18 @@ class UAVEnv(EpisodeCore, gymnasium.Env):
             from pyflyt_engine.envs.render import Markers
 
             self._markers = Markers(self.world.client, *self.task.marker_style())
+
+    def observation_layout(self, quaternion: bool | None = None) -> observe.ObservationLayout:
+        """The declared parts of :attr:`observation_space`: entry key -> its parts, in order
+        (key ``observe.FLAT``: a Box observation); ``quaternion`` True / False: as with that
+        ``angle_representation`` instead of the configured one.  What the env manuals
+        (:mod:`pyflyt_engine.envs.manual`) print; their sizes add up to the space."""
+        cfg = self.config
+        q = self._quaternion if quaternion is None else quaternion
+        aux = self.world.vehicles[0].aux_layout()
+        attitude = observe.attitude_parts(q, cfg.action.names, cfg.action.units, aux, self.fix_flag[0])
+        layout = self.task.observation_parts(attitude)
+        return observe.layout_with_extras(layout, cfg.camera_observation, self.range_sensors[0])
 
     @property
     def vehicle(self) -> Any:

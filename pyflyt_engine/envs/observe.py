@@ -25,6 +25,99 @@ from pyflyt_engine.spec import SensorsSpec, UAVSpec
 from pyflyt_engine.state import KinematicState
 
 
+class ObservationPart(NamedTuple):
+    """One declared part of an observation entry: ``size`` consecutive values (for a
+    ``Sequence`` entry, of each row), what they mean and their frame and unit.  The parts of
+    an entry, in order, make it up exactly (tests/envs/test_observation_parts.py checks every
+    shipped config), so a manual generated from them (:mod:`pyflyt_engine.envs.manual`)
+    cannot drift from the space."""
+
+    name: str
+    size: int
+    meaning: str
+    unit: str = ""
+
+
+#: an observation's declared layout: entry key -> its parts, in order; the key
+#: :data:`FLAT` stands for an observation that is one Box (no Dict)
+ObservationLayout = dict[str, tuple[ObservationPart, ...]]
+FLAT = ""
+
+#: what each component kind's share of the auxiliary state holds (Vehicle.aux_state)
+_AUX_MEANING = {
+    "motors": ("motor throttles", "1"),
+    "surfaces": ("control-surface deflections / their limits", "[-1, 1]"),
+    "boosters": ("per booster: fuel fraction, duty, ignition", "[0, 1], 0/1"),
+    "gimbals": ("gimbal angles / their limits", "[-1, 1]"),
+    "battery": ("battery state of charge", "[0, 1]"),
+}
+
+
+def attitude_parts(
+    quaternion: bool,
+    action_names: Sequence[str],
+    action_units: Sequence[str] | None,
+    aux: Sequence[tuple[str, int]],
+    fix_flag: bool = False,
+) -> tuple[ObservationPart, ...]:
+    """The parts of the attitude vector (:func:`attitude_vector`): ``aux`` is the vehicle's
+    ``(component kind, entries)`` layout of its auxiliary state (:meth:`Vehicle.aux_layout
+    <pyflyt_engine.vehicle.Vehicle.aux_layout>`); ``fix_flag`` appends the position fix's
+    validity flag (``sensors.observe`` with a position sensor)."""
+    units = ", ".join(action_units) if action_units else "as the action"
+    parts = [
+        ObservationPart("ang_vel", 3, "angular velocity (p, q, r)", "body, rad/s"),
+        ObservationPart("attitude", 4, "attitude quaternion (x, y, z, w)", "ground, 1")
+        if quaternion
+        else ObservationPart("attitude", 3, "attitude Euler angles (roll, pitch, yaw)", "ground, rad"),
+        ObservationPart("lin_vel", 3, "linear velocity (u, v, w)", "body, m/s"),
+        ObservationPart("lin_pos", 3, "position (x, y, z)", "ground ENU, m"),
+        ObservationPart(
+            "previous_action",
+            len(action_names),
+            f"previous action ({', '.join(action_names)}); zeros after a reset",
+            units,
+        ),
+    ]
+    for kind, n in aux:
+        meaning, unit = _AUX_MEANING.get(kind, (f"{kind} read-outs", ""))
+        parts.append(ObservationPart(f"aux_{kind}", n, f"auxiliary state: {meaning}", unit))
+    if fix_flag:
+        parts.append(ObservationPart("fix_valid", 1, "the position fix's validity flag (sensors.observe)", "0/1"))
+    return tuple(parts)
+
+
+def layout_with_extras(layout: ObservationLayout, camera: Any, range_sensors: Sequence[Any]) -> ObservationLayout:
+    """``layout`` with the camera image (``camera_observation``, or None) and the range
+    sensors' readings, as :func:`with_image_space` and :func:`with_range_spaces` add them."""
+    if camera is None and not range_sensors:
+        return layout
+    entries = dict(layout) if FLAT not in layout else {"attitude": layout[FLAT]}
+    if camera is not None:
+        cam = camera.camera
+        depth = 3 if camera.channels == "rgb" else 4
+        shape = (depth, cam.height, cam.width) if camera.channel_first else (cam.height, cam.width, depth)
+        entries[camera.key] = (
+            ObservationPart(
+                "image",
+                depth * cam.height * cam.width,
+                f"camera '{cam.name}' image {shape}, {camera.channels.upper()}",
+                "uint8 [0, 255]",
+            ),
+        )
+    for sensor in range_sensors:
+        size = int(np.prod(sensor.shape))
+        entries[sensor.name] = (
+            ObservationPart(
+                sensor.name,
+                size,
+                f"{sensor.kind} range readings {tuple(sensor.shape)}",
+                f"m, [0, {sensor.max_range:g}]",
+            ),
+        )
+    return entries
+
+
 def attitude_size(quaternion: bool, actions: int, aux: int) -> int:
     """Entries of the attitude vector: rates 3, attitude 4 (quaternion) or 3, velocity 3,
     position 3, the previous action and the auxiliary state."""

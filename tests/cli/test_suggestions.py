@@ -54,6 +54,7 @@ def _cases(tmp):
             ["replay", str(run / "episodes" / "ep_0010.mcap")],
             f"Did you mean '{run / 'episodes' / 'ep_0001.mcap'}'?",
         ),
+        "envs: an env": (["envs", "quadx_hovr"], "Did you mean 'quadx_hover'?"),
         "a command": (["evl", "x"], "Did you mean 'eval'?"),
     }
 
@@ -87,6 +88,7 @@ NAMES = [
     "speed: an option",
     "zoo: a run directory",
     "replay: a recording",
+    "envs: an env",
     "a command",
 ]
 
@@ -107,7 +109,7 @@ def test_every_command_is_walked():
 
     commands = typer.main.get_command(app).commands
     walked = {n.split(":")[0] for n in NAMES if ":" in n}
-    takes_nothing = {name for name, c in commands.items() if not c.params}  # modes, envs (uav: its subcommands)
+    takes_nothing = {name for name, c in commands.items() if not c.params}  # modes (uav: its subcommands)
     assert set(commands) - walked <= takes_nothing, set(commands) - walked - takes_nothing
 
 

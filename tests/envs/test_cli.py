@@ -1,4 +1,5 @@
-"""`pyflyt envs` lists every registered environment with its spaces and rewards."""
+"""`pyflyt envs` lists every registered environment with its spaces and rewards; `pyflyt envs
+<name>` prints one env's generated manual."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from typer.testing import CliRunner
 from pyflyt_cli.catalog import list_envs
 from pyflyt_cli.main import app
 from pyflyt_engine.envs import ENVS
+from pyflyt_engine.envs.manual import env_manual
 
 
 def test_list_envs_table():
@@ -39,3 +41,24 @@ def test_envs_command():
     result = CliRunner().invoke(app, ["envs"])
     assert result.exit_code == 0, result.output
     assert "PyFlyt/QuadX-Waypoints-v0" in result.output and "reward terms:" in result.output
+
+
+def test_envs_command_prints_one_manual_by_id_or_config():
+    result = CliRunner().invoke(app, ["envs", "PyFlyt/QuadX-Hover-v0"])
+    assert result.exit_code == 0, result.output
+    assert result.output == env_manual("PyFlyt/QuadX-Hover-v0")
+    assert "| agent | 30 Hz: one agent step = 8 physics steps" in result.output
+    variant = CliRunner().invoke(app, ["envs", "quadx_waypoints_velocity"])
+    assert variant.exit_code == 0, variant.output
+    assert (
+        "flight mode `velocity_yawrate`" in variant.output
+        and "a variant of `PyFlyt/QuadX-Waypoints-v0`" in variant.output
+    )
+
+
+def test_envs_command_refuses_an_unknown_name_listing_the_known_ones():
+    result = CliRunner().invoke(app, ["envs", "QuadX-Hovr"])
+    assert result.exit_code == 2
+    assert "Traceback" not in result.output
+    assert "error: unknown environment 'QuadX-Hovr'" in result.output
+    assert "PyFlyt/QuadX-Hover-v0" in result.output and "ma_quadx_hover_v0" in result.output

@@ -246,6 +246,19 @@ class MultiAgentUAVEnv(EpisodeCore, ParallelEnv):
 
     # --------------------------------------------------------------- spaces
 
+    def observation_layout(self, quaternion: bool | None = None) -> observe.ObservationLayout:
+        """The declared parts of every agent's observation space (one layout, shared by all):
+        entry key -> its parts (key ``observe.FLAT``: a Box), the attitude vector then the
+        task's :meth:`~pyflyt_engine.envs.tasks.multi.MultiAgentTask.observation_parts`;
+        ``quaternion`` as for :meth:`UAVEnv.observation_layout
+        <pyflyt_engine.envs.env.UAVEnv.observation_layout>`."""
+        cfg = self.config
+        q = self._quaternion if quaternion is None else quaternion
+        aux = self.vehicles[0].aux_layout()
+        attitude = observe.attitude_parts(q, cfg.action.names, cfg.action.units, aux, self.fix_flag[0])
+        layout = {observe.FLAT: (*attitude, *self.task.observation_parts())}
+        return observe.layout_with_extras(layout, cfg.camera_observation, self.range_sensors[0])
+
     def observation_space(self, agent: str) -> spaces.Space:
         return self.observation_spaces[agent]
 

@@ -13,57 +13,31 @@ from pyflyt_engine.envs.tasks.multi import MultiAgentTask
 class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
     """``ma_fixedwing_dogfight_v0``: two teams of fixed-wings; guns fire along the nose.
 
-    Config: ``conf/env/ma_fixedwing_dogfight.yaml`` (1 v 1 of the paper's ``fixedwing``;
-    ``agents: 4`` gives 2 v 2, or list agents with their ``team`` and ``spawn``).
+    The shipped config is 1 v 1 of the paper's ``fixedwing`` (``agents: 4`` gives 2 v 2, or
+    list agents with their ``team`` and ``spawn``); action per agent as
+    :class:`~pyflyt_engine.envs.fixedwing.FixedwingWaypointsEnv` (raw channels).
+
+    Its manual -- loop rates, agents and spawn regions, per-agent action table and
+    observation layout, reward presets with their terms and weights, task options, episode
+    end, arguments -- is generated from its config and spaces: ``pyflyt envs ma_fixedwing_dogfight_v0``
+    (docs/environments.md, "Env manuals").
 
     **Guns** (the reference PyFlyt's semantics): agent i *hits* opponent j during a step
     when j is inside i's gun cone -- the angle between i's nose (body x axis) and the line
-    from i to j is below ``lethal_angle`` = 0.07 rad -- and within ``lethal_distance`` =
-    20 m.  Every agent starts with health 1; each step it is hit by k opponents it loses
-    ``k x damage_per_second x dt`` (0.36/s: an opponent must be held in the cone for
-    ~2.8 s of sustained fire to kill).  Teammates never hit each other.  An agent at zero
-    health is shot down (terminated); the opponents that were hitting it when it died
-    each score a kill.  When one team has no live agent left, the other team's live
-    agents win (terminated with ``info["team_win"]``).
+    from i to j is below ``lethal_angle`` -- and within ``lethal_distance``.  Every agent
+    starts with health 1; each step it is hit by k opponents it loses ``k x
+    damage_per_second x dt``.  Teammates never hit each other.  An agent at zero health is
+    shot down (terminated); the opponents that were hitting it when it died each score a
+    kill.  When one team has no live agent left, the other team's live agents win
+    (terminated with ``info["team_win"]``).  A retired aircraft is disarmed and glides
+    down; it stays in the world as an obstacle.
 
-    **Action space** (per agent) ``Box(4,)`` float64: aileron, elevator, rudder in [-1, 1],
-    thrust in [0, 1] -- the raw channels, as
-    :class:`~pyflyt_engine.envs.fixedwing.FixedwingWaypointsEnv`.
-
-    **Observation space** (per agent) ``Box(24 + 12 (N - 1),)`` float64 (quaternion):
-
-    * own attitude vector (23, as Fixedwing-Waypoints: angular velocity, attitude, body
-      velocity, position, previous action, throttle and surface deflections), then own
-      health (1);
-    * one block of 12 per other agent -- teammates first, then opponents, each in agent
-      order -- all in this agent's body frame: relative position (3) [m], relative
-      velocity (3) [m/s], the other's nose direction (3), its health (1), same team (1),
-      alive (1).  A retired agent's block is zeros.
-
-    **Reward** per agent (dense, preset ``ma_fixedwing_dogfight_dense``; terms in each
-    agent's ``info["reward_terms"]``), the reference's dense reward with aggressiveness 0.5::
-
-        crash         -1000   contact with anything, ground included
-        out_of_bounds -1000   beyond flight_dome_size = 800 m from the origin
-        team_win      +300
-        kill          +100 per kill
-        hit           +20 per opponent in the gun this step;  hit_taken -10 per gunner on you
-        aim           +3 x sum over opponents ahead and in range of 1/(angle off the nose + 0.1)
-        aimed_at      -1.5 x the same seen from the opponents
-        pursuit       +4 x distance closed [m] on opponents ahead but out of range
-        floor         +tanh(0.1 z - 1);  dome  -tanh(0.0025 ||p|| - 1)
-
-    Sparse (``ma_fixedwing_dogfight_sparse``): crash, out_of_bounds, team_win, kill, hit,
-    hit_taken only.
-
-    **Episode end** (per agent): terminated when shot down (``info["shot_down"]``), on a
-    crash or dome exit, or on a team win; truncated for the live agents after
-    ``max_duration_seconds`` = 60 s (1800 steps).  A retired aircraft is disarmed and
-    glides down; it stays in the world as an obstacle.
-
-    **Info** per agent: ``health``, ``hits_dealt``, ``hits_taken``, ``kills`` (this
-    step), ``total_hits_taken``, ``shot_down``, ``team_win``, ``team``, ``collision``,
-    ``out_of_bounds``, ``outcome``, ``success``, ``reward_terms``.
+    **Reward**: the dense preset is the reference's dense reward with aggressiveness 0.5:
+    crash and dome-exit penalties, a team-win and a per-kill bonus, per-step hit and
+    hit-taken terms, an aim term over opponents ahead and in range (1/(angle off the nose +
+    0.1)) less the same seen from the opponents, pursuit (distance closed on opponents
+    ahead but out of range), and floor and dome shaping; the sparse preset keeps the crash,
+    dome, win, kill and hit terms.
 
     **Outcome** (``info["outcome"]``; None while the agent fights on, else set on its last
     step): ``loss`` (shot down), ``crash`` (contact with anything), ``out_of_bounds``
@@ -73,13 +47,10 @@ class MAFixedwingDogfightEnv(MultiAgentUAVEnv):
     several happen in one step the first of loss, crash, out_of_bounds, win counts.
     ``success`` is ``outcome == "win_by_kill"``: a crash is never a success, and neither is
     an opponent's crash.  An episode succeeds when some agent's does (a team won by kills).
-    ``team_win`` (and its reward) is any win, by kill or by default.
-
-    **Arguments**: ``agents`` (count or list), ``lethal_distance`` (20 m), ``lethal_angle``
-    (0.07 rad), ``damage_per_second`` (0.36), ``team_separation`` (100 m),
-    ``wingman_spacing`` (20 m), ``spawn_height`` (40 m), ``position_noise`` (5 m),
-    ``heading_noise`` (0.2 rad), ``spawn_speed`` (14 m/s), ``reward``, rates,
-    ``max_duration_seconds`` (60), ``flight_dome_size`` (800), ``uav`` ("fixedwing").
+    ``team_win`` (and its reward) is any win, by kill or by default.  Info per agent:
+    ``health``, ``hits_dealt``, ``hits_taken``, ``kills`` (this step),
+    ``total_hits_taken``, ``shot_down``, ``team_win``, ``team``, ``collision``,
+    ``out_of_bounds``, ``outcome``, ``success``, ``reward_terms``.
 
     **Version history**: v0 -- the reference PyFlyt 0.29.0 ``MAFixedwingDogfightEnv``
     differs: its own high-manoeuvrability airframe flown through an attitude-assist mode;

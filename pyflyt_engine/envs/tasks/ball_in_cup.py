@@ -36,6 +36,7 @@ from pydantic import Field
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import Condition, RewardTerm, StepContext, register_condition, register_term
+from pyflyt_engine.envs.observe import FLAT, ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.errors import ConfigError
@@ -97,6 +98,15 @@ class BallInCupTask(Task):
 
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         return spaces.Box(-np.inf, np.inf, shape=(attitude.shape[0] + BALL_OBS_SIZE,), dtype=np.float64)
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        return {
+            FLAT: (
+                *attitude,
+                ObservationPart("ball_position", 3, "ball position relative to the centre of mass", "body, m"),
+                ObservationPart("ball_velocity", 3, "ball velocity (ground) in body axes, R^T v_ball", "body, m/s"),
+            )
+        }
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> np.ndarray:
         ball = self.payloads.state(self.options.ball)  # type: ignore[union-attr]

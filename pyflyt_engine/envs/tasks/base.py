@@ -40,6 +40,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import BaseModel, ConfigDict, Field
 
+from pyflyt_engine.envs.observe import FLAT, ObservationLayout, ObservationPart
 from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.state import KinematicState
 
@@ -243,6 +244,13 @@ class Task:
     def observe(self, attitude: np.ndarray, state: KinematicState) -> Any:
         """The observation, given the shared attitude vector."""
         return attitude
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        """What :meth:`observation_space` holds, given the attitude vector's parts: entry key
+        -> its parts, in order (key :data:`~pyflyt_engine.envs.observe.FLAT`: one Box).  A task
+        that changes :meth:`observation_space` declares the same change here (a test checks
+        every shipped config; the env manuals are written from it)."""
+        return {FLAT: attitude}
 
     def update(self, state: KinematicState) -> TaskSignals:
         """Advance one agent step with the vehicle now in ``state``."""

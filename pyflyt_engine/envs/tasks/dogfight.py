@@ -16,6 +16,7 @@ from pydantic import Field
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import Condition, RewardTerm, StepContext, register_condition, register_term
+from pyflyt_engine.envs.observe import ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.multi import AgentSignals, MATaskOptions, MultiAgentTask, SpawnConfig
 from pyflyt_engine.state import KinematicState
@@ -155,6 +156,20 @@ class DogfightTask(MultiAgentTask):
 
     def extra_size(self) -> int:
         return 1 + OTHER_SIZE * (len(self.agents) - 1)
+
+    def observation_parts(self) -> tuple[ObservationPart, ...]:
+        parts = [ObservationPart("health", 1, "the agent's own health", "[0, 1]")]
+        for k in range(len(self.agents) - 1):
+            parts.append(
+                ObservationPart(
+                    f"other_{k}",
+                    OTHER_SIZE,
+                    f"other agent {k + 1} (teammates first, then opponents): relative position (3), relative "
+                    "velocity (3), nose direction (3), health, same team, alive; zeros once it is down",
+                    "body, m, m/s, 1; [0, 1]; 0/1; 0/1",
+                )
+            )
+        return tuple(parts)
 
     def _options(self) -> DogfightOptions:
         return self.options  # type: ignore[return-value]

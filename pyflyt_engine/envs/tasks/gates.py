@@ -52,6 +52,7 @@ from gymnasium import spaces
 from pydantic import Field, model_validator
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.observe import ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.measures import Measure
@@ -245,6 +246,37 @@ class GatesTask(Task):
             )
         deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
         return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        kind = self.options.observation
+        if kind == "corners":
+            corners = ("top left", "top right", "bottom right", "bottom left")
+            return {
+                "attitude": attitude,
+                "gate": tuple(
+                    ObservationPart(
+                        f"corner_{k}", 3, f"vector to the next gate's {c} corner (zeros when done)", "body, m"
+                    )
+                    for k, c in enumerate(corners)
+                ),
+            }
+        if kind == "relative_pose":
+            return {
+                "attitude": attitude,
+                "gate": (
+                    ObservationPart("gate_centre", 3, "vector to the next gate's centre (zeros when done)", "body, m"),
+                    ObservationPart(
+                        "gate_attitude",
+                        4,
+                        "the gate's attitude relative to the body, R_body^T R_gate",
+                        "quaternion (x, y, z, w)",
+                    ),
+                ),
+            }
+        centre = ObservationPart(
+            "gate_delta", 3, "vector to a gate not yet passed, one row each, next first", "body, m"
+        )
+        return {"attitude": attitude, "target_deltas": (centre,)}
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
         kind = self.options.observation

@@ -27,6 +27,7 @@ from gymnasium import spaces
 from pydantic import Field, model_validator
 
 from pyflyt_engine import exact
+from pyflyt_engine.envs.observe import ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.measures import Measure
@@ -108,6 +109,10 @@ class GoalTask(Task):
         return spaces.Dict(
             {"attitude": attitude, "goal_delta": spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)}
         )
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        goal = ObservationPart("goal_delta", 3, "vector to the goal (zeros once reached)", "body, m")
+        return {"attitude": attitude, "goal_delta": (goal,)}
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
         remaining = self.tracker.remaining

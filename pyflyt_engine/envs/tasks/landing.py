@@ -45,6 +45,7 @@ from pydantic import Field, model_validator
 from pyflyt_engine import exact
 from pyflyt_engine.constants import GRAVITY
 from pyflyt_engine.envs.rewards import Condition, StepContext, register_condition
+from pyflyt_engine.envs.observe import FLAT, ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Spawn, Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.measures import Measure
@@ -240,6 +241,10 @@ class LandingTask(Task):
         low = np.append(attitude.low, 0.0)
         high = np.append(attitude.high, 1.0)
         return spaces.Box(low, high, dtype=np.float64)
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        pad = ObservationPart("pad_contact", 1, "the rocket touched the pad during the last step", "0/1")
+        return {FLAT: (*attitude, pad)}
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> np.ndarray:
         return np.concatenate((attitude, (1.0 if self._signals[0] else 0.0,)))  # np.append without its wrapper

@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import Field
 
 from pyflyt_engine.envs.rewards import Condition, RewardTerm, StepContext, register_condition, register_term
+from pyflyt_engine.envs.observe import ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.multi import AgentSignals, MATaskOptions, MultiAgentTask, SpawnConfig, Vec3, grid_layout
 from pyflyt_engine.spatial import PlanarGrid
@@ -107,6 +108,24 @@ class MAFormationTask(MultiAgentTask):
 
     def extra_size(self) -> int:
         return 6 + 4 * self.options.neighbours  # type: ignore[attr-defined]
+
+    def observation_parts(self) -> tuple[ObservationPart, ...]:
+        n = self.options.neighbours  # type: ignore[attr-defined]
+        parts = [
+            ObservationPart("slot_delta", 3, "the agent's moving slot minus its position", "ground, m"),
+            ObservationPart("formation_velocity", 3, "the formation's velocity", "ground, m/s"),
+        ]
+        for k in range(n):
+            parts.append(
+                ObservationPart(
+                    f"neighbour_{k}",
+                    4,
+                    f"neighbour {k + 1} (nearest first): its offset (x, y, z) and 1; zeros past the live "
+                    "neighbours within neighbour_radius",
+                    "ground, m; 0/1",
+                )
+            )
+        return tuple(parts)
 
     def reset(self, states: list[KinematicState]) -> None:
         opts: Any = self.options

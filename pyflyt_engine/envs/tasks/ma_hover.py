@@ -13,6 +13,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import Field
 
+from pyflyt_engine.envs.observe import ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.measures import DISTANCE_HELD, DistanceHeld, Measure
 from pyflyt_engine.envs.tasks.multi import AgentSignals, MATaskOptions, MultiAgentTask, SpawnConfig, grid_layout
@@ -76,6 +77,9 @@ class MAHoverTask(MultiAgentTask):
 
     def extra_size(self) -> int:
         return 3
+
+    def observation_parts(self) -> tuple[ObservationPart, ...]:
+        return (ObservationPart("hover_delta", 3, "the agent's hover point minus its position", "ground, m"),)
 
     def reset(self, states: list[KinematicState]) -> None:
         self._points = np.array([a.hover_point for a in self.agents], dtype=np.float64)

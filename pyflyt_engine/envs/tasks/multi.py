@@ -48,6 +48,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from pyflyt_engine.envs.observe import ObservationPart
 from pyflyt_engine.envs.task_registry import TaskTable, register_task
 from pyflyt_engine.envs.tasks.base import episode_options
 from pyflyt_engine.envs.tasks.measures import Measure
@@ -198,6 +199,12 @@ class MultiAgentTask:
     def extra_size(self) -> int:
         """Observation entries each agent gets after the shared attitude vector."""
         return 0
+
+    def observation_parts(self) -> tuple[ObservationPart, ...]:
+        """What the :meth:`extra_size` entries after the attitude vector hold, in order (a
+        test checks that they add up for every shipped config; the env manuals are written
+        from them)."""
+        return ()
 
     def reset(self, states: list[KinematicState]) -> None:
         """Start an episode with every agent placed in ``states``."""

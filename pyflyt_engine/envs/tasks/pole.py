@@ -30,6 +30,7 @@ from pydantic import Field
 
 from pyflyt_engine import exact
 from pyflyt_engine.envs.rewards import RewardTerm, StepContext, register_term
+from pyflyt_engine.envs.observe import FLAT, ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals, Vec3
 from pyflyt_engine.envs.tasks.hover import HoverOptions, HoverTask
@@ -105,6 +106,15 @@ class PoleReadout:
         return self._values
 
 
+#: the pole's values after the attitude vector (module docstring), POLE_OBS_SIZE in all
+POLE_PARTS = (
+    ObservationPart("pole_tip", 3, "pole tip position relative to the centre of mass", "body, m"),
+    ObservationPart("pole_base", 3, "pole base position relative to the centre of mass", "body, m"),
+    ObservationPart("pole_tip_velocity", 3, "pole tip velocity relative to the centre of mass", "body, m/s"),
+    ObservationPart("pole_base_velocity", 3, "pole base velocity relative to the centre of mass", "body, m/s"),
+)
+
+
 def _extend(attitude: spaces.Box) -> spaces.Box:
     size = attitude.shape[0] + POLE_OBS_SIZE
     return spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
@@ -136,6 +146,9 @@ class PoleBalanceTask(HoverTask):
 
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         return _extend(attitude)
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        return {FLAT: (*attitude, *POLE_PARTS)}
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> np.ndarray:
         return np.concatenate((attitude, self.pole.observe(state)))
@@ -180,6 +193,9 @@ class PoleWaypointsTask(WaypointsTask):
 
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         return super().observation_space(_extend(attitude))
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        return super().observation_parts((*attitude, *POLE_PARTS))
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
         return super().observe(np.concatenate((attitude, self.pole.observe(state))), state)

@@ -8,11 +8,18 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field, model_validator
 
+from pyflyt_engine.envs.observe import ObservationLayout, ObservationPart
 from pyflyt_engine.envs.task_registry import register_task
 from pyflyt_engine.envs.tasks.base import Task, TaskOptions, TaskSignals
 from pyflyt_engine.envs.tasks.measures import Measure
 from pyflyt_engine.envs.waypoints import WaypointTracker, body_frame_deltas, sample_waypoints
 from pyflyt_engine.state import KinematicState
+
+
+#: a row of ``target_deltas``, one per waypoint not yet reached, next first
+TARGET_DELTA = ObservationPart(
+    "target_delta", 3, "vector to a waypoint not yet reached, one row each, next first", "body, m"
+)
 
 
 class WaypointsOptions(TaskOptions):
@@ -107,6 +114,9 @@ class WaypointsTask(Task):
     def observation_space(self, attitude: spaces.Box) -> spaces.Space:
         deltas = spaces.Box(-np.inf, np.inf, shape=(3,), dtype=np.float64)
         return spaces.Dict({"attitude": attitude, "target_deltas": spaces.Sequence(deltas, stack=True)})
+
+    def observation_parts(self, attitude: tuple[ObservationPart, ...]) -> ObservationLayout:
+        return {"attitude": attitude, "target_deltas": (TARGET_DELTA,)}
 
     def observe(self, attitude: np.ndarray, state: KinematicState) -> dict[str, np.ndarray]:
         deltas = body_frame_deltas(self.tracker.remaining, state.lin_pos, state.quaternion)
