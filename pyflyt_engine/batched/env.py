@@ -315,6 +315,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: per env, the sensors' and estimator's state (empty rows without sensors)
         self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))
         self.sensor_counts = self.sensors.counts if self.sensors is not None else np.zeros((n, 0), dtype=np.int64)
+        #: per env, its sensors' parameters (a randomize section's sensor factors set them per episode)
+        self.sensor_params = self.sensors.param_rows if self.sensors is not None else np.zeros((n, 0))
         self._fix_flag = self.sensors is not None and self.sensors.fix_flag
         size = 3 + (4 if self._quaternion else 3) + 3 + 3 + self._low.size + m.aux_size + int(self._fix_flag)
         self._attitude_size = size

@@ -22,7 +22,11 @@ so env ``i``'s episode draws what a PyBullet env drawing from that generator dra
 * ``spawn_x`` ... ``spawn_yaw``: offsets added to the task's spawn (position, then Euler
   angles) before it is turned into the state, as ``Randomizer.spawn`` adds them (with any
   ``randomize`` entry, undrawn offsets add 0, as there);
-* ``action_delay``, ``observation_delay``: handed to :class:`~pyflyt_engine.batched.latency.BatchedLatency`.
+* ``action_delay``, ``observation_delay``: handed to :class:`~pyflyt_engine.batched.latency.BatchedLatency`;
+* ``gyro_scale``, ``accel_scale``, ``gyro_noise``, ``accel_noise``, ``position_noise``: the
+  env's row of its noisy sensors' parameters (:func:`~pyflyt_engine.batched.sensors.randomized_parameters`:
+  the triads' scale factors, white-noise densities and bias random walks, the fix's noise,
+  each the nominal value times the factor, as the randomiser sets the engine's sensors).
 
 The flight controller (the rate loop, the mixer, the cascade's outer loops, the fixed-wing
 autopilot) keeps the nominal values, as the PyBullet engine's does.  The values drawn are
@@ -30,7 +34,7 @@ autopilot) keeps the nominal values, as the PyBullet engine's does.  The values 
 order; the delays in seconds, as drawn), the env's ``info["randomization"]``.
 
 What this backend does not draw stays refused, by name (:func:`unsupported`): the
-optional models' factors (``motor_rotor_drag``, the battery's, the sensors'), and
+optional models' factors (``motor_rotor_drag``, the battery's), and
 ``wind.<path>``: the batched wind field is one parameter array for the whole batch and the
 Dryden filter is built once per env config (its matrices depend on the turbulence's
 intensities and scale lengths), so a per-env wind needs per-env rows of both.
@@ -47,6 +51,7 @@ from pyflyt_engine.assembly import assemble
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
+from pyflyt_engine.batched.sensors import SENSOR_FACTORS, randomized_parameters
 from pyflyt_engine.envs.randomization import AIRFRAME, DELAYS, SPAWN, Distribution
 
 if TYPE_CHECKING:
@@ -55,7 +60,7 @@ if TYPE_CHECKING:
     from pyflyt_engine.spec import UAVSpec
 
 #: the ``randomize`` entries the batched backend draws and applies
-BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN
+BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN + SENSOR_FACTORS
 MOTOR = ("motor_kf", "motor_kt", "motor_tau")
 
 
@@ -105,11 +110,13 @@ class BatchedRandomizer:
         self.body = bool(drawn & {"mass", "inertia"})
         self.motors = bool(drawn & set(MOTOR)) and self._motors is not None
         self.drag = "drag" in drawn
+        #: a sensor factor is drawn: each env's row of its sensors' parameters changes per episode
+        self.sensing = bool(drawn & set(SENSOR_FACTORS))
 
     @property
     def airframe(self) -> bool:
-        """Whether any airframe factor is drawn (the env's parameter rows change per episode)."""
-        return self.body or self.motors or self.drag
+        """Whether any airframe or sensor factor is drawn (the env's parameter rows change per episode)."""
+        return self.body or self.motors or self.drag or self.sensing
 
     def arrays(self) -> tuple[str, ...]:
         """The env's arrays whose rows the draws set (a checkpoint carries them): the values,
@@ -119,6 +126,7 @@ class BatchedRandomizer:
             + (("_mass", "_inertia") if self.body else ())
             + (("_lag", "_columns", "_rotors") if self.motors else ())
             + (("_drag_factors", "_damping") if self.drag else ())
+            + (("sensor_params",) if self.sensing else ())
         )
 
     def draw(self, i: int | np.ndarray, rng: np.random.Generator) -> dict[str, float]:
@@ -158,6 +166,9 @@ class BatchedRandomizer:
             d = dataclasses.replace(d, coefficients=(cx * f, cy * f, cz * f), angular_damping=d.angular_damping * f)
             env._drag_factors[i] = d.factors
             env._damping[i] = d.angular_damping
+        sensors = env.sensors
+        if self.sensing and sensors is not None:
+            sensors.param_rows[i] = randomized_parameters(sensors.params, values)
 
     def info(self, index: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """The values of every env's current episode by entry ((N,) each), as the PyBullet

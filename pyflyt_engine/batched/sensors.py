@@ -24,7 +24,9 @@ the same true states, a row reads bit for bit what a :class:`SensorSuite` reads
 (``tests/batched/test_sensors.py``).
 
 State per env (:data:`STATE_SIZE` floats, :data:`COUNT_SIZE` integers): see the ``S_*``
-and ``C_*`` offsets.  Parameters: one vector for the whole batch (:func:`parameters`).
+and ``C_*`` offsets.  Parameters: the airframe's vector (:func:`parameters`), one row per
+env, which a ``randomize`` section's sensor factors change per episode
+(:func:`randomized_parameters`).
 """
 
 from __future__ import annotations
@@ -113,6 +115,30 @@ def parameters(spec: Any, estimator: Any, physics_dt: float, gravity: float) -> 
         p[P_VGAIN] = float(estimator.beta) * float(pos.rate_hz)
         p[P_EST_DT] = 1.0 / float(imu.gyro.rate_hz)
     p[P_DT], p[P_GRAVITY] = float(physics_dt), float(gravity)
+    return p
+
+
+#: the ``randomize`` entries that scale the sensors' parameters (pyflyt_engine.envs.randomization)
+SENSOR_FACTORS = ("gyro_scale", "accel_scale", "gyro_noise", "accel_noise", "position_noise")
+
+
+def randomized_parameters(nominal: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """The parameter vector of a vehicle whose ``randomize`` draws are ``values``, from the
+    airframe's ``nominal`` one, as the PyBullet engine's randomiser sets its sensors
+    (:meth:`pyflyt_engine.envs.randomization.Randomizer.sample`, each product the same): the
+    triads' scale times ``<triad>_scale``, their noise density and bias random walk times
+    ``<triad>_noise`` (where the vehicle has an IMU), the fix's noise per axis times
+    ``position_noise`` (where it has a fix)."""
+    p = nominal.copy()
+    if p[P_IMU] != 0.0:
+        for at, kind in ((P_GYRO, "gyro"), (P_ACCEL, "accel")):
+            noise = values.get(f"{kind}_noise", 1.0)
+            p[at + 4] = nominal[at + 4] * values.get(f"{kind}_scale", 1.0)
+            p[at] = nominal[at] * noise
+            p[at + 1] = nominal[at + 1] * noise
+    if p[P_POS] != 0.0 and "position_noise" in values:
+        for a in range(3):
+            p[P_POS_STD + a] = nominal[P_POS_STD + a] * values["position_noise"]
     return p
 
 
@@ -297,14 +323,15 @@ def _reset_draws(p, row, counts, state, next_uint64, next_double, position, velo
 
 
 @njit(cache=True)
-def reset_rows(index, states, next_uint64, next_double, p, puts, pos, vel, quaternion, rows, counts):
+def reset_rows(index, states, next_uint64, next_double, params, puts, pos, vel, quaternion, rows, counts):
     """The sensors (and estimator) of every env in ``index`` at time 0 of an episode started
     at ``pos``, ``vel`` (ground frame) and ``quaternion`` (body to ground, as read): ``puts``
     times new initial biases drawn, the last kept (the PyBullet env puts a vehicle at its
     spawn twice an episode, module docstring), the readings at the spawn, the estimator
-    (if any) at the spawn's pose and velocity."""
+    (if any) at the spawn's pose and velocity; ``params[i]`` env ``i``'s parameter vector."""
     for k in range(index.shape[0]):
         i = index[k]
+        p = params[i]
         for _ in range(puts):
             _reset_draws(p, rows[i], counts[i], states[i], next_uint64, next_double, pos[i], vel[i])
         if p[P_EST] != 0.0:
@@ -397,14 +424,25 @@ def sample_row(p, row, counts, steps, state, next_uint64, next_double, pos, r, v
 
 
 @njit(cache=True)
-def sample_rows(states, next_uint64, next_double, p, rows, counts, episode_steps, pos, quat, vel, angvel):
-    """:func:`sample_row` for every env at the start of its physics step ``episode_steps[i]``,
-    the rotation from the body's quaternion (:func:`~pyflyt_engine.batched.kernels.rotation_rows`)."""
+def sample_rows(states, next_uint64, next_double, params, rows, counts, episode_steps, pos, quat, vel, angvel):
+    """:func:`sample_row` for every env (its parameter vector ``params[i]``) at the start of its
+    physics step ``episode_steps[i]``, the rotation from the body's quaternion
+    (:func:`~pyflyt_engine.batched.kernels.rotation_rows`)."""
     r = np.empty(9)
     for i in range(pos.shape[0]):
         _rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
         sample_row(
-            p, rows[i], counts[i], episode_steps[i], states[i], next_uint64, next_double, pos[i], r, vel[i], angvel[i]
+            params[i],
+            rows[i],
+            counts[i],
+            episode_steps[i],
+            states[i],
+            next_uint64,
+            next_double,
+            pos[i],
+            r,
+            vel[i],
+            angvel[i],
         )
 
 
@@ -478,7 +516,11 @@ class BatchedSensors:
         check_rates(spec, 1.0 / physics_dt)
         observed = config is not None and bool(config.observe)
         estimator = config.estimator if observed else None
+        #: the airframe's parameter vector (its flags say which sensors there are)
         self.params = parameters(spec, estimator, physics_dt, gravity)
+        #: per env, the parameters its sensors sample with: the airframe's, with the noise and
+        #: scale factors a ``randomize`` section draws (:func:`randomized_parameters`)
+        self.param_rows = np.array(np.broadcast_to(self.params, (n, PARAMETER_SIZE)), order="C")
         #: what the observation shows: OBSERVE_TRUE, OBSERVE_SENSED or OBSERVE_ESTIMATED
         self.source = OBSERVE_TRUE if not observed else OBSERVE_ESTIMATED if self.params[P_EST] else OBSERVE_SENSED
         #: whether the fix's validity flag follows the auxiliary state in the observation
@@ -520,7 +562,7 @@ class BatchedSensors:
     def reset(self, index: np.ndarray, pos: np.ndarray, vel: np.ndarray, quaternion: np.ndarray) -> None:
         states, next_uint64, next_double = self.interface()
         reset_rows(
-            index, states, next_uint64, next_double, self.params, 2, pos, vel, quaternion, self.rows, self.counts
+            index, states, next_uint64, next_double, self.param_rows, 2, pos, vel, quaternion, self.rows, self.counts
         )
 
     def sample(
@@ -528,7 +570,17 @@ class BatchedSensors:
     ) -> None:
         states, next_uint64, next_double = self.interface()
         sample_rows(
-            states, next_uint64, next_double, self.params, self.rows, self.counts, episode_steps, pos, quat, vel, angvel
+            states,
+            next_uint64,
+            next_double,
+            self.param_rows,
+            self.rows,
+            self.counts,
+            episode_steps,
+            pos,
+            quat,
+            vel,
+            angvel,
         )
 
     def observed(self, seen: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -586,4 +638,13 @@ class BatchedSensors:
         ]
 
 
-__all__ = ["BatchedSensors", "check_rates", "draw_normals", "parameters", "sample_row", "standard_normal"]
+__all__ = [
+    "SENSOR_FACTORS",
+    "BatchedSensors",
+    "check_rates",
+    "draw_normals",
+    "parameters",
+    "randomized_parameters",
+    "sample_row",
+    "standard_normal",
+]

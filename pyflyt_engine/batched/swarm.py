@@ -60,10 +60,10 @@ the values, as the PyBullet engine's randomiser draws one set per reset for ever
 its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
 :func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
 :class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
-agent's rows of the body's, motors' and drag's parameters; the spawn offsets are added to
-each agent's spawn.  The flight controller keeps the nominal airframe, as the engine's does,
-and so does the downwash: the engine registers each vehicle's wake with its nominal full
-thrust and keeps it when a drawn ``motor_kf`` changes the motors.
+agent's rows of the body's, motors', drag's and sensors' parameters and of its wake's
+strength (the full thrusts a drawn ``motor_kf`` gives, which the engine's atmosphere takes
+from the vehicle's motors at its next step); the spawn offsets are added to each agent's
+spawn.  The flight controller keeps the nominal airframe, as the engine's does.
 
 Latency (``env.latency``, and the drawn delays ``randomize.action_delay`` /
 ``observation_delay``, one draw per world): the single-agent backend's
@@ -980,6 +980,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: per slot, the sensors' and estimator's state (empty rows without sensors)
         self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))
         self.sensor_counts = self.sensors.counts if self.sensors is not None else np.zeros((n, 0), dtype=np.int64)
+        #: per env, its sensors' parameters (a randomize section's sensor factors set them per episode)
+        self.sensor_params = self.sensors.param_rows if self.sensors is not None else np.zeros((n, 0))
         #: whether the position fix's validity flag follows the auxiliary state in the observation
         self._fix_flag = self.sensors is not None and self.sensors.fix_flag
         if self.sensors is not None:  # a checkpoint carries the biases, held readings, counts and estimate

@@ -291,7 +291,7 @@ def test_randomised_parameters_of_unsimulated_models_are_refused_by_name():
     factor = {"distribution": "uniform", "low": 0.9, "high": 1.1}
     for entries, named in (
         ({"battery_capacity": factor}, "randomize.battery_capacity"),
-        ({**RANDOM_DELAYS, "drag": factor, "gyro_scale": factor}, "randomize.gyro_scale"),
+        ({**RANDOM_DELAYS, "drag": factor, "motor_rotor_drag": factor}, "randomize.motor_rotor_drag"),
     ):
         cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries)
         with pytest.raises(ConfigError) as info:

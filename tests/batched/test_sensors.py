@@ -145,7 +145,7 @@ def test_one_law_per_model(name, estimator):
         for _ in range(2):
             suite.reset(tuple(p0.tolist()), tuple(v0.tolist()), tuple(q0.tolist()))
         bs.reset_rows(
-            np.array([0]), states, next_uint64, next_double, params, 2, p0[None], v0[None], q0[None], rows, counts
+            np.array([0]), states, next_uint64, next_double, params[None], 2, p0[None], v0[None], q0[None], rows, counts
         )
         for k, (p, r, v, w, _) in enumerate(flight):
             suite.step(tuple(p.tolist()), tuple(r.tolist()), tuple(v.tolist()), tuple(w.tolist()))
@@ -196,6 +196,9 @@ FLIGHTS = {
         "quadx_cf2x",
         {"latency": {"action_delay": 3 / 240, "observation_delay": 5 / 240}},
     ),
+    # the sensors' randomize factors (fixed values, so both envs fly the same): each env's
+    # parameter row (test_randomised_sensor_factors_are_the_engines below)
+    "sensed_randomized": ("quadx_hover", "quadx_cf2x", {"sensors": _SENSED, "randomize": "_SENSOR_FACTORS"}),
     # a cascade mode (the controller's tick, then a period of physics steps in mode motors)
     "estimated_velocity_mode": ("quadx_waypoints_velocity", "quadx_cf2x", {"sensors": _ESTIMATED}),
     # the fixed-wing on its channels and through its autopilot (the other compiled step)
@@ -208,10 +211,26 @@ FLIGHTS = {
 }
 
 
+def _fixed(value: float) -> dict[str, object]:
+    return {"distribution": "uniform", "low": value, "high": value}
+
+
+#: every sensor factor of a randomize section, each at a fixed value
+SENSOR_FACTORS = {
+    "gyro_scale": _fixed(1.3),
+    "gyro_noise": _fixed(2.5),
+    "accel_scale": _fixed(0.7),
+    "accel_noise": _fixed(3.0),
+    "position_noise": _fixed(4.0),
+}
+
+
 def _sensor_pair(env_name: str, uav: str, seed: int, **overrides):
     """The PyBullet env and a one-env batched env of the same config at the PyBullet env's
     start, the batched env's sensor stream put where the PyBullet world's was at its reset
     and its sensors reset from there (so both drew their initial biases alike)."""
+    if overrides.get("randomize") == "_SENSOR_FACTORS":
+        overrides = {**overrides, "randomize": SENSOR_FACTORS}
     cfg = load_env_config(env_name).with_overrides(uav=uav, **overrides)
     pb = make_env(cfg)
     first, _ = pb.reset(seed=seed)
@@ -273,6 +292,65 @@ def test_observations_match_pybullet(flight, quiet):  # noqa: F811
     assert noise > 1e3 * BOUND  # the observation is the sensors', not the true state
     assert step > 30  # it flew
     print(f"{flight}: worst {worst:.2e}, gyro noise seen {noise:.2e}")
+
+
+def test_randomised_sensor_factors_are_the_engines(quiet):  # noqa: F811
+    """The sensors' ``randomize`` factors set each batched env's parameter row to what the
+    engine's randomiser sets on its vehicle's sensors, product for product: the triads' scale,
+    white-noise density and bias random walk, the fix's noise per axis; the flight with them
+    is ``test_observations_match_pybullet[sensed_randomized]``."""
+    pb, be, _ = _sensor_pair("quadx_hover", quiet["quadx_cf2x"], seed=5, sensors=_SENSED, randomize=SENSOR_FACTORS)
+    suite = pb.unwrapped.world.vehicles[0].sensors
+    row, nominal = be.sensor_params[0], be.sensors.params
+    for at, triad, kind in ((bs.P_GYRO, suite.gyro, "gyro"), (bs.P_ACCEL, suite.accel, "accel")):
+        assert row[at + 4] == triad.scale and row[at] == triad.noise_density, kind
+        assert row[at + 1] == triad.bias_random_walk, kind
+        factor = SENSOR_FACTORS[f"{kind}_noise"]["low"]
+        assert (
+            row[at] == nominal[at] * factor and row[at + 4] == nominal[at + 4] * SENSOR_FACTORS[f"{kind}_scale"]["low"]
+        )
+    assert row[bs.P_POS_STD : bs.P_POS_STD + 3].tolist() == list(suite.position_noise_std)
+    assert (row[bs.P_POS_STD : bs.P_POS_STD + 3] == 4.0 * nominal[bs.P_POS_STD : bs.P_POS_STD + 3]).all()
+    # what is not a factor stays the airframe's (rates, ranges, initial biases, the barometer)
+    changed = {bs.P_GYRO, bs.P_GYRO + 1, bs.P_GYRO + 4, bs.P_ACCEL, bs.P_ACCEL + 1, bs.P_ACCEL + 4}
+    changed |= {bs.P_POS_STD, bs.P_POS_STD + 1, bs.P_POS_STD + 2}
+    kept = [k for k in range(bs.PARAMETER_SIZE) if k not in changed]
+    assert np.array_equal(row[kept], nominal[kept])
+    pb.close()
+
+
+def test_drawn_sensor_factors_differ_per_env_and_resume_exactly():
+    """Drawn per env and episode from each env's generator (the engine's draws: tests of the
+    randomiser), the factors give every env its own row, which a checkpoint carries: a restore
+    into a fresh batch continues bit for bit."""
+    from pyflyt_cli.training.batched import BatchedVecEnv
+
+    drawn = {name: {"distribution": "uniform", "low": 0.5, "high": 2.0} for name in SENSOR_FACTORS}
+    cfg = load_env_config("quadx_hover_sensors").with_overrides(randomize=drawn)
+    a = BatchedVecEnv(cfg, 3)
+    a.env.reset(seed=4)
+    rows = a.env.sensor_params
+    assert not np.array_equal(rows[0], rows[1]) and not np.array_equal(rows[1], rows[2])
+    values = a.env.randomized_values
+    names = a.env.randomizer.names
+    for i in range(3):
+        gyro = values[i, names.index("gyro_noise")]
+        assert rows[i, bs.P_GYRO] == a.env.sensors.params[bs.P_GYRO] * gyro
+    rng = np.random.default_rng(0)
+    actions = [rng.uniform(-1, 1, (3, 4)) for _ in range(40)]
+    for act in actions[:20]:
+        a.step(act)
+    saved = [a.episode_state(i) for i in range(3)]
+    assert all("sensor_params" in state["batched"] for state in saved)
+    b = BatchedVecEnv(cfg, 3)
+    b.env.reset(seed=999)
+    for i in range(3):
+        b.restore_episode(i, saved[i])
+    assert np.array_equal(a.env.sensor_params, b.env.sensor_params)
+    for act in actions[20:]:
+        oa, ra, da, _ = a.step(act)
+        ob, rb, db, _ = b.step(act)
+        assert np.array_equal(oa, ob) and np.array_equal(ra, rb) and np.array_equal(da, db)
 
 
 def test_resume_is_exact(tmp_path):

@@ -71,6 +71,19 @@ FLIGHTS = {
     ),
     # the estimator's attitude, velocity and position; the neighbours' displacements from its position
     "estimated_formation": ("ma_quadx_formation", {"agents": 4, "downwash": True, "sensors": ESTIMATED}),
+    # the sensors' randomize factors, one draw per world for all its vehicles (each vehicle's row)
+    "sensed_randomized_hover": (
+        "ma_quadx_hover",
+        {
+            "agents": STACKED,
+            "downwash": True,
+            "sensors": SENSED,
+            "randomize": {
+                name: {"distribution": "uniform", "low": 0.5, "high": 2.0}
+                for name in ("gyro_scale", "gyro_noise", "accel_scale", "accel_noise", "position_noise")
+            },
+        },
+    ),
     # the delayed states with the current readings
     "estimated_hover_latency": (
         "ma_quadx_hover",
