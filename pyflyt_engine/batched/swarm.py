@@ -7,8 +7,18 @@
 ``gymnasium.vector.VectorEnv`` (slot ``k A + i`` is agent ``i`` of world ``k``, the layout of
 :class:`pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`), advanced by one compiled call
 per agent step (:func:`advance_swarm`).  Each vehicle flies the batched multirotor laws of
-:mod:`pyflyt_engine.batched.kernels` (rate loop, mixer, motors, body drag, the rigid body);
-what the agents of one world do to each other:
+:mod:`pyflyt_engine.batched.kernels` (rate loop, mixer, motors, body drag, the rigid body) in
+any multirotor flight mode (:data:`SWARM_MODES`): ``rates_thrust`` and ``motors`` in the
+kernel, and every cascade mode of :mod:`pyflyt_engine.batched.modes` as the single-agent
+backend flies one (:meth:`BatchedSwarmEnv._advance_cascade`): at each control tick every
+armed vehicle's controller runs (:func:`~pyflyt_engine.batched.modes.control_tick`, the same
+compiled loops) from the state at the tick, then the control period's physics steps run in
+mode ``motors`` with the commands it gave.  That is the PyBullet engine's order with
+downwash (:meth:`pyflyt_engine.world.World.step`: on a tick every vehicle is read and runs
+its controller before any vehicle steps its motors, and the controller reads the vehicle's
+state, not its air).  The velocity loop's integrals (``vel_integral``) are cleared with the
+rate loop's at a world's restart and carried by a checkpoint; what the agents of one world
+do to each other:
 
 * **downwash** (``env.downwash: true``): the engine's law,
   :func:`pyflyt_engine.atmosphere.rotors.downwash_velocity` summed over the rotorcraft above
@@ -34,7 +44,8 @@ Episodes follow the PyBullet env's (:class:`~pyflyt_engine.envs.multi_agent.base
 with :class:`~pyflyt_engine.envs.tasks.ma_hover.MAHoverTask`): a live agent is
 *terminated* on any contact (ground or another agent, retired ones included) or leaving the
 dome, *truncated* at the time limit (a success); an agent whose episode ended is retired:
-disarmed (motor commands 0, its controller no longer runs), it falls and stays a body the
+disarmed (motor commands 0, its controller no longer runs: its integrals and last rates stay
+as they were, as the engine's ``Vehicle.control_step`` leaves them), it falls and stays a body the
 others can hit and whose wake still blows (its throttles decaying).  The PyBullet engine's
 ground holds a fallen vehicle; here a retired vehicle that reaches the ground is held there
 at rest.  A world's episode ends when no agent is left; it then starts its next one.
@@ -61,9 +72,10 @@ its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
 :func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
 :class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
 agent's rows of the body's, motors' and drag's parameters; the spawn offsets are added to
-each agent's spawn.  The flight controller keeps the nominal airframe, as the engine's does,
-and so does the downwash: the engine registers each vehicle's wake with its nominal full
-thrust and keeps it when a drawn ``motor_kf`` changes the motors.
+each agent's spawn.  The flight controller keeps the nominal airframe, as the engine's does
+(in every flight mode); each vehicle's wake is as strong as its own motors, a drawn
+``motor_kf`` included (``_wake_thrust``, a row per vehicle the randomiser sets), as the
+engine takes a vehicle's full thrusts from its motor constants when they change.
 
 Latency (``env.latency``, and the drawn delays ``randomize.action_delay`` /
 ``observation_delay``, one draw per world): the single-agent backend's
@@ -74,8 +86,9 @@ entries -- the formation's neighbours among them -- from those delayed states, a
 engine's ``delayed_state`` source gives them; rewards and episode ends read the true
 states).  The agent step then runs in pieces; each vehicle's latest read position, from
 which the others' downwash is taken, is the env's (``_reads``) and carries over from one
-piece to the next, and a piece ending inside a control period takes no contact sample, so
-the pieces change no number of the flight.
+piece to the next, a piece ending inside a control period takes no contact sample, and in a
+cascade mode a piece starting inside one runs no controller tick (the motors keep the
+commands the period's tick gave), so the pieces change no number of the flight.
 
 Noisy sensors (``env.sensors``, or the airframe's ``sensors`` section, and the estimator):
 the single-agent backend's :class:`~pyflyt_engine.batched.sensors.BatchedSensors`, a row per
@@ -91,7 +104,7 @@ true states.
 
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
-different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
+different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
 backend does not draw either, the optional motor models, rotary turbulence gusts, and every
 key the single-agent batched backend refuses (the range sensors and cameras among them).
 """
