@@ -245,6 +245,32 @@ def test_delayed_stacked_agents_in_a_cascade_mode_agree_with_the_pybullet_engine
     assert flown == 60 and not ends, ends
 
 
+def test_randomised_stacked_agents_in_a_cascade_mode_agree_with_the_pybullet_engine(quiet_cf2x):  # noqa: F811
+    """Every randomize entry drawn (the airframe factors, spawn offsets, delays), the controller
+    left nominal in both, each backend's own drawn spawn: position_yaw on the stacked layout
+    with downwash within 1e-6 for 2 s."""
+    from tests.batched.test_randomization import DRAWS
+    from tests.batched.test_swarm_randomization import _generators, _pybullet
+
+    mode = "position_yaw"
+    cfg = load_env_config("ma_quadx_hover").with_overrides(
+        uav=quiet_cf2x, agents=STACKED, downwash=True, randomize=DRAWS, action=cascade_action(mode)
+    )
+    be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
+    first, info = be.reset(seed=5)
+    pb, start, pb_info = _pybullet(cfg, _generators(5, 1)[0])
+    names = pb.possible_agents
+    assert all(pb_info[n]["randomization"] == {e: float(v[0]) for e, v in info["randomization"].items()} for n in names)
+    assert not np.array_equal(be._mass, np.full_like(be._mass, be.model.mass))  # drawn away from the nominal
+    spawned = max(np.abs(start[n] - first[i]).max() for i, n in enumerate(names))
+    worst, flown, ends = fly(pb, be, mode, np.random.default_rng(24), 60, _home(be))
+    worst["spawn"] = spawned
+    print(f"randomised, {mode}: {worst}")
+    pb.close()
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 60 and not ends, ends
+
+
 # ---------------------------------------------------------------------------- the env
 
 
