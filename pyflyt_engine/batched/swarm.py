@@ -7,8 +7,18 @@
 ``gymnasium.vector.VectorEnv`` (slot ``k A + i`` is agent ``i`` of world ``k``, the layout of
 :class:`pyflyt_cli.training.multi_agent.AgentSlotsVecEnv`), advanced by one compiled call
 per agent step (:func:`advance_swarm`).  Each vehicle flies the batched multirotor laws of
-:mod:`pyflyt_engine.batched.kernels` (rate loop, mixer, motors, body drag, the rigid body);
-what the agents of one world do to each other:
+:mod:`pyflyt_engine.batched.kernels` (rate loop, mixer, motors, body drag, the rigid body) in
+any multirotor flight mode (:data:`SWARM_MODES`): ``rates_thrust`` and ``motors`` in the
+kernel, and every cascade mode of :mod:`pyflyt_engine.batched.modes` as the single-agent
+backend flies one (:meth:`BatchedSwarmEnv._advance_cascade`): at each control tick every
+armed vehicle's controller runs (:func:`~pyflyt_engine.batched.modes.control_tick`, the same
+compiled loops) from the state at the tick, then the control period's physics steps run in
+mode ``motors`` with the commands it gave.  That is the PyBullet engine's order with
+downwash (:meth:`pyflyt_engine.world.World.step`: on a tick every vehicle is read and runs
+its controller before any vehicle steps its motors, and the controller reads the vehicle's
+state, not its air).  The velocity loop's integrals (``vel_integral``) are cleared with the
+rate loop's at a world's restart and carried by a checkpoint; what the agents of one world
+do to each other:
 
 * **downwash** (``env.downwash: true``): the engine's law,
   :func:`pyflyt_engine.atmosphere.rotors.downwash_velocity` summed over the rotorcraft above
@@ -34,7 +44,8 @@ Episodes follow the PyBullet env's (:class:`~pyflyt_engine.envs.multi_agent.base
 with :class:`~pyflyt_engine.envs.tasks.ma_hover.MAHoverTask`): a live agent is
 *terminated* on any contact (ground or another agent, retired ones included) or leaving the
 dome, *truncated* at the time limit (a success); an agent whose episode ended is retired:
-disarmed (motor commands 0, its controller no longer runs), it falls and stays a body the
+disarmed (motor commands 0, its controller no longer runs: its integrals and last rates stay
+as they were, as the engine's ``Vehicle.control_step`` leaves them), it falls and stays a body the
 others can hit and whose wake still blows (its throttles decaying).  The PyBullet engine's
 ground holds a fallen vehicle; here a retired vehicle that reaches the ground is held there
 at rest.  A world's episode ends when no agent is left; it then starts its next one.
@@ -60,10 +71,11 @@ the values, as the PyBullet engine's randomiser draws one set per reset for ever
 its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
 :func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
 :class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
-agent's rows of the body's, motors', drag's and sensors' parameters and of its wake's
-strength (the full thrusts a drawn ``motor_kf`` gives, which the engine's atmosphere takes
-from the vehicle's motors at its next step); the spawn offsets are added to each agent's
-spawn.  The flight controller keeps the nominal airframe, as the engine's does.
+agent's rows of the body's, motors', drag's and sensors' parameters; the spawn offsets are
+added to each agent's spawn.  The flight controller keeps the nominal airframe, as the
+engine's does (in every flight mode); each vehicle's wake is as strong as its own motors, a
+drawn ``motor_kf`` included (``_wake_thrust``, a row per vehicle the randomiser sets), as the
+engine takes a vehicle's full thrusts from its motor constants when they change.
 
 Latency (``env.latency``, and the drawn delays ``randomize.action_delay`` /
 ``observation_delay``, one draw per world): the single-agent backend's
@@ -74,8 +86,9 @@ entries -- the formation's neighbours among them -- from those delayed states, a
 engine's ``delayed_state`` source gives them; rewards and episode ends read the true
 states).  The agent step then runs in pieces; each vehicle's latest read position, from
 which the others' downwash is taken, is the env's (``_reads``) and carries over from one
-piece to the next, and a piece ending inside a control period takes no contact sample, so
-the pieces change no number of the flight.
+piece to the next, a piece ending inside a control period takes no contact sample, and in a
+cascade mode a piece starting inside one runs no controller tick (the motors keep the
+commands the period's tick gave), so the pieces change no number of the flight.
 
 Noisy sensors (``env.sensors``, or the airframe's ``sensors`` section, and the estimator):
 the single-agent backend's :class:`~pyflyt_engine.batched.sensors.BatchedSensors`, a row per
@@ -91,7 +104,7 @@ true states.
 
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
-different airframes, the cascade flight modes, the ``randomize`` entries the single-agent
+different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
 backend does not draw either, the optional motor models, rotary turbulence gusts, and every
 key the single-agent batched backend refuses (the range sensors and cameras among them).
 """
@@ -111,7 +124,9 @@ from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
 from pyflyt_engine.batched import air as _air
 from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched import modes as _modes
 from pyflyt_engine.batched.kernels import (
+    MODE_MOTORS,
     MODE_RATES_THRUST,
     _lowest,
     drag_wrench,
@@ -633,8 +648,10 @@ def advance_swarm(
 # ------------------------------------------------------------------ the env
 
 
-#: the flight modes the multi-agent worlds fly (the single-agent backend's cascade modes are not wired here)
-SWARM_MODES = ("rates_thrust", "motors")
+#: the flight modes the multi-agent worlds fly: the rate loop's and the motors' in the worlds' kernel, and
+#: every cascade mode of :mod:`pyflyt_engine.batched.modes` through its :func:`~pyflyt_engine.batched.modes.control_tick`
+#: (:meth:`BatchedSwarmEnv._advance_cascade`); a mode the single-agent backend may fly beyond these is refused
+SWARM_MODES = ("rates_thrust", "motors", *_modes.CASCADE_MODES)
 
 
 def check_swarm_supported(config: Any) -> None:
@@ -653,7 +670,7 @@ def check_swarm_supported(config: Any) -> None:
     # What the single-agent backend simulates may grow beyond what these worlds do: each is refused
     # here by name too, so a world never flies without something its config asks for.
     mode = resolve_mode(config.action.mode).name
-    if mode not in SWARM_MODES:  # the single-agent backend flies the cascade modes too; this path does not
+    if mode not in SWARM_MODES:  # a mode the single-agent backend flies that is not wired into the worlds
         raise refuse(f"flight mode {mode} in a multi-agent world", f"it flies {', '.join(SWARM_MODES)}")
     from pyflyt_engine.batched.model import batched_model
     from pyflyt_engine.spec import load_uav_spec
@@ -856,7 +873,10 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.per_control = int(round(cfg.physics_hz / cfg.control_hz))
         self.model: BatchedModel = batched_model(self.spec_uav, self.physics_dt, self.control_dt, drag=cfg.drag)
         self.mode = mode_code(cfg.action.mode, self.model)
-        expected = 4 if self.mode == MODE_RATES_THRUST else self.model.motors
+        #: a cascade mode's (law, yaw_is_rate, heading_frame, position, altitude): its controller runs
+        #: at each control tick ahead of the period's physics (:meth:`_advance_cascade`); None in the others
+        self._cascade = _modes.cascade_law(self.mode) if self.mode in _modes.CASCADE_MODES.values() else None
+        expected = self.model.motors if self.mode == MODE_MOTORS else 4
         if len(cfg.action.low) != expected:
             raise ConfigError(f"mode {cfg.action.mode} takes {expected} values, the action has {len(cfg.action.low)}")
         task_cls = get_ma_task(cfg.task.name)
@@ -930,6 +950,14 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.integral = np.zeros((n, 3))
         self.previous = np.zeros((n, 3))
         self.has_previous = np.zeros(n, dtype=bool)
+        #: per slot, the velocity loop's integrals (x, y, z; no columns outside a cascade mode)
+        self.vel_integral = np.zeros((n, 3 if self._cascade is not None else 0))
+        #: a cascade mode's controller parameters, one row per slot (the airframe's nominal ones,
+        #: as the engine's controller keeps them), and the motor commands its ticks give
+        self._cascade_rows = self._controller_rows() if self._cascade is not None else None
+        self._commands = np.zeros((n, nm))
+        if self._cascade is not None:  # a checkpoint carries the velocity loop's integrals too
+            self.state_arrays = (*self.state_arrays, "vel_integral")
         self.ground_contact = np.zeros(n, dtype=bool)
         self.agent_contact = np.zeros(n, dtype=bool)
         #: per slot: its agent is in its world's episode; its vehicle is armed; it lies on the ground retired
@@ -1118,8 +1146,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             kernels.rotation_rows(q[0], q[1], q[2], q[3], r)
             self.vel[i] = exact.rotate(r.reshape(3, 3).tolist(), [float(v) for v in s.lin_vel])
             self.angvel[i] = 0.0
-        for name in ("throttle", "command", "integral", "previous", "actions", "episode_return"):
-            getattr(self, name)[rows] = 0.0
+        for name in ("throttle", "command", "integral", "previous", "vel_integral", "actions", "episode_return"):
+            getattr(self, name)[rows] = 0.0  # the controller's memory cleared, as Vehicle.reset clears it
         self.has_previous[rows] = False
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             _air.dryden_initial(
@@ -1324,7 +1352,127 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.agent_contact[:] = agent
 
     def _physics(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
-        """:meth:`physics` without the sensors: one compiled call (:func:`advance_swarm`)."""
+        """:meth:`physics` without the sensors: one compiled call (:func:`advance_swarm`) in
+        mode ``rates_thrust`` or ``motors``; a cascade mode through :meth:`_advance_cascade`."""
+        if self._cascade is not None:
+            self._advance_cascade(setpoints, factors, start, count)
+            return
+        self._kernel(setpoints, factors, self.mode, start, count)
+
+    def _advance_cascade(self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int) -> None:
+        """``count`` physics steps from offset ``start`` in a cascade mode, as the single-agent
+        backend flies one (:meth:`pyflyt_engine.batched.env.BatchedUAVEnv._advance_cascade`):
+        per control period, every armed vehicle's controller tick
+        (:func:`~pyflyt_engine.batched.modes.control_tick`) gives its motor commands from its
+        state at the period's start, then the period's physics steps run in mode ``motors``
+        with them (:func:`advance_swarm`).  That is the PyBullet engine's order: on a tick every
+        vehicle is read and runs its controller before any vehicle steps its motors, and the
+        controller reads the vehicle's state, not its air, so no vehicle's commands depend on
+        another's.  A piece of a period that starts after its tick (latency's pieces) runs no
+        tick: the motors keep the commands the tick gave (``command``).  The contact samples of
+        the calls are gathered (each call samples its own periods' ends)."""
+        per_control = self.per_control
+        phase = int(self.physics_steps[0]) % per_control  # as _kernel's ticks: every world in phase
+        ground = np.zeros(self.num_envs, dtype=bool)
+        agent = np.zeros(self.num_envs, dtype=bool)
+        whole = (start, count) == (0, self.per_agent)
+        a, end = start, start + count
+        while a < end:
+            b = min(((phase + a) // per_control + 1) * per_control - phase, end)  # to the period's end, or the count's
+            if (phase + a) % per_control == 0:  # the period's tick
+                self._control_tick(setpoints)
+            piece = (
+                factors if whole and (a, b) == (start, end) else np.ascontiguousarray(factors[:, a - start : b - start])
+            )
+            self._kernel(self._commands, piece, MODE_MOTORS, a, b - a)
+            ground |= self.ground_contact
+            agent |= self.agent_contact
+            a = b
+        self.ground_contact[:] = ground
+        self.agent_contact[:] = agent
+
+    def _control_tick(self, setpoints: np.ndarray) -> None:
+        """Every armed vehicle's controller tick into ``_commands``: the single-agent backend's
+        :func:`~pyflyt_engine.batched.modes.control_tick` on the armed rows.  A disarmed vehicle
+        runs no controller (``Vehicle.control_step``: its motors commanded 0, which
+        :func:`advance_swarm` does), so its integrals and last rates stay as they were, as the
+        PyBullet engine's retired vehicle keeps its controller's."""
+        assert self._cascade is not None and self._cascade_rows is not None
+        law, yaw_is_rate, heading_frame, position, altitude = self._cascade
+        table, mass, window, max_tilt, rate_gains, control_inertia, gyro, mixer_rows = self._cascade_rows
+        m = self.model
+        c = m.cascade
+        assert c is not None  # a multirotor's (check_swarm_supported refuses any other airframe)
+        rows = None if self.armed.all() else np.flatnonzero(self.armed)
+        if rows is not None and not rows.size:
+            return
+
+        def pick(x: np.ndarray) -> np.ndarray:  # every slot's arrays themselves, or the armed rows' copies
+            return x if rows is None else np.ascontiguousarray(x[rows])
+
+        integral, previous, has_previous = pick(self.integral), pick(self.previous), pick(self.has_previous)
+        vel_integral, commands = pick(self.vel_integral), pick(self._commands)
+        _modes.control_tick(
+            pick(self.pos),
+            pick(self.quat),
+            pick(self.vel),
+            pick(self.angvel),
+            pick(setpoints),
+            integral,
+            previous,
+            has_previous,
+            vel_integral,
+            law,
+            yaw_is_rate,
+            heading_frame,
+            position,
+            altitude,
+            pick(table),
+            pick(mass),
+            pick(window),
+            pick(max_tilt),
+            pick(rate_gains),
+            m.rate_derivative,
+            pick(control_inertia),
+            pick(gyro),
+            pick(mixer_rows),
+            self.control_dt,
+            commands,
+            m.lateral,
+            c.trimmed,
+            c.trim[0],
+            c.trim[1],
+        )
+        if rows is not None:  # the armed rows' advanced controller state and commands back into their slots
+            self.integral[rows], self.previous[rows], self.has_previous[rows] = integral, previous, has_previous
+            self.vel_integral[rows], self._commands[rows] = vel_integral, commands
+
+    def _controller_rows(self) -> tuple[np.ndarray, ...]:
+        """A cascade mode's controller parameters, one row per slot, as
+        :func:`~pyflyt_engine.batched.modes.control_tick` takes them: the outer loops' table,
+        mass, integral window and tilt limit (:class:`~pyflyt_engine.batched.modes.CascadeParams`),
+        the rate loop's gains, inertia and gyroscopic coefficients and the mixer's rows, all the
+        airframe's nominal ones (domain randomisation leaves the controller as it is)."""
+        m = self.model
+        c = m.cascade
+        assert c is not None
+        n = self.num_envs
+        rows = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64)  # noqa: E731
+        return (
+            rows(c.table),
+            rows(c.mass),
+            rows(c.window),
+            rows(c.max_tilt),
+            rows(m.rate_gains),
+            rows(m.control_inertia),
+            rows(m.gyro),
+            rows(m.mixer_rows),
+        )
+
+    def _kernel(self, setpoints: np.ndarray, factors: np.ndarray, mode: int, start: int, count: int) -> None:
+        """One compiled call (:func:`advance_swarm`) of ``count`` physics steps from offset
+        ``start`` into the agent step in ``mode``, sampling the contacts at its end when it ends
+        the agent step."""
         m = self.model
         rot = self._wake_sources
         normals = self._normals
@@ -1343,7 +1491,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.has_previous,
             setpoints,
             factors,
-            self.mode,
+            mode,
             self.armed,
             self.parked,
             self.agents,

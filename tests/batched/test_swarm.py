@@ -384,7 +384,7 @@ def test_same_seed_same_numbers():
             {"agents": [{"uav": "quadx_f450", "spawn": {"position": [0, 0, 1]}}, {"spawn": {"position": [2, 0, 1]}}]},
             "agents of different airframes",
         ),
-        # the single-agent backend flies the cascade modes; the worlds' kernel does not
+        # the cascade modes, as the single-agent backend flies them (tests/batched/test_swarm_cascade.py)
         (
             {
                 "action": {
@@ -395,7 +395,7 @@ def test_same_seed_same_numbers():
                     "high": [1.0] * 4,
                 }
             },
-            "flight mode velocity_yawrate in a multi-agent world",
+            None,
         ),
     ],
 )
