@@ -212,6 +212,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._surface_lag = rows(m.surface_lag)
         #: the optional motor models' rows (none for the static motors)
         self._motor_model = rows(m.motor_model)
+        #: the pack's parameters and its state at a reset, per env (a drawn battery_* factor sets a row)
+        self._battery_params = rows(m.battery)
+        self._battery_reset = rows(m.battery_reset)
         from pyflyt_engine.atmosphere import load_wind_config
 
         #: the air (pyflyt_engine.batched.air): the wind field's parameters, and per env the
@@ -288,7 +291,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.episode_return = np.zeros(n)
         self.episode_length = np.zeros(n, dtype=np.int64)
         #: the randomize section's draws per env and episode (None without; pyflyt_engine.batched.randomization)
-        self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
+        from pyflyt_engine.envs.observe import with_sensors
+
+        #: the sensors' section the vehicles fly (the env config's, else the airframe's; None without)
+        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
+        self.randomizer = (
+            BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n, sensors=flown)
+            if cfg.randomize
+            else None
+        )
         #: per env, this episode's randomize draws (entries in the section's order; no columns without)
         self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
         #: the parameter rows a checkpoint carries besides the state: those the draws change
@@ -306,11 +317,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.action_history = delays.get("action_history", np.zeros((n, 0)))
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
 
-        from pyflyt_engine.envs.observe import with_sensors
-
         #: the noisy sensors and estimator (pyflyt_engine.batched.sensors; None without a
         #: ``sensors`` section, the env config's or the airframe's)
-        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
         self.sensors = BatchedSensors(flown, cfg.sensors, n, self.physics_dt, GRAVITY) if flown is not None else None
         #: per env, the sensors' and estimator's state (empty rows without sensors)
         self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))
@@ -441,7 +449,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             (self.has_previous,),
         )
         if self.battery.shape[1]:  # the pack back to its initial charge, no load (Battery.reset)
-            self.battery[index] = self.model.battery_reset
+            self.battery[index] = self._battery_reset[index]
         bookkeeping.read_rows(
             index,
             self.pos,
@@ -692,7 +700,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._motor_model,
             m.motor_laws,
             self.battery,
-            m.battery,
+            self._battery_params,
             m.battery_table,
         )
 
@@ -763,7 +771,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._motor_model,
             m.motor_laws,
             self.battery,
-            m.battery,
+            self._battery_params,
             m.battery_table,
             self._head if head is None else head,
             self.integral,
@@ -908,7 +916,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self._motor_model,
                 m.motor_laws,
                 self.battery,
-                m.battery,
+                self._battery_params,
                 m.battery_table,
             )
             contact |= self.contact  # each call samples its own period's contacts

@@ -858,7 +858,7 @@ def advance(
     The modelled motors (``motor_laws`` not 0: :func:`modelled_load`, ``motor_model``
     (N, n, :data:`MOTOR_MODEL_FIELDS`)) take the body's velocity through the air (as body
     drag does) and drive from the pack ``battery[i]`` (its state, :data:`BATTERY_STATE`;
-    ``battery_params`` and ``battery_table`` its parameters and open-circuit table).
+    ``battery_params[i]`` and ``battery_table`` its parameters and open-circuit table).
     """
     n = pos.shape[0]
     nm = throttle.shape[1]
@@ -944,7 +944,7 @@ def advance(
                     motor_model[i],
                     motor_laws,
                     battery[i],
-                    battery_params,
+                    battery_params[i],
                     battery_table,
                     rotors[i],
                     ground_effect,
@@ -1502,7 +1502,7 @@ def advance_channels(
                     motor_model[i],
                     motor_laws,
                     battery[i],
-                    battery_params,
+                    battery_params[i],
                     battery_table,
                     rotors[i],
                     ground_effect,

@@ -57,7 +57,8 @@ from pyflyt_engine.batched.modes import CASCADE_MODES, CascadeParams, cascade_pa
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.kinds import component_kinds
 from pyflyt_engine.components.lag import lag_coefficient
-from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
+from pyflyt_engine.components.battery import BatteryParams
+from pyflyt_engine.components.motor import MotorParams, motor_wrench_matrix, reaction_per_thrust
 from pyflyt_engine.components.routing import mix_rows
 from pyflyt_engine.control.fixedwing import FIXEDWING_MODES
 from pyflyt_engine.control.mixer import flight_mixer
@@ -280,11 +281,20 @@ def _motor_laws(parts, physics_dt: float) -> dict:
     motors = parts.motors
     if motors is None or not (motors.modelled or parts.battery is not None):
         return {}
+    return modelled_rows(motors, parts.battery, physics_dt)
+
+
+def modelled_rows(motors: MotorParams, battery: BatteryParams | None, physics_dt: float) -> dict:
+    """The rows of the optional motor models (``motor_laws``, ``motor_model``) and of the pack
+    (``battery``, ``battery_table``, ``battery_reset``) for motor parameters ``motors`` and pack
+    parameters ``battery`` (None: no pack), read out of the group and the pack the PyBullet
+    engine builds from them, so a randomiser's parameters (``dataclasses.replace`` of the
+    nominal ones, as the engine's randomiser makes them) give the rows its vehicle flies."""
     from pyflyt_engine.components.battery import Battery
     from pyflyt_engine.components.motor_models import ModelledMotors
     from pyflyt_engine.components.noise import NoiseSource
 
-    pack = Battery(parts.battery, physics_dt) if parts.battery is not None else None
+    pack = Battery(battery, physics_dt) if battery is not None else None
     group = ModelledMotors(motors, physics_dt, NoiseSource(np.random.default_rng(0)), battery=pack)
     rows = np.zeros((motors.count, MOTOR_MODEL_FIELDS), dtype=np.float64)
     for m in range(motors.count):

@@ -33,8 +33,14 @@ autopilot) keeps the nominal values, as the PyBullet engine's does.  The values 
 :attr:`BatchedRandomizer.values` (one row per env, one column per entry in the section's
 order; the delays in seconds, as drawn), the env's ``info["randomization"]``.
 
-What this backend does not draw stays refused, by name (:func:`unsupported`): the
-optional models' factors (``motor_rotor_drag``, the battery's), and
+On an airframe with the optional motor models or a pack, the motor factors (``tau_fall``
+with ``motor_tau``), ``motor_rotor_drag`` and the pack's ``battery_capacity``,
+``battery_resistance`` and ``battery_charge`` also set the env's rows of the modelled motors
+and of the pack (:func:`~pyflyt_engine.batched.model.modelled_rows` of the drawn parameters,
+as the engine's group and pack derive them).  An entry whose model the airframe lacks is
+the engine's error (:func:`~pyflyt_engine.envs.randomization.missing_model`).
+
+What this backend does not draw stays refused, by name (:func:`unsupported`):
 ``wind.<path>``: the batched wind field is one parameter array for the whole batch and the
 Dryden filter is built once per env config (its matrices depend on the turbulence's
 intensities and scale lengths), so a per-env wind needs per-env rows of both.
@@ -43,7 +49,7 @@ intensities and scale lengths), so a per-env wind needs per-env rows of both.
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -51,17 +57,29 @@ from pyflyt_engine.assembly import assemble
 from pyflyt_engine.components.drag import DragParams
 from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
+from pyflyt_engine.batched.model import modelled_rows
 from pyflyt_engine.batched.sensors import SENSOR_FACTORS, randomized_parameters
-from pyflyt_engine.envs.randomization import AIRFRAME, DELAYS, SPAWN, Distribution
+from pyflyt_engine.envs.randomization import (
+    AIRFRAME,
+    DELAYS,
+    SPAWN,
+    Distribution,
+    Randomizer,
+    missing_model,
+    required_model,
+)
 
 if TYPE_CHECKING:
     from pyflyt_engine.batched.env import BatchedUAVEnv
     from pyflyt_engine.batched.swarm import BatchedSwarmEnv
-    from pyflyt_engine.spec import UAVSpec
+    from pyflyt_engine.spec import SensorsSpec, UAVSpec
 
 #: the ``randomize`` entries the batched backend draws and applies
-BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN + SENSOR_FACTORS
+#: the factors (and the charge) of the optional motor models and the battery
+MODEL_FACTORS = ("motor_rotor_drag", "battery_capacity", "battery_resistance", "battery_charge")
+BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN + SENSOR_FACTORS + MODEL_FACTORS
 MOTOR = ("motor_kf", "motor_kt", "motor_tau")
+BATTERY = ("battery_capacity", "battery_resistance", "battery_charge")
 
 
 def unsupported(entries: dict[str, Distribution] | None) -> tuple[str, str] | None:
@@ -94,7 +112,14 @@ class BatchedRandomizer:
         spawn_offsets: (N, 6) per env, the drawn ``spawn_*`` offsets (0 where not drawn).
     """
 
-    def __init__(self, entries: dict[str, Distribution], spec: UAVSpec, physics_dt: float, num_envs: int) -> None:
+    def __init__(
+        self,
+        entries: dict[str, Distribution],
+        spec: UAVSpec,
+        physics_dt: float,
+        num_envs: int,
+        sensors: SensorsSpec | None = None,
+    ) -> None:
         self.entries = dict(entries)
         self.names = tuple(self.entries)
         n = int(num_envs)
@@ -105,10 +130,25 @@ class BatchedRandomizer:
         self._mass = float(parts.mass)
         self._inertia = np.diag(np.asarray(parts.inertia, dtype=np.float64)).copy()
         self._motors = parts.motors
+        self._battery = parts.battery
         self._drag = DragParams(spec.drag.coefficients, spec.drag.areas, spec.drag.angular_damping)
+        for name in self.names:  # an entry with nothing to randomise is the engine's error
+            needs = required_model(name)
+            has = {
+                "battery": parts.battery is not None,
+                "sensors.imu": sensors is not None and sensors.imu is not None,
+                "sensors.position": sensors is not None and sensors.position is not None,
+                "motors.rotor_drag": parts.motors is not None and parts.motors.rotor_drag is not None,
+            }
+            if needs is not None and not has[needs]:
+                raise missing_model(name, needs)
         drawn = set(self.names)
+        #: the airframe flies the optional motor models or a battery (their rows follow the motors' draws)
+        self.modelled = parts.motors is not None and (parts.motors.modelled or parts.battery is not None)
         self.body = bool(drawn & {"mass", "inertia"})
-        self.motors = bool(drawn & set(MOTOR)) and self._motors is not None
+        self.motors = bool(drawn & {*MOTOR, "motor_rotor_drag"}) and self._motors is not None
+        #: a battery factor (or the charge) is drawn: each env's row of the pack's parameters changes
+        self.pack = bool(drawn & set(BATTERY)) and self._battery is not None
         self.drag = "drag" in drawn
         #: a sensor factor is drawn: each env's row of its sensors' parameters changes per episode
         self.sensing = bool(drawn & set(SENSOR_FACTORS))
@@ -116,7 +156,7 @@ class BatchedRandomizer:
     @property
     def airframe(self) -> bool:
         """Whether any airframe or sensor factor is drawn (the env's parameter rows change per episode)."""
-        return self.body or self.motors or self.drag or self.sensing
+        return self.body or self.motors or self.drag or self.sensing or self.pack
 
     def arrays(self) -> tuple[str, ...]:
         """The env's arrays whose rows the draws set (a checkpoint carries them): the values,
@@ -125,6 +165,8 @@ class BatchedRandomizer:
             ("randomized_values",)
             + (("_mass", "_inertia") if self.body else ())
             + (("_lag", "_columns", "_rotors") if self.motors else ())
+            + (("_motor_model",) if self.motors and self.modelled else ())
+            + (("_battery_params", "_battery_reset") if self.pack else ())
             + (("_drag_factors", "_damping") if self.drag else ())
             + (("sensor_params",) if self.sensing else ())
         )
@@ -145,14 +187,16 @@ class BatchedRandomizer:
         if self.body:  # Vehicle.set_mass_properties(mass * f, inertia * g)
             env._mass[i] = self._mass * values.get("mass", 1.0)
             env._inertia[i] = self._inertia * values.get("inertia", 1.0)
+        params = None
         if self.motors:
             m = self._motors
             assert m is not None
-            params = dataclasses.replace(
+            params = dataclasses.replace(  # as Randomizer.sample replaces them (the optional models' fields too)
                 m,
                 kf=m.kf * values.get("motor_kf", 1.0),
                 kt=m.kt * values.get("motor_kt", 1.0),
                 tau=m.tau * values.get("motor_tau", 1.0),
+                **Randomizer.model_factors(m, values),
             )
             env._lag[i] = np.asarray(lag_coefficient(self.physics_dt, params.tau), dtype=np.float64).reshape(-1)
             env._columns[i] = motor_wrench_matrix(params).T
@@ -160,6 +204,24 @@ class BatchedRandomizer:
             wake = getattr(env, "_wake_thrust", None)  # a multi-agent world's: the strength of the vehicle's wake
             if wake is not None:
                 wake[i] = params.max_thrust
+        if self.modelled and (self.motors or self.pack):  # the rows the engine's group and pack derive
+            single = cast("BatchedUAVEnv", env)  # the multi-agent worlds refuse the optional models
+            motors = params if self.motors else self._motors
+            assert motors is not None  # a modelled airframe has motors
+            battery = self._battery
+            if self.pack:
+                assert battery is not None
+                battery = dataclasses.replace(  # as Randomizer.sample sets the pack
+                    battery,
+                    capacity_mah=battery.capacity_mah * values.get("battery_capacity", 1.0),
+                    internal_resistance=battery.internal_resistance * values.get("battery_resistance", 1.0),
+                    initial_charge=values.get("battery_charge", battery.initial_charge),
+                )
+            rows = modelled_rows(motors, battery, self.physics_dt)
+            single._motor_model[i] = rows["motor_model"]
+            if self.pack:
+                single._battery_params[i] = rows["battery"]
+                single._battery_reset[i] = rows["battery_reset"]
         if self.drag:
             d, f = self._drag, values["drag"]
             cx, cy, cz = d.coefficients

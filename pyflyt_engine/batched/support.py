@@ -52,12 +52,6 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         )
     model = batched_model(load_uav_spec(config.uav), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
     drawn_motors = [name for name in (config.randomize or {}) if name in MOTOR]
-    if model.motor_laws and drawn_motors:  # the draws set the static motors' rows, not the modelled ones'
-        raise refuse(
-            f"env.randomize.{drawn_motors[0]} (domain randomisation of the optional motor models and "
-            "the battery: not drawn per env)",
-            "it draws it for airframes with the static motors",
-        )
     if model.gimbals.size:  # the gimbals' rows hold the nominal motors, and the latency's history no servo angles
         from pyflyt_engine.batched.latency import declares_latency
 

@@ -930,7 +930,15 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._wake_thrust = rows(self._wake_sources["max_thrust"])
         #: the randomize section's draws, one per world and episode, every agent of the world
         #: given them (None without; pyflyt_engine.batched.randomization)
-        self.randomizer = BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n) if cfg.randomize else None
+        from pyflyt_engine.envs.observe import with_sensors
+
+        #: the sensors' section every vehicle flies (the env config's, else the airframe's; None without)
+        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
+        self.randomizer = (
+            BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n, sensors=flown)
+            if cfg.randomize
+            else None
+        )
         #: per slot, its world's draws of this episode (entries in the section's order; no columns without)
         self.randomized_values = self.randomizer.values if self.randomizer is not None else np.zeros((n, 0))
         #: the parameter rows a checkpoint carries besides the state: those the draws change
@@ -998,12 +1006,9 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.observed_history = delays.get("observed_history", np.zeros((n, 0)))
         if self.latency is not None:  # a checkpoint carries them too
             self.state_arrays = (*self.state_arrays, *delays)
-        from pyflyt_engine.envs.observe import with_sensors
-
         #: the noisy sensors and estimator, a row per slot (pyflyt_engine.batched.sensors; None
         #: without a ``sensors`` section, the env config's or the airframe's); each slot's stream
         #: is its own (BatchedSensors.seed_worlds), as each PyBullet vehicle's is
-        flown = with_sensors(self.spec_uav, cfg.sensors).sensors
         self.sensors = BatchedSensors(flown, cfg.sensors, n, self.physics_dt, GRAVITY) if flown is not None else None
         #: per slot, the sensors' and estimator's state (empty rows without sensors)
         self.sensor_state = self.sensors.rows if self.sensors is not None else np.zeros((n, 0))

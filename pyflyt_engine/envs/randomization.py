@@ -72,6 +72,20 @@ SPAWN = ("spawn_x", "spawn_y", "spawn_z", "spawn_roll", "spawn_pitch", "spawn_ya
 PARAMETERS = AIRFRAME + tuple(MODELS) + tuple(MODEL_VALUES) + DELAYS + SPAWN
 
 
+def required_model(name: str) -> str | None:
+    """What an airframe must declare for ``randomize`` entry ``name`` to have something to
+    randomise (``motors.rotor_drag``, ``battery``, ``sensors.imu``, ``sensors.position``), or None."""
+    return MODELS.get(name) or MODEL_VALUES.get(name, (None,))[0]
+
+
+def missing_model(name: str, needs: str) -> ConfigError:
+    """The error of entry ``name`` on an airframe without the model ``needs``."""
+    return ConfigError(
+        f"randomize.{name}: the airframe has no '{needs}' to randomise; declare it in the airframe "
+        "(docs/uav_authoring.md) or remove the entry"
+    )
+
+
 def delay_steps(delay: float, physics_hz: float) -> int:
     """A delay [s] in whole physics steps: rounded to the nearest step, halves up,
     ``floor(delay * physics_hz + 1/2)``.  The one rule for the env's fixed ``latency`` and
@@ -195,7 +209,7 @@ class Randomizer:
         #: per vehicle of the world: its nominal (mass, inertia diagonal, motor and drag parameters)
         self._nominal = []
         for name in self.entries:
-            needs = MODELS.get(name) or MODEL_VALUES.get(name, (None,))[0]
+            needs = required_model(name)
             if needs is None:
                 continue
             has = [
@@ -209,10 +223,7 @@ class Randomizer:
                 for v in world.vehicles
             ]
             if not all(has):
-                raise ConfigError(
-                    f"randomize.{name}: the airframe has no '{needs}' to randomise; declare it in the airframe "
-                    "(docs/uav_authoring.md) or remove the entry"
-                )
+                raise missing_model(name, needs)
         self._battery = [v.battery.params if v.battery is not None else None for v in world.vehicles]
         for vehicle in world.vehicles:
             motors = vehicle.actuators.motors
@@ -265,12 +276,12 @@ class Randomizer:
                         kf=m.kf * values.get("motor_kf", 1.0),
                         kt=m.kt * values.get("motor_kt", 1.0),
                         tau=m.tau * values.get("motor_tau", 1.0),
-                        **self._model_factors(m, values),
+                        **self.model_factors(m, values),
                     )
                 )
             elif motor_params is not None and "motor_rotor_drag" in values:
                 v.actuators.motors.set_params(
-                    dataclasses.replace(motor_params, **self._model_factors(motor_params, values))
+                    dataclasses.replace(motor_params, **self.model_factors(motor_params, values))
                 )
             if drag_params is not None and "drag" in values:
                 d, f = drag_params, values["drag"]
@@ -315,7 +326,7 @@ class Randomizer:
         return values
 
     @staticmethod
-    def _model_factors(m: Any, values: Mapping[str, float]) -> dict[str, Any]:
+    def model_factors(m: Any, values: Mapping[str, float]) -> dict[str, Any]:
         """The optional motor models' randomised fields: tau_fall with motor_tau, rotor_drag."""
         out: dict[str, Any] = {}
         if m.tau_fall is not None:

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from pyflyt_engine.batched import BatchedUAVEnv
-from pyflyt_engine.batched.model import UnsupportedByBatched
 from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.envs.env import UAVEnv
 from pyflyt_engine.paths import uav_dir
@@ -36,16 +35,18 @@ def test_a_battery_under_noisy_sensors_keeps_the_pybullet_envs_observation_layou
     assert np.all(obs[:, -2] < charge0) and np.all(np.isin(obs[:, -1], (0.0, 1.0)))
 
 
-@pytest.mark.parametrize("name", ["motor_kf", "motor_kt", "motor_tau"])
-def test_randomised_motor_factors_on_modelled_motors_are_refused_by_name(name):
-    """The draws set the static motors' rows; an airframe with the optional models or a pack
-    flies other rows, so such a draw is refused, naming it, rather than silently not applied."""
-    entry = {"distribution": "uniform", "low": 0.9, "high": 1.1}
+@pytest.mark.parametrize("name", ["motor_kf", "motor_kt", "motor_tau", "motor_rotor_drag"])
+def test_randomised_motor_factors_on_modelled_motors_set_the_modelled_rows(name):
+    """An airframe with the optional models and a pack flies the modelled motors' rows: a motor
+    factor drawn there changes those rows per env (their agreement with the PyBullet engine:
+    tests/batched/test_motor_models.py), not only the static motors' ones."""
+    entry = {"distribution": "uniform", "low": 0.7, "high": 1.3}
     cfg = load_env_config("quadx_hover").with_overrides(uav=EXAMPLE, randomize={name: entry}, backend="batched")
-    with pytest.raises(UnsupportedByBatched, match=f"env.randomize.{name} \\(domain randomisation of the optional"):
-        BatchedUAVEnv(cfg, num_envs=2)
-    plain = load_env_config("quadx_hover").with_overrides(randomize={name: entry}, backend="batched")
-    BatchedUAVEnv(plain, num_envs=2).reset(seed=0)  # the static motors draw it
+    env = BatchedUAVEnv(cfg, num_envs=2)
+    nominal = env._motor_model.copy()
+    env.reset(seed=0)
+    assert not np.array_equal(env._motor_model, nominal)
+    assert not np.array_equal(env._motor_model[0], env._motor_model[1])
 
 
 def test_every_per_env_parameter_row_is_c_contiguous():

@@ -373,11 +373,6 @@ def test_a_fall_to_the_ground_crashes_in_both(quiet, name):
     ("env_name", "overrides", "named"),
     [
         ("quadx_hover", {"downwash": True}, "downwash"),
-        (
-            "quadx_hover",
-            {"randomize": {"battery_capacity": {"distribution": "uniform", "low": 0.9, "high": 1.1}}},
-            "randomize.battery_capacity",
-        ),
         ("quadx_hover", {"uav": "rocket"}, "channel-driven airframe rocket"),
         ("quadx_obstacles", {}, "task 'goal'"),
         ("quadx_pole_balance", {}, "task"),

@@ -286,14 +286,14 @@ def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
 
 
 def test_randomised_parameters_of_unsimulated_models_are_refused_by_name():
-    """Beside the delays, an entry of a model the batched backend lacks is refused by its name
-    (the airframe factors and spawn offsets it draws: tests/batched/test_randomization.py)."""
+    """Beside the delays, an entry the batched backend does not draw per env (a wind's) is refused by
+    its name (the factors and spawn offsets it draws: tests/batched/test_randomization.py)."""
     factor = {"distribution": "uniform", "low": 0.9, "high": 1.1}
     for entries, named in (
-        ({"battery_capacity": factor}, "randomize.battery_capacity"),
-        ({**RANDOM_DELAYS, "drag": factor, "motor_rotor_drag": factor}, "randomize.motor_rotor_drag"),
+        ({"wind.mean.speed": factor}, "randomize.wind.mean.speed"),
+        ({**RANDOM_DELAYS, "drag": factor, "wind.mean.speed": factor}, "randomize.wind.mean.speed"),
     ):
-        cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries)
+        cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries, wind="constant")
         with pytest.raises(ConfigError) as info:
             BatchedUAVEnv(cfg, num_envs=2)
         message = str(info.value)

@@ -495,3 +495,112 @@ def test_a_multi_agent_world_refuses_the_modelled_motors_by_name(files):
     cfg = load_env_config("ma_quadx_hover").with_overrides(uav=files["example"])
     with pytest.raises(UnsupportedByBatched, match="the optional motor models and the battery in a multi-agent world"):
         check_swarm_supported(cfg)
+
+
+def _fixed(value: float) -> dict[str, object]:
+    return {"distribution": "uniform", "low": value, "high": value}
+
+
+#: every motor and pack entry of a randomize section, each at a fixed value (both backends fly the same)
+MODEL_DRAWS = {
+    "motor_kf": _fixed(1.08),
+    "motor_kt": _fixed(0.93),
+    "motor_tau": _fixed(1.4),
+    "motor_rotor_drag": _fixed(1.6),
+    "battery_capacity": _fixed(0.8),
+    "battery_resistance": _fixed(1.5),
+    "battery_charge": _fixed(0.85),
+}
+
+
+@pytest.mark.parametrize(("env_name", "mode"), [("quadx_hover", "rates_thrust"), ("quadx_waypoints", "motors")])
+def test_randomised_modelled_motors_and_pack_agree_with_the_pybullet_engine(files, env_name, mode):
+    """The motor factors (tau_fall with motor_tau, as the engine's randomiser scales it), the rotor
+    drag's and the pack's factors and its charge on the example airframe (asymmetric lag, rotor
+    drag, inflow, battery): the batched rows are the engine's and 2 s of flight agree within
+    1e-6; the pack starts at the drawn charge."""
+    worst, flown, used = fly_modelled_pair(files["example"], env_name, mode, randomize=MODEL_DRAWS)
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 60 and used > 0.0
+
+
+def test_drawn_model_factors_set_each_envs_rows_and_resume_exactly(files):
+    """Drawn per env from each env's generator, the factors give every env its own modelled-motor
+    and pack rows, each what the engine's group and pack derive from the drawn parameters; a
+    checkpoint carries them, so a restore into a fresh batch continues bit for bit."""
+    import dataclasses
+
+    from pyflyt_cli.training.batched import BatchedVecEnv
+
+    from pyflyt_engine.batched.model import modelled_rows
+
+    drawn = {name: {"distribution": "uniform", "low": 0.6, "high": 1.4} for name in MODEL_DRAWS}
+    drawn["battery_charge"] = {"distribution": "uniform", "low": 0.5, "high": 1.0}
+    cfg = load_env_config("quadx_hover").with_overrides(uav=files["example"], randomize=drawn)
+    a = BatchedVecEnv(cfg, 3)
+    a.env.reset(seed=4)
+    env = a.env
+    names = env.randomizer.names
+    parts = assemble(parse_uav_spec(yaml.safe_load(open(files["example"]))))
+    for i in range(3):
+        v = dict(zip(names, env.randomized_values[i].tolist()))
+        m = parts.motors
+        params = dataclasses.replace(
+            m,
+            kf=m.kf * v["motor_kf"],
+            kt=m.kt * v["motor_kt"],
+            tau=m.tau * v["motor_tau"],
+            tau_fall=m.tau_fall * v["motor_tau"],
+            rotor_drag=m.rotor_drag * v["motor_rotor_drag"],
+        )
+        b = parts.battery
+        pack = dataclasses.replace(
+            b,
+            capacity_mah=b.capacity_mah * v["battery_capacity"],
+            internal_resistance=b.internal_resistance * v["battery_resistance"],
+            initial_charge=v["battery_charge"],
+        )
+        rows = modelled_rows(params, pack, DT)
+        assert np.array_equal(env._motor_model[i], rows["motor_model"])
+        assert np.array_equal(env._battery_params[i], rows["battery"])
+        assert env.battery[i, 0] == v["battery_charge"] == rows["battery_reset"][0]
+    assert not np.array_equal(env._motor_model[0], env._motor_model[1])
+    rng = np.random.default_rng(0)
+    actions = [rng.uniform(-1, 1, (3, 4)) for _ in range(40)]
+    for act in actions[:20]:
+        a.step(act)
+    saved = [a.episode_state(i) for i in range(3)]
+    for name in ("_motor_model", "_battery_params", "_battery_reset"):
+        assert name in saved[0]["batched"], name
+    b2 = BatchedVecEnv(cfg, 3)
+    b2.env.reset(seed=999)
+    for i in range(3):
+        b2.restore_episode(i, saved[i])
+    for act in actions[20:]:
+        oa, ra, da, _ = a.step(act)
+        ob, rb, db, _ = b2.step(act)
+        assert np.array_equal(oa, ob) and np.array_equal(ra, rb) and np.array_equal(da, db)
+
+
+@pytest.mark.parametrize(
+    ("entry", "needs"),
+    [
+        ("battery_capacity", "battery"),
+        ("motor_rotor_drag", "motors.rotor_drag"),
+        ("gyro_noise", "sensors.imu"),
+        ("position_noise", "sensors.position"),
+    ],
+)
+def test_an_entry_with_nothing_to_randomise_is_the_engines_error(entry, needs):
+    """An entry whose model the airframe lacks fails in the batched backend with the PyBullet
+    engine's message (naming the entry, the missing section and the fix), never silently ignored."""
+    from pyflyt_engine.envs import make_env
+    from pyflyt_engine.errors import ConfigError
+
+    cfg = load_env_config("quadx_hover").with_overrides(randomize={entry: _fixed(1.1)})
+    with pytest.raises(ConfigError) as batched:
+        BatchedUAVEnv(cfg.with_overrides(backend="batched"), num_envs=2)
+    with pytest.raises(ConfigError) as pybullet:
+        make_env(cfg).reset(seed=0)
+    assert str(batched.value) == str(pybullet.value)
+    assert f"randomize.{entry}: the airframe has no '{needs}'" in str(batched.value)

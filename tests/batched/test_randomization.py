@@ -226,8 +226,6 @@ def test_a_checkpoint_carries_the_draws_and_the_parameters_they_set():
 @pytest.mark.parametrize(
     "name, entry, why",
     [
-        ("battery_capacity", _uniform(0.8, 1.2), "does not draw it per env"),
-        ("motor_rotor_drag", _uniform(0.8, 1.2), "does not draw it per env"),
         ("wind.mean.speed", _uniform(0.0, 3.0), "no per-env wind"),
     ],
 )

@@ -247,8 +247,6 @@ def test_the_shipped_preset_is_simulated_and_auto_picks_the_batched_backend():
             {"randomize": {"mass": DRAWS["mass"], "wind.mean.speed": DRAWS["spawn_z"]}, "wind": "constant"},
             "env.randomize.wind.mean.speed (domain randomisation: the batched wind is one parameter array",
         ),
-        ({"randomize": {"motor_rotor_drag": DRAWS["mass"]}}, "env.randomize.motor_rotor_drag (domain randomisation"),
-        ({"randomize": {"battery_capacity": DRAWS["mass"]}}, "env.randomize.battery_capacity (domain randomisation"),
     ],
 )
 def test_what_it_does_not_simulate_stays_refused_by_name(overrides, named):

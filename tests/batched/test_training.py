@@ -3,6 +3,8 @@ PyBullet engine, exact resume, determinism under a seed across processes."""
 
 from __future__ import annotations
 
+from pyflyt_engine.paths import uav_dir
+
 import subprocess
 import sys
 
@@ -158,13 +160,19 @@ def test_auto_trains_batched_where_it_simulates_the_config_and_records_which(tmp
         == "batched"
     )  # airframe factors and spawn offsets, drawn per env
     assert load(["env=quadx_hover", "env.randomize=sim2real"], tmp_path).env.backend == "batched"
+    # the optional motor models and the pack, drawn per env
     assert (
         load(
-            ["env=quadx_hover", "+env.randomize.battery_capacity={distribution: uniform, low: 0.9, high: 1.1}"],
+            [
+                f"env.uav={uav_dir() / 'examples' / 'quadx_cf2x_battery.yaml'}",
+                "+env.randomize.battery_capacity={distribution: uniform, low: 0.9, high: 1.1}",
+            ],
             tmp_path,
         ).env.backend
-        == "pybullet"
-    )  # a model it does not simulate
+        == "batched"
+    )
+    # a draw it does not make per env (a wind's, which only an env YAML can declare) trains on
+    # PyBullet: tests/batched/test_randomization.py
     with pytest.raises(ConfigError, match="does not simulate env.downwash"):
         load(["env=quadx_hover", "env.backend=batched", "env.downwash=true"], tmp_path)
 
