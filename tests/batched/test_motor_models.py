@@ -45,6 +45,7 @@ from pyflyt_engine.envs.config import load_env_config
 from pyflyt_engine.paths import uav_dir
 from pyflyt_engine.spec import parse_uav_spec
 from tests.batched.test_crosscheck import BOUND, _flat, _pair
+from tests.batched.test_sensors import _fixed
 
 DT, CONTROL_DT = 1 / 240, 1 / 120
 EXAMPLE = uav_dir() / "examples" / "quadx_cf2x_battery.yaml"
@@ -495,10 +496,6 @@ def test_a_multi_agent_world_refuses_the_modelled_motors_by_name(files):
     cfg = load_env_config("ma_quadx_hover").with_overrides(uav=files["example"])
     with pytest.raises(UnsupportedByBatched, match="the optional motor models and the battery in a multi-agent world"):
         check_swarm_supported(cfg)
-
-
-def _fixed(value: float) -> dict[str, object]:
-    return {"distribution": "uniform", "low": value, "high": value}
 
 
 #: every motor and pack entry of a randomize section, each at a fixed value (both backends fly the same)
