@@ -499,6 +499,17 @@ class CurriculumOption(_Strict):
         description="the value moves linearly (in 100 equal stages) from start to the env's configured "
         "value (env.task.<option>) over this many environment steps, and stays there",
     )
+    gate: float | None = Field(
+        None,
+        gt=0.0,
+        le=1.0,
+        description="null: the schedule follows the step count. A fraction: its steps are counted only while at "
+        "least this fraction of the last gate_episodes finished training episodes succeeded (the task's own "
+        "success, at the values they flew), so the option waits where the agents do not yet succeed",
+    )
+    gate_episodes: int = Field(
+        100, ge=1, description="with gate: how many of the latest finished training episodes the gate looks at"
+    )
 
 
 class ImitationOptions(_Strict):
