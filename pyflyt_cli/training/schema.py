@@ -507,9 +507,21 @@ class CurriculumOption(_Strict):
         "least this fraction of the last gate_episodes finished training episodes succeeded (the task's own "
         "success, at the values they flew), so the option waits where the agents do not yet succeed",
     )
-    gate_episodes: int = Field(
-        100, ge=1, description="with gate: how many of the latest finished training episodes the gate looks at"
+    gate_episodes: int | None = Field(
+        None,
+        ge=1,
+        description="with gate (and only with it): how many of the latest finished training episodes it looks at",
     )
+
+    @model_validator(mode="after")
+    def _gate_and_its_window(self) -> CurriculumOption:
+        if (self.gate is None) != (self.gate_episodes is None):
+            given, missing = ("gate", "gate_episodes") if self.gate is not None else ("gate_episodes", "gate")
+            raise ValueError(
+                f"{given} needs {missing}: a gate counts the schedule's steps while >= gate of the last "
+                f"gate_episodes training episodes succeed; set both (e.g. gate: 0.2, gate_episodes: 100) or neither"
+            )
+        return self
 
 
 class ImitationOptions(_Strict):

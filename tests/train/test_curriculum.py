@@ -222,6 +222,8 @@ def test_a_run_with_a_gated_curriculum_stopped_mid_schedule_resumes_bit_identica
         ("{goal_reach_distance:{start:1,steps:10,gate:0}}", ["gate", "greater than 0"]),
         ("{goal_reach_distance:{start:1,steps:10,gate:1.5}}", ["gate", "less than or equal to 1"]),
         ("{goal_reach_distance:{start:1,steps:10,gate:0.5,gate_episodes:0}}", ["gate_episodes"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate:0.5}}", ["gate needs gate_episodes", "set both"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate_episodes:10}}", ["gate_episodes needs gate"]),
     ],
 )
 def test_a_bad_curriculum_is_refused_naming_what_is_wrong(tmp_path, curriculum, names):
