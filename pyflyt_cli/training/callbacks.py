@@ -32,6 +32,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList, Event
 from pyflyt_cli.training import rundir
 from pyflyt_cli.training.artifacts import save_policy
 from pyflyt_cli.training.evaluation import env_measures, policy_predict, run_episodes, summarize, summarize_measures
+from pyflyt_engine.errors import ConfigError
 
 
 class StopRequest:
@@ -110,14 +111,23 @@ class EpisodeMetrics(BaseCallback):
 class TaskCurriculum(BaseCallback):
     """Move task options from a start value to the configured one as training goes on.
 
-    For each option of ``train.curriculum`` the value at environment step ``t`` is
+    For each option of ``train.curriculum`` the value at schedule step ``t`` is
     ``start + (configured - start) * stage / 100`` with ``stage = min(100, 100 * t // steps)``
     (a vector option element by element):
     100 equal stages, so the training envs are told (``set_task_changes`` of
     :class:`~pyflyt_cli.training.envs.EpisodeTaskOptions`) at most 100 times, and only
-    episodes that start afterwards fly the new value.  The value is a function of the
-    step count alone: a resumed run continues the same schedule.  Evaluation envs are
-    not touched: they always fly the configured task.
+    episodes that start afterwards fly the new value.  Evaluation envs are not touched:
+    they always fly the configured task.
+
+    Without a ``gate`` the schedule step is the environment step count: the value is a
+    function of the step count alone, and a resumed run continues the same schedule.  With
+    ``gate: g`` the option's schedule counts the environment steps of a vector step only
+    while at least ``g`` of the last ``gate_episodes`` finished training episodes succeeded
+    (their ``info["episode"]["success"]``, at the values they flew; fewer finished episodes
+    than that: closed).  At step 0 it is closed, so the option holds its start value until
+    the agents succeed with it, and it pauses wherever they stop succeeding.  That count and
+    the latest outcomes are part of every checkpoint (:meth:`state_dict`), so a resumed run
+    continues exactly where the uninterrupted one was.
 
     Args:
         curriculum: option -> :class:`~pyflyt_cli.training.schema.CurriculumOption`.
@@ -133,9 +143,26 @@ class TaskCurriculum(BaseCallback):
         self.configured = configured
         self.writer = writer
         self._stages: tuple[int, ...] | None = None
+        #: gated option -> environment steps its schedule has counted
+        self.progress: dict[str, int] = {n: 0 for n, c in curriculum.items() if getattr(c, "gate", None) is not None}
+        #: the latest finished training episodes' successes, oldest first (as many as the widest gate looks at)
+        self.outcomes: list[bool] = []
+        self._window = max((curriculum[n].gate_episodes for n in self.progress), default=0)
+        self._last_step = 0
+
+    def schedule_steps(self, step: int) -> tuple[int, ...]:
+        """Each option's position on its schedule at environment step ``step``."""
+        return tuple(self.progress.get(name, int(step)) for name in self.curriculum)
 
     def stages(self, step: int) -> tuple[int, ...]:
-        return tuple(min(self.STAGES, self.STAGES * int(step) // c.steps) for c in self.curriculum.values())
+        return tuple(
+            min(self.STAGES, self.STAGES * t // c.steps)
+            for t, c in zip(self.schedule_steps(step), self.curriculum.values())
+        )
+
+    def finished(self, step: int) -> bool:
+        """Whether every option has reached its configured value at ``step``."""
+        return all(stage == self.STAGES for stage in self.stages(step))
 
     def changes_at(self, step: int) -> dict[str, Any]:
         """The option values of the episodes that start at ``step`` (configured ones left out)."""
@@ -152,6 +179,7 @@ class TaskCurriculum(BaseCallback):
     def apply(self, vec_env: Any, step: int) -> None:
         """Tell the training envs the values of ``step`` (before ``learn()``: its first resets use them)."""
         self._stages = self.stages(step)
+        self._last_step = int(step)
         changes = self.changes_at(step)
         vec_env.env_method("set_task_changes", changes)
         if self.writer is not None:
@@ -164,10 +192,54 @@ class TaskCurriculum(BaseCallback):
                     values[name] = float(value)
             self.writer.log("/train/curriculum", int(step), values)
 
+    def gate_open(self, name: str) -> bool:
+        """Whether option ``name``'s gate counts steps now."""
+        c = self.curriculum[name]
+        recent = self.outcomes[-c.gate_episodes :]
+        return len(recent) >= c.gate_episodes and sum(recent) >= c.gate * c.gate_episodes
+
+    def _count(self) -> None:
+        """A vector step of the gated schedules: its finished episodes recorded, then its steps counted."""
+        for info in self.locals.get("infos", ()):
+            episode = info.get("episode")
+            if episode is None:
+                continue
+            if "success" not in episode:
+                raise ConfigError(
+                    "train.curriculum: a gated option (gate:) needs the training episodes' success, and this "
+                    "env's episodes do not report one; remove gate: to follow the step count"
+                )
+            self.outcomes.append(bool(episode["success"]))
+        del self.outcomes[: -self._window]
+        steps = int(self.model.num_timesteps) - self._last_step
+        for name in self.progress:
+            if self.gate_open(name):
+                self.progress[name] += steps
+
     def _on_step(self) -> bool:
+        if self.progress:
+            self._count()
+        self._last_step = int(self.model.num_timesteps)
         if self.stages(self.model.num_timesteps) != self._stages:
             self.apply(self.training_env, self.model.num_timesteps)
         return True
+
+    def state_dict(self) -> dict[str, Any]:
+        """What a checkpoint keeps of the gated schedules (empty without a gate)."""
+        if not self.progress:
+            return {}
+        return {"progress": dict(self.progress), "outcomes": [int(o) for o in self.outcomes]}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """The gated schedules as a checkpoint's :meth:`state_dict` left them."""
+        for name in self.progress:
+            if name not in state.get("progress", {}):
+                raise ConfigError(
+                    f"train.curriculum.{name}: the checkpoint holds no gated schedule for it (gate: was added "
+                    "after the run started); resume with the configuration the run started with"
+                )
+            self.progress[name] = int(state["progress"][name])
+        self.outcomes = [bool(o) for o in state.get("outcomes", [])][-self._window :] if self.progress else []
 
 
 #: ``train.best_by``: what ranks evaluations for ``best_model.pt``

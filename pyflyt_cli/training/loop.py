@@ -415,6 +415,7 @@ class _Run:
         self.progress_bar = progress_bar if progress_bar is not None else cfg.train.progress_bar
         self.state: dict[str, Any] = {}
         self.evaluation: Any = None
+        self.curriculum: Any = None
         self.checkpointer: Any = None
         self.writer: Any = None
         self.phases: Any = None
@@ -446,7 +447,10 @@ class _Run:
                 self._hold_normalizer(model)
                 stop = StopRequest()
                 callbacks = self._callbacks(
-                    cleanup, stop, restored, [*self._curriculum(model), *self._value_warmup(), *extra_callbacks]
+                    cleanup,
+                    stop,
+                    restored,
+                    [*self._curriculum(model, restored), *self._value_warmup(), *extra_callbacks],
                 )
                 self._write_state("running", start_step, checkpoint=checkpoint.step if checkpoint else None)
                 elapsed = self._learn(model, callbacks, stop)
@@ -713,8 +717,9 @@ class _Run:
 
         return [ValueWarmup(options.value_warmup, self.log)]
 
-    def _curriculum(self, model: Any) -> list[Any]:
-        """``train.curriculum``: its callback, the training envs already told the current values."""
+    def _curriculum(self, model: Any, restored: tuple[dict[str, Any], dict[str, Any]] | None) -> list[Any]:
+        """``train.curriculum``: its callback (a gated schedule where the checkpoint left it), the
+        training envs already told the current values."""
         curriculum = self.cfg.train.curriculum
         if not curriculum:
             return []
@@ -722,13 +727,21 @@ class _Run:
 
         configured = {name: getattr(self.cfg.env.task, name) for name in curriculum}
         callback = TaskCurriculum(curriculum, configured, self.writer)
+        if restored is not None and callback.progress:
+            callback.load_state_dict(restored[0].get("callbacks", {}).get("curriculum", {}))
         callback.apply(model.get_env(), int(model.num_timesteps))
+        self.curriculum = callback
 
         def show(value: Any) -> str:
             return f"[{', '.join(f'{v:g}' for v in value)}]" if isinstance(value, (list, tuple)) else f"{value:g}"
 
+        def gate(c: Any) -> str:
+            if c.gate is None:
+                return ""
+            return f" counted while >= {100 * c.gate:g} % of the last {c.gate_episodes} training episodes succeed"
+
         moves = ", ".join(
-            f"{n} {show(c.start)} -> {show(configured[n])} over {c.steps} steps" for n, c in curriculum.items()
+            f"{n} {show(c.start)} -> {show(configured[n])} over {c.steps} steps{gate(c)}" for n, c in curriculum.items()
         )
         self.log(f"curriculum: {moves} (evaluations fly the configured task)")
         return [callback]
@@ -737,6 +750,8 @@ class _Run:
         state: dict[str, Any] = {"next_checkpoint": self.checkpointer.next_checkpoint if self.checkpointer else None}
         if self.evaluation is not None:
             state["evaluation"] = self.evaluation.state_dict()
+        if self.curriculum is not None and self.curriculum.progress:  # a gated schedule's position
+            state["curriculum"] = self.curriculum.state_dict()
         return state
 
     # ---------------------------------------------------------------- learn
@@ -857,6 +872,13 @@ class _Run:
                     "/train/progress", step, {"elapsed": elapsed, "steps_per_second": trained_rate, **split}
                 )
                 self._write_state("complete", step)
+                if self.curriculum is not None and not self.curriculum.finished(step):
+                    left = ", ".join(f"{name} {value}" for name, value in self.curriculum.changes_at(step).items())
+                    self.log(
+                        f"curriculum: the gated schedule did not reach the configured task within the budget "
+                        f"(the last training episodes flew {left}); more train.total_timesteps, a lower gate, "
+                        "or fewer steps finish it"
+                    )
         ev = self.evaluation
         trained = max(0, step - start_step)
         result = RunResult(

@@ -499,6 +499,29 @@ class CurriculumOption(_Strict):
         description="the value moves linearly (in 100 equal stages) from start to the env's configured "
         "value (env.task.<option>) over this many environment steps, and stays there",
     )
+    gate: float | None = Field(
+        None,
+        gt=0.0,
+        le=1.0,
+        description="null: the schedule follows the step count. A fraction: its steps are counted only while at "
+        "least this fraction of the last gate_episodes finished training episodes succeeded (the task's own "
+        "success, at the values they flew), so the option waits where the agents do not yet succeed",
+    )
+    gate_episodes: int | None = Field(
+        None,
+        ge=1,
+        description="with gate (and only with it): how many of the latest finished training episodes it looks at",
+    )
+
+    @model_validator(mode="after")
+    def _gate_and_its_window(self) -> CurriculumOption:
+        if (self.gate is None) != (self.gate_episodes is None):
+            given, missing = ("gate", "gate_episodes") if self.gate is not None else ("gate_episodes", "gate")
+            raise ValueError(
+                f"{given} needs {missing}: a gate counts the schedule's steps while >= gate of the last "
+                f"gate_episodes training episodes succeed; set both (e.g. gate: 0.2, gate_episodes: 100) or neither"
+            )
+        return self
 
 
 class ImitationOptions(_Strict):

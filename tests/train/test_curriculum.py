@@ -79,6 +79,138 @@ def test_a_run_with_a_curriculum_stopped_mid_schedule_resumes_bit_identical(tmp_
     _assert_same(_outcome(first.run_dir), reference)
 
 
+class _Envs:
+    def __init__(self) -> None:
+        self.told: list[dict] = []
+
+    def env_method(self, name: str, changes: dict) -> None:
+        assert name == "set_task_changes"
+        self.told.append(dict(changes))
+
+
+class _Model:
+    def __init__(self, envs: _Envs) -> None:
+        self.num_timesteps = 0
+        self.envs = envs
+
+    def get_env(self) -> _Envs:
+        return self.envs
+
+
+def _gated(gate: float, episodes: int, steps: int) -> tuple[TaskCurriculum, _Model, _Envs]:
+    option = CurriculumOption(start=1.0, steps=steps, gate=gate, gate_episodes=episodes)
+    c = TaskCurriculum({"goal_reach_distance": option}, {"goal_reach_distance": 0.2})
+    envs = _Envs()
+    model = _Model(envs)
+    c.model = model  # what init_callback sets
+    c.apply(envs, 0)
+    return c, model, envs
+
+
+def _vector_step(c: TaskCurriculum, model: _Model, n_envs: int, ended: list[bool]) -> None:
+    """One vector step of ``n_envs`` envs in which episodes with these successes ended."""
+    model.num_timesteps += n_envs
+    infos = [{"episode": {"r": 0.0, "l": 1, "success": s}} for s in ended]
+    c.locals = {"infos": infos + [{}] * (n_envs - len(ended))}
+    c._on_step()
+
+
+# (episodes ended in the vector step, the gated schedule's step after it): gate 0.5 over the
+# last 4 episodes, 2 envs, so an open gate counts 2 steps
+GATED_STEPS = [
+    ([], 0),  # nothing finished: closed
+    ([True, True], 0),  # 2 of the 4 episodes it looks at: closed
+    ([True, True], 2),  # 4 of 4 succeeded: open
+    ([False, False], 4),  # 2 of 4 (= 0.5): open
+    ([False, False], 4),  # 0 of 4: paused
+    ([], 4),
+    ([True], 4),  # 1 of 4
+    ([True, True], 6),  # 3 of 4: counting again
+]
+
+
+def test_a_gated_schedule_counts_steps_only_while_enough_recent_training_episodes_succeed():
+    c, model, envs = _gated(0.5, 4, 100)  # 100 steps: one stage per step
+    assert envs.told == [{"goal_reach_distance": 1.0}]
+    for ended, counted in GATED_STEPS:
+        _vector_step(c, model, 2, ended)
+        assert c.progress == {"goal_reach_distance": counted}
+        assert c.changes_at(model.num_timesteps) == {"goal_reach_distance": pytest.approx(1.0 - 0.8 * counted / 100)}
+    # the envs are told at every stage change and only then
+    assert [t["goal_reach_distance"] for t in envs.told] == pytest.approx([1.0, 0.984, 0.968, 0.952])
+    assert not c.finished(model.num_timesteps)
+
+
+def test_a_gated_schedule_continues_from_its_state_as_the_uninterrupted_one():
+    whole, model, _ = _gated(0.5, 4, 100)
+    for ended, _ in GATED_STEPS:
+        _vector_step(whole, model, 2, ended)
+    first, model, _ = _gated(0.5, 4, 100)
+    for ended, _ in GATED_STEPS[:4]:
+        _vector_step(first, model, 2, ended)
+    saved = json.loads(json.dumps(first.state_dict()))  # as a checkpoint stores it
+    assert saved == {"progress": {"goal_reach_distance": 4}, "outcomes": [1, 1, 0, 0]}
+    resumed, fresh, envs = _gated(0.5, 4, 100)
+    resumed.load_state_dict(saved)
+    fresh.num_timesteps = model.num_timesteps
+    resumed.apply(envs, fresh.num_timesteps)
+    assert envs.told[-1] == {"goal_reach_distance": pytest.approx(0.968)}  # the checkpoint's stage, not step 0's
+    for ended, _ in GATED_STEPS[4:]:
+        _vector_step(resumed, fresh, 2, ended)
+    assert resumed.state_dict() == whole.state_dict()
+
+
+def test_a_schedule_without_a_gate_keeps_no_state():
+    c = TaskCurriculum({"goal_reach_distance": CurriculumOption(start=1.0, steps=1000)}, {"goal_reach_distance": 0.2})
+    assert c.state_dict() == {} and c.progress == {}
+
+
+def test_a_gate_on_episodes_that_report_no_success_is_refused_with_the_fix():
+    c, model, _ = _gated(0.5, 4, 100)
+    model.num_timesteps += 1
+    c.locals = {"infos": [{"episode": {"r": 0.0, "l": 1}}]}
+    with pytest.raises(ConfigError, match="remove gate: to follow the step count"):
+        c._on_step()
+
+
+# the schedule of SAC_WAYPOINTS counted from the 10th finished training episode on: 4 envs whose
+# episodes all take 5 steps (the 40 m sphere) end 12 episodes at step 60
+GATED_WAYPOINTS = [
+    *SAC_WAYPOINTS[:-1],
+    "train.curriculum={goal_reach_distance:{start:40.0,steps:600,gate:0.5,gate_episodes:10}}",
+]
+
+
+def test_a_gated_curriculum_waits_for_the_training_episodes_success(tmp_path):
+    logged: list[str] = []
+    result = train(load(GATED_WAYPOINTS, tmp_path), log=logged.append)
+    moves = read_metrics(result.run_dir)["/train/curriculum"]
+    # ungated, stage 1 (6 of 600 steps) comes at step 8; gated, the count starts at step 60 (4
+    # steps of it counted there), so stage 1 comes at step 64
+    assert moves[0]["step"] == 0 and moves[0]["goal_reach_distance"] == 40.0
+    assert moves[1]["step"] == 64 and moves[1]["goal_reach_distance"] == pytest.approx(40.0 - 39.8 / 100)
+    ungated = read_metrics(train(load(SAC_WAYPOINTS, tmp_path / "ungated")).run_dir)["/train/curriculum"]
+    assert ungated[1]["step"] == 8
+    # 600 steps of schedule cannot be counted in a 600-step run that starts counting at step 56
+    assert moves[-1]["goal_reach_distance"] > 0.2
+    assert any("the gated schedule did not reach the configured task within the budget" in line for line in logged)
+
+
+def test_a_run_with_a_gated_curriculum_stopped_mid_schedule_resumes_bit_identical(tmp_path):
+    whole = train(load(GATED_WAYPOINTS, tmp_path / "whole")).run_dir
+    first = train(load(GATED_WAYPOINTS, tmp_path / "stopped"), callbacks=[SignalAt(333)])
+    assert first.interrupted
+    at = json.loads((first.run_dir / "state.json").read_text())["checkpoint"]
+    resume(first.run_dir)
+    _assert_same(_outcome(first.run_dir), _outcome(whole))
+    moves = [(m["step"], m["goal_reach_distance"]) for m in read_metrics(whole)["/train/curriculum"]]
+    assert [m for m in moves if m[0] > at]  # the schedule was still moving when the run stopped
+    resumed = [(m["step"], m["goal_reach_distance"]) for m in read_metrics(first.run_dir)["/train/curriculum"]]
+    # the resume tells the envs the checkpoint's value (a record at its step), then moves as the whole run did
+    assert [m for m in resumed if m[0] >= at][0] == (at, [m for m in moves if m[0] <= at][-1][1])
+    assert [m for m in resumed if m[0] > at] == [m for m in moves if m[0] > at]
+
+
 @pytest.mark.parametrize(
     ("curriculum", "names"),
     [
@@ -87,6 +219,11 @@ def test_a_run_with_a_curriculum_stopped_mid_schedule_resumes_bit_identical(tmp_
         ("{goal_reach_distance:{start:1}}", ["steps"]),
         ("{goal_reach_distance:{start:1,steps:0}}", ["steps"]),
         ("{goal_reach_distance:{start:1,steps:10,stop:3}}", ["stop"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate:0}}", ["gate", "greater than 0"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate:1.5}}", ["gate", "less than or equal to 1"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate:0.5,gate_episodes:0}}", ["gate_episodes"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate:0.5}}", ["gate needs gate_episodes", "set both"]),
+        ("{goal_reach_distance:{start:1,steps:10,gate_episodes:10}}", ["gate_episodes needs gate"]),
     ],
 )
 def test_a_bad_curriculum_is_refused_naming_what_is_wrong(tmp_path, curriculum, names):
