@@ -340,6 +340,12 @@ LATER_KEYS = {
     "env.controller": "own",
     "env.firmware_action": "sticks",
 }
+#: as LATER_KEYS, for keys below a mapping of the user's names (prefix, suffix): the
+#: curriculum's gate, added after curriculum runs were first recorded (none: the step count)
+LATER_PATTERNS = {
+    ("train.curriculum.", ".gate"): None,
+    ("train.curriculum.", ".gate_episodes"): None,
+}
 
 
 #: ``env.terminations`` as every env declared it before it was a key (conf/env/_base.yaml):
@@ -377,6 +383,10 @@ def identity(cfg: TrainConfig | dict[str, Any], run_dir: Path | None = None) -> 
     for key, earlier in LATER_KEYS.items():
         if flat.get(key) in (None, earlier):
             flat.pop(key, None)
+    for (prefix, suffix), earlier in LATER_PATTERNS.items():
+        for key in [k for k in flat if k.startswith(prefix) and k.endswith(suffix)]:
+            if flat[key] in (None, earlier):
+                del flat[key]
 
     def file_identity(uav: Any) -> Any:
         if not (isinstance(uav, str) and (uav.endswith((".yaml", ".yml")) or os.sep in uav)):

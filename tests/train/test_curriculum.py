@@ -361,3 +361,25 @@ def test_no_shipped_tuning_or_experiment_has_a_curriculum_outlasting_its_budget(
             assert option.steps <= cfg.train.total_timesteps, path.name
     # the smoke benchmark's grid is loaded by tests/benchmark/test_plan.py
     assert not load(["experiment=smoke", "env=quadx_waypoints", "algo=ppo"], tmp_path).train.curriculum
+
+
+def test_a_run_recorded_before_the_gate_keeps_its_digest():
+    """A curriculum without a gate identifies as it did before the gate existed (rundir.LATER_PATTERNS),
+    so runs recorded then resume and compare as before: the shipped QuadX-Waypoints agent's recorded
+    config has the digest it had (computed at the commit before the gate); a gate counts."""
+    from pathlib import Path
+
+    import yaml
+
+    from pyflyt_cli.training import rundir
+    from pyflyt_cli.training.schema import parse_train_config
+
+    path = Path(__file__).resolve().parents[2] / "pyflyt_cli" / "zoo" / "agents" / "quadx_waypoints_ppo" / "config.yaml"
+    data = yaml.safe_load(path.read_text())
+    cfg = parse_train_config(data, source=str(path), recorded=True)
+    assert rundir.config_digest(cfg, path.parent) == "9b1c102659ceb3a238e75e106c7c39695fb949e27c274b4b190523272c4e1231"
+    assert not [k for k in rundir.identity(cfg, path.parent) if k.endswith((".gate", ".gate_episodes"))]
+    data["train"]["curriculum"]["goal_reach_distance"].update(gate=0.2, gate_episodes=100)
+    gated = parse_train_config(data, source=str(path), recorded=True)
+    assert rundir.identity(gated, path.parent)["train.curriculum.goal_reach_distance.gate"] == 0.2
+    assert rundir.config_digest(gated, path.parent) != rundir.config_digest(cfg, path.parent)
