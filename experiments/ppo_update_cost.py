@@ -138,16 +138,32 @@ def time_sbx(updates: int) -> dict:
     model = PPO(
         "MlpPolicy", venv, n_steps=N_STEPS, batch_size=BATCH, n_epochs=EPOCHS, policy_kwargs=kwargs, seed=0, verbose=0
     )
+    from stable_baselines3.common.callbacks import BaseCallback
+
     model.learn(2 * N_STEPS * N_ENVS)  # compiled
-    inner, times = model.train, []
+    times: list[tuple[float, float]] = []
 
-    def timed() -> None:
-        cpu, wall = time.process_time(), time.perf_counter()
-        inner()
-        times.append((time.process_time() - cpu, time.perf_counter() - wall))
+    class UpdateTimes(BaseCallback):
+        """Each update's CPU and wall-clock seconds: from a rollout's end to the next rollout's
+        start (or the end of learn()), which is where the learning loop calls ``train()``."""
 
-    model.train = timed  # type: ignore[method-assign]
-    model.learn(updates * N_STEPS * N_ENVS, reset_num_timesteps=False)
+        mark: tuple[float, float] | None = None
+
+        def _on_rollout_end(self) -> None:
+            self.mark = (time.process_time(), time.perf_counter())
+
+        def _on_rollout_start(self) -> None:
+            if self.mark is not None:
+                times.append((time.process_time() - self.mark[0], time.perf_counter() - self.mark[1]))
+                self.mark = None
+
+        def _on_training_end(self) -> None:
+            self._on_rollout_start()
+
+        def _on_step(self) -> bool:
+            return True
+
+    model.learn(updates * N_STEPS * N_ENVS, reset_num_timesteps=False, callback=UpdateTimes())
     return {
         "cpu_ms": 1000 * sum(c for c, _ in times) / len(times),
         "wall_ms": 1000 * sum(w for _, w in times) / len(times),
