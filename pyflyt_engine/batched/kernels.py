@@ -80,7 +80,7 @@ _TWO_OVER_PI = _ls._TWO_OVER_PI
 SURFACE_FIELDS = len(_ls.SurfaceConstants._fields)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotation_tuple(qx: float, qy: float, qz: float, qw: float):
     """Body-to-ground rotation matrix of a quaternion, row-major, as a 9-tuple (the hot loop
     keeps it in registers): Bullet's ``btMatrix3x3::setRotation`` (``s = 2 / |q|^2``), which
@@ -94,7 +94,7 @@ def rotation_tuple(qx: float, qy: float, qz: float, qw: float):
     return (1.0 - (yy + zz), xy - wz, xz + wy, xy + wz, 1.0 - (xx + zz), yz - wx, xz - wy, yz + wx, 1.0 - (xx + yy))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotation_rows(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
     """Body-to-ground rotation matrix of a quaternion, row-major into ``out`` (9,):
     :func:`rotation_tuple`'s entries."""
@@ -111,7 +111,7 @@ def rotations(quaternions: np.ndarray, out: np.ndarray) -> None:
         rotation_rows(q[0], q[1], q[2], q[3], out[i])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
     """Quaternion (x, y, z, w) of a row-major rotation matrix: Bullet's
     ``btMatrix3x3::getRotation``, what PyBullet returns as a body's orientation (so the
@@ -140,7 +140,7 @@ def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
         out[k] = (r[3 * k + i] + r[3 * i + k]) * s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def euler_from_quaternion(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
     """(roll, pitch, yaw) of a quaternion as PyBullet's ``getEulerFromQuaternion`` computes
     them (ZYX angles; at |sin(pitch)| >= 0.99999 the gimbal-lock branch)."""
@@ -163,19 +163,48 @@ def euler_from_quaternion(qx: float, qy: float, qz: float, qw: float, out: np.nd
 @njit(cache=True)
 def motors_step(throttle: np.ndarray, command: np.ndarray, lag: np.ndarray, factors: np.ndarray, columns: np.ndarray):
     """One physics step of a vehicle's motors (``Motors.step``): ``x' = (x + a (c - x)) z``;
-    ``throttle`` updated; returns the wrench ``sum_i column_i x'_i |x'_i|`` (6-tuple)."""
+    ``throttle`` updated; returns the wrench ``sum_i column_i x'_i |x'_i|`` (6-tuple).
+    :func:`motors_step_row` of one vehicle's arrays."""
+    return motors_step_row(
+        throttle[np.newaxis],
+        command[np.newaxis],
+        lag[np.newaxis],
+        factors[np.newaxis, np.newaxis],
+        columns[np.newaxis],
+        0,
+        0,
+        0,
+    )
+
+
+@njit(cache=True, inline="always")
+def motors_step_row(
+    throttle: np.ndarray,
+    command: np.ndarray,
+    lag: np.ndarray,
+    factors: np.ndarray,
+    columns: np.ndarray,
+    i: int,
+    s: int,
+    c: int,
+):
+    """:func:`motors_step` of vehicle ``i`` at physics step ``s`` of the batch's arrays
+    (``throttle``, ``command``, ``lag`` (N, n), ``factors`` (N, count, n)), its wrench columns
+    ``columns[c]`` ((., n, 6): the batch's, ``c = i``, or a vehicle's scratch).
+    The hot loops index the batch's arrays instead of taking a view of a row: a view per
+    vehicle and step costs a reference count's increment and decrement, more than the law."""
     fx = fy = fz = tx = ty = tz = 0.0
-    for m in range(throttle.shape[0]):
-        x = throttle[m]
-        x = (x + lag[m] * (command[m] - x)) * factors[m]
-        throttle[m] = x
+    for m in range(throttle.shape[1]):
+        x = throttle[i, m]
+        x = (x + lag[i, m] * (command[i, m] - x)) * factors[i, s, m]
+        throttle[i, m] = x
         f = x * abs(x)
-        fx += columns[m, 0] * f
-        fy += columns[m, 1] * f
-        fz += columns[m, 2] * f
-        tx += columns[m, 3] * f
-        ty += columns[m, 4] * f
-        tz += columns[m, 5] * f
+        fx += columns[c, m, 0] * f
+        fy += columns[c, m, 1] * f
+        fz += columns[c, m, 2] * f
+        tx += columns[c, m, 3] * f
+        ty += columns[c, m, 4] * f
+        tz += columns[c, m, 5] * f
     return fx, fy, fz, tx, ty, tz
 
 
@@ -415,7 +444,7 @@ def modelled_load(
     return fx, fy, fz, tx, ty, tz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def drag_wrench(
     vx: float, vy: float, vz: float, wx: float, wy: float, wz: float, kx: float, ky: float, kz: float, damping: float
 ):
@@ -431,7 +460,7 @@ def drag_wrench(
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def summed(a, b):
     """``a + b`` component by component (``vehicle._summed``)."""
     return a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5]
@@ -452,17 +481,52 @@ def rate_loop(
 ) -> None:
     """The body-rate loop (``MultirotorController._rate_loop``): torques [N m] into ``out``
     (3,); ``integral`` advanced.  ``gains`` rows: kp, ki, kd, integral limit (per axis);
-    ``previous`` the rates of the last tick (the rates themselves on the first)."""
+    ``previous`` the rates of the last tick (the rates themselves on the first).
+    :func:`rate_loop_row` of one vehicle's arrays."""
+    out[0], out[1], out[2] = rate_loop_row(
+        rates_sp[np.newaxis],
+        rates[0],
+        rates[1],
+        rates[2],
+        previous[np.newaxis],
+        integral[np.newaxis],
+        gains[np.newaxis],
+        derivative,
+        inertia[np.newaxis],
+        gyro[np.newaxis],
+        dt,
+        0,
+    )
+
+
+@njit(cache=True, inline="always")
+def rate_loop_row(
+    rates_sp: np.ndarray,
+    wx: float,
+    wy: float,
+    wz: float,
+    previous: np.ndarray,
+    integral: np.ndarray,
+    gains: np.ndarray,
+    derivative: bool,
+    inertia: np.ndarray,
+    gyro: np.ndarray,
+    dt: float,
+    v: int,
+):
+    """:func:`rate_loop` of vehicle ``v`` of the batch's arrays (``rates_sp`` (N, >= 3),
+    ``previous``, ``integral``, ``inertia``, ``gyro`` (N, 3), ``gains`` (N, 4, 3)) at body rates
+    (wx, wy, wz); returns the torques (3-tuple).  Indexed, not viewed, as :func:`motors_step_row`."""
     a0 = a1 = a2 = 0.0
     for k in range(3):
-        kp, ki, kd, limit = gains[0, k], gains[1, k], gains[2, k], gains[3, k]
-        w = rates[k]
-        e = rates_sp[k] - w
-        i = integral[k] + e * dt
+        kp, ki, kd, limit = gains[v, 0, k], gains[v, 1, k], gains[v, 2, k], gains[v, 3, k]
+        w = wx if k == 0 else wy if k == 1 else wz
+        e = rates_sp[v, k] - w
+        i = integral[v, k] + e * dt
         i = limit if i > limit else -limit if i < -limit else i
-        integral[k] = i
+        integral[v, k] = i
         if derivative:
-            alpha = kp * e + ki * i - kd * (w - previous[k]) / dt
+            alpha = kp * e + ki * i - kd * (w - previous[v, k]) / dt
         else:
             alpha = kp * e + ki * i
         if k == 0:
@@ -471,19 +535,20 @@ def rate_loop(
             a1 = alpha
         else:
             a2 = alpha
-    wx, wy, wz = rates[0], rates[1], rates[2]
-    out[0] = inertia[0] * a0 + gyro[0] * wy * wz
-    out[1] = inertia[1] * a1 + gyro[1] * wz * wx
-    out[2] = inertia[2] * a2 + gyro[2] * wx * wy
+    return (
+        inertia[v, 0] * a0 + gyro[v, 0] * wy * wz,
+        inertia[v, 1] * a1 + gyro[v, 1] * wz * wx,
+        inertia[v, 2] * a2 + gyro[v, 2] * wx * wy,
+    )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _lower(current: float, candidate: float) -> float:
     candidate = candidate if candidate > 0.0 else 0.0
     return candidate if candidate < current else current
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _throttle(force: float, full: float) -> float:
     return 0.0 if force <= 0.0 else 1.0 if force >= full else math.sqrt(force / full)
 
@@ -492,12 +557,21 @@ def _throttle(force: float, full: float) -> float:
 def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts: np.ndarray, out: np.ndarray) -> None:
     """Motor throttles for [thrust, tau_x, tau_y, tau_z] (``Mixer.throttles`` without tilting
     motors) into ``out`` (n,).  ``rows`` (n, 5): the pseudo-inverse's row and the full
-    thrust per motor; ``parts`` (n, 4) scratch."""
-    n = rows.shape[0]
+    thrust per motor; ``parts`` (n, 4) scratch.  :func:`mix_row` of one vehicle's arrays."""
+    mix_row(thrust, tx, ty, tz, rows[np.newaxis], parts, out[np.newaxis], 0)
+
+
+@njit(cache=True, inline="always")
+def mix_row(
+    thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts: np.ndarray, out: np.ndarray, v: int
+) -> None:
+    """:func:`mix` of vehicle ``v`` of the batch's arrays (``rows`` (N, n, 5), ``out`` (N, n));
+    ``parts`` (n, 4) scratch.  Indexed, not viewed, as :func:`motors_step_row`."""
+    n = rows.shape[1]
     yaw_scale = 1.0
     fits = True
     for m in range(n):
-        r0, r1, r2, r3, fm = rows[m, 0], rows[m, 1], rows[m, 2], rows[m, 3], rows[m, 4]
+        r0, r1, r2, r3, fm = rows[v, m, 0], rows[v, m, 1], rows[v, m, 2], rows[v, m, 3], rows[v, m, 4]
         ft = r0 * thrust
         b = ft + r1 * tx + r2 * ty
         y = r3 * tz
@@ -510,7 +584,7 @@ def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts:
         if f > fm and ft > 0.0:
             fits = False
         parts[m, 0], parts[m, 1], parts[m, 2], parts[m, 3] = ft, from_roll_pitch, y, fm
-        out[m] = 0.0 if f <= 0.0 else 1.0 if f >= fm else math.sqrt(f / fm)
+        out[v, m] = 0.0 if f <= 0.0 else 1.0 if f >= fm else math.sqrt(f / fm)
     if fits and yaw_scale == 1.0:
         return
     scale = 1.0
@@ -520,7 +594,7 @@ def mix(thrust: float, tx: float, ty: float, tz: float, rows: np.ndarray, parts:
         if ft + fq > fm and ft > 0.0:
             scale = _lower(scale, (fm - fq) / ft)
     for m in range(n):
-        out[m] = _throttle(scale * parts[m, 0] + parts[m, 1], parts[m, 3])
+        out[v, m] = _throttle(scale * parts[m, 0] + parts[m, 1], parts[m, 3])
 
 
 @njit(cache=True)
@@ -676,7 +750,7 @@ def route_gimbals(channels: np.ndarray, outputs: np.ndarray, source: np.ndarray,
             out[2 * g], out[2 * g + 1] = 0.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def integrate_state(p, q, v, w, r, load, mass, jx, jy, jz, gravity, dt):
     """One physics step of the free rigid body (the module docstring) under the body-frame
     wrench ``load`` (6-tuple) at the centre of mass and gravity along -z, on tuples:
@@ -766,13 +840,20 @@ def lowest_corner(pos: np.ndarray, r: np.ndarray, corners: np.ndarray) -> float:
 
 @njit(cache=True)
 def _lowest(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray) -> float:
+    return lowest_row(z0, r6, r7, r8, corners[np.newaxis], 0)
+
+
+@njit(cache=True, inline="always")
+def lowest_row(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray, v: int) -> float:
+    """:func:`lowest_corner` of vehicle ``v`` (``corners`` (N, c, 8)) at height ``z0`` and the
+    rotation's last row; indexed, not viewed, as :func:`motors_step_row`."""
     low = math.inf
-    for c in range(corners.shape[0]):
-        x, y, z = corners[c, 0], corners[c, 1], corners[c, 2]
-        height = z0 + r6 * x + r7 * y + r8 * z - corners[c, 3]
-        disc = corners[c, 4]
+    for c in range(corners.shape[1]):
+        x, y, z = corners[v, c, 0], corners[v, c, 1], corners[v, c, 2]
+        height = z0 + r6 * x + r7 * y + r8 * z - corners[v, c, 3]
+        disc = corners[v, c, 4]
         if disc > 0.0:
-            nz = r6 * corners[c, 5] + r7 * corners[c, 6] + r8 * corners[c, 7]
+            nz = r6 * corners[v, c, 5] + r7 * corners[v, c, 6] + r8 * corners[v, c, 7]
             rim = 1.0 - nz * nz
             height -= disc * math.sqrt(rim if rim > 0.0 else 0.0)
         if height < low:
@@ -865,11 +946,8 @@ def advance(
     modelled = motor_laws != 0
     motor_air = (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0
     ratio = np.empty(nm)
-    rates = np.empty(3)
-    torques = np.empty(3)
-    out = np.empty(nm)
     parts = np.empty((nm, 4))
-    scaled = np.empty((nm, 6))
+    scaled = np.empty((1, nm, 6))  # ground effect's columns of the vehicle at hand
     windy = wind[0] != 0.0
     turbulent = wind[17] != 0.0
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -894,34 +972,25 @@ def advance(
             bw2 = r2 * w0 + r5 * w1 + r8 * w2
             if step % per_control == 0:  # control tick
                 if mode == MODE_RATES_THRUST:
-                    rates[0], rates[1], rates[2] = bw0, bw1, bw2
                     if not has_previous[i]:
                         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-                    rate_loop(
-                        setpoint[i, :3],
-                        rates,
-                        previous[i],
-                        integral[i],
-                        rate_gains[i],
+                    t0, t1, t2 = rate_loop_row(
+                        setpoint,
+                        bw0,
+                        bw1,
+                        bw2,
+                        previous,
+                        integral,
+                        rate_gains,
                         derivative,
-                        control_inertia[i],
-                        gyro[i],
+                        control_inertia,
+                        gyro,
                         control_dt,
-                        torques,
+                        i,
                     )
                     previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
                     has_previous[i] = True
-                    mix(
-                        setpoint[i, 3] * max_collective[i],
-                        torques[0],
-                        torques[1],
-                        torques[2],
-                        mixer_rows[i],
-                        parts,
-                        out,
-                    )
-                    for mo in range(nm):
-                        cmd_i[mo] = out[mo]
+                    mix_row(setpoint[i, 3] * max_collective[i], t0, t1, t2, mixer_rows, parts, command, i)
                 else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
                     for mo in range(nm):
                         c = setpoint[i, mo]
@@ -958,10 +1027,10 @@ def advance(
                     physics_dt,
                 )
             elif ground_effect:
-                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
-                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
+                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled[0])
+                load = motors_step_row(throttle, command, lag, factors, scaled, i, s, 0)
             else:
-                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+                load = motors_step_row(throttle, command, lag, factors, columns, i, s, i)
             if drag_on:  # summed after the motors, as the PyBullet engine sums its groups
                 v0, v1, v2 = v
                 if windy:
@@ -981,7 +1050,7 @@ def advance(
             p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
             if (step + 1) % per_control == 0 or s == count - 1:
                 rr = rotation_tuple(q[0], q[1], q[2], q[3])
-                if _lowest(p[2], rr[6], rr[7], rr[8], corners[i]) < 0.0:
+                if lowest_row(p[2], rr[6], rr[7], rr[8], corners, i) < 0.0:
                     contact[i] = True
         pos[i, 0], pos[i, 1], pos[i, 2] = p
         quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
@@ -1000,7 +1069,7 @@ def read_out(pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quater
         read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e):
     """:func:`read_out` of row ``i`` (``r``, ``q``, ``e``: (9,), (4,), (3,) scratch)."""
     rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
@@ -1395,7 +1464,7 @@ def advance_channels(
     rm = np.empty(9)
     qr = np.empty(4)
     euler = np.empty(3)
-    scaled = np.empty((throttle.shape[1], 6))
+    scaled = np.empty((1, throttle.shape[1], 6))  # ground effect's columns of the vehicle at hand
     windy = wind[0] != 0.0
     turbulent = wind[17] != 0.0
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -1516,17 +1585,17 @@ def advance_channels(
                     physics_dt,
                 )
             elif ground_effect:
-                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled)
-                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], scaled)
+                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled[0])
+                load = motors_step_row(throttle, command, lag, factors, scaled, i, s, 0)
             else:
-                load = motors_step(x_i, cmd_i, lag_i, factors[i, s], col_i)
+                load = motors_step_row(throttle, command, lag, factors, columns, i, s, i)
             load = summed(load, surfaces_step(d_i, f_i, sl_i, s_i, bv0, bv1, bv2, bw0, bw1, bw2, air_density))
             if drag_on:
                 load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
             p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
             if (step + 1) % per_control == 0 or s == count - 1:
                 rr = rotation_tuple(q[0], q[1], q[2], q[3])
-                if _lowest(p[2], rr[6], rr[7], rr[8], corners[i]) < 0.0:
+                if lowest_row(p[2], rr[6], rr[7], rr[8], corners, i) < 0.0:
                     contact[i] = True
         pos[i, 0], pos[i, 1], pos[i, 2] = p
         quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
