@@ -52,7 +52,8 @@ controller's estimator are the PyBullet engine's laws on rows
 drawing from env ``i``'s own sensor stream in the engine's order; the observation shows
 the sensed or estimated state (and the fix's validity flag) as the PyBullet env does.
 Domain randomisation (``env.randomize``: the airframe factors, the spawn offsets, the
-delays) is drawn per env and episode as the PyBullet env draws it
+delays, the winds ``wind.<path>``: each env's own rows of the wind parameters and of the
+Dryden filter) is drawn per env and episode as the PyBullet env draws it
 (:mod:`pyflyt_engine.batched.randomization`); an airframe's optional motor models and its
 battery fly their compiled laws, the pack reset with each env's episode.
 The waypoint logic (sampling, the segment reach test, the
@@ -222,12 +223,27 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.wind_config = load_wind_config(cfg.wind)
         #: the turbulence filter of this airframe (None: no turbulence)
         self.dryden = air.dryden_filter(self.wind_config, self.physics_dt, m.span)
+        #: the config's wind parameters (air.WIND_FIELDS) and turbulence filter arrays (Dryden.arrays)
         self._wind = air.wind_params(self.wind_config, rotary=self.dryden is not None and self.dryden.rotary)
         self.ground_effect = bool(cfg.ground_effect)
         self._rotors = rows(m.rotors)
         states = self.dryden.states if self.dryden is not None else 0
         self._dryden_arrays = (
             self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+        )
+        #: per env, its wind parameters and its turbulence filter (Phi, C, the noise's and the
+        #: stationary state's factors, the column flags): the config's in every row; a
+        #: ``randomize`` entry ``wind.<path>`` sets an env's rows per episode (the kernels read env i's)
+        self._wind_rows = rows(self._wind)
+        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = (
+            rows(a) for a in self._dryden_arrays
+        )
+        self._dryden_rows = (
+            self._dryden_phi,
+            self._dryden_c,
+            self._dryden_noise,
+            self._dryden_root,
+            self._dryden_flags,
         )
         #: per env, the turbulence filter's state (Dryden; none without turbulence)
         self.turbulence = np.zeros((n, states))
@@ -296,7 +312,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: the sensors' section the vehicles fly (the env config's, else the airframe's; None without)
         flown = with_sensors(self.spec_uav, cfg.sensors).sensors
         self.randomizer = (
-            BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n, sensors=flown)
+            BatchedRandomizer(
+                cfg.randomize, self.spec_uav, self.physics_dt, n, sensors=flown, wind=self.wind_config, span=m.span
+            )
             if cfg.randomize
             else None
         )
@@ -412,13 +430,15 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 values = randomizer.draw(i, self.env_rngs[i])
                 if randomizer.airframe:
                     randomizer.apply(self, i, values)
+                if randomizer.winds:  # the episode's wind: the env's rows of the parameters and the filter
+                    randomizer.apply_wind(self, i, values)
                 if self.latency is not None:
                     self.latency.draw(i, values)
         self._spawn(task, index)
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             for i in index.tolist():
                 air.dryden_initial(
-                    self._dryden_arrays, self.turbulence_rngs[i].standard_normal(self.dryden.states), self.turbulence[i]
+                    self.dryden_of(i), self.turbulence_rngs[i].standard_normal(self.dryden.states), self.turbulence[i]
                 )
         if self._waypoints:
             for i in index.tolist():
@@ -590,6 +610,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             obs = self._observe()
         return obs, reward, terminated, truncated, info
 
+    def dryden_of(self, i: int) -> tuple:
+        """Env ``i``'s turbulence filter, the tuple the compiled laws take (``air.Dryden.arrays``):
+        its rows of the per-env filter arrays (the config's, or its episode's drawn wind's)."""
+        return tuple(a[i] for a in self._dryden_rows)
+
     def turbulence_normals(self) -> np.ndarray:
         """The turbulence's white noise of one agent step, (N, physics steps, filter states)
         standard normal draws, env ``i``'s from its own stream (none without turbulence)."""
@@ -647,7 +672,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if (start, count) != (0, normals.shape[1]):
             normals = np.ascontiguousarray(normals[:, start : start + count])
         steps = self.physics_steps + start
-        dryden = self._dryden_arrays
+        dryden = self._dryden_rows
         m = self.model
         if m.through_channels and self._cascade is None:
             self._advance_routed(setpoints, factors, start, count, normals, steps, self.mode)
@@ -689,7 +714,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             start,
             count,
             self.per_control,
-            self._wind,
+            self._wind_rows,
             steps,
             self._rotors,
             self.ground_effect,
@@ -760,14 +785,14 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             m.cruise_thrust,
             m.autopilot_index,
             self.control_dt,
-            self._wind,
+            self._wind_rows,
             steps,
             self._rotors,
             self.ground_effect,
             air.GROUND_EFFECT_MIN_HEIGHT,
             self.turbulence,
             normals,
-            self._dryden_arrays,
+            self._dryden_rows,
             self._motor_model,
             m.motor_laws,
             self.battery,
@@ -905,14 +930,14 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 a % per_control,
                 b - a,
                 per_control,
-                self._wind,
+                self._wind_rows,
                 steps + (a - start),
                 self._rotors,
                 self.ground_effect,
                 air.GROUND_EFFECT_MIN_HEIGHT,
                 self.turbulence,
                 np.ascontiguousarray(normals[:, a - start : b - start]),
-                self._dryden_arrays,
+                self._dryden_rows,
                 self._motor_model,
                 m.motor_laws,
                 self.battery,

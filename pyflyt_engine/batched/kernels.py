@@ -926,7 +926,8 @@ def advance(
     tick the controller (rate loop, mixer) sets the motor commands; the motors step; the
     drag at the body's velocity through the air; the rigid body integrates the sum.
 
-    The air (:mod:`pyflyt_engine.batched.air`): where ``wind[0]`` is on, the wind at the
+    The air (:mod:`pyflyt_engine.batched.air`): where env ``i``'s row of the wind parameters
+    ``wind[i]`` (N, :data:`~pyflyt_engine.batched.air.WIND_FIELDS`) is on, the wind at the
     vehicle's height at physics step ``episode_steps[i] + s`` of its episode is taken off
     its velocity (:func:`~pyflyt_engine.batched.air.air_from_body` on a tick, from the state
     read; :func:`~pyflyt_engine.batched.air.air_from_motion` between ticks); with
@@ -934,7 +935,9 @@ def advance(
     per motor: hub, prop radius, reaction per newton; the clamp ``min_height``).  With
     turbulence (``wind``'s, :func:`~pyflyt_engine.batched.air.dryden_output`) each env's filter
     state ``turbulence[i]`` moves on one step per physics step, driven by the standard normal
-    draws ``turbulence_normals[i, s]``; ``dryden`` its filter (:class:`~pyflyt_engine.batched.air.Dryden`).
+    draws ``turbulence_normals[i, s]``; ``dryden`` the envs' filters, each array of
+    :attr:`~pyflyt_engine.batched.air.Dryden.arrays` with a leading env axis (env ``i``'s
+    filter its rows ``[i]``: a randomised wind gives each env its own).
 
     The modelled motors (``motor_laws`` not 0: :func:`modelled_load`, ``motor_model``
     (N, n, :data:`MOTOR_MODEL_FIELDS`)) take the body's velocity through the air (as body
@@ -948,13 +951,15 @@ def advance(
     ratio = np.empty(nm)
     parts = np.empty((nm, 4))
     scaled = np.empty((1, nm, 6))  # ground effect's columns of the vehicle at hand
-    windy = wind[0] != 0.0
-    turbulent = wind[17] != 0.0
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     sample = calm
     scratch = np.empty(turbulence.shape[1])
     for i in range(n):
         contact[i] = False
+        wind_i = wind[i]  # this env's wind and turbulence filter (its rows)
+        windy = wind_i[0] != 0.0
+        turbulent = wind_i[17] != 0.0
+        dryden_i = (dryden[0][i], dryden[1][i], dryden[2][i], dryden[3][i], dryden[4][i])
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
         q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
         v = (vel[i, 0], vel[i, 1], vel[i, 2])
@@ -998,9 +1003,9 @@ def advance(
             if windy:  # the wind at this physics step; the turbulence moves on
                 gusts = calm
                 if turbulent:
-                    gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
-                    _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
-                sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
+                    gusts = _air.dryden_output(dryden_i, turbulence[i], wind_i[18], wind_i[19])
+                    _air.dryden_step(dryden_i, turbulence[i], turbulence_normals[i, s], scratch)
+                sample = _air.wind_sample(wind_i, episode_steps[i] + s, p[2], physics_dt, gusts)
             if modelled:  # ModelledMotors, at the body's velocity through the air as body drag takes it
                 a = calm
                 if motor_air:
@@ -1465,12 +1470,14 @@ def advance_channels(
     qr = np.empty(4)
     euler = np.empty(3)
     scaled = np.empty((1, throttle.shape[1], 6))  # ground effect's columns of the vehicle at hand
-    windy = wind[0] != 0.0
-    turbulent = wind[17] != 0.0
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     scratch = np.empty(turbulence.shape[1])
     for i in range(n):
         contact[i] = False
+        wind_i = wind[i]  # this env's wind and turbulence filter (its rows)
+        windy = wind_i[0] != 0.0
+        turbulent = wind_i[17] != 0.0
+        dryden_i = (dryden[0][i], dryden[1][i], dryden[2][i], dryden[3][i], dryden[4][i])
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
         q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
         v = (vel[i, 0], vel[i, 1], vel[i, 2])
@@ -1552,9 +1559,9 @@ def advance_channels(
             if windy:  # the velocity through the air, as the PyBullet engine's world forms it
                 gusts = calm
                 if turbulent:
-                    gusts = _air.dryden_output(dryden, turbulence[i], wind[18], wind[19])
-                    _air.dryden_step(dryden, turbulence[i], turbulence_normals[i, s], scratch)
-                sample = _air.wind_sample(wind, episode_steps[i] + s, p[2], physics_dt, gusts)
+                    gusts = _air.dryden_output(dryden_i, turbulence[i], wind_i[18], wind_i[19])
+                    _air.dryden_step(dryden_i, turbulence[i], turbulence_normals[i, s], scratch)
+                sample = _air.wind_sample(wind_i, episode_steps[i] + s, p[2], physics_dt, gusts)
                 if step % per_control == 0:
                     a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
                 else:

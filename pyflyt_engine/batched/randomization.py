@@ -40,16 +40,24 @@ and of the pack (:func:`~pyflyt_engine.batched.model.modelled_rows` of the drawn
 as the engine's group and pack derive them).  An entry whose model the airframe lacks is
 the engine's error (:func:`~pyflyt_engine.envs.randomization.missing_model`).
 
-What this backend does not draw stays refused, by name (:func:`unsupported`):
-``wind.<path>``: the batched wind field is one parameter array for the whole batch and the
-Dryden filter is built once per env config (its matrices depend on the turbulence's
-intensities and scale lengths), so a per-env wind needs per-env rows of both.
+``wind.<path>`` (:meth:`BatchedRandomizer.apply_wind`): the config's wind with the draws in
+it, by the engine randomiser's own :func:`~pyflyt_engine.envs.randomization.sampled_wind` (the
+very config the PyBullet engine's world then flies, or its error for an invalid one), written
+into env ``i``'s row of the wind parameters (:func:`~pyflyt_engine.batched.air.wind_params`)
+and its rows of the Dryden filter (:func:`~pyflyt_engine.batched.air.dryden_filter`: its
+matrices depend on the turbulence's intensities and scale lengths); the kernels read each
+env's rows, every row the config's until a draw sets it.
+
+What this backend does not draw stays refused, by name (:func:`unsupported`): the entries
+that would change the size of an env's filter (``wind.turbulence.rotary_min_span``: rotary
+states or not; ``wind.turbulence.wind_speed_20ft`` on a config whose turbulence is off: no
+filter rows), and in a multi-agent world every ``wind.<path>`` (one wind for every world).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -59,6 +67,8 @@ from pyflyt_engine.components.lag import lag_coefficient
 from pyflyt_engine.components.motor import motor_wrench_matrix, reaction_per_thrust
 from pyflyt_engine.batched.model import modelled_rows
 from pyflyt_engine.batched.sensors import SENSOR_FACTORS, randomized_parameters
+from pyflyt_engine.atmosphere import load_wind_config
+from pyflyt_engine.batched.air import dryden_filter, wind_params
 from pyflyt_engine.envs.randomization import (
     AIRFRAME,
     DELAYS,
@@ -67,11 +77,14 @@ from pyflyt_engine.envs.randomization import (
     Randomizer,
     missing_model,
     required_model,
+    sampled_wind,
 )
+from pyflyt_engine.errors import ConfigError
 
 if TYPE_CHECKING:
     from pyflyt_engine.batched.env import BatchedUAVEnv
     from pyflyt_engine.batched.swarm import BatchedSwarmEnv
+    from pyflyt_engine.atmosphere import WindConfig
     from pyflyt_engine.spec import SensorsSpec, UAVSpec
 
 #: the ``randomize`` entries the batched backend draws and applies
@@ -80,17 +93,35 @@ MODEL_FACTORS = ("motor_rotor_drag", "battery_capacity", "battery_resistance", "
 BATCHED_PARAMETERS = AIRFRAME + DELAYS + SPAWN + SENSOR_FACTORS + MODEL_FACTORS
 MOTOR = ("motor_kf", "motor_kt", "motor_tau")
 BATTERY = ("battery_capacity", "battery_resistance", "battery_charge")
+#: the env's per-env turbulence filter arrays (a checkpoint carries them with drawn winds)
+DRYDEN_ROWS = ("_dryden_phi", "_dryden_c", "_dryden_noise", "_dryden_root", "_dryden_flags")
 
 
-def unsupported(entries: dict[str, Distribution] | None) -> tuple[str, str] | None:
+def unsupported(
+    entries: dict[str, Distribution] | None, wind: Any = None, multi_agent: bool = False
+) -> tuple[str, str] | None:
     """The first entry of a ``randomize`` section the batched backend does not draw, and why
-    (None: it draws them all)."""
+    (None: it draws them all); ``wind``: the config's wind (what a ``wind.<path>`` entry
+    varies), ``multi_agent``: the section of a multi-agent world's config."""
     for name in entries or {}:
         if name.startswith("wind."):
-            return name, (
-                "the batched wind is one parameter array for the batch and its turbulence filter is built "
-                "once per config: no per-env wind"
-            )
+            if multi_agent:
+                return name, (
+                    "the multi-agent worlds' wind is one parameter array for every world and its turbulence "
+                    "filter is built once per config: no per-world wind"
+                )
+            if name == "wind.turbulence.rotary_min_span":
+                return name, (
+                    "it decides per env whether the turbulence filter has rotary states, and the envs' filter "
+                    "rows keep the config's size"
+                )
+            turbulence = load_wind_config(wind).turbulence
+            if name == "wind.turbulence.wind_speed_20ft" and turbulence is not None and turbulence.wind_speed_20ft <= 0:
+                return name, (
+                    "the config's turbulence is off (wind_speed_20ft 0), so the envs have no filter rows for a "
+                    "drawn one; give the config's wind a positive wind_speed_20ft"
+                )
+            continue
         if name not in BATCHED_PARAMETERS:
             return name, "the batched backend does not draw it per env"
     return None
@@ -119,6 +150,8 @@ class BatchedRandomizer:
         physics_dt: float,
         num_envs: int,
         sensors: SensorsSpec | None = None,
+        wind: WindConfig | None = None,
+        span: float = 0.0,
     ) -> None:
         self.entries = dict(entries)
         self.names = tuple(self.entries)
@@ -152,6 +185,14 @@ class BatchedRandomizer:
         self.drag = "drag" in drawn
         #: a sensor factor is drawn: each env's row of its sensors' parameters changes per episode
         self.sensing = bool(drawn & set(SENSOR_FACTORS))
+        #: the ``wind.<path>`` entries: each env's rows of the wind parameters (and of the
+        #: turbulence filter) change per episode
+        self.winds = tuple(name for name in self.names if name.startswith("wind."))
+        self.span = float(span)
+        self._wind_nominal = (wind if wind is not None else load_wind_config(None)).model_dump(mode="json")
+        nominal_filter = dryden_filter(load_wind_config(self._wind_nominal), self.physics_dt, self.span)
+        #: the config's turbulence filter's size (states, rotary): every drawn wind keeps it
+        self._filter_shape = (nominal_filter.states, nominal_filter.rotary) if nominal_filter is not None else None
 
     @property
     def airframe(self) -> bool:
@@ -169,6 +210,8 @@ class BatchedRandomizer:
             + (("_battery_params", "_battery_reset") if self.pack else ())
             + (("_drag_factors", "_damping") if self.drag else ())
             + (("sensor_params",) if self.sensing else ())
+            + (("_wind_rows",) if self.winds else ())
+            + (DRYDEN_ROWS if self.winds and self._filter_shape is not None else ())
         )
 
     def draw(self, i: int | np.ndarray, rng: np.random.Generator) -> dict[str, float]:
@@ -231,6 +274,27 @@ class BatchedRandomizer:
         sensors = env.sensors
         if self.sensing and sensors is not None:
             sensors.param_rows[i] = randomized_parameters(sensors.params, values)
+
+    def apply_wind(self, env: BatchedUAVEnv, i: int, values: dict[str, float]) -> None:
+        """Env ``i``'s rows of the wind parameters and of the turbulence filter for its episode:
+        the config's wind with the ``wind.<path>`` draws in it (:func:`~pyflyt_engine.envs.randomization.sampled_wind`,
+        the very config the PyBullet engine's randomiser gives its world, ConfigError if invalid),
+        written as :func:`~pyflyt_engine.batched.air.wind_params` and
+        :func:`~pyflyt_engine.batched.air.dryden_filter` write the config's.  A draw that turns
+        the turbulence off (``wind_speed_20ft`` 0) leaves the env's filter rows as they are (its
+        parameters row says no turbulence, as the engine's field then has no filter)."""
+        config = sampled_wind(self._wind_nominal, {name: values[name] for name in self.winds})
+        drawn = dryden_filter(config, self.physics_dt, self.span)
+        shape = (drawn.states, drawn.rotary) if drawn is not None else None
+        if drawn is not None and shape != self._filter_shape:  # refused at load where it can happen (unsupported)
+            raise ConfigError(
+                f"randomize: the sampled wind {dict((k, values[k]) for k in self.winds)} needs a turbulence filter "
+                f"of {drawn.states} states, the env's has {self._filter_shape[0] if self._filter_shape else 0}"
+            )
+        env._wind_rows[i] = wind_params(config, rotary=drawn is not None and drawn.rotary)
+        if drawn is not None:
+            for rows, array in zip(env._dryden_rows, drawn.arrays):
+                rows[i] = array
 
     def info(self, index: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """The values of every env's current episode by entry ((N,) each), as the PyBullet

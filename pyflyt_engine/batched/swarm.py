@@ -105,7 +105,8 @@ true states.
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
-backend does not draw either, the optional motor models, rotary turbulence gusts, and every
+backend does not draw either, the winds ``wind.<path>`` (the worlds' wind is one parameter
+array and one turbulence filter for every world: no draw per world), the optional motor models, rotary turbulence gusts, and every
 key the single-agent batched backend refuses (the range sensors and cameras among them).
 """
 

@@ -44,13 +44,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from pyflyt_engine.errors import ConfigError
 from pyflyt_engine.suggest import did_you_mean
+
+if TYPE_CHECKING:
+    from pyflyt_engine.atmosphere import WindConfig
 
 AIRFRAME = ("mass", "inertia", "motor_kf", "motor_kt", "motor_tau", "drag")
 #: factors on the optional airframe models, and what the airframe must declare for them
@@ -190,6 +193,26 @@ def _wind_number(data: dict[str, Any], name: str) -> tuple[dict[str, Any], str]:
     return node, key
 
 
+def sampled_wind(nominal: Mapping[str, Any], winds: Mapping[str, float]) -> WindConfig:
+    """The wind config of an episode: ``nominal`` (a wind config's ``model_dump(mode="json")``)
+    with the number at each ``wind.<path>`` of ``winds`` replaced by its drawn value
+    (ConfigError naming the draws if the result is not a valid wind config)."""
+    import copy
+
+    from pyflyt_engine.atmosphere import load_wind_config
+
+    data = copy.deepcopy(dict(nominal))
+    for name, value in winds.items():
+        node, key = _wind_number(data, name)
+        node[key] = value
+    try:
+        return load_wind_config(data)
+    except ConfigError as exc:
+        raise ConfigError(
+            f"randomize: the sampled wind {dict(winds)} is invalid ({exc}); bound the distributions (low/high)"
+        ) from None
+
+
 class Randomizer:
     """Samples and applies an env's ``randomize`` entries at each reset.
 
@@ -311,18 +334,7 @@ class Randomizer:
                 suite.position_noise_std = tuple(s * values["position_noise"] for s in sigma)
         winds = {k: x for k, x in values.items() if k.startswith("wind.")}
         if winds:
-            import copy
-
-            data = copy.deepcopy(self.wind)
-            for name, value in winds.items():
-                node, key = _wind_number(data, name)
-                node[key] = value
-            try:
-                self.world.set_wind(data)
-            except ConfigError as exc:
-                raise ConfigError(
-                    f"randomize: the sampled wind {winds} is invalid ({exc}); bound the distributions (low/high)"
-                ) from None
+            self.world.set_wind(sampled_wind(self.wind, winds))
         return values
 
     @staticmethod

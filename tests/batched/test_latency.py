@@ -286,14 +286,16 @@ def test_randomised_delays_are_drawn_per_env_and_episode_from_its_own_stream():
 
 
 def test_randomised_parameters_of_unsimulated_models_are_refused_by_name():
-    """Beside the delays, an entry the batched backend does not draw per env (a wind's) is refused by
-    its name (the factors and spawn offsets it draws: tests/batched/test_randomization.py)."""
+    """Beside the delays, an entry the batched backend does not draw per env (the wind's rotary
+    span, which would change the turbulence filter's size) is refused by its name (the factors,
+    spawn offsets and winds it draws: tests/batched/test_randomization.py, test_randomization_wind.py)."""
     factor = {"distribution": "uniform", "low": 0.9, "high": 1.1}
+    span = "wind.turbulence.rotary_min_span"
     for entries, named in (
-        ({"wind.mean.speed": factor}, "randomize.wind.mean.speed"),
-        ({**RANDOM_DELAYS, "drag": factor, "wind.mean.speed": factor}, "randomize.wind.mean.speed"),
+        ({span: factor}, f"randomize.{span}"),
+        ({**RANDOM_DELAYS, "drag": factor, span: factor}, f"randomize.{span}"),
     ):
-        cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries, wind="constant")
+        cfg = load_env_config("quadx_hover").with_overrides(backend="batched", randomize=entries, wind="dryden_light")
         with pytest.raises(ConfigError) as info:
             BatchedUAVEnv(cfg, num_envs=2)
         message = str(info.value)

@@ -226,13 +226,13 @@ def test_a_checkpoint_carries_the_draws_and_the_parameters_they_set():
 @pytest.mark.parametrize(
     "name, entry, why",
     [
-        ("wind.mean.speed", _uniform(0.0, 3.0), "no per-env wind"),
+        ("wind.turbulence.rotary_min_span", _uniform(0.0, 3.0), "the envs' filter rows keep the config's size"),
     ],
 )
 def test_what_it_does_not_simulate_stays_refused_by_name(name, entry, why):
     """An entry of a model the batched backend lacks (after supported ones) is refused, naming
     the entry, and the backend auto trains such a config on PyBullet."""
-    wind = {"wind": "constant"} if name.startswith("wind.") else {}
+    wind = {"wind": "dryden_light"} if name.startswith("wind.") else {}
     cfg = load_env_config("quadx_hover").with_overrides(randomize={"mass": DRAWS["mass"], name: entry}, **wind)
     with pytest.raises(ConfigError) as info:
         BatchedUAVEnv(cfg.with_overrides(backend="batched"), num_envs=2)

@@ -245,7 +245,7 @@ def test_the_shipped_preset_is_simulated_and_auto_picks_the_batched_backend():
     [
         (
             {"randomize": {"mass": DRAWS["mass"], "wind.mean.speed": DRAWS["spawn_z"]}, "wind": "constant"},
-            "env.randomize.wind.mean.speed (domain randomisation: the batched wind is one parameter array",
+            "env.randomize.wind.mean.speed (domain randomisation: the multi-agent worlds' wind is one parameter",
         ),
     ],
 )
