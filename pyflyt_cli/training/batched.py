@@ -18,8 +18,9 @@ Checkpoints: ``env_method("episode_state")`` returns, per env, the whole batched
 that env (its arrays' rows -- with latency its delays, the actions in flight and the states
 it will show among them, in turbulence its filter's state, with noisy sensors their biases,
 held readings, sample counts and estimator, with domain randomisation the episode's draws and
-the mass, inertia, motor and drag rows they set -- and its random streams, its turbulence's and
-its sensors' too; env 0 also the batch's motor-noise stream) as plain data, and
+the mass, inertia, motor and drag rows they set, with range sensors their held readings and
+last cast times -- and its random streams, its turbulence's, its sensors' and its range
+sensors' too; env 0 also the batch's motor-noise stream) as plain data, and
 ``env_method("restore_episode", state)`` puts it back, so a resumed run continues bit for
 bit (the continuity module compares the observations).
 """
@@ -80,9 +81,14 @@ _STATE_ARRAYS = (
 
 
 def _state_arrays(env: Any) -> tuple[str, ...]:
-    """The arrays whose rows a checkpoint of ``env`` carries: the state, and with domain
-    randomisation the episode's draws and the parameter rows they changed (``randomized_arrays``)."""
-    return tuple(getattr(env, "state_arrays", _STATE_ARRAYS)) + tuple(getattr(env, "randomized_arrays", ()))
+    """The arrays whose rows a checkpoint of ``env`` carries: the state, with domain
+    randomisation the episode's draws and the parameter rows they changed (``randomized_arrays``),
+    with range sensors their held readings and last cast times (``range_arrays``)."""
+    return (
+        tuple(getattr(env, "state_arrays", _STATE_ARRAYS))
+        + tuple(getattr(env, "randomized_arrays", ()))
+        + tuple(getattr(env, "range_arrays", ()))
+    )
 
 
 class BatchedVecEnv(VecEnv):
@@ -196,6 +202,8 @@ class BatchedVecEnv(VecEnv):
             streams["turbulence"] = env.turbulence_rngs[i].bit_generator.state
         if getattr(env, "sensors", None) is not None:  # the noisy sensors' stream
             streams["sensors"] = env.sensors.rngs[i].bit_generator.state
+        if getattr(env, "range_sensors", None) is not None:  # one stream per range sensor
+            streams["range_sensors"] = [rng.bit_generator.state for rng in env.range_sensors.rngs[i]]
         shape = self.env.single_action_space.shape
         return {
             "seed": None,
@@ -221,6 +229,9 @@ class BatchedVecEnv(VecEnv):
             env.turbulence_rngs[i].bit_generator.state = state["rng"]["turbulence"]
         if getattr(env, "sensors", None) is not None:
             env.sensors.rngs[i].bit_generator.state = state["rng"]["sensors"]
+        if getattr(env, "range_sensors", None) is not None:
+            for rng, saved_state in zip(env.range_sensors.rngs[i], state["rng"]["range_sensors"]):
+                rng.bit_generator.state = saved_state
         return env._observe()[i].astype(np.float32)
 
 

@@ -76,6 +76,7 @@ from pyflyt_engine.batched import air, kernels, modes, bookkeeping
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
 from pyflyt_engine.batched.randomization import BatchedRandomizer
+from pyflyt_engine.batched.ranges import BatchedRangeSensors
 from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
 from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
@@ -349,9 +350,34 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self._waypoints:
             size += CONTEXT_LENGTH * 4
         self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float64)
+        from pyflyt_engine.assembly import assemble
+        from pyflyt_engine.envs.observe import with_range_sensors, with_range_spaces
+
+        #: the ray-cast range sensors (pyflyt_engine.batched.ranges; None without): the
+        #: airframe's, then the env config's, as the PyBullet vehicle carries them
+        carried = with_range_sensors(self.spec_uav, cfg.range_sensors) if cfg.range_sensors else self.spec_uav
+        self.range_sensors = (
+            BatchedRangeSensors(carried.range_sensors, assemble(carried).com, n, self.physics_dt)
+            if carried.range_sensors
+            else None
+        )
+        #: the observation's entries in their order: the vector above under ``attitude`` and
+        #: each range sensor's readings, as gymnasium flattens the PyBullet env's Dict
+        #: (its keys sorted; FlattenObservation, or FlattenWaypointEnv's Dict flattened)
+        self._entries: tuple[str, ...] = ("attitude",)
+        #: the arrays a checkpoint carries for the range sensors (their held readings and
+        #: last cast times; none without)
+        self.range_arrays: tuple[str, ...] = ()
+        if self.range_sensors is not None:
+            entries = with_range_spaces(self.single_observation_space, self.range_sensors.engine)
+            self._entries = tuple(entries.spaces)
+            self.single_observation_space = cast(spaces.Box, spaces.flatten_space(entries))
+            self.range_held, self.range_last = self.range_sensors.held, self.range_sensors.last
+            self.range_arrays = ("range_held", "range_last")
         self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
+        self._all = np.arange(n)
         self._seed_all(seed)
         self._seeded_first = seed is not None
 
@@ -369,6 +395,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.turbulence_rngs = [np.random.default_rng(c.spawn(1)[0]) for c in children[1:]] if turbulent else []
         if self.sensors is not None:  # per env, the sensors' stream (BatchedSensors.seed)
             self.sensors.seed(children[1:])
+        if self.range_sensors is not None:  # per env, a stream per range sensor (BatchedRangeSensors.seed)
+            self.range_sensors.seed(children[1:])
         self._streams_of: list | None = None  # the env_rngs whose states _env_streams holds (_streams)
 
     # ------------------------------------------------------------------ reset
@@ -485,6 +513,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.sensors.reset(index, self.pos, self.vel, self.quaternion)
         if self.latency is not None:
             self.latency.restart(self, index)
+        if self.range_sensors is not None:  # the last scan forgotten, the first of the episode cast
+            self.range_sensors.forget(index)
+            self.range_sensors.scan(index, self.pos, self.quat, self.physics_steps)
         bookkeeping.distance_rows(index, self.pos, self._goals(), self._last_position, self._last_distance)
 
     def _spawn(self, task: Any, index: np.ndarray) -> None:
@@ -590,6 +621,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.steps += 1
         self.episode_length += 1
         self._read()
+        if self.range_sensors is not None:  # the scans due at the observation (at the body's pose now)
+            self.range_sensors.scan(self._all, self.pos, self.quat, self.physics_steps)
         reward, terminated, truncated, info = self._judge()
         self.episode_return += reward
         obs = self._observe()
@@ -1067,7 +1100,16 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 deltas[:, slot] = np.where(valid[:, None], body, 0.0)
                 mask[:, slot] = valid
             parts += [deltas.reshape(n, -1), mask]
-        return np.concatenate(parts, axis=1)
+        vector = np.concatenate(parts, axis=1)
+        if self.range_sensors is None:
+            return vector
+        held, columns = self.range_sensors.held, self.range_sensors.columns
+        return np.concatenate([vector if k == "attitude" else held[:, columns[k]] for k in self._entries], axis=1)
+
+    def range_readings(self, i: int) -> dict[str, np.ndarray]:
+        """Env ``i``'s range sensors' readings by name, as the PyBullet engine's ``World.scan``
+        gives them (float32, each sensor's shape; empty without range sensors)."""
+        return self.range_sensors.readings(i) if self.range_sensors is not None else {}
 
     def close(self, **kwargs: Any) -> None:  # nothing to release: no PyBullet client
         self.closed = True

@@ -358,7 +358,6 @@ def batched_model(spec: UAVSpec, physics_dt: float, control_dt: float, drag: boo
         if kind.name not in SIMULATED_KINDS and getattr(spec, kind.section, None):
             raise refuse(f"{KIND_NAMES.get(kind.name, kind.name)} (airframe {name}'s {kind.section})")
     for what, present in (
-        ("range sensors", bool(spec.range_sensors)),
         (
             "gimbals with the optional motor models or a battery",
             parts.gimbals is not None and parts.motors is not None and (parts.motors.modelled or bool(spec.battery)),

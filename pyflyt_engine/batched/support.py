@@ -35,7 +35,7 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         ("controller=betaflight (the firmware in the loop)", getattr(config, "controller", "own") == "betaflight"),
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),
-        ("range_sensors", bool(config.range_sensors)),
+        ("range_sensors in a multi-agent world", multi_agent and bool(config.range_sensors)),
         ("camera_observation", config.camera_observation is not None),
     ):
         if present:

@@ -106,8 +106,11 @@ What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
 backend does not draw either, the winds ``wind.<path>`` (the worlds' wind is one parameter
-array and one turbulence filter for every world: no draw per world), the optional motor models, rotary turbulence gusts, and every
-key the single-agent batched backend refuses (the range sensors and cameras among them).
+array and one turbulence filter for every world: no draw per world), the optional motor models,
+rotary turbulence gusts, the ray-cast range sensors (``env.range_sensors``, an airframe's
+``range_sensors``: in a world a ray could also hit the other agents, which the single-agent
+backend's ground-plane law does not cover), and every key the single-agent batched backend
+refuses (the cameras among them).
 """
 
 from __future__ import annotations
@@ -676,7 +679,10 @@ def check_swarm_supported(config: Any) -> None:
     from pyflyt_engine.batched.model import batched_model
     from pyflyt_engine.spec import load_uav_spec
 
-    model = batched_model(load_uav_spec(uavs[0]), 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
+    spec = load_uav_spec(uavs[0])
+    if spec.range_sensors:  # the rays would also hit the other agents' shapes: not written for the worlds
+        raise refuse(f"range sensors in a multi-agent world (airframe {spec.name}'s range_sensors)")
+    model = batched_model(spec, 1.0 / config.physics_hz, 1.0 / config.control_hz, drag=config.drag)
     if model.through_channels:  # the worlds' kernel flies a mixer's motors alone
         raise refuse(
             f"channels, lifting surfaces, gimbals or motors outside the mixer in a multi-agent world (airframe "

@@ -417,9 +417,9 @@ def test_refusals_and_errors():
     airframe = str(uav_dir() / "examples" / "quadx_cf2x_sensors.yaml")
     check_supported(load_env_config("ma_quadx_hover").with_overrides(uav=airframe))
     BatchedUAVEnv(load_env_config("quadx_hover").with_overrides(uav=airframe))
-    with pytest.raises(UnsupportedByBatched, match="range_sensors"):  # the ray-cast sensors stay refused
+    with pytest.raises(UnsupportedByBatched, match="range_sensors in a multi-agent world"):  # refused in worlds
         check_supported(
-            load_env_config("quadx_hover").with_overrides(
+            load_env_config("ma_quadx_hover").with_overrides(
                 range_sensors=load_env_config("quadx_obstacles").range_sensors
             )
         )
