@@ -74,11 +74,11 @@ from gymnasium.vector import AutoresetMode
 from pyflyt_engine import exact
 from pyflyt_engine.batched import air, kernels, modes, bookkeeping
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
-from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code
+from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.randomization import BatchedRandomizer
 from pyflyt_engine.batched.ranges import BatchedRangeSensors
 from pyflyt_engine.batched.sensors import S_VALID, BatchedSensors
-from pyflyt_engine.batched.support import BATCHED_TASKS, check_keys
+from pyflyt_engine.batched.support import BATCHED_TASKS, WAYPOINT_RANGES, check_keys
 from pyflyt_engine.batched.terms import BatchContext, BatchedReward, batched_ends
 from pyflyt_engine.envs.config import EnvConfig, load_env_config, load_reward_preset
 from pyflyt_engine.envs.randomization import SPAWN, Randomizer
@@ -356,6 +356,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: the ray-cast range sensors (pyflyt_engine.batched.ranges; None without): the
         #: airframe's, then the env config's, as the PyBullet vehicle carries them
         carried = with_range_sensors(self.spec_uav, cfg.range_sensors) if cfg.range_sensors else self.spec_uav
+        if carried.range_sensors and self._waypoints:
+            raise refuse(f"the range sensors of {self.spec_uav.name} on the waypoints task ({WAYPOINT_RANGES})")
         self.range_sensors = (
             BatchedRangeSensors(carried.range_sensors, assemble(carried).com, n, self.physics_dt)
             if carried.range_sensors

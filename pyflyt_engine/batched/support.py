@@ -17,6 +17,14 @@ from pyflyt_engine.spec import load_uav_spec
 BATCHED_TASKS = ("hover", "waypoints")
 
 
+#: why range sensors on the waypoints task are refused: the agent's observation would differ
+#: between the backends, so a policy trained on one could not be evaluated on the other
+WAYPOINT_RANGES = (
+    "the PyBullet env hands the agent its waypoints and readings as a Dict, which the batched "
+    "backend's flat vector would not match when the policy is evaluated in the PyBullet engine"
+)
+
+
 def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     """Refuse, by name, every key of ``config`` the batched backend does not simulate; a
     multi-agent config's task is its caller's to check (``multi_agent``)."""
@@ -36,6 +44,10 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
         ("payloads", bool(config.payloads)),
         ("obstacles", config.obstacles is not None),
         ("range_sensors in a multi-agent world", multi_agent and bool(config.range_sensors)),
+        (
+            f"range_sensors on the waypoints task ({WAYPOINT_RANGES})",
+            config.task.name == "waypoints" and bool(config.range_sensors),
+        ),
         ("camera_observation", config.camera_observation is not None),
     ):
         if present:

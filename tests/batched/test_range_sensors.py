@@ -215,10 +215,10 @@ def test_the_noise_statistics():
     assert abs(errors.std() - std) < 5 * std / np.sqrt(2 * errors.size)
 
 
-#: the flights: the hover task (rates and thrust), the waypoints task, a quaternion observation
+#: the flights: the hover task (rates and thrust), a quaternion observation (the waypoints
+#: task with range sensors is refused: test_refusals)
 FLIGHTS = {
     "hover": ("quadx_hover", {}),
-    "waypoints": ("quadx_waypoints", {}),
     "hover_quaternion": ("quadx_hover", {"angle_representation": "quaternion"}),
 }
 
@@ -397,6 +397,7 @@ def test_refusals(tmp_path):
     import yaml
 
     from pyflyt_engine.batched import check_supported
+    from pyflyt_engine.batched.env import resolve_backend
     from pyflyt_engine.paths import uav_dir
 
     check_supported(load_env_config("quadx_hover").with_overrides(range_sensors=SENSORS))
@@ -410,6 +411,14 @@ def test_refusals(tmp_path):
     check_supported(load_env_config("quadx_hover").with_overrides(uav=airframe))
     with pytest.raises(UnsupportedByBatched, match="range sensors in a multi-agent world"):
         check_supported(load_env_config("ma_quadx_hover").with_overrides(uav=airframe))
+    # on the waypoints task the PyBullet env gives the agent a Dict where the batched env gives
+    # a flat vector: refused (env config and airframe), so `auto` trains such a config on PyBullet
+    waypoints = load_env_config("quadx_waypoints").with_overrides(range_sensors=SENSORS)
+    with pytest.raises(UnsupportedByBatched, match="range_sensors on the waypoints task"):
+        check_supported(waypoints)
+    assert resolve_backend(waypoints.with_overrides(backend="auto")) == "pybullet"
+    with pytest.raises(UnsupportedByBatched, match="range sensors of .* on the waypoints task"):
+        BatchedUAVEnv(load_env_config("quadx_waypoints").with_overrides(uav=airframe), num_envs=1)
     camera = {"camera": {"name": "eye", "width": 16, "height": 12}}
     with pytest.raises(UnsupportedByBatched, match="camera_observation"):
         check_supported(load_env_config("quadx_hover").with_overrides(camera_observation=camera))
