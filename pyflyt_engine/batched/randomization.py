@@ -46,12 +46,14 @@ very config the PyBullet engine's world then flies, or its error for an invalid 
 into env ``i``'s row of the wind parameters (:func:`~pyflyt_engine.batched.air.wind_params`)
 and its rows of the Dryden filter (:func:`~pyflyt_engine.batched.air.dryden_filter`: its
 matrices depend on the turbulence's intensities and scale lengths); the kernels read each
-env's rows, every row the config's until a draw sets it.
+env's rows, every row the config's until a draw sets it.  In a multi-agent world the draw is
+the world's, as the PyBullet engine's randomiser gives its one world the sampled wind: every
+slot of world ``k`` gets the same rows, and the worlds' kernel reads its first slot's.
 
 What this backend does not draw stays refused, by name (:func:`unsupported`): the entries
 that would change the size of an env's filter (``wind.turbulence.rotary_min_span``: rotary
 states or not; ``wind.turbulence.wind_speed_20ft`` on a config whose turbulence is off: no
-filter rows), and in a multi-agent world every ``wind.<path>`` (one wind for every world).
+filter rows).
 """
 
 from __future__ import annotations
@@ -97,19 +99,13 @@ BATTERY = ("battery_capacity", "battery_resistance", "battery_charge")
 DRYDEN_ROWS = ("_dryden_phi", "_dryden_c", "_dryden_noise", "_dryden_root", "_dryden_flags")
 
 
-def unsupported(
-    entries: dict[str, Distribution] | None, wind: Any = None, multi_agent: bool = False
-) -> tuple[str, str] | None:
+def unsupported(entries: dict[str, Distribution] | None, wind: Any = None) -> tuple[str, str] | None:
     """The first entry of a ``randomize`` section the batched backend does not draw, and why
     (None: it draws them all); ``wind``: the config's wind (what a ``wind.<path>`` entry
-    varies), ``multi_agent``: the section of a multi-agent world's config."""
+    varies).  The same for a single-agent env's section and a multi-agent world's (one wind
+    per world, every slot of the world given its rows)."""
     for name in entries or {}:
         if name.startswith("wind."):
-            if multi_agent:
-                return name, (
-                    "the multi-agent worlds' wind is one parameter array for every world and its turbulence "
-                    "filter is built once per config: no per-world wind"
-                )
             if name == "wind.turbulence.rotary_min_span":
                 return name, (
                     "it decides per env whether the turbulence filter has rotary states, and the envs' filter "
@@ -275,7 +271,7 @@ class BatchedRandomizer:
         if self.sensing and sensors is not None:
             sensors.param_rows[i] = randomized_parameters(sensors.params, values)
 
-    def apply_wind(self, env: BatchedUAVEnv, i: int, values: dict[str, float]) -> None:
+    def apply_wind(self, env: BatchedUAVEnv | BatchedSwarmEnv, i: int, values: dict[str, float]) -> None:
         """Env ``i``'s rows of the wind parameters and of the turbulence filter for its episode:
         the config's wind with the ``wind.<path>`` draws in it (:func:`~pyflyt_engine.envs.randomization.sampled_wind`,
         the very config the PyBullet engine's randomiser gives its world, ConfigError if invalid),

@@ -33,10 +33,10 @@ def check_keys(config: EnvConfig, multi_agent: bool = False) -> None:
     from pyflyt_engine.atmosphere import load_wind_config
 
     load_wind_config(config.wind)  # every wind: mean, shear, gust, Dryden turbulence
-    refused = unsupported(config.randomize, config.wind, multi_agent)  # domain randomisation: what it draws per env
+    refused = unsupported(config.randomize, config.wind)  # domain randomisation: what it draws per env
     if refused is not None:
         name, why = refused
-        drawn = ", ".join(BATCHED_PARAMETERS) + ("" if multi_agent else ", wind.<path>")
+        drawn = ", ".join(BATCHED_PARAMETERS) + ", wind.<path>"
         raise refuse(f"env.randomize.{name} (domain randomisation: {why})", f"it draws {drawn}")
     for key, present in (
         ("downwash", config.downwash),

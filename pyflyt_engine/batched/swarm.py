@@ -72,7 +72,10 @@ its world (:class:`pyflyt_engine.envs.randomization.Randomizer`, drawn first by
 :func:`pyflyt_engine.envs.build.reset_episode`): the single-agent backend's
 :class:`~pyflyt_engine.batched.randomization.BatchedRandomizer` draws them and sets each
 agent's rows of the body's, motors', drag's and sensors' parameters; the spawn offsets are
-added to each agent's spawn.  The flight controller keeps the nominal airframe, as the
+added to each agent's spawn; the winds ``wind.<path>`` give the world its episode's wind
+(:meth:`~pyflyt_engine.batched.randomization.BatchedRandomizer.apply_wind`: the sampled wind
+config the engine's randomiser gives its world, its parameters and turbulence filter written
+into every slot of the world, the kernel reading the world's first slot's).  The flight controller keeps the nominal airframe, as the
 engine's does (in every flight mode); each vehicle's wake is as strong as its own motors, a
 drawn ``motor_kf`` included (``_wake_thrust``, a row per vehicle the randomiser sets), as the
 engine takes a vehicle's full thrusts from its motor constants when they change.
@@ -105,8 +108,7 @@ true states.
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
-backend does not draw either, the winds ``wind.<path>`` (the worlds' wind is one parameter
-array and one turbulence filter for every world: no draw per world), the optional motor models,
+backend does not draw either, the optional motor models,
 rotary turbulence gusts, the ray-cast range sensors (``env.range_sensors``, an airframe's
 ``range_sensors``: in a world a ray could also hit the other agents, which the single-agent
 backend's ground-plane law does not cover), and every key the single-agent batched backend
@@ -424,13 +426,17 @@ def advance_swarm(
     ``rotors``, ``max_thrust`` (each vehicle's wake strength): domain randomisation sets a world's
     rows); ``square`` is 2.0 (:func:`downwash_velocity`).
 
-    The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it: where ``wind[0]`` is
-    on, each vehicle's wind at its height at physics step ``episode_steps[i] + s`` of its
-    world's episode (:func:`~pyflyt_engine.batched.air.wind_sample`); the turbulence is one
-    field per world, as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives
-    every vehicle of a world the same linear gusts: world ``k``'s state (``turbulence`` of its
-    first slot, copied to its other slots after the step) moves on one step per physics step
-    from the draws ``turbulence_normals[k, s]``; the
+    The air as :func:`~pyflyt_engine.batched.kernels.advance` takes it, one wind per world:
+    where world ``k``'s row of the wind parameters (``wind[k A]``, its first slot's: every slot
+    of a world holds the same) is on, each vehicle's wind at its height at physics step
+    ``episode_steps[i] + s`` of its world's episode (:func:`~pyflyt_engine.batched.air.wind_sample`);
+    the turbulence is one field per world, as the engine's
+    :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world the same
+    linear gusts: world ``k``'s state (``turbulence`` of its first slot, copied to its other
+    slots after the step) moves on one step per physics step from the draws
+    ``turbulence_normals[k, s]`` through the world's filter (``dryden``: each array of
+    :attr:`~pyflyt_engine.batched.air.Dryden.arrays` with a leading slot axis, the world's its
+    first slot's rows; a drawn wind gives each world its own); the
     downwash is added to each vehicle's vertical wind as
     :meth:`pyflyt_engine.atmosphere.air.Atmosphere.wind_at` adds it; with ``ground_effect``
     each motor's thrust takes its ground-effect ratio at its hub height (``rotors`` (n, 5),
@@ -446,13 +452,15 @@ def advance_swarm(
     air = np.empty((agents, 6))
     loads = np.empty((agents, 6))
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
-    windy = wind[0] != 0.0
-    turbulent = wind[17] != 0.0
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     scratch = np.empty(turbulence.shape[1])
     scaled = np.empty((nm, 6))
     for k in range(worlds):
         base = k * agents
+        wind_k = wind[base]  # this world's wind and turbulence filter (its first slot's rows)
+        windy = wind_k[0] != 0.0
+        turbulent = wind_k[17] != 0.0
+        dryden_k = (dryden[0][base], dryden[1][base], dryden[2][base], dryden[3][base], dryden[4][base])
         for a in range(agents):
             ground_contact[base + a] = False
             agent_contact[base + a] = False
@@ -466,8 +474,8 @@ def advance_swarm(
             tick = step % per_control == 0
             gusts = calm
             if turbulent:  # the world's turbulence (one field for its vehicles, as the engine's) moves on
-                gusts = _air.dryden_output(dryden, turbulence[base], wind[18], wind[19])
-                _air.dryden_step(dryden, turbulence[base], turbulence_normals[k, s], scratch)
+                gusts = _air.dryden_output(dryden_k, turbulence[base], wind_k[18], wind_k[19])
+                _air.dryden_step(dryden_k, turbulence[base], turbulence_normals[k, s], scratch)
             for a in range(agents):
                 i = base + a
                 seen[a, 0], seen[a, 1], seen[a, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
@@ -479,7 +487,9 @@ def advance_swarm(
                 bw2 = r2 * w0 + r5 * w1 + r8 * w2
                 wx = wy = wz = gp = gq = gr = 0.0
                 if windy:  # the field's wind at this vehicle's height and this physics step
-                    wx, wy, wz, gp, gq, gr = _air.wind_sample(wind, episode_steps[i] + s, pos[i, 2], physics_dt, gusts)
+                    wx, wy, wz, gp, gq, gr = _air.wind_sample(
+                        wind_k, episode_steps[i] + s, pos[i, 2], physics_dt, gusts
+                    )
                 if downwash_on:
                     dw = downwash_at(
                         a,
@@ -915,6 +925,20 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._dryden_arrays = (
             self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
         )
+        # per slot, its world's wind parameters and turbulence filter (the config's in every row;
+        # a randomize entry wind.<path> sets a world's rows per episode, the kernel reads its first slot's)
+        per_slot = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
+        self._wind_rows = per_slot(self._wind)
+        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = (
+            per_slot(a) for a in self._dryden_arrays
+        )
+        self._dryden_rows = (
+            self._dryden_phi,
+            self._dryden_c,
+            self._dryden_noise,
+            self._dryden_root,
+            self._dryden_flags,
+        )
         box_centre, box_half = _collision_box(self.model.corners)
         self._box_centre, self._box_half = box_centre, box_half
         self._bound_radius = float(np.linalg.norm(np.abs(box_centre) + box_half))
@@ -942,7 +966,15 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: the sensors' section every vehicle flies (the env config's, else the airframe's; None without)
         flown = with_sensors(self.spec_uav, cfg.sensors).sensors
         self.randomizer = (
-            BatchedRandomizer(cfg.randomize, self.spec_uav, self.physics_dt, n, sensors=flown)
+            BatchedRandomizer(
+                cfg.randomize,
+                self.spec_uav,
+                self.physics_dt,
+                n,
+                sensors=flown,
+                wind=self.wind_config,
+                span=self.model.span,
+            )
             if cfg.randomize
             else None
         )
@@ -1142,6 +1174,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             for i in rows.tolist():
                 if randomizer.airframe:
                     randomizer.apply(self, i, values)
+                if randomizer.winds:  # the world's wind: the same rows of parameters and filter in each of its slots
+                    randomizer.apply_wind(self, i, values)
                 if self.latency is not None:  # the drawn delays, every vehicle of the world
                     self.latency.draw(i, values)
         for a, i in enumerate(rows.tolist()):
@@ -1163,7 +1197,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self.has_previous[rows] = False
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             _air.dryden_initial(
-                self._dryden_arrays,
+                self.dryden_of(int(rows[0])),
                 self.world_turbulence_rngs[k].standard_normal(self.dryden.states),
                 self.turbulence[rows[0]],
             )
@@ -1539,17 +1573,22 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             rot["jet_diameter"],
             AIR_DENSITY,
             2.0,
-            self._wind,
+            self._wind_rows,
             self.physics_steps + start,
             self._rotors,
             self.ground_effect,
             _air.GROUND_EFFECT_MIN_HEIGHT,
             self.turbulence,
             normals,
-            self._dryden_arrays,
+            self._dryden_rows,
             self._reads,
             start + count == self.per_agent,
         )
+
+    def dryden_of(self, i: int) -> tuple:
+        """Slot ``i``'s turbulence filter, the tuple the compiled laws take (``air.Dryden.arrays``):
+        its rows of the per-slot filter arrays (its world's: the config's, or its episode's drawn wind's)."""
+        return tuple(a[i] for a in self._dryden_rows)
 
     def turbulence_normals(self) -> np.ndarray:
         """The turbulence's white noise of one agent step, (worlds, physics steps, filter

@@ -274,7 +274,7 @@ def test_an_invalid_sampled_wind_is_refused_as_the_pybullet_env_refuses_it():
 def test_wind_draws_are_batched_and_what_would_resize_the_filter_is_refused_by_name():
     """A config drawing wind.<path> entries flies on the batched backend under auto; the rotary
     span (it decides the filter's size per env) and a W20 drawn on a config without turbulence
-    are refused by name, and a multi-agent world's wind draws too."""
+    are refused by name (the worlds' draws: tests/batched/test_swarm_randomization_wind.py)."""
     from pyflyt_engine.batched import check_supported
 
     cfg = load_env_config("quadx_hover").with_overrides(wind=WIND, randomize=DRAWS)

@@ -243,9 +243,12 @@ def test_the_shipped_preset_is_simulated_and_auto_picks_the_batched_backend():
 @pytest.mark.parametrize(
     ("overrides", "named"),
     [
-        (
-            {"randomize": {"mass": DRAWS["mass"], "wind.mean.speed": DRAWS["spawn_z"]}, "wind": "constant"},
-            "env.randomize.wind.mean.speed (domain randomisation: the multi-agent worlds' wind is one parameter",
+        (  # a drawn W20 where the config has no turbulence: no filter rows to hold it (as single-agent)
+            {
+                "randomize": {"mass": DRAWS["mass"], "wind.turbulence.wind_speed_20ft": DRAWS["spawn_z"]},
+                "wind": {"preset": "dryden_light", "turbulence": {"wind_speed_20ft": 0.0}},
+            },
+            "env.randomize.wind.turbulence.wind_speed_20ft (domain randomisation: the config's turbulence is off",
         ),
     ],
 )
