@@ -59,7 +59,7 @@ filter rows).
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -244,7 +244,6 @@ class BatchedRandomizer:
             if wake is not None:
                 wake[i] = params.max_thrust
         if self.modelled and (self.motors or self.pack):  # the rows the engine's group and pack derive
-            single = cast("BatchedUAVEnv", env)  # the multi-agent worlds refuse the optional models
             motors = params if self.motors else self._motors
             assert motors is not None  # a modelled airframe has motors
             battery = self._battery
@@ -257,10 +256,10 @@ class BatchedRandomizer:
                     initial_charge=values.get("battery_charge", battery.initial_charge),
                 )
             rows = modelled_rows(motors, battery, self.physics_dt)
-            single._motor_model[i] = rows["motor_model"]
+            env._motor_model[i] = rows["motor_model"]
             if self.pack:
-                single._battery_params[i] = rows["battery"]
-                single._battery_reset[i] = rows["battery_reset"]
+                env._battery_params[i] = rows["battery"]
+                env._battery_reset[i] = rows["battery_reset"]
         if self.drag:
             d, f = self._drag, values["drag"]
             cx, cy, cz = d.coefficients

@@ -65,6 +65,13 @@ laws (:mod:`pyflyt_engine.batched.air`), read at each vehicle as the engine's wo
 as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world
 the same linear gusts, each world's white noise from a stream of its own.
 
+The optional motor models and the battery (an airframe's ``tau_fall``, ``rotor_drag``,
+``inflow``, ``battery``): each vehicle's modelled motors step by the single-agent backend's
+compiled laws (:func:`~pyflyt_engine.batched.kernels.modelled_load`) at the air its body drag
+takes (the wind and the others' downwash in it); each vehicle has its own pack, reset with its
+world's episode, its state of charge closing the agent's aux as the battery gauge's does; the
+wakes stay the engine's (full thrusts times ``x |x|``, without the pack's sag).
+
 Domain randomisation (``env.randomize``): per world, at each of its resets, every entry is
 drawn once from the world's generator, before the spawns, and every agent of the world given
 the values, as the PyBullet engine's randomiser draws one set per reset for every vehicle of
@@ -108,8 +115,7 @@ true states.
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
-backend does not draw either, the optional motor models,
-rotary turbulence gusts, the ray-cast range sensors (``env.range_sensors``, an airframe's
+backend does not draw either, rotary turbulence gusts, the ray-cast range sensors (``env.range_sensors``, an airframe's
 ``range_sensors``: in a world a ray could also hit the other agents, which the single-agent
 backend's ground-plane law does not cover), and every key the single-agent batched backend
 refuses (the cameras among them).
@@ -138,6 +144,7 @@ from pyflyt_engine.batched.kernels import (
     drag_wrench,
     integrate_state,
     mix,
+    modelled_load,
     motors_step,
     rate_loop,
     rotation_tuple,
@@ -401,6 +408,11 @@ def advance_swarm(
     turbulence,
     turbulence_normals,
     dryden,
+    motor_model,
+    motor_laws,
+    battery,
+    battery_params,
+    battery_table,
     reads,
     sample_end,
 ):
@@ -441,6 +453,12 @@ def advance_swarm(
     :meth:`pyflyt_engine.atmosphere.air.Atmosphere.wind_at` adds it; with ``ground_effect``
     each motor's thrust takes its ground-effect ratio at its hub height (``rotors`` (n, 5),
     :func:`~pyflyt_engine.batched.air.ground_effect_columns`).
+
+    The modelled motors (``motor_laws`` not 0) and the packs (``motor_model`` (n, motors,
+    :data:`~pyflyt_engine.batched.kernels.MOTOR_MODEL_FIELDS`), ``battery`` (n,
+    :data:`~pyflyt_engine.batched.kernels.BATTERY_STATE`), ``battery_params``,
+    ``battery_table``) as :func:`~pyflyt_engine.batched.kernels.advance` takes them, each
+    vehicle's at the air its body drag takes (``air``: the wind and the downwash in it).
     """
     n = pos.shape[0]
     worlds = n // agents
@@ -455,6 +473,8 @@ def advance_swarm(
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     scratch = np.empty(turbulence.shape[1])
     scaled = np.empty((nm, 6))
+    modelled = motor_laws != 0
+    ratio = np.empty(nm)
     for k in range(worlds):
         base = k * agents
         wind_k = wind[base]  # this world's wind and turbulence filter (its first slot's rows)
@@ -554,7 +574,29 @@ def advance_swarm(
                     air[a, 3] = r0 * ax + r3 * ay + r6 * az
                     air[a, 4] = r1 * ax + r4 * ay + r7 * az
                     air[a, 5] = r2 * ax + r5 * ay + r8 * az
-                    if ground_effect:
+                    if modelled:  # ModelledMotors, at the body's velocity through the air as body drag takes it
+                        load = modelled_load(
+                            throttle[i],
+                            command[i],
+                            lag[i],
+                            factors[i, s],
+                            motor_model[i],
+                            motor_laws,
+                            battery[i],
+                            battery_params[i],
+                            battery_table,
+                            rotors[i],
+                            ground_effect,
+                            pos[i, 2],
+                            r6,
+                            r7,
+                            r8,
+                            min_height,
+                            ratio,
+                            (air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5]),
+                            physics_dt,
+                        )
+                    elif ground_effect:
                         _air.ground_effect_columns(pos[i, 2], r6, r7, r8, rotors[i], columns[i], min_height, scaled)
                         load = motors_step(throttle[i], command[i], lag[i], factors[i, s], scaled)
                     else:
@@ -580,7 +622,30 @@ def advance_swarm(
             if tick:
                 for a in range(agents):
                     i = base + a
-                    if ground_effect:
+                    if modelled:
+                        rg = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                        load = modelled_load(
+                            throttle[i],
+                            command[i],
+                            lag[i],
+                            factors[i, s],
+                            motor_model[i],
+                            motor_laws,
+                            battery[i],
+                            battery_params[i],
+                            battery_table,
+                            rotors[i],
+                            ground_effect,
+                            pos[i, 2],
+                            rg[6],
+                            rg[7],
+                            rg[8],
+                            min_height,
+                            ratio,
+                            (air[a, 0], air[a, 1], air[a, 2], air[a, 3], air[a, 4], air[a, 5]),
+                            physics_dt,
+                        )
+                    elif ground_effect:
                         rg = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
                         _air.ground_effect_columns(
                             pos[i, 2], rg[6], rg[7], rg[8], rotors[i], columns[i], min_height, scaled
@@ -698,11 +763,6 @@ def check_swarm_supported(config: Any) -> None:
             f"channels, lifting surfaces, gimbals or motors outside the mixer in a multi-agent world (airframe "
             f"{model.name})",
             "give the agents a multirotor whose motors the mixer alone flies",
-        )
-    if model.motor_laws:  # the worlds' kernel steps the static motors alone
-        raise refuse(
-            f"the optional motor models and the battery in a multi-agent world (airframe {model.name})",
-            "give the agents an airframe without tau_fall, rotor_drag, inflow or battery",
         )
     from pyflyt_engine.atmosphere import load_wind_config
 
@@ -957,6 +1017,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         self._drag_factors = rows(m.drag_factors)
         self._damping = rows(m.angular_damping)
         self._rotors = rows(m.rotors)
+        #: the optional motor models' rows and the pack's parameters and state at a reset, per
+        #: slot (empty without them; a drawn motor or battery_* factor sets a world's rows)
+        self._motor_model = rows(m.motor_model)
+        self._battery_params = rows(m.battery)
+        self._battery_reset = rows(m.battery_reset)
         #: each slot's motors' full thrusts [N], the strength of its wake (a drawn motor_kf sets a world's rows)
         self._wake_thrust = rows(self._wake_sources["max_thrust"])
         #: the randomize section's draws, one per world and episode, every agent of the world
@@ -1027,13 +1092,17 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: the contact samples the physics writes (BatchedLatency gathers them over an agent step's pieces)
         self.contact_flags = (self.ground_contact, self.agent_contact)
         #: what an observation shows besides the motion (BatchedLatency's snapshot): the worlds'
-        #: multirotors have no lifting surfaces and no battery
+        #: multirotors have no lifting surfaces; a pack's state of charge closes the aux
         self.deflection = np.zeros((n, 0))
-        self.battery = np.zeros((n, 0))
+        #: per slot, its pack's state (charge, voltage [V], current [A], speed ratio:
+        #: kernels.BATTERY_STATE; none without a battery), its reset's at every episode start
+        self.battery = np.zeros((n, m.battery_reset.size))
+        if self.battery.shape[1]:  # a checkpoint carries the packs' state
+            self.state_arrays = (*self.state_arrays, "battery")
         #: the action and observation delays, one row per slot, the agents of a world sharing
         #: the world's (None without; pyflyt_engine.batched.latency)
         self.latency = (
-            BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, 0)
+            BatchedLatency(cfg, n, self.per_agent, self.per_control, self._low.size, nm, 0, m.has_battery)
             if declares_latency(cfg)
             else None
         )
@@ -1195,6 +1264,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         for name in ("throttle", "command", "integral", "previous", "vel_integral", "actions", "episode_return"):
             getattr(self, name)[rows] = 0.0  # the controller's memory cleared, as Vehicle.reset clears it
         self.has_previous[rows] = False
+        if self.battery.shape[1]:  # the packs back to their initial charge, no load (Battery.reset)
+            self.battery[rows] = self._battery_reset[rows]
         if self.dryden is not None:  # a new realisation: the state drawn from the stationary distribution
             _air.dryden_initial(
                 self.dryden_of(int(rows[0])),
@@ -1581,6 +1652,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.turbulence,
             normals,
             self._dryden_rows,
+            self._motor_model,
+            self.model.motor_laws,
+            self.battery,
+            self._battery_params,
+            self.model.battery_table,
             self._reads,
             start + count == self.per_agent,
         )
@@ -1622,6 +1698,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
                 "vel": self.vel,
                 "angvel": self.angvel,
                 "throttle": self.throttle,
+                "battery": self.battery,
             }
         sensed = self.sensors is not None and self.sensors.source != OBSERVE_TRUE
         own = self.sensors.observed(seen) if sensed else seen  # type: ignore[union-attr]
@@ -1641,6 +1718,8 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             self.actions,
             seen["throttle"],
         ]
+        if self.battery.shape[1]:  # the battery's gauge closes the aux: its state of charge (BatteryGauge.aux)
+            parts.append(seen["battery"][:, :1])
         if self._fix_flag:  # the position fix's validity, after the aux state
             parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
         parts.append(extras)

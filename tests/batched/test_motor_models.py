@@ -37,7 +37,7 @@ import yaml
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
 from pyflyt_engine.batched import BatchedUAVEnv, air, kernels
-from pyflyt_engine.batched.model import UnsupportedByBatched, batched_model
+from pyflyt_engine.batched.model import batched_model
 from pyflyt_engine.components.battery import Battery, open_circuit_voltage, supply
 from pyflyt_engine.components.motor_models import ModelledMotors
 from pyflyt_engine.components.noise import NoiseSource
@@ -488,14 +488,6 @@ def test_same_seed_same_numbers_across_processes():
         for _ in range(2)
     ]
     assert digests[0] == digests[1] and len(digests[0]) == 64
-
-
-def test_a_multi_agent_world_refuses_the_modelled_motors_by_name(files):
-    from pyflyt_engine.batched.swarm import check_swarm_supported
-
-    cfg = load_env_config("ma_quadx_hover").with_overrides(uav=files["example"])
-    with pytest.raises(UnsupportedByBatched, match="the optional motor models and the battery in a multi-agent world"):
-        check_swarm_supported(cfg)
 
 
 #: every motor and pack entry of a randomize section, each at a fixed value (both backends fly the same)
