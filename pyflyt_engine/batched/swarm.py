@@ -987,10 +987,10 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         )
         # per slot, its world's wind parameters and turbulence filter (the config's in every row;
         # a randomize entry wind.<path> sets a world's rows per episode, the kernel reads its first slot's)
-        per_slot = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
-        self._wind_rows = per_slot(self._wind)
+        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
+        self._wind_rows = rows(self._wind)
         self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = (
-            per_slot(a) for a in self._dryden_arrays
+            rows(a) for a in self._dryden_arrays
         )
         self._dryden_rows = (
             self._dryden_phi,
@@ -1009,7 +1009,6 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         # the body's, motors' and drag's parameters, one row per slot (own, writable copies:
         # domain randomisation sets a world's rows at each of its episodes); the flight
         # controller keeps the airframe's nominal ones (the model's, one set for every vehicle)
-        rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
         self._mass = rows(m.mass)
         self._inertia = rows(m.inertia)
         self._lag = rows(m.lag)
