@@ -119,13 +119,24 @@ class WindField:
         The samples from the current step on are generated again (with rotary turbulence,
         from a new realisation: add vehicles before flying); the time goes on.
         """
-        index = len(self.spans)
-        self.spans.append(float(span))
-        if self._angular and self._rotary(float(span)):
+        return self.add_vehicles([span])[0]
+
+    def add_vehicles(self, spans: Sequence[float]) -> list[Callable[[Sequence[float]], WindSample]]:
+        """Register vehicles of spans ``spans`` [m] at once; returns their probes, in order.
+
+        As many :meth:`add_vehicle` calls would, but the turbulence filter is built once, for
+        all of them (the same filter the last of those calls builds; it draws one stationary
+        state, where each call draws its own)."""
+        first = len(self.spans)
+        self.spans.extend(float(b) for b in spans)
+        if self._angular and any(self._rotary(b) for b in self.spans[first:]):
             self._build()
         else:
             self._start = self.step_index
             self._fill()
+        return [self._probe(index) for index in range(first, len(self.spans))]
+
+    def _probe(self, index: int) -> Callable[[Sequence[float]], WindSample]:
         if self._sheared:
             mx, my = self._mean
             config = self.config

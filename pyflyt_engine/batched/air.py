@@ -140,15 +140,19 @@ class Dryden:
         return self.arrays[0].shape[0]
 
 
-def dryden_filter(config: WindConfig, physics_dt: float, span: float) -> Dryden | None:
-    """The turbulence filter of a vehicle of span ``span`` [m] in ``config`` (None: no turbulence)."""
+def dryden_filter(config: WindConfig, physics_dt: float, span: float, vehicles: int = 1) -> Dryden | None:
+    """The turbulence filter of a world of ``vehicles`` vehicles of span ``span`` [m] in
+    ``config`` (None: no turbulence), as the engine's field builds it for them: one filter for
+    the world, its linear states shared, and with rotary gusts the ``p, q, r`` states and output
+    rows of each vehicle in turn (vehicle ``j``'s outputs are rows ``3 + 3 j ... 5 + 3 j`` of
+    ``C``, :func:`dryden_rotary`)."""
     turbulence = config.turbulence
     if turbulence is None or turbulence.wind_speed_20ft <= 0:
         return None
     from pyflyt_engine.atmosphere.field import WindField
 
     field = WindField(config, physics_dt, np.random.default_rng(0), block=1)
-    field.add_vehicle(span)
+    field.add_vehicles([span] * vehicles)
     process = field._process
     assert process is not None
     phi, c = np.ascontiguousarray(process.Phi), np.ascontiguousarray(process.C)
@@ -156,6 +160,24 @@ def dryden_filter(config: WindConfig, physics_dt: float, span: float) -> Dryden 
     flags = np.array([m.any(axis=0) for m in (c, noise, state)], dtype=np.float64)
     rotary = bool(turbulence.angular and field._rotary(span))
     return Dryden((phi, c, noise, state, flags), rotary)
+
+
+def air_rows(
+    config: WindConfig, physics_dt: float, span: float, slots: int, filters: int, vehicles: int = 1
+) -> tuple[Dryden | None, np.ndarray, tuple, np.ndarray, tuple]:
+    """The rows of the air an env's vehicles fly, the config's in every row: the world filter
+    (:func:`dryden_filter` for ``vehicles`` vehicles of ``span``; None without turbulence), the
+    wind parameters (:func:`wind_params`), the filter's arrays (empty ones without turbulence),
+    ``slots`` rows of the parameters and ``filters`` rows of each filter array (writable copies:
+    a drawn wind sets an env's or a world's rows per episode)."""
+    dryden = dryden_filter(config, physics_dt, span, vehicles)
+    params = wind_params(config, rotary=dryden is not None and dryden.rotary)
+    arrays = dryden.arrays if dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
+
+    def rows(a: np.ndarray, count: int) -> np.ndarray:
+        return np.array(np.broadcast_to(a, (count, *np.shape(a))), dtype=np.float64, order="C")
+
+    return dryden, params, arrays, rows(params, slots), tuple(rows(a, filters) for a in arrays)
 
 
 @njit(cache=True)
@@ -227,10 +249,25 @@ def dryden_output(dryden, x: np.ndarray, c: float, s: float):
     rotary rows."""
     cm, flags = dryden[1], dryden[4]
     u, v, w = _matvec_row(cm, flags[0], 0, x), _matvec_row(cm, flags[0], 1, x), _matvec_row(cm, flags[0], 2, x)
+    p, q, r = dryden_rotary(dryden, x, c, s, 0)
+    return c * u - s * v, s * u + c * v, w, p, q, r
+
+
+@njit(cache=True)
+def dryden_rotary(dryden, x: np.ndarray, c: float, s: float, j: int):
+    """Vehicle ``j``'s rotary gusts (p, q, r) [rad/s] in the ground frame from state ``x``: rows
+    ``3 + 3 j`` to ``5 + 3 j`` of ``C x`` turned as :func:`dryden_output` turns them; 0 where the
+    filter has no rotary rows (turned as they are: the zeros keep their signs' arithmetic)."""
+    cm, flags = dryden[1], dryden[4]
+    row = 3 + 3 * j
     p = q = r = 0.0
-    if cm.shape[0] > 3:
-        p, q, r = _matvec_row(cm, flags[0], 3, x), _matvec_row(cm, flags[0], 4, x), _matvec_row(cm, flags[0], 5, x)
-    return c * u - s * v, s * u + c * v, w, c * p - s * q, s * p + c * q, r
+    if cm.shape[0] >= row + 3:
+        p, q, r = (
+            _matvec_row(cm, flags[0], row, x),
+            _matvec_row(cm, flags[0], row + 1, x),
+            _matvec_row(cm, flags[0], row + 2, x),
+        )
+    return c * p - s * q, s * p + c * q, r
 
 
 @njit(cache=True)

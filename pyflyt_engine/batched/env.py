@@ -222,30 +222,18 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         #: the air (pyflyt_engine.batched.air): the wind field's parameters, and per env the
         #: rotors' rows for ground effect (the PyBullet engine's needs a ground: its worlds have one)
         self.wind_config = load_wind_config(cfg.wind)
-        #: the turbulence filter of this airframe (None: no turbulence)
-        self.dryden = air.dryden_filter(self.wind_config, self.physics_dt, m.span)
-        #: the config's wind parameters (air.WIND_FIELDS) and turbulence filter arrays (Dryden.arrays)
-        self._wind = air.wind_params(self.wind_config, rotary=self.dryden is not None and self.dryden.rotary)
+        #: the turbulence filter of this airframe (None: no turbulence); the config's wind
+        #: parameters (air.WIND_FIELDS) and turbulence filter arrays (Dryden.arrays); per env, its
+        #: wind parameters and its turbulence filter (Phi, C, the noise's and the stationary
+        #: state's factors, the column flags): the config's in every row; a ``randomize`` entry
+        #: ``wind.<path>`` sets an env's rows per episode (the kernels read env i's)
+        self.dryden, self._wind, self._dryden_arrays, self._wind_rows, self._dryden_rows = air.air_rows(
+            self.wind_config, self.physics_dt, m.span, n, n
+        )
+        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = self._dryden_rows
         self.ground_effect = bool(cfg.ground_effect)
         self._rotors = rows(m.rotors)
         states = self.dryden.states if self.dryden is not None else 0
-        self._dryden_arrays = (
-            self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
-        )
-        #: per env, its wind parameters and its turbulence filter (Phi, C, the noise's and the
-        #: stationary state's factors, the column flags): the config's in every row; a
-        #: ``randomize`` entry ``wind.<path>`` sets an env's rows per episode (the kernels read env i's)
-        self._wind_rows = rows(self._wind)
-        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = (
-            rows(a) for a in self._dryden_arrays
-        )
-        self._dryden_rows = (
-            self._dryden_phi,
-            self._dryden_c,
-            self._dryden_noise,
-            self._dryden_root,
-            self._dryden_flags,
-        )
         #: per env, the turbulence filter's state (Dryden; none without turbulence)
         self.turbulence = np.zeros((n, states))
         self._no_normals = np.zeros((n, self.per_agent, 0))

@@ -148,6 +148,7 @@ class BatchedRandomizer:
         sensors: SensorsSpec | None = None,
         wind: WindConfig | None = None,
         span: float = 0.0,
+        vehicles: int = 1,
     ) -> None:
         self.entries = dict(entries)
         self.names = tuple(self.entries)
@@ -185,8 +186,10 @@ class BatchedRandomizer:
         #: turbulence filter) change per episode
         self.winds = tuple(name for name in self.names if name.startswith("wind."))
         self.span = float(span)
+        #: the vehicles of a world (a multi-agent world's filter has each one's rotary rows)
+        self.vehicles = int(vehicles)
         self._wind_nominal = (wind if wind is not None else load_wind_config(None)).model_dump(mode="json")
-        nominal_filter = dryden_filter(load_wind_config(self._wind_nominal), self.physics_dt, self.span)
+        nominal_filter = dryden_filter(load_wind_config(self._wind_nominal), self.physics_dt, self.span, self.vehicles)
         #: the config's turbulence filter's size (states, rotary): every drawn wind keeps it
         self._filter_shape = (nominal_filter.states, nominal_filter.rotary) if nominal_filter is not None else None
 
@@ -270,8 +273,9 @@ class BatchedRandomizer:
         if self.sensing and sensors is not None:
             sensors.param_rows[i] = randomized_parameters(sensors.params, values)
 
-    def apply_wind(self, env: BatchedUAVEnv | BatchedSwarmEnv, i: int, values: dict[str, float]) -> None:
-        """Env ``i``'s rows of the wind parameters and of the turbulence filter for its episode:
+    def apply_wind(self, env: BatchedUAVEnv | BatchedSwarmEnv, i: int | np.ndarray, values: dict[str, float]) -> None:
+        """Env ``i``'s rows (a world's slots ``i``: each of them) of the wind parameters and of
+        the turbulence filter for its episode, the filter built once:
         the config's wind with the ``wind.<path>`` draws in it (:func:`~pyflyt_engine.envs.randomization.sampled_wind`,
         the very config the PyBullet engine's randomiser gives its world, ConfigError if invalid),
         written as :func:`~pyflyt_engine.batched.air.wind_params` and
@@ -279,7 +283,7 @@ class BatchedRandomizer:
         the turbulence off (``wind_speed_20ft`` 0) leaves the env's filter rows as they are (its
         parameters row says no turbulence, as the engine's field then has no filter)."""
         config = sampled_wind(self._wind_nominal, {name: values[name] for name in self.winds})
-        drawn = dryden_filter(config, self.physics_dt, self.span)
+        drawn = dryden_filter(config, self.physics_dt, self.span, self.vehicles)
         shape = (drawn.states, drawn.rotary) if drawn is not None else None
         if drawn is not None and shape != self._filter_shape:  # refused at load where it can happen (unsupported)
             raise ConfigError(

@@ -63,7 +63,14 @@ The air (``env.wind``, ``env.ground_effect``): the single-agent backend's wind a
 laws (:mod:`pyflyt_engine.batched.air`), read at each vehicle as the engine's world reads them
 (the downwash added to the field's vertical wind); the Dryden turbulence is one field per world,
 as the engine's :class:`~pyflyt_engine.atmosphere.field.WindField` gives every vehicle of a world
-the same linear gusts, each world's white noise from a stream of its own.
+the same linear gusts, each world's white noise from a stream of its own.  Where the airframe's
+span reaches the turbulence's ``rotary_min_span`` each vehicle has its own rotary gusts
+``p, q, r``: the world's filter is the field's for all of its vehicles (its linear states
+shared, then three states and three output rows per vehicle, in agent order), so a world of
+``A`` agents steps a ``5 + 3A``-state filter and holds it in each of its slots (every slot's
+rows are the world's, as for a drawn wind): memory ``~ A (5 + 3A)^2 x 32 B`` per world (4
+agents: 37 KB; 16: 1.4 MB; 64: 79 MB) and, like the engine's, a filter step costing
+``O((5 + 3A)^2)`` per world and physics step.
 
 The optional motor models and the battery (an airframe's ``tau_fall``, ``rotor_drag``,
 ``inflow``, ``battery``): each vehicle's modelled motors step by the single-agent backend's
@@ -115,7 +122,7 @@ true states.
 What the batched multi-agent path does not simulate is refused by name at load
 (:func:`check_swarm_supported`): other multi-agent tasks (the dogfight), agents with
 different airframes, a flight mode not in :data:`SWARM_MODES`, the ``randomize`` entries the single-agent
-backend does not draw either, rotary turbulence gusts, the ray-cast range sensors (``env.range_sensors``, an airframe's
+backend does not draw either, the ray-cast range sensors (``env.range_sensors``, an airframe's
 ``range_sensors``: in a world a ray could also hit the other agents, which the single-agent
 backend's ground-plane law does not cover), and every key the single-agent batched backend
 refuses (the cameras among them).
@@ -448,7 +455,10 @@ def advance_swarm(
     slots after the step) moves on one step per physics step from the draws
     ``turbulence_normals[k, s]`` through the world's filter (``dryden``: each array of
     :attr:`~pyflyt_engine.batched.air.Dryden.arrays` with a leading slot axis, the world's its
-    first slot's rows; a drawn wind gives each world its own); the
+    first slot's rows; a drawn wind gives each world its own); with rotary gusts (the
+    parameters' ``rotary``) vehicle ``a`` of a world takes its own ``p, q, r``, rows
+    ``3 + 3a ...`` of the world's filter output (:func:`~pyflyt_engine.batched.air.dryden_rotary`),
+    as the engine's field gives each vehicle its own; the
     downwash is added to each vehicle's vertical wind as
     :meth:`pyflyt_engine.atmosphere.air.Atmosphere.wind_at` adds it; with ``ground_effect``
     each motor's thrust takes its ground-effect ratio at its hub height (``rotors`` (n, 5),
@@ -472,6 +482,7 @@ def advance_swarm(
     reach2 = (2.0 * bound_radius) * (2.0 * bound_radius)
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     scratch = np.empty(turbulence.shape[1])
+    spins = np.zeros((agents, 3))
     scaled = np.empty((nm, 6))
     modelled = motor_laws != 0
     ratio = np.empty(nm)
@@ -480,6 +491,7 @@ def advance_swarm(
         wind_k = wind[base]  # this world's wind and turbulence filter (its first slot's rows)
         windy = wind_k[0] != 0.0
         turbulent = wind_k[17] != 0.0
+        rotary = turbulent and wind_k[20] != 0.0
         dryden_k = (dryden[0][base], dryden[1][base], dryden[2][base], dryden[3][base], dryden[4][base])
         for a in range(agents):
             ground_contact[base + a] = False
@@ -495,6 +507,11 @@ def advance_swarm(
             gusts = calm
             if turbulent:  # the world's turbulence (one field for its vehicles, as the engine's) moves on
                 gusts = _air.dryden_output(dryden_k, turbulence[base], wind_k[18], wind_k[19])
+                if rotary:  # each vehicle's own rotary gusts, its rows of the world's filter (the field's)
+                    for a in range(agents):
+                        spins[a, 0], spins[a, 1], spins[a, 2] = _air.dryden_rotary(
+                            dryden_k, turbulence[base], wind_k[18], wind_k[19], a
+                        )
                 _air.dryden_step(dryden_k, turbulence[base], turbulence_normals[k, s], scratch)
             for a in range(agents):
                 i = base + a
@@ -510,6 +527,8 @@ def advance_swarm(
                     wx, wy, wz, gp, gq, gr = _air.wind_sample(
                         wind_k, episode_steps[i] + s, pos[i, 2], physics_dt, gusts
                     )
+                    if rotary:
+                        gp, gq, gr = spins[a, 0], spins[a, 1], spins[a, 2]
                 if downwash_on:
                     dw = downwash_at(
                         a,
@@ -764,14 +783,6 @@ def check_swarm_supported(config: Any) -> None:
             f"{model.name})",
             "give the agents a multirotor whose motors the mixer alone flies",
         )
-    from pyflyt_engine.atmosphere import load_wind_config
-
-    dryden = _air.dryden_filter(load_wind_config(config.wind), 1.0 / config.physics_hz, model.span)
-    if dryden is not None and dryden.rotary:  # the engine's field has a rotary filter per vehicle
-        raise refuse(
-            f"rotary turbulence gusts in a multi-agent world (airframe {model.name}, span {model.span:g} m)",
-            "raise the wind's turbulence.rotary_min_span above the span or set turbulence.angular: false",
-        )
 
 
 class _WorldTasks:
@@ -979,26 +990,15 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         #: the air (pyflyt_engine.batched.air), as the single-agent backend takes it: the wind
         #: field's parameters, the airframe's turbulence filter (None: no turbulence), ground effect
         self.wind_config = load_wind_config(cfg.wind)
-        self.dryden = _air.dryden_filter(self.wind_config, self.physics_dt, self.model.span)
-        self._wind = _air.wind_params(self.wind_config, rotary=self.dryden is not None and self.dryden.rotary)
-        self.ground_effect = bool(cfg.ground_effect)
-        self._dryden_arrays = (
-            self.dryden.arrays if self.dryden is not None else (np.zeros((0, 0)),) * 4 + (np.zeros((3, 0)),)
-        )
         # per slot, its world's wind parameters and turbulence filter (the config's in every row;
-        # a randomize entry wind.<path> sets a world's rows per episode, the kernel reads its first slot's)
+        # a randomize entry wind.<path> sets a world's rows per episode, the kernel reads its first
+        # slot's); the filter is the world's, for its agents (with rotary gusts: each agent's rows)
+        self.dryden, self._wind, self._dryden_arrays, self._wind_rows, self._dryden_rows = _air.air_rows(
+            self.wind_config, self.physics_dt, self.model.span, n, n, vehicles=a_count
+        )
+        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = self._dryden_rows
+        self.ground_effect = bool(cfg.ground_effect)
         rows = lambda a: np.array(np.broadcast_to(a, (n, *np.shape(a))), dtype=np.float64, order="C")  # noqa: E731
-        self._wind_rows = rows(self._wind)
-        self._dryden_phi, self._dryden_c, self._dryden_noise, self._dryden_root, self._dryden_flags = (
-            rows(a) for a in self._dryden_arrays
-        )
-        self._dryden_rows = (
-            self._dryden_phi,
-            self._dryden_c,
-            self._dryden_noise,
-            self._dryden_root,
-            self._dryden_flags,
-        )
         box_centre, box_half = _collision_box(self.model.corners)
         self._box_centre, self._box_half = box_centre, box_half
         self._bound_radius = float(np.linalg.norm(np.abs(box_centre) + box_half))
@@ -1038,6 +1038,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
                 sensors=flown,
                 wind=self.wind_config,
                 span=self.model.span,
+                vehicles=a_count,
             )
             if cfg.randomize
             else None
@@ -1239,11 +1240,11 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         values: dict[str, float] | None = None
         if randomizer is not None:  # drawn before the spawns, one draw for the world's vehicles
             values = randomizer.draw(rows, rng)
+            if randomizer.winds:  # the world's wind: the same rows of parameters and filter in each of its slots
+                randomizer.apply_wind(self, rows, values)
             for i in rows.tolist():
                 if randomizer.airframe:
                     randomizer.apply(self, i, values)
-                if randomizer.winds:  # the world's wind: the same rows of parameters and filter in each of its slots
-                    randomizer.apply_wind(self, i, values)
                 if self.latency is not None:  # the drawn delays, every vehicle of the world
                     self.latency.draw(i, values)
         for a, i in enumerate(rows.tolist()):

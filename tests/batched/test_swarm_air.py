@@ -17,8 +17,6 @@ import numpy as np
 import pytest
 
 from pyflyt_engine.batched import air, swarm
-from pyflyt_engine.batched.model import UnsupportedByBatched
-from pyflyt_engine.envs.config import load_env_config
 from tests.batched.test_swarm import BOUND, STACKED, _fly, _pair, quiet_cf2x  # noqa: F401 - the fixture
 
 #: a gust that starts inside the 2 s flights (the preset's starts later)
@@ -57,7 +55,8 @@ def _inject_the_engines_turbulence(pb, be) -> None:
     gusts = air.dryden_output(be._dryden_arrays, be.turbulence[0], be._wind[18], be._wind[19])
     for i in range(be.agents):
         here = be.pos[i].tolist()
-        sample = air.wind_sample(be._wind, 0, here[2], be.physics_dt, gusts)
+        spins = air.dryden_rotary(be._dryden_arrays, be.turbulence[0], be._wind[18], be._wind[19], i)
+        sample = air.wind_sample(be._wind, 0, here[2], be.physics_dt, (*gusts[:3], *spins))
         engine = tuple(world.atmosphere.wind_at(i, here))
         assert sample[:2] == engine[:2] and sample[3:] == engine[3:]  # z: the engine's adds the downwash
 
@@ -134,15 +133,33 @@ def test_a_worlds_turbulence_is_one_field_and_each_world_its_own():
     assert not np.array_equal(turbulence, other)
 
 
-def test_rotary_turbulence_gusts_stay_refused_by_name(tmp_path):
-    """The engine gives every vehicle of a world its own rotary gusts (one filter per span);
-    the worlds' one filter per world does not, so a wind whose rotary gusts reach the
-    airframe is refused by name."""
-    cfg = load_env_config("ma_quadx_hover").with_overrides(
-        wind={"preset": "dryden_light", "turbulence": {"rotary_min_span": 0.0}}
-    )
-    with pytest.raises(UnsupportedByBatched, match="rotary turbulence gusts in a multi-agent world"):
-        swarm.BatchedSwarmEnv(cfg)
+#: Dryden turbulence whose rotary gusts reach the Crazyflie (the presets' 1 m minimum span does
+#: not): every vehicle has its own p, q, r, its rows of the world's filter
+ROTARY = {"preset": "dryden_moderate", "turbulence": {"rotary_min_span": 0.0}}
+
+
+def test_each_agent_has_its_own_rotary_gusts_as_in_the_pybullet_engine(quiet_cf2x):  # noqa: F811
+    """The stacks with downwash in turbulence with rotary gusts: the world's filter is the
+    engine field's for the world's four vehicles (its matrices equal, 5 + 3 x 4 states), each
+    agent's first wind sample the engine's bit for bit (its own p, q, r), and 2 s of random
+    actions around hover within 1e-6 of the PyBullet engine; at the end the agents' rotary gusts
+    are all different and not negligible."""
+    worst, ends, flown, be = _fly_pair(quiet_cf2x, 2, ROTARY)
+    print(f"rotary gusts: {worst}")
+    agents = be.agents
+    assert be.dryden is not None and be.dryden.rotary and be.dryden.states == 5 + 3 * agents
+    assert max(worst.values()) < BOUND, worst
+    assert flown == 59 and not ends, ends
+    pb, fresh = _pair(quiet_cf2x, 2, agents=STACKED, downwash=True, wind=ROTARY)
+    process = pb.world.wind._process  # the engine field's own filter for the world's vehicles
+    assert np.array_equal(fresh._dryden_phi[0], process.Phi) and np.array_equal(fresh._dryden_c[0], process.C)
+    assert np.array_equal(fresh._dryden_noise[-1], process._noise_root)
+    assert np.array_equal(fresh._dryden_root[-1], process._state_root)
+    pb.close()
+    row = be._wind_rows[0]
+    spins = np.array([air.dryden_rotary(be.dryden_of(0), be.turbulence[0], row[18], row[19], a) for a in range(agents)])
+    assert np.abs(spins).max() > 1e-3, spins  # gusts of a few mrad/s and more
+    assert len({tuple(v) for v in spins.tolist()}) == agents, spins  # each agent its own
 
 
 # ---------------------------------------------------------------------------- the formation

@@ -70,7 +70,8 @@ def _inject(pb, be: swarm.BatchedSwarmEnv, recorder: _Recorder) -> None:
     gusts = air.dryden_output(dryden, x, row[18], row[19])
     for i in range(be.agents):
         here = be.pos[i].tolist()
-        sample = air.wind_sample(row, 0, here[2], be.physics_dt, gusts)
+        spins = air.dryden_rotary(dryden, x, row[18], row[19], i)  # agent i's own (0 without rotary rows)
+        sample = air.wind_sample(row, 0, here[2], be.physics_dt, (*gusts[:3], *spins))
         engine = tuple(pb.world.atmosphere.wind_at(i, here))
         assert sample[:2] == engine[:2] and sample[3:] == engine[3:], (i, sample, engine)
 
@@ -117,9 +118,15 @@ def test_each_world_draws_and_flies_the_wind_the_pybullet_env_does():
         pb.close()
 
 
-#: the stacks with downwash (the upper agents' wakes on the lower ones) and the formation's grid
+#: the stacks with downwash (the upper agents' wakes on the lower ones), the same in turbulence
+#: whose rotary gusts reach the Crazyflie (each agent its own p, q, r: a 17-state world filter
+#: drawn per episode), and the formation's grid
 FLIGHTS = {
     "stacked_downwash": ("ma_quadx_hover", {"agents": STACKED, "downwash": True}),
+    "stacked_rotary": (
+        "ma_quadx_hover",
+        {"agents": STACKED, "downwash": True, "wind": {**WIND, "turbulence": {"rotary_min_span": 0.0}}},
+    ),
     "formation": ("ma_quadx_formation", {"agents": 4, "downwash": True}),
 }
 
@@ -131,8 +138,9 @@ def test_worlds_in_drawn_winds_agree_with_the_pybullet_engine(quiet_cf2x, flight
     observation and reward within 1e-6, no agent lost; the same spawns and actions in the
     config's own mean wind and gust (no turbulence, the same drawn mass) end centimetres away."""
     env_name, overrides = FLIGHTS[flight]
-    cfg = load_env_config(env_name).with_overrides(uav=quiet_cf2x, wind=WIND, randomize=DRAWS, **overrides)
+    cfg = load_env_config(env_name).with_overrides(uav=quiet_cf2x, randomize=DRAWS, **{"wind": WIND, **overrides})
     be = swarm.BatchedSwarmEnv(cfg, worlds=1, motor_noise=False)
+    assert be.dryden is not None and be.dryden.rotary == (flight == "stacked_rotary")
     first, info = be.reset(seed=5)
     pb, start, pb_info, recorder = _pybullet(cfg, _generators(5, 1)[0])
     names = pb.possible_agents
