@@ -275,6 +275,7 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
         else:
             vec = DummyVecEnv([EnvFactory(probe_cfg.env, resumable=False) for _ in range(n_envs)])
         try:
+            _warm_up(vec)
             norm = probe_cfg.algo.normalize
             if norm.enabled:
                 vec = VecNormalize(vec, norm_obs=norm.observation, norm_reward=norm.reward, gamma=probe_cfg.algo.gamma)
@@ -290,6 +291,17 @@ def measure_costs(cfg: Any, *, seconds: float = MEASURE_SECONDS) -> Costs | None
     if phases.collected <= 0 or split["update"] <= 0:
         return None
     return Costs(split["collect"] / phases.collected, split["update"] / phases.collected, evaluate)
+
+
+def _warm_up(vec: Any, steps: int = 2) -> None:
+    """Step the measuring copy's envs a little before anything is timed: their first calls do
+    one-time work that no later step repeats (the batched backend compiles its laws on the first
+    call after a fresh install, which takes tens of seconds, then loads them from numba's cache;
+    a PyBullet env loads its meshes), which would otherwise be charged to each collected step."""
+    vec.reset()
+    space = vec.action_space
+    for _ in range(steps):
+        vec.step(np.stack([space.sample() for _ in range(vec.num_envs)]))
 
 
 def _evaluation_step(cfg: Any, steps: int = 60) -> float:

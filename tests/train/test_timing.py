@@ -289,3 +289,27 @@ def test_a_run_accounts_its_parts_on_the_clock_it_is_given(tmp_path):
     assert set(costs.split) == {"collect", "update", "eval", "checkpoint"}
     assert all(v == int(v) >= 0 for v in costs.split.values()) and sum(costs.split.values()) <= costs.learn + 1
     assert costs.split["eval"] == costs.evaluations[0] + 2  # its two readings around the evaluation call
+
+
+def test_one_time_work_of_the_first_env_step_is_not_charged_to_every_collected_step(tmp_path, monkeypatch):
+    """The first step of a fresh env does work no later step repeats (the batched backend's laws
+    compile on a fresh install: its ETA once said 18 hours for a 15-minute run).  The measuring copy
+    steps its envs before it times anything: a first step that takes a second more adds nothing
+    to the per-step cost of the 256 steps timed after it."""
+    import time as _time
+
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    real = DummyVecEnv.step_wait
+    first = [True]
+
+    def slow_first(self):
+        if first[0]:
+            first[0] = False
+            _time.sleep(1.0)
+        return real(self)
+
+    monkeypatch.setattr(DummyVecEnv, "step_wait", slow_first)
+    costs = measure_costs(load(TINY_PPO, tmp_path), seconds=0.0)  # one rollout: 256 collected steps
+    assert not first[0]  # the slow step happened, in the copy's envs
+    assert costs is not None and 0 < costs.collect < 1.0 / 256
