@@ -72,7 +72,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
-from pyflyt_engine.batched import air, kernels, modes, bookkeeping
+from pyflyt_engine.batched import air, bookkeeping, kernels, modes, normals
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.randomization import BatchedRandomizer
@@ -601,10 +601,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
         a = np.minimum(np.maximum(a, self._low), self._high)
         self.actions[:] = a
-        if self.motor_noise:  # 1 + ratio eta, the draws and the factors in buffers kept for the next step
-            factors = self.noise_rng.standard_normal(out=self._noise_buffer)
-            np.multiply(factors, self._noise_ratio, out=factors)
-            np.add(factors, 1.0, out=factors)
+        if self.motor_noise:  # 1 + ratio eta in one compiled pass (numpy's draws), into a kept buffer
+            factors = normals.noise_factors(self.noise_rng, self._noise_ratio, self._noise_buffer)
         else:
             factors = self._ones
         self.advance(a, factors, self.turbulence_normals())

@@ -17,7 +17,7 @@ reads, as the engine reads a fraction, ``f * (max_range - min_range) + min_range
 reads ``1 * (max_range - min_range) + min_range`` (a LiDAR) or ``max_range`` (a depth
 camera), as the engine's fraction 1 gives.  Noise: when ``noise_std > 0`` every scan draws
 one standard normal per ray, in ray order, from the sensor's own stream (numpy's ziggurat,
-:func:`pyflyt_engine.batched.sensors.standard_normal`, the draws of
+:func:`pyflyt_engine.batched.normals.standard_normal`, the draws of
 ``Generator.standard_normal(n)``), and a hit reads ``clip(r + noise_std eta, min_range,
 max_range)``; a depth camera then reads a hit times the pixel's cosine to the optical axis.
 The readings are rounded to float32, as the engine's are.
@@ -49,7 +49,8 @@ import numpy as np
 from numba import njit
 
 from pyflyt_engine.batched.kernels import rotation_rows as _rotation_rows
-from pyflyt_engine.batched.sensors import standard_normal, stream_interface
+from pyflyt_engine.batched.normals import standard_normal
+from pyflyt_engine.batched.sensors import stream_interface
 
 #: a sensor's parameters: min_range, max_range, span, noise_std, refresh period, depth flag,
 #: its first ray and its ray count (in the stacked rays)

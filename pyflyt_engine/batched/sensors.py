@@ -18,8 +18,8 @@ interface (as :func:`pyflyt_engine.batched.bookkeeping.spawn_rows` draws its uni
 ``Generator.random()`` is ``next_double``, and ``Generator.standard_normal()`` is numpy's
 ziggurat (``random_standard_normal`` in numpy's ``random/src/distributions/distributions.c``:
 Marsaglia and Tsang, "The ziggurat method for generating random variables", J. Stat.
-Softw. 5(8), 2000, with 256 layers and numpy's tables, which numba ships for its own
-generator), written out in :func:`standard_normal`.  So given the same stream state and
+Softw. 5(8), 2000, with 256 layers and numpy's tables), written out in
+:func:`pyflyt_engine.batched.normals.standard_normal`.  So given the same stream state and
 the same true states, a row reads bit for bit what a :class:`SensorSuite` reads
 (``tests/batched/test_sensors.py``).
 
@@ -37,18 +37,11 @@ from typing import Any
 
 import numpy as np
 from numba import njit
-from numba.np.random import _constants as _zig
 
 from pyflyt_engine.batched.kernels import rotation_rows as _rotation_rows
+from pyflyt_engine.batched.normals import standard_normal
 from pyflyt_engine.components.sensors import check_rates
 from pyflyt_engine.errors import ConfigError
-
-# numpy's ziggurat tables and constants (numba's copy of them, the same values)
-_WI = np.ascontiguousarray(_zig.wi_double, dtype=np.float64)
-_KI = np.ascontiguousarray(_zig.ki_double, dtype=np.uint64)
-_FI = np.ascontiguousarray(_zig.fi_double, dtype=np.float64)
-_NOR_R = float(_zig.ziggurat_nor_r)
-_NOR_INV_R = float(_zig.ziggurat_nor_inv_r)
 
 # ----------------------------------------------------------------- layouts
 
@@ -156,50 +149,6 @@ def stream_interface(rngs: list[np.random.Generator]) -> tuple[np.ndarray, Any, 
         if any(ctypes.cast(getattr(c, name), ctypes.c_void_p).value != address for c in interfaces):
             raise ConfigError("the sensors' generators must all be of one kind of numpy bit generator")
     return np.array([c.state_address for c in interfaces], dtype=np.uintp), first.next_uint64, first.next_double
-
-
-# ---------------------------------------------------------------- the draws
-
-
-@njit(cache=True)
-def standard_normal(state, next_uint64, next_double):
-    """One ``Generator.standard_normal()`` from the bit generator at ``state`` (numpy's
-    ziggurat, module docstring): a 64-bit word gives the layer (its low 8 bits), the sign
-    (the next bit) and a 52-bit magnitude; inside the layer's rectangle that is the draw,
-    else the base layer samples the tail beyond ``r`` (Marsaglia's method with two uniforms)
-    and the others accept under the density by one uniform."""
-    low8 = np.uint64(0xFF)
-    one = np.uint64(1)
-    mantissa = np.uint64(0x000FFFFFFFFFFFFF)
-    while True:
-        word = next_uint64(state)
-        layer = int(word & low8)
-        word = word >> np.uint64(8)
-        negative = (word & one) == one
-        magnitude = (word >> one) & mantissa
-        x = float(magnitude) * _WI[layer]
-        if negative:
-            x = -x
-        if magnitude < _KI[layer]:
-            return x
-        if layer == 0:
-            while True:
-                xx = -_NOR_INV_R * math.log1p(-next_double(state))
-                yy = -math.log1p(-next_double(state))
-                if yy + yy > xx * xx:
-                    if ((magnitude >> np.uint64(8)) & one) == one:
-                        return -(_NOR_R + xx)
-                    return _NOR_R + xx
-        else:
-            if (_FI[layer - 1] - _FI[layer]) * next_double(state) + _FI[layer] < math.exp(-0.5 * x * x):
-                return x
-
-
-@njit(cache=True)
-def draw_normals(state, next_uint64, next_double, out):
-    """``Generator.standard_normal(out=out)`` for a 1-D ``out`` (a test's handle on the draws)."""
-    for k in range(out.shape[0]):
-        out[k] = standard_normal(state, next_uint64, next_double)
 
 
 # ----------------------------------------------------------------- the laws
@@ -642,9 +591,7 @@ __all__ = [
     "SENSOR_FACTORS",
     "BatchedSensors",
     "check_rates",
-    "draw_normals",
     "parameters",
     "randomized_parameters",
     "sample_row",
-    "standard_normal",
 ]

@@ -142,7 +142,7 @@ from numba import njit
 from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
 from pyflyt_engine.batched import air as _air
-from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched import kernels, normals
 from pyflyt_engine.batched import modes as _modes
 from pyflyt_engine.batched.kernels import (
     MODE_MOTORS,
@@ -1348,8 +1348,9 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         a[~live] = 0.0  # retired agents receive nothing
         self.actions[:] = a
         if self.motor_noise:
-            eta = self.noise_rng.standard_normal((n, self.per_agent, self.model.motors))
-            factors = 1.0 + self.model.noise_ratio * eta
+            factors = normals.noise_factors(
+                self.noise_rng, self.model.noise_ratio, np.empty((n, self.per_agent, self.model.motors))
+            )
         else:
             factors = self._ones
         self.advance(a, factors)

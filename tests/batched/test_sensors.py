@@ -84,21 +84,6 @@ class _Gains:
     k_p, k_i, alpha, beta = 1.5, 0.4, 0.27, 0.043
 
 
-def test_the_ziggurat_is_numpys():
-    """The compiled standard normal is numpy's, bit for bit, and moves the stream as numpy does."""
-    tail = 0
-    for seed in (0, 1, 12345):
-        ours, theirs = np.random.default_rng(seed), np.random.default_rng(seed)
-        states, next_uint64, next_double = bs.stream_interface([ours])
-        out = np.empty(200_000)
-        bs.draw_normals(states[0], next_uint64, next_double, out)
-        expected = theirs.standard_normal(out.size)
-        assert np.array_equal(out, expected)
-        assert ours.bit_generator.state == theirs.bit_generator.state
-        tail += int(np.sum(np.abs(expected) > bs._NOR_R))
-    assert tail > 50  # the base layer's tail was sampled (~150 expected)
-
-
 def _true_states(rng: np.random.Generator, steps: int):
     """A random flight's true states at physics resolution: positions, rotations (rows of a
     unit quaternion), ground-frame velocities and rates, smooth enough to be a flight."""
