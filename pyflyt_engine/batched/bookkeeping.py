@@ -18,7 +18,8 @@ physics.  Here the same laws run on the rows of the ended envs at once:
   from the same stream as ``Task.spawn`` would;
 * :func:`zero_rows` starts the controller, motors and counters of those rows from zero;
 * :func:`read_rows` and :func:`distance_rows`: the read-outs and the target distance of
-  those rows, as a step computes them for every row.
+  those rows, as a step computes them for every row;
+* :func:`stack_columns`: an observation's parts side by side (``np.concatenate`` on axis 1).
 
 And per step, for every env: :func:`ends` (the contact, the flight dome, the time limit: what
 ended the episode and how) and :func:`progress` (the distance to a fixed goal and its rate),
@@ -200,4 +201,36 @@ def progress(pos, goals, last_distance, dt):
     return distance, rate
 
 
-__all__ = ["distance_rows", "ends", "progress", "read_rows", "spawn_rows", "stream_addresses", "zero_rows"]
+@njit(cache=True)
+def _stack_columns(parts, out) -> None:
+    n = out.shape[0]
+    at = 0
+    for part in parts:
+        k = part.shape[1]
+        for i in range(n):
+            for j in range(k):
+                out[i, at + j] = part[i, j]
+        at += k
+
+
+def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
+    """``np.concatenate(parts, axis=1)`` of 2-D arrays with one row per env (an observation's
+    parts): numpy copies each row's few columns at a time, ~34 us for a hover observation's
+    six parts at N = 1024, the compiled copy a few.  A copy either way: the same values."""
+    if not all(p.dtype == np.float64 and p.ndim == 2 and p.flags.c_contiguous for p in parts):
+        return np.concatenate(parts, axis=1)
+    out = np.empty((parts[0].shape[0], sum(p.shape[1] for p in parts)))
+    _stack_columns(tuple(parts), out)
+    return out
+
+
+__all__ = [
+    "distance_rows",
+    "ends",
+    "progress",
+    "read_rows",
+    "spawn_rows",
+    "stack_columns",
+    "stream_addresses",
+    "zero_rows",
+]

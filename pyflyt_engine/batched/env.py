@@ -1088,7 +1088,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 deltas[:, slot] = np.where(valid[:, None], body, 0.0)
                 mask[:, slot] = valid
             parts += [deltas.reshape(n, -1), mask]
-        vector = np.concatenate(parts, axis=1)
+        vector = bookkeeping.stack_columns(parts)
         if self.range_sensors is None:
             return vector
         held, columns = self.range_sensors.held, self.range_sensors.columns

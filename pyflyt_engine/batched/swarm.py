@@ -142,7 +142,7 @@ from numba import njit
 from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
 from pyflyt_engine.batched import air as _air
-from pyflyt_engine.batched import kernels, normals
+from pyflyt_engine.batched import bookkeeping, kernels, normals
 from pyflyt_engine.batched import modes as _modes
 from pyflyt_engine.batched.kernels import (
     MODE_MOTORS,
@@ -1724,7 +1724,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         if self._fix_flag:  # the position fix's validity, after the aux state
             parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
         parts.append(extras)
-        obs = np.concatenate(parts, axis=1)
+        obs = bookkeeping.stack_columns(parts)
         obs[~self.alive] = 0.0  # padding: a retired agent's slot
         return obs
 

@@ -155,3 +155,16 @@ def test_an_env_reset_is_the_env_by_env_python_reset(config, monkeypatch):
         assert sum(int(x.any()) for x in a[3:150:5]) > 5
     assert all(x.tobytes() == y.tobytes() for x, y in zip(a, b))
     assert [r.bit_generator.state for r in rngs_a] == [r.bit_generator.state for r in rngs_b]
+
+
+def test_stack_columns_is_concatenate():
+    """The observation's parts side by side: np.concatenate on axis 1, for contiguous parts
+    (the compiled copy) and for a strided slice among them (numpy's own)."""
+    rng = np.random.default_rng(4)
+    parts = [rng.normal(size=(37, k)) for k in (3, 4, 0, 1)]
+    got = bookkeeping.stack_columns(parts)
+    assert got.dtype == np.float64 and got.flags.c_contiguous
+    assert np.array_equal(got, np.concatenate(parts, axis=1))
+    strided = [*parts, rng.normal(size=(37, 9))[:, 2:3]]
+    assert np.array_equal(bookkeeping.stack_columns(strided), np.concatenate(strided, axis=1))
+    assert not np.shares_memory(got, parts[0])
