@@ -122,7 +122,9 @@ def standard_normal_fill(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
 def noise_factors(rng: np.random.Generator, ratio: np.ndarray, out: np.ndarray) -> np.ndarray:
     """``1 + ratio * rng.standard_normal(out=out)`` (``ratio`` (n,) along ``out``'s last axis)
     in one compiled pass, the same numbers as the numpy expression; returns ``out``."""
-    if not (out.dtype == np.float64 and out.flags.c_contiguous and out.shape[-1] == np.shape(ratio)[0]):
-        raise ValueError("noise_factors takes a C-contiguous float64 array ending in the motors' axis")
+    if not (out.dtype == np.float64 and out.flags.c_contiguous and np.ndim(ratio) == 1 and out.shape[-1] == len(ratio)):
+        raise ValueError(
+            "noise_factors takes one noise ratio per motor (1-D) and a C-contiguous float64 array ending in the motors' axis"
+        )
     fill_factors(*_interface(rng), np.ascontiguousarray(ratio, dtype=np.float64), out)
     return out

@@ -54,3 +54,5 @@ def test_a_wrong_buffer_is_refused_by_name():
         normals.standard_normal_fill(rng, np.empty((4, 6))[:, ::2])
     with pytest.raises(ValueError, match="motors' axis"):
         normals.noise_factors(rng, np.zeros(4), np.empty((3, 5)))
+    with pytest.raises(ValueError, match="motors' axis"):  # one ratio per motor, not per env
+        normals.noise_factors(rng, np.zeros((3, 4)), np.empty((3, 4)))
