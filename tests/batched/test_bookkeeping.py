@@ -168,3 +168,7 @@ def test_stack_columns_is_concatenate():
     strided = [*parts, rng.normal(size=(37, 9))[:, 2:3]]
     assert np.array_equal(bookkeeping.stack_columns(strided), np.concatenate(strided, axis=1))
     assert not np.shares_memory(got, parts[0])
+    frozen = parts[1].copy()
+    frozen.flags.writeable = False  # another compiled type in the mix: numpy's path
+    mixed = [parts[0], frozen]
+    assert np.array_equal(bookkeeping.stack_columns(mixed), np.concatenate(mixed, axis=1))
