@@ -115,7 +115,8 @@ def standard_normal_fill(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
     """``rng.standard_normal(out=out)``: the same numbers, and ``rng`` left in the same state."""
     if not (out.dtype == np.float64 and out.flags.c_contiguous):
         raise ValueError("standard_normal_fill takes a C-contiguous float64 array")
-    fill(*_interface(rng), out)
+    state, next_uint64, next_double = _interface(rng)
+    fill(state, next_uint64, next_double, out)
     return out
 
 
@@ -126,5 +127,6 @@ def noise_factors(rng: np.random.Generator, ratio: np.ndarray, out: np.ndarray) 
         raise ValueError(
             "noise_factors takes one noise ratio per motor (1-D) and a C-contiguous float64 array ending in the motors' axis"
         )
-    fill_factors(*_interface(rng), np.ascontiguousarray(ratio, dtype=np.float64), out)
+    state, next_uint64, next_double = _interface(rng)
+    fill_factors(state, next_uint64, next_double, np.ascontiguousarray(ratio, dtype=np.float64), out)
     return out
