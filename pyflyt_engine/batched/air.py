@@ -42,7 +42,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 
 from pyflyt_engine.atmosphere.config import WindConfig
 from pyflyt_engine.atmosphere.rotors import RotorInteractions

@@ -1,8 +1,8 @@
 """The batched backend's compiled laws: N multirotors advanced one agent step by one call.
 
 Every function here is compiled by numba (``nopython``, no fast-math: no reassociation,
-no contraction into fused multiply-adds), so each floating-point operation rounds exactly
-as the same expression in Python does.  The laws are the engine's own, written out in the
+no contraction into fused multiply-adds; NumPy's error model, :mod:`pyflyt_engine.batched.compiled`),
+so each floating-point operation rounds exactly as the same expression in Python does.  The laws are the engine's own, written out in the
 same order of operations as their scalar forms, which ``tests/batched/test_laws.py``
 holds together bit for bit on random inputs for every airframe:
 
@@ -50,7 +50,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 
 from pyflyt_engine.batched import air as _air
 from pyflyt_engine.components import lifting_surface as _ls
@@ -861,6 +861,19 @@ def lowest_row(z0: float, r6: float, r7: float, r8: float, corners: np.ndarray, 
     return low
 
 
+@njit(cache=True, inline="always")
+def lowest_reach(corners: np.ndarray, v: int) -> float:
+    """How far below its centre of mass any collision feature of vehicle ``v`` can reach in
+    any attitude [m], with a margin over the rounding (so ``p_z > reach`` guarantees
+    :func:`lowest_row` ``> 0``): the largest ``|corner| + sphere radius + disc radius``."""
+    reach = 0.0
+    for c in range(corners.shape[1]):
+        x, y, z = corners[v, c, 0], corners[v, c, 1], corners[v, c, 2]
+        far = math.sqrt(x * x + y * y + z * z) + abs(corners[v, c, 3]) + abs(corners[v, c, 4])
+        reach = far if far > reach else reach
+    return reach * (1.0 + 1e-9)
+
+
 @njit(cache=True)
 def advance(
     pos,
@@ -874,7 +887,7 @@ def advance(
     has_previous,
     setpoint,
     factors,
-    mode,
+    rates,
     mass,
     inertia,
     control_inertia,
@@ -887,7 +900,7 @@ def advance(
     derivative,
     drag_factors,
     damping,
-    drag_on,
+    drag,
     corners,
     contact,
     gravity,
@@ -909,6 +922,7 @@ def advance(
     battery,
     battery_params,
     battery_table,
+    wind_on,
 ):
     """Advance every vehicle ``count`` physics steps from physics step ``start`` (control
     ticks where ``(start + s) % per_control == 0``).
@@ -916,10 +930,11 @@ def advance(
     Per vehicle i (rows of every array): state ``pos, quat, vel, angvel`` (ground frame,
     the quaternion continuous, not PyBullet's canonical sign), motor ``throttle`` and
     ``command``, the rate loop's ``integral``, ``previous`` rates and ``has_previous``;
-    ``setpoint`` (4 values in ``mode``: rates_thrust or motors), ``factors`` (N, count, n)
+    ``setpoint`` (4 values: the rate loop's rates and thrust with ``rates`` on, mode
+    rates_thrust; else the motors' throttles, mode motors), ``factors`` (N, count, n)
     motor noise factors per physics step.  Parameters per vehicle: mass, inertia (the
     body's) and the controller's inertia, gyroscopic coefficients, motor lag and wrench
-    columns, the mixer, rate gains (4, 3), drag factors and damping (drag_on), collision
+    columns, the mixer, rate gains (4, 3), drag factors and damping (with ``drag`` on), collision
     ``corners``.  ``contact[i]`` is set when the lowest corner is below the ground at a
     sample (the end of each control period or of the step), as the PyBullet engine
     samples contacts.  Per physics step, in the PyBullet engine's order: on a control
@@ -939,15 +954,20 @@ def advance(
     :attr:`~pyflyt_engine.batched.air.Dryden.arrays` with a leading env axis (env ``i``'s
     filter its rows ``[i]``: a randomised wind gives each env its own).
 
-    The modelled motors (``motor_laws`` not 0: :func:`modelled_load`, ``motor_model``
+    The modelled motors (``motor_laws`` not None: :func:`modelled_load`, ``motor_model``
     (N, n, :data:`MOTOR_MODEL_FIELDS`)) take the body's velocity through the air (as body
     drag does) and drive from the pack ``battery[i]`` (its state, :data:`BATTERY_STATE`;
     ``battery_params[i]`` and ``battery_table`` its parameters and open-circuit table).
+
+    The switches are types, so that numba compiles each combination a run flies (cached)
+    with the code of the others pruned: ``rates``, ``drag``, ``ground_effect`` and
+    ``wind_on`` are True or None (:func:`switch`; ``wind_on`` None: no env's wind is on,
+    ``wind[:, 0]`` all 0), ``motor_laws`` is None for the static motors.  A hover's physics
+    steps then test nothing for the mode, the drag, the wind, the motor models or the ground
+    effect (a bool would be tested at every physics step; ``experiments/speed_advance.py``).
     """
     n = pos.shape[0]
     nm = throttle.shape[1]
-    modelled = motor_laws != 0
-    motor_air = (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0
     ratio = np.empty(nm)
     parts = np.empty((nm, 4))
     scaled = np.empty((1, nm, 6))  # ground effect's columns of the vehicle at hand
@@ -957,8 +977,8 @@ def advance(
     for i in range(n):
         contact[i] = False
         wind_i = wind[i]  # this env's wind and turbulence filter (its rows)
-        windy = wind_i[0] != 0.0
-        turbulent = wind_i[17] != 0.0
+        windy = wind_on is not None and wind_i[0] != 0.0
+        turbulent = windy and wind_i[17] != 0.0
         dryden_i = (dryden[0][i], dryden[1][i], dryden[2][i], dryden[3][i], dryden[4][i])
         p = (pos[i, 0], pos[i, 1], pos[i, 2])
         q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
@@ -967,16 +987,18 @@ def advance(
         m_i, jx, jy, jz = mass[i], inertia[i, 0], inertia[i, 1], inertia[i, 2]
         kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
         x_i, cmd_i, lag_i, col_i = throttle[i], command[i], lag[i], columns[i]
+        reach = lowest_reach(corners, i)
+        phase = start % per_control  # of physics step start + s in its control period
+        r = rotation_tuple(q[0], q[1], q[2], q[3])  # the rotation at the start of each physics step
         for s in range(count):
-            step = start + s
-            r = rotation_tuple(q[0], q[1], q[2], q[3])
+            tick = phase == 0
             r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
             w0, w1, w2 = w
             bw0 = r0 * w0 + r3 * w1 + r6 * w2
             bw1 = r1 * w0 + r4 * w1 + r7 * w2
             bw2 = r2 * w0 + r5 * w1 + r8 * w2
-            if step % per_control == 0:  # control tick
-                if mode == MODE_RATES_THRUST:
+            if tick:  # control tick
+                if rates is not None:
                     if not has_previous[i]:
                         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
                     t0, t1, t2 = rate_loop_row(
@@ -1006,10 +1028,10 @@ def advance(
                     gusts = _air.dryden_output(dryden_i, turbulence[i], wind_i[18], wind_i[19])
                     _air.dryden_step(dryden_i, turbulence[i], turbulence_normals[i, s], scratch)
                 sample = _air.wind_sample(wind_i, episode_steps[i] + s, p[2], physics_dt, gusts)
-            if modelled:  # ModelledMotors, at the body's velocity through the air as body drag takes it
+            if motor_laws is not None:  # ModelledMotors, at the body's velocity through the air as body drag takes it
                 a = calm
-                if motor_air:
-                    a = _body_air(r, v, w, bw0, bw1, bw2, windy, step % per_control == 0, sample)
+                if (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0:
+                    a = _body_air(r, v, w, bw0, bw1, bw2, windy, tick, sample)
                 load = modelled_load(
                     x_i,
                     cmd_i,
@@ -1031,15 +1053,15 @@ def advance(
                     a,
                     physics_dt,
                 )
-            elif ground_effect:
+            elif ground_effect is not None:
                 _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled[0])
                 load = motors_step_row(throttle, command, lag, factors, scaled, i, s, 0)
             else:
                 load = motors_step_row(throttle, command, lag, factors, columns, i, s, i)
-            if drag_on:  # summed after the motors, as the PyBullet engine sums its groups
+            if drag is not None:  # summed after the motors, as the PyBullet engine sums its groups
                 v0, v1, v2 = v
                 if windy:
-                    if step % per_control == 0:
+                    if tick:
                         bv0 = r0 * v0 + r3 * v1 + r6 * v2
                         bv1 = r1 * v0 + r4 * v1 + r7 * v2
                         bv2 = r2 * v0 + r5 * v1 + r8 * v2
@@ -1053,14 +1075,29 @@ def advance(
                     bv2 = r2 * v0 + r5 * v1 + r8 * v2
                     load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
             p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
-            if (step + 1) % per_control == 0 or s == count - 1:
-                rr = rotation_tuple(q[0], q[1], q[2], q[3])
-                if lowest_row(p[2], rr[6], rr[7], rr[8], corners, i) < 0.0:
+            r = rotation_tuple(q[0], q[1], q[2], q[3])  # the next step's, and the contact's
+            phase = phase + 1 if phase + 1 < per_control else 0
+            # contact sampled at the end of each control period and of the span; a body whose
+            # centre is higher than any of its features reaches cannot touch (a NaN height is
+            # not higher: it goes on to lowest_row, which finds no contact in it, as before)
+            if (phase == 0 or s == count - 1) and not p[2] > reach:
+                if lowest_row(p[2], r[6], r[7], r[8], corners, i) < 0.0:
                     contact[i] = True
         pos[i, 0], pos[i, 1], pos[i, 2] = p
         quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
         vel[i, 0], vel[i, 1], vel[i, 2] = v
         angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
+
+
+def switch(on: bool) -> bool | None:
+    """An optional law's switch as :func:`advance` takes it: True, or None (off), whose type
+    numba compiles in (a ``bool`` would be tested at run time)."""
+    return True if on else None
+
+
+def wind_on(wind: np.ndarray) -> bool | None:
+    """:func:`advance`'s ``wind_on``: whether a row of the wind parameters ``wind`` (N, fields) is on."""
+    return switch(bool(np.count_nonzero(wind[:, 0])))
 
 
 @njit(cache=True)

@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 
 from pyflyt_engine.batched.kernels import (
     euler_from_quaternion,

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 from numba.np.random import _constants as _zig
 
 # numpy's ziggurat tables and constants (numba's copy of them, the same values)

@@ -36,7 +36,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 
 from pyflyt_engine.batched.kernels import rotation_rows as _rotation_rows
 from pyflyt_engine.batched.normals import standard_normal

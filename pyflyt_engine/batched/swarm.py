@@ -137,7 +137,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
-from numba import njit
+from pyflyt_engine.batched.compiled import njit
 
 from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
