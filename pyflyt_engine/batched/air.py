@@ -42,8 +42,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.atmosphere.config import WindConfig
 from pyflyt_engine.atmosphere.rotors import RotorInteractions
 

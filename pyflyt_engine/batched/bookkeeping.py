@@ -33,8 +33,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.kernels import read_row, rotation_rows
 
 

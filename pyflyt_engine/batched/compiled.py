@@ -1,8 +1,8 @@
 """The one numba decorator of the batched backend's compiled code.
 
 :func:`njit` is ``numba.njit`` compiling with NumPy's error model (``error_model="numpy"``):
-a float division by zero gives IEEE's ``inf`` or ``nan`` instead of raising Python's
-``ZeroDivisionError``.  Python's model puts a test and a branch on every division's
+a float division by zero gives IEEE's ``inf`` or ``nan`` (an integer one 0) instead of
+raising Python's ``ZeroDivisionError``.  Python's model puts a test and a branch on every division's
 divisor, which keeps the compiler from packing neighbouring divisions into one vector
 instruction: on QuadX-Hover's physics (8 physics steps per agent step, a dozen divisions
 in each) those tests cost ~9 % (``experiments/speed_advance.py``).  No number changes: a

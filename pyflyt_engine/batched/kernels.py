@@ -50,8 +50,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched import air as _air
 from pyflyt_engine.components import lifting_surface as _ls
 

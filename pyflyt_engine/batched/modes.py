@@ -41,8 +41,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.kernels import (
     euler_from_quaternion,
     matrix_quaternion,

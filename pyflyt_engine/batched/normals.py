@@ -35,8 +35,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 from numba.np.random import _constants as _zig
+
+from pyflyt_engine.batched.compiled import njit
 
 # numpy's ziggurat tables and constants (numba's copy of them, the same values)
 WI = np.ascontiguousarray(_zig.wi_double, dtype=np.float64)

@@ -46,8 +46,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.kernels import rotation_rows as _rotation_rows
 from pyflyt_engine.batched.normals import standard_normal
 from pyflyt_engine.batched.sensors import stream_interface

@@ -137,8 +137,8 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
-from pyflyt_engine.batched.compiled import njit
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine import exact
 from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_REACH, RotorInteractions
 from pyflyt_engine.batched import air as _air
