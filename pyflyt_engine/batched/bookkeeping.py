@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from pyflyt_engine.batched.compiled import njit
-from pyflyt_engine.batched.kernels import read_row, rotation_rows
+from pyflyt_engine.batched.kernels import read_state, rotation_rows, store_read
 
 
 def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, object] | None:
@@ -136,11 +136,14 @@ def zero_rows(index, tables, columns, counts, flags):
 @njit(cache=True)
 def read_rows(index, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion):
     """:func:`~pyflyt_engine.batched.kernels.read_out` of the rows ``index`` only."""
-    r = np.empty(9)
-    q = np.empty(4)
-    e = np.empty(3)
     for k in range(index.shape[0]):
-        read_row(index[k], pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e)
+        i = index[k]
+        read = read_state(
+            (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3]),
+            (vel[i, 0], vel[i, 1], vel[i, 2]),
+            (angvel[i, 0], angvel[i, 1], angvel[i, 2]),
+        )
+        store_read(i, read, ang_vel_body, ang_pos, lin_vel_body, quaternion)
 
 
 @njit(cache=True)

@@ -112,52 +112,67 @@ def rotations(quaternions: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True, inline="always")
-def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
-    """Quaternion (x, y, z, w) of a row-major rotation matrix: Bullet's
+def quaternion_of(r):
+    """Quaternion (x, y, z, w) of a row-major rotation matrix ``r`` (9-tuple): Bullet's
     ``btMatrix3x3::getRotation``, what PyBullet returns as a body's orientation (so the
     sign of the quaternion is the one it reports: w > 0 when the trace is positive, else
-    the component of the largest diagonal entry)."""
-    trace = r[0] + r[4] + r[8]
+    the component of the largest diagonal entry).  On scalars, as the hot loops keep them
+    (:func:`matrix_quaternion` is its array form)."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    trace = r0 + r4 + r8
     if trace > 0.0:
         s = math.sqrt(trace + 1.0)
-        out[3] = s * 0.5
+        w = s * 0.5
         s = 0.5 / s
-        out[0] = (r[7] - r[5]) * s
-        out[1] = (r[2] - r[6]) * s
-        out[2] = (r[3] - r[1]) * s
+        return (r7 - r5) * s, (r2 - r6) * s, (r3 - r1) * s, w
+    # the largest diagonal entry i and the next two, j = i + 1 and k = i + 2 (mod 3)
+    if r0 < r4:
+        i = 2 if r4 < r8 else 1
     else:
-        if r[0] < r[4]:
-            i = 2 if r[4] < r[8] else 1
-        else:
-            i = 2 if r[0] < r[8] else 0
-        j = (i + 1) % 3
-        k = (i + 2) % 3
-        s = math.sqrt(r[4 * i] - r[4 * j] - r[4 * k] + 1.0)
-        out[i] = s * 0.5
+        i = 2 if r0 < r8 else 0
+    if i == 0:  # j, k = 1, 2
+        s = math.sqrt(r0 - r4 - r8 + 1.0)
+        x = s * 0.5
         s = 0.5 / s
-        out[3] = (r[3 * k + j] - r[3 * j + k]) * s
-        out[j] = (r[3 * j + i] + r[3 * i + j]) * s
-        out[k] = (r[3 * k + i] + r[3 * i + k]) * s
+        return x, (r3 + r1) * s, (r6 + r2) * s, (r7 - r5) * s
+    if i == 1:  # j, k = 2, 0
+        s = math.sqrt(r4 - r8 - r0 + 1.0)
+        y = s * 0.5
+        s = 0.5 / s
+        return (r1 + r3) * s, y, (r7 + r5) * s, (r2 - r6) * s
+    s = math.sqrt(r8 - r0 - r4 + 1.0)  # i = 2: j, k = 0, 1
+    z = s * 0.5
+    s = 0.5 / s
+    return (r2 + r6) * s, (r5 + r7) * s, z, (r3 - r1) * s
+
+
+@njit(cache=True, inline="always")
+def matrix_quaternion(r: np.ndarray, out: np.ndarray) -> None:
+    """:func:`quaternion_of` the row-major rotation matrix ``r`` (9,), into ``out`` (4,)."""
+    out[0], out[1], out[2], out[3] = quaternion_of((r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]))
+
+
+@njit(cache=True, inline="always")
+def euler_of(qx: float, qy: float, qz: float, qw: float):
+    """(roll, pitch, yaw) of a quaternion as PyBullet's ``getEulerFromQuaternion`` computes
+    them (ZYX angles; at |sin(pitch)| >= 0.99999 the gimbal-lock branch), a 3-tuple."""
+    squ, sqx, sqy, sqz = qw * qw, qx * qx, qy * qy, qz * qz
+    sarg = -2.0 * (qx * qz - qw * qy)
+    if sarg <= -0.99999:
+        return 0.0, -0.5 * math.pi, 2.0 * math.atan2(qx, -qy)
+    if sarg >= 0.99999:
+        return 0.0, 0.5 * math.pi, 2.0 * math.atan2(-qx, qy)
+    return (
+        math.atan2(2.0 * (qy * qz + qw * qx), squ - sqx - sqy + sqz),
+        math.asin(sarg),
+        math.atan2(2.0 * (qx * qy + qw * qz), squ + sqx - sqy - sqz),
+    )
 
 
 @njit(cache=True, inline="always")
 def euler_from_quaternion(qx: float, qy: float, qz: float, qw: float, out: np.ndarray) -> None:
-    """(roll, pitch, yaw) of a quaternion as PyBullet's ``getEulerFromQuaternion`` computes
-    them (ZYX angles; at |sin(pitch)| >= 0.99999 the gimbal-lock branch)."""
-    squ, sqx, sqy, sqz = qw * qw, qx * qx, qy * qy, qz * qz
-    sarg = -2.0 * (qx * qz - qw * qy)
-    if sarg <= -0.99999:
-        out[0] = 0.0
-        out[1] = -0.5 * math.pi
-        out[2] = 2.0 * math.atan2(qx, -qy)
-    elif sarg >= 0.99999:
-        out[0] = 0.0
-        out[1] = 0.5 * math.pi
-        out[2] = 2.0 * math.atan2(-qx, qy)
-    else:
-        out[0] = math.atan2(2.0 * (qy * qz + qw * qx), squ - sqx - sqy + sqz)
-        out[1] = math.asin(sarg)
-        out[2] = math.atan2(2.0 * (qx * qy + qw * qz), squ + sqx - sqy - sqz)
+    """:func:`euler_of` into ``out`` (3,)."""
+    out[0], out[1], out[2] = euler_of(qx, qy, qz, qw)
 
 
 @njit(cache=True)
@@ -783,11 +798,15 @@ def integrate_state(p, q, v, w, r, load, mass, jx, jy, jz, gravity, dt):
     angle = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     if angle * dt > _ANGULAR_MOTION_THRESHOLD:
         angle = _ANGULAR_MOTION_THRESHOLD / dt
+    # half the turn, sin and cos of one value so that the compiler makes them one sincos call
+    # (glibc's sincos is its sin and cos, bit for bit; tests/batched/test_laws.py); Bullet's
+    # sin(0.5 angle dt) is the sine of this value: halving commutes with rounding
+    half = angle * dt * 0.5
+    dw = math.cos(half)
+    c = math.sin(half) / angle  # computed on both paths, so that it sits beside the cosine
     if angle < 0.001:
         c = 0.5 * dt - (dt * dt * dt) * 0.020833333333 * angle * angle
-    else:
-        c = math.sin(0.5 * angle * dt) / angle
-    dx, dy, dz, dw = w0 * c, w1 * c, w2 * c, math.cos(angle * dt * 0.5)
+    dx, dy, dz = w0 * c, w1 * c, w2 * c
     qx, qy, qz, qw = q
     nx = dw * qx + dx * qw + dy * qz - dz * qy
     ny = dw * qy - dx * qz + dy * qw + dz * qx
@@ -1104,30 +1123,41 @@ def wind_on(wind: np.ndarray) -> bool | None:
 def read_out(pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion):
     """The state read-outs of the PyBullet engine (``Vehicle.read_state``) for every vehicle:
     body rates, Euler angles, body velocity, and PyBullet's quaternion (its sign)."""
-    r = np.empty(9)
-    q = np.empty(4)
-    e = np.empty(3)
     for i in range(pos.shape[0]):
-        read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e)
+        read = read_state(
+            (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3]),
+            (vel[i, 0], vel[i, 1], vel[i, 2]),
+            (angvel[i, 0], angvel[i, 1], angvel[i, 2]),
+        )
+        store_read(i, read, ang_vel_body, ang_pos, lin_vel_body, quaternion)
 
 
 @njit(cache=True, inline="always")
-def read_row(i, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion, r, q, e):
-    """:func:`read_out` of row ``i`` (``r``, ``q``, ``e``: (9,), (4,), (3,) scratch)."""
-    rotation_rows(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3], r)
-    matrix_quaternion(r, q)
-    rotation_rows(q[0], q[1], q[2], q[3], r)  # getMatrixFromQuaternion of what PyBullet reports
-    euler_from_quaternion(q[0], q[1], q[2], q[3], e)
-    w0, w1, w2 = angvel[i, 0], angvel[i, 1], angvel[i, 2]
-    v0, v1, v2 = vel[i, 0], vel[i, 1], vel[i, 2]
-    ang_vel_body[i, 0] = r[0] * w0 + r[3] * w1 + r[6] * w2
-    ang_vel_body[i, 1] = r[1] * w0 + r[4] * w1 + r[7] * w2
-    ang_vel_body[i, 2] = r[2] * w0 + r[5] * w1 + r[8] * w2
-    lin_vel_body[i, 0] = r[0] * v0 + r[3] * v1 + r[6] * v2
-    lin_vel_body[i, 1] = r[1] * v0 + r[4] * v1 + r[7] * v2
-    lin_vel_body[i, 2] = r[2] * v0 + r[5] * v1 + r[8] * v2
-    ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = e[0], e[1], e[2]
-    quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q[0], q[1], q[2], q[3]
+def read_state(quat, vel, angvel):
+    """:func:`read_out` of one vehicle (its state's tuples ``quat`` (4), ``vel``, ``angvel``
+    (3)): the tuples ``(body rates, Euler angles, body velocity, PyBullet's quaternion)``.
+
+    On tuples, which the compiler keeps in registers: the form it replaced wrote PyBullet's
+    quaternion into a scratch array at the indices Bullet's branch picks at run time and
+    read it back, ~3x the time of the whole read-out (``experiments/speed_read_out.py``)."""
+    q = quaternion_of(rotation_tuple(quat[0], quat[1], quat[2], quat[3]))
+    # getMatrixFromQuaternion of what PyBullet reports
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = rotation_tuple(q[0], q[1], q[2], q[3])
+    w0, w1, w2 = angvel[0], angvel[1], angvel[2]
+    v0, v1, v2 = vel[0], vel[1], vel[2]
+    body_rates = (r0 * w0 + r3 * w1 + r6 * w2, r1 * w0 + r4 * w1 + r7 * w2, r2 * w0 + r5 * w1 + r8 * w2)
+    body_vel = (r0 * v0 + r3 * v1 + r6 * v2, r1 * v0 + r4 * v1 + r7 * v2, r2 * v0 + r5 * v1 + r8 * v2)
+    return body_rates, euler_of(q[0], q[1], q[2], q[3]), body_vel, q
+
+
+@njit(cache=True, inline="always")
+def store_read(i, read, ang_vel_body, ang_pos, lin_vel_body, quaternion):
+    """:func:`read_state`'s tuples ``read`` into row ``i`` of the read-out arrays."""
+    body_rates, euler, body_vel, q = read
+    ang_vel_body[i, 0], ang_vel_body[i, 1], ang_vel_body[i, 2] = body_rates
+    ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2] = euler
+    lin_vel_body[i, 0], lin_vel_body[i, 1], lin_vel_body[i, 2] = body_vel
+    quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3] = q
 
 
 # ----------------------------------------------------------- lifting surfaces

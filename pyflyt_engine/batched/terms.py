@@ -23,8 +23,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import inspect
+import math
+
 import numpy as np
 
+from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.model import refuse
 from pyflyt_engine.envs import rewards as r
 from pyflyt_engine.envs import terminations as t
@@ -111,9 +115,128 @@ VECTOR_CONDITIONS: dict[Callable[..., bool], Callable[[BatchContext], np.ndarray
 }
 
 
+#: the terms and conditions :func:`reward_rows` evaluates compiled, by code (the index)
+COMPILED_TERMS = (
+    r.constant,
+    r.tilt,
+    r.distance_to_point,
+    r.target_distance,
+    r.inverse_target_distance,
+    r.target_distance_rate,
+    r.target_distance_decrease,
+    r.target_distance_over_remaining_steps,
+    r.speed,
+    r.angular_speed,
+    r.altitude,
+    r.yaw_rate_squared,
+)
+COMPILED_CONDITIONS = (
+    r.crash,
+    r.collision,
+    r.ground_collision,
+    r.out_of_bounds,
+    r.waypoint_reached,
+    r.approaching,
+    r.task_complete,
+)
+#: a compiled entry's parameters: distance_to_point's point, inverse_target_distance's floor
+_PARAMS = 3
+
+
+@njit(cache=True, inline="always")
+def _term_value(code, k0, k1, k2, rates, angles, velocity, position, distance, rate, remaining, dt):  # fmt: skip
+    """Term ``code`` (its index in :data:`COMPILED_TERMS`), parameters ``k0, k1, k2``, of one
+    row's values (the state's 3-tuples, the target signals): the scalar law's expression
+    (:mod:`pyflyt_engine.envs.rewards`) in its order of operations.  On scalars only: an
+    array passed into a helper inside the row loop would be counted in and out of use at
+    each call (:func:`~pyflyt_engine.batched.kernels.read_state`)."""
+    if code == 0:
+        return 1.0
+    if code == 1:
+        a, b = angles[0], angles[1]
+        return math.sqrt(a * a + b * b)
+    if code == 2:
+        dx, dy, dz = position[0] - k0, position[1] - k1, position[2] - k2
+        return math.sqrt(dx * dx + dy * dy + dz * dz)
+    if code == 3:
+        return distance
+    if code == 4:
+        return 1.0 / (k0 if k0 > distance else distance)  # 1 / max(delta, floor): a NaN delta stays NaN
+    if code == 5:
+        return rate
+    if code == 6:
+        return -rate * dt
+    if code == 7:
+        return distance * remaining
+    if code == 8:
+        x, y, z = velocity
+        return math.sqrt(x * x + y * y + z * z)
+    if code == 9:
+        x, y, z = rates
+        return math.sqrt(x * x + y * y + z * z)
+    if code == 10:
+        return position[2]
+    w = rates[2]  # 11: yaw rate squared
+    return w * w
+
+
+@njit(cache=True)
+def reward_rows(terms, params, weights, conditions, negate, ang_vel, ang_pos, lin_vel, lin_pos, collision, ground,
+                out, crashed, complete, distance, rate, reached, remaining, dt, breakdown, total):  # fmt: skip
+    """A compiled preset over every row: entry ``e`` is term ``terms[e]`` (parameters
+    ``params[e]``) times ``weights[e]`` where each of its conditions ``conditions[e, c]``
+    (-1: none; codes of :data:`COMPILED_CONDITIONS`) holds (``negate[e, c]``: does not
+    hold), else 0, into ``breakdown[e]``; ``total`` their sum in entry order, as
+    :meth:`RewardFunction.__call__` adds them."""
+    for i in range(total.shape[0]):
+        rates = (ang_vel[i, 0], ang_vel[i, 1], ang_vel[i, 2])
+        angles = (ang_pos[i, 0], ang_pos[i, 1], ang_pos[i, 2])
+        velocity = (lin_vel[i, 0], lin_vel[i, 1], lin_vel[i, 2])
+        position = (lin_pos[i, 0], lin_pos[i, 1], lin_pos[i, 2])
+        d, v, left = distance[i], rate[i], remaining[i]
+        flags = (crashed[i], collision[i], ground[i], out[i], reached[i], v < 0.0, complete[i])
+        sum_ = 0.0
+        for e in range(terms.shape[0]):
+            active = True
+            for c in range(conditions.shape[1]):
+                code = conditions[e, c]
+                if code < 0:
+                    break
+                if flags[code] == negate[e, c]:
+                    active = False
+                    break
+            value = 0.0
+            if active:
+                term = _term_value(
+                    terms[e],
+                    params[e, 0],
+                    params[e, 1],
+                    params[e, 2],
+                    rates,
+                    angles,
+                    velocity,
+                    position,
+                    d,
+                    v,
+                    left,
+                    dt,
+                )
+                value = weights[e] * term
+            breakdown[e, i] = value
+            sum_ += value
+        total[i] = sum_
+
+
 class BatchedReward:
     """A compiled preset over N agents: ``total, breakdown = reward(ctx)`` with (N,) arrays;
-    the entries, weights and conditions are the scalar :class:`RewardFunction`'s."""
+    the entries, weights and conditions are the scalar :class:`RewardFunction`'s.
+
+    A preset of the terms and conditions in :data:`COMPILED_TERMS` and
+    :data:`COMPILED_CONDITIONS` (every single-agent preset) is evaluated by one compiled
+    pass, :func:`reward_rows`, row by row as the scalar function does; any other (a task's
+    own signals, the formation's) by the entries' vector forms on whole arrays.  Both give
+    the scalar law's numbers bit for bit (``tests/batched/test_laws.py``); the compiled
+    pass saves the ~30 us of NumPy calls a preset costs per step (``docs/batched.md``)."""
 
     def __init__(self, function: RewardFunction) -> None:
         self.name = function.name
@@ -130,8 +253,11 @@ class BatchedReward:
                     raise refuse(f"the condition {cond.__name__} (entry '{entry.key}' of preset {function.name})")
                 conditions.append((vcond, negate))
             self._entries.append((entry.key, vector, entry.params, entry.weight, tuple(conditions)))
+        self._program = _program(function)
 
     def __call__(self, ctx: BatchContext) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        if self._program is not None:
+            return self._compiled(ctx)
         n = len(ctx.crashed)
         total = np.zeros(n)
         breakdown: dict[str, np.ndarray] = {}
@@ -151,6 +277,66 @@ class BatchedReward:
                 breakdown[key] = value
                 np.add(total, value, out=total)
         return total, breakdown
+
+    def _compiled(self, ctx: BatchContext) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        n = len(ctx.crashed)
+        total = np.empty(n)
+        rows = np.empty((len(self.keys), n))
+        terms, params, weights, conditions, negate = self._program
+        reward_rows(  # the env's arrays as they are (a layout or dtype of its own compiles its own loop)
+            terms,
+            params,
+            weights,
+            conditions,
+            negate,
+            ctx.ang_vel,
+            ctx.ang_pos,
+            ctx.lin_vel,
+            ctx.lin_pos,
+            ctx.collision,
+            ctx.ground_collision,
+            ctx.out_of_bounds,
+            ctx.crashed,
+            ctx.task_complete,
+            ctx.target_distance,
+            ctx.target_distance_rate,
+            ctx.waypoint_reached,
+            ctx.steps_remaining,
+            float(ctx.agent_dt),
+            rows,
+            total,
+        )
+        return total, dict(zip(self.keys, rows))
+
+
+def _program(function: RewardFunction) -> tuple[np.ndarray, ...] | None:
+    """The arrays :func:`reward_rows` evaluates ``function`` from (term codes, parameters,
+    weights, condition codes, negations), or None where an entry is not compiled."""
+    k = len(function._entries)
+    width = max((len(e.conditions) for e in function._entries), default=0)
+    terms = np.empty(k, dtype=np.int64)
+    params = np.zeros((k, _PARAMS))
+    weights = np.empty(k)
+    conditions = np.full((k, max(width, 1)), -1, dtype=np.int64)
+    negate = np.zeros((k, max(width, 1)), dtype=bool)
+    for e, entry in enumerate(function._entries):
+        if entry.fn not in COMPILED_TERMS:
+            return None
+        terms[e] = COMPILED_TERMS.index(entry.fn)
+        given = {  # the term's defaults, then the preset's parameters
+            **{k: p.default for k, p in inspect.signature(entry.fn).parameters.items() if k != "ctx"},
+            **entry.params,
+        }
+        if entry.fn is r.distance_to_point:
+            params[e] = tuple(given["point"])
+        elif entry.fn is r.inverse_target_distance:
+            params[e, 0] = given["floor"]
+        weights[e] = entry.weight
+        for c, (cond, neg) in enumerate(entry.conditions):
+            if cond not in COMPILED_CONDITIONS:
+                return None
+            conditions[e, c], negate[e, c] = COMPILED_CONDITIONS.index(cond), neg
+    return terms, params, weights, conditions, negate
 
 
 @dataclass(frozen=True)

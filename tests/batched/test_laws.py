@@ -18,7 +18,14 @@ import pytest
 
 from pyflyt_engine.batched import kernels
 from pyflyt_engine.batched.model import UnsupportedByBatched, batched_model
-from pyflyt_engine.batched.terms import VECTOR_CONDITIONS, VECTOR_TERMS, BatchContext
+from pyflyt_engine.batched.terms import (
+    COMPILED_CONDITIONS,
+    COMPILED_TERMS,
+    VECTOR_CONDITIONS,
+    VECTOR_TERMS,
+    BatchContext,
+    BatchedReward,
+)
 from pyflyt_engine.bullet import pybullet as p
 from pyflyt_engine.components.drag import BodyDrag, DragParams
 from pyflyt_engine.components import lifting_surface
@@ -31,6 +38,7 @@ from pyflyt_engine.control.mixer import flight_mixer
 from pyflyt_engine.control.multirotor import MultirotorController
 from pyflyt_engine.assembly import assemble
 from pyflyt_engine.envs import rewards as r
+from pyflyt_engine.envs.config import load_reward_preset
 from pyflyt_engine.spec import available_uavs, load_uav_spec
 from pyflyt_engine.state import KinematicState
 
@@ -455,3 +463,120 @@ def test_vector_conditions_equal_the_scalar_conditions(condition):
     ctx = _context(rng, 64)
     got = VECTOR_CONDITIONS[condition](ctx)
     assert [bool(v) for v in got] == [condition(_scalar(ctx, i)) for i in range(64)]
+
+
+def _reward_function(terms: dict) -> r.RewardFunction:
+    return r.compile_reward("random", terms)
+
+
+def _numpy_form(function: r.RewardFunction) -> BatchedReward:
+    vector = BatchedReward(function)
+    vector._program = None  # the entries' vector forms on whole arrays
+    return vector
+
+
+def _agree(got: float, expected: float) -> bool:
+    return (math.isnan(got) and math.isnan(expected)) or got == expected
+
+
+@pytest.mark.parametrize("term", COMPILED_TERMS, ids=lambda f: f.__name__)
+def test_compiled_terms_equal_the_scalar_terms(term):
+    rng = np.random.default_rng(7)
+    ctx = _context(rng, 64)
+    params = {"floor": 0.1} if term is r.inverse_target_distance else {}
+    if term is r.distance_to_point:
+        params = {"point": [0.5, -1.0, 2.0]}
+    name = next(k for k, v in r.TERMS.items() if v.fn is term)
+    function = _reward_function({"entry": {"term": name, "weight": -0.7, "params": params}})
+    batched = BatchedReward(function)
+    assert batched._program is not None, "compiled"
+    total, breakdown = batched(ctx)
+    for i in range(64):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            try:
+                expected, parts = function(_scalar(ctx, i))
+            except ZeroDivisionError:
+                expected, parts = -math.inf, {"entry": -math.inf}
+        assert _agree(total[i], expected) and _agree(breakdown["entry"][i], parts["entry"]), (term.__name__, i)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_compiled_preset_equals_the_scalar_preset_and_the_vector_forms(seed):
+    """Random presets of every compiled term and condition (negated too, several per
+    entry): the compiled pass gives the scalar preset's total and breakdown row for row,
+    and the vector forms' arrays bit for bit."""
+    rng = np.random.default_rng(100 + seed)
+    names = {v.fn: k for k, v in r.TERMS.items()}
+    conditions = {v.fn: k for k, v in r.CONDITIONS.items()}
+    terms = {}
+    for e in range(int(rng.integers(1, 7))):
+        term = COMPILED_TERMS[int(rng.integers(len(COMPILED_TERMS)))]
+        when = [
+            ("not_" if rng.random() < 0.3 else "") + conditions[COMPILED_CONDITIONS[int(c)]]
+            for c in rng.integers(0, len(COMPILED_CONDITIONS), int(rng.integers(0, 3)))
+        ]
+        spec = {"term": names[term], "weight": float(rng.normal(0, 3)), "when": when or "always"}
+        if term is r.inverse_target_distance:
+            spec["params"] = {"floor": float(rng.uniform(0, 1))}
+        terms[f"e{e}"] = spec
+    function = _reward_function(terms)
+    compiled = BatchedReward(function)
+    assert compiled._program is not None
+    ctx = _context(rng, 96)
+    total, breakdown = compiled(ctx)
+    vector_total, vector_breakdown = _numpy_form(function)(ctx)
+    np.testing.assert_array_equal(total, vector_total)
+    for key in function.keys:
+        np.testing.assert_array_equal(breakdown[key], vector_breakdown[key])
+    for i in range(96):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            expected, parts = function(_scalar(ctx, i))
+        assert _agree(total[i], expected), (seed, i)
+        assert all(_agree(breakdown[k][i], parts[k]) for k in function.keys), (seed, i)
+
+
+def test_the_batched_tasks_presets_are_compiled_and_the_formations_are_not():
+    """Every preset of a single-agent batched task takes the compiled pass; the formation's
+    (its own signals) the vector forms."""
+    for preset in ("quadx_hover_dense", "quadx_hover_sparse", "quadx_waypoints_dense", "quadx_waypoints_sparse",
+                   "quadx_waypoints_dense_rate", "fixedwing_waypoints_dense", "fixedwing_waypoints_sparse",
+                   "fixedwing_waypoints_dense_rate", "ma_quadx_hover_dense", "ma_quadx_hover_sparse"):  # fmt: skip
+        function = r.compile_reward(preset, load_reward_preset(preset).terms)
+        assert BatchedReward(function)._program is not None, preset
+    formation = r.compile_reward("f", load_reward_preset("ma_quadx_formation_dense").terms)
+    assert BatchedReward(formation)._program is None
+
+
+def test_the_integrators_sincos_is_glibcs_sin_and_cos_bit_for_bit():
+    """The rigid body's half-turn takes sin and cos of one value, which the compiler makes
+    one ``sincos`` call (kernels.integrate_state): its values are the separate functions'."""
+    import numba
+
+    @numba.njit(error_model="numpy")
+    def both(h, s, c):
+        for i in range(h.shape[0]):
+            x = h[i]
+            s[i], c[i] = math.sin(x), math.cos(x)
+
+    @numba.njit(error_model="numpy")
+    def sine(h, s):
+        for i in range(h.shape[0]):
+            s[i] = math.sin(h[i])
+
+    @numba.njit(error_model="numpy")
+    def cosine(h, c):
+        for i in range(h.shape[0]):
+            c[i] = math.cos(h[i])
+
+    rng = np.random.default_rng(11)
+    # the half-turns of a physics step (|w| dt / 2 up to the motion threshold), and far beyond
+    h = np.concatenate([rng.uniform(0, 0.4, 200_000), rng.uniform(-1e4, 1e4, 50_000), [0.0, 1e-300, math.pi / 4]])
+    s1, c1, s2, c2 = (np.empty_like(h) for _ in range(4))
+    both(h, s1, c1)
+    sine(h, s2)
+    cosine(h, c2)
+    called = lambda fn, name: f"${name}," in next(iter(fn.inspect_asm().values()))  # noqa: E731  (its address loaded)
+    assert called(both, "sincos") and not called(both, "sin"), "the pair is one sincos call"
+    assert called(sine, "sin") and not called(sine, "sincos")
+    np.testing.assert_array_equal(s1.view(np.int64), s2.view(np.int64))
+    np.testing.assert_array_equal(c1.view(np.int64), c2.view(np.int64))
