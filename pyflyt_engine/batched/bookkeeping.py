@@ -204,6 +204,9 @@ def progress(pos, goals, last_distance, dt):
     return distance, rate
 
 
+_FLOAT = np.dtype(np.float64)
+
+
 @njit(cache=True)
 def _stack_columns(parts, out) -> None:
     n = out.shape[0]
@@ -224,9 +227,8 @@ def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
     Parts of one compiled type only (2-D float64, C-contiguous, aligned, writeable: a tuple
     the compiled loop can walk); any other mix is numpy's."""
     if not all(
-        p.dtype == np.float64 and p.ndim == 2 and p.flags.c_contiguous and p.flags.aligned and p.flags.writeable
-        for p in parts
-    ):
+        p.dtype == _FLOAT and p.ndim == 2 and p.flags.carray for p in parts
+    ):  # carray: C-contiguous, aligned, writeable
         return np.concatenate(parts, axis=1)
     out = np.empty((parts[0].shape[0], sum(p.shape[1] for p in parts)))
     _stack_columns(tuple(parts), out)

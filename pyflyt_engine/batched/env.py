@@ -617,7 +617,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         done = terminated | truncated
         if done.any():
             index = np.nonzero(done)[0]
-            info["final_obs"] = np.where(done[:, None], obs, 0.0)
+            obs[~done] = 0.0  # the last observations, zeros in the rows that go on (observed again below)
+            info["final_obs"] = obs
             info["_final_obs"] = done
             info["episode"] = {
                 "r": np.where(done, self.episode_return, 0.0),
