@@ -31,7 +31,7 @@ from pyflyt_engine.batched import kernels
 from pyflyt_engine.envs import make_batched_env
 
 #: the arguments the call changes (state, motors, rate loop, contact), restored before each call
-_CHANGED = (0, 1, 2, 3, 4, 5, 6, 7, 8, 26)
+_CHANGED = (0, 1, 2, 3, 4, 5, 6, 7, 8, 27)
 _WIND_ON = -1  # advance's last argument
 
 

@@ -134,6 +134,16 @@ def zero_rows(index, tables, columns, counts, flags):
 
 
 @njit(cache=True)
+def zero_unless(table, mask):
+    """Every row ``i`` of ``table`` (2-D) where ``mask[i]`` is False set to zero (one compiled
+    pass: numpy's boolean-mask assignment costs ~3.7 us at N = 256, this ~0.5)."""
+    for i in range(table.shape[0]):
+        if not mask[i]:
+            for j in range(table.shape[1]):
+                table[i, j] = 0.0
+
+
+@njit(cache=True)
 def read_rows(index, pos, quat, vel, angvel, ang_vel_body, ang_pos, lin_vel_body, quaternion):
     """:func:`~pyflyt_engine.batched.kernels.read_out` of the rows ``index`` only."""
     for k in range(index.shape[0]):
@@ -219,19 +229,53 @@ def _stack_columns(parts, out) -> None:
         at += k
 
 
+@njit(cache=True, inline="always")
+def _put(out, i, part, at):
+    """Row ``i`` of ``part`` into row ``i`` of ``out`` from column ``at``; the next free
+    column (``part`` None: absent, none taken)."""
+    if part is None:
+        return at
+    for j in range(part.shape[1]):
+        out[i, at + j] = part[i, j]
+    return at + part.shape[1]
+
+
+@njit(cache=True)
+def _stack_few(out, p0, p1, p2, p3, p4, p5, p6, p7) -> None:
+    """:func:`_stack_columns` of up to 8 parts given one by one (None: absent), row by row
+    (each of ``out``'s rows written once, in order).  The call unboxes them as fast as
+    single arrays; a tuple of arrays is unboxed element by element through a slower path."""
+    for i in range(out.shape[0]):
+        at = _put(out, i, p0, 0)
+        at = _put(out, i, p1, at)
+        at = _put(out, i, p2, at)
+        at = _put(out, i, p3, at)
+        at = _put(out, i, p4, at)
+        at = _put(out, i, p5, at)
+        at = _put(out, i, p6, at)
+        _put(out, i, p7, at)
+
+
+#: the most parts :func:`_stack_few` takes
+_FEW = 8
+
+
 def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
     """``np.concatenate(parts, axis=1)`` of 2-D arrays with one row per env (an observation's
-    parts): numpy copies each row's few columns at a time, ~31 us for a hover observation's
-    six parts at N = 1024, the compiled copy ~19 us (most of it the call's unboxing of the
-    parts).  A copy either way: the same values.
-    Parts of one compiled type only (2-D float64, C-contiguous, aligned, writeable: a tuple
-    the compiled loop can walk); any other mix is numpy's."""
+    parts), copied row by row by one compiled call: a hover observation's six parts take
+    ~4.9 us at N = 256 and ~45 us at N = 4096 against numpy's ~6.2 and ~83 (up to 8 parts,
+    :func:`_stack_few`; more, a tuple of them, whose unboxing is slower).  A copy either way:
+    the same values.  Parts of one compiled type only (2-D float64, C-contiguous, aligned,
+    writeable); any other mix is numpy's."""
     if not all(
         p.dtype == _FLOAT and p.ndim == 2 and p.flags.carray for p in parts
     ):  # carray: C-contiguous, aligned, writeable
         return np.concatenate(parts, axis=1)
     out = np.empty((parts[0].shape[0], sum(p.shape[1] for p in parts)))
-    _stack_columns(tuple(parts), out)
+    if len(parts) <= _FEW:
+        _stack_few(out, *parts, *(None,) * (_FEW - len(parts)))
+    else:
+        _stack_columns(tuple(parts), out)
     return out
 
 
@@ -244,4 +288,5 @@ __all__ = [
     "stack_columns",
     "stream_addresses",
     "zero_rows",
+    "zero_unless",
 ]

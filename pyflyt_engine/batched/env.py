@@ -209,6 +209,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._drag_factors = rows(m.drag_factors)
         self._damping = rows(m.angular_damping)
         self._corners = rows(m.corners)
+        self._reaches = kernels.feature_reaches(self._corners)
         self._noise_ratio = m.noise_ratio
         self._surfaces = rows(m.surfaces)
         self._surface_lag = rows(m.surface_lag)
@@ -280,6 +281,18 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.lin_vel_body = np.zeros((n, 3))
         self.quaternion = np.zeros((n, 4))
         self.quaternion[:, 3] = 1.0
+        #: the state an observation shows without latency or sensors: these arrays themselves,
+        #: which every step updates in place (_observe)
+        self._true_state = {
+            "pos": self.pos,
+            "quaternion": self.quaternion,
+            "ang_pos": self.ang_pos,
+            "throttle": self.throttle,
+            "ang_vel_body": self.ang_vel_body,
+            "lin_vel_body": self.lin_vel_body,
+            "deflection": self.deflection,
+            "battery": self.battery,
+        }
         # task state
         self.hover_point = np.asarray(getattr(cfg.task, "hover_point", (0.0, 0.0, 0.0)), dtype=np.float64)
         self._hover_goals: np.ndarray | None = None  # the hover point, a row per env (_goals)
@@ -617,7 +630,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         done = terminated | truncated
         if done.any():
             index = np.nonzero(done)[0]
-            obs[~done] = 0.0  # the last observations, zeros in the rows that go on (observed again below)
+            bookkeeping.zero_unless(
+                obs, done
+            )  # the last observations, zeros in the rows that go on (observed again below)
             info["final_obs"] = obs
             info["_final_obs"] = done
             info["episode"] = {
@@ -729,6 +744,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self._damping,
             kernels.switch(m.drag),
             self._corners,
+            self._reaches,
             self.contact,
             GRAVITY,
             self.physics_dt,
@@ -946,6 +962,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self._damping,
                 kernels.switch(m.drag),
                 self._corners,
+                self._reaches,
                 self.contact,
                 GRAVITY,
                 self.physics_dt,
@@ -975,10 +992,10 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
     def _judge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
         p = self.pos
-        index = np.arange(n)
         reached = np.zeros(n, dtype=bool)
         complete = np.zeros(n, dtype=bool)
         if self._waypoints:
+            index = np.arange(n)
             k = self.targets.shape[1]
             all_done = self.num_reached >= k
             nxt = np.minimum(self.num_reached, k - 1)
@@ -1045,16 +1062,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self.latency is not None and self.latency.observes:
             seen = self.latency.observed(self)
         else:
-            seen = {
-                "pos": self.pos,
-                "quaternion": self.quaternion,
-                "ang_pos": self.ang_pos,
-                "throttle": self.throttle,
-                "ang_vel_body": self.ang_vel_body,
-                "lin_vel_body": self.lin_vel_body,
-                "deflection": self.deflection,
-                "battery": self.battery,
-            }
+            seen = self._true_state
         if self.sensors is not None:  # the rates, position (and with an estimator attitude, velocity) sensed
             seen = self.sensors.observed(seen)
         pos, quaternion = seen["pos"], seen["quaternion"]

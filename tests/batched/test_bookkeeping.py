@@ -168,6 +168,9 @@ def test_stack_columns_is_concatenate():
     strided = [*parts, rng.normal(size=(37, 9))[:, 2:3]]
     assert np.array_equal(bookkeeping.stack_columns(strided), np.concatenate(strided, axis=1))
     assert not np.shares_memory(got, parts[0])
+    many = [rng.normal(size=(37, k)) for k in (3, 1, 4, 2, 3, 1, 4, 2, 3, 5)]  # more than 8: a tuple of them
+    for count in (1, 6, 8, 9, 10):
+        assert np.array_equal(bookkeeping.stack_columns(many[:count]), np.concatenate(many[:count], axis=1)), count
     frozen = parts[1].copy()
     frozen.flags.writeable = False  # another compiled type in the mix: numpy's path
     mixed = [parts[0], frozen]
