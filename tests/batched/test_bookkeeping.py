@@ -175,3 +175,15 @@ def test_stack_columns_is_concatenate():
     frozen.flags.writeable = False  # another compiled type in the mix: numpy's path
     mixed = [parts[0], frozen]
     assert np.array_equal(bookkeeping.stack_columns(mixed), np.concatenate(mixed, axis=1))
+
+
+def test_zero_unless_zeroes_exactly_the_rows_that_go_on():
+    rng = np.random.default_rng(9)
+    table = rng.normal(size=(50, 7))
+    table[3, 2] = np.nan  # a NaN in a row that goes on is zeroed too, as the mask assignment does
+    done = rng.random(50) < 0.3
+    done[3] = False
+    expected = table.copy()
+    expected[~done] = 0.0
+    bookkeeping.zero_unless(table, done)
+    assert table.tobytes() == expected.tobytes()

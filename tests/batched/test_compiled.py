@@ -87,3 +87,11 @@ def _check_reach(corners: np.ndarray, rng: np.random.Generator) -> None:
         lowest = min(lowest, kernels.lowest_row(0.0, r[6], r[7], r[8], corners, 0))
     # and the reach is not loose: some attitude brings a feature within 15 % of it
     assert -lowest <= reach and -lowest >= 0.85 * reach
+
+
+def test_feature_reaches_are_each_vehicles_lowest_reach():
+    rng = np.random.default_rng(3)
+    corners = rng.normal(size=(9, 8, 8))
+    reaches = kernels.feature_reaches(corners)
+    assert reaches.shape == (9,)
+    assert [float(r) for r in reaches] == [kernels.lowest_reach(corners, v) for v in range(9)]
