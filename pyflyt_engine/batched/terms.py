@@ -236,7 +236,7 @@ class BatchedReward:
     pass, :func:`reward_rows`, row by row as the scalar function does; any other (a task's
     own signals, the formation's) by the entries' vector forms on whole arrays.  Both give
     the scalar law's numbers bit for bit (``tests/batched/test_laws.py``); the compiled
-    pass saves the ~30 us of NumPy calls a preset costs per step (``docs/batched.md``)."""
+    pass takes ~4.9 us where the NumPy calls take ~11 at N = 256 (``experiments/speed_reward.py``)."""
 
     def __init__(self, function: RewardFunction) -> None:
         self.name = function.name
