@@ -34,8 +34,11 @@ import math
 
 import numpy as np
 
+from pyflyt_engine.batched import kernels as _kernels
+from pyflyt_engine.batched import normals as _normals
+from pyflyt_engine.batched import terms as _terms
 from pyflyt_engine.batched.compiled import njit
-from pyflyt_engine.batched.kernels import read_state, rotation_rows, store_read
+from pyflyt_engine.batched.kernels import read_state, rotation_rows, rotation_tuple, store_read
 
 
 def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, object] | None:
@@ -214,6 +217,85 @@ def progress(pos, goals, last_distance, dt):
     return distance, rate
 
 
+@njit(cache=True)
+def waypoint_progress(pos, last_position, last_distance, targets, num_reached, reach, dt):
+    """Each env's progress along its waypoints in this step: the distance to its current
+    target (the next not reached) and its rate since ``last_distance``, whether the path from
+    ``last_position`` to ``pos`` passed within ``reach`` of that target (``segment_point_distance``
+    of :mod:`pyflyt_engine.envs.waypoints`), and whether that was the last one.  Returns
+    ``(distance, rate, reached, complete)``, new arrays (distance and rate 0 where every target
+    was reached before the step); ``num_reached`` counts the reached one, ``last_distance``
+    becomes the distance to the target the env flies to next.  The env's former NumPy
+    expressions row by row, in the same order of operations."""
+    n = pos.shape[0]
+    k = targets.shape[1]
+    distance = np.empty(n)
+    rate = np.empty(n)
+    reached = np.empty(n, dtype=np.bool_)
+    complete = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        all_done = num_reached[i] >= k
+        nxt = num_reached[i] if num_reached[i] < k - 1 else k - 1
+        tx, ty, tz = targets[i, nxt, 0], targets[i, nxt, 1], targets[i, nxt, 2]
+        px, py, pz = pos[i, 0], pos[i, 1], pos[i, 2]
+        dx, dy, dz = px - tx, py - ty, pz - tz
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        r = (d - last_distance[i]) / dt
+        # the segment last_position -> pos against the target
+        sx, sy, sz = last_position[i, 0], last_position[i, 1], last_position[i, 2]
+        ex, ey, ez = px - sx, py - sy, pz - sz
+        qx, qy, qz = tx - sx, ty - sy, tz - sz
+        length2 = ex * ex + ey * ey + ez * ez
+        t = (qx * ex + qy * ey + qz * ez) / length2
+        if length2 == 0.0:
+            t = 0.0
+        else:  # np.minimum(np.maximum(t, 0), 1), a NaN kept (a zero's sign cannot change the distance)
+            t = t if (t >= 0.0 or t != t) else 0.0
+            t = t if (t <= 1.0 or t != t) else 1.0
+        fx, fy, fz = qx - t * ex, qy - t * ey, qz - t * ez
+        hit = math.sqrt(fx * fx + fy * fy + fz * fz) < reach[i] and not all_done
+        if hit:
+            num_reached[i] += 1
+        last = hit and num_reached[i] >= k
+        if hit and not last:  # moved on: the distance to the next target
+            nxt = num_reached[i] if num_reached[i] < k - 1 else k - 1
+            dx, dy, dz = px - targets[i, nxt, 0], py - targets[i, nxt, 1], pz - targets[i, nxt, 2]
+            last_distance[i] = math.sqrt(dx * dx + dy * dy + dz * dz)
+        else:
+            last_distance[i] = d
+        distance[i] = 0.0 if all_done else d
+        rate[i] = 0.0 if all_done else r
+        reached[i] = hit
+        complete[i] = last
+    return distance, rate, reached, complete
+
+
+@njit(cache=True)
+def waypoint_context(quaternion, pos, targets, num_reached, deltas, mask):
+    """The waypoints an observation shows (``WaypointsTask.observe``): per env, its next
+    ``mask.shape[1]`` targets from the reached count on, each the target minus ``pos`` turned
+    into the body frame of ``quaternion`` (``R^T d``, the rotation of the quaternion PyBullet
+    reports), into ``deltas`` (N, 3 per slot) and 1 in ``mask`` (N, slots); 0 in both past the
+    last target."""
+    k = targets.shape[1]
+    for i in range(pos.shape[0]):
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = rotation_tuple(
+            quaternion[i, 0], quaternion[i, 1], quaternion[i, 2], quaternion[i, 3]
+        )
+        for slot in range(mask.shape[1]):
+            j = num_reached[i] + slot
+            valid = j < k
+            j = j if j < k - 1 else k - 1
+            d0, d1, d2 = targets[i, j, 0] - pos[i, 0], targets[i, j, 1] - pos[i, 1], targets[i, j, 2] - pos[i, 2]
+            if valid:
+                deltas[i, 3 * slot] = r0 * d0 + r3 * d1 + r6 * d2
+                deltas[i, 3 * slot + 1] = r1 * d0 + r4 * d1 + r7 * d2
+                deltas[i, 3 * slot + 2] = r2 * d0 + r5 * d1 + r8 * d2
+            else:
+                deltas[i, 3 * slot] = deltas[i, 3 * slot + 1] = deltas[i, 3 * slot + 2] = 0.0
+            mask[i, slot] = 1.0 if valid else 0.0
+
+
 _FLOAT = np.dtype(np.float64)
 
 
@@ -241,7 +323,7 @@ def _put(out, i, part, at):
 
 
 @njit(cache=True)
-def _stack_few(out, p0, p1, p2, p3, p4, p5, p6, p7) -> None:
+def stack_few(out, p0, p1, p2, p3, p4, p5, p6, p7) -> None:
     """:func:`_stack_columns` of up to 8 parts given one by one (None: absent), row by row
     (each of ``out``'s rows written once, in order).  The call unboxes them as fast as
     single arrays; a tuple of arrays is unboxed element by element through a slower path."""
@@ -256,7 +338,7 @@ def _stack_few(out, p0, p1, p2, p3, p4, p5, p6, p7) -> None:
         _put(out, i, p7, at)
 
 
-#: the most parts :func:`_stack_few` takes
+#: the most parts :func:`stack_few` takes
 _FEW = 8
 
 
@@ -264,7 +346,7 @@ def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
     """``np.concatenate(parts, axis=1)`` of 2-D arrays with one row per env (an observation's
     parts), copied row by row by one compiled call: a hover observation's six parts take
     ~4.9 us at N = 256 and ~45 us at N = 4096 against numpy's ~6.2 and ~83 (up to 8 parts,
-    :func:`_stack_few`; more, a tuple of them, whose unboxing is slower).  A copy either way:
+    :func:`stack_few`; more, a tuple of them, whose unboxing is slower).  A copy either way:
     the same values.  Parts of one compiled type only (2-D float64, C-contiguous, aligned,
     writeable); any other mix is numpy's."""
     if not all(
@@ -273,20 +355,127 @@ def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
         return np.concatenate(parts, axis=1)
     out = np.empty((parts[0].shape[0], sum(p.shape[1] for p in parts)))
     if len(parts) <= _FEW:
-        _stack_few(out, *parts, *(None,) * (_FEW - len(parts)))
+        stack_few(out, *parts, *(None,) * (_FEW - len(parts)))
     else:
         _stack_columns(tuple(parts), out)
     return out
 
 
+@njit(cache=True)
+def plain_step(noise, advance_args, counters, read_args, judge, waypoints, program, parts):
+    """One agent step of a plain single-agent env after its actions are clipped, in one call:
+    what :meth:`~pyflyt_engine.batched.env.BatchedUAVEnv.step` does in the separate calls
+    below when nothing sits between them (no latency, no noisy sensors, no range sensors, the
+    physics through :func:`~pyflyt_engine.batched.kernels.advance`, a compiled reward preset,
+    an observation of the state's own arrays).  Each part is the same compiled function the
+    separate path calls, in the same order, so the numbers are the same
+    (``tests/batched/test_bookkeeping.py``); one call instead of ~10 saves their dispatch and
+    the Python between them (``docs/batched.md``, Speed).
+
+    ``noise``: :func:`~pyflyt_engine.batched.normals.fill_factors`' arguments (the motor noise
+    drawn into the factors ``advance_args`` holds), or None; ``advance_args``: those of
+    :func:`~pyflyt_engine.batched.kernels.advance`; ``counters``: ``(physics_steps,
+    per_agent, steps, episode_length)``, advanced; ``read_args``: those of
+    :func:`~pyflyt_engine.batched.kernels.read_out`; ``judge``: ``(goals, last_distance,
+    last_position, max_steps, dome2, crash_on_contact, succeeds_at_time_limit, dome_ends,
+    complete_ends, time_ends, agent_dt)``, the distance to the goal (:func:`progress`) and the
+    ends (:func:`ends`), ``last_distance`` and ``last_position`` updated in place;
+    ``waypoints``: None (the goal fixed), or ``(targets, num_reached, reach, deltas, mask)``:
+    the progress along them (:func:`waypoint_progress`, instead of :func:`progress`) and the
+    next ones into ``deltas`` and ``mask`` (:func:`waypoint_context`, parts of the observation);
+    ``program``: :func:`~pyflyt_engine.batched.terms.reward_rows`' preset arrays, then the
+    episode returns (added to); ``parts``: the observation's parts (up to 8, None-padded:
+    :func:`stack_few`) and the array it is written into.
+
+    Returns ``(reward, terminated, truncated, collision, out_of_bounds, crashed, success,
+    complete)``, new arrays."""
+    if noise is not None:
+        _normals.fill_factors(*noise)
+    _kernels.advance(*advance_args)
+    physics_steps, per_agent, steps, episode_length = counters
+    for i in range(steps.shape[0]):
+        physics_steps[i] += per_agent
+        steps[i] += 1
+        episode_length[i] += 1
+    _kernels.read_out(*read_args)
+    pos = read_args[0]
+    ang_vel_body, ang_pos, lin_vel_body = read_args[4], read_args[5], read_args[6]
+    goals, last_distance, last_position, max_steps, dome2, crash_on_contact = judge[:6]
+    succeeds_at_time_limit, dome_ends, complete_ends, time_ends, dt = judge[6:]
+    n = pos.shape[0]
+    if waypoints is None:
+        distance, rate = progress(pos, goals, last_distance, dt)
+        for i in range(n):
+            last_distance[i] = distance[i]
+        complete = np.zeros(n, dtype=np.bool_)
+        reached = np.zeros(n, dtype=np.bool_)
+    else:
+        targets, num_reached, reach = waypoints[0], waypoints[1], waypoints[2]
+        distance, rate, reached, complete = waypoint_progress(
+            pos, last_position, last_distance, targets, num_reached, reach, dt
+        )
+    for i in range(n):
+        last_position[i, 0], last_position[i, 1], last_position[i, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
+    contact = advance_args[27]
+    collision, out, crashed, terminated, truncated, remaining, success = ends(
+        pos,
+        contact,
+        complete,
+        steps,
+        max_steps,
+        dome2,
+        crash_on_contact,
+        succeeds_at_time_limit,
+        dome_ends,
+        complete_ends,
+        time_ends,
+    )
+    terms, params, weights, conditions, negate, episode_return = program
+    reward = np.empty(n)
+    breakdown = np.empty((terms.shape[0], n))
+    _terms.reward_rows(
+        terms,
+        params,
+        weights,
+        conditions,
+        negate,
+        ang_vel_body,
+        ang_pos,
+        lin_vel_body,
+        pos,
+        collision,
+        collision,
+        out,
+        crashed,
+        complete,
+        distance,
+        rate,
+        reached,
+        remaining,
+        dt,
+        breakdown,
+        reward,
+    )
+    for i in range(n):
+        episode_return[i] += reward[i]
+    if waypoints is not None:
+        waypoint_context(read_args[7], pos, waypoints[0], waypoints[1], waypoints[3], waypoints[4])
+    stack_few(*parts)
+    return reward, terminated, truncated, collision, out, crashed, success, complete
+
+
 __all__ = [
     "distance_rows",
     "ends",
+    "plain_step",
     "progress",
     "read_rows",
     "spawn_rows",
     "stack_columns",
+    "stack_few",
     "stream_addresses",
+    "waypoint_context",
+    "waypoint_progress",
     "zero_rows",
     "zero_unless",
 ]

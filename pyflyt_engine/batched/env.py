@@ -380,6 +380,38 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.single_action_space = spaces.Box(self._low, self._high, dtype=np.float64)
         self.observation_space = gymnasium.vector.utils.batch_space(self.single_observation_space, n)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
+        #: whether a step is one compiled call (bookkeeping.plain_step): nothing between its
+        #: separate calls (no latency, noisy sensors or range sensors; the physics through
+        #: kernels.advance; a compiled reward preset) and an
+        #: observation of the state's own arrays (no surfaces' or gimbals' aux, no fix flag)
+        self._plain = (
+            self.latency is None
+            and self.sensors is None
+            and self.range_sensors is None
+            and not m.through_channels
+            and self._cascade is None
+            and self.reward_function.program is not None
+            and not self.deflection.shape[1]
+            and not self.gimbal_angles.shape[1]
+            and self._noise_buffer.flags.c_contiguous
+        )
+        #: the observation's parts of a plain step, None-padded for bookkeeping.plain_step
+        #: (with waypoints, the next targets' kept arrays last: bookkeeping.waypoint_context)
+        self._plain_parts: tuple = ()
+        #: a plain step's waypoints: (targets, reached counts, reach, the next targets' arrays)
+        self._plain_waypoints: tuple | None = None
+        parts = [self.ang_vel_body, self.quaternion if self._quaternion else self.ang_pos, self.lin_vel_body]
+        parts += [self.pos, self.actions, self.throttle] + ([self.battery[:, :1]] if self.battery.shape[1] else [])
+        if self._waypoints:
+            deltas, mask = np.zeros((n, CONTEXT_LENGTH * 3)), np.zeros((n, CONTEXT_LENGTH))
+            self._plain_waypoints = (self.targets, self.num_reached, self.reach, deltas, mask)
+            parts += [deltas, mask]
+        self._plain = self._plain and len(parts) <= 8  # bookkeeping.stack_few's parts
+        #: the width of a plain step's observation: its parts' (the space's)
+        self._plain_width = sum(p.shape[1] for p in parts)
+        assert not self._plain or self._plain_width == self.single_observation_space.shape[0]
+        if self._plain:
+            self._plain_parts = (*parts, *(None,) * (8 - len(parts)))
         self._all = np.arange(n)
         self._seed_all(seed)
         self._seeded_first = seed is not None
@@ -612,6 +644,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         a = np.asarray(actions, dtype=np.float64).reshape(n, -1)
         if a.shape[1] != self._low.size:
             raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
+        if self._plain:
+            return self._plain_step(a)
         a = np.minimum(np.maximum(a, self._low), self._high)
         self.actions[:] = a
         if self.motor_noise:  # 1 + ratio eta in one compiled pass (numpy's draws), into a kept buffer
@@ -626,13 +660,71 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.range_sensors.scan(self._all, self.pos, self.quat, self.physics_steps)
         reward, terminated, truncated, info = self._judge()
         self.episode_return += reward
-        obs = self._observe()
+        return self._episodes_end(self._observe(), reward, terminated, truncated, info)
+
+    def _plain_step(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """:meth:`step` of a plain env (:attr:`_plain`) after its actions are checked: the same
+        calls in one (:func:`bookkeeping.plain_step`), the same numbers."""
+        np.maximum(a, self._low, out=self.actions)  # np.minimum(np.maximum(a, low), high), in place
+        np.minimum(self.actions, self._high, out=self.actions)
+        noise = None
+        if self.motor_noise:  # normals.noise_factors's pass, its arguments checked at init
+            noise = (*normals.interface(self.noise_rng), self._noise_ratio, self._noise_buffer)
+        self._normals = self.turbulence_normals()
+        start = int(self.physics_steps[0]) % self.per_control  # as advance: env 0's phase for all
+        factors = self._noise_buffer if self.motor_noise else self._ones
+        ends = self._ends
+        judge = (
+            self._goals(),
+            self._last_distance,
+            self._last_position,
+            self._max_steps,
+            self._dome2,
+            ends.contact,
+            bool(self.task.succeeds_at_time_limit),
+            ends.dome,
+            ends.complete,
+            ends.time_limit,
+            self.agent_dt,
+        )
+        obs = np.empty((self.num_envs, self._plain_width))
+        program = self.reward_function.program
+        assert program is not None  # a plain env's preset is compiled (_plain)
+        reward, terminated, truncated, collision, out, _, success, complete = bookkeeping.plain_step(
+            noise,
+            self._advance_args(self.actions, factors, start, self.per_agent),
+            (self.physics_steps, self.per_agent, self.steps, self.episode_length),
+            (
+                self.pos,
+                self.quat,
+                self.vel,
+                self.angvel,
+                self.ang_vel_body,
+                self.ang_pos,
+                self.lin_vel_body,
+                self.quaternion,
+            ),
+            judge,
+            self._plain_waypoints,
+            (*program, self.episode_return),
+            (obs, *self._plain_parts),
+        )
+        info = {"collision": collision, "out_of_bounds": out, "env_complete": complete, "success": success}
+        if self._waypoints:
+            info["num_targets_reached"] = self.num_reached.copy()
+        return self._episodes_end(obs, reward, terminated, truncated, info)
+
+    def _episodes_end(
+        self, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, truncated: np.ndarray, info: dict[str, Any]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The end of a step: the envs whose episode ended (``terminated | truncated``) give
+        their last observation (``final_obs``) and episode statistics and start a new episode,
+        whose first observation the returned one shows."""
         done = terminated | truncated
         if done.any():
             index = np.nonzero(done)[0]
-            bookkeeping.zero_unless(
-                obs, done
-            )  # the last observations, zeros in the rows that go on (observed again below)
+            # the last observations, zeros in the rows that go on (observed again below)
+            bookkeeping.zero_unless(obs, done)
             info["final_obs"] = obs
             info["_final_obs"] = done
             info["episode"] = {
@@ -709,7 +801,6 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if (start, count) != (0, normals.shape[1]):
             normals = np.ascontiguousarray(normals[:, start : start + count])
         steps = self.physics_steps + start
-        dryden = self._dryden_rows
         m = self.model
         if m.through_channels and self._cascade is None:
             self._advance_routed(setpoints, factors, start, count, normals, steps, self.mode)
@@ -717,7 +808,29 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         if self._cascade is not None:
             self._advance_cascade(setpoints, factors, start, count, normals, steps)
             return
-        kernels.advance(
+        kernels.advance(*self._advance_args(setpoints, factors, start, count, normals, steps))
+
+    def _advance_args(
+        self,
+        setpoints: np.ndarray,
+        factors: np.ndarray,
+        start: int,
+        count: int,
+        normals: np.ndarray | None = None,
+        steps: np.ndarray | None = None,
+    ) -> tuple:
+        """The arguments of :func:`kernels.advance` for ``count`` physics steps of every env
+        from offset ``start`` (:meth:`_physics`; ``normals`` and ``steps`` its turbulence draws
+        and the envs' physics steps at ``start``, taken from this step's when not given)."""
+        if normals is None:
+            normals = self._normals
+            if (start, count) != (0, normals.shape[1]):
+                normals = np.ascontiguousarray(normals[:, start : start + count])
+        if steps is None:
+            steps = self.physics_steps + start
+        m = self.model
+        dryden = self._dryden_rows
+        return (
             self.pos,
             self.quat,
             self.vel,
@@ -995,21 +1108,9 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         reached = np.zeros(n, dtype=bool)
         complete = np.zeros(n, dtype=bool)
         if self._waypoints:
-            index = np.arange(n)
-            k = self.targets.shape[1]
-            all_done = self.num_reached >= k
-            nxt = np.minimum(self.num_reached, k - 1)
-            target = self.targets[index, nxt]
-            distance = self._target_distance(index, p)
-            rate = (distance - self._last_distance) / self.agent_dt
-            reached = (_segment_distance(self._last_position, p, target) < self.reach) & ~all_done
-            self.num_reached += reached
-            complete = reached & (self.num_reached >= k)
-            moved_on = reached & ~complete
-            new_distance = np.where(moved_on, self._target_distance(index, p), distance)
-            self._last_distance = new_distance
-            distance = np.where(all_done, 0.0, distance)
-            rate = np.where(all_done, 0.0, rate)
+            distance, rate, reached, complete = bookkeeping.waypoint_progress(
+                p, self._last_position, self._last_distance, self.targets, self.num_reached, self.reach, self.agent_dt
+            )
         else:
             distance, rate = bookkeeping.progress(p, self._goals(), self._last_distance, self.agent_dt)
             self._last_distance = distance
@@ -1058,6 +1159,13 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _observe(self) -> np.ndarray:
         n = self.num_envs
+        if self._plain:  # the state's own arrays side by side (_plain_parts), in one compiled copy
+            if self._plain_waypoints is not None:
+                targets, reached, _, deltas, mask = self._plain_waypoints
+                bookkeeping.waypoint_context(self.quaternion, self.pos, targets, reached, deltas, mask)
+            out = np.empty((n, self._plain_width))
+            bookkeeping.stack_few(out, *self._plain_parts)
+            return out
         # with an observation delay, the state (and aux) of n_o physics steps ago (BatchedLatency.observed)
         if self.latency is not None and self.latency.observes:
             seen = self.latency.observed(self)
@@ -1076,29 +1184,12 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             parts.append(seen["battery"][:, :1])
         if self._fix_flag:  # the position fix's validity, after the aux state
             parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
-        if self._waypoints:
-            k = self.targets.shape[1]
-            r = np.empty((n, 9))
-            kernels.rotations(np.ascontiguousarray(quaternion), r)  # of the quaternion PyBullet reports
-            deltas = np.zeros((n, CONTEXT_LENGTH, 3))
-            mask = np.zeros((n, CONTEXT_LENGTH))
-            for slot in range(CONTEXT_LENGTH):
-                j = self.num_reached + slot
-                valid = j < k
-                t = self.targets[np.arange(n), np.minimum(j, k - 1)]
-                d = t - pos  # the current targets from the pose shown (WaypointsTask.observe)
-                # R^T d, row by row
-                body = np.stack(
-                    [
-                        r[:, 0] * d[:, 0] + r[:, 3] * d[:, 1] + r[:, 6] * d[:, 2],
-                        r[:, 1] * d[:, 0] + r[:, 4] * d[:, 1] + r[:, 7] * d[:, 2],
-                        r[:, 2] * d[:, 0] + r[:, 5] * d[:, 1] + r[:, 8] * d[:, 2],
-                    ],
-                    axis=1,
-                )
-                deltas[:, slot] = np.where(valid[:, None], body, 0.0)
-                mask[:, slot] = valid
-            parts += [deltas.reshape(n, -1), mask]
+        if self._waypoints:  # the next targets from the pose shown (WaypointsTask.observe)
+            deltas, mask = np.empty((n, CONTEXT_LENGTH * 3)), np.empty((n, CONTEXT_LENGTH))
+            bookkeeping.waypoint_context(
+                np.ascontiguousarray(quaternion), pos, self.targets, self.num_reached, deltas, mask
+            )
+            parts += [deltas, mask]
         vector = bookkeeping.stack_columns(parts)
         if self.range_sensors is None:
             return vector
@@ -1112,18 +1203,6 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def close(self, **kwargs: Any) -> None:  # nothing to release: no PyBullet client
         self.closed = True
-
-
-def _segment_distance(start: np.ndarray, end: np.ndarray, point: np.ndarray) -> np.ndarray:
-    """Row-wise :func:`~pyflyt_engine.envs.waypoints.segment_point_distance`."""
-    d = end - start
-    p = point - start
-    length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = (p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1] + p[:, 2] * d[:, 2]) / length2
-    t = np.where(length2 == 0.0, 0.0, np.minimum(np.maximum(t, 0.0), 1.0))
-    e = p - t[:, None] * d
-    return np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2])
 
 
 def preset_name(cfg: EnvConfig) -> str:

@@ -107,7 +107,9 @@ def fill_factors(state, next_uint64, next_double, ratio, out) -> None:
             rows[k, m] = standard_normal(state, next_uint64, next_double) * ratio[m] + 1.0
 
 
-def _interface(rng: np.random.Generator):
+def interface(rng: np.random.Generator) -> tuple:
+    """``(state, next_uint64, next_double)`` of ``rng``'s bit generator, as the compiled draws
+    (:func:`fill`, :func:`fill_factors`) take them: numpy's ctypes interface."""
     c = rng.bit_generator.ctypes  # numpy keeps it on the bit generator: made once per generator
     return c.state_address, c.next_uint64, c.next_double
 
@@ -116,7 +118,7 @@ def standard_normal_fill(rng: np.random.Generator, out: np.ndarray) -> np.ndarra
     """``rng.standard_normal(out=out)``: the same numbers, and ``rng`` left in the same state."""
     if not (out.dtype == np.float64 and out.flags.c_contiguous):
         raise ValueError("standard_normal_fill takes a C-contiguous float64 array")
-    state, next_uint64, next_double = _interface(rng)
+    state, next_uint64, next_double = interface(rng)
     fill(state, next_uint64, next_double, out)
     return out
 
@@ -128,6 +130,6 @@ def noise_factors(rng: np.random.Generator, ratio: np.ndarray, out: np.ndarray) 
         raise ValueError(
             "noise_factors takes one noise ratio per motor (1-D) and a C-contiguous float64 array ending in the motors' axis"
         )
-    state, next_uint64, next_double = _interface(rng)
+    state, next_uint64, next_double = interface(rng)
     fill_factors(state, next_uint64, next_double, np.ascontiguousarray(ratio, dtype=np.float64), out)
     return out

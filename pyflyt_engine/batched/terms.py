@@ -255,6 +255,12 @@ class BatchedReward:
             self._entries.append((entry.key, vector, entry.params, entry.weight, tuple(conditions)))
         self._program = _program(function)
 
+    @property
+    def program(self) -> tuple[np.ndarray, ...] | None:
+        """The arrays :func:`reward_rows` evaluates the preset from (term codes, parameters,
+        weights, condition codes, negations), or None where an entry is not compiled."""
+        return self._program
+
     def __call__(self, ctx: BatchContext) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         if self._program is not None:
             return self._compiled(ctx)
@@ -282,6 +288,7 @@ class BatchedReward:
         n = len(ctx.crashed)
         total = np.empty(n)
         rows = np.empty((len(self.keys), n))
+        assert self._program is not None  # __call__ takes this path only then
         terms, params, weights, conditions, negate = self._program
         reward_rows(  # the env's arrays as they are (a layout or dtype of its own compiles its own loop)
             terms,

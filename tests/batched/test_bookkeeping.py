@@ -8,6 +8,8 @@ the full ``read_out``, and a whole env's reset to the env-by-env path it replace
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -187,3 +189,155 @@ def test_zero_unless_zeroes_exactly_the_rows_that_go_on():
     expected[~done] = 0.0
     bookkeeping.zero_unless(table, done)
     assert table.tobytes() == expected.tobytes()
+
+
+def _plain_config(name: str):
+    from tests.batched.test_randomization import DRAWS
+
+    cfg = load_env_config("quadx_hover")
+    if name == "dryden":
+        return cfg.with_overrides(wind={"preset": "dryden_severe", "mean": {"speed": 3.0, "direction": 45.0}})
+    if name == "randomized":  # the airframe's and the spawn's draws (an observation delay is latency: not plain)
+        return cfg.with_overrides(randomize={k: v for k, v in DRAWS.items() if k != "observation_delay"})
+    if name == "battery":  # the modelled motors on a pack, its charge in the observation
+        return cfg.with_overrides(uav=str(Path(__file__).parents[2] / "conf/uav/examples/quadx_cf2x_battery.yaml"))
+    if name == "ground_effect":
+        return cfg.with_overrides(uav="quadx_f450", ground_effect=True)
+    if name == "waypoints":
+        return load_env_config("quadx_waypoints")
+    if name == "waypoints_quaternion":  # the observation's attitude as a quaternion, waypoints close to reach
+        return load_env_config("quadx_waypoints").with_overrides(
+            angle_representation="quaternion", task={"goal_reach_distance": 0.6}
+        )
+    return cfg
+
+
+@pytest.mark.parametrize(
+    "name", ["hover", "dryden", "randomized", "battery", "ground_effect", "waypoints", "waypoints_quaternion"]
+)
+def test_a_plain_step_in_one_call_equals_the_separate_calls(name):
+    """A plain env's step (bookkeeping.plain_step: noise, physics, read-out, ends, reward and
+    observation in one compiled call) gives what the separate calls give, bit for bit:
+    observations, rewards, ends, infos (the last observations and episode statistics of the
+    envs that reset along the way) and the state left behind."""
+    cfg = _plain_config(name)
+    one = BatchedUAVEnv(cfg, num_envs=6, seed=2)
+    separate = BatchedUAVEnv(cfg, num_envs=6, seed=2)
+    assert one._plain
+    separate._plain = False
+    rng = np.random.default_rng(8)
+    for env in (one, separate):
+        env.reset(seed=2)
+    ended = 0
+    low, high = one.single_action_space.low, one.single_action_space.high
+    for _ in range(150):
+        action = rng.uniform(low, high, (6, low.size))
+        a, b = one.step(action), separate.step(action)
+        for x, y in zip(a[:4], b[:4]):
+            assert x.tobytes() == y.tobytes()
+        assert a[4].keys() == b[4].keys()
+        for key in a[4]:
+            if key == "episode":
+                assert all(a[4][key][k].tobytes() == b[4][key][k].tobytes() for k in ("r", "l"))
+            elif isinstance(a[4][key], np.ndarray):
+                assert a[4][key].tobytes() == b[4][key].tobytes(), key
+        ended += int(np.count_nonzero(a[2] | a[3]))
+    assert ended > 3, "episodes ended and reset along the way"
+    for attr in (
+        "pos",
+        "quat",
+        "vel",
+        "angvel",
+        "throttle",
+        "physics_steps",
+        "steps",
+        "episode_return",
+        "_last_distance",
+    ):
+        assert getattr(one, attr).tobytes() == getattr(separate, attr).tobytes(), attr
+
+
+def test_what_is_not_plain_takes_the_separate_calls():
+    """Latency, sensors, the fixed-wing's channels and the velocity mode's cascade are stepped
+    by the separate calls (their parts sit between them)."""
+    for name in ("quadx_waypoints_velocity", "fixedwing_waypoints", "quadx_hover_sensors"):
+        assert not BatchedUAVEnv(load_env_config(name), num_envs=2)._plain, name
+
+
+def _numpy_waypoint_progress(pos, last_position, last_distance, targets, num_reached, reach, dt):
+    """The env's former NumPy form of the waypoints' progress (the reference)."""
+    n, k = len(pos), targets.shape[1]
+    index = np.arange(n)
+
+    def distance_to_next(reached_count):
+        d = pos - targets[index, np.minimum(reached_count, k - 1)]
+        return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2])
+
+    all_done = num_reached >= k
+    target = targets[index, np.minimum(num_reached, k - 1)]
+    distance = distance_to_next(num_reached)
+    rate = (distance - last_distance) / dt
+    d, p = pos - last_position, target - last_position
+    length2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = (p[:, 0] * d[:, 0] + p[:, 1] * d[:, 1] + p[:, 2] * d[:, 2]) / length2
+    t = np.where(length2 == 0.0, 0.0, np.minimum(np.maximum(t, 0.0), 1.0))
+    e = p - t[:, None] * d
+    reached = (np.sqrt(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2]) < reach) & ~all_done
+    counts = num_reached + reached
+    complete = reached & (counts >= k)
+    new_distance = np.where(reached & ~complete, distance_to_next(counts), distance)
+    return np.where(all_done, 0.0, distance), np.where(all_done, 0.0, rate), reached, complete, counts, new_distance
+
+
+def test_waypoint_progress_is_the_numpy_form():
+    """Row by row as the env's former NumPy expressions: the distance and its rate, a target
+    reached on the way (the segment's closest point, within the reach), the last one, the
+    count and the next distance; including a standing env (a zero-length segment), every
+    target already reached, a target passed through and a NaN position."""
+    rng = np.random.default_rng(12)
+    n, k = 64, 4
+    targets = rng.uniform(-2, 2, (n, k, 3))
+    last_position = rng.uniform(-2, 2, (n, 3))
+    pos = last_position + rng.normal(0, 0.4, (n, 3))
+    num_reached = rng.integers(0, k + 1, n)
+    pos[0] = last_position[0]  # standing still
+    num_reached[1] = k  # all reached before the step
+    nxt = np.minimum(num_reached, k - 1)
+    pos[2] = 2 * targets[2, nxt[2]] - last_position[2]  # straight through the target
+    num_reached[3], pos[3] = k - 1, targets[3, k - 1] + 0.01  # onto the last one
+    pos[4] = np.nan
+    reach = np.full(n, 0.5)
+    last_distance = rng.uniform(0, 3, n)
+    expected = _numpy_waypoint_progress(pos, last_position, last_distance, targets, num_reached, reach, 1 / 30)
+    counts, distances = num_reached.copy(), last_distance.copy()
+    got = bookkeeping.waypoint_progress(pos, last_position, distances, targets, counts, reach, 1 / 30)
+    for a, b in zip((*got, counts, distances), expected):
+        assert a.tobytes() == b.tobytes()
+    assert got[2][2] and got[3][3] and not got[2][1] and not got[2][4]  # passed through; the last; neither
+
+
+def test_waypoint_context_is_the_numpy_form():
+    rng = np.random.default_rng(13)
+    n, k, slots = 40, 3, 2
+    quaternion = rng.normal(size=(n, 4))
+    quaternion /= np.linalg.norm(quaternion, axis=1, keepdims=True)
+    pos, targets = rng.normal(size=(n, 3)), rng.normal(size=(n, k, 3))
+    num_reached = rng.integers(0, k + 1, n)
+    deltas, mask = np.full((n, 3 * slots), 7.0), np.full((n, slots), 7.0)
+    bookkeeping.waypoint_context(quaternion, pos, targets, num_reached, deltas, mask)
+    r = np.empty((n, 9))
+    kernels.rotations(quaternion, r)
+    for slot in range(slots):
+        j = num_reached + slot
+        d = targets[np.arange(n), np.minimum(j, k - 1)] - pos
+        body = np.stack(
+            [
+                r[:, 0] * d[:, 0] + r[:, 3] * d[:, 1] + r[:, 6] * d[:, 2],
+                r[:, 1] * d[:, 0] + r[:, 4] * d[:, 1] + r[:, 7] * d[:, 2],
+                r[:, 2] * d[:, 0] + r[:, 5] * d[:, 1] + r[:, 8] * d[:, 2],
+            ],
+            axis=1,
+        )
+        assert deltas[:, 3 * slot : 3 * slot + 3].tobytes() == np.where((j < k)[:, None], body, 0.0).tobytes()
+        assert mask[:, slot].tobytes() == (j < k).astype(np.float64).tobytes()
