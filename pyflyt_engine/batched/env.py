@@ -29,6 +29,13 @@ turbulence env ``i`` draws its filter's white noise from a stream of its own as 
 first child of its seed sequence), and its filter starts each episode from a fresh
 stationary draw, as the PyBullet engine's field does on a reset.
 
+A step is a few compiled calls (the motor noise, the physics, the state read-out, the
+progress and ends, the reward, the observation) with NumPy and Python between them; for a
+plain env (nothing between them: no latency, noisy sensors or range sensors, the physics
+through :func:`~pyflyt_engine.batched.kernels.advance`, a compiled reward preset, an
+observation of the state's own arrays) the same functions run in one compiled call,
+:func:`~pyflyt_engine.batched.bookkeeping.plain_step`, with the same numbers.
+
 The atmosphere (:mod:`pyflyt_engine.batched.air`): every ``env.wind`` -- a mean wind,
 uniform or sheared, a 1-cosine gust, Dryden turbulence -- and ``env.ground_effect``, as
 the PyBullet engine's world applies them (body drag and each lifting surface at the
