@@ -288,6 +288,17 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.lin_vel_body = np.zeros((n, 3))
         self.quaternion = np.zeros((n, 4))
         self.quaternion[:, 3] = 1.0
+        #: kernels.read_out's arrays: the state, then its read-outs
+        self._read_arrays = (
+            self.pos,
+            self.quat,
+            self.vel,
+            self.angvel,
+            self.ang_vel_body,
+            self.ang_pos,
+            self.lin_vel_body,
+            self.quaternion,
+        )
         #: the state an observation shows without latency or sensors: these arrays themselves,
         #: which every step updates in place (_observe)
         self._true_state = {
@@ -540,17 +551,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         )
         if self.battery.shape[1]:  # the pack back to its initial charge, no load (Battery.reset)
             self.battery[index] = self._battery_reset[index]
-        bookkeeping.read_rows(
-            index,
-            self.pos,
-            self.quat,
-            self.vel,
-            self.angvel,
-            self.ang_vel_body,
-            self.ang_pos,
-            self.lin_vel_body,
-            self.quaternion,
-        )
+        bookkeeping.read_rows(index, *self._read_arrays)
         if self.sensors is not None:  # time 0: new initial biases, the estimator at the spawn
             self.sensors.reset(index, self.pos, self.vel, self.quaternion)
         if self.latency is not None:
@@ -624,16 +625,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _read(self, index: np.ndarray | None = None) -> None:
         if index is None:
-            kernels.read_out(
-                self.pos,
-                self.quat,
-                self.vel,
-                self.angvel,
-                self.ang_vel_body,
-                self.ang_pos,
-                self.lin_vel_body,
-                self.quaternion,
-            )
+            kernels.read_out(*self._read_arrays)
             return
         a, b, c, d = (
             np.empty((len(index), 3)),
@@ -682,7 +674,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         factors = self._noise_buffer if self.motor_noise else self._ones
         ends = self._ends
         judge = (
-            self._goals(),
+            self._goals() if self._plain_waypoints is None else self._last_position,  # waypoints: unused
             self._last_distance,
             self._last_position,
             self._max_steps,
@@ -701,16 +693,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             noise,
             self._advance_args(self.actions, factors, start, self.per_agent),
             (self.physics_steps, self.per_agent, self.steps, self.episode_length),
-            (
-                self.pos,
-                self.quat,
-                self.vel,
-                self.angvel,
-                self.ang_vel_body,
-                self.ang_pos,
-                self.lin_vel_body,
-                self.quaternion,
-            ),
+            self._read_arrays,
             judge,
             self._plain_waypoints,
             (*program, self.episode_return),
