@@ -80,6 +80,7 @@ from gymnasium.vector import AutoresetMode
 
 from pyflyt_engine import exact
 from pyflyt_engine.batched import air, bookkeeping, kernels, modes, normals
+from pyflyt_engine.batched.memory import keep_heap
 from pyflyt_engine.batched.latency import BatchedLatency, declares_latency
 from pyflyt_engine.batched.model import BatchedModel, batched_model, mode_code, refuse
 from pyflyt_engine.batched.randomization import BatchedRandomizer
@@ -160,6 +161,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
         self.config = cfg
         self.num_envs = n = int(num_envs)
+        keep_heap()  # big per-step arrays without page faults (pyflyt_engine.batched.memory)
         self.spec_uav = load_uav_spec(cfg.uav)
         self.physics_dt = 1.0 / cfg.physics_hz
         self.control_dt = 1.0 / cfg.control_hz

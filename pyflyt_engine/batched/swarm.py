@@ -144,6 +144,7 @@ from pyflyt_engine.atmosphere.rotors import _LN2, JET_DECAY, JET_SPREAD, WAKE_RE
 from pyflyt_engine.batched import air as _air
 from pyflyt_engine.batched import bookkeeping, kernels, normals
 from pyflyt_engine.batched import modes as _modes
+from pyflyt_engine.batched.memory import keep_heap
 from pyflyt_engine.batched.kernels import (
     MODE_MOTORS,
     MODE_RATES_THRUST,
@@ -948,6 +949,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         check_swarm_supported(cfg)
         if worlds < 1:
             raise ConfigError(f"worlds must be >= 1, got {worlds}")
+        keep_heap()  # big per-step arrays without page faults (pyflyt_engine.batched.memory)
         self.config = cfg
         self.agent_list = cfg.resolved_agents()
         self.agents = a_count = len(self.agent_list)
@@ -1399,7 +1401,10 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         success = truncated & bool(self.task_class.succeeds_at_time_limit)
         obs = self._observe()
         ended = terminated | truncated
-        final = np.where(ended[:, None], obs, 0.0)
+        # the last observations, zeros in the other slots, in place (a copy of the whole
+        # observation every step made glibc trim and regrow its heap at thousands of slots)
+        bookkeeping.zero_unless(obs, ended)
+        final = obs
         self.alive &= ~ended
         self.armed &= ~ended
         over = ~self.alive.reshape(self.worlds, self.agents).any(axis=1)
@@ -1725,7 +1730,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
             parts.append(self.sensor_state[:, S_VALID : S_VALID + 1])
         parts.append(extras)
         obs = bookkeeping.stack_columns(parts)
-        obs[~self.alive] = 0.0  # padding: a retired agent's slot
+        bookkeeping.zero_unless(obs, self.alive)  # padding: a retired agent's slot
         return obs
 
     def _own_states(self, seen: dict[str, np.ndarray], own: dict[str, np.ndarray]) -> Any:
