@@ -674,18 +674,11 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self._normals = self.turbulence_normals()
         start = int(self.physics_steps[0]) % self.per_control  # as advance: env 0's phase for all
         factors = self._noise_buffer if self.motor_noise else self._ones
-        ends = self._ends
         judge = (
             self._goals() if self._plain_waypoints is None else self._last_position,  # waypoints: unused
             self._last_distance,
             self._last_position,
-            self._max_steps,
-            self._dome2,
-            ends.contact,
-            bool(self.task.succeeds_at_time_limit),
-            ends.dome,
-            ends.complete,
-            ends.time_limit,
+            *self._end_terms(),
             self.agent_dt,
         )
         obs = np.empty((self.num_envs, self._plain_width))
@@ -1094,6 +1087,20 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             a = b
         self.contact[:] = contact
 
+    def _end_terms(self) -> tuple:
+        """:func:`bookkeeping.ends`' arguments after the state: the time limit, the dome and
+        what ends an episode (the config's termination terms)."""
+        ends = self._ends
+        return (
+            self._max_steps,
+            self._dome2,
+            ends.contact,
+            bool(self.task.succeeds_at_time_limit),
+            ends.dome,
+            ends.complete,
+            ends.time_limit,
+        )
+
     def _judge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         n = self.num_envs
         p = self.pos
@@ -1107,19 +1114,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             distance, rate = bookkeeping.progress(p, self._goals(), self._last_distance, self.agent_dt)
             self._last_distance = distance
         self._last_position = p.copy()
-        ends = self._ends
         collision, out, crashed, terminated, truncated, remaining, success = bookkeeping.ends(
-            p,
-            self.contact,
-            complete,
-            self.steps,
-            self._max_steps,
-            self._dome2,
-            ends.contact,
-            bool(self.task.succeeds_at_time_limit),
-            ends.dome,
-            ends.complete,
-            ends.time_limit,
+            p, self.contact, complete, self.steps, *self._end_terms()
         )
         ctx = BatchContext(
             ang_vel=self.ang_vel_body,
