@@ -22,8 +22,12 @@ physics.  Here the same laws run on the rows of the ended envs at once:
 * :func:`stack_columns`: an observation's parts side by side (``np.concatenate`` on axis 1).
 
 And per step, for every env: :func:`ends` (the contact, the flight dome, the time limit: what
-ended the episode and how) and :func:`progress` (the distance to a fixed goal and its rate),
-the env's former NumPy expressions element by element, in the same order of operations.
+ended the episode and how), :func:`progress` (the distance to a fixed goal and its rate),
+:func:`waypoint_progress` and :func:`waypoint_context` (the waypoints reached, and the next
+ones the observation shows) and :func:`zero_unless` (the last observations of the envs that
+ended), the env's former NumPy expressions element by element, in the same order of
+operations.  :func:`plain_step` runs a plain env's whole step (noise, physics, read-out,
+progress, ends, reward, observation) through these and the laws in one call.
 
 ``tests/batched/test_bookkeeping.py`` holds each against its Python form bit for bit.
 """

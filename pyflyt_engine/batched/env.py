@@ -413,7 +413,6 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             and self.reward_function.program is not None
             and not self.deflection.shape[1]
             and not self.gimbal_angles.shape[1]
-            and self._noise_buffer.flags.c_contiguous
         )
         #: the observation's parts of a plain step, None-padded for bookkeeping.plain_step
         #: (with waypoints, the next targets' kept arrays last: bookkeeping.waypoint_context)
@@ -669,7 +668,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         np.maximum(a, self._low, out=self.actions)  # np.minimum(np.maximum(a, low), high), in place
         np.minimum(self.actions, self._high, out=self.actions)
         noise = None
-        if self.motor_noise:  # normals.noise_factors's pass, its arguments checked at init
+        if self.motor_noise:  # normals.noise_factors's pass (its buffer made C-contiguous at init)
             noise = (*normals.interface(self.noise_rng), self._noise_ratio, self._noise_buffer)
         self._normals = self.turbulence_normals()
         start = int(self.physics_steps[0]) % self.per_control  # as advance: env 0's phase for all
@@ -686,7 +685,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         assert program is not None  # a plain env's preset is compiled (_plain)
         reward, terminated, truncated, collision, out, _, success, complete = bookkeeping.plain_step(
             noise,
-            self._advance_args(self.actions, factors, start, self.per_agent),
+            self._advance_args(self.actions, factors, start, self.per_agent, *self._span(start, self.per_agent)),
             (self.physics_steps, self.per_agent, self.steps, self.episode_length),
             self._read_arrays,
             judge,
@@ -782,10 +781,7 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         a sample in them (the end of a control period, and their end) found the ground.  The
         wind is the one of each env's physics steps ``physics_steps + start ...`` of its
         episode, the turbulence driven by this agent step's white noise from ``start`` on."""
-        normals = self._normals
-        if (start, count) != (0, normals.shape[1]):
-            normals = np.ascontiguousarray(normals[:, start : start + count])
-        steps = self.physics_steps + start
+        normals, steps = self._span(start, count)
         m = self.model
         if m.through_channels and self._cascade is None:
             self._advance_routed(setpoints, factors, start, count, normals, steps, self.mode)
@@ -795,24 +791,19 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             return
         kernels.advance(*self._advance_args(setpoints, factors, start, count, normals, steps))
 
+    def _span(self, start: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """This agent step's turbulence draws for its physics steps ``start ... start + count``
+        and each env's physics step of its episode at ``start``."""
+        normals = self._normals
+        if (start, count) != (0, normals.shape[1]):
+            normals = np.ascontiguousarray(normals[:, start : start + count])
+        return normals, self.physics_steps + start
+
     def _advance_args(
-        self,
-        setpoints: np.ndarray,
-        factors: np.ndarray,
-        start: int,
-        count: int,
-        normals: np.ndarray | None = None,
-        steps: np.ndarray | None = None,
+        self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int, normals: np.ndarray, steps: np.ndarray
     ) -> tuple:
         """The arguments of :func:`kernels.advance` for ``count`` physics steps of every env
-        from offset ``start`` (:meth:`_physics`; ``normals`` and ``steps`` its turbulence draws
-        and the envs' physics steps at ``start``, taken from this step's when not given)."""
-        if normals is None:
-            normals = self._normals
-            if (start, count) != (0, normals.shape[1]):
-                normals = np.ascontiguousarray(normals[:, start : start + count])
-        if steps is None:
-            steps = self.physics_steps + start
+        from offset ``start`` (``normals``, ``steps``: :meth:`_span`'s)."""
         m = self.model
         dryden = self._dryden_rows
         return (
