@@ -1399,12 +1399,12 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
         reward = np.where(live, reward, 0.0)
         self.episode_return += reward
         success = truncated & bool(self.task_class.succeeds_at_time_limit)
-        obs = self._observe()
         ended = terminated | truncated
-        # the last observations, zeros in the other slots, in place (a copy of the whole
-        # observation every step made glibc trim and regrow its heap at thousands of slots)
-        bookkeeping.zero_unless(obs, ended)
-        final = obs
+        final = None
+        if ended.any():  # the last observations, zeros in the other slots (zeroed in place: a
+            # copy of the whole observation every step made glibc trim and regrow its heap)
+            final = self._observe()
+            bookkeeping.zero_unless(final, ended)
         self.alive &= ~ended
         self.armed &= ~ended
         over = ~self.alive.reshape(self.worlds, self.agents).any(axis=1)
@@ -1426,7 +1426,7 @@ class BatchedSwarmEnv(gymnasium.vector.VectorEnv):
                 "l": np.where(ended, self.episode_length, 0),
             }
             info["_episode"] = ended
-        if done.any():
+        if done.any():  # a world's padding slots end when its last agents end: final is made
             info["final_obs"] = final
             info["_final_obs"] = done
         for k in np.flatnonzero(over).tolist():
