@@ -11,7 +11,10 @@ call by call, in four forms that give the same numbers bit for bit (checked here
   does not use (:mod:`pyflyt_engine.batched.compiled`);
 * ``wind tested``: ``wind_on=True``, so every env's wind switch is read and tested in its
   physics steps though no env has wind (as the kernel did before the switch became a type);
-* ``both``: the two together.
+* ``both``: the two together;
+* ``one by one``: vehicle by vehicle, all of a vehicle's physics steps before the next
+  vehicle's (blocks of one vehicle), instead of each physics step for a block of
+  ``kernels._BLOCK`` vehicles (which lets the processor overlap independent vehicles' steps).
 
 Prints CPU ns per agent-step (the 10th percentile and the median of the calls: the VM is
 shared, the low percentile is the least disturbed) and each form's ratio to ``as shipped``.
@@ -23,11 +26,12 @@ from __future__ import annotations
 
 import argparse
 import time
+import types
 
 import numba
 import numpy as np
 
-from pyflyt_engine.batched import kernels
+from pyflyt_engine.batched import kernels, normals
 from pyflyt_engine.envs import make_batched_env
 
 #: the arguments the call changes (state, motors, rate loop, contact), restored before each call
@@ -36,24 +40,23 @@ _WIND_ON = -1  # advance's last argument
 
 
 def _recorded_call(n: int) -> list:
+    """The arguments of ``kernels.advance`` for the next agent step of QuadX-Hover after a few
+    steps of small random actions, as the env builds them (its one-call step passes the same
+    tuple to ``bookkeeping.plain_step``), the motor noise drawn into its factors."""
     env = make_batched_env("PyFlyt/QuadX-Hover-v0", n_envs=n)
     env.reset(seed=0)
-    seen: dict[str, tuple] = {}
-    shipped = kernels.advance
-
-    def recording(*args):
-        seen["args"] = args
-        return shipped(*args)
-
-    kernels.advance = recording
-    try:
-        rng = np.random.default_rng(0)
-        for _ in range(5):
-            env.step(rng.uniform(-0.1, 0.1, size=(n, *env.single_action_space.shape)).astype(np.float32))
-    finally:
-        kernels.advance = shipped
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        env.step(rng.uniform(-0.1, 0.1, size=(n, *env.single_action_space.shape)).astype(np.float32))
+    e = env.unwrapped if hasattr(env, "unwrapped") else env
+    if e.motor_noise:
+        normals.noise_factors(e.noise_rng, e._noise_ratio, e._noise_buffer)
+    factors = e._noise_buffer if e.motor_noise else e._ones
+    start = int(e.physics_steps[0]) % e.per_control
+    e._normals = e.turbulence_normals()
+    call = list(e._advance_args(e.actions, factors, start, e.per_agent, *e._span(start, e.per_agent)))
     env.close()
-    return list(seen["args"])
+    return call
 
 
 def main() -> None:
@@ -66,6 +69,10 @@ def main() -> None:
     assert call[_WIND_ON] is None, "QuadX-Hover flies in calm air"
     saved = [np.copy(call[i]) for i in _CHANGED]
     python_errors = numba.njit(error_model="python")(kernels.advance.py_func)
+    shipped = kernels.advance.py_func  # the same source with blocks of one vehicle
+    one_by_one = numba.njit(error_model="numpy")(
+        types.FunctionType(shipped.__code__, {**shipped.__globals__, "_BLOCK": 1}, "advance_one_by_one")
+    )
     tested = call.copy()
     tested[_WIND_ON] = True
     forms = {
@@ -73,6 +80,7 @@ def main() -> None:
         "python errors": (python_errors, call),
         "wind tested": (kernels.advance, tested),
         "both": (python_errors, tested),
+        "one by one": (one_by_one, call),
     }
 
     def once(fn, fn_args) -> float:

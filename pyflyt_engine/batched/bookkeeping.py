@@ -19,14 +19,15 @@ physics.  Here the same laws run on the rows of the ended envs at once:
 * :func:`zero_rows` starts the controller, motors and counters of those rows from zero;
 * :func:`read_rows` and :func:`distance_rows`: the read-outs and the target distance of
   those rows, as a step computes them for every row;
-* :func:`stack_columns`: an observation's parts side by side (``np.concatenate`` on axis 1).
+* :func:`stack_columns`: an observation's parts side by side (``np.concatenate`` on axis 1);
+* :func:`clip_rows`: a step's actions clipped to the action space.
 
 And per step, for every env: :func:`ends` (the contact, the flight dome, the time limit: what
 ended the episode and how), :func:`progress` (the distance to a fixed goal and its rate),
 :func:`waypoint_progress` and :func:`waypoint_context` (the waypoints reached, and the next
-ones the observation shows) and :func:`zero_unless` (the last observations of the envs that
-ended), the env's former NumPy expressions element by element, in the same order of
-operations.  :func:`plain_step` runs a plain env's whole step (noise, physics, read-out,
+ones the observation shows), :func:`zero_unless` (the last observations of the envs that
+ended) and :func:`episode_ends` (with their episodes' statistics), the env's former NumPy
+expressions element by element, in the same order of operations.  :func:`plain_step` runs a plain env's whole step (noise, physics, read-out,
 progress, ends, reward, observation) through these and the laws in one call.
 
 ``tests/batched/test_bookkeeping.py`` holds each against its Python form bit for bit.
@@ -45,19 +46,17 @@ from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.kernels import read_state, rotation_rows, rotation_tuple, store_read
 
 
-def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, object] | None:
-    """The state addresses of ``rngs``' bit generators and their common ``next_double``
-    (numpy's ctypes interface), or None when they are not all of one kind of bit generator
-    (then the caller draws through ``Generator.uniform``, env by env)."""
+def stream_addresses(rngs: list[np.random.Generator]) -> tuple[np.ndarray, int] | None:
+    """The state addresses of ``rngs``' bit generators and the address of their common
+    ``next_double`` (numpy's ctypes interface, :func:`~pyflyt_engine.batched.normals.interface`),
+    or None when they are not all of one kind of bit generator (then the caller draws through
+    ``Generator.uniform``, env by env)."""
     if not rngs:
         return None
-    interfaces = [rng.bit_generator.ctypes for rng in rngs]
-    import ctypes
-
-    address = ctypes.cast(interfaces[0].next_double, ctypes.c_void_p).value
-    if any(ctypes.cast(c.next_double, ctypes.c_void_p).value != address for c in interfaces):
+    interfaces = [_normals.interface(rng) for rng in rngs]
+    if any(c[2] != interfaces[0][2] for c in interfaces):
         return None
-    return np.array([c.state_address for c in interfaces], dtype=np.uintp), interfaces[0].next_double
+    return np.array([c[0] for c in interfaces], dtype=np.uintp), interfaces[0][2]
 
 
 @njit(cache=True)
@@ -93,12 +92,12 @@ def spawn_rows(
         i = index[k]
         state = states[i]
         for a in range(3):
-            d = p_low + p_range * next_double(state) if position_noise != 0.0 else 0.0
+            d = p_low + p_range * _normals.next_double_at(next_double, state) if position_noise != 0.0 else 0.0
             pos[i, a] = start_position[a] + d
             if shifted:
                 pos[i, a] = pos[i, a] + offsets[i, a]
         for a in range(3):
-            d = o_low + o_range * next_double(state) if orientation_noise != 0.0 else 0.0
+            d = o_low + o_range * _normals.next_double_at(next_double, state) if orientation_noise != 0.0 else 0.0
             e[a] = start_orientation[a] + d
             if shifted:
                 e[a] = e[a] + offsets[i, 3 + a]
@@ -141,6 +140,20 @@ def zero_rows(index, tables, columns, counts, flags):
 
 
 @njit(cache=True)
+def clip_rows(actions, low, high, out):
+    """``out = np.minimum(np.maximum(actions, low), high)`` (``actions``, ``out`` (N, k);
+    ``low``, ``high`` (k,)) in one compiled pass: the actions clipped to the action space.
+    Element by element as numpy's vector loops compute it here: a NaN goes through, and a
+    value equal to a bound (``-0.0`` at a bound of ``0.0``) gives the bound; two ufunc calls
+    with their broadcasting cost ~3.3 us at N = 256, this ~0.3."""
+    for i in range(actions.shape[0]):
+        for j in range(actions.shape[1]):
+            x, lo, hi = actions[i, j], low[j], high[j]
+            x = x if x > lo or x != x else lo
+            out[i, j] = x if x < hi or x != x else hi
+
+
+@njit(cache=True)
 def zero_unless(table, mask):
     """Every row ``i`` of ``table`` (2-D) where ``mask[i]`` is False set to zero (one compiled
     pass: numpy's boolean-mask assignment costs ~3.7 us at N = 256, this ~0.5)."""
@@ -148,6 +161,23 @@ def zero_unless(table, mask):
         if not mask[i]:
             for j in range(table.shape[1]):
                 table[i, j] = 0.0
+
+
+@njit(cache=True)
+def episode_ends(obs, done, episode_return, episode_length):
+    """The end of a step whose episodes ended in the envs ``done``: ``obs``'s other rows set to
+    zero (:func:`zero_unless`: the last observations), and the ended episodes' statistics
+    ``(returns, lengths)``, 0 in the rows that go on (``np.where(done, episode_return, 0.0)``
+    and ``np.where(done, episode_length, 0)``), in one call instead of three (~2 us at N = 256)."""
+    zero_unless(obs, done)
+    n = done.shape[0]
+    returns = np.zeros(n)
+    lengths = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        if done[i]:
+            returns[i] = episode_return[i]
+            lengths[i] = episode_length[i]
+    return returns, lengths
 
 
 @njit(cache=True)
@@ -366,7 +396,7 @@ def stack_columns(parts: list[np.ndarray]) -> np.ndarray:
 
 
 @njit(cache=True)
-def plain_step(noise, advance_args, counters, read_args, judge, waypoints, program, parts):
+def plain_step(actions, noise, advance_args, counters, read_args, judge, waypoints, program, parts):
     """One agent step of a plain single-agent env after its actions are clipped, in one call:
     what :meth:`~pyflyt_engine.batched.env.BatchedUAVEnv.step` does in the separate calls
     below when nothing sits between them (no latency, no noisy sensors, no range sensors, the
@@ -376,7 +406,8 @@ def plain_step(noise, advance_args, counters, read_args, judge, waypoints, progr
     (``tests/batched/test_bookkeeping.py``); one call instead of ~10 saves their dispatch and
     the Python between them (``docs/batched.md``, Speed).
 
-    ``noise``: :func:`~pyflyt_engine.batched.normals.fill_factors`' arguments (the motor noise
+    ``actions``: ``(actions, low, high)``, clipped (:func:`clip_rows`) into ``advance_args``'
+    setpoints; ``noise``: :func:`~pyflyt_engine.batched.normals.fill_factors`' arguments (the motor noise
     drawn into the factors ``advance_args`` holds), or None; ``advance_args``: those of
     :func:`~pyflyt_engine.batched.kernels.advance`; ``counters``: ``(physics_steps,
     per_agent, steps, episode_length)``, advanced; ``read_args``: those of
@@ -392,7 +423,9 @@ def plain_step(noise, advance_args, counters, read_args, judge, waypoints, progr
     :func:`stack_few`) and the array it is written into.
 
     Returns ``(reward, terminated, truncated, collision, out_of_bounds, crashed, success,
-    complete)``, new arrays."""
+    complete, done)``, new arrays (``done``: ``terminated | truncated``), and whether an
+    episode ended (``done.any()``)."""
+    clip_rows(actions[0], actions[1], actions[2], advance_args[9])
     if noise is not None:
         _normals.fill_factors(*noise)
     _kernels.advance(*advance_args)
@@ -465,12 +498,19 @@ def plain_step(noise, advance_args, counters, read_args, judge, waypoints, progr
     if waypoints is not None:
         waypoint_context(read_args[7], pos, waypoints[0], waypoints[1], waypoints[3], waypoints[4])
     stack_few(*parts)
-    return reward, terminated, truncated, collision, out, crashed, success, complete
+    done = np.empty(n, dtype=np.bool_)
+    ended = False
+    for i in range(n):
+        done[i] = terminated[i] or truncated[i]
+        ended = ended or done[i]
+    return reward, terminated, truncated, collision, out, crashed, success, complete, done, ended
 
 
 __all__ = [
+    "clip_rows",
     "distance_rows",
     "ends",
+    "episode_ends",
     "plain_step",
     "progress",
     "read_rows",

@@ -248,6 +248,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         self.turbulence = np.zeros((n, states))
         self._no_normals = np.zeros((n, self.per_agent, 0))
         self._no_offsets = np.zeros((n, len(SPAWN)))  # the spawn offsets without randomisation (_spawn)
+        #: the task options of the last compiled spawn and spawn_rows' arguments from them (_spawn)
+        self._spawn_law: tuple[Any, tuple] | None = None
         self._normals = self._no_normals  # this agent step's (advance)
 
         # state
@@ -586,17 +588,22 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
                 self.angvel[i] = exact.rotate(rot, [float(v) for v in spawn.ang_vel])
             return
         o = task.options
+        if self._spawn_law is None or self._spawn_law[0] is not o:  # the law's arrays, once per options
+            law = (
+                np.asarray(o.start_position, dtype=np.float64),
+                float(o.start_position_noise),
+                np.asarray(o.start_orientation, dtype=np.float64),
+                float(o.start_orientation_noise),
+                np.asarray(o.start_lin_vel, dtype=np.float64),
+                np.zeros(3),
+            )
+            self._spawn_law = (o, law)
         states, next_double = streams
         bookkeeping.spawn_rows(
             index,
             states,
             next_double,
-            np.asarray(o.start_position, dtype=np.float64),
-            float(o.start_position_noise),
-            np.asarray(o.start_orientation, dtype=np.float64),
-            float(o.start_orientation_noise),
-            np.asarray(o.start_lin_vel, dtype=np.float64),
-            np.zeros(3),
+            *self._spawn_law[1],
             self.pos,
             self.quat,
             self.vel,
@@ -646,8 +653,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             raise ValueError(f"actions must be ({n}, {self._low.size}), got {np.shape(actions)}")
         if self._plain:
             return self._plain_step(a)
-        a = np.minimum(np.maximum(a, self._low), self._high)
-        self.actions[:] = a
+        bookkeeping.clip_rows(a, self._low, self._high, self.actions)
+        a = self.actions.copy()
         if self.motor_noise:  # 1 + ratio eta in one compiled pass (numpy's draws), into a kept buffer
             factors = normals.noise_factors(self.noise_rng, self._noise_ratio, self._noise_buffer)
         else:
@@ -660,13 +667,12 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
             self.range_sensors.scan(self._all, self.pos, self.quat, self.physics_steps)
         reward, terminated, truncated, info = self._judge()
         self.episode_return += reward
-        return self._episodes_end(self._observe(), reward, terminated, truncated, info)
+        done = terminated | truncated
+        return self._episodes_end(self._observe(), reward, terminated, truncated, info, done, bool(done.any()))
 
     def _plain_step(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """:meth:`step` of a plain env (:attr:`_plain`) after its actions are checked: the same
         calls in one (:func:`bookkeeping.plain_step`), the same numbers."""
-        np.maximum(a, self._low, out=self.actions)  # np.minimum(np.maximum(a, low), high), in place
-        np.minimum(self.actions, self._high, out=self.actions)
         noise = None
         if self.motor_noise:  # normals.noise_factors's pass (its buffer made C-contiguous at init)
             noise = (*normals.interface(self.noise_rng), self._noise_ratio, self._noise_buffer)
@@ -683,7 +689,8 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         obs = np.empty((self.num_envs, self._plain_width))
         program = self.reward_function.program
         assert program is not None  # a plain env's preset is compiled (_plain)
-        reward, terminated, truncated, collision, out, _, success, complete = bookkeeping.plain_step(
+        reward, terminated, truncated, collision, out, _, success, complete, done, ended = bookkeeping.plain_step(
+            (a, self._low, self._high),  # clipped into self.actions, the advance's setpoints
             noise,
             self._advance_args(self.actions, factors, start, self.per_agent, *self._span(start, self.per_agent)),
             (self.physics_steps, self.per_agent, self.steps, self.episode_length),
@@ -696,25 +703,29 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
         info = {"collision": collision, "out_of_bounds": out, "env_complete": complete, "success": success}
         if self._waypoints:
             info["num_targets_reached"] = self.num_reached.copy()
-        return self._episodes_end(obs, reward, terminated, truncated, info)
+        return self._episodes_end(obs, reward, terminated, truncated, info, done, ended)
 
     def _episodes_end(
-        self, obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, truncated: np.ndarray, info: dict[str, Any]
+        self,
+        obs: np.ndarray,
+        reward: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        info: dict[str, Any],
+        done: np.ndarray,
+        ended: bool,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """The end of a step: the envs whose episode ended (``terminated | truncated``) give
-        their last observation (``final_obs``) and episode statistics and start a new episode,
-        whose first observation the returned one shows."""
-        done = terminated | truncated
-        if done.any():
+        """The end of a step: the envs whose episode ended (``done``: ``terminated |
+        truncated``; ``ended``: whether any did) give their last observation (``final_obs``)
+        and episode statistics and start a new episode, whose first observation the returned
+        one shows."""
+        if ended:
             index = np.nonzero(done)[0]
             # the last observations, zeros in the rows that go on (observed again below)
-            bookkeeping.zero_unless(obs, done)
+            returns, lengths = bookkeeping.episode_ends(obs, done, self.episode_return, self.episode_length)
             info["final_obs"] = obs
             info["_final_obs"] = done
-            info["episode"] = {
-                "r": np.where(done, self.episode_return, 0.0),
-                "l": np.where(done, self.episode_length, 0),
-            }
+            info["episode"] = {"r": returns, "l": lengths}
             info["_episode"] = done
             self._reset_envs(index)
             if self.randomizer is not None:  # the draws of the episodes that start now, masked as the reset ones
@@ -793,11 +804,12 @@ class BatchedUAVEnv(gymnasium.vector.VectorEnv):
 
     def _span(self, start: int, count: int) -> tuple[np.ndarray, np.ndarray]:
         """This agent step's turbulence draws for its physics steps ``start ... start + count``
-        and each env's physics step of its episode at ``start``."""
+        and each env's physics step of its episode at ``start`` (from 0: the counters
+        themselves, which the compiled laws only read, and which move on after them)."""
         normals = self._normals
         if (start, count) != (0, normals.shape[1]):
             normals = np.ascontiguousarray(normals[:, start : start + count])
-        return normals, self.physics_steps + start
+        return normals, self.physics_steps + start if start else self.physics_steps
 
     def _advance_args(
         self, setpoints: np.ndarray, factors: np.ndarray, start: int, count: int, normals: np.ndarray, steps: np.ndarray

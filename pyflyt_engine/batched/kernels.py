@@ -57,6 +57,8 @@ from pyflyt_engine.components import lifting_surface as _ls
 
 # Bullet: ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI (btMultiBody.cpp)
 _ANGULAR_MOTION_THRESHOLD = 0.5 * (0.5 * math.pi)
+#: vehicles per block of :func:`advance` (its physics steps go block by block)
+_BLOCK = 128
 
 #: mode codes of the compiled controller
 MODE_MOTORS = -1
@@ -995,6 +997,11 @@ def advance(
     ``wind[:, 0]`` all 0), ``motor_laws`` is None for the static motors.  A hover's physics
     steps then test nothing for the mode, the drag, the wind, the motor models or the ground
     effect (a bool would be tested at every physics step; ``experiments/speed_advance.py``).
+
+    The vehicles go in blocks of :data:`_BLOCK`, each physics step of the span for the whole
+    block before the next (vehicle by vehicle where a turbulence filter exists): the order
+    of the independent vehicles' work, not of any vehicle's own operations, so the numbers
+    are those of one vehicle at a time (``tests/batched/test_blocks.py``).
     """
     n = pos.shape[0]
     nm = throttle.shape[1]
@@ -1004,119 +1011,138 @@ def advance(
     calm = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     sample = calm
     scratch = np.empty(turbulence.shape[1])
+    rot = np.empty((n, 9))  # each vehicle's rotation at the start of its next physics step
     for i in range(n):
         contact[i] = False
-        wind_i = wind[i]  # this env's wind and turbulence filter (its rows)
-        windy = wind_on is not None and wind_i[0] != 0.0
-        turbulent = windy and wind_i[17] != 0.0
-        dryden_i = (dryden[0][i], dryden[1][i], dryden[2][i], dryden[3][i], dryden[4][i])
-        p = (pos[i, 0], pos[i, 1], pos[i, 2])
-        q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
-        v = (vel[i, 0], vel[i, 1], vel[i, 2])
-        w = (angvel[i, 0], angvel[i, 1], angvel[i, 2])
-        m_i, jx, jy, jz = mass[i], inertia[i, 0], inertia[i, 1], inertia[i, 2]
-        kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
-        x_i, cmd_i, lag_i, col_i = throttle[i], command[i], lag[i], columns[i]
-        reach = reaches[i]  # how far below its centre a feature of the body reaches (feature_reaches)
-        phase = start % per_control  # of physics step start + s in its control period
-        r = rotation_tuple(q[0], q[1], q[2], q[3])  # the rotation at the start of each physics step
+        r = rotation_tuple(quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+        for k in range(9):
+            rot[i, k] = r[k]
+    # a block of vehicles at a time, each physics step of the span for the whole block: the
+    # vehicles' steps are independent, so the processor overlaps one vehicle's step with the
+    # next one's (a vehicle's own steps are one chain of dependent operations); the block
+    # keeps their state in the first-level cache (experiments/speed_advance.py).  With a
+    # turbulence filter, vehicle by vehicle (blocks of one): the views of its filter's rows,
+    # made once per vehicle, cost less than the overlap gains.
+    block = 1 if turbulence.shape[1] else _BLOCK
+    for b0 in range(0, n, block):
+        b1 = min(b0 + block, n)
+        # with a turbulence filter, the block's one vehicle's filter and state (its rows)
+        dryden_i = (dryden[0][b0], dryden[1][b0], dryden[2][b0], dryden[3][b0], dryden[4][b0])
+        turbulence_i = turbulence[b0]
         for s in range(count):
+            phase = (start + s) % per_control  # of physics step start + s in its control period
             tick = phase == 0
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
-            w0, w1, w2 = w
-            bw0 = r0 * w0 + r3 * w1 + r6 * w2
-            bw1 = r1 * w0 + r4 * w1 + r7 * w2
-            bw2 = r2 * w0 + r5 * w1 + r8 * w2
-            if tick:  # control tick
-                if rates is not None:
-                    if not has_previous[i]:
+            # contact sampled at the end of each control period and of the span
+            sampled = phase + 1 == per_control or s == count - 1
+            for i in range(b0, b1):
+                p = (pos[i, 0], pos[i, 1], pos[i, 2])
+                q = (quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3])
+                v = (vel[i, 0], vel[i, 1], vel[i, 2])
+                w = (angvel[i, 0], angvel[i, 1], angvel[i, 2])
+                r = (rot[i, 0], rot[i, 1], rot[i, 2], rot[i, 3], rot[i, 4], rot[i, 5], rot[i, 6], rot[i, 7], rot[i, 8])
+                r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+                w0, w1, w2 = w
+                bw0 = r0 * w0 + r3 * w1 + r6 * w2
+                bw1 = r1 * w0 + r4 * w1 + r7 * w2
+                bw2 = r2 * w0 + r5 * w1 + r8 * w2
+                if tick:  # control tick
+                    if rates is not None:
+                        if not has_previous[i]:
+                            previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
+                        t0, t1, t2 = rate_loop_row(
+                            setpoint,
+                            bw0,
+                            bw1,
+                            bw2,
+                            previous,
+                            integral,
+                            rate_gains,
+                            derivative,
+                            control_inertia,
+                            gyro,
+                            control_dt,
+                            i,
+                        )
                         previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-                    t0, t1, t2 = rate_loop_row(
-                        setpoint,
-                        bw0,
-                        bw1,
-                        bw2,
-                        previous,
-                        integral,
-                        rate_gains,
-                        derivative,
-                        control_inertia,
-                        gyro,
-                        control_dt,
-                        i,
+                        has_previous[i] = True
+                        mix_row(setpoint[i, 3] * max_collective[i], t0, t1, t2, mixer_rows, parts, command, i)
+                    else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
+                        for mo in range(nm):
+                            c = setpoint[i, mo]
+                            command[i, mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
+                windy = wind_on is not None and wind[i, 0] != 0.0
+                if windy:  # the wind at this physics step; the turbulence moves on
+                    wind_i = wind[i]  # this env's wind (its row)
+                    gusts = calm
+                    if wind_i[17] != 0.0:
+                        gusts = _air.dryden_output(dryden_i, turbulence_i, wind_i[18], wind_i[19])
+                        _air.dryden_step(dryden_i, turbulence_i, turbulence_normals[i, s], scratch)
+                    sample = _air.wind_sample(wind_i, episode_steps[i] + s, p[2], physics_dt, gusts)
+                if (
+                    motor_laws is not None
+                ):  # ModelledMotors, at the body's velocity through the air as body drag takes it
+                    a = calm
+                    if (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0:
+                        a = _body_air(r, v, w, bw0, bw1, bw2, windy, tick, sample)
+                    load = modelled_load(
+                        throttle[i],
+                        command[i],
+                        lag[i],
+                        factors[i, s],
+                        motor_model[i],
+                        motor_laws,
+                        battery[i],
+                        battery_params[i],
+                        battery_table,
+                        rotors[i],
+                        ground_effect,
+                        p[2],
+                        r6,
+                        r7,
+                        r8,
+                        min_height,
+                        ratio,
+                        a,
+                        physics_dt,
                     )
-                    previous[i, 0], previous[i, 1], previous[i, 2] = bw0, bw1, bw2
-                    has_previous[i] = True
-                    mix_row(setpoint[i, 3] * max_collective[i], t0, t1, t2, mixer_rows, parts, command, i)
-                else:  # motors: the setpoint is the throttles, clamped to [-1, 1]
-                    for mo in range(nm):
-                        c = setpoint[i, mo]
-                        cmd_i[mo] = 1.0 if c > 1.0 else -1.0 if c < -1.0 else c
-            if windy:  # the wind at this physics step; the turbulence moves on
-                gusts = calm
-                if turbulent:
-                    gusts = _air.dryden_output(dryden_i, turbulence[i], wind_i[18], wind_i[19])
-                    _air.dryden_step(dryden_i, turbulence[i], turbulence_normals[i, s], scratch)
-                sample = _air.wind_sample(wind_i, episode_steps[i] + s, p[2], physics_dt, gusts)
-            if motor_laws is not None:  # ModelledMotors, at the body's velocity through the air as body drag takes it
-                a = calm
-                if (motor_laws & (LAW_ROTOR_DRAG | LAW_INFLOW)) != 0:
-                    a = _body_air(r, v, w, bw0, bw1, bw2, windy, tick, sample)
-                load = modelled_load(
-                    x_i,
-                    cmd_i,
-                    lag_i,
-                    factors[i, s],
-                    motor_model[i],
-                    motor_laws,
-                    battery[i],
-                    battery_params[i],
-                    battery_table,
-                    rotors[i],
-                    ground_effect,
-                    p[2],
-                    r6,
-                    r7,
-                    r8,
-                    min_height,
-                    ratio,
-                    a,
-                    physics_dt,
-                )
-            elif ground_effect is not None:
-                _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], col_i, min_height, scaled[0])
-                load = motors_step_row(throttle, command, lag, factors, scaled, i, s, 0)
-            else:
-                load = motors_step_row(throttle, command, lag, factors, columns, i, s, i)
-            if drag is not None:  # summed after the motors, as the PyBullet engine sums its groups
-                v0, v1, v2 = v
-                if windy:
-                    if tick:
+                elif ground_effect is not None:
+                    _air.ground_effect_columns(p[2], r6, r7, r8, rotors[i], columns[i], min_height, scaled[0])
+                    load = motors_step_row(throttle, command, lag, factors, scaled, i, s, 0)
+                else:
+                    load = motors_step_row(throttle, command, lag, factors, columns, i, s, i)
+                if drag is not None:  # summed after the motors, as the PyBullet engine sums its groups
+                    kx, ky, kz, c_i = drag_factors[i, 0], drag_factors[i, 1], drag_factors[i, 2], damping[i]
+                    v0, v1, v2 = v
+                    if windy:
+                        if tick:
+                            bv0 = r0 * v0 + r3 * v1 + r6 * v2
+                            bv1 = r1 * v0 + r4 * v1 + r7 * v2
+                            bv2 = r2 * v0 + r5 * v1 + r8 * v2
+                            a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
+                        else:
+                            a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
+                        load = summed(load, drag_wrench(a[0], a[1], a[2], a[3], a[4], a[5], kx, ky, kz, c_i))
+                    else:
                         bv0 = r0 * v0 + r3 * v1 + r6 * v2
                         bv1 = r1 * v0 + r4 * v1 + r7 * v2
                         bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                        a = _air.air_from_body(r, bv0, bv1, bv2, bw0, bw1, bw2, sample)
-                    else:
-                        a = _air.air_from_motion(r, v0, v1, v2, w0, w1, w2, sample)
-                    load = summed(load, drag_wrench(a[0], a[1], a[2], a[3], a[4], a[5], kx, ky, kz, c_i))
-                else:
-                    bv0 = r0 * v0 + r3 * v1 + r6 * v2
-                    bv1 = r1 * v0 + r4 * v1 + r7 * v2
-                    bv2 = r2 * v0 + r5 * v1 + r8 * v2
-                    load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
-            p, q, v, w = integrate_state(p, q, v, w, r, load, m_i, jx, jy, jz, gravity, physics_dt)
-            r = rotation_tuple(q[0], q[1], q[2], q[3])  # the next step's, and the contact's
-            phase = phase + 1 if phase + 1 < per_control else 0
-            # contact sampled at the end of each control period and of the span; a body whose
-            # centre is higher than any of its features reaches cannot touch (a NaN height is
-            # not higher: it goes on to lowest_row, which finds no contact in it, as before)
-            if (phase == 0 or s == count - 1) and not p[2] > reach:
-                if lowest_row(p[2], r[6], r[7], r[8], corners, i) < 0.0:
-                    contact[i] = True
-        pos[i, 0], pos[i, 1], pos[i, 2] = p
-        quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
-        vel[i, 0], vel[i, 1], vel[i, 2] = v
-        angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
+                        load = summed(load, drag_wrench(bv0, bv1, bv2, bw0, bw1, bw2, kx, ky, kz, c_i))
+                m_i = mass[i]
+                p, q, v, w = integrate_state(
+                    p, q, v, w, r, load, m_i, inertia[i, 0], inertia[i, 1], inertia[i, 2], gravity, physics_dt
+                )
+                r = rotation_tuple(q[0], q[1], q[2], q[3])  # the next step's, and the contact's
+                # a body whose centre is higher than any of its features reaches cannot touch
+                # (a NaN height is not higher: it goes on to lowest_row, which finds no contact in it)
+                if sampled and not p[2] > reaches[i]:
+                    if lowest_row(p[2], r[6], r[7], r[8], corners, i) < 0.0:
+                        contact[i] = True
+                pos[i, 0], pos[i, 1], pos[i, 2] = p
+                quat[i, 0], quat[i, 1], quat[i, 2], quat[i, 3] = q
+                vel[i, 0], vel[i, 1], vel[i, 2] = v
+                angvel[i, 0], angvel[i, 1], angvel[i, 2] = w
+                for k in range(9):
+                    rot[i, k] = r[k]
 
 
 def switch(on: bool) -> bool | None:

@@ -3,7 +3,8 @@
 The batched backend draws its noise (the motors', the sensors', the range sensors') from
 numpy generators inside compiled loops, through each bit generator's ``ctypes`` interface
 (``next_uint64`` and ``next_double``, which numpy exposes for compiled callers, as
-:func:`pyflyt_engine.batched.bookkeeping.spawn_rows` draws its uniforms).
+:func:`pyflyt_engine.batched.bookkeeping.spawn_rows` draws its uniforms), called by their
+addresses (:func:`interface`, :data:`next_uint64_at`, :data:`next_double_at`).
 :func:`standard_normal` is numpy's sampler (``random_standard_normal`` in numpy's
 ``random/src/distributions/distributions.c``): the 256-layer ziggurat of Marsaglia and Tsang
 ("The ziggurat method for generating random variables", J. Stat. Softw. 5(8), 2000), with
@@ -32,9 +33,14 @@ loop ~4 ns (:func:`noise_factors`, with the ``1 + ratio eta`` it also computes;
 
 from __future__ import annotations
 
+import ctypes
+from typing import Any
 import math
 
 import numpy as np
+from llvmlite import ir  # type: ignore[import-untyped]
+from numba import types
+from numba.extending import intrinsic
 from numba.np.random import _constants as _zig
 
 from pyflyt_engine.batched.compiled import njit
@@ -51,13 +57,40 @@ _ONE = np.uint64(1)
 _EIGHT = np.uint64(8)
 
 
+def _bit_generator_call(name: str, result: ir.Type, result_type: types.Type):
+    """An intrinsic calling one of a bit generator's functions, ``result (*)(void *state)``, by
+    the function's and the state's addresses (integers): what calling numpy's ``ctypes``
+    function objects compiles to, without their typing on every call from Python (~1 us
+    each: a step of a plain env passed two of them, ``experiments/speed_step_parts.py``)."""
+
+    def typer(typingctx, function, state):
+        if not (isinstance(function, types.Integer) and isinstance(state, types.Integer)):
+            return None
+
+        def codegen(context, builder, signature, args):
+            pointer = ir.IntType(8).as_pointer()
+            called = builder.inttoptr(args[0], ir.FunctionType(result, [pointer]).as_pointer())
+            return builder.call(called, [builder.inttoptr(args[1], pointer)])
+
+        return result_type(function, state), codegen
+
+    typer.__name__ = typer.__qualname__ = name
+    return intrinsic(typer)
+
+
+#: ``next_uint64(state)`` of a bit generator (:func:`interface`'s addresses)
+next_uint64_at = _bit_generator_call("next_uint64_at", ir.IntType(64), types.uint64)
+#: ``next_double(state)`` of a bit generator (:func:`interface`'s addresses)
+next_double_at = _bit_generator_call("next_double_at", ir.DoubleType(), types.float64)
+
+
 @njit(cache=True, inline="always")
 def standard_normal(state, next_uint64, next_double) -> float:
     """One ``Generator.standard_normal()`` from the bit generator at ``state`` (the module
     docstring); compiled into its caller, the rare words outside a layer's rectangle
     handled by :func:`_outside`."""
     while True:
-        word = next_uint64(state)
+        word = next_uint64_at(next_uint64, state)
         layer = word & _LAYER
         word = word >> _EIGHT
         u = (word >> _ONE) & _MANTISSA
@@ -77,11 +110,11 @@ def _outside(state, next_double, layer, u, x):
     density, or (False, x) when a new word is to be drawn."""
     if layer == 0:
         while True:
-            a = -INV_R * math.log1p(-next_double(state))
-            b = -math.log1p(-next_double(state))
+            a = -INV_R * math.log1p(-next_double_at(next_double, state))
+            b = -math.log1p(-next_double_at(next_double, state))
             if b + b > a * a:
                 return True, -(R + a) if ((u >> _EIGHT) & _ONE) != 0 else R + a
-    if (FI[layer - _ONE] - FI[layer]) * next_double(state) + FI[layer] < math.exp(-0.5 * x * x):
+    if (FI[layer - _ONE] - FI[layer]) * next_double_at(next_double, state) + FI[layer] < math.exp(-0.5 * x * x):
         return True, x
     return False, x
 
@@ -107,11 +140,31 @@ def fill_factors(state, next_uint64, next_double, ratio, out) -> None:
             rows[k, m] = standard_normal(state, next_uint64, next_double) * ratio[m] + 1.0
 
 
-def interface(rng: np.random.Generator) -> tuple:
+def address(function: Any) -> int:
+    """The address of a ``ctypes`` function object (a bit generator's ``next_uint64``, ...)."""
+    return int(ctypes.cast(function, ctypes.c_void_p).value or 0)
+
+
+#: id of a bit generator -> (the bit generator, its :func:`interface`); the generator kept
+#: alive while it is here, so that its id is not reused for another
+_INTERFACES: dict[int, tuple] = {}
+_KEPT = 256
+
+
+def interface(rng: np.random.Generator) -> tuple[int, int, int]:
     """``(state, next_uint64, next_double)`` of ``rng``'s bit generator, as the compiled draws
-    (:func:`fill`, :func:`fill_factors`) take them: numpy's ctypes interface."""
-    c = rng.bit_generator.ctypes  # numpy keeps it on the bit generator: made once per generator
-    return c.state_address, c.next_uint64, c.next_double
+    (:func:`fill`, :func:`fill_factors`) take them: the addresses of numpy's ctypes interface
+    (its state and its two functions), looked up once per bit generator."""
+    bits = rng.bit_generator
+    kept = _INTERFACES.get(id(bits))
+    if kept is not None and kept[0] is bits:
+        return kept[1]
+    c = bits.ctypes
+    found = (int(c.state_address), address(c.next_uint64), address(c.next_double))
+    if len(_INTERFACES) >= _KEPT:  # the oldest let go
+        del _INTERFACES[next(iter(_INTERFACES))]
+    _INTERFACES[id(bits)] = (bits, found)
+    return found
 
 
 def standard_normal_fill(rng: np.random.Generator, out: np.ndarray) -> np.ndarray:

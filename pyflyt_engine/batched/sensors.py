@@ -31,7 +31,6 @@ env, which a ``randomize`` section's sensor factors change per episode
 
 from __future__ import annotations
 
-import ctypes
 import math
 from typing import Any
 
@@ -39,7 +38,8 @@ import numpy as np
 
 from pyflyt_engine.batched.compiled import njit
 from pyflyt_engine.batched.kernels import rotation_rows as _rotation_rows
-from pyflyt_engine.batched.normals import standard_normal
+from pyflyt_engine.batched import normals
+from pyflyt_engine.batched.normals import next_double_at, standard_normal
 from pyflyt_engine.components.sensors import check_rates
 from pyflyt_engine.errors import ConfigError
 
@@ -142,13 +142,11 @@ def stream_interface(rngs: list[np.random.Generator]) -> tuple[np.ndarray, Any, 
     Raises:
         ConfigError: the generators are not all of one kind of bit generator.
     """
-    interfaces = [rng.bit_generator.ctypes for rng in rngs]
+    interfaces = [normals.interface(rng) for rng in rngs]
     first = interfaces[0]
-    for name in ("next_uint64", "next_double"):
-        address = ctypes.cast(getattr(first, name), ctypes.c_void_p).value
-        if any(ctypes.cast(getattr(c, name), ctypes.c_void_p).value != address for c in interfaces):
-            raise ConfigError("the sensors' generators must all be of one kind of numpy bit generator")
-    return np.array([c.state_address for c in interfaces], dtype=np.uintp), first.next_uint64, first.next_double
+    if any(c[1:] != first[1:] for c in interfaces):
+        raise ConfigError("the sensors' generators must all be of one kind of numpy bit generator")
+    return np.array([c[0] for c in interfaces], dtype=np.uintp), first[1], first[2]
 
 
 # ----------------------------------------------------------------- the laws
@@ -346,7 +344,7 @@ def sample_row(p, row, counts, steps, state, next_uint64, next_double, pos, r, v
         if due > counts[C_POS]:
             counts[C_FIXES] += due - counts[C_POS]
             counts[C_POS] = due
-            lost = next_double(state) < p[P_DROPOUT]
+            lost = next_double_at(next_double, state) < p[P_DROPOUT]
             e0 = standard_normal(state, next_uint64, next_double)
             e1 = standard_normal(state, next_uint64, next_double)
             e2 = standard_normal(state, next_uint64, next_double)
